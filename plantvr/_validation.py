@@ -1,0 +1,93 @@
+"""Input checks shared by every PlantVR entry point (STYLE §3).
+
+Each check names the parameter, the value and the allowed range, so a bad call
+fails at the door with a message the user can act on, before any state is written.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "check_range",
+    "check_int",
+    "check_choice",
+    "check_points",
+    "check_point",
+    "check_array",
+]
+
+
+def check_range(name: str, value: Any, low: float, high: float, *,
+                low_open: bool = False, high_open: bool = False) -> float:
+    """Return ``value`` as a finite float inside [low, high] or raise ``ValueError``.
+
+    ``low_open``/``high_open`` exclude the bound, e.g. ``(0, 1)`` for a falloff.
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number in {_interval(low, high, low_open, high_open)}, "
+                         f"got {value!r}") from None
+    ok = np.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
+    if not ok:
+        raise ValueError(f"{name} must be in {_interval(low, high, low_open, high_open)}, got {value!r}")
+    return v
+
+
+def check_int(name: str, value: Any, low: int, high: int) -> int:
+    """Return ``value`` as an int inside [low, high] or raise ``ValueError``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, (float, np.floating)) and float(value).is_integer():
+            value = int(value)
+        else:
+            raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    v = int(value)
+    if not low <= v <= high:
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {v!r}")
+    return v
+
+
+def check_choice(name: str, value: Any, choices: tuple) -> Any:
+    """Return ``value`` if it is one of ``choices`` or raise ``ValueError``."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
+    return value
+
+
+def check_array(name: str, value: Any, *, shape: tuple, dtype: Any = np.float64,
+                finite: bool = True, min_rows: int = 0) -> np.ndarray:
+    """Return ``value`` as a C-contiguous array of ``dtype`` and the given shape.
+
+    ``shape`` uses ``None`` for a free dimension, e.g. ``(None, 3)`` for points.
+    """
+    try:
+        arr = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an array of shape {_shape_str(shape)}, got {type(value).__name__}") from None
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        raise ValueError(f"{name} must have shape {_shape_str(shape)}, got {arr.shape}")
+    if arr.shape and arr.shape[0] < min_rows:
+        raise ValueError(f"{name} must have at least {min_rows} rows, got {arr.shape[0]}")
+    if finite and arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    return np.ascontiguousarray(arr)
+
+
+def check_points(name: str, value: Any, *, min_rows: int = 0) -> np.ndarray:
+    """Return ``value`` as a finite ``(N, 3)`` float64 array."""
+    return check_array(name, value, shape=(None, 3), min_rows=min_rows)
+
+
+def check_point(name: str, value: Any) -> np.ndarray:
+    """Return ``value`` as a finite ``(3,)`` float64 array."""
+    return check_array(name, value, shape=(3,))
+
+
+def _interval(low, high, low_open, high_open) -> str:
+    return f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}"
+
+
+def _shape_str(shape: tuple) -> str:
+    return "(" + ", ".join("N" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
