@@ -1,0 +1,129 @@
+"""Yggdrasil: L-system graph → control mesh → Loop subdivision (spec 001_subdivision §1.4–§3).
+
+Pipeline::
+
+    g = parse_lsystem("F(2,0.2)[+F(1,0.1)][-F(1,0.1)]F(1,0.15)", angle=40)   # or graph_from_arrays(pos, parent, radius)
+    cm = build_control_mesh(g, sides=4)                                        # open at base and tips
+    mesh = tree_mesh(g, levels=3)                                              # watertight trimesh.Trimesh
+    export_mesh(mesh, "tree.ply")
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from plantvr._validation import check_choice, check_int
+
+from .graph import BranchGraph, graph_from_arrays, joint_offsets, pair_offset, simplify
+from .loop import cap_boundaries, loop_weight, subdivide_loop
+from .lsystem import parse_lsystem
+from .mesh import ControlMesh, build_control_mesh, radius_factor
+
+__all__ = [
+    "BranchGraph", "ControlMesh", "parse_lsystem", "graph_from_arrays", "joint_offsets", "pair_offset",
+    "simplify", "build_control_mesh", "radius_factor", "loop_weight", "subdivide_loop", "cap_boundaries",
+    "tree_mesh", "export_mesh", "as_graph",
+]
+
+
+def as_graph(tree) -> BranchGraph:
+    """Coerce an L-system string, a ``(pos, parent, radius)`` tuple or a :class:`BranchGraph` to a graph.
+
+    Parameters
+    ----------
+    tree : str or tuple or BranchGraph
+        An LST / turtle string (parsed with defaults), a grown tree's ``(pos, parent, radius)`` node arrays,
+        or a graph.
+
+    Returns
+    -------
+    BranchGraph
+    """
+    if isinstance(tree, BranchGraph):
+        return tree.validate()
+    if isinstance(tree, str):
+        return parse_lsystem(tree)
+    if isinstance(tree, (tuple, list)) and len(tree) == 3:
+        return graph_from_arrays(*tree)
+    raise ValueError(f"tree must be an L-system str, a (pos, parent, radius) tuple or a BranchGraph, "
+                     f"got {type(tree).__name__}")
+
+
+def tree_mesh(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bool = True, cap: bool = True,
+              weight_rule: str = "loop_cos", boundary_rule: str = "fixed", **control_kw):
+    """Branch structure → one smooth watertight ``trimesh.Trimesh`` (spec §2.8).
+
+    The open control mesh is Loop-subdivided ``levels`` times with fixed base and tips (spec §3.2), then
+    every open loop is closed by a flat fan (``cap=True``), so the result is watertight and the tips stay
+    sharp.
+
+    Parameters
+    ----------
+    tree : str or tuple or BranchGraph
+        See :func:`as_graph`.
+    levels : int
+        Loop subdivision levels, 0–6.
+    sides : int
+        Vertices per branch loop (3–64).
+    compensate_radius : bool
+        See :func:`build_control_mesh`.
+    cap : bool
+        Close base and tips.
+    weight_rule, boundary_rule : str
+        See :func:`subdivide_loop`.
+    **control_kw
+        Further options of :func:`build_control_mesh` (``offset_mode``, ``min_offset``, ``rounding`` ...).
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Built with ``process=False``.
+    """
+    import trimesh
+
+    levels = check_int("levels", levels, 0, 6)
+    g = as_graph(tree)
+    cm = build_control_mesh(g, sides=sides, compensate_radius=compensate_radius, cap=False, **control_kw)
+    V, F = subdivide_loop(cm.vertices, cm.faces, levels, weight_rule=weight_rule, boundary_rule=boundary_rule)
+    if cap:
+        V, F = cap_boundaries(V, F)
+    return trimesh.Trimesh(V, F, process=False)
+
+
+def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
+    """Write a mesh to PLY, OBJ or glTF/GLB through trimesh.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or ControlMesh
+        The mesh.
+    path : str or Path
+        Output file; the suffix picks the format unless ``file_type`` is given.
+    file_type : {"ply", "obj", "gltf", "glb"}, optional
+        Format.
+
+    Returns
+    -------
+    Path
+        The written path.
+    """
+    path = Path(path)
+    ft = check_choice("file_type", (file_type or path.suffix.lstrip(".")).lower(), ("ply", "obj", "gltf", "glb"))
+    if isinstance(mesh, ControlMesh):
+        mesh = mesh.to_trimesh()
+    if not hasattr(mesh, "export"):
+        raise ValueError(f"mesh must be a trimesh.Trimesh or ControlMesh, got {type(mesh).__name__}")
+    if ft == "gltf":
+        import trimesh
+
+        files = trimesh.Scene(mesh).export(file_type="gltf")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for name, data in files.items():
+            (path.parent / (path.name if name == "model.gltf" else name)).write_bytes(data)
+    else:
+        mesh.export(path, file_type=ft)
+    return path
+
+
+del np

@@ -1,0 +1,304 @@
+"""Control mesh: k-sided branch tubes + convex-hull joints (spec 001_subdivision §2.3, §2.4, §3 radius note).
+
+Every branch is a truncated cone of ``sides``-gon loops triangulated by Algorithm 1 (faces ABC, BDC,
+ERRATUM A7); every joint is the convex hull of the parent's last loop and the children's first loops,
+projected onto a sphere (spec §2.4.2, with its n·d > 0 sign rule), with the cap triangles removed and
+the original positions restored. Joint faces reuse the loop vertex ids, so the result is one manifold
+mesh, open only at the base and the branch tips.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from plantvr._validation import check_choice, check_int, check_range
+
+from .graph import BranchGraph, Joints, simplify
+from .loop import cap_boundaries
+
+__all__ = ["ControlMesh", "build_control_mesh", "radius_factor"]
+
+
+def radius_factor(sides: int) -> float:
+    """Limit-surface radius / control radius of a long straight tube of ``sides``-gon loops.
+
+    Loop's limit mask at a regular vertex is 1/2 for the vertex and 1/12 for each of its six neighbours;
+    for the Algorithm 1 triangulation this puts a loop vertex at ``1/2 + (1 + 2 cos(2π/S))/6`` of its control
+    radius (0.667 for S = 4, 0.833 for S = 6, 0.902 for S = 8, matching the spec's measured 0.657 / 0.832 /
+    0.902 mean radii). [INFERRED derivation; spec §2.3 "radius_compensation".]
+
+    Parameters
+    ----------
+    sides : int
+        Vertices per loop, >= 3.
+
+    Returns
+    -------
+    float
+        The shrink factor.
+
+    Examples
+    --------
+    >>> round(radius_factor(4), 4)
+    0.6667
+    """
+    sides = check_int("sides", sides, 3, 64)
+    return 0.5 + (1.0 + 2.0 * np.cos(2.0 * np.pi / sides)) / 6.0
+
+
+@dataclass(frozen=True)
+class ControlMesh:
+    """The Yggdrasil control mesh and the bookkeeping the tests and views need.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64 ndarray
+    faces : (F, 3) int64 ndarray
+        Outward-wound triangles; open at the base and the branch tips unless ``capped``.
+    graph : BranchGraph
+        The simplified graph the mesh was built from.
+    n_segments : (B,) int64 ndarray
+        Segments N per branch.
+    first_loop, last_loop : (B, S) int64 ndarray
+        Vertex ids of each branch's first and last loop.
+    joint_sizes : (J,) int64 ndarray
+        Loops k per joint.
+    hull_faces : (J,) int64 ndarray
+        Convex-hull triangles per joint before cap removal (spec V6: 8k - 4 for S = 4).
+    joint_faces : (J,) int64 ndarray
+        Joint triangles kept (spec V8: 6k - 4 for S = 4).
+    n_boundary_loops : int
+        Open loops (base + tips) before capping.
+    capped : bool
+        Whether the open loops were closed by fans.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    graph: BranchGraph
+    n_segments: np.ndarray
+    first_loop: np.ndarray
+    last_loop: np.ndarray
+    joint_sizes: np.ndarray
+    hull_faces: np.ndarray
+    joint_faces: np.ndarray
+    n_boundary_loops: int
+    capped: bool
+
+    def to_trimesh(self):
+        """Return a ``trimesh.Trimesh`` (``process=False``: vertex ids are kept)."""
+        import trimesh
+
+        return trimesh.Trimesh(self.vertices, self.faces, process=False)
+
+
+def _frames(g: BranchGraph) -> tuple[np.ndarray, np.ndarray]:
+    """Per-branch (u, w) with u x w = axis, u parallel-transported from the parent [INFERRED]."""
+    ax = g.axis
+    nb = len(g)
+    depth = np.zeros(nb, np.int64)
+    par = g.parent
+    for i in range(nb):  # parent < i
+        if par[i] >= 0:
+            depth[i] = depth[par[i]] + 1
+    u = np.zeros((nb, 3))
+    roots = np.flatnonzero(par < 0)
+    ref = np.where(np.abs(ax[roots, 0:1]) < 0.9, [[1.0, 0, 0]], [[0, 0, 1.0]])
+    u[roots] = ref - np.einsum("ij,ij->i", ref, ax[roots])[:, None] * ax[roots]
+    u[roots] /= np.linalg.norm(u[roots], axis=1, keepdims=True)
+    order = np.argsort(depth, kind="stable")
+    bounds = np.searchsorted(depth[order], np.arange(depth.max() + 2))
+    w = np.zeros((nb, 3))
+    w[roots] = np.cross(ax[roots], u[roots])
+    for lv in range(1, depth.max() + 1):
+        ids = order[bounds[lv]:bounds[lv + 1]]
+        a = ax[ids]
+        up = u[par[ids]]
+        wp = w[par[ids]]
+        cand = up - np.einsum("ij,ij->i", up, a)[:, None] * a
+        n = np.linalg.norm(cand, axis=1)
+        alt = wp - np.einsum("ij,ij->i", wp, a)[:, None] * a
+        cand = np.where((n < 1e-6)[:, None], alt, cand)
+        u[ids] = cand / np.linalg.norm(cand, axis=1, keepdims=True)
+        w[ids] = np.cross(a, u[ids])
+    return u, w
+
+
+def _rotation_to(n: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """(M, 3, 3) rotations taking unit n to unit d (Rodrigues)."""
+    ax = np.cross(n, d)
+    s = np.linalg.norm(ax, axis=1)
+    c = np.einsum("ij,ij->i", n, d)
+    axn = ax / np.where(s > 1e-12, s, 1.0)[:, None]
+    K = np.zeros((len(n), 3, 3))
+    K[:, 0, 1], K[:, 0, 2] = -axn[:, 2], axn[:, 1]
+    K[:, 1, 0], K[:, 1, 2] = axn[:, 2], -axn[:, 0]
+    K[:, 2, 0], K[:, 2, 1] = -axn[:, 1], axn[:, 0]
+    Q = np.eye(3)[None] + s[:, None, None] * K + (1.0 - c)[:, None, None] * (K @ K)
+    Q[s <= 1e-12] = np.eye(3)
+    return Q
+
+
+def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius: bool = True,
+                       offset_mode: str = "geometric", min_offset: float = 0.5,
+                       max_offset_factor: float = 4.0, rounding: str = "round", cap: bool = False
+                       ) -> ControlMesh:
+    """Build the Yggdrasil control mesh of a branch graph (spec §2.1–§2.4, Alg. 4).
+
+    Parameters
+    ----------
+    graph : BranchGraph
+        Branches from :func:`~plantvr.subdivision.parse_lsystem` or
+        :func:`~plantvr.subdivision.graph_from_arrays`.
+    sides : int
+        Vertices per loop S (3–64; the report uses 4).
+    compensate_radius : bool
+        Scale inner loops by ``1 / radius_factor(sides)`` so the Loop limit surface has the requested radius
+        (issue 5; spec §2.3 offers it as an option). Base and tip loops stay at the requested radius, since
+        subdivision keeps them fixed.
+    offset_mode : {"geometric", "report"}
+        Trimming formula (spec §2.1, ERRATA A4/A5).
+    min_offset : float
+        Floor on joint offsets as a multiple of the member radius (0–10) [INFERRED].
+    max_offset_factor : float
+        Cap on joint offsets as a multiple of the larger radius (1–100).
+    rounding : {"round", "floor", "ceil"}
+        Rounding of N = L / (π r_avg), with N >= 1 (spec §8.3 item 1).
+    cap : bool
+        Close the base and tip loops with fans (watertight control mesh).
+
+    Returns
+    -------
+    ControlMesh
+
+    Raises
+    ------
+    ValueError
+        On a bad parameter, an invalid graph, two branches leaving a joint in the same direction, or a joint
+        whose hull misses a loop vertex (caps overlapping on the sphere, spec V6/V7).
+
+    References
+    ----------
+    .. [1] Pieterse, Yggdrasil report §4.2.2–4.2.5, Algs. 1, 3, 4, Fig. 4.15; spec 001 ERRATA A5, A6, A7.
+    """
+    sides = check_int("sides", sides, 3, 64)
+    check_choice("offset_mode", offset_mode, ("geometric", "report"))
+    min_offset = check_range("min_offset", min_offset, 0.0, 10.0)
+    max_offset_factor = check_range("max_offset_factor", max_offset_factor, 1.0, 100.0)
+    check_choice("rounding", rounding, ("round", "floor", "ceil"))
+    if not isinstance(graph, BranchGraph):
+        raise ValueError(f"graph must be a BranchGraph, got {type(graph).__name__}")
+    graph.validate()
+    S = sides
+    f = radius_factor(S) if compensate_radius else 1.0
+    scaled = BranchGraph(graph.start, graph.end, graph.r0 / f, graph.r1 / f, graph.parent)
+    g, off_s, off_e, joints = simplify(scaled, offset_mode=offset_mode, min_offset=min_offset,
+                                       max_offset_factor=max_offset_factor)
+    nb = len(g)
+    L = g.length
+    ax = g.axis
+    leaf = g.is_leaf
+    base = np.zeros(nb, bool)
+    base[joints.base_branches] = True
+    # trimmed ends and their radii (radii interpolated along the original length, spec §2.3 [INFERRED])
+    ts, te = off_s / L, 1.0 - off_e / L
+    rs = g.r0 + (g.r1 - g.r0) * ts
+    re = g.r0 + (g.r1 - g.r0) * te
+    rs = np.where(base, rs * f, rs)     # open loops keep the requested radius
+    re = np.where(leaf, re * f, re)
+    ps = g.start + off_s[:, None] * ax
+    pe = g.start + (L * te)[:, None] * ax
+    Lt = L * (te - ts)
+    rnd = {"round": np.round, "floor": np.floor, "ceil": np.ceil}[rounding]
+    N = np.maximum(1, rnd(Lt / (np.pi * 0.5 * (rs + re)))).astype(np.int64)   # Eq. E10, E11
+    u, w = _frames(g)
+    # --- tube vertices (all branches at once)
+    rings = N + 1
+    ring_b = np.repeat(np.arange(nb), rings)
+    ring_ptr = np.zeros(nb + 1, np.int64)
+    np.cumsum(rings, out=ring_ptr[1:])
+    ring_i = np.arange(ring_ptr[-1]) - ring_ptr[ring_b]
+    t = ring_i / N[ring_b]
+    c = ps[ring_b] + t[:, None] * (pe - ps)[ring_b]
+    r = rs[ring_b] + t * (re - rs)[ring_b]
+    th = 2.0 * np.pi * np.arange(S) / S
+    # loops counter-clockwise seen from the tip: u x w = axis (spec §2.3)
+    V = (c[:, None, :] + r[:, None, None] * (np.cos(th)[None, :, None] * u[ring_b][:, None, :]
+                                              + np.sin(th)[None, :, None] * w[ring_b][:, None, :])).reshape(-1, 3)
+    # --- tube faces, Algorithm 1: ABC and BDC (ERRATUM A7)
+    seg_b = np.repeat(np.arange(nb), N)
+    seg_ring = np.arange(int(N.sum())) - np.repeat(np.cumsum(N) - N, N) + ring_ptr[seg_b]
+    j = np.arange(S)
+    A = seg_ring[:, None] * S + j[None, :]
+    B = seg_ring[:, None] * S + ((j + 1) % S)[None, :]
+    C, D = A + S, B + S
+    tube_f = np.stack([A, B, C, B, D, C], axis=-1).reshape(-1, 3)
+    first_loop = ring_ptr[:-1, None] * S + j[None, :]
+    last_loop = (ring_ptr[1:, None] - 1) * S + j[None, :]
+    # --- joints (§2.4)
+    jf, hull_n, joint_n = _joints(V, g, joints, off_s, off_e, first_loop, last_loop)
+    faces = np.vstack([tube_f, jf]).astype(np.int64)
+    n_open = int(base.sum() + leaf.sum())
+    if cap:
+        V, faces = cap_boundaries(V, faces)
+    return ControlMesh(V, faces, g, N, first_loop, last_loop, np.diff(joints.joint_ptr), hull_n, joint_n,
+                       n_open, bool(cap))
+
+
+def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_loop):
+    S = first_loop.shape[1]
+    mb, me, mj = joints.member_branch, joints.member_is_end, joints.member_joint
+    nj = joints.n_joints
+    if nj == 0:
+        z = np.zeros(0, np.int64)
+        return np.zeros((0, 3), np.int64), z, z
+    loops = np.where(me[:, None], last_loop[mb], first_loop[mb])          # (M, S)
+    off = np.where(me, off_e[mb], off_s[mb])
+    X = V[loops]                                                            # (M, S, 3)
+    cl = X.mean(axis=1)
+    size = np.diff(joints.joint_ptr)
+    C = np.add.reduceat(cl, joints.joint_ptr[:-1], axis=0) / size[:, None]
+    Rs = np.maximum.reduceat(off, joints.joint_ptr[:-1])
+    rad = np.linalg.norm(X - cl[:, None], axis=2).max(axis=1)
+    Rs = np.where(Rs > 1e-12, Rs, np.maximum.reduceat(rad, joints.joint_ptr[:-1]))
+    d = cl - C[mj]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    loc = X - cl[:, None]
+    n = np.cross(loc[:, 0], loc[:, 1])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n = np.where((np.einsum("ij,ij->i", n, d) < 0)[:, None], -n, n)       # sign rule n·d > 0 (spec §2.4.2)
+    Q = _rotation_to(n, d)
+    Y = C[mj][:, None] + Rs[mj][:, None, None] * d[:, None] + np.einsum("mij,msj->msi", Q, loc)
+    P = C[mj][:, None] + Rs[mj][:, None, None] * (Y - C[mj][:, None]) / np.linalg.norm(
+        Y - C[mj][:, None], axis=2, keepdims=True)
+    P = P.reshape(-1, S, 3)
+    ids_all = loops
+    tris, eqs, owner_l = [], [], []
+    hull_n = np.zeros(nj, np.int64)
+    ptr = joints.joint_ptr
+    for jj in range(nj):
+        a, b = ptr[jj], ptr[jj + 1]
+        pts = P[a:b].reshape(-1, 3)
+        h = ConvexHull(pts)
+        if len(h.vertices) != len(pts):
+            br = mb[a:b].tolist()
+            raise ValueError(f"joint of branches {br}: the convex hull misses {len(pts) - len(h.vertices)} loop "
+                             f"vertices (loop caps overlap on the joint sphere, spec V6/V7); branches are too "
+                             f"close in direction or too short")
+        hull_n[jj] = len(h.simplices)
+        tris.append(h.simplices + a * S)
+        eqs.append(h.equations[:, :3])
+    tri = np.concatenate(tris)            # local ids into the flattened (M*S) loop table
+    eq = np.concatenate(eqs)
+    owner = tri // S
+    keep = ~((owner[:, 0] == owner[:, 1]) & (owner[:, 1] == owner[:, 2]))   # delete caps (Fig. 4.17c)
+    tri_j = np.repeat(np.arange(nj), hull_n)
+    joint_n = np.bincount(tri_j[keep], minlength=nj).astype(np.int64)
+    tri, eq = tri[keep], eq[keep]
+    Pf = P.reshape(-1, 3)
+    pa, pb, pc = Pf[tri[:, 0]], Pf[tri[:, 1]], Pf[tri[:, 2]]
+    flip = np.einsum("ij,ij->i", np.cross(pb - pa, pc - pa), eq) < 0      # outward, ERRATUM A6
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return ids_all.reshape(-1)[tri], hull_n, joint_n
