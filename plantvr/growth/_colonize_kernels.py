@@ -1,0 +1,407 @@
+"""Colonization kernels (spec 003_implicit_sca §1.3–1.4, 000_treewand §2.3): numba ``nogil`` hot loops + numpy twins.
+
+Data layout shared by every mode
+--------------------------------
+Markers live in a *uniform grid* built once: they are sorted by cell, so cell ``c`` holds the
+sorted slots ``[cell_start[c], cell_start[c] + cell_live[c])``.  Killing a marker swaps it with the
+last live marker of its cell and shrinks ``cell_live[c]``, so scans only ever touch live markers.
+Per-marker state (in sorted order) is ``orig`` (int32, input row), ``owner`` (int32, nearest node or
+best bud, -1 = none) and ``best`` (float64, squared distance or d/l): 16 bytes beyond the position.
+
+Growth directions are accumulated as **exact int64 sums of quantised unit vectors**
+(``floor(u * 2**38 + 0.5)``).  Integer sums do not depend on summation order and can be updated
+incrementally (a marker leaving a node subtracts exactly what it added), so a node whose marker set
+did not change produces bit-for-bit the same candidate position as before.  This is what lets a step
+look only at nodes whose assignment changed ("dirty" nodes) and still equal a full recompute.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+#: Quantisation of unit vectors: 2**38 units per 1.0 (resolution 3.6e-12; sums exact up to 2**25 markers/node).
+QSCALE = float(2.0 ** 38)
+#: Opposite pulls cancel when the (unquantised) direction sum is shorter than this (spec 003 §1.4).
+CANCEL = 1e-9 * QSCALE
+#: Duplicate guard: a child closer than DUP_FRACTION * D to the candidate blocks it (spec 003 §1.4).
+DUP_FRACTION = 1e-3
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# grid (numpy, built once)
+# ----------------------------------------------------------------------------------------------------------------
+def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 1, max_cells: int | None = None):
+    """Sort ``points`` into a dense uniform grid of cell size ``radius / cells_per_radius``.
+
+    The cell is enlarged when the grid would exceed ``max_cells`` (default ``max(4096, len(points))``), so
+    the grid costs at most 12 bytes per point.  Returns ``(origin, h, dims, reach, order, cell_start,
+    cell_live)``; ``reach`` = cells to scan either side of a query cell to cover ``radius``.
+    """
+    m = len(points)
+    if max_cells is None:
+        max_cells = max(4096, m)
+    origin = points.min(axis=0)
+    extent = points.max(axis=0) - origin
+    h = float(radius) / cells_per_radius
+    while True:
+        dims = np.floor(extent / h).astype(np.int64) + 1
+        if int(np.prod(dims.astype(np.float64))) <= max_cells:
+            break
+        h *= 1.5
+    reach = int(math.ceil(float(radius) / h - 1e-12))
+    ijk = np.floor((points - origin) / h).astype(np.int64)
+    ijk = np.minimum(np.maximum(ijk, 0), dims - 1)
+    cell = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
+    order = np.argsort(cell, kind="stable")
+    ncell = int(np.prod(dims))
+    counts = np.bincount(cell, minlength=ncell)
+    cell_start = np.zeros(ncell + 1, np.int64)
+    np.cumsum(counts, out=cell_start[1:])
+    cell_live = counts.astype(np.int32)
+    return origin.astype(np.float64), h, dims.astype(np.int64), reach, order, cell_start, cell_live
+
+
+@numba.njit(cache=True, nogil=True)
+def _cell_range(x, origin, h, dims, reach, axis):
+    """Inclusive range of grid cells along ``axis`` within ``reach`` cells of coordinate ``x``."""
+    f = (x - origin[axis]) / h
+    n = dims[axis]
+    if f < -reach - 1.0:
+        return 1, 0
+    if f > n + reach + 1.0:
+        return 1, 0
+    c = int(math.floor(f))
+    lo = c - reach
+    hi = c + reach
+    if lo < 0:
+        lo = 0
+    if hi > n - 1:
+        hi = n - 1
+    return lo, hi
+
+
+@numba.njit(cache=True, nogil=True)
+def _box_gap2(x, y, z, origin, h, i, j, k):
+    """Squared distance from (x, y, z) to the box of cell (i, j, k)."""
+    g = 0.0
+    lo = origin[0] + i * h
+    if x < lo:
+        g += (lo - x) * (lo - x)
+    elif x > lo + h:
+        g += (x - lo - h) * (x - lo - h)
+    lo = origin[1] + j * h
+    if y < lo:
+        g += (lo - y) * (lo - y)
+    elif y > lo + h:
+        g += (y - lo - h) * (y - lo - h)
+    lo = origin[2] + k * h
+    if z < lo:
+        g += (lo - z) * (lo - z)
+    elif z > lo + h:
+        g += (z - lo - h) * (z - lo - h)
+    return g
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# classic space colonization: incremental nearest-node update
+# ----------------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, nogil=True, inline="always")
+def _q(dx, dy, dz):
+    n = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return (np.int64(math.floor(dx / n * QSCALE + 0.5)),
+            np.int64(math.floor(dy / n * QSCALE + 0.5)),
+            np.int64(math.floor(dz / n * QSCALE + 0.5)))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _mark(v, dirty_flag, dirty_list, n_dirty):
+    if dirty_flag[v] == 0:
+        dirty_flag[v] = 1
+        dirty_list[n_dirty] = v
+        n_dirty += 1
+    return n_dirty
+
+
+@numba.njit(cache=True, nogil=True)
+def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, cell_live,
+                     pos_s, orig, owner, best, acc, dirty_flag, dirty_list, n_dirty, di2, dk2):
+    """Offer nodes ``n_old .. n_new-1`` to the live markers within ``sqrt(di2)`` of them.
+
+    A marker moves to a new node whose squared distance is strictly smaller (ties keep the lower
+    index, because new nodes have higher indices and are offered in increasing order); a distance
+    below ``sqrt(dk2)`` kills it.  Owners that gain or lose a marker have its quantised unit vector
+    added to / subtracted from ``acc`` and are appended to ``dirty_list``.
+    Returns ``(killed, n_dirty)``.
+    """
+    killed = 0
+    for j in range(n_old, n_new):
+        px = nodes[j, 0]
+        py = nodes[j, 1]
+        pz = nodes[j, 2]
+        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
+        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
+        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
+        for ci in range(ilo, ihi + 1):
+            for cj in range(jlo, jhi + 1):
+                for ck in range(klo, khi + 1):
+                    c = (ci * dims[1] + cj) * dims[2] + ck
+                    start = cell_start[c]
+                    end = start + cell_live[c]
+                    if end == start:
+                        continue
+                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) >= di2:
+                        continue
+                    s = start
+                    while s < end:
+                        dx = pos_s[s, 0] - px
+                        dy = pos_s[s, 1] - py
+                        dz = pos_s[s, 2] - pz
+                        d2 = dx * dx + dy * dy + dz * dz
+                        if d2 < di2 and d2 < best[s]:
+                            old = owner[s]
+                            if old >= 0:
+                                qx, qy, qz = _q(pos_s[s, 0] - nodes[old, 0], pos_s[s, 1] - nodes[old, 1],
+                                                pos_s[s, 2] - nodes[old, 2])
+                                acc[old, 0] -= qx
+                                acc[old, 1] -= qy
+                                acc[old, 2] -= qz
+                                n_dirty = _mark(old, dirty_flag, dirty_list, n_dirty)
+                            if d2 < dk2:
+                                end -= 1
+                                for a in range(3):
+                                    t = pos_s[s, a]
+                                    pos_s[s, a] = pos_s[end, a]
+                                    pos_s[end, a] = t
+                                t2 = orig[s]
+                                orig[s] = orig[end]
+                                orig[end] = t2
+                                owner[s] = owner[end]
+                                owner[end] = -1
+                                best[s] = best[end]
+                                best[end] = 0.0
+                                killed += 1
+                                continue  # re-examine the marker swapped into slot s
+                            owner[s] = j
+                            best[s] = d2
+                            qx, qy, qz = _q(dx, dy, dz)
+                            acc[j, 0] += qx
+                            acc[j, 1] += qy
+                            acc[j, 2] += qz
+                            n_dirty = _mark(j, dirty_flag, dirty_list, n_dirty)
+                        s += 1
+                    cell_live[c] = end - start
+    return killed, n_dirty
+
+
+@numba.njit(cache=True, nogil=True)
+def grow_kernel(nodes, parent, first_child, next_sibling, n_children, n, acc, dirty_list, n_dirty, dirty_flag,
+                children_limit, step, dup2):
+    """One synchronous growth step over the dirty nodes (ascending index); returns the new node count.
+
+    Each node with a non-cancelling direction sum, fewer than ``children_limit`` children (-1 = no
+    limit) and no child within ``sqrt(dup2)`` of the candidate gets one child at
+    ``p + step * a / |a|`` (spec 003 §1.4 with its duplicate guard).
+    """
+    lst = np.sort(dirty_list[:n_dirty])
+    for t in range(n_dirty):
+        v = lst[t]
+        dirty_flag[v] = 0
+        if children_limit >= 0 and n_children[v] >= children_limit:
+            continue
+        ax = np.float64(acc[v, 0])
+        ay = np.float64(acc[v, 1])
+        az = np.float64(acc[v, 2])
+        nrm = math.sqrt(ax * ax + ay * ay + az * az)
+        if nrm < CANCEL:
+            continue
+        cx = nodes[v, 0] + step * (ax / nrm)
+        cy = nodes[v, 1] + step * (ay / nrm)
+        cz = nodes[v, 2] + step * (az / nrm)
+        c = first_child[v]
+        dup = False
+        while c >= 0:
+            ex = nodes[c, 0] - cx
+            ey = nodes[c, 1] - cy
+            ez = nodes[c, 2] - cz
+            if ex * ex + ey * ey + ez * ez < dup2:
+                dup = True
+                break
+            c = next_sibling[c]
+        if dup:
+            continue
+        nodes[n, 0] = cx
+        nodes[n, 1] = cy
+        nodes[n, 2] = cz
+        parent[n] = v
+        first_child[n] = -1
+        n_children[n] = 0
+        next_sibling[n] = first_child[v]
+        first_child[v] = n
+        n_children[v] += 1
+        n += 1
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def live_orig_kernel(cell_start, cell_live, orig):
+    """Input rows of the live markers, ascending."""
+    total = 0
+    for c in range(cell_live.shape[0]):
+        total += cell_live[c]
+    out = np.empty(total, np.int64)
+    t = 0
+    for c in range(cell_live.shape[0]):
+        for s in range(cell_start[c], cell_start[c] + cell_live[c]):
+            out[t] = orig[s]
+            t += 1
+    return np.sort(out)
+
+
+# ---- numpy twins (readable; used by tests to check the kernels on seeded input) -------------------------------
+def quantize_numpy(d: np.ndarray) -> np.ndarray:
+    """Quantised unit vectors of the rows of ``d`` (numpy twin of ``_q``)."""
+    d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+    n = np.sqrt(d2)
+    return np.floor(d / n[:, None] * QSCALE + 0.5).astype(np.int64)
+
+
+def add_nodes_numpy(nodes, n_old, n_new, markers, alive, owner, best, acc, di2, dk2):
+    """numpy twin of :func:`add_nodes_kernel` on markers in input order.
+
+    ``alive`` (bool), ``owner`` and ``best`` are indexed by input row and updated in place with
+    ``acc``.  Returns ``(killed, dirty)`` with ``dirty`` the sorted array of touched owners.
+    """
+    killed = 0
+    dirty = set()
+    for j in range(n_old, n_new):
+        d = markers - nodes[j]
+        d2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1] + d[:, 2] * d[:, 2]
+        hit = np.flatnonzero(alive & (d2 < di2) & (d2 < best))
+        if hit.size == 0:
+            continue
+        old = owner[hit]
+        had = old >= 0
+        if had.any():
+            np.subtract.at(acc, old[had], quantize_numpy(markers[hit[had]] - nodes[old[had]]))
+            dirty.update(old[had].tolist())
+        kill = d2[hit] < dk2
+        alive[hit[kill]] = False
+        owner[hit[kill]] = -1
+        killed += int(kill.sum())
+        keep = hit[~kill]
+        if keep.size:
+            owner[keep] = j
+            best[keep] = d2[keep]
+            acc[j] += quantize_numpy(d[keep]).sum(axis=0)
+            dirty.add(j)
+    return killed, np.array(sorted(dirty), dtype=np.int64)
+
+
+def grow_numpy(nodes, parent, children, acc, candidates, children_limit, step, dup2):
+    """numpy twin of :func:`grow_kernel`; ``children`` is a list of child lists, extended in place.
+
+    Returns the new node and parent arrays.
+    """
+    new_nodes, new_parent = [], []
+    n = len(nodes)
+    for v in sorted(int(c) for c in candidates):
+        if children_limit >= 0 and len(children[v]) >= children_limit:
+            continue
+        ax, ay, az = (float(a) for a in acc[v])
+        nrm = math.sqrt(ax * ax + ay * ay + az * az)
+        if nrm < CANCEL:
+            continue
+        cand = np.array([nodes[v, 0] + step * (ax / nrm), nodes[v, 1] + step * (ay / nrm),
+                         nodes[v, 2] + step * (az / nrm)])
+        allpos = np.concatenate([nodes] + [np.asarray(new_nodes).reshape(-1, 3)])
+        if children[v]:
+            e = allpos[children[v]] - cand
+            if np.any(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2] < dup2):
+                continue
+        children[v].append(n)
+        children.append([])
+        new_nodes.append(cand)
+        new_parent.append(v)
+        n += 1
+    if new_nodes:
+        nodes = np.concatenate([nodes, np.asarray(new_nodes)])
+        parent = np.concatenate([parent, np.asarray(new_parent, dtype=np.int64)])
+    return nodes, parent
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Tree Wand assignment (Eq. 9.4): smallest d / l among perceiving buds
+# ----------------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, nogil=True)
+def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, reach, cell_start, cell_live,
+                           pos_s, owner, best, view_radius, cos_half):
+    """Offer buds to the markers in their perception cones; keeps the smallest d/l, ties to the lower bud id.
+
+    ``owner``/``best`` are in sorted-marker order and updated in place.  Returns the number of updates.
+    """
+    vr2 = view_radius * view_radius
+    changed = 0
+    for b in range(bud_pos.shape[0]):
+        px = bud_pos[b, 0]
+        py = bud_pos[b, 1]
+        pz = bud_pos[b, 2]
+        bx = bud_dir[b, 0]
+        by = bud_dir[b, 1]
+        bz = bud_dir[b, 2]
+        ln = bud_len[b]
+        bid = bud_ids[b]
+        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
+        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
+        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
+        for ci in range(ilo, ihi + 1):
+            for cj in range(jlo, jhi + 1):
+                for ck in range(klo, khi + 1):
+                    c = (ci * dims[1] + cj) * dims[2] + ck
+                    start = cell_start[c]
+                    end = start + cell_live[c]
+                    if end == start:
+                        continue
+                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2:
+                        continue
+                    for s in range(start, end):
+                        vx = pos_s[s, 0] - px
+                        vy = pos_s[s, 1] - py
+                        vz = pos_s[s, 2] - pz
+                        d2 = vx * vx + vy * vy + vz * vz
+                        if d2 > vr2 * 1.0000001 or d2 == 0.0:
+                            continue
+                        d = math.sqrt(d2)
+                        if d > view_radius:
+                            continue
+                        if vx * bx + vy * by + vz * bz < d * cos_half:
+                            continue
+                        key = d / ln
+                        o = owner[s]
+                        if key < best[s] or (key == best[s] and o >= 0 and bid < o):
+                            best[s] = key
+                            owner[s] = bid
+                            changed += 1
+    return changed
+
+
+def treewand_assign_numpy(markers, bud_pos, bud_dir, bud_len, view_radius, cos_half):
+    """Brute-force O(b*m) twin of :func:`treewand_assign_kernel` (spec 000_treewand §2.3 pseudo-code).
+
+    Returns ``(owner (M,) int64, best (M,) float64)``.
+    """
+    m = len(markers)
+    owner = np.full(m, -1, np.int64)
+    best = np.full(m, np.inf)
+    for j in range(len(bud_pos)):
+        v = markers - bud_pos[j]
+        d2 = v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2]
+        d = np.sqrt(d2)
+        dot = v[:, 0] * bud_dir[j, 0] + v[:, 1] * bud_dir[j, 1] + v[:, 2] * bud_dir[j, 2]
+        ok = (d2 != 0.0) & (d <= view_radius) & (dot >= d * cos_half)
+        key = d / bud_len[j]
+        better = ok & (key < best)
+        best[better] = key[better]
+        owner[better] = j
+    return owner, best

@@ -1,0 +1,531 @@
+"""Colonization at scale (spec 003_implicit_sca §1.3–1.6, spec 000_treewand §2.3 Eq. 9.4; issue 13).
+
+One marker grid and one incremental update serve classic space colonization (Runions et al. 2007)
+and Tree Wand's perception-cone assignment; the modes differ in the assignment rule only.
+
+Public API
+----------
+``space_colonization(markers, roots, *, influence_radius, kill_radius, step_size, max_steps=500,
+children_limit=None, stall_steps=None) -> ColonizationResult``
+    Classic mode, whole run.  Step semantics (issue 13): setup — every marker finds its nearest node,
+    distance < d_k removes it, distance < d_i assigns it; step — every node with at least one assigned
+    marker (and fewer children than ``children_limit``) adds one child at ``p + D·normalize(Σ
+    normalize(m − p))`` using the previous assignment (synchronous), then assignment and killing are
+    updated; stop when no markers are left, no node grew, or after ``max_steps``.  Guards of spec 003
+    §1.4: pulls that cancel (|Σ| < 1e-9) do not grow, and a node never adds a child within 1e-3·D of
+    an existing child (duplicate guard), so identical growth never repeats; ``stall_steps`` (off by
+    default, spec 003 proposes 20) also stops after that many steps without a kill.
+``SpaceColonizer(markers, roots, *, influence_radius, kill_radius, step_size, children_limit=None)``
+    The same, one ``step()`` at a time (for interactive growth); ``nodes``, ``parent``,
+    ``markers_left``, ``n_live``.
+``space_colonization_reference(...)``
+    numpy + ``scipy.spatial.cKDTree`` rebuild-and-requery version of the same semantics (the oracle).
+``assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius, view_angle) -> owner (M,) int64``
+    Eq. 9.4: each marker to the perceiving bud with the smallest d/l; ties to the lowest bud index;
+    -1 if none.  ``assign_treewand_reference`` is the brute-force O(b·m) oracle.
+``TreeWandAssigner(markers, *, view_radius, view_angle)``
+    Keeps a marker grid across steps for the Tree Wand engine: ``assign(bud_pos, bud_dir, bud_len)``
+    (grid reused, cost ~ buds × markers in their view sphere, no per-step sort), ``kill_within(points,
+    radius)`` (occupation zones: swap-removes markers, cost ~ points × markers near them), ``alive``
+    (input-row mask) and ``live_index`` (input rows alive).  ``owner`` is indexed by input row.
+
+How the speed is obtained
+-------------------------
+Markers are sorted once into a uniform grid (cell = influence radius); killing swaps a marker to the
+end of its cell's live range.  Each marker keeps (nearest node, squared distance); after a step only
+markers within d_i of the nodes added in that step are examined.  Growth directions are exact int64
+sums of quantised unit vectors (2**-38 resolution), updated as markers come and go, so only nodes whose
+marker set changed are re-evaluated — a node with an unchanged set would reproduce a child the
+duplicate guard rejects.  Per-marker state: 16 bytes (+ ≤ 12 bytes/marker of grid cells).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_points, check_range
+from plantvr.growth import _colonize_kernels as K
+
+__all__ = [
+    "ColonizationResult",
+    "SpaceColonizer",
+    "space_colonization",
+    "space_colonization_reference",
+    "assign_treewand",
+    "assign_treewand_reference",
+    "TreeWandAssigner",
+]
+
+MAX_MARKERS = 2 ** 24  # int64 direction sums stay exact up to 2**25 markers per node
+
+
+@dataclass(frozen=True)
+class ColonizationResult:
+    """Outcome of a space-colonization run.
+
+    Attributes
+    ----------
+    nodes : (N, 3) float64 ndarray
+        Node positions; roots first, then nodes in creation order.
+    parent : (N,) int64 ndarray
+        Parent index, -1 for roots; ``parent[i] < i``.
+    markers_left : (K, 3) float64 ndarray
+        Markers still alive, in input order.
+    steps : int
+        Growth steps performed (steps in which at least one node grew).
+    step_ms : (steps,) float64 ndarray
+        Wall-clock milliseconds of each step (growth + update).
+    growth_steps : int
+        Last step that killed a marker (0 if none did).
+    step_cpu_ms : (steps,) float64 ndarray
+        Process CPU milliseconds of each step.
+    step_nodes, step_markers : (steps,) int64 ndarray
+        Node count and live-marker count at the start of each step.
+    setup_ms, setup_cpu_ms : float
+        Wall / CPU milliseconds of the setup (grid build, initial assignment and kill).
+    """
+
+    nodes: np.ndarray
+    parent: np.ndarray
+    markers_left: np.ndarray
+    steps: int
+    step_ms: np.ndarray
+    growth_steps: int
+    step_cpu_ms: np.ndarray = None
+    step_nodes: np.ndarray = None
+    step_markers: np.ndarray = None
+    setup_ms: float = 0.0
+    setup_cpu_ms: float = 0.0
+
+
+# ------------------------------------------------------------------------------------------------------------
+# validation
+# ------------------------------------------------------------------------------------------------------------
+def _check_classic(markers, roots, influence_radius, kill_radius, step_size, max_steps, children_limit,
+                   stall_steps):
+    markers = check_points("markers", markers, min_rows=1)
+    if len(markers) > MAX_MARKERS:
+        raise ValueError(f"markers must have at most {MAX_MARKERS} rows, got {len(markers)}")
+    try:
+        r = np.asarray(roots, dtype=np.float64)
+    except (TypeError, ValueError):
+        r = None
+    if r is not None and r.shape == (3,):
+        roots = r.reshape(1, 3)
+    roots = check_points("roots", roots, min_rows=1)
+    di = check_range("influence_radius", influence_radius, 0.0, np.inf, low_open=True, high_open=True)
+    dk = check_range("kill_radius", kill_radius, 0.0, di, low_open=True, high_open=True)
+    d = check_range("step_size", step_size, 0.0, np.inf, low_open=True, high_open=True)
+    max_steps = check_int("max_steps", max_steps, 0, 10 ** 9)
+    limit = -1 if children_limit is None else check_int("children_limit", children_limit, 1, 2 ** 31 - 1)
+    stall = -1 if stall_steps is None else check_int("stall_steps", stall_steps, 1, 10 ** 9)
+    return markers, roots, di, dk, d, max_steps, limit, stall
+
+
+# ------------------------------------------------------------------------------------------------------------
+# classic mode, incremental kernel
+# ------------------------------------------------------------------------------------------------------------
+class SpaceColonizer:
+    """Classic space colonization with incremental nearest-node maintenance (see module docstring).
+
+    Parameters
+    ----------
+    markers : (M, 3) float64 array_like
+        Attraction points.
+    roots : (R, 3) or (3,) float64 array_like
+        Start node(s).
+    influence_radius : float
+        d_i, in (0, inf); a marker influences its nearest node only when closer than d_i.
+    kill_radius : float
+        d_k, in (0, d_i); a marker closer than d_k to any node is removed.
+    step_size : float
+        D, in (0, inf); length of every new internode.
+    children_limit : int or None
+        At most this many children per node (None: unlimited).
+
+    References
+    ----------
+    .. [1] Runions, Lane, Prusinkiewicz 2007, "Modeling trees with a space colonization algorithm";
+       spec 003_implicit_sca §1.3–1.4 (duplicate guard [INFERRED]); issue 13 step semantics.
+    """
+
+    def __init__(self, markers, roots, *, influence_radius: float, kill_radius: float, step_size: float,
+                 children_limit: int | None = None, _cells_per_radius: int = 1):
+        markers, roots, di, dk, d, _, limit, _ = _check_classic(
+            markers, roots, influence_radius, kill_radius, step_size, 0, children_limit, None)
+        self.di2, self.dk2, self.step_size, self.children_limit = di * di, dk * dk, d, limit
+        self.dup2 = (K.DUP_FRACTION * d) ** 2
+        (self.origin, self.h, self.dims, self.reach, order, self.cell_start,
+         self.cell_live) = K.build_grid(markers, di, _cells_per_radius)
+        self.pos_s = np.ascontiguousarray(markers[order])
+        self.orig = order.astype(np.int32)
+        m = len(markers)
+        self.owner = np.full(m, -1, np.int32)
+        self.best = np.full(m, np.inf)
+        self.n_live = m
+        cap = max(64, 2 * len(roots))
+        self._alloc(cap)
+        self.n = len(roots)
+        self._nodes[: self.n] = roots
+        self._parent[: self.n] = -1
+        self.n_dirty = 0
+        self.killed_total = 0
+        self._update(0, self.n)
+
+    def _alloc(self, cap):
+        def grow(a, shape, dtype, fill):
+            b = np.full(shape, fill, dtype)
+            if a is not None:
+                b[: len(a)] = a
+            return b
+        old = getattr(self, "_nodes", None)
+        g = (lambda name: getattr(self, name, None)) if old is not None else (lambda name: None)
+        self._nodes = grow(g("_nodes"), (cap, 3), np.float64, 0.0)
+        self._parent = grow(g("_parent"), cap, np.int64, -1)
+        self._first_child = grow(g("_first_child"), cap, np.int32, -1)
+        self._next_sibling = grow(g("_next_sibling"), cap, np.int32, -1)
+        self._n_children = grow(g("_n_children"), cap, np.int32, 0)
+        self._acc = grow(g("_acc"), (cap, 3), np.int64, 0)
+        self._dirty_flag = grow(g("_dirty_flag"), cap, np.uint8, 0)
+        self._dirty_list = grow(g("_dirty_list"), cap, np.int64, 0)
+
+    def _update(self, n_old, n_new):
+        killed, self.n_dirty = K.add_nodes_kernel(
+            self._nodes, n_old, n_new, self.origin, self.h, self.dims, self.reach, self.cell_start,
+            self.cell_live, self.pos_s, self.orig, self.owner, self.best, self._acc, self._dirty_flag,
+            self._dirty_list, self.n_dirty, self.di2, self.dk2)
+        self.n_live -= killed
+        self.killed_total += killed
+        return killed
+
+    def step(self) -> tuple[int, int]:
+        """Run one synchronous growth step; returns ``(nodes added, markers killed)``."""
+        if self.n_live == 0:
+            return 0, 0
+        need = self.n + self.n_dirty
+        if need > len(self._nodes):
+            self._alloc(max(2 * len(self._nodes), need))
+        n_old = self.n
+        self.n = K.grow_kernel(self._nodes, self._parent, self._first_child, self._next_sibling,
+                               self._n_children, self.n, self._acc, self._dirty_list, self.n_dirty,
+                               self._dirty_flag, self.children_limit, self.step_size, self.dup2)
+        self.n_dirty = 0
+        if self.n == n_old:
+            return 0, 0
+        killed = self._update(n_old, self.n)
+        return self.n - n_old, killed
+
+    @property
+    def nodes(self) -> np.ndarray:
+        """(N, 3) float64 node positions (a copy)."""
+        return self._nodes[: self.n].copy()
+
+    @property
+    def parent(self) -> np.ndarray:
+        """(N,) int64 parent indices, -1 for roots (a copy)."""
+        return self._parent[: self.n].copy()
+
+    @property
+    def live_index(self) -> np.ndarray:
+        """(K,) int64 input rows of the markers still alive, ascending."""
+        return K.live_orig_kernel(self.cell_start, self.cell_live, self.orig)
+
+    @property
+    def markers_left(self) -> np.ndarray:
+        """(K, 3) float64 live markers in input order."""
+        inv = np.empty(len(self.orig), np.int64)
+        inv[self.orig] = np.arange(len(self.orig))
+        return self.pos_s[inv[self.live_index]]
+
+
+def space_colonization(markers, roots, *, influence_radius: float, kill_radius: float, step_size: float,
+                       max_steps: int = 500, children_limit: int | None = None,
+                       stall_steps: int | None = None) -> ColonizationResult:
+    """Grow a tree by classic space colonization (Runions et al. 2007) with the incremental kernel.
+
+    Parameters
+    ----------
+    markers : (M, 3) float64 array_like
+        Attraction points (M >= 1, finite).
+    roots : (R, 3) or (3,) float64 array_like
+        Start node(s).
+    influence_radius : float
+        d_i in (0, inf).
+    kill_radius : float
+        d_k in (0, d_i).
+    step_size : float
+        D in (0, inf), the internode length.
+    max_steps : int
+        At most this many growth steps, in [0, 1e9].
+    children_limit : int or None
+        Maximum children per node, >= 1 (None: unlimited).
+    stall_steps : int or None
+        Stop after this many consecutive steps without a kill (spec 003 stall guard; None: off).
+
+    Returns
+    -------
+    ColonizationResult
+        Nodes, parents, markers left and per-step timings.
+
+    References
+    ----------
+    .. [1] Runions et al. 2007; spec 003_implicit_sca §1.3–1.4 (guards [INFERRED]); issue 13.
+    """
+    _check_classic(markers, roots, influence_radius, kill_radius, step_size, max_steps, children_limit,
+                   stall_steps)
+    max_steps = int(max_steps)
+    t0, c0 = time.perf_counter(), time.process_time()
+    sc = SpaceColonizer(markers, roots, influence_radius=influence_radius, kill_radius=kill_radius,
+                        step_size=step_size, children_limit=children_limit)
+    setup_ms, setup_cpu = (time.perf_counter() - t0) * 1e3, (time.process_time() - c0) * 1e3
+    return _drive(sc.step, lambda: sc.n, lambda: sc.n_live, max_steps, stall_steps,
+                  lambda: (sc.nodes, sc.parent, sc.markers_left), setup_ms, setup_cpu)
+
+
+def _drive(step, n_nodes, n_live, max_steps, stall_steps, final, setup_ms, setup_cpu):
+    ms, cpu, sn, sm = [], [], [], []
+    growth_steps = 0
+    since_kill = 0
+    for k in range(1, max_steps + 1):
+        if n_live() == 0:
+            break
+        nn, nl = n_nodes(), n_live()
+        t0, c0 = time.perf_counter(), time.process_time()
+        added, killed = step()
+        t1, c1 = time.perf_counter(), time.process_time()
+        if added == 0:
+            break
+        ms.append((t1 - t0) * 1e3)
+        cpu.append((c1 - c0) * 1e3)
+        sn.append(nn)
+        sm.append(nl)
+        if killed:
+            growth_steps = k
+            since_kill = 0
+        else:
+            since_kill += 1
+            if stall_steps is not None and since_kill >= stall_steps:
+                break
+    nodes, parent, left = final()
+    return ColonizationResult(nodes=nodes, parent=parent, markers_left=left, steps=len(ms),
+                              step_ms=np.asarray(ms, np.float64), growth_steps=growth_steps,
+                              step_cpu_ms=np.asarray(cpu, np.float64), step_nodes=np.asarray(sn, np.int64),
+                              step_markers=np.asarray(sm, np.int64), setup_ms=setup_ms, setup_cpu_ms=setup_cpu)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# classic mode, numpy + cKDTree reference (rebuild and requery every step)
+# ------------------------------------------------------------------------------------------------------------
+class _ReferenceColonizer:
+    def __init__(self, markers, roots, di, dk, d, limit, exact_ties):
+        self.markers, self.di2, self.dk2, self.d, self.limit = markers, di * di, dk * dk, d, limit
+        self.di = di
+        self.k = 4 if exact_ties else 1
+        self.dup2 = (K.DUP_FRACTION * d) ** 2
+        self.nodes = roots.copy()
+        self.parent = np.full(len(roots), -1, np.int64)
+        self.children = [[] for _ in range(len(roots))]
+        self.live = np.arange(len(markers))
+        self.owner = np.full(0, -1, np.int64)
+        self._assign()
+
+    def _assign(self):
+        """Nearest node of every live marker (tree rebuilt), kill below d_k, assign below d_i."""
+        from scipy.spatial import cKDTree
+
+        pts = self.markers[self.live]
+        n = len(self.nodes)
+        k = min(self.k, n)
+        _, idx = cKDTree(self.nodes).query(pts, k=k, distance_upper_bound=self.di * (1 + 1e-9))
+        idx = idx.reshape(len(pts), k)
+        valid = idx < n
+        safe = np.where(valid, idx, 0)
+        dd = pts[:, None, :] - self.nodes[safe]
+        d2 = dd[..., 0] * dd[..., 0] + dd[..., 1] * dd[..., 1] + dd[..., 2] * dd[..., 2]
+        d2 = np.where(valid, d2, np.inf)
+        if k > 1:  # exact squared distances, ties to the lowest node index
+            mn = d2.min(axis=1)
+            idx = np.where((d2 == mn[:, None]) & valid, safe, np.iinfo(np.int64).max).min(axis=1)
+            d2 = mn
+        else:
+            idx, d2 = safe[:, 0], d2[:, 0]
+        killed = d2 < self.dk2
+        self.live = self.live[~killed]
+        idx, d2 = idx[~killed], d2[~killed]
+        self.owner = np.where(d2 < self.di2, idx, -1)
+        return int(killed.sum())
+
+    def step(self):
+        if len(self.live) == 0:
+            return 0, 0
+        n = len(self.nodes)
+        sel = self.owner >= 0
+        own = self.owner[sel]
+        acc = np.zeros((n, 3), np.int64)
+        np.add.at(acc, own, K.quantize_numpy(self.markers[self.live[sel]] - self.nodes[own]))
+        self.nodes, self.parent = K.grow_numpy(self.nodes, self.parent, self.children, acc, np.unique(own),
+                                               self.limit, self.d, self.dup2)
+        if len(self.nodes) == n:
+            return 0, 0
+        killed = self._assign()
+        return len(self.nodes) - n, killed
+
+
+def space_colonization_reference(markers, roots, *, influence_radius: float, kill_radius: float,
+                                 step_size: float, max_steps: int = 500, children_limit: int | None = None,
+                                 stall_steps: int | None = None, exact_ties: bool = True) -> ColonizationResult:
+    """Classic space colonization, rebuilding a ``cKDTree`` of all nodes and re-querying every live marker each step.
+
+    Same parameters, semantics and result as :func:`space_colonization` (the oracle it is tested
+    against).  ``exact_ties=True`` queries 4 neighbours so equidistant nodes resolve to the lowest
+    index exactly; ``False`` queries 1 (the plain baseline timed by ``benchmarks/colonize.py``).
+
+    Returns
+    -------
+    ColonizationResult
+        As :func:`space_colonization`.
+    """
+    markers, roots, di, dk, d, max_steps, limit, _ = _check_classic(
+        markers, roots, influence_radius, kill_radius, step_size, max_steps, children_limit, stall_steps)
+    t0, c0 = time.perf_counter(), time.process_time()
+    rc = _ReferenceColonizer(markers, roots, di, dk, d, limit, exact_ties)
+    setup_ms, setup_cpu = (time.perf_counter() - t0) * 1e3, (time.process_time() - c0) * 1e3
+    return _drive(rc.step, lambda: len(rc.nodes), lambda: len(rc.live), max_steps, stall_steps,
+                  lambda: (rc.nodes.copy(), rc.parent.copy(), markers[rc.live]), setup_ms, setup_cpu)
+
+
+# ------------------------------------------------------------------------------------------------------------
+# Tree Wand assignment (Eq. 9.4)
+# ------------------------------------------------------------------------------------------------------------
+def _check_buds(bud_pos, bud_dir, bud_len):
+    bud_pos = check_points("bud_pos", bud_pos)
+    b = len(bud_pos)
+    bud_dir = check_array("bud_dir", bud_dir, shape=(b, 3))
+    bud_len = check_array("bud_len", bud_len, shape=(b,))
+    if b and not np.all(bud_len > 0):
+        raise ValueError(f"bud_len must be in (0, inf), got min {bud_len.min()!r}")
+    n = np.sqrt((bud_dir * bud_dir).sum(axis=1)) if b else np.zeros(0)
+    if b and not np.all(n > 0):
+        raise ValueError("bud_dir must be non-zero vectors (a zero row was given)")
+    return bud_pos, bud_dir / n[:, None] if b else bud_dir, bud_len
+
+
+def _check_cone(view_radius, view_angle):
+    vr = check_range("view_radius", view_radius, 0.0, np.inf, low_open=True, high_open=True)
+    va = check_range("view_angle", view_angle, 0.0, 2 * math.pi)
+    return vr, math.cos(va / 2.0)
+
+
+def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, view_angle: float) -> np.ndarray:
+    """Assign each marker to its perceiving bud with the smallest d/l (spec 000_treewand §2.3, Eq. 9.4).
+
+    Parameters
+    ----------
+    markers : (M, 3) float64 array_like
+        Marker positions (may be empty).
+    bud_pos : (B, 3) float64 array_like
+        Positions of the candidate (active) buds.
+    bud_dir : (B, 3) float64 array_like
+        Bud headings (normalised here).
+    bud_len : (B,) float64 array_like
+        l, the internode length each bud would produce, > 0.
+    view_radius : float
+        Perception radius, in (0, inf); d <= view_radius is perceived.
+    view_angle : float
+        Full apex angle of the perception cone, radians, in [0, 2π].
+
+    Returns
+    -------
+    owner : (M,) int64 ndarray
+        Index of the assigned bud, -1 where no bud perceives the marker; ties go to the lowest index.
+
+    References
+    ----------
+    .. [1] Tree Wand thesis §9.4, Eq. 9.4; view angle read as full apex angle (spec 000_treewand §2.3 [INFERRED]).
+    """
+    markers = check_points("markers", markers)
+    bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
+    vr, cos_half = _check_cone(view_radius, view_angle)
+    if len(markers) == 0 or len(bud_pos) == 0:
+        return np.full(len(markers), -1, np.int64)
+    return TreeWandAssigner(markers, view_radius=vr, view_angle=view_angle).assign(bud_pos, bud_dir, bud_len)
+
+
+def assign_treewand_reference(markers, bud_pos, bud_dir, bud_len, *, view_radius: float,
+                              view_angle: float) -> np.ndarray:
+    """Brute-force O(b·m) version of :func:`assign_treewand` (the thesis's own method, §12.2); same result.
+
+    Returns
+    -------
+    owner : (M,) int64 ndarray
+        As :func:`assign_treewand`.
+    """
+    markers = check_points("markers", markers)
+    bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
+    vr, cos_half = _check_cone(view_radius, view_angle)
+    return K.treewand_assign_numpy(markers, bud_pos, bud_dir, bud_len, vr, cos_half)[0]
+
+
+class TreeWandAssigner:
+    """Marker grid kept across Tree Wand steps (spec 000_treewand §2.2–2.3).
+
+    Parameters
+    ----------
+    markers : (M, 3) float64 array_like
+        Marker positions, M >= 1.
+    view_radius : float
+        Perception radius, in (0, inf); also the grid cell size.
+    view_angle : float
+        Full apex angle of the perception cone, radians, in [0, 2π].
+    """
+
+    def __init__(self, markers, *, view_radius: float, view_angle: float):
+        markers = check_points("markers", markers, min_rows=1)
+        self.view_radius, self.cos_half = _check_cone(view_radius, view_angle)
+        (self.origin, self.h, self.dims, self.reach, order, self.cell_start,
+         self.cell_live) = K.build_grid(markers, self.view_radius)
+        self.pos_s = np.ascontiguousarray(markers[order])
+        self.orig = order.astype(np.int32)
+        self.m = len(markers)
+
+    def assign(self, bud_pos, bud_dir, bud_len) -> np.ndarray:
+        """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int64 by input row (-1: none/dead)."""
+        bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
+        owner_s = np.full(self.m, -1, np.int32)
+        best_s = np.full(self.m, np.inf)
+        K.treewand_assign_kernel(bud_pos, bud_dir, bud_len, np.arange(len(bud_pos), dtype=np.int64), self.origin,
+                                 self.h, self.dims, self.reach, self.cell_start, self.cell_live, self.pos_s,
+                                 owner_s, best_s, self.view_radius, self.cos_half)
+        owner = np.empty(self.m, np.int64)
+        owner[self.orig] = owner_s
+        return owner
+
+    def kill_within(self, points, radius: float) -> int:
+        """Remove live markers closer than ``radius`` to any of ``points`` (occupation zones); returns the count."""
+        points = check_points("points", points)
+        r = check_range("radius", radius, 0.0, self.view_radius, low_open=True)
+        if len(points) == 0:
+            return 0
+        n = len(points)
+        dummy_acc = np.zeros((n, 3), np.int64)
+        owner = np.full(self.m, -1, np.int32)
+        best = np.full(self.m, np.inf)
+        killed, _ = K.add_nodes_kernel(points, 0, n, self.origin, self.h, self.dims, self.reach, self.cell_start,
+                                       self.cell_live, self.pos_s, self.orig, owner, best, dummy_acc,
+                                       np.zeros(n, np.uint8), np.zeros(n, np.int64), 0, r * r, r * r)
+        return int(killed)
+
+    @property
+    def live_index(self) -> np.ndarray:
+        """(K,) int64 input rows of the live markers, ascending."""
+        return K.live_orig_kernel(self.cell_start, self.cell_live, self.orig)
+
+    @property
+    def alive(self) -> np.ndarray:
+        """(M,) bool mask of live markers by input row."""
+        a = np.zeros(self.m, bool)
+        a[self.live_index] = True
+        return a
