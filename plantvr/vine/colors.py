@@ -1,0 +1,95 @@
+"""Editable colour table with per-colour visibility (spec 000_vine §2.4.2, §2.6; checklist items 13, 17).
+
+Labels are one uint8 per vertex indexing this table; recolouring edits only the table.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int
+
+__all__ = ["ColorTable", "DEFAULT_PALETTE"]
+
+#: 12 wheel colours plus index 0 = unpainted grey (spec §2.4.1 [INFERRED] 12 slices + unpainted).
+DEFAULT_PALETTE = np.array([
+    [190, 190, 190], [139, 90, 43], [220, 40, 40], [240, 200, 30], [60, 170, 60], [255, 140, 0],
+    [40, 110, 220], [160, 70, 200], [0, 190, 190], [230, 100, 170], [120, 200, 90], [110, 110, 30],
+    [250, 250, 250]], np.uint8)
+
+
+class ColorTable:
+    """Up to 256 RGBA colours, each with a visibility flag.
+
+    Parameters
+    ----------
+    colors : (N, 3) or (N, 4) uint8 array-like, optional
+        Initial colours, N in [1, 256]; default :data:`DEFAULT_PALETTE`.
+    """
+
+    def __init__(self, colors=None):
+        if colors is None:
+            colors = DEFAULT_PALETTE
+        c = np.asarray(colors)
+        if c.ndim != 2 or c.shape[1] not in (3, 4) or not 1 <= c.shape[0] <= 256:
+            raise ValueError(f"colors must have shape (N, 3) or (N, 4) with N in [1, 256], got {c.shape}")
+        if c.dtype.kind == "f":
+            raise ValueError("colors must be integers in [0, 255] (uint8), got floats")
+        if c.min() < 0 or c.max() > 255:
+            raise ValueError(f"colors must be in [0, 255], got range [{c.min()}, {c.max()}]")
+        self.rgba = np.full((c.shape[0], 4), 255, np.uint8)
+        self.rgba[:, :c.shape[1]] = c
+        self.visible = np.ones(c.shape[0], bool)
+        self.version = 0
+
+    def __len__(self) -> int:
+        return self.rgba.shape[0]
+
+    def check_label(self, name: str, label) -> int:
+        """Validate a label index against this table."""
+        return check_int(name, label, 0, len(self) - 1)
+
+    def set_color(self, label: int, rgb) -> None:
+        """Recolour one entry (indices untouched)."""
+        label = self.check_label("label", label)
+        c = check_array("rgb", rgb, shape=(None,), dtype=np.float64)
+        if c.shape[0] not in (3, 4) or c.min() < 0 or c.max() > 255:
+            raise ValueError(f"rgb must be 3 or 4 values in [0, 255], got {list(c)}")
+        self.rgba[label, :c.shape[0]] = np.rint(c).astype(np.uint8)
+        self.version += 1
+
+    def add_color(self, rgb) -> int:
+        """Append a colour; returns its label."""
+        if len(self) >= 256:
+            raise ValueError("colour table is full (256 entries, one uint8 per vertex)")
+        c = check_array("rgb", rgb, shape=(None,), dtype=np.float64)
+        if c.shape[0] not in (3, 4) or c.min() < 0 or c.max() > 255:
+            raise ValueError(f"rgb must be 3 or 4 values in [0, 255], got {list(c)}")
+        row = np.full((1, 4), 255, np.uint8)
+        row[0, :c.shape[0]] = np.rint(c).astype(np.uint8)
+        self.rgba = np.vstack([self.rgba, row])
+        self.visible = np.append(self.visible, True)
+        self.version += 1
+        return len(self) - 1
+
+    def set_visible(self, label: int, visible: bool) -> None:
+        """Show or hide every vertex of one colour."""
+        label = self.check_label("label", label)
+        self.visible[label] = bool(visible)
+        self.version += 1
+
+    def paintable_lut(self) -> np.ndarray:
+        """(256,) bool: True for labels that may be painted over (visible ones)."""
+        lut = np.zeros(256, bool)
+        lut[:len(self)] = self.visible
+        return lut
+
+    def colors_of(self, labels: np.ndarray) -> np.ndarray:
+        """(V, 4) uint8 colours for a label array (gather through the table)."""
+        return self.rgba[labels]
+
+    def copy(self) -> "ColorTable":
+        """Independent copy."""
+        t = ColorTable(self.rgba)
+        t.visible = self.visible.copy()
+        t.version = self.version
+        return t

@@ -1,0 +1,207 @@
+"""Depth cueing against a coarse convex hull (spec 000_vine §2.2, checklist item 8; thesis Eqs. 5.8–5.11).
+
+The hull is Qhull stopped early (``TA270`` → 274 vertices). Per frame: the eye midpoint E is tested for
+being inside the hull by ray parity (Eqs. 5.9–5.10), ``d_c`` is the closest distance from E to the hull
+(0 inside), ``d_f`` the furthest hull vertex, and colours blend toward the background with
+``C = (1 − f) C_init + f C_bg`` (Eq. 5.8). Here the blend is evaluated per vertex on the CPU (a shader-free
+variant suited to stills and small meshes); ``f`` uses the normalised forms of ERRATUM A.4.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import ConvexHull
+
+from plantvr._validation import check_choice, check_int, check_point, check_points, check_range
+
+__all__ = ["CoarseHull", "coarse_hull", "inside_hull", "hull_distances", "depth_factor", "depth_cue_colors"]
+
+
+@dataclass(frozen=True)
+class CoarseHull:
+    """Coarse convex hull: vertices (H, 3) float64 and outward triangles (T, 3) int64 into them."""
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+
+
+def coarse_hull(points: np.ndarray, *, n_vertices: int = 274, sample: int = 1_000_000,
+                rng: int | np.random.Generator | None = 0) -> CoarseHull:
+    """Qhull stopped after ``n_vertices`` hull vertices (thesis: 274 for the gerbera).
+
+    Parameters
+    ----------
+    points : (V, 3) float ndarray
+    n_vertices : int
+        Vertex budget, in [5, 100000]; ``TA{n_vertices - 4}`` (4 initial simplex vertices).
+    sample : int
+        Random subset size for very large meshes, in [100, 10**9].
+    rng : int, Generator or None
+
+    Returns
+    -------
+    CoarseHull
+        An inner approximation; model points may lie slightly outside it (clamp the depth, spec §2.2.3).
+
+    References
+    ----------
+    .. [1] Thesis §5.2.1 (Quickhull, Barber et al.); spec §2.2.3 ``TA270``.
+    """
+    pts = check_points("points", points, min_rows=4)
+    n_vertices = check_int("n_vertices", n_vertices, 5, 100000)
+    sample = check_int("sample", sample, 100, 10 ** 9)
+    rng = np.random.default_rng(rng)
+    if len(pts) > sample:
+        pts = pts[rng.choice(len(pts), sample, replace=False)]
+    hull = ConvexHull(pts, qhull_options=f"TA{n_vertices - 4}")
+    used = np.unique(hull.simplices)
+    remap = np.full(len(pts), -1, np.int64)
+    remap[used] = np.arange(len(used))
+    tri = remap[hull.simplices]
+    verts = pts[used]
+    # orient outward using the hull's centroid (convex: centroid is inside)
+    centre = verts.mean(axis=0)
+    a, b, c = verts[tri[:, 0]], verts[tri[:, 1]], verts[tri[:, 2]]
+    n = np.cross(b - a, c - a)
+    flip = np.einsum("ij,ij->i", n, a - centre) < 0
+    tri[flip] = tri[flip][:, [0, 2, 1]]
+    return CoarseHull(verts, tri)
+
+
+def inside_hull(hull: CoarseHull, eye, *, rng: int | np.random.Generator | None = 0) -> bool:
+    """Ray-parity inside test (thesis §5.2.2): one ray from E; 1 hit = inside, 0 or 2 = outside.
+
+    Solves ``[A−B, A−C, d] [β γ t]ᵀ = A − E`` (Eq. 5.10) for all triangles by Cramer's rule; a ray that
+    passes within 1e-9 of an edge is re-cast in another random direction.
+    """
+    E = check_point("eye", eye)
+    rng = np.random.default_rng(rng)
+    V, T = hull.vertices, hull.triangles
+    A, B, C = V[T[:, 0]], V[T[:, 1]], V[T[:, 2]]
+    for _ in range(16):
+        d = rng.normal(size=3)
+        d /= np.linalg.norm(d)
+        e1, e2, rhs = A - B, A - C, A - E
+        M = np.stack([e1, e2, np.broadcast_to(d, e1.shape)], axis=2)      # (T, 3, 3) columns
+        det = np.linalg.det(M)
+        ok = np.abs(det) > 1e-12
+        sol = np.zeros((len(T), 3))
+        sol[ok] = np.linalg.solve(M[ok], rhs[ok][:, :, None])[:, :, 0]
+        beta, gamma, t = sol.T
+        eps = 1e-9
+        near_edge = ok & (t > 0) & ((np.abs(beta) < eps) | (np.abs(gamma) < eps) | (np.abs(beta + gamma - 1) < eps))
+        if near_edge.any():
+            continue
+        hits = ok & (t > 0) & (beta > 0) & (gamma > 0) & (beta + gamma < 1)
+        return int(hits.sum()) == 1
+    raise ValueError("inside_hull: every ray grazed an edge; the eye lies on the hull")
+
+
+def _closest_on_triangles(E, A, B, C):
+    """Closest point to E on each triangle (plane projection, else clamp onto edges; thesis Fig. 5.5)."""
+    n = np.cross(B - A, C - A)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    Ep = E - np.einsum("ij,ij->i", E - A, n)[:, None] * n
+    # barycentric of Ep
+    v0, v1, v2 = B - A, C - A, Ep - A
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    beta = (d11 * d20 - d01 * d21) / den
+    gamma = (d00 * d21 - d01 * d20) / den
+    inside = (beta >= 0) & (gamma >= 0) & (beta + gamma <= 1)
+    best = Ep.copy()
+    bestd = np.full(len(A), np.inf)
+    for P, Q in ((A, B), (B, C), (C, A)):
+        pq = Q - P
+        t = np.clip(np.einsum("ij,ij->i", Ep - P, pq) / np.einsum("ij,ij->i", pq, pq), 0.0, 1.0)
+        X = P + t[:, None] * pq
+        dist = np.linalg.norm(X - E, axis=1)
+        take = ~inside & (dist < bestd)
+        best[take] = X[take]
+        bestd[take] = dist[take]
+    return best
+
+
+def hull_distances(hull: CoarseHull, eye) -> tuple[float, float]:
+    """``(d_c, d_f)``: closest distance from E to the hull (0 inside) and furthest hull vertex distance.
+
+    References
+    ----------
+    .. [1] Thesis §5.2.2 steps 3–4 (spec §2.2.4).
+    """
+    E = check_point("eye", eye)
+    V, T = hull.vertices, hull.triangles
+    d_f = float(np.linalg.norm(V - E, axis=1).max())
+    if inside_hull(hull, E):
+        return 0.0, d_f
+    X = _closest_on_triangles(E, V[T[:, 0]], V[T[:, 1]], V[T[:, 2]])
+    return float(np.linalg.norm(X - E, axis=1).min()), d_f
+
+
+def depth_factor(d: np.ndarray, d_c: float, d_f: float, *, p: float = 0.85, s: float = 3.0,
+                 mode: str = "p_exp") -> np.ndarray:
+    """Blend factor f(d) in (0, p] (Eq. 5.11, normalised per ERRATUM A.4).
+
+    Parameters
+    ----------
+    d : ndarray
+        Distances from the eye midpoint.
+    d_c, d_f : float
+        Closest / furthest hull distances.
+    p : float
+        Maximum blend, in [0, 1] (thesis 0.85).
+    s : float
+        Steepness, in (0, 100].
+    mode : {"p_exp", "fog", "literal"}
+        ``p_exp``: ``p·exp(s(x−1))``; ``fog``: ``p(1−e^{−sx})/(1−e^{−s})``; ``literal``: Eq. 5.11 as
+        printed, clamped to [0, p]. x is the normalised depth clamped to [0, 1].
+    """
+    p = check_range("p", p, 0.0, 1.0)
+    s = check_range("s", s, 0.0, 100.0, low_open=True)
+    mode = check_choice("mode", mode, ("p_exp", "fog", "literal"))
+    span = max(float(d_f) - float(d_c), 1e-12)
+    x = np.clip((np.asarray(d, np.float64) - d_c) / span, 0.0, 1.0)
+    if mode == "p_exp":
+        return p * np.exp(s * (x - 1.0))                       # ERRATUM A.4 (normalised variant)
+    if mode == "fog":
+        return p * (1.0 - np.exp(-s * x)) / (1.0 - np.exp(-s))
+    return np.clip(np.exp(s * x), 0.0, p)
+
+
+def depth_cue_colors(colors: np.ndarray, points: np.ndarray, eye, hull: CoarseHull, *,
+                     background=(0, 0, 0), p: float = 0.85, s: float = 3.0, mode: str = "p_exp") -> np.ndarray:
+    """Blend per-vertex colours toward the background by distance (Eq. 5.8), shader-free.
+
+    Parameters
+    ----------
+    colors : (V, 3) or (V, 4) uint8 ndarray
+    points : (V, 3) float ndarray
+        Vertex positions in the same frame as ``eye`` and ``hull``.
+    eye : (3,) float
+        Eye midpoint E.
+    hull : CoarseHull
+    background : 3 ints
+        Background colour (dark by default: "further = darker", spec §2.2.1 [INFERRED]).
+
+    Returns
+    -------
+    ndarray like ``colors`` (alpha kept)
+    """
+    colors = np.asarray(colors)
+    if colors.dtype != np.uint8 or colors.ndim != 2 or colors.shape[1] not in (3, 4):
+        raise ValueError(f"colors must be uint8 of shape (V, 3) or (V, 4), got {colors.dtype} {colors.shape}")
+    pts = np.asarray(points, np.float32)
+    if pts.shape != (len(colors), 3):
+        raise ValueError(f"points must have shape ({len(colors)}, 3), got {pts.shape}")
+    bg = check_point("background", background)
+    d_c, d_f = hull_distances(hull, eye)
+    d = np.linalg.norm(pts - np.asarray(eye, np.float32), axis=1)
+    f = depth_factor(d, d_c, d_f, p=p, s=s, mode=mode).astype(np.float32)[:, None]
+    out = colors.copy()
+    out[:, :3] = np.clip(np.rint((1 - f) * colors[:, :3] + f * bg.astype(np.float32)), 0, 255).astype(np.uint8)
+    return out

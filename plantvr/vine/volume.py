@@ -1,0 +1,174 @@
+"""Volume input for ViNE (spec 000_vine §1.4–1.5, checklist item 1): TIFF stacks, .npy/.npz, 2x downsampling.
+
+Volumes stay uint8/uint16 (memory-mapped where the file allows it); no function here makes a float copy
+of the whole volume.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+
+from plantvr._validation import check_choice, check_int
+
+__all__ = ["load_volume", "save_volume", "downsample2", "histogram"]
+
+_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
+
+
+def _check_volume(name: str, vol) -> np.ndarray:
+    if not isinstance(vol, np.ndarray):
+        vol = np.asarray(vol)
+    if vol.ndim != 3:
+        raise ValueError(f"{name} must be a 3-D array (X, Y, Z), got shape {vol.shape}")
+    if vol.dtype not in _DTYPES:
+        raise ValueError(f"{name} must have dtype uint8 or uint16, got {vol.dtype}")
+    if min(vol.shape) < 2:
+        raise ValueError(f"{name} must be at least 2 voxels along every axis, got shape {vol.shape}")
+    return vol
+
+
+def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool = True) -> np.ndarray:
+    """Load a 3-D image stack as a uint8 or uint16 array, memory-mapped where possible.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A multi-page ``.tif``/``.tiff`` file, a folder of 2-D TIFF slices (sorted by name), a ``.npy`` file
+        or a ``.npz`` file.
+    key : str, optional
+        Array name inside a ``.npz`` (default: ``"volume"`` if present, else the only array).
+    mmap : bool
+        Memory-map ``.npy`` files and uncompressed TIFF files instead of reading them.
+
+    Returns
+    -------
+    (X, Y, Z) uint8 or uint16 ndarray
+        Axis order as stored in the file (for TIFF stacks: page, row, column).
+
+    References
+    ----------
+    .. [1] Spec 000_vine §1.4: the file format is not stated; TIFF stack, .npy/.npz [INFERRED].
+    """
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"path does not exist: {str(p)!r}")
+    if p.is_dir():
+        import tifffile
+        files = sorted([f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff")])
+        if not files:
+            raise ValueError(f"folder {str(p)!r} holds no .tif/.tiff slices")
+        vol = tifffile.imread([str(f) for f in files])
+    else:
+        suffix = p.suffix.lower()
+        if suffix in (".tif", ".tiff"):
+            import tifffile
+            vol = None
+            if mmap:
+                try:
+                    vol = tifffile.memmap(str(p), mode="r")
+                except ValueError:
+                    vol = None
+            if vol is None:
+                vol = tifffile.imread(str(p))
+        elif suffix == ".npy":
+            try:
+                vol = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
+            except (ValueError, OSError) as exc:
+                raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
+        elif suffix == ".npz":
+            try:
+                with np.load(p, allow_pickle=False) as z:
+                    names = list(z.files)
+                    if key is None:
+                        key = "volume" if "volume" in names else (names[0] if len(names) == 1 else None)
+                    if key is None or key not in names:
+                        raise ValueError(f"key must name one of the arrays {names} in {str(p)!r}, got {key!r}")
+                    vol = z[key]
+            except (OSError, EOFError) as exc:
+                raise ValueError(f"could not read {str(p)!r} as .npz: {exc}") from None
+        else:
+            raise ValueError(f"path must end in .tif, .tiff, .npy or .npz (or be a folder), got {str(p)!r}")
+    return _check_volume("volume", vol)
+
+
+def save_volume(path: str | os.PathLike, volume: np.ndarray) -> None:
+    """Write a volume as a multi-page TIFF (``.tif``), ``.npy`` or ``.npz`` (key ``"volume"``)."""
+    volume = _check_volume("volume", volume)
+    p = Path(path)
+    suffix = check_choice("path suffix", p.suffix.lower(), (".tif", ".tiff", ".npy", ".npz"))
+    if suffix in (".tif", ".tiff"):
+        import tifffile
+        tifffile.imwrite(str(p), np.ascontiguousarray(volume))
+    elif suffix == ".npy":
+        np.save(p, volume)
+    else:
+        np.savez_compressed(p, volume=volume)
+
+
+def downsample2(volume: np.ndarray, *, method: str = "mean", slab: int = 32) -> np.ndarray:
+    """Downsample a volume by 2 along each axis with a 2x2x2 block mean or max, slab by slab.
+
+    Parameters
+    ----------
+    volume : (X, Y, Z) uint8 or uint16 ndarray
+        May be a memory map; odd trailing planes are dropped.
+    method : {"mean", "max"}
+        Block reduction. ``"mean"`` rounds half up.
+    slab : int
+        Output planes computed at a time (bounds the temporary memory), in [1, 4096].
+
+    Returns
+    -------
+    (X//2, Y//2, Z//2) ndarray of the input dtype
+
+    References
+    ----------
+    .. [1] Spec 000_vine §1.5 step 2: the gerbera was downsampled by 2 along each axis [T Ch. 4].
+    """
+    volume = _check_volume("volume", volume)
+    method = check_choice("method", method, ("mean", "max"))
+    slab = check_int("slab", slab, 1, 4096)
+    nx, ny, nz = (s // 2 for s in volume.shape)
+    out = np.empty((nx, ny, nz), volume.dtype)
+    acc = np.uint32
+    for i in range(0, nx, slab):
+        j = min(i + slab, nx)
+        blk = np.asarray(volume[2 * i:2 * j, :2 * ny, :2 * nz])
+        b = blk.reshape(j - i, 2, ny, 2, nz, 2)
+        if method == "max":
+            out[i:j] = b.max(axis=(1, 3, 5))
+        else:
+            s = b.sum(axis=(1, 3, 5), dtype=acc)
+            out[i:j] = ((s + 4) // 8).astype(volume.dtype)
+    return out
+
+
+def histogram(volume: np.ndarray, *, bins: int = 256, slab: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """Intensity histogram for choosing the iso-value, computed slab by slab.
+
+    Parameters
+    ----------
+    volume : (X, Y, Z) uint8 or uint16 ndarray
+    bins : int
+        Number of bins over the dtype's range, in [2, 65536].
+    slab : int
+        Planes per pass, in [1, 4096].
+
+    Returns
+    -------
+    counts : (bins,) int64 ndarray
+    edges : (bins + 1,) float64 ndarray
+    """
+    volume = _check_volume("volume", volume)
+    bins = check_int("bins", bins, 2, 65536)
+    slab = check_int("slab", slab, 1, 4096)
+    top = float(np.iinfo(volume.dtype).max) + 1
+    edges = np.linspace(0.0, top, bins + 1)
+    counts = np.zeros(bins, np.int64)
+    for i in range(0, volume.shape[0], slab):
+        c = np.bincount(np.asarray(volume[i:i + slab]).ravel(), minlength=int(top))
+        idx = np.minimum((np.arange(int(top)) * bins) // int(top), bins - 1)
+        counts += np.bincount(idx, weights=c, minlength=bins).astype(np.int64)
+    return counts, edges
