@@ -1,0 +1,26 @@
+"""Dense inflorescences (spec 002_inflorescences §2–§4, checklist §8.1 C1–C13, C17, C20–C21).
+
+Sub-modules
+-----------
+phyllotaxis
+    Ridley/Vogel placement on receptacles of revolution (Eqs. 5.1–5.2), centripetal fractionation,
+    parastichy counting, stage from primordium age.
+fate
+    Floret fate by the cone test (Eqs. 6.1–6.2, ERRATUM A.4) and distance thresholds.
+floret
+    Floret editor core: clamped B-spline petals, n-fold corolla, fusion and welding, intrinsic key-pose
+    blending, Eq. 2.1 repolygonization, OBJ sequence I/O.
+pbd
+    Position-based dynamics: distance and signed dihedral bending constraints (numba + numpy twins).
+ccd
+    Continuous collision detection: spatial-hash broad phase, coplanarity cubics, root finding,
+    vertex-triangle and edge-edge collision constraints, static intersection check.
+composer
+    Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations.
+"""
+from plantvr.flowers.phyllotaxis import (  # noqa: F401
+    GOLDEN_ANGLE_DEG, Receptacle, disc_receptacle, dome_receptacle, cone_receptacle, receptacle_from_profile,
+    ridley_placement, vogel_disc, centripetal_fractionation, place_on_receptacle, parastichy_numbers,
+    floret_stage,
+)
+from plantvr.flowers.fate import cone_dmin, ray_florets, floret_fate  # noqa: F401

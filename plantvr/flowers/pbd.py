@@ -1,0 +1,277 @@
+"""Position-based dynamics: distance and signed dihedral bending constraints (spec 002 §3.2–§3.3.2; C5–C7).
+
+Gauss-Seidel projection (Eq. 3.10, ERRATUM A.1) of Eq. 3.11 distance constraints and the thesis's signed
+dihedral bending constraint (Eq. 3.13, App. A behaviour via the closed-form signed-angle gradient of
+spec §3.3.2). Each numba kernel has a numpy twin with the same constraint order.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_range
+
+__all__ = ["mesh_edges", "bend_quads", "edge_lengths", "signed_dihedrals", "dihedral_gradient",
+           "solve_internal", "solve_internal_numpy"]
+
+
+def mesh_edges(faces: np.ndarray) -> np.ndarray:
+    """Unique undirected edges (E, 2) int64 of a triangle mesh, sorted, ``i < j``."""
+    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    return np.unique(e, axis=0)
+
+
+def bend_quads(faces: np.ndarray) -> np.ndarray:
+    """Bending quadruples (B, 4) int64 ``(p1, p2, p3, p4)`` for every interior manifold edge.
+
+    Triangle (p1, p2, p3) holds the directed edge p1->p2 and triangle (p1, p4, p2) the edge p2->p1
+    (the ordering of Eq. 3.12), so the orientation of the mesh fixes the sign convention.
+    """
+    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    if faces.shape[0] == 0:
+        return np.zeros((0, 4), np.int64)
+    V = int(faces.max()) + 1
+    d = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)                  # directed edges, 3 per face
+    opp = faces[:, [2, 0, 1]].reshape(-1)                            # vertex opposite each directed edge
+    keys = d[:, 0] * V + d[:, 1]
+    rkeys = d[:, 1] * V + d[:, 0]
+    sorter = np.argsort(keys, kind="stable")
+    pos = np.minimum(np.searchsorted(keys[sorter], rkeys), keys.size - 1)
+    partner = sorter[pos]
+    found = (keys[partner] == rkeys) & (d[:, 0] < d[:, 1])
+    idx = np.flatnonzero(found)
+    return np.column_stack([d[idx, 0], d[idx, 1], opp[idx], opp[partner[idx]]]).astype(np.int64)
+
+
+def edge_lengths(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Length of every edge, (E,) float64 (rest values of Eq. 3.11)."""
+    return np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
+
+
+def signed_dihedrals(x: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Signed bend angle phi of every quad, (B,) float64 radians in (-pi, pi] (Eq. 3.13, flat = 0).
+
+    References
+    ----------
+    .. [1] Owens 2016, Eq. 3.13 and App. A; ERRATUM A.5 (signed range, wrapped differences).
+    """
+    p1, p2, p3, p4 = (x[quads[:, k]] for k in range(4))
+    e = p2 - p1
+    n1 = np.cross(p3 - p1, e)
+    n2 = np.cross(e, p4 - p1)
+    en = e / np.linalg.norm(e, axis=1, keepdims=True)
+    n1n = np.linalg.norm(n1, axis=1)
+    n2n = np.linalg.norm(n2, axis=1)
+    sin = np.einsum("ij,ij->i", en, np.cross(n1, n2)) / (n1n * n2n)
+    cos = np.einsum("ij,ij->i", n1, n2) / (n1n * n2n)
+    return np.arctan2(sin, cos)
+
+
+def dihedral_gradient(p1, p2, p3, p4):
+    """Closed-form gradient (g1, g2, g3, g4) of the signed bend angle (spec 002 §3.3.2) for one quad."""
+    e = p2 - p1
+    N1 = np.cross(p3 - p1, e)
+    N2 = np.cross(e, p4 - p1)
+    le = np.linalg.norm(e)
+    g3 = le * N1 / N1.dot(N1)
+    g4 = le * N2 / N2.dot(N2)
+    t3 = (p3 - p1).dot(e) / e.dot(e)
+    t4 = (p4 - p1).dot(e) / e.dot(e)
+    g1 = -((1 - t3) * g3 + (1 - t4) * g4)
+    g2 = -(t3 * g3 + t4 * g4)
+    return g1, g2, g3, g4
+
+
+@numba.njit(cache=True, nogil=True)
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@numba.njit(cache=True, nogil=True)
+def _project_distance(p, w, i, j, rest, k):
+    dx = p[i, 0] - p[j, 0]
+    dy = p[i, 1] - p[j, 1]
+    dz = p[i, 2] - p[j, 2]
+    ln = np.sqrt(dx * dx + dy * dy + dz * dz)
+    ws = w[i] + w[j]
+    if ws == 0.0 or ln < 1e-300:
+        return
+    c = (ln - rest) * k / (ws * ln)
+    p[i, 0] -= w[i] * c * dx
+    p[i, 1] -= w[i] * c * dy
+    p[i, 2] -= w[i] * c * dz
+    p[j, 0] += w[j] * c * dx
+    p[j, 1] += w[j] * c * dy
+    p[j, 2] += w[j] * c * dz
+
+
+@numba.njit(cache=True, nogil=True)
+def _project_bend(p, w, q, rest, k):
+    i1, i2, i3, i4 = q[0], q[1], q[2], q[3]
+    ex = p[i2, 0] - p[i1, 0]
+    ey = p[i2, 1] - p[i1, 1]
+    ez = p[i2, 2] - p[i1, 2]
+    ax = p[i3, 0] - p[i1, 0]
+    ay = p[i3, 1] - p[i1, 1]
+    az = p[i3, 2] - p[i1, 2]
+    bx = p[i4, 0] - p[i1, 0]
+    by = p[i4, 1] - p[i1, 1]
+    bz = p[i4, 2] - p[i1, 2]
+    n1x, n1y, n1z = _cross(ax, ay, az, ex, ey, ez)
+    n2x, n2y, n2z = _cross(ex, ey, ez, bx, by, bz)
+    ee = ex * ex + ey * ey + ez * ez
+    n11 = n1x * n1x + n1y * n1y + n1z * n1z
+    n22 = n2x * n2x + n2y * n2y + n2z * n2z
+    if ee < 1e-300 or n11 < 1e-300 * ee or n22 < 1e-300 * ee:
+        return
+    le = np.sqrt(ee)
+    cx, cy, cz = _cross(n1x, n1y, n1z, n2x, n2y, n2z)
+    sin = (ex * cx + ey * cy + ez * cz) / le
+    cos = n1x * n2x + n1y * n2y + n1z * n2z
+    phi = np.arctan2(sin, cos)
+    c = phi - rest
+    while c > np.pi:                 # wrap to (-pi, pi]: ERRATUM A.5
+        c -= 2 * np.pi
+    while c <= -np.pi:
+        c += 2 * np.pi
+    g3x, g3y, g3z = le * n1x / n11, le * n1y / n11, le * n1z / n11
+    g4x, g4y, g4z = le * n2x / n22, le * n2y / n22, le * n2z / n22
+    t3 = (ax * ex + ay * ey + az * ez) / ee
+    t4 = (bx * ex + by * ey + bz * ez) / ee
+    g1x = -((1 - t3) * g3x + (1 - t4) * g4x)
+    g1y = -((1 - t3) * g3y + (1 - t4) * g4y)
+    g1z = -((1 - t3) * g3z + (1 - t4) * g4z)
+    g2x = -(t3 * g3x + t4 * g4x)
+    g2y = -(t3 * g3y + t4 * g4y)
+    g2z = -(t3 * g3z + t4 * g4z)
+    den = (w[i1] * (g1x * g1x + g1y * g1y + g1z * g1z) + w[i2] * (g2x * g2x + g2y * g2y + g2z * g2z)
+           + w[i3] * (g3x * g3x + g3y * g3y + g3z * g3z) + w[i4] * (g4x * g4x + g4y * g4y + g4z * g4z))
+    if den < 1e-300:
+        return
+    s = k * c / den
+    p[i1, 0] -= s * w[i1] * g1x
+    p[i1, 1] -= s * w[i1] * g1y
+    p[i1, 2] -= s * w[i1] * g1z
+    p[i2, 0] -= s * w[i2] * g2x
+    p[i2, 1] -= s * w[i2] * g2y
+    p[i2, 2] -= s * w[i2] * g2z
+    p[i3, 0] -= s * w[i3] * g3x
+    p[i3, 1] -= s * w[i3] * g3y
+    p[i3, 2] -= s * w[i3] * g3z
+    p[i4, 0] -= s * w[i4] * g4x
+    p[i4, 1] -= s * w[i4] * g4y
+    p[i4, 2] -= s * w[i4] * g4z
+
+
+@numba.njit(cache=True, nogil=True)
+def _solve_internal_numba(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations):
+    for _ in range(iterations):
+        for c in range(edges.shape[0]):
+            _project_distance(p, w, edges[c, 0], edges[c, 1], rest_len[c], k_len[c])
+        for c in range(quads.shape[0]):
+            _project_bend(p, w, quads[c], rest_phi[c], k_bend[c])
+
+
+def _distance_step_numpy(p, w, i, j, rest, k):
+    d = p[i] - p[j]
+    ln = np.linalg.norm(d)
+    ws = w[i] + w[j]
+    if ws == 0.0 or ln < 1e-300:
+        return
+    n = d / ln
+    C = ln - rest
+    p[i] -= k * w[i] / ws * C * n            # Eq. 3.11 with Eq. 3.10
+    p[j] += k * w[j] / ws * C * n
+
+
+def _bend_step_numpy(p, w, q, rest, k):
+    pts = p[q]
+    e = pts[1] - pts[0]
+    N1 = np.cross(pts[2] - pts[0], e)
+    N2 = np.cross(e, pts[3] - pts[0])
+    ee = e.dot(e)
+    if ee < 1e-300 or N1.dot(N1) < 1e-300 * ee or N2.dot(N2) < 1e-300 * ee:
+        return
+    phi = np.arctan2(e.dot(np.cross(N1, N2)) / np.sqrt(ee), N1.dot(N2))
+    C = (phi - rest + np.pi) % (2 * np.pi) - np.pi       # wrap (ERRATUM A.5)
+    if C == -np.pi:
+        C = np.pi
+    g = np.array(dihedral_gradient(*pts))
+    den = np.sum(w[q] * np.einsum("ij,ij->i", g, g))
+    if den < 1e-300:
+        return
+    p[q] -= (k * C / den) * w[q, None] * g               # Eq. 3.10 (ERRATUM A.1)
+
+
+def solve_internal_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations):
+    """Numpy twin of the internal-constraint Gauss-Seidel kernel (same order, same result)."""
+    for _ in range(iterations):
+        for c in range(edges.shape[0]):
+            _distance_step_numpy(p, w, edges[c, 0], edges[c, 1], rest_len[c], k_len[c])
+        for c in range(quads.shape[0]):
+            _bend_step_numpy(p, w, quads[c], rest_phi[c], k_bend[c])
+
+
+def solve_internal(p: np.ndarray, w: np.ndarray, edges: np.ndarray, rest_len: np.ndarray,
+                   quads: np.ndarray, rest_phi: np.ndarray, *, k_stretch: float | np.ndarray = 0.99,
+                   k_bend: float | np.ndarray = 0.99, iterations: int = 50, backend: str = "numba") -> np.ndarray:
+    """Project distance and signed bending constraints in place, Gauss-Seidel (Alg. 1 lines 5–9).
+
+    Parameters
+    ----------
+    p : (V, 3) float64 ndarray
+        Predicted positions, updated in place.
+    w : (V,) float64 ndarray
+        Inverse masses (0 = attached vertex, never moved).
+    edges : (E, 2) int64 ndarray
+    rest_len : (E,) float64 ndarray
+        Rest lengths d (Eq. 3.11).
+    quads : (B, 4) int64 ndarray
+        Bending quadruples from :func:`bend_quads`.
+    rest_phi : (B,) float64 ndarray
+        Signed rest bend angles, radians.
+    k_stretch, k_bend : float or per-constraint ndarray
+        Stiffness in [0, 1] (App. C.1 defaults 0.99), arrays for per-object overrides.
+    iterations : int
+        Solver iterations (App. C.1 example 50).
+    backend : {"numba", "numpy"}
+
+    Returns
+    -------
+    (V, 3) float64 ndarray
+        ``p`` itself.
+    """
+    if not (isinstance(p, np.ndarray) and p.dtype == np.float64 and p.ndim == 2 and p.shape[1] == 3
+            and p.flags.c_contiguous):
+        raise ValueError("p must be a C-contiguous (V, 3) float64 ndarray (it is updated in place)")
+    V = p.shape[0]
+    w = check_array("w", w, shape=(V,))
+    if np.any(w < 0):
+        raise ValueError("w (inverse masses) must be >= 0")
+    edges = check_array("edges", edges, shape=(None, 2), dtype=np.int64)
+    quads = check_array("quads", quads, shape=(None, 4), dtype=np.int64)
+    rest_len = check_array("rest_len", rest_len, shape=(edges.shape[0],))
+    rest_phi = check_array("rest_phi", rest_phi, shape=(quads.shape[0],))
+    for name, arr in (("edges", edges), ("quads", quads)):
+        if arr.size and (arr.min() < 0 or arr.max() >= V):
+            raise ValueError(f"{name} must index vertices in [0, {V - 1}]")
+    k_len = _stiffness("k_stretch", k_stretch, edges.shape[0])
+    k_b = _stiffness("k_bend", k_bend, quads.shape[0])
+    iterations = check_int("iterations", iterations, 0, 1_000_000)
+    if backend == "numba":
+        _solve_internal_numba(p, w, edges, rest_len, k_len, quads, rest_phi, k_b, iterations)
+    elif backend == "numpy":
+        solve_internal_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_b, iterations)
+    else:
+        raise ValueError(f"backend must be one of ['numba', 'numpy'], got {backend!r}")
+    return p
+
+
+def _stiffness(name, k, n):
+    if np.ndim(k) == 0:
+        return np.full(n, check_range(name, k, 0.0, 1.0))
+    k = check_array(name, k, shape=(n,))
+    if np.any(k < 0) or np.any(k > 1):
+        raise ValueError(f"{name} must be in [0, 1], got values in [{k.min()}, {k.max()}]")
+    return k

@@ -1,0 +1,411 @@
+"""Hot loops of the tree geometry (spec 000_treewand §3.1–§3.3, §3.5): numba kernels and their numpy twins.
+
+Every ``_x_numba`` kernel has a readable ``_x_numpy`` twin with the same signature and results; the tests
+assert their equality on seeded input (CONVENTIONS, numba). Kernels do no I/O and allocate only scratch.
+
+Segment record layout (the 20-float patch of spec §3.5, ERRATUM A.12: radii added)::
+
+    0:3 P0   3:6 P1   6:9 P2   9:12 bx(0)   12:15 bx(1)   15 w   16 t0   17 t1   18 r0   19 r2
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+REC_P0, REC_P1, REC_P2, REC_BX0, REC_BX1 = 0, 3, 6, 9, 12
+REC_W, REC_T0, REC_T1, REC_R0, REC_R2 = 15, 16, 17, 18, 19
+REC_SIZE = 20
+CAP_START, CAP_END = 1, 2
+_EPS = 1e-12
+
+
+# ---------------------------------------------------------------------------------------------------------
+# small vector helpers (numba-compiled, also callable from Python)
+@numba.njit(cache=True, nogil=True)
+def _perp(d):
+    """A unit vector perpendicular to unit ``d``, from the world axis least aligned with it."""
+    ax = np.abs(d)
+    e = np.zeros(3)
+    if ax[0] <= ax[1] and ax[0] <= ax[2]:
+        e[0] = 1.0
+    elif ax[1] <= ax[2]:
+        e[1] = 1.0
+    else:
+        e[2] = 1.0
+    p = e - (e[0] * d[0] + e[1] * d[1] + e[2] * d[2]) * d
+    return p / math.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2])
+
+
+@numba.njit(cache=True, nogil=True)
+def _rotate_between(v, a, b):
+    """Rotate ``v`` by the rotation about â×b̂ that takes unit ``a`` to unit ``b`` (Eqs. 10.2–10.5)."""
+    kx = a[1] * b[2] - a[2] * b[1]
+    ky = a[2] * b[0] - a[0] * b[2]
+    kz = a[0] * b[1] - a[1] * b[0]
+    kn = math.sqrt(kx * kx + ky * ky + kz * kz)
+    if kn < _EPS:                       # collinear: theta = 0 (spec §3.2 [INFERRED])
+        return v.copy()
+    kx /= kn
+    ky /= kn
+    kz /= kn
+    c = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]       # Eq. 10.3
+    c = min(1.0, max(-1.0, c))
+    s = math.sqrt(1.0 - c * c)                        # Eq. 10.4
+    kv = kx * v[0] + ky * v[1] + kz * v[2]
+    out = np.empty(3)
+    out[0] = v[0] * c + (ky * v[2] - kz * v[1]) * s + kx * kv * (1.0 - c)   # Eq. 10.2
+    out[1] = v[1] * c + (kz * v[0] - kx * v[2]) * s + ky * kv * (1.0 - c)
+    out[2] = v[2] * c + (kx * v[1] - ky * v[0]) * s + kz * kv * (1.0 - c)
+    return out
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# TreeUnfold: effective liveness, main child, start frames, texture coordinate at each internode midpoint
+@numba.njit(cache=True, nogil=True)
+def _unfold_numba(pos, parent, alive, main_child, rate):
+    n = pos.shape[0]
+    eff = np.zeros(n, np.bool_)
+    first = np.full(n, -1, np.int64)
+    frame = np.zeros((n, 3))
+    tmid = np.zeros(n)
+    axis = np.full(n, -1, np.int64)
+    for c in range(n):
+        p = parent[c]
+        eff[c] = alive[c] and (p < 0 or eff[p])
+        if eff[c] and p >= 0 and first[p] < 0:
+            first[p] = c
+    main = first.copy()
+    if main_child.shape[0] == n:
+        for i in range(n):
+            m = main_child[i]
+            main[i] = m if (m >= 0 and eff[m] and parent[m] == i) else -1
+    for c in range(n):
+        p = parent[c]
+        if p < 0 or not eff[c]:
+            continue
+        d = pos[c] - pos[p]
+        d = d / math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        if parent[p] < 0:                 # first internode: straight root half, first frame any perpendicular
+            frame[c] = _perp(d)
+            h = 0.5 * (pos[p] + pos[c]) - pos[p]
+            tmid[c] = rate * math.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
+        else:                             # sequential start frame: rotate by angle(N'(0), N'(1))  (A.10)
+            q = parent[p]
+            a = pos[p] - pos[q]
+            a = a / math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+            frame[c] = _rotate_between(frame[p], a, d)
+            h0 = pos[p] - 0.5 * (pos[q] + pos[p])
+            h1 = 0.5 * (pos[p] + pos[c]) - pos[p]
+            tmid[c] = tmid[p] + rate * (math.sqrt(h0[0] * h0[0] + h0[1] * h0[1] + h0[2] * h0[2])
+                                        + math.sqrt(h1[0] * h1[0] + h1[1] * h1[1] + h1[2] * h1[2]))
+        axis[c] = axis[p] if (main[p] == c and axis[p] >= 0) else c
+    return eff, main, frame, tmid, axis
+
+
+def _unfold_numpy(pos, parent, alive, main_child, rate):
+    """Readable twin of :func:`_unfold_numba` (plain Python loop over nodes in index order)."""
+    n = len(pos)
+    eff = np.zeros(n, bool)
+    main = np.full(n, -1, np.int64)
+    for c in range(n):
+        p = parent[c]
+        eff[c] = bool(alive[c]) and (p < 0 or eff[p])
+        if eff[c] and p >= 0 and main[p] < 0:
+            main[p] = c
+    if len(main_child) == n:
+        main = np.array([m if (m >= 0 and eff[m] and parent[m] == i) else -1 for i, m in enumerate(main_child)],
+                        np.int64)
+    frame = np.zeros((n, 3))
+    tmid = np.zeros(n)
+    axis = np.full(n, -1, np.int64)
+    for c in range(n):
+        p = parent[c]
+        if p < 0 or not eff[c]:
+            continue
+        d = _unit(pos[c] - pos[p])
+        if parent[p] < 0:
+            frame[c] = _perp(d)
+            tmid[c] = rate * np.linalg.norm(0.5 * (pos[c] - pos[p]))
+        else:
+            q = parent[p]
+            frame[c] = _rotate_between(frame[p], _unit(pos[p] - pos[q]), d)
+            tmid[c] = tmid[p] + rate * (np.linalg.norm(0.5 * (pos[p] - pos[q])) + np.linalg.norm(0.5 * (pos[c] - pos[p])))
+        axis[c] = axis[p] if (main[p] == c and axis[p] >= 0) else c
+    return eff, main, frame, tmid, axis
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Generalized-cylinder evaluation of segments (Eqs. 10.1–10.10, 10.13)
+@numba.njit(cache=True, nogil=True)
+def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID, F):
+    r = rec[s]
+    K = ksteps
+    w = r[REC_W]
+    p0 = r[0:3]
+    p1 = r[3:6]
+    p2 = r[6:9]
+    bx0 = r[9:12]
+    a = p1 - p0
+    b = p2 - p1
+    la = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    lb = math.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+    if la > _EPS:
+        t0 = a / la
+    else:
+        t0 = (p2 - p0) / max(_EPS, math.sqrt(((p2 - p0) ** 2).sum()))
+    t_start = r[REC_T0]
+    t_end = r[REC_T1]
+    dtot = la + lb
+    vi = v0
+    fi = f0
+    ring_base_prev = 0
+    n_prev = 0
+    tan_first = np.zeros(3)
+    tan_last = np.zeros(3)
+    for j in range(K + 1):
+        u = j / K
+        om = 1.0 - u
+        b0 = om * om
+        b1 = 2.0 * om * u * w
+        b2 = u * u
+        den = b0 + b1 + b2
+        pt = (b0 * p0 + b1 * p1 + b2 * p2) / den                       # Eq. 10.1 (A.9)
+        dnum = -2.0 * om * p0 + 2.0 * (1.0 - 2.0 * u) * w * p1 + 2.0 * u * p2
+        dden = -2.0 * om + 2.0 * (1.0 - 2.0 * u) * w + 2.0 * u
+        der = (dnum * den - (b0 * p0 + b1 * p1 + b2 * p2) * dden) / (den * den)
+        speed = math.sqrt(der[0] * der[0] + der[1] * der[1] + der[2] * der[2])
+        if speed > _EPS:
+            tg = der / speed
+        else:
+            tg = t0.copy()
+        bx = _rotate_between(bx0, t0, tg)                             # Eq. 10.6 with N'(u) (A.10)
+        bt = bx[0] * tg[0] + bx[1] * tg[1] + bx[2] * tg[2]
+        bx = bx - bt * tg
+        bn = math.sqrt(bx[0] * bx[0] + bx[1] * bx[1] + bx[2] * bx[2])
+        if bn < 1e-9:
+            bx = _perp(tg)
+        else:
+            bx = bx / bn
+        by = np.empty(3)                                              # Eq. 10.7 with the tangent (A.11)
+        by[0] = bx[1] * tg[2] - bx[2] * tg[1]
+        by[1] = bx[2] * tg[0] - bx[0] * tg[2]
+        by[2] = bx[0] * tg[1] - bx[1] * tg[0]
+        sm = 3.0 * u * u - 2.0 * u * u * u                            # Eq. 10.8
+        rad = (1.0 - sm) * r[REC_R0] + sm * r[REC_R2]                 # Eq. 10.9
+        drds = (r[REC_R2] - r[REC_R0]) * 6.0 * u * om / max(speed, _EPS)
+        if dtot > _EPS:                                               # Eq. 10.13 (A.12b)
+            dd = (2.0 * u * om * w * la + u * u * dtot) / den
+            tt = t_start + (t_end - t_start) * dd / dtot
+        else:
+            tt = t_start + (t_end - t_start) * u
+        nid = nodes[s, 0] if u < 0.5 else nodes[s, 1]
+        n = cnt[s, j]
+        base = vi
+        for i in range(n + 1):
+            ii = 0 if i == n else i
+            ang = 2.0 * math.pi * ii / n
+            ca = math.cos(ang)
+            sa = math.sin(ang)
+            rx = ca * bx[0] + sa * by[0]
+            ry = ca * bx[1] + sa * by[1]
+            rz = ca * bx[2] + sa * by[2]
+            V[vi, 0] = pt[0] + rad * rx                               # Eq. 10.10, theta = 2 pi
+            V[vi, 1] = pt[1] + rad * ry
+            V[vi, 2] = pt[2] + rad * rz
+            nx = rx - drds * tg[0]
+            ny = ry - drds * tg[1]
+            nz = rz - drds * tg[2]
+            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
+            NRM[vi, 0] = nx / nn
+            NRM[vi, 1] = ny / nn
+            NRM[vi, 2] = nz / nn
+            UV[vi, 0] = repeat * i / n
+            UV[vi, 1] = tt
+            NID[vi] = nid
+            vi += 1
+        if j > 0:                                                     # zip the band between two rings
+            A = ring_base_prev
+            na = n_prev
+            ia = 0
+            ib = 0
+            while ia < na or ib < n:
+                if ib == n or (ia < na and (ia + 1) * n <= (ib + 1) * na):
+                    F[fi, 0] = A + ia
+                    F[fi, 1] = base + ib
+                    F[fi, 2] = A + ia + 1
+                    ia += 1
+                else:
+                    F[fi, 0] = A + ia
+                    F[fi, 1] = base + ib
+                    F[fi, 2] = base + ib + 1
+                    ib += 1
+                fi += 1
+        if j == 0:
+            tan_first[:] = tg
+        if j == K:
+            tan_last[:] = tg
+        ring_base_prev = base
+        n_prev = n
+    # caps: a fan on duplicated ring vertices with the axial normal
+    for which in range(2):
+        if which == 0 and not (caps[s] & 1):
+            continue
+        if which == 1 and not (caps[s] & 2):
+            continue
+        if which == 0:
+            ring = v0
+            n = cnt[s, 0]
+            sgn = -1.0
+            tg = tan_first
+        else:
+            ring = ring_base_prev
+            n = cnt[s, K]
+            sgn = 1.0
+            tg = tan_last
+        center = vi
+        cx = 0.0
+        cy = 0.0
+        cz = 0.0
+        for i in range(n):
+            cx += V[ring + i, 0]
+            cy += V[ring + i, 1]
+            cz += V[ring + i, 2]
+        V[vi, 0] = cx / n
+        V[vi, 1] = cy / n
+        V[vi, 2] = cz / n
+        NRM[vi, 0] = sgn * tg[0]
+        NRM[vi, 1] = sgn * tg[1]
+        NRM[vi, 2] = sgn * tg[2]
+        UV[vi, 0] = 0.5 * repeat
+        UV[vi, 1] = UV[ring, 1]
+        NID[vi] = NID[ring]
+        vi += 1
+        for i in range(n):
+            V[vi, 0] = V[ring + i, 0]
+            V[vi, 1] = V[ring + i, 1]
+            V[vi, 2] = V[ring + i, 2]
+            NRM[vi, 0] = sgn * tg[0]
+            NRM[vi, 1] = sgn * tg[1]
+            NRM[vi, 2] = sgn * tg[2]
+            UV[vi, 0] = UV[ring + i, 0]
+            UV[vi, 1] = UV[ring + i, 1]
+            NID[vi] = NID[ring]
+            vi += 1
+        for i in range(n):
+            i1 = center + 1 + i
+            i2 = center + 1 + (i + 1) % n
+            F[fi, 0] = center
+            if which == 0:
+                F[fi, 1] = i1
+                F[fi, 2] = i2
+            else:
+                F[fi, 1] = i2
+                F[fi, 2] = i1
+            fi += 1
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _eval_segments_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
+    for q in numba.prange(seg_idx.shape[0]):
+        s = seg_idx[q]
+        _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v_off[s], f_off[s], V, NRM, UV, NID, F)
+
+
+def _eval_segments_numpy(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
+    """Readable twin of :func:`_eval_segments_numba`: numpy per ring, Python per segment."""
+    for s in seg_idx:
+        r = rec[s]
+        p0, p1, p2, bx0 = r[0:3], r[3:6], r[6:9], r[9:12]
+        w, t_start, t_end, r0, r2 = r[REC_W], r[REC_T0], r[REC_T1], r[REC_R0], r[REC_R2]
+        la, lb = np.linalg.norm(p1 - p0), np.linalg.norm(p2 - p1)
+        t0 = (p1 - p0) / la if la > _EPS else (p2 - p0) / max(_EPS, np.linalg.norm(p2 - p0))
+        vi, fi = int(v_off[s]), int(f_off[s])
+        bases, tangents = [], []
+        for j in range(ksteps + 1):
+            u = j / ksteps
+            bern = np.array([(1 - u) ** 2, 2 * (1 - u) * u * w, u * u])
+            dbern = np.array([-2 * (1 - u), 2 * (1 - 2 * u) * w, 2 * u])
+            num, den = bern @ np.stack([p0, p1, p2]), bern.sum()
+            der = (dbern @ np.stack([p0, p1, p2]) * den - num * dbern.sum()) / den ** 2
+            speed = np.linalg.norm(der)
+            tg = der / speed if speed > _EPS else t0
+            bx = _rotate_between(bx0, t0, tg)
+            bx = bx - (bx @ tg) * tg
+            bx = _perp(tg) if np.linalg.norm(bx) < 1e-9 else bx / np.linalg.norm(bx)
+            by = np.cross(bx, tg)
+            sm = 3 * u * u - 2 * u ** 3
+            rad = (1 - sm) * r0 + sm * r2
+            drds = (r2 - r0) * 6 * u * (1 - u) / max(speed, _EPS)
+            dd = (2 * u * (1 - u) * w * la + u * u * (la + lb)) / den
+            tt = t_start + (t_end - t_start) * (dd / (la + lb) if la + lb > _EPS else u)
+            n = int(cnt[s, j])
+            ang = 2 * np.pi * (np.arange(n + 1) % n) / n
+            radial = np.cos(ang)[:, None] * bx + np.sin(ang)[:, None] * by
+            nrm = radial - drds * tg
+            V[vi:vi + n + 1] = num / den + rad * radial
+            NRM[vi:vi + n + 1] = nrm / np.linalg.norm(nrm, axis=1)[:, None]
+            UV[vi:vi + n + 1, 0] = repeat * np.arange(n + 1) / n
+            UV[vi:vi + n + 1, 1] = tt
+            NID[vi:vi + n + 1] = nodes[s, 0] if u < 0.5 else nodes[s, 1]
+            if j > 0:
+                fi = _zip_numpy(bases[-1], int(cnt[s, j - 1]), vi, n, F, fi)
+            bases.append(vi)
+            tangents.append(tg)
+            vi += n + 1
+        for which, flag in ((0, CAP_START), (1, CAP_END)):
+            if not caps[s] & flag:
+                continue
+            ring, n = (bases[0], int(cnt[s, 0])) if which == 0 else (bases[-1], int(cnt[s, ksteps]))
+            nrm = (-tangents[0]) if which == 0 else tangents[-1]
+            V[vi] = V[ring:ring + n].mean(axis=0)
+            V[vi + 1:vi + 1 + n] = V[ring:ring + n]
+            NRM[vi:vi + 1 + n] = nrm
+            UV[vi] = (0.5 * repeat, UV[ring, 1])
+            UV[vi + 1:vi + 1 + n] = UV[ring:ring + n]
+            NID[vi:vi + 1 + n] = NID[ring]
+            i1 = vi + 1 + np.arange(n)
+            i2 = vi + 1 + (np.arange(n) + 1) % n
+            tri = np.stack([np.full(n, vi), i1, i2] if which == 0 else [np.full(n, vi), i2, i1], axis=1)
+            F[fi:fi + n] = tri
+            fi += n
+            vi += n + 1
+
+
+def _zip_numpy(A, na, B, nb, F, fi):
+    ia = ib = 0
+    while ia < na or ib < nb:
+        if ib == nb or (ia < na and (ia + 1) * nb <= (ib + 1) * na):
+            F[fi] = (A + ia, B + ib, A + ia + 1)
+            ia += 1
+        else:
+            F[fi] = (A + ia, B + ib, B + ib + 1)
+            ib += 1
+        fi += 1
+    return fi
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _copy_blocks_numba(src_v0, dst_v0, nv, src_f0, dst_f0, nf, V0, N0, UV0, ID0, F0, V, NRM, UV, NID, F):
+    """Copy unchanged segments' vertex and face blocks from an old layout to a new one (faces re-based)."""
+    for q in numba.prange(src_v0.shape[0]):
+        a = src_v0[q]
+        b = dst_v0[q]
+        for k in range(nv[q]):
+            for c in range(3):
+                V[b + k, c] = V0[a + k, c]
+                NRM[b + k, c] = N0[a + k, c]
+            UV[b + k, 0] = UV0[a + k, 0]
+            UV[b + k, 1] = UV0[a + k, 1]
+            NID[b + k] = ID0[a + k]
+        shift = b - a
+        fa = src_f0[q]
+        fb = dst_f0[q]
+        for k in range(nf[q]):
+            for c in range(3):
+                F[fb + k, c] = F0[fa + k, c] + shift

@@ -1,0 +1,472 @@
+"""Branch mesh: rational-Bézier skeleton, generalized cylinders, LOD and bark UVs (spec 000_treewand §3.1–§3.3, §3.5).
+
+A tree given as plain arrays (``pos``, ``parent``, ``radius``; optionally ``alive``, ``main_child``) becomes a
+set of segments, one rational quadratic Bézier around every node (Eq. 10.1, ERRATUM A.9) plus a straight half
+at the root and at every tip. Each segment is one compact 20-float record (the §3.5 patch, ERRATUM A.12), the
+unit of incremental update. A numba kernel sweeps a circle along every segment with the closed-form planar
+parallel-transport frame (Eqs. 10.2–10.7, ERRATA A.10/A.11), the smoothstep radius (Eqs. 10.8–10.10) and the
+1D rational-Bézier length estimate for the bark coordinate (Eq. 10.13, ERRATUM A.12b).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_points, check_range
+
+from . import _kernels as K
+from ._kernels import CAP_END, CAP_START, REC_SIZE
+
+__all__ = [
+    "Segments", "BranchMesh", "tree_segments", "lod_level", "ring_counts", "build_branch_mesh",
+    "update_branch_mesh", "rational_bezier", "rational_bezier_tangent", "length_estimate", "smoothstep",
+    "transport_frame",
+]
+
+LOD_FULL = (10, 64)
+LOD_FAST = (6, 32)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# the equations, vectorised (used by tests and by the leaves)
+def rational_bezier(p0, p1, p2, u, w: float = 3.0) -> np.ndarray:
+    """Point of the quadratic rational Bézier around a node (Eq. 10.1).
+
+    Parameters
+    ----------
+    p0, p1, p2 : (3,) or (S, 3) float64 ndarray
+        Control points: mid-internode, node, mid-internode.
+    u : float or (M,) float64 ndarray
+        Curve parameter in [0, 1].
+    w : float
+        Weight of the central control point.
+
+    Returns
+    -------
+    (M, 3) or (S, M, 3) float64 ndarray
+        Cartesian points (homogeneous form divided by the fourth coordinate).
+
+    References
+    ----------
+    .. [1] Thesis Eq. 10.1, with ERRATUM A.9 ((1-u)^2 and the middle point [w P_i; w]).
+    """
+    u = np.atleast_1d(np.asarray(u, float))[..., None]
+    p0, p1, p2 = (np.asarray(p, float)[..., None, :] for p in (p0, p1, p2))
+    b0, b1, b2 = (1 - u) ** 2, 2 * (1 - u) * u * w, u * u
+    return (b0 * p0 + b1 * p1 + b2 * p2) / (b0 + b1 + b2)
+
+
+def rational_bezier_tangent(p0, p1, p2, u, w: float = 3.0) -> np.ndarray:
+    """Derivative N'(u) of :func:`rational_bezier` (quotient rule), same shapes (Eq. 10.1)."""
+    u = np.atleast_1d(np.asarray(u, float))[..., None]
+    p0, p1, p2 = (np.asarray(p, float)[..., None, :] for p in (p0, p1, p2))
+    b0, b1, b2 = (1 - u) ** 2, 2 * (1 - u) * u * w, u * u
+    d0, d1, d2 = -2 * (1 - u), 2 * (1 - 2 * u) * w, 2 * u
+    num, den = b0 * p0 + b1 * p1 + b2 * p2, b0 + b1 + b2
+    return ((d0 * p0 + d1 * p1 + d2 * p2) * den - num * (d0 + d1 + d2)) / den ** 2
+
+
+def length_estimate(p0, p1, p2, u, w: float = 3.0) -> np.ndarray:
+    """Arc-length estimate D(u) of a segment: a 1D rational Bézier with the same weight (Eq. 10.13).
+
+    Returns
+    -------
+    (M,) float64 ndarray
+        D(u); exact for collinear control points in order.
+
+    References
+    ----------
+    .. [1] Thesis Eq. 10.13 with ERRATUM A.12b (third 1D control point ‖P1−P0‖ + ‖P2−P1‖).
+    """
+    u = np.atleast_1d(np.asarray(u, float))
+    la = np.linalg.norm(np.asarray(p1, float) - p0)
+    lb = np.linalg.norm(np.asarray(p2, float) - p1)
+    return (2 * u * (1 - u) * w * la + u * u * (la + lb)) / ((1 - u) ** 2 + 2 * (1 - u) * u * w + u * u)
+
+
+def smoothstep(u) -> np.ndarray:
+    """Smoothstep s(u) of Eq. 10.8 (0 below 0, 3u²−2u³ on [0, 1], 1 above 1)."""
+    u = np.clip(np.asarray(u, float), 0.0, 1.0)
+    return 3 * u * u - 2 * u ** 3
+
+
+def transport_frame(p0, p1, p2, bx0, u, w: float = 3.0) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form parallel-transport frame on one planar segment (Eqs. 10.2–10.7).
+
+    Parameters
+    ----------
+    p0, p1, p2 : (3,) float64 ndarray
+        Control points of the segment.
+    bx0 : (3,) float64 ndarray
+        Unit start frame vector, perpendicular to N'(0).
+    u : (M,) float64 ndarray
+        Curve parameters.
+    w : float
+        Central weight.
+
+    Returns
+    -------
+    bx, by : (M, 3) float64 ndarray
+        Frame vectors; ``by = bx × N̂'(u)``.
+
+    References
+    ----------
+    .. [1] Thesis Eqs. 10.2–10.7; ERRATUM A.10 (N̂'(u) per vertex) and A.11 (cross with the unit tangent).
+    """
+    tg = rational_bezier_tangent(p0, p1, p2, u, w)
+    tg = tg / np.linalg.norm(tg, axis=-1, keepdims=True)
+    t0 = tg[0] if np.isclose(np.atleast_1d(u)[0], 0.0) else K._unit(np.asarray(p1, float) - p0)
+    bx = np.array([K._rotate_between(np.asarray(bx0, float), t0, t) for t in tg])
+    return bx, np.cross(bx, tg)
+
+
+def lod_level(radius, *, tip_radius: float, lod: tuple[int, int] = LOD_FULL) -> np.ndarray:
+    """Ring subdivisions from the radius: ``lod[0]`` at the tip radius, ``lod[1]`` at 50× (spec §3.5).
+
+    Parameters
+    ----------
+    radius : float or (M,) float64 ndarray
+        Radii, in scene units.
+    tip_radius : float
+        Radius of the end internodes.
+    lod : (int, int)
+        Minimum and maximum subdivisions, (10, 64) or the fast (6, 32) of §12.2 (ERRATUM A.14).
+
+    Returns
+    -------
+    (M,) int64 ndarray
+        ``clamp(lo + (hi−lo)·(r/r_tip − 1)/49, lo, hi)``, rounded.
+
+    References
+    ----------
+    .. [1] Thesis §10.3 ("linearly blend"); linear form [INFERRED] in spec §3.5.
+    """
+    lo, hi = lod
+    x = lo + (hi - lo) * (np.asarray(radius, float) / tip_radius - 1.0) / 49.0
+    return np.rint(np.clip(x, lo, hi)).astype(np.int64)
+
+
+def ring_counts(n0, n1, ksteps: int) -> np.ndarray:
+    """Ring counts along each segment: the two end counts blended by the smoothstep (Eq. 10.8).
+
+    Returns
+    -------
+    (S, ksteps+1) int32 ndarray
+        Equal to ``n0`` at u = 0 and ``n1`` at u = 1, so rings shared at a join get equal counts.
+    """
+    s = smoothstep(np.arange(ksteps + 1) / ksteps)
+    return np.rint((1 - s) * np.asarray(n0)[:, None] + s * np.asarray(n1)[:, None]).astype(np.int32)
+
+
+# ---------------------------------------------------------------------------------------------------------
+@dataclass
+class Segments:
+    """Compact per-segment records of a tree skeleton (spec §3.5 patch; the unit of incremental update).
+
+    Attributes
+    ----------
+    records : (S, 20) float64 ndarray
+        P0, P1, P2, bx(0), bx(1), w, t0, t1, r0, r2 (layout in ``plantvr.geometry._kernels``).
+    nodes : (S, 2) int64 ndarray
+        Node id of the internode under the first and second half of the segment.
+    keys : (S,) int64 ndarray
+        Stable identity: ``2c`` for the segment ending at internode c's midpoint, ``2i+1`` for tip i's half.
+    axis : (S,) int64 ndarray
+        Index of the node that starts the segment's axis (chain of main children).
+    caps : (S,) uint8 ndarray
+        Bit 1: start cap (root, lateral start), bit 2: end cap (tip).
+    """
+
+    records: np.ndarray
+    nodes: np.ndarray
+    keys: np.ndarray
+    axis: np.ndarray
+    caps: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.keys)
+
+
+def _check_tree(pos, parent, radius, alive, main_child):
+    pos = check_points("pos", pos, min_rows=2)
+    n = len(pos)
+    parent = check_array("parent", parent, shape=(n,), dtype=np.int64)
+    radius = check_array("radius", radius, shape=(n,), dtype=np.float64)
+    if parent[0] != -1 or np.any(parent[1:] < 0) or np.any(parent[1:] >= np.arange(1, n)):
+        raise ValueError("parent must be -1 for node 0 and satisfy 0 <= parent[i] < i for i > 0")
+    if np.any(radius[1:] <= 0):
+        raise ValueError(f"radius must be > 0 for every internode, got min {radius[1:].min()!r}")
+    alive = np.ones(n, bool) if alive is None else check_array("alive", alive, shape=(n,), dtype=np.bool_)
+    if main_child is None:
+        main_child = np.zeros(0, np.int64)
+    else:
+        main_child = check_array("main_child", main_child, shape=(n,), dtype=np.int64)
+        if np.any((main_child < -1) | (main_child >= n)):
+            raise ValueError(f"main_child must be -1 or a node index in [0, {n - 1}]")
+    seglen = np.linalg.norm(pos[1:] - pos[parent[1:]], axis=1)
+    if np.any(seglen[alive[1:]] <= 0):
+        raise ValueError("pos must give every live internode a positive length")
+    return pos, parent, radius, alive, main_child
+
+
+def tree_segments(pos, parent, radius, *, alive=None, main_child=None, bezier_w: float = 3.0,
+                  bark_rate: float = 1.0, _checked: bool = False) -> Segments:
+    """Skeleton segments of a tree: one rational Bézier around every node, straight halves at root and tips.
+
+    Parameters
+    ----------
+    pos : (N, 3) float64 ndarray
+        Node positions; node 0 is the base point, node i > 0 the tip of internode parent[i] → i.
+    parent : (N,) int ndarray
+        Parent index, -1 for node 0, ``parent[i] < i``.
+    radius : (N,) float64 ndarray
+        Radius of the internode ending at each node (entry 0 unused).
+    alive : (N,) bool ndarray, optional
+        Dead nodes and their subtrees are skipped.
+    main_child : (N,) int ndarray, optional
+        Main child of each node (-1: none); default the lowest live child index (thesis §9.2).
+    bezier_w : float
+        Central weight w of Eq. 10.1 (default 3, Fig. 10.6).
+    bark_rate : float
+        Texture coordinate per unit length along the branch (B.2 "Bark texture rate").
+
+    Returns
+    -------
+    Segments
+        Records sorted by key.
+
+    References
+    ----------
+    .. [1] Thesis §10.1.1, Eq. 10.1 (ERRATUM A.9); start frames propagated with a TreeUnfold (§10.1.2,
+       ERRATUM A.10 for N'(1)); t0/t1 continuous along paths (§10.1.3, Eq. 10.13 with ERRATUM A.12b).
+    """
+    if not _checked:
+        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+        bezier_w = check_range("bezier_w", bezier_w, 0.0, 1e3, low_open=True)
+        bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
+    eff, main, frame, tmid, axis = K._unfold_numba(pos, parent, alive, main_child, bark_rate)
+    n = len(pos)
+    has_parent = parent >= 0
+    # incoming segment of every live internode c
+    c = np.flatnonzero(eff & has_parent)
+    p = parent[c]
+    root = parent[p] < 0
+    q = np.where(root, p, parent[p])
+    mid_p = 0.5 * (pos[q] + pos[p])
+    mid_c = 0.5 * (pos[p] + pos[c])
+    P0 = np.where(root[:, None], pos[p], mid_p)
+    P1 = np.where(root[:, None], 0.5 * (pos[p] + mid_c), pos[p])
+    rin = np.empty((len(c), REC_SIZE))
+    rin[:, 0:3], rin[:, 3:6], rin[:, 6:9] = P0, P1, mid_c
+    rin[:, 9:12] = np.where(root[:, None], frame[c], frame[p])
+    rin[:, 12:15] = frame[c]
+    rin[:, 15] = bezier_w
+    rin[:, 16] = np.where(root, 0.0, tmid[p])
+    rin[:, 17] = tmid[c]
+    rin[:, 18] = np.where(root, radius[c], radius[p])
+    rin[:, 19] = radius[c]
+    nin = np.stack([np.where(root, c, p), c], axis=1)
+    cin = np.where(root | (main[p] != c), CAP_START, 0).astype(np.uint8)
+    # tip halves
+    has_child = np.zeros(n, bool)
+    has_child[parent[eff & has_parent]] = True
+    t = np.flatnonzero(eff & has_parent & ~has_child)
+    mid_t = 0.5 * (pos[parent[t]] + pos[t])
+    rtp = np.empty((len(t), REC_SIZE))
+    rtp[:, 0:3], rtp[:, 3:6], rtp[:, 6:9] = mid_t, 0.5 * (mid_t + pos[t]), pos[t]
+    rtp[:, 9:12] = rtp[:, 12:15] = frame[t]
+    rtp[:, 15] = bezier_w
+    rtp[:, 16] = tmid[t]
+    rtp[:, 17] = tmid[t] + bark_rate * np.linalg.norm(pos[t] - mid_t, axis=1)
+    rtp[:, 18] = rtp[:, 19] = radius[t]
+    ntp = np.stack([t, t], axis=1)
+    # root-half segments whose internode is also a tip end in a cap too (via the tip segment)
+    keys = np.concatenate([2 * c, 2 * t + 1])
+    order = np.argsort(keys, kind="stable")
+    return Segments(records=np.concatenate([rin, rtp])[order], nodes=np.concatenate([nin, ntp])[order],
+                    keys=keys[order], axis=np.concatenate([axis[c], axis[t]])[order],
+                    caps=np.concatenate([cin, np.full(len(t), CAP_END, np.uint8)])[order])
+
+
+# ---------------------------------------------------------------------------------------------------------
+@dataclass
+class BranchMesh:
+    """Triangle mesh of the branches plus the layout that allows segment-wise updates.
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64 ndarray
+    faces : (F, 3) int64 ndarray
+        Counter-clockwise seen from outside (normals point outward).
+    normals : (V, 3) float32 ndarray
+        Analytic unit normals of the generalized cylinder.
+    uv : (V, 2) float32 ndarray
+        Bark coordinates: around (v × repeat), along (bark rate × D(u), continuous along paths).
+    node_id : (V,) int64 ndarray
+        Node whose internode the vertex belongs to.
+    segments : Segments
+    counts : (S, K+1) int32 ndarray
+        Ring subdivisions per ring.
+    v_off, f_off : (S+1,) int64 ndarray
+        Vertex and face ranges of each segment.
+    options : dict
+        Build options, reused by :func:`update_branch_mesh`.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    uv: np.ndarray
+    node_id: np.ndarray
+    segments: Segments
+    counts: np.ndarray
+    v_off: np.ndarray
+    f_off: np.ndarray
+    options: dict = field(default_factory=dict)
+
+    def to_trimesh(self):
+        """Return a ``trimesh.Trimesh`` (``process=False``) with the analytic vertex normals."""
+        import trimesh
+        return trimesh.Trimesh(self.vertices, self.faces, vertex_normals=self.normals, process=False)
+
+    def segment_slice(self, s: int) -> tuple[slice, slice]:
+        """Vertex and face slices of segment ``s``."""
+        return slice(self.v_off[s], self.v_off[s + 1]), slice(self.f_off[s], self.f_off[s + 1])
+
+
+def _layout(seg: Segments, ksteps: int, tip_radius: float, lod):
+    r = seg.records
+    n0 = lod_level(r[:, K.REC_R0], tip_radius=tip_radius, lod=lod)
+    n1 = lod_level(r[:, K.REC_R2], tip_radius=tip_radius, lod=lod)
+    cnt = ring_counts(n0, n1, ksteps)
+    cap_s = (seg.caps & CAP_START) > 0
+    cap_e = (seg.caps & CAP_END) > 0
+    nv = (cnt + 1).sum(1) + cap_s * (cnt[:, 0] + 1) + cap_e * (cnt[:, -1] + 1)
+    nf = (cnt[:, :-1] + cnt[:, 1:]).sum(1) + cap_s * cnt[:, 0] + cap_e * cnt[:, -1]
+    v_off = np.zeros(len(cnt) + 1, np.int64)
+    f_off = np.zeros(len(cnt) + 1, np.int64)
+    np.cumsum(nv, out=v_off[1:])
+    np.cumsum(nf, out=f_off[1:])
+    return cnt, v_off, f_off
+
+
+def _alloc(nv: int, nf: int):
+    return (np.empty((nv, 3)), np.empty((nv, 3), np.float32), np.empty((nv, 2), np.float32),
+            np.empty(nv, np.int64), np.empty((nf, 3), np.int64))
+
+
+def _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive):
+    bezier_w = check_range("bezier_w", bezier_w, 0.0, 1e3, low_open=True)
+    u_steps = check_int("u_steps", u_steps, 1, 64)
+    if not (isinstance(lod, (tuple, list)) and len(lod) == 2):
+        raise ValueError(f"lod must be a pair (min, max) of subdivisions, got {lod!r}")
+    lo = check_int("lod[0]", lod[0], 3, 64)
+    hi = check_int("lod[1]", lod[1], lo, 64)
+    if tip_radius is None:
+        live = radius[1:][alive[1:]]
+        tip_radius = float(live.min()) if live.size else 1.0
+    tip_radius = check_range("tip_radius", tip_radius, 0.0, np.inf, low_open=True)
+    bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
+    bark_repeat = check_int("bark_repeat", bark_repeat, 1, 64)
+    return dict(bezier_w=bezier_w, u_steps=u_steps, lod=(lo, hi), tip_radius=tip_radius, bark_rate=bark_rate,
+                bark_repeat=bark_repeat)
+
+
+def build_branch_mesh(pos, parent, radius, *, alive=None, main_child=None, bezier_w: float = 3.0,
+                      u_steps: int = 4, lod: tuple[int, int] = LOD_FULL, tip_radius: float | None = None,
+                      bark_rate: float = 1.0, bark_repeat: int = 1, kernel: str = "numba") -> BranchMesh:
+    """Generalized-cylinder mesh of all branches of a tree (Eqs. 10.1–10.10, 10.13; spec §3.1–§3.3, §3.5).
+
+    Parameters
+    ----------
+    pos, parent, radius, alive, main_child
+        The tree, as in :func:`tree_segments`.
+    bezier_w : float
+        Central weight w of Eq. 10.1.
+    u_steps : int
+        Bands along each segment (rings = u_steps + 1), in [1, 64].
+    lod : (int, int)
+        Ring subdivisions at the tip radius and at 50× the tip radius: (10, 64) or (6, 32) (spec §3.5).
+    tip_radius : float, optional
+        Tip radius of the LOD rule; default the smallest live radius.
+    bark_rate : float
+        Bark texture coordinate per unit length (B.2 "Bark texture rate").
+    bark_repeat : int
+        Texture repeats around the branch.
+    kernel : {"numba", "numpy"}
+        The compiled kernel or its readable twin (tests).
+
+    Returns
+    -------
+    BranchMesh
+        Each axis (chain of main children) is a closed, outward-oriented tube once coincident vertices at
+        joins and seams are merged; rings at shared midpoints coincide and have equal counts.
+
+    References
+    ----------
+    .. [1] Thesis §10.1–§10.3; Eqs. 10.1 (A.9), 10.2–10.7 (A.10, A.11), 10.8–10.10, 10.13 (A.12b); LOD §10.3.
+    """
+    pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+    opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive)
+    if kernel not in ("numba", "numpy"):
+        raise ValueError(f"kernel must be one of ['numba', 'numpy'], got {kernel!r}")
+    seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=opts["bezier_w"],
+                        bark_rate=opts["bark_rate"], _checked=True)
+    return _build(seg, opts, kernel)
+
+
+def _build(seg: Segments, opts: dict, kernel: str = "numba") -> BranchMesh:
+    cnt, v_off, f_off = _layout(seg, opts["u_steps"], opts["tip_radius"], opts["lod"])
+    V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
+    fn = K._eval_segments_numba if kernel == "numba" else K._eval_segments_numpy
+    fn(seg.records, cnt, opts["u_steps"], seg.nodes, seg.caps, np.arange(len(seg), dtype=np.int64), v_off,
+       f_off, float(opts["bark_repeat"]), V, NRM, UV, NID, F)
+    return BranchMesh(V, F, NRM, UV, NID, seg, cnt, v_off, f_off, dict(opts))
+
+
+def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
+                       main_child=None) -> tuple[BranchMesh, np.ndarray]:
+    """Re-mesh a tree after a change, re-evaluating only the segments whose record changed (spec §3.5, item 20).
+
+    Parameters
+    ----------
+    old : BranchMesh
+        The previous mesh; its build options are kept.
+    pos, parent, radius, alive, main_child
+        The changed tree, as in :func:`build_branch_mesh`.
+
+    Returns
+    -------
+    mesh : BranchMesh
+        Equal to a full :func:`build_branch_mesh` with the same options. When the set of segments and their
+        ring counts are unchanged, ``old``'s arrays are updated in place and ``old`` is returned.
+    changed : (C,) int64 ndarray
+        Indices of the segments re-evaluated (vertex ranges ``mesh.v_off[c]:mesh.v_off[c+1]``).
+    """
+    pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+    o = old.options
+    seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=o["bezier_w"],
+                        bark_rate=o["bark_rate"], _checked=True)
+    cnt, v_off, f_off = _layout(seg, o["u_steps"], o["tip_radius"], o["lod"])
+    os_ = old.segments
+    j = np.minimum(np.searchsorted(os_.keys, seg.keys), max(len(os_) - 1, 0))
+    same = (len(os_) > 0) & (os_.keys[j] == seg.keys)
+    same &= np.all(os_.records[j] == seg.records, axis=1) & np.all(old.counts[j] == cnt, axis=1)
+    same &= np.all(os_.nodes[j] == seg.nodes, axis=1) & (os_.caps[j] == seg.caps)
+    changed = np.flatnonzero(~same).astype(np.int64)
+    args = (float(o["bark_repeat"]),)
+    if len(os_) == len(seg) and np.array_equal(os_.keys, seg.keys) and np.array_equal(old.counts, cnt):
+        K._eval_segments_numba(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off,
+                               *args, old.vertices, old.normals, old.uv, old.node_id, old.faces)
+        old.segments = seg
+        return old, changed
+    V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
+    keep = np.flatnonzero(same)
+    jk = j[keep]
+    K._copy_blocks_numba(old.v_off[jk], v_off[keep], v_off[keep + 1] - v_off[keep], old.f_off[jk], f_off[keep],
+                         f_off[keep + 1] - f_off[keep], old.vertices, old.normals, old.uv, old.node_id,
+                         old.faces, V, NRM, UV, NID, F)
+    K._eval_segments_numba(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off, *args,
+                           V, NRM, UV, NID, F)
+    return BranchMesh(V, F, NRM, UV, NID, seg, cnt, v_off, f_off, dict(o)), changed

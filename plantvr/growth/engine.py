@@ -1,0 +1,232 @@
+"""The Tree Wand growth step, headless (spec 000_treewand §2.10, Alg. 9.2).
+
+:class:`GrowthEngine` owns the tree, the markers and the shadow grid, and runs on numpy arrays only;
+:class:`plantvr.Model` wraps it with validated traits, a worker thread and snapshots.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .assign import assign_markers
+from .directions import bud_headings, growth_directions, normalize, transport_lateral, tropism_vectors
+from .lengths import internode_lengths
+from .markers import poisson_darts
+from .shadow import ShadowGrid, shadow_lut
+from .spatial import build_grid, within_any
+from .tree import BUD, Tree
+from .vigor import accumulate_light, distribute_vigor, pipe_radius, shed_mask
+
+__all__ = ["GrowthEngine", "StepStats"]
+
+
+@dataclass(frozen=True)
+class StepStats:
+    """What one growth step did (§6.4: the data of Figs. 12.8/12.9)."""
+
+    step: int
+    ms: float
+    internodes: int
+    active_buds: int
+    markers: int
+    grown: int
+    shed: int
+
+    @property
+    def bm(self) -> int:
+        """Active buds × live markers, the x axis of Fig. 12.9."""
+        return self.active_buds * self.markers
+
+
+@dataclass
+class _Buds:
+    node: np.ndarray
+    slot: np.ndarray
+    pos: np.ndarray = field(default=None)
+    dir: np.ndarray = field(default=None)
+    length: np.ndarray = field(default=None)
+
+
+class GrowthEngine:
+    """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict."""
+
+    def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None):
+        self.params = dict(params)
+        self.rng = np.random.default_rng(rng)
+        self.reset()
+
+    # -- state --------------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """"Start new tree": remove every internode, leaving the base (§4.5 item 7). Markers are dropped."""
+        p = self.params
+        self.tree = Tree.seed(p["base_length"], 3 if p["branching"] == "opposite" else 2)
+        self.markers = np.zeros((0, 3))
+        self.marker_age = np.zeros(0, np.int64)
+        self.step_count = 0
+        self.history: list[StepStats] = []
+        self._new_nodes = np.arange(self.tree.n)
+        self.rebuild_light()
+
+    def set_params(self, params: dict[str, Any]) -> None:
+        """Apply already-validated parameters; a change of shadow or topology settings rebuilds what depends on it."""
+        old = self.params
+        self.params = {**old, **params}
+        if any(old[k] != self.params[k] for k in ("shadow_intensity", "shadow_falloff", "shadow_depth",
+                                                   "base_length", "fine_cells", "shadow_loop_inclusive")):
+            self.rebuild_light()
+        else:
+            self.update_light()
+
+    def rebuild_light(self) -> None:
+        """Rebuild the shadow grid from every live node, then light, vigor and radius (§2.6, after loading)."""
+        p = self.params
+        self._lut = shadow_lut(p["shadow_intensity"], p["shadow_falloff"], p["shadow_depth"],
+                               p["shadow_loop_inclusive"])
+        self.grid = ShadowGrid(p["base_length"], p["fine_cells"])
+        t = self.tree
+        live = np.flatnonzero(t.alive)
+        self.grid.add(self.grid.cells_of(t.pos[live]), *self._lut)
+        t.shadow_cast[:] = t.alive
+        self.update_light()
+
+    def update_light(self) -> None:
+        """Recompute illumination L, then light, vigor and pipe radius over the whole tree (§2.5, §2.8)."""
+        p, t = self.params, self.tree
+        s = self.grid.read(self.grid.cells_of(t.pos))
+        t.L[:] = np.clip(1.0 - s, 0.0, 1.0)  # ambiguity A.20: L = clamp(1 - s, 0, 1)
+        self._vigor()
+        pipe_radius(t.child, t.alive, p["tip_radius"], p["radius_exp"], t.radius)
+
+    def _vigor(self) -> None:
+        p, t = self.params, self.tree
+        accumulate_light(t.child, t.alive, t.L, p["light_exponent"], p["apical_dominance"], t.Q, t.Qw, t.Qslot)
+        distribute_vigor(t.child, t.alive, t.Qslot, t.Qw, p["apical_dominance"], p["vigor_mult"], t.vigor,
+                         t.bud_vigor)
+
+    # -- commands -----------------------------------------------------------------------------------
+    def paint(self, center: np.ndarray, radius: float, n_darts: int | None = None) -> int:
+        """Throw Poisson darts in the brush sphere (§2.2); returns the number of markers added."""
+        n = self.params["darts_per_paint"] if n_darts is None else n_darts
+        new = poisson_darts(center, radius, n, self.markers, self.params["occupation_radius"], self.rng)
+        self.add_markers(new)
+        return len(new)
+
+    def add_markers(self, points: np.ndarray) -> None:
+        """Append markers as they are (age 0), e.g. an imported or scripted marker cloud."""
+        self.markers = np.concatenate([self.markers, points])
+        self.marker_age = np.concatenate([self.marker_age, np.zeros(len(points), np.int64)])
+
+    def prune_preview(self, center: np.ndarray, radius: float) -> np.ndarray:
+        """Mask of the nodes a prune would remove: internodes whose midpoint is in the brush, with subtrees (§4.4)."""
+        t = self.tree
+        par = np.maximum(t.parent, 0)
+        mid = 0.5 * (t.pos + t.pos[par])
+        hit = np.flatnonzero((np.sum((mid - center) ** 2, axis=1) <= radius * radius) & t.alive)
+        hit = hit[hit >= 2]  # never the base point or the first internode
+        return t.subtree_mask(hit)
+
+    def prune(self, center: np.ndarray, radius: float) -> int:
+        """Remove what :meth:`prune_preview` shows; returns the number of internodes removed."""
+        n = self._remove(self.prune_preview(center, radius))
+        if n:
+            self.update_light()
+        return n
+
+    def _remove(self, mask: np.ndarray) -> int:
+        t = self.tree
+        gone = t.remove(mask)
+        cast = gone[t.shadow_cast[gone]]
+        self.grid.add(self.grid.cells_of(t.pos[cast]), *self._lut, sign=-1.0)
+        t.shadow_cast[cast] = False
+        if t.n > 64 and t.alive.sum() < 0.7 * t.n:
+            remap = t.compact()
+            self._new_nodes = remap[self._new_nodes]
+            self._new_nodes = self._new_nodes[self._new_nodes >= 0]
+        return len(gone)
+
+    # -- the growth step ----------------------------------------------------------------------------
+    def step(self) -> StepStats:
+        """One TREEGROWTHSTEP (Alg. 9.2) and marker ageing (§2.2)."""
+        t0 = time.perf_counter()
+        p, t = self.params, self.tree
+        self._occupy()
+        buds = self._active_buds()
+        grown = 0
+        if len(buds.node) and len(self.markers):
+            owner = assign_markers(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
+                                   view_angle=math.radians(p["view_angle"]))
+            grown = self._grow(buds, owner)
+        self.grid.add(self.grid.cells_of(t.pos[self._new_nodes]), *self._lut)
+        t.shadow_cast[self._new_nodes] = True
+        self.update_light()
+        shed = self._remove(shed_mask(t.child, t.parent, t.alive, t.vigor, p["shed_count"] == "subtree"))
+        if shed:
+            self.update_light()  # refresh after removals ([INFERRED], §2.10)
+        self.marker_age += 1
+        keep = self.marker_age < p["marker_lifetime"]
+        self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
+        self.step_count += 1
+        stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
+                          len(self.markers), grown, shed)
+        self.history.append(stats)
+        return stats
+
+    def _occupy(self) -> None:
+        """Remove markers within the occupation radius of a node (§2.3): new nodes vs all markers,
+        and markers painted since the last step vs all nodes."""
+        if not len(self.markers):
+            return
+        t, r = self.tree, self.params["occupation_radius"]
+        live = t.pos[t.alive]
+        dead = np.zeros(len(self.markers), bool)
+        fresh = np.flatnonzero(self.marker_age == 0)
+        if len(fresh):
+            dead[fresh] = within_any(build_grid(self.markers[fresh], r), live, r)
+        new = self._new_nodes[t.alive[self._new_nodes]]
+        if len(new):
+            dead |= within_any(build_grid(self.markers, max(r, self.params["view_radius"])), t.pos[new], r)
+        self._new_nodes = np.zeros(0, np.int64)
+        if dead.any():
+            self.markers, self.marker_age = self.markers[~dead], self.marker_age[~dead]
+
+    def _active_buds(self) -> _Buds:
+        p, t = self.params, self.tree
+        node, slot = np.nonzero((t.child == BUD) & t.alive[:, None])
+        bv = t.bud_vigor[node, slot]
+        vmax = float(bv.max()) if len(bv) else 0.0  # Eq. 9.17: "any bud on the tree"
+        act = bv > p["activation_threshold"]
+        b = _Buds(node[act], slot[act])
+        b.pos = t.pos[b.node]
+        b.dir = bud_headings(t.head[b.node], t.lat[b.node], b.slot, main_angle=math.radians(p["main_branch_angle"]),
+                             lateral_angle=math.radians(p["branch_angle"]), opposite=t.nslots == 3,
+                             opposite_main=p["opposite_main"])
+        b.length = internode_lengths(p["length_mode"], base=p["base_length"], mult=p["max_len_mult"],
+                                     order=t.order[b.node] + (b.slot > 0), vigor=bv[act], vmax=vmax)
+        return b
+
+    def _grow(self, buds: _Buds, owner: np.ndarray) -> int:
+        """GROWINTERNODES: buds with ≥ 1 marker add one internode along Eq. 9.5 (§2.4)."""
+        p, t = self.params, self.tree
+        hit = owner >= 0
+        count = np.bincount(owner[hit], minlength=len(buds.node))
+        grow = np.flatnonzero(count > 0)
+        if not len(grow):
+            return 0
+        sums = np.stack([np.bincount(owner[hit], self.markers[hit, k], len(buds.node)) for k in range(3)], 1)
+        b = buds.dir[grow]
+        e = normalize(sums[grow] / count[grow, None] - buds.pos[grow], fallback=b)
+        node, slot = buds.node[grow], buds.slot[grow]
+        order = t.order[node] + (slot > 0)
+        tr = tropism_vectors(b, t.lat[node], math.radians(p["tropism_angle"]))
+        T = np.where(order >= p["tropism_min_order"], p["w_tropism"], 0.0)
+        d = growth_directions(b, tr, e, p["w_heading"], T, p["w_env"])
+        lat = transport_lateral(t.lat[node], t.head[node], d, math.radians(p["phyllotaxis_angle"]))
+        new = t.append_many(buds.pos[grow] + buds.length[grow, None] * d, node, d, lat, order,
+                            born=self.step_count + 1)
+        t.child[node, slot] = new
+        self._new_nodes = new
+        return len(new)

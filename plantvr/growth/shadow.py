@@ -1,0 +1,120 @@
+"""Distance-based shadow pyramids on a two-tier hashed sparse grid (spec 000_treewand §2.6–§2.7, Alg. 9.1).
+
+Cells are ``l_b × 3 l_b × l_b`` (§2.6). Fine grids of ``F³`` cells are created lazily under a coarse hash
+keyed by the corrected Szudzik pairing (Eqs. 9.11–9.14, ERRATUM A.7) of zig-zag mapped coarse indices.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+from numba import types
+from numba.typed import Dict
+
+__all__ = ["szudzik", "zigzag", "coarse_key", "shadow_lut", "ShadowGrid"]
+
+
+@numba.njit(cache=True, nogil=True)
+def zigzag(a):
+    """Eq. 9.13: map an integer to a natural number (0, -1, 1, -2, 2 → 0, 1, 2, 3, 4)."""
+    return 2 * a if a >= 0 else -2 * a - 1
+
+
+@numba.njit(cache=True, nogil=True)
+def szudzik(a, b):
+    """Eq. 9.12 with ERRATUM A.7: ``a² + a + b`` if ``a >= b`` else ``a + b²`` (the printed a·a + a·b + b collides)."""
+    return a * a + a + b if a >= b else a + b * b
+
+
+@numba.njit(cache=True, nogil=True)
+def coarse_key(i, j, k):
+    """Eq. 9.14: H(i, j, k) = S(S(N(i), N(j)), N(k))."""
+    return szudzik(szudzik(zigzag(i), zigzag(j)), zigzag(k))
+
+
+def shadow_lut(alpha: float, beta: float, q_max: int, inclusive: bool = False):
+    """Return the pyramid as (offsets (K, 3) int64, values (K,) float64), Eq. 9.10.
+
+    Level q (1 .. q_max-1 as printed in Alg. 9.1, or .. q_max if ``inclusive``) covers offsets
+    ``(i, -q, j)`` with |i|, |j| <= q and value ``alpha * beta ** sqrt(q² + i² + j²)`` (ERRATUM A.5).
+    The node's own cell (q = 0) is never shadowed.
+    """
+    offs, vals = [], []
+    for q in range(1, q_max + (1 if inclusive else 0)):
+        r = np.arange(-q, q + 1)
+        i, j = np.meshgrid(r, r, indexing="ij")
+        offs.append(np.stack([i.ravel(), np.full(i.size, -q), j.ravel()], 1))
+        vals.append(alpha * beta ** np.sqrt(q * q + i.ravel() ** 2 + j.ravel() ** 2))
+    if not offs:
+        return np.zeros((0, 3), np.int64), np.zeros(0)
+    return np.concatenate(offs).astype(np.int64), np.concatenate(vals)
+
+
+@numba.njit(cache=True, nogil=True)
+def _ensure_blocks(keys, cells, F, nblocks):
+    for c in range(cells.shape[0]):
+        key = coarse_key(cells[c, 0] // F, cells[c, 1] // F, cells[c, 2] // F)
+        if key not in keys:
+            keys[key] = nblocks
+            nblocks += 1
+    return nblocks
+
+
+@numba.njit(cache=True, nogil=True)
+def _splat(keys, blocks, F, centres, offsets, values, sign):
+    for n in range(centres.shape[0]):
+        for o in range(offsets.shape[0]):
+            x = centres[n, 0] + offsets[o, 0]
+            y = centres[n, 1] + offsets[o, 1]
+            z = centres[n, 2] + offsets[o, 2]
+            b = keys[coarse_key(x // F, y // F, z // F)]
+            blocks[b, x % F, y % F, z % F] += sign * values[o]  # floor-mod: negative coords work (§2.7)
+
+
+@numba.njit(cache=True, nogil=True)
+def _read(keys, blocks, F, cells, out):
+    for c in range(cells.shape[0]):
+        key = coarse_key(cells[c, 0] // F, cells[c, 1] // F, cells[c, 2] // F)
+        if key in keys:
+            out[c] = blocks[keys[key], cells[c, 0] % F, cells[c, 1] % F, cells[c, 2] % F]
+        else:
+            out[c] = 0.0
+
+
+class ShadowGrid:
+    """Sparse accumulated-shadow grid: a coarse hash → pooled ``F³`` fine blocks (§2.7)."""
+
+    def __init__(self, cell: float, fine: int = 16):
+        self.cell = np.array([cell, 3.0 * cell, cell])  # d × 3d × d (§2.6)
+        self.F = int(fine)
+        self.keys = Dict.empty(key_type=types.int64, value_type=types.int64)
+        self.blocks = np.zeros((8, self.F, self.F, self.F))
+        self.nblocks = 0
+
+    def cells_of(self, points: np.ndarray) -> np.ndarray:
+        """Return the integer fine-cell index (N, 3) of each point (Eq. 9.11 at fine resolution)."""
+        return np.floor(np.asarray(points, np.float64) / self.cell).astype(np.int64)
+
+    def add(self, cells: np.ndarray, offsets: np.ndarray, values: np.ndarray, sign: float = 1.0) -> None:
+        """Add (``sign`` = +1) or subtract (−1) the pyramid ``offsets/values`` under each cell of ``cells``."""
+        if len(cells) == 0 or len(offsets) == 0:
+            return
+        touched = (cells[:, None, :] + offsets[None, :, :]).reshape(-1, 3)
+        self.nblocks = _ensure_blocks(self.keys, touched, self.F, self.nblocks)
+        if self.nblocks > len(self.blocks):
+            grown = np.zeros((max(2 * len(self.blocks), self.nblocks), *self.blocks.shape[1:]))
+            grown[: len(self.blocks)] = self.blocks
+            self.blocks = grown
+        _splat(self.keys, self.blocks, self.F, cells, offsets, values, float(sign))
+
+    def read(self, cells: np.ndarray) -> np.ndarray:
+        """Return the accumulated shadow at each integer cell (0 where no block exists)."""
+        out = np.empty(len(cells))
+        if len(cells):
+            _read(self.keys, self.blocks, self.F, np.ascontiguousarray(cells, np.int64), out)
+        return out
+
+    def clear(self) -> None:
+        """Drop every block."""
+        self.keys.clear()
+        self.blocks[:] = 0.0
+        self.nblocks = 0

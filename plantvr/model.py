@@ -1,0 +1,393 @@
+"""The one kernel-resident model shared by widgets, the 3D view and the VR bridge (spec 000_treewand §4.12).
+
+Parameters are traits generated from :mod:`plantvr.params`; commands validate, then edit the
+:class:`~plantvr.growth.engine.GrowthEngine` under a lock; after every change an immutable
+:class:`Snapshot` is published. A background growth worker never sets a trait itself: it hands the
+snapshot to the kernel's event loop (STYLE §9), and views observe ``version``.
+"""
+from __future__ import annotations
+
+import asyncio
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import traitlets
+from traitlets import Bool, Dict, Float, HasTraits, Int, TraitType
+
+from ._validation import check_int, check_point, check_points, check_range
+from .events import EventLog
+from .growth.engine import GrowthEngine, StepStats
+from .growth.treefile import state_from_npz, state_to_npz, tree_from_text, tree_to_text
+from .params import PARAMS, Param, validate
+
+__all__ = ["Model", "Snapshot"]
+
+
+class ParamTrait(TraitType):
+    """A trait whose default, type and range come from one :class:`~plantvr.params.Param`."""
+
+    def __init__(self, param: Param):
+        super().__init__(default_value=param.default, help=param.doc)
+        self.param = param
+        self.tag(param=param, window=param.window)
+
+    def validate(self, obj, value):
+        return self.param.check(value)
+
+
+_Params = type("_Params", (HasTraits,), {p.name: ParamTrait(p) for p in PARAMS})
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """Read-only picture of the model after one change: live nodes compacted, parents remapped."""
+
+    version: int
+    step: int
+    pos: np.ndarray       # (N, 3) node positions; node 0 is the base point
+    parent: np.ndarray    # (N,) int64, -1 for the base point
+    radius: np.ndarray    # (N,) pipe-model radius of the internode ending at each node
+    order: np.ndarray     # (N,) branch order
+    markers: np.ndarray   # (M, 3)
+    stats: StepStats | None
+
+    @property
+    def n_internodes(self) -> int:
+        """Number of internodes (nodes except the base point)."""
+        return max(len(self.pos) - 1, 0)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, copy=True)
+    a.flags.writeable = False
+    return a
+
+
+class Model(_Params):
+    """Tree Wand model: growth parameters, tree, markers, light grid, brush and saved views.
+
+    Parameters
+    ----------
+    seed : int, optional
+        Seed of the random generator (marker darts); same seed + same commands = same tree.
+    **params
+        Initial parameter values (see :data:`plantvr.params.PARAMS`).
+
+    Examples
+    --------
+    >>> import plantvr
+    >>> m = plantvr.Model(seed=0)
+    >>> m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
+    >>> _ = m.step(5)
+    >>> m.n_internodes > 1
+    True
+    """
+
+    version = Int(0, help="Bumped after every change; views observe it.")
+    n_internodes = Int(1, help="Live internodes in the latest snapshot.")
+    n_markers = Int(0, help="Live markers in the latest snapshot.")
+    step_ms = Float(0.0, help="Duration of the last growth step, ms.")
+    steps_done = Int(0, help="Growth steps since the tree was started.")
+    growing = Bool(False, help="True while the background worker grows.")
+    prune_mode = Bool(False, help="Brush prunes (red) instead of painting markers (green) (§4.4).")
+    saved_views = Dict(help="Named camera views: name -> (position, focal point, view up).")
+
+    def __init__(self, seed: int | None = None, **params: Any):
+        checked = validate(params)
+        super().__init__(**checked)
+        self.seed = seed
+        self.events = EventLog()
+        self._lock = threading.RLock()
+        self._engine = GrowthEngine(self.params, rng=seed)
+        self._worker: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._loop = _kernel_loop()
+        self.snapshot: Snapshot = self._make_snapshot(None)
+        self.observe(self._on_param, names=[p.name for p in PARAMS])
+
+    # -- parameters ---------------------------------------------------------------------------------
+    @property
+    def params(self) -> dict[str, Any]:
+        """Current parameter values, ``{name: value}``."""
+        return {p.name: getattr(self, p.name) for p in PARAMS}
+
+    def set_params(self, **params: Any) -> None:
+        """Set several parameters at once; all are checked before any is set."""
+        checked = validate(params)
+        self.events.record("set_params", **checked)
+        with self.hold_trait_notifications():
+            for k, v in checked.items():
+                setattr(self, k, v)
+
+    def set_influence(self, H: float, T: float, E: float) -> None:
+        """Set the influence-triangle weights (Eq. 9.5), normalised to H + T + E = 1 (§4.9)."""
+        w = np.array([check_range(n, v, 0.0, np.inf) for n, v in (("H", H), ("T", T), ("E", E))])
+        if w.sum() <= 0:
+            raise ValueError("influence weights H, T, E must not all be 0")
+        w = w / w.sum()
+        self.set_params(w_heading=float(w[0]), w_tropism=float(w[1]), w_env=float(w[2]))
+
+    @property
+    def influence(self) -> tuple[float, float, float]:
+        """(H, T, E) weights of Eq. 9.5."""
+        return (self.w_heading, self.w_tropism, self.w_env)
+
+    def _on_param(self, change) -> None:
+        with self._lock:
+            if change["name"] == "branching":
+                self._engine.params = self.params
+                self._engine.reset()
+            else:
+                self._engine.set_params({change["name"]: change["new"]})
+        self._publish()
+
+    # -- commands -----------------------------------------------------------------------------------
+    def paint(self, center, radius: float | None = None, n_darts: int | None = None) -> int:
+        """Paint markers by Poisson darts in a sphere (§2.2, §4.3); returns how many were added."""
+        center = check_point("center", center)
+        radius = self.brush_radius if radius is None else check_range("radius", radius, 0.0, 1e6, low_open=True)
+        if n_darts is not None:
+            n_darts = check_int("n_darts", n_darts, 1, 10_000_000)
+        self.events.record("paint", center=center, radius=radius, n_darts=n_darts)
+        with self._lock:
+            n = self._engine.paint(center, radius, n_darts)
+        self._publish()
+        return n
+
+    def paint_stroke(self, points, radius: float | None = None, n_darts: int | None = None) -> int:
+        """Paint at every point of a stroke (one undo/event unit); returns the markers added."""
+        pts = check_points("points", points, min_rows=1)
+        radius = self.brush_radius if radius is None else check_range("radius", radius, 0.0, 1e6, low_open=True)
+        self.events.record("paint_stroke", points=pts, radius=radius, n_darts=n_darts)
+        with self._lock:
+            n = sum(self._engine.paint(p, radius, n_darts) for p in pts)
+        self._publish()
+        return n
+
+    def add_markers(self, points) -> None:
+        """Add a marker cloud as it is (imported or scripted), bypassing the darts."""
+        pts = check_points("points", points)
+        self.events.record("add_markers", points=pts)
+        with self._lock:
+            self._engine.add_markers(pts)
+        self._publish()
+
+    def prune_preview(self, center, radius: float) -> np.ndarray:
+        """Snapshot-node indices the same :meth:`prune` would remove (§4.4 partial trigger, TW-V17b)."""
+        center = check_point("center", center)
+        radius = check_range("radius", radius, 0.0, 1e6)
+        with self._lock:
+            mask = self._engine.prune_preview(center, radius)
+            live = np.flatnonzero(self._engine.tree.alive)
+            return np.flatnonzero(mask[live])
+
+    def prune(self, center, radius: float) -> int:
+        """Remove internodes whose midpoint is in the brush, with their subtrees (§4.4)."""
+        center = check_point("center", center)
+        radius = check_range("radius", radius, 0.0, 1e6)
+        self.events.record("prune", center=center, radius=radius)
+        with self._lock:
+            n = self._engine.prune(center, radius)
+        self._publish()
+        return n
+
+    def reset(self) -> None:
+        """Start a new tree: remove every internode, leaving the base (§4.5 item 7)."""
+        self.events.record("reset")
+        with self._lock:
+            self._engine.reset()
+        self._publish()
+
+    def step(self, steps: int = 1) -> list[StepStats]:
+        """Run ``steps`` growth steps synchronously (deterministic for a seed)."""
+        steps = check_int("steps", steps, 0, 10_000_000)
+        self.events.record("step", steps=steps)
+        out = []
+        for _ in range(steps):
+            with self._lock:
+                out.append(self._engine.step())
+            self._publish()
+        return out
+
+    # -- background growth --------------------------------------------------------------------------
+    def grow(self, steps: int, *, background: bool = False, progress: bool = False,
+             on_step: Callable[[StepStats], None] | None = None) -> threading.Thread | list[StepStats]:
+        """Grow ``steps`` steps; with ``background=True`` on a worker thread (returned), else synchronously."""
+        steps = check_int("steps", steps, 0, 10_000_000)
+        if not background:
+            stats = []
+            for s in _progress(range(steps), progress):
+                stats += self.step(1)
+                if on_step:
+                    on_step(stats[-1])
+            return stats
+        if self._worker is not None and self._worker.is_alive():
+            raise RuntimeError("growth is already running; call model.stop() first")
+        self.events.record("step", steps=steps)
+        self._stop.clear()
+        self.growing = True
+
+        def work() -> None:
+            for _ in _progress(range(steps), progress):
+                if self._stop.is_set():
+                    break
+                with self._lock:
+                    st = self._engine.step()
+                self._publish()
+                if on_step:
+                    on_step(st)
+            self._call_in_kernel(lambda: setattr(self, "growing", False))
+
+        self._worker = threading.Thread(target=work, name="plantvr-growth", daemon=True)
+        self._worker.start()
+        return self._worker
+
+    def stop(self) -> None:
+        """Stop background growth after the current step."""
+        self._stop.set()
+        self.wait()
+
+    def wait(self, timeout: float | None = None) -> None:
+        """Block until background growth ends, then apply the latest snapshot."""
+        if self._worker is not None:
+            self._worker.join(timeout)
+        self.growing = bool(self._worker and self._worker.is_alive())
+        self._apply(self._make_snapshot(self._last_stats()))
+
+    # -- snapshots ----------------------------------------------------------------------------------
+    def _last_stats(self) -> StepStats | None:
+        h = self._engine.history
+        return h[-1] if h else None
+
+    def _make_snapshot(self, stats: StepStats | None) -> Snapshot:
+        with self._lock:
+            t = self._engine.tree
+            live = np.flatnonzero(t.alive)
+            remap = np.full(t.n, -1, np.int64)
+            remap[live] = np.arange(len(live))
+            par = t.parent[live]
+            par = np.where(par >= 0, remap[np.maximum(par, 0)], -1)
+            self._seq = getattr(self, "_seq", 0) + 1
+            return Snapshot(self._seq, self._engine.step_count, _frozen(t.pos[live]),
+                            _frozen(par), _frozen(t.radius[live]), _frozen(t.order[live]),
+                            _frozen(self._engine.markers), stats)
+
+    def _publish(self) -> None:
+        snap = self._make_snapshot(self._last_stats())
+        self._call_in_kernel(lambda: self._apply(snap))
+
+    def _call_in_kernel(self, fn: Callable[[], None]) -> None:
+        loop = self._loop
+        if threading.current_thread() is threading.main_thread() or loop is None or not loop.is_running():
+            fn()
+        else:
+            loop.call_soon_threadsafe(fn)
+
+    def _apply(self, snap: Snapshot) -> None:
+        if snap.version < self.snapshot.version:
+            return  # a newer snapshot was applied already
+        self.snapshot = snap
+        with self.hold_trait_notifications():
+            self.n_internodes = snap.n_internodes
+            self.n_markers = len(snap.markers)
+            self.steps_done = snap.step
+            if snap.stats is not None:
+                self.step_ms = snap.stats.ms
+            self.version = snap.version
+
+    # -- persistence --------------------------------------------------------------------------------
+    @property
+    def history(self) -> list[StepStats]:
+        """Statistics of every growth step since the tree was started."""
+        return list(self._engine.history)
+
+    @property
+    def tree(self):
+        """The engine's tree (read it; change it only through commands)."""
+        return self._engine.tree
+
+    def save(self, path: str | Path) -> Path:
+        """Save to ``.tree`` (bracketed text + parameters, §4.5) or ``.npz`` (lossless full state)."""
+        path = Path(path)
+        with self._lock:
+            if path.suffix == ".tree":
+                path.write_text(tree_to_text(self._engine.tree, self.params))
+            elif path.suffix == ".npz":
+                e = self._engine
+                state_to_npz(path, e.tree, self.params, {
+                    "markers": e.markers, "marker_age": e.marker_age, "step_count": np.array(e.step_count),
+                    "rng_state": np.array(_json_rng(e.rng))})
+            else:
+                raise ValueError(f"path must end in .tree or .npz, got {path.suffix!r}")
+        return path
+
+    @classmethod
+    def load(cls, path: str | Path, seed: int | None = None) -> "Model":
+        """Return a new model loaded from a ``.tree`` or ``.npz`` file."""
+        m = cls(seed=seed)
+        m.restore(path)
+        return m
+
+    def restore(self, path: str | Path) -> None:
+        """Replace this model's tree and parameters with a saved file's; on any error nothing changes."""
+        path = Path(path)
+        if path.suffix not in (".tree", ".npz"):
+            raise ValueError(f"path must end in .tree or .npz, got {path.suffix!r}")
+        try:
+            raw = path.read_text() if path.suffix == ".tree" else None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ValueError(f"cannot read {path!s}: {exc}") from None
+        extra: dict[str, np.ndarray] = {}
+        if raw is not None:
+            tree, params = tree_from_text(raw)
+        else:
+            tree, params, extra = state_from_npz(path)
+        engine = GrowthEngine({**self.params, **params}, rng=self.seed)  # parsed fully before touching self
+        engine.tree = tree
+        if extra:
+            engine.markers, engine.marker_age = extra["markers"], extra["marker_age"]
+            engine.step_count = int(extra["step_count"])
+            engine.rng.bit_generator.state = _unjson_rng(str(extra["rng_state"]))
+        engine._new_nodes = np.zeros(0, np.int64)
+        engine.rebuild_light()
+        with self._lock:
+            self._engine = engine
+            with self.hold_trait_notifications():
+                for k, v in params.items():
+                    self.set_trait(k, v)
+        self._publish()
+
+
+def _json_rng(rng: np.random.Generator) -> str:
+    import json
+    return json.dumps(rng.bit_generator.state)
+
+
+def _unjson_rng(s: str) -> dict:
+    import json
+    return json.loads(s)
+
+
+def _kernel_loop() -> asyncio.AbstractEventLoop | None:
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        pass
+    try:  # ipykernel: the cell runs on the thread of a running loop
+        from IPython import get_ipython  # noqa: PLC0415
+        if get_ipython() is not None:
+            loop = asyncio.get_event_loop_policy().get_event_loop()
+            return loop if loop.is_running() else None
+    except Exception:  # no IPython / no loop: apply snapshots directly
+        return None
+    return None
+
+
+def _progress(it, show: bool):
+    if not show:
+        return it
+    from tqdm.auto import tqdm  # noqa: PLC0415
+    return tqdm(it, desc="growing", unit="step")
