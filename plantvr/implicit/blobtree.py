@@ -253,6 +253,11 @@ class Primitive(Node):
         return isinstance(self.skeleton, (PointSkeleton, SegmentSkeleton))
 
     def _eval_inside(self, p, backend):
+        if self.packable:
+            a, b = self.skeleton.segment()
+            fn = _kernels.segment_blend_numba if backend == "numba" else _kernels.segment_blend_numpy
+            return fn(p, a[None], b[None], np.array([self.radius]), np.ascontiguousarray(self.minv[None, :3]),
+                      self.bbox[:1], self.bbox[1:])
         q = p @ self.minv[:3, :3].T + self.minv[:3, 3]
         return wyvill_from_sq(self.skeleton.distance_sq(q) / self.radius**2)
 
