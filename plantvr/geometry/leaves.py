@@ -1,0 +1,292 @@
+"""Leaves: placement at buds on thin internodes, elastic reorientation, petioles, blades (spec 000_treewand §3.4).
+
+Each leaf starts with the heading of its bud (§10.2.1) and is turned toward the vertical by three rotations
+(Eq. 10.15) with separate elasticities, repeated in small increments (§10.2.2). The petiole is a generalized
+cylinder through p0 = bud, p1 = p0 + l·ĥ_init, p2 = p1 + l·ĥ_final, meshed by the branch kernel; the blade is a
+textured quad (or a folded quad) attached at p2 with the final frame.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
+
+from . import _kernels as K
+from .mesh import ring_counts
+
+__all__ = ["LeafMesh", "LEAF_SHAPES", "select_leaf_buds", "initial_leaf_frames", "orient_leaves", "build_leaves"]
+
+LEAF_SHAPES = ("ovate", "lobed")
+_PETIOLE_UV = (0.5, 0.03)      # a texel of the stem drawn at the bottom of every leaf texture
+
+
+@dataclass
+class LeafMesh:
+    """Triangle mesh of all leaves (blades and petioles).
+
+    Attributes
+    ----------
+    vertices : (V, 3) float64 ndarray
+    faces : (F, 3) int64 ndarray
+    normals : (V, 3) float32 ndarray
+    uv : (V, 2) float32 ndarray
+        Leaf texture coordinates (blade: the whole image; petiole: the stem texel).
+    bud_id : (V,) int64 ndarray
+        Index of the bud (row of the bud arrays) each vertex belongs to.
+    frames : (L, 3, 3) float64 ndarray
+        Final (heading, right, up) of each leaf.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    uv: np.ndarray
+    bud_id: np.ndarray
+    frames: np.ndarray
+
+    def to_trimesh(self):
+        """Return a ``trimesh.Trimesh`` (``process=False``) with the vertex normals."""
+        import trimesh
+        return trimesh.Trimesh(self.vertices, self.faces, vertex_normals=self.normals, process=False)
+
+
+def select_leaf_buds(bud_radius, *, radius_threshold: float, leaf_size: float) -> np.ndarray:
+    """Indices of the buds that carry a leaf: internode radius below the threshold, and leaf size > 0 (§10.2.1).
+
+    Parameters
+    ----------
+    bud_radius : (B,) float64 ndarray
+        Radius of the internode each bud sits on (lateral **and** main buds).
+    radius_threshold : float
+        Leaves grow only where ``bud_radius < radius_threshold``.
+    leaf_size : float
+        Leaf scale; 0 gives no leaves (B.2 "Leaf size").
+
+    Returns
+    -------
+    (L,) int64 ndarray
+    """
+    bud_radius = check_array("bud_radius", bud_radius, shape=(None,))
+    radius_threshold = check_range("radius_threshold", radius_threshold, 0.0, np.inf)
+    leaf_size = check_range("leaf_size", leaf_size, 0.0, np.inf)
+    if leaf_size == 0.0:
+        return np.zeros(0, np.int64)
+    return np.flatnonzero(bud_radius < radius_threshold).astype(np.int64)
+
+
+def _normalize(v):
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _orthonormalize(h, u):
+    h = _normalize(h)
+    u = u - np.sum(u * h, axis=-1, keepdims=True) * h
+    n = np.linalg.norm(u, axis=-1, keepdims=True)
+    fallback = np.array([K._perp(x) for x in h]) if np.any(n < 1e-12) else u
+    u = np.where(n < 1e-12, fallback, u / np.maximum(n, 1e-300))
+    return h, np.cross(h, u), u
+
+
+def initial_leaf_frames(bud_dir, *, bud_up=None, rng=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Initial (heading, right, up) of leaves: heading = bud direction, up = bud lateral vector ⟂ heading.
+
+    Parameters
+    ----------
+    bud_dir : (L, 3) float64 ndarray
+        Heading the bud's internode would have (Eqs. 9.1/9.2).
+    bud_up : (L, 3) float64 ndarray, optional
+        The node's lateral vector l̂; its component ⟂ heading becomes û. Default: a random perpendicular.
+    rng : int or numpy.random.Generator, optional
+        Seed for the default up vectors.
+
+    Returns
+    -------
+    h, r, u : (L, 3) float64 ndarray
+        Right-handed unit frame with ``r = h × u`` (spec §3.4 [INFERRED]).
+    """
+    bud_dir = check_points("bud_dir", bud_dir)
+    if np.any(np.linalg.norm(bud_dir, axis=1) < 1e-12):
+        raise ValueError("bud_dir must contain non-zero direction vectors")
+    if bud_up is None:
+        bud_up = np.random.default_rng(rng).normal(size=bud_dir.shape)
+    else:
+        bud_up = check_array("bud_up", bud_up, shape=bud_dir.shape)
+    return _orthonormalize(bud_dir, bud_up)
+
+
+def _rotate(vecs, axis, ang):
+    c, s = np.cos(ang)[:, None], np.sin(ang)[:, None]
+    return [v * c + np.cross(axis, v) * s + axis * np.sum(axis * v, 1, keepdims=True) * (1 - c) for v in vecs]
+
+
+def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right: float = 0.05,
+                  iterations: int = 15, up=(0.0, 1.0, 0.0), increment: str = "per_iteration"):
+    """Turn leaf frames toward the light with three elastic rotations (Eq. 10.15, spec §3.4).
+
+    Per iteration, in this order and reading the current frame each time: about û (target ĥ, "petiole bend
+    right"), about r̂ (target û, "bend up"), about ĥ (target û, "twist"), each by
+    θ = e‖b̂×ŷ‖‖v̂×ŷ‖ toward +ŷ, then re-orthonormalise.
+
+    Parameters
+    ----------
+    h, r, u : (L, 3) float64 ndarray
+        Unit frames (heading, right, up = leaf normal).
+    e_twist, e_up, e_right : float
+        Elasticities in [0, 10]; 0 disables that rotation (B.2 "Petiole twist / bend up / bend right").
+    iterations : int
+        Number of increments, in [1, 1000] ("typically between 10 and 20").
+    up : (3,) float64 array_like
+        The vertical ŷ (y is up in PlantVR).
+    increment : {"per_iteration", "split"}
+        ``"per_iteration"``: θ of Eq. 10.15 in radians per iteration (spec §3.4 [INFERRED]); ``"split"``:
+        θ/iterations per iteration, so the result converges as iterations grow (spec TW-V21 reading).
+
+    Returns
+    -------
+    h, r, u : (L, 3) float64 ndarray
+
+    References
+    ----------
+    .. [1] Thesis §10.2.2, Eq. 10.15, Fig. 10.8; rotation sign and units [INFERRED] (spec §3.4).
+    """
+    h, r, u = (check_points(n, x) for n, x in (("h", h), ("r", r), ("u", u)))
+    if not (len(h) == len(r) == len(u)):
+        raise ValueError(f"h, r and u must have the same length, got {len(h)}, {len(r)}, {len(u)}")
+    e = {k: check_range(k, v, 0.0, 10.0) for k, v in (("e_twist", e_twist), ("e_up", e_up), ("e_right", e_right))}
+    iterations = check_int("iterations", iterations, 1, 1000)
+    y = _normalize(np.asarray(check_array("up", up, shape=(3,)), float))
+    check_choice("increment", increment, ("per_iteration", "split"))
+    scale = 1.0 / iterations if increment == "split" else 1.0
+    h, r, u = _orthonormalize(h, u)
+    if len(h) == 0:
+        return h, r, u
+    for _ in range(iterations):
+        for ax_name, tg_name, ek in (("u", "h", "e_right"), ("r", "u", "e_up"), ("h", "u", "e_twist")):
+            if e[ek] == 0.0:
+                continue
+            frame = {"h": h, "r": r, "u": u}
+            axis, target = frame[ax_name], frame[tg_name]
+            bxy = np.cross(target, y)
+            th = scale * e[ek] * np.linalg.norm(bxy, axis=1) * np.linalg.norm(np.cross(axis, y), axis=1)
+            th = th * np.sign(np.sum(axis * bxy, axis=1))
+            h, r, u = _rotate((h, r, u), axis, th)
+            h, r, u = _orthonormalize(h, u)
+    return h, r, u
+
+
+def _blade(shape: str):
+    """Local blade vertices (x along r̂, y along ĥ, z along û), UVs and faces."""
+    if shape == "ovate":
+        loc = np.array([[-0.5, 0, 0], [0.5, 0, 0], [0.5, 1, 0], [-0.5, 1, 0]], float)
+        faces = np.array([[0, 1, 2], [0, 2, 3]])
+    else:                                      # folded along the midrib (a shallow V)
+        loc = np.array([[-0.5, 0, 0.12], [0, 0, 0], [0.5, 0, 0.12], [-0.5, 1, 0.12], [0, 1, 0], [0.5, 1, 0.12]])
+        faces = np.array([[0, 1, 4], [0, 4, 3], [1, 2, 5], [1, 5, 4]])
+    uv = np.stack([loc[:, 0] + 0.5, 0.08 + 0.92 * loc[:, 1]], axis=1)
+    return loc, uv, faces
+
+
+def build_leaves(bud_pos, bud_dir, bud_radius, *, bud_up=None, leaf_size: float = 0.5,
+                 radius_threshold: float | None = None, petiole_length: float = 0.1,
+                 petiole_radius: float | None = None, e_twist: float = 0.05, e_up: float = 0.05,
+                 e_right: float = 0.05, iterations: int = 15, leaf_shape: str = "ovate",
+                 up=(0.0, 1.0, 0.0), increment: str = "per_iteration", petiole_sides: int = 5,
+                 rng=None) -> LeafMesh:
+    """Leaf mesh at the buds of thin internodes: blades plus petiole generalized cylinders (spec §3.4).
+
+    Parameters
+    ----------
+    bud_pos : (B, 3) float64 ndarray
+        Bud positions (the node each bud sits on).
+    bud_dir : (B, 3) float64 ndarray
+        Initial leaf heading = heading an internode from that bud would have.
+    bud_radius : (B,) float64 ndarray
+        Radius of the internode the bud sits on.
+    bud_up : (B, 3) float64 ndarray, optional
+        Lateral vector of the node; default random (seeded by ``rng``).
+    leaf_size : float
+        Blade length; 0 gives no leaves.
+    radius_threshold : float, optional
+        Only buds with ``bud_radius`` below it get leaves; default 3 × the smallest bud radius.
+    petiole_length : float
+        Control-point spacing l of the petiole (0: blade attached at the bud, no petiole).
+    petiole_radius : float, optional
+        Default 0.3 × the smallest bud radius.
+    e_twist, e_up, e_right, iterations, up, increment
+        As in :func:`orient_leaves`.
+    leaf_shape : {"ovate", "lobed"}
+        Blade geometry (a flat quad or a quad folded along the midrib); pairs with the leaf texture.
+    petiole_sides : int
+        Ring subdivisions of the petiole, in [3, 16].
+    rng : int or numpy.random.Generator, optional
+
+    Returns
+    -------
+    LeafMesh
+
+    References
+    ----------
+    .. [1] Thesis §10.2, Eq. 10.15, Figs. 10.8–10.9; petiole p0, p1, p2 of §10.2.2.
+    """
+    bud_pos = check_points("bud_pos", bud_pos)
+    nb = len(bud_pos)
+    bud_dir = check_array("bud_dir", bud_dir, shape=(nb, 3))
+    bud_radius = check_array("bud_radius", bud_radius, shape=(nb,))
+    if bud_up is not None:
+        bud_up = check_array("bud_up", bud_up, shape=(nb, 3))
+    leaf_size = check_range("leaf_size", leaf_size, 0.0, np.inf)
+    if radius_threshold is None:
+        radius_threshold = 3.0 * float(bud_radius.min()) if nb else 0.0
+    petiole_length = check_range("petiole_length", petiole_length, 0.0, np.inf)
+    check_choice("leaf_shape", leaf_shape, LEAF_SHAPES)
+    petiole_sides = check_int("petiole_sides", petiole_sides, 3, 16)
+    if petiole_radius is None:
+        petiole_radius = 0.3 * float(bud_radius.min()) if nb else 0.0
+    petiole_radius = check_range("petiole_radius", petiole_radius, 0.0, np.inf)
+    sel = select_leaf_buds(bud_radius, radius_threshold=radius_threshold, leaf_size=leaf_size)
+    h0, r0, u0 = initial_leaf_frames(bud_dir[sel], bud_up=None if bud_up is None else bud_up[sel], rng=rng)
+    h, r, u = orient_leaves(h0, r0, u0, e_twist=e_twist, e_up=e_up, e_right=e_right, iterations=iterations,
+                            up=up, increment=increment)
+    L = len(sel)
+    p0 = bud_pos[sel]
+    p1 = p0 + petiole_length * h0
+    p2 = p1 + petiole_length * h
+    # blades
+    loc, buv, bf = _blade(leaf_shape)
+    nv = len(loc)
+    bv = (p2[:, None, :] + leaf_size * (loc[None, :, 0:1] * r[:, None] + loc[None, :, 1:2] * h[:, None]
+                                         + loc[None, :, 2:3] * u[:, None]))
+    verts = [bv.reshape(-1, 3)]
+    norms = [np.repeat(u, nv, axis=0).astype(np.float32)]
+    uvs = [np.tile(buv, (L, 1)).astype(np.float32)]
+    ids = [np.repeat(sel, nv)]
+    faces = [(bf[None] + nv * np.arange(L)[:, None, None]).reshape(-1, 3)]
+    # petioles through the branch kernel (w = 1: a polynomial quadratic)
+    if petiole_length > 0 and petiole_radius > 0 and L:
+        rec = np.zeros((L, K.REC_SIZE))
+        rec[:, 0:3], rec[:, 3:6], rec[:, 6:9] = p0, p1, p2
+        rec[:, 9:12] = u0
+        rec[:, 15] = 1.0
+        rec[:, 17] = 1.0
+        rec[:, 18] = rec[:, 19] = petiole_radius
+        ks = 3
+        cnt = ring_counts(np.full(L, petiole_sides), np.full(L, petiole_sides), ks)
+        nvs = (cnt + 1).sum(1)
+        nfs = (cnt[:, :-1] + cnt[:, 1:]).sum(1)
+        v_off = np.concatenate([[0], np.cumsum(nvs)]).astype(np.int64)
+        f_off = np.concatenate([[0], np.cumsum(nfs)]).astype(np.int64)
+        V, NRM = np.empty((v_off[-1], 3)), np.empty((v_off[-1], 3), np.float32)
+        UV, NID, F = np.empty((v_off[-1], 2), np.float32), np.empty(v_off[-1], np.int64), np.empty((f_off[-1], 3), np.int64)
+        nodes = np.stack([sel, sel], axis=1).astype(np.int64)
+        K._eval_segments_numba(rec, cnt, ks, nodes, np.zeros(L, np.uint8), np.arange(L, dtype=np.int64), v_off,
+                               f_off, 1.0, V, NRM, UV, NID, F)
+        UV[:] = _PETIOLE_UV
+        faces.append(F + len(verts[0]))
+        verts.append(V)
+        norms.append(NRM)
+        uvs.append(UV)
+        ids.append(NID)
+    return LeafMesh(np.concatenate(verts), np.concatenate(faces).astype(np.int64), np.concatenate(norms),
+                    np.concatenate(uvs), np.concatenate(ids), np.stack([h, r, u], axis=1))
