@@ -1,0 +1,118 @@
+"""Spec 001 §1.4–§1.5: LST / turtle parsing and grown-tree arrays (V1, V2)."""
+import warnings
+
+import numpy as np
+import pytest
+
+from plantvr.subdivision import BranchGraph, graph_from_arrays, parse_lsystem
+
+from ._helpers import SAMPLE_LST
+
+
+def test_v1_sample_lst_six_branches_depth_first():
+    with pytest.warns(UserWarning, match="starts 5 away"):
+        g = parse_lsystem(SAMPLE_LST)
+    assert len(g) == 6
+    assert g.parent.tolist() == [-1, 0, 1, 0, 3, 0]            # depth-first order
+    np.testing.assert_allclose(g.length[:5], [10, 5, 5, 5, 5])
+    np.testing.assert_allclose(g.start[5], g.end[0])              # gap snapped, tip kept:
+    tip = g.end[0] + 15 * g.axis[0]                               # 5 up + a 10-long cylinder
+    assert np.linalg.norm(g.end[5] - g.end[0]) > 10 and np.linalg.norm(tip - g.end[0]) == pytest.approx(15)
+    assert np.flatnonzero(g.parent == 0).tolist() == [1, 3, 5]  # root has 3 children
+    g.validate()
+
+
+def test_v1_strict_mode_reports_gap_position():
+    with pytest.raises(ValueError, match=r"position 3\d\d starts 5"):
+        parse_lsystem(SAMPLE_LST, strict=True)
+
+
+def test_v1_one_op_per_line_and_empty_lines_equal_many_per_line():
+    text = "Cylinder(1, 1, 2)\n\nMovRel3f(0, 2, 0)\nSB()\nRotRel3f(0.5, 0, 0, 1)\nCylinder(1, 0.5, 3)\nEB()\n"
+    g1 = parse_lsystem(text)
+    g2 = parse_lsystem(" ".join(text.split("\n")))
+    np.testing.assert_array_equal(g1.end, g2.end)
+    assert g1.parent.tolist() == [-1, 0]
+
+
+def test_v2_turtle_frame_move_reaches_cylinder_end():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        a, x, y, z = rng.uniform(-2, 2, 4)
+        text = f"RotRel3f({a}, {x}, {y}, {z}) Cylinder(1, 1, 3) MovRel3f(0, 3, 0) Cylinder(1, 1, 2)"
+        g = parse_lsystem(text, strict=True)             # no gap: the move landed on the end
+        np.testing.assert_allclose(g.start[1], g.end[0], atol=1e-12)
+
+
+def test_v2_brackets_restore_state():
+    g = parse_lsystem("F(2)[+F(1)&F(1)]F(1)", angle=30, strict=True)
+    assert g.parent.tolist() == [-1, 0, 1, 0]
+    np.testing.assert_allclose(g.start[3], g.end[0])
+    np.testing.assert_allclose(g.axis[3], g.axis[0])
+
+
+def test_turtle_symbols_rotate_by_angle():
+    g = parse_lsystem("F[+F][-F]", angle=90, step=1)
+    np.testing.assert_allclose(g.end[1], [-1, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(g.end[2], [1, 1, 0], atol=1e-12)
+
+
+@pytest.mark.parametrize("text, match", [
+    ("F[+F", r"'\[' / SB\(\) at position 1 is never closed"),
+    ("F]F", r"position 1 has no matching"),
+    ("F X F", r"unknown symbol 'X F' at position 2"),
+    ("Cylinder(1,1,2) Foo(1)", r"unknown symbol 'Foo' at position 16"),
+    ("Cylinder(1,1,0)", r"zero-length branch at position 0"),
+    ("Cylinder(1,1)", r"Cylinder takes 3 arguments, got 2 at position 0"),
+    ("Cylinder(0,1,1)", r"non-positive radius"),
+    ("MovRel3f(0,1,0)", r"no branch"),
+])
+def test_bad_strings_name_position(text, match):
+    with pytest.raises(ValueError, match=match):
+        parse_lsystem(text)
+
+
+def test_bad_parser_options():
+    with pytest.raises(ValueError, match="angle_unit must be one of"):
+        parse_lsystem("F", angle_unit="grad")
+    with pytest.raises(ValueError, match="step must be in"):
+        parse_lsystem("F", step=0)
+    with pytest.raises(ValueError, match="text must be a str"):
+        parse_lsystem(b"F")
+
+
+def test_graph_from_arrays_internodes():
+    pos = np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0], [1, 2, 0]], float)
+    par = np.array([-1, 0, 1, 1])
+    rad = np.array([0.3, 0.2, 0.1, 0.05])
+    g = graph_from_arrays(pos, par, rad)
+    assert isinstance(g, BranchGraph) and len(g) == 3
+    assert g.parent.tolist() == [-1, 0, 0]
+    np.testing.assert_array_equal(g.r0, [0.3, 0.2, 0.2])
+    np.testing.assert_array_equal(g.r1, [0.2, 0.1, 0.05])
+    g.validate()
+
+
+@pytest.mark.parametrize("pos, par, rad, match", [
+    (np.zeros((3, 2)), [-1, 0, 1], [1, 1, 1], r"pos must have shape \(N, 3\)"),
+    ([[0, 0, 0], [0, 1, 0], [0, 2, 0]], [-1, 2, 1], [1, 1, 1], r"parent must satisfy .*cycles.*parent\[1\] = 2"),
+    ([[0, 0, 0], [0, 1, 0], [0, 2, 0]], [1, 0, 1], [1, 1, 1], r"parent\[0\] must be -1"),
+    ([[0, 0, 0], [0, 1, 0], [0, 2, 0]], [-1, 0, 1], [1, 0, 1], r"radius must be > 0 .* at node 1"),
+    ([[0, 0, 0], [0, 1, 0], [0, 1, 0]], [-1, 0, 1], [1, 1, 1], r"pos: internode ending at node 2 has zero"),
+    ([[0, 0, 0], [0, 1, 0], [0, 2, 0]], [-1, 0], [1, 1, 1], r"parent must have shape"),
+    ([[0, 0, 0], [0, np.nan, 0]], [-1, 0], [1, 1], r"pos must contain only finite"),
+])
+def test_graph_from_arrays_rejects_bad_input(pos, par, rad, match):
+    with pytest.raises(ValueError, match=match):
+        graph_from_arrays(pos, par, rad)
+
+
+def test_branch_graph_validate_rejects_gap_and_cycle():
+    g = BranchGraph(np.array([[0, 0, 0], [0, 2, 0.]]), np.array([[0, 1, 0], [0, 3, 0.]]), np.ones(2), np.ones(2),
+                    np.array([-1, 0]))
+    with pytest.raises(ValueError, match="branch 1 starts 1 away"):
+        g.validate()
+    g = BranchGraph(np.array([[0, 0, 0], [0, 1, 0.]]), np.array([[0, 1, 0], [0, 3, 0.]]), np.ones(2), np.ones(2),
+                    np.array([1, -1]))
+    with pytest.raises(ValueError, match="no cycles"):
+        g.validate()
