@@ -219,6 +219,8 @@ class Segmentation:
         edit = merge_stamps([p[0] for p in parts], [p[1] for p in parts], self.labels)
         if edit is not None:
             self.history.push(edit)
+        elif parts:
+            self.history.redo_stack.clear()       # it wrote labels (and wrote them back): redo is stale
         return edit
 
     def abort_stroke(self) -> None:

@@ -19,6 +19,8 @@ __all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "vertex_labels_from_v
 COMPONENTS = ("background", "stem", "receptacle", "centrifugal", "centripetal", "floret_vein",
               "disk_floret", "ray_floret", "bract", "noise")
 _CONTRAST = np.array([0, 220, 150, 230, 225, 215, 160, 150, 140, 190], np.float32)
+#: Suggested iso-value: half the dimmest contrast, off the integer grid so no voxel equals it.
+_LEVEL = float(0.5 * _CONTRAST[1:].min()) - 0.5
 _GOLDEN = np.deg2rad(137.50776405003785)
 
 
@@ -42,7 +44,7 @@ class FlowerHead:
 
 
 @numba.njit(cache=True, nogil=True)
-def _stamp_capsules(vol, lab, seg, width):  # pragma: no cover - numba kernel, twin below
+def _stamp_capsules(vol, lab, seg, width, thr):  # pragma: no cover - numba kernel, twin below
     nx, ny, nz = vol.shape
     for s in range(seg.shape[0]):
         ax, ay, az, bx, by, bz, r0, r1, label, contrast = seg[s]
@@ -69,12 +71,12 @@ def _stamp_capsules(vol, lab, seg, width):  # pragma: no cover - numba kernel, t
                     v = contrast * ramp
                     if v > vol[i, j, k]:
                         vol[i, j, k] = v
-                        if ramp >= 0.5:
+                        if v >= thr:
                             lab[i, j, k] = np.uint8(label)
 
 
 @numba.njit(cache=True, nogil=True)
-def _stamp_ellipsoids(vol, lab, ell, width):  # pragma: no cover - numba kernel
+def _stamp_ellipsoids(vol, lab, ell, width, thr):  # pragma: no cover - numba kernel
     nx, ny, nz = vol.shape
     for s in range(ell.shape[0]):
         cx, cy, cz, a, b, c, label, contrast, tilt, phi = ell[s]
@@ -102,7 +104,7 @@ def _stamp_ellipsoids(vol, lab, ell, width):  # pragma: no cover - numba kernel
                     v = contrast * ramp
                     if v > vol[i, j, k]:
                         vol[i, j, k] = v
-                        if ramp >= 0.5:
+                        if v >= thr:
                             lab[i, j, k] = np.uint8(label)
 
 
@@ -212,19 +214,21 @@ def synth_flowerhead(shape: int | tuple[int, int, int] = 64, *, n_veins: int = 8
     width = 1.5
     vol = np.zeros(shape, np.float32)
     lab = np.zeros(shape, np.uint8)
-    _stamp_ellipsoids(vol, lab, np.asarray(ells, np.float64), width)
-    _stamp_capsules(vol, lab, np.asarray(caps, np.float64), width)
+    _stamp_ellipsoids(vol, lab, np.asarray(ells, np.float64), width, _LEVEL)
+    _stamp_capsules(vol, lab, np.asarray(caps, np.float64), width, _LEVEL)
     if noise_level > 0:
         # add noise slab by slab to keep the temporary float small
         for i in range(0, shape[0], 32):
             sl = vol[i:i + 32]
             sl += rng.normal(0.0, noise_level, sl.shape).astype(np.float32)
     out = np.clip(np.rint(vol), 0, 255).astype(np.uint8)
-    return FlowerHead(volume=out, labels=lab, level=float(0.5 * _CONTRAST[1:].min()))
+    return FlowerHead(volume=out, labels=lab, level=_LEVEL)
 
 
 def vertex_labels_from_volume(vertices: np.ndarray, volume: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """Ground-truth label of each isosurface vertex: the label of the brightest corner of its voxel cell.
+    """Ground-truth label of each isosurface vertex: the label of the brightest labelled corner of its cell.
+
+    Vertices whose eight cell corners are all unlabelled get 0.
 
     Parameters
     ----------
@@ -247,9 +251,10 @@ def vertex_labels_from_volume(vertices: np.ndarray, volume: np.ndarray, labels: 
     for corner in np.ndindex(2, 2, 2):
         c = np.clip(base + np.array(corner), 0, hi)
         val = volume[c[:, 0], c[:, 1], c[:, 2]].astype(np.int64)
-        take = val > best
+        lab = labels[c[:, 0], c[:, 1], c[:, 2]]
+        take = (val > best) & (lab > 0)
         best[take] = val[take]
-        out[take] = labels[c[take, 0], c[take, 1], c[take, 2]]
+        out[take] = lab[take]
     return out
 
 

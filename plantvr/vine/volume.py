@@ -78,16 +78,18 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
             except (ValueError, OSError) as exc:
                 raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
         elif suffix == ".npz":
+            import zipfile
             try:
                 with np.load(p, allow_pickle=False) as z:
-                    names = list(z.files)
-                    if key is None:
-                        key = "volume" if "volume" in names else (names[0] if len(names) == 1 else None)
-                    if key is None or key not in names:
-                        raise ValueError(f"key must name one of the arrays {names} in {str(p)!r}, got {key!r}")
-                    vol = z[key]
-            except (OSError, EOFError) as exc:
+                    arrays = {n: z[n] for n in z.files}
+            except (OSError, EOFError, ValueError, zipfile.BadZipFile) as exc:
                 raise ValueError(f"could not read {str(p)!r} as .npz: {exc}") from None
+            names = list(arrays)
+            if key is None:
+                key = "volume" if "volume" in names else (names[0] if len(names) == 1 else None)
+            if key is None or key not in names:
+                raise ValueError(f"key must name one of the arrays {names} in {str(p)!r}, got {key!r}")
+            vol = arrays[key]
         else:
             raise ValueError(f"path must end in .tif, .tiff, .npy or .npz (or be a folder), got {str(p)!r}")
     return _check_volume("volume", vol)
