@@ -1,0 +1,311 @@
+"""Brush painting and pruning in the pyvista view, all through model commands (spec 000_treewand §4.3, §4.4;
+checklist items 23, 24; TW-V17b, TW-V22).
+
+:class:`BrushInteractor` turns pointer input into ``model.paint`` / ``model.prune_preview`` /
+``model.prune`` calls. The pointer is a picked point on the branches or, in free space, a point on the
+mouse ray at a chosen depth. The same class serves three input sources:
+
+* VTK mouse events (:meth:`BrushInteractor.attach`): move = hover, left press/drag = paint or prune,
+  wheel = radius gesture, ``p`` toggles prune mode, ``m`` shows/hides markers;
+* direct calls with world points (tests, scripted strokes);
+* a desktop controller emulator (:meth:`BrushInteractor.handle`) fed with the headset's input events
+  (pose + analogue trigger + thumb angle), whose log replays identically.
+
+The interactor owns no model state: the radius is ``model.brush_radius`` and the mode ``model.prune_mode``.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pyvista as pv
+import vtk
+
+from .._validation import check_point, check_range
+from ..params import PARAM_BY_NAME
+from . import PRUNE, View
+
+__all__ = ["BrushInteractor", "PREVIEW_TRIGGER", "FULL_TRIGGER"]
+
+#: Analogue trigger thresholds: above the first the brush shows (and prune previews), above the second it acts.
+PREVIEW_TRIGGER, FULL_TRIGGER = 0.1, 0.99
+
+
+class BrushInteractor:
+    """Paint markers and prune branches in a :class:`plantvr.view.View` by pointing.
+
+    Parameters
+    ----------
+    view : plantvr.view.View
+        The view to draw the brush and prune preview in; its model receives every command.
+    depth : float, optional
+        Distance from the camera of the free-space brush when nothing is picked (default: distance to the
+        focal point).
+    spacing : float
+        Minimum distance between paint stamps of one drag, in brush radii.
+    """
+
+    def __init__(self, view: View, *, depth: float | None = None, spacing: float = 0.5):
+        self.view = view
+        self.model = view.model
+        self.depth = None if depth is None else check_range("depth", depth, 0.0, 1e6, low_open=True)
+        self.spacing = check_range("spacing", spacing, 0.0, 100.0)
+        self.center: np.ndarray | None = None
+        self.preview = np.zeros(0, np.int64)
+        self.log: list[dict[str, Any]] = []
+        self._pressed = False
+        self._last_stamp: np.ndarray | None = None
+        self._preview_mesh = pv.PolyData()
+        self._preview_actor = None
+        self._observers: list[int] = []
+        self._saved_style = None
+        self._picker = vtk.vtkCellPicker()
+        self._picker.SetTolerance(0.002)
+        self.model.observe(self._on_mode, names=["prune_mode"])
+
+    # -- pointer -> world ---------------------------------------------------------------------------
+    def world_point(self, x: float, y: float) -> np.ndarray:
+        """World point under display pixel (x, y): the picked branch surface, else the ray at :attr:`depth`.
+
+        Parameters
+        ----------
+        x, y : float
+            Display coordinates (VTK convention: origin bottom-left), pixels.
+
+        Returns
+        -------
+        (3,) float64 ndarray
+        """
+        ren = self.view.plotter.renderer
+        actor = self.view.plotter.actors.get("branches")
+        if actor is not None and actor.GetVisibility():
+            self._picker.InitializePickList()
+            self._picker.AddPickList(actor)
+            self._picker.PickFromListOn()
+            if self._picker.Pick(float(x), float(y), 0.0, ren):
+                return np.array(self._picker.GetPickPosition(), float)
+        near, far = (self._display_to_world(ren, x, y, z) for z in (0.0, 1.0))
+        cam = np.array(ren.GetActiveCamera().GetPosition(), float)
+        d = far - near
+        d /= np.linalg.norm(d)
+        depth = self.depth
+        if depth is None:
+            depth = ren.GetActiveCamera().GetDistance()
+        return cam + depth * d if ren.GetActiveCamera().GetParallelProjection() == 0 else near + depth * d
+
+    @staticmethod
+    def _display_to_world(ren, x, y, z) -> np.ndarray:
+        ren.SetDisplayPoint(float(x), float(y), float(z))
+        ren.DisplayToWorld()
+        w = np.array(ren.GetWorldPoint(), float)
+        return w[:3] / w[3]
+
+    def world_to_display(self, point) -> np.ndarray:
+        """(x, y) display pixel of a world point (the inverse of :meth:`world_point` on the ray)."""
+        p = check_point("point", point)
+        ren = self.view.plotter.renderer
+        ren.SetWorldPoint(*p, 1.0)
+        ren.WorldToDisplay()
+        return np.array(ren.GetDisplayPoint()[:2], float)
+
+    # -- commands ------------------------------------------------------------------------------------
+    @property
+    def radius(self) -> float:
+        """The brush radius (``model.brush_radius``)."""
+        return float(self.model.brush_radius)
+
+    def hover(self, point) -> None:
+        """Move the brush to ``point``; in prune mode, colour the subtrees that would go red (partial trigger)."""
+        self.center = check_point("point", point)
+        self.view.set_brush(self.center, self.radius, visible=True)
+        if self.model.prune_mode:
+            self._show_preview(self.model.prune_preview(self.center, self.radius))
+
+    def press(self, point) -> int:
+        """Full trigger / left press at ``point``: paint (grow mode) or prune (prune mode); returns the count."""
+        self.hover(point)
+        self._pressed = True
+        if self.model.prune_mode:
+            n = self.model.prune(self.center, self.radius)
+            self._show_preview(self.model.prune_preview(self.center, self.radius))
+            return n
+        self._last_stamp = self.center
+        return self.model.paint(self.center, self.radius)
+
+    def drag(self, point) -> int:
+        """Pointer moved with the trigger held: paint a stamp every ``spacing`` radii (grow) or prune (prune)."""
+        if not self._pressed:
+            self.hover(point)
+            return 0
+        self.hover(point)
+        if self.model.prune_mode:
+            n = self.model.prune(self.center, self.radius)
+            if n:
+                self._show_preview(self.model.prune_preview(self.center, self.radius))
+            return n
+        if self._last_stamp is not None and np.linalg.norm(self.center - self._last_stamp) < self.spacing * self.radius:
+            return 0
+        self._last_stamp = self.center
+        return self.model.paint(self.center, self.radius)
+
+    def release(self) -> None:
+        """Trigger released: stop painting (the brush stays where it is)."""
+        self._pressed = False
+        self._last_stamp = None
+
+    def leave(self) -> None:
+        """Pointer left the view: hide brush and preview."""
+        self.release()
+        self.view.set_brush(self.view.brush_center, visible=False)
+        self._show_preview(np.zeros(0, np.int64))
+
+    def thumb(self, dphi: float) -> float:
+        """Radius gesture: ``R ← R · 2^(Δφ / 2π)``, Δφ clockwise positive, clamped to the parameter's range.
+
+        Returns the new radius (spec §4.3 [INFERRED] continuous form; TW-V22: one clockwise circle doubles).
+        """
+        dphi = check_range("dphi", dphi, -1e6, 1e6)
+        lo, hi = PARAM_BY_NAME["brush_radius"].range
+        r = float(np.clip(self.radius * 2.0 ** (dphi / (2 * math.pi)), lo, hi))
+        self.model.brush_radius = r
+        if self.center is not None:
+            self.hover(self.center)
+        return r
+
+    def wheel(self, clicks: int) -> float:
+        """Mouse-wheel radius gesture: 8 clicks forward double the radius, 8 back halve it."""
+        return self.thumb(clicks * 2 * math.pi / 8)
+
+    def toggle_prune(self) -> bool:
+        """Switch the brush between grow (green) and prune (red); returns the new prune mode."""
+        self.model.prune_mode = not self.model.prune_mode
+        return self.model.prune_mode
+
+    def set_markers_visible(self, visible: bool) -> None:
+        """Show or hide the marker cloud."""
+        actor = self.view.plotter.actors.get("markers")
+        if actor is not None:
+            actor.SetVisibility(bool(visible))
+            self.view.plotter.render()
+
+    def _on_mode(self, change) -> None:
+        if not change["new"]:
+            self._show_preview(np.zeros(0, np.int64))
+        elif self.center is not None:
+            self._show_preview(self.model.prune_preview(self.center, self.radius))
+
+    def _show_preview(self, idx: np.ndarray) -> None:
+        """Draw the internodes ending at snapshot nodes ``idx`` as red tubes slightly thicker than the bark."""
+        self.preview = np.asarray(idx, np.int64)
+        snap = self.model.snapshot
+        idx = self.preview[(self.preview < len(snap.parent))]
+        idx = idx[snap.parent[idx] >= 0] if len(idx) else idx
+        plotter = self.view.plotter
+        if len(idx) == 0:
+            if self._preview_actor is not None:
+                self._preview_actor.SetVisibility(False)
+                plotter.render()
+            return
+        k = len(idx)
+        pts = np.concatenate([snap.pos[snap.parent[idx]], snap.pos[idx]])
+        lines = np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel()
+        poly = pv.PolyData(pts, lines=lines)
+        poly["radius"] = np.tile(np.asarray(snap.radius[idx], float) * 1.15 + 1e-3, 2)
+        mesh = poly.tube(scalars="radius", absolute=True, n_sides=10, capping=True)
+        self._preview_mesh.copy_from(mesh)
+        if self._preview_actor is None:
+            self._preview_actor = plotter.add_mesh(self._preview_mesh, color=PRUNE, name="prune_preview",
+                                                   pickable=False)
+        self._preview_actor.SetVisibility(True)
+        plotter.render()
+
+    # -- controller emulator / event log ---------------------------------------------------------------
+    def handle(self, event: dict[str, Any]) -> None:
+        """Apply one headset-style input event and append it to :attr:`log`.
+
+        Events: ``{"type": "pose", "pos": [x, y, z], "trigger": t}`` (analogue trigger in [0, 1]: below
+        0.1 hidden, below 0.99 preview, else act), ``{"type": "thumb", "dphi": a}`` (radians, clockwise
+        positive), ``{"type": "toggle_prune"}``, ``{"type": "markers", "visible": b}``.
+        """
+        kind = event.get("type") if isinstance(event, dict) else None
+        if kind == "pose":
+            pos = check_point("pos", event["pos"])
+            t = check_range("trigger", event.get("trigger", 0.0), 0.0, 1.0)
+            if t < PREVIEW_TRIGGER:
+                self.leave()
+            elif t < FULL_TRIGGER:
+                self.release()
+                self.hover(pos)
+            elif self._pressed:
+                self.drag(pos)
+            else:
+                self.press(pos)
+            event = {"type": "pose", "pos": pos.tolist(), "trigger": t}
+        elif kind == "thumb":
+            self.thumb(event["dphi"])
+        elif kind == "toggle_prune":
+            self.toggle_prune()
+        elif kind == "markers":
+            self.set_markers_visible(event["visible"])
+        else:
+            raise ValueError(f"event type must be one of ['pose', 'thumb', 'toggle_prune', 'markers'], "
+                             f"got {kind!r}")
+        self.log.append(dict(event))
+
+    def replay(self, events) -> None:
+        """Apply a list of input events (e.g. another interactor's :attr:`log`) in order."""
+        for ev in list(events):
+            self.handle(ev)
+
+    # -- VTK mouse binding -----------------------------------------------------------------------------
+    def attach(self) -> None:
+        """Bind mouse input of the view's interactor: the camera stops rotating while the brush is attached.
+
+        Move = hover, left drag = paint/prune, wheel = radius, key ``p`` = prune mode,
+        key ``m`` = markers on/off. :meth:`detach` gives the mouse back to the camera.
+        """
+        iren = self.view.plotter.iren.interactor
+        if self._observers:
+            return
+        self._saved_style = iren.GetInteractorStyle()
+        iren.SetInteractorStyle(vtk.vtkInteractorStyleUser())
+
+        def pos():
+            x, y = iren.GetEventPosition()
+            return self.world_point(x, y)
+
+        def on_move(obj, ev):
+            self.drag(pos())
+
+        def on_wheel(obj, ev):
+            self.wheel(1 if ev == "MouseWheelForwardEvent" else -1)
+
+        def on_key(obj, ev):
+            key = iren.GetKeySym()
+            if key == "p":
+                self.toggle_prune()
+            elif key == "m":
+                actor = self.view.plotter.actors.get("markers")
+                self.set_markers_visible(actor is not None and not actor.GetVisibility())
+
+        for name, cb in (("MouseMoveEvent", on_move), ("LeftButtonPressEvent", lambda o, e: self.press(pos())),
+                         ("LeftButtonReleaseEvent", lambda o, e: self.release()),
+                         ("MouseWheelForwardEvent", on_wheel), ("MouseWheelBackwardEvent", on_wheel),
+                         ("KeyPressEvent", on_key), ("LeaveEvent", lambda o, e: self.leave())):
+            self._observers.append(iren.AddObserver(name, cb, 10.0))
+
+    def detach(self) -> None:
+        """Remove the mouse bindings and restore the camera interaction."""
+        iren = self.view.plotter.iren.interactor
+        for tag in self._observers:
+            iren.RemoveObserver(tag)
+        self._observers = []
+        if self._saved_style is not None:
+            iren.SetInteractorStyle(self._saved_style)
+            self._saved_style = None
+
+    def close(self) -> None:
+        """Detach and stop observing the model."""
+        self.detach()
+        self.model.unobserve(self._on_mode, names=["prune_mode"])
