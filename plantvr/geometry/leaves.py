@@ -127,7 +127,8 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
 
     Per iteration, in this order and reading the current frame each time: about û (target ĥ, "petiole bend
     right"), about r̂ (target û, "bend up"), about ĥ (target û, "twist"), each by
-    θ = e‖b̂×ŷ‖‖v̂×ŷ‖ toward +ŷ, then re-orthonormalise.
+    θ = e‖b̂×ŷ‖‖v̂×ŷ‖ toward +ŷ, then re-orthonormalise. θ is capped at the angle that brings b̂ closest to
+    ŷ about that axis [INFERRED]: Eq. 10.15 does not vanish there, and without the cap frames chatter.
 
     Parameters
     ----------
@@ -170,7 +171,11 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
             axis, target = frame[ax_name], frame[tg_name]
             bxy = np.cross(target, y)
             th = scale * e[ek] * np.linalg.norm(bxy, axis=1) * np.linalg.norm(np.cross(axis, y), axis=1)
-            th = th * np.sign(np.sum(axis * bxy, axis=1))
+            # no overshoot [INFERRED]: the angle about the axis that brings the target closest to y bounds θ,
+            # otherwise θ (which does not vanish there) makes the frame chatter around that optimum
+            b_perp = target - np.sum(target * axis, 1, keepdims=True) * axis
+            best = np.arctan2(np.sum(axis * bxy, axis=1), b_perp @ y)
+            th = np.sign(best) * np.minimum(th, np.abs(best))
             h, r, u = _rotate((h, r, u), axis, th)
             h, r, u = _orthonormalize(h, u)
     return h, r, u
