@@ -42,7 +42,8 @@ def default_roots(node_or_points, *, up: int = 1) -> np.ndarray:
 
 
 def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, influence_radius: float = np.inf,
-                  max_steps: int = 500, children_limit: int | None = None, up: int = 1):
+                  max_steps: int = 500, children_limit: int | None = None, stall_steps: int | None = 20,
+                  up: int = 1):
     """Grow a tree toward the crown's attraction points with the project's space colonization.
 
     Parameters
@@ -61,6 +62,8 @@ def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, 
         Iteration cap.
     children_limit : int, optional
         Passed through to the colonization kernel.
+    stall_steps : int, optional
+        Stop after this many steps without a kill (spec §1.4 stall guard; 20 by default, None: off).
     up : int
         Vertical axis for the default root.
 
@@ -88,8 +91,15 @@ def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, 
         from plantvr.growth.colonize import space_colonization
     except ImportError as exc:  # pragma: no cover - depends on the growth package landing
         raise ValueError("space colonization needs plantvr.growth.colonize, which is not installed yet") from exc
+    if not np.isfinite(influence_radius):
+        # the kernel takes a finite d_i: twice the diagonal of markers and roots reaches every marker from any node
+        allp = np.vstack([markers, roots])
+        influence_radius = 2.0 * float(np.linalg.norm(allp.max(axis=0) - allp.min(axis=0))) + 2.0 * step_size
+    if kill_radius >= influence_radius:
+        raise ValueError(f"kill_radius must be smaller than influence_radius ({influence_radius}), got {kill_radius}")
     return space_colonization(markers, roots, influence_radius=influence_radius, kill_radius=kill_radius,
-                              step_size=step_size, max_steps=max_steps, children_limit=children_limit)
+                              step_size=step_size, max_steps=max_steps, children_limit=children_limit,
+                              stall_steps=stall_steps)
 
 
 def pipe_radii(parent, *, r0: float = 0.01, exponent: float = 2.5) -> np.ndarray:

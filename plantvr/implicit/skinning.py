@@ -123,7 +123,11 @@ class SkinPath:
             raise ValueError("points must be distinct consecutive path points (a zero-length step was found)")
         u = chord / chord[-1]
         self.spline = make_interp_spline(u, pts, k=min(3, len(pts) - 1))
-        self.d1, self.d2 = self.spline.derivative(1), self.spline.derivative(2)
+        self.d1 = self.spline.derivative(1)
+        if self.spline.k >= 2:
+            self.d2 = self.spline.derivative(2)
+        else:
+            self.d2 = lambda u: np.zeros((len(np.atleast_1d(u)), 3))
         self.u = np.linspace(0.0, 1.0, samples + 1)
         self.x = self.spline(self.u)
         speed = np.linalg.norm(self.d1(self.u), axis=1)
