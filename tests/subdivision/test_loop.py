@@ -184,3 +184,21 @@ def test_bad_subdivision_input():
         tree_mesh("F", levels=7)
     with pytest.raises(ValueError, match="tree must be an L-system str"):
         tree_mesh(42)
+
+
+@pytest.mark.parametrize("weight_rule", ["loop_cos", "as_printed_sin"])
+def test_v15_affine_invariance_rows_sum_to_one(weight_rule):
+    V0, F0 = _capped_tree(30, seed=4)
+    t = np.array([3.0, -7.0, 11.0])
+    A, _ = subdivide_loop(V0, F0, 2, weight_rule=weight_rule)
+    B, _ = subdivide_loop(V0 + t, F0, 2, weight_rule=weight_rule)
+    np.testing.assert_allclose(B - t, A, atol=1e-12)
+    if weight_rule == "as_printed_sin":
+        C, _ = subdivide_loop(V0, F0, 2)
+        assert np.abs(C - A).max() > 1e-3                          # the erratum matters
+
+
+def test_report_offset_mode_still_builds_manifold_mesh():
+    cm = build_control_mesh(star_graph(4), offset_mode="report")
+    inv = mesh_invariants(cm.vertices, cm.faces)
+    assert inv["max_edge_faces"] == 2 and inv["duplicate_directed"] == 0 and inv["euler"] == 2 - 4
