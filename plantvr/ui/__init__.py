@@ -1,0 +1,23 @@
+"""Notebook widgets and panels over the shared model (spec 000_treewand §4.3–§4.9, §4.11; 000_vine §2.4.1, §2.6).
+
+Every widget observes and commands a :class:`plantvr.Model` (or a segmentation); none keeps its own copy
+of the state. Front-end sources are in the top-level ``widgets/`` folder (``plantvr/_widgets`` in the wheel).
+"""
+from .growth import GrowthControl, GrowthPlot
+from .panels import IconSelector, ParameterPanels, make_control, param_traits
+from .presets import load_preset, read_preset, save_preset
+from .triangle import (InfluenceTriangle, barycentric, clamp_to_triangle, point_from_weights,
+                       sub_triangle_areas)
+from .wheel import ColorWheel, slice_at
+
+__all__ = ["ColorWheel", "GrowthControl", "GrowthPlot", "IconSelector", "InfluenceTriangle", "ParameterPanels",
+           "barycentric", "clamp_to_triangle", "load_preset", "make_control", "param_traits",
+           "point_from_weights", "read_preset", "save_preset", "slice_at", "sub_triangle_areas", "explorer"]
+
+
+def explorer(model, *, view=None):
+    """One layout with the parameter windows, the growth control and (optionally) a view widget."""
+    import ipywidgets as W  # noqa: PLC0415
+    panels, control = ParameterPanels(model), GrowthControl(model)
+    right = [control] + ([view] if view is not None else [])
+    return W.HBox([panels, W.VBox(right)])

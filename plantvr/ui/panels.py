@@ -1,0 +1,255 @@
+"""Parameter windows generated from the model's trait metadata (spec 000_treewand §4.6–§4.8, §4.11).
+
+Each trait of :class:`plantvr.Model` tagged with ``param`` becomes one control in the window named by
+``param.window``: a slider for numbers (range and step from the table, doc as tooltip), an icon
+selector with a yellow highlight for texture choices, a dropdown for other choices, a checkbox for
+flags. Nothing here restates a parameter: adding a row to :mod:`plantvr.params` adds its control.
+The influence weights of the Tree form window are edited by the :class:`InfluenceTriangle`.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import ipywidgets as W
+import traitlets
+
+from ..params import WINDOWS, Param
+from .icons import icon_png
+from .presets import load_preset, save_preset
+from .triangle import InfluenceTriangle
+
+__all__ = ["param_traits", "make_control", "IconSelector", "ParameterPanels", "HIGHLIGHT"]
+
+#: Yellow highlight of the selected icon (§4.8).
+HIGHLIGHT = "#f5d142"
+#: Parameters edited by the influence triangle (the names model.set_influence writes).
+INFLUENCE = ("w_heading", "w_tropism", "w_env")
+_TEXT_LIMIT = 2000  # integer ranges wider than this get a typed box instead of a slider
+
+
+def param_traits(model, window: str | None = None) -> list[Param]:
+    """The :class:`~plantvr.params.Param` of every trait of ``model`` tagged ``param``, in table order.
+
+    Parameters
+    ----------
+    model : HasTraits
+        Usually a :class:`plantvr.Model`.
+    window : str, optional
+        Keep only parameters of this window.
+    """
+    out = []
+    for name in model.trait_names():  # traits are collected by name; the table order is restored below
+        p = model.trait_metadata(name, "param")
+        if p is not None and (window is None or p.window == window):
+            out.append(p)
+    from ..params import PARAMS  # noqa: PLC0415  (order only)
+    rank = {p.name: i for i, p in enumerate(PARAMS)}
+    return sorted(out, key=lambda p: rank.get(p.name, len(rank)))
+
+
+def _label(p: Param) -> str:
+    text = p.name.replace("_", " ").capitalize()
+    return f"{text} ({p.symbol})" if p.symbol else text
+
+
+def _tooltip(p: Param) -> str:
+    unit = f" [{p.unit}]" if p.unit else ""
+    if p.choices:
+        allowed = f"one of {list(p.choices)}"
+    elif p.range is not None:
+        allowed = f"{'(' if p.low_open else '['}{p.range[0]}, {p.range[1]}{')' if p.high_open else ']'}"
+    else:
+        allowed = ""
+    return f"{p.doc}{unit} Allowed: {allowed}; default {p.default!r}. Ref: {p.ref}"
+
+
+def _float_step(p: Param) -> float:
+    if p.step:
+        return float(p.step)
+    lo, hi = p.range
+    step = (hi - lo) / 200
+    if p.default:
+        step = min(step, 10 ** math.floor(math.log10(abs(p.default))) / 10)
+    return float(f"{step:.1g}")
+
+
+class IconSelector(W.HBox):
+    """A row of image buttons; the selected one has a yellow highlight (spec 000_treewand §4.8).
+
+    Parameters
+    ----------
+    options : sequence of str
+        Choice names (icons from :func:`plantvr.ui.icons.icon_png`).
+    value : str
+        Initial choice.
+    """
+
+    value = traitlets.Unicode()
+
+    def __init__(self, options, value: str, description: str = "", tooltip: str = ""):
+        self.options = tuple(options)
+        self.buttons: dict[str, W.Button] = {}
+        self.images: dict[str, W.Image] = {}
+        items = []
+        for name in self.options:
+            img = W.Image(value=icon_png(name), format="png", width=48, height=48,
+                          layout=W.Layout(border="3px solid transparent"))
+            btn = W.Button(description=name, tooltip=f"{tooltip} ({name})", layout=W.Layout(width="64px"))
+            btn.on_click(lambda _b, n=name: setattr(self, "value", n))
+            self.buttons[name], self.images[name] = btn, img
+            items.append(W.VBox([img, btn], layout=W.Layout(align_items="center")))
+        label = W.Label(description, tooltip=tooltip, layout=W.Layout(width="150px"))
+        super().__init__([label, *items])
+        self.observe(self._highlight, names=["value"])
+        self.value = value
+        self._highlight(None)
+
+    @traitlets.validate("value")
+    def _check(self, proposal):
+        if proposal["value"] not in self.options:
+            raise traitlets.TraitError(f"value must be one of {list(self.options)}, got {proposal['value']!r}")
+        return proposal["value"]
+
+    def _highlight(self, change) -> None:
+        for name in self.options:
+            on = name == self.value
+            self.images[name].layout.border = f"3px solid {HIGHLIGHT if on else 'transparent'}"
+            self.buttons[name].style.button_color = HIGHLIGHT if on else None
+            self.buttons[name].style.font_weight = "bold" if on else ""
+
+
+def make_control(p: Param, value: Any) -> W.Widget:
+    """One widget for parameter ``p`` showing ``value``: bounds, step and tooltip come from ``p``."""
+    tip, desc = _tooltip(p), _label(p)
+    style = {"description_width": "150px"}
+    if p.choices:
+        if p.name.endswith("_texture"):
+            return IconSelector(p.choices, value, description=desc, tooltip=tip)
+        return W.Dropdown(options=list(p.choices), value=value, description=desc, tooltip=tip, style=style)
+    if p.kind is bool:
+        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style)
+    lo, hi = p.range
+    if p.kind is int:
+        if hi - lo > _TEXT_LIMIT:
+            return W.IntText(value=int(value), description=desc, tooltip=tip, style=style)
+        return W.IntSlider(value=int(value), min=int(lo), max=int(hi), step=1, description=desc, tooltip=tip,
+                           style=style, continuous_update=False)
+    step = _float_step(p)
+    low = lo + step if p.low_open else lo
+    high = hi - step if p.high_open else hi
+    low, high = min(low, value), max(high, value)  # a valid value set from code is always shown as it is
+    return W.FloatSlider(value=float(value), min=low, max=high, step=step, description=desc, tooltip=tip,
+                         style=style, continuous_update=False, readout_format=".3g",
+                         layout=W.Layout(width="420px"))
+
+
+class ParameterPanels(W.VBox):
+    """The Tree form / Appearance / Light windows (and optionally Settings) bound to one model.
+
+    Parameters
+    ----------
+    model : plantvr.Model
+    include_hidden : bool
+        Also build the Settings window of parameters that appear in no thesis window.
+    triangle : InfluenceTriangle, optional
+        Influence triangle to show in the Tree form window (one is made if omitted).
+
+    Attributes
+    ----------
+    controls : dict[str, ipywidgets.Widget]
+        One control per parameter name.
+    windows : dict[str, ipywidgets.VBox]
+        One titled, coloured box per window key.
+    message : ipywidgets.HTML
+        The last rejected value or preset error, in red.
+    """
+
+    def __init__(self, model, *, include_hidden: bool = False, triangle: InfluenceTriangle | None = None):
+        self.model = model
+        self.controls: dict[str, W.Widget] = {}
+        self.windows: dict[str, W.VBox] = {}
+        self._busy: set[str] = set()
+        self.message = W.HTML("")
+        self.triangle = triangle if triangle is not None else InfluenceTriangle(model)
+        keys = [k for k in WINDOWS if k != "hidden" or include_hidden]
+        for key in keys:
+            title, colour = WINDOWS[key]
+            rows: list[W.Widget] = [W.HTML(f"<div style='background:{colour};color:white;padding:3px 8px;"
+                                           f"font-weight:bold'>{title}</div>")]
+            for p in param_traits(model, key):
+                if p.name in INFLUENCE:
+                    continue
+                ctl = make_control(p, getattr(model, p.name))
+                ctl.observe(lambda ch, n=p.name: self._push(n, ch["new"]), names=["value"])
+                self.controls[p.name] = ctl
+                rows.append(ctl)
+            if key == "form" and any(p.name in INFLUENCE for p in param_traits(model, key)):
+                rows.insert(1, W.VBox([W.Label("Influence triangle (H, T, E)"), self.triangle]))
+            self.windows[key] = W.VBox(rows, layout=W.Layout(border=f"2px solid {colour}", padding="0 0 4px 0"))
+        model.observe(self._pull, names=list(self.controls))
+        tabs = W.Tab(children=[self.windows[k] for k in keys])
+        for i, k in enumerate(keys):
+            tabs.set_title(i, WINDOWS[k][0])
+        self.tabs = tabs
+        self.preset_path = W.Text(value="preset.json", description="Preset", layout=W.Layout(width="320px"))
+        save, load = W.Button(description="Save preset", icon="save"), W.Button(description="Load preset",
+                                                                                  icon="folder-open")
+        save.on_click(lambda _b: self._click(self.save))
+        load.on_click(lambda _b: self._click(self.load))
+        super().__init__([tabs, W.HBox([self.preset_path, save, load]), self.message])
+
+    # -- synchronisation --------------------------------------------------------------------------------
+    def _push(self, name: str, value) -> None:
+        if name in self._busy:
+            return
+        try:
+            self.model.set_params(**{name: value})
+            self.message.value = ""
+        except ValueError as exc:
+            self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
+            self._pull({"name": name})  # show the model's (unchanged) value again
+
+    def _pull(self, change) -> None:
+        name = change["name"]
+        ctl, value = self.controls[name], getattr(self.model, name)
+        self._busy.add(name)
+        try:
+            if isinstance(ctl, W.FloatSlider):
+                ctl.min, ctl.max = min(ctl.min, value), max(ctl.max, value)
+            ctl.value = value
+        finally:
+            self._busy.discard(name)
+
+    def _click(self, action) -> None:
+        try:
+            action(self.preset_path.value)
+        except ValueError:
+            pass  # already shown in self.message; a button has no caller to raise to
+
+    # -- presets ----------------------------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path | None:
+        """Save all parameters as a JSON preset; errors are shown in :attr:`message` and re-raised."""
+        try:
+            out = save_preset(self.model, path)
+        except ValueError as exc:
+            self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
+            raise
+        self.message.value = f"saved {out!s}"
+        return out
+
+    def load(self, path: str | Path) -> None:
+        """Load a JSON preset into the model (nothing changes if any value is bad)."""
+        try:
+            load_preset(self.model, path)
+        except ValueError as exc:
+            self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
+            raise
+        self.message.value = f"loaded {Path(path)!s}"
+
+    def close(self) -> None:
+        """Stop observing the model and close every control."""
+        self.model.unobserve(self._pull, names=list(self.controls))
+        self.triangle.close()
+        super().close()
