@@ -412,3 +412,130 @@ def treewand_assign_numpy(markers, bud_pos, bud_dir, bud_len, view_radius, cos_h
         best[better] = key[better]
         owner[better] = j
     return owner, best
+
+
+# ---- incremental Tree Wand update ------------------------------------------------------------------------------
+@numba.njit(cache=True, nogil=True)
+def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, cell_live, owner, best, view_radius,
+                            affected, n_aff):
+    """Unassign the markers owned by buds ``ids`` (scanned around their previous positions ``old_pos``).
+
+    Released sorted slots are appended to ``affected``; returns the new count.
+    """
+    vr2 = view_radius * view_radius
+    for b in range(ids.shape[0]):
+        bid = ids[b]
+        px = old_pos[b, 0]
+        py = old_pos[b, 1]
+        pz = old_pos[b, 2]
+        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
+        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
+        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
+        for ci in range(ilo, ihi + 1):
+            for cj in range(jlo, jhi + 1):
+                for ck in range(klo, khi + 1):
+                    c = (ci * dims[1] + cj) * dims[2] + ck
+                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2:
+                        continue
+                    for s in range(cell_start[c], cell_start[c] + cell_live[c]):
+                        if owner[s] == bid:
+                            owner[s] = -1
+                            best[s] = np.inf
+                            affected[n_aff] = s
+                            n_aff += 1
+    return n_aff
+
+
+@numba.njit(cache=True, nogil=True)
+def treewand_reassign_kernel(slots, pos_s, owner, best, bud_pos, bud_dir, bud_len, bud_order, bud_cell_start,
+                             origin, h, dims, reach, view_radius, cos_half):
+    """Give each marker slot in ``slots`` its best bud among all buds (bud grid: ``bud_order`` by cell)."""
+    vr2 = view_radius * view_radius
+    for t in range(slots.shape[0]):
+        s = slots[t]
+        mx = pos_s[s, 0]
+        my = pos_s[s, 1]
+        mz = pos_s[s, 2]
+        ilo, ihi = _cell_range(mx, origin, h, dims, reach, 0)
+        jlo, jhi = _cell_range(my, origin, h, dims, reach, 1)
+        klo, khi = _cell_range(mz, origin, h, dims, reach, 2)
+        for ci in range(ilo, ihi + 1):
+            for cj in range(jlo, jhi + 1):
+                for ck in range(klo, khi + 1):
+                    c = (ci * dims[1] + cj) * dims[2] + ck
+                    for u in range(bud_cell_start[c], bud_cell_start[c + 1]):
+                        b = bud_order[u]
+                        vx = mx - bud_pos[b, 0]
+                        vy = my - bud_pos[b, 1]
+                        vz = mz - bud_pos[b, 2]
+                        d2 = vx * vx + vy * vy + vz * vz
+                        if d2 > vr2 * 1.0000001 or d2 == 0.0:
+                            continue
+                        d = math.sqrt(d2)
+                        if d > view_radius:
+                            continue
+                        if vx * bud_dir[b, 0] + vy * bud_dir[b, 1] + vz * bud_dir[b, 2] < d * cos_half:
+                            continue
+                        key = d / bud_len[b]
+                        o = owner[s]
+                        if key < best[s] or (key == best[s] and o >= 0 and b < o):
+                            best[s] = key
+                            owner[s] = b
+
+
+@numba.njit(cache=True, nogil=True)
+def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live, pos_s, orig, owner, best):
+    """Swap-remove live markers with squared distance < ``r2`` to any of ``points``; returns the count."""
+    killed = 0
+    for j in range(points.shape[0]):
+        px = points[j, 0]
+        py = points[j, 1]
+        pz = points[j, 2]
+        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
+        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
+        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
+        for ci in range(ilo, ihi + 1):
+            for cj in range(jlo, jhi + 1):
+                for ck in range(klo, khi + 1):
+                    c = (ci * dims[1] + cj) * dims[2] + ck
+                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) >= r2:
+                        continue
+                    start = cell_start[c]
+                    end = start + cell_live[c]
+                    s = start
+                    while s < end:
+                        dx = pos_s[s, 0] - px
+                        dy = pos_s[s, 1] - py
+                        dz = pos_s[s, 2] - pz
+                        if dx * dx + dy * dy + dz * dz < r2:
+                            end -= 1
+                            for a in range(3):
+                                t = pos_s[s, a]
+                                pos_s[s, a] = pos_s[end, a]
+                                pos_s[end, a] = t
+                            t2 = orig[s]
+                            orig[s] = orig[end]
+                            orig[end] = t2
+                            t3 = owner[s]
+                            owner[s] = owner[end]
+                            owner[end] = t3
+                            t4 = best[s]
+                            best[s] = best[end]
+                            best[end] = t4
+                            killed += 1
+                            continue
+                        s += 1
+                    cell_live[c] = end - start
+    return killed
+
+
+@numba.njit(cache=True, nogil=True)
+def live_slots_kernel(cell_start, cell_live, total):
+    """Sorted slots of the live markers."""
+    out = np.empty(total, np.int64)
+    t = 0
+    for c in range(cell_live.shape[0]):
+        for s in range(cell_start[c], cell_start[c] + cell_live[c]):
+            out[t] = s
+            t += 1
+    return out

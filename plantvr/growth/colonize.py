@@ -493,6 +493,9 @@ class TreeWandAssigner:
         self.pos_s = np.ascontiguousarray(markers[order])
         self.orig = order.astype(np.int32)
         self.m = len(markers)
+        self._owner_s = np.full(self.m, -1, np.int32)
+        self._best_s = np.full(self.m, np.inf)
+        self._prev_pos = None
 
     def assign(self, bud_pos, bud_dir, bud_len) -> np.ndarray:
         """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int64 by input row (-1: none/dead)."""
@@ -507,20 +510,74 @@ class TreeWandAssigner:
         return owner
 
     def kill_within(self, points, radius: float) -> int:
-        """Remove live markers closer than ``radius`` to any of ``points`` (occupation zones); returns the count."""
+        """Remove live markers closer than ``radius`` to any of ``points`` (occupation zones); returns the count.
+
+        Cost ~ points × markers within ``radius`` of them; the incremental state of :meth:`update` follows.
+        """
         points = check_points("points", points)
         r = check_range("radius", radius, 0.0, self.view_radius, low_open=True)
         if len(points) == 0:
             return 0
-        n = len(points)
-        dummy_acc = np.zeros((n, 3), np.int64)
-        owner = np.full(self.m, -1, np.int32)
-        best = np.full(self.m, np.inf)
-        killed, _ = K.add_nodes_kernel(points, 0, n, self.origin, self.h, self.dims, self.reach, self.cell_start,
-                                       self.cell_live, np.full(len(self.cell_live), np.inf), self.pos_s,
-                                       self.orig, owner, best, dummy_acc,
-                                       np.zeros(n, np.uint8), np.zeros(n, np.int64), 0, r * r, r * r)
-        return int(killed)
+        return int(K.kill_within_kernel(points, r * r, self.origin, self.h, self.dims, self.reach, self.cell_start,
+                                        self.cell_live, self.pos_s, self.orig, self._owner_s, self._best_s))
+
+    def update(self, bud_pos, bud_dir, bud_len, changed=None, *, alive=None) -> np.ndarray:
+        """Incremental Eq. 9.4 assignment: cost grows with the buds changed, not with the markers alive.
+
+        Parameters
+        ----------
+        bud_pos, bud_dir, bud_len : (B, 3), (B, 3), (B,) float64 array_like
+            State of every bud, indexed by a stable bud id (ids only grow; B may grow between calls).
+        changed : (C,) int array_like or None
+            Ids whose position, heading, length or liveness differ from the previous call, plus new ids.
+            None (and the first call) recomputes everything.
+        alive : (B,) bool array_like or None
+            Buds taking part (the active buds); default all.  Dead buds still need a positive length.
+
+        Returns
+        -------
+        owner : (M,) int64 ndarray
+            Bud id per input marker row (smallest d/l, ties to the lowest id), -1 if none or dead.
+        """
+        bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
+        nb = len(bud_pos)
+        alive = np.ones(nb, bool) if alive is None else check_array("alive", alive, shape=(nb,), dtype=bool)
+        ids_all = np.flatnonzero(alive).astype(np.int64)
+        if changed is None or self._prev_pos is None:
+            self._owner_s.fill(-1)
+            self._best_s.fill(np.inf)
+            K.treewand_assign_kernel(bud_pos[ids_all], bud_dir[ids_all], bud_len[ids_all], ids_all, self.origin,
+                                     self.h, self.dims, self.reach, self.cell_start, self.cell_live, self.pos_s,
+                                     self._owner_s, self._best_s, self.view_radius, self.cos_half)
+        else:
+            changed = np.unique(check_array("changed", changed, shape=(None,), dtype=np.int64))
+            if changed.size and (changed[0] < 0 or changed[-1] >= nb):
+                raise ValueError(f"changed must hold bud ids in [0, {nb - 1}]")
+            old = changed[changed < len(self._prev_pos)]
+            affected = np.empty(self.m, np.int64)
+            n_aff = K.treewand_release_kernel(self._prev_pos[old], old, self.origin, self.h, self.dims, self.reach,
+                                              self.cell_start, self.cell_live, self._owner_s, self._best_s,
+                                              self.view_radius, affected, 0)
+            new = changed[alive[changed]]
+            K.treewand_assign_kernel(bud_pos[new], bud_dir[new], bud_len[new], new, self.origin, self.h, self.dims,
+                                     self.reach, self.cell_start, self.cell_live, self.pos_s, self._owner_s,
+                                     self._best_s, self.view_radius, self.cos_half)
+            if n_aff:
+                ijk = np.floor((bud_pos[ids_all] - self.origin) / self.h)
+                ijk = np.clip(ijk, 0, self.dims - 1).astype(np.int64)
+                cell = (ijk[:, 0] * self.dims[1] + ijk[:, 1]) * self.dims[2] + ijk[:, 2]
+                order = np.argsort(cell, kind="stable")
+                start = np.zeros(len(self.cell_live) + 1, np.int64)
+                np.cumsum(np.bincount(cell, minlength=len(self.cell_live)), out=start[1:])
+                K.treewand_reassign_kernel(affected[:n_aff], self.pos_s, self._owner_s, self._best_s, bud_pos,
+                                           bud_dir, bud_len, ids_all[order], start, self.origin, self.h, self.dims,
+                                           self.reach, self.view_radius, self.cos_half)
+        self._prev_pos = bud_pos.copy()
+        owner = np.full(self.m, -1, np.int64)
+        n_live = self.cell_live.sum()
+        live_slots = K.live_slots_kernel(self.cell_start, self.cell_live, int(n_live))
+        owner[self.orig[live_slots]] = self._owner_s[live_slots]
+        return owner
 
     @property
     def live_index(self) -> np.ndarray:

@@ -314,3 +314,45 @@ def test_treewand_assigner_kill_within_and_reuse():
     ref = assign_treewand_reference(markers[~near], pos, dirs, lens, view_radius=1.0, view_angle=math.pi)
     np.testing.assert_array_equal(owner[~near], ref)
     assert np.all(owner[near] == -1)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_tw_v5_incremental_update_equals_brute_force(seed):
+    rng = np.random.default_rng(seed)
+    lattice = seed % 2 == 1
+    m = int(rng.integers(1, 1500))
+    markers = rng.integers(-4, 5, size=(m, 3)).astype(float) if lattice else rng.uniform(-4, 4, size=(m, 3))
+    vr, ang = float(rng.uniform(0.5, 3)), float(rng.choice([math.pi / 2, math.pi, 2 * math.pi]))
+    ta = TreeWandAssigner(markers, view_radius=vr, view_angle=ang)
+
+    def buds(k):
+        if lattice:
+            d = rng.integers(-1, 2, size=(k, 3)).astype(float)
+            d[np.all(d == 0, axis=1)] = [0, 0, 1]
+            return rng.integers(-5, 6, size=(k, 3)).astype(float), d, rng.choice([0.5, 1.0, 2.0], size=k)
+        return rng.uniform(-5, 5, size=(k, 3)), rng.normal(size=(k, 3)) + 1e-3, rng.uniform(0.1, 2, size=k)
+
+    pos, dirs, lens = buds(int(rng.integers(1, 40)))
+    alive = rng.random(len(pos)) < 0.8
+    ta.update(pos, dirs, lens, None, alive=alive)
+    killed = np.zeros(m, bool)
+    for _ in range(6):
+        ch = rng.choice(len(pos), size=int(rng.integers(0, len(pos) + 1)), replace=False)
+        p2, d2, l2 = buds(len(ch))
+        sel = rng.random(len(ch)) < 0.5
+        pos[ch[sel]], dirs[ch[sel]], lens[ch[sel]] = p2[sel], d2[sel], l2[sel]
+        alive[ch[~sel]] = ~alive[ch[~sel]]
+        k = int(rng.integers(0, 5))
+        pa, da, la = buds(k)
+        new = np.arange(len(pos), len(pos) + k)
+        pos, dirs = np.vstack([pos, pa]), np.vstack([dirs, da])
+        lens, alive = np.concatenate([lens, la]), np.concatenate([alive, rng.random(k) < 0.8])
+        pts = rng.uniform(-4, 4, size=(3, 3))
+        ta.kill_within(pts, min(0.5, vr))
+        killed |= cKDTree(pts).query(markers)[0] < min(0.5, vr)
+        owner = ta.update(pos, dirs, lens, np.concatenate([ch, new]), alive=alive)
+        ids = np.flatnonzero(alive)
+        ref = assign_treewand_reference(markers, pos[ids], dirs[ids], lens[ids], view_radius=vr, view_angle=ang)
+        ref = np.where(ref >= 0, ids[np.maximum(ref, 0)], -1)
+        ref[killed] = -1
+        np.testing.assert_array_equal(owner, ref)
