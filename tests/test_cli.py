@@ -1,0 +1,22 @@
+"""``plantvr demo`` writes a mesh, a picture and a tree file from the built-in strokes."""
+import trimesh
+
+from plantvr.cli import main
+
+
+def test_demo_writes_mesh_png_and_tree(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path), "--steps", "25", "--seed", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "internodes" in out and "ms/step" in out
+    mesh = trimesh.load(tmp_path / "tree.ply", process=False)
+    assert len(mesh.faces) > 100
+    assert (tmp_path / "tree.glb").stat().st_size > 1000
+    assert (tmp_path / "tree.png").read_bytes()[:4] == b"\x89PNG"
+    assert (tmp_path / "tree.tree").read_text().startswith("# plantvr-tree")
+
+
+def test_demo_rejects_bad_steps(capsys):
+    import pytest
+    with pytest.raises(SystemExit):
+        main(["demo", "--steps", "0"])
+    assert "--steps must be >= 1" in capsys.readouterr().err

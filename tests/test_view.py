@@ -1,0 +1,40 @@
+"""The pyvista view: offscreen pictures of the model, in-place updates, brush colours."""
+import numpy as np
+import pytest
+
+pv = pytest.importorskip("pyvista")
+
+import plantvr  # noqa: E402
+from plantvr.growth.scenarios import demo_session, run  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def view():
+    m = plantvr.Model(seed=0)
+    run(m, demo_session(), 30)
+    v = plantvr.View(m, off_screen=True, window_size=(320, 320))
+    yield v
+    v.close()
+
+
+def test_screenshot_shows_bark_coloured_tree(view, tmp_path):
+    img = view.screenshot(tmp_path / "t.png")
+    assert (tmp_path / "t.png").stat().st_size > 1000
+    rgb = img[..., :3].astype(int)
+    bark = np.abs(rgb - [139, 90, 43]).sum(-1) < 90
+    assert bark.sum() > 200  # the trunk and branches are drawn
+
+
+def test_view_updates_in_place_on_model_change(view):
+    mesh = view._branches
+    n0 = mesh.n_points
+    run(view.model, demo_session(), 5)
+    assert view._drawn == view.model.snapshot.version
+    assert view._branches is mesh and mesh.n_points >= n0
+
+
+def test_brush_turns_red_in_prune_mode(view):
+    view.set_brush([0, 6, 0], 2.0)
+    view.model.prune_mode = True
+    assert np.allclose(view._brush_actor.GetProperty().GetColor(), pv.Color("#e03030").float_rgb)
+    view.model.prune_mode = False
