@@ -24,10 +24,17 @@ children_limit=None, stall_steps=None) -> ColonizationResult``
     Eq. 9.4: each marker to the perceiving bud with the smallest d/l; ties to the lowest bud index;
     -1 if none.  ``assign_treewand_reference`` is the brute-force O(b·m) oracle.
 ``TreeWandAssigner(markers, *, view_radius, view_angle)``
-    Keeps a marker grid across steps for the Tree Wand engine: ``assign(bud_pos, bud_dir, bud_len)``
-    (grid reused, cost ~ buds × markers in their view sphere, no per-step sort), ``kill_within(points,
-    radius)`` (occupation zones: swap-removes markers, cost ~ points × markers near them), ``alive``
-    (input-row mask) and ``live_index`` (input rows alive).  ``owner`` is indexed by input row.
+    Keeps a marker grid across steps for the Tree Wand engine:
+    ``update(bud_pos, bud_dir, bud_len, changed, *, alive=None) -> owner (M,) int64`` — incremental
+    Eq. 9.4: buds are indexed by a stable id (arrays may grow), ``changed`` lists the ids added, moved,
+    re-headed, re-lengthed or (de)activated since the last call (None: recompute all); markers owned by
+    changed buds are released and re-offered to the buds near them (a per-call grid over buds), and the
+    changed buds are offered to the markers in their view spheres, so the cost grows with the buds
+    changed.  Equal to the brute-force reference at every call (tested).
+    ``assign(bud_pos, bud_dir, bud_len)`` — stateless full assignment over the same grid.
+    ``kill_within(points, radius)`` — occupation zones: swap-removes markers (state of ``update``
+    follows), cost ~ points × markers near them.  ``alive`` (input-row mask), ``live_index``.
+    New markers (painting) need a new assigner (the grid is built once).
 
 How the speed is obtained
 -------------------------
