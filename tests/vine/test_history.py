@@ -95,3 +95,15 @@ def test_undo_all_and_redo_all_hypothesis(surface, ops):
     while seg.redo() is not None:
         pass
     assert np.array_equal(seg.labels, final)
+
+
+def test_radix_sort_kernel_equals_numpy_twin():
+    from plantvr.vine.history import _first_of_runs, _radix_sort_pairs, _sort_pairs_numpy
+    rng = np.random.default_rng(7)
+    for n_bits in (5, 17, 31):
+        idx = rng.integers(0, 2 ** n_bits, 5000).astype(np.int64)
+        old = rng.integers(0, 256, 5000).astype(np.uint8)
+        a_i, a_o = _radix_sort_pairs(idx, old, n_bits)
+        k = _first_of_runs(a_i, a_o)
+        b_i, b_o = _sort_pairs_numpy(idx, old)
+        assert np.array_equal(a_i[:k], b_i) and np.array_equal(a_o[:k], b_o)
