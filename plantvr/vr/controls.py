@@ -1,0 +1,600 @@
+"""Headset control map: controller states in, model commands out (spec 000_treewand §4.1–4.6, 000_vine §2.0–2.1, §2.4.1).
+
+Device-independent: :class:`Controls` consumes one :class:`InputFrame` per rendered frame (HMD pose and a
+:class:`ControllerState` per hand, from OpenVR, a desktop emulator or a recording) and returns the
+:class:`Command` list to issue on the shared model. View manipulation (one-grip translation with
+momentum, two-grip handle bar) edits the :class:`SceneTransform` that places the model in the room, and
+never touches the model. Nothing here imports openvr or VTK, so a recorded session replays without a
+headset (:func:`replay`).
+"""
+from __future__ import annotations
+
+import json
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._validation import check_array, check_int, check_range
+from ..params import PARAM_BY_NAME
+from .math3d import quat_conj, quat_from_axis_angle, quat_from_matrix, quat_mul, quat_to_matrix
+
+__all__ = [
+    "ControllerState", "InputFrame", "Command", "SceneTransform", "BrushGesture", "OneGripTranslate",
+    "handlebar_step", "smoothed_velocity", "MENU_ITEMS", "WINDOW_COLORS", "menu_item_at", "place_window",
+    "ray_hits_window", "Controls", "apply_command", "save_recording", "load_recording", "replay",
+]
+
+TRIGGER_PREVIEW = 0.1   # [INFERRED] 000_vine §2.4.1: show the brush from ~0.1
+TRIGGER_FULL = 0.99     # [INFERRED] paint / prune on the trigger click (>= ~0.99)
+MOMENTUM_N = 5          # Eq. 5.2
+MOMENTUM_A = 0.98       # Eq. 5.3, per 90-fps frame
+MOMENTUM_EPS = 1e-4     # m/s: momentum stops below this [INFERRED]
+PAD_DEAD_ZONE = 0.25    # thumb closer to the pad centre gives no reliable angle [INFERRED]
+TIP_OFFSET = 0.05       # m from the controller origin along its -z (pointing) axis to the brush centre
+WINDOW_DISTANCE = 1.0   # m, §4.6
+WINDOW_SIZE = (0.6, 0.4)  # m (width, height) of a parameter window [INFERRED]
+RADIUS_RANGE = PARAM_BY_NAME["brush_radius"].range
+
+#: The 7 menu functions, counter-clockwise from the green icon (§4.5).
+MENU_ITEMS = ("appearance", "tree_form", "light", "prune_mode", "save", "load", "new_tree")
+#: Window colour == its menu button colour (§4.5 [INFERRED] mapping in figure order).
+WINDOW_COLORS = {"appearance": "#2ecc40", "tree_form": "#e03030", "light": "#3060e0"}
+
+
+@dataclass(frozen=True)
+class ControllerState:
+    """One hand's input for one frame (000_vine §2.0 "Python input abstraction").
+
+    Parameters
+    ----------
+    pose : (4, 4) float64 ndarray
+        Controller-to-room transform (OpenVR standing space, metres, +y up, -z forward).
+    valid : bool
+        Tracking is valid this frame.
+    trigger : float
+        Analogue trigger in [0, 1]; >= 0.99 is the click (full press).
+    grip, menu : bool
+        Buttons held.
+    pad : (float, float)
+        Thumb position on the trackpad, [-1, 1]², y up.
+    pad_touched, pad_pressed : bool
+        Thumb on the pad; pad clicked.
+    """
+
+    pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+    valid: bool = True
+    trigger: float = 0.0
+    grip: bool = False
+    menu: bool = False
+    pad: tuple[float, float] = (0.0, 0.0)
+    pad_touched: bool = False
+    pad_pressed: bool = False
+
+    @property
+    def position(self) -> np.ndarray:
+        """(3,) controller origin in the room."""
+        return np.asarray(self.pose, float)[:3, 3]
+
+    @property
+    def orientation(self) -> np.ndarray:
+        """(w, x, y, z) unit quaternion of the controller."""
+        return quat_from_matrix(np.asarray(self.pose, float)[:3, :3])
+
+    @property
+    def heading(self) -> np.ndarray:
+        """(3,) unit pointing direction (the controller's -z axis)."""
+        return -np.asarray(self.pose, float)[:3, 2]
+
+    @property
+    def tip(self) -> np.ndarray:
+        """(3,) brush centre: :data:`TIP_OFFSET` ahead of the controller origin."""
+        return self.position + TIP_OFFSET * self.heading
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form (for recordings)."""
+        return {"pose": np.asarray(self.pose, float).tolist(), "valid": bool(self.valid),
+                "trigger": float(self.trigger), "grip": bool(self.grip), "menu": bool(self.menu),
+                "pad": [float(self.pad[0]), float(self.pad[1])], "pad_touched": bool(self.pad_touched),
+                "pad_pressed": bool(self.pad_pressed)}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "ControllerState":
+        """Inverse of :meth:`to_dict`."""
+        return cls(pose=check_array("pose", d["pose"], shape=(4, 4)), valid=bool(d["valid"]),
+                   trigger=float(d["trigger"]), grip=bool(d["grip"]), menu=bool(d["menu"]),
+                   pad=(float(d["pad"][0]), float(d["pad"][1])), pad_touched=bool(d["pad_touched"]),
+                   pad_pressed=bool(d["pad_pressed"]))
+
+
+@dataclass(frozen=True)
+class InputFrame:
+    """Everything the control map reads in one frame: time, HMD pose and both hands."""
+
+    t: float
+    hmd: np.ndarray = field(default_factory=lambda: np.eye(4))
+    left: ControllerState = field(default_factory=ControllerState)
+    right: ControllerState = field(default_factory=ControllerState)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able form."""
+        return {"t": float(self.t), "hmd": np.asarray(self.hmd, float).tolist(),
+                "left": self.left.to_dict(), "right": self.right.to_dict()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "InputFrame":
+        """Inverse of :meth:`to_dict`."""
+        return cls(float(d["t"]), check_array("hmd", d["hmd"], shape=(4, 4)),
+                   ControllerState.from_dict(d["left"]), ControllerState.from_dict(d["right"]))
+
+
+@dataclass(frozen=True)
+class Command:
+    """A model command the control map asks for: ``name`` is a key of :func:`apply_command`."""
+
+    name: str
+    kwargs: dict[str, Any] = field(default_factory=dict)
+
+
+# -- view manipulation ---------------------------------------------------------------------------------
+class SceneTransform:
+    """Similarity placing the model in the room: ``x_room = s R x_model + t`` (000_vine §2.1).
+
+    Parameters
+    ----------
+    scale : float
+        Model units to metres.
+    translation : (3,) array_like
+        Room position of the model origin, metres.
+    """
+
+    def __init__(self, scale: float = 0.25, translation=(0.0, 0.0, -1.0)):
+        self.scale = check_range("scale", scale, 0.0, 1e6, low_open=True)
+        self.rotation = np.eye(3)
+        self.translation = check_array("translation", translation, shape=(3,)).astype(float)
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """(4, 4) model-to-room matrix."""
+        out = np.eye(4)
+        out[:3, :3] = self.scale * self.rotation
+        out[:3, 3] = self.translation
+        return out
+
+    def to_model(self, p: np.ndarray) -> np.ndarray:
+        """Room point to model space, :math:`C_m = R^{-1}(C - P)/s` (000_vine §2.4.3)."""
+        return self.rotation.T @ (np.asarray(p, float) - self.translation) / self.scale
+
+    def translate(self, d: np.ndarray) -> None:
+        """Move the model by ``d`` metres."""
+        self.translation = self.translation + np.asarray(d, float)
+
+    def handlebar(self, k: float, q: np.ndarray, m0: np.ndarray, m1: np.ndarray) -> None:
+        """Apply ``x' = M1 + k Q (x - M0)`` to the whole placement (000_vine §2.1.5)."""
+        rq = quat_to_matrix(q)
+        self.scale = float(np.clip(self.scale * k, 1e-4, 1e4))
+        self.rotation = rq @ self.rotation
+        u, _, vt = np.linalg.svd(self.rotation)  # keep R orthonormal over many frames
+        self.rotation = u @ vt
+        self.translation = m1 + k * rq @ (self.translation - m0)
+
+
+def smoothed_velocity(positions, times, n: int = MOMENTUM_N) -> np.ndarray:
+    r"""Release velocity :math:`\bar v_i = (X_i - X_{i-N}) / (t_i - t_{i-N})` (Eq. 5.2, N = 5).
+
+    Parameters
+    ----------
+    positions : (K, 3) array_like
+        Recent controller positions, oldest first, metres.
+    times : (K,) array_like
+        Their times, seconds.
+    n : int
+        Smoothing window N; fewer samples use what there is.
+
+    Returns
+    -------
+    (3,) float64 ndarray
+        Velocity, m/s (zero with fewer than two samples).
+
+    References
+    ----------
+    .. [1] ViNE thesis §5.1.2, Eq. 5.2 (spec 000_vine §2.1.2); with a constant Δt this is
+       :math:`(X_i - X_{i-N})/(N\Delta t)`.
+    """
+    x = np.asarray(positions, float)
+    t = np.asarray(times, float)
+    if len(x) < 2:
+        return np.zeros(3)
+    j = max(len(x) - 1 - n, 0)
+    dt = t[-1] - t[j]
+    return (x[-1] - x[j]) / dt if dt > 0 else np.zeros(3)
+
+
+class OneGripTranslate:
+    """One-grip translation with smoothed momentum (000_vine §2.1.2, Eqs. 5.1–5.3)."""
+
+    def __init__(self, n: int = MOMENTUM_N, a: float = MOMENTUM_A):
+        self.n, self.a = n, a
+        self.history: deque = deque(maxlen=n + 1)
+        self.velocity = np.zeros(3)
+
+    def grab(self, position: np.ndarray, t: float) -> None:
+        """Start (or restart) a grab: cancels momentum, clears the history."""
+        self.history.clear()
+        self.history.append((np.asarray(position, float).copy(), float(t)))
+        self.velocity = np.zeros(3)
+
+    def move(self, position: np.ndarray, t: float) -> np.ndarray:
+        """Controller moved while gripped: returns ΔP = X_i − X_{i−1} to add to the model position."""
+        p = np.asarray(position, float).copy()
+        d = p - self.history[-1][0] if self.history else np.zeros(3)
+        self.history.append((p, float(t)))
+        return d
+
+    def release(self) -> np.ndarray:
+        """Grip released: momentum starts with the smoothed velocity (Eq. 5.2); returns it."""
+        if self.history:
+            xs, ts = zip(*self.history)
+            self.velocity = smoothed_velocity(xs, ts, self.n)
+        self.history.clear()
+        return self.velocity
+
+    def coast(self, dt: float) -> np.ndarray:
+        """One free frame: move by v Δt, then decay v ← a^(90 Δt) v (Eq. 5.3, 90-fps-equivalent)."""
+        if not np.any(self.velocity):
+            return np.zeros(3)
+        d = self.velocity * dt
+        self.velocity = self.velocity * self.a ** (dt * 90.0)
+        if np.linalg.norm(self.velocity) < MOMENTUM_EPS:
+            self.velocity = np.zeros(3)
+        return d
+
+
+def handlebar_step(l0, r0, ql0, qr0, l1, r1, ql1, qr1) -> tuple[float, np.ndarray, np.ndarray, np.ndarray]:
+    r"""One two-grip handle-bar frame: scale ratio, rotation and the two bar midpoints.
+
+    Parameters
+    ----------
+    l0, r0, l1, r1 : (3,) array_like
+        Left and right controller positions at frames i−1 and i.
+    ql0, qr0, ql1, qr1 : (4,) array_like
+        Their (w, x, y, z) orientations.
+
+    Returns
+    -------
+    k : float
+        :math:`\|LR_i\| / \|LR_{i-1}\|` (scale change).
+    q : (4,) ndarray
+        :math:`Q = \Delta q'_{pitch} \otimes q_{yr}`.
+    m0, m1 : (3,) ndarray
+        Bar midpoints at i−1 and i; the model point update is :math:`x' = M_1 + k Q (x - M_0)`.
+
+    References
+    ----------
+    .. [1] ViNE thesis §5.1.3, Eqs. 5.4–5.7, spec 000_vine §2.1.3–2.1.5. ERRATUM (000_vine App. A.2):
+       the yaw/roll axis is :math:`LR_{i-1} \times LR_i` so the model turns with the hands; ERRATUM A.3:
+       the averaged rotation is the pitch; the half-angles :math:`w\theta` of both hands are averaged.
+    """
+    l0, r0, l1, r1 = (np.asarray(v, float) for v in (l0, r0, l1, r1))
+    lr0, lr1 = r0 - l0, r1 - l1
+    n0, n1 = np.linalg.norm(lr0), np.linalg.norm(lr1)
+    m0, m1 = 0.5 * (l0 + r0), 0.5 * (l1 + r1)
+    if n0 < 1e-9 or n1 < 1e-9:
+        return 1.0, np.array([1.0, 0, 0, 0]), m0, m1
+    # ERRATUM 000_vine A.2: axis LR_{i-1} x LR_i (Eq. 5.4 printed the reverse)
+    axis = np.cross(lr0, lr1)
+    theta = math.acos(float(np.clip(lr0 @ lr1 / (n0 * n1), -1.0, 1.0)))   # Eq. 5.5
+    q_yr = quat_from_axis_angle(axis, theta) if np.linalg.norm(axis) > 1e-12 else np.array([1.0, 0, 0, 0])
+    bar = lr1 / n1
+    half = []
+    for q0, q1 in ((ql0, ql1), (qr0, qr1)):
+        dq = quat_mul(np.asarray(q1, float), quat_conj(np.asarray(q0, float)))   # Eq. 5.6
+        if dq[0] < 0:
+            dq = -dq   # shortest arc
+        r = dq[1:]
+        nr = np.linalg.norm(r)
+        if nr < 1e-12:
+            half.append(0.0)
+            continue
+        w = float(r @ bar) / nr                                                      # Eq. 5.7
+        half.append(w * math.acos(float(np.clip(dq[0], -1.0, 1.0))))
+    phi = 0.5 * (half[0] + half[1])   # ERRATUM A.3: average pitch of both hands
+    q_pitch = np.array([math.cos(phi), *(math.sin(phi) * bar)])
+    return n1 / n0, quat_mul(q_pitch, q_yr), m0, m1
+
+
+# -- brush radius gesture -------------------------------------------------------------------------------
+class BrushGesture:
+    r"""Thumb circles on the trackpad scale the brush: :math:`R \leftarrow R\,2^{-\Delta\phi/2\pi}`.
+
+    φ is the thumb angle, counter-clockwise positive (pad y up), so one clockwise circle doubles R and one
+    counter-clockwise circle halves it; R is clamped to the ``brush_radius`` parameter range.
+
+    References
+    ----------
+    .. [1] Tree Wand thesis §11.1 / ViNE §5.4.1; continuous form [INFERRED] spec 000_vine §2.4.1 (the
+       000_treewand §4.3 form writes Δφ clockwise-positive: the same rule).
+    """
+
+    def __init__(self) -> None:
+        self._last: float | None = None
+
+    def update(self, pad: tuple[float, float], touched: bool, radius: float) -> float:
+        """Return the new radius for this frame's thumb position."""
+        x, y = float(pad[0]), float(pad[1])
+        if not touched or math.hypot(x, y) < PAD_DEAD_ZONE:
+            self._last = None
+            return radius
+        phi = math.atan2(y, x)
+        if self._last is None:
+            self._last = phi
+            return radius
+        d = (phi - self._last + math.pi) % (2 * math.pi) - math.pi
+        self._last = phi
+        return float(np.clip(radius * 2.0 ** (-d / (2 * math.pi)), *RADIUS_RANGE))
+
+
+# -- menu and windows -----------------------------------------------------------------------------------
+def menu_item_at(pad: tuple[float, float]) -> int | None:
+    """Menu wedge (0-based index into :data:`MENU_ITEMS`) under the thumb, ``None`` in the dead zone.
+
+    Item 1 (green, Appearance) is centred at the top of the pad; the others follow counter-clockwise
+    (§4.5), each wedge 360/7 degrees wide.
+    """
+    x, y = float(pad[0]), float(pad[1])
+    if math.hypot(x, y) < PAD_DEAD_ZONE:
+        return None
+    k = len(MENU_ITEMS)
+    a = (math.atan2(y, x) - math.pi / 2) % (2 * math.pi)
+    return int(math.floor(a / (2 * math.pi / k) + 0.5)) % k
+
+
+def place_window(controller_pose: np.ndarray, distance: float = WINDOW_DISTANCE) -> np.ndarray:
+    """Pose of a window opened from a controller (§4.6).
+
+    The window centre is ``distance`` metres ahead along the controller heading; its normal faces the
+    controller as much as possible while its up vector stays +y.
+
+    Returns
+    -------
+    (4, 4) float64 ndarray
+        Window-to-room transform: columns x (right), y (up), z (normal, towards the controller), centre.
+    """
+    pose = check_array("controller_pose", controller_pose, shape=(4, 4))
+    heading = -pose[:3, 2]
+    centre = pose[:3, 3] + distance * heading
+    normal = pose[:3, 3] - centre
+    normal[1] = 0.0   # keep up = +y: turn only about the vertical
+    if np.linalg.norm(normal) < 1e-9:
+        normal = np.array([0.0, 0.0, 1.0])
+    normal /= np.linalg.norm(normal)
+    up = np.array([0.0, 1.0, 0.0])
+    right = np.cross(up, normal)
+    out = np.eye(4)
+    out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = right, up, normal, centre
+    return out
+
+
+def ray_hits_window(origin, direction, window_pose, size=WINDOW_SIZE) -> tuple[float, float] | None:
+    """Where the pointing ray meets a window, as (u, v) in [0, 1]² from its lower-left corner, or ``None``."""
+    o, d = np.asarray(origin, float), np.asarray(direction, float)
+    c, right, up, normal = window_pose[:3, 3], window_pose[:3, 0], window_pose[:3, 1], window_pose[:3, 2]
+    den = d @ normal
+    if abs(den) < 1e-9:
+        return None
+    t = ((c - o) @ normal) / den
+    if t <= 0:
+        return None
+    p = o + t * d - c
+    u, v = p @ right / size[0] + 0.5, p @ up / size[1] + 0.5
+    return (float(u), float(v)) if 0 <= u <= 1 and 0 <= v <= 1 else None
+
+
+# -- the control map -------------------------------------------------------------------------------------
+class Controls:
+    """Tree Wand control map (§4.1): turns :class:`InputFrame` s into model :class:`Command` s.
+
+    Right hand: brush on the wand (trigger: partial = preview, full = paint or prune), thumb circles
+    scale the brush. Left trackpad: the 7-item menu (hover highlights, click activates). Grips move the
+    model (one = translate with momentum, two = handle bar). A controller pointing at an open window
+    neither paints nor moves the view (§4.1).
+
+    Parameters
+    ----------
+    brush_radius : float
+        Initial brush radius, model units (mirrors ``model.brush_radius``).
+    prune_mode : bool
+        Initial mode (mirrors ``model.prune_mode``).
+    scene : SceneTransform, optional
+        Placement of the model in the room.
+    save_path : str
+        File of menu items 5 and 6 (``default.tree``, §4.5).
+    """
+
+    def __init__(self, *, brush_radius: float = 1.0, prune_mode: bool = False,
+                 scene: SceneTransform | None = None, save_path: str = "default.tree"):
+        self.brush_radius = check_range("brush_radius", brush_radius, *RADIUS_RANGE)
+        self.prune_mode = bool(prune_mode)
+        self.scene = scene or SceneTransform()
+        self.save_path = str(save_path)
+        self.gesture = BrushGesture()
+        self.translate = OneGripTranslate()
+        self.windows: dict[str, np.ndarray] = {}     # open windows: name -> pose
+        self.menu_hover: int | None = None
+        self.pointing: tuple[str, tuple[float, float]] | None = None
+        self.brush_visible = False
+        self.brush_center_room = np.zeros(3)
+        self._prev: InputFrame | None = None
+        self._grip_mode = 0            # 0, 1 (which hand in _grip_hand) or 2
+        self._grip_hand = "right"
+        self._last_prune: np.ndarray | None = None
+
+    @property
+    def brush_center(self) -> np.ndarray:
+        """(3,) brush centre in model space."""
+        return self.scene.to_model(self.brush_center_room)
+
+    def update(self, frame: InputFrame) -> list[Command]:
+        """Advance one frame; return the commands to issue on the model, in order."""
+        prev = self._prev or frame
+        dt = max(frame.t - prev.t, 0.0)
+        cmds: list[Command] = []
+        self._menu(frame.left, prev.left, cmds)
+        self._pointing(frame.right)
+        self._view(frame, prev, dt)
+        self._brush(frame.right, cmds)
+        self._prev = frame
+        return cmds
+
+    # - menu (left pad)
+    def _menu(self, cur: ControllerState, old: ControllerState, cmds: list[Command]) -> None:
+        self.menu_hover = menu_item_at(cur.pad) if cur.pad_touched else None
+        if cur.pad_pressed and not old.pad_pressed and self.menu_hover is not None:
+            self.activate(self.menu_hover, cmds)
+
+    def activate(self, index: int, cmds: list[Command] | None = None, pose: np.ndarray | None = None) -> list[Command]:
+        """Run menu item ``index`` (0-based, :data:`MENU_ITEMS`); returns (and appends) its commands."""
+        index = check_int("index", index, 0, len(MENU_ITEMS) - 1)
+        cmds = [] if cmds is None else cmds
+        name = MENU_ITEMS[index]
+        if name in WINDOW_COLORS:
+            if name in self.windows:
+                del self.windows[name]
+            else:
+                src = pose if pose is not None else (self._prev.right.pose if self._prev else np.eye(4))
+                self.windows[name] = place_window(np.asarray(src, float))
+        elif name == "prune_mode":
+            self.prune_mode = not self.prune_mode
+            cmds.append(Command("prune_mode", {"on": self.prune_mode}))
+        elif name == "save":
+            cmds.append(Command("save", {"path": self.save_path}))
+        elif name == "load":
+            cmds.append(Command("load", {"path": self.save_path}))
+        else:
+            cmds.append(Command("reset"))
+        return cmds
+
+    # - windows: pointing ray of the right hand
+    def _pointing(self, right: ControllerState) -> None:
+        self.pointing = None
+        if not right.valid:
+            return
+        for name, pose in self.windows.items():
+            uv = ray_hits_window(right.position, right.heading, pose)
+            if uv is not None:
+                self.pointing = (name, uv)
+                if right.grip:   # hold grip while pointing: re-place the window 1 m ahead (§4.1)
+                    self.windows[name] = place_window(right.pose)
+                return
+
+    # - grips: translate / handle bar / momentum
+    def _view(self, f: InputFrame, p: InputFrame, dt: float) -> None:
+        lg = f.left.grip and f.left.valid
+        rg = f.right.grip and f.right.valid and self.pointing is None
+        mode = 2 if (lg and rg) else 1 if (lg or rg) else 0
+        hand = "left" if lg and not rg else "right"
+        if mode == 2:
+            if self._grip_mode == 2:
+                k, q, m0, m1 = handlebar_step(p.left.position, p.right.position, p.left.orientation,
+                                              p.right.orientation, f.left.position, f.right.position,
+                                              f.left.orientation, f.right.orientation)
+                self.scene.handlebar(k, q, m0, m1)
+            self.translate.velocity = np.zeros(3)   # no rotational/bar momentum
+        elif mode == 1:
+            c = getattr(f, hand)
+            if self._grip_mode != 1 or self._grip_hand != hand:
+                self.translate.grab(c.position, f.t)   # new grab (or 2 -> 1): no jump, momentum cancelled
+            else:
+                self.scene.translate(self.translate.move(c.position, f.t))
+        else:
+            if self._grip_mode == 1:
+                self.translate.release()
+            elif self._grip_mode == 2:
+                self.translate.velocity = np.zeros(3)
+            self.scene.translate(self.translate.coast(dt))
+        self._grip_mode, self._grip_hand = mode, hand
+
+    # - brush (right hand)
+    def _brush(self, right: ControllerState, cmds: list[Command]) -> None:
+        new_r = self.gesture.update(right.pad, right.pad_touched and right.valid, self.brush_radius)
+        if new_r != self.brush_radius:
+            self.brush_radius = new_r
+            cmds.append(Command("brush_radius", {"radius": new_r}))
+        self.brush_center_room = right.tip
+        self.brush_visible = right.valid and right.trigger >= TRIGGER_PREVIEW and self.pointing is None
+        if not self.brush_visible:
+            self._last_prune = None
+            return
+        c = self.brush_center
+        if right.trigger >= TRIGGER_FULL:
+            if not self.prune_mode:
+                cmds.append(Command("paint", {"center": c, "radius": self.brush_radius}))
+            elif self._last_prune is None or np.linalg.norm(c - self._last_prune) > 0.25 * self.brush_radius:
+                cmds.append(Command("prune", {"center": c, "radius": self.brush_radius}))
+                self._last_prune = c
+        else:
+            self._last_prune = None
+            if self.prune_mode:
+                cmds.append(Command("prune_preview", {"center": c, "radius": self.brush_radius}))
+
+
+def apply_command(model, cmd: Command) -> Any:
+    """Issue ``cmd`` through the same model method the notebook uses (commands are logged there).
+
+    ``paint`` → :meth:`Model.paint`, ``paint_stroke`` → :meth:`Model.paint_stroke`, ``prune`` →
+    :meth:`Model.prune`, ``prune_preview`` → :meth:`Model.prune_preview` (its result returned),
+    ``brush_radius`` → ``set_params(brush_radius=...)``, ``prune_mode`` → the ``prune_mode`` trait,
+    ``save``/``load`` → :meth:`Model.save`/:meth:`Model.restore`, ``reset`` → :meth:`Model.reset`.
+    """
+    k = cmd.kwargs
+    if cmd.name == "paint":
+        return model.paint(k["center"], k["radius"])
+    if cmd.name == "paint_stroke":
+        return model.paint_stroke(k["points"], k["radius"])
+    if cmd.name == "prune":
+        return model.prune(k["center"], k["radius"])
+    if cmd.name == "prune_preview":
+        return model.prune_preview(k["center"], k["radius"])
+    if cmd.name == "brush_radius":
+        return model.set_params(brush_radius=k["radius"])
+    if cmd.name == "prune_mode":
+        model.prune_mode = bool(k["on"])   # a trait, not a logged command (hook requested: set_prune_mode)
+        return None
+    if cmd.name == "save":
+        return model.save(k["path"])
+    if cmd.name == "load":
+        return model.restore(k["path"])
+    if cmd.name == "reset":
+        return model.reset()
+    raise ValueError(f"command must be one of paint, paint_stroke, prune, prune_preview, brush_radius, "
+                     f"prune_mode, save, load, reset; got {cmd.name!r}")
+
+
+def save_recording(frames: list[InputFrame], path: str | Path) -> Path:
+    """Write headset input frames as JSON lines (replay them with :func:`replay`)."""
+    path = Path(path)
+    path.write_text("".join(json.dumps(f.to_dict()) + "\n" for f in frames))
+    return path
+
+
+def load_recording(path: str | Path) -> list[InputFrame]:
+    """Read frames written by :func:`save_recording`; a corrupt file raises ``ValueError``."""
+    out = []
+    for i, line in enumerate(Path(path).read_text().splitlines(), 1):
+        try:
+            out.append(InputFrame.from_dict(json.loads(line)))
+        except (json.JSONDecodeError, KeyError, TypeError, IndexError, ValueError):
+            raise ValueError(f"recording {path!s} line {i} is not a headset input frame") from None
+    return out
+
+
+def replay(model, frames: list[InputFrame], controls: Controls | None = None) -> Controls:
+    """Feed recorded frames through a :class:`Controls` into ``model``, synchronously, without a headset."""
+    controls = controls or Controls(brush_radius=model.brush_radius, prune_mode=model.prune_mode)
+    for f in frames:
+        for cmd in controls.update(f):
+            apply_command(model, cmd)
+    return controls

@@ -1,0 +1,242 @@
+"""Offscreen stereo rendering of model snapshots with VTK for the headset (spec 000_vine §4.5, 000_treewand §4.10).
+
+Two layouts, measured in ``benchmarks/vr_stereo.py``:
+
+* ``"side"``: one render window twice the eye width with a renderer per eye (left half, right half) that
+  share actors, mappers and GPU buffers; both eyes are submitted from one texture with
+  ``VRTextureBounds_t`` halves. VTK has no single-pass stereo (000_vine §4.5): it is still two draws.
+* ``"pair"``: one window (GL context) per eye, each with its own mappers over the same meshes.
+
+Each eye's camera is the HMD pose times OpenVR's eye-to-head transform, with OpenVR's projection
+(x/y rows) and an OpenGL depth row (:func:`~plantvr.vr.math3d.gl_projection`). The model's placement in
+the room is the actors' user matrix, so view manipulation never rebuilds a mesh.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+import vtk  # noqa: E402
+from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
+
+from .._validation import check_choice, check_int  # noqa: E402
+from .math3d import gl_projection  # noqa: E402
+
+__all__ = ["StereoRenderer", "LAYOUTS"]
+
+LAYOUTS = ("side", "pair")
+BARK, MARKER, GROW, PRUNE = (0.545, 0.353, 0.169), (0.96, 0.82, 0.26), (0.18, 0.8, 0.25), (0.88, 0.19, 0.19)
+_WINDOW_RGB = {"appearance": (0.18, 0.8, 0.25), "tree_form": (0.88, 0.19, 0.19), "light": (0.19, 0.38, 0.88)}
+
+
+def _vtk_matrix(a: np.ndarray, out: vtk.vtkMatrix4x4 | None = None) -> vtk.vtkMatrix4x4:
+    m = out or vtk.vtkMatrix4x4()
+    for i in range(4):
+        for j in range(4):
+            m.SetElement(i, j, float(a[i, j]))
+    m.Modified()
+    return m
+
+
+class _Scene:
+    """The actors of one GL context: branches, prune preview, markers, ground, brush, ray, windows."""
+
+    def __init__(self) -> None:
+        self.model_matrix = vtk.vtkMatrix4x4()
+        self.branches = self._actor(vtk.vtkPolyData(), BARK, model=True)
+        self.preview = self._actor(vtk.vtkPolyData(), PRUNE, model=True)
+        self.markers = self._actor(vtk.vtkPolyData(), MARKER, model=True)
+        self.markers.GetProperty().SetPointSize(3)
+        self.markers.GetProperty().SetLighting(False)
+        disc = vtk.vtkDiskSource()
+        disc.SetInnerRadius(0.0)
+        disc.SetOuterRadius(8.0)
+        disc.SetCircumferentialResolution(48)
+        rot = vtk.vtkTransformPolyDataFilter()
+        t = vtk.vtkTransform()
+        t.RotateX(-90)
+        rot.SetTransform(t)
+        rot.SetInputConnection(disc.GetOutputPort())
+        rot.Update()
+        self.ground = self._actor(rot.GetOutput(), (0.61, 0.70, 0.48), model=True)
+        self.ground.GetProperty().SetAmbient(0.7)
+        self.ground.GetProperty().SetDiffuse(0.3)
+        sphere = vtk.vtkSphereSource()
+        sphere.SetThetaResolution(24)
+        sphere.SetPhiResolution(16)
+        sphere.SetRadius(1.0)
+        sphere.Update()
+        self.brush_matrix = vtk.vtkMatrix4x4()
+        self.brush = self._actor(sphere.GetOutput(), GROW)
+        self.brush.SetUserMatrix(self.brush_matrix)
+        self.brush.GetProperty().SetOpacity(0.3)
+        self.ray_source = vtk.vtkLineSource()
+        self.ray = self._actor(None, (1.0, 1.0, 1.0))
+        self.ray.GetMapper().SetInputConnection(self.ray_source.GetOutputPort())
+        self.ray.GetProperty().SetLineWidth(2)
+        self.windows: dict[str, tuple[vtk.vtkActor, vtk.vtkMatrix4x4]] = {}
+        for name, rgb in _WINDOW_RGB.items():
+            plane = vtk.vtkPlaneSource()
+            plane.SetOrigin(-0.3, -0.2, 0)
+            plane.SetPoint1(0.3, -0.2, 0)
+            plane.SetPoint2(-0.3, 0.2, 0)
+            plane.Update()
+            m = vtk.vtkMatrix4x4()
+            a = self._actor(plane.GetOutput(), rgb)
+            a.SetUserMatrix(m)
+            a.GetProperty().SetOpacity(0.85)
+            a.SetVisibility(False)
+            self.windows[name] = (a, m)
+        self.actors = [self.ground, self.branches, self.preview, self.markers, self.brush, self.ray,
+                       *(a for a, _ in self.windows.values())]
+        self.ray.SetVisibility(False)
+        self.brush.SetVisibility(False)
+
+    def _actor(self, poly, rgb, model: bool = False) -> vtk.vtkActor:
+        mapper = vtk.vtkPolyDataMapper()
+        if poly is not None:
+            mapper.SetInputData(poly)
+        mapper.ScalarVisibilityOff()
+        a = vtk.vtkActor()
+        a.SetMapper(mapper)
+        a.GetProperty().SetColor(*rgb)
+        if model:
+            a.SetUserMatrix(self.model_matrix)
+        return a
+
+
+class StereoRenderer:
+    """Offscreen two-eye renderer of the tree, markers, brush, pointing ray and parameter windows.
+
+    Create, use and close it on one thread (the bridge's render thread): a GL context is bound to it.
+
+    Parameters
+    ----------
+    width, height : int
+        Per-eye pixels (the runtime's recommended render size).
+    layout : {"side", "pair"}
+        One window with two renderers, or one window per eye.
+    near, far : float
+        Clipping planes, metres.
+    """
+
+    def __init__(self, width: int, height: int, *, layout: str = "side", near: float = 0.05, far: float = 100.0):
+        self.width = check_int("width", width, 1, 16384)
+        self.height = check_int("height", height, 1, 16384)
+        self.layout = check_choice("layout", layout, LAYOUTS)
+        self.near, self.far = float(near), float(far)
+        self.windows: list[vtk.vtkRenderWindow] = []
+        self.renderers: list[vtk.vtkRenderer] = []
+        self.scenes: list[_Scene] = []
+        n_win = 1 if layout == "side" else 2
+        for w in range(n_win):
+            rw = vtk.vtkRenderWindow()
+            rw.SetOffScreenRendering(1)
+            rw.SetMultiSamples(0)
+            rw.SetSize(2 * self.width if layout == "side" else self.width, self.height)
+            scene = _Scene()
+            eyes = (0, 1) if layout == "side" else (w,)
+            for eye in eyes:
+                ren = vtk.vtkRenderer()
+                if layout == "side":
+                    ren.SetViewport(0.5 * eye, 0.0, 0.5 * eye + 0.5, 1.0)
+                ren.SetBackground(0.81, 0.89, 0.96)
+                ren.SetBackground2(0.96, 0.95, 0.92)
+                ren.GradientBackgroundOn()
+                for a in scene.actors:
+                    ren.AddActor(a)
+                cam = ren.GetActiveCamera()
+                cam.SetUseExplicitProjectionTransformMatrix(True)
+                rw.AddRenderer(ren)
+                self.renderers.append(ren)
+            self.windows.append(rw)
+            self.scenes.append(scene)
+        self._mesh_version = None
+
+    # -- content -------------------------------------------------------------------------------------------
+    def set_meshes(self, branches: vtk.vtkPolyData | None, markers: vtk.vtkPolyData | None,
+                   preview: vtk.vtkPolyData | None = None) -> None:
+        """Show new branch/marker/preview meshes (``None`` keeps the current one); uploaded on next render."""
+        for s in self.scenes:
+            for actor, poly in ((s.branches, branches), (s.markers, markers), (s.preview, preview)):
+                if poly is not None:
+                    actor.GetMapper().SetInputData(poly)
+                    actor.SetVisibility(poly.GetNumberOfPoints() > 0)
+
+    def set_model_matrix(self, m: np.ndarray) -> None:
+        """Model-to-room similarity (view manipulation)."""
+        for s in self.scenes:
+            _vtk_matrix(m, s.model_matrix)
+
+    def set_brush(self, center_room: np.ndarray, radius_room: float, visible: bool, prune: bool) -> None:
+        """Brush sphere on the wand: green to grow, red to prune (§4.3, §4.4)."""
+        m = np.eye(4) * radius_room
+        m[3, 3] = 1.0
+        m[:3, 3] = center_room
+        for s in self.scenes:
+            _vtk_matrix(m, s.brush_matrix)
+            s.brush.SetVisibility(bool(visible))
+            s.brush.GetProperty().SetColor(*(PRUNE if prune else GROW))
+
+    def set_ray(self, origin: np.ndarray | None, end: np.ndarray | None) -> None:
+        """White pointing ray (§4.6); ``None`` hides it."""
+        for s in self.scenes:
+            s.ray.SetVisibility(origin is not None)
+            if origin is not None:
+                s.ray_source.SetPoint1(*map(float, origin))
+                s.ray_source.SetPoint2(*map(float, end))
+
+    def set_windows(self, windows: dict[str, np.ndarray]) -> None:
+        """Show the open parameter windows at their poses (coloured quads)."""
+        for s in self.scenes:
+            for name, (actor, mat) in s.windows.items():
+                actor.SetVisibility(name in windows)
+                if name in windows:
+                    _vtk_matrix(windows[name], mat)
+
+    # -- frames --------------------------------------------------------------------------------------------
+    def render(self, eye_to_room: tuple[np.ndarray, np.ndarray], projections: tuple[np.ndarray, np.ndarray]) -> None:
+        """Render both eyes: ``eye_to_room[e]`` (4x4 eye pose), ``projections[e]`` (OpenVR 4x4 projection)."""
+        for eye, ren in enumerate(self.renderers):
+            pose = np.asarray(eye_to_room[eye], float)
+            cam = ren.GetActiveCamera()
+            pos = pose[:3, 3]
+            cam.SetPosition(*pos)
+            cam.SetFocalPoint(*(pos - pose[:3, 2]))
+            cam.SetViewUp(*pose[:3, 1])
+            cam.SetExplicitProjectionTransformMatrix(_vtk_matrix(gl_projection(projections[eye], self.near, self.far)))
+        for rw in self.windows:
+            rw.Render()
+
+    def textures(self) -> list[tuple[int, tuple[float, float, float, float] | None]]:
+        """Per eye: (GL texture handle, (uMin, vMin, uMax, vMax) bounds or ``None`` for the whole texture)."""
+        out = []
+        for eye in (0, 1):
+            rw = self.windows[0 if self.layout == "side" else eye]
+            tex = rw.GetRenderFramebuffer().GetColorAttachmentAsTextureObject(0)
+            handle = int(tex.GetHandle()) if tex is not None else 0
+            bounds = (0.5 * eye, 0.0, 0.5 * eye + 0.5, 1.0) if self.layout == "side" else None
+            out.append((handle, bounds))
+        return out
+
+    def images(self) -> list[np.ndarray]:
+        """Read back both eyes as (height, width, 3) uint8 arrays, top row first (slow; tests and stills)."""
+        out = []
+        for eye in (0, 1):
+            rw = self.windows[0 if self.layout == "side" else eye]
+            w, h = rw.GetSize()
+            arr = vtk.vtkUnsignedCharArray()
+            rw.GetPixelData(0, 0, w - 1, h - 1, 0, arr, 0)
+            img = vtk_to_numpy(arr).reshape(h, w, 3)[::-1]
+            if self.layout == "side":
+                img = img[:, eye * self.width:(eye + 1) * self.width]
+            out.append(np.ascontiguousarray(img))
+        return out
+
+    def close(self) -> None:
+        """Free the GL contexts."""
+        for rw in self.windows:
+            rw.Finalize()
+        self.windows, self.renderers, self.scenes = [], [], []
