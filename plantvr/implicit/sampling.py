@@ -502,6 +502,22 @@ def field_pdf(node: Node, *, shape=(64, 64, 64), bbox=None, mode: str = "inside"
     return g, box
 
 
+def _tight_box(node: Node, level: float, *, res: int = 33) -> np.ndarray:
+    """Box of the region ``F > level`` from a coarse corner grid (one coarse cell of margin), so the Lane grid's
+    resolution is not spent on the empty part of the support box."""
+    box = _box(node, None)
+    axes = [np.linspace(box[0][i], box[1][i], res) for i in range(3)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    f = node.field(pts).reshape(res, res, res)
+    idx = np.argwhere(f > level)
+    if len(idx) == 0:
+        return box
+    h = (box[1] - box[0]) / (res - 1)
+    lo = np.maximum(box[0], box[0] + (idx.min(axis=0) - 1) * h)
+    hi = np.minimum(box[1], box[0] + (idx.max(axis=0) + 1) * h)
+    return np.array([lo, hi])
+
+
 def lane_in_node(node: Node, n: int, *, kernel: LaneKernel, shape=(64, 64, 64), mode: str = "inside",
                  iso: float = ISO, band=None, gamma: float = 1.0, exact: bool = False, rng=None,
                  existing=None, bbox=None) -> LaneResult:
@@ -540,6 +556,8 @@ def lane_in_node(node: Node, n: int, *, kernel: LaneKernel, shape=(64, 64, 64), 
     LaneResult
         Points, saturation flag, draws and final pdf.
     """
+    if bbox is None:
+        bbox = _tight_box(node, iso if mode in ("inside", "inverse") else (min(band) if band is not None else iso))
     pdf, box = field_pdf(node, shape=shape, bbox=bbox, mode=mode, iso=iso, band=band, gamma=gamma)
     if pdf.sum() <= 0:
         raise ValueError(f"the envelope is empty on this grid (no cell enabled for mode={mode!r}); "
