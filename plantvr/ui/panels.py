@@ -101,7 +101,7 @@ class IconSelector(W.HBox):
             self.buttons[name], self.images[name] = btn, img
             items.append(W.VBox([img, btn], layout=W.Layout(align_items="center")))
         label = W.Label(description, tooltip=tooltip, layout=W.Layout(width="150px"))
-        super().__init__([label, *items])
+        super().__init__([label, *items], tooltip=tooltip)
         self.observe(self._highlight, names=["value"])
         self.value = value
         self._highlight(None)

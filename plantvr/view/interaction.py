@@ -211,12 +211,12 @@ class BrushInteractor:
         pts = np.concatenate([snap.pos[snap.parent[idx]], snap.pos[idx]])
         lines = np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel()
         poly = pv.PolyData(pts, lines=lines)
-        poly["radius"] = np.tile(np.asarray(snap.radius[idx], float) * 1.15 + 1e-3, 2)
+        poly["radius"] = np.tile(np.asarray(snap.radius[idx], float) * 1.6 + 1e-3, 2)
         mesh = poly.tube(scalars="radius", absolute=True, n_sides=10, capping=True)
         self._preview_mesh.copy_from(mesh)
         if self._preview_actor is None:
             self._preview_actor = plotter.add_mesh(self._preview_mesh, color=PRUNE, name="prune_preview",
-                                                   pickable=False)
+                                                   pickable=False, lighting=False)
         self._preview_actor.SetVisibility(True)
         plotter.render()
 

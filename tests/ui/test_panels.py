@@ -1,0 +1,132 @@
+"""Parameter windows generated from trait metadata, both-way sync, bad values, icon selectors, presets."""
+import json
+
+import ipywidgets as W
+import pytest
+
+import plantvr
+from plantvr.params import PARAMS, WINDOWS
+from plantvr.ui import IconSelector, ParameterPanels, load_preset, param_traits, read_preset, save_preset
+from plantvr.ui.panels import HIGHLIGHT, INFLUENCE
+
+
+@pytest.fixture
+def model():
+    return plantvr.Model(seed=0)
+
+
+def test_controls_are_generated_from_trait_metadata(model):
+    panels = ParameterPanels(model)
+    expected = {p.name for p in PARAMS if p.window in ("form", "appearance", "light")} - set(INFLUENCE)
+    assert set(panels.controls) == expected
+    assert set(panels.windows) == {"form", "appearance", "light"}
+    # the checklist item 27 count: 10 + 10 + 6 parameters (the triangle carries H, T, E)
+    assert [len(param_traits(model, k)) for k in ("form", "appearance", "light")] == [12, 10, 6]
+    for key, box in panels.windows.items():
+        title, colour = WINDOWS[key]
+        assert title in box.children[0].value and colour in box.children[0].value
+        assert colour in box.layout.border
+    assert [panels.tabs.get_title(i) for i in range(3)] == [WINDOWS[k][0] for k in ("form", "appearance", "light")]
+    assert panels.triangle in panels.windows["form"].children[1].children
+
+
+def test_slider_bounds_default_and_tooltip_from_table(model):
+    panels = ParameterPanels(model, include_hidden=True)
+    for p in PARAMS:
+        if p.name in INFLUENCE:
+            continue
+        ctl = panels.controls[p.name]
+        assert ctl.value == p.default
+        assert p.doc in ctl.tooltip
+        if isinstance(ctl, (W.FloatSlider, W.IntSlider)):
+            lo, hi = p.range
+            assert lo <= ctl.min and ctl.max <= hi
+            assert not (p.low_open and ctl.min == lo) and not (p.high_open and ctl.max == hi)
+
+
+def test_sync_both_ways(model):
+    panels = ParameterPanels(model)
+    panels.controls["apical_dominance"].value = 0.7
+    assert model.apical_dominance == pytest.approx(0.7)
+    model.tropism_angle = 90.0
+    assert panels.controls["tropism_angle"].value == 90.0
+    panels.controls["leaf_texture"].value = "leaf_2"
+    assert model.leaf_texture == "leaf_2"
+    model.shadow_depth = 12
+    assert panels.controls["shadow_depth"].value == 12
+
+
+def test_slider_can_never_set_out_of_range_value(model):
+    panels = ParameterPanels(model)
+    s = panels.controls["shadow_falloff"]   # β in (0, 1): open both ends
+    s.value = 5.0
+    assert 0 < model.shadow_falloff < 1 and s.value == s.max
+    s.value = -3.0
+    assert 0 < model.shadow_falloff < 1 and s.value == s.min
+
+
+def test_typed_value_out_of_range_rejected_with_message(model):
+    panels = ParameterPanels(model, include_hidden=True)
+    box = panels.controls["marker_lifetime"]  # a wide integer range gets a typed box
+    assert isinstance(box, W.IntText)
+    box.value = -5
+    assert model.marker_lifetime == 60
+    assert "marker_lifetime must be an integer in [1, 100000], got -5" in panels.message.value
+    assert box.value == 60  # the box shows the model's value again
+    box.value = 70
+    assert model.marker_lifetime == 70 and panels.message.value == ""
+
+
+def test_icon_selector_yellow_highlight(model):
+    panels = ParameterPanels(model)
+    sel = panels.controls["bark_texture"]
+    assert isinstance(sel, IconSelector)
+    assert sel.buttons["bark_0"].style.button_color == HIGHLIGHT
+    sel.buttons["bark_2"].click()
+    assert model.bark_texture == "bark_2"
+    assert HIGHLIGHT in sel.images["bark_2"].layout.border
+    assert HIGHLIGHT not in sel.images["bark_0"].layout.border
+    assert sel.images["bark_2"].value[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_presets_round_trip(model, tmp_path):
+    model.set_params(apical_dominance=0.62, leaf_texture="leaf_1", shadow_depth=9)
+    path = save_preset(model, tmp_path / "oak.json")
+    other = plantvr.Model(seed=1)
+    load_preset(other, path)
+    assert other.params == model.params
+
+
+def test_preset_errors_are_clear_and_leave_model_unchanged(model, tmp_path):
+    before = model.params
+    with pytest.raises(ValueError, match="does not exist"):
+        load_preset(model, tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(ValueError, match="is not valid JSON"):
+        load_preset(model, bad)
+    bad.write_text(json.dumps({"params": {}}))
+    with pytest.raises(ValueError, match="is not a PlantVR preset"):
+        load_preset(model, bad)
+    bad.write_text(json.dumps({"plantvr_preset": 1, "params": {"apical_dominance": 0.3, "view_radius": -1}}))
+    with pytest.raises(ValueError, match=r"bad.json: view_radius must be in \(0.0, 100.0\]"):
+        load_preset(model, bad)
+    bad.write_text(json.dumps({"plantvr_preset": 1, "params": {"nope": 1}}))
+    with pytest.raises(ValueError, match="unknown parameter 'nope'"):
+        read_preset(bad)
+    with pytest.raises(ValueError, match="preset path must end in .json"):
+        save_preset(model, tmp_path / "x.txt")
+    assert model.params == before
+
+
+def test_panel_preset_buttons_report_errors(model, tmp_path):
+    panels = ParameterPanels(model)
+    panels.preset_path.value = str(tmp_path / "p.json")
+    model.apical_dominance = 0.8
+    panels.children[1].children[1].click()  # Save
+    model.apical_dominance = 0.5
+    panels.children[1].children[2].click()  # Load
+    assert model.apical_dominance == 0.8 and panels.controls["apical_dominance"].value == 0.8
+    panels.preset_path.value = str(tmp_path / "none.json")
+    panels.children[1].children[2].click()
+    assert "does not exist" in panels.message.value
