@@ -97,9 +97,6 @@ def main(argv: list[str] | None = None) -> dict:
 
     print("\n== Loop subdivision, one level of a closed tree mesh (best of %d) ==" % repeat)
     print(f"{'faces in':>9} {'ours s':>8} {'trimesh s':>9} {'VTK s':>8} {'x trimesh':>9} {'x VTK':>6} {'max|d| trimesh':>14} {'max|d| VTK':>11}")
-    g = graph_from_arrays(*random_tree(1001 if quick else 3001, rng=5))
-    cm = build_control_mesh(g, cap=True)
-    base_v, base_f = cm.vertices, cm.faces
     targets = [60_000] if quick else [100_000, 330_000, 1_000_000]
     try:
         import vtk  # noqa: F401
@@ -107,9 +104,10 @@ def main(argv: list[str] | None = None) -> dict:
     except ImportError:  # pragma: no cover
         have_vtk = False
     for target in targets:
-        V, F = base_v, base_f
-        while len(F) * 4 <= target * 1.5 and len(F) < target / 1.5:
-            V, F = subdivide_loop(V, F, 1)
+        # a random tree whose capped control mesh (~38 faces per branch) reaches ~target faces in 2 levels
+        g = graph_from_arrays(*random_tree(max(20, int(target / (38 * 16))) + 1, rng=5))
+        cm = build_control_mesh(g, cap=True)
+        V, F = subdivide_loop(cm.vertices, cm.faces, 2)
         ours = _best(lambda: subdivide_loop(V, F, 1), repeat)
         Vo, Fo = subdivide_loop(V, F, 1)
         tri = _best(lambda: trimesh.remesh.subdivide_loop(V, F, iterations=1), 1 if len(F) > 400_000 else repeat)
@@ -132,7 +130,9 @@ def main(argv: list[str] | None = None) -> dict:
         print(f"{len(F):>9} {ours:>8.3f} {tri:>9.3f} {tv:>8.3f} {tri / ours:>9.1f} {tv / ours:>6.1f} {dt:>14.2e} {dv:>11.2e}")
 
     # three levels at once: our derived-topology path vs trimesh iterations=3
-    V, F = base_v, base_f
+    g = graph_from_arrays(*random_tree(301, rng=6))
+    cm = build_control_mesh(g, cap=True)
+    V, F = cm.vertices, cm.faces
     ours3 = _best(lambda: subdivide_loop(V, F, 3), repeat)
     tri3 = _best(lambda: trimesh.remesh.subdivide_loop(V, F, iterations=3), 1)
     print(f"\nthree levels from {len(F)} faces: ours {ours3:.3f} s, trimesh {tri3:.3f} s ({tri3 / ours3:.1f}x)")

@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from plantvr._validation import check_choice, check_int
 
 from .graph import BranchGraph, graph_from_arrays, joint_offsets, pair_offset, simplify
@@ -125,5 +123,3 @@ def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
         mesh.export(path, file_type=ft)
     return path
 
-
-del np

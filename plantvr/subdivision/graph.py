@@ -207,6 +207,17 @@ def find_joints(g: BranchGraph) -> Joints:
     return Joints(mj, mb, me, ptr, np.concatenate(pts), base)
 
 
+def joint_pairs(joint_ptr: np.ndarray, member_joint: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All ordered pairs (A, B), A != B, of members that share a joint (CSR ``joint_ptr``)."""
+    size = np.diff(joint_ptr)
+    ka = size[member_joint]
+    A = np.repeat(np.arange(len(member_joint)), ka)
+    local = np.arange(len(A)) - np.repeat(np.cumsum(ka) - ka, ka)
+    B = np.repeat(joint_ptr[member_joint], ka) + local
+    keep = A != B
+    return A[keep], B[keep]
+
+
 def pair_offset(cos_a: np.ndarray, ra: np.ndarray, rb: np.ndarray, *, offset_mode: str = "geometric",
                 max_offset_factor: float = 4.0) -> np.ndarray:
     """Trimming offset of branch A against branch B at a joint (spec §2.1, Eqs. E2–E6).
@@ -289,15 +300,7 @@ def joint_offsets(g: BranchGraph, joints: Joints | None = None, *, offset_mode: 
     mb, me, mj = joints.member_branch, joints.member_is_end, joints.member_joint
     d = np.where(me[:, None], -ax[mb], ax[mb])           # away-from-joint directions
     r = np.where(me, g.r1[mb], g.r0[mb])
-    size = np.diff(joints.joint_ptr)
-    # all ordered pairs (A, B) of members inside one joint
-    ka = size[mj]
-    A = np.repeat(np.arange(len(mb)), ka)
-    first = joints.joint_ptr[mj]
-    local = np.arange(len(A)) - np.repeat(np.cumsum(ka) - ka, ka)
-    B = np.repeat(first, ka) + local
-    keep = A != B
-    A, B = A[keep], B[keep]
+    A, B = joint_pairs(joints.joint_ptr, mj)
     cos_a = np.einsum("ij,ij->i", d[A], d[B])
     par = cos_a > 1.0 - parallel_tol
     if par.any():
@@ -382,16 +385,6 @@ def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: floa
         s = np.where(cross, 0.9 * L / np.maximum(off_s + off_e, 1e-300), 1.0)
         off_s, off_e = off_s * s, off_e * s
     return cur, off_s, off_e, joints
-
-
-def check_offset_mode(value: str) -> str:
-    """Validate ``offset_mode``."""
-    return check_choice("offset_mode", value, ("geometric", "report"))
-
-
-def check_min_offset(value: float) -> float:
-    """Validate ``min_offset``."""
-    return check_range("min_offset", value, 0.0, 10.0)
 
 
 def random_tree(n_nodes: int, *, rng: int | np.random.Generator | None = None, length: float = 1.0,

@@ -16,7 +16,7 @@ from scipy.spatial import ConvexHull
 
 from plantvr._validation import check_choice, check_int, check_range
 
-from .graph import BranchGraph, Joints, simplify
+from .graph import BranchGraph, Joints, joint_pairs, simplify
 from .loop import cap_boundaries, subdivide_loop
 
 __all__ = ["ControlMesh", "build_control_mesh", "radius_factor"]
@@ -287,6 +287,16 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     n = np.cross(loc[:, 0], loc[:, 1])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     n = np.where((np.einsum("ij,ij->i", n, d) < 0)[:, None], -n, n)       # sign rule n·d > 0 (spec §2.4.2)
+    # V7: loop caps must not overlap on the joint sphere, angle(d_A, d_B) > theta_A + theta_B
+    theta = np.arctan(rad / Rs[mj])
+    pa, pb = joint_pairs(joints.joint_ptr, mj)
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", d[pa], d[pb]), -1.0, 1.0))
+    bad = ang <= theta[pa] + theta[pb]
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"joint of branches {mb[pa[i]]} and {mb[pb[i]]} failed: their loops overlap on the joint "
+                         f"sphere ({np.degrees(ang[i]):.2f} deg apart, caps need {np.degrees(theta[pa[i]] + theta[pb[i]]):.2f}"
+                         f" deg; spec V7); the branches leave the joint too close in direction for their radii")
     Q = _rotation_to(n, d)
     Y = C[mj][:, None] + Rs[mj][:, None, None] * d[:, None] + np.einsum("mij,msj->msi", Q, loc)
     P = C[mj][:, None] + Rs[mj][:, None, None] * (Y - C[mj][:, None]) / np.linalg.norm(
@@ -314,6 +324,11 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     keep = ~((owner[:, 0] == owner[:, 1]) & (owner[:, 1] == owner[:, 2]))   # delete caps (Fig. 4.17c)
     tri_j = np.repeat(np.arange(nj), hull_n)
     joint_n = np.bincount(tri_j[keep], minlength=nj).astype(np.int64)
+    wrong = joint_n != size * S + 2 * size - 4          # V8: k S + 2k - 4 joint faces (6k - 4 for S = 4)
+    if wrong.any():
+        jj = int(np.flatnonzero(wrong)[0])
+        raise ValueError(f"joint of branches {mb[ptr[jj]:ptr[jj + 1]].tolist()} failed: {joint_n[jj]} joint faces "
+                         f"instead of {size[jj] * S + 2 * size[jj] - 4} (loops not in convex position, spec V6-V8)")
     tri, eq = tri[keep], eq[keep]
     Pf = P.reshape(-1, 3)
     pa, pb, pc = Pf[tri[:, 0]], Pf[tri[:, 1]], Pf[tri[:, 2]]
