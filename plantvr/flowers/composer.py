@@ -1,0 +1,211 @@
+"""The Floral Canopy Composer loop: constraint-based growth with collisions (spec 002 §3.4–§3.5, Alg. 1; C8–C10).
+
+Florets are instances of per-type animations (:class:`~plantvr.flowers.floret.FloretMesh`) placed by
+(position, up, right, scale). Each step sets every instance's rest lengths and signed dihedral angles to
+those of its animation at its own stage (phase effect), drives the attachment vertices (w = 0) to the
+placed stage geometry, projects internal constraints, then runs CCD and collision constraints with
+retries so every step ends collision-free.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_range
+from plantvr.flowers import ccd, pbd
+
+__all__ = ["SolverParams", "FloretType", "Canopy", "step", "grow"]
+
+
+@dataclass(frozen=True)
+class SolverParams:
+    """Algorithm 1 settings; defaults are the App. C.1 example file values (spec 002 §3.7)."""
+
+    solver_iterations: int = 50
+    collision_iterations: int = 10
+    max_collision_retries: int = 20
+    k_stretch: float = 0.99
+    k_bend: float = 0.99
+    k_collision: float = 1.0
+    spacing: float = 0.005
+
+    def __post_init__(self):
+        check_int("solver_iterations", self.solver_iterations, 0, 100_000)
+        check_int("collision_iterations", self.collision_iterations, 0, 100_000)
+        check_int("max_collision_retries", self.max_collision_retries, 0, 100_000)
+        for name in ("k_stretch", "k_bend", "k_collision"):
+            check_range(name, getattr(self, name), 0.0, 1.0)
+        check_range("spacing", self.spacing, 0.0, 1e6)
+
+
+@dataclass
+class FloretType:
+    """Per-type rest tables precomputed from an animation (spec 002 §2.4 container, C4)."""
+
+    faces: np.ndarray
+    frames: np.ndarray
+    fixed: np.ndarray
+    edges: np.ndarray = field(init=False)
+    quads: np.ndarray = field(init=False)
+    rest_len: np.ndarray = field(init=False)
+    rest_phi: np.ndarray = field(init=False)
+
+    def __post_init__(self):
+        self.faces = check_array("faces", self.faces, shape=(None, 3), dtype=np.int64)
+        self.frames = check_array("frames", self.frames, shape=(None, None, 3), min_rows=1)
+        self.fixed = check_array("fixed", self.fixed, shape=(None,), dtype=np.int64)
+        V = self.frames.shape[1]
+        if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= V):
+            raise ValueError(f"faces must index the {V} frame vertices")
+        self.edges = pbd.mesh_edges(self.faces)
+        self.quads = pbd.bend_quads(self.faces)
+        self.rest_len = np.stack([pbd.edge_lengths(X, self.edges) for X in self.frames])
+        self.rest_phi = np.stack([pbd.signed_dihedrals(X, self.quads) for X in self.frames])
+
+    def at(self, stage: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rest lengths, rest angles and geometry at a stage in [0, 1] (linear between frames)."""
+        K = self.frames.shape[0]
+        x = np.clip(stage, 0, 1) * (K - 1)
+        i = min(int(np.floor(x)), K - 2) if K > 1 else 0
+        f = x - i if K > 1 else 0.0
+        j = min(i + 1, K - 1)
+        d = (self.rest_phi[j] - self.rest_phi[i] + np.pi) % (2 * np.pi) - np.pi
+        return ((1 - f) * self.rest_len[i] + f * self.rest_len[j], self.rest_phi[i] + f * d,
+                (1 - f) * self.frames[i] + f * self.frames[j])
+
+
+class Canopy:
+    """Union of placed floret instances as one struct-of-arrays mesh (spec 002 §3.4, §3.8 placement).
+
+    Parameters
+    ----------
+    types : list of FloretType
+    kind : (n,) int array_like
+        Type index of each instance.
+    position, up, right : (n, 3) float64 array_like
+        Placement frame of each instance (floret axis = up).
+    scale : (n,) float64 array_like
+        Uniform placement scale.
+    """
+
+    def __init__(self, types, kind, position, up, right, scale):
+        self.types = list(types)
+        kind = check_array("kind", kind, shape=(None,), dtype=np.int64)
+        n = kind.size
+        if n and (kind.min() < 0 or kind.max() >= len(self.types)):
+            raise ValueError(f"kind must be in [0, {len(self.types) - 1}]")
+        self.position = check_array("position", position, shape=(n, 3))
+        up = check_array("up", up, shape=(n, 3))
+        right = check_array("right", right, shape=(n, 3))
+        self.scale = check_array("scale", scale, shape=(n,))
+        if np.any(self.scale <= 0):
+            raise ValueError("scale must be > 0")
+        up = up / np.linalg.norm(up, axis=1, keepdims=True)
+        right = right - np.einsum("ij,ij->i", right, up)[:, None] * up
+        right /= np.linalg.norm(right, axis=1, keepdims=True)
+        self.rot = np.stack([right, np.cross(up, right), up], axis=2)     # columns: local x, y, z
+        self.kind = kind
+        nv = np.array([self.types[k].frames.shape[1] for k in kind], np.int64)
+        self.voff = np.concatenate([[0], np.cumsum(nv)])
+        self.faces = np.concatenate([self.types[k].faces + o for k, o in zip(kind, self.voff)])
+        self.edges = np.concatenate([self.types[k].edges + o for k, o in zip(kind, self.voff)])
+        self.quads = np.concatenate([self.types[k].quads + o for k, o in zip(kind, self.voff)])
+        self.fixed = np.concatenate([self.types[k].fixed + o for k, o in zip(kind, self.voff)])
+        self.w = np.ones(self.voff[-1])
+        self.w[self.fixed] = 0.0
+        self.face_instance = np.concatenate([np.full(len(self.types[k].faces), i) for i, k in enumerate(kind)])
+
+    @property
+    def n_instances(self) -> int:
+        """Number of floret instances."""
+        return int(self.kind.size)
+
+    def targets(self, stages: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rest lengths, rest angles and placed stage geometry for per-instance stages (C8, C9, V13)."""
+        stages = check_array("stages", stages, shape=(self.n_instances,))
+        L, P, X = [], [], []
+        for i, k in enumerate(self.kind):
+            rl, rp, g = self.types[k].at(stages[i])
+            L.append(rl * self.scale[i])                 # lengths scale, angles do not (V13)
+            P.append(rp)
+            X.append(self.position[i] + self.scale[i] * g @ self.rot[i].T)
+        return np.concatenate(L), np.concatenate(P), np.concatenate(X)
+
+    def initial_positions(self, stages: np.ndarray) -> np.ndarray:
+        """Placed geometry of every instance at its stage (M_0 of the canopy)."""
+        return np.ascontiguousarray(self.targets(stages)[2])
+
+
+def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams = SolverParams(), *,
+         collisions: bool = True, backend: str = "numba") -> tuple[np.ndarray, dict]:
+    """One simulation step of Algorithm 1 (spec 002 §3.5) from collision-free ``x``.
+
+    Returns
+    -------
+    x_new : (V, 3) float64 ndarray
+    stats : dict
+        ``solver``, ``broad``, ``narrow`` seconds, ``constraints`` created, ``passes`` (detect passes),
+        ``rolled_back`` vertices of the fallback.
+    """
+    x = check_array("x", x, shape=(canopy.voff[-1], 3))
+    stats = {"solver": 0.0, "broad": 0.0, "narrow": 0.0, "constraints": 0, "passes": 0, "rolled_back": 0}
+    rest_len, rest_phi, target = canopy.targets(stages)
+    p = x.copy()
+    p[canopy.fixed] = target[canopy.fixed]                 # attachments from M_i (C8)
+    t0 = time.perf_counter()
+    pbd.solve_internal(p, canopy.w, canopy.edges, rest_len, canopy.quads, rest_phi,
+                       k_stretch=params.k_stretch, k_bend=params.k_bend,
+                       iterations=params.solver_iterations, backend=backend)
+    stats["solver"] = time.perf_counter() - t0
+    if not collisions:
+        return p, stats
+    detect = ccd.detect_collisions if backend == "numba" else ccd.detect_collisions_numpy
+    w_col = np.ones_like(canopy.w)
+    w_col[canopy.fixed] = 0.0
+    clean = False
+    for _ in range(params.max_collision_retries):
+        cons, sides, _ = detect(x, p, canopy.faces, h=params.spacing, edges=canopy.edges, timings=stats)
+        stats["passes"] += 1
+        if len(cons) == 0:
+            clean = True
+            break
+        stats["constraints"] += len(cons)
+        ccd.solve_collisions(p, w_col, cons, sides, h=params.spacing, k_collision=params.k_collision,
+                             iterations=params.collision_iterations)
+    if not clean:                                          # fallback (I): roll back colliding vertices
+        for _ in range(100):
+            cons, _, _ = detect(x, p, canopy.faces, h=params.spacing, edges=canopy.edges, timings=stats)
+            stats["passes"] += 1
+            if len(cons) == 0:
+                clean = True
+                break
+            v = np.unique(cons)
+            stats["rolled_back"] += len(v)
+            p[v] = x[v]
+        if not clean:
+            p = x.copy()
+    return p, stats
+
+
+def grow(canopy: Canopy, stages_per_step: np.ndarray, params: SolverParams = SolverParams(), *,
+         collisions: bool = True, sanity_every: int = 0, x0: np.ndarray | None = None,
+         callback=None) -> tuple[np.ndarray, list[dict]]:
+    """Run :func:`step` over a (T, n) schedule of per-instance stages; return final positions and stats.
+
+    ``sanity_every > 0`` runs the static intersection check every that many steps and stores the count
+    under ``intersections`` (must be 0). ``callback(t, x)`` is called after each step (e.g. OBJ export).
+    """
+    S = check_array("stages_per_step", stages_per_step, shape=(None, canopy.n_instances), min_rows=1)
+    sanity_every = check_int("sanity_every", sanity_every, 0, 1_000_000)
+    x = canopy.initial_positions(S[0]) if x0 is None else check_array("x0", x0, shape=(canopy.voff[-1], 3))
+    log = []
+    for t in range(1, S.shape[0]):
+        x, st = step(canopy, x, S[t], params, collisions=collisions)
+        if sanity_every and t % sanity_every == 0:
+            st["intersections"] = ccd.count_static_intersections(x, canopy.faces, edges=canopy.edges)
+        log.append(st)
+        if callback is not None:
+            callback(t, x)
+    return x, log
