@@ -1,0 +1,199 @@
+"""TreeSketch growth variants (spec 004 §1.4, tests V2, V4, V5, V8, V10 δ)."""
+import math
+
+import numpy as np
+import pytest
+
+from plantvr.growth.sketch import (SketchEngine, autonomous_points, barycentric, deflect_heading,
+                                   set_point_tropism, shoot_lengths)
+from plantvr.params import defaults
+
+Y = np.array([0.0, 1.0, 0.0])
+
+
+def _engine(n_max=3, **kw):
+    params = {**defaults(), **kw.pop("params", {})}
+    return SketchEngine(params, rng=kw.pop("rng", 3), n_max=n_max, **kw)
+
+
+def test_ts_v2_eq43_shoot_lengths():
+    v = np.array([1.0, 0.5, 0.249, 0.25, 0.1])
+    n = shoot_lengths(v, 4)
+    assert n[0] == 4  # v = v_max → exactly n_max
+    np.testing.assert_array_equal(n, np.floor(v / 1.0 * 4))
+    assert n[2] == 0 and n[4] == 0  # v < v_max / n_max → dormant
+    assert shoot_lengths(np.array([0.3 * 3]), 7)[0] == 7  # rounding never loses the top bud
+    assert shoot_lengths(np.zeros(3), 5).tolist() == [0, 0, 0]
+    with pytest.raises(ValueError, match="n_max"):
+        shoot_lengths(v, -1)
+
+
+def test_ts_v4_tropism_cases():
+    H = np.array([[0.6, 0.0, 0.8], [0.3, 0.5, -0.4]])
+    H /= np.linalg.norm(H, axis=1, keepdims=True)
+    np.testing.assert_allclose(set_point_tropism(H, 0.0), np.tile(Y, (2, 1)), atol=1e-15)
+    np.testing.assert_allclose(set_point_tropism(H, math.pi), np.tile(-Y, (2, 1)), atol=1e-15)
+    T = set_point_tropism(H, math.pi / 2)
+    np.testing.assert_allclose(T @ Y, 0.0, atol=1e-15)  # ⟂ Y
+    hz = H - np.outer(H @ Y, Y)
+    hz /= np.linalg.norm(hz, axis=1, keepdims=True)
+    np.testing.assert_allclose(T, hz, atol=1e-12)  # same compass heading, vertical plane of H
+    T45 = set_point_tropism(H, math.pi / 4)
+    np.testing.assert_allclose(np.linalg.det(np.stack([T45[0], H[0], Y])), 0.0, atol=1e-12)  # coplanar
+    # H = Y: random horizontal plane, reproducible for a seed
+    up = np.tile(Y, (3, 1))
+    a, b = set_point_tropism(up, math.pi / 2, rng=5), set_point_tropism(up, math.pi / 2, rng=5)
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_allclose(a @ Y, 0.0, atol=1e-15)
+    np.testing.assert_allclose(np.linalg.norm(a, axis=1), 1.0)
+    assert not np.allclose(a, set_point_tropism(up, math.pi / 2, rng=6))
+    # trunk-up: T = Y on the main axis only
+    T = set_point_tropism(H, math.pi / 2, main_axis=np.array([True, False]), trunk_up=True)
+    np.testing.assert_array_equal(T[0], Y)
+    assert abs(T[1] @ Y) < 1e-12
+    with pytest.raises(ValueError, match="theta"):
+        set_point_tropism(H, 4.0)
+
+
+def test_ts_v5_barycentric_weights():
+    assert barycentric(2.0, 1.0, 1.0) == (0.5, 0.25, 0.25)
+    assert sum(barycentric(0.4, 0.1, 0.5)) == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="all be zero"):
+        barycentric(0, 0, 0)
+    with pytest.raises(ValueError, match="beta"):
+        barycentric(0.5, -0.1, 0.6)
+
+
+@pytest.mark.parametrize("w, expect", [((1.0, 0.0, 0.0), "H"), ((0.0, 0.0, 1.0), "E"), ((0.0, 1.0, 0.0), "T")])
+def test_ts_v5_eq45_extremes(w, expect):
+    """(1,0,0) keeps the bud heading, (0,0,1) follows E, (0,1,0) follows T (θ = 90°)."""
+    params = dict(w_heading=w[0], w_tropism=w[1], w_env=w[2], tropism_angle=90.0, length_mode="constant",
+                  activation_threshold=0.0, shed_count="direct")
+    e = _engine(n_max=1, params=params)
+    target = np.array([1.5, 2.8, 0.4])
+    e.add_markers(target[None])
+    e.step()
+    t = e.tree
+    new = np.flatnonzero(t.born == 1)
+    assert len(new) == 1
+    d = t.pos[new[0]] - t.pos[t.parent[new[0]]]
+    d /= np.linalg.norm(d)
+    bud = t.pos[t.parent[new[0]]]
+    if expect == "H":
+        np.testing.assert_allclose(d, Y, atol=1e-12)
+    elif expect == "E":
+        np.testing.assert_allclose(d, (target - bud) / np.linalg.norm(target - bud), atol=1e-12)
+    else:
+        assert abs(d @ Y) < 1e-12
+
+
+def test_ts_deflection_angle():
+    H = np.array([[0.0, 1.0, 0.0], [0.3, 0.9, 0.1]])
+    H /= np.linalg.norm(H, axis=1, keepdims=True)
+    lat_axis = np.array([[1.0, 0.0, 0.0], [0.0, 0.1, 1.0]])
+    psi, delta = math.radians(40), math.radians(25)
+    lp = lat_axis - np.sum(lat_axis * H, 1, keepdims=True) * H
+    lp /= np.linalg.norm(lp, axis=1, keepdims=True)
+    lateral = np.cos(psi) * H + np.sin(psi) * lp
+    d = deflect_heading(H, lateral, delta)
+    ang = np.degrees(np.arccos(np.clip(np.sum(d * lateral, 1), -1, 1)))
+    np.testing.assert_allclose(ang, 65.0, atol=1e-9)  # ψ + δ: away from the lateral
+    np.testing.assert_allclose(np.degrees(np.arccos(np.sum(d * H, 1))), 25.0, atol=1e-9)
+    for i in range(2):  # in the plane of H and the lateral
+        assert abs(np.linalg.det(np.stack([d[i], H[i], lateral[i]]))) < 1e-12
+    np.testing.assert_array_equal(deflect_heading(H, lateral, 0.0), H)
+
+
+def test_ts_n_max_shoot_grows_n_max_internodes():
+    params = dict(length_mode="constant", activation_threshold=0.0)
+    e = _engine(n_max=4, params=params)
+    e.add_markers(np.array([[0.0, 4.0, 0.0]]))
+    e.step()
+    t = e.tree
+    new = np.flatnonzero(t.born == 1)
+    assert len(new) == 4  # the only enabled bud has v = v_max
+    chain = [1]
+    for _ in range(4):
+        chain.append(t.child[chain[-1], 0])
+    assert sorted(chain[1:]) == sorted(new.tolist())
+    np.testing.assert_allclose(np.linalg.norm(np.diff(t.pos[chain], axis=0), axis=1), 1.0)
+
+
+def test_ts_v10_deflection_turns_more():
+    def mean_turn(delta):
+        e = _engine(n_max=3, deflection=delta, mode="autonomous", rng=11)
+        for _ in range(8):
+            e.step()
+        t = e.tree
+        i = np.flatnonzero(t.alive & (t.parent > 0))
+        a = t.pos[i] - t.pos[t.parent[i]]
+        b = t.pos[t.parent[i]] - t.pos[t.parent[t.parent[i]]]
+        main = t.child[t.parent[i], 0] == i
+        c = np.sum(a * b, 1) / np.linalg.norm(a, axis=1) / np.linalg.norm(b, axis=1)
+        return np.degrees(np.arccos(np.clip(c[main], -1, 1))).mean()
+
+    assert mean_turn(30.0) > mean_turn(0.0) + 5.0
+
+
+def test_ts_v8_directed_keeps_autonomous_clears():
+    far = np.array([[50.0, 50.0, 50.0]])
+    params = dict(marker_lifetime=2)
+    d = _engine(params=params, mode="directed")
+    d.add_markers(far)
+    for _ in range(4):
+        d.step()
+    np.testing.assert_array_equal(d.markers, far)  # unconsumed user point persists past the lifetime
+    a = _engine(params=params, mode="autonomous")
+    a.add_markers(far)
+    s = a.step()
+    assert len(a.markers) == 0 and s.grown > 0
+
+
+def test_ts_autonomous_points_in_sector():
+    rng = np.random.default_rng(0)
+    pos = rng.normal(size=(5, 3))
+    H = rng.normal(size=(5, 3))
+    H /= np.linalg.norm(H, axis=1, keepdims=True)
+    v = np.array([1.0, 0.5, 0.0, 0.26, 0.9])
+    pts = autonomous_points(pos, H, v, density=4, r_in=1.0, r_out=3.0, half_angle=math.radians(45), rng=1)
+    k = 1 + np.floor(4 * v / v.max()).astype(int)
+    assert len(pts) == k.sum()
+    idx = np.repeat(np.arange(5), k)
+    off = pts - pos[idx]
+    r = np.linalg.norm(off, axis=1)
+    assert np.all((r >= 1.0 - 1e-12) & (r <= 3.0 + 1e-12))
+    assert np.all(np.sum(off / r[:, None] * H[idx], 1) >= math.cos(math.radians(45)) - 1e-12)
+
+
+def test_ts_deterministic_per_seed():
+    def grow(seed):
+        e = _engine(n_max=3, deflection=10, trunk_up=True, mode="autonomous", rng=seed,
+                    params=dict(tropism_angle=100.0))
+        for _ in range(6):
+            e.step()
+        return e.tree.arrays()
+
+    a, b, c = grow(4), grow(4), grow(5)
+    for k in a:
+        assert a[k].tobytes() == b[k].tobytes(), k
+    assert a["pos"].shape != c["pos"].shape or not np.array_equal(a["pos"], c["pos"])
+
+
+def test_ts_trunk_up_keeps_main_axis_vertical():
+    params = dict(w_heading=0.2, w_tropism=0.8, w_env=0.0, tropism_angle=90.0, length_mode="constant")
+    e = _engine(n_max=2, trunk_up=True, mode="autonomous", params=params)
+    for _ in range(5):
+        e.step()
+    t = e.tree
+    i = np.flatnonzero(t.alive & (t.order == 0) & (t.parent >= 0))
+    d = t.pos[i] - t.pos[t.parent[i]]
+    np.testing.assert_allclose(d[:, [0, 2]], 0.0, atol=1e-12)
+
+
+def test_ts_validation():
+    with pytest.raises(ValueError, match="n_max"):
+        SketchEngine(defaults(), n_max=0)
+    with pytest.raises(ValueError, match="mode"):
+        SketchEngine(defaults(), mode="selective")
+    with pytest.raises(ValueError, match="deflection"):
+        SketchEngine(defaults(), deflection=120)
