@@ -68,6 +68,26 @@ def _unit(v):
 # ---------------------------------------------------------------------------------------------------------
 # TreeUnfold: effective liveness, main child, start frames, texture coordinate at each internode midpoint
 @numba.njit(cache=True, nogil=True)
+def _rot_scalar(vx, vy, vz, ax, ay, az, bx, by, bz):
+    """Allocation-free :func:`_rotate_between` on scalars (Eqs. 10.2–10.5)."""
+    kx = ay * bz - az * by
+    ky = az * bx - ax * bz
+    kz = ax * by - ay * bx
+    kn = math.sqrt(kx * kx + ky * ky + kz * kz)
+    if kn < _EPS:
+        return vx, vy, vz
+    kx /= kn
+    ky /= kn
+    kz /= kn
+    c = min(1.0, max(-1.0, ax * bx + ay * by + az * bz))
+    s = math.sqrt(1.0 - c * c)
+    kv = kx * vx + ky * vy + kz * vz
+    return (vx * c + (ky * vz - kz * vy) * s + kx * kv * (1.0 - c),
+            vy * c + (kz * vx - kx * vz) * s + ky * kv * (1.0 - c),
+            vz * c + (kx * vy - ky * vx) * s + kz * kv * (1.0 - c))
+
+
+@numba.njit(cache=True, nogil=True)
 def _unfold_numba(pos, parent, alive, main_child, rate):
     n = pos.shape[0]
     eff = np.zeros(n, np.bool_)
@@ -75,6 +95,8 @@ def _unfold_numba(pos, parent, alive, main_child, rate):
     frame = np.zeros((n, 3))
     tmid = np.zeros(n)
     axis = np.full(n, -1, np.int64)
+    dirs = np.zeros((n, 3))
+    half = np.zeros(n)
     for c in range(n):
         p = parent[c]
         eff[c] = alive[c] and (p < 0 or eff[p])
@@ -89,21 +111,24 @@ def _unfold_numba(pos, parent, alive, main_child, rate):
         p = parent[c]
         if p < 0 or not eff[c]:
             continue
-        d = pos[c] - pos[p]
-        d = d / math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        dx = pos[c, 0] - pos[p, 0]
+        dy = pos[c, 1] - pos[p, 1]
+        dz = pos[c, 2] - pos[p, 2]
+        ln = math.sqrt(dx * dx + dy * dy + dz * dz)
+        dirs[c, 0] = dx / ln
+        dirs[c, 1] = dy / ln
+        dirs[c, 2] = dz / ln
+        half[c] = 0.5 * ln
         if parent[p] < 0:                 # first internode: straight root half, first frame any perpendicular
-            frame[c] = _perp(d)
-            h = 0.5 * (pos[p] + pos[c]) - pos[p]
-            tmid[c] = rate * math.sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2])
+            frame[c] = _perp(dirs[c])
+            tmid[c] = rate * half[c]
         else:                             # sequential start frame: rotate by angle(N'(0), N'(1))  (A.10)
-            q = parent[p]
-            a = pos[p] - pos[q]
-            a = a / math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-            frame[c] = _rotate_between(frame[p], a, d)
-            h0 = pos[p] - 0.5 * (pos[q] + pos[p])
-            h1 = 0.5 * (pos[p] + pos[c]) - pos[p]
-            tmid[c] = tmid[p] + rate * (math.sqrt(h0[0] * h0[0] + h0[1] * h0[1] + h0[2] * h0[2])
-                                        + math.sqrt(h1[0] * h1[0] + h1[1] * h1[1] + h1[2] * h1[2]))
+            fx, fy, fz = _rot_scalar(frame[p, 0], frame[p, 1], frame[p, 2], dirs[p, 0], dirs[p, 1], dirs[p, 2],
+                                     dirs[c, 0], dirs[c, 1], dirs[c, 2])
+            frame[c, 0] = fx
+            frame[c, 1] = fy
+            frame[c, 2] = fz
+            tmid[c] = tmid[p] + rate * (half[p] + half[c])
         axis[c] = axis[p] if (main[p] == c and axis[p] >= 0) else c
     return eff, main, frame, tmid, axis
 
@@ -409,3 +434,133 @@ def _copy_blocks_numba(src_v0, dst_v0, nv, src_f0, dst_f0, nf, V0, N0, UV0, ID0,
         for k in range(nf[q]):
             for c in range(3):
                 F[fb + k, c] = F0[fa + k, c] + shift
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Segment records straight from the tree (keys 2c for the segment ending at internode c's midpoint, 2i+1 for
+# the tip half of terminal node i; emitted in key order)
+@numba.njit(cache=True, nogil=True)
+def _records_numba(pos, parent, radius, eff, main, frame, tmid, axis, w, rate):
+    n = pos.shape[0]
+    has_child = np.zeros(n, np.bool_)
+    for c in range(n):
+        if eff[c] and parent[c] >= 0:
+            has_child[parent[c]] = True
+    S = 0
+    for c in range(n):
+        if eff[c] and parent[c] >= 0:
+            S += 1 if has_child[c] else 2
+    rec = np.empty((S, REC_SIZE))
+    nodes = np.empty((S, 2), np.int64)
+    keys = np.empty(S, np.int64)
+    ax = np.empty(S, np.int64)
+    caps = np.zeros(S, np.uint8)
+    s = 0
+    for c in range(n):
+        p = parent[c]
+        if p < 0 or not eff[c]:
+            continue
+        root = parent[p] < 0
+        for k in range(3):
+            mc = 0.5 * (pos[p, k] + pos[c, k])
+            if root:
+                rec[s, k] = pos[p, k]
+                rec[s, 3 + k] = 0.5 * (pos[p, k] + mc)
+                rec[s, 9 + k] = frame[c, k]
+            else:
+                rec[s, k] = 0.5 * (pos[parent[p], k] + pos[p, k])
+                rec[s, 3 + k] = pos[p, k]
+                rec[s, 9 + k] = frame[p, k]
+            rec[s, 6 + k] = mc
+            rec[s, 12 + k] = frame[c, k]
+        rec[s, REC_W] = w
+        rec[s, REC_T0] = 0.0 if root else tmid[p]
+        rec[s, REC_T1] = tmid[c]
+        rec[s, REC_R0] = radius[c] if root else radius[p]
+        rec[s, REC_R2] = radius[c]
+        nodes[s, 0] = c if root else p
+        nodes[s, 1] = c
+        keys[s] = 2 * c
+        ax[s] = axis[c]
+        caps[s] = CAP_START if (root or main[p] != c) else 0
+        s += 1
+        if not has_child[c]:
+            ln = 0.0
+            for k in range(3):
+                mc = 0.5 * (pos[p, k] + pos[c, k])
+                rec[s, k] = mc
+                rec[s, 3 + k] = 0.5 * (mc + pos[c, k])
+                rec[s, 6 + k] = pos[c, k]
+                rec[s, 9 + k] = frame[c, k]
+                rec[s, 12 + k] = frame[c, k]
+                ln += (pos[c, k] - mc) ** 2
+            rec[s, REC_W] = w
+            rec[s, REC_T0] = tmid[c]
+            rec[s, REC_T1] = tmid[c] + rate * math.sqrt(ln)
+            rec[s, REC_R0] = radius[c]
+            rec[s, REC_R2] = radius[c]
+            nodes[s, 0] = c
+            nodes[s, 1] = c
+            keys[s] = 2 * c + 1
+            ax[s] = axis[c]
+            caps[s] = CAP_END
+            s += 1
+    return rec, nodes, keys, ax, caps
+
+
+@numba.njit(cache=True, nogil=True)
+def _eval_segments_serial(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
+    for q in range(seg_idx.shape[0]):
+        s = seg_idx[q]
+        _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v_off[s], f_off[s], V, NRM, UV, NID, F)
+
+
+def eval_segments(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
+    """Evaluate the segments ``seg_idx`` into the buffers; threads only when there is enough work."""
+    fn = _eval_segments_numba if len(seg_idx) > 512 else _eval_segments_serial
+    fn(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
+
+
+def _records_numpy(pos, parent, radius, eff, main, frame, tmid, axis, bezier_w, bark_rate):
+    """Readable, vectorised twin of :func:`_records_numba`."""
+    n = len(pos)
+    has_parent = parent >= 0
+    # incoming segment of every live internode c
+    c = np.flatnonzero(eff & has_parent)
+    p = parent[c]
+    root = parent[p] < 0
+    q = np.where(root, p, parent[p])
+    mid_p = 0.5 * (pos[q] + pos[p])
+    mid_c = 0.5 * (pos[p] + pos[c])
+    P0 = np.where(root[:, None], pos[p], mid_p)
+    P1 = np.where(root[:, None], 0.5 * (pos[p] + mid_c), pos[p])
+    rin = np.empty((len(c), REC_SIZE))
+    rin[:, 0:3], rin[:, 3:6], rin[:, 6:9] = P0, P1, mid_c
+    rin[:, 9:12] = np.where(root[:, None], frame[c], frame[p])
+    rin[:, 12:15] = frame[c]
+    rin[:, 15] = bezier_w
+    rin[:, 16] = np.where(root, 0.0, tmid[p])
+    rin[:, 17] = tmid[c]
+    rin[:, 18] = np.where(root, radius[c], radius[p])
+    rin[:, 19] = radius[c]
+    nin = np.stack([np.where(root, c, p), c], axis=1)
+    cin = np.where(root | (main[p] != c), CAP_START, 0).astype(np.uint8)
+    # tip halves
+    has_child = np.zeros(n, bool)
+    has_child[parent[eff & has_parent]] = True
+    t = np.flatnonzero(eff & has_parent & ~has_child)
+    mid_t = 0.5 * (pos[parent[t]] + pos[t])
+    rtp = np.empty((len(t), REC_SIZE))
+    rtp[:, 0:3], rtp[:, 3:6], rtp[:, 6:9] = mid_t, 0.5 * (mid_t + pos[t]), pos[t]
+    rtp[:, 9:12] = rtp[:, 12:15] = frame[t]
+    rtp[:, 15] = bezier_w
+    rtp[:, 16] = tmid[t]
+    rtp[:, 17] = tmid[t] + bark_rate * np.linalg.norm(pos[t] - mid_t, axis=1)
+    rtp[:, 18] = rtp[:, 19] = radius[t]
+    ntp = np.stack([t, t], axis=1)
+    # root-half segments whose internode is also a tip end in a cap too (via the tip segment)
+    keys = np.concatenate([2 * c, 2 * t + 1])
+    order = np.argsort(keys, kind="stable")
+    return (np.concatenate([rin, rtp])[order], np.concatenate([nin, ntp])[order], keys[order],
+            np.concatenate([axis[c], axis[t]])[order],
+            np.concatenate([cin, np.full(len(t), CAP_END, np.uint8)])[order])

@@ -246,47 +246,9 @@ def tree_segments(pos, parent, radius, *, alive=None, main_child=None, bezier_w:
         bezier_w = check_range("bezier_w", bezier_w, 0.0, 1e3, low_open=True)
         bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
     eff, main, frame, tmid, axis = K._unfold_numba(pos, parent, alive, main_child, bark_rate)
-    n = len(pos)
-    has_parent = parent >= 0
-    # incoming segment of every live internode c
-    c = np.flatnonzero(eff & has_parent)
-    p = parent[c]
-    root = parent[p] < 0
-    q = np.where(root, p, parent[p])
-    mid_p = 0.5 * (pos[q] + pos[p])
-    mid_c = 0.5 * (pos[p] + pos[c])
-    P0 = np.where(root[:, None], pos[p], mid_p)
-    P1 = np.where(root[:, None], 0.5 * (pos[p] + mid_c), pos[p])
-    rin = np.empty((len(c), REC_SIZE))
-    rin[:, 0:3], rin[:, 3:6], rin[:, 6:9] = P0, P1, mid_c
-    rin[:, 9:12] = np.where(root[:, None], frame[c], frame[p])
-    rin[:, 12:15] = frame[c]
-    rin[:, 15] = bezier_w
-    rin[:, 16] = np.where(root, 0.0, tmid[p])
-    rin[:, 17] = tmid[c]
-    rin[:, 18] = np.where(root, radius[c], radius[p])
-    rin[:, 19] = radius[c]
-    nin = np.stack([np.where(root, c, p), c], axis=1)
-    cin = np.where(root | (main[p] != c), CAP_START, 0).astype(np.uint8)
-    # tip halves
-    has_child = np.zeros(n, bool)
-    has_child[parent[eff & has_parent]] = True
-    t = np.flatnonzero(eff & has_parent & ~has_child)
-    mid_t = 0.5 * (pos[parent[t]] + pos[t])
-    rtp = np.empty((len(t), REC_SIZE))
-    rtp[:, 0:3], rtp[:, 3:6], rtp[:, 6:9] = mid_t, 0.5 * (mid_t + pos[t]), pos[t]
-    rtp[:, 9:12] = rtp[:, 12:15] = frame[t]
-    rtp[:, 15] = bezier_w
-    rtp[:, 16] = tmid[t]
-    rtp[:, 17] = tmid[t] + bark_rate * np.linalg.norm(pos[t] - mid_t, axis=1)
-    rtp[:, 18] = rtp[:, 19] = radius[t]
-    ntp = np.stack([t, t], axis=1)
-    # root-half segments whose internode is also a tip end in a cap too (via the tip segment)
-    keys = np.concatenate([2 * c, 2 * t + 1])
-    order = np.argsort(keys, kind="stable")
-    return Segments(records=np.concatenate([rin, rtp])[order], nodes=np.concatenate([nin, ntp])[order],
-                    keys=keys[order], axis=np.concatenate([axis[c], axis[t]])[order],
-                    caps=np.concatenate([cin, np.full(len(t), CAP_END, np.uint8)])[order])
+    rec, nodes, keys, ax, caps = K._records_numba(pos, parent, radius, eff, main, frame, tmid, axis, bezier_w,
+                                                  bark_rate)
+    return Segments(records=rec, nodes=nodes, keys=keys, axis=ax, caps=caps)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -457,8 +419,8 @@ def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
     changed = np.flatnonzero(~same).astype(np.int64)
     args = (float(o["bark_repeat"]),)
     if len(os_) == len(seg) and np.array_equal(os_.keys, seg.keys) and np.array_equal(old.counts, cnt):
-        K._eval_segments_numba(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off,
-                               *args, old.vertices, old.normals, old.uv, old.node_id, old.faces)
+        K.eval_segments(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off,
+                        *args, old.vertices, old.normals, old.uv, old.node_id, old.faces)
         old.segments = seg
         return old, changed
     V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
@@ -467,6 +429,6 @@ def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
     K._copy_blocks_numba(old.v_off[jk], v_off[keep], v_off[keep + 1] - v_off[keep], old.f_off[jk], f_off[keep],
                          f_off[keep + 1] - f_off[keep], old.vertices, old.normals, old.uv, old.node_id,
                          old.faces, V, NRM, UV, NID, F)
-    K._eval_segments_numba(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off, *args,
-                           V, NRM, UV, NID, F)
+    K.eval_segments(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off, *args,
+                    V, NRM, UV, NID, F)
     return BranchMesh(V, F, NRM, UV, NID, seg, cnt, v_off, f_off, dict(o)), changed

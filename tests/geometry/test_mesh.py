@@ -269,3 +269,14 @@ def test_invalid_inputs_are_rejected(tree):
         build_branch_mesh(pos[:, :2], parent, radius)
     with pytest.raises(ValueError, match="kernel must be one of"):
         build_branch_mesh(pos, parent, radius, kernel="cuda")
+
+
+def test_record_kernel_twins_agree(tree):
+    pos, parent, radius, mc = tree
+    alive = np.ones(len(pos), bool)
+    alive[[7, 30, 31]] = False
+    un = K._unfold_numba(pos, parent, alive, mc, 0.7)
+    a = K._records_numba(pos, parent, radius, *un[:4][:1], *un[1:], 3.0, 0.7)
+    b = K._records_numpy(pos, parent, radius, *un[:4][:1], *un[1:], 3.0, 0.7)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
