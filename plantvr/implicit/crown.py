@@ -32,7 +32,9 @@ def default_roots(node_or_points, *, up: int = 1) -> np.ndarray:
     """
     up = check_int("up", up, 0, 2)
     if isinstance(node_or_points, Node):
-        lo, hi = node_or_points.bbox
+        from .sampling import _tight_box
+
+        lo, hi = _tight_box(node_or_points, 0.5)       # box of the envelope (F > iso), not of the support
     else:
         p = check_points("points", node_or_points, min_rows=1)
         lo, hi = p.min(axis=0), p.max(axis=0)
@@ -42,7 +44,7 @@ def default_roots(node_or_points, *, up: int = 1) -> np.ndarray:
 
 
 def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, influence_radius: float = np.inf,
-                  max_steps: int = 500, children_limit: int | None = None, stall_steps: int | None = 20,
+                  max_steps: int = 500, children_limit: int | None = None, stall_steps: int | None = -1,
                   up: int = 1):
     """Grow a tree toward the crown's attraction points with the project's space colonization.
 
@@ -63,7 +65,8 @@ def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, 
     children_limit : int, optional
         Passed through to the colonization kernel.
     stall_steps : int, optional
-        Stop after this many steps without a kill (spec §1.4 stall guard; 20 by default, None: off).
+        Stop after this many steps without a kill (spec §1.4 stall guard; None: off). The default (-1) is 20 plus
+        the steps the trunk needs to reach the nearest marker from the farthest root.
     up : int
         Vertical axis for the default root.
 
@@ -91,6 +94,11 @@ def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, 
         from plantvr.growth.colonize import space_colonization
     except ImportError as exc:  # pragma: no cover - depends on the growth package landing
         raise ValueError("space colonization needs plantvr.growth.colonize, which is not installed yet") from exc
+    if stall_steps == -1:
+        from scipy.spatial import cKDTree
+
+        gap = float(cKDTree(markers).query(roots)[0].max())
+        stall_steps = 20 + int(np.ceil(gap / step_size))
     if not np.isfinite(influence_radius):
         # the kernel takes a finite d_i: twice the diagonal of markers and roots reaches every marker from any node
         allp = np.vstack([markers, roots])
