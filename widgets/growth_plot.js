@@ -9,7 +9,7 @@ function render({ model, el }) {
     const g = canvas.getContext("2d");
     g.fillStyle = "#fff"; g.fillRect(0, 0, W, H);
     const s = model.get("steps"), ms = model.get("ms"), n = model.get("internodes");
-    const L = 44, Rm = 50, T = 14, B = 22;
+    const L = 44, Rm = 74, T = 14, B = 22;
     g.font = "11px sans-serif"; g.fillStyle = "#444";
     g.fillText("step", W / 2 - 10, H - 4);
     if (s.length < 1) { g.fillText("no steps yet", W / 2 - 30, H / 2); return; }
