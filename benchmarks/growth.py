@@ -14,7 +14,7 @@ import time
 import numpy as np
 from scipy.spatial import cKDTree
 
-from plantvr.growth.assign import assign_markers, assign_markers_bruteforce
+from plantvr.growth.colonize import assign_treewand, assign_treewand_reference
 from plantvr.growth.engine import GrowthEngine
 from plantvr.params import defaults
 
@@ -97,12 +97,12 @@ def main(argv: list[str] | None = None) -> dict:
         kw = dict(view_radius=e.params["view_radius"], view_angle=math.radians(e.params["view_angle"]))
         mk = e2.markers
         t0 = time.perf_counter()
-        own = assign_markers(mk, buds.pos, buds.dir, buds.length, **kw)
+        own = assign_treewand(mk, buds.pos, buds.dir, buds.length, **kw)
         t_grid = 1e3 * (time.perf_counter() - t0)
         brute = float("nan")
         if len(buds.node) * len(mk) <= 3e8:
             t0 = time.perf_counter()
-            ref = assign_markers_bruteforce(mk, buds.pos, buds.dir, buds.length, **kw)
+            ref = assign_treewand_reference(mk, buds.pos, buds.dir, buds.length, **kw)
             brute = 1e3 * (time.perf_counter() - t0)
             assert np.array_equal(ref, own)
         t0 = time.perf_counter()

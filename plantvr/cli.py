@@ -21,7 +21,7 @@ def demo(out: Path, steps: int, seed: int) -> dict:
     from tqdm import tqdm
 
     from . import Model
-    from .export import tree_trimesh
+    from .export import export_model, tree_trimesh
     from .growth.scenarios import demo_session, run
 
     out.mkdir(parents=True, exist_ok=True)
@@ -29,9 +29,9 @@ def demo(out: Path, steps: int, seed: int) -> dict:
     t0 = time.perf_counter()
     stats = run(model, demo_session(), steps, tqdm(range(steps), desc="growing", unit="step"))
     grow_s = time.perf_counter() - t0
-    mesh = tree_trimesh(model)
-    mesh.export(out / "tree.ply")
-    mesh.export(out / "tree.glb")
+    mesh = tree_trimesh(model, leaves=True)
+    export_model(model, out / "tree.ply")
+    export_model(model, out / "tree.glb")
     model.save(out / "tree.tree")
     from .view import View
     view = View(model, off_screen=True, window_size=(1000, 1000))

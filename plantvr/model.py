@@ -53,6 +53,8 @@ class Snapshot:
     order: np.ndarray     # (N,) branch order
     markers: np.ndarray   # (M, 3)
     stats: StepStats | None
+    main_child: np.ndarray  # (N,) int64 snapshot index of each node's main (slot 0) child, -1 if none
+    buds: dict[str, np.ndarray]  # "pos", "dir", "radius", "up" of every bud slot (leaves grow there)
 
     @property
     def n_internodes(self) -> int:
@@ -270,10 +272,15 @@ class Model(_Params):
             remap[live] = np.arange(len(live))
             par = t.parent[live]
             par = np.where(par >= 0, remap[np.maximum(par, 0)], -1)
+            main = t.child[live, 0]
+            main = np.where(main >= 0, remap[np.maximum(main, 0)], -1)
+            b = self._engine.buds()
+            buds = {"pos": b.pos, "dir": b.dir, "radius": t.radius[b.node], "up": t.lat[b.node]}
             self._seq = getattr(self, "_seq", 0) + 1
             return Snapshot(self._seq, self._engine.step_count, _frozen(t.pos[live]),
                             _frozen(par), _frozen(t.radius[live]), _frozen(t.order[live]),
-                            _frozen(self._engine.markers), stats)
+                            _frozen(self._engine.markers), stats, _frozen(main),
+                            {k: _frozen(v) for k, v in buds.items()})
 
     def _publish(self) -> None:
         snap = self._make_snapshot(self._last_stats())

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .assign import assign_markers
+from .colonize import assign_treewand
 from .directions import bud_headings, growth_directions, normalize, transport_lateral, tropism_vectors
 from .lengths import internode_lengths
 from .markers import poisson_darts
@@ -157,7 +157,7 @@ class GrowthEngine:
         buds = self._active_buds()
         grown = 0
         if len(buds.node) and len(self.markers):
-            owner = assign_markers(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
+            owner = assign_treewand(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
                                    view_angle=math.radians(p["view_angle"]))
             grown = self._grow(buds, owner)
         self.grid.add(self.grid.cells_of(t.pos[self._new_nodes]), *self._lut)
@@ -193,17 +193,25 @@ class GrowthEngine:
         if dead.any():
             self.markers, self.marker_age = self.markers[~dead], self.marker_age[~dead]
 
-    def _active_buds(self) -> _Buds:
+    def buds(self) -> _Buds:
+        """Every bud slot of the live tree: node, slot, position and initial heading (Eqs. 9.1/9.2)."""
         p, t = self.params, self.tree
         node, slot = np.nonzero((t.child == BUD) & t.alive[:, None])
-        bv = t.bud_vigor[node, slot]
-        vmax = float(bv.max()) if len(bv) else 0.0  # Eq. 9.17: "any bud on the tree"
-        act = bv > p["activation_threshold"]
-        b = _Buds(node[act], slot[act])
-        b.pos = t.pos[b.node]
-        b.dir = bud_headings(t.head[b.node], t.lat[b.node], b.slot, main_angle=math.radians(p["main_branch_angle"]),
+        b = _Buds(node, slot)
+        b.pos = t.pos[node]
+        b.dir = bud_headings(t.head[node], t.lat[node], slot, main_angle=math.radians(p["main_branch_angle"]),
                              lateral_angle=math.radians(p["branch_angle"]), opposite=t.nslots == 3,
                              opposite_main=p["opposite_main"])
+        return b
+
+    def _active_buds(self) -> _Buds:
+        p, t = self.params, self.tree
+        allb = self.buds()
+        bv = t.bud_vigor[allb.node, allb.slot]
+        vmax = float(bv.max()) if len(bv) else 0.0  # Eq. 9.17: "any bud on the tree"
+        act = bv > p["activation_threshold"]
+        b = _Buds(allb.node[act], allb.slot[act])
+        b.pos, b.dir = allb.pos[act], allb.dir[act]
         b.length = internode_lengths(p["length_mode"], base=p["base_length"], mult=p["max_len_mult"],
                                      order=t.order[b.node] + (b.slot > 0), vigor=bv[act], vmax=vmax)
         return b

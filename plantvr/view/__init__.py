@@ -14,25 +14,36 @@ import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
 from ..model import Model, Snapshot  # noqa: E402
+from ..params import PARAMS  # noqa: E402
 
 __all__ = ["View", "branch_mesh"]
 
 BARK = "#8b5a2b"
 GROW, PRUNE = "#2ecc40", "#e03030"
+LEAF = "#4f8a2f"
 
 
-def branch_mesh(snap: Snapshot, sides: int = 10) -> pv.PolyData:
-    """Tube mesh of a snapshot's internodes, radius per internode (VTK tube filter on line segments)."""
+def _poly(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None) -> pv.PolyData:
+    poly = pv.PolyData(np.asarray(vertices, float), np.column_stack([np.full(len(faces), 3), faces]).ravel())
+    if normals is not None:
+        poly.point_data["Normals"] = normals
+    return poly
+
+
+def branch_mesh(snap: Snapshot, params: dict | None = None, *, leaves: bool = False,
+                sides: int | None = None) -> tuple[pv.PolyData, pv.PolyData]:
+    """Generalized-cylinder branches and leaves of a snapshot as pyvista meshes (spec 000_treewand §3).
+
+    ``sides`` fixes the ring subdivisions of every branch (e.g. a cheap headset mesh); by default
+    they follow the radius LOD (6 at the tip radius to 32 at 50×).
+    """
+    from ..export import tree_geometry  # noqa: PLC0415
+    params = params or {p.name: p.default for p in PARAMS}
     if snap.n_internodes == 0:
-        return pv.PolyData()
-    kids = np.flatnonzero(snap.parent >= 0)
-    pts = np.concatenate([snap.pos[snap.parent[kids]], snap.pos[kids]])
-    k = len(kids)
-    lines = np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel()
-    poly = pv.PolyData(pts, lines=lines)
-    poly["radius"] = np.concatenate([snap.radius[kids], snap.radius[kids]])
-    poly["order"] = np.concatenate([snap.order[kids], snap.order[kids]])
-    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=True)
+        return pv.PolyData(), pv.PolyData()
+    b, leaf = tree_geometry(snap, params, leaves=leaves, lod=(sides, sides) if sides else (6, 32))
+    return _poly(b.vertices, b.faces, b.normals), (_poly(leaf.vertices, leaf.faces) if leaf is not None
+                                                   else pv.PolyData())
 
 
 class View:
@@ -49,13 +60,15 @@ class View:
     """
 
     def __init__(self, model: Model, *, off_screen: bool | None = None, window_size=(900, 700),
-                 show_markers: bool = True):
+                 show_markers: bool = True, show_leaves: bool = True):
         if off_screen is None:
             off_screen = not os.environ.get("DISPLAY")
         self.model = model
         self.plotter = pv.Plotter(off_screen=off_screen, window_size=window_size)
         self.plotter.set_background("#f4f1ea", top="#cfe3f5")
         self._branches = pv.PolyData()
+        self._leaves = pv.PolyData()
+        self.show_leaves = show_leaves
         self._markers = pv.PolyData()
         self._drawn = -1
         self.brush_center = np.zeros(3)
@@ -92,12 +105,14 @@ class View:
         if snap.version == self._drawn:
             return
         self._drawn = snap.version
-        mesh = branch_mesh(snap)
-        if mesh.n_points:
-            first = self._branches.n_points == 0
-            self._branches.copy_from(mesh)
-            if first:
-                self.plotter.add_mesh(self._branches, color=BARK, smooth_shading=True, name="branches")
+        mesh, leaves = branch_mesh(snap, self.model.params, leaves=self.show_leaves)
+        for target, new, kw in ((self._branches, mesh, dict(color=BARK, name="branches")),
+                                (self._leaves, leaves, dict(color=LEAF, name="leaves"))):
+            first = target.n_points == 0
+            if new.n_points:
+                target.copy_from(new)
+                if first:
+                    self.plotter.add_mesh(target, smooth_shading=True, **kw)
         if len(snap.markers):
             first = self._markers.n_points == 0
             self._markers.copy_from(pv.PolyData(np.asarray(snap.markers, float)))
