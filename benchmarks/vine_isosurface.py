@@ -55,6 +55,7 @@ def main(argv: list[str] | None = None) -> dict:
     vol, level = head.volume, head.level
     print(f"volume {shape} uint8 ({vol.nbytes / 2**20:.0f} MiB), level {level}")
     out = {"shape": shape}
+    marching_cubes(vol[:16, :16, :16].astype(np.float32), level)     # warm-up (lazy imports)
     s, t, peak = _measure(lambda: extract_isosurface(vol, level, slab=a.slab))
     out.update(slab_s=t, slab_peak_mib=peak, vertices=len(s.vertices), faces=len(s.faces))
     print(f"slab-wise (slab={a.slab}): {t:.2f} s, peak +{peak:.0f} MiB, {len(s.vertices):,} V / {len(s.faces):,} F")

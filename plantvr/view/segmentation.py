@@ -1,0 +1,149 @@
+"""pyvista view of a ViNE segmentation (spec 000_vine §2.6, §4.4(b), §4.5): categorical colours through the
+colour table, in-place per-vertex colour updates, hidden colours dropped from the index buffer, optional
+shader-free depth cueing, saved-view application, offscreen screenshots.
+
+The view observes a :class:`plantvr.vine.Segmentation`; it never edits labels.
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+import pyvista as pv  # noqa: E402
+
+from plantvr.vine.depthcue import coarse_hull, depth_cue_colors  # noqa: E402
+from plantvr.vine.segmentation import Segmentation  # noqa: E402
+from plantvr.vine.views import SavedView, load_view  # noqa: E402
+
+__all__ = ["SegmentationView"]
+
+
+class SegmentationView:
+    """Offscreen (or notebook) pyvista view of a segmentation.
+
+    Parameters
+    ----------
+    seg : Segmentation
+    plotter : pyvista.Plotter, optional
+        Existing plotter; default a new ``Plotter(off_screen=True, window_size=window_size)``.
+    window_size : tuple of 2 int
+    culling : {"back", None}
+        Back-face culling (spec §4.5; thesis §5.7.3).
+    background : str or 3 floats
+        Dark by default, so depth cueing darkens with distance.
+
+    Notes
+    -----
+    Colours are direct RGBA scalars (4 B/vertex), updated sparsely for the painted ids and re-uploaded by VTK
+    (``Modified()``); a colour-table edit remaps all vertices once (spec §4.4(b)).
+    """
+
+    def __init__(self, seg: Segmentation, *, plotter: pv.Plotter | None = None, window_size=(900, 700),
+                 culling: str | None = "back", background="black"):
+        if not isinstance(seg, Segmentation):
+            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")
+        self.seg = seg
+        self.plotter = plotter or pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background(background)
+        self.mesh = pv.PolyData.from_regular_faces(seg.vertices, seg.visible_faces().astype(np.int64))
+        self._base_rgba = seg.vertex_colors()
+        self.mesh.point_data["rgba"] = self._base_rgba.copy()
+        self.actor = self.plotter.add_mesh(self.mesh, scalars="rgba", rgb=True, culling=culling,
+                                           smooth_shading=seg.normals is not None, show_scalar_bar=False)
+        if seg.normals is not None:
+            self.mesh.point_data["Normals"] = seg.normals
+            self.mesh.point_data.active_normals_name = "Normals"
+        self.depth_cue = False
+        self._hull = None
+        self._brush = None
+        self.updates = 0
+        seg.observe(self._on_change)
+
+    # ------------------------------------------------------------------ model → view
+    def _rgba_array(self) -> np.ndarray:
+        return self.mesh.point_data["rgba"]
+
+    def _on_change(self, kind: str, ids) -> None:
+        if kind == "labels" and ids is not None and not self.depth_cue:
+            rgba = self.seg.colors.rgba[self.seg.labels[ids]]
+            self._base_rgba[ids] = rgba
+            arr = self._rgba_array()
+            arr[ids] = rgba                                # in place: pyvista marks the VTK array modified
+            self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
+        else:
+            self._base_rgba = self.seg.vertex_colors()
+            if kind in ("visibility", "all"):
+                self.mesh.faces = pv.CellArray.from_regular_cells(self.seg.visible_faces().astype(np.int64))
+            self._refresh_colors()
+        self.updates += 1
+
+    def _refresh_colors(self) -> None:
+        cols = self._base_rgba
+        if self.depth_cue:
+            eye = np.asarray(self.plotter.camera.position, np.float64)
+            cols = depth_cue_colors(cols, self.seg.vertices, self._model_eye(eye), self._get_hull(),
+                                    background=(0, 0, 0))
+        self._rgba_array()[:] = cols
+        self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
+
+    def _model_eye(self, eye: np.ndarray) -> np.ndarray:
+        m = np.asarray(self.actor.user_matrix, np.float64)
+        return (np.linalg.inv(m) @ np.r_[eye, 1.0])[:3]
+
+    def _get_hull(self):
+        if self._hull is None:
+            self._hull = coarse_hull(self.seg.vertices)
+        return self._hull
+
+    # ------------------------------------------------------------------ commands
+    def set_depth_cue(self, on: bool) -> None:
+        """Toggle depth cueing (Eq. 5.8, p = 0.85, coarse-hull distances from the camera position)."""
+        self.depth_cue = bool(on)
+        self._base_rgba = self.seg.vertex_colors()
+        self._refresh_colors()
+
+    def show_brush(self, center, radius: float, label: int, *, opacity: float = 0.35) -> None:
+        """Draw the partially transparent brush sphere in the label's colour (spec §2.4.1 preview)."""
+        label = self.seg.colors.check_label("label", label)
+        if self._brush is not None:
+            self.plotter.remove_actor(self._brush)
+        sphere = pv.Sphere(radius=float(radius), center=np.asarray(center, float))
+        self._brush = self.plotter.add_mesh(sphere, color=self.seg.colors.rgba[label, :3] / 255, opacity=opacity)
+        self._brush.user_matrix = self.actor.user_matrix
+
+    def hide_brush(self) -> None:
+        """Remove the brush sphere."""
+        if self._brush is not None:
+            self.plotter.remove_actor(self._brush)
+            self._brush = None
+
+    def set_model_pose(self, position, rotation: np.ndarray, scale: float) -> None:
+        """Set the model transform ``x ↦ P + s R x`` (rotation as a (3, 3) matrix)."""
+        m = np.eye(4)
+        m[:3, :3] = float(scale) * np.asarray(rotation, float)
+        m[:3, 3] = np.asarray(position, float)
+        self.actor.user_matrix = m
+        if self._brush is not None:
+            self._brush.user_matrix = m
+
+    def apply_view(self, view: SavedView, *, viewer_position=None, view_dir=None) -> None:
+        """Load a saved view for the current camera (its position and horizontal facing, Eq. 5.14 corrected)."""
+        cam = self.plotter.camera
+        V = np.asarray(cam.position if viewer_position is None else viewer_position, float)
+        d = (np.asarray(cam.focal_point) - np.asarray(cam.position)) if view_dir is None else np.asarray(view_dir)
+        P, R, s = load_view(view, viewer_position=V, view_dir=d)
+        self.set_model_pose(P, R, s)
+
+    def screenshot(self, path: str | os.PathLike | None = None) -> np.ndarray:
+        """Render offscreen and return (H, W, 3) uint8; also writes a PNG when ``path`` is given."""
+        if self.depth_cue:
+            self._refresh_colors()
+        self.plotter.render()
+        return self.plotter.screenshot(None if path is None else os.fspath(path), return_img=True)
+
+    def close(self) -> None:
+        """Stop observing and close the plotter."""
+        self.seg.unobserve(self._on_change)
+        self.plotter.close()
