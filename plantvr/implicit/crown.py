@@ -160,9 +160,11 @@ def pipe_radii(parent, *, r0: float = 0.01, exponent: float = 2.5) -> np.ndarray
         raise ValueError(f"parent must describe a forest: {n - len(order)} nodes are not reachable from a root "
                          "(cycle)")
     acc = np.zeros(n)
+    only = np.zeros(n)               # radius of the single child (exact, no power round trip along chains)
     r = np.empty(n)
     for v in reversed(order):
-        r[v] = r0 if counts[v] == 0 else acc[v] ** (1.0 / exponent)
+        r[v] = r0 if counts[v] == 0 else (only[v] if counts[v] == 1 else acc[v] ** (1.0 / exponent))
         if par[v] >= 0:
             acc[par[v]] += r[v] ** exponent
+            only[par[v]] = r[v]
     return r
