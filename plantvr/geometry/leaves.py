@@ -9,6 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
+import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
@@ -122,7 +125,8 @@ def _rotate(vecs, axis, ang):
 
 
 def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right: float = 0.05,
-                  iterations: int = 15, up=(0.0, 1.0, 0.0), increment: str = "per_iteration"):
+                  iterations: int = 15, up=(0.0, 1.0, 0.0), increment: str = "per_iteration",
+                  kernel: str = "numba"):
     """Turn leaf frames toward the light with three elastic rotations (Eq. 10.15, spec §3.4).
 
     Per iteration, in this order and reading the current frame each time: about û (target ĥ, "petiole bend
@@ -143,6 +147,8 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
     increment : {"per_iteration", "split"}
         ``"per_iteration"``: θ of Eq. 10.15 in radians per iteration (spec §3.4 [INFERRED]); ``"split"``:
         θ/iterations per iteration, so the result converges as iterations grow (spec TW-V21 reading).
+    kernel : {"numba", "numpy"}
+        Per-leaf compiled loop, or the vectorised numpy twin.
 
     Returns
     -------
@@ -159,10 +165,13 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
     iterations = check_int("iterations", iterations, 1, 1000)
     y = _normalize(np.asarray(check_array("up", up, shape=(3,)), float))
     check_choice("increment", increment, ("per_iteration", "split"))
+    check_choice("kernel", kernel, ("numba", "numpy"))
     scale = 1.0 / iterations if increment == "split" else 1.0
     h, r, u = _orthonormalize(h, u)
     if len(h) == 0:
         return h, r, u
+    if kernel == "numba":
+        return _orient_numba(h, r, u, np.array([e["e_right"], e["e_up"], e["e_twist"]]), iterations, y, scale)
     for _ in range(iterations):
         for ax_name, tg_name, ek in (("u", "h", "e_right"), ("r", "u", "e_up"), ("h", "u", "e_twist")):
             if e[ek] == 0.0:
@@ -174,11 +183,64 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
             # no overshoot [INFERRED]: the angle about the axis that brings the target closest to y bounds θ,
             # otherwise θ (which does not vanish there) makes the frame chatter around that optimum
             b_perp = target - np.sum(target * axis, 1, keepdims=True) * axis
-            best = np.arctan2(np.sum(axis * bxy, axis=1), b_perp @ y)
+            sn = np.sum(axis * bxy, axis=1)
+            best = np.where(np.abs(sn) < 1e-12, 0.0, np.arctan2(sn, b_perp @ y))   # equilibrium: no turn
             th = np.sign(best) * np.minimum(th, np.abs(best))
             h, r, u = _rotate((h, r, u), axis, th)
             h, r, u = _orthonormalize(h, u)
     return h, r, u
+
+
+@numba.njit(cache=True, nogil=True)
+def _cr(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@numba.njit(cache=True, nogil=True)
+def _orient_numba(h, r, u, e, iterations, y, scale):
+    """Per-leaf, allocation-free loop of Eq. 10.15 (twin: the vectorised body of :func:`orient_leaves`)."""
+    L = h.shape[0]
+    H, R, U = h.copy(), r.copy(), u.copy()
+    y0, y1, y2 = y[0], y[1], y[2]
+    for i in range(L):
+        f = np.empty((3, 3))
+        f[0], f[1], f[2] = H[i], R[i], U[i]          # rows: h, r, u
+        for _ in range(iterations):
+            for step in range(3):
+                if e[step] == 0.0:
+                    continue
+                ai = 2 if step == 0 else (1 if step == 1 else 0)
+                ti = 0 if step == 0 else 2
+                a0, a1, a2 = f[ai, 0], f[ai, 1], f[ai, 2]
+                t0, t1, t2 = f[ti, 0], f[ti, 1], f[ti, 2]
+                c0, c1, c2 = _cr(t0, t1, t2, y0, y1, y2)
+                d0, d1, d2 = _cr(a0, a1, a2, y0, y1, y2)
+                th = scale * e[step] * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) * math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                ta = t0 * a0 + t1 * a1 + t2 * a2
+                sn = a0 * c0 + a1 * c1 + a2 * c2
+                best = 0.0 if abs(sn) < 1e-12 else math.atan2(
+                    sn, (t0 - ta * a0) * y0 + (t1 - ta * a1) * y1 + (t2 - ta * a2) * y2)
+                th = math.copysign(min(th, abs(best)), best) if best != 0.0 else 0.0
+                c, s_ = math.cos(th), math.sin(th)
+                for k in range(3):
+                    v0, v1, v2 = f[k, 0], f[k, 1], f[k, 2]
+                    x0, x1, x2 = _cr(a0, a1, a2, v0, v1, v2)
+                    av = a0 * v0 + a1 * v1 + a2 * v2
+                    f[k, 0] = v0 * c + x0 * s_ + a0 * av * (1.0 - c)
+                    f[k, 1] = v1 * c + x1 * s_ + a1 * av * (1.0 - c)
+                    f[k, 2] = v2 * c + x2 * s_ + a2 * av * (1.0 - c)
+                hn = math.sqrt(f[0, 0] ** 2 + f[0, 1] ** 2 + f[0, 2] ** 2)
+                h0, h1, h2 = f[0, 0] / hn, f[0, 1] / hn, f[0, 2] / hn
+                uh = f[2, 0] * h0 + f[2, 1] * h1 + f[2, 2] * h2
+                u0, u1, u2 = f[2, 0] - uh * h0, f[2, 1] - uh * h1, f[2, 2] - uh * h2
+                un = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+                u0, u1, u2 = u0 / un, u1 / un, u2 / un
+                r0, r1, r2 = _cr(h0, h1, h2, u0, u1, u2)
+                f[0, 0], f[0, 1], f[0, 2] = h0, h1, h2
+                f[1, 0], f[1, 1], f[1, 2] = r0, r1, r2
+                f[2, 0], f[2, 1], f[2, 2] = u0, u1, u2
+        H[i], R[i], U[i] = f[0], f[1], f[2]
+    return H, R, U
 
 
 def _blade(shape: str):

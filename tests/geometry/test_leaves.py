@@ -91,3 +91,12 @@ def test_leaf_inputs_rejected(buds):
         orient_leaves(d, d, d, iterations=0)
     with pytest.raises(ValueError, match="increment must be one of"):
         orient_leaves(d, d, d, increment="total")
+
+
+def test_orient_twins_agree(buds):
+    _, d, _ = buds
+    h, r, u = initial_leaf_frames(d, rng=4)
+    for inc in ("per_iteration", "split"):
+        a = orient_leaves(h, r, u, e_twist=0.08, e_up=0.05, e_right=0.1, increment=inc, kernel="numba")
+        b = orient_leaves(h, r, u, e_twist=0.08, e_up=0.05, e_right=0.1, increment=inc, kernel="numpy")
+        np.testing.assert_allclose(np.stack(a), np.stack(b), atol=1e-10)
