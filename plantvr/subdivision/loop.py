@@ -6,6 +6,7 @@ first need no sort at all.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int
@@ -46,8 +47,75 @@ def loop_weight(n: np.ndarray, *, weight_rule: str = "loop_cos") -> np.ndarray:
     return np.where(n == 3, 3.0 / 16.0, k)
 
 
+def _edge_table_numpy(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """Readable twin of :func:`_edge_table_numba` (sort the undirected edge keys)."""
+    he = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
+    lo = np.minimum(he[:, 0], he[:, 1]).astype(np.int64)
+    hi = np.maximum(he[:, 0], he[:, 1]).astype(np.int64)
+    key = lo * np.int64(n_vertices) + hi
+    uniq, inv = np.unique(key, return_inverse=True)
+    edges = np.stack([uniq // n_vertices, uniq % n_vertices], axis=1)
+    return edges, inv.reshape(-1, 3).astype(np.int64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _edge_table_numba(faces, n_vertices):  # pragma: no cover - compiled; twin-tested against numpy
+    nf = faces.shape[0]
+    nh = 3 * nf
+    lo = np.empty(nh, np.int64)
+    hi = np.empty(nh, np.int64)
+    for f in range(nf):
+        for c in range(3):
+            a = faces[f, c]
+            b = faces[f, (c + 1) % 3]
+            h = 3 * f + c
+            if a < b:
+                lo[h] = a
+                hi[h] = b
+            else:
+                lo[h] = b
+                hi[h] = a
+    ptr = np.zeros(n_vertices + 1, np.int64)
+    for h in range(nh):
+        ptr[lo[h] + 1] += 1
+    for v in range(n_vertices):
+        ptr[v + 1] += ptr[v]
+    fill = ptr[:-1].copy()
+    bucket = np.empty(nh, np.int64)
+    for h in range(nh):
+        bucket[fill[lo[h]]] = h
+        fill[lo[h]] += 1
+    edge_of = np.empty(nh, np.int64)
+    e_lo = np.empty(nh, np.int64)
+    e_hi = np.empty(nh, np.int64)
+    ne = 0
+    for v in range(n_vertices):
+        s, t = ptr[v], ptr[v + 1]
+        # insertion sort of the (few) half-edges of this bucket by hi, so edge ids follow (lo, hi) order
+        for i in range(s + 1, t):
+            x = bucket[i]
+            j = i - 1
+            while j >= s and hi[bucket[j]] > hi[x]:
+                bucket[j + 1] = bucket[j]
+                j -= 1
+            bucket[j + 1] = x
+        prev = -1
+        for i in range(s, t):
+            h = bucket[i]
+            if hi[h] != prev:
+                e_lo[ne] = v
+                e_hi[ne] = hi[h]
+                prev = hi[h]
+                ne += 1
+            edge_of[h] = ne - 1
+    edges = np.empty((ne, 2), np.int64)
+    edges[:, 0] = e_lo[:ne]
+    edges[:, 1] = e_hi[:ne]
+    return edges, edge_of.reshape(nf, 3)
+
+
 def edge_table(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """Unique undirected edges and the face→edge map.
+    """Unique undirected edges and the face→edge map (numba kernel, O(F); numpy twin sorts).
 
     Parameters
     ----------
@@ -59,17 +127,11 @@ def edge_table(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarr
     Returns
     -------
     edges : (E, 2) int64 ndarray
-        Unique edges, ``edges[:, 0] < edges[:, 1]``.
+        Unique edges, ``edges[:, 0] < edges[:, 1]``, sorted lexicographically.
     face_edges : (F, 3) int64 ndarray
         Edge ids of the face edges (0,1), (1,2), (2,0).
     """
-    he = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    lo = np.minimum(he[:, 0], he[:, 1]).astype(np.int64)
-    hi = np.maximum(he[:, 0], he[:, 1]).astype(np.int64)
-    key = lo * np.int64(n_vertices) + hi
-    uniq, inv = np.unique(key, return_inverse=True)
-    edges = np.stack([uniq // n_vertices, uniq % n_vertices], axis=1)
-    return edges, inv.reshape(-1, 3).astype(np.int64)
+    return _edge_table_numba(np.ascontiguousarray(faces, dtype=np.int64), int(n_vertices))
 
 
 def _wsum(idx: np.ndarray, vals: np.ndarray, n: int) -> np.ndarray:
@@ -79,7 +141,7 @@ def _wsum(idx: np.ndarray, vals: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
-def _step(V, F, E, FE, weight_rule, boundary_rule):
+def _step(V, F, E, FE, weight_rule, boundary_rule, topology=True):
     nV, nE, nF = len(V), len(E), len(F)
     e_flat = FE.ravel()
     cnt = np.bincount(e_flat, minlength=nE)
@@ -114,6 +176,8 @@ def _step(V, F, E, FE, weight_rule, boundary_rule):
     eab, ebc, eca = FE[:, 0], FE[:, 1], FE[:, 2]
     oab, obc, oca = eab + nV, ebc + nV, eca + nV
     F2 = np.stack([a, oab, oca, oab, b, obc, oca, obc, c, oab, obc, oca], axis=1).reshape(-1, 3)
+    if not topology:
+        return np.vstack([even, odd]), F2, None, None
     E2 = np.empty((2 * nE + 3 * nF, 2), np.int64)
     eid = np.arange(nE)
     E2[0:2 * nE:2, 0] = E[:, 0]
@@ -183,8 +247,8 @@ def subdivide_loop(vertices, faces, levels: int = 1, *, weight_rule: str = "loop
     if levels == 0 or len(F) == 0:
         return V.copy(), F.copy()
     E, FE = edge_table(F, len(V))
-    for _ in range(levels):
-        V, F, E, FE = _step(V, F, E, FE, weight_rule, boundary_rule)
+    for lv in range(levels):
+        V, F, E, FE = _step(V, F, E, FE, weight_rule, boundary_rule, topology=lv < levels - 1)
     return V, F
 
 

@@ -202,3 +202,13 @@ def test_report_offset_mode_still_builds_manifold_mesh():
     cm = build_control_mesh(star_graph(4), offset_mode="report")
     inv = mesh_invariants(cm.vertices, cm.faces)
     assert inv["max_edge_faces"] == 2 and inv["duplicate_directed"] == 0 and inv["euler"] == 2 - 4
+
+
+def test_edge_table_numba_twin_equals_numpy():
+    from plantvr.subdivision import loop as L
+    for V0, F0 in [_capped_tree(50, seed=9), (lambda cm: (cm.vertices, cm.faces))(build_control_mesh(star_graph(6)))]:
+        F0 = np.random.default_rng(0).permutation(F0)
+        a = L._edge_table_numpy(F0, len(V0))
+        b = L._edge_table_numba(F0, len(V0))
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])

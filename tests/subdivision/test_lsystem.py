@@ -116,3 +116,23 @@ def test_branch_graph_validate_rejects_gap_and_cycle():
                     np.array([1, -1]))
     with pytest.raises(ValueError, match="no cycles"):
         g.validate()
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.text(alphabet="F+-&^/[]", min_size=1, max_size=40))
+def test_random_turtle_strings_parse_or_name_position(text):
+    depth, ok = 0, True
+    for ch in text:
+        depth += (ch == "[") - (ch == "]")
+        ok &= depth >= 0
+    ok &= depth == 0 and "F" in text
+    if ok:
+        g = parse_lsystem(text, angle=30, strict=True)
+        g.validate()
+        assert len(g) == text.count("F")
+    else:
+        with pytest.raises(ValueError, match=r"text: (unbalanced brackets|the string contains no branch)"):
+            parse_lsystem(text, angle=30)
