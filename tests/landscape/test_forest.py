@@ -1,0 +1,107 @@
+"""Landscape: terrain, Poisson-disc placement, forests grown on dask (spec 004 §3; issue 11 determinism checks)."""
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from plantvr.landscape import grow_forest, heightfield, poisson_disc, sample_height
+from plantvr.landscape.forest import _compete, engine_from_state, engine_state, grow_tree_task
+from plantvr.params import defaults
+
+SMALL = dict(size=(30.0, 30.0), min_dist=7.0, rounds=2, steps_per_round=3, n_darts=120, seed=7)
+
+
+def _same(f, g):
+    assert len(f.trees) == len(g.trees)
+    np.testing.assert_array_equal(f.bases, g.bases)
+    for a, b in zip(f.trees, g.trees):
+        for k in a:
+            assert a[k].tobytes() == b[k].tobytes(), k
+
+
+def test_heightfield_range_and_seed():
+    h = heightfield((40, 50), amplitude=4.0, rng=1)
+    assert h.shape == (40, 50) and h.min() == 0.0 and h.max() == pytest.approx(4.0)
+    np.testing.assert_array_equal(h, heightfield((40, 50), amplitude=4.0, rng=1))
+    assert np.all(heightfield((8, 8), amplitude=0.0, rng=1) == 0)
+    with pytest.raises(ValueError, match="amplitude"):
+        heightfield((8, 8), amplitude=-1)
+
+
+def test_sample_height_bilinear():
+    h = np.arange(12.0).reshape(3, 4)  # z rows, x columns
+    size = (3.0, 2.0)
+    np.testing.assert_allclose(sample_height(h, size, np.array([[0.0, 0.0], [3.0, 2.0], [1.0, 1.0]])), [0, 11, 5])
+    np.testing.assert_allclose(sample_height(h, size, np.array([[0.5, 0.5]])), [0.5 * (0 + 1 + 4 + 5) / 2])
+
+
+def test_poisson_disc_min_distance_and_bounds():
+    pts = poisson_disc((50.0, 30.0), 3.0, rng=2)
+    assert len(pts) > 60
+    assert np.all((pts >= 0) & (pts < [50.0, 30.0]))
+    d, _ = cKDTree(pts).query(pts, k=2)
+    assert d[:, 1].min() >= 3.0  # cKDTree as the oracle
+    np.testing.assert_array_equal(pts, poisson_disc((50.0, 30.0), 3.0, rng=2))
+    assert len(poisson_disc((50.0, 30.0), 3.0, max_points=10, rng=2)) == 10
+    with pytest.raises(ValueError, match="min_dist"):
+        poisson_disc((5.0, 5.0), 0.0)
+
+
+def test_state_roundtrip_is_exact():
+    from plantvr.growth.engine import GrowthEngine
+    e = GrowthEngine(defaults(), rng=3)
+    e.paint(np.array([0.0, 4.0, 0.0]), 3.0, 150)
+    for _ in range(3):
+        e.step()
+    s = engine_state(e)
+    a = grow_tree_task(defaults(), s, 2)
+    b = grow_tree_task(defaults(), s, 2)
+    for k in a["tree"]:
+        assert a["tree"][k].tobytes() == b["tree"][k].tobytes()
+    e2 = engine_from_state(defaults(), s)
+    np.testing.assert_array_equal(e2.tree.pos, e.tree.pos)
+    assert e2.rng.random() == e.rng.random()
+
+
+def test_competition_removes_neighbour_claimed_markers():
+    f = grow_forest(client="sync", **{**SMALL, "min_dist": 4.0, "rounds": 1})
+    r = defaults()["occupation_radius"]
+    # after the last round's competition no marker sits in another tree's occupation zone: recheck directly
+    states = [{"tree": {k: v.copy() for k, v in t.items()}, "markers": np.zeros((0, 3)),
+               "marker_age": np.zeros(0, np.int64)} for t in f.trees]
+    for s, b in zip(states, f.bases):
+        s["tree"]["pos"] -= b
+    rng = np.random.default_rng(0)
+    pts = rng.uniform([0, 0, 0], [30, 10, 30], (400, 3))
+    states[0]["markers"], states[0]["marker_age"] = pts - f.bases[0], np.zeros(400, np.int64)
+    _compete(states, f.bases, r)
+    kept = states[0]["markers"] + f.bases[0]
+    others = np.concatenate([t["pos"][t["alive"]] for t in f.trees[1:]])
+    assert cKDTree(others).query(kept)[0].min() > r
+    assert len(kept) < 400 or cKDTree(others).query(pts)[0].min() > r
+
+
+def test_forest_sync_equals_two_thread_workers():
+    pytest.importorskip("dask.distributed")
+    f = grow_forest(4, client="sync", **SMALL)
+    g = grow_forest(4, n_workers=2, processes=False, **SMALL)
+    assert len(f.trees) == 4 and f.n_internodes > 4 * 10
+    _same(f, g)
+    h = grow_forest(4, client="sync", **{**SMALL, "seed": 8})
+    assert not np.array_equal(h.bases, f.bases)
+
+
+@pytest.mark.slow  # ~20 s: two worker processes start, import and JIT-load the kernels
+def test_forest_dask_two_processes_same_bytes():
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        g = grow_forest(3, client=client, **SMALL)
+    f = grow_forest(3, client="sync", **SMALL)
+    _same(f, g)
+
+
+def test_forest_validation():
+    with pytest.raises(ValueError, match="n_trees"):
+        grow_forest(0)
+    with pytest.raises(ValueError, match="steps_per_round"):
+        grow_forest(2, steps_per_round=0, client="sync")
