@@ -43,6 +43,29 @@ def ball_query_brute(points: np.ndarray, center, radius: float) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True)
+def _bounds(points):  # pragma: no cover - numba kernel, twin: points.min(0), points.max(0)
+    lo = np.empty(3, np.float64)
+    hi = np.empty(3, np.float64)
+    for a in range(3):
+        lo[a] = np.inf
+        hi[a] = -np.inf
+    for v in range(points.shape[0]):
+        for a in range(3):
+            x = np.float64(points[v, a])
+            if x < lo[a]:
+                lo[a] = x
+            if x > hi[a]:
+                hi[a] = x
+    return lo, hi
+
+
+def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) float64 corners of the bounding box of (V, 3) points, in one pass (numpy's axis-0 min/max
+    over an (N, 3) array is ~10x slower)."""
+    return _bounds(points)
+
+
+@numba.njit(cache=True, nogil=True)
 def _cell_ids(points, origin, inv_h, dims):  # pragma: no cover - numba kernel
     n = points.shape[0]
     out = np.empty(n, np.int64)
@@ -179,8 +202,8 @@ class GridIndex:
         if pts.shape[0] >= 2 ** 31 - 1:
             raise ValueError(f"points must have fewer than 2**31 rows, got {pts.shape[0]}")
         cells_per_vertex = check_range("cells_per_vertex", cells_per_vertex, 0.0, 8.0, low_open=True)
-        lo = pts.min(axis=0).astype(np.float64)
-        ext = np.maximum(pts.max(axis=0).astype(np.float64) - lo, 1e-9)
+        lo, hi = _bounds(pts)
+        ext = np.maximum(hi - lo, 1e-9)
         if cell_size is None:
             target = max(cells_per_vertex * len(pts), 1.0)
             cell_size = float(np.prod(ext) / target) ** (1.0 / 3.0)

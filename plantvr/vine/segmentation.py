@@ -18,7 +18,7 @@ import numpy as np
 from plantvr._validation import check_array, check_choice, check_int, check_point, check_range
 from plantvr.vine.colors import ColorTable
 from plantvr.vine.history import History, LabelEdit, merge_stamps
-from plantvr.vine.index import GridIndex, KDTreeIndex
+from plantvr.vine.index import GridIndex, KDTreeIndex, bounds
 from plantvr.vine.ply import write_ply
 from plantvr.vine.views import SavedView
 
@@ -91,7 +91,8 @@ class Segmentation:
         self._index = None
         self._stroke: list | None = None
         self._observers: list[Callable] = []
-        ext = v.max(0) - v.min(0)
+        lo, hi = bounds(v)
+        ext = hi - lo
         self.max_radius = float(np.linalg.norm(ext)) + 1.0
 
     # ------------------------------------------------------------------ construction
