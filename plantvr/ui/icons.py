@@ -1,7 +1,7 @@
 """Small procedural icons for the bark and leaf texture selectors (spec 000_treewand §4.8).
 
-Each icon is a PNG (bytes) drawn with numpy; a texture name maps to a seeded pattern, so icons are
-deterministic. They stand in until the texture set ships with the geometry package.
+Each icon is a PNG (bytes) of the texture the geometry package renders with
+(:mod:`plantvr.geometry.textures`); a choice it does not know gets a deterministic procedural stand-in.
 """
 from __future__ import annotations
 
@@ -30,10 +30,28 @@ def _png(rgba: np.ndarray) -> bytes:
 
 
 @lru_cache(maxsize=64)
-def icon_png(name: str, size: int = 48) -> bytes:
-    """PNG icon for a texture choice such as ``"bark_1"`` or ``"leaf_2"``."""
-    kind, _, idx = name.partition("_")
-    k = int(idx) if idx.isdigit() else 0
+def icon_png(param: str, choice: str, index: int = 0, size: int = 48) -> bytes:
+    """PNG icon for ``choice`` of the texture parameter ``param`` (``"bark_texture"`` or ``"leaf_texture"``).
+
+    Parameters
+    ----------
+    param : str
+        Parameter name; its prefix (``bark``/``leaf``) picks the kind of icon.
+    choice : str
+        The texture name, e.g. ``"birch"``.
+    index : int
+        Position of the choice (seeds the stand-in pattern).
+    size : int
+        Pixels per side.
+    """
+    kind = "bark" if param.startswith("bark") else "leaf"
+    try:
+        from plantvr.geometry import textures  # noqa: PLC0415
+        make = textures.bark_texture if kind == "bark" else textures.leaf_texture
+        return _png(np.ascontiguousarray(make(choice, size)))
+    except (ImportError, ValueError):
+        pass
+    k = int(index)
     rng = np.random.default_rng(k + (0 if kind == "bark" else 100))
     y, x = np.mgrid[0:size, 0:size] / size
     img = np.zeros((size, size, 4), np.float64)

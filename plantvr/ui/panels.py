@@ -82,19 +82,21 @@ class IconSelector(W.HBox):
     ----------
     options : sequence of str
         Choice names (icons from :func:`plantvr.ui.icons.icon_png`).
+    param : str
+        The texture parameter (picks bark or leaf icons).
     value : str
         Initial choice.
     """
 
     value = traitlets.Unicode()
 
-    def __init__(self, options, value: str, description: str = "", tooltip: str = ""):
+    def __init__(self, options, value: str, description: str = "", tooltip: str = "", param: str = "bark_texture"):
         self.options = tuple(options)
         self.buttons: dict[str, W.Button] = {}
         self.images: dict[str, W.Image] = {}
         items = []
-        for name in self.options:
-            img = W.Image(value=icon_png(name), format="png", width=48, height=48,
+        for i, name in enumerate(self.options):
+            img = W.Image(value=icon_png(param, name, i), format="png", width=48, height=48,
                           layout=W.Layout(border="3px solid transparent"))
             btn = W.Button(description=name, tooltip=f"{tooltip} ({name})", layout=W.Layout(width="64px"))
             btn.on_click(lambda _b, n=name: setattr(self, "value", n))
@@ -126,7 +128,7 @@ def make_control(p: Param, value: Any) -> W.Widget:
     style = {"description_width": "150px"}
     if p.choices:
         if p.name.endswith("_texture"):
-            return IconSelector(p.choices, value, description=desc, tooltip=tip)
+            return IconSelector(p.choices, value, description=desc, tooltip=tip, param=p.name)
         return W.Dropdown(options=list(p.choices), value=value, description=desc, tooltip=tip, style=style)
     if p.kind is bool:
         return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style)

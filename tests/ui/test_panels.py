@@ -5,7 +5,7 @@ import ipywidgets as W
 import pytest
 
 import plantvr
-from plantvr.params import PARAMS, WINDOWS
+from plantvr.params import PARAM_BY_NAME, PARAMS, WINDOWS
 from plantvr.ui import IconSelector, ParameterPanels, load_preset, param_traits, read_preset, save_preset
 from plantvr.ui.panels import HIGHLIGHT, INFLUENCE
 
@@ -50,8 +50,9 @@ def test_sync_both_ways(model):
     assert model.apical_dominance == pytest.approx(0.7)
     model.tropism_angle = 90.0
     assert panels.controls["tropism_angle"].value == 90.0
-    panels.controls["leaf_texture"].value = "leaf_2"
-    assert model.leaf_texture == "leaf_2"
+    leaf = PARAM_BY_NAME["leaf_texture"].choices[-1]
+    panels.controls["leaf_texture"].value = leaf
+    assert model.leaf_texture == leaf
     model.shadow_depth = 12
     assert panels.controls["shadow_depth"].value == 12
 
@@ -81,16 +82,19 @@ def test_icon_selector_yellow_highlight(model):
     panels = ParameterPanels(model)
     sel = panels.controls["bark_texture"]
     assert isinstance(sel, IconSelector)
-    assert sel.buttons["bark_0"].style.button_color == HIGHLIGHT
-    sel.buttons["bark_2"].click()
-    assert model.bark_texture == "bark_2"
-    assert HIGHLIGHT in sel.images["bark_2"].layout.border
-    assert HIGHLIGHT not in sel.images["bark_0"].layout.border
-    assert sel.images["bark_2"].value[:8] == b"\x89PNG\r\n\x1a\n"
+    first, last = PARAM_BY_NAME["bark_texture"].choices[0], PARAM_BY_NAME["bark_texture"].choices[-1]
+    assert sel.buttons[first].style.button_color == HIGHLIGHT
+    sel.buttons[last].click()
+    assert model.bark_texture == last
+    assert HIGHLIGHT in sel.images[last].layout.border
+    assert HIGHLIGHT not in sel.images[first].layout.border
+    assert sel.images[last].value[:8] == b"\x89PNG\r\n\x1a\n"
+    model.bark_texture = first  # model -> selector
+    assert sel.value == first and HIGHLIGHT in sel.images[first].layout.border
 
 
 def test_presets_round_trip(model, tmp_path):
-    model.set_params(apical_dominance=0.62, leaf_texture="leaf_1", shadow_depth=9)
+    model.set_params(apical_dominance=0.62, leaf_texture=PARAM_BY_NAME["leaf_texture"].choices[-1], shadow_depth=9)
     path = save_preset(model, tmp_path / "oak.json")
     other = plantvr.Model(seed=1)
     load_preset(other, path)
