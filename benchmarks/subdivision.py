@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> dict:
     """
     import trimesh
 
-    from plantvr.subdivision import build_control_mesh, cap_boundaries, graph_from_arrays, subdivide_loop
+    from plantvr.subdivision import build_control_mesh, graph_from_arrays, subdivide_loop
     from plantvr.subdivision.graph import random_tree
 
     ap = argparse.ArgumentParser(description=__doc__)

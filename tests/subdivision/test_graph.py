@@ -1,6 +1,4 @@
 """Spec 001 §2.1–§2.2: trimming offsets (V3, V5) and graph simplification (V4)."""
-import warnings
-
 import numpy as np
 import pytest
 

@@ -1,5 +1,4 @@
 """Spec 001 §1.4–§1.5: LST / turtle parsing and grown-tree arrays (V1, V2)."""
-import warnings
 
 import numpy as np
 import pytest
