@@ -61,14 +61,39 @@ def _init_openvr(openvr):
         raise RuntimeError(f"OpenVR could not start ({text}); is SteamVR running?") from None
 
 
-def _mesh_from_snapshot(snap, sides: int):
-    """(branches, markers) vtkPolyData of a snapshot (tubes with ``sides`` sides; marker vertices)."""
+def _tube_mesh(snap, sides: int):
+    """Fast headset branch mesh: VTK tube filter over the internode segments, radius per internode."""
     import pyvista as pv  # noqa: PLC0415
+    kids = np.flatnonzero(np.asarray(snap.parent) >= 0)
+    if not len(kids):
+        return pv.PolyData()
+    k = len(kids)
+    pts = np.concatenate([snap.pos[snap.parent[kids]], snap.pos[kids]])
+    poly = pv.PolyData(pts, lines=np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel())
+    r = np.asarray(snap.radius, float)[kids]
+    poly["radius"] = np.concatenate([r, r])
+    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=False)
 
-    from ..view import branch_mesh  # noqa: PLC0415
-    branches = branch_mesh(snap, sides=sides) if snap.n_internodes else pv.PolyData()
+
+def _mesh_from_snapshot(snap, sides: int, params: dict | None = None, leaves: bool = False,
+                        kind: str = "tubes"):
+    """(branches, markers, leaves) vtkPolyData of a snapshot.
+
+    ``kind="tubes"``: :func:`_tube_mesh` (fast, no leaves); ``"cylinders"``: the shared generalized-cylinder
+    geometry of :func:`plantvr.view.branch_mesh` (spec 000_treewand §3.2), with leaves when asked.
+    """
+    import pyvista as pv  # noqa: PLC0415
+    leaf = pv.PolyData()
+    if not snap.n_internodes:
+        branches = pv.PolyData()
+    elif kind == "tubes":
+        branches = _tube_mesh(snap, sides)
+    else:
+        from ..view import branch_mesh  # noqa: PLC0415
+        out = branch_mesh(snap, params, leaves=leaves, sides=sides)
+        branches, leaf = out if isinstance(out, tuple) else (out, pv.PolyData())
     markers = pv.PolyData(np.asarray(snap.markers, float)) if len(snap.markers) else pv.PolyData()
-    return branches, markers
+    return branches, markers, leaf
 
 
 def _preview_mesh(snap, nodes: np.ndarray, sides: int):
@@ -100,6 +125,11 @@ class VRBridge:
         Sides of the branch tubes (6 ≈ the thesis' LOD 6/32 budget).
     render_scale : float
         Fraction of the runtime's recommended per-eye size to render (1.0 in a headset).
+    mesh : {"tubes", "cylinders"}
+        Branch mesh: VTK tubes over the internodes (fast, the default) or the shared generalized
+        cylinders of :func:`plantvr.view.branch_mesh` (smooth joins, leaves; ~50x slower to build).
+    leaves : bool
+        With ``mesh="cylinders"``, also show the leaves (spec 000_treewand §3.4).
     record : bool
         Keep every :class:`~plantvr.vr.controls.InputFrame` in :attr:`recording` (replay with
         :func:`plantvr.vr.replay`).
@@ -114,7 +144,8 @@ class VRBridge:
     """
 
     def __init__(self, model, *, layout: str = "side", tube_sides: int = 6, render_scale: float = 1.0,
-                 record: bool = False, readback: bool = False, near: float = 0.05, far: float = 100.0):
+                 mesh: str = "tubes", leaves: bool = False, record: bool = False, readback: bool = False, near: float = 0.05,
+                 far: float = 100.0):
         self.model = model
         self.layout = check_choice("layout", layout, ("side", "pair"))
         self.tube_sides = check_int("tube_sides", tube_sides, 3, 64)
@@ -122,6 +153,8 @@ class VRBridge:
         self.near = check_range("near", near, 0.0, 10.0, low_open=True)
         self.far = check_range("far", far, self.near, 1e6, low_open=True)
         self.record = bool(record)
+        self.leaves = bool(leaves)
+        self.mesh = check_choice("mesh", mesh, ("tubes", "cylinders"))
         self.readback = bool(readback)
         self.controls = Controls(brush_radius=model.brush_radius, prune_mode=model.prune_mode,
                                  scene=SceneTransform())
@@ -142,7 +175,7 @@ class VRBridge:
         self._stop = threading.Event()
         self._ready = threading.Event()
         self._queue: queue.Queue = queue.Queue()
-        self._meshes: tuple | None = None          # (snapshot version, branches, markers), swapped whole
+        self._meshes: tuple | None = None          # (snapshot version, branches, markers, leaves), swapped whole
         self._preview: tuple | None = None         # (snapshot, node indices) from the command worker
         self._preview_mesh: tuple | None = None    # (id, polydata)
         self._seen_radius = model.brush_radius
@@ -306,7 +339,7 @@ class VRBridge:
                     self._queue.put(cmd)
                 meshes = self._meshes
                 if meshes is not None and meshes[0] != drawn_mesh:
-                    renderer.set_meshes(meshes[1], meshes[2])
+                    renderer.set_meshes(meshes[1], meshes[2], leaves=meshes[3])
                     drawn_mesh = meshes[0]
                 prev = self._preview_mesh if self.controls.prune_mode and self.controls.brush_visible else None
                 pid = prev[0] if prev else None
@@ -418,8 +451,8 @@ class VRBridge:
             snap = self.model.snapshot
             if snap.version != built:
                 try:
-                    branches, markers = _mesh_from_snapshot(snap, self.tube_sides)
-                    self._meshes = (snap.version, branches, markers)
+                    self._meshes = (snap.version, *_mesh_from_snapshot(
+                        snap, self.tube_sides, self.model.params, self.leaves, self.mesh))
                 except Exception as exc:  # noqa: BLE001
                     self.command_errors.append((Command("mesh"), repr(exc)))
                 built = snap.version

@@ -27,6 +27,7 @@ from .math3d import gl_projection  # noqa: E402
 __all__ = ["StereoRenderer", "LAYOUTS"]
 
 LAYOUTS = ("side", "pair")
+LEAF = (0.27, 0.55, 0.2)
 BARK, MARKER, GROW, PRUNE = (0.545, 0.353, 0.169), (0.96, 0.82, 0.26), (0.18, 0.8, 0.25), (0.88, 0.19, 0.19)
 _WINDOW_RGB = {"appearance": (0.18, 0.8, 0.25), "tree_form": (0.88, 0.19, 0.19), "light": (0.19, 0.38, 0.88)}
 
@@ -47,6 +48,7 @@ class _Scene:
         self.model_matrix = vtk.vtkMatrix4x4()
         self.branches = self._actor(vtk.vtkPolyData(), BARK, model=True)
         self.preview = self._actor(vtk.vtkPolyData(), PRUNE, model=True)
+        self.leaves = self._actor(vtk.vtkPolyData(), LEAF, model=True)
         self.markers = self._actor(vtk.vtkPolyData(), MARKER, model=True)
         self.markers.GetProperty().SetPointSize(3)
         self.markers.GetProperty().SetLighting(False)
@@ -84,7 +86,7 @@ class _Scene:
             a.GetProperty().SetOpacity(0.85)
             a.SetVisibility(False)
             self.windows[name] = (a, m)
-        self.actors = [self.ground, self.branches, self.preview, self.markers, self.brush, self.ray,
+        self.actors = [self.ground, self.branches, self.leaves, self.preview, self.markers, self.brush, self.ray,
                        *(a for a, _ in self.windows.values())]
         self.ray.SetVisibility(False)
         self.brush.SetVisibility(False)
@@ -152,10 +154,11 @@ class StereoRenderer:
 
     # -- content -------------------------------------------------------------------------------------------
     def set_meshes(self, branches: vtk.vtkPolyData | None, markers: vtk.vtkPolyData | None,
-                   preview: vtk.vtkPolyData | None = None) -> None:
-        """Show new branch/marker/preview meshes (``None`` keeps the current one); uploaded on next render."""
+                   preview: vtk.vtkPolyData | None = None, leaves: vtk.vtkPolyData | None = None) -> None:
+        """Show new branch/marker/preview/leaf meshes (``None`` keeps the current one); uploaded on next render."""
         for s in self.scenes:
-            for actor, poly in ((s.branches, branches), (s.markers, markers), (s.preview, preview)):
+            for actor, poly in ((s.branches, branches), (s.markers, markers), (s.preview, preview),
+                                (s.leaves, leaves)):
                 if poly is not None:
                     actor.GetMapper().SetInputData(poly)
                     actor.SetVisibility(poly.GetNumberOfPoints() > 0)

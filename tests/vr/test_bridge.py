@@ -51,6 +51,9 @@ def test_lifecycle_both_eyes_every_frame_matching_sizes(model, fake):
     counts, edges = bridge.histogram()
     assert counts.sum() == len(bridge.frame_ms) == bridge.frames
     assert "ms" in bridge.histogram_text() and bridge.stats()["frames"] == bridge.frames
+    assert bridge.command_errors == []
+    version, branches, markers, _ = bridge._meshes
+    assert version == model.snapshot.version and branches.n_points > 0 and markers.n_points == model.n_markers
 
 
 def test_pair_layout_submits_a_texture_per_eye(model, fake):

@@ -1,0 +1,205 @@
+"""Stereo frame time of the headset renderer (spec 000_treewand §4.10, §8.2; 000_vine §4.5).
+
+For trees of ~5,000 and ~22,000 internodes, renders both eyes offscreen at headset resolution
+(2016 x 2240 per eye; ``--quick``: 504 x 560) with the two layouts of
+:class:`plantvr.vr.render.StereoRenderer` ("side": one window, two renderers sharing GPU buffers; "pair":
+one window per eye), beside a single-eye baseline (one window, one renderer) measured in the same run.
+Then runs the whole bridge against the fake OpenVR runtime and prints its frame-time histogram.
+Target in a headset: <= 11.1 ms per stereo frame (90 fps). On a CPU-only machine VTK renders with Mesa
+llvmpipe, so absolute numbers are far from that; the ratios still show what stereo costs.
+
+The 5k tree is grown by the model (seeded); growing 22k internodes takes minutes on 2 cores, so the
+larger tree is a seeded synthetic branching tree with the same snapshot layout (``--grow-all`` grows it).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import time
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+
+
+def grown_snapshot(target: int, seed: int = 0, max_s: float = 120.0):
+    """Grow a seeded tree with random strokes until it has ``target`` internodes (or ``max_s`` passes)."""
+    from plantvr.model import Model
+    m = Model(seed=seed, base_length=0.2, occupation_radius=0.2, view_radius=0.8, darts_per_paint=400)
+    rng = np.random.default_rng(seed)
+    t0 = time.perf_counter()
+    while m.n_internodes < target and time.perf_counter() - t0 < max_s:
+        m.paint_stroke(rng.uniform([-4, 0.5, -4], [4, 9, 4], (20, 3)), radius=2.0)
+        m.step(2)
+    return m.snapshot
+
+
+def synthetic_snapshot(n: int, seed: int = 0):
+    """A seeded branching tree with exactly ``n`` internodes (main axis continues, laterals at 45°)."""
+    from plantvr.model import Snapshot
+    rng = np.random.default_rng(seed)
+    pos = np.zeros((n + 1, 3))
+    parent = np.full(n + 1, -1, np.int64)
+    order = np.zeros(n + 1, np.int64)
+    head = np.zeros((n + 1, 3))
+    head[0] = (0, 1, 0)
+    tips, k = [0], 1
+    while k <= n:
+        new = []
+        for t in tips:
+            if k > n:
+                break
+            kids = [head[t]]
+            if rng.random() < 0.35:
+                side = np.cross(head[t], rng.normal(size=3))
+                side /= np.linalg.norm(side) + 1e-12
+                kids.append(np.cos(np.pi / 4) * head[t] + np.sin(np.pi / 4) * side)
+            for j, d in enumerate(kids):
+                if k > n:
+                    break
+                d = d + rng.normal(0, 0.08, 3) + (0, 0.03, 0)
+                d /= np.linalg.norm(d)
+                pos[k], parent[k], head[k] = pos[t] + 0.2 * d, t, d
+                order[k] = order[t] + (j > 0)
+                new.append(k)
+                k += 1
+        tips = new if rng.random() < 0.97 or len(new) < 8 else new[: len(new) // 2]
+        if not tips:
+            tips = [int(rng.integers(1, k))]
+    size = np.ones(n + 1)
+    for i in range(n, 0, -1):
+        size[parent[i]] += size[i]
+    radius = 0.01 * size ** (1 / 2.5)
+    main_child = np.full(n + 1, -1, np.int64)
+    first = np.flatnonzero(parent >= 0)[::-1]          # reversed: the lowest index (main) child wins
+    main_child[parent[first]] = first
+    fields = {"version": 1, "step": 0, "pos": pos, "parent": parent, "radius": radius, "order": order,
+              "markers": np.zeros((0, 3)), "stats": None, "main_child": main_child,
+              "buds": {k: np.zeros((0, 3)) for k in ("pos", "dir", "up")} | {"radius": np.zeros(0)}}
+    names = {f.name for f in dataclasses.fields(Snapshot)}
+    return Snapshot(**{k: v for k, v in fields.items() if k in names})
+
+
+def _eyes(frame: int):
+    from plantvr.vr import fake_openvr as f
+    from plantvr.vr.math3d import hmd34_to_array, hmd44_to_array
+    system = f.IVRSystem()
+    hmd = f.pose_matrix((0.0, 1.6, 0.6), yaw=0.05 * np.sin(frame / 7))
+    eyes = [hmd @ hmd34_to_array(system.getEyeToHeadTransform(e)) for e in (0, 1)]
+    proj = [hmd44_to_array(system.getProjectionMatrix(e, 0.05, 100.0)) for e in (0, 1)]
+    return eyes, proj
+
+
+def time_layout(branches, markers, width: int, height: int, layout: str, frames: int, scene_matrix) -> list[float]:
+    """ms per frame of ``layout`` ("side", "pair", or "single": one eye, the baseline)."""
+    from plantvr.vr.render import StereoRenderer
+    r = StereoRenderer(width, height, layout="side" if layout == "single" else layout)
+    if layout == "single":   # one window of one eye with one renderer
+        rw = r.windows[0]
+        rw.RemoveRenderer(r.renderers[1])
+        r.renderers = r.renderers[:1]
+        r.renderers[0].SetViewport(0, 0, 1, 1)
+        rw.SetSize(width, height)
+    r.set_meshes(branches, markers)
+    r.set_model_matrix(scene_matrix)
+    out = []
+    for i in range(frames + 1):
+        eyes, proj = _eyes(i)
+        t0 = time.perf_counter()
+        r.render(eyes, proj)
+        if layout != "single":
+            r.textures()
+        ms = 1000 * (time.perf_counter() - t0)
+        if i:                     # frame 0 compiles shaders and uploads buffers
+            out.append(ms)
+    r.close()
+    return out
+
+
+def bridge_run(snap, width: int, height: int, frames: int):
+    """Frame times of the full bridge (fake runtime) showing ``snap``; returns the bridge."""
+    from plantvr.model import Model
+    from plantvr.vr import VRBridge, fake_openvr
+    fake_openvr.install()
+    fake_openvr.runtime.render_size = (width, height)
+    m = Model(seed=0)
+    m.snapshot = snap           # show the benchmark tree (read-only use of the snapshot slot)
+    b = VRBridge(m)
+    b.controls.scene.scale, b.controls.scene.translation = 0.25, np.array([0.0, 0.0, -0.6])
+    b.start(timeout=600)
+    b.wait_frames(frames + 2, timeout=600)
+    b.stop()
+    fake_openvr.uninstall()
+    ms = list(b.frame_ms)
+    b.frame_ms.clear()
+    b.frame_ms.extend(ms[2:])   # drop warm-up (shader compile, first upload)
+    return b
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="small eyes (504x560), trees of 500 and 5000, few frames (CI)")
+    ap.add_argument("--eye", default=None, help="per-eye WxH (default 2016x2240; quick 504x560)")
+    ap.add_argument("--trees", default=None, help="internode counts (default 5000,22000; quick 500,5000)")
+    ap.add_argument("--frames", type=int, default=None, help="timed frames per case (default 5; quick 3)")
+    ap.add_argument("--sides", type=int, default=6, help="tube sides (6 ~ LOD 6/32)")
+    ap.add_argument("--grow-all", action="store_true", help="grow every tree instead of synthesising the large one")
+    args = ap.parse_args(argv)
+    w, h = map(int, (args.eye or ("504x560" if args.quick else "2016x2240")).split("x"))
+    sizes = [int(s) for s in (args.trees or ("500,5000" if args.quick else "5000,22000")).split(",")]
+    frames = args.frames or (3 if args.quick else 5)
+
+    import pyvista as pv
+
+    from plantvr.view import branch_mesh
+    from plantvr.vr.bridge import _tube_mesh
+    from plantvr.vr.controls import SceneTransform
+    scene = SceneTransform(scale=0.25, translation=(0.0, 0.0, -0.6)).matrix
+    results: dict = {"eye": (w, h), "frames": frames, "cases": []}
+    print(f"stereo frame time, {w}x{h} per eye, {frames} frames after warm-up, tube sides {args.sides}")
+    big = None
+    for i, n in enumerate(sizes):
+        t0 = time.perf_counter()
+        if i == 0 or args.grow_all:
+            snap, how = grown_snapshot(n), "grown"
+        else:
+            snap, how = synthetic_snapshot(n), "synthetic"
+        t_make = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        branches = _tube_mesh(snap, args.sides)
+        t_mesh = 1000 * (time.perf_counter() - t0)
+        t_cyl = None
+        if snap.n_internodes <= 6000:     # the shared generalized cylinders, for comparison
+            t0 = time.perf_counter()
+            branch_mesh(snap, sides=args.sides)
+            t_cyl = 1000 * (time.perf_counter() - t0)
+        markers = pv.PolyData(np.asarray(snap.markers, float)) if len(snap.markers) else pv.PolyData()
+        tris = branches.triangulate().n_cells
+        cyl = f", generalized cylinders {t_cyl:.0f} ms" if t_cyl is not None else ""
+        print(f"\ntree: {snap.n_internodes} internodes ({how} in {t_make:.1f} s), {tris} triangles; mesh build "
+              f"(mesher thread, off the render thread): tubes {t_mesh:.0f} ms{cyl}")
+        case = {"internodes": snap.n_internodes, "how": how, "triangles": tris, "mesh_ms": t_mesh,
+                "cylinders_ms": t_cyl}
+        single = time_layout(branches, markers, w, h, "single", frames, scene)
+        case["single_ms"] = float(np.median(single))
+        print(f"  baseline single eye          {case['single_ms']:9.1f} ms   (x2 = {2 * case['single_ms']:.1f} ms)")
+        for layout in ("side", "pair"):
+            ms = time_layout(branches, markers, w, h, layout, frames, scene)
+            case[f"{layout}_ms"] = float(np.median(ms))
+            print(f"  stereo {layout:5s}                 {case[f'{layout}_ms']:9.1f} ms   "
+                  f"= {case[f'{layout}_ms'] / case['single_ms']:.2f} x single eye; "
+                  f"target 11.1 ms (90 fps): {'met' if case[f'{layout}_ms'] <= 11.1 else 'missed'}")
+        results["cases"].append(case)
+        big = snap
+    b = bridge_run(big, w, h, frames)
+    st = b.stats()
+    results["bridge"] = st
+    print(f"\nfull bridge (fake runtime, {big.n_internodes} internodes, layout side): "
+          f"median {st['median_ms']:.1f} ms, p95 {st['p95_ms']:.1f} ms per stereo frame; histogram:")
+    print(b.histogram_text())
+    return results
+
+
+if __name__ == "__main__":
+    main()
