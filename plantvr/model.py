@@ -228,19 +228,21 @@ class Model(_Params):
             return stats
         if self._worker is not None and self._worker.is_alive():
             raise RuntimeError("growth is already running; call model.stop() first")
-        self.events.record("step", steps=steps)
         self._stop.clear()
         self.growing = True
 
         def work() -> None:
+            done = 0
             for _ in _progress(range(steps), progress):
                 if self._stop.is_set():
                     break
                 with self._lock:
                     st = self._engine.step()
+                done += 1
                 self._publish()
                 if on_step:
                     on_step(st)
+            self.events.record("step", steps=done)  # the steps actually grown, so a paused session replays
             self._call_in_kernel(lambda: setattr(self, "growing", False))
 
         self._worker = threading.Thread(target=work, name="plantvr-growth", daemon=True)
@@ -310,6 +312,12 @@ class Model(_Params):
     def history(self) -> list[StepStats]:
         """Statistics of every growth step since the tree was started."""
         return list(self._engine.history)
+
+    @property
+    def vr(self):
+        """Headset mode for this model: ``model.vr.start()`` / ``model.vr.stop()`` (OpenVR bridge thread)."""
+        from .vr import attach  # noqa: PLC0415  (UI layer, imported on first use)
+        return attach(self)
 
     @property
     def tree(self):
