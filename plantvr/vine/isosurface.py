@@ -95,10 +95,12 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step
     prev_keys = prev_ids = None                          # seam vertices of the previous slab
     for s in range(0, last, slab):
         e = min(s + slab, last)
-        block = np.asarray(volume[s:e + 1]).astype(np.float32)
-        if block.shape[0] < 2 or block.max() <= level or block.min() >= level:
+        raw = np.asarray(volume[s:e + 1])
+        if raw.shape[0] < 2 or raw.max() <= level or raw.min() >= level:
             prev_keys = prev_ids = None
             continue
+        block = raw.astype(np.float32)                   # only this slab is ever float
+        del raw
         try:
             v, f, n, _ = marching_cubes(block, level, step_size=step_size, allow_degenerate=False)
         except (ValueError, RuntimeError):

@@ -69,8 +69,9 @@ def _stamp_capsules(vol, lab, seg, width, thr):  # pragma: no cover - numba kern
                     r = r0 + t * (r1 - r0)
                     ramp = min(max(0.5 + (r - d) / width, 0.0), 1.0)
                     v = contrast * ramp
-                    if v > vol[i, j, k]:
-                        vol[i, j, k] = v
+                    q = np.uint8(min(np.floor(v + 0.5), 255.0))
+                    if q > vol[i, j, k]:
+                        vol[i, j, k] = q
                         if v >= thr:
                             lab[i, j, k] = np.uint8(label)
 
@@ -102,8 +103,9 @@ def _stamp_ellipsoids(vol, lab, ell, width, thr):  # pragma: no cover - numba ke
                     d = (q - 1.0) * mn
                     ramp = min(max(0.5 - d / width, 0.0), 1.0)
                     v = contrast * ramp
-                    if v > vol[i, j, k]:
-                        vol[i, j, k] = v
+                    q = np.uint8(min(np.floor(v + 0.5), 255.0))
+                    if q > vol[i, j, k]:
+                        vol[i, j, k] = q
                         if v >= thr:
                             lab[i, j, k] = np.uint8(label)
 
@@ -212,16 +214,17 @@ def synth_flowerhead(shape: int | tuple[int, int, int] = 64, *, n_veins: int = 8
         ells.append((*p, r, r, r, 9, _CONTRAST[9], 0.0, 0.0))
 
     width = 1.5
-    vol = np.zeros(shape, np.float32)
+    vol = np.zeros(shape, np.uint8)                  # 2 bytes per voxel in all (volume + labels)
     lab = np.zeros(shape, np.uint8)
     _stamp_ellipsoids(vol, lab, np.asarray(ells, np.float64), width, _LEVEL)
     _stamp_capsules(vol, lab, np.asarray(caps, np.float64), width, _LEVEL)
     if noise_level > 0:
         # add noise slab by slab to keep the temporary float small
-        for i in range(0, shape[0], 32):
-            sl = vol[i:i + 32]
+        for i in range(0, shape[0], 16):
+            sl = vol[i:i + 16].astype(np.float32)
             sl += rng.normal(0.0, noise_level, sl.shape).astype(np.float32)
-    out = np.clip(np.rint(vol), 0, 255).astype(np.uint8)
+            vol[i:i + 16] = np.clip(np.rint(sl), 0, 255).astype(np.uint8)
+    out = vol
     return FlowerHead(volume=out, labels=lab, level=_LEVEL)
 
 

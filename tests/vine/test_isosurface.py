@@ -73,3 +73,25 @@ def test_isosurface_rejects_bad_input(head):
         extract_isosurface(np.zeros((8, 8, 8), np.uint8), 10)
     with pytest.raises(ValueError, match="slab"):
         extract_isosurface(head.volume, head.level, slab=1)
+
+
+def test_slab_meshing_never_holds_a_float_copy_of_the_volume():
+    import tracemalloc
+    vol = np.zeros((160, 160, 160), np.uint8)
+    vol[70:90, 70:90, 70:90] = 200
+    tracemalloc.start()
+    s = extract_isosurface(vol, 99.5, slab=8)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert len(s.faces) > 0
+    assert peak < 0.2 * vol.size * 4, peak / 2**20          # a float32 copy would be 15.6 MiB
+
+
+def test_memmapped_npy_is_meshed_slab_by_slab(tmp_path, head):
+    from plantvr.vine.volume import load_volume
+    np.save(tmp_path / "v.npy", head.volume)
+    mm = load_volume(tmp_path / "v.npy")
+    assert isinstance(mm, np.memmap)
+    a = extract_isosurface(mm, head.level, slab=8)
+    b = extract_isosurface(head.volume, head.level, slab=8)
+    assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
