@@ -83,6 +83,10 @@ def dihedral_gradient(p1, p2, p3, p4):
     return g1, g2, g3, g4
 
 
+#: Largest bending correction of one vertex per projection, as a fraction of the hinge edge length.
+_MAX_STEP = 0.25
+
+
 @numba.njit(cache=True, nogil=True)
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
@@ -150,6 +154,11 @@ def _project_bend(p, w, q, rest, k):
     if den < 1e-300:
         return
     s = k * c / den
+    # Step limiter [INFERRED]: a free hinge vertex with a near-zero gradient would take a huge step.
+    gm = max(w[i1] * np.sqrt(g1x * g1x + g1y * g1y + g1z * g1z), w[i2] * np.sqrt(g2x * g2x + g2y * g2y + g2z * g2z),
+             w[i3] * np.sqrt(g3x * g3x + g3y * g3y + g3z * g3z), w[i4] * np.sqrt(g4x * g4x + g4y * g4y + g4z * g4z))
+    if abs(s) * gm > _MAX_STEP * le:
+        s *= _MAX_STEP * le / (abs(s) * gm)
     p[i1, 0] -= s * w[i1] * g1x
     p[i1, 1] -= s * w[i1] * g1y
     p[i1, 2] -= s * w[i1] * g1z
@@ -201,7 +210,11 @@ def _bend_step_numpy(p, w, q, rest, k):
     den = np.sum(w[q] * np.einsum("ij,ij->i", g, g))
     if den < 1e-300:
         return
-    p[q] -= (k * C / den) * w[q, None] * g               # Eq. 3.10 (ERRATUM A.1)
+    s = k * C / den
+    gm = np.max(w[q] * np.linalg.norm(g, axis=1))
+    if abs(s) * gm > _MAX_STEP * np.sqrt(ee):                # same step limiter as the kernel
+        s *= _MAX_STEP * np.sqrt(ee) / (abs(s) * gm)
+    p[q] -= s * w[q, None] * g                           # Eq. 3.10 (ERRATUM A.1)
 
 
 def solve_internal_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations):

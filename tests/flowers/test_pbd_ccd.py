@@ -1,0 +1,227 @@
+"""Tests for spec 002 §3: PBD constraints (V9–V12), CCD (V16–V21), collision constraints (V22–V23)."""
+import numpy as np
+import pytest
+
+from plantvr.flowers import ccd, pbd
+
+
+def _strip(nx=5, ny=8, z=0.0, shift=0.0, size=0.1):
+    gx, gy = np.meshgrid(np.arange(nx) * size, np.arange(ny) * size + shift, indexing="ij")
+    x = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)])
+    idx = np.arange(nx * ny).reshape(nx, ny)
+    f = []
+    for i in range(nx - 1):
+        for j in range(ny - 1):
+            a, b, c, d = idx[i, j], idx[i + 1, j], idx[i + 1, j + 1], idx[i, j + 1]
+            f += [[a, b, c], [a, c, d]]
+    return x, np.array(f, np.int64)
+
+
+def test_v9_distance_projection_exact_and_momentum():
+    p = np.array([[0.0, 0, 0], [1.0, 0.5, 0.2]])
+    w = np.array([1.0, 3.0])
+    p0 = p.copy()
+    pbd.solve_internal(p, w, np.array([[0, 1]]), np.array([0.4]), np.zeros((0, 4), np.int64), np.zeros(0),
+                       k_stretch=1.0, iterations=1)
+    assert abs(np.linalg.norm(p[0] - p[1]) - 0.4) <= 1e-12
+    assert np.allclose(((p - p0) / w[:, None]).sum(axis=0), 0.0, atol=1e-12)   # sum m_i dp_i = 0
+    p = p0.copy()
+    pbd.solve_internal(p, np.array([0.0, 1.0]), np.array([[0, 1]]), np.array([0.4]),
+                       np.zeros((0, 4), np.int64), np.zeros(0), k_stretch=1.0, iterations=1)
+    assert np.array_equal(p[0], p0[0])
+
+
+def test_v10_signed_bending_gradient_vs_finite_differences():
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        P = rng.normal(size=(4, 3))
+        q = np.array([[0, 1, 2, 3]])
+        g = np.array(pbd.dihedral_gradient(*P))
+        num = np.zeros_like(P)
+        for i in range(4):
+            for k in range(3):
+                d = np.zeros_like(P)
+                d[i, k] = 1e-6
+                num[i, k] = (pbd.signed_dihedrals(P + d, q)[0] - pbd.signed_dihedrals(P - d, q)[0]) / 2e-6
+        assert np.max(np.abs(num - g)) <= 1e-5 * max(1.0, np.abs(g).max())
+        assert np.allclose(g.sum(axis=0), 0, atol=1e-12)
+        assert np.allclose(np.cross(P, g).sum(axis=0), 0, atol=1e-12)
+
+
+def _quad(deg):
+    a = np.deg2rad(deg)
+    return (np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -np.cos(a), np.sin(a)]], float),
+            np.array([[0, 1, 2], [0, 3, 1]]))
+
+
+def test_v11_flat_zero_and_reflection_flips_sign():
+    x, f = _quad(0.0)
+    q = pbd.bend_quads(f)
+    assert pbd.signed_dihedrals(x, q)[0] == pytest.approx(0.0, abs=1e-15)
+    x, _ = _quad(31.0)
+    y = x.copy()
+    y[3, 2] *= -1
+    assert pbd.signed_dihedrals(y, q)[0] == pytest.approx(-pbd.signed_dihedrals(x, q)[0], abs=1e-14)
+
+
+@pytest.mark.parametrize("rest", [-60.0, 60.0, 170.0, -170.0])
+def test_v12_mirror_test_signed_converges_through_flat(rest):
+    x, f = _quad(31.0)
+    q = pbd.bend_quads(f)
+    e = pbd.mesh_edges(f)
+    start = np.rad2deg(pbd.signed_dihedrals(x, q)[0])
+    target = np.sign(start) * rest            # rest of opposite sign to start for the mirror case
+    p = x.copy()
+    pbd.solve_internal(p, np.array([0, 0, 0, 1.0]), e, pbd.edge_lengths(x, e), q, np.deg2rad([target]),
+                       k_stretch=1.0, k_bend=1.0, iterations=300)
+    assert np.rad2deg(pbd.signed_dihedrals(p, q)[0]) == pytest.approx(target, abs=1e-6)
+
+
+def test_pbd_numba_equals_numpy_twin():
+    rng = np.random.default_rng(1)
+    x, f = _strip(4, 5)
+    x[:, 2] += 0.02 * rng.normal(size=len(x))
+    e, q = pbd.mesh_edges(f), pbd.bend_quads(f)
+    rl = pbd.edge_lengths(x, e) * rng.uniform(0.8, 1.2, len(e))
+    rp = pbd.signed_dihedrals(x, q) + rng.normal(0, 0.3, len(q))
+    w = np.ones(len(x))
+    w[:4] = 0
+    a, b = x.copy(), x.copy()
+    pbd.solve_internal(a, w, e, rl, q, rp, iterations=5, backend="numba")
+    pbd.solve_internal(b, w, e, rl, q, rp, iterations=5, backend="numpy")
+    assert np.allclose(a, b, atol=1e-12)
+
+
+def test_v16_cubic_coefficients_vs_direct():
+    rng = np.random.default_rng(2)
+    for _ in range(100):
+        x, u, y, v, z, w = rng.normal(size=(6, 3))
+        A, B, C, D = ccd.cubic_coefficients(x, u, y, v, z, w)
+        for t in (0.0, 0.3, 1.0, 1.7):
+            direct = np.cross(y + t * v, z + t * w).dot(x + t * u)
+            assert A * t ** 3 + B * t ** 2 + C * t + D == pytest.approx(direct, abs=1e-12)
+
+
+def test_v17_culling_never_culls_a_root():
+    rng = np.random.default_rng(3)
+    for _ in range(20000):
+        c = rng.normal(size=4) * rng.choice([0.1, 1, 10])
+        r = np.roots(c)
+        has = np.any((np.abs(r.imag) < 1e-12) & (r.real >= 0) & (r.real <= 1))
+        if has:
+            assert not ccd._culled(*c)
+
+
+@pytest.mark.parametrize("roots", [[0.37], [0.2, 0.7], [0.3, 0.3, 0.8], [0.0, 0.5, 1.0], [0.25, 0.5, 0.9]])
+def test_v18_root_finder_known_roots(roots):
+    got = ccd.cubic_roots01(*np.poly(roots + ([] if len(roots) == 3 else [5.0] * (3 - len(roots)))))
+    assert np.allclose(got, sorted(set(roots)), atol=1e-7 if len(set(roots)) < len(roots) else 1e-10)
+
+
+def test_v19_vt_crossing_beside_and_parity():
+    f = np.array([[1, 2, 3]])
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+    x0 = np.vstack([[0.2, 0.2, 0.37], tri])
+    x1 = np.vstack([[0.2, 0.2, -0.63], tri])
+    cons, sides, kind = ccd.detect_collisions(x0, x1, f)
+    assert cons.tolist() == [[0, 1, 2, 3]] and sides[0] == 1.0 and kind[0] == 0
+    x1b = np.vstack([[1.2, 1.2, -0.63], tri])
+    assert len(ccd.detect_collisions(x0, x1b, f)[0]) == 0
+    # crossing and re-crossing: triangle vertex a moves so the plane sweeps the point twice
+    x0c = np.vstack([[0.2, 0.2, 0.1], [[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]])
+    x1c = np.vstack([[0.2, 0.2, 0.1], [[0, 0, 0.1], [1, 0, 0.1], [0, 1, 0.1]]])
+    x1c[1:, 2] = [0.0, 0.0, 0.0]
+    assert len(ccd.detect_collisions(x0c, x1c, f)[0]) == 0
+
+
+def test_v20_ee_crossing_and_skew_rejection():
+    # edge (0,1) along x at z=+0.1 moving to z=-0.1; edge (2,3) along y at z=0
+    x0 = np.array([[-1, 0, 0.1], [1, 0, 0.1], [0, -1, 0], [0, 1, 0.0]])
+    x1 = x0.copy()
+    x1[:2, 2] = -0.1
+    cons, _ = ccd._narrow(x0, x1, np.array([[0, 1]]), np.array([[0, 1], [2, 3]]),
+                          np.array([[0, 1], [2, 3]]), 1, 1e-6, 1e-9)[:2]
+    assert len(cons) == 1
+    x0s, x1s = x0.copy(), x1.copy()
+    x0s[2:, 0] += 3.0                               # coplanar at t=0.5 but far apart
+    x1s[2:, 0] += 3.0
+    cons, _ = ccd._narrow(x0s, x1s, np.array([[0, 1]]), np.array([[0, 1], [2, 3]]),
+                          np.array([[0, 1], [2, 3]]), 1, 1e-6, 1e-9)[:2]
+    assert len(cons) == 0
+
+
+def test_v21_broad_phase_complete_vs_brute_force():
+    rng = np.random.default_rng(4)
+    x0, f = _strip(6, 6)
+    x0 = np.vstack([x0, x0 + [0.05, 0.05, 0.04]])
+    f = np.vstack([f, f + 36])
+    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    verts = np.arange(len(x0))[:, None]
+    brute = np.array([(v, t) for v in range(len(x0)) for t in range(len(f)) if v not in f[t]])
+    allc, _, _ = ccd._narrow(x0, x1, brute, verts, f, 0, 1e-6, 1e-9)
+    for cell in (0.02, 0.1, 0.5):
+        cand = ccd.broad_phase(x0, x1, verts, f, pad=0.005, cell=cell)
+        s = {tuple(r) for r in cand}
+        got = {(c[0], tuple(c[1:])) for c in allc}
+        keyed = {(v, tuple(f[t])) for v, t in s}
+        assert got <= keyed
+
+
+def test_v22_collision_projection_restores_side():
+    f = np.array([[1, 2, 3]])
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+    x0 = np.vstack([[0.2, 0.2, 0.37], tri])
+    x1 = np.vstack([[0.2, 0.2, -0.63], tri])
+    cons, sides, _ = ccd.detect_collisions(x0, x1, f)
+    p = x1.copy()
+    ccd.solve_collisions(p, np.ones(4), cons, sides, h=0.005, k_collision=1.0, iterations=10)
+    n = np.cross(p[2] - p[1], p[3] - p[1])
+    assert (p[0] - p[1]).dot(n / np.linalg.norm(n)) - 0.005 >= -1e-9
+
+
+def test_narrow_numba_equals_numpy_twin():
+    rng = np.random.default_rng(5)
+    x0, f = _strip(6, 6)
+    x0 = np.vstack([x0, x0 + [0.05, 0.05, 0.03]])
+    f = np.vstack([f, f + 36])
+    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    a = ccd.detect_collisions(x0, x1, f)
+    b = ccd.detect_collisions_numpy(x0, x1, f)
+    assert len(a[0]) > 0
+    ka = sorted(map(tuple, np.column_stack([a[0], a[1]]).tolist()))
+    kb = sorted(map(tuple, np.column_stack([b[0], b[1]]).tolist()))
+    assert ka == kb
+
+
+def test_v23_two_petals_bending_onto_each_other_no_intersections():
+    from plantvr.flowers.composer import Canopy, FloretType, SolverParams, grow
+    xa, f = _strip(5, 8)
+    frames = []
+    for k in range(12):                           # petal bends downward along its length
+        kappa = 2.5 * k / 11                        # curvature grows: the petal curls down
+        y = xa[:, 1]
+        fr = xa.copy()
+        if kappa > 0:
+            fr[:, 1] = np.sin(kappa * y) / kappa
+            fr[:, 2] = (np.cos(kappa * y) - 1) / kappa
+        frames.append(fr)
+    fixed = np.flatnonzero(xa[:, 1] == 0)
+    T = FloretType(f, np.array(frames), fixed)
+    can = Canopy([T, T], [0, 0], [[0, 0, 0], [0, 0.1, -0.1]], [[0, 0, 1]] * 2, [[1, 0, 0]] * 2, [1.0, 1.0])
+    S = np.column_stack([np.linspace(0, 1, 12), np.zeros(12)])
+    params = SolverParams(solver_iterations=20)
+    x, log = grow(can, S, params, sanity_every=1)
+    assert all(st["intersections"] == 0 for st in log)
+    assert sum(st["constraints"] for st in log) > 0
+    assert max(st["passes"] for st in log) <= params.max_collision_retries
+    from plantvr.flowers.ccd import count_static_intersections
+    xn, _ = grow(can, S, params, collisions=False)
+    assert count_static_intersections(xn, can.faces) > 0
+
+
+def test_bad_input_negative_thickness():
+    with pytest.raises(ValueError, match="h must be"):
+        ccd.detect_collisions(np.zeros((3, 3)), np.zeros((3, 3)), np.array([[0, 1, 2]]), h=-0.1)
+    from plantvr.flowers.composer import SolverParams
+    with pytest.raises(ValueError, match="spacing"):
+        SolverParams(spacing=-0.01)
