@@ -204,7 +204,6 @@ def sample_step_pdf(pdf, n: int, *, bbox=None, rng=None) -> np.ndarray:
     rng = np.random.default_rng(rng)
     u = rng.random((n, 2 * d))
     idx = np.zeros((n, d), dtype=np.int64)
-    cond = np.broadcast_to(g, (n,) + g.shape) if n <= 1 else None
     # marginal of axis 0, then conditionals of axis 1 | 0 and axis 2 | 0, 1
     marg0 = g.reshape(g.shape[0], -1).sum(axis=1)
     c0 = np.r_[0.0, np.cumsum(marg0)] / marg0.sum()
@@ -220,7 +219,6 @@ def sample_step_pdf(pdf, n: int, *, bbox=None, rng=None) -> np.ndarray:
         c2 /= np.where(c2[..., -1:] > 0, c2[..., -1:], 1.0)
         rows = c2[idx[:, 0], idx[:, 1]]
         idx[:, 2] = np.clip((rows <= u[:, 2:3]).sum(axis=1) - 1, 0, g.shape[2] - 1)
-    del cond
     h = (box[1] - box[0]) / np.array(g.shape)
     return box[0] + (idx + u[:, d:]) * h
 
@@ -371,7 +369,6 @@ def lane_sample(pdf, n: int, *, bbox, kernel: LaneKernel, rng=None, accept=None,
     grid_hash: dict = {}
     rej = np.zeros(G.shape, dtype=np.int64)
     accepted_rate = 1.0
-    shape = np.array(G.shape)
     while len(emitted) < n:
         total = Z.sum()
         if total <= 0:
@@ -416,7 +413,6 @@ def lane_sample(pdf, n: int, *, bbox, kernel: LaneKernel, rng=None, accept=None,
             if len(emitted) >= n:
                 break
         accepted_rate = max(n_ok / b, 0.5 * accepted_rate if n_ok == 0 else 0.0, 1e-4)
-    del shape
     pts = np.array(emitted).reshape(-1, 3)
     return LaneResult(pts, bool(saturated), draws, G)
 
