@@ -289,7 +289,8 @@ class VRBridge:
         if not ok:
             return ControllerState(pose=hmd34_to_array(poses[i].mDeviceToAbsoluteTracking), valid=False)
         pressed, touched = int(st.ulButtonPressed), int(st.ulButtonTouched)
-        bit = ovr.ButtonMaskFromId
+        def bit(button_id: int) -> int:   # openvr.h ButtonMaskFromId
+            return 1 << int(button_id)
         return ControllerState(
             pose=hmd34_to_array(poses[i].mDeviceToAbsoluteTracking), valid=True,
             trigger=float(st.rAxis[1].x), grip=bool(pressed & bit(ovr.k_EButton_Grip)),
