@@ -183,3 +183,47 @@ def test_bridge_argument_checks(model):
         vr.VRBridge(model, layout="quad")
     with pytest.raises(ValueError, match="render_scale"):
         vr.VRBridge(model, render_scale=0)
+
+
+def test_recorded_headset_session_replays_identically_without_a_headset(fake):
+    from plantvr.model import Model
+
+    def fresh():
+        m = Model(seed=7)
+        m.paint_stroke([[0.0, y, 0.0] for y in range(2, 6)], radius=1.5)
+        m.step(5)
+        return m
+
+    live = fresh()
+    bridge = vr.VRBridge(live, record=True)
+    fake.right.pose = pose_matrix((0.05, 0.9, -0.9))
+    bridge.start()
+    bridge.wait_frames(2)
+    fake.right.trigger = 1.0
+    bridge.wait_frames(4)
+    fake.right.trigger = 0.0
+    bridge.wait_frames(2)
+    bridge.stop()
+    bridge.wait_commands()
+    assert live.n_markers > 0 and len(bridge.recording) == bridge.frames
+    again = fresh()
+    vr.replay(again, bridge.recording)
+    np.testing.assert_array_equal(again.snapshot.markers, live.snapshot.markers)
+
+
+def test_prune_mode_partial_trigger_shows_the_red_preview(model, fake):
+    bridge = vr.VRBridge(model)
+    bridge.controls.scene.scale, bridge.controls.scene.translation = 1.0, np.zeros(3)
+    node = model.snapshot.pos[len(model.snapshot.pos) // 2]
+    fake.right.pose = pose_matrix(node + [0, 0, 0.05])           # brush tip on a node
+    model.prune_mode = True
+    n = model.n_internodes
+    bridge.start()
+    fake.right.trigger = 0.5
+    bridge.wait_frames(3)
+    t_end = time.monotonic() + 10
+    while bridge._preview_mesh is None and time.monotonic() < t_end:
+        time.sleep(0.01)
+    bridge.stop()
+    assert bridge._preview_mesh is not None and bridge._preview_mesh[1].n_points > 0
+    assert model.n_internodes == n                                # a preview removes nothing
