@@ -9,6 +9,7 @@ mesh, open only at the base and the branch tips.
 from __future__ import annotations
 
 import functools
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -155,14 +156,21 @@ def _rotation_to(n: np.ndarray, d: np.ndarray) -> np.ndarray:
     K[:, 1, 0], K[:, 1, 2] = axn[:, 2], -axn[:, 0]
     K[:, 2, 0], K[:, 2, 1] = -axn[:, 1], axn[:, 0]
     Q = np.eye(3)[None] + s[:, None, None] * K + (1.0 - c)[:, None, None] * (K @ K)
-    Q[s <= 1e-12] = np.eye(3)
+    same = (s <= 1e-12) & (c > 0)
+    Q[same] = np.eye(3)
+    opp = np.flatnonzero((s <= 1e-12) & (c <= 0))       # half turn about any axis perpendicular to n
+    if opp.size:
+        ref = np.where(np.abs(n[opp, 0:1]) < 0.9, [[1.0, 0, 0]], [[0, 0, 1.0]])
+        p = np.cross(n[opp], ref)
+        p /= np.linalg.norm(p, axis=1, keepdims=True)
+        Q[opp] = 2.0 * p[:, :, None] * p[:, None, :] - np.eye(3)[None]
     return Q
 
 
 def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius: bool = True,
                        offset_mode: str = "geometric", min_offset: float = 0.5,
-                       max_offset_factor: float = 4.0, rounding: str = "round", cap: bool = False
-                       ) -> ControlMesh:
+                       max_offset_factor: float = 4.0, rounding: str = "round", cap: bool = False,
+                       overlap: str = "enlarge") -> ControlMesh:
     """Build the Yggdrasil control mesh of a branch graph (spec §2.1–§2.4, Alg. 4).
 
     Parameters
@@ -186,6 +194,11 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
         Rounding of N = L / (π r_avg), with N >= 1 (spec §8.3 item 1).
     cap : bool
         Close the base and tip loops with fans (watertight control mesh).
+    overlap : {"enlarge", "raise"}
+        What to do when two loops of a joint overlap on the joint sphere (spec V7, common in grown trees
+        whose siblings leave almost parallel): ``"raise"`` refuses the joint as the spec asks; ``"enlarge"``
+        (default) warns and builds that joint's hull on a larger sphere, which keeps the mesh manifold and
+        watertight but may fold where the real branches overlap [INFERRED].
 
     Returns
     -------
@@ -206,6 +219,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     min_offset = check_range("min_offset", min_offset, 0.0, 10.0)
     max_offset_factor = check_range("max_offset_factor", max_offset_factor, 1.0, 100.0)
     check_choice("rounding", rounding, ("round", "floor", "ceil"))
+    check_choice("overlap", overlap, ("enlarge", "raise"))
     if not isinstance(graph, BranchGraph):
         raise ValueError(f"graph must be a BranchGraph, got {type(graph).__name__}")
     graph.validate()
@@ -256,7 +270,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     first_loop = ring_ptr[:-1, None] * S + j[None, :]
     last_loop = (ring_ptr[1:, None] - 1) * S + j[None, :]
     # --- joints (§2.4)
-    jf, hull_n, joint_n = _joints(V, g, joints, off_s, off_e, first_loop, last_loop)
+    jf, hull_n, joint_n = _joints(V, g, joints, off_s, off_e, first_loop, last_loop, overlap)
     faces = np.vstack([tube_f, jf]).astype(np.int64)
     n_open = int(base.sum() + leaf.sum())
     if cap:
@@ -265,7 +279,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
                        n_open, bool(cap))
 
 
-def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_loop):
+def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_loop, overlap):
     S = first_loop.shape[1]
     mb, me, mj = joints.member_branch, joints.member_is_end, joints.member_joint
     nj = joints.n_joints
@@ -284,19 +298,31 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     d = cl - C[mj]
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     loc = X - cl[:, None]
-    n = np.cross(loc[:, 0], loc[:, 1])
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    n = np.where((np.einsum("ij,ij->i", n, d) < 0)[:, None], -n, n)       # sign rule n·d > 0 (spec §2.4.2)
+    # Loop orientation reference: the member's away-from-joint axis (child +axis, parent -axis). This is the
+    # spec's "n·d > 0" sign rule (§2.4.2) whenever the loop centre lies on the away side of the joint centre,
+    # and keeps the winding consistent when it does not (crowded joints of grown trees) [INFERRED].
+    ax = g.axis
+    n = np.where(me[:, None], -ax[mb], ax[mb])
     # V7: loop caps must not overlap on the joint sphere, angle(d_A, d_B) > theta_A + theta_B
-    theta = np.arctan(rad / Rs[mj])
     pa, pb = joint_pairs(joints.joint_ptr, mj)
     ang = np.arccos(np.clip(np.einsum("ij,ij->i", d[pa], d[pb]), -1.0, 1.0))
-    bad = ang <= theta[pa] + theta[pb]
+    bad = ang <= np.arctan(rad[pa] / Rs[mj[pa]]) + np.arctan(rad[pb] / Rs[mj[pa]])
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"joint of branches {mb[pa[i]]} and {mb[pb[i]]} failed: their loops overlap on the joint "
-                         f"sphere ({np.degrees(ang[i]):.2f} deg apart, caps need {np.degrees(theta[pa[i]] + theta[pb[i]]):.2f}"
-                         f" deg; spec V7); the branches leave the joint too close in direction for their radii")
+        msg = (f"joint of branches {mb[pa[i]]} and {mb[pb[i]]}: their loops overlap on the joint sphere "
+               f"({np.degrees(ang[i]):.2f} deg apart; spec V7)")
+        if overlap == "raise" or ang[bad].min() < 1e-4:
+            raise ValueError(msg + "; the branches leave the joint too close in direction for their radii")
+        # [INFERRED] the sphere only supplies connectivity (positions are restored), so a larger sphere
+        # shrinks every cap to atan(r / Rs) until they separate; the surface stays one manifold but the
+        # joint may fold where the real branches overlap.
+        need = (rad[pa] + rad[pb]) / (0.8 * ang)
+        grow = np.zeros(nj)
+        np.maximum.at(grow, mj[pa[bad]], need[bad])
+        Rs = np.maximum(Rs, grow)
+        warnings.warn(f"{len(np.unique(mj[pa[bad]]))} joint(s) had overlapping loop caps (first: {msg}); "
+                      f"their hulls were built on an enlarged sphere; pass overlap='raise' to refuse",
+                      stacklevel=3)
     Q = _rotation_to(n, d)
     Y = C[mj][:, None] + Rs[mj][:, None, None] * d[:, None] + np.einsum("mij,msj->msi", Q, loc)
     P = C[mj][:, None] + Rs[mj][:, None, None] * (Y - C[mj][:, None]) / np.linalg.norm(

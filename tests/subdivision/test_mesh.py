@@ -129,5 +129,22 @@ def test_v7_overlapping_caps_fail_loudly():
     d1, d2 = np.array([np.sin(a), np.cos(a), 0]), np.array([-np.sin(a), np.cos(a), 0])
     g = BranchGraph(np.array([[0, 0, 0], J, J]), np.array([J, J + 4 * d1, J + 4 * d2]), np.full(3, 0.4),
                     np.full(3, 0.4), np.array([-1, 0, 0]))
-    with pytest.raises(ValueError, match=r"joint of branches 1 and 2 failed: their loops overlap .*spec V7"):
-        build_control_mesh(g)
+    with pytest.raises(ValueError, match=r"joint of branches 1 and 2: their loops overlap .*spec V7"):
+        build_control_mesh(g, overlap="raise")
+    with pytest.warns(UserWarning, match="overlapping loop caps"):
+        cm = build_control_mesh(g)
+    _check_tree(cm)
+
+
+@pytest.mark.filterwarnings("ignore:.*too short")
+@pytest.mark.parametrize("seed", range(3))
+def test_crowded_grown_tree_stays_manifold_with_warning(seed):
+    # narrow branching + thick branches: overlapping caps (V7), leaf crossovers (§2.2 edge case)
+    pos, par, rad = random_tree(300, rng=seed, branch_angle=20, radius=0.25, p_lateral=0.6)
+    g = graph_from_arrays(pos, par, rad)
+    with pytest.warns(UserWarning, match="overlapping loop caps"):
+        cm = build_control_mesh(g)
+    _check_tree(cm)
+    with pytest.warns(UserWarning, match="too short"):
+        with pytest.raises(ValueError, match="overlap on the joint sphere"):
+            build_control_mesh(g, overlap="raise")
