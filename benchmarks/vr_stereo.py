@@ -91,7 +91,8 @@ def _eyes(frame: int):
     return eyes, proj
 
 
-def time_layout(branches, markers, width: int, height: int, layout: str, frames: int, scene_matrix) -> list[float]:
+def time_layout(branches, markers, width: int, height: int, layout: str, frames: int,
+                scene_matrix) -> list[float]:
     """ms per frame of ``layout`` ("side", "pair", or "single": one eye, the baseline)."""
     from plantvr.vr.render import StereoRenderer
     r = StereoRenderer(width, height, layout="side" if layout == "single" else layout)
@@ -139,12 +140,14 @@ def bridge_run(snap, width: int, height: int, frames: int):
 
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="small eyes (504x560), trees of 500 and 5000, few frames (CI)")
+    ap.add_argument("--quick", action="store_true",
+                    help="small eyes (504x560), trees of 500 and 5000, few frames (CI)")
     ap.add_argument("--eye", default=None, help="per-eye WxH (default 2016x2240; quick 504x560)")
     ap.add_argument("--trees", default=None, help="internode counts (default 5000,22000; quick 500,5000)")
     ap.add_argument("--frames", type=int, default=None, help="timed frames per case (default 5; quick 3)")
     ap.add_argument("--sides", type=int, default=6, help="tube sides (6 ~ LOD 6/32)")
-    ap.add_argument("--grow-all", action="store_true", help="grow every tree instead of synthesising the large one")
+    ap.add_argument("--grow-all", action="store_true",
+                    help="grow every tree instead of synthesising the large one")
     args = ap.parse_args(argv)
     w, h = map(int, (args.eye or ("504x560" if args.quick else "2016x2240")).split("x"))
     sizes = [int(s) for s in (args.trees or ("500,5000" if args.quick else "5000,22000")).split(",")]
@@ -177,13 +180,15 @@ def main(argv: list[str] | None = None) -> dict:
         markers = pv.PolyData(np.asarray(snap.markers, float)) if len(snap.markers) else pv.PolyData()
         tris = branches.triangulate().n_cells
         cyl = f", generalized cylinders {t_cyl:.0f} ms" if t_cyl is not None else ""
-        print(f"\ntree: {snap.n_internodes} internodes ({how} in {t_make:.1f} s), {tris} triangles; mesh build "
+        print(f"\ntree: {snap.n_internodes} internodes ({how} in {t_make:.1f} s), {tris} triangles; "
+              f"mesh build "
               f"(mesher thread, off the render thread): tubes {t_mesh:.0f} ms{cyl}")
         case = {"internodes": snap.n_internodes, "how": how, "triangles": tris, "mesh_ms": t_mesh,
                 "cylinders_ms": t_cyl}
         single = time_layout(branches, markers, w, h, "single", frames, scene)
         case["single_ms"] = float(np.median(single))
-        print(f"  baseline single eye          {case['single_ms']:9.1f} ms   (x2 = {2 * case['single_ms']:.1f} ms)")
+        one = case["single_ms"]
+        print(f"  baseline single eye          {one:9.1f} ms   (x2 = {2 * one:.1f} ms)")
         for layout in ("side", "pair"):
             ms = time_layout(branches, markers, w, h, layout, frames, scene)
             case[f"{layout}_ms"] = float(np.median(ms))

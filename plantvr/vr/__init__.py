@@ -1,4 +1,4 @@
-"""Headset mode: OpenVR bridge thread, stereo rendering and the controller map (spec 000_treewand §4, 000_vine §2.1, §4).
+"""Headset mode: OpenVR bridge, stereo rendering, controller map (spec 000_treewand §4, 000_vine §2.1, §4).
 
 ``plantvr.vr.attach(model)`` returns the model's :class:`VRBridge` (the notebook's ``model.vr``);
 ``bridge.start()`` opens headset mode and ``bridge.stop()`` ends it. ``openvr`` (pyopenvr, extra
@@ -6,10 +6,26 @@
 ``RuntimeError`` that says what to install. :mod:`plantvr.vr.fake_openvr` stands in for it in tests.
 """
 from .bridge import HISTOGRAM_EDGES_MS, VRBridge, attach
-from .controls import (MENU_ITEMS, BrushGesture, Command, ControllerState, Controls, InputFrame, OneGripTranslate,
-                       SceneTransform, apply_command, handlebar_step, load_recording, menu_item_at, place_window,
-                       replay, save_recording, smoothed_velocity)
+from .controls import (
+                       MENU_ITEMS,
+                       BrushGesture,
+                       Command,
+                       ControllerState,
+                       Controls,
+                       InputFrame,
+                       OneGripTranslate,
+                       SceneTransform,
+                       apply_command,
+                       handlebar_step,
+                       load_recording,
+                       menu_item_at,
+                       place_window,
+                       replay,
+                       save_recording,
+                       smoothed_velocity,
+)
 
-__all__ = ["VRBridge", "attach", "HISTOGRAM_EDGES_MS", "MENU_ITEMS", "BrushGesture", "Command", "ControllerState",
+__all__ = ["VRBridge", "attach", "HISTOGRAM_EDGES_MS", "MENU_ITEMS", "BrushGesture", "Command",
+           "ControllerState",
            "Controls", "InputFrame", "OneGripTranslate", "SceneTransform", "apply_command", "handlebar_step",
            "load_recording", "menu_item_at", "place_window", "replay", "save_recording", "smoothed_velocity"]

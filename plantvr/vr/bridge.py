@@ -1,4 +1,4 @@
-"""OpenVR bridge: a render thread that mirrors the shared model into a headset (spec 000_treewand §4.1, §4.10, §4.12; 000_vine §4.2–4.5).
+"""OpenVR bridge mirroring the model into a headset (spec 000_treewand §4.1, §4.10, §4.12; 000_vine §4.2–4.5).
 
 Three threads, none of which holds the model lock while rendering:
 
@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import check_choice, check_int, check_range
-from .controls import Command, Controls, ControllerState, InputFrame, SceneTransform, apply_command
+from .controls import Command, ControllerState, Controls, InputFrame, SceneTransform, apply_command
 from .math3d import hmd34_to_array, hmd44_to_array
 
 __all__ = ["VRBridge", "attach", "HISTOGRAM_EDGES_MS"]
@@ -144,7 +144,8 @@ class VRBridge:
     """
 
     def __init__(self, model, *, layout: str = "side", tube_sides: int = 6, render_scale: float = 1.0,
-                 mesh: str = "tubes", leaves: bool = False, record: bool = False, readback: bool = False, near: float = 0.05,
+                 mesh: str = "tubes", leaves: bool = False, record: bool = False, readback: bool = False,
+                 near: float = 0.05,
                  far: float = 100.0):
         self.model = model
         self.layout = check_choice("layout", layout, ("side", "pair"))
@@ -175,7 +176,7 @@ class VRBridge:
         self._stop = threading.Event()
         self._ready = threading.Event()
         self._queue: queue.Queue = queue.Queue()
-        self._meshes: tuple | None = None          # (snapshot version, branches, markers, leaves), swapped whole
+        self._meshes: tuple | None = None   # (snapshot version, branches, markers, leaves), swapped whole
         self._preview: tuple | None = None         # (snapshot, node indices) from the command worker
         self._preview_mesh: tuple | None = None    # (id, polydata)
         self._seen_radius = model.brush_radius
@@ -258,7 +259,8 @@ class VRBridge:
     def stats(self) -> dict[str, Any]:
         """Frames, median/p95 frame ms, share of frames within 11.1 ms (90 fps), status and error."""
         ms = np.asarray(self.frame_ms, float)
-        return {"frames": self.frames, "status": self.status, "error": repr(self.error) if self.error else None,
+        return {"frames": self.frames, "status": self.status,
+                "error": repr(self.error) if self.error else None,
                 "median_ms": float(np.median(ms)) if len(ms) else None,
                 "p95_ms": float(np.percentile(ms, 95)) if len(ms) else None,
                 "within_90fps": float(np.mean(ms <= 1000 / 90)) if len(ms) else None,
@@ -276,7 +278,8 @@ class VRBridge:
     # -- render thread -------------------------------------------------------------------------------------
     def _read_eyes(self) -> None:
         ovr, sysm = self._openvr, self._system
-        self.eye_to_head = [hmd34_to_array(sysm.getEyeToHeadTransform(e)) for e in (ovr.Eye_Left, ovr.Eye_Right)]
+        eyes = (ovr.Eye_Left, ovr.Eye_Right)
+        self.eye_to_head = [hmd34_to_array(sysm.getEyeToHeadTransform(e)) for e in eyes]
         self.projection = [hmd44_to_array(sysm.getProjectionMatrix(e, self.near, self.far))
                            for e in (ovr.Eye_Left, ovr.Eye_Right)]
 
@@ -324,8 +327,9 @@ class VRBridge:
                         raise RuntimeError("the OpenVR runtime asked the application to quit (VREvent_Quit)")
                 self._compositor.waitGetPoses(poses, None)       # running start: render right after
                 t0 = time.perf_counter()
-                if poses[ovr.k_unTrackedDeviceIndex_Hmd].bPoseIsValid:
-                    self.hmd_pose = hmd34_to_array(poses[ovr.k_unTrackedDeviceIndex_Hmd].mDeviceToAbsoluteTracking)
+                hmd = poses[ovr.k_unTrackedDeviceIndex_Hmd]
+                if hmd.bPoseIsValid:
+                    self.hmd_pose = hmd34_to_array(hmd.mDeviceToAbsoluteTracking)
                 frame = InputFrame(time.monotonic(), self.hmd_pose,
                                    self._controller(poses, ovr.TrackedControllerRole_LeftHand),
                                    self._controller(poses, ovr.TrackedControllerRole_RightHand))
@@ -342,7 +346,8 @@ class VRBridge:
                 if meshes is not None and meshes[0] != drawn_mesh:
                     renderer.set_meshes(meshes[1], meshes[2], leaves=meshes[3])
                     drawn_mesh = meshes[0]
-                prev = self._preview_mesh if self.controls.prune_mode and self.controls.brush_visible else None
+                show = self.controls.prune_mode and self.controls.brush_visible
+                prev = self._preview_mesh if show else None
                 pid = prev[0] if prev else None
                 if pid != drawn_preview:
                     import vtk  # noqa: PLC0415
@@ -353,7 +358,8 @@ class VRBridge:
                 renderer.render(eyes, self.projection)
                 for eye, (handle, bounds) in zip((ovr.Eye_Left, ovr.Eye_Right), renderer.textures()):
                     tex = ovr.Texture_t()
-                    tex.handle, tex.eType, tex.eColorSpace = handle, ovr.TextureType_OpenGL, ovr.ColorSpace_Gamma
+                    tex.handle, tex.eType = handle, ovr.TextureType_OpenGL
+                    tex.eColorSpace = ovr.ColorSpace_Gamma
                     if bounds is None:
                         self._compositor.submit(eye, tex)
                     else:

@@ -1,4 +1,4 @@
-"""Headset control map: controller states in, model commands out (spec 000_treewand §4.1–4.6, 000_vine §2.0–2.1, §2.4.1).
+"""Headset control map: controllers in, commands out (spec 000_treewand §4.1–4.6, 000_vine §2.0–2.1, §2.4.1).
 
 Device-independent: :class:`Controls` consumes one :class:`InputFrame` per rendered frame (HMD pose and a
 :class:`ControllerState` per hand, from OpenVR, a desktop emulator or a recording) and returns the
@@ -455,7 +455,8 @@ class Controls:
         if cur.pad_pressed and not old.pad_pressed and self.menu_hover is not None:
             self.activate(self.menu_hover, cmds)
 
-    def activate(self, index: int, cmds: list[Command] | None = None, pose: np.ndarray | None = None) -> list[Command]:
+    def activate(self, index: int, cmds: list[Command] | None = None,
+                 pose: np.ndarray | None = None) -> list[Command]:
         """Run menu item ``index`` (0-based, :data:`MENU_ITEMS`); returns (and appends) its commands."""
         index = check_int("index", index, 0, len(MENU_ITEMS) - 1)
         cmds = [] if cmds is None else cmds

@@ -269,7 +269,8 @@ class IVRSystem:
                 return c.role
         return TrackedControllerRole_Invalid
 
-    def getControllerState(self, unControllerDeviceIndex, unControllerStateSize=ctypes.sizeof(VRControllerState_t)):
+    def getControllerState(self, unControllerDeviceIndex,
+                           unControllerStateSize=ctypes.sizeof(VRControllerState_t)):
         state = VRControllerState_t()
         for c in runtime.controllers:
             if c.index == unControllerDeviceIndex:

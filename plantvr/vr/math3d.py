@@ -1,4 +1,4 @@
-"""Quaternion and rigid-transform helpers for the headset bridge (spec 000_vine §2.1, §2.3; 000_treewand §4.2).
+"""Quaternion and rigid-transform helpers for the headset (spec 000_vine §2.1, §2.3; 000_treewand §4.2).
 
 Quaternions are ``(w, x, y, z)`` float64 arrays (scalar first, unit length); matrices act on column
 vectors; OpenVR's ``HmdMatrix34_t``/``HmdMatrix44_t`` rows are read into 4x4 numpy arrays.

@@ -1,4 +1,4 @@
-"""Offscreen stereo rendering of model snapshots with VTK for the headset (spec 000_vine §4.5, 000_treewand §4.10).
+"""Offscreen stereo rendering of model snapshots with VTK (spec 000_vine §4.5, 000_treewand §4.10).
 
 Two layouts, measured in ``benchmarks/vr_stereo.py``:
 
@@ -86,7 +86,8 @@ class _Scene:
             a.GetProperty().SetOpacity(0.85)
             a.SetVisibility(False)
             self.windows[name] = (a, m)
-        self.actors = [self.ground, self.branches, self.leaves, self.preview, self.markers, self.brush, self.ray,
+        self.actors = [self.ground, self.branches, self.leaves, self.preview, self.markers, self.brush,
+                       self.ray,
                        *(a for a, _ in self.windows.values())]
         self.ray.SetVisibility(False)
         self.brush.SetVisibility(False)
@@ -119,7 +120,8 @@ class StereoRenderer:
         Clipping planes, metres.
     """
 
-    def __init__(self, width: int, height: int, *, layout: str = "side", near: float = 0.05, far: float = 100.0):
+    def __init__(self, width: int, height: int, *, layout: str = "side", near: float = 0.05,
+                 far: float = 100.0):
         self.width = check_int("width", width, 1, 16384)
         self.height = check_int("height", height, 1, 16384)
         self.layout = check_choice("layout", layout, LAYOUTS)
@@ -155,7 +157,7 @@ class StereoRenderer:
     # -- content -------------------------------------------------------------------------------------------
     def set_meshes(self, branches: vtk.vtkPolyData | None, markers: vtk.vtkPolyData | None,
                    preview: vtk.vtkPolyData | None = None, leaves: vtk.vtkPolyData | None = None) -> None:
-        """Show new branch/marker/preview/leaf meshes (``None`` keeps the current one); uploaded on next render."""
+        """Show new branch/marker/preview/leaf meshes (``None`` keeps the current one); uploaded on render."""
         for s in self.scenes:
             for actor, poly in ((s.branches, branches), (s.markers, markers), (s.preview, preview),
                                 (s.leaves, leaves)):
@@ -195,7 +197,8 @@ class StereoRenderer:
                     _vtk_matrix(windows[name], mat)
 
     # -- frames --------------------------------------------------------------------------------------------
-    def render(self, eye_to_room: tuple[np.ndarray, np.ndarray], projections: tuple[np.ndarray, np.ndarray]) -> None:
+    def render(self, eye_to_room: tuple[np.ndarray, np.ndarray],
+               projections: tuple[np.ndarray, np.ndarray]) -> None:
         """Render both eyes: ``eye_to_room[e]`` (4x4 eye pose), ``projections[e]`` (OpenVR 4x4 projection)."""
         for eye, ren in enumerate(self.renderers):
             pose = np.asarray(eye_to_room[eye], float)
@@ -204,7 +207,8 @@ class StereoRenderer:
             cam.SetPosition(*pos)
             cam.SetFocalPoint(*(pos - pose[:3, 2]))
             cam.SetViewUp(*pose[:3, 1])
-            cam.SetExplicitProjectionTransformMatrix(_vtk_matrix(gl_projection(projections[eye], self.near, self.far)))
+            proj = gl_projection(projections[eye], self.near, self.far)
+            cam.SetExplicitProjectionTransformMatrix(_vtk_matrix(proj))
         for rw in self.windows:
             rw.Render()
 

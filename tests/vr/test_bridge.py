@@ -1,4 +1,4 @@
-"""The OpenVR bridge thread against the fake runtime: lifecycle, errors, stereo submission, controls, threads."""
+"""The OpenVR bridge against the fake runtime: lifecycle, errors, stereo submission, controls, threads."""
 import sys
 import threading
 import time
@@ -22,7 +22,8 @@ def test_start_without_openvr_package_says_what_to_install(model, monkeypatch):
 
 def test_start_without_runtime_reports_path_registry_and_steamvr(model, fake):
     fake.installed = False
-    with pytest.raises(RuntimeError, match=r"no OpenVR runtime.*PathRegistryNotFound.*install Steam and SteamVR"):
+    with pytest.raises(RuntimeError,
+                       match=r"no OpenVR runtime.*PathRegistryNotFound.*install Steam and SteamVR"):
         vr.VRBridge(model).start()
     fake.installed, fake.hmd_present = True, False
     with pytest.raises(RuntimeError, match="no headset found"):

@@ -156,7 +156,8 @@ def press_menu(ctl, k, t=0.0):
     pad = (0.9 * math.cos(a), 0.9 * math.sin(a))
     out = ctl.update(C.InputFrame(t, left=C.ControllerState(pad=pad, pad_touched=True)))
     assert ctl.menu_hover == k
-    out += ctl.update(C.InputFrame(t + 0.01, left=C.ControllerState(pad=pad, pad_touched=True, pad_pressed=True)))
+    pressed = C.ControllerState(pad=pad, pad_touched=True, pad_pressed=True)
+    out += ctl.update(C.InputFrame(t + 0.01, left=pressed))
     out += ctl.update(C.InputFrame(t + 0.02, left=C.ControllerState(pad=pad, pad_touched=True)))
     return out
 
