@@ -25,7 +25,7 @@ from ..params import defaults
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
-__all__ = ["Forest", "grow_forest", "grow_tree_task", "engine_state", "engine_from_state"]
+__all__ = ["Forest", "grow_forest", "grow_tree_task", "grow_trees_task", "warm_up", "engine_state", "engine_from_state"]
 
 
 @dataclass
@@ -79,6 +79,27 @@ def grow_tree_task(params: dict[str, Any], state: dict[str, Any], steps: int) ->
     return engine_state(e)
 
 
+def grow_trees_task(params: dict[str, Any], states: list[dict[str, Any]], steps: int) -> list[dict[str, Any]]:
+    """A batch of :func:`grow_tree_task` calls in one task (fewer, larger tasks amortise dask's overhead)."""
+    return [grow_tree_task(params, s, steps) for s in states]
+
+
+def warm_up() -> float:
+    """Grow one small tree for a few rounds so numba kernels are loaded in this process; returns seconds.
+
+    Run it on every worker (``client.run(warm_up)``) before timing: the first growth in a fresh process
+    spends seconds loading compiled kernels.
+    """
+    import time
+
+    t = time.perf_counter()
+    p = defaults()
+    s = _seed_states(p, np.zeros((1, 3)), 0, 5.0, 4.0, 200)[0]
+    for _ in range(3):
+        s = grow_tree_task(p, s, 4)
+    return time.perf_counter() - t
+
+
 def _compete(states: list[dict], bases: np.ndarray, radius: float) -> None:
     """Drop each tree's markers that lie within ``radius`` of a live node of another tree (in place)."""
     nodes, label = [], []
@@ -113,7 +134,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 rounds: int = 4, steps_per_round: int = 5, crown_height: float = 7.0, crown_radius: float = 5.0,
                 n_darts: int = 300, terrain_amplitude: float = 3.0, params: dict[str, Any] | None = None,
                 seed: int = 0, client: Any = None, n_workers: int = 2, processes: bool = False,
-                compete: bool = True) -> Forest:
+                compete: bool = True, tasks_per_round: int | None = None) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -123,6 +144,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     client : None, "sync" or a dask ``Client``
         ``None`` starts ``LocalCluster(n_workers, processes=processes, threads_per_worker=1)`` and closes it
         after; ``"sync"`` (also the fallback without dask) runs tasks in this thread; a client is used as is.
+    tasks_per_round : int, optional
+        Trees are grown in this many batches per round (default: twice the client's workers); the result
+        does not depend on it.
     compete : bool
         Remove markers claimed by neighbours (within the occupation radius of their nodes) between rounds.
 
@@ -141,6 +165,8 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     crown_radius = check_range("crown_radius", crown_radius, 0.0, 1e6, low_open=True)
     n_darts = check_int("n_darts", n_darts, 0, 10_000_000)
     n_workers = check_int("n_workers", n_workers, 1, 1024)
+    if tasks_per_round is not None:
+        tasks_per_round = check_int("tasks_per_round", tasks_per_round, 1, 1_000_000)
     size = (check_range("size[0]", size[0], 0.0, np.inf, low_open=True),
             check_range("size[1]", size[1], 0.0, np.inf, low_open=True))
     p = {**defaults(), **(params or {})}
@@ -166,9 +192,11 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
             if runner == "sync":
                 states = [grow_tree_task(p, s, steps_per_round) for s in states]
             else:
-                futs = runner.map(grow_tree_task, [p] * len(states), states, [steps_per_round] * len(states),
-                                  pure=False)
-                states = runner.gather(futs)
+                chunks = np.array_split(np.arange(len(states)), min(len(states), tasks_per_round or
+                                        2 * max(len(runner.scheduler_info()["workers"]), 1)))
+                futs = [runner.submit(grow_trees_task, p, [states[i] for i in c], steps_per_round, pure=False)
+                        for c in chunks if len(c)]
+                states = [s for batch in runner.gather(futs) for s in batch]
             if compete:
                 _compete(states, bases, p["occupation_radius"])
             timings.append(time.perf_counter() - t0)

@@ -86,6 +86,7 @@ def test_forest_sync_equals_two_thread_workers():
     g = grow_forest(4, n_workers=2, processes=False, **SMALL)
     assert len(f.trees) == 4 and f.n_internodes > 4 * 10
     _same(f, g)
+    _same(f, grow_forest(4, n_workers=2, processes=False, tasks_per_round=3, **SMALL))  # batching is invisible
     h = grow_forest(4, client="sync", **{**SMALL, "seed": 8})
     assert not np.array_equal(h.bases, f.bases)
 
