@@ -104,7 +104,8 @@ class PaintWorker:
     seg : Segmentation
     """
 
-    _OPS = ("paint", "begin_stroke", "end_stroke", "undo", "redo", "set_visible")
+    _OPS = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible", "set_color",
+            "add_color")
 
     def __init__(self, seg):
         self.seg = seg

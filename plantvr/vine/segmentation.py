@@ -91,6 +91,7 @@ class Segmentation:
         self._index = None
         self._stroke: list | None = None
         self._observers: list[Callable] = []
+        self.event_log: list[tuple] = []          # replayable commands: (op, *args), plain Python values
         lo, hi = bounds(v)
         ext = hi - lo
         self.max_radius = float(np.linalg.norm(ext)) + 1.0
@@ -167,6 +168,7 @@ class Segmentation:
         .. [1] Thesis Eqs. 5.15–5.16, §5.4.3 (brush), §5.5 (undo), §5.6 (hidden colours unpaintable).
         """
         c, r, label = self._check_paint(center, radius, label)
+        self.event_log.append(("paint", tuple(float(x) for x in c), r, label))
         idx, old = self.index.paint(c, r, self.labels, self.colors.paintable_lut(), label)
         if self._stroke is not None:
             if idx.size:
@@ -210,6 +212,7 @@ class Segmentation:
         """Start a painting operation (redo is cleared when it ends with a change)."""
         if self._stroke is not None:
             raise ValueError("a stroke is already open; end_stroke() it first")
+        self.event_log.append(("begin_stroke",))
         self._stroke = []
 
     def end_stroke(self) -> LabelEdit | None:
@@ -217,6 +220,7 @@ class Segmentation:
         if self._stroke is None:
             raise ValueError("no stroke is open; call begin_stroke() first")
         parts, self._stroke = self._stroke, None
+        self.event_log.append(("end_stroke",))
         edit = merge_stamps([p[0] for p in parts], [p[1] for p in parts], self.labels)
         if edit is not None:
             self.history.push(edit)
@@ -229,6 +233,7 @@ class Segmentation:
         if self._stroke is None:
             return
         parts, self._stroke = self._stroke, None
+        self.event_log.append(("abort_stroke",))
         for idx, old in reversed(parts):
             self.labels[idx] = old
         if parts:
@@ -238,6 +243,7 @@ class Segmentation:
         """Undo the last painting operation; returns it, or None when there is nothing to undo."""
         if self._stroke is not None:
             self.end_stroke()                       # spec §2.5 [INFERRED]: finish the operation first
+        self.event_log.append(("undo",))
         e = self.history.undo(self.labels)
         if e is not None:
             self._notify("labels", e.indices)
@@ -247,26 +253,46 @@ class Segmentation:
         """Redo the last undone operation; returns it, or None."""
         if self._stroke is not None:
             self.end_stroke()
+        self.event_log.append(("redo",))
         e = self.history.redo(self.labels)
         if e is not None:
             self._notify("labels", e.indices)
         return e
 
+    _REPLAYABLE = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
+                   "set_color", "add_color")
+
+    def replay(self, events) -> None:
+        """Apply a recorded event log (``seg.event_log`` of another session on the same mesh).
+
+        The same replay gives identical label arrays (spec §2.0, checklist item 4). Every event is checked
+        first; an unknown operation raises ``ValueError`` before anything is applied.
+        """
+        events = [tuple(e) for e in events]
+        for e in events:
+            if not e or e[0] not in self._REPLAYABLE:
+                raise ValueError(f"event must start with one of {list(self._REPLAYABLE)}, got {e!r}")
+        for op, *args in events:
+            getattr(self, op)(*args)
+
     # ------------------------------------------------------------------ colours and visibility
     def set_color(self, label: int, rgb) -> None:
         """Recolour ``label`` in the table; labels are untouched."""
         self.colors.set_color(label, rgb)
+        self.event_log.append(("set_color", int(label), tuple(int(x) for x in self.colors.rgba[label])))
         self._notify("colors", None)
 
     def add_color(self, rgb) -> int:
         """Append a colour to the table; returns its label."""
         k = self.colors.add_color(rgb)
+        self.event_log.append(("add_color", tuple(int(x) for x in self.colors.rgba[k])))
         self._notify("colors", None)
         return k
 
     def set_visible(self, label: int, visible: bool) -> None:
         """Show or hide every vertex of a colour; hidden vertices are not rendered and cannot be painted."""
         self.colors.set_visible(label, visible)
+        self.event_log.append(("set_visible", int(label), bool(visible)))
         self._notify("visibility", None)
 
     def hide(self, label: int) -> None:

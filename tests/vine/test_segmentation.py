@@ -172,3 +172,33 @@ def test_kdtree_session_paints_like_grid(surface):
         assert a.paint(c, r, lab) == b.paint(c, r, lab)
     assert np.array_equal(a.labels, b.labels)
     assert np.array_equal(a.history.undo_stack[-1].indices, b.history.undo_stack[-1].indices)
+
+
+def test_event_log_replay_gives_identical_labels(surface):
+    from plantvr.vine.buffers import PaintWorker
+    a = Segmentation(surface.vertices, surface.faces)
+    rng = np.random.default_rng(11)
+    for k in range(8):
+        with a.stroke():
+            for _ in range(4):
+                a.paint(surface.vertices[rng.integers(len(surface.vertices))].astype(float), 3.0, (1, 3, 4, 5)[k % 4])
+        if k == 3:
+            a.undo()
+            a.hide(2)
+        if k == 5:
+            a.show(2)
+            a.set_color(1, (5, 6, 7))
+    with pytest.raises(ValueError, match="center"):
+        a.paint([0, 0], 1, 1)                      # rejected commands are not logged
+    b = Segmentation(surface.vertices, surface.faces)
+    b.replay(a.event_log)
+    assert np.array_equal(a.labels, b.labels) and np.array_equal(a.colors.rgba, b.colors.rgba)
+    c = Segmentation(surface.vertices, surface.faces)           # same replay through the worker thread
+    w = PaintWorker(c)
+    for op, *args in a.event_log:
+        w.submit(op, *args)
+    w.join()
+    w.close()
+    assert not w.errors and np.array_equal(c.labels, a.labels)
+    with pytest.raises(ValueError, match="event must start"):
+        b.replay([("paint", (0, 0, 0), 1.0, 1), ("format_disk",)])
