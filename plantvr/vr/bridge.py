@@ -127,7 +127,8 @@ class VRBridge:
         Fraction of the runtime's recommended per-eye size to render (1.0 in a headset).
     mesh : {"tubes", "cylinders"}
         Branch mesh: VTK tubes over the internodes (fast, the default) or the shared generalized
-        cylinders of :func:`plantvr.view.branch_mesh` (smooth joins, leaves; ~50x slower to build).
+        cylinders of :func:`plantvr.view.branch_mesh` (smooth joins, leaves; its first build compiles
+        numba kernels, ~1 s; later builds cost about 1.3x the tubes, ``benchmarks/vr_stereo.py``).
     leaves : bool
         With ``mesh="cylinders"``, also show the leaves (spec 000_treewand §3.4).
     record : bool
