@@ -32,7 +32,7 @@ from .engine import GrowthEngine, _Buds
 from .tree import BUD
 
 __all__ = ["SketchEngine", "set_point_tropism", "deflect_heading", "shoot_lengths", "barycentric",
-           "autonomous_points"]
+           "autonomous_points", "ellipse_distance", "gravimorphism"]
 
 _Y = np.array([0.0, 1.0, 0.0])
 
@@ -154,6 +154,47 @@ def autonomous_points(pos: np.ndarray, heading: np.ndarray, vigor: np.ndarray, *
     sz = np.sqrt(np.maximum(1.0 - cz * cz, 0.0))
     d = cz[:, None] * h + sz[:, None] * (np.cos(phi)[:, None] * a + np.sin(phi)[:, None] * b)
     return pos[idx] + r[:, None] * d
+
+
+def ellipse_distance(chi: np.ndarray, *, s_v: float, s_p: float, e_v: float) -> np.ndarray:
+    """Distance d from the axis to the control ellipse along the polar direction chi (radians from +V).
+
+    Closed form of spec 004 §1.4.6 [INFERRED]: the largest real root of A t^2 + B t + C = 0 with
+    A = cos^2 chi / s_v^2 + sin^2 chi / s_p^2, B = -2 e_v cos chi / s_v^2, C = e_v^2 / s_v^2 - 1, clamped >= 0;
+    0 where the ray misses the ellipse. The neutral ellipse (1, 1, 0) gives d = 1.
+    """
+    s_v = check_range("s_v", s_v, 0.0, np.inf, low_open=True)
+    s_p = check_range("s_p", s_p, 0.0, np.inf, low_open=True)
+    e_v = check_range("e_v", e_v, -np.inf, np.inf)
+    chi = np.asarray(chi, float)
+    c, s = np.cos(chi), np.sin(chi)
+    A = c * c / s_v ** 2 + s * s / s_p ** 2
+    B = -2.0 * e_v * c / s_v ** 2
+    C = e_v ** 2 / s_v ** 2 - 1.0
+    disc = B * B - 4.0 * A * C
+    root = (-B + np.sqrt(np.maximum(disc, 0.0))) / (2.0 * A)
+    return np.where(disc >= 0.0, np.maximum(root, 0.0), 0.0)
+
+
+def gravimorphism(parent_heading: np.ndarray, bud_dir: np.ndarray, *, s_v: float = 1.0, s_p: float = 1.0,
+                  e_v: float = 0.0) -> np.ndarray:
+    """Eq. 4.6: b = cos^2 tau + d sin^2 tau for lateral buds on axes with headings ``parent_heading`` (B, 3).
+
+    tau = angle(H, Y); chi = the bud's polar angle about H measured from **V** (the upward normal of H in its
+    vertical plane) toward **P** = **V** x **H**; d = :func:`ellipse_distance`. Multiply L^kappa by b (Eq. 4.7).
+
+    References
+    ----------
+    .. [1] Longay thesis §4.4.3, Eqs. 4.6–4.7; spec 004 §1.4.6, §5.1 (HVP frame), ERRATUM E1 (epitony = upper).
+    """
+    H = normalize(np.atleast_2d(np.asarray(parent_heading, float)))
+    D = np.atleast_2d(np.asarray(bud_dir, float))
+    cos_t = np.clip(H @ _Y, -1.0, 1.0)
+    V = normalize(_Y - cos_t[:, None] * H, fallback=np.array([1.0, 0.0, 0.0]))
+    P = np.cross(V, H)
+    chi = np.arctan2(np.sum(D * P, 1), np.sum(D * V, 1))
+    d = ellipse_distance(chi, s_v=s_v, s_p=s_p, e_v=e_v)
+    return cos_t ** 2 + d * (1.0 - cos_t ** 2)
 
 
 class SketchEngine(GrowthEngine):

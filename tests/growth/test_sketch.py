@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from plantvr.growth.sketch import (SketchEngine, autonomous_points, barycentric, deflect_heading,
-                                   set_point_tropism, shoot_lengths)
+                                   ellipse_distance, gravimorphism, set_point_tropism, shoot_lengths)
 from plantvr.params import defaults
 
 Y = np.array([0.0, 1.0, 0.0])
@@ -197,3 +197,42 @@ def test_ts_validation():
         SketchEngine(defaults(), mode="selective")
     with pytest.raises(ValueError, match="deflection"):
         SketchEngine(defaults(), deflection=120)
+
+
+def test_ts_v6_gravimorphism_cases():
+    up, down, side = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0]), np.array([0.0, 0.0, 1.0])
+    # tau = 0: b = 1 whatever the ellipse
+    np.testing.assert_allclose(gravimorphism(np.tile(Y, (2, 1)), [[1.0, 0, 0], [0, 0, 1.0]], s_v=0.3, s_p=2.0,
+                                             e_v=0.5), 1.0)
+    H = np.tile([1.0, 0.0, 0.0], (3, 1))  # horizontal axis: b = d
+    buds = np.stack([up, down, side])
+    np.testing.assert_allclose(gravimorphism(H, buds), 1.0)  # neutral ellipse
+    epi = gravimorphism(H, buds, e_v=0.4)
+    assert epi[0] > epi[1]  # epitony: upper bud favoured
+    np.testing.assert_allclose(epi[:2], [1.4, 0.6])  # d = s_v ± e_v along ±V
+    hypo = gravimorphism(H, buds, e_v=-0.4)
+    assert hypo[1] > hypo[0]
+    amphi = gravimorphism(np.tile([1.0, 0.0, 0.0], (5, 1)),
+                          [up, down, side, -side, normalize_row([0.0, 1.0, 1.0])], s_v=0.5, s_p=1.5)
+    assert np.argmax(amphi) in (2, 3) and amphi[2] == pytest.approx(1.5)  # amphitony: side bud maximal
+    # slanted axis: b = cos^2 tau + d sin^2 tau
+    tau = math.radians(30)
+    h = np.array([[math.sin(tau), math.cos(tau), 0.0]])
+    V = np.array([[-math.cos(tau), math.sin(tau), 0.0]])
+    np.testing.assert_allclose(gravimorphism(h, V, e_v=0.4), math.cos(tau) ** 2 + 1.4 * math.sin(tau) ** 2)
+
+
+def normalize_row(v):
+    v = np.asarray(v, float)
+    return v / np.linalg.norm(v)
+
+
+def test_ts_ellipse_distance_closed_form():
+    chi = np.linspace(0, 2 * math.pi, 37)
+    d = ellipse_distance(chi, s_v=0.7, s_p=1.3, e_v=0.2)
+    x, y = d * np.cos(chi), d * np.sin(chi)  # points on the ellipse ((x - e)/s_v)^2 + (y/s_p)^2 = 1
+    np.testing.assert_allclose(((x - 0.2) / 0.7) ** 2 + (y / 1.3) ** 2, 1.0, atol=1e-12)
+    assert np.all(ellipse_distance(chi, s_v=0.5, s_p=0.5, e_v=2.0) >= 0)  # ray may miss: clamped / 0
+    assert ellipse_distance(np.array([math.pi]), s_v=0.5, s_p=0.5, e_v=2.0)[0] == 0.0
+    with pytest.raises(ValueError, match="s_v"):
+        ellipse_distance(chi, s_v=0.0, s_p=1.0, e_v=0.0)
