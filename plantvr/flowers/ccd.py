@@ -53,7 +53,7 @@ def _grid_build(lo, hi, origin, inv_cell, dims):
 
 
 @numba.njit(cache=True, nogil=True)
-def _grid_query(qlo, qhi, qverts, keys, elems, everts, origin, inv_cell, dims, same_set):
+def _grid_query(qlo, qhi, qverts, keys, elems, everts, elo, ehi, origin, inv_cell, dims, same_set):
     nq = qlo.shape[0]
     n_el = everts.shape[0]
     stamp = np.full(n_el, -1, np.int64)
@@ -87,6 +87,9 @@ def _grid_query(qlo, qhi, qverts, keys, elems, everts, origin, inv_cell, dims, s
                                     shared = True
                         if shared:
                             continue
+                        if (qhi[q, 0] < elo[e, 0] or qlo[q, 0] > ehi[e, 0] or qhi[q, 1] < elo[e, 1]
+                                or qlo[q, 1] > ehi[e, 1] or qhi[q, 2] < elo[e, 2] or qlo[q, 2] > ehi[e, 2]):
+                            continue                # exact swept-box overlap test
                         if m == cap:
                             cap *= 2
                             new = np.empty((cap, 2), np.int64)
@@ -141,7 +144,7 @@ def broad_phase(x0: np.ndarray, x1: np.ndarray, query: np.ndarray, target: np.nd
         dims = np.ceil((hi - lo) / cell).astype(np.int64) + 1
     keys, elems = _grid_build(tlo, thi, lo, 1.0 / cell, dims)
     return _grid_query(qlo, qhi, np.ascontiguousarray(query), keys, elems, np.ascontiguousarray(target),
-                       lo, 1.0 / cell, dims, same_set)
+                       tlo, thi, lo, 1.0 / cell, dims, same_set)
 
 
 # ---------------------------------------------------------------------------------------------------------
