@@ -16,13 +16,14 @@ from .polygonize import polygonize, sample_grid
 from .sampling import (LaneKernel, cluster_kernel, custom_kernel, field_pdf, icdf_step_1d, lane_in_node, lane_sample,
                        poisson_kernel, rejection_sample, sample_inside, sample_step_pdf, step_cdf)
 from .skinning import Circle2D, Polygon2D, Revolution, Skin, SkinPath, sweep
+from .variational import Variational
 from .warps import Warp, bend, taper, twist
 
 __all__ = [
     "Blend", "Circle2D", "CircleSkeleton", "CommandError", "CommandSession", "Difference", "Difference2",
     "FieldCache", "ISO", "Intersection", "LaneKernel", "Node", "PointSet", "PointSkeleton", "Polygon2D",
     "PolylineSkeleton", "Primitive", "Revolution", "SegmentSkeleton", "Skin", "SkinPath", "TransformNode", "Union",
-    "Warp", "bend", "blinn", "cluster_kernel", "custom_kernel", "default_roots", "densify", "face_cdf", "field_pdf",
+    "Variational", "Warp", "bend", "blinn", "cluster_kernel", "custom_kernel", "default_roots", "densify", "face_cdf", "field_pdf",
     "grow_in_crown", "icdf_step_1d", "lane_in_node", "lane_sample", "load_point_set", "parse_script", "pipe_radii",
     "poisson_kernel", "polygonize", "polyline", "read_props", "rejection_sample", "sample_band", "sample_grid",
     "sample_inside", "sample_mesh_near", "sample_step_pdf", "save_point_set", "segment", "sphere", "step_cdf", "sweep",

@@ -118,3 +118,16 @@ def test_skinning_bad_input():
         SkinPath([[0, 0, 0], [0, 0, 0], [1, 0, 0]])
     with pytest.raises(ValueError, match="rho >= 0"):
         Revolution([[-1, 0], [1, 0], [0, 1]])
+
+
+def test_variational_surface_interpolates_constraints():
+    from plantvr.implicit.variational import Variational
+    rng = np.random.default_rng(5)
+    d = rng.normal(size=(60, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    b = d * [2.0, 1.0, 1.0]
+    v = Variational(b, [[0, 0, 0]], interior_value=1.0)
+    assert np.allclose(v.field(b), 0.5, atol=1e-6)
+    assert v.inside([[0, 0, 0], [1.5, 0, 0]]).all() and not v.inside([[0, 0, 1.3], [2.4, 0, 0]]).any()
+    with pytest.raises(ValueError, match="interior"):
+        Variational(b, np.empty((0, 3)))
