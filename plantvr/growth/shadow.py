@@ -50,12 +50,16 @@ def shadow_lut(alpha: float, beta: float, q_max: int, inclusive: bool = False):
 
 
 @numba.njit(cache=True, nogil=True)
-def _ensure_blocks(keys, cells, F, nblocks):
-    for c in range(cells.shape[0]):
-        key = coarse_key(cells[c, 0] // F, cells[c, 1] // F, cells[c, 2] // F)
-        if key not in keys:
-            keys[key] = nblocks
-            nblocks += 1
+def _ensure_blocks(keys, centres, lo, hi, F, nblocks):
+    """Create the fine blocks overlapped by the box [centre + lo, centre + hi] of each centre (lazily, §2.7)."""
+    for c in range(centres.shape[0]):
+        for i in range((centres[c, 0] + lo[0]) // F, (centres[c, 0] + hi[0]) // F + 1):
+            for j in range((centres[c, 1] + lo[1]) // F, (centres[c, 1] + hi[1]) // F + 1):
+                for k in range((centres[c, 2] + lo[2]) // F, (centres[c, 2] + hi[2]) // F + 1):
+                    key = coarse_key(i, j, k)
+                    if key not in keys:
+                        keys[key] = nblocks
+                        nblocks += 1
     return nblocks
 
 
@@ -98,8 +102,8 @@ class ShadowGrid:
         """Add (``sign`` = +1) or subtract (−1) the pyramid ``offsets/values`` under each cell of ``cells``."""
         if len(cells) == 0 or len(offsets) == 0:
             return
-        touched = (cells[:, None, :] + offsets[None, :, :]).reshape(-1, 3)
-        self.nblocks = _ensure_blocks(self.keys, touched, self.F, self.nblocks)
+        cells = np.ascontiguousarray(cells, np.int64)
+        self.nblocks = _ensure_blocks(self.keys, cells, offsets.min(0), offsets.max(0), self.F, self.nblocks)
         if self.nblocks > len(self.blocks):
             grown = np.zeros((max(2 * len(self.blocks), self.nblocks), *self.blocks.shape[1:]))
             grown[: len(self.blocks)] = self.blocks
