@@ -104,6 +104,11 @@ def main(argv: list[str] | None = None) -> dict:
     n_pts = 1000
     t_rej, _ = _best(lambda: sample_band(blob, n_pts, band=band, method="rejection", rng=2), rep)
     t_build, cache = _best(lambda: FieldCache(blob, edge=0.5, band=band), rep)
+    t_bfs, cache_bfs = _best(lambda: FieldCache(blob, edge=0.5, band=band, method="bfs", rng=0), rep)
+    res.update(time_t61_cache_build_bfs_s=t_bfs, t61_bfs_evaluations=cache_bfs.evaluations,
+               t61_dense_evaluations=cache.evaluations)
+    print(f"cache build, edge 0.5: dense corner grid {t_build:.3f} s ({cache.evaluations} field evaluations) | "
+          f"continuation BFS {t_bfs:.3f} s ({cache_bfs.evaluations} evaluations, {cache_bfs.n_cubes} cubes)")
     t_filter, pf = _best(lambda: sample_band(blob, n_pts, band=band, cache=cache, cache_mode="filter", rng=2), rep)
     t_approx, pa = _best(lambda: sample_band(blob, n_pts, band=band, cache=cache, cache_mode="approx", rng=2), rep)
     fa = blob.field(pa)

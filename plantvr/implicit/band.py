@@ -40,6 +40,15 @@ class FieldCache:
         Field band; a cube is kept iff its corner range meets it.
     bbox : (2, 3) array_like, optional
         Box (default: the node's support box, "all points whose field value is not zero").
+    method : {"dense", "bfs"}
+        ``dense``: every corner of the box grid is evaluated (vectorised) and cubes are masked. ``bfs``: the
+        thesis's continuation, marching cubes around the surface from seed cubes (cubes holding band points found
+        by rejection), one vectorised field call per breadth-first wave; only visited corners are evaluated, and a
+        band component without a seed is missed.
+    seeds : int
+        Band points drawn by rejection to seed the ``bfs`` method.
+    rng : int | numpy.random.Generator | None
+        Seed for the ``bfs`` seed points.
 
     Attributes
     ----------
@@ -55,7 +64,8 @@ class FieldCache:
     .. [1] Kochhar 2010, §6.2.2, Table 6.1; Schmidt [85] (corner caching); spec 003 §3.6.2.
     """
 
-    def __init__(self, node: Node, *, edge: float = 0.5, band=(0.40, 0.41), bbox=None):
+    def __init__(self, node: Node, *, edge: float = 0.5, band=(0.40, 0.41), bbox=None, method: str = "dense",
+                 seeds: int = 32, rng=None):
         if not isinstance(node, Node):
             raise ValueError(f"node must be a BlobTree Node, got {type(node).__name__}")
         self.node = node
@@ -68,17 +78,55 @@ class FieldCache:
         self.shape = tuple(int(v) for v in np.ceil((box[1] - box[0]) / self.edge).astype(int))
         if np.prod(np.array(self.shape) + 1, dtype=float) > 2e8:
             raise ValueError(f"edge={edge} gives {self.shape} cubes, too many; use a larger edge")
-        axes = [self.origin[i] + self.edge * np.arange(self.shape[i] + 1) for i in range(3)]
-        pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-        self.corners = node.field(pts).reshape(tuple(s + 1 for s in self.shape))
-        nx, ny, nz = self.shape
-        c = self.corners
-        views = [c[a:a + nx, b:b + ny, d:d + nz] for a in (0, 1) for b in (0, 1) for d in (0, 1)]
-        cmin, cmax = np.min(views, axis=0), np.max(views, axis=0)
-        self.table = (cmax > self.band[0]) & (cmin < self.band[1])
+        check_choice("method", method, ("dense", "bfs"))
+        seeds = check_int("seeds", seeds, 1, 10**6)
+        self.method = method
+        if method == "dense":
+            axes = [self.origin[i] + self.edge * np.arange(self.shape[i] + 1) for i in range(3)]
+            pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+            self.corners = node.field(pts).reshape(tuple(s + 1 for s in self.shape))
+            nx, ny, nz = self.shape
+            c = self.corners
+            views = [c[a:a + nx, b:b + ny, d:d + nz] for a in (0, 1) for b in (0, 1) for d in (0, 1)]
+            cmin, cmax = np.min(views, axis=0), np.max(views, axis=0)
+            self.table = (cmax > self.band[0]) & (cmin < self.band[1])
+            self.evaluations = int(c.size)
+        else:
+            self._build_bfs(seeds, rng)
         self.n_cubes = int(self.table.sum())
         hi = self.origin + self.edge * np.array(self.shape)
         self.bbox = np.array([self.origin, hi])
+
+    def _build_bfs(self, seeds, rng):
+        node, shape = self.node, np.array(self.shape)
+        start = rejection_sample(node, seeds, f_lo=self.band[0], f_hi=self.band[1], rng=rng,
+                                 bbox=np.array([self.origin, self.origin + self.edge * shape]))
+        self.corners = np.full(tuple(shape + 1), np.nan)
+        self.table = np.zeros(tuple(shape), dtype=bool)
+        visited = np.zeros(tuple(shape), dtype=bool)
+        offs = np.array([[a, b, d] for a in (0, 1) for b in (0, 1) for d in (0, 1)])
+        nbrs = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
+        front = np.unique(np.clip(np.floor((start - self.origin) / self.edge).astype(np.int64), 0, shape - 1),
+                          axis=0)
+        visited[tuple(front.T)] = True
+        evals = 0
+        while len(front):
+            corner_idx = np.unique((front[:, None, :] + offs[None]).reshape(-1, 3), axis=0)
+            need = corner_idx[np.isnan(self.corners[tuple(corner_idx.T)])]
+            if len(need):
+                self.corners[tuple(need.T)] = node.field(self.origin + need * self.edge)
+                evals += len(need)
+            vals = self.corners[tuple((front[:, None, :] + offs[None]).reshape(-1, 3).T)].reshape(-1, 8)
+            keep = (vals.max(axis=1) > self.band[0]) & (vals.min(axis=1) < self.band[1])
+            kept = front[keep]
+            self.table[tuple(kept.T)] = True
+            cand = (kept[:, None, :] + nbrs[None]).reshape(-1, 3)
+            cand = cand[np.all((cand >= 0) & (cand < shape), axis=1)]
+            cand = np.unique(cand, axis=0)
+            cand = cand[~visited[tuple(cand.T)]]
+            visited[tuple(cand.T)] = True
+            front = cand
+        self.evaluations = evals
 
     def lookup(self, p: np.ndarray):
         """Cube keys (N, 3) and a mask of points whose cube is in the table."""

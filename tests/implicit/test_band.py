@@ -74,3 +74,16 @@ def test_band_bad_input():
         FieldCache(s, edge=0.0)
     with pytest.raises(ValueError, match="no cube meeting the band"):
         sample_band(s, 10, band=(2.0, 3.0))
+
+
+def test_bfs_continuation_cache_matches_dense_with_fewer_evaluations():
+    blob = _blob(30, seed=3)
+    dense = FieldCache(blob, edge=0.5, band=(0.40, 0.41))
+    bfs = FieldCache(blob, edge=0.5, band=(0.40, 0.41), method="bfs", seeds=64, rng=0)
+    assert not np.any(bfs.table & ~dense.table)
+    assert bfs.n_cubes >= 0.95 * dense.n_cubes and bfs.evaluations < dense.evaluations
+    kept = np.argwhere(bfs.table)
+    assert np.allclose(bfs.corners[tuple(kept.T)], dense.corners[tuple(kept.T)], atol=1e-12)
+    p = sample_band(blob, 300, band=(0.40, 0.41), cache=bfs, rng=2)
+    f = blob.field(p)
+    assert np.all((f > 0.40) & (f < 0.41))
