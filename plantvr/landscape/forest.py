@@ -25,7 +25,7 @@ from ..params import defaults
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
-__all__ = ["Forest", "grow_forest", "grow_tree_task", "grow_trees_task", "warm_up", "engine_state", "engine_from_state"]
+__all__ = ["Forest", "grow_forest", "grow_tree_task", "grow_trees_task", "tree_mesh_task", "warm_up", "engine_state", "engine_from_state"]
 
 
 @dataclass
@@ -38,6 +38,7 @@ class Forest:
     heights: np.ndarray
     size: tuple[float, float]
     timings: list[float] = field(default_factory=list)
+    meshes: list[tuple[np.ndarray, np.ndarray]] | None = None
 
     @property
     def n_internodes(self) -> int:
@@ -84,6 +85,24 @@ def grow_trees_task(params: dict[str, Any], states: list[dict[str, Any]], steps:
     return [grow_tree_task(params, s, steps) for s in states]
 
 
+def tree_mesh_task(tree: dict[str, np.ndarray], lod: tuple[int, int] = (6, 32)) -> tuple[np.ndarray, np.ndarray]:
+    """Branch mesh (vertices (V, 3) float64, faces (F, 3) int64) of one tree's arrays (plantvr.geometry)."""
+    from ..geometry.mesh import build_branch_mesh
+
+    alive = tree["alive"]
+    if alive.sum() < 2:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    main = np.where(tree["child"][:, 0] >= 0, tree["child"][:, 0], -1)
+    radius = np.where(alive, np.maximum(tree["radius"], 1e-6), tree["radius"])
+    m = build_branch_mesh(tree["pos"], tree["parent"], radius, alive=alive, main_child=main, lod=lod)
+    return m.vertices, m.faces
+
+
+def tree_meshes_task(trees: list[dict[str, np.ndarray]]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Batch of :func:`tree_mesh_task`."""
+    return [tree_mesh_task(t) for t in trees]
+
+
 def warm_up() -> float:
     """Grow one small tree for a few rounds so numba kernels are loaded in this process; returns seconds.
 
@@ -97,6 +116,7 @@ def warm_up() -> float:
     s = _seed_states(p, np.zeros((1, 3)), 0, 5.0, 4.0, 200)[0]
     for _ in range(3):
         s = grow_tree_task(p, s, 4)
+    tree_mesh_task(s["tree"])
     return time.perf_counter() - t
 
 
@@ -134,7 +154,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 rounds: int = 4, steps_per_round: int = 5, crown_height: float = 7.0, crown_radius: float = 5.0,
                 n_darts: int = 300, terrain_amplitude: float = 3.0, params: dict[str, Any] | None = None,
                 seed: int = 0, client: Any = None, n_workers: int = 2, processes: bool = False,
-                compete: bool = True, tasks_per_round: int | None = None) -> Forest:
+                compete: bool = True, tasks_per_round: int | None = None, geometry: bool = False) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -149,6 +169,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         does not depend on it.
     compete : bool
         Remove markers claimed by neighbours (within the occupation radius of their nodes) between rounds.
+
+    geometry : bool
+        Also build each tree's branch mesh (world coordinates) as a task; stored in ``Forest.meshes``.
 
     Returns
     -------
@@ -186,30 +209,36 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         except ImportError:
             runner = "sync"
     timings = []
+
+    def run(fn, items, *extra):
+        if runner == "sync":
+            return fn(items, *extra) if fn is tree_meshes_task else fn(p, items, *extra)
+        chunks = np.array_split(np.arange(len(items)), min(len(items), tasks_per_round or
+                                2 * max(len(runner.scheduler_info()["workers"]), 1)))
+        args = [(p,) if fn is grow_trees_task else () for _ in chunks]
+        futs = [runner.submit(fn, *a, [items[i] for i in c], *extra, pure=False)
+                for a, c in zip(args, chunks) if len(c)]
+        return [x for batch in runner.gather(futs) for x in batch]
+
+    trees, meshes = [], None
     try:
         for _ in range(rounds):
             t0 = time.perf_counter()
-            if runner == "sync":
-                states = [grow_tree_task(p, s, steps_per_round) for s in states]
-            else:
-                chunks = np.array_split(np.arange(len(states)), min(len(states), tasks_per_round or
-                                        2 * max(len(runner.scheduler_info()["workers"]), 1)))
-                futs = [runner.submit(grow_trees_task, p, [states[i] for i in c], steps_per_round, pure=False)
-                        for c in chunks if len(c)]
-                states = [s for batch in runner.gather(futs) for s in batch]
+            states = run(grow_trees_task, states, steps_per_round)
             if compete:
                 _compete(states, bases, p["occupation_radius"])
             timings.append(time.perf_counter() - t0)
+        for i, s in enumerate(states):
+            t = {k: v.copy() for k, v in s["tree"].items()}
+            t["pos"] = t["pos"] + bases[i]
+            trees.append(t)
+        if geometry:
+            meshes = run(tree_meshes_task, trees)
     finally:
         if own is not None:
             cluster = own.cluster
             own.close()
             cluster.close()
-    trees = []
-    for i, s in enumerate(states):
-        t = {k: v.copy() for k, v in s["tree"].items()}
-        t["pos"] = t["pos"] + bases[i]
-        trees.append(t)
-    return Forest(bases, trees, hf, size, timings)
+    return Forest(bases, trees, hf, size, timings, meshes)
 
 

@@ -82,8 +82,13 @@ def test_competition_removes_neighbour_claimed_markers():
 
 def test_forest_sync_equals_two_thread_workers():
     pytest.importorskip("dask.distributed")
-    f = grow_forest(4, client="sync", **SMALL)
-    g = grow_forest(4, n_workers=2, processes=False, **SMALL)
+    f = grow_forest(4, client="sync", geometry=True, **SMALL)
+    g = grow_forest(4, n_workers=2, processes=False, geometry=True, **SMALL)
+    for (va, fa), (vb, fb) in zip(f.meshes, g.meshes):  # byte-identical meshes with 1 and 2 workers
+        assert len(fa) > 0 and va.tobytes() == vb.tobytes() and fa.tobytes() == fb.tobytes()
+    lo, hi = f.trees[0]["pos"][f.trees[0]["alive"]].min(0), f.trees[0]["pos"][f.trees[0]["alive"]].max(0)
+    v0 = f.meshes[0][0]
+    assert np.all(v0.min(0) > lo - 1.0) and np.all(v0.max(0) < hi + 1.0)  # mesh in world coordinates
     assert len(f.trees) == 4 and f.n_internodes > 4 * 10
     _same(f, g)
     _same(f, grow_forest(4, n_workers=2, processes=False, tasks_per_round=3, **SMALL))  # batching is invisible
