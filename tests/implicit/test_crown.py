@@ -106,3 +106,13 @@ def test_v27_two_roots_two_crowns():
         owner[i] = i if p < 0 else owner[p]
     x = res.nodes[:, 0]
     assert np.mean(np.sign(x[owner == 0]) < 0) > 0.95 and np.mean(np.sign(x[owner == 1]) > 0) > 0.95
+
+
+def test_grown_tree_meshes_with_project_geometry():
+    geometry = pytest.importorskip("plantvr.geometry")
+    pts = sample_inside(sphere((0, 12.0, 0), 20.0), 800, rng=0)
+    res = grow_in_crown(pts, step_size=0.5, kill_radius=1.0)
+    r = pipe_radii(res.parent, r0=0.02)
+    mesh = geometry.build_branch_mesh(res.nodes, res.parent, r)
+    assert len(mesh.faces) > 0 and np.isfinite(mesh.vertices).all()
+    assert mesh.vertices[:, 1].min() >= res.nodes[:, 1].min() - r.max() - 1e-9
