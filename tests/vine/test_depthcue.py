@@ -106,3 +106,19 @@ def test_depth_cue_colors_darken_far_vertices(hull):
         depth_cue_colors(cols.astype(float), pts, E, hull)
     with pytest.raises(ValueError, match="p must be"):
         depth_factor(np.ones(3), 0, 1, p=1.5)
+
+
+def test_hull_distance_kernel_equals_numpy_twin(hull):
+    from plantvr.vine.depthcue import _hull_distances_numpy
+    rng = np.random.default_rng(8)
+    for E in rng.uniform(-200, 200, (40, 3)):
+        a = hull_distances(hull, E)
+        b = _hull_distances_numpy(hull, E)
+        assert a == pytest.approx(b, abs=1e-9)
+
+
+def test_ray_parity_kernel_equals_numpy_twin(hull):
+    from plantvr.vine.depthcue import _inside_fast
+    rng = np.random.default_rng(9)
+    for E in rng.uniform([-130, -130, -45], [130, 130, 45], (60, 3)):
+        assert _inside_fast(hull, E, np.random.default_rng(0)) == inside_hull(hull, E, rng=0)
