@@ -36,8 +36,8 @@ def main(argv: list[str] | None = None) -> dict:
     args = ap.parse_args(argv)
     from plantvr.flowers import ccd, pbd
     from plantvr.flowers.composer import SolverParams, step
-    sizes = args.florets or ([30] if args.quick else [60, 150, 300])
-    steps = args.steps or (4 if args.quick else 10)
+    sizes = args.florets or ([6] if args.quick else [60, 150, 300])
+    steps = args.steps or (1 if args.quick else 10)
     params = SolverParams()
     results = {}
     for nf in sizes:
