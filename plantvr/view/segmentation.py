@@ -97,6 +97,48 @@ class SegmentationView:
             self._hull = coarse_hull(self.seg.vertices)
         return self._hull
 
+    def follow(self, buffer) -> None:
+        """Read labels from a :class:`~plantvr.vine.buffers.TripleBuffer` instead of observing the segmentation.
+
+        Use this when painting runs on a :class:`~plantvr.vine.buffers.PaintWorker`: the worker thread never
+        touches VTK; the render side calls :meth:`poll` (``screenshot`` does) and takes the latest completed
+        labels (spec §4.3).
+        """
+        self.seg.unobserve(self._on_change)
+        self._buffer = buffer
+        self._buffer_version = -1
+
+    def poll(self) -> bool:
+        """Apply the newest completed label buffer, if any; returns whether the colours changed."""
+        buf = getattr(self, "_buffer", None)
+        if buf is None:
+            return False
+        labels, version = buf.acquire()
+        try:
+            if version == self._buffer_version:
+                return False
+            self._base_rgba = self.seg.colors.rgba[labels]
+            self._buffer_version = version
+        finally:
+            buf.release()
+        self._refresh_colors()
+        self.updates += 1
+        return True
+
+    def paint_at(self, point, *, radius: float, label: int) -> int:
+        """Paint at a picked world-space point (mouse picking): converts through the model transform."""
+        m = np.asarray(self.actor.user_matrix, np.float64)
+        s = float(np.cbrt(abs(np.linalg.det(m[:3, :3]))))
+        c = (np.linalg.inv(m) @ np.r_[np.asarray(point, np.float64), 1.0])[:3]
+        return self.seg.paint(c, float(radius) / s, label)
+
+    def enable_mouse_painting(self, *, radius: float, label: int) -> None:
+        """Paint with the sphere brush where the user clicks on the surface (desktop painting mode)."""
+        self.brush_radius, self.brush_label = float(radius), int(label)
+        self.plotter.enable_surface_point_picking(
+            callback=lambda p: self.paint_at(p, radius=self.brush_radius, label=self.brush_label),
+            show_point=False, show_message=False)
+
     # ------------------------------------------------------------------ commands
     def set_depth_cue(self, on: bool) -> None:
         """Toggle depth cueing (Eq. 5.8, p = 0.85, coarse-hull distances from the camera position)."""
@@ -138,7 +180,9 @@ class SegmentationView:
 
     def screenshot(self, path: str | os.PathLike | None = None) -> np.ndarray:
         """Render offscreen and return (H, W, 3) uint8; also writes a PNG when ``path`` is given."""
-        if self.depth_cue:
+        if self.poll():
+            pass
+        elif self.depth_cue:
             self._refresh_colors()
         self.plotter.render()
         return self.plotter.screenshot(None if path is None else os.fspath(path), return_img=True)

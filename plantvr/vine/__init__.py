@@ -12,10 +12,10 @@ from plantvr.vine.ply import write_ply
 from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.synth import COMPONENTS, FlowerHead, synth_flowerhead, tile_mesh, vertex_labels_from_volume
 from plantvr.vine.views import SavedView, load_view, save_view, world_to_model
-from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume
+from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume, suggest_level
 
 __all__ = ["ColorTable", "DEFAULT_PALETTE", "coarse_hull", "depth_cue_colors", "depth_factor", "hull_distances",
            "inside_hull", "History", "LabelEdit", "GridIndex", "KDTreeIndex", "ball_query_brute", "Surface",
            "extract_isosurface", "signed_volume", "write_ply", "Segmentation", "COMPONENTS", "FlowerHead",
            "synth_flowerhead", "tile_mesh", "vertex_labels_from_volume", "SavedView", "load_view", "save_view",
-           "world_to_model", "downsample2", "histogram", "load_volume", "save_volume"]
+           "world_to_model", "downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]

@@ -12,7 +12,7 @@ import numpy as np
 
 from plantvr._validation import check_choice, check_int
 
-__all__ = ["load_volume", "save_volume", "downsample2", "histogram"]
+__all__ = ["load_volume", "save_volume", "downsample2", "histogram", "suggest_level"]
 
 _DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
 
@@ -174,3 +174,28 @@ def histogram(volume: np.ndarray, *, bins: int = 256, slab: int = 64) -> tuple[n
         idx = np.minimum((np.arange(int(top)) * bins) // int(top), bins - 1)
         counts += np.bincount(idx, weights=c, minlength=bins).astype(np.int64)
     return counts, edges
+
+
+def suggest_level(volume: np.ndarray, *, bins: int = 256) -> float:
+    """A starting iso-value for the slider: Otsu's threshold of the slab-wise histogram, off the integer grid.
+
+    Parameters
+    ----------
+    volume : (X, Y, Z) uint8 or uint16 ndarray
+    bins : int
+        Histogram bins, in [2, 65536].
+
+    Returns
+    -------
+    float
+        Otsu threshold + 0.5, so that no voxel value equals the level (exact slab seams).
+
+    References
+    ----------
+    .. [1] Spec 000_vine §1.5 step 1/3: the thesis chose the iso-value by hand; this only seeds the choice.
+    """
+    from skimage.filters import threshold_otsu
+    counts, edges = histogram(volume, bins=bins)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    t = float(threshold_otsu(hist=(counts, centres)))
+    return float(np.floor(t)) + 0.5

@@ -67,3 +67,26 @@ def test_apply_saved_view_sets_model_pose(view):
     assert np.allclose(m[:3, 3], [1, 2, 3]) and np.allclose(m[:3, :3], 2 * np.eye(3))
     view.show_brush([32, 32, 40], 5.0, 2)
     view.hide_brush()
+
+
+def test_view_follows_the_worker_through_the_triple_buffer(view):
+    from plantvr.vine.buffers import PaintWorker
+    seg = view.seg
+    worker = PaintWorker(seg)
+    view.follow(worker.buffer)
+    worker.submit("paint", seg.vertices[0].astype(float), seg.max_radius, 5)
+    worker.join()
+    assert view.poll() and not view.poll()
+    assert np.array_equal(view.mesh.point_data["rgba"], seg.vertex_colors())
+    worker.close()
+
+
+def test_paint_at_picked_point_uses_model_transform(view):
+    seg = view.seg
+    view.set_model_pose([10.0, 0.0, 0.0], np.eye(3), 2.0)
+    v = seg.vertices[50].astype(float)
+    n = view.paint_at(np.array([10.0, 0.0, 0.0]) + 2.0 * v, radius=2.0 * 3.0, label=6)
+    assert n > 0 and seg.labels[50] == 6
+    from plantvr.vine.index import ball_query_brute
+    assert set(np.nonzero(seg.labels == 6)[0]) == set(ball_query_brute(seg.vertices, v, 3.0).tolist())
+    view.enable_mouse_painting(radius=1.0, label=2)

@@ -57,3 +57,12 @@ def test_histogram_counts_all_voxels(head):
     assert counts.sum() == head.volume.size and len(edges) == 65
     ref, _ = np.histogram(head.volume, bins=64, range=(0, 256))
     assert np.array_equal(counts, ref)
+
+
+def test_suggest_level_separates_structure_from_background(head):
+    from plantvr.vine.volume import suggest_level
+    lvl = suggest_level(head.volume)
+    assert lvl % 1 == 0.5
+    assert 20 < lvl < 200
+    inside = head.volume > lvl
+    assert (inside & (head.labels > 0)).sum() / inside.sum() > 0.9
