@@ -8,9 +8,9 @@ observers with the changed vertex ids so views update colours in place.
 from __future__ import annotations
 
 import contextlib
-import io
 import os
 import zipfile
+import zlib
 from typing import Callable
 
 import numpy as np
@@ -92,6 +92,7 @@ class Segmentation:
         self._stroke: list | None = None
         self._observers: list[Callable] = []
         self.event_log: list[tuple] = []          # replayable commands: (op, *args), plain Python values
+        self.autosave_path: str | None = None
         lo, hi = bounds(v)
         ext = hi - lo
         self.max_radius = float(np.linalg.norm(ext)) + 1.0
@@ -179,6 +180,7 @@ class Segmentation:
                 self.history.push(edit)
         if idx.size:
             self._notify("labels", idx)
+            self._after_operation()
         return int(idx.size)
 
     def paint_stroke(self, centers, radius: float, label: int) -> int:
@@ -226,6 +228,8 @@ class Segmentation:
             self.history.push(edit)
         elif parts:
             self.history.redo_stack.clear()       # it wrote labels (and wrote them back): redo is stale
+        if parts:
+            self._after_operation()
         return edit
 
     def abort_stroke(self) -> None:
@@ -247,6 +251,7 @@ class Segmentation:
         e = self.history.undo(self.labels)
         if e is not None:
             self._notify("labels", e.indices)
+            self._after_operation()
         return e
 
     def redo(self) -> LabelEdit | None:
@@ -257,6 +262,7 @@ class Segmentation:
         e = self.history.redo(self.labels)
         if e is not None:
             self._notify("labels", e.indices)
+            self._after_operation()
         return e
 
     _REPLAYABLE = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
@@ -294,6 +300,7 @@ class Segmentation:
         self.colors.set_visible(label, visible)
         self.event_log.append(("set_visible", int(label), bool(visible)))
         self._notify("visibility", None)
+        self._after_operation()
 
     def hide(self, label: int) -> None:
         """Hide a colour."""
@@ -332,7 +339,15 @@ class Segmentation:
         return len(self.views) - 1
 
     # ------------------------------------------------------------------ persistence
-    def _state_arrays(self) -> dict:
+    def mesh_fingerprint(self) -> int:
+        """CRC32 of the vertex/face counts and a strided sample of both arrays (ties label files to a mesh)."""
+        step_v = max(1, self.n_vertices // 4096)
+        step_f = max(1, len(self.faces) // 4096)
+        crc = zlib.crc32(np.array([self.n_vertices, len(self.faces)], np.int64).tobytes())
+        crc = zlib.crc32(np.ascontiguousarray(self.vertices[::step_v]).tobytes(), crc)
+        return zlib.crc32(np.ascontiguousarray(self.faces[::step_f]).tobytes(), crc)
+
+    def _state_arrays(self, include_mesh: bool = True) -> dict:
         def pack(stack):
             edits = list(stack)
             offs = np.cumsum([0] + [len(e) for e in edits]).astype(np.int64)
@@ -349,28 +364,45 @@ class Segmentation:
                  history_limits=np.array([self.history.max_items, self.history.max_bytes], np.int64))
         if self.normals is not None:
             d["normals"] = self.normals
+        if not include_mesh:
+            for k in ("vertices", "faces", "normals"):
+                d.pop(k, None)
+            d["mesh"] = np.array([self.n_vertices, len(self.faces), self.mesh_fingerprint()], np.int64)
         return d
 
-    def save(self, path: str | os.PathLike, *, compress: bool = False) -> None:
+    def save(self, path: str | os.PathLike, *, compress: bool = False, include_mesh: bool = True) -> None:
         """Save mesh, labels, colour table, visibility, views and undo/redo history to one ``.npz`` file.
 
         Written to a temporary file first and renamed, so a crash never leaves a half-written session.
+        With ``include_mesh=False`` only the segmentation state is written (about 1 byte per vertex plus the
+        history), tied to this mesh by a fingerprint; :meth:`restore` it onto a segmentation of the same mesh.
         """
         if self._stroke is not None:
             raise ValueError("a stroke is open; end_stroke() before saving")
         path = os.fspath(path)
         tmp = path + ".tmp"
         with open(tmp, "wb") as fh:
-            (np.savez_compressed if compress else np.savez)(fh, **self._state_arrays())
+            (np.savez_compressed if compress else np.savez)(fh, **self._state_arrays(include_mesh))
         os.replace(tmp, path)
 
     @staticmethod
-    def _read_state(path) -> dict:
+    def _read_state(path, base: "Segmentation | None" = None) -> dict:
         try:
             with np.load(path, allow_pickle=False) as z:
                 d = {k: z[k] for k in z.files}
         except (OSError, EOFError, ValueError, zipfile.BadZipFile, KeyError) as exc:
             raise ValueError(f"could not read segmentation file {os.fspath(path)!r}: {exc}") from None
+        if "vertices" not in d and "mesh" in d:
+            if base is None:
+                raise ValueError(f"segmentation file {os.fspath(path)!r} holds no mesh (labels only); "
+                                 "use seg.restore(path) on a segmentation of the same mesh")
+            want = [base.n_vertices, len(base.faces), base.mesh_fingerprint()]
+            if d["mesh"].tolist() != want:
+                raise ValueError(f"segmentation file {os.fspath(path)!r} belongs to another mesh "
+                                 f"(vertices, faces, fingerprint) {d['mesh'].tolist()} != {want}")
+            d["vertices"], d["faces"] = base.vertices, base.faces
+            if base.normals is not None:
+                d["normals"] = base.normals
         need = ("format", "vertices", "faces", "labels", "rgba", "visible", "views", "undo_idx", "undo_old",
                 "undo_new", "undo_off", "redo_idx", "redo_old", "redo_new", "redo_off", "history_limits")
         missing = [k for k in need if k not in d]
@@ -422,10 +454,25 @@ class Segmentation:
         return seg
 
     def restore(self, path: str | os.PathLike) -> None:
-        """Replace this session's state with a saved file's; on any error nothing is changed."""
-        other = self._from_state(self._read_state(path), index=self.index_kind)
-        self.__dict__.update({k: v for k, v in other.__dict__.items() if k != "_observers"})
+        """Replace this session's state with a saved file's (full or labels-only); on any error nothing changes."""
+        d = self._read_state(path, base=self)
+        same_mesh = d["vertices"] is self.vertices
+        other = self._from_state(d, index=self.index_kind)
+        keep = {"_observers", "autosave_path", "event_log"} | ({"_index"} if same_mesh else set())
+        self.__dict__.update({k: v for k, v in other.__dict__.items() if k not in keep})
         self._notify("all", None)
+
+    def enable_autosave(self, path: str | os.PathLike | None) -> None:
+        """After every completed operation, save the labels-only state to ``path`` (None turns it off).
+
+        A crash then loses at most the operation in progress; reload with :meth:`restore`.
+        """
+        self.autosave_path = None if path is None else os.fspath(path)
+        self._after_operation()
+
+    def _after_operation(self) -> None:
+        if self.autosave_path is not None and self._stroke is None:
+            self.save(self.autosave_path, include_mesh=False)
 
     # ------------------------------------------------------------------ export
     def export_ply(self, path: str | os.PathLike, *, visible_only: bool = False, with_labels: bool = True) -> None:

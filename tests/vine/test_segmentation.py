@@ -202,3 +202,28 @@ def test_event_log_replay_gives_identical_labels(surface):
     assert not w.errors and np.array_equal(c.labels, a.labels)
     with pytest.raises(ValueError, match="event must start"):
         b.replay([("paint", (0, 0, 0), 1.0, 1), ("format_disk",)])
+
+
+def test_autosave_loses_at_most_the_open_operation(surface, tmp_path):
+    seg = Segmentation(surface.vertices, surface.faces)
+    auto = tmp_path / "auto.npz"
+    seg.enable_autosave(auto)
+    rng = np.random.default_rng(4)
+    for k in range(3):
+        seg.paint(surface.vertices[rng.integers(len(surface.vertices))].astype(float), 4.0, 1 + k)
+    seg.undo()
+    seg.hide(3)
+    committed = seg.labels.copy()
+    seg.begin_stroke()
+    seg.paint(surface.vertices[0].astype(float), 6.0, 5)          # "crash" with this stroke open
+    assert auto.stat().st_size < surface.vertices.nbytes          # labels-only file, no mesh
+    fresh = Segmentation(surface.vertices, surface.faces)
+    fresh.restore(auto)
+    assert np.array_equal(fresh.labels, committed)
+    assert len(fresh.history.undo_stack) == 2 and len(fresh.history.redo_stack) == 1
+    assert not fresh.colors.visible[3]
+    with pytest.raises(ValueError, match="holds no mesh"):
+        Segmentation.load(auto)
+    other = Segmentation(surface.vertices[:-1], surface.faces[surface.faces.max(1) < len(surface.vertices) - 1])
+    with pytest.raises(ValueError, match="another mesh"):
+        other.restore(auto)
