@@ -50,8 +50,8 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     sizes = [6] if args.quick else [10, 30, 100, 300]
-    kw = dict(rounds=2 if args.quick else 4, steps_per_round=3 if args.quick else 5, n_darts=150 if args.quick else 300,
-              seed=1)
+    kw = {"rounds": 2 if args.quick else 4, "steps_per_round": 3 if args.quick else 5, "n_darts": 150 if args.quick else 300,
+              "seed": 1}
     from dask.distributed import Client, LocalCluster
 
     cap = cpu_capacity()
@@ -77,8 +77,8 @@ def main(argv: list[str] | None = None) -> dict:
             td = time.perf_counter() - t
             same = _same(f, g) and all(a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
                                        for a, b in zip(f.meshes, g.meshes))
-            row = dict(trees=len(f.trees), internodes=f.n_internodes, serial_s=ts, dask_s=td, speedup=ts / td,
-                       identical=same)
+            row = {"trees": len(f.trees), "internodes": f.n_internodes, "serial_s": ts, "dask_s": td, "speedup": ts / td,
+                       "identical": same}
             out["rows"].append(row)
             print(f"{len(f.trees):4d} trees, {f.n_internodes:7d} internodes: serial {ts:7.2f} s (baseline) | "
                   f"dask {args.workers} procs {td:7.2f} s | speed-up {ts / td:4.2f}x | identical: {same}")

@@ -31,8 +31,16 @@ from .directions import _rotate, bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, _Buds
 from .tree import BUD
 
-__all__ = ["SketchEngine", "set_point_tropism", "deflect_heading", "shoot_lengths", "barycentric",
-           "autonomous_points", "ellipse_distance", "gravimorphism"]
+__all__ = [
+    "SketchEngine",
+    "autonomous_points",
+    "barycentric",
+    "deflect_heading",
+    "ellipse_distance",
+    "gravimorphism",
+    "set_point_tropism",
+    "shoot_lengths",
+]
 
 _Y = np.array([0.0, 1.0, 0.0])
 
@@ -221,10 +229,10 @@ class SketchEngine(GrowthEngine):
 
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None, n_max: int = 3,
                  trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4):
-        opts = dict(n_max=check_int("n_max", n_max, 1, 1000), trunk_up=bool(trunk_up),
-                    deflection=check_range("deflection", deflection, 0.0, 90.0),
-                    mode=check_choice("mode", mode, ("directed", "autonomous")),
-                    point_density=check_int("point_density", point_density, 0, 1000))
+        opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
+                    "deflection": check_range("deflection", deflection, 0.0, 90.0),
+                    "mode": check_choice("mode", mode, ("directed", "autonomous")),
+                    "point_density": check_int("point_density", point_density, 0, 1000)}
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
         check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
         if isinstance(rng, (int, np.integer)):
@@ -268,8 +276,8 @@ class SketchEngine(GrowthEngine):
     # -- buds: deflection ---------------------------------------------------------------------------
     def _bud_dirs(self, node: np.ndarray, slot: np.ndarray) -> np.ndarray:
         p, t = self.params, self.tree
-        kw = dict(main_angle=math.radians(p["main_branch_angle"]), lateral_angle=math.radians(p["branch_angle"]),
-                  opposite=t.nslots == 3, opposite_main=p["opposite_main"])
+        kw = {"main_angle": math.radians(p["main_branch_angle"]), "lateral_angle": math.radians(p["branch_angle"]),
+                  "opposite": t.nslots == 3, "opposite_main": p["opposite_main"]}
         d = bud_headings(t.head[node], t.lat[node], slot, **kw)
         delta = math.radians(self.sketch["deflection"])
         main = slot == 0

@@ -25,7 +25,7 @@ from ..params import defaults
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
-__all__ = ["Forest", "grow_forest", "grow_tree_task", "grow_trees_task", "tree_mesh_task", "warm_up", "engine_state", "engine_from_state"]
+__all__ = ["Forest", "engine_from_state", "engine_state", "finish_task", "grow_forest", "grow_tree_task", "grow_trees_task", "round_task", "summary_task", "tree_mesh_task", "warm_up"]
 
 
 @dataclass
@@ -120,24 +120,53 @@ def warm_up() -> float:
     return time.perf_counter() - t
 
 
-def _compete(states: list[dict], bases: np.ndarray, radius: float) -> None:
-    """Drop each tree's markers that lie within ``radius`` of a live node of another tree (in place)."""
-    nodes, label = [], []
-    for i, s in enumerate(states):
-        t = s["tree"]
-        p = t["pos"][t["alive"]] + bases[i]
-        nodes.append(p)
-        label.append(np.full(len(p), i))
-    allp, lab = np.concatenate(nodes), np.concatenate(label)
+def round_task(params: dict[str, Any], states: list[dict[str, Any]], drops: list, steps: int) -> list[dict]:
+    """Drop the markers claimed by neighbours (``drops[i]`` bool mask or None), then grow ``steps`` steps."""
+    out = []
+    for st, d in zip(states, drops):
+        if d is not None and d.any():
+            st = {**st, "markers": st["markers"][~d], "marker_age": st["marker_age"][~d]}
+        out.append(grow_tree_task(params, st, steps) if steps else st)
+    return out
+
+
+def summary_task(states: list[dict[str, Any]]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """What competition needs from each tree: live node positions and markers (tree-local)."""
+    return [(st["tree"]["pos"][st["tree"]["alive"]], st["markers"]) for st in states]
+
+
+def finish_task(states: list[dict[str, Any]], drops: list, bases: np.ndarray, geometry: bool) -> list[tuple]:
+    """Apply the last drops; return (tree arrays in world coordinates, mesh or None) per tree."""
+    out = []
+    for st, b in zip(round_task({}, states, drops, 0), bases):
+        t = {k: v.copy() for k, v in st["tree"].items()}
+        t["pos"] = t["pos"] + b
+        out.append((t, tree_mesh_task(t) if geometry else None))
+    return out
+
+
+def _compete_masks(summaries: list[tuple[np.ndarray, np.ndarray]], bases: np.ndarray, radius: float) -> list:
+    """Per tree, the mask of its markers within ``radius`` of a live node of another tree (None: none)."""
+    allp = np.concatenate([nodes + bases[i] for i, (nodes, _) in enumerate(summaries)])
+    lab = np.concatenate([np.full(len(nodes), i) for i, (nodes, _) in enumerate(summaries)])
     kd = cKDTree(allp)
-    for i, s in enumerate(states):
-        m = s["markers"]
+    drops = []
+    for i, (_, m) in enumerate(summaries):
         if not len(m):
+            drops.append(None)
             continue
         hits = kd.query_ball_point(m + bases[i], radius)
-        drop = np.array([bool(len(h)) and bool(np.any(lab[h] != i)) for h in hits])
-        if drop.any():
-            s["markers"], s["marker_age"] = m[~drop], s["marker_age"][~drop]
+        d = np.array([bool(len(h)) and bool(np.any(lab[h] != i)) for h in hits])
+        drops.append(d if d.any() else None)
+    return drops
+
+
+def _compete(states: list[dict], bases: np.ndarray, radius: float) -> None:
+    """In-place version of the competition on full states (tests)."""
+    drops = _compete_masks(summary_task(states), bases, radius)
+    for s, d in zip(states, drops):
+        if d is not None:
+            s["markers"], s["marker_age"] = s["markers"][~d], s["marker_age"][~d]
 
 
 def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts):
@@ -210,30 +239,45 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
             runner = "sync"
     timings = []
 
-    def run(fn, items, *extra):
-        if runner == "sync":
-            return fn(items, *extra) if fn is tree_meshes_task else fn(p, items, *extra)
-        chunks = np.array_split(np.arange(len(items)), min(len(items), tasks_per_round or
-                                2 * max(len(runner.scheduler_info()["workers"]), 1)))
-        args = [(p,) if fn is grow_trees_task else () for _ in chunks]
-        futs = [runner.submit(fn, *a, [items[i] for i in c], *extra, pure=False)
-                for a, c in zip(args, chunks) if len(c)]
-        return [x for batch in runner.gather(futs) for x in batch]
+    n = len(states)
+    if runner == "sync":
+        chunks = [np.arange(n)]
 
-    trees, meshes = [], None
+        def call(fn, *a):
+            return fn(*a)
+
+        def get(xs):
+            return list(xs)
+    else:
+        k = tasks_per_round or 2 * max(len(runner.scheduler_info()["workers"]), 1)
+        chunks = [c for c in np.array_split(np.arange(n), min(n, k)) if len(c)]
+
+        def call(fn, *a):
+            return runner.submit(fn, *a, pure=False)
+
+        def get(xs):
+            return runner.gather(list(xs))
+
+    # tree states stay where they were computed (futures); only node positions and markers come back per round
+    batches = [[states[i] for i in c] for c in chunks]
+    if runner != "sync":
+        batches = runner.scatter(batches)
+    drops: list = [None] * n
+    radius = p["occupation_radius"]
     try:
         for _ in range(rounds):
             t0 = time.perf_counter()
-            states = run(grow_trees_task, states, steps_per_round)
+            batches = [call(round_task, p, b, [drops[i] for i in c], steps_per_round) for b, c in zip(batches, chunks)]
             if compete:
-                _compete(states, bases, p["occupation_radius"])
+                summaries = [x for part in get(call(summary_task, b) for b in batches) for x in part]
+                drops = _compete_masks(summaries, bases, radius)
+            else:
+                get(call(len, b) for b in batches)  # round barrier for the timings
             timings.append(time.perf_counter() - t0)
-        for i, s in enumerate(states):
-            t = {k: v.copy() for k, v in s["tree"].items()}
-            t["pos"] = t["pos"] + bases[i]
-            trees.append(t)
-        if geometry:
-            meshes = run(tree_meshes_task, trees)
+        done = [x for part in get(call(finish_task, b, [drops[i] for i in c], bases[c], geometry)
+                                  for b, c in zip(batches, chunks)) for x in part]
+        trees = [t for t, _ in done]
+        meshes = [m for _, m in done] if geometry else None
     finally:
         if own is not None:
             cluster = own.cluster

@@ -24,7 +24,7 @@ def poisson_disc(size: tuple[float, float], min_dist: float, *, max_points: int 
     cap = None if max_points is None else check_int("max_points", max_points, 0, 10_000_000)
     rng = np.random.default_rng(rng)
     cell = r / math.sqrt(2.0)
-    gw, gh = int(math.ceil(w / cell)), int(math.ceil(h / cell))
+    gw, gh = math.ceil(w / cell), math.ceil(h / cell)
     grid = -np.ones((gh, gw), np.int64)
     pts: list[tuple[float, float]] = []
     if cap == 0:

@@ -60,7 +60,7 @@ def test_ts_v14_side_branches_rigid():
         q = par[s]
         if s in onpath or q < 0:
             continue
-        sup = q if q not in onpath else q  # the supporting internode ends at the attachment node
+        sup = q  # the supporting internode ends at the attachment node
         a = par[sup]
         # transform of the side node relative to its supporting internode (a -> sup) is unchanged
         R = r.rot[s]

@@ -4,8 +4,16 @@ import math
 import numpy as np
 import pytest
 
-from plantvr.growth.sketch import (SketchEngine, autonomous_points, barycentric, deflect_heading,
-                                   ellipse_distance, gravimorphism, set_point_tropism, shoot_lengths)
+from plantvr.growth.sketch import (
+    SketchEngine,
+    autonomous_points,
+    barycentric,
+    deflect_heading,
+    ellipse_distance,
+    gravimorphism,
+    set_point_tropism,
+    shoot_lengths,
+)
 from plantvr.params import defaults
 
 Y = np.array([0.0, 1.0, 0.0])
@@ -67,8 +75,8 @@ def test_ts_v5_barycentric_weights():
 @pytest.mark.parametrize("w, expect", [((1.0, 0.0, 0.0), "H"), ((0.0, 0.0, 1.0), "E"), ((0.0, 1.0, 0.0), "T")])
 def test_ts_v5_eq45_extremes(w, expect):
     """(1,0,0) keeps the bud heading, (0,0,1) follows E, (0,1,0) follows T (θ = 90°)."""
-    params = dict(w_heading=w[0], w_tropism=w[1], w_env=w[2], tropism_angle=90.0, length_mode="constant",
-                  activation_threshold=0.0, shed_count="direct")
+    params = {"w_heading": w[0], "w_tropism": w[1], "w_env": w[2], "tropism_angle": 90.0, "length_mode": "constant",
+                  "activation_threshold": 0.0, "shed_count": "direct"}
     e = _engine(n_max=1, params=params)
     target = np.array([1.5, 2.8, 0.4])
     e.add_markers(target[None])
@@ -105,7 +113,7 @@ def test_ts_deflection_angle():
 
 
 def test_ts_n_max_shoot_grows_n_max_internodes():
-    params = dict(length_mode="constant", activation_threshold=0.0)
+    params = {"length_mode": "constant", "activation_threshold": 0.0}
     e = _engine(n_max=4, params=params)
     e.add_markers(np.array([[0.0, 4.0, 0.0]]))
     e.step()
@@ -137,7 +145,7 @@ def test_ts_v10_deflection_turns_more():
 
 def test_ts_v8_directed_keeps_autonomous_clears():
     far = np.array([[50.0, 50.0, 50.0]])
-    params = dict(marker_lifetime=2)
+    params = {"marker_lifetime": 2}
     d = _engine(params=params, mode="directed")
     d.add_markers(far)
     for _ in range(4):
@@ -168,7 +176,7 @@ def test_ts_autonomous_points_in_sector():
 def test_ts_deterministic_per_seed():
     def grow(seed):
         e = _engine(n_max=3, deflection=10, trunk_up=True, mode="autonomous", rng=seed,
-                    params=dict(tropism_angle=100.0))
+                    params={"tropism_angle": 100.0})
         for _ in range(6):
             e.step()
         return e.tree.arrays()
@@ -180,7 +188,7 @@ def test_ts_deterministic_per_seed():
 
 
 def test_ts_trunk_up_keeps_main_axis_vertical():
-    params = dict(w_heading=0.2, w_tropism=0.8, w_env=0.0, tropism_angle=90.0, length_mode="constant")
+    params = {"w_heading": 0.2, "w_tropism": 0.8, "w_env": 0.0, "tropism_angle": 90.0, "length_mode": "constant"}
     e = _engine(n_max=2, trunk_up=True, mode="autonomous", params=params)
     for _ in range(5):
         e.step()

@@ -7,7 +7,7 @@ from plantvr.landscape import grow_forest, heightfield, poisson_disc, sample_hei
 from plantvr.landscape.forest import _compete, engine_from_state, engine_state, grow_tree_task
 from plantvr.params import defaults
 
-SMALL = dict(size=(30.0, 30.0), min_dist=7.0, rounds=2, steps_per_round=3, n_darts=120, seed=7)
+SMALL = {"size": (30.0, 30.0), "min_dist": 7.0, "rounds": 2, "steps_per_round": 3, "n_darts": 120, "seed": 7}
 
 
 def _same(f, g):
