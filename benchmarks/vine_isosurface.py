@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> dict:
     s, t, peak = _measure(lambda: extract_isosurface(vol, level, slab=a.slab))
     out.update(slab_s=t, slab_peak_mib=peak, vertices=len(s.vertices), faces=len(s.faces))
     print(f"slab-wise (slab={a.slab}): {t:.2f} s, peak +{peak:.0f} MiB, {len(s.vertices):,} V / {len(s.faces):,} F")
-    (v, f, _, _), t, peak = _measure(lambda: marching_cubes(vol, level))
+    (v, _f, _, _), t, peak = _measure(lambda: marching_cubes(vol, level))
     out.update(whole_s=t, whole_peak_mib=peak, whole_vertices=len(v))
     print(f"baseline whole-volume skimage: {t:.2f} s, peak +{peak:.0f} MiB (float copy of the volume: "
           f"{vol.size * 4 / 2**20:.0f} MiB), {len(v):,} V")

@@ -10,12 +10,12 @@ import os
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
-import pyvista as pv  # noqa: E402
+import numpy as np
+import pyvista as pv
 
-from plantvr.vine.depthcue import coarse_hull, depth_cue_colors  # noqa: E402
-from plantvr.vine.segmentation import Segmentation  # noqa: E402
-from plantvr.vine.views import SavedView, load_view  # noqa: E402
+from plantvr.vine.depthcue import coarse_hull, depth_cue_colors
+from plantvr.vine.segmentation import Segmentation
+from plantvr.vine.views import SavedView, load_view
 
 __all__ = ["SegmentationView"]
 
@@ -43,7 +43,7 @@ class SegmentationView:
     def __init__(self, seg: Segmentation, *, plotter: pv.Plotter | None = None, window_size=(900, 700),
                  culling: str | None = "back", background="black"):
         if not isinstance(seg, Segmentation):
-            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")
+            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
         self.seg = seg
         self.plotter = plotter or pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background(background)

@@ -3,7 +3,7 @@ sessions (spec 000_vine §1.4–2.7, checklist items 1–3, 8–9, 13–17, 24, 
 
 Never imports pyvista/vtk or any UI; the view lives in :mod:`plantvr.view.segmentation`.
 """
-from plantvr.vine.colors import ColorTable, DEFAULT_PALETTE
+from plantvr.vine.colors import DEFAULT_PALETTE, ColorTable
 from plantvr.vine.depthcue import coarse_hull, depth_cue_colors, depth_factor, hull_distances, inside_hull
 from plantvr.vine.history import History, LabelEdit
 from plantvr.vine.index import GridIndex, KDTreeIndex, ball_query_brute
@@ -14,8 +14,36 @@ from plantvr.vine.synth import COMPONENTS, FlowerHead, synth_flowerhead, tile_me
 from plantvr.vine.views import SavedView, load_view, save_view, world_to_model
 from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume, suggest_level
 
-__all__ = ["ColorTable", "DEFAULT_PALETTE", "coarse_hull", "depth_cue_colors", "depth_factor", "hull_distances",
-           "inside_hull", "History", "LabelEdit", "GridIndex", "KDTreeIndex", "ball_query_brute", "Surface",
-           "extract_isosurface", "signed_volume", "write_ply", "Segmentation", "COMPONENTS", "FlowerHead",
-           "synth_flowerhead", "tile_mesh", "vertex_labels_from_volume", "SavedView", "load_view", "save_view",
-           "world_to_model", "downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]
+__all__ = [
+           "COMPONENTS",
+           "DEFAULT_PALETTE",
+           "ColorTable",
+           "FlowerHead",
+           "GridIndex",
+           "History",
+           "KDTreeIndex",
+           "LabelEdit",
+           "SavedView",
+           "Segmentation",
+           "Surface",
+           "ball_query_brute",
+           "coarse_hull",
+           "depth_cue_colors",
+           "depth_factor",
+           "downsample2",
+           "extract_isosurface",
+           "histogram",
+           "hull_distances",
+           "inside_hull",
+           "load_view",
+           "load_volume",
+           "save_view",
+           "save_volume",
+           "signed_volume",
+           "suggest_level",
+           "synth_flowerhead",
+           "tile_mesh",
+           "vertex_labels_from_volume",
+           "world_to_model",
+           "write_ply",
+]

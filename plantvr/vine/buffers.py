@@ -17,7 +17,7 @@ import numpy as np
 
 from plantvr._validation import check_choice
 
-__all__ = ["TripleBuffer", "PaintWorker"]
+__all__ = ["PaintWorker", "TripleBuffer"]
 
 
 class TripleBuffer:

@@ -8,7 +8,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_int
 
-__all__ = ["ColorTable", "DEFAULT_PALETTE"]
+__all__ = ["DEFAULT_PALETTE", "ColorTable"]
 
 #: 12 wheel colours plus index 0 = unpainted grey (spec §2.4.1 [INFERRED] 12 slices + unpainted).
 DEFAULT_PALETTE = np.array([
@@ -87,7 +87,7 @@ class ColorTable:
         """(V, 4) uint8 colours for a label array (gather through the table)."""
         return self.rgba[labels]
 
-    def copy(self) -> "ColorTable":
+    def copy(self) -> ColorTable:
         """Independent copy."""
         t = ColorTable(self.rgba)
         t.visible = self.visible.copy()

@@ -16,7 +16,7 @@ from scipy.spatial import ConvexHull
 
 from plantvr._validation import check_choice, check_int, check_point, check_points, check_range
 
-__all__ = ["CoarseHull", "coarse_hull", "inside_hull", "hull_distances", "depth_factor", "depth_cue_colors"]
+__all__ = ["CoarseHull", "coarse_hull", "depth_cue_colors", "depth_factor", "hull_distances", "inside_hull"]
 
 
 @dataclass(frozen=True)

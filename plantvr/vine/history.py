@@ -14,7 +14,7 @@ import numpy as np
 
 from plantvr._validation import check_int
 
-__all__ = ["LabelEdit", "History", "merge_stamps"]
+__all__ = ["History", "LabelEdit", "merge_stamps"]
 
 
 @dataclass(frozen=True)

@@ -52,10 +52,8 @@ def _bounds(points):  # pragma: no cover - numba kernel, twin: points.min(0), po
     for v in range(points.shape[0]):
         for a in range(3):
             x = np.float64(points[v, a])
-            if x < lo[a]:
-                lo[a] = x
-            if x > hi[a]:
-                hi[a] = x
+            lo[a] = min(lo[a], x)
+            hi[a] = max(hi[a], x)
     return lo, hi
 
 

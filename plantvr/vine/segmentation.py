@@ -8,10 +8,11 @@ observers with the changed vertex ids so views update colours in place.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import zipfile
 import zlib
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
@@ -65,7 +66,7 @@ class Segmentation:
             raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
         colors = ColorTable() if colors is None else colors
         if not isinstance(colors, ColorTable):
-            raise ValueError(f"colors must be a ColorTable, got {type(colors).__name__}")
+            raise ValueError(f"colors must be a ColorTable, got {type(colors).__name__}")  # noqa: TRY004
         if labels is None:
             lab = np.zeros(len(v), np.uint8)
         else:
@@ -100,7 +101,7 @@ class Segmentation:
     # ------------------------------------------------------------------ construction
     @classmethod
     def from_volume(cls, volume: np.ndarray, level: float, *, downsample: bool = False, slab: int = 64,
-                    **kwargs) -> "Segmentation":
+                    **kwargs) -> Segmentation:
         """Mesh a uint8/uint16 volume at ``level`` (slab-wise marching cubes) and start a segmentation."""
         from plantvr.vine.isosurface import extract_isosurface
         from plantvr.vine.volume import downsample2
@@ -334,7 +335,7 @@ class Segmentation:
     def add_view(self, view: SavedView) -> int:
         """Store a saved view; returns its number."""
         if not isinstance(view, SavedView):
-            raise ValueError(f"view must be a SavedView, got {type(view).__name__}")
+            raise ValueError(f"view must be a SavedView, got {type(view).__name__}")  # noqa: TRY004
         self.views.append(view)
         return len(self.views) - 1
 
@@ -356,7 +357,7 @@ class Segmentation:
                     cat([e.new for e in edits], np.uint8), offs)
         ui, uo, un, uoff = pack(self.history.undo_stack)
         ri, ro, rn, roff = pack(self.history.redo_stack)
-        d = dict(format=np.array([_FORMAT], np.int64), vertices=self.vertices, faces=self.faces,
+        d = dict(format=np.array([_FORMAT], np.int64), vertices=self.vertices, faces=self.faces,  # noqa: C408
                  labels=self.labels, rgba=self.colors.rgba, visible=self.colors.visible,
                  views=np.array([v.to_array() for v in self.views], np.float64).reshape(-1, 13),
                  undo_idx=ui, undo_old=uo, undo_new=un, undo_off=uoff,
@@ -386,7 +387,7 @@ class Segmentation:
         os.replace(tmp, path)
 
     @staticmethod
-    def _read_state(path, base: "Segmentation | None" = None) -> dict:
+    def _read_state(path, base: Segmentation | None = None) -> dict:
         try:
             with np.load(path, allow_pickle=False) as z:
                 d = {k: z[k] for k in z.files}
@@ -410,7 +411,7 @@ class Segmentation:
             raise ValueError(f"segmentation file {os.fspath(path)!r} is missing arrays {missing}")
         if d["format"].tolist() != [_FORMAT]:
             raise ValueError(f"segmentation file format must be {_FORMAT}, got {d['format'].tolist()}")
-        v, f, lab = d["vertices"], d["faces"], d["labels"]
+        v, lab = d["vertices"], d["labels"]
         if v.dtype != np.float32 or v.ndim != 2 or v.shape[1] != 3:
             raise ValueError(f"segmentation file: vertices must be float32 (V, 3), got {v.dtype} {v.shape}")
         if lab.dtype != np.uint8 or lab.shape != (len(v),):
@@ -432,13 +433,13 @@ class Segmentation:
         return d
 
     @classmethod
-    def load(cls, path: str | os.PathLike, *, index: str = "grid") -> "Segmentation":
+    def load(cls, path: str | os.PathLike, *, index: str = "grid") -> Segmentation:
         """Load a session written by :meth:`save`; a corrupt file raises ``ValueError``."""
         d = cls._read_state(path)
         return cls._from_state(d, index=index)
 
     @classmethod
-    def _from_state(cls, d: dict, *, index: str = "grid") -> "Segmentation":
+    def _from_state(cls, d: dict, *, index: str = "grid") -> Segmentation:
         table = ColorTable(d["rgba"])
         table.visible = d["visible"].astype(bool).copy()
         lim = d["history_limits"]
@@ -448,7 +449,7 @@ class Segmentation:
         itype = np.int32 if len(d["vertices"]) < 2 ** 31 else np.int64
         for side, stack in (("undo", seg.history.undo_stack), ("redo", seg.history.redo_stack)):
             idx, old, new, off = (d[f"{side}_{k}"] for k in ("idx", "old", "new", "off"))
-            for a, b in zip(off[:-1], off[1:]):
+            for a, b in itertools.pairwise(off):
                 stack.append(LabelEdit(idx[a:b].astype(itype), old[a:b].copy(), new[a:b].copy()))
         seg.views = views
         return seg

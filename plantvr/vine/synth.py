@@ -13,7 +13,7 @@ import numpy as np
 
 from plantvr._validation import check_int, check_range
 
-__all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "vertex_labels_from_volume", "tile_mesh"]
+__all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "tile_mesh", "vertex_labels_from_volume"]
 
 #: Component names by label index (0 = background / unpainted).
 COMPONENTS = ("background", "stem", "receptacle", "centrifugal", "centripetal", "floret_vein",

@@ -10,8 +10,17 @@ import numpy as np
 
 from plantvr._validation import check_array, check_point, check_range
 
-__all__ = ["quat_mul", "quat_conj", "quat_rotate", "quat_from_axis_angle", "quat_to_matrix",
-           "SavedView", "save_view", "load_view", "world_to_model"]
+__all__ = [
+    "SavedView",
+    "load_view",
+    "quat_conj",
+    "quat_from_axis_angle",
+    "quat_mul",
+    "quat_rotate",
+    "quat_to_matrix",
+    "save_view",
+    "world_to_model",
+]
 
 
 def _check_quat(name, q) -> np.ndarray:
@@ -127,7 +136,7 @@ class SavedView:
         return np.concatenate([self.position, self.rotation.ravel(), [self.scale]])
 
     @classmethod
-    def from_array(cls, a) -> "SavedView":
+    def from_array(cls, a) -> SavedView:
         """Inverse of :meth:`to_array`; raises ``ValueError`` on malformed input."""
         a = check_array("view", a, shape=(13,))
         R = a[3:12].reshape(3, 3)

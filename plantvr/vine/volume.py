@@ -12,7 +12,7 @@ import numpy as np
 
 from plantvr._validation import check_choice, check_int
 
-__all__ = ["load_volume", "save_volume", "downsample2", "histogram", "suggest_level"]
+__all__ = ["downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]
 
 _DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
 

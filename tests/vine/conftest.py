@@ -1,5 +1,4 @@
 """Shared fixtures for the ViNE tests: one small synthetic flower head, meshed once per session."""
-import numpy as np
 import pytest
 
 from plantvr.vine.isosurface import extract_isosurface

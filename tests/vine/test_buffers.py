@@ -93,7 +93,7 @@ def test_tw_v7_render_loop_keeps_cadence_during_long_paint():
     worker.close()
     assert not worker.errors
     assert busy > 0.2
-    b, v = worker.buffer.acquire()
+    b, _ = worker.buffer.acquire()
     assert np.array_equal(b, seg.labels)
     # the loop kept running: many frames, and no stall anywhere near the repaint time
     assert len(gaps) > 20 and max(gaps) < 0.5 * busy, (max(gaps), busy)

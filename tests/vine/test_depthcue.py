@@ -2,8 +2,14 @@
 import numpy as np
 import pytest
 
-from plantvr.vine.depthcue import (_closest_on_triangles, coarse_hull, depth_cue_colors, depth_factor,
-                                   hull_distances, inside_hull)
+from plantvr.vine.depthcue import (
+    _closest_on_triangles,
+    coarse_hull,
+    depth_cue_colors,
+    depth_factor,
+    hull_distances,
+    inside_hull,
+)
 
 
 def _shell(n=60000, axes=(100, 100, 30), seed=0):

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from plantvr.vine.segmentation import Segmentation
 
@@ -70,10 +71,9 @@ def test_byte_budget_drops_oldest(surface):
 
 def test_abort_stroke_restores_labels(seg):
     before = seg.labels.copy()
-    with pytest.raises(RuntimeError):
-        with seg.stroke():
-            seg.paint(seg.vertices[0].astype(np.float64), 6.0, 3)
-            raise RuntimeError("controller lost")
+    with pytest.raises(RuntimeError), seg.stroke():
+        seg.paint(seg.vertices[0].astype(np.float64), 6.0, 3)
+        raise RuntimeError("controller lost")
     assert np.array_equal(seg.labels, before) and not seg.history.undo_stack
 
 

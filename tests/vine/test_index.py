@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from plantvr.vine.index import GridIndex, KDTreeIndex, _paint_numpy, ball_query_brute
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from plantvr.vine.synth import COMPONENTS, synth_flowerhead, tile_mesh, vertex_labels_from_volume
+from plantvr.vine.synth import COMPONENTS, synth_flowerhead, tile_mesh
 
 
 def test_synth_has_every_component_and_is_deterministic(head):

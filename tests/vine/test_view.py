@@ -4,9 +4,9 @@ import pytest
 
 pv = pytest.importorskip("pyvista")
 
-from plantvr.view.segmentation import SegmentationView  # noqa: E402
-from plantvr.vine.segmentation import Segmentation  # noqa: E402
-from plantvr.vine.views import save_view  # noqa: E402
+from plantvr.view.segmentation import SegmentationView
+from plantvr.vine.segmentation import Segmentation
+from plantvr.vine.views import save_view
 
 
 @pytest.fixture

@@ -2,8 +2,14 @@
 import numpy as np
 import pytest
 
-from plantvr.vine.views import (SavedView, load_view, quat_from_axis_angle, quat_to_matrix, save_view,
-                                world_to_model)
+from plantvr.vine.views import (
+    SavedView,
+    load_view,
+    quat_from_axis_angle,
+    quat_to_matrix,
+    save_view,
+    world_to_model,
+)
 
 
 def _head_dir(yaw, pitch, rng):

@@ -1,4 +1,6 @@
 """Scripted segmentation workflows of thesis Ch. 6 against the synthetic ground truth (spec §5.2 V12a–d)."""
+import itertools
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -59,7 +61,7 @@ def test_tw_v12b_unwrapping_layer_by_layer(surface, truth):
         hidden.append(L[layer])
         assert np.array_equal(seg.vertex_visible(), ~np.isin(truth, hidden))
         n_faces.append(len(seg.visible_faces()))
-    assert all(a > b for a, b in zip(n_faces, n_faces[1:]))
+    assert all(a > b for a, b in itertools.pairwise(n_faces))
 
 
 def test_tw_v12c_isolating_one_vein(surface, truth, head):
