@@ -482,6 +482,16 @@ class Segmentation:
         write_ply(path, self.vertices, faces, colors=self.vertex_colors(),
                   labels=self.labels if with_labels else None)
 
+    def export_gltf(self, path: str | os.PathLike, *, visible_only: bool = False) -> None:
+        """Write a binary glTF (``.glb``) with per-vertex colours through trimesh (vertex order kept)."""
+        import trimesh
+        p = os.fspath(path)
+        if not p.lower().endswith((".glb", ".gltf")):
+            raise ValueError(f"path must end in .glb or .gltf, got {p!r}")
+        faces = self.visible_faces() if visible_only else self.faces
+        m = trimesh.Trimesh(self.vertices, faces, vertex_colors=self.vertex_colors(), process=False)
+        m.export(p)
+
     def smoothed_colors(self, iterations: int = 1) -> np.ndarray:
         """Laplacian vertex-colour smoothing: ``c_v ← mean({c_v} ∪ {c_u : u ∈ N(v)})`` (spec §2.7).
 

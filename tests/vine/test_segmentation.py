@@ -227,3 +227,14 @@ def test_autosave_loses_at_most_the_open_operation(surface, tmp_path):
     other = Segmentation(surface.vertices[:-1], surface.faces[surface.faces.max(1) < len(surface.vertices) - 1])
     with pytest.raises(ValueError, match="another mesh"):
         other.restore(auto)
+
+
+def test_gltf_export_round_trip(seg, tmp_path):
+    seg.paint(seg.vertices[3].astype(float), 6.0, 4)
+    seg.export_gltf(tmp_path / "seg.glb")
+    scene = trimesh.load(tmp_path / "seg.glb", process=False)
+    m = next(iter(scene.geometry.values())) if hasattr(scene, "geometry") else scene
+    assert len(m.vertices) == seg.n_vertices and len(m.faces) == len(seg.faces)
+    assert np.array_equal(np.asarray(m.visual.vertex_colors), seg.vertex_colors())
+    with pytest.raises(ValueError, match="glb"):
+        seg.export_gltf(tmp_path / "seg.obj")
