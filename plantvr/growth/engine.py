@@ -49,6 +49,12 @@ class _Buds:
     pos: np.ndarray = field(default=None)
     dir: np.ndarray = field(default=None)
     length: np.ndarray = field(default=None)
+    vigor: np.ndarray = field(default=None)
+
+    def subset(self, mask: np.ndarray) -> "_Buds":
+        """The buds where ``mask`` holds (every array field is indexed)."""
+        return _Buds(*(None if v is None else v[mask] for v in
+                       (self.node, self.slot, self.pos, self.dir, self.length, self.vigor)))
 
 
 class GrowthEngine:
@@ -103,7 +109,7 @@ class GrowthEngine:
 
     def _vigor(self) -> None:
         p, t = self.params, self.tree
-        accumulate_light(t.child, t.alive, t.L, p["light_exponent"], p["apical_dominance"], t.Q, t.Qw, t.Qslot)
+        accumulate_light(t.child, t.alive, t.L, t.light_factor, p["light_exponent"], p["apical_dominance"], t.Q, t.Qw, t.Qslot)
         distribute_vigor(t.child, t.alive, t.Qslot, t.Qw, p["apical_dominance"], p["vigor_mult"], t.vigor,
                          t.bud_vigor)
 
@@ -166,14 +172,37 @@ class GrowthEngine:
         shed = self._remove(shed_mask(t.child, t.parent, t.alive, t.vigor, p["shed_count"] == "subtree"))
         if shed:
             self.update_light()  # refresh after removals ([INFERRED], §2.10)
-        self.marker_age += 1
-        keep = self.marker_age < p["marker_lifetime"]
-        self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
+        self._age_markers()
         self.step_count += 1
         stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
                           len(self.markers), grown, shed)
         self.history.append(stats)
         return stats
+
+    def _age_markers(self) -> None:
+        """Markers live ``marker_lifetime`` growth steps (§2.2); variants with persistent points override this."""
+        self.marker_age += 1
+        keep = self.marker_age < self.params["marker_lifetime"]
+        self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
+
+    # -- pickling (dask tasks): the shadow grid's numba dict is rebuilt from the tree -----------------
+    def __getstate__(self) -> dict:
+        return {"params": self.params, "tree": self.tree.arrays(), "nslots": self.tree.nslots,
+                "markers": self.markers, "marker_age": self.marker_age, "step_count": self.step_count,
+                "history": self.history, "rng": self.rng.bit_generator.state, "new": self._new_nodes}
+
+    def __setstate__(self, state: dict) -> None:
+        self.params = state["params"]
+        self.rng = np.random.default_rng()
+        self.rng.bit_generator.state = state["rng"]
+        tree = Tree(state["nslots"], max(len(state["tree"]["pos"]), 1))
+        for k, v in state["tree"].items():
+            tree._data[k][: len(v)] = v
+        tree.n = len(state["tree"]["pos"])
+        self.tree = tree
+        self.markers, self.marker_age = state["markers"], state["marker_age"]
+        self.step_count, self.history, self._new_nodes = state["step_count"], state["history"], state["new"]
+        self.rebuild_light()
 
     def _occupy(self) -> None:
         """Remove markers within the occupation radius of a node (§2.3): new nodes vs all markers,
@@ -197,23 +226,22 @@ class GrowthEngine:
         """Every bud slot of the live tree: node, slot, position and initial heading (Eqs. 9.1/9.2)."""
         p, t = self.params, self.tree
         node, slot = np.nonzero((t.child == BUD) & t.alive[:, None])
-        b = _Buds(node, slot)
-        b.pos = t.pos[node]
-        b.dir = bud_headings(t.head[node], t.lat[node], slot, main_angle=math.radians(p["main_branch_angle"]),
-                             lateral_angle=math.radians(p["branch_angle"]), opposite=t.nslots == 3,
-                             opposite_main=p["opposite_main"])
-        return b
+        return _Buds(node, slot, t.pos[node], self._bud_dirs(node, slot), None, t.bud_vigor[node, slot])
+
+    def _bud_dirs(self, node: np.ndarray, slot: np.ndarray) -> np.ndarray:
+        """Initial heading of the buds (node, slot) (Eqs. 9.1/9.2); variants override this hook."""
+        p, t = self.params, self.tree
+        return bud_headings(t.head[node], t.lat[node], slot, main_angle=math.radians(p["main_branch_angle"]),
+                            lateral_angle=math.radians(p["branch_angle"]), opposite=t.nslots == 3,
+                            opposite_main=p["opposite_main"])
 
     def _active_buds(self) -> _Buds:
         p, t = self.params, self.tree
         allb = self.buds()
-        bv = t.bud_vigor[allb.node, allb.slot]
-        vmax = float(bv.max()) if len(bv) else 0.0  # Eq. 9.17: "any bud on the tree"
-        act = bv > p["activation_threshold"]
-        b = _Buds(allb.node[act], allb.slot[act])
-        b.pos, b.dir = allb.pos[act], allb.dir[act]
+        vmax = float(allb.vigor.max()) if len(allb.vigor) else 0.0  # Eq. 9.17: "any bud on the tree"
+        b = allb.subset(allb.vigor > p["activation_threshold"])
         b.length = internode_lengths(p["length_mode"], base=p["base_length"], mult=p["max_len_mult"],
-                                     order=t.order[b.node] + (b.slot > 0), vigor=bv[act], vmax=vmax)
+                                     order=t.order[b.node] + (b.slot > 0), vigor=b.vigor, vmax=vmax)
         return b
 
     def _grow(self, buds: _Buds, owner: np.ndarray) -> int:

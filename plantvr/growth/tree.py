@@ -20,7 +20,7 @@ _FIELDS = {  # name: (trailing shape, dtype)
     "alive": ((), np.bool_), "radius": ((), np.float64), "vigor": ((), np.float64),
     "Q": ((), np.float64), "Qw": ((), np.float64), "Qslot": ((3,), np.float64),
     "L": ((), np.float64), "bud_vigor": ((3,), np.float64), "shadow_cast": ((), np.bool_),
-    "born": ((), np.int64),
+    "born": ((), np.int64), "light_factor": ((), np.float64),
 }
 
 
@@ -74,6 +74,7 @@ class Tree:
         d["pos"][i], d["head"][i], d["lat"][i] = pos, head, lat
         d["parent"][i], d["order"][i], d["alive"][i], d["born"][i] = parent, order, True, born
         d["child"][i] = (BUD, BUD, BUD if self.nslots == 3 else NO_SLOT)
+        d["light_factor"][i] = 1.0
         self.n += 1
         return i
 
@@ -91,6 +92,7 @@ class Tree:
         d["Qslot"][idx] = 0.0
         d["bud_vigor"][idx] = 0.0
         d["shadow_cast"][idx] = False
+        d["light_factor"][idx] = 1.0
         self.n += k
         return idx
 

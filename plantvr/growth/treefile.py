@@ -145,7 +145,12 @@ def state_from_npz(path) -> tuple[Tree, dict[str, Any], dict[str, np.ndarray]]:
     n = len(data["tree_pos"])
     tree._reserve(n)
     for k in tree._data:
-        tree._data[k][:n] = data[f"tree_{k}"]
+        if f"tree_{k}" in data:
+            tree._data[k][:n] = data[f"tree_{k}"]
+        elif k == "light_factor":  # files written before TreeSketch's gravimorphism factor
+            tree._data[k][:n] = 1.0
+        else:
+            raise ValueError(f"{path!s} lacks the tree field {k!r}")
     tree.n = n
     extra = {k: v for k, v in data.items() if not k.startswith("tree_") and k not in ("format", "params", "nslots")}
     return tree, params, extra

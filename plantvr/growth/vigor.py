@@ -14,12 +14,15 @@ BUD, NO_SLOT = -1, -2
 
 
 @numba.njit(cache=True, nogil=True)
-def accumulate_light(child, alive, L, kappa, lam, Q, Qw, Qslot):
-    """Basipetal TreeFold of light: Q = Σ slots, bud slots give Q = L^κ (Eq. 9.8, 0^0 = 1)."""
+def accumulate_light(child, alive, L, factor, kappa, lam, Q, Qw, Qslot):
+    """Basipetal TreeFold of light: Q = Σ slots, bud slots give Q = b·L^κ (Eq. 9.8, 0^0 = 1).
+
+    ``factor`` is the per-node b (1 in Tree Wand; TreeSketch's gravimorphism, spec 004 Eq. 4.6).
+    """
     for n in range(child.shape[0] - 1, -1, -1):
         if not alive[n]:
             continue
-        qb = L[n] ** kappa if kappa > 0 else 1.0
+        qb = factor[n] * (L[n] ** kappa if kappa > 0 else 1.0)
         tot = 0.0
         for s in range(3):
             c = child[n, s]

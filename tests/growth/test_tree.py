@@ -49,7 +49,7 @@ def test_fold_unfold_equal_recursive_reference(grown):
 def test_tw_v10_vigor_conserved_and_lambda(grown):
     t = grown.tree.copy()
     for lam in (0.5, 0.55, 1.0):
-        accumulate_light(t.child, t.alive, t.L, 1.0, lam, t.Q, t.Qw, t.Qslot)
+        accumulate_light(t.child, t.alive, t.L, t.light_factor, 1.0, lam, t.Q, t.Qw, t.Qslot)
         distribute_vigor(t.child, t.alive, t.Qslot, t.Qw, lam, 2.0, t.vigor, t.bud_vigor)
         live = np.flatnonzero(t.alive)
         for n in live:
@@ -68,10 +68,10 @@ def test_tw_v10_vigor_conserved_and_lambda(grown):
 def test_tw_v10_kappa_zero_ignores_light(grown):
     t = grown.tree.copy()
     t.L[:] = np.random.default_rng(0).random(t.n)
-    accumulate_light(t.child, t.alive, t.L, 0.0, 0.5, t.Q, t.Qw, t.Qslot)
+    accumulate_light(t.child, t.alive, t.L, t.light_factor, 0.0, 0.5, t.Q, t.Qw, t.Qslot)
     q1 = t.Q.copy()
     t.L[:] = 0.0
-    accumulate_light(t.child, t.alive, t.L, 0.0, 0.5, t.Q, t.Qw, t.Qslot)
+    accumulate_light(t.child, t.alive, t.L, t.light_factor, 0.0, 0.5, t.Q, t.Qw, t.Qslot)
     assert np.array_equal(q1, t.Q)
 
 
@@ -88,3 +88,13 @@ def test_tw_v14_pipe_radius(grown):
     tips = np.flatnonzero(t.alive & ~(t.child >= 0).any(1))
     pipe_radius(t.child, t.alive, 0.02, 2.0, t.radius)
     assert np.isclose(t.radius[1] ** 2, len(tips) * 0.02 ** 2)  # n = 2 conserves area
+
+
+def test_engine_pickles_for_dask_and_resumes_identically(grown):
+    import pickle
+    a = pickle.loads(pickle.dumps(grown))
+    b = pickle.loads(pickle.dumps(grown))
+    for e in (a, b):
+        e.paint(np.array([0.0, 9.0, 0.0]), 3.0, 100)
+        e.step()
+    assert np.array_equal(a.tree.pos, b.tree.pos) and a.tree.n > 0
