@@ -30,13 +30,20 @@ def as_graph(tree) -> BranchGraph:
 
     Parameters
     ----------
-    tree : str or tuple or BranchGraph
+    tree : str or tuple or BranchGraph or Snapshot or Model
         An LST / turtle string (parsed with defaults), a grown tree's ``(pos, parent, radius)`` node arrays,
-        or a graph.
+        a growth-engine snapshot (anything with ``pos``, ``parent`` and ``radius`` node arrays, e.g.
+        ``plantvr.Model.snapshot``), an object holding such a ``snapshot`` (a ``plantvr.Model``), or a graph.
 
     Returns
     -------
     BranchGraph
+
+    Raises
+    ------
+    ValueError
+        For any other type, or if the arrays do not form a forward-ordered tree (see
+        :func:`graph_from_arrays`).
     """
     if isinstance(tree, BranchGraph):
         return tree.validate()
@@ -44,8 +51,14 @@ def as_graph(tree) -> BranchGraph:
         return parse_lsystem(tree)
     if isinstance(tree, (tuple, list)) and len(tree) == 3:
         return graph_from_arrays(*tree)
-    raise ValueError(f"tree must be an L-system str, a (pos, parent, radius) tuple or a BranchGraph, "
-                     f"got {type(tree).__name__}")
+    if not all(hasattr(tree, a) for a in ("pos", "parent", "radius")) and hasattr(tree, "snapshot"):
+        tree = tree.snapshot                     # a plantvr.Model: read its latest published snapshot
+    if all(hasattr(tree, a) for a in ("pos", "parent", "radius")):
+        if len(tree.pos) < 2:
+            raise ValueError(f"tree: the snapshot has {len(tree.pos)} node(s); grow at least one internode first")
+        return graph_from_arrays(tree.pos, tree.parent, tree.radius)
+    raise ValueError(f"tree must be an L-system str, a (pos, parent, radius) tuple, a growth snapshot, a Model "
+                     f"or a BranchGraph, got {type(tree).__name__}")
 
 
 def tree_mesh(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bool = True, cap: bool = True,
@@ -58,8 +71,8 @@ def tree_mesh(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bool 
 
     Parameters
     ----------
-    tree : str or tuple or BranchGraph
-        See :func:`as_graph`.
+    tree : str or tuple or BranchGraph or Snapshot or Model
+        See :func:`as_graph` (e.g. ``plantvr.Model(...).snapshot`` of a grown tree).
     levels : int
         Loop subdivision levels, 0–6.
     sides : int
