@@ -5,23 +5,27 @@ Layout of the stage (Y up, metres)::
 
     /Tree                      Xform, default prim
     /Tree/Branches             Mesh  (primvars:st, primvars:normals; GeomSubsets "order_K" if orders given)
-    /Tree/Leaves               Mesh  (double-sided)
+    /Tree/Leaves               PointInstancer: one blade prototype (/Tree/Leaves/Prototypes/Blade), one
+                               instance per leaf (position, orientation, scale); or a Mesh when
+                               ``leaf_instancer=False``
+    /Tree/Petioles             Mesh of the petioles (each bends differently, so they are not instanced)
     /Tree/Looks/Bark, /Leaf    Material with a UsdPreviewSurface shader (and a UsdUVTexture when textured)
 
 usd-core (``pxr``) is imported only when a function here is called.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_range
 
-from .leaves import LeafMesh
+from .leaves import LEAF_SHAPES, LeafMesh, _blade
 from .mesh import BranchMesh
 
-__all__ = ["export_usd", "BARK_MATERIAL", "LEAF_MATERIAL"]
+__all__ = ["export_usd", "leaf_instances", "LeafInstances", "BARK_MATERIAL", "LEAF_MATERIAL"]
 
 BARK_MATERIAL = "Bark"
 LEAF_MATERIAL = "Leaf"
@@ -35,6 +39,102 @@ def _pxr():
     except ImportError as e:               # pragma: no cover - depends on the environment
         raise RuntimeError("USD export needs usd-core: pip install usd-core") from e
     return Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+
+
+@dataclass
+class LeafInstances:
+    """Leaves of a :class:`LeafMesh` as instances of one blade prototype.
+
+    Attributes
+    ----------
+    positions : (L, 3) float64 ndarray
+        Attachment point of each blade (the petiole's end p2, §10.2.2).
+    rotations : (L, 3, 3) float64 ndarray
+        Columns (r̂, ĥ, û): the prototype's x, y, z axes in world space (right-handed, ``r = h × u``).
+    quaternions : (L, 4) float64 ndarray
+        The same rotations as unit quaternions (w, x, y, z).
+    scales : (L,) float64 ndarray
+        Blade size (the ``leaf_size`` the leaves were built with).
+    prototype_vertices : (P, 3) float64 ndarray
+        Blade in its local frame (x along r̂, y along ĥ, z along û), unit size.
+    prototype_faces : (Q, 3) int64 ndarray
+    prototype_uv : (P, 2) float32 ndarray
+    n_blade_vertices, n_blade_faces : int
+        Blades occupy the first ``L × P`` vertices and ``L × Q`` faces of the leaf mesh; the rest are petioles.
+    """
+
+    positions: np.ndarray
+    rotations: np.ndarray
+    quaternions: np.ndarray
+    scales: np.ndarray
+    prototype_vertices: np.ndarray
+    prototype_faces: np.ndarray
+    prototype_uv: np.ndarray
+    n_blade_vertices: int
+    n_blade_faces: int
+
+    def world_vertices(self) -> np.ndarray:
+        """(L × P, 3) float64 blade vertices rebuilt from the instances (equal to the leaf mesh's blades)."""
+        loc = self.prototype_vertices
+        w = self.positions[:, None, :] + self.scales[:, None, None] * np.einsum("lij,pj->lpi", self.rotations, loc)
+        return w.reshape(-1, 3)
+
+
+def _quat_wxyz(R: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+    q = Rotation.from_matrix(R).as_quat()          # (x, y, z, w)
+    return np.concatenate([q[:, 3:], q[:, :3]], axis=1)
+
+
+def leaf_instances(leaves: LeafMesh, *, leaf_shape: str = "ovate") -> LeafInstances:
+    """Attachment frame of every leaf of a :class:`LeafMesh`, recovered from its blade vertices and frames.
+
+    ``build_leaves`` places blade vertex k of leaf i at ``p2 + s (x_k r̂ + y_k ĥ + z_k û)``; with the frame known
+    (``leaves.frames``), the attachment point p2 and the size s follow by least squares over the blade's vertices.
+
+    Parameters
+    ----------
+    leaves : LeafMesh
+    leaf_shape : {"ovate", "lobed"}
+        The blade geometry the leaves were built with.
+
+    Returns
+    -------
+    LeafInstances
+        ``world_vertices()`` reproduces the blade vertices.
+
+    Raises
+    ------
+    ValueError
+        When the leaf mesh was not built with ``leaf_shape`` (the blades do not fit the prototype).
+
+    References
+    ----------
+    .. [1] Thesis §10.2.2 (petiole p0, p1, p2; blade at p2 with the final frame); OpenUSD UsdGeomPointInstancer.
+    """
+    check_choice("leaf_shape", leaf_shape, LEAF_SHAPES)
+    loc, uv, faces = _blade(leaf_shape)
+    L, P = len(leaves.frames), len(loc)
+    if len(leaves.vertices) < L * P:
+        raise ValueError(f"leaves have {len(leaves.vertices)} vertices, fewer than {L} blades of {P} "
+                         f"({leaf_shape!r}); pass the leaf_shape the leaves were built with")
+    h, r, u = leaves.frames[:, 0], leaves.frames[:, 1], leaves.frames[:, 2]
+    R = np.stack([r, h, u], axis=2)                             # columns r, h, u
+    bv = leaves.vertices[:L * P].reshape(L, P, 3)
+    local = np.einsum("lpi,lij->lpj", bv, R)                    # R^T v per vertex
+    lc = local - local.mean(1, keepdims=True)
+    mc = loc - loc.mean(0)
+    s = np.einsum("lpj,pj->l", lc, mc) / float(np.sum(mc * mc)) if L else np.zeros(0)
+    pos = bv.mean(1) - s[:, None] * np.einsum("lij,j->li", R, loc.mean(0))
+    inst = LeafInstances(pos, R, _quat_wxyz(R) if L else np.zeros((0, 4)), s, loc.astype(float),
+                         faces.astype(np.int64), uv.astype(np.float32), L * P, L * len(faces))
+    if L:
+        err = np.abs(inst.world_vertices() - leaves.vertices[:L * P]).max()
+        scale = max(1.0, float(np.abs(leaves.vertices).max()))
+        if err > 1e-6 * scale:
+            raise ValueError(f"leaves do not fit the {leaf_shape!r} blade (residual {err:.3g}); "
+                             f"pass the leaf_shape the leaves were built with")
+    return inst
 
 
 def _material(stage, path: str, rgb, *, texture: str | None, leaf: bool):
@@ -90,9 +190,40 @@ def _mesh(stage, path: str, m, material, *, double_sided: bool):
     return mesh
 
 
+@dataclass
+class _Part:
+    vertices: np.ndarray
+    faces: np.ndarray
+    normals: np.ndarray
+    uv: np.ndarray
+
+
+def _instancer(stage, path: str, inst: LeafInstances, material):
+    Gf, Sdf, Usd, UsdGeom, UsdShade, Vt = _pxr()
+    pi = UsdGeom.PointInstancer.Define(stage, path)
+    proto_path = path + "/Prototypes/Blade"
+    UsdGeom.Scope.Define(stage, path + "/Prototypes")
+    nrm = np.tile(np.array([0.0, 0.0, 1.0], np.float32), (len(inst.prototype_vertices), 1))
+    proto = _Part(inst.prototype_vertices, inst.prototype_faces, nrm, inst.prototype_uv)
+    _mesh(stage, proto_path, proto, material, double_sided=True)
+    pi.CreatePrototypesRel().SetTargets([Sdf.Path(proto_path)])
+    L = len(inst.positions)
+    pi.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(np.zeros(L, np.int32)))
+    pi.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(inst.positions, np.float32)))
+    q = np.ascontiguousarray(inst.quaternions, np.float64)
+    pi.CreateOrientationsAttr(Vt.QuathArray([Gf.Quath(*map(float, x)) for x in q]))   # wide support
+    pi.CreateOrientationsfAttr(Vt.QuatfArray([Gf.Quatf(*map(float, x)) for x in q]))  # precise (read first)
+    sc = np.repeat(inst.scales[:, None], 3, axis=1)
+    pi.CreateScalesAttr(Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(sc, np.float32)))
+    wv = inst.world_vertices() if L else np.zeros((1, 3))
+    lo, hi = wv.min(0), wv.max(0)
+    pi.CreateExtentAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, lo)), Gf.Vec3f(*map(float, hi))]))
+    return pi
+
+
 def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, order=None,
                textures: bool = False, bark: str = "furrowed", leaf: str = "ovate",
-               meters_per_unit: float = 1.0) -> Path:
+               meters_per_unit: float = 1.0, leaf_instancer: bool = True, leaf_shape: str | None = None) -> Path:
     """Write a tree to a USD layer (.usd/.usdc binary, .usda text).
 
     Parameters
@@ -111,6 +242,11 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
         Texture choices, as in :func:`plantvr.geometry.export.tree_scene`.
     meters_per_unit : float
         Stage metadata ``metersPerUnit``.
+    leaf_instancer : bool
+        Write the blades as a ``UsdGeomPointInstancer`` of one prototype blade (see :func:`leaf_instances`) and
+        the petioles as a mesh; otherwise all leaves as one mesh.
+    leaf_shape : {"ovate", "lobed"}, optional
+        Blade geometry the leaves were built with; default ``leaf``.
 
     Returns
     -------
@@ -132,6 +268,10 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     check_choice("bark", bark, BARK_TEXTURES)
     check_choice("leaf", leaf, LEAF_TEXTURES)
     meters_per_unit = check_range("meters_per_unit", meters_per_unit, 0.0, np.inf, low_open=True)
+    leaf_shape = check_choice("leaf_shape", leaf if leaf_shape is None else leaf_shape, LEAF_SHAPES)
+    inst = None
+    if leaves is not None and len(leaves.faces) and leaf_instancer:
+        inst = leaf_instances(leaves, leaf_shape=leaf_shape)        # raises before any file is written
     if order is not None:
         nmax = int(branches.node_id.max()) + 1 if len(branches.node_id) else 0
         order = check_array("order", order, shape=(None,), dtype=np.int64)
@@ -166,6 +306,14 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
                                             Vt.IntArray.FromNumpy(idx), "branchOrder", UsdGeom.Tokens.partition)
     if leaves is not None and len(leaves.faces):
         leaf_mat = _material(stage, f"/Tree/Looks/{LEAF_MATERIAL}", _LEAF_RGB, texture=leaf_tex, leaf=True)
-        _mesh(stage, "/Tree/Leaves", leaves, leaf_mat, double_sided=True)
+        if inst is None:
+            _mesh(stage, "/Tree/Leaves", leaves, leaf_mat, double_sided=True)
+        else:
+            _instancer(stage, "/Tree/Leaves", inst, leaf_mat)
+            if len(leaves.faces) > inst.n_blade_faces:
+                nv = inst.n_blade_vertices
+                pet = _Part(leaves.vertices[nv:], leaves.faces[inst.n_blade_faces:] - nv, leaves.normals[nv:],
+                            leaves.uv[nv:])
+                _mesh(stage, "/Tree/Petioles", pet, leaf_mat, double_sided=False)
     stage.GetRootLayer().Save()
     return path

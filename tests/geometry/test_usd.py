@@ -11,7 +11,7 @@ from ._trees import random_tree
 pxr = pytest.importorskip("pxr")
 from pxr import Usd, UsdGeom, UsdShade, UsdUtils  # noqa: E402
 
-from plantvr.geometry.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd  # noqa: E402
+from plantvr.geometry.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd, leaf_instances  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,7 @@ def _bound_material(prim):
 @pytest.mark.parametrize("suffix", [".usda", ".usdc"])
 def test_round_trip(tree, tmp_path, suffix):
     m, lv, order = tree
-    p = export_usd(tmp_path / f"tree{suffix}", m, lv, order=order)
+    p = export_usd(tmp_path / f"tree{suffix}", m, lv, order=order, leaf_instancer=False)
     stage = Usd.Stage.Open(str(p))
     assert stage.GetDefaultPrim().GetPath() == "/Tree"
     assert UsdGeom.GetStageUpAxis(stage) == "Y"
@@ -114,3 +114,43 @@ def test_validation(tree, tmp_path):
     with pytest.raises(ValueError, match="bark"):
         export_usd(tmp_path / "t.usda", m, bark="oak")
     assert not (tmp_path / "t.usda").exists()
+
+
+@pytest.mark.parametrize("shape", ["ovate", "lobed"])
+def test_leaf_instances_rebuild_blades(shape):
+    pos, parent, radius, mc = random_tree(60, seed=2)
+    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
+    d = pos[tips] - pos[parent[tips]]
+    lv = build_leaves(pos[tips], d / np.linalg.norm(d, axis=1)[:, None], radius[tips], leaf_size=0.3,
+                      leaf_shape=shape, rng=1)
+    inst = leaf_instances(lv, leaf_shape=shape)
+    assert len(inst.positions) == len(lv.frames) > 0
+    np.testing.assert_allclose(inst.scales, 0.3, rtol=1e-12)
+    np.testing.assert_allclose(inst.world_vertices(), lv.vertices[:inst.n_blade_vertices], atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(inst.rotations), 1.0, atol=1e-9)
+    np.testing.assert_allclose(np.linalg.norm(inst.quaternions, axis=1), 1.0, atol=1e-12)
+    other = "lobed" if shape == "ovate" else "ovate"
+    with pytest.raises(ValueError, match="leaf_shape"):
+        leaf_instances(lv, leaf_shape=other)
+
+
+def test_leaves_as_point_instancer(tree, tmp_path):
+    """Leaves round trip as a PointInstancer: one blade prototype, instance transforms rebuild the blades."""
+    m, lv, order = tree
+    p = export_usd(tmp_path / "tree.usdc", m, lv, order=order)
+    stage = Usd.Stage.Open(str(p))
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath("/Tree/Leaves"))
+    assert pi and len(pi.GetPrototypesRel().GetTargets()) == 1
+    proto = UsdGeom.Mesh(stage.GetPrimAtPath(pi.GetPrototypesRel().GetTargets()[0]))
+    loc = np.asarray(proto.GetPointsAttr().Get(), float)
+    xf = np.asarray(pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default()))
+    assert len(xf) == len(lv.frames)
+    world = (np.c_[loc, np.ones(len(loc))][None] @ xf)[..., :3].reshape(-1, 3)      # USD: row vectors
+    nb = len(lv.frames) * len(loc)
+    np.testing.assert_allclose(world, lv.vertices[:nb], atol=1e-5)
+    pet = UsdGeom.Mesh(stage.GetPrimAtPath("/Tree/Petioles"))
+    # vertex count: blades (prototype x instances) + petioles = the leaf mesh
+    assert nb + len(pet.GetPointsAttr().Get()) == len(lv.vertices)
+    assert _bound_material(proto.GetPrim()) == LEAF_MATERIAL
+    assert _bound_material(pet.GetPrim()) == LEAF_MATERIAL
+    assert _check(p) == []
