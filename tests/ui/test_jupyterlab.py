@@ -31,8 +31,8 @@ pytest.importorskip("anywidget")
 TOKEN = "plantvr-test-token"
 REPO = Path(__file__).resolve().parents[2]
 CELLS = [
-    "import plantvr\nfrom plantvr.ui import InfluenceTriangle\n"
-    "model = plantvr.Model(seed=0)\nmodel.set_influence(1, 1, 1)\ntri = InfluenceTriangle(model)\ntri",
+    ("import plantvr\nfrom plantvr.ui import InfluenceTriangle\n"
+     "model = plantvr.Model(seed=0)\nmodel.set_influence(1, 1, 1)\ntri = InfluenceTriangle(model)\ntri"),
     "print('INFLUENCE', *[f'{w:.4f}' for w in model.influence])",
     "model.set_influence(0.6, 0.2, 0.2)  # kernel -> browser",
 ]
@@ -79,35 +79,34 @@ def lab(tmp_path):
            f"--LabApp.workspaces_dir={tmp_path / 'ws'}", "--ServerApp.disable_check_xsrf=True"]
     if hasattr(os, "geteuid") and os.geteuid() == 0:  # CI containers run as root
         cmd.append("--allow-root")
-    log = open(tmp_path / "lab.log", "wb")
-    proc = subprocess.Popen(cmd, cwd=root, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + 40
-        while True:
-            if proc.poll() is not None:
-                pytest.fail(f"jupyter lab exited: {(tmp_path / 'lab.log').read_text()[-2000:]}")
-            try:
-                with urllib.request.urlopen(f"{url}/api/status?token={TOKEN}", timeout=2) as r:
-                    if r.status == 200:
-                        break
-            except OSError:
-                pass
-            if time.monotonic() > deadline:
-                pytest.fail(f"jupyter lab did not start in 40 s: {(tmp_path / 'lab.log').read_text()[-2000:]}")
-            time.sleep(0.3)
-        yield url
-    finally:
-        try:  # the whole process group: server and kernels
-            os.killpg(proc.pid, signal.SIGTERM)
-            proc.wait(10)
-        except (ProcessLookupError, subprocess.TimeoutExpired):
-            try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            proc.wait(5)
-        log.close()
+    with open(tmp_path / "lab.log", "wb") as log:
+        proc = subprocess.Popen(cmd, cwd=root, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        url = f"http://127.0.0.1:{port}"
+        try:
+            deadline = time.monotonic() + 40
+            while True:
+                if proc.poll() is not None:
+                    pytest.fail(f"jupyter lab exited: {(tmp_path / 'lab.log').read_text()[-2000:]}")
+                try:
+                    with urllib.request.urlopen(f"{url}/api/status?token={TOKEN}", timeout=2) as r:
+                        if r.status == 200:
+                            break
+                except OSError:
+                    pass
+                if time.monotonic() > deadline:
+                    pytest.fail(f"jupyter lab did not start in 40 s: {(tmp_path / 'lab.log').read_text()[-2000:]}")
+                time.sleep(0.3)
+            yield url
+        finally:
+            try:  # the whole process group: server and kernels
+                os.killpg(proc.pid, signal.SIGTERM)
+                proc.wait(10)
+            except (ProcessLookupError, subprocess.TimeoutExpired):
+                try:
+                    os.killpg(proc.pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+                proc.wait(5)
 
 
 def _run_cell(page, index: int) -> None:
