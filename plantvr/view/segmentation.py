@@ -14,6 +14,7 @@ import numpy as np
 import pyvista as pv
 
 from plantvr.vine.depthcue import coarse_hull, depth_cue_colors
+from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.views import SavedView, load_view
 
@@ -33,6 +34,9 @@ class SegmentationView:
         Back-face culling (spec §4.5; thesis §5.7.3).
     background : str or 3 floats
         Dark by default, so depth cueing darkens with distance.
+    proxy : DisplayProxy, optional
+        Draw this decimated proxy of ``seg`` instead of the full mesh (issue 14). Picking and painting still act
+        on the full-resolution labels; the proxy's colours follow them by per-vertex deltas.
 
     Notes
     -----
@@ -41,25 +45,29 @@ class SegmentationView:
     """
 
     def __init__(self, seg: Segmentation, *, plotter: pv.Plotter | None = None, window_size=(900, 700),
-                 culling: str | None = "back", background="black"):
+                 culling: str | None = "back", background="black", proxy: DisplayProxy | None = None):
         if not isinstance(seg, Segmentation):
             raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+        if proxy is not None and (not isinstance(proxy, DisplayProxy) or proxy.seg is not seg):
+            raise ValueError("proxy must be a DisplayProxy built from seg")
         self.seg = seg
+        self.proxy = proxy
+        src = self.src = seg if proxy is None else proxy       # what is drawn: full mesh or proxy
         self.plotter = plotter or pv.Plotter(off_screen=True, window_size=list(window_size))
         self.plotter.set_background(background)
-        self.mesh = pv.PolyData.from_regular_faces(seg.vertices, seg.visible_faces().astype(np.int64))
-        self._base_rgba = seg.vertex_colors()
+        self.mesh = pv.PolyData.from_regular_faces(src.vertices, src.visible_faces().astype(np.int64))
+        self._base_rgba = src.vertex_colors()
         self.mesh.point_data["rgba"] = self._base_rgba.copy()
         self.actor = self.plotter.add_mesh(self.mesh, scalars="rgba", rgb=True, culling=culling,
-                                           smooth_shading=seg.normals is not None, show_scalar_bar=False)
-        if seg.normals is not None:
-            self.mesh.point_data["Normals"] = seg.normals
+                                           smooth_shading=src.normals is not None, show_scalar_bar=False)
+        if src.normals is not None:
+            self.mesh.point_data["Normals"] = src.normals
             self.mesh.point_data.active_normals_name = "Normals"
         self.depth_cue = False
         self._hull = None
         self._brush = None
         self.updates = 0
-        seg.observe(self._on_change)
+        src.observe(self._on_change)
 
     # ------------------------------------------------------------------ model → view
     def _rgba_array(self) -> np.ndarray:
@@ -67,15 +75,15 @@ class SegmentationView:
 
     def _on_change(self, kind: str, ids) -> None:
         if kind == "labels" and ids is not None and not self.depth_cue:
-            rgba = self.seg.colors.rgba[self.seg.labels[ids]]
+            rgba = self.src.colors.rgba[self.src.labels[ids]]
             self._base_rgba[ids] = rgba
             arr = self._rgba_array()
             arr[ids] = rgba                                # in place: pyvista marks the VTK array modified
             self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
         else:
-            self._base_rgba = self.seg.vertex_colors()
+            self._base_rgba = self.src.vertex_colors()
             if kind in ("visibility", "all"):
-                self.mesh.faces = pv.CellArray.from_regular_cells(self.seg.visible_faces().astype(np.int64))
+                self.mesh.faces = pv.CellArray.from_regular_cells(self.src.visible_faces().astype(np.int64))
             self._refresh_colors()
         self.updates += 1
 
@@ -83,7 +91,7 @@ class SegmentationView:
         cols = self._base_rgba
         if self.depth_cue:
             eye = np.asarray(self.plotter.camera.position, np.float64)
-            cols = depth_cue_colors(cols, self.seg.vertices, self._model_eye(eye), self._get_hull(),
+            cols = depth_cue_colors(cols, self.src.vertices, self._model_eye(eye), self._get_hull(),
                                     background=(0, 0, 0))
         self._rgba_array()[:] = cols
         self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
@@ -94,7 +102,7 @@ class SegmentationView:
 
     def _get_hull(self):
         if self._hull is None:
-            self._hull = coarse_hull(self.seg.vertices)
+            self._hull = coarse_hull(self.src.vertices)
         return self._hull
 
     def follow(self, buffer) -> None:
@@ -104,7 +112,7 @@ class SegmentationView:
         touches VTK; the render side calls :meth:`poll` (``screenshot`` does) and takes the latest completed
         labels (spec §4.3).
         """
-        self.seg.unobserve(self._on_change)
+        self.src.unobserve(self._on_change)
         self._buffer = buffer
         self._buffer_version = -1
 
@@ -117,7 +125,8 @@ class SegmentationView:
         try:
             if version == self._buffer_version:
                 return False
-            self._base_rgba = self.seg.colors.rgba[labels]
+            shown = labels if self.proxy is None else self.proxy.labels_from(labels)
+            self._base_rgba = self.seg.colors.rgba[shown]
             self._buffer_version = version
         finally:
             buf.release()
@@ -143,7 +152,7 @@ class SegmentationView:
     def set_depth_cue(self, on: bool) -> None:
         """Toggle depth cueing (Eq. 5.8, p = 0.85, coarse-hull distances from the camera position)."""
         self.depth_cue = bool(on)
-        self._base_rgba = self.seg.vertex_colors()
+        self._base_rgba = self.src.vertex_colors()
         self._refresh_colors()
 
     def show_brush(self, center, radius: float, label: int, *, opacity: float = 0.35) -> None:
@@ -189,5 +198,5 @@ class SegmentationView:
 
     def close(self) -> None:
         """Stop observing and close the plotter."""
-        self.seg.unobserve(self._on_change)
+        self.src.unobserve(self._on_change)
         self.plotter.close()

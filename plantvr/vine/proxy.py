@@ -1,0 +1,429 @@
+"""Display proxy of a ViNE segmentation: a decimated copy whose vertices stand for full-resolution vertex sets
+(issue 14; spec 000_vine §4.4, §6 "level of detail ... with colour indices carried per vertex").
+
+The proxy is what a browser or a CPU renderer draws; painting, hiding and undo always act on the full-resolution
+labels of the :class:`~plantvr.vine.Segmentation`. Each full-resolution vertex belongs to exactly one proxy
+vertex (``owner``); the members of a proxy vertex are stored once as a CSR list (``members``, ``starts``), so
+the memory is 8 bytes per full-resolution vertex. A proxy vertex's label is the most frequent label among its
+visible members (among all members when none is visible; ties go to the smaller label). After a paint or an
+undo only the proxy vertices that own a changed vertex are recomputed (cost ∝ the change, not the mesh).
+
+Building: coincident points are merged first (decimators stop early on them), then fast-simplification's
+quadric decimation runs to a triangle budget and returns its collapse history; following that history gives
+each merged vertex the surviving vertex it was collapsed into. The few vertices whose survivor vanished (a tiny
+component decimated away) are assigned to their nearest proxy vertex (``scipy.spatial.cKDTree``).
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numba
+import numpy as np
+from scipy.spatial import cKDTree
+
+from plantvr._validation import check_choice, check_int, check_range
+from plantvr.vine.segmentation import Segmentation
+
+__all__ = ["DisplayProxy", "merge_coincident", "proxy_labels"]
+
+
+# ---------------------------------------------------------------------------------------------- merging
+@numba.njit(cache=True, nogil=True)
+def _merge_hash(keys):  # pragma: no cover - numba kernel, twin: _merge_numpy
+    """First-occurrence unique rows of (V, 3) uint32 keys through an open-addressing hash table."""
+    n = keys.shape[0]
+    size = 1
+    while size < 2 * n:
+        size *= 2
+    table = np.full(size, -1, np.int64)
+    inverse = np.empty(n, np.int64)
+    first = np.empty(n, np.int64)
+    m = 0
+    mask = size - 1
+    for v in range(n):
+        a, b, c = np.uint64(keys[v, 0]), np.uint64(keys[v, 1]), np.uint64(keys[v, 2])
+        h = (a * np.uint64(73856093)) ^ (b * np.uint64(19349663)) ^ (c * np.uint64(83492791))
+        h ^= h >> np.uint64(29)
+        s = np.int64(h & np.uint64(mask))
+        while True:
+            u = table[s]
+            if u < 0:
+                table[s] = m
+                first[m] = v
+                inverse[v] = m
+                m += 1
+                break
+            w = first[u]
+            if keys[w, 0] == keys[v, 0] and keys[w, 1] == keys[v, 1] and keys[w, 2] == keys[v, 2]:
+                inverse[v] = u
+                break
+            s = (s + 1) & mask
+    return first[:m], inverse
+
+
+def _merge_numpy(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Numpy twin of ``_merge_hash``: (first-occurrence ids of unique rows, inverse), first-occurrence order."""
+    _, first, inv = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first, kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return first[order].astype(np.int64), rank[inv.ravel()].astype(np.int64)
+
+
+def merge_coincident(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Merge vertices with bit-identical coordinates (``+0.0`` and ``-0.0`` are merged too).
+
+    Parameters
+    ----------
+    vertices : (V, 3) float32 ndarray
+    faces : (F, 3) integer ndarray
+
+    Returns
+    -------
+    unique : (U,) int64 ndarray
+        Id of the first vertex of each merged group, in first-occurrence order.
+    inverse : (V,) int64 ndarray
+        Merged id of every input vertex (``vertices[unique][inverse]`` equals ``vertices``).
+    faces : (F', 3) int64 ndarray
+        Faces over merged ids, with faces that became degenerate removed.
+    """
+    v = np.asarray(vertices, np.float32) + np.float32(0.0)       # -0.0 -> +0.0
+    keys = np.ascontiguousarray(v).view(np.uint32).reshape(-1, 3)
+    first, inverse = _merge_hash(keys)
+    f = inverse[np.asarray(faces, np.int64)]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return first, inverse, f[keep]
+
+
+# ---------------------------------------------------------------------------------------------- mapping
+@numba.njit(cache=True, nogil=True)
+def _collapse_roots(n, collapses):  # pragma: no cover - numba kernel, twin: _collapse_roots_numpy
+    parent = np.arange(n)
+    for i in range(collapses.shape[0]):
+        parent[collapses[i, 1]] = collapses[i, 0]
+    for v in range(n):                                        # path compression
+        r = v
+        while parent[r] != r:
+            r = parent[r]
+        x = v
+        while parent[x] != r:
+            nx = parent[x]
+            parent[x] = r
+            x = nx
+    return parent
+
+
+def _collapse_roots_numpy(n: int, collapses: np.ndarray) -> np.ndarray:
+    """Numpy twin of ``_collapse_roots``: one scatter, then pointer jumping to the roots."""
+    parent = np.arange(n)
+    parent[collapses[:, 1]] = collapses[:, 0]                 # each vertex is collapsed at most once
+    while True:
+        nxt = parent[parent]
+        if np.array_equal(nxt, parent):
+            return parent
+        parent = nxt
+
+
+@numba.njit(cache=True, nogil=True)
+def _csr(owner, n_proxy):  # pragma: no cover - numba kernel (counting sort by owner)
+    starts = np.zeros(n_proxy + 1, np.int64)
+    for v in range(owner.shape[0]):
+        starts[owner[v] + 1] += 1
+    for p in range(n_proxy):
+        starts[p + 1] += starts[p]
+    fill = starts[:-1].copy()
+    members = np.empty(owner.shape[0], np.int32)
+    for v in range(owner.shape[0]):
+        p = owner[v]
+        members[fill[p]] = v
+        fill[p] += 1
+    return members, starts
+
+
+# ---------------------------------------------------------------------------------------------- labels
+@numba.njit(cache=True, nogil=True)
+def _proxy_labels_kernel(members, starts, labels, visible, pids, out):  # pragma: no cover - twin below
+    counts = np.zeros(256, np.int64)
+    seen = np.empty(256, np.int64)
+    for t in range(pids.shape[0]):
+        p = pids[t]
+        k = 0
+        for s in range(starts[p], starts[p + 1]):
+            lab = labels[members[s]]
+            if counts[lab] == 0:
+                seen[k] = lab
+                k += 1
+            counts[lab] += 1
+        best = -1
+        best_n = -1
+        best_vis = False
+        for i in range(k):
+            lab = seen[i]
+            c = counts[lab]
+            vis = visible[lab]
+            if (vis and not best_vis) or (vis == best_vis and (c > best_n or (c == best_n and lab < best))):
+                best, best_n, best_vis = lab, c, vis
+            counts[lab] = 0
+        out[p] = np.uint8(best if best >= 0 else 0)
+
+
+def _proxy_labels_numpy(owner: np.ndarray, n_proxy: int, labels: np.ndarray, visible: np.ndarray) -> np.ndarray:
+    """Numpy twin: rank (visible, count, -label) per proxy vertex with one lexsort."""
+    key = owner.astype(np.int64) * 256 + labels
+    uk, cnt = np.unique(key, return_counts=True)
+    p, lab = uk // 256, (uk % 256).astype(np.uint8)
+    vis = visible[lab].astype(np.int64)
+    order = np.lexsort((lab, -cnt, -vis, p))                  # per p: visible first, most frequent, smallest
+    p_sorted = p[order]
+    first = np.ones(len(order), bool)
+    first[1:] = p_sorted[1:] != p_sorted[:-1]
+    out = np.zeros(n_proxy, np.uint8)
+    out[p_sorted[first]] = lab[order][first]
+    return out
+
+
+def proxy_labels(owner: np.ndarray, n_proxy: int, labels: np.ndarray, visible: np.ndarray) -> np.ndarray:
+    """Label of each proxy vertex from the full-resolution labels of its members.
+
+    Parameters
+    ----------
+    owner : (V,) integer ndarray
+        Proxy vertex of every full-resolution vertex, in [0, n_proxy).
+    n_proxy : int
+        Number of proxy vertices.
+    labels : (V,) uint8 ndarray
+        Full-resolution labels.
+    visible : (256,) or (N,) bool ndarray
+        Visibility per label.
+
+    Returns
+    -------
+    (n_proxy,) uint8 ndarray
+        Most frequent visible member label (all members when none is visible; ties to the smaller label).
+    """
+    own = np.asarray(owner)
+    n_proxy = check_int("n_proxy", n_proxy, 1, 2 ** 31 - 1)
+    if own.shape != np.asarray(labels).shape:
+        raise ValueError(f"owner and labels must have the same shape, got {own.shape} and {np.shape(labels)}")
+    members, starts = _csr(own.astype(np.int64), n_proxy)
+    out = np.zeros(n_proxy, np.uint8)
+    _proxy_labels_kernel(members, starts, np.asarray(labels, np.uint8), _lut(visible), np.arange(n_proxy), out)
+    return out
+
+
+def _lut(visible) -> np.ndarray:
+    lut = np.zeros(256, np.bool_)
+    vis = np.asarray(visible, bool)
+    lut[:len(vis)] = vis
+    return lut
+
+
+def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    fn = np.cross(b - a, c - a)                               # area-weighted
+    n = np.zeros_like(v)
+    for k in range(3):
+        np.add.at(n, f[:, k], fn)
+    norm = np.linalg.norm(n, axis=1, keepdims=True)
+    return (n / np.where(norm > 0, norm, 1)).astype(np.float32)
+
+
+# ---------------------------------------------------------------------------------------------- the proxy
+class DisplayProxy:
+    """A decimated, label-following copy of a segmentation's mesh for display (issue 14).
+
+    Parameters
+    ----------
+    seg : Segmentation
+        The full-resolution segmentation (its labels stay the only truth).
+    target_faces : int
+        Triangle budget of the proxy, in [4, 2**31 - 1]; a mesh already within it is used as is (identity map).
+    method : {"collapse", "nearest"}
+        ``collapse``: each vertex belongs to the survivor of its decimation collapse chain (topological;
+        default). ``nearest``: each vertex belongs to its nearest proxy vertex (cKDTree).
+    agg : float
+        fast-simplification aggressiveness, in [0, 10].
+    observe : bool
+        Follow the segmentation's changes (paint, undo, hide, colours) automatically.
+
+    Attributes
+    ----------
+    vertices : (P, 3) float32 ndarray
+    faces : (Fp, 3) uint32 ndarray
+    normals : (P, 3) float32 ndarray
+    owner : (V,) int32 ndarray
+        Proxy vertex of every full-resolution vertex.
+    members, starts : (V,) int32 and (P + 1,) int64 ndarrays
+        Members of proxy vertex ``p``: ``members[starts[p]:starts[p + 1]]``.
+    labels : (P,) uint8 ndarray
+        Proxy labels (see module docstring).
+    timings : dict
+        Seconds spent in each build step.
+    """
+
+    def __init__(self, seg: Segmentation, *, target_faces: int = 1_500_000, method: str = "collapse",
+                 agg: float = 7.0, observe: bool = True):
+        if not isinstance(seg, Segmentation):
+            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+        target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
+        method = check_choice("method", method, ("collapse", "nearest"))
+        agg = check_range("agg", agg, 0.0, 10.0)
+        self.seg = seg
+        self.colors = seg.colors                              # shared table: recolouring edits it once
+        self.timings: dict[str, float] = {}
+        self._observers: list[Callable] = []
+        t0 = time.perf_counter()
+        if len(seg.faces) <= target_faces:
+            self.vertices = seg.vertices
+            self.faces = seg.faces
+            owner = np.arange(seg.n_vertices, dtype=np.int64)
+            self.timings["merge"] = self.timings["decimate"] = 0.0
+        else:
+            first, inverse, mf = merge_coincident(seg.vertices, seg.faces)
+            t1 = time.perf_counter()
+            self.timings["merge"] = t1 - t0
+            import fast_simplification
+            pts, pf, collapses = fast_simplification.simplify(
+                seg.vertices[first], mf.astype(np.int32), target_count=int(target_faces), agg=agg,
+                return_collapses=True)
+            t2 = time.perf_counter()
+            self.timings["decimate"] = t2 - t1
+            self.vertices = np.ascontiguousarray(pts, np.float32)
+            self.faces = np.ascontiguousarray(pf, np.uint32)
+            owner_m = None
+            if method == "collapse":
+                owner_m = self._collapse_owner(seg.vertices[first], mf, np.asarray(collapses, np.int64))
+            if owner_m is None:                              # nearest, or the collapse order did not match
+                _, owner_m = cKDTree(self.vertices).query(seg.vertices[first], workers=-1)
+            owner = np.asarray(owner_m, np.int64)[inverse]
+            self.timings["map"] = time.perf_counter() - t2
+        self.method = method
+        t3 = time.perf_counter()
+        self.owner = owner.astype(np.int32)
+        self.members, self.starts = _csr(owner, len(self.vertices))
+        self.normals = seg.normals if self.vertices is seg.vertices and seg.normals is not None \
+            else _vertex_normals(self.vertices, self.faces.astype(np.int64))
+        self.labels = np.zeros(len(self.vertices), np.uint8)
+        self.recompute()
+        self.timings["labels"] = time.perf_counter() - t3
+        self.timings["total"] = time.perf_counter() - t0
+        self._observing = False
+        if observe:
+            seg.observe(self._on_change)
+            self._observing = True
+
+    def _collapse_owner(self, merged: np.ndarray, mf: np.ndarray, collapses: np.ndarray) -> np.ndarray | None:
+        """Owner over merged ids from the collapse history; None if it cannot be matched to the output."""
+        n = len(merged)
+        root = _collapse_roots(n, collapses) if len(collapses) else np.arange(n)
+        rf = root[mf]
+        nd = (rf[:, 0] != rf[:, 1]) & (rf[:, 1] != rf[:, 2]) & (rf[:, 0] != rf[:, 2])
+        ref = np.zeros(n, bool)
+        ref[rf[nd].ravel()] = True
+        if int(ref.sum()) != len(self.vertices):
+            return None
+        rank = np.cumsum(ref) - 1                            # fast-simplification keeps survivors in id order
+        owner = rank[root]
+        lost = ~ref[root]                                    # survivor decimated away: nearest proxy vertex
+        if lost.any():
+            _, owner[lost] = cKDTree(self.vertices).query(merged[lost], workers=-1)
+        return owner
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_vertices(self) -> int:
+        """Number of proxy vertices."""
+        return int(self.vertices.shape[0])
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the mapping (owner + members + starts) and the proxy labels."""
+        return int(self.owner.nbytes + self.members.nbytes + self.starts.nbytes + self.labels.nbytes)
+
+    def members_of(self, p: int) -> np.ndarray:
+        """Full-resolution vertex ids that proxy vertex ``p`` stands for ((K,) int32, ascending)."""
+        p = check_int("p", p, 0, self.n_vertices - 1)
+        return self.members[self.starts[p]:self.starts[p + 1]]
+
+    # ------------------------------------------------------------------ labels
+    def recompute(self) -> None:
+        """Recompute every proxy label from the full-resolution labels (O(V))."""
+        _proxy_labels_kernel(self.members, self.starts, self.seg.labels, self.colors.paintable_lut(),
+                             np.arange(self.n_vertices), self.labels)
+
+    def labels_from(self, labels: np.ndarray) -> np.ndarray:
+        """Proxy labels for another full-resolution label array (e.g. a triple-buffer snapshot)."""
+        lab = np.asarray(labels)
+        if lab.dtype != np.uint8 or lab.shape != (self.seg.n_vertices,):
+            raise ValueError(f"labels must be uint8 of shape ({self.seg.n_vertices},), got {lab.dtype} {lab.shape}")
+        out = np.empty(self.n_vertices, np.uint8)
+        _proxy_labels_kernel(self.members, self.starts, lab, self.colors.paintable_lut(),
+                             np.arange(self.n_vertices), out)
+        return out
+
+    def update(self, ids: np.ndarray) -> np.ndarray:
+        """Recompute the proxy vertices owning the changed full-resolution ``ids``.
+
+        Parameters
+        ----------
+        ids : (K,) integer ndarray
+            Full-resolution vertex ids whose labels changed.
+
+        Returns
+        -------
+        (M,) int64 ndarray
+            Proxy vertex ids whose label changed (sorted); their new labels are ``self.labels[...]``.
+        """
+        ids = np.asarray(ids)
+        if ids.size == 0:
+            return np.zeros(0, np.int64)
+        if ids.dtype.kind not in "iu" or ids.ndim != 1:
+            raise ValueError(f"ids must be a 1-D integer array, got {ids.dtype} {ids.shape}")
+        pids = np.unique(self.owner[ids]).astype(np.int64)
+        old = self.labels[pids]
+        _proxy_labels_kernel(self.members, self.starts, self.seg.labels, self.colors.paintable_lut(), pids,
+                             self.labels)
+        return pids[self.labels[pids] != old]
+
+    # ------------------------------------------------------------------ what a view draws
+    def vertex_visible(self) -> np.ndarray:
+        """(P,) bool: proxy vertices whose label is visible."""
+        return self.colors.visible[self.labels]
+
+    def visible_faces(self) -> np.ndarray:
+        """(F', 3) uint32 proxy triangles whose three vertices are visible."""
+        vis = self.vertex_visible()
+        f = self.faces
+        return f[vis[f[:, 0]] & vis[f[:, 1]] & vis[f[:, 2]]]
+
+    def vertex_colors(self) -> np.ndarray:
+        """(P, 4) uint8 RGBA through the shared colour table."""
+        return self.colors.rgba[self.labels]
+
+    # ------------------------------------------------------------------ observers (same contract as Segmentation)
+    def observe(self, callback: Callable[[str, np.ndarray | None], None]) -> None:
+        """Call ``callback(kind, proxy_ids)`` after each proxy change (kinds as :meth:`Segmentation.observe`)."""
+        self._observers.append(callback)
+
+    def unobserve(self, callback) -> None:
+        """Stop notifying ``callback``."""
+        self._observers = [c for c in self._observers if c is not callback]
+
+    def _on_change(self, kind: str, ids) -> None:
+        if kind == "labels" and ids is not None:
+            changed = self.update(ids)
+            if changed.size:
+                for cb in list(self._observers):
+                    cb("labels", changed)
+            return
+        if kind in ("visibility", "all"):
+            self.recompute()
+        for cb in list(self._observers):
+            cb(kind, None)
+
+    def close(self) -> None:
+        """Stop following the segmentation."""
+        if self._observing:
+            self.seg.unobserve(self._on_change)
+            self._observing = False

@@ -1,0 +1,168 @@
+"""Display proxy (issue 14): mapping covers every vertex once, delta update == recompute, painting through the
+proxy view == painting the full mesh, hiding acts on both."""
+import numpy as np
+import pytest
+
+from plantvr.vine.index import ball_query_brute
+from plantvr.vine.proxy import (
+    DisplayProxy,
+    _collapse_roots,
+    _collapse_roots_numpy,
+    _merge_hash,
+    _merge_numpy,
+    _proxy_labels_numpy,
+    merge_coincident,
+    proxy_labels,
+)
+from plantvr.vine.segmentation import Segmentation
+
+
+@pytest.fixture
+def seg(surface):
+    return Segmentation(surface.vertices, surface.faces, normals=surface.normals)
+
+
+@pytest.fixture
+def proxy(seg):
+    return DisplayProxy(seg, target_faces=len(seg.faces) // 8)
+
+
+def _recomputed(px, seg):
+    return _proxy_labels_numpy(px.owner, px.n_vertices, seg.labels, seg.colors.paintable_lut())
+
+
+def test_mapping_covers_every_vertex_exactly_once(seg, proxy):
+    assert proxy.owner.shape == (seg.n_vertices,)
+    assert len(proxy.faces) <= len(seg.faces) // 8 + 8 and proxy.n_vertices < seg.n_vertices // 4
+    assert proxy.owner.min() >= 0 and proxy.owner.max() < proxy.n_vertices
+    # the CSR member lists partition the full-resolution vertices
+    assert np.array_equal(np.sort(proxy.members), np.arange(seg.n_vertices))
+    assert np.all(np.diff(proxy.starts) >= 1)                 # every proxy vertex stands for someone
+    for p in (0, proxy.n_vertices // 2, proxy.n_vertices - 1):
+        assert np.all(proxy.owner[proxy.members_of(p)] == p)
+    # members sit near their proxy vertex (decimation error, a few voxels on this 64³ head)
+    d = np.linalg.norm(proxy.vertices[proxy.owner] - seg.vertices, axis=1)
+    assert np.percentile(d, 95) < 4.0
+    assert proxy.faces.max() < proxy.n_vertices and proxy.normals.shape == proxy.vertices.shape
+
+
+def test_nearest_method_maps_to_nearest_proxy_vertex(seg):
+    px = DisplayProxy(seg, target_faces=len(seg.faces) // 8, method="nearest")
+    d_own = np.linalg.norm(px.vertices[px.owner] - seg.vertices, axis=1)
+    from scipy.spatial import cKDTree
+    d_best, _ = cKDTree(px.vertices).query(seg.vertices)
+    assert np.allclose(d_own, d_best, atol=1e-5)
+
+
+def test_small_mesh_is_its_own_proxy(seg):
+    px = DisplayProxy(seg, target_faces=len(seg.faces))
+    assert px.vertices is seg.vertices and np.array_equal(px.owner, np.arange(seg.n_vertices))
+    seg.paint(seg.vertices[7], 5.0, 4)
+    assert np.array_equal(px.labels, seg.labels)
+
+
+def test_delta_update_equals_recompute_over_paint_undo_redo(seg, proxy):
+    rng = np.random.default_rng(3)
+    seen = []
+    proxy.observe(lambda kind, ids: seen.append((kind, None if ids is None else ids.copy())))
+    for k in range(12):
+        before = proxy.labels.copy()
+        c = seg.vertices[rng.integers(seg.n_vertices)]
+        seg.paint(c, float(rng.uniform(1.0, 9.0)), int(rng.integers(1, 8)))
+        assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+        changed = np.nonzero(proxy.labels != before)[0]
+        got = np.concatenate([ids for kind, ids in seen if kind == "labels"]) if seen else np.zeros(0)
+        assert np.array_equal(np.unique(got), changed)   # notified ids == exactly the changed proxy vertices
+        seen.clear()
+        if k % 4 == 3:
+            seg.undo()
+            assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+            seg.redo()
+            assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+            seen.clear()
+    while seg.undo() is not None:
+        pass
+    assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+
+
+def test_proxy_label_is_visible_majority(seg, proxy):
+    p = int(np.argmax(np.diff(proxy.starts)))                 # the proxy vertex with most members
+    m = proxy.members_of(p)
+    seg.labels[m[: len(m) // 2 + 1]] = 5                      # direct write, then recompute
+    seg.labels[m[len(m) // 2 + 1:]] = 6
+    proxy.recompute()
+    assert proxy.labels[p] == 5
+    seg.hide(5)                                               # majority hidden: the visible minority shows
+    assert proxy.labels[p] == 6 and proxy.vertex_visible()[p]
+    seg.hide(6)
+    assert not proxy.vertex_visible()[p]
+    assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+
+
+def test_hiding_a_colour_hides_it_on_both(seg, proxy):
+    top = seg.vertices[np.argmax(seg.vertices[:, 2])]
+    seg.paint(top, 12.0, 3)
+    seg.hide(3)
+    full_vis = seg.vertex_visible()
+    assert not full_vis[seg.labels == 3].any()
+    # no drawn proxy face has a hidden-coloured vertex, and no proxy vertex with a hidden label is drawn
+    vf = proxy.visible_faces()
+    assert not np.isin(proxy.labels[vf], [3]).any()
+    # a proxy vertex is drawn iff at least one of its members is visible
+    any_visible = np.zeros(proxy.n_vertices, bool)
+    np.logical_or.at(any_visible, proxy.owner, full_vis)
+    assert np.array_equal(proxy.vertex_visible(), any_visible)
+    seg.show(3)
+    assert len(proxy.visible_faces()) == len(proxy.faces)
+
+
+def test_kernels_equal_numpy_twins(surface):
+    rng = np.random.default_rng(0)
+    v = surface.vertices.copy()
+    dup = rng.integers(0, len(v), 500)
+    v2 = np.concatenate([v, v[dup]])
+    keys = np.ascontiguousarray(v2).view(np.uint32).reshape(-1, 3)
+    f1, i1 = _merge_hash(keys)
+    f2, i2 = _merge_numpy(keys)
+    assert np.array_equal(f1, f2) and np.array_equal(i1, i2) and len(f1) == len(v)
+    first, inverse, faces = merge_coincident(v2, np.concatenate([surface.faces, surface.faces]))
+    assert np.array_equal(v2[first][inverse], v2) and faces.max() < len(first)
+    col = np.array([[1, 0], [1, 2], [3, 1], [5, 4]])
+    assert np.array_equal(_collapse_roots(6, col), _collapse_roots_numpy(6, col))
+    owner = rng.integers(0, 50, 1000)
+    labels = rng.integers(0, 6, 1000).astype(np.uint8)
+    vis = np.array([True, True, False, True, False, True])
+    assert np.array_equal(proxy_labels(owner, 50, labels, vis), _proxy_labels_numpy(owner, 50, labels,
+                                                                                     np.r_[vis, np.zeros(250, bool)]))
+
+
+def test_paint_through_proxy_view_equals_full_mesh_paint(surface, seg, proxy):
+    pytest.importorskip("pyvista")
+    from plantvr.view.segmentation import SegmentationView
+    view = SegmentationView(seg, proxy=proxy, window_size=(240, 180))
+    assert view.mesh.n_points == proxy.n_vertices
+    other = Segmentation(surface.vertices, surface.faces)
+    p = proxy.vertices[proxy.n_vertices // 3].astype(float)   # a point picked on the proxy surface
+    n = view.paint_at(p, radius=6.0, label=2)
+    other.paint(p, 6.0, 2)
+    assert n > 0 and np.array_equal(seg.labels, other.labels)
+    assert set(np.nonzero(seg.labels == 2)[0]) == set(ball_query_brute(seg.vertices, p, 6.0).tolist())
+    assert np.array_equal(view.mesh.point_data["rgba"], proxy.vertex_colors())
+    seg.undo()
+    assert not (seg.labels == 2).any()
+    assert np.array_equal(view.mesh.point_data["rgba"], proxy.vertex_colors())
+    view.close()
+    proxy.close()
+
+
+def test_rejected_arguments(seg):
+    with pytest.raises(ValueError, match="target_faces"):
+        DisplayProxy(seg, target_faces=2)
+    with pytest.raises(ValueError, match="method"):
+        DisplayProxy(seg, method="random")
+    with pytest.raises(ValueError, match="seg must be"):
+        DisplayProxy("mesh")
+    px = DisplayProxy(seg, target_faces=len(seg.faces) // 4)
+    with pytest.raises(ValueError, match="labels must be uint8"):
+        px.labels_from(np.zeros(3, np.uint8))
+    assert np.array_equal(px.labels_from(seg.labels), px.labels)
