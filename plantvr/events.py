@@ -15,7 +15,8 @@ import numpy as np
 
 __all__ = ["Event", "EventLog"]
 
-REPLAYABLE = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence", "reset")
+REPLAYABLE = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence", "set_prune_mode",
+              "reset")
 
 
 @dataclass(frozen=True)

@@ -107,6 +107,7 @@ class Model(_Params):
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()
         self._loop = _kernel_loop()
+        self._pending: Snapshot | None = None
         self.snapshot: Snapshot = self._make_snapshot(None)
         self.observe(self._on_param, names=[p.name for p in PARAMS])
 
@@ -195,6 +196,13 @@ class Model(_Params):
             n = self._engine.prune(center, radius)
         self._publish()
         return n
+
+    def set_prune_mode(self, on: bool) -> None:
+        """Switch the brush between growing (green) and pruning (red) (§4.4, menu item 4); logged."""
+        if not isinstance(on, (bool, np.bool_)):
+            raise ValueError(f"on must be True or False, got {on!r}")
+        self.events.record("set_prune_mode", on=bool(on))
+        self.prune_mode = bool(on)
 
     def reset(self) -> None:
         """Start a new tree: remove every internode, leaving the base (§4.5 item 7)."""
@@ -285,8 +293,19 @@ class Model(_Params):
                             {k: _frozen(v) for k, v in buds.items()})
 
     def _publish(self) -> None:
+        """Hand the newest snapshot to the kernel thread; snapshots a slow observer has not taken yet are
+        replaced, never queued (views render the latest complete snapshot, DESIGN)."""
         snap = self._make_snapshot(self._last_stats())
-        self._call_in_kernel(lambda: self._apply(snap))
+        with self._lock:
+            scheduled, self._pending = self._pending is not None, snap
+        if not scheduled:
+            self._call_in_kernel(self._apply_pending)
+
+    def _apply_pending(self) -> None:
+        with self._lock:
+            snap, self._pending = self._pending, None
+        if snap is not None:
+            self._apply(snap)
 
     def _call_in_kernel(self, fn: Callable[[], None]) -> None:
         loop = self._loop

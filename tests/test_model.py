@@ -178,3 +178,14 @@ def test_event_log_replays_identically(tmp_path):
     b = plantvr.Model(seed=3)
     type(a.events).load(tmp_path / "log.jsonl").replay(b)
     assert np.array_equal(a.snapshot.pos, b.snapshot.pos)
+
+
+def test_prune_mode_is_a_logged_command():
+    m = plantvr.Model()
+    m.set_prune_mode(True)
+    assert m.prune_mode and m.events.events[-1].command == "set_prune_mode"
+    with pytest.raises(ValueError, match="on must be True or False"):
+        m.set_prune_mode("yes")
+    other = plantvr.Model()
+    m.events.replay(other)
+    assert other.prune_mode

@@ -65,12 +65,23 @@ def _ensure_blocks(keys, centres, lo, hi, F, nblocks):
 
 @numba.njit(cache=True, nogil=True)
 def _splat(keys, blocks, F, centres, offsets, values, sign):
+    # the block ids a pyramid touches are looked up once per node, not once per cell
+    lo0, lo1, lo2 = offsets[:, 0].min(), offsets[:, 1].min(), offsets[:, 2].min()
+    hi0, hi1, hi2 = offsets[:, 0].max(), offsets[:, 1].max(), offsets[:, 2].max()
+    span = max(hi0 - lo0, hi1 - lo1, hi2 - lo2) // F + 2
+    ids = np.empty((span, span, span), np.int64)
     for n in range(centres.shape[0]):
+        c0, c1, c2 = centres[n, 0], centres[n, 1], centres[n, 2]
+        b0, b1, b2 = (c0 + lo0) // F, (c1 + lo1) // F, (c2 + lo2) // F
+        for i in range((c0 + hi0) // F - b0 + 1):
+            for j in range((c1 + hi1) // F - b1 + 1):
+                for k in range((c2 + hi2) // F - b2 + 1):
+                    ids[i, j, k] = keys[coarse_key(b0 + i, b1 + j, b2 + k)]
         for o in range(offsets.shape[0]):
-            x = centres[n, 0] + offsets[o, 0]
-            y = centres[n, 1] + offsets[o, 1]
-            z = centres[n, 2] + offsets[o, 2]
-            b = keys[coarse_key(x // F, y // F, z // F)]
+            x = c0 + offsets[o, 0]
+            y = c1 + offsets[o, 1]
+            z = c2 + offsets[o, 2]
+            b = ids[x // F - b0, y // F - b1, z // F - b2]
             blocks[b, x % F, y % F, z % F] += sign * values[o]  # floor-mod: negative coords work (§2.7)
 
 

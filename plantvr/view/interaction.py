@@ -179,7 +179,7 @@ class BrushInteractor:
 
     def toggle_prune(self) -> bool:
         """Switch the brush between grow (green) and prune (red); returns the new prune mode."""
-        self.model.prune_mode = not self.model.prune_mode
+        self.model.set_prune_mode(not self.model.prune_mode)
         return self.model.prune_mode
 
     def set_markers_visible(self, visible: bool) -> None:

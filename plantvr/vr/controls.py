@@ -562,7 +562,7 @@ def apply_command(model, cmd: Command) -> Any:
     if cmd.name == "brush_radius":
         return model.set_params(brush_radius=k["radius"])
     if cmd.name == "prune_mode":
-        model.prune_mode = bool(k["on"])   # a trait, not a logged command (hook requested: set_prune_mode)
+        model.set_prune_mode(bool(k["on"]))
         return None
     if cmd.name == "save":
         return model.save(k["path"])
