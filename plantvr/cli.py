@@ -25,6 +25,7 @@ def demo(out: Path, steps: int, seed: int) -> dict:
     from .growth.scenarios import demo_session, run
 
     out.mkdir(parents=True, exist_ok=True)
+    ensure_system_packages(browser=False)
     model = Model(seed=seed)
     t0 = time.perf_counter()
     stats = run(model, demo_session(), steps, tqdm(range(steps), desc="growing", unit="step"))
@@ -70,17 +71,20 @@ def info() -> None:
     print(f"  chromium (browser tests): {shutil.which('chromium') or 'missing'}")
 
 
-def ensure_system_packages() -> None:
-    """Install Debian's chromium (browser tests) and EGL/Mesa (offscreen VTK) when missing and possible."""
-    need = []
-    if not shutil.which("chromium"):
+def _egl_missing() -> bool:
+    import ctypes.util  # noqa: PLC0415
+    return ctypes.util.find_library("EGL") is None
+
+
+def ensure_system_packages(*, browser: bool = True) -> None:
+    """Install Debian's EGL/Mesa (offscreen VTK) and, for tests, chromium, when missing and possible."""
+    need = ["libegl1", "libgl1-mesa-dri"] if _egl_missing() else []
+    if browser and not shutil.which("chromium"):
         need.append("chromium")
-    if not Path("/usr/lib/x86_64-linux-gnu/libEGL.so.1").exists() and not Path("/usr/lib/aarch64-linux-gnu/libEGL.so.1").exists():
-        need += ["libegl1", "libgl1-mesa-dri"]
     if not need:
         return
     if not shutil.which("apt-get") or os.geteuid() != 0:
-        print(f"plantvr test: please install {' '.join(need)} (apt-get); browser/render tests may skip")
+        print(f"plantvr: please install {' '.join(need)} (apt-get); rendering or browser tests may be skipped")
         return
     env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
     subprocess.run(["apt-get", "update", "-qq"], check=False, env=env)
