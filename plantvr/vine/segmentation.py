@@ -7,6 +7,7 @@ observers with the changed vertex ids so views update colours in place.
 """
 from __future__ import annotations
 
+import colorsys
 import contextlib
 import itertools
 import os
@@ -26,6 +27,13 @@ from plantvr.vine.views import SavedView
 __all__ = ["Segmentation"]
 
 _FORMAT = 1
+
+
+def _distinct_color(k: int) -> tuple[int, int, int]:
+    """A saturated colour for the k-th table entry (golden-ratio hue steps, so neighbours differ)."""
+    h = (0.11 + k * 0.618033988749895) % 1.0
+    r, g, b = colorsys.hsv_to_rgb(h, 0.55 + 0.35 * ((k * 7) % 3) / 2, 0.95 - 0.2 * (k % 2))
+    return round(255 * r), round(255 * g), round(255 * b)
 
 
 class Segmentation:
@@ -94,6 +102,8 @@ class Segmentation:
         self._observers: list[Callable] = []
         self.event_log: list[tuple] = []          # replayable commands: (op, *args), plain Python values
         self.autosave_path: str | None = None
+        self.preserve: bool | tuple[int, ...] = False   # default brush mode of paint(); see paint()
+        self._graph = None
         lo, hi = bounds(v)
         ext = hi - lo
         self.max_radius = float(np.linalg.norm(ext)) + 1.0
@@ -118,6 +128,14 @@ class Segmentation:
         return self._index
 
     @property
+    def graph(self):
+        """Vertex adjacency (CSR with edge lengths, :class:`plantvr.vine.fill.MeshGraph`), built once."""
+        if self._graph is None:
+            from plantvr.vine.fill import mesh_graph
+            self._graph = mesh_graph(self.vertices, self.faces)
+        return self._graph
+
+    @property
     def n_vertices(self) -> int:
         """Number of vertices."""
         return int(self.vertices.shape[0])
@@ -140,16 +158,51 @@ class Segmentation:
     def _check_paint(self, center, radius, label):
         c = check_point("center", center)
         r = check_range("radius", radius, 0.0, self.max_radius)
-        label = self.colors.check_label("label", label)
-        if not self.colors.visible[label]:
-            raise ValueError(f"label {label} is hidden; show it before painting with it")
+        label = self._check_target("label", label)
         return c, r, label
 
-    def paint(self, center, radius: float, label: int) -> int:
+    def _check_target(self, name: str, label) -> int:
+        label = self.colors.check_label(name, label)
+        if not self.colors.visible[label]:
+            raise ValueError(f"{name} {label} is hidden; show it before painting with it")
+        return label
+
+    def check_preserve(self, preserve) -> bool | tuple[int, ...]:
+        """Validate a preserve-labels mode: False, True (only unlabelled 0 is painted) or labels that may be
+        painted over (a tuple of ints, each in [0, len(colors) - 1])."""
+        if preserve is None:
+            preserve = self.preserve
+        if isinstance(preserve, (bool, np.bool_)):
+            return bool(preserve)
+        if isinstance(preserve, (int, np.integer)):
+            preserve = (preserve,)
+        try:
+            items = tuple(preserve)
+        except TypeError:
+            raise ValueError(f"preserve must be False, True or a collection of labels in [0, {len(self.colors) - 1}]"
+                             f", got {preserve!r}") from None
+        return tuple(sorted({self.colors.check_label("preserve", x) for x in items}))
+
+    def _paint_lut(self, preserve) -> np.ndarray:
+        lut = self.colors.paintable_lut()
+        if preserve is True:
+            allowed = np.zeros(256, bool)
+            allowed[0] = True
+            lut &= allowed
+        elif preserve is not False:
+            allowed = np.zeros(256, bool)
+            allowed[list(preserve)] = True
+            lut &= allowed
+        return lut
+
+    def paint(self, center, radius: float, label: int, preserve: bool | tuple[int, ...] | None = None) -> int:
         """Paint every visible vertex within ``radius`` of ``center`` (model space) with ``label``.
 
         Outside a stroke this is one undoable operation; inside ``with seg.stroke():`` it is one stamp of
-        that operation. Vertices whose current colour is hidden are never changed (spec §2.6).
+        that operation. Vertices whose current colour is hidden are never changed (spec §2.6). With
+        ``preserve`` (the "preserve labels" brush mode) finished labels are never overwritten: ``True``
+        paints only unlabelled vertices (label 0), a collection paints only vertices whose label is in it;
+        ``None`` uses :attr:`preserve` (default ``False``).
 
         Parameters
         ----------
@@ -170,8 +223,10 @@ class Segmentation:
         .. [1] Thesis Eqs. 5.15–5.16, §5.4.3 (brush), §5.5 (undo), §5.6 (hidden colours unpaintable).
         """
         c, r, label = self._check_paint(center, radius, label)
-        self.event_log.append(("paint", tuple(float(x) for x in c), r, label))
-        idx, old = self.index.paint(c, r, self.labels, self.colors.paintable_lut(), label)
+        pres = self.check_preserve(preserve)
+        self.event_log.append(("paint", tuple(float(x) for x in c), r, label)
+                              + (() if pres is False else (pres,)))
+        idx, old = self.index.paint(c, r, self.labels, self._paint_lut(pres), label)
         if self._stroke is not None:
             if idx.size:
                 self._stroke.append((idx, old))
@@ -184,15 +239,17 @@ class Segmentation:
             self._after_operation()
         return int(idx.size)
 
-    def paint_stroke(self, centers, radius: float, label: int) -> int:
+    def paint_stroke(self, centers, radius: float, label: int,
+                     preserve: bool | tuple[int, ...] | None = None) -> int:
         """Paint a sequence of stamps as one undoable operation; returns the number of vertices changed."""
         cs = check_array("centers", centers, shape=(None, 3), min_rows=1)
         for c in cs:
             self._check_paint(c, radius, label)
+        pres = self.check_preserve(preserve)
         self.begin_stroke()
         try:
             for c in cs:
-                self.paint(c, radius, label)
+                self.paint(c, radius, label, pres)
         except BaseException:
             self.abort_stroke()
             raise
@@ -266,8 +323,132 @@ class Segmentation:
             self._after_operation()
         return e
 
+    # ------------------------------------------------------------------ fill, split, merge (issue 15)
+    def _commit(self, idx: np.ndarray, new) -> LabelEdit | None:
+        """Write ``labels[idx] = new`` as one undo item (outside strokes) and notify."""
+        if self._stroke is not None:
+            raise ValueError("a stroke is open; end_stroke() before fill, split or merge")
+        idx = np.asarray(idx, np.int64)
+        new = np.broadcast_to(np.asarray(new, np.uint8), idx.shape)
+        changed = self.labels[idx] != new
+        idx, new = idx[changed], new[changed]
+        if idx.size == 0:
+            return None
+        itype = np.int32 if self.n_vertices < 2 ** 31 else np.int64
+        order = np.argsort(idx, kind="stable")
+        idx, new = idx[order], np.ascontiguousarray(new[order])
+        edit = LabelEdit(idx.astype(itype), self.labels[idx].copy(), new.copy())
+        self.labels[idx] = new
+        self.history.push(edit)
+        self._notify("labels", idx)
+        self._after_operation()
+        return edit
+
+    def fill(self, vertex: int, label: int, radius: float | None = None) -> int:
+        """Flood-fill from a picked vertex over mesh connectivity with ``label`` (one undo step).
+
+        The region is every vertex reachable from ``vertex`` through vertices of ``vertex``'s current label
+        (napari's fill, on the mesh graph), optionally limited to a geodesic distance along mesh edges.
+
+        Parameters
+        ----------
+        vertex : int
+            Picked vertex id, in [0, V - 1]; its colour must be visible.
+        label : int
+            Colour-table index to write, visible.
+        radius : float, optional
+            Geodesic radius in model units, in [0, max_radius]; None = the whole connected region.
+
+        Returns
+        -------
+        int
+            Number of vertices changed.
+
+        References
+        ----------
+        .. [1] Spec 000_vine §6 "connectivity-aware brush (geodesic flood fill)"; issue 15.
+        """
+        from plantvr.vine.fill import flood_region
+        vertex = check_int("vertex", vertex, 0, self.n_vertices - 1)
+        label = self._check_target("label", label)
+        if radius is not None:
+            radius = check_range("radius", radius, 0.0, self.max_radius)
+        cur = int(self.labels[vertex])
+        if not self.colors.visible[cur]:
+            raise ValueError(f"vertex {vertex} has hidden label {cur}; show it before filling")
+        if self._stroke is not None:
+            raise ValueError("a stroke is open; end_stroke() before fill")
+        self.event_log.append(("fill", vertex, label, radius))
+        if cur == label:
+            return 0
+        ids = flood_region(self.graph, self.labels, vertex, radius=radius)
+        e = self._commit(ids, label)
+        return 0 if e is None else len(e)
+
+    def label_components(self, label: int) -> tuple[np.ndarray, int]:
+        """Connected components of one label over mesh edges: ((V,) int64 component id or -1, count)."""
+        from plantvr.vine.fill import label_components
+        label = self.colors.check_label("label", label)
+        return label_components(self.graph, self.labels, label=label)
+
+    def split_label(self, label: int, min_vertices: int = 1) -> list[int]:
+        """Give each connected component of ``label`` its own new colour (one undo step).
+
+        The largest component keeps ``label``; every other component with at least ``min_vertices``
+        vertices gets a new, distinct colour appended to the table (the colours stay on undo). Components
+        smaller than ``min_vertices`` keep ``label``.
+
+        Parameters
+        ----------
+        label : int
+            Visible colour-table index, in [0, len(colors) - 1].
+        min_vertices : int
+            Smallest component that becomes its own label, in [1, V].
+
+        Returns
+        -------
+        list of int
+            The labels now held by the split parts, ``label`` first (largest part).
+        """
+        label = self._check_target("label", label)
+        min_vertices = check_int("min_vertices", min_vertices, 1, self.n_vertices)
+        if self._stroke is not None:
+            raise ValueError("a stroke is open; end_stroke() before split_label")
+        comp, n = self.label_components(label)
+        sizes = np.bincount(comp[comp >= 0], minlength=n)
+        order = np.argsort(-sizes, kind="stable")               # largest first, ties by smallest vertex id
+        movers = [int(c) for c in order[1:] if sizes[c] >= min_vertices]
+        if len(self.colors) + len(movers) > 256:
+            raise ValueError(f"label {label} has {len(movers) + 1} parts of >= {min_vertices} vertices, but the "
+                             f"colour table has room for {256 - len(self.colors)} more colours; raise min_vertices")
+        self.event_log.append(("split_label", label, min_vertices))
+        if not movers:
+            return [label]
+        new_labels = []
+        for _ in movers:
+            k = self.colors.add_color(_distinct_color(len(self.colors)))
+            new_labels.append(k)
+        self._notify("colors", None)
+        lut = np.full(n, -1, np.int64)
+        lut[movers] = new_labels
+        ids = np.flatnonzero((comp >= 0) & (lut[np.maximum(comp, 0)] >= 0))
+        self._commit(ids, lut[comp[ids]].astype(np.uint8))
+        return [label, *new_labels]
+
+    def merge_labels(self, keep: int, other: int) -> int:
+        """Relabel every vertex of ``other`` as ``keep`` (one undo step); returns the number changed."""
+        keep = self._check_target("keep", keep)
+        other = self._check_target("other", other)
+        if keep == other:
+            raise ValueError(f"other must differ from keep, got keep={keep}, other={other}")
+        if self._stroke is not None:
+            raise ValueError("a stroke is open; end_stroke() before merge_labels")
+        self.event_log.append(("merge_labels", keep, other))
+        e = self._commit(np.flatnonzero(self.labels == other), keep)
+        return 0 if e is None else len(e)
+
     _REPLAYABLE = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
-                   "set_color", "add_color")
+                   "set_color", "add_color", "fill", "split_label", "merge_labels")
 
     def replay(self, events) -> None:
         """Apply a recorded event log (``seg.event_log`` of another session on the same mesh).
@@ -393,6 +574,11 @@ class Segmentation:
                 d = {k: z[k] for k in z.files}
         except (OSError, EOFError, ValueError, zipfile.BadZipFile, KeyError) as exc:
             raise ValueError(f"could not read segmentation file {os.fspath(path)!r}: {exc}") from None
+        return Segmentation._check_state(d, path, base)
+
+    @staticmethod
+    def _check_state(d: dict, path, base: Segmentation | None = None) -> dict:
+        """Validate a state dict (from a session file or a bundle); raises ``ValueError`` naming ``path``."""
         if "vertices" not in d and "mesh" in d:
             if base is None:
                 raise ValueError(f"segmentation file {os.fspath(path)!r} holds no mesh (labels only); "
@@ -459,7 +645,13 @@ class Segmentation:
         d = self._read_state(path, base=self)
         same_mesh = d["vertices"] is self.vertices
         other = self._from_state(d, index=self.index_kind)
-        keep = {"_observers", "autosave_path", "event_log"} | ({"_index"} if same_mesh else set())
+        self._adopt(other, same_mesh=same_mesh)
+
+    def _adopt(self, other: Segmentation, *, same_mesh: bool = False, event_log: bool = False) -> None:
+        """Take over ``other``'s state (observers, autosave path and brush mode stay; one "all" notice)."""
+        keep = {"_observers", "autosave_path", "preserve"} | ({"_index", "_graph"} if same_mesh else set())
+        if not event_log:
+            keep.add("event_log")
         self.__dict__.update({k: v for k, v in other.__dict__.items() if k not in keep})
         self._notify("all", None)
 

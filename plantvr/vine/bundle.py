@@ -1,0 +1,309 @@
+"""Session bundles: one zip file with the whole segmentation session (spec 000_vine §2.7 persistence,
+checklist item 24; issue 15).
+
+A bundle holds the mesh (or the SHA-256 of its source volume plus the iso-value and meshing options, so the
+mesh is rebuilt from the scan), labels, colour table, visibility, saved views, undo/redo history, the
+brush mode and the event log, optionally the volume itself (small scans) or a path to it.
+
+Layout: ``manifest.json`` (sorted keys) and one ``.npy`` member per array, written in a fixed order with a
+fixed time stamp, so saving the same state twice gives the same bytes, on any machine. The zip comment
+holds the SHA-256 of every member; a truncated, tampered or foreign file raises ``ValueError`` saying why
+and nothing is loaded.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import zipfile
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_range
+
+__all__ = ["Bundle", "load_bundle", "restore_bundle", "save_bundle", "volume_sha256"]
+
+BUNDLE_FORMAT = 1
+_MAGIC = "plantvr-vine-bundle"
+_STAMP = (1980, 1, 1, 0, 0, 0)
+
+
+def volume_sha256(volume: np.ndarray) -> str:
+    """SHA-256 (hex) of a volume's dtype, shape and C-order bytes (read in slabs; memory maps stay mapped)."""
+    vol = np.asarray(volume)
+    h = hashlib.sha256(f"{vol.dtype.str}{tuple(vol.shape)}".encode())
+    for k in range(vol.shape[0] if vol.ndim else 1):
+        h.update(np.ascontiguousarray(vol[k] if vol.ndim else vol).tobytes())
+    return h.hexdigest()
+
+
+@dataclass
+class Bundle:
+    """What :func:`load_bundle` returns.
+
+    Attributes
+    ----------
+    segmentation : Segmentation
+        The restored session (event log included).
+    level : float or None
+        Iso-value the mesh was extracted at.
+    volume : ndarray or None
+        The embedded volume, or the one passed to :func:`load_bundle`.
+    volume_sha256 : str or None
+    volume_path : str or None
+        Where the volume lived when the bundle was saved (a reference only).
+    meta : dict
+        Free-form JSON metadata saved with the bundle.
+    """
+
+    segmentation: object
+    level: float | None = None
+    volume: np.ndarray | None = None
+    volume_sha256: str | None = None
+    volume_path: str | None = None
+    spacing: tuple = (1.0, 1.0, 1.0)
+    meta: dict = field(default_factory=dict)
+
+
+def _to_json(x):
+    if isinstance(x, (tuple, list)):
+        return [_to_json(y) for y in x]
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (np.floating,)):
+        return float(x)
+    if isinstance(x, (np.bool_,)):
+        return bool(x)
+    return x
+
+
+def _from_json(x):
+    return tuple(_from_json(y) for y in x) if isinstance(x, list) else x
+
+
+def _npy_bytes(a: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
+    return buf.getvalue()
+
+
+def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = None, level: float | None = None,
+                include_mesh: bool = True, embed_volume: bool = False, volume_path: str | None = None,
+                slab: int = 64, spacing=(1.0, 1.0, 1.0), meta: dict | None = None) -> str:
+    """Write a segmentation session to one bundle file (atomically: temporary file, then rename).
+
+    Parameters
+    ----------
+    path : path-like
+        Target file (``.vine.zip`` suggested).
+    seg : Segmentation
+        No stroke may be open.
+    volume : (X, Y, Z) uint8/uint16 ndarray, optional
+        The source scan; its SHA-256 is stored so :func:`load_bundle` can refuse another scan.
+    level : float, optional
+        Iso-value of the mesh (required with ``include_mesh=False``).
+    include_mesh : bool
+        Store the mesh; ``False`` stores only the volume hash, ``level``, ``slab`` and ``spacing`` and the
+        mesh is re-extracted on load (and checked against the stored fingerprint).
+    embed_volume : bool
+        Store the volume itself (deflated) so the bundle is self-contained.
+    volume_path : str, optional
+        Reference to where the volume lives.
+    slab : int
+        Meshing slab, in [2, 65536] (as in :func:`extract_isosurface`).
+    spacing : (3,) float
+        Voxel size used for meshing.
+    meta : dict, optional
+        JSON-serialisable metadata.
+
+    Returns
+    -------
+    str
+        SHA-256 (hex) of the bundle's contents (also its zip comment).
+    """
+    from plantvr.vine.segmentation import Segmentation
+    from plantvr.vine.volume import _check_volume
+    if not isinstance(seg, Segmentation):
+        raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+    if seg._stroke is not None:
+        raise ValueError("a stroke is open; end_stroke() before saving a bundle")
+    if volume is not None:
+        volume = _check_volume("volume", volume)
+    if level is not None:
+        level = check_range("level", level, -np.inf, np.inf, low_open=True, high_open=True)
+    slab = check_int("slab", slab, 2, 65536)
+    sp = check_array("spacing", spacing, shape=(3,))
+    if np.any(sp <= 0):
+        raise ValueError(f"spacing must be positive, got {sp.tolist()}")
+    if not include_mesh and (volume is None or level is None):
+        raise ValueError("include_mesh=False needs the volume and level to rebuild the mesh on load")
+    if embed_volume and volume is None:
+        raise ValueError("embed_volume=True needs volume")
+    try:
+        meta_json = json.loads(json.dumps(meta or {}, sort_keys=True))
+        events = json.loads(json.dumps(_to_json(seg.event_log)))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"meta and the event log must be JSON-serialisable: {exc}") from None
+    arrays = seg._state_arrays(include_mesh=include_mesh)
+    if embed_volume:
+        arrays["volume"] = np.ascontiguousarray(volume)
+    pres = seg.preserve
+    manifest = {
+        "magic": _MAGIC, "format": BUNDLE_FORMAT, "include_mesh": bool(include_mesh),
+        "level": level, "slab": slab, "spacing": sp.tolist(),
+        "volume_sha256": None if volume is None else volume_sha256(volume),
+        "volume_shape": None if volume is None else list(volume.shape),
+        "volume_dtype": None if volume is None else volume.dtype.str,
+        "volume_path": None if volume_path is None else str(volume_path),
+        "volume_embedded": bool(embed_volume),
+        "mesh": [seg.n_vertices, len(seg.faces), seg.mesh_fingerprint()],
+        "preserve": pres if isinstance(pres, bool) else list(pres),
+        "event_log": events, "meta": meta_json,
+        "arrays": sorted(arrays),
+    }
+    members = [("manifest.json", json.dumps(manifest, sort_keys=True, indent=1).encode())]
+    members += [(f"arrays/{k}.npy", _npy_bytes(arrays[k])) for k in sorted(arrays)]
+    digest = _digest(members)
+    p = os.fspath(path)
+    tmp = p + ".tmp"
+    with zipfile.ZipFile(tmp, "w") as z:
+        for name, data in members:
+            info = zipfile.ZipInfo(name, date_time=_STAMP)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            z.writestr(info, data, compresslevel=6)
+        z.comment = f"{_MAGIC} sha256={digest}".encode()
+    os.replace(tmp, p)
+    return digest
+
+
+def _digest(members) -> str:
+    h = hashlib.sha256()
+    for name, data in members:
+        h.update(name.encode() + b"\0" + len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.hexdigest()
+
+
+def _read(path) -> tuple[dict, dict]:
+    p = os.fspath(path)
+    try:
+        with zipfile.ZipFile(p) as z:
+            comment = z.comment.decode("ascii", "replace")
+            names = z.namelist()
+            if "manifest.json" not in names:
+                raise ValueError(f"bundle {p!r} has no manifest.json (not a ViNE bundle)")
+            members = [(n, z.read(n)) for n in ["manifest.json"] + sorted(n for n in names if n != "manifest.json")]
+    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, KeyError, RuntimeError) as exc:
+        raise ValueError(f"could not read bundle {p!r} (truncated or not a zip file): {exc}") from None
+    want = comment.partition("sha256=")[2]
+    if not comment.startswith(_MAGIC) or not want:
+        raise ValueError(f"bundle {p!r} has no PlantVR checksum (not a ViNE bundle)")
+    got = _digest(members)
+    if got != want:
+        raise ValueError(f"bundle {p!r} was modified after saving: content sha256 {got[:12]}… != recorded "
+                         f"{want[:12]}…")
+    try:
+        manifest = json.loads(members[0][1].decode())
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise ValueError(f"bundle {p!r}: manifest.json is not valid JSON: {exc}") from None
+    if not isinstance(manifest, dict) or manifest.get("magic") != _MAGIC:
+        raise ValueError(f"bundle {p!r}: manifest is not a ViNE bundle manifest")
+    if manifest.get("format") != BUNDLE_FORMAT:
+        raise ValueError(f"bundle {p!r}: format must be {BUNDLE_FORMAT}, got {manifest.get('format')!r}")
+    arrays = {}
+    for name, data in members[1:]:
+        if not (name.startswith("arrays/") and name.endswith(".npy")):
+            raise ValueError(f"bundle {p!r}: unexpected member {name!r}")
+        try:
+            arrays[name[7:-4]] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
+        except (ValueError, EOFError) as exc:
+            raise ValueError(f"bundle {p!r}: array {name!r} is unreadable: {exc}") from None
+    if sorted(arrays) != manifest.get("arrays"):
+        raise ValueError(f"bundle {p!r}: arrays {sorted(arrays)} differ from the manifest's list")
+    return manifest, arrays
+
+
+def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, index: str = "grid") -> Bundle:
+    """Open a bundle written by :func:`save_bundle`.
+
+    Parameters
+    ----------
+    path : path-like
+    volume : (X, Y, Z) ndarray, optional
+        The source scan. Required when the bundle holds neither the mesh nor the volume; if the bundle
+        recorded a volume hash, a volume with another hash is refused.
+    index : {"grid", "kdtree"}
+        Brush index of the restored segmentation.
+
+    Returns
+    -------
+    Bundle
+
+    Raises
+    ------
+    ValueError
+        Truncated, tampered or foreign file, wrong volume, or a mesh that does not rebuild identically; the
+        message says which.
+    """
+    from plantvr.vine.segmentation import Segmentation
+    from plantvr.vine.volume import _check_volume
+    p = os.fspath(path)
+    man, arrays = _read(p)
+    want = man.get("volume_sha256")
+    if volume is not None:
+        volume = _check_volume("volume", volume)
+        if want is not None:
+            got = volume_sha256(volume)
+            if got != want:
+                raise ValueError(f"bundle {p!r} was made from a volume with sha256 {want[:16]}…, but the given "
+                                 f"volume hashes to {got[:16]}… (shape {list(volume.shape)}, "
+                                 f"{volume.dtype}); pass the scan the bundle was made from")
+    if "volume" in arrays:
+        emb = arrays.pop("volume")
+        if want is not None and volume_sha256(emb) != want:
+            raise ValueError(f"bundle {p!r}: the embedded volume does not match its recorded sha256")
+        volume = emb if volume is None else volume
+    if not man["include_mesh"]:
+        if volume is None:
+            raise ValueError(f"bundle {p!r} holds no mesh and no volume; pass volume= (the scan with sha256 "
+                             f"{str(want)[:16]}…) to rebuild the mesh")
+        from plantvr.vine.isosurface import extract_isosurface
+        s = extract_isosurface(volume, man["level"], slab=int(man["slab"]), spacing=tuple(man["spacing"]))
+        base = Segmentation(s.vertices, s.faces, normals=s.normals)
+        if [base.n_vertices, len(base.faces), base.mesh_fingerprint()] != man["mesh"]:
+            raise ValueError(f"bundle {p!r}: the mesh rebuilt from the volume differs from the saved one "
+                             f"(vertices, faces, fingerprint) {man['mesh']}")
+        d = Segmentation._check_state(arrays, p, base)
+    else:
+        d = Segmentation._check_state(arrays, p)
+    seg = Segmentation._from_state(d, index=index)
+    if [seg.n_vertices, len(seg.faces), seg.mesh_fingerprint()] != man["mesh"]:
+        raise ValueError(f"bundle {p!r}: mesh does not match the manifest's fingerprint")
+    pres = man.get("preserve", False)
+    seg.preserve = seg.check_preserve(pres if isinstance(pres, bool) else tuple(pres))
+    events = man.get("event_log", [])
+    if not isinstance(events, list):
+        raise ValueError(f"bundle {p!r}: event_log must be a list")  # noqa: TRY004
+    seg.event_log = [_from_json(e) for e in events]
+    return Bundle(seg, level=man.get("level"), volume=volume, volume_sha256=want,
+                  volume_path=man.get("volume_path"), spacing=tuple(man.get("spacing", (1.0, 1.0, 1.0))),
+                  meta=man.get("meta", {}))
+
+
+def restore_bundle(seg, path: str | os.PathLike, *, volume: np.ndarray | None = None) -> Bundle:
+    """Replace ``seg``'s state with a bundle's (observers stay and get one ``"all"`` notice).
+
+    On any error ``seg`` is left unchanged.
+    """
+    from plantvr.vine.segmentation import Segmentation
+    if not isinstance(seg, Segmentation):
+        raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+    b = load_bundle(path, volume=volume, index=seg.index_kind)
+    pres = b.segmentation.preserve
+    seg._adopt(b.segmentation, event_log=True)
+    seg.preserve = pres
+    b.segmentation = seg
+    return b

@@ -1,0 +1,219 @@
+"""Per-label meshes, statistics table and area chart (spec 000_vine §6 "named labels and per-label mesh
+export", §2.7 export; issue 15).
+
+A label's mesh is the faces whose three vertices carry that label, with its vertices renumbered compactly.
+The table has one row per label present: vertex count, face count, surface area (of the label's mesh),
+bounding box of its vertices and the number of mesh-connected components (over edges whose two ends carry
+the label, the parts :meth:`Segmentation.split_label` would make).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from plantvr._validation import check_choice, check_int
+
+__all__ = ["export_label_meshes", "label_mesh", "label_table", "plot_label_areas"]
+
+_FORMATS = ("ply", "obj", "glb")
+
+
+def _check_mesh(vertices, faces, labels):
+    v = np.asarray(vertices)
+    f = np.asarray(faces)
+    lab = np.asarray(labels)
+    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
+        raise ValueError(f"vertices must have shape (V, 3) with V >= 1, got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
+        raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
+    if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
+        raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
+    if lab.shape != (len(v),) or lab.dtype != np.uint8:
+        raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {lab.dtype} {lab.shape}")
+    return v, f, lab
+
+
+def face_labels(faces: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """(F,) int16: the label of each face whose three vertices agree, else -1."""
+    la, lb, lc = labels[faces[:, 0]], labels[faces[:, 1]], labels[faces[:, 2]]
+    return np.where((la == lb) & (lb == lc), la.astype(np.int16), np.int16(-1))
+
+
+def label_mesh(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, label: int):
+    """The sub-mesh of one label: faces whose three vertices carry ``label``, vertices renumbered.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float ndarray
+    faces : (F, 3) integer ndarray
+    labels : (V,) uint8 ndarray
+    label : int
+        In [0, 255].
+
+    Returns
+    -------
+    vertices : (V', 3) ndarray
+        The used vertices, in their original order.
+    faces : (F', 3) int64 ndarray
+        Renumbered into ``vertices``.
+    ids : (V',) int64 ndarray
+        Original vertex ids (``vertices == original[ids]``).
+    """
+    v, f, lab = _check_mesh(vertices, faces, labels)
+    label = check_int("label", label, 0, 255)
+    sub = f[face_labels(f, lab) == label].astype(np.int64)
+    ids = np.unique(sub)
+    remap = np.full(len(v), -1, np.int64)
+    remap[ids] = np.arange(ids.size)
+    return v[ids], remap[sub], ids
+
+
+def _face_areas(v, f) -> np.ndarray:
+    a, b, c = (v[f[:, k]].astype(np.float64) for k in range(3))
+    return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+
+
+def label_table(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *, colors=None,
+                names: dict | None = None, graph=None):
+    """Per-label statistics as a pandas DataFrame, one row per label present, sorted by label.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float ndarray
+    faces : (F, 3) integer ndarray
+    labels : (V,) uint8 ndarray
+    colors : ColorTable, optional
+        Adds ``r, g, b`` columns (for charts).
+    names : dict of int to str, optional
+        Adds a ``name`` column.
+    graph : MeshGraph, optional
+        The mesh's vertex adjacency, if already built.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``label, vertices, faces, area, xmin, ymin, zmin, xmax, ymax, zmax, components``
+        (+ ``name``, ``r, g, b``). ``area`` (model units²) and ``faces`` count the label's mesh
+        (:func:`label_mesh`); the bounding box spans all the label's vertices.
+    """
+    import pandas as pd
+
+    from plantvr.vine.fill import _components_numba, mesh_graph
+    v, f, lab = _check_mesh(vertices, faces, labels)
+    g = mesh_graph(v, f) if graph is None else graph
+    counts = np.bincount(lab, minlength=256)
+    present = np.flatnonzero(counts)
+    fl = face_labels(f, lab)
+    sel = fl >= 0
+    area = np.bincount(fl[sel], weights=_face_areas(v, f[sel]), minlength=256)
+    nface = np.bincount(fl[sel], minlength=256)
+    order = np.argsort(lab, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)])[present]
+    vs = v[order]
+    lo = np.minimum.reduceat(vs, starts, axis=0)
+    hi = np.maximum.reduceat(vs, starts, axis=0)
+    comp, n = _components_numba(g.indptr, g.indices, lab, -1)
+    first = np.full(n, len(v), np.int64)
+    np.minimum.at(first, comp, np.arange(len(v)))
+    ncomp = np.bincount(lab[first], minlength=256)
+    df = pd.DataFrame({
+        "label": present.astype(np.int64), "vertices": counts[present], "faces": nface[present],
+        "area": area[present],
+        "xmin": lo[:, 0], "ymin": lo[:, 1], "zmin": lo[:, 2], "xmax": hi[:, 0], "ymax": hi[:, 1],
+        "zmax": hi[:, 2], "components": ncomp[present]})
+    if names is not None:
+        df.insert(1, "name", [str(names.get(int(k), "")) for k in present])
+    if colors is not None:
+        rgba = colors.rgba[present]
+        df["r"], df["g"], df["b"] = rgba[:, 0], rgba[:, 1], rgba[:, 2]
+    return df
+
+
+def plot_label_areas(table, *, ax=None, skip_zero: bool = True):
+    """Bar chart of label surface areas, bars in the label colours (needs ``r, g, b`` columns for colour).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        From :func:`label_table`.
+    ax : matplotlib Axes, optional
+    skip_zero : bool
+        Leave out label 0 (unpainted).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+    if ax is None:
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(6, 3.2), dpi=100)
+    else:
+        fig = ax.figure
+    t = table[table["label"] != 0] if skip_zero else table
+    if {"r", "g", "b"} <= set(t.columns):
+        col = np.stack([t["r"], t["g"], t["b"]], axis=1) / 255.0
+    else:
+        col = None
+    names = [f"{k}" + (f" {n}" if "name" in t.columns and n else "")
+             for k, n in zip(t["label"], t["name"] if "name" in t.columns else [""] * len(t))]
+    ax.bar(np.arange(len(t)), t["area"], color=col, edgecolor="black", linewidth=0.6)
+    ax.set_xticks(np.arange(len(t)), names, rotation=45 if len(t) > 8 else 0, ha="right" if len(t) > 8 else "center")
+    ax.set_xlabel("label")
+    ax.set_ylabel("surface area (model units²)")
+    ax.set_title("Surface area per label")
+    fig.tight_layout()
+    return fig
+
+
+def export_label_meshes(directory: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray,
+                        labels: np.ndarray, *, fmt: str = "ply", colors=None, which=None,
+                        prefix: str = "label") -> dict[int, str]:
+    """Write one mesh file per label (faces whose three vertices carry it).
+
+    Parameters
+    ----------
+    directory : path
+        Existing directory.
+    vertices, faces, labels : ndarray
+        The mesh and its (V,) uint8 labels.
+    fmt : {"ply", "obj", "glb"}
+        PLY through :func:`plantvr.vine.ply.write_ply` (with colours and labels), OBJ and glTF binary through
+        trimesh (``process=False``, vertex order kept).
+    colors : ColorTable, optional
+        Vertex colours for PLY/glb.
+    which : iterable of int, optional
+        Labels to write; default every label with at least one face.
+    prefix : str
+        File name prefix: ``{prefix}_{label:03d}.{fmt}``.
+
+    Returns
+    -------
+    dict of int to str
+        Label to written path.
+    """
+    import trimesh
+
+    from plantvr.vine.ply import write_ply
+    v, f, lab = _check_mesh(vertices, faces, labels)
+    fmt = check_choice("fmt", fmt, _FORMATS)
+    d = os.fspath(directory)
+    if not os.path.isdir(d):
+        raise ValueError(f"directory must be an existing directory, got {d!r}")
+    fl = face_labels(f, lab)
+    have = np.flatnonzero(np.bincount(fl[fl >= 0], minlength=256))
+    todo = have if which is None else sorted({check_int("which", k, 0, 255) for k in which})
+    out = {}
+    for k in todo:
+        sv, sf, ids = label_mesh(v, f, lab, int(k))
+        path = os.path.join(d, f"{prefix}_{int(k):03d}.{fmt}")
+        rgba = None if colors is None else np.repeat(colors.rgba[int(k)][None], len(sv), axis=0)
+        if fmt == "ply":
+            write_ply(path, sv, sf, colors=rgba, labels=lab[ids])
+        else:
+            m = trimesh.Trimesh(sv, sf, vertex_colors=rgba, process=False)
+            m.export(path)
+        out[int(k)] = path
+    return out

@@ -1,0 +1,210 @@
+"""Orthogonal slices of the raw volume against the labelled surface (spec 000_vine §1.5 step 3 "2D slice
+preview with the contour", §6; issue 15).
+
+:func:`plane_segments` cuts the mesh with an axis-aligned plane and returns the cut as line segments whose
+two halves carry the labels of the nearer mesh vertices, so the label colours can be drawn over the scan.
+:func:`slice_figure` draws a volume slice (matplotlib), the isosurface contour at the iso-level
+(``skimage.measure.find_contours``, the oracle for the cut: marching cubes and marching squares interpolate
+the same grid edges) and the coloured cut.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_range
+
+__all__ = ["plane_segments", "slice_contours", "slice_figure"]
+
+_AXES = "xyz"
+
+
+def _check_axis(axis) -> int:
+    if isinstance(axis, str):
+        if axis not in _AXES:
+            raise ValueError(f"axis must be 0, 1, 2 or one of 'x', 'y', 'z', got {axis!r}")
+        return _AXES.index(axis)
+    return check_int("axis", axis, 0, 2)
+
+
+def plane_segments(vertices: np.ndarray, faces: np.ndarray, axis: int | str, position: float, *,
+                   labels: np.ndarray | None = None):
+    """Intersect a triangle mesh with the plane ``x[axis] == position``.
+
+    Each face with vertices on both sides gives one segment between the points where two of its edges
+    cross the plane (a vertex exactly on the plane counts as below, so no face is cut twice and an edge
+    lying in the plane is reported once, by the face above it; faces touching the plane at a single vertex
+    give no segment).
+
+    Parameters
+    ----------
+    vertices : (V, 3) float ndarray
+    faces : (F, 3) integer ndarray
+    axis : {0, 1, 2, "x", "y", "z"}
+        Plane normal.
+    position : float
+        Plane offset along ``axis`` (model units).
+    labels : (V,) uint8 ndarray, optional
+        Per-vertex labels; each segment end takes the label of the nearer end of its crossing edge.
+
+    Returns
+    -------
+    segments : (S, 2, 3) float64 ndarray
+        Segment end points (their ``axis`` coordinate equals ``position``).
+    end_labels : (S, 2) uint8 ndarray
+        Only when ``labels`` is given.
+    """
+    v = check_array("vertices", vertices, shape=(None, 3), min_rows=1)
+    f = np.asarray(faces)
+    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
+        raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
+    if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
+        raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
+    ax = _check_axis(axis)
+    pos = check_range("position", position, -np.inf, np.inf, low_open=True, high_open=True)
+    if labels is not None:
+        labels = np.asarray(labels)
+        if labels.shape != (len(v),) or labels.dtype != np.uint8:
+            raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {labels.dtype} {labels.shape}")
+    d = v[:, ax] - pos
+    up = d > 0
+    f = f.astype(np.int64, copy=False)
+    fu = up[f]
+    n_up = fu.sum(axis=1)
+    cut = (n_up == 1) | (n_up == 2)
+    fc, fuc = f[cut], fu[cut]
+    # the lone vertex (the one on the minority side) is first; its two edges cross the plane
+    lone_is_up = (fuc.sum(axis=1) == 1)
+    lone = np.where(lone_is_up, np.argmax(fuc, axis=1), np.argmin(fuc, axis=1))
+    r = np.arange(len(fc))
+    a = fc[r, lone]
+    b = fc[r, (lone + 1) % 3]
+    c = fc[r, (lone + 2) % 3]
+
+    def cross(p, q):
+        t = d[p] / (d[p] - d[q])
+        pts = v[p] + t[:, None] * (v[q] - v[p])
+        pts[:, ax] = pos
+        return pts, t
+
+    p0, t0 = cross(a, b)
+    p1, t1 = cross(a, c)
+    segs = np.stack([p0, p1], axis=1)
+    keep = np.any(p0 != p1, axis=1)            # a face touching the plane at one vertex gives a point
+    if not keep.all():
+        segs, a, b, c, t0, t1 = segs[keep], a[keep], b[keep], c[keep], t0[keep], t1[keep]
+    if labels is None:
+        return segs
+    l0 = np.where(t0 <= 0.5, labels[a], labels[b])
+    l1 = np.where(t1 <= 0.5, labels[a], labels[c])
+    return segs, np.stack([l0, l1], axis=1).astype(np.uint8)
+
+
+def slice_contours(volume: np.ndarray, level: float, axis: int | str, index: int, *,
+                   spacing=(1.0, 1.0, 1.0)) -> list[np.ndarray]:
+    """Isocontours of one volume slice (``skimage.measure.find_contours``) in model coordinates.
+
+    Returns a list of (N, 3) float64 polylines lying in the plane ``x[axis] == index * spacing[axis]``.
+    """
+    from skimage.measure import find_contours
+    vol = np.asarray(volume)
+    if vol.ndim != 3:
+        raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
+    ax = _check_axis(axis)
+    index = check_int("index", index, 0, vol.shape[ax] - 1)
+    sp = check_array("spacing", spacing, shape=(3,))
+    level = check_range("level", level, -np.inf, np.inf, low_open=True, high_open=True)
+    img = np.take(vol, index, axis=ax).astype(np.float32)
+    other = [k for k in range(3) if k != ax]
+    out = []
+    for c in find_contours(img, level):
+        p = np.empty((len(c), 3))
+        p[:, ax] = index * sp[ax]
+        p[:, other[0]] = c[:, 0] * sp[other[0]]
+        p[:, other[1]] = c[:, 1] * sp[other[1]]
+        out.append(p)
+    return out
+
+
+def slice_figure(volume: np.ndarray, axis: int | str, index: int, *, level: float | None = None,
+                 vertices=None, faces=None, labels=None, colors=None, spacing=(1.0, 1.0, 1.0), ax=None,
+                 linewidth: float = 2.0, title: str | None = None):
+    """Draw one orthogonal volume slice with the iso-contour and the labelled surface cut (matplotlib).
+
+    Parameters
+    ----------
+    volume : (X, Y, Z) ndarray
+        The raw scan.
+    axis : {0, 1, 2, "x", "y", "z"}
+    index : int
+        Slice index along ``axis``, in [0, shape[axis] - 1].
+    level : float, optional
+        Iso-value; draws the contour as a thin dashed white line.
+    vertices, faces, labels : ndarray, optional
+        The labelled surface (model units = voxel index × ``spacing``); its cut is drawn in label colours.
+    colors : ColorTable, optional
+        Colours for ``labels`` (default palette).
+    spacing : (3,) float
+        Voxel size.
+    ax : matplotlib Axes, optional
+    linewidth : float
+        Width of the coloured cut, in points, in (0, 20].
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Image axes: horizontal = the first remaining axis... shown as rows/columns of the slice with
+        ``origin="lower"`` so the first remaining axis runs up.
+    """
+    import matplotlib
+    from matplotlib.collections import LineCollection
+
+    from plantvr.vine.colors import ColorTable
+    vol = np.asarray(volume)
+    if vol.ndim != 3:
+        raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
+    a = _check_axis(axis)
+    index = check_int("index", index, 0, vol.shape[a] - 1)
+    sp = check_array("spacing", spacing, shape=(3,))
+    linewidth = check_range("linewidth", linewidth, 0.0, 20.0, low_open=True)
+    if (vertices is None) != (faces is None):
+        raise ValueError("vertices and faces must be given together")
+    colors = ColorTable() if colors is None else colors
+    other = [k for k in range(3) if k != a]
+    segs = None
+    if vertices is not None:
+        res = plane_segments(vertices, faces, a, index * sp[a], labels=labels)
+        segs, seg_lab = res if labels is not None else (res, None)
+    contours = [] if level is None else slice_contours(vol, level, a, index, spacing=sp)
+    if ax is None:
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(5, 5), dpi=100)
+    else:
+        fig = ax.figure
+    img = np.take(vol, index, axis=a)
+    # row = first remaining axis, column = second: extent in model units
+    ext = (-0.5 * sp[other[1]], (img.shape[1] - 0.5) * sp[other[1]],
+           -0.5 * sp[other[0]], (img.shape[0] - 0.5) * sp[other[0]])
+    ax.imshow(img, cmap="gray", origin="lower", extent=ext, interpolation="nearest")
+    if segs is not None and len(segs):
+        p0, p1 = segs[:, 0][:, other[::-1]], segs[:, 1][:, other[::-1]]
+        mid = 0.5 * (p0 + p1)
+        if seg_lab is None:
+            lines = np.stack([p0, p1], axis=1)
+            lc = LineCollection(lines, colors="magenta", linewidths=linewidth)
+        else:
+            lines = np.concatenate([np.stack([p0, mid], axis=1), np.stack([mid, p1], axis=1)])
+            lab = np.concatenate([seg_lab[:, 0], seg_lab[:, 1]])
+            lc = LineCollection(lines, colors=colors.rgba[lab] / 255.0, linewidths=linewidth)
+        ax.add_collection(lc)
+    for c in contours:
+        q = c[:, other[::-1]]
+        ax.plot(q[:, 0], q[:, 1], color="white", lw=0.7, ls=(0, (3, 2)))
+    ax.set_xlim(ext[0], ext[1])
+    ax.set_ylim(ext[2], ext[3])
+    ax.set_xlabel(f"{_AXES[other[1]]}")
+    ax.set_ylabel(f"{_AXES[other[0]]}")
+    ax.set_title(title if title is not None else f"{_AXES[a]} = {index}")
+    fig.tight_layout()
+    return fig
