@@ -1,4 +1,5 @@
-"""Branch bending with stiffness w = r^4 / l and rigid transport of subtrees (spec 004_treesketch §2.9, Eq. A.3).
+"""Branch editing: bending with stiffness w = r^4 / l (spec 004_treesketch §2.9, Eq. A.3) and pipe-model widths
+with width constraints (§2.10, Eqs. 5.1–5.3).
 
 The path B..E is a chain of internodes; each joint (the node at the proximal end of an internode) carries a
 rotation phi_j of everything distal to it relative to its supporting internode. A drag of the end node E to a
@@ -16,16 +17,21 @@ This replaces PriMo's prism shape matching (Eqs. A.1–A.2), whose local Gauss-S
 (spec §2.9 [PROTOTYPE-MEASURED]); it keeps the properties the spec tests (V14): rest state at zero
 displacement, circular editing, thicker internodes bend less, side branches transported rigidly. Stretching,
 which PriMo allows, is not modelled: a target beyond the path's reach raises ``ValueError``.
+
+:func:`pipe_widths` computes branch diameters by the pipe model d^n = sum d_i^n (Eq. 5.1) with any number of
+width constraints: they partition the tree into subtrees, and the exponent n of each is found by a safeguarded
+Newton solve (ERRATUM E2: the exact equal-tip solution is n = log(M+1) / (log d_b - log d_e)).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from .._validation import check_array, check_int, check_point, check_range
 
-__all__ = ["BendResult", "bend_path", "rotation_matrix", "stiffness"]
+__all__ = ["BendResult", "WidthResult", "bend_path", "pipe_widths", "rotation_matrix", "solve_exponent", "stiffness"]
 
 
 @dataclass(frozen=True)
@@ -198,3 +204,229 @@ def bend_path(pos: np.ndarray, parent: np.ndarray, radius: np.ndarray, path, tar
     out[path] = P  # the same values, without round-off from the subtree map
     phi = np.array([_log(R[k]) for k in range(m)])
     return BendResult(out, rot, phi, float(np.linalg.norm(res)), it)
+
+
+# -- pipe-model widths (§2.10) ------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class WidthResult:
+    """Diameters of a tree under the pipe model with width constraints.
+
+    diameter : (n,) float64, diameter of the internode ending at each node (dead nodes 0);
+    exponent : dict {constraint node: n of its subtree} (``-1`` key: the unconstrained part at the root);
+    infeasible : tuple of constraint nodes whose diameter is not larger than all their extremities'
+    (their n is clamped to the upper bound).
+    """
+
+    diameter: np.ndarray
+    exponent: dict
+    infeasible: tuple
+
+
+def solve_exponent(d_c: float, d_k: np.ndarray, *, bounds: tuple[float, float] = (0.5, 10.0),
+                   tol: float = 1e-13, max_iter: int = 100) -> tuple[float, bool]:
+    """Solve sum_k d_k^n = d_c^n for n (Eq. 5.2) by Newton-Raphson, safeguarded by bisection.
+
+    Works on g(n) = log sum_k d_k^n - n log d_c, which is convex, positive at n = 0 (log m) and decreasing when
+    d_c > max d_k; the start is n0 = log m / (log d_c - mean log d_k) (Eq. 5.3, exact for equal extremities).
+
+    Parameters
+    ----------
+    d_c : float
+        Constrained diameter at the subtree's root (> 0).
+    d_k : (m,) float64 array
+        Diameters of the subtree's extremities (tips and lower constraints), m >= 2, all > 0.
+    bounds : (float, float)
+        Bracket [n_lo, n_hi] for the root.
+
+    Returns
+    -------
+    (n, feasible) : (float, bool)
+        ``feasible`` is False when d_c <= max d_k (no root above n_lo) and n is clamped to n_hi.
+
+    References
+    ----------
+    .. [1] Longay thesis §5.3.2, Eqs. 5.1–5.3; spec 004 §2.10, ERRATUM E2 (log(M+1)).
+    """
+    d_c = check_range("d_c", d_c, 0.0, np.inf, low_open=True)
+    d_k = np.asarray(d_k, float)
+    if d_k.ndim != 1 or len(d_k) < 2 or not np.all(np.isfinite(d_k) & (d_k > 0)):
+        raise ValueError(f"d_k must be a 1-D array of at least 2 positive diameters, got {d_k!r}")
+    lo, hi = float(bounds[0]), float(bounds[1])
+    lk, lc = np.log(d_k), np.log(d_c)
+    m = len(d_k)
+
+    def g(n):
+        a = n * lk
+        mx = a.max()
+        w = np.exp(a - mx)
+        s = w.sum()
+        return mx + np.log(s) - n * lc, float(w @ lk / s) - lc
+
+    if d_c <= d_k.max() or g(hi)[0] > 0:
+        return hi, False
+    if g(lo)[0] < 0:
+        return lo, False
+    denom = lc - lk.mean()
+    n = min(max(np.log(m) / denom, lo), hi)
+    for _ in range(max_iter):
+        f, df = g(n)
+        if f > 0:
+            lo = n
+        else:
+            hi = n
+        if abs(f) < tol:
+            break
+        nn = n - f / df if df < 0 else 0.5 * (lo + hi)
+        if not (lo < nn < hi):
+            nn = 0.5 * (lo + hi)
+        if abs(nn - n) < 1e-15 * max(1.0, n):
+            n = nn
+            break
+        n = nn
+    return float(n), True
+
+
+@numba.njit(cache=True, nogil=True)
+def _pipe_fold(parent, alive, fixed, fixed_d, node_n, tip_d, out):
+    """Backward fold (children have larger indices): d = (sum of children d^n)^(1/n), fixed where constrained."""
+    n_all = parent.shape[0]
+    acc = np.zeros(n_all)
+    has = np.zeros(n_all, np.bool_)
+    for i in range(n_all - 1, -1, -1):
+        if not alive[i]:
+            out[i] = 0.0
+            continue
+        if fixed[i]:
+            d = fixed_d[i]
+        elif has[i]:
+            d = acc[i] ** (1.0 / node_n[i])
+        else:
+            d = tip_d
+        out[i] = d
+        p = parent[i]
+        if p >= 0 and alive[p]:
+            acc[p] += d ** node_n[p]
+            has[p] = True
+
+
+def _pipe_fold_numpy(parent, alive, fixed, fixed_d, node_n, tip_d):
+    """Readable twin of :func:`_pipe_fold`: the same fold, level by level from the deepest nodes."""
+    n_all = len(parent)
+    depth = np.zeros(n_all, np.int64)
+    for i in range(n_all):
+        if parent[i] >= 0:
+            depth[i] = depth[parent[i]] + 1
+    out = np.zeros(n_all)
+    acc = np.zeros(n_all)
+    has = np.zeros(n_all, bool)
+    for lev in range(depth.max(initial=0), -1, -1):
+        idx = np.flatnonzero((depth == lev) & alive)
+        d = np.where(fixed[idx], fixed_d[idx], np.where(has[idx], acc[idx] ** (1.0 / node_n[idx]), tip_d))
+        out[idx] = d
+        p = parent[idx]
+        ok = (p >= 0)
+        ok[ok] &= alive[p[ok]]
+        np.add.at(acc, p[ok], d[ok] ** node_n[p[ok]])
+        has[p[ok]] = True
+    return out
+
+
+def pipe_widths(parent: np.ndarray, alive: np.ndarray, *, tip_diameter: float, exponent: float = 2.5,
+                constraints: dict[int, float] | None = None, bounds: tuple[float, float] = (0.5, 10.0)
+                ) -> WidthResult:
+    """Pipe-model diameters (Eq. 5.1) with width constraints solved per subtree (spec 004 §2.10).
+
+    Every constrained node c (the internode ending at c has diameter d_c) roots a subtree that reaches down to
+    the tips (diameter ``tip_diameter`` = d_e) and to the next constraints below it. Its exponent n solves
+    sum_k d_k^n = d_c^n over the subtree's extremities (Eq. 5.2, :func:`solve_exponent`); a subtree with a single
+    extremity is an unbranched path, whose diameter is interpolated linearly along it (the pipe model allows no
+    taper there, spec [INFERRED]). The part above every constraint uses ``exponent``. Inner diameters follow
+    bottom-up from d = (sum_children d^n)^(1/n).
+
+    Parameters
+    ----------
+    parent : (n,) int64 array
+        Parent of each node (-1 at the root); parent index < child index.
+    alive : (n,) bool array
+        Live nodes.
+    tip_diameter : float
+        d_e, the diameter of every tip internode (> 0).
+    exponent : float
+        n of the unconstrained part (Eq. 5.1; "usually between 2 and 3").
+    constraints : dict {node: diameter}, optional
+        Width constraints on live nodes >= 1 (d_b at node 1 fixes the trunk base).
+    bounds : (float, float)
+        Bracket for the Newton solves.
+
+    Returns
+    -------
+    WidthResult
+
+    References
+    ----------
+    .. [1] Longay thesis §5.3.2, Eqs. 5.1–5.3, Figs. 5.19–5.20; spec 004 §2.10, ERRATUM E2.
+    """
+    parent = np.asarray(parent)
+    n_all = len(parent)
+    if parent.ndim != 1 or not np.issubdtype(parent.dtype, np.integer) or \
+            np.any(parent >= np.arange(n_all)) or np.any(parent < -1):
+        raise ValueError("parent must be an (n,) int array with -1 <= parent[i] < i")
+    parent = parent.astype(np.int64)
+    alive = np.asarray(alive, bool)
+    if alive.shape != (n_all,):
+        raise ValueError(f"alive must have shape ({n_all},), got {alive.shape}")
+    tip_d = check_range("tip_diameter", tip_diameter, 0.0, np.inf, low_open=True)
+    exponent = check_range("exponent", exponent, 0.1, 100.0)
+    cons = {}
+    for k, v in (constraints or {}).items():
+        k = check_int("constraint node", k, 1, n_all - 1)
+        if not alive[k]:
+            raise ValueError(f"constraint node {k} is not alive")
+        cons[k] = check_range(f"constraint diameter at node {k}", v, 0.0, np.inf, low_open=True)
+    fixed = np.zeros(n_all, bool)
+    fixed_d = np.zeros(n_all)
+    for k, v in cons.items():
+        fixed[k], fixed_d[k] = True, v
+    # segment of each node: its nearest constrained ancestor-or-self (-1: none)
+    seg = np.full(n_all, -1, np.int64)
+    for i in range(n_all):
+        seg[i] = i if fixed[i] else (seg[parent[i]] if parent[i] >= 0 else -1)
+    nchild = np.bincount(parent[alive & (parent >= 0)], minlength=n_all)
+    tips = np.flatnonzero(alive & (nchild == 0) & ~fixed)
+    ext_nodes: dict[int, list[int]] = {c: [] for c in cons}
+    for t in tips:
+        if seg[t] >= 0:
+            ext_nodes[seg[t]].append(int(t))
+    for c in cons:
+        p = parent[c]
+        if p >= 0 and seg[p] >= 0:
+            ext_nodes[seg[p]].append(c)
+    node_n = np.full(n_all, exponent)
+    exps: dict[int, float] = {-1: exponent}
+    bad = []
+    for c, ext in ext_nodes.items():
+        if not ext:
+            exps[c] = exponent
+            continue
+        dk = np.array([fixed_d[e] if fixed[e] else tip_d for e in ext])
+        if len(ext) == 1:  # unbranched path c .. e: linear interpolation
+            path = [ext[0]]
+            while path[-1] != c:
+                path.append(int(parent[path[-1]]))
+            path = path[::-1]
+            m = len(path) - 1
+            for j, node in enumerate(path[1:-1], 1):
+                fixed[node], fixed_d[node] = True, cons[c] + (dk[0] - cons[c]) * j / m
+            if not fixed[ext[0]]:
+                fixed[ext[0]], fixed_d[ext[0]] = True, dk[0]
+            exps[c] = exponent
+            continue
+        nc, ok = solve_exponent(cons[c], dk, bounds=bounds)
+        exps[c] = nc
+        if not ok:
+            bad.append(c)
+    for c in cons:
+        node_n[seg == c] = exps[c]
+    out = np.zeros(n_all)
+    _pipe_fold(parent, alive, fixed, fixed_d, node_n, tip_d, out)
+    return WidthResult(out, exps, tuple(bad))

@@ -14,7 +14,14 @@ what the TreeSketch model changes:
   by -delta about **H** x (lateral direction), i.e. away from the lateral bud;
 * marker policy: ``"directed"`` keeps user points until consumed (no ageing), ``"autonomous"`` generates
   k_i = 1 + floor(K v_i / v_max) points in each bud's perception sector before a step and clears all points
-  after it (§1.4.1).
+  after it (§1.4.1);
+* gravimorphism, Eqs. 4.6–4.7: the control ellipse (s_v, s_p, e_v) gives each lateral bud a factor b, written to
+  the engine's per-node ``tree.light_factor`` so that the signal is Q = b L^kappa (§1.4.6);
+* the shedding threshold Th (§1.4.8 [INFERRED] normalised form) in place of Tree Wand's shedding, with
+  constrained branches and the selected branch protected;
+* sketch-based tropism (§2.7): **T** = the mean stroke direction of a bud's selecting points;
+* selective growth (§2.8, V11): only buds in the subtree of the selected node grow, every node still occupies;
+* pipe-model widths with width constraints (§2.10) and pruning at the nearest branching point (§2.11).
 
 Randomness is drawn from generators seeded by (seed, iteration, purpose), so a replay from the same seed
 and the same commands is bit-identical.
@@ -22,18 +29,22 @@ and the same commands is bit-identical.
 from __future__ import annotations
 
 import math
+import time
 from typing import Any
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_range
+from .._validation import check_choice, check_int, check_point, check_points, check_range
+from .bending import pipe_widths
+from .colonize import assign_treewand
 from .directions import _rotate, bud_headings, normalize, transport_lateral
-from .engine import GrowthEngine, _Buds
+from .engine import GrowthEngine, StepStats, _Buds
 from .tree import BUD
 
 __all__ = [
     "SketchEngine",
     "autonomous_points",
+    "branch_point",
     "barycentric",
     "deflect_heading",
     "ellipse_distance",
@@ -205,14 +216,41 @@ def gravimorphism(parent_heading: np.ndarray, bud_dir: np.ndarray, *, s_v: float
     return cos_t ** 2 + d * (1.0 - cos_t ** 2)
 
 
+def branch_point(parent: np.ndarray, alive: np.ndarray, node: int, *, protected=()) -> int:
+    """Where a prune of ``node`` cuts: the first node at or above ``node`` whose parent has another live child
+    (the branch's start at its nearest proximal branching point, spec 004 §2.11 [INFERRED: proximal]).
+
+    A node in ``protected`` (width constraints) on the way up stops the walk just above it, so a prune above a
+    constraint leaves a stub (§5.3.3). Returns -1 when nothing may be cut (``node`` itself protected, the
+    base point or the first internode). ``parent`` (n,) int, ``alive`` (n,) bool.
+    """
+    parent = np.asarray(parent)
+    node = check_int("node", node, 0, len(parent) - 1)
+    if not alive[node]:
+        raise ValueError(f"node {node} is not alive")
+    protected = set(int(k) for k in protected)
+    if node <= 1 or node in protected:
+        return -1
+    live_children = np.bincount(parent[np.asarray(alive, bool) & (parent >= 0)], minlength=len(parent))
+    c = node
+    while True:
+        p = int(parent[c])
+        if p in protected or live_children[p] >= 2:
+            return c
+        if p <= 1:  # reached the first internode without a branching point: cut at the tapped node
+            return node
+        c = p
+
+
 class SketchEngine(GrowthEngine):
-    """:class:`GrowthEngine` with the TreeSketch variants (spec 004 §1.4–1.5) as options.
+    """:class:`GrowthEngine` with the TreeSketch variants (spec 004 §1.4–1.5, §2.7–2.11) as options.
 
     Parameters
     ----------
     params : dict
         The engine's parameter dict (``plantvr.params.defaults()``); ``tropism_angle`` (degrees) is the
-        set-point theta, ``w_heading``/``w_tropism``/``w_env`` the barycentric (alpha, beta, gamma).
+        set-point theta, ``w_heading``/``w_tropism``/``w_env`` the barycentric (alpha, beta, gamma),
+        ``light_exponent`` kappa (ERRATUM E6: one parameter for Eqs. 4.2 and 4.7).
     rng : int or Generator or None
         Seed; every random draw is derived from (seed, iteration, purpose).
     n_max : int
@@ -225,14 +263,25 @@ class SketchEngine(GrowthEngine):
         Marker policy (§1.4.1).
     point_density : int
         K of autonomous growth.
+    ellipse : (s_v, s_p, e_v)
+        Gravimorphism control ellipse (Eq. 4.6); (1, 1, 0) is neutral (b = 1).
+    shed_threshold : float
+        Th >= 0 of the normalised shedding rule (0: never shed), replacing Tree Wand's shedding.
+    stroke_tropism : bool
+        Sketch-based tropism: **T** follows the stroke direction of a bud's selecting points (§2.7).
     """
 
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None, n_max: int = 3,
-                 trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4):
+                 trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4,
+                 ellipse: tuple[float, float, float] = (1.0, 1.0, 0.0), shed_threshold: float = 0.0,
+                 stroke_tropism: bool = False):
         opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
-                    "deflection": check_range("deflection", deflection, 0.0, 90.0),
-                    "mode": check_choice("mode", mode, ("directed", "autonomous")),
-                    "point_density": check_int("point_density", point_density, 0, 1000)}
+                "deflection": check_range("deflection", deflection, 0.0, 90.0),
+                "mode": check_choice("mode", mode, ("directed", "autonomous")),
+                "point_density": check_int("point_density", point_density, 0, 1000),
+                "ellipse": self._check_ellipse(ellipse),
+                "shed_threshold": check_range("shed_threshold", shed_threshold, 0.0, np.inf),
+                "stroke_tropism": bool(stroke_tropism)}
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
         check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
         if isinstance(rng, (int, np.integer)):
@@ -241,44 +290,256 @@ class SketchEngine(GrowthEngine):
             seed = int(np.random.default_rng(rng).integers(2 ** 62))
         self.sketch = opts
         self.seed = seed
+        self.selected: int | None = None
+        self.width_constraints: dict[int, float] = {}
+        self.width_info = None
+        self._stroke_dirs: dict[bytes, np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
+
+    @staticmethod
+    def _check_ellipse(ellipse) -> tuple[float, float, float]:
+        if len(ellipse) != 3:
+            raise ValueError(f"ellipse must be (s_v, s_p, e_v), got {ellipse!r}")
+        return (check_range("ellipse s_v", ellipse[0], 0.0, np.inf, low_open=True),
+                check_range("ellipse s_p", ellipse[1], 0.0, np.inf, low_open=True),
+                check_range("ellipse e_v", ellipse[2], -np.inf, np.inf))
+
+    def set_options(self, **opts: Any) -> None:
+        """Change TreeSketch options (the keywords of the constructor except ``rng``); all checked first."""
+        checks = {"n_max": lambda v: check_int("n_max", v, 1, 1000), "trunk_up": bool,
+                  "deflection": lambda v: check_range("deflection", v, 0.0, 90.0),
+                  "mode": lambda v: check_choice("mode", v, ("directed", "autonomous")),
+                  "point_density": lambda v: check_int("point_density", v, 0, 1000),
+                  "ellipse": self._check_ellipse,
+                  "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, np.inf),
+                  "stroke_tropism": bool}
+        new = {}
+        for k, v in opts.items():
+            if k not in checks:
+                raise ValueError(f"unknown SketchEngine option {k!r}; expected one of {sorted(checks)}")
+            new[k] = checks[k](v)
+        self.sketch.update(new)
+        if "ellipse" in new:
+            self.update_light()
 
     def _rng(self, purpose: int) -> np.random.Generator:
         """Generator for (seed, iteration, purpose): 1 = autonomous points, 2 = tropism planes."""
         return np.random.default_rng([self.seed, self.step_count, purpose])
 
-    # -- step: marker policy ------------------------------------------------------------------------
-    def step(self):
-        """One TreeSketch iteration (§1.5) on the engine's step; the marker policy follows ``mode``."""
-        if self.sketch["mode"] == "autonomous":
-            self._add_autonomous_points()
-        life = self.params["marker_lifetime"]
-        self.params["marker_lifetime"] = np.iinfo(np.int64).max  # directed: points persist until consumed
-        try:
-            stats = super().step()
-        finally:
-            self.params["marker_lifetime"] = life
-        if self.sketch["mode"] == "autonomous":
-            self.markers, self.marker_age = np.zeros((0, 3)), np.zeros(0, np.int64)
-        return stats
+    # -- pickling: the TreeSketch state rides along with the engine's -------------------------------
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state["sketch_state"] = {"sketch": dict(self.sketch), "seed": self.seed, "selected": self.selected,
+                                 "width_constraints": dict(self.width_constraints),
+                                 "stroke_dirs": dict(self._stroke_dirs)}
+        return state
 
-    def _add_autonomous_points(self) -> None:
-        p, t = self.params, self.tree
-        node, slot = np.nonzero((t.child == BUD) & t.alive[:, None])
+    def __setstate__(self, state: dict) -> None:
+        s = state["sketch_state"]
+        self.sketch, self.seed, self.selected = dict(s["sketch"]), s["seed"], s["selected"]
+        self.width_constraints = dict(s["width_constraints"])
+        self._stroke_dirs = dict(s["stroke_dirs"])
+        self.width_info = None
+        super().__setstate__(state)
+
+    # -- light: gravimorphism (Eqs. 4.6-4.7) and widths (§2.10) ---------------------------------------
+    def _vigor(self) -> None:
+        self._gravimorphism()
+        super()._vigor()
+
+    def _gravimorphism(self) -> None:
+        """Write b of Eq. 4.6 into ``tree.light_factor`` so the engine's signal is Q = b L^kappa (Eq. 4.7).
+
+        The factor is per node and applies to every bud slot of the node; only lateral buds are affected
+        (§1.4.6 [INFERRED]), so a node whose terminal bud is still a bud (a tip) keeps b = 1, and a node with a
+        main child gets b of its lateral bud(s) (the mean over both slots in opposite branching).
+        """
+        t = self.tree
+        lf = t.light_factor
+        s_v, s_p, e_v = self.sketch["ellipse"]
+        if (s_v, s_p, e_v) == (1.0, 1.0, 0.0):
+            lf[:] = 1.0
+            return
+        node, slot = np.nonzero((t.child[:, 1:] == BUD) & t.alive[:, None] & (t.child[:, :1] != BUD))
+        slot = slot + 1
+        lf[:] = 1.0
         if not len(node):
             return
-        head = self._bud_dirs(node, slot)
-        pts = autonomous_points(t.pos[node], head, t.bud_vigor[node, slot], density=self.sketch["point_density"],
+        b = gravimorphism(t.head[node], self._bud_dirs(node, slot), s_v=s_v, s_p=s_p, e_v=e_v)
+        acc = np.bincount(node, b, t.n)
+        cnt = np.bincount(node, minlength=t.n)
+        has = cnt > 0
+        lf[has] = acc[has] / cnt[has]
+
+    def update_light(self) -> None:
+        """Light, vigor and widths; with width constraints the pipe model is solved per subtree (§2.10)."""
+        super().update_light()
+        if self.width_constraints:
+            self._apply_widths()
+
+    def _apply_widths(self) -> None:
+        p, t = self.params, self.tree
+        cons = {k: v for k, v in self.width_constraints.items() if k < t.n and t.alive[k]}
+        res = pipe_widths(t.parent, t.alive, tip_diameter=2.0 * p["tip_radius"], exponent=p["radius_exp"],
+                          constraints=cons)
+        t.radius[:] = 0.5 * res.diameter
+        self.width_info = res
+
+    def set_width(self, node: int, diameter: float | None) -> None:
+        """Add, change or (``diameter=None``) remove the width constraint on the internode ending at ``node``."""
+        node = check_int("node", node, 1, self.tree.n - 1)
+        if not self.tree.alive[node]:
+            raise ValueError(f"node {node} is not alive")
+        if diameter is None:
+            self.width_constraints.pop(node, None)
+        else:
+            self.width_constraints[node] = check_range("diameter", diameter, 0.0, np.inf, low_open=True)
+        self.update_light()
+
+    # -- editing: selection, pruning at a branching point --------------------------------------------
+    def select(self, node: int | None) -> None:
+        """Selective growth (§2.8): only buds in the subtree of ``node`` may grow; ``None`` ends the mode."""
+        if node is not None:
+            node = check_int("node", node, 0, self.tree.n - 1)
+            if not self.tree.alive[node]:
+                raise ValueError(f"node {node} is not alive")
+        self.selected = node
+
+    def prune_at(self, node: int) -> int:
+        """Prune the branch through ``node`` at its nearest branching point (§2.11); returns internodes removed.
+
+        Widths are then recomputed as if the branch had never existed; a width constraint on the way leaves a
+        stub (:func:`branch_point`).
+        """
+        t = self.tree
+        node = check_int("node", node, 0, t.n - 1)
+        cut = branch_point(t.parent, t.alive, node, protected=self.width_constraints)
+        if cut < 0:
+            return 0
+        n = self._remove(t.subtree_mask([cut]))
+        self.update_light()
+        return n
+
+    def _remove(self, mask: np.ndarray) -> int:
+        """Engine removal; node ids held here (constraints, selection) follow a compaction."""
+        t = self.tree
+        n_before = t.n
+        survive = t.alive & ~mask
+        gone = super()._remove(mask)
+        if self.tree.n != n_before:  # compacted: survivors keep their order
+            remap = np.cumsum(survive) - 1
+            remap[~survive] = -1
+            self.width_constraints = {int(remap[k]): v for k, v in self.width_constraints.items()
+                                      if k < n_before and remap[k] >= 0}
+            if self.selected is not None:
+                self.selected = int(remap[self.selected]) if remap[self.selected] >= 0 else None
+        else:
+            self.width_constraints = {k: v for k, v in self.width_constraints.items() if self.tree.alive[k]}
+            if self.selected is not None and not self.tree.alive[self.selected]:
+                self.selected = None
+        return gone
+
+    # -- markers: strokes, directed and autonomous policies ------------------------------------------
+    def add_stroke_points(self, points: np.ndarray, directions: np.ndarray) -> None:
+        """Add attraction points that remember a stroke direction (unit rows) for sketch-based tropism."""
+        points = check_points("points", points)
+        directions = normalize(check_points("directions", directions))
+        if len(directions) != len(points):
+            raise ValueError(f"directions must have {len(points)} rows like points, got {len(directions)}")
+        for p, d in zip(points, directions):
+            self._stroke_dirs[p.tobytes()] = d
+        self.add_markers(points)
+
+    def stroke_directions(self, points: np.ndarray) -> np.ndarray:
+        """Stroke direction of each marker row (zeros for markers not made by a stroke)."""
+        zero = np.zeros(3)
+        return np.array([self._stroke_dirs.get(np.ascontiguousarray(p).tobytes(), zero) for p in points]
+                        ).reshape(-1, 3)
+
+    def _age_markers(self) -> None:
+        """Directed: points persist until consumed (no ageing); autonomous: all points are cleared (§1.4.1)."""
+        if self.sketch["mode"] == "autonomous":
+            self.markers, self.marker_age = np.zeros((0, 3)), np.zeros(0, np.int64)
+        if len(self._stroke_dirs) > 2 * len(self.markers) + 64:
+            keep = {m.tobytes() for m in self.markers}
+            self._stroke_dirs = {k: v for k, v in self._stroke_dirs.items() if k in keep}
+
+    def _add_autonomous_points(self) -> None:
+        p = self.params
+        b = self.buds()
+        if not len(b.node):
+            return
+        pts = autonomous_points(b.pos, b.dir, b.vigor, density=self.sketch["point_density"],
                                 r_in=p["occupation_radius"], r_out=max(p["view_radius"], p["occupation_radius"]),
                                 half_angle=math.radians(p["view_angle"]) / 2, rng=self._rng(1))
         self.add_markers(pts)
 
-    # -- buds: deflection ---------------------------------------------------------------------------
+    # -- step ---------------------------------------------------------------------------------------
+    def step(self) -> StepStats:
+        """One TreeSketch iteration (§1.5): the engine's step with the TreeSketch shedding rule (§1.4.8)."""
+        t0 = time.perf_counter()
+        p, t = self.params, self.tree
+        if self.sketch["mode"] == "autonomous":
+            self._add_autonomous_points()
+        self._occupy()
+        buds = self._active_buds()
+        grown = 0
+        if len(buds.node) and len(self.markers):
+            owner = assign_treewand(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
+                                    view_angle=math.radians(p["view_angle"]))
+            grown = self._grow(buds, owner)
+        else:
+            self._new_nodes = np.zeros(0, np.int64)
+        self.grid.add(self.grid.cells_of(t.pos[self._new_nodes]), *self._lut)
+        t.shadow_cast[self._new_nodes] = True
+        self.update_light()
+        shed = self._remove(self.shed_mask())
+        if shed:
+            self.update_light()
+        self._age_markers()
+        self.step_count += 1
+        t = self.tree
+        stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
+                          len(self.markers), grown, shed)
+        self.history.append(stats)
+        return stats
+
+    def shed_mask(self) -> np.ndarray:
+        """Branches to shed (§1.4.8 [INFERRED]): a lateral branch rooted at internode i is shed when
+        (v_i / v_base) / (N_i / N_total) < Th, N = internode counts. Th = 0 never sheds; branches holding a width
+        constraint or the selected node, and their supporting path, are protected. Closed under descendants."""
+        t = self.tree
+        th = self.sketch["shed_threshold"]
+        mask = np.zeros(t.n, bool)
+        if th <= 0 or t.n_internodes < 2 or not t.vigor[0] > 0:
+            return mask
+        alive = t.alive
+        size = np.ones(t.n)
+        size[~alive] = 0
+        for i in range(t.n - 1, 1, -1):  # subtree internode counts
+            if alive[i]:
+                size[t.parent[i]] += size[i]
+        par = np.maximum(t.parent, 0)
+        is_lat = alive & (t.parent >= 0) & (t.child[par, 0] != np.arange(t.n))
+        is_lat[:2] = False
+        ratio = (t.vigor / t.vigor[0]) / (size / t.n_internodes)
+        roots = np.flatnonzero(is_lat & (ratio < th))
+        if not len(roots):
+            return mask
+        keep = np.zeros(t.n, bool)
+        for k in list(self.width_constraints) + ([self.selected] if self.selected is not None else []):
+            while k >= 0 and not keep[k]:
+                keep[k] = True
+                k = t.parent[k]
+        roots = roots[~keep[roots]]
+        return t.subtree_mask(roots) if len(roots) else mask
+
+    # -- buds: deflection and selective growth --------------------------------------------------------
     def _bud_dirs(self, node: np.ndarray, slot: np.ndarray) -> np.ndarray:
         p, t = self.params, self.tree
         kw = {"main_angle": math.radians(p["main_branch_angle"]), "lateral_angle": math.radians(p["branch_angle"]),
-                  "opposite": t.nslots == 3, "opposite_main": p["opposite_main"]}
-        d = bud_headings(t.head[node], t.lat[node], slot, **kw)
+              "opposite": t.nslots == 3, "opposite_main": p["opposite_main"]}
+        d = super()._bud_dirs(node, slot)
         delta = math.radians(self.sketch["deflection"])
         main = slot == 0
         if delta and main.any():
@@ -288,8 +549,8 @@ class SketchEngine(GrowthEngine):
 
     def _active_buds(self) -> _Buds:
         b = super()._active_buds()
-        b.dir = self._bud_dirs(b.node, b.slot)
-        b.vigor = self.tree.bud_vigor[b.node, b.slot]
+        if self.selected is not None:
+            b = b.subset(self.tree.subtree_mask([self.selected])[b.node])
         return b
 
     # -- growth: Eq. 4.3 shoots, Eq. 4.5 per internode ------------------------------------------------
@@ -311,6 +572,12 @@ class SketchEngine(GrowthEngine):
         u = normalize(self.markers[hit] - buds.pos[o])
         sums = np.stack([np.bincount(o, u[:, k], len(buds.node)) for k in range(3)], 1)
         E = normalize(sums[grow], fallback=buds.dir[grow])
+        S = None
+        if self.sketch["stroke_tropism"] and self._stroke_dirs:  # §2.7: T = mean stroke direction
+            sd = self.stroke_directions(self.markers[hit])
+            ssum = np.stack([np.bincount(o, sd[:, k], len(buds.node)) for k in range(3)], 1)[grow]
+            S = np.linalg.norm(ssum, axis=1) > 1e-12
+            ssum[S] /= np.linalg.norm(ssum[S], axis=1)[:, None]
         al, be, ga = barycentric(p["w_heading"], p["w_tropism"], p["w_env"])
         theta = math.radians(p["tropism_angle"])
         delta = math.radians(self.sketch["deflection"])
@@ -331,6 +598,8 @@ class SketchEngine(GrowthEngine):
                 lat_dir = np.cos(lat_angle) * prev_head[a] + np.sin(lat_angle) * prev_lat[a]
                 H[a] = deflect_heading(prev_head[a], lat_dir, delta) if delta else prev_head[a]
             T = set_point_tropism(H[a], theta, main_axis=main_axis[a], trunk_up=self.sketch["trunk_up"], rng=rng)
+            if S is not None:
+                T = np.where(S[a, None], ssum[a], T)
             d = normalize(al * H[a] + be * T + ga * E[a], fallback=H[a])
             lat = transport_lateral(prev_lat[a], prev_head[a], d, phyl)
             pos = tip[a] + length[a, None] * d

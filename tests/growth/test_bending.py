@@ -102,3 +102,100 @@ def test_ts_bend_validation():
         bend_path(pos, par, rad, path, [1.0, 2.0])
     with pytest.raises(ValueError, match="parent"):
         bend_path(pos, par[:-1], rad, path, pos[3])
+
+
+# -- pipe-model widths with constraints (spec 004 §2.10, V13) --------------------------------------------------
+from plantvr.growth.bending import _pipe_fold, _pipe_fold_numpy, pipe_widths, solve_exponent  # noqa: E402
+
+
+def _fan(m_tips, chain=3):
+    """Trunk of ``chain`` internodes, then ``m_tips`` single-internode tips at its top."""
+    par = [-1] + list(range(chain))
+    top = chain
+    par += [top] * m_tips
+    return np.array(par)
+
+
+def test_ts_v13_single_chain_constant_width():
+    par = np.array([-1, 0, 1, 2, 3, 4])
+    r = pipe_widths(par, np.ones(6, bool), tip_diameter=0.04, exponent=2.5)
+    np.testing.assert_allclose(r.diameter, 0.04, rtol=1e-15)
+
+
+@pytest.mark.parametrize("m", [1, 2, 5, 17])
+def test_ts_v13_equal_tips_exact_exponent(m):
+    """M + 1 equal tips under a base constraint: n = log(M+1) / (log d_b - log d_e) (ERRATUM E2)."""
+    par = _fan(m + 1)
+    d_b, d_e = 0.15, 0.05
+    r = pipe_widths(par, np.ones(len(par), bool), tip_diameter=d_e, constraints={1: d_b})
+    expect = np.log(m + 1) / (np.log(d_b) - np.log(d_e))
+    assert abs(r.exponent[1] - expect) < 1e-9
+    assert r.infeasible == ()
+    np.testing.assert_allclose(r.diameter[1:4], d_b, rtol=1e-12)
+
+
+def test_ts_v13_multi_constraint_eq52_at_each():
+    rng = np.random.default_rng(3)
+    n = 300
+    par = np.array([-1] + [int(rng.integers(max(0, i - 6), i)) for i in range(1, n)])
+    par[1] = 0
+    alive = np.ones(n, bool)
+    cons = {1: 2.0, 40: 0.9, 90: 0.6, 150: 0.5}
+    r = pipe_widths(par, alive, tip_diameter=0.05, constraints=cons)
+    d = r.diameter
+    for c, dc in cons.items():
+        assert d[c] == dc
+    # Eq. 5.1 at every node with children, with the exponent of its subtree
+    seg = np.full(n, -1)
+    for i in range(n):
+        seg[i] = i if i in cons else seg[par[i]]
+    for i in range(n):
+        ch = np.flatnonzero(par == i)
+        if len(ch) and i > 0:
+            k = r.exponent[seg[i]]
+            np.testing.assert_allclose(d[i] ** k, np.sum(d[ch] ** k), rtol=1e-9)
+    assert not r.infeasible
+
+
+def test_ts_v13_infeasible_and_validation():
+    par = _fan(3)
+    r = pipe_widths(par, np.ones(len(par), bool), tip_diameter=0.5, constraints={1: 0.4})
+    assert r.infeasible == (1,) and r.exponent[1] == 10.0
+    assert solve_exponent(1.0, np.array([0.5, 0.5]))[1]
+    with pytest.raises(ValueError, match="d_k"):
+        solve_exponent(1.0, np.array([0.5]))
+    with pytest.raises(ValueError, match="parent"):
+        pipe_widths(np.array([-1, 2, 0]), np.ones(3, bool), tip_diameter=0.1)
+    with pytest.raises(ValueError, match="constraint diameter"):
+        pipe_widths(par, np.ones(len(par), bool), tip_diameter=0.1, constraints={1: -1.0})
+
+
+def test_ts_pipe_fold_twin():
+    rng = np.random.default_rng(5)
+    n = 500
+    par = np.array([-1] + [int(rng.integers(max(0, i - 8), i)) for i in range(1, n)])
+    alive = rng.random(n) > 0.05
+    alive[0] = True
+    for i in range(1, n):  # closed under descendants
+        alive[i] &= alive[par[i]]
+    fixed = rng.random(n) < 0.05
+    fixed_d = rng.uniform(0.1, 1.0, n)
+    node_n = rng.uniform(1.5, 3.0, n)
+    out = np.zeros(n)
+    _pipe_fold(par, alive, fixed, fixed_d, node_n, 0.03, out)
+    np.testing.assert_allclose(out, _pipe_fold_numpy(par, alive, fixed, fixed_d, node_n, 0.03), rtol=1e-13)
+
+
+def test_ts_width_solve_speed():
+    """Spec §8.2 [INFERRED] target: 10^4 internodes and 20 constraints in interactive time."""
+    import time
+
+    rng = np.random.default_rng(1)
+    n = 10_000
+    par = np.array([-1] + [int(rng.integers(max(0, i - 20), i)) for i in range(1, n)])
+    cons = {1: 5.0}
+    cons.update({int(k): 0.3 for k in rng.choice(np.arange(2, n), 19, replace=False)})
+    pipe_widths(par, np.ones(n, bool), tip_diameter=0.02, constraints=cons)
+    t = time.perf_counter()
+    pipe_widths(par, np.ones(n, bool), tip_diameter=0.02, constraints=cons)
+    assert time.perf_counter() - t < 0.5  # generous for CI; the benchmark reports the figure

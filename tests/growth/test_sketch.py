@@ -244,3 +244,165 @@ def test_ts_ellipse_distance_closed_form():
     assert ellipse_distance(np.array([math.pi]), s_v=0.5, s_p=0.5, e_v=2.0)[0] == 0.0
     with pytest.raises(ValueError, match="s_v"):
         ellipse_distance(chi, s_v=0.0, s_p=1.0, e_v=0.0)
+
+
+# -- engine hooks: gravimorphism, shedding, selective growth, stroke tropism, widths, pruning, pickling ------
+def _grown(steps=6, **kw):
+    e = _engine(mode="autonomous", **kw)
+    for _ in range(steps):
+        e.step()
+    return e
+
+
+def test_ts_v6_gravimorphism_in_vigor_eq47():
+    """light_factor = b of Eq. 4.6 at nodes with a lateral bud and a main child; bud signal Q = b L^kappa."""
+    ell = (0.6, 1.4, 0.3)
+    e = _grown(params={"tropism_angle": 90.0, "light_exponent": 1.5}, ellipse=ell)
+    t = e.tree
+    inner = np.flatnonzero(t.alive & (t.child[:, 1] == -1) & (t.child[:, 0] >= 0))
+    assert len(inner) > 5
+    b = gravimorphism(t.head[inner], e._bud_dirs(inner, np.ones(len(inner), np.int64)), s_v=ell[0], s_p=ell[1],
+                      e_v=ell[2])
+    np.testing.assert_allclose(t.light_factor[inner], b, rtol=1e-12)
+    assert np.ptp(b) > 0.05  # not all vertical: the ellipse matters
+    np.testing.assert_allclose(t.Qslot[inner, 1], b * t.L[inner] ** 1.5, rtol=1e-12)  # Eq. 4.7
+    tips = np.flatnonzero(t.alive & (t.child[:, 0] == -1))
+    np.testing.assert_array_equal(t.light_factor[tips], 1.0)  # terminal buds unaffected
+    neutral = _grown(params={"tropism_angle": 90.0})
+    np.testing.assert_array_equal(neutral.tree.light_factor, 1.0)
+
+
+def test_ts_v6_epitony_favours_upper_buds_in_engine():
+    """Two nodes on a horizontal axis, lateral up / lateral down: e_v > 0 gives b = s_v ± e_v (tau = 90°), and
+    the upper bud's signal Q = b L^0 is the larger (epitony); e_v < 0 reverses it (hypotony)."""
+    def factors(e_v):
+        e = _engine(params={"activation_threshold": 0.0, "light_exponent": 0.0, "branch_angle": 90.0},
+                    ellipse=(1.0, 1.0, e_v))
+        t = e.tree
+        t.head[1], t.lat[1] = [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]  # horizontal axis, lateral up
+        x = np.array([[1.0, 0, 0]])
+        a = t.append_many(np.array([[1.0, 1.0, 0.0]]), np.array([1]), x, np.array([[0, -1.0, 0]]), np.array([0]))
+        t.child[1, 0] = a[0]
+        b = t.append_many(np.array([[2.0, 1.0, 0.0]]), a, x, np.array([[0, 1.0, 0]]), np.array([0]))
+        t.child[a[0], 0] = b[0]
+        e.update_light()
+        return t.light_factor[1], t.light_factor[a[0]], t.Qslot[1, 1], t.Qslot[a[0], 1]
+    up, down, q_up, q_down = factors(0.4)
+    np.testing.assert_allclose([up, down, q_up, q_down], [1.4, 0.6, 1.4, 0.6], rtol=1e-12)
+    up, down, q_up, q_down = factors(-0.4)
+    assert down > up and q_down > q_up
+
+
+def test_ts_v12_shedding_threshold():
+    none = _grown(steps=8, shed_threshold=0.0)
+    assert all(s.shed == 0 for s in none.history)
+    e = _grown(steps=8, shed_threshold=0.0)
+    mask = (e.set_options(shed_threshold=0.9), e.shed_mask())[1]
+    assert mask.any() and not mask[:2].any()
+    t = e.tree
+    v = t.vigor / t.vigor[0]
+    roots = np.flatnonzero(mask & ~mask[np.maximum(t.parent, 0)])
+    for r in roots:  # each shed root is a lateral branch below the threshold
+        n_i = e.tree.subtree_mask([r]).sum()
+        assert v[r] / (n_i / t.n_internodes) < 0.9 and t.child[t.parent[r], 0] != r
+    r = roots[0]
+    leaf = np.flatnonzero(e.tree.subtree_mask([r]))[-1]
+    e.set_width(int(leaf), 0.1)  # a constrained branch is protected
+    assert not e.shed_mask()[r]
+    e.step()
+    assert e.history[-1].shed > 0
+    assert all(e.tree.alive[k] for k in e.width_constraints)  # the protected branch survived
+
+
+def test_ts_v11_selective_growth_only_subtree():
+    e = _grown(steps=5)
+    t = e.tree
+    lat = np.flatnonzero(t.alive & (t.order == 1))
+    sel = int(lat[0])
+    before = t.n
+    e.set_options(mode="directed")
+    e.select(sel)
+    rng = np.random.default_rng(0)
+    lo, hi = t.pos[t.alive].min(0) - 2, t.pos[t.alive].max(0) + 2
+    e.add_markers(rng.uniform(lo, hi, (400, 3)))
+    e.step()
+    t = e.tree
+    new = np.arange(before, t.n)
+    assert len(new) > 0
+    assert t.subtree_mask([e.selected])[new].all()
+    # every node, selected or not, still occupies: no marker is left within the occupation radius of a node
+    # that existed at the step's start (new nodes occupy at the next step, as in the engine)
+    old = t.pos[:before][t.alive[:before]]
+    d = np.linalg.norm(e.markers[:, None] - old[None], axis=2).min(1)
+    assert (d > e.params["occupation_radius"]).all()
+    e.select(None)
+    with pytest.raises(ValueError, match="node"):
+        e.select(10 ** 6)
+
+
+def test_ts_stroke_tropism_follows_stroke_direction():
+    params = {"w_heading": 0.0, "w_tropism": 1.0, "w_env": 0.0, "length_mode": "constant", "activation_threshold": 0.0}
+    e = _engine(n_max=1, params=params, stroke_tropism=True)
+    e.add_stroke_points(np.array([[0.3, 2.5, 0.2]]), np.array([[0.0, 0.0, 2.0]]))
+    e.step()
+    t = e.tree
+    new = np.flatnonzero(t.born == 1)
+    d = t.pos[new[0]] - t.pos[t.parent[new[0]]]
+    np.testing.assert_allclose(d / np.linalg.norm(d), [0, 0, 1], atol=1e-12)
+    off = _engine(n_max=1, params=params, stroke_tropism=False)  # switch off: GSA tropism (theta = 0 → up)
+    off.add_stroke_points(np.array([[0.3, 2.5, 0.2]]), np.array([[0.0, 0.0, 2.0]]))
+    off.step()
+    t = off.tree
+    new = np.flatnonzero(t.born == 1)
+    np.testing.assert_allclose(t.pos[new[0]] - t.pos[t.parent[new[0]]], [0, 1, 0], atol=1e-12)
+    with pytest.raises(ValueError, match="directions"):
+        e.add_stroke_points(np.zeros((2, 3)), np.ones((1, 3)))
+
+
+def test_ts_prune_at_branch_point_and_widths_as_if_never_there():
+    from plantvr.growth.bending import pipe_widths
+
+    e = _grown(steps=6)
+    e.set_width(1, 0.5)
+    t = e.tree
+    tip = int(np.flatnonzero(t.alive & (t.order == 1) & (t.child[:, 0] == -1))[0])
+    from plantvr.growth.sketch import branch_point
+    cut = branch_point(t.parent, t.alive, tip, protected=e.width_constraints)
+    p = t.parent[cut]
+    assert (t.parent[t.alive] == p).sum() >= 2  # the cut is at a branching point
+    gone = t.subtree_mask([cut])
+    n = e.prune_at(tip)
+    assert n == gone.sum()
+    t = e.tree
+    live = np.flatnonzero(t.alive)
+    remap = np.full(t.n, -1)
+    remap[live] = np.arange(len(live))
+    par = np.where(t.parent[live] >= 0, remap[np.maximum(t.parent[live], 0)], -1)
+    fresh = pipe_widths(par, np.ones(len(live), bool), tip_diameter=2 * e.params["tip_radius"],
+                        exponent=e.params["radius_exp"], constraints={int(remap[1]): 0.5})
+    np.testing.assert_allclose(2 * t.radius[live], fresh.diameter, rtol=1e-12)
+    assert e.prune_at(1) == 0  # the first internode is never pruned
+
+
+def test_ts_prune_leaves_stub_over_constraint():
+    from plantvr.growth.sketch import branch_point
+
+    par = np.array([-1, 0, 1, 2, 3, 2, 5, 6])  # 0-1-2 branches into 3-4 and 5-6-7
+    alive = np.ones(8, bool)
+    assert branch_point(par, alive, 7) == 5
+    assert branch_point(par, alive, 7, protected={6}) == 7  # stub: cut just above the constraint at 6
+    assert branch_point(par, alive, 6, protected={6}) == -1
+
+
+def test_ts_pickle_roundtrip_continues_identically():
+    import pickle
+
+    a = _grown(steps=4, ellipse=(0.8, 1.2, 0.2), deflection=10.0)
+    a.set_width(1, 0.3)
+    b = pickle.loads(pickle.dumps(a))
+    assert b.sketch == a.sketch and b.width_constraints == a.width_constraints
+    for _ in range(3):
+        a.step()
+        b.step()
+    for k, v in a.tree.arrays().items():
+        np.testing.assert_array_equal(v, b.tree.arrays()[k], err_msg=k)
