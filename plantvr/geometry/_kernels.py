@@ -167,64 +167,98 @@ def _unfold_numpy(pos, parent, alive, main_child, rate):
 
 # ---------------------------------------------------------------------------------------------------------
 # Generalized-cylinder evaluation of segments (Eqs. 10.1–10.10, 10.13)
+def _trig_table(nmax: int = 64) -> np.ndarray:
+    """cos/sin of 2πi/n for every ring size n ≤ nmax: ``T[n, i] = (cos, sin)`` (i = n wraps to 0)."""
+    T = np.zeros((nmax + 1, nmax + 1, 2))
+    for n in range(1, nmax + 1):
+        for i in range(n + 1):
+            ang = 2.0 * math.pi * (0 if i == n else i) / n
+            T[n, i, 0] = math.cos(ang)
+            T[n, i, 1] = math.sin(ang)
+    return T
+
+
+_TRIG = _trig_table()
+
+
 @numba.njit(cache=True, nogil=True)
 def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID, F):
+    """Evaluate segment ``s`` into the buffers from vertex ``v0`` and face ``f0`` (scalar, allocation-free)."""
     r = rec[s]
     K = ksteps
     w = r[REC_W]
-    p0 = r[0:3]
-    p1 = r[3:6]
-    p2 = r[6:9]
-    bx0 = r[9:12]
-    a = p1 - p0
-    b = p2 - p1
-    la = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    lb = math.sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2])
+    p0x, p0y, p0z = r[0], r[1], r[2]
+    p1x, p1y, p1z = r[3], r[4], r[5]
+    p2x, p2y, p2z = r[6], r[7], r[8]
+    b0x, b0y, b0z = r[9], r[10], r[11]
+    ax_, ay_, az_ = p1x - p0x, p1y - p0y, p1z - p0z
+    bx_, by_, bz_ = p2x - p1x, p2y - p1y, p2z - p1z
+    la = math.sqrt(ax_ * ax_ + ay_ * ay_ + az_ * az_)
+    lb = math.sqrt(bx_ * bx_ + by_ * by_ + bz_ * bz_)
     if la > _EPS:
-        t0 = a / la
+        t0x, t0y, t0z = ax_ / la, ay_ / la, az_ / la
     else:
-        t0 = (p2 - p0) / max(_EPS, math.sqrt(((p2 - p0) ** 2).sum()))
+        cx_, cy_, cz_ = p2x - p0x, p2y - p0y, p2z - p0z
+        cn = max(_EPS, math.sqrt(cx_ * cx_ + cy_ * cy_ + cz_ * cz_))
+        t0x, t0y, t0z = cx_ / cn, cy_ / cn, cz_ / cn
     t_start = r[REC_T0]
     t_end = r[REC_T1]
+    r0 = r[REC_R0]
+    r2 = r[REC_R2]
     dtot = la + lb
     vi = v0
     fi = f0
     ring_base_prev = 0
     n_prev = 0
-    tan_first = np.zeros(3)
-    tan_last = np.zeros(3)
+    tfx = tfy = tfz = 0.0
+    tlx = tly = tlz = 0.0
     for j in range(K + 1):
         u = j / K
         om = 1.0 - u
-        b0 = om * om
-        b1 = 2.0 * om * u * w
-        b2 = u * u
-        den = b0 + b1 + b2
-        pt = (b0 * p0 + b1 * p1 + b2 * p2) / den                       # Eq. 10.1 (A.9)
-        dnum = -2.0 * om * p0 + 2.0 * (1.0 - 2.0 * u) * w * p1 + 2.0 * u * p2
-        dden = -2.0 * om + 2.0 * (1.0 - 2.0 * u) * w + 2.0 * u
-        der = (dnum * den - (b0 * p0 + b1 * p1 + b2 * p2) * dden) / (den * den)
-        speed = math.sqrt(der[0] * der[0] + der[1] * der[1] + der[2] * der[2])
+        c0 = om * om
+        c1 = 2.0 * om * u * w
+        c2 = u * u
+        den = c0 + c1 + c2
+        nx_ = c0 * p0x + c1 * p1x + c2 * p2x
+        ny_ = c0 * p0y + c1 * p1y + c2 * p2y
+        nz_ = c0 * p0z + c1 * p1z + c2 * p2z
+        px, py, pz = nx_ / den, ny_ / den, nz_ / den                    # Eq. 10.1 (A.9)
+        d0 = -2.0 * om
+        d1 = 2.0 * (1.0 - 2.0 * u) * w
+        d2 = 2.0 * u
+        dden = d0 + d1 + d2
+        den2 = den * den
+        dx = ((d0 * p0x + d1 * p1x + d2 * p2x) * den - nx_ * dden) / den2
+        dy = ((d0 * p0y + d1 * p1y + d2 * p2y) * den - ny_ * dden) / den2
+        dz = ((d0 * p0z + d1 * p1z + d2 * p2z) * den - nz_ * dden) / den2
+        speed = math.sqrt(dx * dx + dy * dy + dz * dz)
         if speed > _EPS:
-            tg = der / speed
+            tx, ty, tz = dx / speed, dy / speed, dz / speed
         else:
-            tg = t0.copy()
-        bx = _rotate_between(bx0, t0, tg)                             # Eq. 10.6 with N'(u) (A.10)
-        bt = bx[0] * tg[0] + bx[1] * tg[1] + bx[2] * tg[2]
-        bx = bx - bt * tg
-        bn = math.sqrt(bx[0] * bx[0] + bx[1] * bx[1] + bx[2] * bx[2])
+            tx, ty, tz = t0x, t0y, t0z
+        qx, qy, qz = _rot_scalar(b0x, b0y, b0z, t0x, t0y, t0z, tx, ty, tz)   # Eq. 10.6 with N'(u) (A.10)
+        bt = qx * tx + qy * ty + qz * tz
+        qx -= bt * tx
+        qy -= bt * ty
+        qz -= bt * tz
+        bn = math.sqrt(qx * qx + qy * qy + qz * qz)
         if bn < 1e-9:
-            bx = _perp(tg)
+            tv = np.empty(3)
+            tv[0] = tx
+            tv[1] = ty
+            tv[2] = tz
+            pp = _perp(tv)
+            qx, qy, qz = pp[0], pp[1], pp[2]
         else:
-            bx = bx / bn
-        by = np.empty(3)                                              # Eq. 10.7 with the tangent (A.11)
-        by[0] = bx[1] * tg[2] - bx[2] * tg[1]
-        by[1] = bx[2] * tg[0] - bx[0] * tg[2]
-        by[2] = bx[0] * tg[1] - bx[1] * tg[0]
-        sm = 3.0 * u * u - 2.0 * u * u * u                            # Eq. 10.8
-        rad = (1.0 - sm) * r[REC_R0] + sm * r[REC_R2]                 # Eq. 10.9
-        drds = (r[REC_R2] - r[REC_R0]) * 6.0 * u * om / max(speed, _EPS)
-        if dtot > _EPS:                                               # Eq. 10.13 (A.12b)
+            qx, qy, qz = qx / bn, qy / bn, qz / bn
+        yx = qy * tz - qz * ty                                          # Eq. 10.7 with the tangent (A.11)
+        yy = qz * tx - qx * tz
+        yz = qx * ty - qy * tx
+        sm = 3.0 * u * u - 2.0 * u * u * u                              # Eq. 10.8
+        rad = (1.0 - sm) * r0 + sm * r2                                 # Eq. 10.9
+        drds = (r2 - r0) * 6.0 * u * om / max(speed, _EPS)
+        inv = 1.0 / math.sqrt(1.0 + drds * drds)                        # |radial - drds t| (radial ⟂ t)
+        if dtot > _EPS:                                                 # Eq. 10.13 (A.12b)
             dd = (2.0 * u * om * w * la + u * u * dtot) / den
             tt = t_start + (t_end - t_start) * dd / dtot
         else:
@@ -233,28 +267,22 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
         n = cnt[s, j]
         base = vi
         for i in range(n + 1):
-            ii = 0 if i == n else i
-            ang = 2.0 * math.pi * ii / n
-            ca = math.cos(ang)
-            sa = math.sin(ang)
-            rx = ca * bx[0] + sa * by[0]
-            ry = ca * bx[1] + sa * by[1]
-            rz = ca * bx[2] + sa * by[2]
-            V[vi, 0] = pt[0] + rad * rx                               # Eq. 10.10, theta = 2 pi
-            V[vi, 1] = pt[1] + rad * ry
-            V[vi, 2] = pt[2] + rad * rz
-            nx = rx - drds * tg[0]
-            ny = ry - drds * tg[1]
-            nz = rz - drds * tg[2]
-            nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-            NRM[vi, 0] = nx / nn
-            NRM[vi, 1] = ny / nn
-            NRM[vi, 2] = nz / nn
+            ca = _TRIG[n, i, 0]
+            sa = _TRIG[n, i, 1]
+            rx = ca * qx + sa * yx
+            ry = ca * qy + sa * yy
+            rz = ca * qz + sa * yz
+            V[vi, 0] = px + rad * rx                                    # Eq. 10.10, theta = 2 pi
+            V[vi, 1] = py + rad * ry
+            V[vi, 2] = pz + rad * rz
+            NRM[vi, 0] = (rx - drds * tx) * inv
+            NRM[vi, 1] = (ry - drds * ty) * inv
+            NRM[vi, 2] = (rz - drds * tz) * inv
             UV[vi, 0] = repeat * i / n
             UV[vi, 1] = tt
             NID[vi] = nid
             vi += 1
-        if j > 0:                                                     # zip the band between two rings
+        if j > 0:                                                       # zip the band between two rings
             A = ring_base_prev
             na = n_prev
             ia = 0
@@ -272,9 +300,9 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
                     ib += 1
                 fi += 1
         if j == 0:
-            tan_first[:] = tg
+            tfx, tfy, tfz = tx, ty, tz
         if j == K:
-            tan_last[:] = tg
+            tlx, tly, tlz = tx, ty, tz
         ring_base_prev = base
         n_prev = n
     # caps: a fan on duplicated ring vertices with the axial normal
@@ -286,13 +314,11 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
         if which == 0:
             ring = v0
             n = cnt[s, 0]
-            sgn = -1.0
-            tg = tan_first
+            gx, gy, gz = -tfx, -tfy, -tfz
         else:
             ring = ring_base_prev
             n = cnt[s, K]
-            sgn = 1.0
-            tg = tan_last
+            gx, gy, gz = tlx, tly, tlz
         center = vi
         cx = 0.0
         cy = 0.0
@@ -304,9 +330,9 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
         V[vi, 0] = cx / n
         V[vi, 1] = cy / n
         V[vi, 2] = cz / n
-        NRM[vi, 0] = sgn * tg[0]
-        NRM[vi, 1] = sgn * tg[1]
-        NRM[vi, 2] = sgn * tg[2]
+        NRM[vi, 0] = gx
+        NRM[vi, 1] = gy
+        NRM[vi, 2] = gz
         UV[vi, 0] = 0.5 * repeat
         UV[vi, 1] = UV[ring, 1]
         NID[vi] = NID[ring]
@@ -315,9 +341,9 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
             V[vi, 0] = V[ring + i, 0]
             V[vi, 1] = V[ring + i, 1]
             V[vi, 2] = V[ring + i, 2]
-            NRM[vi, 0] = sgn * tg[0]
-            NRM[vi, 1] = sgn * tg[1]
-            NRM[vi, 2] = sgn * tg[2]
+            NRM[vi, 0] = gx
+            NRM[vi, 1] = gy
+            NRM[vi, 2] = gz
             UV[vi, 0] = UV[ring + i, 0]
             UV[vi, 1] = UV[ring + i, 1]
             NID[vi] = NID[ring]
@@ -564,3 +590,96 @@ def _records_numpy(pos, parent, radius, eff, main, frame, tmid, axis, bezier_w, 
     return (np.concatenate([rin, rtp])[order], np.concatenate([nin, ntp])[order], keys[order],
             np.concatenate([axis[c], axis[t]])[order],
             np.concatenate([cin, np.full(len(t), CAP_END, np.uint8)])[order])
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Slot layout of the incremental mesh (spec §3.5): every segment owns a vertex/face block with slack capacity
+@numba.njit(cache=True, nogil=True)
+def _diff_numba(keys, rec, cnt, nodes, caps, nv, nf, slot_of_key, srec, scnt, snodes, scaps, svcap, sfcap):
+    """Match segments to the slots of the previous layout by key.
+
+    Returns ``slot`` (-1: no slot with that key) and ``status``: 0 unchanged, 1 changed but fits its slot,
+    2 needs a new slot (new key, or more vertices/faces than the slot's capacity).
+    """
+    S = keys.shape[0]
+    slot = np.full(S, -1, np.int64)
+    status = np.zeros(S, np.int8)
+    m = slot_of_key.shape[0]
+    R = rec.shape[1]
+    J = cnt.shape[1]
+    for s in range(S):
+        k = keys[s]
+        sl = slot_of_key[k] if k < m else -1
+        slot[s] = sl
+        if sl < 0:
+            status[s] = 2
+            continue
+        same = caps[s] == scaps[sl] and nodes[s, 0] == snodes[sl, 0] and nodes[s, 1] == snodes[sl, 1]
+        if same:
+            for c in range(R):
+                if rec[s, c] != srec[sl, c]:
+                    same = False
+                    break
+        if same:
+            for j in range(J):
+                if cnt[s, j] != scnt[sl, j]:
+                    same = False
+                    break
+        if same:
+            status[s] = 0
+        elif nv[s] <= svcap[sl] and nf[s] <= sfcap[sl]:
+            status[s] = 1
+        else:
+            status[s] = 2
+    return slot, status
+
+
+def _diff_numpy(keys, rec, cnt, nodes, caps, nv, nf, slot_of_key, srec, scnt, snodes, scaps, svcap, sfcap):
+    """Readable twin of :func:`_diff_numba`."""
+    inmap = keys < len(slot_of_key)
+    slot = np.where(inmap, slot_of_key[np.minimum(keys, len(slot_of_key) - 1)], -1).astype(np.int64)
+    j = np.maximum(slot, 0)
+    same = ((slot >= 0) & (caps == scaps[j]) & np.all(nodes == snodes[j], axis=1) & np.all(rec == srec[j], axis=1)
+            & np.all(cnt == scnt[j], axis=1))
+    fits = (slot >= 0) & (nv <= svcap[j]) & (nf <= sfcap[j])
+    status = np.where(same, 0, np.where(fits, 1, 2)).astype(np.int8)
+    return slot, status
+
+
+@numba.njit(cache=True, nogil=True)
+def _fill_slack_numba(v0, nv, vcap, f0, nf, fcap, V, NRM, UV, NID, F):
+    """Make the unused tail of each block degenerate: vertices copy the block's first vertex, faces collapse
+    onto it (zero area)."""
+    for q in range(v0.shape[0]):
+        a = v0[q]
+        for k in range(a + nv[q], a + vcap[q]):
+            for c in range(3):
+                V[k, c] = V[a, c]
+                NRM[k, c] = NRM[a, c]
+            UV[k, 0] = UV[a, 0]
+            UV[k, 1] = UV[a, 1]
+            NID[k] = NID[a]
+        for k in range(f0[q] + nf[q], f0[q] + fcap[q]):
+            F[k, 0] = a
+            F[k, 1] = a
+            F[k, 2] = a
+
+
+@numba.njit(cache=True, nogil=True)
+def _free_numba(v0, vcap, f0, fcap, point, V, NRM, UV, NID, F):
+    """Blank freed blocks: vertices at ``point`` with node id -1, faces collapsed onto the first vertex."""
+    for q in range(v0.shape[0]):
+        a = v0[q]
+        for k in range(a, a + vcap[q]):
+            for c in range(3):
+                V[k, c] = point[c]
+            NRM[k, 0] = 0.0
+            NRM[k, 1] = 1.0
+            NRM[k, 2] = 0.0
+            UV[k, 0] = 0.0
+            UV[k, 1] = 0.0
+            NID[k] = -1
+        for k in range(f0[q], f0[q] + fcap[q]):
+            F[k, 0] = a
+            F[k, 1] = a
+            F[k, 2] = a

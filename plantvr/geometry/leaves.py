@@ -17,7 +17,6 @@ import numpy as np
 from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
 
 from . import _kernels as K
-from .mesh import ring_counts
 
 __all__ = ["LeafMesh", "LEAF_SHAPES", "select_leaf_buds", "initial_leaf_frames", "orient_leaves", "build_leaves"]
 
@@ -197,22 +196,36 @@ def _cr(a0, a1, a2, b0, b1, b2):
 
 
 @numba.njit(cache=True, nogil=True)
+def _rot3(v0, v1, v2, a0, a1, a2, c, s_):
+    """Rodrigues rotation of v about unit a by (cos, sin) = (c, s_)."""
+    x0, x1, x2 = _cr(a0, a1, a2, v0, v1, v2)
+    av = (a0 * v0 + a1 * v1 + a2 * v2) * (1.0 - c)
+    return v0 * c + x0 * s_ + a0 * av, v1 * c + x1 * s_ + a1 * av, v2 * c + x2 * s_ + a2 * av
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
 def _orient_numba(h, r, u, e, iterations, y, scale):
-    """Per-leaf, allocation-free loop of Eq. 10.15 (twin: the vectorised body of :func:`orient_leaves`)."""
+    """Per-leaf, allocation-free loop of Eq. 10.15 (twin: the vectorised body of :func:`orient_leaves`).
+
+    Leaves run in parallel; r̂ is not rotated but rebuilt as ĥ × û after each step, as the twin does.
+    """
     L = h.shape[0]
     H, R, U = h.copy(), r.copy(), u.copy()
     y0, y1, y2 = y[0], y[1], y[2]
-    for i in range(L):
-        f = np.empty((3, 3))
-        f[0], f[1], f[2] = H[i], R[i], U[i]          # rows: h, r, u
+    for i in numba.prange(L):
+        h0, h1, h2 = H[i, 0], H[i, 1], H[i, 2]
+        r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
+        u0, u1, u2 = U[i, 0], U[i, 1], U[i, 2]
         for _ in range(iterations):
             for step in range(3):
                 if e[step] == 0.0:
                     continue
-                ai = 2 if step == 0 else (1 if step == 1 else 0)
-                ti = 0 if step == 0 else 2
-                a0, a1, a2 = f[ai, 0], f[ai, 1], f[ai, 2]
-                t0, t1, t2 = f[ti, 0], f[ti, 1], f[ti, 2]
+                if step == 0:                      # about u, target h ("bend right")
+                    a0, a1, a2, t0, t1, t2 = u0, u1, u2, h0, h1, h2
+                elif step == 1:                    # about r, target u ("bend up")
+                    a0, a1, a2, t0, t1, t2 = r0, r1, r2, u0, u1, u2
+                else:                              # about h, target u ("twist")
+                    a0, a1, a2, t0, t1, t2 = h0, h1, h2, u0, u1, u2
                 c0, c1, c2 = _cr(t0, t1, t2, y0, y1, y2)
                 d0, d1, d2 = _cr(a0, a1, a2, y0, y1, y2)
                 th = scale * e[step] * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) * math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -222,24 +235,18 @@ def _orient_numba(h, r, u, e, iterations, y, scale):
                     sn, (t0 - ta * a0) * y0 + (t1 - ta * a1) * y1 + (t2 - ta * a2) * y2)
                 th = math.copysign(min(th, abs(best)), best) if best != 0.0 else 0.0
                 c, s_ = math.cos(th), math.sin(th)
-                for k in range(3):
-                    v0, v1, v2 = f[k, 0], f[k, 1], f[k, 2]
-                    x0, x1, x2 = _cr(a0, a1, a2, v0, v1, v2)
-                    av = a0 * v0 + a1 * v1 + a2 * v2
-                    f[k, 0] = v0 * c + x0 * s_ + a0 * av * (1.0 - c)
-                    f[k, 1] = v1 * c + x1 * s_ + a1 * av * (1.0 - c)
-                    f[k, 2] = v2 * c + x2 * s_ + a2 * av * (1.0 - c)
-                hn = math.sqrt(f[0, 0] ** 2 + f[0, 1] ** 2 + f[0, 2] ** 2)
-                h0, h1, h2 = f[0, 0] / hn, f[0, 1] / hn, f[0, 2] / hn
-                uh = f[2, 0] * h0 + f[2, 1] * h1 + f[2, 2] * h2
-                u0, u1, u2 = f[2, 0] - uh * h0, f[2, 1] - uh * h1, f[2, 2] - uh * h2
+                h0, h1, h2 = _rot3(h0, h1, h2, a0, a1, a2, c, s_)
+                u0, u1, u2 = _rot3(u0, u1, u2, a0, a1, a2, c, s_)
+                hn = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+                h0, h1, h2 = h0 / hn, h1 / hn, h2 / hn
+                uh = u0 * h0 + u1 * h1 + u2 * h2
+                u0, u1, u2 = u0 - uh * h0, u1 - uh * h1, u2 - uh * h2
                 un = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
                 u0, u1, u2 = u0 / un, u1 / un, u2 / un
                 r0, r1, r2 = _cr(h0, h1, h2, u0, u1, u2)
-                f[0, 0], f[0, 1], f[0, 2] = h0, h1, h2
-                f[1, 0], f[1, 1], f[1, 2] = r0, r1, r2
-                f[2, 0], f[2, 1], f[2, 2] = u0, u1, u2
-        H[i], R[i], U[i] = f[0], f[1], f[2]
+        H[i, 0], H[i, 1], H[i, 2] = h0, h1, h2
+        R[i, 0], R[i, 1], R[i, 2] = r0, r1, r2
+        U[i, 0], U[i, 1], U[i, 2] = u0, u1, u2
     return H, R, U
 
 
@@ -320,40 +327,40 @@ def build_leaves(bud_pos, bud_dir, bud_radius, *, bud_up=None, leaf_size: float 
     p0 = bud_pos[sel]
     p1 = p0 + petiole_length * h0
     p2 = p1 + petiole_length * h
-    # blades
     loc, buv, bf = _blade(leaf_shape)
-    nv = len(loc)
-    bv = (p2[:, None, :] + leaf_size * (loc[None, :, 0:1] * r[:, None] + loc[None, :, 1:2] * h[:, None]
-                                         + loc[None, :, 2:3] * u[:, None]))
-    verts = [bv.reshape(-1, 3)]
-    norms = [np.repeat(u, nv, axis=0).astype(np.float32)]
-    uvs = [np.tile(buv, (L, 1)).astype(np.float32)]
-    ids = [np.repeat(sel, nv)]
-    faces = [(bf[None] + nv * np.arange(L)[:, None, None]).reshape(-1, 3)]
-    # petioles through the branch kernel (w = 1: a polynomial quadratic)
-    if petiole_length > 0 and petiole_radius > 0 and L:
+    nv, nfb = len(loc), len(bf)
+    # petiole layout (generalized cylinders through the branch kernel, w = 1: a polynomial quadratic)
+    ks = 3
+    pet = petiole_length > 0 and petiole_radius > 0 and L > 0
+    npv = (ks + 1) * (petiole_sides + 1) if pet else 0
+    npf = ks * 2 * petiole_sides if pet else 0
+    nbv, nbf = L * nv, L * nfb
+    V = np.empty((nbv + L * npv, 3))
+    NRM = np.empty((len(V), 3), np.float32)
+    UV = np.empty((len(V), 2), np.float32)
+    NID = np.empty(len(V), np.int64)
+    F = np.empty((nbf + L * npf, 3), np.int64)
+    # blades: written straight into the first L × nv vertices and L × nfb faces
+    bv = V[:nbv].reshape(L, nv, 3)
+    bv[:] = p2[:, None, :]
+    for k in range(nv):
+        bv[:, k] += leaf_size * (loc[k, 0] * r + loc[k, 1] * h + loc[k, 2] * u)
+    NRM[:nbv].reshape(L, nv, 3)[:] = u[:, None, :]
+    UV[:nbv].reshape(L, nv, 2)[:] = buv
+    NID[:nbv].reshape(L, nv)[:] = sel[:, None]
+    F[:nbf].reshape(L, nfb, 3)[:] = bf[None] + (nv * np.arange(L))[:, None, None]
+    if pet:
         rec = np.zeros((L, K.REC_SIZE))
         rec[:, 0:3], rec[:, 3:6], rec[:, 6:9] = p0, p1, p2
         rec[:, 9:12] = u0
         rec[:, 15] = 1.0
         rec[:, 17] = 1.0
         rec[:, 18] = rec[:, 19] = petiole_radius
-        ks = 3
-        cnt = ring_counts(np.full(L, petiole_sides), np.full(L, petiole_sides), ks)
-        nvs = (cnt + 1).sum(1)
-        nfs = (cnt[:, :-1] + cnt[:, 1:]).sum(1)
-        v_off = np.concatenate([[0], np.cumsum(nvs)]).astype(np.int64)
-        f_off = np.concatenate([[0], np.cumsum(nfs)]).astype(np.int64)
-        V, NRM = np.empty((v_off[-1], 3)), np.empty((v_off[-1], 3), np.float32)
-        UV, NID, F = np.empty((v_off[-1], 2), np.float32), np.empty(v_off[-1], np.int64), np.empty((f_off[-1], 3), np.int64)
+        cnt = np.full((L, ks + 1), petiole_sides, np.int32)
+        v_off = nbv + npv * np.arange(L + 1, dtype=np.int64)
+        f_off = nbf + npf * np.arange(L + 1, dtype=np.int64)
         nodes = np.stack([sel, sel], axis=1).astype(np.int64)
-        K._eval_segments_numba(rec, cnt, ks, nodes, np.zeros(L, np.uint8), np.arange(L, dtype=np.int64), v_off,
-                               f_off, 1.0, V, NRM, UV, NID, F)
-        UV[:] = _PETIOLE_UV
-        faces.append(F + len(verts[0]))
-        verts.append(V)
-        norms.append(NRM)
-        uvs.append(UV)
-        ids.append(NID)
-    return LeafMesh(np.concatenate(verts), np.concatenate(faces).astype(np.int64), np.concatenate(norms),
-                    np.concatenate(uvs), np.concatenate(ids), np.stack([h, r, u], axis=1))
+        K.eval_segments(rec, cnt, ks, nodes, np.zeros(L, np.uint8), np.arange(L, dtype=np.int64), v_off, f_off,
+                        1.0, V, NRM, UV, NID, F)
+        UV[nbv:] = _PETIOLE_UV
+    return LeafMesh(V, F, NRM, UV, NID, np.stack([h, r, u], axis=1))

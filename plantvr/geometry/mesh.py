@@ -19,7 +19,7 @@ from . import _kernels as K
 from ._kernels import CAP_END, CAP_START, REC_SIZE
 
 __all__ = [
-    "Segments", "BranchMesh", "tree_segments", "lod_level", "ring_counts", "build_branch_mesh",
+    "Segments", "BranchMesh", "IncrementalBranchMesh", "MeshUpdate", "tree_segments", "lod_level", "ring_counts", "build_branch_mesh",
     "update_branch_mesh", "rational_bezier", "rational_bezier_tangent", "length_estimate", "smoothstep",
     "transport_frame",
 ]
@@ -432,3 +432,352 @@ def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
     K.eval_segments(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off, *args,
                     V, NRM, UV, NID, F)
     return BranchMesh(V, F, NRM, UV, NID, seg, cnt, v_off, f_off, dict(o)), changed
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Incremental mesh: slot layout with slack capacity (spec §3.5, checklist item 20)
+@dataclass
+class MeshUpdate:
+    """What one :meth:`IncrementalBranchMesh.update` rewrote.
+
+    Attributes
+    ----------
+    changed : (C,) int64 ndarray
+        Keys (see :class:`Segments`) of the segments re-evaluated.
+    removed : (D,) int64 ndarray
+        Keys of the segments that vanished (their blocks are now degenerate).
+    vertex_ranges, face_ranges : (R, 2) int64 ndarray
+        ``[start, stop)`` rows of the vertex and face buffers that were written (re-evaluated or blanked
+        blocks); only these need re-uploading when ``relayout`` is False.
+    relayout : bool
+        The buffers were re-allocated, re-laid out (full rebuild) or compacted: re-bind and re-upload all.
+    n_vertices, n_faces : int
+        Rows in use after the update (``mesh.vertices`` / ``mesh.faces`` lengths).
+    """
+
+    changed: np.ndarray
+    removed: np.ndarray
+    vertex_ranges: np.ndarray
+    face_ranges: np.ndarray
+    relayout: bool
+    n_vertices: int
+    n_faces: int
+
+
+def _block_sizes(cnt: np.ndarray, caps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    cap_s = (caps & CAP_START) > 0
+    cap_e = (caps & CAP_END) > 0
+    nv = (cnt + 1).sum(1) + cap_s * (cnt[:, 0] + 1) + cap_e * (cnt[:, -1] + 1)
+    nf = (cnt[:, :-1] + cnt[:, 1:]).sum(1) + cap_s * cnt[:, 0] + cap_e * cnt[:, -1]
+    return nv.astype(np.int64), nf.astype(np.int64)
+
+
+def _grow(a: np.ndarray, n: int, fill=None) -> np.ndarray:
+    out = np.empty((n,) + a.shape[1:], a.dtype) if fill is None else np.full((n,) + a.shape[1:], fill, a.dtype)
+    out[:len(a)] = a
+    return out
+
+
+class IncrementalBranchMesh:
+    """Branch mesh kept up to date segment by segment after growth steps (spec §3.5, checklist item 20).
+
+    Every segment (one 20-float record, :class:`Segments`) owns a block of the vertex and face buffers with
+    slack capacity. :meth:`update` re-evaluates only the segments whose record or ring counts changed; a
+    segment that outgrows its block, or a new one, gets a free block of the same size or a new block at the
+    end; blocks of vanished or moved segments become degenerate (zero-area faces, node id -1) until the next
+    compaction. Unused tails of blocks are degenerate too, so ``vertices``/``faces`` always render as the
+    tree. :meth:`to_branch_mesh` returns the compact mesh, equal array for array to
+    :func:`build_branch_mesh` with the same options (the test oracle).
+
+    Parameters
+    ----------
+    pos, parent, radius, alive, main_child
+        The tree, as in :func:`tree_segments`.
+    bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat
+        As in :func:`build_branch_mesh`; fixed for the life of the object. ``tip_radius`` defaults to the
+        smallest live radius of the first tree (pass the model's tip radius so growth does not change it).
+    slack : float
+        Extra capacity of each block, as a fraction of its size, in [0, 4] (capped at the size the block
+        would have with every ring at ``lod[1]``); lets ring counts grow in place as radii grow.
+    max_waste : float
+        Compact when the rows of free blocks exceed this fraction of the rows in use, in (0, 1].
+    rebuild_fraction : float
+        Re-lay out everything when more than this fraction of the segments would move (e.g. after pruning,
+        which renumbers the snapshot's nodes), in (0, 1].
+
+    Attributes
+    ----------
+    options : dict
+        The build options.
+    buffer_version : int
+        Bumped whenever the buffers are re-allocated or re-laid out; views re-bind their arrays then.
+
+    References
+    ----------
+    .. [1] Thesis §10.3: the per-cylinder patch as the unit of CPU→GPU update; spec 000_treewand §3.5.
+    """
+
+    def __init__(self, pos, parent, radius, *, alive=None, main_child=None, bezier_w: float = 3.0,
+                 u_steps: int = 4, lod: tuple[int, int] = LOD_FULL, tip_radius: float | None = None,
+                 bark_rate: float = 1.0, bark_repeat: int = 1, slack: float = 0.25, max_waste: float = 0.5,
+                 rebuild_fraction: float = 0.5):
+        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+        opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive)
+        self.slack = check_range("slack", slack, 0.0, 4.0)
+        self.max_waste = check_range("max_waste", max_waste, 0.0, 1.0, low_open=True)
+        self.rebuild_fraction = check_range("rebuild_fraction", rebuild_fraction, 0.0, 1.0, low_open=True)
+        self.options = opts
+        self.buffer_version = 0
+        seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=opts["bezier_w"],
+                            bark_rate=opts["bark_rate"], _checked=True)
+        self._root = pos[0].copy()
+        self._relayout(seg, *self._counts(seg))
+
+    # -- public arrays ----------------------------------------------------------------------------------
+    @property
+    def vertices(self) -> np.ndarray:
+        """(V, 3) float64 vertex rows in use (a view of the buffer; free rows sit at the root, degenerate)."""
+        return self._V[:self._v_used]
+
+    @property
+    def normals(self) -> np.ndarray:
+        """(V, 3) float32 unit normals."""
+        return self._NRM[:self._v_used]
+
+    @property
+    def uv(self) -> np.ndarray:
+        """(V, 2) float32 bark coordinates."""
+        return self._UV[:self._v_used]
+
+    @property
+    def node_id(self) -> np.ndarray:
+        """(V,) int64 node of each vertex, -1 in free blocks."""
+        return self._NID[:self._v_used]
+
+    @property
+    def faces(self) -> np.ndarray:
+        """(F, 3) int64 faces in use; faces of free blocks and block tails are degenerate (a, a, a)."""
+        return self._F[:self._f_used]
+
+    @property
+    def n_segments(self) -> int:
+        """Live segments."""
+        return int(self._live.sum())
+
+    @property
+    def waste(self) -> float:
+        """Fraction of the vertex rows in use that belong to free blocks."""
+        return float(self._vcap[~self._live].sum()) / max(self._v_used, 1)
+
+    # -- layout -----------------------------------------------------------------------------------------
+    def _counts(self, seg: Segments):
+        o = self.options
+        r = seg.records
+        n0 = lod_level(r[:, K.REC_R0], tip_radius=o["tip_radius"], lod=o["lod"])
+        n1 = lod_level(r[:, K.REC_R2], tip_radius=o["tip_radius"], lod=o["lod"])
+        cnt = ring_counts(n0, n1, o["u_steps"])
+        nv, nf = _block_sizes(cnt, seg.caps)
+        return cnt, nv, nf
+
+    def _capacity(self, cnt, caps, nv, nf):
+        hi = self.options["lod"][1]
+        nv_max, nf_max = _block_sizes(np.full((1, cnt.shape[1]), hi, np.int32), caps)
+        vcap = np.minimum(np.maximum(nv_max, nv), nv + np.ceil(self.slack * nv).astype(np.int64))
+        fcap = np.minimum(np.maximum(nf_max, nf), nf + np.ceil(self.slack * nf).astype(np.int64))
+        return vcap, fcap
+
+    def _alloc_buffers(self, nv: int, nf: int):
+        self._V, self._NRM, self._UV, self._NID, self._F = _alloc(nv, nf)
+        self.buffer_version += 1
+
+    def _relayout(self, seg: Segments, cnt, nv, nf) -> None:
+        """Fresh layout of all segments in key order, each block with slack, everything evaluated."""
+        S = len(seg)
+        vcap, fcap = self._capacity(cnt, seg.caps, nv, nf)
+        v0 = np.zeros(S + 1, np.int64)
+        f0 = np.zeros(S + 1, np.int64)
+        np.cumsum(vcap, out=v0[1:])
+        np.cumsum(fcap, out=f0[1:])
+        self._alloc_buffers(int(v0[-1] * 1.1) + 64, int(f0[-1] * 1.1) + 64)
+        self._v_used, self._f_used = int(v0[-1]), int(f0[-1])
+        self._set_slots(seg, cnt, nv, nf, v0[:-1], vcap, f0[:-1], fcap)
+        idx = np.arange(S, dtype=np.int64)
+        K._eval_segments_numba(seg.records, cnt, self.options["u_steps"], seg.nodes, seg.caps, idx, self._v0,
+                               self._f0, float(self.options["bark_repeat"]), self._V, self._NRM, self._UV,
+                               self._NID, self._F)
+        K._fill_slack_numba(self._v0, nv, vcap, self._f0, nf, fcap, self._V, self._NRM, self._UV, self._NID,
+                            self._F)
+
+    def _set_slots(self, seg, cnt, nv, nf, v0, vcap, f0, fcap) -> None:
+        S = len(seg)
+        self._key = seg.keys.copy()
+        self._rec = seg.records.copy()
+        self._cnt = cnt.copy()
+        self._nodes = seg.nodes.copy()
+        self._caps = seg.caps.copy()
+        self._axis = seg.axis.copy()
+        self._nv, self._nf = nv.copy(), nf.copy()
+        self._v0, self._vcap, self._f0, self._fcap = v0.copy(), vcap.copy(), f0.copy(), fcap.copy()
+        self._live = np.ones(S, bool)
+        self._slot_of_key = np.full(int(seg.keys.max()) + 1 if S else 0, -1, np.int64)
+        self._slot_of_key[seg.keys] = np.arange(S)
+
+    # -- update -----------------------------------------------------------------------------------------
+    def update(self, pos, parent, radius, *, alive=None, main_child=None) -> MeshUpdate:
+        """Bring the mesh to a changed tree, re-evaluating only the segments that changed.
+
+        Parameters
+        ----------
+        pos, parent, radius, alive, main_child
+            The changed tree, as in :func:`tree_segments`. Segments are identified by key (node index), so
+            node indices must be stable between calls (true between growth steps of a snapshot; after
+            pruning most keys move and the update becomes a full re-layout).
+
+        Returns
+        -------
+        MeshUpdate
+        """
+        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+        o = self.options
+        seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=o["bezier_w"],
+                            bark_rate=o["bark_rate"], _checked=True)
+        self._root = pos[0].copy()
+        cnt, nv, nf = self._counts(seg)
+        slot, status = K._diff_numba(seg.keys, seg.records, cnt, seg.nodes, seg.caps, nv, nf, self._slot_of_key,
+                                     self._rec, self._cnt, self._nodes, self._caps, self._vcap, self._fcap)
+        kept = slot[status < 2]
+        seen = np.zeros(len(self._key), bool)
+        seen[kept] = True
+        gone = np.flatnonzero(self._live & ~seen)            # vanished keys and segments that must move
+        changed = np.flatnonzero(status > 0)
+        moving = np.flatnonzero(status == 2)
+        empty = np.zeros((0, 2), np.int64)
+        if len(moving) > self.rebuild_fraction * max(len(seg), 1):
+            removed = np.setdiff1d(self._key[self._live], seg.keys)
+            self._relayout(seg, cnt, nv, nf)
+            return MeshUpdate(seg.keys[changed], removed, empty, empty, True, self._v_used, self._f_used)
+        removed_keys = self._key[gone][~np.isin(self._key[gone], seg.keys)]
+        # free the blocks of vanished and moving segments
+        self._live[gone] = False
+        self._slot_of_key[self._key[gone]] = -1
+        self._key[gone] = -1
+        K._free_numba(self._v0[gone], self._vcap[gone], self._f0[gone], self._fcap[gone], self._root, self._V,
+                      self._NRM, self._UV, self._NID, self._F)
+        relayout = False
+        if len(moving):
+            relayout = self._place(slot, moving, cnt, seg.caps, nv, nf)
+        # record the new state of every changed segment in its slot
+        sl = slot[changed]
+        if len(seg.keys) and seg.keys.max() >= len(self._slot_of_key):
+            self._slot_of_key = _grow(self._slot_of_key, int(seg.keys.max()) + 1, -1)
+        self._key[sl] = seg.keys[changed]
+        self._slot_of_key[seg.keys[changed]] = sl
+        self._rec[sl] = seg.records[changed]
+        self._cnt[sl] = cnt[changed]
+        self._nodes[sl] = seg.nodes[changed]
+        self._caps[sl] = seg.caps[changed]
+        self._axis[slot] = seg.axis
+        self._nv[sl], self._nf[sl] = nv[changed], nf[changed]
+        self._live[sl] = True
+        K.eval_segments(self._rec, self._cnt, o["u_steps"], self._nodes, self._caps, sl, self._v0, self._f0,
+                        float(o["bark_repeat"]), self._V, self._NRM, self._UV, self._NID, self._F)
+        K._fill_slack_numba(self._v0[sl], self._nv[sl], self._vcap[sl], self._f0[sl], self._nf[sl],
+                            self._fcap[sl], self._V, self._NRM, self._UV, self._NID, self._F)
+        if self.waste > self.max_waste:
+            self.compact()
+            relayout = True
+        blocks = np.concatenate([sl, gone])
+        vr = np.stack([self._v0[blocks], self._v0[blocks] + self._vcap[blocks]], axis=1)
+        fr = np.stack([self._f0[blocks], self._f0[blocks] + self._fcap[blocks]], axis=1)
+        return MeshUpdate(seg.keys[changed], removed_keys, vr, fr, relayout, self._v_used, self._f_used)
+
+    def _place(self, slot, moving, cnt, caps, nv, nf) -> bool:
+        """Give each moving segment a free block of exactly its capacity, else a new block at the end."""
+        vcap, fcap = self._capacity(cnt[moving], caps[moving], nv[moving], nf[moving])
+        free = np.flatnonzero(~self._live)
+        take = np.full(len(moving), -1, np.int64)
+        if len(free):
+            # exact size classes: a freed tip half is reused by the next new tip half (same ring counts)
+            fkey = self._vcap[free] * (1 << 32) + self._fcap[free]
+            nkey = vcap * (1 << 32) + fcap
+            fo = np.argsort(fkey, kind="stable")
+            fkey, free = fkey[fo], free[fo]
+            no = np.argsort(nkey, kind="stable")
+            first = np.searchsorted(fkey, nkey[no], side="left")
+            avail = np.searchsorted(fkey, nkey[no], side="right") - first
+            rank = np.arange(len(no)) - np.searchsorted(nkey[no], nkey[no], side="left")
+            ok = rank < avail
+            take[no[ok]] = free[first[ok] + rank[ok]]
+        new = take < 0
+        n_new = int(new.sum())
+        relayout = False
+        if n_new:
+            S0 = len(self._key)
+            ids = np.arange(S0, S0 + n_new)
+            take[new] = ids
+            self._extend_slots(S0 + n_new)
+            v_start = self._v_used + np.concatenate([[0], np.cumsum(vcap[new])[:-1]]).astype(np.int64)
+            f_start = self._f_used + np.concatenate([[0], np.cumsum(fcap[new])[:-1]]).astype(np.int64)
+            self._v0[ids], self._f0[ids] = v_start, f_start
+            self._vcap[ids], self._fcap[ids] = vcap[new], fcap[new]
+            need_v = self._v_used + int(vcap[new].sum())
+            need_f = self._f_used + int(fcap[new].sum())
+            if need_v > len(self._V) or need_f > len(self._F):
+                self._reserve(max(need_v, int(1.5 * len(self._V))), max(need_f, int(1.5 * len(self._F))))
+                relayout = True
+            self._v_used, self._f_used = need_v, need_f
+        slot[moving] = take
+        return relayout
+
+    def _extend_slots(self, n: int) -> None:
+        for name in ("_rec", "_cnt", "_nodes", "_caps", "_axis", "_nv", "_nf", "_v0", "_vcap", "_f0", "_fcap"):
+            setattr(self, name, _grow(getattr(self, name), n, 0))
+        self._key = _grow(self._key, n, -1)
+        self._live = _grow(self._live, n, False)
+
+    def _reserve(self, nv: int, nf: int) -> None:
+        old = (self._V, self._NRM, self._UV, self._NID, self._F)
+        self._alloc_buffers(nv, nf)
+        for a, b in zip(old, (self._V, self._NRM, self._UV, self._NID, self._F)):
+            n = self._v_used if a is not old[-1] else self._f_used
+            b[:n] = a[:n]
+
+    # -- compaction -------------------------------------------------------------------------------------
+    def _live_order(self) -> np.ndarray:
+        live = np.flatnonzero(self._live)
+        return live[np.argsort(self._key[live], kind="stable")]
+
+    def segments(self) -> Segments:
+        """The live segments' records, in key order (as :func:`tree_segments` returns them)."""
+        q = self._live_order()
+        return Segments(records=self._rec[q].copy(), nodes=self._nodes[q].copy(), keys=self._key[q].copy(),
+                        axis=self._axis[q].copy(), caps=self._caps[q].copy())
+
+    def compact(self) -> None:
+        """Re-lay out the live blocks in key order with fresh slack, dropping free blocks (copies, no re-evaluation)."""
+        q = self._live_order()
+        vcap, fcap = self._capacity(self._cnt[q], self._caps[q], self._nv[q], self._nf[q])
+        v0 = np.concatenate([[0], np.cumsum(vcap)]).astype(np.int64)
+        f0 = np.concatenate([[0], np.cumsum(fcap)]).astype(np.int64)
+        old = (self._V, self._NRM, self._UV, self._NID, self._F)
+        src_v0, src_f0, nv, nf = self._v0[q], self._f0[q], self._nv[q], self._nf[q]
+        self._alloc_buffers(int(v0[-1] * 1.1) + 64, int(f0[-1] * 1.1) + 64)
+        K._copy_blocks_numba(src_v0, v0[:-1], nv, src_f0, f0[:-1], nf, *old, self._V, self._NRM, self._UV,
+                             self._NID, self._F)
+        seg = Segments(records=self._rec[q], nodes=self._nodes[q], keys=self._key[q], axis=self._axis[q],
+                       caps=self._caps[q])
+        self._set_slots(seg, self._cnt[q], nv, nf, v0[:-1], vcap, f0[:-1], fcap)
+        self._v_used, self._f_used = int(v0[-1]), int(f0[-1])
+        K._fill_slack_numba(self._v0, self._nv, self._vcap, self._f0, self._nf, self._fcap, self._V, self._NRM,
+                            self._UV, self._NID, self._F)
+
+    def to_branch_mesh(self) -> BranchMesh:
+        """The compact mesh (no free blocks, no slack): equal to :func:`build_branch_mesh` of the same tree."""
+        q = self._live_order()
+        cnt, nv, nf = self._cnt[q], self._nv[q], self._nf[q]
+        v_off = np.concatenate([[0], np.cumsum(nv)]).astype(np.int64)
+        f_off = np.concatenate([[0], np.cumsum(nf)]).astype(np.int64)
+        V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
+        K._copy_blocks_numba(self._v0[q], v_off[:-1], nv, self._f0[q], f_off[:-1], nf, self._V, self._NRM,
+                             self._UV, self._NID, self._F, V, NRM, UV, NID, F)
+        return BranchMesh(V, F, NRM, UV, NID, self.segments(), cnt.copy(), v_off, f_off, dict(self.options))
