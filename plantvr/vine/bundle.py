@@ -197,7 +197,7 @@ def _read(path) -> tuple[dict, dict]:
                 raise ValueError(f"bundle {p!r} has no manifest.json (not a ViNE bundle)")
             members = [(n, z.read(n)) for n in ["manifest.json"] + sorted(n for n in names if n != "manifest.json")]
     except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, KeyError, RuntimeError) as exc:
-        raise ValueError(f"could not read bundle {p!r} (truncated or not a zip file): {exc}") from None
+        raise ValueError(f"could not read bundle {p!r} (corrupt, truncated or not a zip file): {exc}") from None
     want = comment.partition("sha256=")[2]
     if not comment.startswith(_MAGIC) or not want:
         raise ValueError(f"bundle {p!r} has no PlantVR checksum (not a ViNE bundle)")

@@ -684,6 +684,23 @@ class Segmentation:
         m = trimesh.Trimesh(self.vertices, faces, vertex_colors=self.vertex_colors(), process=False)
         m.export(p)
 
+    def label_table(self, names: dict | None = None):
+        """Per-label statistics (pandas DataFrame): see :func:`plantvr.vine.labelstats.label_table`."""
+        from plantvr.vine.labelstats import label_table
+        return label_table(self.vertices, self.faces, self.labels, colors=self.colors, names=names,
+                           graph=self.graph)
+
+    def export_label_table(self, path: str | os.PathLike, names: dict | None = None) -> None:
+        """Write :meth:`label_table` as CSV."""
+        self.label_table(names).to_csv(os.fspath(path), index=False)
+
+    def export_label_meshes(self, directory: str | os.PathLike, *, fmt: str = "ply", which=None,
+                            prefix: str = "label") -> dict[int, str]:
+        """One mesh file per label: see :func:`plantvr.vine.labelstats.export_label_meshes`."""
+        from plantvr.vine.labelstats import export_label_meshes
+        return export_label_meshes(directory, self.vertices, self.faces, self.labels, fmt=fmt,
+                                   colors=self.colors, which=which, prefix=prefix)
+
     def smoothed_colors(self, iterations: int = 1) -> np.ndarray:
         """Laplacian vertex-colour smoothing: ``c_v ← mean({c_v} ∪ {c_u : u ∈ N(v)})`` (spec §2.7).
 

@@ -1,0 +1,73 @@
+"""Slices against the raw volume (issue 15): the mesh–plane cut lies on skimage's slice contours."""
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from plantvr.vine import slices as S
+from plantvr.vine.colors import ColorTable
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_cut_lies_on_find_contours(head, surface, axis):
+    segs = S.plane_segments(surface.vertices, surface.faces, axis, 32.0)
+    cs = S.slice_contours(head.volume, head.level, axis, 32)
+    pts = np.concatenate(cs)
+    d, _ = cKDTree(pts).query(segs.reshape(-1, 3))
+    assert d.max() < 1e-4
+    assert np.all(segs[:, :, axis] == 32.0)
+    assert len(segs) == sum(len(c) - 1 for c in cs)      # one cut segment per contour segment
+    length = np.linalg.norm(segs[:, 0] - segs[:, 1], axis=1).sum()
+    clen = sum(np.linalg.norm(np.diff(c, axis=0), axis=1).sum() for c in cs)
+    assert length == pytest.approx(clen, rel=0.02)
+
+
+def test_cut_between_grid_planes(surface):
+    """Off-grid planes: every end point is on a mesh edge and on the plane."""
+    v, f = surface.vertices.astype(np.float64), surface.faces.astype(np.int64)
+    segs = S.plane_segments(v, f, "y", 30.37)
+    assert len(segs) > 100 and np.allclose(segs[:, :, 1], 30.37)
+    # brute force: faces with vertices strictly on both sides
+    d = v[:, 1] - 30.37
+    up = (d[f] > 0).sum(1)
+    assert len(segs) == int(np.sum((up == 1) | (up == 2)))
+
+
+def test_end_labels_from_nearer_vertex():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float64)
+    f = np.array([[0, 1, 2]])
+    lab = np.array([1, 2, 3], np.uint8)
+    segs, el = S.plane_segments(v, f, 0, 0.25, labels=lab)
+    assert segs.shape == (1, 2, 3)
+    assert sorted(map(tuple, segs[0].round(6).tolist())) == [(0.25, 0.0, 0.0), (0.25, 0.75, 0.0)]
+    assert sorted(el[0].tolist()) == [1, 3]          # (0.25, 0.75) is nearer vertex 2 (label 3)
+    segs, el = S.plane_segments(v, f, 0, 0.75, labels=lab)
+    assert sorted(el[0].tolist()) == [2, 2]
+
+
+def test_slice_figure_colours(tmp_path, head, surface, truth):
+    fig = S.slice_figure(head.volume, 2, 32, level=head.level, vertices=surface.vertices, faces=surface.faces,
+                         labels=truth)
+    ax = fig.axes[0]
+    lc = ax.collections[0]
+    cols = {tuple(np.round(c[:3] * 255).astype(int)) for c in lc.get_colors()}
+    _, el = S.plane_segments(surface.vertices, surface.faces, 2, 32.0, labels=truth)
+    assert cols == {tuple(int(x) for x in ColorTable().rgba[k, :3]) for k in np.unique(el)}
+    assert len(ax.lines) == len(S.slice_contours(head.volume, head.level, 2, 32))
+    fig.savefig(tmp_path / "slice.png")
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"axis": 3}, "axis must be an integer"), ({"axis": "w"}, "axis must be 0, 1, 2"),
+    ({"index": 64}, "index must be an integer in"), ({"linewidth": 0}, "linewidth must be in"),
+    ({"spacing": (1, 1)}, "spacing must have shape")])
+def test_slice_figure_rejects(head, kwargs, match):
+    args = {"axis": 0, "index": 3} | kwargs
+    with pytest.raises(ValueError, match=match):
+        S.slice_figure(head.volume, args.pop("axis"), args.pop("index"), **args)
+
+
+def test_plane_segments_rejects(surface):
+    with pytest.raises(ValueError, match="position must be in"):
+        S.plane_segments(surface.vertices, surface.faces, 0, float("inf"))
+    with pytest.raises(ValueError, match="labels must be uint8"):
+        S.plane_segments(surface.vertices, surface.faces, 0, 1.0, labels=np.zeros(3, np.uint8))
