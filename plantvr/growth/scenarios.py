@@ -10,7 +10,8 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-__all__ = ["demo_session", "vertical_stroke", "sweep_session", "run"]
+__all__ = ["demo_session", "vertical_stroke", "sweep_session", "run", "y_session", "broad_session",
+           "concentrations_session", "crown_session"]
 
 Session = Callable[[object, int], None]
 
@@ -57,3 +58,83 @@ def run(target, session: Session, steps: int, progress: Iterable[int] | None = N
         st = target.step()
         out.append(st[-1] if isinstance(st, list) else st)
     return out
+
+
+# -- Figs. 12.2, 12.4–12.6 (added for the replayable stroke files of plantvr.ui.strokes) ----------------------
+# Only the motions the thesis states are reproduced (spec 000_treewand §6.1); positions, radii and timings are
+# [INFERRED] to give the stated shape on the default 16-unit scene.
+
+def y_session(fork: float = 6.0, top: float = 12.0, spread: float = 4.0, speed: float = 0.5,
+              small: float = 1.2, large: float = 3.5, darts: int = 60) -> Session:
+    """Fig. 12.2: a "Y" drawn with a small brush (trunk, then two arms), then a larger brush on the top."""
+    t_fork = int(np.ceil((fork - 2.0) / speed))
+    t_top = t_fork + int(np.ceil((top - fork) / speed))
+
+    def paint(target, s: int) -> None:
+        if s <= t_fork:
+            target.paint(np.array([0.0, 2.0 + speed * s, 0.0]), small, darts)
+        elif s <= t_top:
+            f = (s - t_fork) / max(t_top - t_fork, 1)
+            for side in (-1.0, 1.0):
+                target.paint(np.array([side * spread * f, fork + (top - fork) * f, 0.0]), small, darts)
+        elif s <= t_top + 6:
+            for side in (-1.0, 1.0):
+                target.paint(np.array([side * spread, top + 1.0, 0.0]), large, 2 * darts)
+    return paint
+
+
+def broad_session(centre: tuple = (0.0, 8.0, 0.0), size: tuple = (6.0, 4.0, 6.0), broad: float = 3.5,
+                  fine: float = 1.2, broad_steps: int = 16, darts: int = 150) -> Session:
+    """Fig. 12.4: very broad motions filling a crown ellipsoid with markers, then a smaller radius on chosen
+    spots "to add more internodes to areas I wanted to be more developed"."""
+    c, a = np.asarray(centre, float), np.asarray(size, float)
+    trunk = vertical_stroke(top=c[1] - a[1] * 0.5, darts=darts // 2)
+
+    def paint(target, s: int) -> None:
+        trunk(target, s)
+        if s < 4:
+            return
+        k = s - 4
+        if k < broad_steps:  # a wide circling motion over the crown, rising and falling
+            ang = 2 * np.pi * k / 6.0
+            p = c + a * np.array([0.8 * np.cos(ang), 0.6 * np.sin(0.5 * ang), 0.8 * np.sin(ang)])
+            target.paint(p, broad, darts)
+        elif k < broad_steps + 8:  # small touches on two chosen spots
+            spot = c + a * (np.array([0.7, 0.3, 0.2]) if k % 2 else np.array([-0.5, 0.5, -0.6]))
+            target.paint(spot, fine, darts // 2)
+    return paint
+
+
+def concentrations_session(centres=((-5.0, 10.0, 2.0), (5.0, 11.0, 1.0), (0.5, 13.0, -5.0)),
+                           radius: float = 3.5, trunk_top: float = 6.0, darts: int = 150) -> Session:
+    """Fig. 12.5: the tree grown "deliberately" towards three concentrations of leaves with a broad brush:
+    the trunk first, then each concentration in turn, the brush moved out from the trunk top."""
+    trunk = vertical_stroke(top=trunk_top, darts=darts // 2)
+    cs = np.asarray(centres, float)
+    start = int(np.ceil((trunk_top - 2.0) / 0.35))
+
+    def paint(target, s: int) -> None:
+        trunk(target, s)
+        k = s - start
+        if k < 0:
+            return
+        i, j = divmod(k, 6)
+        if i < len(cs):
+            f = (j + 1) / 6.0
+            target.paint(np.array([0.0, trunk_top, 0.0]) * (1 - f) + cs[i] * f, radius, darts)
+        elif i < len(cs) + 2:  # all three once more, so the earlier ones keep growing
+            target.paint(cs[j % len(cs)], radius, darts)
+    return paint
+
+
+def crown_session(top: float = 12.0, radius: float = 4.0, darts: int = 150) -> Session:
+    """Fig. 12.6 (maple): a trunk stroke, then a rounded crown painted around the top."""
+    trunk = vertical_stroke(top=top - 3.0, darts=darts // 2)
+
+    def paint(target, s: int) -> None:
+        trunk(target, s)
+        if s >= 12:
+            ang = 2.4 * s
+            target.paint(np.array([3.0 * np.cos(ang), top - 1.0 + np.sin(0.5 * s), 3.0 * np.sin(ang)]), radius,
+                         darts)
+    return paint

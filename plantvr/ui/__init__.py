@@ -6,18 +6,21 @@ of the state. Front-end sources are in the top-level ``widgets/`` folder (``plan
 from .growth import GrowthControl, GrowthPlot
 from .panels import IconSelector, ParameterPanels, make_control, param_traits
 from .presets import load_preset, read_preset, save_preset
+from .strokes import ScenarioPicker, list_scenarios, load_scenario, replay_scenario
 from .triangle import (InfluenceTriangle, barycentric, clamp_to_triangle, point_from_weights,
                        sub_triangle_areas)
 from .wheel import ColorWheel, slice_at
 
 __all__ = ["ColorWheel", "GrowthControl", "GrowthPlot", "IconSelector", "InfluenceTriangle", "ParameterPanels",
            "barycentric", "clamp_to_triangle", "load_preset", "make_control", "param_traits",
-           "point_from_weights", "read_preset", "save_preset", "slice_at", "sub_triangle_areas", "explorer"]
+           "point_from_weights", "read_preset", "save_preset", "slice_at", "sub_triangle_areas", "explorer",
+           "ScenarioPicker", "list_scenarios", "load_scenario", "replay_scenario"]
 
 
 def explorer(model, *, view=None):
-    """One layout with the parameter windows, the growth control and (optionally) a view widget."""
+    """One layout with the parameter windows, the growth control, the scenario dropdown and (optionally) a
+    view widget."""
     import ipywidgets as W  # noqa: PLC0415
     panels, control = ParameterPanels(model), GrowthControl(model)
-    right = [control] + ([view] if view is not None else [])
+    right = [control, ScenarioPicker(model)] + ([view] if view is not None else [])
     return W.HBox([panels, W.VBox(right)])
