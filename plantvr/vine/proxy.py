@@ -165,7 +165,7 @@ def _proxy_labels_kernel(members, starts, labels, visible, pids, out):  # pragma
             if (vis and not best_vis) or (vis == best_vis and (c > best_n or (c == best_n and lab < best))):
                 best, best_n, best_vis = lab, c, vis
             counts[lab] = 0
-        out[p] = np.uint8(best if best >= 0 else 0)
+        out[p] = np.uint8(max(best, 0))
 
 
 def _proxy_labels_numpy(owner: np.ndarray, n_proxy: int, labels: np.ndarray, visible: np.ndarray) -> np.ndarray:

@@ -1,0 +1,109 @@
+"""ViNE display proxy benchmark (issue 14): proxy build (merge, decimate, map, labels) and the per-stamp delta
+update, beside a full recompute of every proxy label (numba kernel and its numpy twin) in the same run.
+
+Mesh: a synthetic flower head tiled to the gerbera class (18 M vertices / 36 M faces) or, with ``--quick``,
+to 300 k vertices. The proxy budget defaults to 1.5 M triangles (``--quick``: 60 k).
+
+Run: ``python benchmarks/vine_proxy.py [--quick] [--vertices N] [--faces F]``.
+"""
+from __future__ import annotations
+
+import argparse
+import resource
+import time
+
+import numpy as np
+
+from plantvr.vine.isosurface import extract_isosurface
+from plantvr.vine.proxy import DisplayProxy, _proxy_labels_numpy
+from plantvr.vine.segmentation import Segmentation
+from plantvr.vine.synth import synth_flowerhead, tile_mesh
+
+
+def _rss_gib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20
+
+
+def _radius_for(seg: Segmentation, c, hits: int) -> float:
+    lo, hi = 0.0, 1.0
+    while len(seg.index.query(c, hi)) < hits:
+        hi *= 2
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        if len(seg.index.query(c, mid)) < hits:
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="300k vertices (CI)")
+    ap.add_argument("--vertices", type=int, default=None, help="target vertex count (default 18M)")
+    ap.add_argument("--faces", type=int, default=None, help="proxy triangle budget (default 1.5M)")
+    a = ap.parse_args(argv)
+    n_target = a.vertices or (300_000 if a.quick else 18_000_000)
+    budget = a.faces or (60_000 if a.quick else 1_500_000)
+    head = synth_flowerhead(96 if a.quick else 256, rng=0)
+    s = extract_isosurface(head.volume, head.level)
+    # warm the numba kernels on one head so the build time below is not compile time
+    DisplayProxy(Segmentation(s.vertices, s.faces), target_faces=len(s.faces) // 4).close()
+    v, f = tile_mesh(s.vertices, s.faces, n_target)
+    del head, s
+    seg = Segmentation(v, f)
+    print(f"mesh: {seg.n_vertices:,} vertices, {len(f):,} faces; proxy budget {budget:,} triangles; "
+          f"peak RSS so far {_rss_gib():.2f} GiB")
+    out: dict = {"vertices": seg.n_vertices, "faces": len(f), "budget": budget}
+
+    t = time.perf_counter()
+    px = DisplayProxy(seg, target_faces=budget)
+    build = time.perf_counter() - t
+    out.update(build_s=build, proxy_vertices=px.n_vertices, proxy_faces=len(px.faces),
+               mapping_bytes_per_vertex=px.nbytes / seg.n_vertices, peak_rss_gib=_rss_gib(),
+               **{f"{k}_s": val for k, val in px.timings.items()})
+    print(f"proxy build {build:.2f} s ({', '.join(f'{k} {val:.2f} s' for k, val in px.timings.items())}): "
+          f"{px.n_vertices:,} vertices, {len(px.faces):,} faces; mapping {px.nbytes / seg.n_vertices:.1f} B/vertex; "
+          f"peak RSS {_rss_gib():.2f} GiB")
+
+    # baselines: full recompute of all proxy labels
+    reps = 3
+    ts = []
+    for _ in range(reps):
+        t = time.perf_counter()
+        px.recompute()
+        ts.append(time.perf_counter() - t)
+    full_numba = min(ts)
+    t = time.perf_counter()
+    ref = _proxy_labels_numpy(px.owner, px.n_vertices, seg.labels, seg.colors.paintable_lut())
+    full_numpy = time.perf_counter() - t
+    assert np.array_equal(ref, px.labels)
+    out.update(recompute_numba_ms=full_numba * 1e3, recompute_numpy_ms=full_numpy * 1e3)
+    print(f"full recompute: numba {full_numba * 1e3:.1f} ms, numpy twin {full_numpy * 1e3:.1f} ms (baselines)")
+
+    rng = np.random.default_rng(0)
+    for hits in (10_000, 100_000):
+        c = seg.vertices[rng.integers(seg.n_vertices)].astype(np.float64)
+        r = _radius_for(seg, c, hits)
+        times, changed = [], []
+        for k in range(6):
+            lab = 1 + k % 5
+            ids, old = seg.index.paint(c, r, seg.labels, seg.colors.paintable_lut(), lab)  # full-res stamp
+            t = time.perf_counter()
+            ch = px.update(ids)
+            times.append(time.perf_counter() - t)
+            changed.append(len(ch))
+        assert np.array_equal(px.labels, _proxy_labels_numpy(px.owner, px.n_vertices, seg.labels,
+                                                             seg.colors.paintable_lut()))
+        dt = float(np.min(times))
+        out[f"delta_{hits}_ms"] = dt * 1e3
+        out[f"delta_{hits}_proxy_changed"] = int(np.median(changed))
+        print(f"delta update, {hits:,} full-res hits: {dt * 1e3:.2f} ms, {int(np.median(changed)):,} proxy "
+              f"vertices changed ({int(np.median(changed)) * 4:,} B of RGBA to send)  vs full recompute "
+              f"{full_numba * 1e3:.1f} ms ({full_numba / dt:.0f}x)")
+    px.close()
+    return out
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,296 @@
+"""In-browser review of a ViNE segmentation with trame (spec 000_vine §2.4–2.6; issues 6 and 14).
+
+The browser draws a decimated :class:`~plantvr.vine.proxy.DisplayProxy` on the user's own GPU (trame-vtk
+``VtkLocalView``, vtk.js): the mesh is sent once, and after each paint, undo or redo only the proxy's colour
+array is re-synchronised (trame-vtk's scene sync fetches arrays by content hash, so the unchanged points and
+triangles are never sent again). A click on the surface is picked in the browser (vtk.js hardware selector)
+and its world position comes back to the server, where the sphere brush paints the *full-resolution* labels;
+the proxy follows by per-vertex deltas. ``mode="remote"`` renders on the server instead (``VtkRemoteView``,
+images over the websocket) for comparison; ``benchmarks/vine_render.py`` measures both.
+
+Controls: colour selector, brush radius, undo/redo, hide/show of the selected colour, and, when started from
+a volume, an iso-value slider over the volume's histogram that re-extracts the surface.
+"""
+from __future__ import annotations
+
+import asyncio
+import itertools
+import os
+import socket
+import threading
+import time
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+
+from plantvr._validation import check_choice, check_int, check_range  # noqa: E402
+from plantvr.vine.proxy import DisplayProxy  # noqa: E402
+from plantvr.vine.segmentation import Segmentation  # noqa: E402
+
+__all__ = ["VineReviewApp", "histogram_svg"]
+
+_IDS = itertools.count()
+
+
+def histogram_svg(volume: np.ndarray, level: float, *, bins: int = 64, width: int = 260, height: int = 48) -> str:
+    """A small SVG bar chart of a volume's intensity histogram (log counts) with the iso-value as a red line."""
+    from plantvr.vine.volume import histogram
+    counts, edges = histogram(volume, bins=bins)
+    c = np.log1p(np.asarray(counts, np.float64))
+    c = c / max(c.max(), 1e-9)
+    w = width / len(c)
+    bars = "".join(f'<rect x="{i * w:.1f}" y="{height * (1 - h):.1f}" width="{max(w - 0.5, 0.5):.1f}" '
+                   f'height="{height * h:.1f}" fill="#8aa"/>' for i, h in enumerate(c))
+    x = width * (float(level) - float(edges[0])) / max(float(edges[-1] - edges[0]), 1e-9)
+    return (f'<svg class="vine-histogram" width="{width}" height="{height}" style="background:#223">{bars}'
+            f'<line x1="{x:.1f}" x2="{x:.1f}" y1="0" y2="{height}" stroke="#f33" stroke-width="2"/></svg>')
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class VineReviewApp:
+    """A trame page that reviews and paints a segmentation through its display proxy.
+
+    Parameters
+    ----------
+    seg : Segmentation, optional
+        The segmentation to review; give ``volume`` and ``level`` instead to mesh a volume.
+    proxy : DisplayProxy, optional
+        Display proxy of ``seg``; default one is built with ``target_faces``.
+    target_faces : int
+        Proxy triangle budget when the proxy is built here, in [4, 2**31 - 1].
+    mode : {"local", "remote"}
+        ``local``: the browser renders the proxy (vtk.js). ``remote``: the server renders and streams images.
+    volume : (X, Y, Z) uint8/uint16 ndarray, optional
+        Source volume; enables the iso-value slider and histogram.
+    level : float, optional
+        Iso-value for ``volume`` (default: Otsu, :func:`plantvr.vine.volume.suggest_level`).
+    radius : float, optional
+        Initial brush radius (default 2 % of the mesh diagonal).
+    window_size : tuple of 2 int
+        Server render-window size.
+    """
+
+    def __init__(self, seg: Segmentation | None = None, *, proxy: DisplayProxy | None = None,
+                 target_faces: int = 1_500_000, mode: str = "local", volume: np.ndarray | None = None,
+                 level: float | None = None, radius: float | None = None, window_size=(900, 700)):
+        from trame.app import get_server
+        mode = check_choice("mode", mode, ("local", "remote"))
+        target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
+        if seg is None:
+            if volume is None:
+                raise ValueError("give a Segmentation (seg) or a volume to mesh")
+            from plantvr.vine.volume import suggest_level
+            level = suggest_level(volume) if level is None else level
+            seg = Segmentation.from_volume(volume, level)
+        if not isinstance(seg, Segmentation):
+            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+        self.mode = mode
+        self.volume = volume
+        self.target_faces = target_faces
+        self.window_size = tuple(window_size)
+        self.server = get_server(f"vine_review_{next(_IDS)}", client_type="vue3")
+        self.state, self.ctrl = self.server.state, self.server.controller
+        self.port: int | None = None
+        self.url: str | None = None
+        self.pushes = 0
+        self._thread: threading.Thread | None = None
+        self._set_segmentation(seg, proxy)
+        diag = float(np.linalg.norm(np.ptp(seg.vertices, axis=0)))
+        r0 = 0.02 * diag if radius is None else check_range("radius", radius, 0.0, seg.max_radius, low_open=True)
+        self.state.update({
+            "label": 1, "radius": r0, "radius_max": round(0.25 * diag, 3), "hidden": [],
+            "painted": 0, "can_undo": False, "can_redo": False, "level": float(level or 0.0),
+            "histogram": histogram_svg(volume, level) if volume is not None else "",
+            "colours": self._colour_items(), "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
+        })
+        self._build_ui()
+
+    # ------------------------------------------------------------------ model
+    def _set_segmentation(self, seg: Segmentation, proxy: DisplayProxy | None) -> None:
+        from plantvr.view.segmentation import SegmentationView
+        old = getattr(self, "view", None)
+        plotter = None
+        if old is not None:
+            old.src.unobserve(old._on_change)
+            old.plotter.remove_actor(old.actor)
+            plotter = old.plotter
+            self.proxy.close()
+        self.seg = seg
+        self.proxy = proxy if proxy is not None else DisplayProxy(seg, target_faces=self.target_faces)
+        self.view = SegmentationView(seg, proxy=self.proxy, plotter=plotter, window_size=self.window_size,
+                                     background=(0.08, 0.08, 0.1))
+        self.proxy.observe(self._on_proxy_change)
+        self.view.plotter.reset_camera()
+        self.view.plotter.camera.elevation = -35
+
+    def _on_proxy_change(self, kind, ids) -> None:
+        self.state.can_undo = bool(self.seg.history.undo_stack)
+        self.state.can_redo = bool(self.seg.history.redo_stack)
+
+    def _colour_items(self) -> list[dict]:
+        c = self.seg.colors
+        return [{"value": k, "rgb": "rgb({},{},{})".format(*c.rgba[k, :3].tolist()), "visible": bool(c.visible[k])}
+                for k in range(len(c))]
+
+    def _push(self) -> None:
+        """Send what changed to the browser (only changed arrays for the local view; a new image for remote)."""
+        self.state.colours = self._colour_items()
+        self.state.painted = int(np.count_nonzero(self.seg.labels))
+        self.pushes += 1
+        self.ctrl.view_update()
+
+    # ------------------------------------------------------------------ commands (also callable from code)
+    def paint_world(self, point, *, radius: float | None = None, label: int | None = None) -> int:
+        """Paint the full-resolution labels with the sphere brush at a world-space point; returns the count."""
+        r = float(self.state.radius if radius is None else radius)
+        lab = int(self.state.label if label is None else label)
+        n = self.view.paint_at(point, radius=r, label=lab)
+        self._push()
+        return n
+
+    def on_pick(self, event) -> None:
+        """Browser click: local mode brings the picked world position, remote mode the display position."""
+        self.last_pick = event
+        if not event:
+            return
+        if "worldPosition" in event:
+            p = event["worldPosition"]
+        else:
+            from vtkmodules.vtkRenderingCore import vtkCellPicker
+            pos = event.get("position", {})
+            picker = vtkCellPicker()
+            picker.SetTolerance(0.0005)
+            if not picker.Pick(float(pos.get("x", 0)), float(pos.get("y", 0)), 0, self.view.plotter.renderer):
+                return
+            p = picker.GetPickPosition()
+        try:
+            self.paint_world(np.asarray(p, np.float64))
+        except ValueError as exc:                           # e.g. painting with a hidden colour
+            self.state.message = str(exc)
+
+    def undo(self) -> None:
+        """Undo the last painting operation (full resolution)."""
+        self.seg.undo()
+        self._push()
+
+    def redo(self) -> None:
+        """Redo the last undone operation."""
+        self.seg.redo()
+        self._push()
+
+    def toggle_selected(self) -> None:
+        """Hide or show the selected colour (on the full mesh and the proxy)."""
+        self.seg.toggle_visible(int(self.state.label))
+        self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
+        self._push()
+
+    def apply_level(self) -> None:
+        """Re-extract the isosurface at the slider's iso-value and show it (volume mode)."""
+        if self.volume is None:
+            return
+        level = float(self.state.level)
+        seg = Segmentation.from_volume(self.volume, level)
+        self._set_segmentation(seg, None)
+        self.state.histogram = histogram_svg(self.volume, level)
+        self.state.n_full, self.state.n_proxy = seg.n_vertices, self.proxy.n_vertices
+        self._push()
+        self.ctrl.view_reset_camera()
+
+    # ------------------------------------------------------------------ page
+    def _build_ui(self) -> None:
+        from trame.ui.vuetify3 import SinglePageLayout
+        from trame.widgets import html
+        from trame.widgets import vtk as vtk_widgets
+        from trame.widgets import vuetify3 as v3
+        ctrl = self.ctrl
+        ctrl.undo, ctrl.redo, ctrl.toggle_selected = self.undo, self.redo, self.toggle_selected
+        ctrl.apply_level = self.apply_level
+        with SinglePageLayout(self.server) as layout:
+            layout.title.set_text("ViNE review")
+            with layout.toolbar:
+                v3.VSpacer()
+                with html.Div(classes="d-flex align-center vine-colours"):
+                    v3.VBtn(v_for="c in colours", key="c.value", icon=True, size="small", density="compact",
+                            classes=("'vine-colour ma-1 vine-colour-' + c.value",),
+                            style=("{ background: c.rgb, opacity: c.visible ? 1 : 0.3, "
+                                   "outline: c.value === label ? '3px solid white' : 'none' }",),
+                            click="label = c.value")
+                v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=0.01, label="radius",
+                           hide_details=True, density="compact", style="max-width: 220px",
+                           classes="vine-radius mx-2")
+                v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
+                v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
+                v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
+            with layout.content:
+                with html.Div(style="position: relative; width: 100%; height: calc(100vh - 64px);"):
+                    kw = dict(picking_modes=("picking_modes", ["click"]), click=(self.on_pick, "[$event]"),
+                              interactor_settings=("interactor_settings", _INTERACTOR))
+                    if self.mode == "local":
+                        view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view", **kw)
+                    else:
+                        view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
+                                                         interactive_ratio=1, **kw)
+                    ctrl.view_update = view.update
+                    ctrl.view_reset_camera = view.reset_camera
+                    with html.Div(style="position: absolute; left: 8px; bottom: 8px; color: #ddd; "
+                                        "font: 12px sans-serif;", classes="vine-status"):
+                        html.Div("{{ n_full.toLocaleString() }} vertices, proxy {{ n_proxy.toLocaleString() }}; "
+                                 "painted {{ painted.toLocaleString() }}")
+                        if self.volume is not None:
+                            html.Div(v_html=("histogram",))
+                            v3.VSlider(v_model=("level",), min=1, max=float(np.iinfo(self.volume.dtype).max) - 1,
+                                       step=1, hide_details=True, density="compact", style="width: 260px",
+                                       label="iso", classes="vine-level", end=ctrl.apply_level)
+        self.layout = layout
+
+    # ------------------------------------------------------------------ serving
+    def start(self, port: int | None = None, *, open_browser: bool = False, thread: bool = True,
+              host: str = "127.0.0.1") -> str:
+        """Serve the page; returns its URL. With ``thread=True`` the server runs in a daemon thread."""
+        self.port = _free_port() if not port else check_int("port", port, 1, 65535)
+        self.url = f"http://{host}:{self.port}/"
+        kw = dict(port=self.port, open_browser=open_browser, show_connection_info=False, disable_logging=True,
+                  timeout=0, host=host)
+        if not thread:
+            self.server.start(**kw)
+            return self.url
+
+        def run():
+            asyncio.set_event_loop(asyncio.new_event_loop())
+            self.server.start(thread=True, **kw)
+        self._thread = threading.Thread(target=run, name="vine-trame", daemon=True)
+        self._thread.start()
+        deadline = time.time() + 30
+        while time.time() < deadline:
+            try:
+                with socket.create_connection((host, self.port), timeout=0.2):
+                    return self.url
+            except OSError:
+                time.sleep(0.1)
+        raise RuntimeError(f"trame server did not start on {self.url}")
+
+    def stop(self) -> None:
+        """Stop the server (thread mode) and release the view."""
+        loop = getattr(self.server, "_loop", None) or getattr(self.server, "loop", None)
+        if self._thread is not None and loop is not None:
+            asyncio.run_coroutine_threadsafe(self.server.stop(), loop)
+            self._thread.join(timeout=5)
+        self.proxy.close()
+        self.view.close()
+
+
+#: Left drag rotates, middle/shift-left pans, right/wheel zooms (clicks without a drag pick and paint).
+_INTERACTOR = [
+    {"button": 1, "action": "Rotate"},
+    {"button": 2, "action": "Pan"},
+    {"button": 3, "action": "Zoom", "scrollEnabled": True},
+    {"button": 1, "action": "Pan", "shift": True},
+    {"button": 1, "action": "Zoom", "alt": True},
+    {"button": 1, "action": "Roll", "alt": True, "shift": True},
+]
