@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_point, check_points, check_range
+from .._validation import check_choice, check_int, check_points, check_range
 from .bending import pipe_widths
 from .colonize import assign_treewand
 from .directions import _rotate, bud_headings, normalize, transport_lateral
@@ -44,8 +44,8 @@ from .tree import BUD
 __all__ = [
     "SketchEngine",
     "autonomous_points",
-    "branch_point",
     "barycentric",
+    "branch_point",
     "deflect_heading",
     "ellipse_distance",
     "gravimorphism",
@@ -228,7 +228,7 @@ def branch_point(parent: np.ndarray, alive: np.ndarray, node: int, *, protected=
     node = check_int("node", node, 0, len(parent) - 1)
     if not alive[node]:
         raise ValueError(f"node {node} is not alive")
-    protected = set(int(k) for k in protected)
+    protected = {int(k) for k in protected}
     if node <= 1 or node in protected:
         return -1
     live_children = np.bincount(parent[np.asarray(alive, bool) & (parent >= 0)], minlength=len(parent))

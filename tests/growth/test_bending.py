@@ -105,7 +105,7 @@ def test_ts_bend_validation():
 
 
 # -- pipe-model widths with constraints (spec 004 §2.10, V13) --------------------------------------------------
-from plantvr.growth.bending import _pipe_fold, _pipe_fold_numpy, pipe_widths, solve_exponent  # noqa: E402
+from plantvr.growth.bending import _pipe_fold, _pipe_fold_numpy, pipe_widths, solve_exponent
 
 
 def _fan(m_tips, chain=3):

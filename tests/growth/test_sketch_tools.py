@@ -1,0 +1,174 @@
+"""TreeSketch tools from code: strokes, grow/ungrow/undo, lasso, selection, pruning (spec 004 §2.4–2.8; V15, V17)."""
+import math
+
+import numpy as np
+import pytest
+from skimage.measure import points_in_poly
+
+from plantvr.growth.sketch import SketchEngine
+from plantvr.growth.sketch_tools import (
+    StrokeEmitter,
+    Timeline,
+    lasso_volume,
+    nearest_node,
+    prune_nearest,
+    select_branch,
+)
+from plantvr.params import defaults
+
+
+def _engine(**kw):
+    return SketchEngine({**defaults(), **kw.pop("params", {})}, rng=kw.pop("rng", 7), **kw)
+
+
+def _arrays_equal(a, b):
+    ta, tb = a.tree.arrays(), b.tree.arrays()
+    return ta.keys() == tb.keys() and all(ta[k].tobytes() == tb[k].tobytes() for k in ta)
+
+
+def test_ts_stroke_brush_and_sketch_points():
+    e = _engine()
+    s = StrokeEmitter(e, rate=50.0, spacing=0.25, rng=1)
+    s.begin([0.0, 2.0, 0.0])
+    pts = s.move([2.0, 2.0, 0.0], radius=1.0, dt=1.0)  # brush: points within R of the segment
+    assert 10 < len(pts) < 100  # Poisson(50 * 1^3 * 1)
+    seg_d = np.linalg.norm(np.cross(pts - [0, 2, 0], [1, 0, 0]), axis=1)
+    assert np.all(seg_d <= 1.0 + 1e-12) and np.all((pts[:, 0] > -1.0) & (pts[:, 0] < 3.0))
+    np.testing.assert_allclose(e.stroke_directions(pts), np.tile([1.0, 0, 0], (len(pts), 1)))
+    sk = s.move([2.0, 3.0, 0.0], radius=0.0)  # radius shrinks to 0 mid-stroke: sketch on the stroke itself
+    np.testing.assert_allclose(sk[:, 0], 2.0)
+    np.testing.assert_allclose(np.diff(np.concatenate([[2.0], sk[:, 1]])), 0.25, atol=1e-12)
+    sk2 = s.move([2.0, 3.1, 0.0], radius=0.0)
+    sk3 = s.move([2.0, 3.3, 0.0], radius=0.0)  # spacing carried across moves
+    assert len(sk2) == 0 and len(sk3) == 1 and abs(sk3[0, 1] - 3.25) < 1e-12
+    np.testing.assert_allclose(e.stroke_directions(sk), np.tile([0.0, 1, 0], (len(sk), 1)))
+    s.end()
+    assert len(e.markers) == s.emitted
+    with pytest.raises(ValueError, match="begin"):
+        s.move([0, 0, 0], 1.0)
+    with pytest.raises(ValueError, match="radius"):
+        s.begin([0, 0, 0]), s.move([0, 1, 0], -1.0)
+
+
+def test_ts_sketch_grows_along_the_stroke():
+    """A thin sketch (radius 0) upward then sideways guides a branch along it (directed growth)."""
+    e = _engine(n_max=2, params={"activation_threshold": 0.0, "length_mode": "constant"}, stroke_tropism=True)
+    s = StrokeEmitter(e, spacing=0.5)
+    s.begin([0.0, 1.0, 0.0])
+    s.move([0.0, 6.0, 0.0], 0.0)
+    s.move([5.0, 9.0, 0.0], 0.0)
+    s.end()
+    for _ in range(8):
+        e.step()
+    t = e.tree
+    tip = t.pos[t.alive][np.argmax(t.pos[t.alive][:, 0])]
+    assert tip[0] > 2.0 and tip[1] > 6.0
+
+
+def test_ts_v17_grow_ungrow_regrow_identical():
+    e = _engine(mode="autonomous")
+    tl = Timeline(e)
+    tl.grow(6)
+    ref = e.tree.arrays()
+    tl.ungrow(4)
+    assert e.step_count == 2
+    tl.grow(4)
+    assert all(ref[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
+    # recomputing from a restored frame (no replay) also gives the same arrays: the state round-trips exactly
+    tl.ungrow(3)
+    del tl.frames[tl.cursor + 1:]
+    tl.grow(3)
+    assert all(ref[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
+
+
+def test_ts_v17_advance_speed_and_operation_undo():
+    e = _engine(mode="autonomous")
+    tl = Timeline(e)
+    assert tl.advance(4.0, 0.6) == 2 and tl.advance(4.0, 0.2) == 1  # 2.4 → 2, then 0.4 + 0.8 → 1 (carry)
+    assert e.step_count == 3
+    assert tl.advance(-10.0, 0.2) == -2 and e.step_count == 1
+    tl.grow(2)
+    before = e.tree.arrays()
+    n_markers = len(e.markers)
+    with tl.operation():  # a stroke with growth while brushing: one undo item
+        e.set_options(mode="directed")
+        s = StrokeEmitter(e, rate=30.0, rng=2)
+        s.begin([0.0, 5.0, 0.0])
+        s.move([3.0, 6.0, 0.0], 1.5, dt=1.0)
+        s.end()
+        tl.grow(2)
+    after = e.tree.arrays()
+    assert e.tree.n > len(before["pos"])
+    assert tl.undo()
+    assert all(before[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
+    assert len(e.markers) == n_markers and e.sketch["mode"] == "autonomous"
+    assert tl.redo()
+    assert all(after[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
+    assert tl.undo() and not tl.undo()  # one item: the stroke
+    with pytest.raises(RuntimeError), tl.operation():
+        e.prune_at(nearest_node(e, [0, 3, 0]))
+        raise RuntimeError("abort")
+    assert all(before[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())  # aborted op rolled back
+
+
+def test_ts_timeline_byte_budget():
+    e = _engine(mode="autonomous")
+    tl = Timeline(e, max_bytes=1_000_000)
+    tl.grow(12)
+    assert tl.nbytes <= 1_000_000 or len(tl.frames) == 1
+    assert 1 < len(tl.frames) < 13 and tl.cursor == len(tl.frames) - 1
+    kept = len(tl.frames)
+    assert tl.ungrow(100) == kept - 1 and e.step_count == 12 - (kept - 1)  # not before the oldest frame kept
+
+
+def _blob(k=40):
+    a = np.linspace(0, 2 * math.pi, k, endpoint=False)
+    r = 2.0 + 0.6 * np.cos(3 * a)
+    return np.column_stack([r * np.cos(a), 1.5 * r * np.sin(a)])
+
+
+def test_ts_v15_lasso_inflation():
+    poly = _blob()
+    origin, u, v = np.array([1.0, 5.0, -2.0]), np.array([1.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    lv = lasso_volume(poly, origin=origin, u=u, v=v, n_points=800, rng=3)
+    assert lv.points.shape == (800, 3)
+    assert lv.contains(lv.points).all()
+    q = lv.to_plane(lv.points)
+    inside = points_in_poly(q[:, :2], poly)
+    assert inside.mean() > 0.98  # projects onto the silhouette (pixel-boundary slack)
+    # the envelope projects exactly onto the silhouette mask: positive thickness on the mask, zero off it
+    assert (lv.height[lv.mask] > 0).all() and (lv.height[~lv.mask] == 0).all()
+    # maximal thickness on the chordal axis, and the axis carries h = R (circular cross-section)
+    assert lv.axis[np.unravel_index(np.argmax(lv.height), lv.height.shape)]
+    assert np.abs(q[:, 2]).max() <= lv.height.max() + 1e-12
+    assert np.abs(q[:, 2]).max() > 0.5 * lv.height.max()  # a volume, not a flat sheet
+    np.testing.assert_allclose(np.linalg.norm(lv.w), 1.0)
+    with pytest.raises(ValueError, match="polygon"):
+        lasso_volume(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]))
+    with pytest.raises(ValueError, match="parallel"):
+        lasso_volume(poly, u=[1, 0, 0], v=[2, 0, 0])
+
+
+def test_ts_lasso_fills_a_crown():
+    e = _engine(n_max=2, params={"activation_threshold": 0.0})
+    lv = lasso_volume(_blob() + [0.0, 8.0], n_points=600, rng=1)
+    e.add_markers(lv.points)
+    for _ in range(12):
+        e.step()
+    t = e.tree
+    top = t.pos[t.alive]
+    assert top[:, 1].max() > 6.0 and e.tree.n_internodes > 30
+
+
+def test_ts_selective_and_prune_by_picking():
+    e = _engine(mode="autonomous")
+    for _ in range(5):
+        e.step()
+    t = e.tree
+    side = np.flatnonzero(t.alive & (t.order == 1))[0]
+    node = select_branch(e, t.pos[side] + 1e-3)
+    assert node == side and e.selected == side
+    n_before = e.tree.n_internodes
+    removed = prune_nearest(e, e.tree.pos[side])
+    assert removed > 0 and e.tree.n_internodes == n_before - removed
+    assert e.selected is None or e.tree.alive[e.selected]
