@@ -1,0 +1,133 @@
+"""Tree export benchmark (issue 16): USD, skinned glTF, LOD chain and billboard beside the plain PLY export.
+
+For a random tree with pipe-model radii and a leaf at every tip, prints the time of each exporter of
+``plantvr.geometry`` beside two baselines measured in the same run: the plain PLY export (``export_tree`` to
+.ply, trimesh's binary PLY writer) and trimesh's own glb export of the same concatenated mesh. The issue's target:
+USD and glb of a 22,000-internode tree with leaves <= 2 s each. ``--quick`` runs 3,000 internodes (< 30 s).
+"""
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from plantvr.geometry import build_branch_mesh
+from plantvr.geometry.export import export_tree
+from plantvr.geometry.gltf_skin import export_skinned_glb
+from plantvr.geometry.leaves import build_leaves
+from plantvr.geometry.lod import lod_chain
+from plantvr.geometry.usd import export_usd
+
+
+def random_tree(n_internodes: int, seed: int = 0, tip_radius: float = 0.01, exponent: float = 2.5):
+    """Random binary tree (y up) with pipe-model radii; returns pos, parent, radius, main_child."""
+    rng = np.random.default_rng(seed)
+    n = n_internodes + 1
+    pos, head = np.zeros((n, 3)), np.zeros((n, 3))
+    parent, main = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
+    nk = np.zeros(n, np.int64)
+    pos[1] = head[1] = (0, 1.0, 0)
+    parent[1], main[0], nk[0] = 0, 1, 1
+    buds = [1, 1]
+    noise = rng.normal(size=(n, 3))
+    for i in range(2, n):
+        k = rng.integers(len(buds))
+        p = buds[k]
+        buds[k] = buds[-1]
+        buds.pop()
+        a = noise[i] - (noise[i] @ head[p]) * head[p]
+        a /= np.linalg.norm(a)
+        ang = np.deg2rad(45.0 if nk[p] else 8.0)
+        d = np.cos(ang) * head[p] + np.sin(ang) * a + (0, 0.15, 0)
+        d /= np.linalg.norm(d)
+        pos[i], head[i], parent[i] = pos[p] + 0.3 * d, d, p
+        if nk[p] == 0:
+            main[p] = i
+        nk[p] += 1
+        buds += [i, i]
+    acc = np.zeros(n)
+    for i in range(n - 1, 0, -1):
+        if acc[i] == 0:
+            acc[i] = tip_radius ** exponent
+        if parent[i] > 0:
+            acc[parent[i]] += acc[i]
+    radius = acc ** (1 / exponent)
+    radius[0] = radius[1]
+    return pos, parent, radius, main
+
+
+def _time(fn, repeat: int):
+    best, out = np.inf, None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="3,000 internodes for CI (< 30 s)")
+    ap.add_argument("--internodes", type=int, default=None, help="tree size (default 22,000; 3,000 with --quick)")
+    ap.add_argument("--billboard", action="store_true", help="also time the billboard atlas (offscreen rendering)")
+    args = ap.parse_args(argv)
+    n = args.internodes or (3_000 if args.quick else 22_000)
+    repeat = 1 if args.quick else 3
+    pos, parent, radius, mc = random_tree(n, seed=1)
+    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
+    d = pos[tips] - pos[parent[tips]]
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    build_branch_mesh(pos[:50], parent[:50], radius[:50])                      # JIT warm-up
+    t_mesh, mesh = _time(lambda: build_branch_mesh(pos, parent, radius, main_child=mc), repeat)
+    t_leaf, leaves = _time(lambda: build_leaves(pos[tips], d, radius[tips], leaf_size=0.3, petiole_length=0.05,
+                                                rng=0), repeat)
+    st = np.zeros(len(pos), np.int64)
+    from plantvr.geometry.lod import axis_start
+    ax = axis_start(parent, mc)
+    for i in range(2, len(pos)):
+        st[i] = st[parent[i]] + (ax[i] == i)
+    res: dict = dict(internodes=n, triangles=len(mesh.faces), leaves=len(tips),
+                     leaf_triangles=len(leaves.faces), mesh_s=t_mesh, leaves_s=t_leaf)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        import trimesh
+
+        res["ply_s"], _ = _time(lambda: export_tree(tmp / "t.ply", mesh, leaves), repeat)
+        both = trimesh.util.concatenate([mesh.to_trimesh(), leaves.to_trimesh()])
+        res["trimesh_glb_s"], _ = _time(lambda: both.export(tmp / "tm.glb"), repeat)
+        export_usd(tmp / "warm.usdc", mesh, leaves)
+        res["usd_s"], _ = _time(lambda: export_usd(tmp / "t.usdc", mesh, leaves, order=st), repeat)
+        res["usd_mesh_leaves_s"], _ = _time(lambda: export_usd(tmp / "m.usdc", mesh, leaves, order=st,
+                                                               leaf_instancer=False), repeat)
+        res["skinned_glb_s"], _ = _time(lambda: export_skinned_glb(tmp / "s.glb", mesh, pos, parent, radius,
+                                                                   main_child=mc, leaves=leaves, leaf_node=tips),
+                                        repeat)
+        res["usd_bytes"] = (tmp / "t.usdc").stat().st_size
+        res["glb_bytes"] = (tmp / "s.glb").stat().st_size
+    res["lod_chain_s"], chain = _time(lambda: lod_chain(pos, parent, radius, main_child=mc), repeat)
+    res["lod_triangles"] = [lv.triangles for lv in chain]
+    if args.billboard:
+        from plantvr.view.billboard import make_billboard
+        # rendered from LOD 1 (same silhouette, IoU >= 0.9; a fifth of the triangles, which llvmpipe pays for)
+        res["billboard_s"], _ = _time(lambda: make_billboard([chain[1].mesh, leaves], resolution=256), 1)
+    print(f"tree: {n} internodes, {res['triangles']} branch + {res['leaf_triangles']} leaf triangles "
+          f"({res['leaves']} leaves); mesh {res['mesh_s']:.3f} s, leaves {res['leaves_s']:.3f} s")
+    print(f"{'export':<38}{'s':>8}{'x PLY':>8}")
+    base = res["ply_s"]
+    rows = [("PLY, export_tree (baseline)", "ply_s"), ("glb, trimesh export (baseline)", "trimesh_glb_s"),
+            ("USD .usdc, leaves instanced", "usd_s"), ("USD .usdc, leaves as a mesh", "usd_mesh_leaves_s"),
+            ("glb skinned + growth animation", "skinned_glb_s"), ("LOD chain, 4 levels (build)", "lod_chain_s")]
+    if "billboard_s" in res:
+        rows.append(("billboard atlas 2 x 256 px (LOD 1)", "billboard_s"))
+    for label, key in rows:
+        print(f"{label:<38}{res[key]:>8.3f}{res[key] / base:>8.2f}")
+    print(f"LOD triangles: {res['lod_triangles']}; target USD and glb <= 2 s at 22,000 internodes: "
+          f"{'met' if max(res['usd_s'], res['skinned_glb_s']) <= 2.0 else 'NOT met'} at {n}")
+    return res
+
+
+if __name__ == "__main__":
+    main()
