@@ -71,3 +71,34 @@ def test_plane_segments_rejects(surface):
         S.plane_segments(surface.vertices, surface.faces, 0, float("inf"))
     with pytest.raises(ValueError, match="labels must be uint8"):
         S.plane_segments(surface.vertices, surface.faces, 0, 1.0, labels=np.zeros(3, np.uint8))
+
+
+def test_view_slices_follow_labels(tmp_path, head, surface, truth):
+    """pyvista slices: the labelled cut is drawn in label colours and recoloured after a fill."""
+    import os
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    pv = pytest.importorskip("pyvista")
+    from plantvr.view.slices import VolumeSlices
+    from plantvr.vine.segmentation import Segmentation
+    seg = Segmentation(surface.vertices, surface.faces, labels=truth)
+    p = pv.Plotter(off_screen=True, window_size=(400, 400))
+    p.set_background("#404050")
+    vs = VolumeSlices(p, head.volume, level=head.level, seg=seg, indices={"z": 32})
+    cut = vs.actors[("cut", 2)].mapper.dataset
+    _, el = S.plane_segments(surface.vertices, surface.faces, 2, 32.0, labels=truth)
+    assert cut.n_cells == 2 * len(el)
+    assert {tuple(c) for c in cut.cell_data["rgb"].tolist()} == {
+        tuple(ColorTable().rgba[k, :3].tolist()) for k in np.unique(el)}
+    p.view_xy()
+    img = p.screenshot(str(tmp_path / "slice3d.png"))
+    red = np.all(img == ColorTable().rgba[2, :3], axis=-1).sum()
+    assert red > 50                                     # the receptacle's red cut is on screen
+    v2 = int(np.flatnonzero(truth == 2)[0])
+    seg.fill(v2, 11)
+    cut = vs.actors[("cut", 2)].mapper.dataset
+    assert tuple(ColorTable().rgba[11, :3].tolist()) in {tuple(c) for c in cut.cell_data["rgb"].tolist()}
+    with pytest.raises(ValueError, match="index must be an integer in"):
+        vs.set_index("z", 64)
+    assert vs.indices == {2: 32}
+    vs.remove()
+    p.close()
