@@ -71,7 +71,7 @@ def main(argv: list[str] | None = None) -> dict:
         ccd.detect_collisions_numpy(x_prev, x, can.faces, edges=can.edges, timings=tn)
         tb = {}
         ccd.detect_collisions(x_prev, x, can.faces, edges=can.edges, timings=tb)
-        r = {"florets": can.n_instances, "triangles": int(len(can.faces)), "steps": steps,
+        r = {"florets": can.n_instances, "triangles": len(can.faces), "steps": steps,
              "wall_per_step_s": wall / steps, "solver_per_step_s": tot["solver"] / steps,
              "broad_per_step_s": tot["broad"] / steps, "narrow_per_step_s": tot["narrow"] / steps,
              "collision_constraints": tot["constraints"], "static_intersections": inter,

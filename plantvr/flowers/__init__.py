@@ -18,9 +18,18 @@ ccd
 composer
     Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations.
 """
+from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets  # noqa: F401
 from plantvr.flowers.phyllotaxis import (  # noqa: F401
-    GOLDEN_ANGLE_DEG, Receptacle, disc_receptacle, dome_receptacle, cone_receptacle, receptacle_from_profile,
-    ridley_placement, vogel_disc, centripetal_fractionation, place_on_receptacle, parastichy_numbers,
+    GOLDEN_ANGLE_DEG,
+    Receptacle,
+    centripetal_fractionation,
+    cone_receptacle,
+    disc_receptacle,
+    dome_receptacle,
     floret_stage,
+    parastichy_numbers,
+    place_on_receptacle,
+    receptacle_from_profile,
+    ridley_placement,
+    vogel_disc,
 )
-from plantvr.flowers.fate import cone_dmin, ray_florets, floret_fate  # noqa: F401

@@ -9,106 +9,229 @@ edge-edge (Eq. 4.7) with thickness h, side from the start-of-step state.
 """
 from __future__ import annotations
 
+import time
+
 import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_int, check_range
 
-__all__ = ["cubic_coefficients", "cubic_roots01", "broad_phase", "detect_collisions",
-           "detect_collisions_numpy", "solve_collisions", "count_static_intersections", "mesh_edges_of"]
+__all__ = [
+    "CollisionDetector",
+    "SpatialHash",
+    "broad_phase",
+    "count_static_intersections",
+    "cubic_coefficients",
+    "cubic_roots01",
+    "detect_collisions",
+    "detect_collisions_numpy",
+    "mesh_edges_of",
+    "solve_collisions",
+]
 
 # ---------------------------------------------------------------------------------------------------------
-# Broad phase
+# Broad phase: a uniform grid stored in a time-stamped spatial hash (Teschner et al. 2003, thesis [43])
+#
+# Cells are hashed into a power-of-two bucket table; a bucket whose stamp differs from the hash's current
+# stamp is empty, so clearing the grid for a new step is O(1) (the thesis's voxel time stamps). Entries are
+# singly linked lists in flat arrays, so elements whose swept boxes changed during the collision retries are
+# simply inserted again (stale entries are harmless: every candidate passes the exact swept-box test).
+
+_KEY_OFF = 1 << 20
 
 
 @numba.njit(cache=True, nogil=True)
-def _grid_build(lo, hi, origin, inv_cell, dims):
-    n = lo.shape[0]
-    counts = np.zeros(n + 1, np.int64)
-    for e in range(n):
-        c = 1
+def _ci(v, inv):
+    c = np.floor(v * inv)
+    if c < -_KEY_OFF:
+        return -_KEY_OFF
+    if c > _KEY_OFF - 1:
+        return _KEY_OFF - 1
+    return int(c)
+
+
+@numba.njit(cache=True, nogil=True)
+def _bucket(ix, iy, iz, mask):
+    return ((ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)) & mask
+
+
+@numba.njit(cache=True, nogil=True)
+def _cellkey(ix, iy, iz):
+    return (ix + _KEY_OFF) | ((iy + _KEY_OFF) << 21) | ((iz + _KEY_OFF) << 42)
+
+
+@numba.njit(cache=True, nogil=True)
+def _swept_boxes_kernel(x0, x1, elems, ids, pad, lo, hi):
+    """Padded AABBs of the elements' start and end positions, written in place for ``ids``."""
+    for k in range(ids.size):
+        e = ids[k]
         for a in range(3):
-            i0 = min(max(int(np.floor((lo[e, a] - origin[a]) * inv_cell)), 0), dims[a] - 1)
-            i1 = min(max(int(np.floor((hi[e, a] - origin[a]) * inv_cell)), 0), dims[a] - 1)
-            c *= i1 - i0 + 1
-        counts[e + 1] = counts[e] + c
-    keys = np.empty(counts[n], np.int64)
-    elems = np.empty(counts[n], np.int64)
-    for e in range(n):
-        x0 = min(max(int(np.floor((lo[e, 0] - origin[0]) * inv_cell)), 0), dims[0] - 1)
-        x1 = min(max(int(np.floor((hi[e, 0] - origin[0]) * inv_cell)), 0), dims[0] - 1)
-        y0 = min(max(int(np.floor((lo[e, 1] - origin[1]) * inv_cell)), 0), dims[1] - 1)
-        y1 = min(max(int(np.floor((hi[e, 1] - origin[1]) * inv_cell)), 0), dims[1] - 1)
-        z0 = min(max(int(np.floor((lo[e, 2] - origin[2]) * inv_cell)), 0), dims[2] - 1)
-        z1 = min(max(int(np.floor((hi[e, 2] - origin[2]) * inv_cell)), 0), dims[2] - 1)
-        k = counts[e]
-        for iz in range(z0, z1 + 1):
-            for iy in range(y0, y1 + 1):
-                for ix in range(x0, x1 + 1):
-                    keys[k] = ix + dims[0] * (iy + dims[1] * iz)
-                    elems[k] = e
-                    k += 1
-    order = np.argsort(keys, kind="mergesort")
-    return keys[order], elems[order]
+            mn = np.inf
+            mx = -np.inf
+            for j in range(elems.shape[1]):
+                v = elems[e, j]
+                s = x0[v, a]
+                t = x1[v, a]
+                mn = min(mn, s)
+                mn = min(mn, t)
+                mx = max(mx, s)
+                mx = max(mx, t)
+            lo[e, a] = mn - pad
+            hi[e, a] = mx + pad
 
 
 @numba.njit(cache=True, nogil=True)
-def _grid_query(qlo, qhi, qverts, keys, elems, everts, elo, ehi, origin, inv_cell, dims, same_set):
-    nq = qlo.shape[0]
-    n_el = everts.shape[0]
-    stamp = np.full(n_el, -1, np.int64)
-    cap = 1024
-    out = np.empty((cap, 2), np.int64)
-    m = 0
-    for q in range(nq):
-        x0 = min(max(int(np.floor((qlo[q, 0] - origin[0]) * inv_cell)), 0), dims[0] - 1)
-        x1 = min(max(int(np.floor((qhi[q, 0] - origin[0]) * inv_cell)), 0), dims[0] - 1)
-        y0 = min(max(int(np.floor((qlo[q, 1] - origin[1]) * inv_cell)), 0), dims[1] - 1)
-        y1 = min(max(int(np.floor((qhi[q, 1] - origin[1]) * inv_cell)), 0), dims[1] - 1)
-        z0 = min(max(int(np.floor((qlo[q, 2] - origin[2]) * inv_cell)), 0), dims[2] - 1)
-        z1 = min(max(int(np.floor((qhi[q, 2] - origin[2]) * inv_cell)), 0), dims[2] - 1)
+def _count_cells(lo, hi, ids, inv):
+    tot = 0.0
+    for k in range(ids.size):
+        e = ids[k]
+        n = 1.0
+        for a in range(3):
+            if not (np.isfinite(lo[e, a]) and np.isfinite(hi[e, a])):
+                return np.inf
+            n *= _ci(hi[e, a], inv) - _ci(lo[e, a], inv) + 1
+        tot += n
+    return tot
+
+
+@numba.njit(cache=True, nogil=True)
+def _hash_insert(lo, hi, ids, inv, head, stamp, cur, nxt, elem, key, n):
+    mask = head.size - 1
+    for k in range(ids.size):
+        e = ids[k]
+        x0, x1 = _ci(lo[e, 0], inv), _ci(hi[e, 0], inv)
+        y0, y1 = _ci(lo[e, 1], inv), _ci(hi[e, 1], inv)
+        z0, z1 = _ci(lo[e, 2], inv), _ci(hi[e, 2], inv)
         for iz in range(z0, z1 + 1):
             for iy in range(y0, y1 + 1):
                 for ix in range(x0, x1 + 1):
-                    key = ix + dims[0] * (iy + dims[1] * iz)
-                    j = np.searchsorted(keys, key)
-                    while j < keys.size and keys[j] == key:
-                        e = elems[j]
-                        j += 1
-                        if stamp[e] == q:
-                            continue
-                        stamp[e] = q
-                        if same_set and e <= q:
-                            continue
-                        shared = False
-                        for a in range(qverts.shape[1]):
-                            for b in range(everts.shape[1]):
-                                if qverts[q, a] == everts[e, b]:
-                                    shared = True
-                        if shared:
-                            continue
-                        if (qhi[q, 0] < elo[e, 0] or qlo[q, 0] > ehi[e, 0] or qhi[q, 1] < elo[e, 1]
-                                or qlo[q, 1] > ehi[e, 1] or qhi[q, 2] < elo[e, 2] or qlo[q, 2] > ehi[e, 2]):
-                            continue                # exact swept-box overlap test
-                        if m == cap:
-                            cap *= 2
-                            new = np.empty((cap, 2), np.int64)
-                            new[:m] = out[:m]
-                            out = new
-                        out[m, 0] = q
-                        out[m, 1] = e
-                        m += 1
-    return out[:m]
+                    h = _bucket(ix, iy, iz, mask)
+                    if stamp[h] != cur:
+                        stamp[h] = cur
+                        head[h] = -1
+                    elem[n] = e
+                    key[n] = _cellkey(ix, iy, iz)
+                    nxt[n] = head[h]
+                    head[h] = n
+                    n += 1
+    return n
 
 
-def _swept_boxes(x0, x1, elems, pad):
-    pts = np.concatenate([x0[elems], x1[elems]], axis=1)        # (n, 2k, 3)
-    return pts.min(axis=1) - pad, pts.max(axis=1) + pad
+@numba.njit(cache=True, nogil=True)
+def _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, inv, head, stamp, cur, nxt, elem, key,
+                seen, token, out, m, swap):
+    """Append (query, target) pairs whose padded swept boxes overlap; skip pairs sharing a vertex.
+
+    ``tmode[e]``: 0 keep, 1 keep only if e > q (same element set), 2 skip. ``swap`` writes (target, query).
+    """
+    mask = head.size - 1
+    nq = qverts.shape[1]
+    nt = tverts.shape[1]
+    for k in range(qids.size):
+        q = qids[k]
+        token += 1
+        x0, x1 = _ci(qlo[q, 0], inv), _ci(qhi[q, 0], inv)
+        y0, y1 = _ci(qlo[q, 1], inv), _ci(qhi[q, 1], inv)
+        z0, z1 = _ci(qlo[q, 2], inv), _ci(qhi[q, 2], inv)
+        for iz in range(z0, z1 + 1):
+            for iy in range(y0, y1 + 1):
+                for ix in range(x0, x1 + 1):
+                    h = _bucket(ix, iy, iz, mask)
+                    if stamp[h] != cur:
+                        continue
+                    ck = _cellkey(ix, iy, iz)
+                    j = head[h]
+                    while j >= 0:
+                        if key[j] == ck:
+                            e = elem[j]
+                            if seen[e] != token:
+                                seen[e] = token
+                                md = tmode[e]
+                                if md == 2 or (md == 1 and e <= q):
+                                    pass
+                                elif (qhi[q, 0] < tlo[e, 0] or qlo[q, 0] > thi[e, 0] or qhi[q, 1] < tlo[e, 1]
+                                      or qlo[q, 1] > thi[e, 1] or qhi[q, 2] < tlo[e, 2] or qlo[q, 2] > thi[e, 2]):
+                                    pass                                   # exact swept-box test
+                                else:
+                                    shared = False
+                                    for a in range(nq):
+                                        for b in range(nt):
+                                            if qverts[q, a] == tverts[e, b]:
+                                                shared = True
+                                    if not shared:
+                                        if m == out.shape[0]:
+                                            new = np.empty((2 * out.shape[0] + 16, 2), np.int64)
+                                            new[:m] = out[:m]
+                                            out = new
+                                        if swap:
+                                            out[m, 0] = e
+                                            out[m, 1] = q
+                                        else:
+                                            out[m, 0] = q
+                                            out[m, 1] = e
+                                        m += 1
+                        j = nxt[j]
+    return out, m, token
+
+
+class SpatialHash:
+    """Uniform grid of one element set in a time-stamped spatial hash, reused across passes and steps.
+
+    Parameters
+    ----------
+    n_elements : int
+        Number of elements that can be stored (element ids are in ``[0, n_elements)``).
+    """
+
+    def __init__(self, n_elements: int):
+        self.seen = np.zeros(max(int(n_elements), 1), np.int64)
+        self.token = 0
+        self.head = np.full(1 << 10, -1, np.int64)
+        self.stamp = np.zeros(1 << 10, np.int64)
+        self.cur = 0
+        self.nxt = np.empty(0, np.int64)
+        self.elem = np.empty(0, np.int64)
+        self.key = np.empty(0, np.int64)
+        self.n = 0
+        self.inv = 1.0
+
+    def clear(self, cell: float, expected: int) -> None:
+        """Empty the grid (O(1) through the stamp) and set the cell size."""
+        self.cur += 1
+        self.n = 0
+        self.inv = 1.0 / cell
+        size = 1 << max(10, int(np.ceil(np.log2(max(2 * expected, 1)))))
+        if size > self.head.size:
+            self.head = np.full(size, -1, np.int64)
+            self.stamp = np.zeros(size, np.int64)
+
+    def insert(self, lo: np.ndarray, hi: np.ndarray, ids: np.ndarray) -> None:
+        """Insert elements ``ids`` into every cell their boxes ``lo[ids], hi[ids]`` overlap."""
+        cnt = _count_cells(lo, hi, ids, self.inv)
+        if not cnt < 2e8:
+            raise ValueError(f"swept boxes cover {cnt} grid cells (non-finite or exploded positions?); "
+                             f"use a larger cell size or smaller steps")
+        need = self.n + int(cnt)
+        if need > self.elem.size:
+            cap = max(need, int(1.5 * self.elem.size))
+            for name in ("nxt", "elem", "key"):
+                a = np.empty(cap, np.int64)
+                a[:self.n] = getattr(self, name)[:self.n]
+                setattr(self, name, a)
+        self.n = _hash_insert(lo, hi, ids, self.inv, self.head, self.stamp, self.cur, self.nxt, self.elem,
+                              self.key, self.n)
+
+    def query(self, qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, out, m, *, swap=False):
+        """Append candidate pairs of queries ``qids`` against the stored elements to ``out[:m]``."""
+        out, m, self.token = _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, self.inv, self.head,
+                                         self.stamp, self.cur, self.nxt, self.elem, self.key, self.seen,
+                                         self.token, out, m, swap)
+        return out, m
 
 
 def broad_phase(x0: np.ndarray, x1: np.ndarray, query: np.ndarray, target: np.ndarray, *,
                 pad: float, cell: float | None = None, same_set: bool = False) -> np.ndarray:
-    """Candidate pairs (query element, target element) whose padded swept AABBs share a grid cell.
+    """Candidate pairs (query element, target element) whose padded swept AABBs overlap (spec 002 §3.6.1).
 
     Parameters
     ----------
@@ -121,7 +244,7 @@ def broad_phase(x0: np.ndarray, x1: np.ndarray, query: np.ndarray, target: np.nd
     pad : float
         Box padding (numerical epsilon plus h, spec 002 §3.6.1).
     cell : float, optional
-        Cell size; default 1.5 x the mean target box extent.
+        Cell size; default the mean largest extent of the target boxes.
     same_set : bool
         Query and target are the same elements: keep each unordered pair once (q < t).
 
@@ -130,34 +253,44 @@ def broad_phase(x0: np.ndarray, x1: np.ndarray, query: np.ndarray, target: np.nd
     (K, 2) int64 ndarray
         Candidate pairs; pairs sharing a vertex are excluded.
     """
+    query = np.ascontiguousarray(query, dtype=np.int64)
+    target = np.ascontiguousarray(target, dtype=np.int64)
     if query.shape[0] == 0 or target.shape[0] == 0:
         return np.zeros((0, 2), np.int64)
-    tlo, thi = _swept_boxes(x0, x1, target, pad)
-    qlo, qhi = _swept_boxes(x0, x1, query, pad)
-    lo = np.minimum(tlo.min(axis=0), qlo.min(axis=0))
-    hi = np.maximum(thi.max(axis=0), qhi.max(axis=0))
+    x0 = np.ascontiguousarray(x0, dtype=np.float64)
+    x1 = np.ascontiguousarray(x1, dtype=np.float64)
+    tid = np.arange(target.shape[0], dtype=np.int64)
+    qid = np.arange(query.shape[0], dtype=np.int64)
+    tlo, thi = np.empty((len(tid), 3)), np.empty((len(tid), 3))
+    qlo, qhi = np.empty((len(qid), 3)), np.empty((len(qid), 3))
+    _swept_boxes_kernel(x0, x1, target, tid, pad, tlo, thi)
+    _swept_boxes_kernel(x0, x1, query, qid, pad, qlo, qhi)
     if cell is None:
-        cell = 1.5 * float(np.mean(thi - tlo)) + 1e-12
-    dims = np.minimum(np.ceil((hi - lo) / cell).astype(np.int64) + 1, 1 << 20)
-    while np.prod(dims.astype(np.float64)) > 2.0 ** 62:
-        cell *= 2
-        dims = np.ceil((hi - lo) / cell).astype(np.int64) + 1
-    keys, elems = _grid_build(tlo, thi, lo, 1.0 / cell, dims)
-    return _grid_query(qlo, qhi, np.ascontiguousarray(query), keys, elems, np.ascontiguousarray(target),
-                       tlo, thi, lo, 1.0 / cell, dims, same_set)
+        cell = float(np.mean((thi - tlo).max(axis=1))) + 1e-12
+    grid = SpatialHash(target.shape[0])
+    grid.clear(cell, 2 * target.shape[0])
+    grid.insert(tlo, thi, tid)
+    tmode = np.full(target.shape[0], 1 if same_set else 0, np.int8)
+    out, m = grid.query(qid, qlo, qhi, query, tlo, thi, target, tmode, np.empty((1024, 2), np.int64), 0)
+    return out[:m].copy()
 
 
 # ---------------------------------------------------------------------------------------------------------
-# Narrow phase: scalar numba kernels
+# Narrow phase: scalar numba kernels (no per-pair allocation)
 
 
 @numba.njit(cache=True, nogil=True)
-def _cubic(x, u, y, v, z, w):
-    """Coefficients of (y + t v) x (z + t w) . (x + t u) (spec 002 §3.6.2)."""
-    Q = np.cross(v, w)
-    R = np.cross(v, z) + np.cross(y, w)
-    S = np.cross(y, z)
-    return Q.dot(u), Q.dot(x) + R.dot(u), R.dot(x) + S.dot(u), S.dot(x)
+def _cubic_s(x0, x1, x2, u0, u1, u2, y0, y1, y2, v0, v1, v2, z0, z1, z2, w0, w1, w2):
+    """Coefficients of (y + t v) x (z + t w) . (x + t u) (spec 002 §3.6.2, Eq. B.2 vector form)."""
+    Q0, Q1, Q2 = v1 * w2 - v2 * w1, v2 * w0 - v0 * w2, v0 * w1 - v1 * w0
+    R0 = (v1 * z2 - v2 * z1) + (y1 * w2 - y2 * w1)
+    R1 = (v2 * z0 - v0 * z2) + (y2 * w0 - y0 * w2)
+    R2 = (v0 * z1 - v1 * z0) + (y0 * w1 - y1 * w0)
+    S0, S1, S2 = y1 * z2 - y2 * z1, y2 * z0 - y0 * z2, y0 * z1 - y1 * z0
+    return (Q0 * u0 + Q1 * u1 + Q2 * u2,
+            Q0 * x0 + Q1 * x1 + Q2 * x2 + R0 * u0 + R1 * u1 + R2 * u2,
+            R0 * x0 + R1 * x1 + R2 * x2 + S0 * u0 + S1 * u1 + S2 * u2,
+            S0 * x0 + S1 * x1 + S2 * x2)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -202,17 +335,17 @@ def _rtsafe(a, b, c, d, lo, hi, flo):
 
 
 @numba.njit(cache=True, nogil=True)
-def _roots01(a, b, c, d, out):
-    """All roots of the cubic in [0, 1], ascending, into ``out``; returns the count (spec §3.6.3)."""
+def _roots01(a, b, c, d, out, pts):
+    """All roots of the cubic in [0, 1], ascending, into ``out``; returns the count (spec §3.6.3).
+
+    ``pts`` is a scratch array of 4 floats (the interval ends split at the critical points).
+    """
     scale = abs(a) + abs(b) + abs(c) + abs(d)
     if scale == 0.0 or _culled(a, b, c, d):
         return 0
     eps = 1e-13 * scale
-    # split [0, 1] at the critical points (roots of 3a t^2 + 2b t + c)
-    pts = np.empty(4)
-    npts = 0
-    pts[npts] = 0.0
-    npts += 1
+    npts = 1
+    pts[0] = 0.0
     qa, qb, qc = 3 * a, 2 * b, c
     if abs(qa) > 1e-300:
         disc = qb * qb - 4 * qa * qc
@@ -255,41 +388,45 @@ def _roots01(a, b, c, d, out):
 
 
 @numba.njit(cache=True, nogil=True)
-def _vt_inside(p, a, b, c, tol):
-    u = b - a
-    v = c - a
-    w = p - a
-    uu, vv, uv = u.dot(u), v.dot(v), u.dot(v)
-    wu, wv = w.dot(u), w.dot(v)
+def _vt_inside_s(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, tol):
+    """Barycentric inside test of p in triangle abc (Eq. B.7)."""
+    ux, uy, uz = bx - ax, by - ay, bz - az
+    vx, vy, vz = cx - ax, cy - ay, cz - az
+    wx, wy, wz = px - ax, py - ay, pz - az
+    uu = ux * ux + uy * uy + uz * uz
+    vv = vx * vx + vy * vy + vz * vz
+    uv = ux * vx + uy * vy + uz * vz
+    wu = wx * ux + wy * uy + wz * uz
+    wv = wx * vx + wy * vy + wz * vz
     den = uu * vv - uv * uv
     if den <= 1e-300:
         return False
-    r = (vv * wu - uv * wv) / den          # Eq. B.7
+    r = (vv * wu - uv * wv) / den
     s = (uu * wv - uv * wu) / den
     return r >= -tol and s >= -tol and r + s <= 1 + tol
 
 
 @numba.njit(cache=True, nogil=True)
-def _seg_dist(p0, p1, q0, q1):
+def _seg_dist_s(p0x, p0y, p0z, p1x, p1y, p1z, q0x, q0y, q0z, q1x, q1y, q1z):
     """Minimum distance between segments p0p1 and q0q1 (App. B.3, robust clamped form)."""
-    d1 = p1 - p0
-    d2 = q1 - q0
-    r = p0 - q0
-    a = d1.dot(d1)
-    e = d2.dot(d2)
-    f = d2.dot(r)
+    d1x, d1y, d1z = p1x - p0x, p1y - p0y, p1z - p0z
+    d2x, d2y, d2z = q1x - q0x, q1y - q0y, q1z - q0z
+    rx, ry, rz = p0x - q0x, p0y - q0y, p0z - q0z
+    a = d1x * d1x + d1y * d1y + d1z * d1z
+    e = d2x * d2x + d2y * d2y + d2z * d2z
+    f = d2x * rx + d2y * ry + d2z * rz
     if a <= 1e-300 and e <= 1e-300:
-        return np.sqrt(r.dot(r))
+        return np.sqrt(rx * rx + ry * ry + rz * rz)
     if a <= 1e-300:
         s = 0.0
         t = min(max(f / e, 0.0), 1.0)
     else:
-        c = d1.dot(r)
+        c = d1x * rx + d1y * ry + d1z * rz
         if e <= 1e-300:
             t = 0.0
             s = min(max(-c / a, 0.0), 1.0)
         else:
-            b = d1.dot(d2)
+            b = d1x * d2x + d1y * d2y + d1z * d2z
             den = a * e - b * b
             s = min(max((b * f - c * e) / den, 0.0), 1.0) if den > 1e-300 else 0.0
             t = (b * s + f) / e
@@ -299,78 +436,93 @@ def _seg_dist(p0, p1, q0, q1):
             elif t > 1.0:
                 t = 1.0
                 s = min(max((b - c) / a, 0.0), 1.0)
-    dd = p0 + d1 * s - q0 - d2 * t
-    return np.sqrt(dd.dot(dd))
+    dx = rx + d1x * s - d2x * t
+    dy = ry + d1y * s - d2y * t
+    dz = rz + d1z * s - d2z * t
+    return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
 @numba.njit(cache=True, nogil=True)
-def _side(q, a, b, c):
-    n = np.cross(b - a, c - a)
-    return (q - a).dot(n)
+def _side_s(q, a, b, c):
+    """(q - a) . ((b - a) x (c - a)) for rows q, a, b, c of a (., 3) array view."""
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    vx, vy, vz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    return ((q[0] - a[0]) * (uy * vz - uz * vy) + (q[1] - a[1]) * (uz * vx - ux * vz)
+            + (q[2] - a[2]) * (ux * vy - uy * vx))
 
 
 @numba.njit(cache=True, nogil=True)
-def _narrow(x0, x1, pairs, qel, tel, kind, bary_tol, dist_tol):
-    """kind 0: VT (qel vertices (Q,1), tel triangles); kind 1: EE (edges vs edges).
+def _narrow_kernel(x0, x1, pairs, m, qel, tel, kind, bary_tol, dist_tol, cons, sides, tfirst):
+    """Narrow phase over ``pairs[:m]``; kind 0: VT (qel (Q,1) vertices, tel triangles), 1: EE.
 
-    Returns constraints (K, 4) [free, t0, t1, t2], side signs (K,), first contact times (K,).
+    Writes odd-parity pairs as [free, t0, t1, t2] rows into ``cons`` and returns their count.
     """
-    n = pairs.shape[0]
-    cons = np.empty((n, 4), np.int64)
-    sides = np.empty(n)
-    tfirst = np.empty(n)
     roots = np.empty(4)
-    m = 0
-    for k in range(n):
+    pts = np.empty(4)
+    out = 0
+    for k in range(m):
         if kind == 0:
-            ip = qel[pairs[k, 0], 0]
-            ia, ib, ic = tel[pairs[k, 1], 0], tel[pairs[k, 1], 1], tel[pairs[k, 1], 2]
-            P0, A0, B0, C0 = x0[ip], x0[ia], x0[ib], x0[ic]
-            P1, A1, B1, C1 = x1[ip], x1[ia], x1[ib], x1[ic]
-            xx = P0 - A0
-            yy = B0 - A0
-            zz = C0 - A0
-            a3, a2, a1, a0 = _cubic(xx, (P1 - A1) - xx, yy, (B1 - A1) - yy, zz, (C1 - A1) - zz)
+            i0 = qel[pairs[k, 0], 0]
+            i1, i2, i3 = tel[pairs[k, 1], 0], tel[pairs[k, 1], 1], tel[pairs[k, 1], 2]
         else:
-            ia, ib = qel[pairs[k, 0], 0], qel[pairs[k, 0], 1]
-            ic, idd = tel[pairs[k, 1], 0], tel[pairs[k, 1], 1]
-            A0, B0, C0, D0 = x0[ia], x0[ib], x0[ic], x0[idd]
-            A1, B1, C1, D1 = x1[ia], x1[ib], x1[ic], x1[idd]
-            xx = C0 - A0
-            yy = D0 - A0
-            zz = B0 - A0
-            a3, a2, a1, a0 = _cubic(xx, (C1 - A1) - xx, yy, (D1 - A1) - yy, zz, (B1 - A1) - zz)
-        nr = _roots01(a3, a2, a1, a0, roots)
+            i0, i1 = qel[pairs[k, 0], 0], qel[pairs[k, 0], 1]
+            i2, i3 = tel[pairs[k, 1], 0], tel[pairs[k, 1], 1]
+        # start (s) and end (e) coordinates of the four points
+        s0x, s0y, s0z = x0[i0, 0], x0[i0, 1], x0[i0, 2]
+        s1x, s1y, s1z = x0[i1, 0], x0[i1, 1], x0[i1, 2]
+        s2x, s2y, s2z = x0[i2, 0], x0[i2, 1], x0[i2, 2]
+        s3x, s3y, s3z = x0[i3, 0], x0[i3, 1], x0[i3, 2]
+        d0x, d0y, d0z = x1[i0, 0] - s0x, x1[i0, 1] - s0y, x1[i0, 2] - s0z
+        d1x, d1y, d1z = x1[i1, 0] - s1x, x1[i1, 1] - s1y, x1[i1, 2] - s1z
+        d2x, d2y, d2z = x1[i2, 0] - s2x, x1[i2, 1] - s2y, x1[i2, 2] - s2z
+        d3x, d3y, d3z = x1[i3, 0] - s3x, x1[i3, 1] - s3y, x1[i3, 2] - s3z
+        if kind == 0:
+            # VT: x = p - a, y = b - a, z = c - a  (p = 0, a = 1, b = 2, c = 3)
+            a3, a2, a1, a0 = _cubic_s(s0x - s1x, s0y - s1y, s0z - s1z, d0x - d1x, d0y - d1y, d0z - d1z,
+                                      s2x - s1x, s2y - s1y, s2z - s1z, d2x - d1x, d2y - d1y, d2z - d1z,
+                                      s3x - s1x, s3y - s1y, s3z - s1z, d3x - d1x, d3y - d1y, d3z - d1z)
+        else:
+            # EE (Eq. 4.5): edges (a, b) = (0, 1), (c, d) = (2, 3); x = c - a, y = d - a, z = b - a
+            a3, a2, a1, a0 = _cubic_s(s2x - s0x, s2y - s0y, s2z - s0z, d2x - d0x, d2y - d0y, d2z - d0z,
+                                      s3x - s0x, s3y - s0y, s3z - s0z, d3x - d0x, d3y - d0y, d3z - d0z,
+                                      s1x - s0x, s1y - s0y, s1z - s0z, d1x - d0x, d1y - d0y, d1z - d0z)
+        nr = _roots01(a3, a2, a1, a0, roots, pts)
         hits = 0
         first = 2.0
         for r in range(nr):
             t = roots[r]
+            px, py, pz = s0x + t * d0x, s0y + t * d0y, s0z + t * d0z
+            ax, ay, az = s1x + t * d1x, s1y + t * d1y, s1z + t * d1z
+            bx, by, bz = s2x + t * d2x, s2y + t * d2y, s2z + t * d2z
+            cx, cy, cz = s3x + t * d3x, s3y + t * d3y, s3z + t * d3z
             if kind == 0:
-                ok = _vt_inside(P0 + t * (P1 - P0), A0 + t * (A1 - A0), B0 + t * (B1 - B0),
-                                C0 + t * (C1 - C0), bary_tol)
+                ok = _vt_inside_s(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, bary_tol)
             else:
-                pa, pb = A0 + t * (A1 - A0), B0 + t * (B1 - B0)
-                pc, pd = C0 + t * (C1 - C0), D0 + t * (D1 - D0)
-                ok = _seg_dist(pa, pb, pc, pd) <= dist_tol
+                ok = _seg_dist_s(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz) <= dist_tol
             if ok:
                 hits += 1
-                if t < first:
-                    first = t
+                first = min(first, t)
         if hits % 2 == 1:            # parity rule (ERRATUM A.15)
-            if kind == 0:
-                cons[m, 0], cons[m, 1], cons[m, 2], cons[m, 3] = ip, ia, ib, ic
-                sd = _side(P0, A0, B0, C0)
-                if sd == 0.0:
-                    sd = -_side(P1, A1, B1, C1)
-            else:
-                cons[m, 0], cons[m, 1], cons[m, 2], cons[m, 3] = ia, ib, ic, idd
-                sd = _side(A0, B0, C0, D0)
-                if sd == 0.0:
-                    sd = -_side(A1, B1, C1, D1)
-            sides[m] = 1.0 if sd >= 0 else -1.0
-            tfirst[m] = first
-            m += 1
-    return cons[:m], sides[:m], tfirst[:m]
+            cons[out, 0], cons[out, 1], cons[out, 2], cons[out, 3] = i0, i1, i2, i3
+            sd = _side_s(x0[i0], x0[i1], x0[i2], x0[i3])
+            if sd == 0.0:
+                sd = -_side_s(x1[i0], x1[i1], x1[i2], x1[i3])
+            sides[out] = 1.0 if sd >= 0 else -1.0
+            tfirst[out] = first
+            out += 1
+    return out
+
+
+def _narrow(x0, x1, pairs, qel, tel, kind, bary_tol, dist_tol):
+    """Narrow phase over candidate pairs: constraints (K, 4), sides (K,), first contact times (K,)."""
+    m = pairs.shape[0]
+    cons = np.empty((m, 4), np.int64)
+    sides = np.empty(m)
+    tfirst = np.empty(m)
+    k = _narrow_kernel(np.ascontiguousarray(x0, dtype=np.float64), np.ascontiguousarray(x1, dtype=np.float64),
+                       np.ascontiguousarray(pairs, dtype=np.int64), m, np.ascontiguousarray(qel, dtype=np.int64),
+                       np.ascontiguousarray(tel, dtype=np.int64), kind, bary_tol, dist_tol, cons, sides, tfirst)
+    return cons[:k], sides[:k], tfirst[:k]
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -379,14 +531,14 @@ def _narrow(x0, x1, pairs, qel, tel, kind, bary_tol, dist_tol):
 
 def cubic_coefficients(x, u, y, v, z, w) -> tuple[float, float, float, float]:
     """Coefficients (A, B, C, D) of f(t) = [(y + t v) x (z + t w)] . (x + t u) (Eqs. 4.2–4.5, B.2)."""
-    args = [np.asarray(a, dtype=np.float64) for a in (x, u, y, v, z, w)]
-    return tuple(float(c) for c in _cubic(*args))
+    args = [float(c) for a in (x, u, y, v, z, w) for c in np.asarray(a, dtype=np.float64).reshape(3)]
+    return tuple(float(c) for c in _cubic_s(*args))
 
 
 def cubic_roots01(a: float, b: float, c: float, d: float) -> np.ndarray:
     """All real roots of a t^3 + b t^2 + c t + d in [0, 1], ascending (spec 002 §3.6.3)."""
     out = np.empty(4)
-    m = _roots01(float(a), float(b), float(c), float(d), out)
+    m = _roots01(float(a), float(b), float(c), float(d), out, np.empty(4))
     return out[:m].copy()
 
 
@@ -403,6 +555,162 @@ def _check_step(x0, x1, faces):
     if faces.size and (faces.min() < 0 or faces.max() >= x0.shape[0]):
         raise ValueError(f"faces must index vertices in [0, {x0.shape[0] - 1}]")
     return x0, x1, faces
+
+
+def _incidence(elems: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR vertex -> element incidence (offsets (V+1,), element ids)."""
+    v = elems.ravel()
+    order = np.argsort(v, kind="stable")
+    off = np.zeros(n_vertices + 1, np.int64)
+    np.add.at(off, v + 1, 1)
+    return np.cumsum(off), (order // elems.shape[1]).astype(np.int64)
+
+
+def _gather(off: np.ndarray, ids: np.ndarray, verts: np.ndarray) -> np.ndarray:
+    if verts.size == 0:
+        return np.zeros(0, np.int64)
+    return np.unique(np.concatenate([ids[off[v]:off[v + 1]] for v in verts]))
+
+
+class CollisionDetector:
+    """Continuous collision detection for one mesh, with grids reused across passes and steps (§3.6).
+
+    :meth:`detect` runs the full broad and narrow phases for a step ``x0 -> x1``. After collision
+    constraints moved some vertices, :meth:`redetect` re-runs both phases only for the elements touching
+    the moved vertices (their swept boxes are refreshed and re-inserted into the time-stamped grids) and
+    keeps the earlier result for every pair whose vertices did not move, which equals a full pass.
+
+    Parameters
+    ----------
+    faces : (F, 3) int64 ndarray
+    n_vertices : int
+    h : float
+        Collision thickness ``spacing``; also pads the swept boxes.
+    edges : (E, 2) int64 ndarray, optional
+    cell : float, optional
+        Grid cell size; default the mean largest extent of the triangles' swept boxes.
+    """
+
+    def __init__(self, faces: np.ndarray, n_vertices: int, *, h: float = 0.005, edges: np.ndarray | None = None,
+                 cell: float | None = None):
+        self.h = check_range("h", h, 0.0, 1e6)
+        self.faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+        self.nv = check_int("n_vertices", n_vertices, 0, 1 << 40)
+        if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= self.nv):
+            raise ValueError(f"faces must index vertices in [0, {self.nv - 1}]")
+        self.edges = mesh_edges_of(self.faces) if edges is None else \
+            check_array("edges", edges, shape=(None, 2), dtype=np.int64)
+        self.cell = None if cell is None else check_range("cell", cell, 0.0, 1e12, low_open=True)
+        self.verts = np.arange(self.nv, dtype=np.int64)[:, None]
+        self.vt_off, self.vt_ids = _incidence(self.faces, self.nv)
+        self.ve_off, self.ve_ids = _incidence(self.edges, self.nv)
+        nf, ne = len(self.faces), len(self.edges)
+        self.tri_hash, self.edge_hash, self.vert_hash = SpatialHash(nf), SpatialHash(ne), SpatialHash(self.nv)
+        self.tlo, self.thi = np.empty((nf, 3)), np.empty((nf, 3))
+        self.elo, self.ehi = np.empty((ne, 3)), np.empty((ne, 3))
+        self.vlo, self.vhi = np.empty((self.nv, 3)), np.empty((self.nv, 3))
+        self.mode0_t = np.zeros(nf, np.int8)
+        self.mode1_e = np.ones(ne, np.int8)
+        self._buf = np.empty((4096, 2), np.int64)
+        self._vhash_ok = False
+        self.x0 = self.x1 = None
+        self._last = None
+
+    def _narrow_all(self, vt, ee, timings):
+        t1 = time.perf_counter()
+        c1, s1, _ = _narrow(self.x0, self.x1, vt, self.verts, self.faces, 0, 1e-6, 0.0)
+        c2, s2, _ = _narrow(self.x0, self.x1, ee, self.edges, self.edges, 1, 1e-6, 1e-6 * self.scale)
+        if timings is not None:
+            timings["narrow"] = timings.get("narrow", 0.0) + time.perf_counter() - t1
+            timings["candidates"] = timings.get("candidates", 0) + len(vt) + len(ee)
+        kind = np.concatenate([np.zeros(len(c1), np.int8), np.ones(len(c2), np.int8)])
+        return np.concatenate([c1, c2]), np.concatenate([s1, s2]), kind
+
+    def detect(self, x0: np.ndarray, x1: np.ndarray, *, timings: dict | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Full CCD pass over one step (see :func:`detect_collisions` for the returned arrays)."""
+        x0 = check_array("x0", x0, shape=(self.nv, 3))
+        x1 = check_array("x1", x1, shape=(self.nv, 3))
+        self.x0 = np.ascontiguousarray(x0)
+        self.x1 = np.ascontiguousarray(x1).copy()
+        t0 = time.perf_counter()
+        self.pad = self.h + 1e-9 * (1.0 + float(np.abs(x0).max(initial=0.0)))
+        e = self.edges
+        self.scale = float(np.mean(np.linalg.norm(x0[e[:, 0]] - x0[e[:, 1]], axis=1))) if e.size else 1.0
+        allf = np.arange(len(self.faces), dtype=np.int64)
+        alle = np.arange(len(self.edges), dtype=np.int64)
+        allv = np.arange(self.nv, dtype=np.int64)
+        _swept_boxes_kernel(self.x0, self.x1, self.faces, allf, self.pad, self.tlo, self.thi)
+        _swept_boxes_kernel(self.x0, self.x1, self.edges, alle, self.pad, self.elo, self.ehi)
+        _swept_boxes_kernel(self.x0, self.x1, self.verts, allv, self.pad, self.vlo, self.vhi)
+        cell = self.cell
+        if cell is None:
+            cell = float(np.mean((self.thi - self.tlo).max(axis=1))) + 1e-12 if len(allf) else 1.0
+        self._cell = cell
+        self.tri_hash.clear(cell, 4 * len(allf))
+        self.tri_hash.insert(self.tlo, self.thi, allf)
+        self.edge_hash.clear(cell, 4 * len(alle))
+        self.edge_hash.insert(self.elo, self.ehi, alle)
+        self._vhash_ok = False
+        buf, m = self.tri_hash.query(allv, self.vlo, self.vhi, self.verts, self.tlo, self.thi, self.faces,
+                                     self.mode0_t, self._buf, 0)
+        vt = buf[:m].copy()
+        buf, m = self.edge_hash.query(alle, self.elo, self.ehi, self.edges, self.elo, self.ehi, self.edges,
+                                      self.mode1_e, buf, 0)
+        ee = buf[:m].copy()
+        self._buf = buf
+        if timings is not None:
+            timings["broad"] = timings.get("broad", 0.0) + time.perf_counter() - t0
+        self._last = self._narrow_all(vt, ee, timings)
+        return self._last
+
+    def redetect(self, x1: np.ndarray, *, timings: dict | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """CCD for the same step after the end positions changed; only moved vertices' elements are re-tested."""
+        if self._last is None:
+            raise ValueError("redetect needs a previous detect() for this step")
+        x1 = check_array("x1", x1, shape=(self.nv, 3))
+        t0 = time.perf_counter()
+        moved_mask = np.any(x1 != self.x1, axis=1)
+        moved = np.flatnonzero(moved_mask).astype(np.int64)
+        if moved.size == 0:
+            return self._last
+        self.x1[moved] = x1[moved]
+        cons, sides, kind = self._last
+        keep = ~moved_mask[cons].any(axis=1) if len(cons) else np.zeros(0, bool)
+        tris = _gather(self.vt_off, self.vt_ids, moved)
+        eds = _gather(self.ve_off, self.ve_ids, moved)
+        _swept_boxes_kernel(self.x0, self.x1, self.faces, tris, self.pad, self.tlo, self.thi)
+        _swept_boxes_kernel(self.x0, self.x1, self.edges, eds, self.pad, self.elo, self.ehi)
+        _swept_boxes_kernel(self.x0, self.x1, self.verts, moved, self.pad, self.vlo, self.vhi)
+        self.tri_hash.insert(self.tlo, self.thi, tris)
+        self.edge_hash.insert(self.elo, self.ehi, eds)
+        if not self._vhash_ok:
+            self.vert_hash.clear(self._cell, 2 * self.nv)
+            self.vert_hash.insert(self.vlo, self.vhi, np.arange(self.nv, dtype=np.int64))
+            self._vhash_ok = True
+        else:
+            self.vert_hash.insert(self.vlo, self.vhi, moved)
+        # VT: moved vertices against all triangles, then touched triangles against unmoved vertices
+        buf, m = self.tri_hash.query(moved, self.vlo, self.vhi, self.verts, self.tlo, self.thi, self.faces,
+                                     self.mode0_t, self._buf, 0)
+        vmode = moved_mask.astype(np.int8) * 2
+        buf, m = self.vert_hash.query(tris, self.tlo, self.thi, self.faces, self.vlo, self.vhi, self.verts,
+                                      vmode, buf, m, swap=True)
+        vt = buf[:m].copy()
+        # EE: touched edges against all edges; pairs of two touched edges once
+        emode = np.zeros(len(self.edges), np.int8)
+        emode[eds] = 1
+        buf, m = self.edge_hash.query(eds, self.elo, self.ehi, self.edges, self.elo, self.ehi, self.edges,
+                                      emode, buf, 0)
+        ee = buf[:m].copy()
+        self._buf = buf
+        if timings is not None:
+            timings["broad"] = timings.get("broad", 0.0) + time.perf_counter() - t0
+        c, s, k = self._narrow_all(vt, ee, timings)
+        self._last = (np.concatenate([cons[keep], c]), np.concatenate([sides[keep], s]),
+                      np.concatenate([kind[keep], k]))
+        return self._last
 
 
 def detect_collisions(x0: np.ndarray, x1: np.ndarray, faces: np.ndarray, *, h: float = 0.005,
@@ -433,27 +741,10 @@ def detect_collisions(x0: np.ndarray, x1: np.ndarray, faces: np.ndarray, *, h: f
     kind : (K,) int8 ndarray
         0 for VT, 1 for EE.
     """
-    import time
     h = check_range("h", h, 0.0, 1e6)
     x0, x1, faces = _check_step(x0, x1, faces)
-    edges = mesh_edges_of(faces) if edges is None else check_array("edges", edges, shape=(None, 2),
-                                                                    dtype=np.int64)
-    verts = np.arange(x0.shape[0], dtype=np.int64)[:, None]
-    pad = h + 1e-9 * (1.0 + float(np.abs(x0).max(initial=0.0)))
-    t0 = time.perf_counter()
-    vt = broad_phase(x0, x1, verts, faces, pad=pad, cell=cell)
-    ee = broad_phase(x0, x1, edges, edges, pad=pad, cell=cell, same_set=True)
-    t1 = time.perf_counter()
-    scale = float(np.mean(np.linalg.norm(x0[edges[:, 0]] - x0[edges[:, 1]], axis=1))) if edges.size else 1.0
-    c1, s1, _ = _narrow(x0, x1, vt, verts, faces, 0, 1e-6, 1e-6 * scale)
-    c2, s2, _ = _narrow(x0, x1, ee, edges, edges, 1, 1e-6, 1e-6 * scale)
-    t2 = time.perf_counter()
-    if timings is not None:
-        timings["broad"] = timings.get("broad", 0.0) + t1 - t0
-        timings["narrow"] = timings.get("narrow", 0.0) + t2 - t1
-        timings["candidates"] = timings.get("candidates", 0) + vt.shape[0] + ee.shape[0]
-    kind = np.concatenate([np.zeros(len(c1), np.int8), np.ones(len(c2), np.int8)])
-    return np.concatenate([c1, c2]), np.concatenate([s1, s2]), kind
+    det = CollisionDetector(faces, x0.shape[0], h=h, edges=edges, cell=cell)
+    return det.detect(x0, x1, timings=timings)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -464,7 +755,7 @@ def _np_cubic(x, u, y, v, z, w):
     Q = np.cross(v, w)
     R = np.cross(v, z) + np.cross(y, w)
     S = np.cross(y, z)
-    dot = lambda a, b: np.einsum("ij,ij->i", a, b)  # noqa: E731
+    dot = lambda a, b: np.einsum("ij,ij->i", a, b)
     return dot(Q, u), dot(Q, x) + dot(R, u), dot(R, x) + dot(S, u), dot(S, x)
 
 
@@ -477,7 +768,7 @@ def _np_roots01(a, b, c, d):
     culled |= (d < 0) & (c < 0) & (d + c < -np.abs(b) - np.abs(a))
     culled |= np.abs(d) > np.abs(c) + np.abs(b) + np.abs(a)
     culled |= scale == 0
-    f = lambda t: ((a * t + b) * t + c) * t + d  # noqa: E731
+    f = lambda t: ((a * t + b) * t + c) * t + d
     qa, qb, qc = 3 * a, 2 * b, c
     with np.errstate(all="ignore"):
         disc = qb * qb - 4 * qa * qc
@@ -532,7 +823,7 @@ def _np_lerp(X0, X1, t):
 
 def _np_inside(p, a, b, c, tol):
     u, v, w = b - a, c - a, p - a
-    dot = lambda x, y: np.einsum("ij,ij->i", x, y)  # noqa: E731
+    dot = lambda x, y: np.einsum("ij,ij->i", x, y)
     uu, vv, uv, wu, wv = dot(u, u), dot(v, v), dot(u, v), dot(w, u), dot(w, v)
     den = uu * vv - uv * uv
     with np.errstate(all="ignore"):
@@ -542,13 +833,29 @@ def _np_inside(p, a, b, c, tol):
 
 
 def _np_segdist(p0, p1, q0, q1):
-    return np.array([_seg_dist(p0[i], p1[i], q0[i], q1[i]) for i in range(p0.shape[0])])
+    """Vectorised twin of ``_seg_dist_s``: minimum distance between segment pairs (App. B.3)."""
+    dot = lambda a, b: np.einsum("ij,ij->i", a, b)
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a, e, f = dot(d1, d1), dot(d2, d2), dot(d2, r)
+    c, b = dot(d1, r), dot(d1, d2)
+    with np.errstate(all="ignore"):
+        den = a * e - b * b
+        s = np.where(den > 1e-300, np.clip((b * f - c * e) / den, 0, 1), 0.0)
+        t = (b * s + f) / e
+        s = np.where(t < 0, np.clip(-c / a, 0, 1), np.where(t > 1, np.clip((b - c) / a, 0, 1), s))
+        t = np.clip(t, 0, 1)
+        # degenerate segments
+        s = np.where(a <= 1e-300, 0.0, np.where(e <= 1e-300, np.clip(-c / a, 0, 1), s))
+        t = np.where(a <= 1e-300, np.clip(f / e, 0, 1), np.where(e <= 1e-300, 0.0, t))
+        s = np.where((a <= 1e-300) & (e <= 1e-300), 0.0, s)
+        t = np.where((a <= 1e-300) & (e <= 1e-300), 0.0, t)
+    d = r + d1 * s[:, None] - d2 * t[:, None]
+    return np.sqrt(dot(d, d))
 
 
 def detect_collisions_numpy(x0, x1, faces, *, h: float = 0.005, edges=None, cell=None,
                             timings: dict | None = None):
     """Numpy twin of :func:`detect_collisions` (vectorised narrow phase, same broad phase)."""
-    import time
     h = check_range("h", h, 0.0, 1e6)
     x0, x1, faces = _check_step(x0, x1, faces)
     edges = mesh_edges_of(faces) if edges is None else np.asarray(edges, np.int64)
@@ -612,29 +919,51 @@ def _project_collision(p, w, cons, sides, h, k, iterations):
         for c in range(cons.shape[0]):
             iq, ia, ib, ic = cons[c, 0], cons[c, 1], cons[c, 2], cons[c, 3]
             s = sides[c]
-            q, a, b, cc = p[iq], p[ia], p[ib], p[ic]
-            N = np.cross(b - a, cc - a)
-            nN = np.sqrt(N.dot(N))
+            ax, ay, az = p[ia, 0], p[ia, 1], p[ia, 2]
+            ux, uy, uz = p[ib, 0] - ax, p[ib, 1] - ay, p[ib, 2] - az          # b - a
+            vx, vy, vz = p[ic, 0] - ax, p[ic, 1] - ay, p[ic, 2] - az          # c - a
+            Nx, Ny, Nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            nN = np.sqrt(Nx * Nx + Ny * Ny + Nz * Nz)
             if nN < 1e-300:
                 continue
-            n = N / nN
-            r = q - a
-            C = s * r.dot(n) - h                     # Eq. 4.6 / 4.7
+            nx, ny, nz = Nx / nN, Ny / nN, Nz / nN
+            rx, ry, rz = p[iq, 0] - ax, p[iq, 1] - ay, p[iq, 2] - az
+            rn = rx * nx + ry * ny + rz * nz
+            C = s * rn - h                                # Eq. 4.6 / 4.7
             if C >= 0:
                 continue
-            rp = r - r.dot(n) * n
-            gq = s * n
-            gb = s * np.cross(cc - a, rp) / nN
-            gc = s * np.cross(rp, b - a) / nN
-            ga = -(gq + gb + gc)
-            den = w[iq] * gq.dot(gq) + w[ia] * ga.dot(ga) + w[ib] * gb.dot(gb) + w[ic] * gc.dot(gc)
+            px, py, pz = rx - rn * nx, ry - rn * ny, rz - rn * nz      # r projected into the plane
+            gqx, gqy, gqz = s * nx, s * ny, s * nz
+            gbx = s * (vy * pz - vz * py) / nN                          # s (c - a) x rp / |N|
+            gby = s * (vz * px - vx * pz) / nN
+            gbz = s * (vx * py - vy * px) / nN
+            gcx = s * (py * uz - pz * uy) / nN                          # s rp x (b - a) / |N|
+            gcy = s * (pz * ux - px * uz) / nN
+            gcz = s * (px * uy - py * ux) / nN
+            gax, gay, gaz = -(gqx + gbx + gcx), -(gqy + gby + gcy), -(gqz + gbz + gcz)
+            den = (w[iq] * (gqx * gqx + gqy * gqy + gqz * gqz) + w[ia] * (gax * gax + gay * gay + gaz * gaz)
+                   + w[ib] * (gbx * gbx + gby * gby + gbz * gbz) + w[ic] * (gcx * gcx + gcy * gcy + gcz * gcz))
             if den < 1e-300:
                 continue
             lam = k * C / den
-            p[iq] -= lam * w[iq] * gq
-            p[ia] -= lam * w[ia] * ga
-            p[ib] -= lam * w[ib] * gb
-            p[ic] -= lam * w[ic] * gc
+            # Step limiter [INFERRED]: on a sliver triangle the in-plane gradients of b and c are huge;
+            # never move a vertex by more than twice the violation (the iterations finish the job).
+            gm = max(w[iq] * np.sqrt(gqx * gqx + gqy * gqy + gqz * gqz), w[ia] * np.sqrt(gax * gax + gay * gay + gaz * gaz),
+                     w[ib] * np.sqrt(gbx * gbx + gby * gby + gbz * gbz), w[ic] * np.sqrt(gcx * gcx + gcy * gcy + gcz * gcz))
+            if abs(lam) * gm > 2.0 * abs(C):
+                lam *= 2.0 * abs(C) / (abs(lam) * gm)
+            p[iq, 0] -= lam * w[iq] * gqx
+            p[iq, 1] -= lam * w[iq] * gqy
+            p[iq, 2] -= lam * w[iq] * gqz
+            p[ia, 0] -= lam * w[ia] * gax
+            p[ia, 1] -= lam * w[ia] * gay
+            p[ia, 2] -= lam * w[ia] * gaz
+            p[ib, 0] -= lam * w[ib] * gbx
+            p[ib, 1] -= lam * w[ib] * gby
+            p[ib, 2] -= lam * w[ib] * gbz
+            p[ic, 0] -= lam * w[ic] * gcx
+            p[ic, 1] -= lam * w[ic] * gcy
+            p[ic, 2] -= lam * w[ic] * gcz
 
 
 def solve_collisions(p: np.ndarray, w: np.ndarray, cons: np.ndarray, sides: np.ndarray, *,
@@ -663,16 +992,16 @@ def _seg_tri_count(x, pairs, edges, faces):
     for k in range(pairs.shape[0]):
         e = pairs[k, 0]
         f = pairs[k, 1]
-        p0, p1 = x[edges[e, 0]], x[edges[e, 1]]
-        a, b, c = x[faces[f, 0]], x[faces[f, 1]], x[faces[f, 2]]
-        n = np.cross(b - a, c - a)
-        d0 = (p0 - a).dot(n)
-        d1 = (p1 - a).dot(n)
+        i0, i1 = edges[e, 0], edges[e, 1]
+        ia, ib, ic = faces[f, 0], faces[f, 1], faces[f, 2]
+        d0 = _side_s(x[i0], x[ia], x[ib], x[ic])
+        d1 = _side_s(x[i1], x[ia], x[ib], x[ic])
         if (d0 > 0 and d1 > 0) or (d0 < 0 and d1 < 0) or d0 == d1:
             continue
         t = d0 / (d0 - d1)
-        q = p0 + t * (p1 - p0)
-        if _vt_inside(q, a, b, c, 0.0):
+        if _vt_inside_s(x[i0, 0] + t * (x[i1, 0] - x[i0, 0]), x[i0, 1] + t * (x[i1, 1] - x[i0, 1]),
+                        x[i0, 2] + t * (x[i1, 2] - x[i0, 2]), x[ia, 0], x[ia, 1], x[ia, 2],
+                        x[ib, 0], x[ib, 1], x[ib, 2], x[ic, 0], x[ic, 1], x[ic, 2], 0.0):
             cnt += 1
     return cnt
 

@@ -16,7 +16,7 @@ import numpy as np
 from plantvr._validation import check_array, check_int, check_range
 from plantvr.flowers import ccd, pbd
 
-__all__ = ["SolverParams", "FloretType", "Canopy", "step", "grow"]
+__all__ = ["Canopy", "FloretType", "SolverParams", "grow", "step"]
 
 
 @dataclass(frozen=True)
@@ -117,6 +117,13 @@ class Canopy:
         self.w[self.fixed] = 0.0
         self.face_instance = np.concatenate([np.full(len(self.types[k].faces), i) for i, k in enumerate(kind)])
 
+    def detector(self, h: float) -> ccd.CollisionDetector:
+        """The canopy's collision detector (grids and incidence reused across steps)."""
+        det = getattr(self, "_detector", None)
+        if det is None or det.h != h:
+            det = self._detector = ccd.CollisionDetector(self.faces, int(self.voff[-1]), h=h, edges=self.edges)
+        return det
+
     @property
     def n_instances(self) -> int:
         """Number of floret instances."""
@@ -161,12 +168,24 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
     stats["solver"] = time.perf_counter() - t0
     if not collisions:
         return p, stats
-    detect = ccd.detect_collisions if backend == "numba" else ccd.detect_collisions_numpy
     w_col = np.ones_like(canopy.w)
     w_col[canopy.fixed] = 0.0
+    if backend == "numba":
+        det = canopy.detector(params.spacing)
+        first = [True]
+
+        def detect(p):
+            if first[0]:
+                first[0] = False
+                return det.detect(x, p, timings=stats)
+            return det.redetect(p, timings=stats)           # only elements touching moved vertices
+    else:
+        def detect(p):
+            return ccd.detect_collisions_numpy(x, p, canopy.faces, h=params.spacing, edges=canopy.edges,
+                                               timings=stats)
     clean = False
     for _ in range(params.max_collision_retries):
-        cons, sides, _ = detect(x, p, canopy.faces, h=params.spacing, edges=canopy.edges, timings=stats)
+        cons, sides, _ = detect(p)
         stats["passes"] += 1
         if len(cons) == 0:
             clean = True
@@ -176,7 +195,7 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
                              iterations=params.collision_iterations)
     if not clean:                                          # fallback (I): roll back colliding vertices
         for _ in range(100):
-            cons, _, _ = detect(x, p, canopy.faces, h=params.spacing, edges=canopy.edges, timings=stats)
+            cons, _, _ = detect(p)
             stats["passes"] += 1
             if len(cons) == 0:
                 clean = True

@@ -9,7 +9,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_point, check_range
 
-__all__ = ["cone_dmin", "ray_florets", "floret_fate", "DISC", "SMALL_RAY", "LARGE_RAY"]
+__all__ = ["DISC", "LARGE_RAY", "SMALL_RAY", "cone_dmin", "floret_fate", "ray_florets"]
 
 DISC, SMALL_RAY, LARGE_RAY = 0, 1, 2
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.interpolate import BSpline
@@ -21,9 +21,21 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from plantvr._validation import check_array, check_int, check_range
 
-__all__ = ["clamped_knots", "eval_surface", "petal_net", "make_bilateral", "fuse_rows", "Corolla",
-           "blend_nets", "growth_function", "polygonize_uv", "FloretMesh", "build_floret",
-           "write_obj_sequence", "read_obj_sequence"]
+__all__ = [
+    "Corolla",
+    "FloretMesh",
+    "blend_nets",
+    "build_floret",
+    "clamped_knots",
+    "eval_surface",
+    "fuse_rows",
+    "growth_function",
+    "make_bilateral",
+    "petal_net",
+    "polygonize_uv",
+    "read_obj_sequence",
+    "write_obj_sequence",
+]
 
 
 def clamped_knots(n_ctrl: int, degree: int) -> np.ndarray:
@@ -378,7 +390,7 @@ def read_obj_sequence(folder: str, *, prefix: str = "frame") -> tuple[np.ndarray
         From ``weight.txt`` if present.
     """
     pat = re.compile(re.escape(prefix) + r"_?(\d+)\.obj$")
-    files = sorted(((int(m.group(1)), f) for f in os.listdir(folder) if (m := pat.search(f))))
+    files = sorted((int(m.group(1)), f) for f in os.listdir(folder) if (m := pat.search(f)))
     if not files:
         raise ValueError(f"no '{prefix}_<n>.obj' files in {folder!r}")
     faces0, frames = None, []

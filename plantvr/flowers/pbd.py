@@ -11,8 +11,15 @@ import numpy as np
 
 from plantvr._validation import check_array, check_int, check_range
 
-__all__ = ["mesh_edges", "bend_quads", "edge_lengths", "signed_dihedrals", "dihedral_gradient",
-           "solve_internal", "solve_internal_numpy"]
+__all__ = [
+    "bend_quads",
+    "dihedral_gradient",
+    "edge_lengths",
+    "mesh_edges",
+    "signed_dihedrals",
+    "solve_internal",
+    "solve_internal_numpy",
+]
 
 
 def mesh_edges(faces: np.ndarray) -> np.ndarray:

@@ -7,8 +7,8 @@ area A(s), and consecutive angles differ by the divergence angle (137.5 degrees 
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -16,9 +16,18 @@ from scipy.spatial import cKDTree
 from plantvr._validation import check_array, check_int, check_range
 
 __all__ = [
-    "GOLDEN_ANGLE_DEG", "Receptacle", "receptacle_from_profile", "disc_receptacle", "dome_receptacle",
-    "cone_receptacle", "ridley_placement", "vogel_disc", "centripetal_fractionation", "place_on_receptacle",
-    "parastichy_numbers", "floret_stage",
+    "GOLDEN_ANGLE_DEG",
+    "Receptacle",
+    "centripetal_fractionation",
+    "cone_receptacle",
+    "disc_receptacle",
+    "dome_receptacle",
+    "floret_stage",
+    "parastichy_numbers",
+    "place_on_receptacle",
+    "receptacle_from_profile",
+    "ridley_placement",
+    "vogel_disc",
 ]
 
 #: Divergence angle used by the thesis (T §5.2, §6.2: "phi = 137.5 deg").

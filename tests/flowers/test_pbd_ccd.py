@@ -225,3 +225,38 @@ def test_bad_input_negative_thickness():
     from plantvr.flowers.composer import SolverParams
     with pytest.raises(ValueError, match="spacing"):
         SolverParams(spacing=-0.01)
+
+
+def test_incremental_redetect_equals_full_detection():
+    rng = np.random.default_rng(11)
+    x0, f = _strip(7, 7)
+    x0 = np.vstack([x0, x0 + [0.03, 0.04, 0.03]])
+    f = np.vstack([f, f + 49])
+    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    det = ccd.CollisionDetector(f, len(x0), h=0.005)
+    cons, sides, _ = det.detect(x0, x1)
+    assert len(cons) > 0
+    p = x1.copy()
+    for _ in range(4):                              # retries: project, then re-detect incrementally
+        ccd.solve_collisions(p, np.ones(len(p)), cons, sides, h=0.005, iterations=3)
+        p[rng.integers(0, len(p), 3)] += rng.normal(0, 0.02, (3, 3))   # and some unrelated moves
+        cons, sides, kind = det.redetect(p)
+        full = ccd.detect_collisions(x0, p, f, h=0.005)
+        got = sorted(map(tuple, np.column_stack([cons, sides, kind]).tolist()))
+        ref = sorted(map(tuple, np.column_stack(full).tolist()))
+        assert got == ref
+
+
+def test_spatial_hash_broad_phase_equals_brute_force_box_overlap():
+    rng = np.random.default_rng(12)
+    x0, f = _strip(6, 6)
+    x1 = x0 + rng.normal(0, 0.05, x0.shape)
+    e = ccd.mesh_edges_of(f)
+    lo = np.minimum(np.minimum(x0[e[:, 0]], x0[e[:, 1]]), np.minimum(x1[e[:, 0]], x1[e[:, 1]])) - 0.005
+    hi = np.maximum(np.maximum(x0[e[:, 0]], x0[e[:, 1]]), np.maximum(x1[e[:, 0]], x1[e[:, 1]])) + 0.005
+    ov = np.all((lo[:, None] <= hi[None]) & (lo[None] <= hi[:, None]), axis=2)
+    share = (e[:, None, :, None] == e[None, :, None, :]).any(axis=(2, 3))
+    brute = {(i, j) for i, j in zip(*np.nonzero(ov & ~share)) if i < j}
+    for cell in (0.01, 0.07, 1.0):
+        got = {tuple(r) for r in ccd.broad_phase(x0, x1, e, e, pad=0.005, cell=cell, same_set=True)}
+        assert got == brute

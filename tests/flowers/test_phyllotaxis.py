@@ -2,9 +2,21 @@
 import numpy as np
 import pytest
 
-from plantvr.flowers import (GOLDEN_ANGLE_DEG, centripetal_fractionation, cone_receptacle, disc_receptacle,
-                             dome_receptacle, floret_fate, floret_stage, parastichy_numbers, place_on_receptacle,
-                             ray_florets, receptacle_from_profile, ridley_placement, vogel_disc)
+from plantvr.flowers import (
+    GOLDEN_ANGLE_DEG,
+    centripetal_fractionation,
+    cone_receptacle,
+    disc_receptacle,
+    dome_receptacle,
+    floret_fate,
+    floret_stage,
+    parastichy_numbers,
+    place_on_receptacle,
+    ray_florets,
+    receptacle_from_profile,
+    ridley_placement,
+    vogel_disc,
+)
 from plantvr.flowers.fate import LARGE_RAY, SMALL_RAY, cone_dmin
 
 FIB = {1, 2, 3, 5, 8, 13, 21, 34, 55, 89, 144, 233}
