@@ -22,11 +22,11 @@ import time
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from plantvr._validation import check_choice, check_int, check_range  # noqa: E402
-from plantvr.vine.proxy import DisplayProxy  # noqa: E402
-from plantvr.vine.segmentation import Segmentation  # noqa: E402
+from plantvr._validation import check_choice, check_int, check_range
+from plantvr.vine.proxy import DisplayProxy
+from plantvr.vine.segmentation import Segmentation
 
 __all__ = ["VineReviewApp", "histogram_svg"]
 
@@ -218,8 +218,8 @@ class VineReviewApp:
                 with html.Div(classes="d-flex align-center vine-colours"):
                     v3.VBtn(v_for="c in colours", key="c.value", icon=True, size="small", density="compact",
                             classes=("'vine-colour ma-1 vine-colour-' + c.value",),
-                            style=("{ background: c.rgb, opacity: c.visible ? 1 : 0.3, "
-                                   "outline: c.value === label ? '3px solid white' : 'none' }",),
+                            style=(("{ background: c.rgb, opacity: c.visible ? 1 : 0.3, "
+                                   "outline: c.value === label ? '3px solid #222' : 'none' }"),),
                             click="label = c.value")
                 v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=0.01, label="radius",
                            hide_details=True, density="compact", style="max-width: 220px",
@@ -227,26 +227,25 @@ class VineReviewApp:
                 v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
                 v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
                 v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
-            with layout.content:
-                with html.Div(style="position: relative; width: 100%; height: calc(100vh - 64px);"):
-                    kw = dict(picking_modes=("picking_modes", ["click"]), click=(self.on_pick, "[$event]"),
-                              interactor_settings=("interactor_settings", _INTERACTOR))
-                    if self.mode == "local":
-                        view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view", **kw)
-                    else:
-                        view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
-                                                         interactive_ratio=1, **kw)
-                    ctrl.view_update = view.update
-                    ctrl.view_reset_camera = view.reset_camera
-                    with html.Div(style="position: absolute; left: 8px; bottom: 8px; color: #ddd; "
-                                        "font: 12px sans-serif;", classes="vine-status"):
-                        html.Div("{{ n_full.toLocaleString() }} vertices, proxy {{ n_proxy.toLocaleString() }}; "
-                                 "painted {{ painted.toLocaleString() }}")
-                        if self.volume is not None:
-                            html.Div(v_html=("histogram",))
-                            v3.VSlider(v_model=("level",), min=1, max=float(np.iinfo(self.volume.dtype).max) - 1,
-                                       step=1, hide_details=True, density="compact", style="width: 260px",
-                                       label="iso", classes="vine-level", end=ctrl.apply_level)
+            with layout.content, html.Div(style="position: relative; width: 100%; height: calc(100vh - 64px);"):
+                kw = {"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
+                          "interactor_settings": ("interactor_settings", _INTERACTOR)}
+                if self.mode == "local":
+                    view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view", **kw)
+                else:
+                    view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
+                                                     interactive_ratio=1, **kw)
+                ctrl.view_update = view.update
+                ctrl.view_reset_camera = view.reset_camera
+                with html.Div(style="position: absolute; left: 8px; bottom: 8px; color: #ddd; "
+                                    "font: 12px sans-serif;", classes="vine-status"):
+                    html.Div("{{ n_full.toLocaleString() }} vertices, proxy {{ n_proxy.toLocaleString() }}; "
+                             "painted {{ painted.toLocaleString() }}")
+                    if self.volume is not None:
+                        html.Div(v_html=("histogram",))
+                        v3.VSlider(v_model=("level",), min=1, max=float(np.iinfo(self.volume.dtype).max) - 1,
+                                   step=1, hide_details=True, density="compact", style="width: 260px",
+                                   label="iso", classes="vine-level", end=ctrl.apply_level)
         self.layout = layout
 
     # ------------------------------------------------------------------ serving
@@ -255,8 +254,8 @@ class VineReviewApp:
         """Serve the page; returns its URL. With ``thread=True`` the server runs in a daemon thread."""
         self.port = _free_port() if not port else check_int("port", port, 1, 65535)
         self.url = f"http://{host}:{self.port}/"
-        kw = dict(port=self.port, open_browser=open_browser, show_connection_info=False, disable_logging=True,
-                  timeout=0, host=host)
+        kw = {"port": self.port, "open_browser": open_browser, "show_connection_info": False, "disable_logging": True,
+                  "timeout": 0, "host": host}
         if not thread:
             self.server.start(**kw)
             return self.url
