@@ -173,7 +173,7 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
             info = zipfile.ZipInfo(name, date_time=_STAMP)
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = 0o644 << 16
-            z.writestr(info, data, compresslevel=6)
+            z.writestr(info, data, compresslevel=1)
         z.comment = f"{_MAGIC} sha256={digest}".encode()
     os.replace(tmp, p)
     return digest
