@@ -54,13 +54,14 @@ def lattice(lo: np.ndarray, hi: np.ndarray, spacing: float, rng) -> np.ndarray:
     return g + rng.uniform(-0.2, 0.2, g.shape) * spacing
 
 
-def painted_markers(nodes: np.ndarray, count: int, spacing: float, rng, scene: str = "shell") -> np.ndarray:
+def painted_markers(nodes: np.ndarray, count: int, spacing: float, rng, scene: str = "wand") -> np.ndarray:
     """``count`` markers as a wand session leaves them around a grown crown.
 
-    ``shell``: the user paints where the crown should grow next, so markers lie outside the occupied
-    volume (farther than the occupation radius from every node), in a shell that thickens until it
-    holds ``count`` markers. ``dense``: markers fill the whole box around the tree, so every bud
-    perceives some (a stress case no wand session produces, because occupation zones empty the crown).
+    ``wand``: the user paints where the crown should grow next — here a block of marker space on top of
+    the crown, at the Poisson-dart spacing, farther than the occupation radius from every node — so the
+    buds near it compete for it and the rest of the tree does not see it. ``dense``: markers fill the
+    box around the whole tree, so nearly every bud perceives some and grows in the same step (a stress
+    case: the tree doubles in one step).
     """
     lo, hi = nodes.min(0), nodes.max(0)
     if scene == "dense":
@@ -68,17 +69,19 @@ def painted_markers(nodes: np.ndarray, count: int, spacing: float, rng, scene: s
         pts = lattice(lo - 2, hi + 2 + side * 40, side, rng)
         return pts[rng.permutation(len(pts))[:count]]
     tree = cKDTree(nodes)
-    thick = 2.0
+    width = hi - lo
+    top = hi[1] - 0.25 * width[1]
+    depth = count * spacing ** 3 / max(width[0] * width[2], 1.0)
     while True:
-        pts = lattice(lo - thick, hi + thick, spacing, rng)
-        d, _ = tree.query(pts, distance_upper_bound=thick)
-        pts = pts[(d > spacing) & np.isfinite(d)]
+        pts = lattice(np.array([lo[0], top, lo[2]]), np.array([hi[0], top + depth, hi[2]]), spacing, rng)
+        d, _ = tree.query(pts, distance_upper_bound=spacing)
+        pts = pts[~np.isfinite(d)]
         if len(pts) >= count:
             return pts[rng.permutation(len(pts))[:count]]
-        thick *= 1.5
+        depth *= 1.3
 
 
-def time_step(e: GrowthEngine, markers: int, rng, repeats: int = 3, scene: str = "shell") -> tuple[float, int, np.ndarray, object]:
+def time_step(e: GrowthEngine, markers: int, rng, repeats: int = 3, scene: str = "wand") -> tuple[float, int, np.ndarray, object]:
     """Median ms of a growth step on a copy of the state with ``markers`` live markers."""
     ms = []
     for _ in range(repeats):
@@ -101,9 +104,9 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--quick", action="store_true", help="reduced sizes for CI")
     a = ap.parse_args(argv)
     rng = np.random.default_rng(1)
-    cases = [(500, 20_000, "shell"), (2_000, 100, "shell"), (2_000, 50_000, "shell"), (2_000, 50_000, "dense")] \
-        if a.quick else [(500, 20_000, "shell"), (2_000, 50_000, "shell"), (5_000, 100, "shell"),
-                         (5_000, 200_000, "shell"), (20_000, 200_000, "shell"), (50_000, 200_000, "shell"),
+    cases = [(500, 20_000, "wand"), (2_000, 100, "wand"), (2_000, 50_000, "wand"), (2_000, 50_000, "dense")] \
+        if a.quick else [(500, 20_000, "wand"), (2_000, 50_000, "wand"), (5_000, 100, "wand"),
+                         (5_000, 200_000, "wand"), (20_000, 200_000, "wand"), (50_000, 200_000, "wand"),
                          (5_000, 200_000, "dense"), (20_000, 200_000, "dense")]
     warm = grown_engine(50)  # compile (or load cached) kernels outside the timings
     time_step(warm, 100, rng, repeats=1)
@@ -143,9 +146,9 @@ def main(argv: list[str] | None = None) -> dict:
     if five:
         print(f"target 1: 5,000 internodes, b*m ~ 5e5: {five[0]['step_ms']:.2f} ms/step (target <= 10 ms; "
               f"thesis C++ lost interactivity at 33 ms)")
-    big = [v for k, v in out.items() if k.startswith("50000/") and k.endswith("shell")]
+    big = [v for k, v in out.items() if k.startswith("50000/") and k.endswith("wand")]
     if big:
-        print(f"target 2: 50,000 internodes, 200,000 painted markers: {big[0]['step_ms']:.2f} ms/step "
+        print(f"target 2: 50,000 internodes, 200,000 painted markers (wand scene): {big[0]['step_ms']:.2f} ms/step "
               f"(target <= 100 ms); the 'dense' rows are a stress case no wand session produces")
     return out
 
