@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_points, check_range
-from .bending import pipe_widths
+from .._validation import check_choice, check_int, check_point, check_points, check_range
+from .bending import BendResult, bend_path, pipe_widths
 from .colonize import assign_treewand
 from .directions import _rotate, bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, StepStats, _Buds
@@ -396,7 +396,37 @@ class SketchEngine(GrowthEngine):
             self.width_constraints[node] = check_range("diameter", diameter, 0.0, np.inf, low_open=True)
         self.update_light()
 
-    # -- editing: selection, pruning at a branching point --------------------------------------------
+    # -- editing: bending, selection, pruning at a branching point -----------------------------------
+    def branch_path(self, base: int, end: int) -> np.ndarray:
+        """Nodes from ``base`` down to ``end`` (``end`` in the subtree of ``base``), for :meth:`bend`."""
+        t = self.tree
+        base = check_int("base", base, 0, t.n - 1)
+        end = check_int("end", end, 0, t.n - 1)
+        path = [end]
+        while path[-1] != base:
+            if path[-1] <= 0:
+                raise ValueError(f"node {end} is not in the subtree of node {base}")
+            path.append(int(t.parent[path[-1]]))
+        return np.array(path[::-1], np.int64)
+
+    def bend(self, base: int, end: int, target, *, max_iter: int = 100) -> BendResult:
+        """Bend the path ``base`` .. ``end`` so that ``end`` reaches ``target`` (§2.9, :func:`bend_path`).
+
+        Node positions and frames (head, lat) of the path and of everything hanging from it move rigidly with
+        their supporting internode; the light grid is rebuilt. Always solved from the current pose as rest.
+        """
+        t = self.tree
+        path = self.branch_path(base, end)
+        target = check_point("target", target)
+        radius = np.where(t.radius > 0, t.radius, self.params["tip_radius"])
+        res = bend_path(t.pos, t.parent, radius, path, target, max_iter=max_iter)
+        t.pos[:] = res.pos
+        t.head[:] = normalize(np.einsum("nij,nj->ni", res.rot, t.head))
+        t.lat[:] = normalize(np.einsum("nij,nj->ni", res.rot, t.lat))
+        self.rebuild_light()
+        return res
+
+
     def select(self, node: int | None) -> None:
         """Selective growth (§2.8): only buds in the subtree of ``node`` may grow; ``None`` ends the mode."""
         if node is not None:

@@ -406,3 +406,24 @@ def test_ts_pickle_roundtrip_continues_identically():
         b.step()
     for k, v in a.tree.arrays().items():
         np.testing.assert_array_equal(v, b.tree.arrays()[k], err_msg=k)
+
+
+def test_ts_engine_bend_keeps_lengths_and_side_branch_pose():
+    e = _grown(steps=6)
+    t = e.tree
+    tip = int(np.flatnonzero(t.alive & (t.order == 0) & (t.child[:, 0] == -1))[0])
+    path = e.branch_path(1, tip)
+    par = np.maximum(t.parent, 0)
+    lengths = np.linalg.norm(t.pos - t.pos[par], axis=1)
+    rel_before = t.head.copy()
+    target = t.pos[tip] + np.array([1.5, -0.8, 0.3])
+    res = e.bend(1, tip, target)
+    t = e.tree
+    assert np.linalg.norm(t.pos[tip] - target) < 1e-3  # V14 tolerance
+    np.testing.assert_allclose(np.linalg.norm(t.pos - t.pos[par], axis=1), lengths, atol=1e-9)
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", res.rot, rel_before), t.head, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(t.head[t.alive], axis=1), 1.0)
+    assert e.step().internodes >= t.n_internodes - 0  # growth goes on after a bend
+    with pytest.raises(ValueError, match="subtree"):
+        e.branch_path(tip, 1)
+    assert len(path) >= 2
