@@ -1,0 +1,270 @@
+"""Notebook panel for the implicit-crown command language (spec 003_implicit_sca §5.1, §2.8; C-13, issue 10).
+
+A text area takes a script in the thesis command language; **Run** sends it to a
+:class:`plantvr.implicit.CommandSession` (all or nothing: a rejected script leaves the session unchanged) and the
+error line names the line number and the offending token, with the line marked in a listing. The preview is a
+matplotlib picture of the chosen envelope (polygonized), the sampled points coloured by their source tag and the
+trees grown so far. The panel keeps no state of its own besides the session it drives; scripts save and replay
+through the session.
+"""
+from __future__ import annotations
+
+import html
+import io
+import re
+from pathlib import Path
+
+import ipywidgets as W
+import numpy as np
+import traitlets
+
+from ..implicit import CommandError, CommandSession, polygonize
+
+__all__ = ["ImplicitPanel", "preview_png"]
+
+_TAG_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2")
+_PREVIEW_ERROR = "<div class='preview-error' style='color:#b00020'>"
+_EXAMPLE = """sphere crown 20 0 14 0
+scale crown 1 1.25 1
+sphere lobe 12 5 18 3
+blend crown lobe envelope
+point_set_gen envelope uniform num_points=800
+grow step=0.6 kill=1.2
+"""
+
+
+def preview_png(session: CommandSession, surface: str | None = None, *, resolution: int = 40,
+                max_points: int = 3000, size: float = 5.0, elev: float = 15.0, azim: float = -60.0) -> bytes:
+    """A PNG of a session: envelope mesh, attraction points by source tag, grown trees (y up).
+
+    Parameters
+    ----------
+    session : CommandSession
+    surface : str, optional
+        Envelope to draw; default none (points and trees only).
+    resolution : int
+        Polygonization samples along the longest box edge, in [8, 160].
+    max_points : int
+        At most this many points are drawn (an even subsample), in [0, 10**6].
+    size : float
+        Figure side in inches.
+    elev, azim : float
+        View angles in degrees.
+
+    Returns
+    -------
+    bytes
+        PNG data.
+
+    Raises
+    ------
+    ValueError
+        When ``surface`` is unknown or its envelope is empty.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from mpl_toolkits.mplot3d.art3d import Line3DCollection
+
+    from .._validation import check_int, check_range
+
+    resolution = check_int("resolution", resolution, 8, 160)
+    max_points = check_int("max_points", max_points, 0, 10**6)
+    size = check_range("size", size, 1.0, 20.0)
+    verts = faces = None
+    if surface is not None:
+        verts, faces = polygonize(session.surface(surface), resolution=resolution)
+    fig = Figure(figsize=(size, size), dpi=80)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(projection="3d")
+    ax.view_init(elev=elev, azim=azim)
+    every = []
+    if verts is not None:            # matplotlib's 3-D axes are z up: plot (x, z, y)
+        ax.plot_trisurf(verts[:, 0], verts[:, 2], verts[:, 1], triangles=faces, color="#7fb069", alpha=0.25,
+                        linewidth=0)
+        every.append(verts)
+    pts, tags = session.points.points, session.points.tags
+    if len(pts) and max_points:
+        sel = np.linspace(0, len(pts) - 1, min(max_points, len(pts))).astype(np.int64)
+        for t in np.unique(tags[sel]):
+            s = sel[tags[sel] == t]
+            name = session.points.sources[t] if t < len(session.points.sources) else str(t)
+            ax.scatter(pts[s, 0], pts[s, 2], pts[s, 1], s=2, color=_TAG_COLORS[t % len(_TAG_COLORS)], label=name)
+        ax.legend(loc="upper left", fontsize=7, markerscale=4)
+        every.append(pts)
+    for tree in session.trees:
+        nodes, parent = np.asarray(tree.nodes), np.asarray(tree.parent)
+        kids = np.flatnonzero(parent >= 0)
+        seg = np.stack([nodes[parent[kids]], nodes[kids]], axis=1)[:, :, [0, 2, 1]]
+        ax.add_collection3d(Line3DCollection(seg, colors="#6b4226", linewidths=0.8))
+        every.append(nodes)
+    if every:
+        allp = np.concatenate(every)
+        lo, hi = allp.min(0), allp.max(0)
+        c, r = (lo + hi) / 2, max(float((hi - lo).max()) / 2, 1e-9)
+        ax.set_xlim(c[0] - r, c[0] + r)
+        ax.set_ylim(c[2] - r, c[2] + r)
+        ax.set_zlim(c[1] - r, c[1] + r)
+    ax.set_xlabel("x")
+    ax.set_ylabel("z")
+    ax.set_zlabel("y")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+class ImplicitPanel(W.VBox):
+    """Script box, Run button, error line and preview over a :class:`~plantvr.implicit.CommandSession`.
+
+    Parameters
+    ----------
+    session : CommandSession, optional
+        The session to drive; default a new one (``seed=0``, files relative to the working directory).
+    script : str, optional
+        Initial text of the script box; default a small example crown.
+    resolution : int
+        Polygonization resolution of the preview.
+    max_points : int
+        Points drawn in the preview.
+
+    Attributes
+    ----------
+    error_line : int
+        Line of the last rejected script (0 after a success).
+    error_token : str
+    """
+
+    error_line = traitlets.Int(0)
+    error_token = traitlets.Unicode("")
+
+    def __init__(self, session: CommandSession | None = None, *, script: str | None = None, resolution: int = 40,
+                 max_points: int = 3000):
+        self.session = session if session is not None else CommandSession()
+        self.resolution, self.max_points = int(resolution), int(max_points)
+        self.script = W.Textarea(value=_EXAMPLE if script is None else script,
+                                 placeholder="sphere s 10 0 5 0\npoint_set_gen s uniform num_points=500",
+                                 layout=W.Layout(width="100%", height="180px"))
+        self.run_button = W.Button(description="Run", button_style="success", icon="play",
+                                   tooltip="Run the script (all lines, or none if a line is rejected)")
+        self.clear_button = W.Button(description="Clear box", tooltip="Empty the script box (the session stays)")
+        self.surface = W.Dropdown(description="Envelope", options=[], layout=W.Layout(width="260px"))
+        self.path = W.Text(value="session.txt", description="Script file", layout=W.Layout(width="320px"))
+        self.save_button = W.Button(description="Save", tooltip="Write the commands run so far")
+        self.load_button = W.Button(description="Replay", tooltip="Run a saved script in a new session")
+        self.error = W.HTML(value="")
+        self.status = W.HTML(value="")
+        self.history = W.Textarea(value="", disabled=True, layout=W.Layout(width="100%", height="100px"))
+        self.preview = W.Image(format="png", layout=W.Layout(width="400px"))
+        self.run_button.on_click(lambda _: self.run())
+        self.clear_button.on_click(lambda _: setattr(self.script, "value", ""))
+        self.save_button.on_click(lambda _: self.save())
+        self.load_button.on_click(lambda _: self.replay())
+        self._syncing = False
+        self.surface.observe(lambda ch: None if self._syncing else self.refresh(), names="value")
+        left = W.VBox([W.HTML("<b>Commands</b> (thesis language; <code>#</code> comments)"), self.script,
+                       W.HBox([self.run_button, self.clear_button]), self.error, self.status,
+                       W.HBox([self.path, self.save_button, self.load_button]),
+                       W.HTML("<b>Session history</b>"), self.history],
+                      layout=W.Layout(width="55%"))
+        right = W.VBox([self.surface, self.preview])
+        super().__init__([W.HBox([left, right])])
+        self._sync()
+
+    # -- commands -------------------------------------------------------------------------------------------------
+    def run(self, text: str | None = None) -> bool:
+        """Run ``text`` (default the script box) in the session; show the result or the rejected line.
+
+        Returns
+        -------
+        bool
+            True when every line ran; False when the script was rejected (the session is unchanged).
+        """
+        text = self.script.value if text is None else text
+        try:
+            self.session.run(text)
+        except CommandError as exc:
+            self._show_error(text, exc.lineno, exc.token, str(exc))
+            return False
+        except ValueError as exc:                      # e.g. text that is not a string
+            self._show_error(text, 0, "", str(exc))
+            return False
+        self.error_line, self.error_token = 0, ""
+        self.error.value = ""
+        self._sync(select_last=True)
+        return True
+
+    def save(self, path=None) -> Path:
+        """Write the session's commands to ``path`` (default the path box)."""
+        path = Path(self.path.value if path is None else path)
+        self.session.save_script(path)
+        self.status.value = f"saved {len(self.session.history)} commands to {html.escape(str(path))}"
+        return path
+
+    def replay(self, path=None) -> bool:
+        """Replace the session by a new one that replays the script file at ``path`` (default the path box).
+
+        On a rejected or missing file the current session stays and the error is shown.
+        """
+        path = Path(self.path.value if path is None else path)
+        try:
+            new = CommandSession.replay(path, seed=self.session.seed, default_radius=self.session.default_radius)
+        except CommandError as exc:
+            text = path.read_text() if path.is_file() else ""
+            self._show_error(text, exc.lineno, exc.token, str(exc))
+            return False
+        except ValueError as exc:
+            self._show_error("", 0, "", str(exc))
+            return False
+        self.session = new
+        self.error_line, self.error_token, self.error.value = 0, "", ""
+        self._sync(select_last=True)
+        return True
+
+    # -- display --------------------------------------------------------------------------------------------------
+    def _show_error(self, text: str, lineno: int, token: str, message: str) -> None:
+        self.error_line, self.error_token = int(lineno), str(token)
+        listing = ""
+        if lineno:
+            lines = text.splitlines()
+            lo, hi = max(lineno - 2, 1), min(lineno + 1, len(lines))
+            rows = []
+            for k in range(lo, hi + 1):
+                line = lines[k - 1]
+                m = re.search(r"(?<!\S)" + re.escape(token) + r"(?!\S)", line) if (k == lineno and token) else None
+                if m:                                  # the offending whole token, underlined
+                    line = (html.escape(line[:m.start()]) + f"<u><b>{html.escape(token)}</b></u>"
+                            + html.escape(line[m.end():]))
+                else:
+                    line = html.escape(line)
+                mark = "&#9654;" if k == lineno else "&nbsp;"
+                rows.append(f"{mark} {k:>3}: {line}")
+            listing = "<pre style='margin:2px 0'>" + "\n".join(rows) + "</pre>"
+        self.error.value = (f"<div style='color:#b00020'><b>Rejected</b> (session unchanged): "
+                            f"{html.escape(message)}{listing}</div>")
+
+    def _sync(self, select_last: bool = False) -> None:
+        s = self.session
+        names = list(s.surfaces)
+        current = self.surface.value
+        self._syncing = True                           # one redraw below, not one per trait change
+        try:
+            self.surface.options = names
+            if names:
+                self.surface.value = names[-1] if (select_last or current not in names) else current
+        finally:
+            self._syncing = False
+        self.history.value = "\n".join(s.history)
+        self.status.value = (f"{len(s.surfaces)} surfaces, {len(s.points)} points "
+                             f"({', '.join(s.points.sources) or 'none'}), {len(s.trees)} trees")
+        self.refresh()
+
+    def refresh(self) -> None:
+        """Redraw the preview (envelope, points, trees); an empty envelope is reported, not raised."""
+        try:
+            png = preview_png(self.session, self.surface.value or None, resolution=self.resolution,
+                              max_points=self.max_points)
+            if self.error.value.startswith(_PREVIEW_ERROR):       # a stale preview message goes
+                self.error.value = ""
+        except ValueError as exc:
+            self.error.value = f"{_PREVIEW_ERROR}Preview: {html.escape(str(exc))}</div>"
+            png = preview_png(self.session, None, resolution=self.resolution, max_points=self.max_points)
+        self.preview.value = png

@@ -1,0 +1,97 @@
+"""Implicit command-language panel driven from code: run, rejected lines, preview, save and replay (issue 10)."""
+import io
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from plantvr.implicit import CommandSession
+from plantvr.ui.implicit_panel import ImplicitPanel, preview_png
+
+SCRIPT = """sphere crown 10 0 8 0
+scale crown 1 1.2 1
+point_set_gen crown uniform num_points=300
+"""
+
+
+def _img(png):
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"))
+
+
+def test_run_updates_session_and_preview():
+    panel = ImplicitPanel(script=SCRIPT)
+    empty = _img(panel.preview.value)
+    assert panel.run() is True
+    s = panel.session
+    assert list(s.surfaces) == ["crown"] and len(s.points) == 300
+    assert panel.surface.options == ("crown",) and panel.surface.value == "crown"
+    assert panel.history.value.splitlines() == [ln for ln in SCRIPT.splitlines() if ln]
+    assert "300 points" in panel.status.value and panel.error.value == "" and panel.error_line == 0
+    img = _img(panel.preview.value)
+    assert panel.preview.value[:4] == b"\x89PNG" and img.shape == empty.shape
+    im = img.astype(int)
+    green = (im[..., 1] > im[..., 0] + 6) & (im[..., 1] > im[..., 2] + 6)        # the envelope is drawn
+    assert green.mean() > 0.02
+    assert np.abs(img.astype(int) - empty).mean() > 1.0
+
+
+def test_rejected_line_names_line_and_token_and_leaves_session_unchanged():
+    panel = ImplicitPanel(script=SCRIPT)
+    assert panel.run()
+    before = (dict(panel.session.surfaces), len(panel.session.points), list(panel.session.history))
+    png = panel.preview.value
+    assert panel.run("sphere extra 4\nscale crown 1 oops 1\nsphere never 3\n") is False
+    assert panel.error_line == 2 and panel.error_token == "oops"
+    assert "line 2" in panel.error.value and "oops" in panel.error.value
+    assert "&#9654;   2: scale crown 1 <u><b>oops</b></u> 1" in panel.error.value
+    assert (dict(panel.session.surfaces), len(panel.session.points), list(panel.session.history)) == before
+    assert panel.preview.value == png
+    assert panel.run("bogus 1 2") is False and panel.error_line == 1 and panel.error_token == "bogus"
+    assert panel.run("sphere ok 3") is True and panel.error_line == 0 and panel.error.value == ""
+
+
+def test_button_runs_the_script_box():
+    panel = ImplicitPanel(script="sphere a 4\n")
+    panel.run_button.click()
+    assert "a" in panel.session.surfaces
+    panel.clear_button.click()
+    assert panel.script.value == ""
+
+
+def test_empty_envelope_is_reported_not_raised():
+    panel = ImplicitPanel(script="sphere a 4\ndiff a a hole\n")
+    assert panel.run()
+    assert panel.surface.value == "hole"
+    assert "empty envelope" in panel.error.value
+    assert panel.preview.value[:4] == b"\x89PNG"
+    panel.surface.value = "a"                                   # choosing a surface redraws it
+    assert panel.error.value == ""
+
+
+def test_save_and_replay(tmp_path):
+    panel = ImplicitPanel(CommandSession(base_dir=tmp_path, seed=3), script=SCRIPT)
+    assert panel.run()
+    path = panel.save(tmp_path / "s.txt")
+    pts = panel.session.points.points.copy()
+    other = ImplicitPanel(CommandSession(seed=3), script="")
+    other.path.value = str(path)
+    other.load_button.click()
+    assert other.error_line == 0 and list(other.session.surfaces) == ["crown"]
+    np.testing.assert_array_equal(other.session.points.points, pts)      # same seed, identical output
+    bad = tmp_path / "bad.txt"
+    bad.write_text("sphere a 3\nline\n")
+    assert other.replay(bad) is False and other.error_line == 2
+    np.testing.assert_array_equal(other.session.points.points, pts)      # current session kept
+    assert other.replay(tmp_path / "missing.txt") is False and "does not exist" in other.error.value
+
+
+def test_preview_draws_trees_and_validates():
+    s = CommandSession(seed=1).run(SCRIPT + "grow step=0.8 kill=1.6\n")
+    assert len(s.trees) == 1
+    with_tree = _img(preview_png(s, "crown", resolution=24))
+    brown = (with_tree[..., 0] > with_tree[..., 2] + 30) & (with_tree[..., 1] < 120)
+    assert brown.sum() > 50
+    with pytest.raises(ValueError, match="resolution"):
+        preview_png(s, "crown", resolution=2)
+    with pytest.raises(ValueError, match="not a surface"):
+        preview_png(s, "nope")
