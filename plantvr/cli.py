@@ -1,4 +1,4 @@
-"""Command line: ``plantvr demo | lab | info | test``."""
+"""Command line: ``plantvr demo | lab | info | test | export | segment``."""
 from __future__ import annotations
 
 import argparse
@@ -107,10 +107,22 @@ def lab(notebooks: Path) -> int:
     return subprocess.call([sys.executable, "-m", "jupyter", "lab", str(notebooks)])
 
 
+_DELEGATED = {  # sub-commands whose own parsers live beside their code
+    "export": ("plantvr.export", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
+    "segment": ("plantvr.vine.app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
+}
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``plantvr`` command."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in _DELEGATED:
+        mod, fn, _ = _DELEGATED[argv[0]]
+        return int(getattr(importlib.import_module(mod), fn)(argv[1:]) or 0)
     ap = argparse.ArgumentParser(prog="plantvr", description=__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
+    for name, (_, _, text) in _DELEGATED.items():
+        sub.add_parser(name, help=f"{text} (plantvr {name} --help)")
     d = sub.add_parser("demo", help="grow a tree from built-in strokes; write tree.ply, tree.glb, tree.png")
     d.add_argument("--out", type=Path, default=Path("demo_out"))
     d.add_argument("--steps", type=int, default=80)

@@ -20,3 +20,9 @@ def test_demo_rejects_bad_steps(capsys):
     with pytest.raises(SystemExit):
         main(["demo", "--steps", "0"])
     assert "--steps must be >= 1" in capsys.readouterr().err
+
+
+def test_export_subcommand_round_trip(tmp_path):
+    main(["demo", "--out", str(tmp_path), "--steps", "10", "--seed", "2"])
+    assert main(["export", str(tmp_path / "tree.tree"), "--format", "obj", "-o", str(tmp_path / "t.obj")]) == 0
+    assert trimesh.load(tmp_path / "t.obj", force="mesh").faces.shape[0] > 50
