@@ -89,8 +89,8 @@ def main(argv: list[str] | None = None) -> dict:
     ax = axis_start(parent, mc)
     for i in range(2, len(pos)):
         st[i] = st[parent[i]] + (ax[i] == i)
-    res: dict = dict(internodes=n, triangles=len(mesh.faces), leaves=len(tips),
-                     leaf_triangles=len(leaves.faces), mesh_s=t_mesh, leaves_s=t_leaf)
+    res: dict = {"internodes": n, "triangles": len(mesh.faces), "leaves": len(tips),
+                 "leaf_triangles": len(leaves.faces), "mesh_s": t_mesh, "leaves_s": t_leaf}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         import trimesh

@@ -44,15 +44,15 @@ def export_model(model: Model, path: str | Path) -> Path:
 
 
 # -- issue 16: every format, LOD levels, and the ``plantvr export`` command --------------------------------------
+import numpy as np  # noqa: I001
 EXPORT_FORMATS = {"usd": ".usd", "glb": ".glb", "ply": ".ply", "obj": ".obj"}
 """``plantvr export --format`` choices and the suffix each writes (.usda/.usdc also pick USD)."""
 
 _SUFFIX_FORMAT = {".usd": "usd", ".usda": "usd", ".usdc": "usd", ".glb": "glb", ".ply": "ply", ".obj": "obj"}
 
 
-def _bud_nodes(snap: Snapshot) -> "np.ndarray":
+def _bud_nodes(snap: Snapshot) -> np.ndarray:
     """Node each bud sits on (buds are at their node's position); -1 where no node matches."""
-    import numpy as np
     from scipy.spatial import cKDTree
 
     bp = np.asarray(snap.buds["pos"], float)
@@ -86,8 +86,6 @@ def snapshot_export(snap: Snapshot, params: dict[str, Any], path: str | Path, *,
     -------
     pathlib.Path
     """
-    import numpy as np
-
     from ._validation import check_choice, check_int
     from .geometry.lod import LOD_RINGS, lod_chain
 

@@ -13,11 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import check_array, check_int
 
 from .mesh import BranchMesh, _build, _check_options, _check_tree, _layout, tree_segments
 
-__all__ = ["axis_start", "LodLevel", "LOD_RINGS", "LOD_U_STEPS", "LOD_RATIOS", "triangle_count", "lod_chain"]
+__all__ = ["LOD_RATIOS", "LOD_RINGS", "LOD_U_STEPS", "LodLevel", "axis_start", "lod_chain", "triangle_count"]
 
 LOD_RINGS = ((10, 64), (4, 16), (3, 8), (3, 4))
 """Ring subdivisions (at the tip radius, at 50× the tip radius) of levels 0–3.
@@ -60,7 +60,7 @@ class LodLevel:
 
     @property
     def triangles(self) -> int:
-        return int(len(self.mesh.faces))
+        return len(self.mesh.faces)
 
     @property
     def met(self) -> bool:

@@ -25,7 +25,7 @@ from plantvr._validation import check_array, check_choice, check_range
 from .leaves import LEAF_SHAPES, LeafMesh, _blade
 from .mesh import BranchMesh
 
-__all__ = ["export_usd", "leaf_instances", "LeafInstances", "BARK_MATERIAL", "LEAF_MATERIAL"]
+__all__ = ["BARK_MATERIAL", "LEAF_MATERIAL", "LeafInstances", "export_usd", "leaf_instances"]
 
 BARK_MATERIAL = "Bark"
 LEAF_MATERIAL = "Leaf"

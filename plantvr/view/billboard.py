@@ -14,12 +14,19 @@ from pathlib import Path
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
-from .._validation import check_int, check_range  # noqa: E402
+from .._validation import check_int, check_range
 
-__all__ = ["Billboard", "make_billboard", "render_views", "view_frames", "silhouette_masks", "silhouette_iou",
-           "mask_iou"]
+__all__ = [
+    "Billboard",
+    "make_billboard",
+    "mask_iou",
+    "render_views",
+    "silhouette_iou",
+    "silhouette_masks",
+    "view_frames",
+]
 
 BARK_RGB = (0.55, 0.36, 0.17)
 LEAF_RGB = (0.31, 0.54, 0.18)

@@ -9,9 +9,9 @@ from plantvr.geometry.lod import axis_start
 from ._trees import random_tree
 
 pxr = pytest.importorskip("pxr")
-from pxr import Usd, UsdGeom, UsdShade, UsdUtils  # noqa: E402
+from pxr import Usd, UsdGeom, UsdShade, UsdUtils
 
-from plantvr.geometry.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd, leaf_instances  # noqa: E402
+from plantvr.geometry.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd, leaf_instances
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,14 @@ import trimesh
 from plantvr import Model
 from plantvr.geometry.lod import lod_chain
 from plantvr.growth.scenarios import demo_session, run
-from plantvr.view.billboard import (make_billboard, mask_iou, render_views, silhouette_iou, silhouette_masks,
-                                    view_frames)
+from plantvr.view.billboard import (
+    make_billboard,
+    mask_iou,
+    render_views,
+    silhouette_iou,
+    silhouette_masks,
+    view_frames,
+)
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +42,7 @@ def test_view_frames_are_horizontal_and_orthogonal():
 
 def test_render_views_orthographic_coverage():
     """A 2 x 1 x 0.5 box covers its projected area in each view (orthographic, half = 1.25)."""
-    img, c, h = render_views(_box(2.0, 1.0, 0.5), views=2, resolution=200, half=1.25)
+    img, _, _ = render_views(_box(2.0, 1.0, 0.5), views=2, resolution=200, half=1.25)
     assert img.shape == (2, 200, 200, 4)
     frac = (img[..., 3] > 0).mean(axis=(1, 2))
     np.testing.assert_allclose(frac, [2.0 * 1.0 / 2.5**2, 0.5 * 1.0 / 2.5**2], rtol=0.03)
