@@ -9,17 +9,23 @@
   by the medial axis of the silhouette, Teddy-like circular cross-sections, rejection sampling (§2.6, V15).
 * :func:`nearest_node`, :func:`select_branch`, :func:`prune_nearest`: picking for selective growth (§2.8) and
   pruning at the nearest branching point (§2.11).
+* :class:`TreeLibrary` and :data:`PRESETS`: a folder of saved trees (``.tree`` text + a JSON of the TreeSketch
+  state) and of growth presets (JSON of parameters and options) (Fig. E.8).
 
 The tools act on a :class:`~plantvr.growth.sketch.SketchEngine`; they are numeric (no UI imports), so a view,
 a widget or a line of code can drive them alike.
 """
 from __future__ import annotations
 
+import json
 import math
 import pickle
+import re
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -28,9 +34,10 @@ from .._validation import check_array, check_int, check_point, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
 from .sketch import SketchEngine
+from .treefile import tree_from_text, tree_to_text
 
-__all__ = ["LassoVolume", "StrokeEmitter", "Timeline", "lasso_volume", "nearest_node", "prune_nearest",
-           "select_branch"]
+__all__ = ["PRESETS", "LassoVolume", "StrokeEmitter", "Timeline", "TreeLibrary", "lasso_volume", "nearest_node",
+           "prune_nearest", "select_branch"]
 
 
 # -- brush / sketch strokes (§2.5) --------------------------------------------------------------------------
@@ -376,3 +383,177 @@ def select_branch(engine: SketchEngine, point) -> int:
 def prune_nearest(engine: SketchEngine, point) -> int:
     """Double-tap: prune the branch nearest ``point`` at its nearest branching point; returns internodes removed."""
     return engine.prune_at(nearest_node(engine, point))
+
+
+def _reorder(tree, rank: np.ndarray):
+    """Tree whose node ``rank[i]`` is ``tree``'s node i (parents stay before children when ``rank`` is a
+    creation order)."""
+    from .tree import Tree
+
+    perm = np.argsort(rank)
+    out = Tree(tree.nslots, max(tree.n, 1))
+    for k, arr in tree._data.items():
+        out._data[k][: tree.n] = arr[: tree.n][perm]
+    out.n = tree.n
+    par = out.parent
+    par[par >= 0] = rank[par[par >= 0]]
+    ch = out.child
+    ch[ch >= 0] = rank[ch[ch >= 0]]
+    if np.any(par >= np.arange(out.n)):
+        raise ValueError("creation_rank puts a child before its parent")
+    return out
+
+
+# -- tree library and presets (Fig. E.8) -----------------------------------------------------------------------
+PRESETS: dict[str, dict[str, Any]] = {
+    # [INFERRED] starting points after the thesis's figures; the parameter values are not thesis numbers
+    "excurrent_conifer": {"params": {"apical_dominance": 0.62, "tropism_angle": 100.0, "w_heading": 0.4,
+                                     "w_tropism": 0.2, "w_env": 0.4, "branch_angle": 70.0},
+                          "options": {"trunk_up": True, "n_max": 3}},                       # Fig. 4.19
+    "weeping": {"params": {"tropism_angle": 160.0, "w_heading": 0.35, "w_tropism": 0.3, "w_env": 0.35},
+                "options": {"n_max": 6}},                                                  # Fig. 4.18, n_max = 6
+    "broad_decurrent": {"params": {"apical_dominance": 0.46, "tropism_angle": 90.0, "w_heading": 0.3,
+                                   "w_tropism": 0.3, "w_env": 0.4},
+                        "options": {"ellipse": [0.7, 1.4, 0.0]}},                          # Figs. 4.13, 4.22C
+    "gnarled": {"params": {"w_heading": 0.2, "w_tropism": 0.1, "w_env": 0.7},
+                "options": {"deflection": 30.0, "n_max": 2}},                              # Fig. 4.24, δ = 30°
+}
+
+_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}$")
+_LIB_FORMAT = "plantvr-treesketch 1"
+
+
+class TreeLibrary:
+    """A folder of saved TreeSketch trees and growth presets (spec 004 checklist B, Fig. E.8).
+
+    A tree is two files: ``<name>.tree`` (the tree and its growth parameters, :mod:`plantvr.growth.treefile`) and
+    ``<name>.json`` (TreeSketch options, seed, step count, generator state, attraction points with their
+    stroke directions, width constraints, selection and node birth steps). :meth:`load` rebuilds an engine that
+    continues exactly as the saved one (node indices are renumbered in depth-first order; radius, light and
+    vigor are recomputed). A preset is ``<name>.preset.json`` with ``{"params": ..., "options": ...}``; the
+    built-in :data:`PRESETS` are always available.
+    """
+
+    def __init__(self, folder: str | Path):
+        self.folder = Path(folder)
+        self.folder.mkdir(parents=True, exist_ok=True)
+
+    @staticmethod
+    def _name(name: str) -> str:
+        if not isinstance(name, str) or not _NAME.match(name) or name.endswith(".preset"):
+            raise ValueError(f"name must be 1-100 letters, digits, '_', '-' or '.', got {name!r}")
+        return name
+
+    def trees(self) -> list[str]:
+        """Names of the saved trees."""
+        return sorted(p.stem for p in self.folder.glob("*.tree") if (self.folder / f"{p.stem}.json").exists())
+
+    def presets(self) -> list[str]:
+        """Names of the built-in and saved presets."""
+        saved = [p.name[: -len(".preset.json")] for p in self.folder.glob("*.preset.json")]
+        return sorted(set(PRESETS) | set(saved))
+
+    # -- trees --------------------------------------------------------------------------------------
+    def save(self, name: str, engine: SketchEngine) -> Path:
+        """Save ``engine``'s full state as ``name``; returns the ``.tree`` path."""
+        name = self._name(name)
+        if not isinstance(engine, SketchEngine):
+            raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
+        t = engine.tree
+        order = t.preorder()  # the .tree file's node order
+        rank = np.cumsum(t.alive) - 1  # creation order among live nodes: growth visits nodes in this order
+        markers = engine.markers
+        meta = {"format": _LIB_FORMAT, "options": engine.sketch, "seed": engine.seed,
+                "step_count": engine.step_count, "rng": engine.rng.bit_generator.state,
+                "markers": markers.tolist(), "marker_age": engine.marker_age.tolist(),
+                "stroke_dirs": engine.stroke_directions(markers).tolist(),
+                "width_constraints": [[int(rank[k]), v] for k, v in engine.width_constraints.items()],
+                "selected": None if engine.selected is None else int(rank[engine.selected]),
+                "born": t.born[t.alive].tolist(), "creation_rank": rank[order].tolist()}
+        path = self.folder / f"{name}.tree"
+        path.write_text(tree_to_text(t, engine.params))
+        (self.folder / f"{name}.json").write_text(json.dumps(meta))
+        return path
+
+    def load(self, name: str) -> SketchEngine:
+        """Rebuild the engine saved as ``name``; raises ``ValueError`` on a missing or corrupt entry."""
+        name = self._name(name)
+        try:
+            text = (self.folder / f"{name}.tree").read_text()
+            meta = json.loads((self.folder / f"{name}.json").read_text())
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ValueError(f"cannot read library tree {name!r} in {self.folder}: {exc}") from None
+        if not isinstance(meta, dict) or meta.get("format") != _LIB_FORMAT:
+            raise ValueError(f"{name}.json is not a TreeSketch library entry (format {_LIB_FORMAT!r})")
+        tree, params = tree_from_text(text)
+        from ..params import defaults
+
+        try:
+            opts = dict(meta["options"])
+            opts["ellipse"] = tuple(opts["ellipse"])
+            e = SketchEngine({**defaults(), **params}, rng=int(meta["seed"]), **opts)
+            markers = np.asarray(meta["markers"], float).reshape(-1, 3)
+            dirs = np.asarray(meta["stroke_dirs"], float).reshape(-1, 3)
+            age = np.asarray(meta["marker_age"], np.int64)
+            born = np.asarray(meta["born"], np.int64)
+            crank = np.asarray(meta["creation_rank"], np.int64)
+            if len(born) != tree.n or len(crank) != tree.n or len(age) != len(markers) or len(dirs) != len(markers):
+                raise ValueError("array lengths do not match the tree")
+            if not np.array_equal(np.sort(crank), np.arange(tree.n)):
+                raise ValueError("creation_rank is not a permutation")
+            cons = {int(k): float(v) for k, v in meta["width_constraints"]}
+            sel = meta["selected"]
+            rng_state = meta["rng"]
+            step_count = int(meta["step_count"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"library tree {name!r} is corrupt: {exc}") from None
+        e.tree = _reorder(tree, crank)
+        e.tree.born[:] = born
+        e.markers, e.marker_age = markers, age
+        stroke = np.linalg.norm(dirs, axis=1) > 0
+        e._stroke_dirs = {m.tobytes(): d for m, d in zip(markers[stroke], dirs[stroke])}
+        e.step_count = step_count
+        e.rng.bit_generator.state = rng_state
+        e.width_constraints = cons
+        e.selected = None if sel is None else int(sel)
+        e._new_nodes = np.zeros(0, np.int64)
+        e.rebuild_light()
+        return e
+
+    # -- presets ------------------------------------------------------------------------------------
+    def save_preset(self, name: str, engine: SketchEngine, *, keys: list[str] | None = None) -> Path:
+        """Save ``engine``'s growth parameters (all, or ``keys``) and TreeSketch options as preset ``name``."""
+        name = self._name(name)
+        params = engine.params if keys is None else {k: engine.params[k] for k in keys}
+        path = self.folder / f"{name}.preset.json"
+        path.write_text(json.dumps({"format": _LIB_FORMAT, "params": params, "options": engine.sketch}))
+        return path
+
+    def preset(self, name: str) -> dict[str, Any]:
+        """The preset ``name`` as ``{"params": {...}, "options": {...}}`` (a saved one shadows a built-in)."""
+        name = self._name(name)
+        path = self.folder / f"{name}.preset.json"
+        if path.exists():
+            try:
+                data = json.loads(path.read_text())
+                return {"params": dict(data["params"]), "options": dict(data["options"])}
+            except (OSError, json.JSONDecodeError, KeyError, TypeError) as exc:
+                raise ValueError(f"preset {name!r} is corrupt: {exc}") from None
+        if name in PRESETS:
+            return {k: dict(v) for k, v in PRESETS[name].items()}
+        raise ValueError(f"unknown preset {name!r}; available: {self.presets()}")
+
+    def apply_preset(self, name: str, engine: SketchEngine) -> None:
+        """Load preset ``name`` into ``engine``: parameters validated first, then options; all checked before
+        anything is set."""
+        from ..params import validate
+
+        pre = self.preset(name)
+        params = validate(pre["params"])
+        opts = dict(pre["options"])
+        if "ellipse" in opts:
+            opts["ellipse"] = tuple(opts["ellipse"])
+        probe = SketchEngine({**engine.params, **params}, rng=0)
+        probe.set_options(**opts)  # raises before the engine is touched
+        engine.set_options(**opts)
+        engine.set_params(params)

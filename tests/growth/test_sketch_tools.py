@@ -172,3 +172,73 @@ def test_ts_selective_and_prune_by_picking():
     removed = prune_nearest(e, e.tree.pos[side])
     assert removed > 0 and e.tree.n_internodes == n_before - removed
     assert e.selected is None or e.tree.alive[e.selected]
+
+
+# -- tree library and presets (Fig. E.8) -----------------------------------------------------------------------
+from plantvr.growth.sketch_tools import PRESETS, TreeLibrary
+
+
+def _live(e):
+    a = e.tree.arrays()
+    return {k: v[a["alive"]] for k, v in a.items() if k not in ("parent", "child")}
+
+
+def test_ts_library_save_reload_continues_identically(tmp_path):
+    e = _engine(mode="autonomous", ellipse=(0.8, 1.2, 0.2), deflection=12.0, stroke_tropism=True)
+    for _ in range(5):
+        e.step()
+    prune_nearest(e, e.tree.pos[np.flatnonzero(e.tree.alive & (e.tree.order == 1))[0]])
+    e.set_width(1, 0.4)
+    e.set_options(mode="directed")
+    s = StrokeEmitter(e, rng=4)
+    s.begin([0.0, 6.0, 0.0])
+    s.move([3.0, 7.0, 1.0], 1.0, dt=1.0)
+    lib = TreeLibrary(tmp_path / "lib")
+    lib.save("oak-1", e)
+    f = lib.load("oak-1")
+    assert lib.trees() == ["oak-1"]
+    assert f.sketch == e.sketch and f.seed == e.seed and f.step_count == e.step_count
+    np.testing.assert_array_equal(f.markers, e.markers)
+    np.testing.assert_array_equal(f.stroke_directions(f.markers), e.stroke_directions(e.markers))
+    for k, v in _live(e).items():
+        np.testing.assert_array_equal(_live(f)[k], v, err_msg=k)
+    for _ in range(3):
+        e.step()
+        f.step()
+    for k, v in _live(e).items():
+        np.testing.assert_array_equal(_live(f)[k], v, err_msg=k)
+
+
+def test_ts_library_corrupt_and_names(tmp_path):
+    lib = TreeLibrary(tmp_path)
+    e = _engine()
+    lib.save("t", e)
+    (tmp_path / "t.json").write_text("{not json")
+    with pytest.raises(ValueError, match="cannot read"):
+        lib.load("t")
+    (tmp_path / "t.json").write_text('{"format": "plantvr-treesketch 1", "options": {}}')
+    with pytest.raises(ValueError, match="corrupt"):
+        lib.load("t")
+    with pytest.raises(ValueError, match="cannot read"):
+        lib.load("missing")
+    with pytest.raises(ValueError, match="name"):
+        lib.save("../evil", e)
+
+
+def test_ts_presets_apply_and_roundtrip(tmp_path):
+    lib = TreeLibrary(tmp_path)
+    assert set(PRESETS) <= set(lib.presets())
+    e = _engine()
+    lib.apply_preset("weeping", e)
+    assert e.sketch["n_max"] == 6 and e.params["tropism_angle"] == 160.0
+    lib.save_preset("mine", e, keys=["tropism_angle", "apical_dominance"])
+    g = _engine()
+    lib.apply_preset("mine", g)
+    assert g.params["tropism_angle"] == 160.0 and g.sketch["n_max"] == 6
+    (tmp_path / "bad.preset.json").write_text('{"params": {"tropism_angle": 999}, "options": {}}')
+    before = (dict(g.params), dict(g.sketch))
+    with pytest.raises(ValueError, match="tropism_angle"):
+        lib.apply_preset("bad", g)
+    assert (g.params, g.sketch) == before  # a rejected preset leaves the engine unchanged
+    with pytest.raises(ValueError, match="unknown preset"):
+        lib.apply_preset("nope", g)
