@@ -6,6 +6,8 @@ Pipeline::
     cm = build_control_mesh(g, sides=4)                                        # open at base and tips
     mesh = tree_mesh(g, levels=3)                                              # watertight trimesh.Trimesh
     export_mesh(mesh, "tree.ply")
+    mesh, uv = tree_mesh_uv(g, levels=3)                                       # + per-corner bark UVs (F, 3, 2)
+    write_obj("tree.obj", mesh.vertices, mesh.faces, uv)                       # f v/vt/vn, seams kept
 """
 from __future__ import annotations
 
@@ -17,11 +19,34 @@ from .graph import BranchGraph, graph_from_arrays, joint_offsets, pair_offset, s
 from .loop import cap_boundaries, loop_weight, subdivide_loop
 from .lsystem import parse_lsystem
 from .mesh import ControlMesh, build_control_mesh, radius_factor
+from .selfintersect import self_intersections
+from .uv import branch_uvs, control_uvs, propagate_uvs, read_obj, subdivide_uvs, vertex_normals, write_obj
 
 __all__ = [
-    "BranchGraph", "ControlMesh", "parse_lsystem", "graph_from_arrays", "joint_offsets", "pair_offset",
-    "simplify", "build_control_mesh", "radius_factor", "loop_weight", "subdivide_loop", "cap_boundaries",
-    "tree_mesh", "export_mesh", "as_graph",
+    "BranchGraph",
+    "ControlMesh",
+    "as_graph",
+    "branch_uvs",
+    "build_control_mesh",
+    "cap_boundaries",
+    "control_uvs",
+    "export_mesh",
+    "graph_from_arrays",
+    "joint_offsets",
+    "loop_weight",
+    "pair_offset",
+    "parse_lsystem",
+    "propagate_uvs",
+    "radius_factor",
+    "read_obj",
+    "self_intersections",
+    "simplify",
+    "subdivide_loop",
+    "subdivide_uvs",
+    "tree_mesh",
+    "tree_mesh_uv",
+    "vertex_normals",
+    "write_obj",
 ]
 
 
@@ -102,6 +127,44 @@ def tree_mesh(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bool 
     return trimesh.Trimesh(V, F, process=False)
 
 
+def tree_mesh_uv(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bool = True, cap: bool = True,
+                 wrap: str = "triangle", weight_rule: str = "loop_cos", boundary_rule: str = "fixed", **control_kw):
+    """Like :func:`tree_mesh`, with per-corner bark UVs carried through subdivision (spec §2.6, §3.3).
+
+    Tubes get the cylindrical map, joints UVs by propagation (:func:`control_uvs`); Loop subdivision carries
+    them linearly (:func:`subdivide_uvs`); cap faces added after subdivision get propagated UVs too.
+
+    Parameters
+    ----------
+    tree, levels, sides, compensate_radius, cap, weight_rule, boundary_rule, **control_kw
+        See :func:`tree_mesh`.
+    wrap : {"triangle", "coordinate", "none"}
+        See :func:`propagate_uvs`.
+
+    Returns
+    -------
+    mesh : trimesh.Trimesh
+        The same mesh as :func:`tree_mesh` with the same arguments (``process=False``).
+    uv : (F, 3, 2) float64 ndarray
+        Corner UVs of every face; write them with :func:`write_obj`.
+    """
+    import numpy as np
+    import trimesh
+
+    levels = check_int("levels", levels, 0, 6)
+    g = as_graph(tree)
+    cm = build_control_mesh(g, sides=sides, compensate_radius=compensate_radius, cap=False, **control_kw)
+    uv = subdivide_uvs(control_uvs(cm, wrap=wrap), levels)
+    V, F = subdivide_loop(cm.vertices, cm.faces, levels, weight_rule=weight_rule, boundary_rule=boundary_rule)
+    if cap:
+        nf = len(F)
+        V, F = cap_boundaries(V, F)
+        uv = np.concatenate([uv, np.full((len(F) - nf, 3, 2), np.nan)])
+        known = np.arange(len(F)) < nf
+        uv = propagate_uvs(V, F, uv, known, wrap=wrap)
+    return trimesh.Trimesh(V, F, process=False), uv
+
+
 def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
     """Write a mesh to PLY, OBJ or glTF/GLB through trimesh.
 
@@ -117,7 +180,12 @@ def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
     Returns
     -------
     Path
-        The written path.
+        The written path (a ``.gltf`` also writes its buffer ``<stem>.bin`` beside it).
+
+    Raises
+    ------
+    ValueError
+        For an unknown format or a mesh that is neither a ``trimesh.Trimesh`` nor a :class:`ControlMesh`.
     """
     path = Path(path)
     ft = check_choice("file_type", (file_type or path.suffix.lstrip(".")).lower(), ("ply", "obj", "gltf", "glb"))
@@ -126,12 +194,22 @@ def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
     if not hasattr(mesh, "export"):
         raise ValueError(f"mesh must be a trimesh.Trimesh or ControlMesh, got {type(mesh).__name__}")
     if ft == "gltf":
-        import trimesh
+        import json
 
-        files = trimesh.Scene(mesh).export(file_type="gltf")
+        import trimesh
+        from trimesh.exchange.gltf import export_gltf
+
+        # one buffer named after the file, so two .gltf files in one folder do not overwrite each other's
+        # default "gltf_buffer*.bin" [INFERRED]
+        files = export_gltf(trimesh.Scene(mesh), merge_buffers=True)
+        doc = json.loads(files.pop("model.gltf"))
         path.parent.mkdir(parents=True, exist_ok=True)
-        for name, data in files.items():
-            (path.parent / (path.name if name == "model.gltf" else name)).write_bytes(data)
+        for buf in doc.get("buffers", []):
+            uri = buf.get("uri")
+            if uri in files:
+                buf["uri"] = f"{path.stem}.bin" if len(files) == 1 else f"{path.stem}_{uri}"
+                (path.parent / buf["uri"]).write_bytes(files[uri])
+        path.write_text(json.dumps(doc))
     else:
         mesh.export(path, file_type=ft)
     return path

@@ -13,7 +13,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_range
 
-__all__ = ["BranchGraph", "graph_from_arrays", "joint_offsets", "simplify", "pair_offset", "random_tree"]
+__all__ = ["BranchGraph", "graph_from_arrays", "joint_offsets", "pair_offset", "random_tree", "simplify"]
 
 _EPS = 1e-9
 
@@ -62,7 +62,7 @@ class BranchGraph:
         """(B,) bool: branches without children (their tips stay open/fixed)."""
         return self.n_children == 0
 
-    def validate(self) -> "BranchGraph":
+    def validate(self) -> BranchGraph:
         """Check shapes, ordering, radii, lengths and connectivity; return self.
 
         Raises
@@ -264,7 +264,7 @@ def pair_offset(cos_a: np.ndarray, ra: np.ndarray, rb: np.ndarray, *, offset_mod
 
 def joint_offsets(g: BranchGraph, joints: Joints | None = None, *, offset_mode: str = "geometric",
                   min_offset: float = 0.5, max_offset_factor: float = 4.0,
-                  parallel_tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray, Joints]:
+                  parallel_tol: float = 1e-6, offset_margin: float = 0.1) -> tuple[np.ndarray, np.ndarray, Joints]:
     """Trim distances at the start and end of every branch so no two branches overlap at a joint (spec §2.1).
 
     Parameters
@@ -280,6 +280,11 @@ def joint_offsets(g: BranchGraph, joints: Joints | None = None, *, offset_mode: 
         straight continuation do not coincide [INFERRED; the report leaves zero offsets unhandled].
     max_offset_factor : float
         See :func:`pair_offset`.
+    offset_margin : float
+        Added to every joint offset, as a multiple of the member's own radius. The geometric offset puts the
+        trimmed loops of two members exactly through the point where their cylinders meet, so in a planar
+        L-system two loop vertices can coincide and give a zero-area joint face (spec V10); a small margin
+        keeps the loops apart [INFERRED].
     parallel_tol : float
         Pairs with ``cos α > 1 - parallel_tol`` (two branches leaving in the same direction) are bad input.
 
@@ -310,7 +315,7 @@ def joint_offsets(g: BranchGraph, joints: Joints | None = None, *, offset_mode: 
     off_pair = pair_offset(cos_a, r[A], r[B], offset_mode=offset_mode, max_offset_factor=max_offset_factor)
     off = np.full(len(mb), 0.0)
     np.maximum.at(off, A, off_pair)
-    off = np.maximum(off, min_offset * r)
+    off = np.maximum(off + offset_margin * r, min_offset * r)
     off_start = np.zeros(len(g))
     off_end = np.zeros(len(g))
     off_end[mb[me]] = off[me]
@@ -319,7 +324,7 @@ def joint_offsets(g: BranchGraph, joints: Joints | None = None, *, offset_mode: 
 
 
 def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: float = 0.5,
-             max_offset_factor: float = 4.0, max_rounds: int = 10_000
+             max_offset_factor: float = 4.0, offset_margin: float = 0.1, max_rounds: int = 10_000
              ) -> tuple[BranchGraph, np.ndarray, np.ndarray, Joints]:
     """Collapse branches whose start and end offsets cross over, re-trim, until stable (spec §2.2).
 
@@ -333,7 +338,7 @@ def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: floa
     ----------
     g : BranchGraph
         The input graph (validated).
-    offset_mode, min_offset, max_offset_factor
+    offset_mode, min_offset, max_offset_factor, offset_margin
         See :func:`joint_offsets`.
     max_rounds : int
         Safety cap on trim/collapse rounds.
@@ -355,7 +360,7 @@ def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: floa
     for _ in range(max_rounds):
         cur = BranchGraph(start, end, r0, r1, parent)
         off_s, off_e, joints = joint_offsets(cur, offset_mode=offset_mode, min_offset=min_offset,
-                                             max_offset_factor=max_offset_factor)
+                                             max_offset_factor=max_offset_factor, offset_margin=offset_margin)
         L = cur.length
         cross = off_s + off_e > L
         nch = cur.n_children

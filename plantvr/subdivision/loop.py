@@ -11,7 +11,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int
 
-__all__ = ["loop_weight", "subdivide_loop", "edge_table", "cap_boundaries", "boundary_loops"]
+__all__ = ["boundary_loops", "cap_boundaries", "edge_table", "loop_weight", "subdivide_loop"]
 
 
 def loop_weight(n: np.ndarray, *, weight_rule: str = "loop_cos") -> np.ndarray:

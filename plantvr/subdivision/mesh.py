@@ -51,7 +51,7 @@ def radius_factor(sides: int) -> float:
     return _radius_factor(sides)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _radius_factor(S: int) -> float:
     N = 12
     th = 2.0 * np.pi * np.arange(S) / S
@@ -168,7 +168,7 @@ def _rotation_to(n: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius: bool = True,
-                       offset_mode: str = "geometric", min_offset: float = 0.5,
+                       offset_mode: str = "geometric", min_offset: float = 0.5, offset_margin: float = 0.1,
                        max_offset_factor: float = 4.0, rounding: str = "round", cap: bool = False,
                        overlap: str = "enlarge") -> ControlMesh:
     """Build the Yggdrasil control mesh of a branch graph (spec §2.1–§2.4, Alg. 4).
@@ -188,6 +188,9 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
         Trimming formula (spec §2.1, ERRATA A4/A5).
     min_offset : float
         Floor on joint offsets as a multiple of the member radius (0–10) [INFERRED].
+    offset_margin : float
+        Added to every joint offset as a multiple of the member radius (0–10), so that loops of neighbouring
+        members never touch (no zero-area joint faces, spec V10) [INFERRED].
     max_offset_factor : float
         Cap on joint offsets as a multiple of the larger radius (1–100).
     rounding : {"round", "floor", "ceil"}
@@ -217,6 +220,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     sides = check_int("sides", sides, 3, 64)
     check_choice("offset_mode", offset_mode, ("geometric", "report"))
     min_offset = check_range("min_offset", min_offset, 0.0, 10.0)
+    offset_margin = check_range("offset_margin", offset_margin, 0.0, 10.0)
     max_offset_factor = check_range("max_offset_factor", max_offset_factor, 1.0, 100.0)
     check_choice("rounding", rounding, ("round", "floor", "ceil"))
     check_choice("overlap", overlap, ("enlarge", "raise"))
@@ -227,7 +231,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     f = radius_factor(S) if compensate_radius else 1.0
     scaled = BranchGraph(graph.start, graph.end, graph.r0 / f, graph.r1 / f, graph.parent)
     g, off_s, off_e, joints = simplify(scaled, offset_mode=offset_mode, min_offset=min_offset,
-                                       max_offset_factor=max_offset_factor)
+                                       max_offset_factor=max_offset_factor, offset_margin=offset_margin)
     nb = len(g)
     L = g.length
     ax = g.axis
@@ -329,7 +333,7 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
         Y - C[mj][:, None], axis=2, keepdims=True)
     P = P.reshape(-1, S, 3)
     ids_all = loops
-    tris, eqs, owner_l = [], [], []
+    tris, eqs = [], []
     hull_n = np.zeros(nj, np.int64)
     ptr = joints.joint_ptr
     for jj in range(nj):

@@ -12,12 +12,12 @@ from pathlib import Path
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
-import pyvista as pv  # noqa: E402
+import numpy as np
+import pyvista as pv
 
-from .._validation import check_array  # noqa: E402
+from .._validation import check_array
 
-__all__ = ["to_polydata", "SubdivisionView", "side_by_side"]
+__all__ = ["SubdivisionView", "side_by_side", "to_polydata"]
 
 BARK = "#a0703c"
 CONTROL = "#d9c7a7"
@@ -108,8 +108,8 @@ class SubdivisionView:
         new_s = to_polydata(surface) if surface is not None else None
         for key, col, target, new, kw in (
                 ("control", 0, self._control, new_c,
-                 dict(color=CONTROL, show_edges=True, edge_color=EDGE, line_width=1.0)),
-                ("surface", 1, self._surface, new_s, dict(color=BARK, smooth_shading=True, specular=0.2))):
+                 {"color": CONTROL, "show_edges": True, "edge_color": EDGE, "line_width": 1.0}),
+                ("surface", 1, self._surface, new_s, {"color": BARK, "smooth_shading": True, "specular": 0.2})):
             if new is None:
                 continue
             target.copy_from(new)

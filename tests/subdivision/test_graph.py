@@ -57,7 +57,7 @@ def test_v5_trimmed_discs_do_not_overlap():
         J = np.array([0, 5.0, 0])
         g = BranchGraph(np.array([[0, 0, 0], J, J]), np.array([J, J + 5 * d[0], J + 5 * d[1]]),
                         np.full(3, 0.3), np.full(3, 0.3), np.array([-1, 0, 0]))
-        s, e, _ = joint_offsets(g, min_offset=0)
+        s, _, _ = joint_offsets(g, min_offset=0)
         ax = g.axis
         for a, b in [(1, 2), (2, 1)]:
             th = np.linspace(0, 2 * np.pi, 64)
@@ -76,7 +76,7 @@ def test_v4_simplification_collapses_keeps_tips():
     start = np.array([[0, 0, 0], J1, J1, J2, J2])
     end = np.array([J1, J2, J1 + [2, 1, 0], J2 + [-2, 1.5, 0], J2 + [0, 2, 2]])
     g = BranchGraph(start, end, np.full(5, 0.2), np.full(5, 0.2), np.array([-1, 0, 0, 1, 1]))
-    g2, s, e, joints = simplify(g)
+    g2, s, e, _ = simplify(g)
     assert len(g2) == 4                                          # exactly one collapse
     assert g2.parent.tolist() == [-1, 0, 0, 0]                   # re-parented to the grandparent
     np.testing.assert_array_equal(g2.start[1:], np.repeat(J1[None], 3, 0))

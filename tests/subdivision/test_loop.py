@@ -4,8 +4,16 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
-from plantvr.subdivision import (BranchGraph, build_control_mesh, cap_boundaries, export_mesh, loop_weight,
-                                 radius_factor, subdivide_loop, tree_mesh)
+from plantvr.subdivision import (
+    BranchGraph,
+    build_control_mesh,
+    cap_boundaries,
+    export_mesh,
+    loop_weight,
+    radius_factor,
+    subdivide_loop,
+    tree_mesh,
+)
 from plantvr.subdivision.graph import random_tree
 
 from ._helpers import mesh_invariants, star_graph
@@ -99,7 +107,7 @@ def test_v16_boundary_fixed_and_midpoints():
     cm = build_control_mesh(star_graph(3))
     V0, F0 = cm.vertices, cm.faces
     b0 = np.unique(np.concatenate([cm.first_loop[0], cm.last_loop[1:].ravel()]))
-    V1, F1 = subdivide_loop(V0, F0, 1)
+    V1, _ = subdivide_loop(V0, F0, 1)
     np.testing.assert_array_equal(V1[b0], V0[b0])
     V5, F5 = subdivide_loop(V0, F0, 5)
     np.testing.assert_array_equal(V5[b0], V0[b0])
@@ -117,7 +125,7 @@ def test_v18_convergence_and_v20_shrinkage_radius_compensation():
     radii = {}
     for S in (4, 8):
         cm = build_control_mesh(g, sides=S, compensate_radius=False)
-        V, F = subdivide_loop(cm.vertices, cm.faces, 4)
+        V, _ = subdivide_loop(cm.vertices, cm.faces, 4)
         mid = np.abs(V[:, 1] - 10) < 2
         radii[S] = np.hypot(V[mid, 0], V[mid, 2]).mean()
         assert V[:, 1].min() == 0 and V[:, 1].max() == 20       # branch keeps its length
@@ -125,7 +133,7 @@ def test_v18_convergence_and_v20_shrinkage_radius_compensation():
     assert radii[4] == pytest.approx(0.657, abs=0.01) and radii[8] == pytest.approx(0.902, abs=0.01)
     for S in (3, 4, 6, 8):
         cm = build_control_mesh(g, sides=S, compensate_radius=True)
-        V, F = subdivide_loop(cm.vertices, cm.faces, 4)
+        V, _ = subdivide_loop(cm.vertices, cm.faces, 4)
         mid = np.abs(V[:, 1] - 10) < 2
         r = np.hypot(V[mid, 0], V[mid, 2])
         assert abs(r.mean() - 1.0) < 0.05, (S, r.mean())       # issue 5: within 5 % of requested

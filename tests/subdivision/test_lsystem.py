@@ -117,7 +117,8 @@ def test_branch_graph_validate_rejects_gap_and_cycle():
         g.validate()
 
 
-from hypothesis import given, settings, strategies as st  # noqa: E402
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 
 @settings(max_examples=60, deadline=None)
