@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> dict:
         times, changed = [], []
         for k in range(6):
             lab = 1 + k % 5
-            ids, old = seg.index.paint(c, r, seg.labels, seg.colors.paintable_lut(), lab)  # full-res stamp
+            ids, _old = seg.index.paint(c, r, seg.labels, seg.colors.paintable_lut(), lab)  # full-res stamp
             t = time.perf_counter()
             ch = px.update(ids)
             times.append(time.perf_counter() - t)
