@@ -182,8 +182,11 @@ _TRIG = _trig_table()
 
 
 @numba.njit(cache=True, nogil=True)
-def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID, F):
-    """Evaluate segment ``s`` into the buffers from vertex ``v0`` and face ``f0`` (scalar, allocation-free)."""
+def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID, F, full=True):
+    """Evaluate segment ``s`` into the buffers from vertex ``v0`` and face ``f0`` (scalar, allocation-free).
+
+    ``full=False`` writes only positions and normals (a radius-only change keeps UVs, node ids and faces).
+    """
     r = rec[s]
     K = ksteps
     w = r[REC_W]
@@ -278,11 +281,12 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
             NRM[vi, 0] = (rx - drds * tx) * inv
             NRM[vi, 1] = (ry - drds * ty) * inv
             NRM[vi, 2] = (rz - drds * tz) * inv
-            UV[vi, 0] = repeat * i / n
-            UV[vi, 1] = tt
-            NID[vi] = nid
+            if full:
+                UV[vi, 0] = repeat * i / n
+                UV[vi, 1] = tt
+                NID[vi] = nid
             vi += 1
-        if j > 0:                                                       # zip the band between two rings
+        if j > 0 and full:                                              # zip the band between two rings
             A = ring_base_prev
             na = n_prev
             ia = 0
@@ -333,9 +337,10 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
         NRM[vi, 0] = gx
         NRM[vi, 1] = gy
         NRM[vi, 2] = gz
-        UV[vi, 0] = 0.5 * repeat
-        UV[vi, 1] = UV[ring, 1]
-        NID[vi] = NID[ring]
+        if full:
+            UV[vi, 0] = 0.5 * repeat
+            UV[vi, 1] = UV[ring, 1]
+            NID[vi] = NID[ring]
         vi += 1
         for i in range(n):
             V[vi, 0] = V[ring + i, 0]
@@ -344,10 +349,13 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
             NRM[vi, 0] = gx
             NRM[vi, 1] = gy
             NRM[vi, 2] = gz
-            UV[vi, 0] = UV[ring + i, 0]
-            UV[vi, 1] = UV[ring + i, 1]
-            NID[vi] = NID[ring]
+            if full:
+                UV[vi, 0] = UV[ring + i, 0]
+                UV[vi, 1] = UV[ring + i, 1]
+                NID[vi] = NID[ring]
             vi += 1
+        if not full:
+            continue
         for i in range(n):
             i1 = center + 1 + i
             i2 = center + 1 + (i + 1) % n
@@ -535,16 +543,39 @@ def _records_numba(pos, parent, radius, eff, main, frame, tmid, axis, w, rate):
 
 
 @numba.njit(cache=True, nogil=True)
-def _eval_segments_serial(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
+def _eval_segments_serial(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F,
+                          full=True):
     for q in range(seg_idx.shape[0]):
         s = seg_idx[q]
-        _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v_off[s], f_off[s], V, NRM, UV, NID, F)
+        _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v_off[s], f_off[s], V, NRM, UV, NID, F, full)
 
 
-def eval_segments(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
-    """Evaluate the segments ``seg_idx`` into the buffers; threads only when there is enough work."""
-    fn = _eval_segments_numba if len(seg_idx) > 512 else _eval_segments_serial
-    fn(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _eval_geometry_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F):
+    """Positions and normals only of the segments ``seg_idx`` (radius-only changes), in parallel."""
+    for q in numba.prange(seg_idx.shape[0]):
+        s = seg_idx[q]
+        _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v_off[s], f_off[s], V, NRM, UV, NID, F, False)
+
+
+PARALLEL_MIN_SEGMENTS = 4096
+"""Below this many segments an update runs on one thread: waking the pool costs more than it saves, and on a
+busy machine a descheduled worker stalls the whole loop."""
+
+
+def eval_segments(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F,
+                  full: bool = True):
+    """Evaluate the segments ``seg_idx`` into the buffers; threads only when there is enough work.
+
+    ``full=False``: positions and normals only (UVs, node ids and faces of those blocks are kept).
+    """
+    if len(seg_idx) < PARALLEL_MIN_SEGMENTS:
+        _eval_segments_serial(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F,
+                              full)
+    elif full:
+        _eval_segments_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
+    else:
+        _eval_geometry_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
 
 
 def _records_numpy(pos, parent, radius, eff, main, frame, tmid, axis, bezier_w, bark_rate):
@@ -595,11 +626,48 @@ def _records_numpy(pos, parent, radius, eff, main, frame, tmid, axis, bezier_w, 
 # ---------------------------------------------------------------------------------------------------------
 # Slot layout of the incremental mesh (spec §3.5): every segment owns a vertex/face block with slack capacity
 @numba.njit(cache=True, nogil=True)
+def _counts_numba(rec, sm, tip_radius, lo, hi, caps):
+    """Ring counts per ring (LOD of both end radii blended by the smoothstep ``sm``) and block sizes.
+
+    Twin: :func:`plantvr.geometry.mesh.lod_level`, :func:`~plantvr.geometry.mesh.ring_counts` and the block
+    sizes of the mesh layout.
+    """
+    S = rec.shape[0]
+    J = sm.shape[0]
+    cnt = np.empty((S, J), np.int32)
+    nv = np.empty(S, np.int64)
+    nf = np.empty(S, np.int64)
+    for s in range(S):
+        x0 = lo + (hi - lo) * (rec[s, REC_R0] / tip_radius - 1.0) / 49.0
+        x1 = lo + (hi - lo) * (rec[s, REC_R2] / tip_radius - 1.0) / 49.0
+        n0 = float(np.rint(min(max(x0, float(lo)), float(hi))))
+        n1 = float(np.rint(min(max(x1, float(lo)), float(hi))))
+        v = 0
+        f = 0
+        for j in range(J):
+            c = np.int32(np.rint((1.0 - sm[j]) * n0 + sm[j] * n1))
+            cnt[s, j] = c
+            v += c + 1
+            if j > 0:
+                f += cnt[s, j - 1] + c
+        if caps[s] & CAP_START:
+            v += cnt[s, 0] + 1
+            f += cnt[s, 0]
+        if caps[s] & CAP_END:
+            v += cnt[s, J - 1] + 1
+            f += cnt[s, J - 1]
+        nv[s] = v
+        nf[s] = f
+    return cnt, nv, nf
+
+
+@numba.njit(cache=True, nogil=True)
 def _diff_numba(keys, rec, cnt, nodes, caps, nv, nf, slot_of_key, srec, scnt, snodes, scaps, svcap, sfcap):
     """Match segments to the slots of the previous layout by key.
 
-    Returns ``slot`` (-1: no slot with that key) and ``status``: 0 unchanged, 1 changed but fits its slot,
-    2 needs a new slot (new key, or more vertices/faces than the slot's capacity).
+    Returns ``slot`` (-1: no slot with that key) and ``status``: 0 unchanged, 1 only the radii changed (same
+    ring counts: positions and normals are rewritten in place), 2 changed and fits its slot (rewritten in
+    place), 3 needs a new slot (new key, or more vertices/faces than the slot's capacity).
     """
     S = keys.shape[0]
     slot = np.full(S, -1, np.int64)
@@ -612,12 +680,12 @@ def _diff_numba(keys, rec, cnt, nodes, caps, nv, nf, slot_of_key, srec, scnt, sn
         sl = slot_of_key[k] if k < m else -1
         slot[s] = sl
         if sl < 0:
-            status[s] = 2
+            status[s] = 3
             continue
         same = caps[s] == scaps[sl] and nodes[s, 0] == snodes[sl, 0] and nodes[s, 1] == snodes[sl, 1]
         if same:
             for c in range(R):
-                if rec[s, c] != srec[sl, c]:
+                if c != REC_R0 and c != REC_R2 and rec[s, c] != srec[sl, c]:
                     same = False
                     break
         if same:
@@ -626,11 +694,11 @@ def _diff_numba(keys, rec, cnt, nodes, caps, nv, nf, slot_of_key, srec, scnt, sn
                     same = False
                     break
         if same:
-            status[s] = 0
+            status[s] = 0 if (rec[s, REC_R0] == srec[sl, REC_R0] and rec[s, REC_R2] == srec[sl, REC_R2]) else 1
         elif nv[s] <= svcap[sl] and nf[s] <= sfcap[sl]:
-            status[s] = 1
-        else:
             status[s] = 2
+        else:
+            status[s] = 3
     return slot, status
 
 
@@ -639,10 +707,13 @@ def _diff_numpy(keys, rec, cnt, nodes, caps, nv, nf, slot_of_key, srec, scnt, sn
     inmap = keys < len(slot_of_key)
     slot = np.where(inmap, slot_of_key[np.minimum(keys, len(slot_of_key) - 1)], -1).astype(np.int64)
     j = np.maximum(slot, 0)
-    same = ((slot >= 0) & (caps == scaps[j]) & np.all(nodes == snodes[j], axis=1) & np.all(rec == srec[j], axis=1)
-            & np.all(cnt == scnt[j], axis=1))
+    geo = np.ones(rec.shape[1], bool)
+    geo[[REC_R0, REC_R2]] = False
+    same = ((slot >= 0) & (caps == scaps[j]) & np.all(nodes == snodes[j], axis=1)
+            & np.all(rec[:, geo] == srec[j][:, geo], axis=1) & np.all(cnt == scnt[j], axis=1))
+    same_r = np.all(rec[:, ~geo] == srec[j][:, ~geo], axis=1)
     fits = (slot >= 0) & (nv <= svcap[j]) & (nf <= sfcap[j])
-    status = np.where(same, 0, np.where(fits, 1, 2)).astype(np.int8)
+    status = np.where(same, np.where(same_r, 0, 1), np.where(fits, 2, 3)).astype(np.int8)
     return slot, status
 
 

@@ -528,6 +528,7 @@ class IncrementalBranchMesh:
         self.rebuild_fraction = check_range("rebuild_fraction", rebuild_fraction, 0.0, 1.0, low_open=True)
         self.options = opts
         self.buffer_version = 0
+        self._sm = smoothstep(np.arange(opts["u_steps"] + 1) / opts["u_steps"])
         seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=opts["bezier_w"],
                             bark_rate=opts["bark_rate"], _checked=True)
         self._root = pos[0].copy()
@@ -562,22 +563,18 @@ class IncrementalBranchMesh:
     @property
     def n_segments(self) -> int:
         """Live segments."""
-        return int(self._live.sum())
+        return int(self._live[:self._n].sum())
 
     @property
     def waste(self) -> float:
         """Fraction of the vertex rows in use that belong to free blocks."""
-        return float(self._vcap[~self._live].sum()) / max(self._v_used, 1)
+        n = self._n
+        return float(self._vcap[:n][~self._live[:n]].sum()) / max(self._v_used, 1)
 
     # -- layout -----------------------------------------------------------------------------------------
     def _counts(self, seg: Segments):
         o = self.options
-        r = seg.records
-        n0 = lod_level(r[:, K.REC_R0], tip_radius=o["tip_radius"], lod=o["lod"])
-        n1 = lod_level(r[:, K.REC_R2], tip_radius=o["tip_radius"], lod=o["lod"])
-        cnt = ring_counts(n0, n1, o["u_steps"])
-        nv, nf = _block_sizes(cnt, seg.caps)
-        return cnt, nv, nf
+        return K._counts_numba(seg.records, self._sm, o["tip_radius"], o["lod"][0], o["lod"][1], seg.caps)
 
     def _capacity(self, cnt, caps, nv, nf):
         hi = self.options["lod"][1]
@@ -605,8 +602,8 @@ class IncrementalBranchMesh:
         K._eval_segments_numba(seg.records, cnt, self.options["u_steps"], seg.nodes, seg.caps, idx, self._v0,
                                self._f0, float(self.options["bark_repeat"]), self._V, self._NRM, self._UV,
                                self._NID, self._F)
-        K._fill_slack_numba(self._v0, nv, vcap, self._f0, nf, fcap, self._V, self._NRM, self._UV, self._NID,
-                            self._F)
+        K._fill_slack_numba(self._v0[:S], nv, vcap, self._f0[:S], nf, fcap, self._V, self._NRM, self._UV,
+                            self._NID, self._F)
 
     def _set_slots(self, seg, cnt, nv, nf, v0, vcap, f0, fcap) -> None:
         S = len(seg)
@@ -619,6 +616,8 @@ class IncrementalBranchMesh:
         self._nv, self._nf = nv.copy(), nf.copy()
         self._v0, self._vcap, self._f0, self._fcap = v0.copy(), vcap.copy(), f0.copy(), fcap.copy()
         self._live = np.ones(S, bool)
+        self._n = S
+        self._extend_slots(S + S // 8 + 64)                      # headroom for the next growth steps
         self._slot_of_key = np.full(int(seg.keys.max()) + 1 if S else 0, -1, np.int64)
         self._slot_of_key[seg.keys] = np.arange(S)
 
@@ -645,12 +644,12 @@ class IncrementalBranchMesh:
         cnt, nv, nf = self._counts(seg)
         slot, status = K._diff_numba(seg.keys, seg.records, cnt, seg.nodes, seg.caps, nv, nf, self._slot_of_key,
                                      self._rec, self._cnt, self._nodes, self._caps, self._vcap, self._fcap)
-        kept = slot[status < 2]
-        seen = np.zeros(len(self._key), bool)
+        kept = slot[status < 3]
+        seen = np.zeros(self._n, bool)
         seen[kept] = True
-        gone = np.flatnonzero(self._live & ~seen)            # vanished keys and segments that must move
+        gone = np.flatnonzero(self._live[:self._n] & ~seen)   # vanished keys and segments that must move
         changed = np.flatnonzero(status > 0)
-        moving = np.flatnonzero(status == 2)
+        moving = np.flatnonzero(status == 3)
         empty = np.zeros((0, 2), np.int64)
         if len(moving) > self.rebuild_fraction * max(len(seg), 1):
             removed = np.setdiff1d(self._key[self._live], seg.keys)
@@ -669,7 +668,8 @@ class IncrementalBranchMesh:
         # record the new state of every changed segment in its slot
         sl = slot[changed]
         if len(seg.keys) and seg.keys.max() >= len(self._slot_of_key):
-            self._slot_of_key = _grow(self._slot_of_key, int(seg.keys.max()) + 1, -1)
+            need = int(seg.keys.max()) + 1
+            self._slot_of_key = _grow(self._slot_of_key, max(need, int(1.5 * len(self._slot_of_key))), -1)
         self._key[sl] = seg.keys[changed]
         self._slot_of_key[seg.keys[changed]] = sl
         self._rec[sl] = seg.records[changed]
@@ -679,13 +679,21 @@ class IncrementalBranchMesh:
         self._axis[slot] = seg.axis
         self._nv[sl], self._nf[sl] = nv[changed], nf[changed]
         self._live[sl] = True
-        K.eval_segments(self._rec, self._cnt, o["u_steps"], self._nodes, self._caps, sl, self._v0, self._f0,
-                        float(o["bark_repeat"]), self._V, self._NRM, self._UV, self._NID, self._F)
-        K._fill_slack_numba(self._v0[sl], self._nv[sl], self._vcap[sl], self._f0[sl], self._nf[sl],
-                            self._fcap[sl], self._V, self._NRM, self._UV, self._NID, self._F)
+        geo = slot[status == 1]                               # radius only: positions and normals
+        full = slot[status > 1]
+        bufs = (self._V, self._NRM, self._UV, self._NID, self._F)
+        args = (self._rec, self._cnt, o["u_steps"], self._nodes, self._caps)
+        if len(geo):
+            K.eval_segments(*args, geo, self._v0, self._f0, float(o["bark_repeat"]), *bufs, full=False)
+        if len(full):
+            K.eval_segments(*args, full, self._v0, self._f0, float(o["bark_repeat"]), *bufs)
+            K._fill_slack_numba(self._v0[full], self._nv[full], self._vcap[full], self._f0[full], self._nf[full],
+                                self._fcap[full], *bufs)
         if self.waste > self.max_waste:
             self.compact()
             relayout = True
+        if relayout:
+            return MeshUpdate(seg.keys[changed], removed_keys, empty, empty, True, self._v_used, self._f_used)
         blocks = np.concatenate([sl, gone])
         vr = np.stack([self._v0[blocks], self._v0[blocks] + self._vcap[blocks]], axis=1)
         fr = np.stack([self._f0[blocks], self._f0[blocks] + self._fcap[blocks]], axis=1)
@@ -694,7 +702,7 @@ class IncrementalBranchMesh:
     def _place(self, slot, moving, cnt, caps, nv, nf) -> bool:
         """Give each moving segment a free block of exactly its capacity, else a new block at the end."""
         vcap, fcap = self._capacity(cnt[moving], caps[moving], nv[moving], nf[moving])
-        free = np.flatnonzero(~self._live)
+        free = np.flatnonzero(~self._live[:self._n])
         take = np.full(len(moving), -1, np.int64)
         if len(free):
             # exact size classes: a freed tip half is reused by the next new tip half (same ring counts)
@@ -712,10 +720,11 @@ class IncrementalBranchMesh:
         n_new = int(new.sum())
         relayout = False
         if n_new:
-            S0 = len(self._key)
+            S0 = self._n
             ids = np.arange(S0, S0 + n_new)
             take[new] = ids
             self._extend_slots(S0 + n_new)
+            self._n = S0 + n_new
             v_start = self._v_used + np.concatenate([[0], np.cumsum(vcap[new])[:-1]]).astype(np.int64)
             f_start = self._f_used + np.concatenate([[0], np.cumsum(fcap[new])[:-1]]).astype(np.int64)
             self._v0[ids], self._f0[ids] = v_start, f_start
@@ -730,6 +739,9 @@ class IncrementalBranchMesh:
         return relayout
 
     def _extend_slots(self, n: int) -> None:
+        if n <= len(self._key):
+            return
+        n = max(n, int(1.5 * len(self._key)) + 16)             # amortised: slot arrays grow geometrically
         for name in ("_rec", "_cnt", "_nodes", "_caps", "_axis", "_nv", "_nf", "_v0", "_vcap", "_f0", "_fcap"):
             setattr(self, name, _grow(getattr(self, name), n, 0))
         self._key = _grow(self._key, n, -1)
@@ -744,7 +756,7 @@ class IncrementalBranchMesh:
 
     # -- compaction -------------------------------------------------------------------------------------
     def _live_order(self) -> np.ndarray:
-        live = np.flatnonzero(self._live)
+        live = np.flatnonzero(self._live[:self._n])
         return live[np.argsort(self._key[live], kind="stable")]
 
     def segments(self) -> Segments:
@@ -768,8 +780,9 @@ class IncrementalBranchMesh:
                        caps=self._caps[q])
         self._set_slots(seg, self._cnt[q], nv, nf, v0[:-1], vcap, f0[:-1], fcap)
         self._v_used, self._f_used = int(v0[-1]), int(f0[-1])
-        K._fill_slack_numba(self._v0, self._nv, self._vcap, self._f0, self._nf, self._fcap, self._V, self._NRM,
-                            self._UV, self._NID, self._F)
+        n = self._n
+        K._fill_slack_numba(self._v0[:n], self._nv[:n], self._vcap[:n], self._f0[:n], self._nf[:n],
+                            self._fcap[:n], self._V, self._NRM, self._UV, self._NID, self._F)
 
     def to_branch_mesh(self) -> BranchMesh:
         """The compact mesh (no free blocks, no slack): equal to :func:`build_branch_mesh` of the same tree."""

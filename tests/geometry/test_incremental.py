@@ -155,7 +155,13 @@ def test_diff_kernel_twins_agree(big):
     a, b = K._diff_numba(*args), K._diff_numpy(*args)
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x, y)
-    assert set(np.unique(a[1]).tolist()) >= {0, 1, 2}
+    assert set(np.unique(a[1]).tolist()) >= {0, 1, 3}
+    # ring counts and block sizes: the numba pass equals lod_level / ring_counts / the build layout
+    from plantvr.geometry.mesh import _layout
+    c2, v_off, f_off = _layout(seg, 4, TIP, (10, 64))
+    np.testing.assert_array_equal(cnt, c2)
+    np.testing.assert_array_equal(nv, np.diff(v_off))
+    np.testing.assert_array_equal(nf, np.diff(f_off))
 
 
 def test_invalid_options_rejected(big):
