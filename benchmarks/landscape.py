@@ -1,4 +1,10 @@
-"""Forest growth on dask.distributed vs serial (spec 004_treesketch §3.7, §6.2; issue 11 speed targets).
+"""TreeSketch editing figures and forest growth on dask.distributed vs serial (spec 004_treesketch §2, §3.7, §6.2, §8.2;
+issue 11 speed targets).
+
+TreeSketch figures first (each beside a baseline measured in the same run): the width solve with 20 constraints
+(target [INFERRED] <= 10 ms for 10^4 internodes; baseline: the fold's numpy twin), one autonomous growth
+iteration (target [INFERRED] <= 50 ms up to 2*10^4 internodes; baseline: Tree Wand's step on the same tree and
+points), one undo/ungrow frame (pickled engine state), and a lasso inflation.
 
 Grows the same seeded forest serially (``client="sync"``) and on a 2-worker LocalCluster of processes in the
 same run, checks the results are byte-identical, and prints seconds per forest and the speed-up. Cluster start
@@ -44,11 +50,90 @@ def cpu_capacity(n: int = 3_000_000) -> float:
     return 2 * one / two
 
 
+def _best(fn, repeat: int = 5) -> float:
+    best = np.inf
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return best
+
+
+def sketch_figures(quick: bool) -> dict:
+    """Width solve, growth iteration, undo frame and lasso timings (ms) with their baselines."""
+    import pickle
+
+    from plantvr.growth.bending import _pipe_fold, _pipe_fold_numpy, pipe_widths
+    from plantvr.growth.engine import GrowthEngine
+    from plantvr.growth.sketch import SketchEngine
+    from plantvr.growth.sketch_tools import lasso_volume
+    from plantvr.params import defaults
+
+    target = 2_000 if quick else 20_000
+    out = {}
+    p = {**defaults(), "activation_threshold": 0.0}
+    for life in (None, 4):
+        e = SketchEngine(p, rng=1, mode="autonomous", n_max=3, bud_lifetime=life)
+        while e.tree.n_internodes < target:
+            e.step()
+        e.step()
+        # the same tree and the same points through Tree Wand's step (baseline) and TreeSketch's step
+        state = pickle.dumps(e)
+        e._add_autonomous_points()
+        pts = e.markers.copy()
+        tw = GrowthEngine.__new__(GrowthEngine)
+        tw.__setstate__(pickle.loads(state).__getstate__())
+        tw.params = {**tw.params, "marker_lifetime": 1}
+        tw.add_markers(pts)
+        t_tw = _best(lambda: pickle.loads(pickle.dumps(tw)).step(), 3)
+        t_ts = _best(lambda: pickle.loads(state).step(), 3)
+        t_pk = _best(lambda: pickle.loads(state), 3)
+        n_buds = len(e.buds().node)
+        key = "all buds" if life is None else f"bud lifetime {life}"
+        out[f"step_ms[{key}]"] = 1e3 * (t_ts - t_pk)
+        print(f"growth iteration at {e.tree.n_internodes} internodes, {n_buds} buds ({key}): "
+              f"TreeSketch {1e3 * (t_ts - t_pk):6.1f} ms | Tree Wand step on the same tree and points "
+              f"{1e3 * (t_tw - t_pk):6.1f} ms (baseline) | target <= 50 ms at 2e4")
+    blob = pickle.dumps(e.__getstate__(), protocol=5)
+    t_frame = _best(lambda: e.__setstate__(pickle.loads(pickle.dumps(e.__getstate__(), protocol=5))), 3)
+    t_copy = _best(lambda: e.tree.copy(), 3)
+    out["frame_ms"], out["frame_bytes"] = 1e3 * t_frame, len(blob)
+    print(f"undo/ungrow frame (dump + restore, light rebuilt) at {e.tree.n_internodes} internodes: "
+          f"{1e3 * t_frame:6.1f} ms, {len(blob) / 2 ** 20:.2f} MiB | tree.copy() {1e3 * t_copy:6.2f} ms (baseline)")
+
+    rng = np.random.default_rng(1)
+    n = 2_000 if quick else 10_000
+    par = np.array([-1] + [int(rng.integers(max(0, i - 20), i)) for i in range(1, n)])
+    cons = {1: 5.0}
+    cons.update({int(k): 0.3 for k in rng.choice(np.arange(2, n), 19, replace=False)})
+    alive = np.ones(n, bool)
+    t_w = _best(lambda: pipe_widths(par, alive, tip_diameter=0.02, constraints=cons))
+    fixed, fd, nn = np.zeros(n, bool), np.zeros(n), np.full(n, 2.5)
+    buf = np.zeros(n)
+    t_fold = _best(lambda: _pipe_fold(par, alive, fixed, fd, nn, 0.02, buf))
+    t_twin = _best(lambda: _pipe_fold_numpy(par, alive, fixed, fd, nn, 0.02), 3)
+    out["width_ms"] = 1e3 * t_w
+    print(f"width solve, {n} internodes, 20 constraints: {1e3 * t_w:6.2f} ms (target <= 10 ms at 1e4) | "
+          f"fold numba {1e3 * t_fold:6.3f} ms vs numpy twin {1e3 * t_twin:6.2f} ms (baseline)")
+
+    a = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    poly = np.column_stack([3 * np.cos(a) * (1 + 0.2 * np.cos(3 * a)), 2 * np.sin(a)])
+    n_pts = 500 if quick else 5_000
+    t_l = _best(lambda: lasso_volume(poly, n_points=n_pts, rng=0), 3)
+    out["lasso_ms"] = 1e3 * t_l
+    print(f"lasso inflation (128 px raster, {n_pts} points): {1e3 * t_l:6.1f} ms")
+    return out
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="reduced size for CI (< 30 s)")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--no-forest", action="store_true", help="TreeSketch figures only")
     args = ap.parse_args(argv)
+    sketch = sketch_figures(args.quick)
+    if args.no_forest:
+        return {"sketch": sketch}
     sizes = [6] if args.quick else [10, 30, 100, 300]
     kw = {"rounds": 2 if args.quick else 4, "steps_per_round": 3 if args.quick else 5, "n_darts": 150 if args.quick else 300,
               "seed": 1}
@@ -64,7 +149,7 @@ def main(argv: list[str] | None = None) -> dict:
     warm_up()
     start = time.perf_counter() - t0
     print(f"LocalCluster({args.workers} processes) start + warm-up: {start:.2f} s")
-    out = {"cluster_start_s": start, "capacity": cap, "rows": []}
+    out = {"cluster_start_s": start, "capacity": cap, "rows": [], "sketch": sketch}
     try:
         for n in sizes:
             side = 9.0 * np.sqrt(n)

@@ -39,7 +39,7 @@ from .bending import BendResult, bend_path, pipe_widths
 from .colonize import assign_treewand
 from .directions import _rotate, bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, StepStats, _Buds
-from .tree import BUD
+from .tree import BUD, NO_SLOT
 
 __all__ = [
     "SketchEngine",
@@ -269,19 +269,22 @@ class SketchEngine(GrowthEngine):
         Th >= 0 of the normalised shedding rule (0: never shed), replacing Tree Wand's shedding.
     stroke_tropism : bool
         Sketch-based tropism: **T** follows the stroke direction of a bud's selecting points (§2.7).
+    bud_lifetime : int or None
+        Lateral buds still dormant this many iterations after their node was made are dropped (the slot becomes
+        absent), which bounds the bud count (§1.4.9 [INFERRED, not in the thesis]); None keeps every bud.
     """
 
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None, n_max: int = 3,
                  trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4,
                  ellipse: tuple[float, float, float] = (1.0, 1.0, 0.0), shed_threshold: float = 0.0,
-                 stroke_tropism: bool = False):
+                 stroke_tropism: bool = False, bud_lifetime: int | None = None):
         opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
                 "deflection": check_range("deflection", deflection, 0.0, 90.0),
                 "mode": check_choice("mode", mode, ("directed", "autonomous")),
                 "point_density": check_int("point_density", point_density, 0, 1000),
                 "ellipse": self._check_ellipse(ellipse),
                 "shed_threshold": check_range("shed_threshold", shed_threshold, 0.0, np.inf),
-                "stroke_tropism": bool(stroke_tropism)}
+                "stroke_tropism": bool(stroke_tropism), "bud_lifetime": self._check_life(bud_lifetime)}
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
         check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
         if isinstance(rng, (int, np.integer)):
@@ -295,6 +298,10 @@ class SketchEngine(GrowthEngine):
         self.width_info = None
         self._stroke_dirs: dict[bytes, np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
+
+    @staticmethod
+    def _check_life(value) -> int | None:
+        return None if value is None else check_int("bud_lifetime", value, 1, 10 ** 9)
 
     @staticmethod
     def _check_ellipse(ellipse) -> tuple[float, float, float]:
@@ -312,7 +319,7 @@ class SketchEngine(GrowthEngine):
                   "point_density": lambda v: check_int("point_density", v, 0, 1000),
                   "ellipse": self._check_ellipse,
                   "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, np.inf),
-                  "stroke_tropism": bool}
+                  "stroke_tropism": bool, "bud_lifetime": self._check_life}
         new = {}
         for k, v in opts.items():
             if k not in checks:
@@ -527,12 +534,22 @@ class SketchEngine(GrowthEngine):
         if shed:
             self.update_light()
         self._age_markers()
+        self._drop_old_buds()
         self.step_count += 1
         t = self.tree
         stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
                           len(self.markers), grown, shed)
         self.history.append(stats)
         return stats
+
+    def _drop_old_buds(self) -> None:
+        life = self.sketch["bud_lifetime"]
+        if life is None:
+            return
+        t = self.tree
+        old = t.alive & (t.born <= self.step_count + 1 - life)
+        lat = t.child[:, 1:]
+        lat[old[:, None] & (lat == BUD)] = NO_SLOT
 
     def shed_mask(self) -> np.ndarray:
         """Branches to shed (§1.4.8 [INFERRED]): a lateral branch rooted at internode i is shed when

@@ -427,3 +427,14 @@ def test_ts_engine_bend_keeps_lengths_and_side_branch_pose():
     with pytest.raises(ValueError, match="subtree"):
         e.branch_path(tip, 1)
     assert len(path) >= 2
+
+
+def test_ts_bud_lifetime_bounds_dormant_buds():
+    keep = _grown(steps=10)
+    e = _grown(steps=10, bud_lifetime=3)
+    t = e.tree
+    lat_bud = (t.child[:, 1:] == -1).any(1) & t.alive
+    assert (t.born[lat_bud] > e.step_count - 3).all()  # no lateral bud older than the lifetime
+    assert len(e.buds().node) < len(keep.buds().node)
+    with pytest.raises(ValueError, match="bud_lifetime"):
+        e.set_options(bud_lifetime=0)
