@@ -85,9 +85,9 @@ def sketch_figures(quick: bool) -> dict:
         tw.__setstate__(pickle.loads(state).__getstate__())
         tw.params = {**tw.params, "marker_lifetime": 1}
         tw.add_markers(pts)
-        t_tw = _best(lambda: pickle.loads(pickle.dumps(tw)).step(), 3)
-        t_ts = _best(lambda: pickle.loads(state).step(), 3)
-        t_pk = _best(lambda: pickle.loads(state), 3)
+        t_tw = _best(lambda tw=tw: pickle.loads(pickle.dumps(tw)).step(), 3)
+        t_ts = _best(lambda state=state: pickle.loads(state).step(), 3)
+        t_pk = _best(lambda state=state: pickle.loads(state), 3)
         n_buds = len(e.buds().node)
         key = "all buds" if life is None else f"bud lifetime {life}"
         out[f"step_ms[{key}]"] = 1e3 * (t_ts - t_pk)
