@@ -4,8 +4,10 @@ A text area takes a script in the thesis command language; **Run** sends it to a
 :class:`plantvr.implicit.CommandSession` (all or nothing: a rejected script leaves the session unchanged) and the
 error line names the line number and the offending token, with the line marked in a listing. The preview is a
 matplotlib picture of the chosen envelope (polygonized), the sampled points coloured by their source tag and the
-trees grown so far. The panel keeps no state of its own besides the session it drives; scripts save and replay
-through the session.
+trees grown so far. The scene, points and growth controls (spec 003 §5.2) do not call the numeric code themselves:
+each button writes one line of the same command language and runs it through :meth:`ImplicitPanel.run`, so every
+widget action lands in the session history and replays from the saved script. The panel keeps no state of its own
+besides the session it drives.
 """
 from __future__ import annotations
 
@@ -19,8 +21,13 @@ import numpy as np
 import traitlets
 
 from ..implicit import CommandError, CommandSession, polygonize
+from ..implicit.commands import DISTRIBUTIONS
 
-__all__ = ["ImplicitPanel", "preview_png"]
+__all__ = ["ImplicitPanel", "preview_png", "BOOLEAN_OPS"]
+
+#: Boolean panel choices and the command each issues (spec 003 §5.2).
+BOOLEAN_OPS = {"Union": "union", "Difference": "diff", "Difference 2": "diff2", "Intersection": "inter",
+               "Blend": "blend"}
 
 _TAG_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2")
 _PREVIEW_ERROR = "<div class='preview-error' style='color:#b00020'>"
@@ -160,14 +167,136 @@ class ImplicitPanel(W.VBox):
         self.load_button.on_click(lambda _: self.replay())
         self._syncing = False
         self.surface.observe(lambda ch: None if self._syncing else self.refresh(), names="value")
+        self._build_controls()
         left = W.VBox([W.HTML("<b>Commands</b> (thesis language; <code>#</code> comments)"), self.script,
                        W.HBox([self.run_button, self.clear_button]), self.error, self.status,
                        W.HBox([self.path, self.save_button, self.load_button]),
                        W.HTML("<b>Session history</b>"), self.history],
                       layout=W.Layout(width="55%"))
-        right = W.VBox([self.surface, self.preview])
+        right = W.VBox([self.surface, self.preview, self.controls])
         super().__init__([W.HBox([left, right])])
         self._sync()
+
+    def _build_controls(self) -> None:
+        lay = W.Layout(width="150px")
+        # scene: transforms and Booleans on the selected surface
+        self.offset = [W.FloatText(value=v, description=a, layout=W.Layout(width="120px")) for a, v in
+                       zip("xyz", (0.0, 0.0, 0.0))]
+        self.translate_button = W.Button(description="Translate", layout=lay)
+        self.scale_button = W.Button(description="Scale", layout=lay)
+        self.degrees = W.FloatText(value=0.0, description="degrees", layout=W.Layout(width="150px"))
+        self.rotate_button = W.Button(description="Rotate about (x,y,z)", layout=W.Layout(width="170px"))
+        self.operand_a = W.Dropdown(description="A", options=[], layout=W.Layout(width="180px"))
+        self.operand_b = W.Dropdown(description="B", options=[], layout=W.Layout(width="180px"))
+        self.swap_button = W.Button(description="\u2191\u2193 swap", layout=W.Layout(width="90px"))
+        self.boolean = W.RadioButtons(options=list(BOOLEAN_OPS), value="Union")
+        self.result_name = W.Text(value="result", description="Result", layout=W.Layout(width="200px"))
+        self.boolean_button = W.Button(description="OK", button_style="info", layout=W.Layout(width="80px"))
+        self.translate_button.on_click(lambda _: self.transform("translate"))
+        self.scale_button.on_click(lambda _: self.transform("scale"))
+        self.rotate_button.on_click(lambda _: self.transform("rotate"))
+        self.swap_button.on_click(lambda _: self.swap_operands())
+        self.boolean_button.on_click(lambda _: self.apply_boolean())
+        scene = W.VBox([W.HBox(self.offset), W.HBox([self.translate_button, self.scale_button]),
+                        W.HBox([self.degrees, self.rotate_button]),
+                        W.HBox([W.VBox([self.operand_a, self.operand_b, self.swap_button]), self.boolean]),
+                        W.HBox([self.result_name, self.boolean_button])])
+        # points
+        self.distribution = W.Dropdown(description="Distribution", options=list(DISTRIBUTIONS), value="uniform")
+        self.num_points = W.BoundedIntText(value=1000, min=1, max=10**7, description="N")
+        self.min_distance = W.BoundedFloatText(value=1.0, min=1e-6, max=1e6, description="r_min")
+        self.grid = W.BoundedIntText(value=32, min=4, max=512, description="grid")
+        self.thin_percent = W.BoundedFloatText(value=50.0, min=0.0, max=100.0, description="thin %")
+        self.generate_button = W.Button(description="Generate", button_style="info")
+        self.thin_button = W.Button(description="Thin in B")
+        self.densify_button = W.Button(description="Densify in B")
+        self.clear_points_button = W.Button(description="Clear points")
+        self.generate_button.on_click(lambda _: self.generate_points())
+        self.thin_button.on_click(lambda _: self.thin_points())
+        self.densify_button.on_click(lambda _: self.densify_points())
+        self.clear_points_button.on_click(lambda _: self.run("point_set_clear"))
+        points = W.VBox([self.distribution, self.num_points, self.min_distance, self.grid, self.thin_percent,
+                         W.HBox([self.generate_button, self.thin_button]),
+                         W.HBox([self.densify_button, self.clear_points_button])])
+        # growth
+        self.step_size = W.BoundedFloatText(value=1.0, min=1e-6, max=1e6, description="D")
+        self.kill_radius = W.BoundedFloatText(value=2.0, min=1e-6, max=1e6, description="d_k")
+        self.influence = W.BoundedFloatText(value=10.0, min=1e-6, max=1e6, description="d_i")
+        self.influence_inf = W.Checkbox(value=True, description="d_i = \u221e")
+        self.max_steps = W.BoundedIntText(value=500, min=1, max=100_000, description="max iter")
+        self.root = W.Text(value="", description="root", placeholder="x,y,z (blank: below the points)")
+        self.grow_button = W.Button(description="Grow", button_style="success")
+        self.grow_button.on_click(lambda _: self.grow())
+        growth = W.VBox([self.step_size, self.kill_radius, W.HBox([self.influence, self.influence_inf]),
+                         self.max_steps, self.root, self.grow_button])
+        self.controls = W.Tab(children=[scene, points, growth])
+        for i, t in enumerate(("Scene", "Points", "Growth")):
+            self.controls.set_title(i, t)
+
+    # -- widget actions: each writes one command line -------------------------------------------------------------
+    def _selected(self) -> str | None:
+        name = self.surface.value
+        if not name:
+            self._show_error("", 0, "", "no surface yet: define one with a command (e.g. sphere s 10 0 5 0)")
+            return None
+        return name
+
+    def transform(self, kind: str) -> bool:
+        """Translate, scale or rotate the selected surface by the x, y, z fields (rotate: about that axis)."""
+        name = self._selected()
+        if name is None:
+            return False
+        x, y, z = (f"{w.value:g}" for w in self.offset)
+        line = {"translate": f"translate {name} {x} {y} {z}", "scale": f"scale {name} {x} {y} {z}",
+                "rotate": f"rotate {name} {x} {y} {z} {self.degrees.value:g}"}[kind]
+        return self.run(line)
+
+    def swap_operands(self) -> None:
+        """Exchange the Boolean operands A and B."""
+        a, b = self.operand_a.value, self.operand_b.value
+        self.operand_a.value, self.operand_b.value = b, a
+
+    def apply_boolean(self) -> bool:
+        """``union|diff|diff2|inter|blend A B RESULT`` from the Boolean panel."""
+        a, b, r = self.operand_a.value, self.operand_b.value, self.result_name.value.strip()
+        if not a or not b:
+            self._show_error("", 0, "", "choose two operands A and B")
+            return False
+        if not r or len(r.split()) != 1:
+            self._show_error("", 0, "", f"result name must be one word, got {r!r}")
+            return False
+        return self.run(f"{BOOLEAN_OPS[self.boolean.value]} {a} {b} {r}")
+
+    def generate_points(self) -> bool:
+        """``point_set_gen SURFACE DIST num_points=N min_distance=r grid=g`` on the selected surface."""
+        name = self._selected()
+        if name is None:
+            return False
+        return self.run(f"point_set_gen {name} {self.distribution.value} num_points={self.num_points.value} "
+                        f"min_distance={self.min_distance.value:g} grid={self.grid.value}")
+
+    def thin_points(self) -> bool:
+        """``point_set_thin SURFACE B PERCENT``: thin the selected surface's points inside operand B."""
+        name = self._selected()
+        if name is None or not self.operand_b.value:
+            return False
+        return self.run(f"point_set_thin {name} {self.operand_b.value} {self.thin_percent.value:g}")
+
+    def densify_points(self) -> bool:
+        """``point_set_densify B N min_distance=r grid=g``: add N points inside operand B."""
+        if not self.operand_b.value:
+            self._show_error("", 0, "", "choose the secondary surface as operand B")
+            return False
+        return self.run(f"point_set_densify {self.operand_b.value} {self.num_points.value} "
+                        f"min_distance={self.min_distance.value:g} grid={self.grid.value}")
+
+    def grow(self) -> bool:
+        """``grow step=D kill=d_k influence=d_i|inf max_steps=N [root=x,y,z]`` into the current points."""
+        infl = "inf" if self.influence_inf.value else f"{self.influence.value:g}"
+        line = (f"grow step={self.step_size.value:g} kill={self.kill_radius.value:g} influence={infl} "
+                f"max_steps={self.max_steps.value}")
+        root = self.root.value.replace(" ", "")
+        return self.run(line + (f" root={root}" if root else ""))
 
     # -- commands -------------------------------------------------------------------------------------------------
     def run(self, text: str | None = None) -> bool:
@@ -250,6 +379,11 @@ class ImplicitPanel(W.VBox):
             self.surface.options = names
             if names:
                 self.surface.value = names[-1] if (select_last or current not in names) else current
+            for dd, k in ((self.operand_a, -1), (self.operand_b, -2)):
+                keep = dd.value
+                dd.options = names
+                if names:
+                    dd.value = keep if keep in names else names[k if len(names) >= -k else -1]
         finally:
             self._syncing = False
         self.history.value = "\n".join(s.history)

@@ -95,3 +95,57 @@ def test_preview_draws_trees_and_validates():
         preview_png(s, "crown", resolution=2)
     with pytest.raises(ValueError, match="not a surface"):
         preview_png(s, "nope")
+
+
+def test_v30_widget_pipeline_crown_points_tree(tmp_path):
+    """Spec 003 V30: the panel built headless runs crown -> points -> tree through its callbacks; every widget
+    action is a command line, so the saved history replays to the identical session."""
+    from plantvr.ui.implicit_panel import BOOLEAN_OPS
+
+    panel = ImplicitPanel(CommandSession(seed=4), script="sphere a 10 0 8 0\nsphere b 6 4 10 0\n")
+    assert panel.transform("scale") is False and "no surface" in panel.error.value
+    panel.run_button.click()
+    assert (panel.operand_a.value, panel.operand_b.value) == ("b", "a")
+    panel.swap_button.click()
+    assert (panel.operand_a.value, panel.operand_b.value) == ("a", "b")
+    panel.boolean.value, panel.result_name.value = "Blend", "crown"
+    panel.boolean_button.click()
+    assert panel.session.history[-1] == "blend a b crown" and panel.surface.value == "crown"
+    for w, v in zip(panel.offset, (1.0, 1.2, 1.0)):
+        w.value = v
+    panel.scale_button.click()
+    assert panel.session.history[-1] == "scale crown 1 1.2 1"
+    panel.num_points.value = 400
+    panel.generate_button.click()
+    assert len(panel.session.points) == 400
+    panel.step_size.value, panel.kill_radius.value = 0.8, 1.6
+    panel.grow_button.click()
+    assert panel.session.history[-1] == "grow step=0.8 kill=1.6 influence=inf max_steps=500"
+    assert len(panel.session.trees) == 1 and len(panel.session.trees[0].nodes) > 50
+    assert panel.error.value == ""
+    panel.result_name.value = "two words"
+    assert panel.apply_boolean() is False and "one word" in panel.error.value
+    assert set(BOOLEAN_OPS.values()) <= {"union", "diff", "diff2", "inter", "blend"}
+    path = panel.save(tmp_path / "widgets.txt")
+    again = CommandSession.replay(path, seed=4)
+    np.testing.assert_array_equal(again.points.points, panel.session.points.points)
+    np.testing.assert_array_equal(again.trees[0].nodes, panel.session.trees[0].nodes)
+
+
+def test_widget_thin_densify_and_rejection():
+    panel = ImplicitPanel(CommandSession(seed=2), script="sphere crown 10 0 8 0\nsphere hole 5 0 8 0\n"
+                                                         "point_set_gen crown uniform num_points=500\n")
+    assert panel.run()
+    panel.surface.value = "crown"
+    panel.operand_b.value = "hole"
+    panel.thin_percent.value = 100
+    panel.thin_button.click()
+    assert len(panel.session.points) < 500
+    n = len(panel.session.points)
+    panel.num_points.value, panel.min_distance.value = 50, 0.5
+    panel.densify_button.click()
+    assert len(panel.session.points) == n + 50
+    panel.root.value = "0, x, 0"                                   # a bad widget value: the line is rejected
+    assert panel.grow() is False and panel.error_token in ("x", "grow") and "root" in panel.error.value
+    panel.clear_points_button.click()
+    assert len(panel.session.points) == 0
