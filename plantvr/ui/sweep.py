@@ -1,0 +1,200 @@
+"""Parameter sweeps over a replayed scenario, with growth metrics and a grid of thumbnails (spec 000_treewand §4.11,
+§6.1; DESIGN: scale-out work is a set of independent tasks on a dask client).
+
+Each grid point is one task: a fresh model is re-seeded, the scenario's strokes are replayed with the grid
+point's parameters over the scenario's own, and the task returns its metrics and the lossless ``.npz`` state
+(bytes), so thumbnails are rendered afterwards in the calling process from exactly the grown trees. Tasks are
+deterministic: the same grid gives the same trees on a dask client or serially.
+"""
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..params import PARAM_BY_NAME, validate
+from .strokes import Scenario, load_scenario, replay_scenario
+
+__all__ = ["grow_variant", "sweep", "thumbnail", "thumbnail_grid", "tree_metrics"]
+
+
+def tree_metrics(model) -> dict[str, float]:
+    """Growth metrics of a model's current tree.
+
+    Returns
+    -------
+    dict
+        ``internodes``, ``markers``, ``height`` (m), ``crown_width`` (m, mean of the x and z extents),
+        ``crown_ratio`` (width / height), ``lateral_share`` (fraction of internodes of order >= 1),
+        ``trunk_fraction`` (height reached by the order-0 axis / tree height) and ``ms_per_step`` (mean).
+    """
+    s = model.snapshot
+    pos, order = np.asarray(s.pos), np.asarray(s.order)
+    height = float(np.ptp(pos[:, 1])) if len(pos) else 0.0
+    width = float(0.5 * (np.ptp(pos[:, 0]) + np.ptp(pos[:, 2]))) if len(pos) else 0.0
+    n = max(len(pos) - 1, 1)
+    trunk = pos[order == 0, 1]
+    hist = model.history
+    return {"internodes": int(s.n_internodes), "markers": len(s.markers), "height": height,
+            "crown_width": width, "crown_ratio": width / height if height > 0 else 0.0,
+            "lateral_share": float(np.sum(order >= 1) / n),
+            "trunk_fraction": float((trunk.max() - pos[:, 1].min()) / height) if height > 0 and len(trunk) else 0.0,
+            "ms_per_step": float(np.mean([h.ms for h in hist])) if hist else 0.0}
+
+
+def grow_variant(scenario: str | Scenario, params: dict[str, Any], *, seed: int | None = None) -> dict[str, Any]:
+    """Replay ``scenario`` with ``params`` set over the scenario's parameters; one sweep task.
+
+    Parameters
+    ----------
+    scenario : str or Scenario
+        A shipped stroke file name (e.g. ``"fig12_1"``) or a loaded scenario.
+    params : dict
+        Parameters of this grid point (checked against the table).
+    seed : int, optional
+        Seed of the replay (default: the scenario's).
+
+    Returns
+    -------
+    dict
+        The grid point's ``params``, :func:`tree_metrics`, ``seconds`` (wall time) and ``state`` (the
+        model's ``.npz`` bytes, for :func:`thumbnail`).
+    """
+    from ..model import Model
+    sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
+    checked = validate(params)
+    sc = dataclasses.replace(sc, params={**sc.params, **checked}, seed=sc.seed if seed is None else int(seed))
+    t0 = time.perf_counter()
+    model = Model(seed=sc.seed)
+    replay_scenario(model, sc)
+    model.wait()  # apply the latest snapshot here (a dask worker thread has no kernel loop to do it)
+    out = {**checked, **tree_metrics(model), "seconds": time.perf_counter() - t0}
+    with tempfile.TemporaryDirectory() as d:
+        out["state"] = Path(model.save(Path(d) / "tree.npz")).read_bytes()
+    return out
+
+
+def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed: int | None = None):
+    """Grow ``scenario`` at every point of the product of ``grid``'s value lists.
+
+    Parameters
+    ----------
+    scenario : str or Scenario
+    grid : dict of str -> list
+        Parameter name -> values, e.g. ``{"apical_dominance": [0.4, 0.6], "tropism_angle": [0, 90]}``;
+        every value is checked against the parameter table before any task starts.
+    client : dask.distributed.Client, optional
+        Run the tasks on this client (one task per grid point); serially when None.
+    seed : int, optional
+        Replay seed (default: the scenario's).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per grid point in product order (last name varies fastest): its parameters, metrics,
+        ``seconds`` and ``state``.
+    """
+    import pandas as pd
+    if not isinstance(grid, dict) or not grid:
+        raise ValueError(f"grid must be a non-empty dict of parameter -> list of values, got {grid!r:.80}")
+    for name, values in grid.items():
+        if name not in PARAM_BY_NAME:
+            raise ValueError(f"grid parameter must be one of the parameter table's names, got {name!r}")
+        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__") or len(list(values)) == 0:
+            raise ValueError(f"grid[{name!r}] must be a non-empty list of values, got {values!r:.80}")
+    points = [dict(zip(grid, combo)) for combo in itertools.product(*(list(v) for v in grid.values()))]
+    for p in points:
+        validate(p)
+    sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
+    if client is None:
+        rows = [grow_variant(sc, p, seed=seed) for p in points]
+    else:
+        rows = client.gather(client.map(grow_variant, [sc] * len(points), points, seed=seed, pure=False))
+    return pd.DataFrame(rows)
+
+
+def thumbnail(state: bytes, *, size: tuple[int, int] = (200, 200), leaves: bool = True) -> np.ndarray:
+    """Render one tree (the ``state`` bytes of :func:`grow_variant`) offscreen.
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    from ..model import Model
+    from ..view import View
+    if not isinstance(state, (bytes, bytearray)) or not state:
+        raise ValueError("state must be the non-empty .npz bytes of grow_variant")
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "tree.npz"
+        path.write_bytes(state)
+        model = Model.load(path)
+    view = View(model, off_screen=True, window_size=tuple(size), show_leaves=leaves)
+    try:
+        markers = view.plotter.actors.get("markers")
+        if markers is not None:  # the tree only
+            markers.SetVisibility(False)
+        view.frame()
+        return np.asarray(view.screenshot())[..., :3].copy()
+    finally:
+        view.close()
+
+
+def _caption_font():
+    """A TrueType font with Greek letters (DejaVu Sans, from the system or matplotlib) and whether it has them;
+    else Pillow's default bitmap font, with parameter names instead of symbols."""
+    from PIL import ImageFont
+    candidates = ["DejaVuSans.ttf"]
+    try:
+        import matplotlib
+        candidates.append(str(Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"))
+    except ImportError:
+        pass
+    for c in candidates:
+        try:
+            return ImageFont.truetype(c, 12), True
+        except OSError:
+            continue
+    return ImageFont.load_default(), False
+
+
+def thumbnail_grid(table, rows: str, cols: str, *, size: tuple[int, int] = (200, 200),
+                   metric: str | None = "internodes") -> np.ndarray:
+    """Thumbnails of a :func:`sweep` table laid out with ``rows`` down and ``cols`` across, each captioned
+    with its two parameter values (and ``metric``).
+
+    Returns
+    -------
+    (H, W, 3) uint8 ndarray
+    """
+    from PIL import Image, ImageDraw
+    for name in (rows, cols) + ((metric,) if metric else ()):
+        if name not in table.columns:
+            raise ValueError(f"{name!r} must be a column of the sweep table, got {list(table.columns)}")
+    rv, cv = sorted(table[rows].unique()), sorted(table[cols].unique())
+    w, h = int(size[0]), int(size[1])
+    band = 34 if metric else 18  # white caption strip above each picture
+
+    font, greek = _caption_font()
+
+    def short(name: str) -> str:
+        p = PARAM_BY_NAME.get(name)
+        return p.symbol if greek and p is not None and p.symbol else name
+
+    out = np.full((len(rv) * (h + band), len(cv) * w, 3), 255, np.uint8)
+    for _, r in table.iterrows():
+        i, j = rv.index(r[rows]), cv.index(r[cols])
+        tile = Image.new("RGB", (w, h + band), "white")
+        tile.paste(Image.fromarray(thumbnail(r["state"], size=(w, h))), (0, band))
+        caption = f"{short(rows)} = {r[rows]:.3g}   {short(cols)} = {r[cols]:.3g}"
+        if metric:
+            caption += f"\n{metric} = {r[metric]:.3g}"
+        ImageDraw.Draw(tile).multiline_text((4, 2), caption, fill=(20, 20, 20), font=font)
+        out[i * (h + band):(i + 1) * (h + band), j * w:(j + 1) * w] = np.asarray(tile)
+    return out
