@@ -28,7 +28,7 @@ from plantvr._validation import check_choice, check_int, check_range
 from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
 
-__all__ = ["VineReviewApp", "histogram_svg"]
+__all__ = ["VineReviewApp", "histogram_svg", "main_segment"]
 
 _IDS = itertools.count()
 
@@ -293,3 +293,58 @@ _INTERACTOR = [
     {"button": 1, "action": "Zoom", "alt": True},
     {"button": 1, "action": "Roll", "alt": True, "shift": True},
 ]
+
+
+def main_segment(argv: list[str] | None = None) -> int:
+    """``plantvr segment VOLUME_OR_SYNTH [--level L] [--port P] [--out DIR]`` (issue 14).
+
+    Builds the isosurface of a volume (or opens a mesh, or a synthetic head with ``synth`` / ``synth:N``), then
+    either serves the browser review page (until interrupted) or, with ``--out``, paints a scripted demo
+    headless and writes ``DIR/segment.ply`` (per-vertex colours and labels), ``DIR/segment_session.npz`` and a
+    proxy screenshot ``DIR/segment.png``. Returns the process exit code.
+    """
+    import argparse
+
+    from plantvr.vine.app import open_source, paint_demo
+    ap = argparse.ArgumentParser(prog="plantvr segment", description=main_segment.__doc__.split("\n")[0])
+    ap.add_argument("source", help="volume file (.tif/.npy/.npz/.nrrd), mesh file (.ply/.obj/...), or synth[:N]")
+    ap.add_argument("--level", type=float, default=None, help="iso-value (default: Otsu / the synthetic one)")
+    ap.add_argument("--downsample", action="store_true", help="2x block-mean downsampling before meshing")
+    ap.add_argument("--port", type=int, default=None, help="port of the review page (default: a free one)")
+    ap.add_argument("--faces", type=int, default=1_500_000, help="display-proxy triangle budget")
+    ap.add_argument("--mode", choices=("local", "remote"), default="local",
+                    help="local: the browser draws the proxy (vtk.js); remote: the server renders")
+    ap.add_argument("--out", type=str, default=None, help="headless: paint a demo and write PLY/session/PNG here")
+    ap.add_argument("--stamps", type=int, default=24, help="demo brush stamps with --out")
+    a = ap.parse_args(argv)
+    try:
+        src = open_source(a.source, level=a.level, downsample=a.downsample)
+    except ValueError as exc:
+        print(f"plantvr segment: {exc}")
+        return 2
+    seg = src.seg
+    print(f"surface: {seg.n_vertices:,} vertices, {len(seg.faces):,} faces"
+          + (f" (iso-value {src.level:g})" if src.level is not None else ""))
+    if a.out:
+        from pathlib import Path
+
+        from plantvr.view.segmentation import SegmentationView
+        out = Path(a.out)
+        out.mkdir(parents=True, exist_ok=True)
+        n = paint_demo(seg, truth=src.truth, stamps=a.stamps)
+        seg.export_ply(out / "segment.ply")
+        seg.save(out / "segment_session.npz", include_mesh=False)
+        proxy = DisplayProxy(seg, target_faces=a.faces)
+        view = SegmentationView(seg, proxy=proxy, window_size=(800, 600), background=(0.08, 0.08, 0.1))
+        view.plotter.reset_camera()
+        view.plotter.camera.elevation = -35
+        view.screenshot(out / "segment.png")
+        view.close()
+        proxy.close()
+        print(f"painted {n:,} vertices; wrote {out / 'segment.ply'}, {out / 'segment_session.npz'}, "
+              f"{out / 'segment.png'}")
+        return 0
+    app = VineReviewApp(seg, target_faces=a.faces, mode=a.mode, volume=src.volume, level=src.level)
+    print(f"display proxy: {app.proxy.n_vertices:,} vertices, {len(app.proxy.faces):,} faces")
+    app.start(a.port, thread=False, open_browser=False)
+    return 0
