@@ -13,11 +13,11 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from plantvr._validation import check_choice, check_int, check_range
 
 from .graph import BranchGraph, Joints, joint_pairs, simplify
+from .hull import joint_hulls
 from .loop import cap_boundaries, subdivide_loop
 
 __all__ = ["ControlMesh", "build_control_mesh", "radius_factor"]
@@ -170,7 +170,7 @@ def _rotation_to(n: np.ndarray, d: np.ndarray) -> np.ndarray:
 def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius: bool = True,
                        offset_mode: str = "geometric", min_offset: float = 0.5, offset_margin: float = 0.1,
                        max_offset_factor: float = 4.0, rounding: str = "round", cap: bool = False,
-                       overlap: str = "enlarge") -> ControlMesh:
+                       overlap: str = "enlarge", hull: str = "incremental") -> ControlMesh:
     """Build the Yggdrasil control mesh of a branch graph (spec §2.1–§2.4, Alg. 4).
 
     Parameters
@@ -202,6 +202,9 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
         whose siblings leave almost parallel): ``"raise"`` refuses the joint as the spec asks; ``"enlarge"``
         (default) warns and builds that joint's hull on a larger sphere, which keeps the mesh manifold and
         watertight but may fold where the real branches overlap [INFERRED].
+    hull : {"incremental", "qhull"}
+        Joint hulls from the batched numba incremental kernel (default; the report's Alg. 3) or one
+        ``scipy.spatial.ConvexHull`` (Qhull) per joint (spec C7 asks for both).
 
     Returns
     -------
@@ -224,6 +227,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     max_offset_factor = check_range("max_offset_factor", max_offset_factor, 1.0, 100.0)
     check_choice("rounding", rounding, ("round", "floor", "ceil"))
     check_choice("overlap", overlap, ("enlarge", "raise"))
+    check_choice("hull", hull, ("incremental", "qhull"))
     if not isinstance(graph, BranchGraph):
         raise ValueError(f"graph must be a BranchGraph, got {type(graph).__name__}")
     graph.validate()
@@ -274,7 +278,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     first_loop = ring_ptr[:-1, None] * S + j[None, :]
     last_loop = (ring_ptr[1:, None] - 1) * S + j[None, :]
     # --- joints (§2.4)
-    jf, hull_n, joint_n = _joints(V, g, joints, off_s, off_e, first_loop, last_loop, overlap)
+    jf, hull_n, joint_n = _joints(V, g, joints, off_s, off_e, first_loop, last_loop, overlap, hull)
     faces = np.vstack([tube_f, jf]).astype(np.int64)
     n_open = int(base.sum() + leaf.sum())
     if cap:
@@ -283,7 +287,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
                        n_open, bool(cap))
 
 
-def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_loop, overlap):
+def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_loop, overlap, hull):
     S = first_loop.shape[1]
     mb, me, mj = joints.member_branch, joints.member_is_end, joints.member_joint
     nj = joints.n_joints
@@ -332,24 +336,15 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     P = C[mj][:, None] + Rs[mj][:, None, None] * (Y - C[mj][:, None]) / np.linalg.norm(
         Y - C[mj][:, None], axis=2, keepdims=True)
     P = P.reshape(-1, S, 3)
-    ids_all = loops
-    tris, eqs = [], []
-    hull_n = np.zeros(nj, np.int64)
     ptr = joints.joint_ptr
-    for jj in range(nj):
-        a, b = ptr[jj], ptr[jj + 1]
-        pts = P[a:b].reshape(-1, 3)
-        h = ConvexHull(pts)
-        if len(h.vertices) != len(pts):
-            br = mb[a:b].tolist()
-            raise ValueError(f"joint of branches {br}: the convex hull misses {len(pts) - len(h.vertices)} loop "
-                             f"vertices (loop caps overlap on the joint sphere, spec V6/V7); branches are too "
-                             f"close in direction or too short")
-        hull_n[jj] = len(h.simplices)
-        tris.append(h.simplices + a * S)
-        eqs.append(h.equations[:, :3])
-    tri = np.concatenate(tris)            # local ids into the flattened (M*S) loop table
-    eq = np.concatenate(eqs)
+    tri, hull_n, hull_v = joint_hulls(P.reshape(-1, 3), ptr * S, method=hull)   # outward, ERRATUM A6
+    miss = hull_v != size * S
+    if miss.any():
+        jj = int(np.flatnonzero(miss)[0])
+        br = mb[ptr[jj]:ptr[jj + 1]].tolist()
+        raise ValueError(f"joint of branches {br}: the convex hull misses {size[jj] * S - hull_v[jj]} loop "
+                         f"vertices (loop caps overlap on the joint sphere, spec V6/V7); branches are too "
+                         f"close in direction or too short")
     owner = tri // S
     keep = ~((owner[:, 0] == owner[:, 1]) & (owner[:, 1] == owner[:, 2]))   # delete caps (Fig. 4.17c)
     tri_j = np.repeat(np.arange(nj), hull_n)
@@ -359,9 +354,5 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
         jj = int(np.flatnonzero(wrong)[0])
         raise ValueError(f"joint of branches {mb[ptr[jj]:ptr[jj + 1]].tolist()} failed: {joint_n[jj]} joint faces "
                          f"instead of {size[jj] * S + 2 * size[jj] - 4} (loops not in convex position, spec V6-V8)")
-    tri, eq = tri[keep], eq[keep]
-    Pf = P.reshape(-1, 3)
-    pa, pb, pc = Pf[tri[:, 0]], Pf[tri[:, 1]], Pf[tri[:, 2]]
-    flip = np.einsum("ij,ij->i", np.cross(pb - pa, pc - pa), eq) < 0      # outward, ERRATUM A6
-    tri[flip] = tri[flip][:, [0, 2, 1]]
-    return ids_all.reshape(-1)[tri], hull_n, joint_n
+    tri = tri[keep]
+    return loops.reshape(-1)[tri], hull_n, joint_n
