@@ -23,7 +23,7 @@ import traitlets
 from ..implicit import CommandError, CommandSession, polygonize
 from ..implicit.commands import DISTRIBUTIONS
 
-__all__ = ["ImplicitPanel", "preview_png", "BOOLEAN_OPS"]
+__all__ = ["BOOLEAN_OPS", "ImplicitPanel", "preview_png"]
 
 #: Boolean panel choices and the command each issues (spec 003 §5.2).
 BOOLEAN_OPS = {"Union": "union", "Difference": "diff", "Difference 2": "diff2", "Intersection": "inter",

@@ -18,15 +18,13 @@ import numpy as np
 
 from .._validation import check_int, check_range
 
-__all__ = [
-    "Billboard",
-    "make_billboard",
-    "mask_iou",
-    "render_views",
-    "silhouette_iou",
-    "silhouette_masks",
-    "view_frames",
-]
+__all__ = ["BILLBOARD_LEVEL", "LOD_SCREEN_PX", "Billboard", "lod_by_distance", "make_billboard", "mask_iou",
+           "render_views", "silhouette_iou", "silhouette_masks", "view_frames"]
+
+LOD_SCREEN_PX = (384.0, 192.0, 96.0, 48.0)
+"""Screen heights (pixels) down to which LOD levels 0, 1, 2, 3 are used; below the last, the billboard."""
+BILLBOARD_LEVEL = len(LOD_SCREEN_PX)
+"""Level number :func:`lod_by_distance` gives to the billboard."""
 
 BARK_RGB = (0.55, 0.36, 0.17)
 LEAF_RGB = (0.31, 0.54, 0.18)
@@ -269,3 +267,40 @@ def silhouette_iou(reference, other, *, views: int = 2, resolution: int = 256) -
     a = silhouette_masks(reference, views=views, resolution=resolution, center=center, half=half)
     b = silhouette_masks(other, views=views, resolution=resolution, center=center, half=half)
     return np.array([mask_iou(x, y) for x, y in zip(a, b)])
+
+
+def lod_by_distance(heights, distances, *, fov_deg: float = 30.0, viewport_px: int = 1080,
+                    thresholds=LOD_SCREEN_PX) -> np.ndarray:
+    """LOD level of each tree of a forest from its on-screen height (pinhole camera).
+
+    Parameters
+    ----------
+    heights : (T,) float64 array_like
+        Tree heights, in scene units.
+    distances : (T,) float64 array_like
+        Camera-to-tree distances, in scene units (> 0).
+    fov_deg : float
+        Vertical field of view, in degrees, in (0, 180).
+    viewport_px : int
+        Viewport height in pixels.
+    thresholds : sequence of float
+        Decreasing screen heights down to which levels 0, 1, ... are used.
+
+    Returns
+    -------
+    (T,) int64 ndarray
+        0 (full mesh) to ``len(thresholds)`` (billboard, :data:`BILLBOARD_LEVEL` by default).
+    """
+    from .._validation import check_array
+
+    heights = check_array("heights", heights, shape=(None,), dtype=np.float64)
+    distances = check_array("distances", distances, shape=(len(heights),), dtype=np.float64)
+    if np.any(~np.isfinite(distances)) or np.any(distances <= 0):
+        raise ValueError("distances must be finite and > 0")
+    fov = check_range("fov_deg", fov_deg, 0.0, 180.0, low_open=True, high_open=True)
+    viewport_px = check_int("viewport_px", viewport_px, 1, 100_000)
+    th = np.asarray(thresholds, float)
+    if th.ndim != 1 or len(th) < 1 or np.any(np.diff(th) >= 0):
+        raise ValueError(f"thresholds must be a non-empty strictly decreasing sequence, got {list(thresholds)!r}")
+    px = viewport_px * heights / (2.0 * distances * np.tan(np.radians(fov) / 2))
+    return np.searchsorted(-th, -px, side="right").astype(np.int64)

@@ -7,6 +7,9 @@ from plantvr import Model
 from plantvr.geometry.lod import lod_chain
 from plantvr.growth.scenarios import demo_session, run
 from plantvr.view.billboard import (
+    BILLBOARD_LEVEL,
+    LOD_SCREEN_PX,
+    lod_by_distance,
     make_billboard,
     mask_iou,
     render_views,
@@ -108,3 +111,19 @@ def test_mask_iou_and_validation():
         make_billboard([])
     with pytest.raises(ValueError, match="suffix"):
         make_billboard(_box(1, 1, 1), resolution=16).export("x.ply")
+
+
+def test_lod_by_distance_follows_screen_height():
+    """A tree h tall at distance d spans viewport * h / (2 d tan(fov/2)) pixels; levels switch at the thresholds."""
+    k = 1080 / (2 * np.tan(np.radians(30) / 2))
+    d_at = [k * 10 / px for px in LOD_SCREEN_PX]                  # distance where a 10 m tree hits each threshold
+    dist = np.array([1.0] + [x * f for x in d_at for f in (0.99, 1.01)])
+    lv = lod_by_distance(np.full(len(dist), 10.0), dist, fov_deg=30, viewport_px=1080)
+    np.testing.assert_array_equal(lv, [0, 0, 1, 1, 2, 2, 3, 3, BILLBOARD_LEVEL])
+    assert np.all(np.diff(lod_by_distance(np.full(50, 8.0), np.linspace(1, 500, 50))) >= 0)   # monotone
+    with pytest.raises(ValueError, match="distances"):
+        lod_by_distance([1.0], [0.0])
+    with pytest.raises(ValueError, match="thresholds"):
+        lod_by_distance([1.0], [1.0], thresholds=(10, 20))
+    with pytest.raises(ValueError, match="fov_deg"):
+        lod_by_distance([1.0], [1.0], fov_deg=180)
