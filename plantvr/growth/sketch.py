@@ -269,6 +269,11 @@ class SketchEngine(GrowthEngine):
         Th >= 0 of the normalised shedding rule (0: never shed), replacing Tree Wand's shedding.
     stroke_tropism : bool
         Sketch-based tropism: **T** follows the stroke direction of a bud's selecting points (§2.7).
+    region : dict or None
+        The tree's crown space in a landscape (spec §3.5, §3.7): ``{"sites": (K, 2) neighbour bases (x, z) relative
+        to this tree's base, "weights": (K,) their weights, "weight": this tree's weight, "h_max": height cap}``.
+        Autonomous points outside the multiplicatively weighted Voronoi cell of the base (|q| / w <= |q - s_k| /
+        w_k for every k) or above ``h_max`` are dropped, and growth halts once a node reaches ``h_max``.
     bud_lifetime : int or None
         Lateral buds still dormant this many iterations after their node was made are dropped (the slot becomes
         absent), which bounds the bud count (§1.4.9 [INFERRED, not in the thesis]); None keeps every bud.
@@ -277,14 +282,15 @@ class SketchEngine(GrowthEngine):
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None, n_max: int = 3,
                  trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4,
                  ellipse: tuple[float, float, float] = (1.0, 1.0, 0.0), shed_threshold: float = 0.0,
-                 stroke_tropism: bool = False, bud_lifetime: int | None = None):
+                 stroke_tropism: bool = False, bud_lifetime: int | None = None, region: dict | None = None):
         opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
                 "deflection": check_range("deflection", deflection, 0.0, 90.0),
                 "mode": check_choice("mode", mode, ("directed", "autonomous")),
                 "point_density": check_int("point_density", point_density, 0, 1000),
                 "ellipse": self._check_ellipse(ellipse),
                 "shed_threshold": check_range("shed_threshold", shed_threshold, 0.0, np.inf),
-                "stroke_tropism": bool(stroke_tropism), "bud_lifetime": self._check_life(bud_lifetime)}
+                "stroke_tropism": bool(stroke_tropism), "bud_lifetime": self._check_life(bud_lifetime),
+                "region": self._check_region(region)}
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
         check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
         if isinstance(rng, (int, np.integer)):
@@ -298,6 +304,42 @@ class SketchEngine(GrowthEngine):
         self.width_info = None
         self._stroke_dirs: dict[bytes, np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
+
+    @staticmethod
+    def _check_region(region) -> dict | None:
+        if region is None:
+            return None
+        if not isinstance(region, dict) or set(region) != {"sites", "weights", "weight", "h_max"}:
+            raise ValueError(f"region must be a dict with keys sites, weights, weight, h_max, got {region!r}")
+        sites = np.asarray(region["sites"], float).reshape(-1, 2)
+        weights = np.asarray(region["weights"], float).reshape(-1)
+        if len(weights) != len(sites) or not np.all(np.isfinite(sites)) or not np.all(weights > 0):
+            raise ValueError("region sites must be (K, 2) finite and weights (K,) positive")
+        return {"sites": sites.tolist(), "weights": weights.tolist(),
+                "weight": check_range("region weight", region["weight"], 0.0, np.inf, low_open=True),
+                "h_max": check_range("region h_max", region["h_max"], 0.0, np.inf, low_open=True)}
+
+    def in_region(self, points: np.ndarray) -> np.ndarray:
+        """(N,) bool: points inside the tree's crown space (all True without a region)."""
+        reg = self.sketch["region"]
+        pts = np.asarray(points, float).reshape(-1, 3)
+        if reg is None:
+            return np.ones(len(pts), bool)
+        ok = pts[:, 1] <= reg["h_max"]
+        sites = np.asarray(reg["sites"]).reshape(-1, 2)
+        if len(sites):
+            q = pts[:, [0, 2]]
+            own = np.linalg.norm(q, axis=1) / reg["weight"]
+            other = np.linalg.norm(q[:, None] - sites[None], axis=2) / np.asarray(reg["weights"])[None]
+            ok &= own <= other.min(1)
+        return ok
+
+    @property
+    def halted(self) -> bool:
+        """Landscape mode: growth stops once a branch reaches the region's h_max (§6.6)."""
+        reg = self.sketch["region"]
+        t = self.tree
+        return reg is not None and bool(t.n) and float(t.pos[t.alive, 1].max()) >= reg["h_max"]
 
     @staticmethod
     def _check_life(value) -> int | None:
@@ -319,7 +361,7 @@ class SketchEngine(GrowthEngine):
                   "point_density": lambda v: check_int("point_density", v, 0, 1000),
                   "ellipse": self._check_ellipse,
                   "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, np.inf),
-                  "stroke_tropism": bool, "bud_lifetime": self._check_life}
+                  "stroke_tropism": bool, "bud_lifetime": self._check_life, "region": self._check_region}
         new = {}
         for k, v in opts.items():
             if k not in checks:
@@ -509,14 +551,14 @@ class SketchEngine(GrowthEngine):
         pts = autonomous_points(b.pos, b.dir, b.vigor, density=self.sketch["point_density"],
                                 r_in=p["occupation_radius"], r_out=max(p["view_radius"], p["occupation_radius"]),
                                 half_angle=math.radians(p["view_angle"]) / 2, rng=self._rng(1))
-        self.add_markers(pts)
+        self.add_markers(pts[self.in_region(pts)])
 
     # -- step ---------------------------------------------------------------------------------------
     def step(self) -> StepStats:
         """One TreeSketch iteration (§1.5): the engine's step with the TreeSketch shedding rule (§1.4.8)."""
         t0 = time.perf_counter()
         p, t = self.params, self.tree
-        if self.sketch["mode"] == "autonomous":
+        if self.sketch["mode"] == "autonomous" and not self.halted:
             self._add_autonomous_points()
         self._occupy()
         buds = self._active_buds()

@@ -5,8 +5,13 @@ Growth runs in rounds: in each round every tree advances ``steps_per_round`` ste
 (``client.map``), then, on the caller, markers that lie within the occupation radius of another tree's live
 nodes are removed (crown competition for space, a simple stand-in for the voxel boundary propagation of §3.5).
 
-Tasks ship a plain state (tree arrays, markers, RNG state) and rebuild the engine on the worker, so the result
-depends only on the seed: a synchronous run, a 2-worker LocalCluster and a multi-machine cluster give the same
+With ``sketch=`` (TreeSketch options) every tree is a :class:`~plantvr.growth.sketch.SketchEngine` growing
+autonomously (spec §3.7) inside its crown space: the multiplicatively weighted Voronoi cell of its base among its
+neighbours (a stand-in for the layered boundary propagation of §3.5, which it resembles without the
+connectedness guarantee) capped at h_max = crown_height + crown_radius, where growth halts.
+
+Tasks ship a plain state (the engine's pickled state: tree arrays, markers, RNG state) and rebuild the engine on
+the worker, so the result depends only on the seed: a synchronous run, a 2-worker LocalCluster and a multi-machine cluster give the same
 bytes. ``client=None`` starts a LocalCluster (2 workers) and closes it afterwards; ``client="sync"`` (or dask
 missing) runs the same tasks in the calling thread.
 """
@@ -20,12 +25,12 @@ from scipy.spatial import cKDTree
 
 from .._validation import check_int, check_range
 from ..growth.engine import GrowthEngine
-from ..growth.tree import Tree
+from ..growth.sketch import SketchEngine
 from ..params import defaults
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
-__all__ = ["Forest", "engine_from_state", "engine_state", "finish_task", "grow_forest", "grow_tree_task", "grow_trees_task", "round_task", "summary_task", "tree_mesh_task", "warm_up"]
+__all__ = ["Forest", "crown_regions", "engine_from_state", "engine_state", "finish_task", "grow_forest", "grow_tree_task", "grow_trees_task", "round_task", "summary_task", "tree_mesh_task", "warm_up"]
 
 
 @dataclass
@@ -47,28 +52,18 @@ class Forest:
 
 
 def engine_state(e: GrowthEngine) -> dict[str, Any]:
-    """Plain, picklable state of an engine: tree arrays, markers, marker ages, step count, RNG state."""
-    return {"tree": e.tree.arrays(), "nslots": e.tree.nslots, "markers": e.markers.copy(),
-            "marker_age": e.marker_age.copy(), "step_count": e.step_count, "new_nodes": e._new_nodes.copy(),
-            "rng": e.rng.bit_generator.state}
+    """Plain, picklable state of an engine (its ``__getstate__``: tree arrays, markers, marker ages, step count,
+    RNG state; a SketchEngine adds its options), without the step history."""
+    return {**e.__getstate__(), "history": []}
 
 
 def engine_from_state(params: dict[str, Any], state: dict[str, Any]) -> GrowthEngine:
-    """Rebuild an engine from :func:`engine_state` (light grid recomputed from the live nodes)."""
-    e = GrowthEngine(params, rng=0)
-    arrays = state["tree"]
-    n = len(arrays["pos"])
-    t = Tree(state["nslots"], max(n, 1))
-    for k, v in arrays.items():
-        t._data[k][:n] = v
-    t.n = n
-    e.tree = t
-    e.markers, e.marker_age = state["markers"].copy(), state["marker_age"].copy()
-    e.step_count = state["step_count"]
-    e._new_nodes = state["new_nodes"].copy()
-    e.rng = np.random.default_rng()
-    e.rng.bit_generator.state = state["rng"]
-    e.rebuild_light()
+    """Rebuild the engine of :func:`engine_state` (light grid recomputed from the live nodes) with ``params``."""
+    cls = SketchEngine if "sketch_state" in state else GrowthEngine
+    e = cls.__new__(cls)
+    e.__setstate__({**state, "params": dict(params) if params else state["params"],
+                    "tree": {k: v.copy() for k, v in state["tree"].items()},
+                    "markers": state["markers"].copy(), "marker_age": state["marker_age"].copy()})
     return e
 
 
@@ -169,12 +164,35 @@ def _compete(states: list[dict], bases: np.ndarray, radius: float) -> None:
             s["markers"], s["marker_age"] = s["markers"][~d], s["marker_age"][~d]
 
 
-def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts):
+def crown_regions(bases: np.ndarray, *, reach: float, h_max: float, weights: np.ndarray | None = None
+                  ) -> list[dict[str, Any]]:
+    """Per tree, the SketchEngine ``region`` of its crown space: neighbours within ``reach`` (x, z distance) as
+    sites relative to the base, with their weights (default 1: plain Voronoi cells), and the height cap."""
+    bases = np.asarray(bases, float)
+    w = np.ones(len(bases)) if weights is None else np.asarray(weights, float)
+    xz = bases[:, [0, 2]]
+    kd = cKDTree(xz)
+    out = []
+    for i, nb in enumerate(kd.query_ball_point(xz, reach)):
+        nb = sorted(j for j in nb if j != i)
+        out.append({"sites": (xz[nb] - xz[i]).tolist(), "weights": w[nb].tolist(), "weight": float(w[i]),
+                    "h_max": float(h_max)})
+    return out
+
+
+def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None):
     ss = np.random.SeedSequence(seed).spawn(len(bases))
     states = []
+    regions = None
+    if sketch is not None:
+        regions = crown_regions(bases, reach=4.0 * crown_radius, h_max=crown_height + crown_radius)
     for i in range(len(bases)):
-        e = GrowthEngine(params, rng=np.random.default_rng(ss[i]))
-        e.paint(np.array([0.0, crown_height, 0.0]), crown_radius, n_darts)
+        if sketch is None:
+            e = GrowthEngine(params, rng=np.random.default_rng(ss[i]))
+            e.paint(np.array([0.0, crown_height, 0.0]), crown_radius, n_darts)
+        else:
+            e = SketchEngine(params, rng=int(ss[i].generate_state(1, np.uint64)[0] >> np.uint64(2)),
+                             **{"mode": "autonomous", **sketch, "region": regions[i]})
         states.append(engine_state(e))
     return states
 
@@ -183,7 +201,8 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 rounds: int = 4, steps_per_round: int = 5, crown_height: float = 7.0, crown_radius: float = 5.0,
                 n_darts: int = 300, terrain_amplitude: float = 3.0, params: dict[str, Any] | None = None,
                 seed: int = 0, client: Any = None, n_workers: int = 2, processes: bool = False,
-                compete: bool = True, tasks_per_round: int | None = None, geometry: bool = False) -> Forest:
+                compete: bool = True, tasks_per_round: int | None = None, geometry: bool = False,
+                sketch: dict[str, Any] | None = None) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -201,6 +220,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
 
     geometry : bool
         Also build each tree's branch mesh (world coordinates) as a task; stored in ``Forest.meshes``.
+    sketch : dict, optional
+        TreeSketch options (:class:`~plantvr.growth.sketch.SketchEngine` keywords, e.g. ``{"n_max": 3}``): grow
+        every tree autonomously inside its crown space (weighted Voronoi cell, h_max) instead of painted crowns.
 
     Returns
     -------
@@ -226,7 +248,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     hf = heightfield((64, 64), amplitude=terrain_amplitude, rng=rng)
     xz = poisson_disc(size, min_dist, max_points=n_trees, rng=rng)
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
-    states = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts)
+    if sketch is not None and not isinstance(sketch, dict):
+        raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
+    states = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch)
 
     own, runner = None, client
     if client is None:

@@ -438,3 +438,37 @@ def test_ts_bud_lifetime_bounds_dormant_buds():
     assert len(e.buds().node) < len(keep.buds().node)
     with pytest.raises(ValueError, match="bud_lifetime"):
         e.set_options(bud_lifetime=0)
+
+
+def test_ts_v25_region_constrains_autonomous_growth():
+    """Crown space of a landscape tree: points only in its weighted Voronoi cell below h_max; a shoot may
+    overshoot the cell by at most one shoot length; growth halts at h_max and the arrays stop changing."""
+    region = {"sites": [[4.0, 0.0], [-3.0, 3.0]], "weights": [1.0, 2.0], "weight": 1.0, "h_max": 9.0}
+    e = _engine(n_max=3, mode="autonomous", region=region, rng=2,
+                params={"length_mode": "constant", "activation_threshold": 0.0})
+    pts = np.random.default_rng(0).uniform(-8, 8, (2000, 3))
+    inside = e.in_region(pts)
+    q = pts[:, [0, 2]]
+    own = np.linalg.norm(q, axis=1)
+    d1, d2 = np.linalg.norm(q - [4, 0], axis=1), np.linalg.norm(q - [-3, 3], axis=1) / 2
+    np.testing.assert_array_equal(inside, (own <= np.minimum(d1, d2)) & (pts[:, 1] <= 9.0))
+    for _ in range(40):
+        e.step()
+        if e.halted:
+            break
+    assert e.halted
+    t = e.tree
+    live = t.pos[t.alive]
+    n_max = 3
+    assert live[:, 1].max() <= 9.0 + n_max + 1e-9
+    q = live[:, [0, 2]]
+    slack = np.linalg.norm(q, axis=1) - np.minimum(np.linalg.norm(q - [4, 0], axis=1),
+                                                   np.linalg.norm(q - [-3, 3], axis=1) / 2)
+    assert slack.max() <= 2 * n_max  # points are constrained, branches are not
+    ref = e.tree.arrays()
+    e.step()
+    e.step()
+    for k, v in e.tree.arrays().items():
+        assert ref[k].tobytes() == v.tobytes(), k
+    with pytest.raises(ValueError, match="region"):
+        e.set_options(region={"sites": [[0, 0]]})

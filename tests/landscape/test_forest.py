@@ -111,3 +111,21 @@ def test_forest_validation():
         grow_forest(0)
     with pytest.raises(ValueError, match="steps_per_round"):
         grow_forest(2, steps_per_round=0, client="sync")
+
+
+def test_ts_v25_v26_sketch_forest_in_crown_space():
+    """TreeSketch trees grow autonomously inside their weighted Voronoi cells below h_max; identical bytes with
+    a synchronous run and 2 thread workers (each tree depends on its own state only)."""
+    pytest.importorskip("dask.distributed")
+    kw = {"size": (30.0, 30.0), "min_dist": 8.0, "rounds": 2, "steps_per_round": 4, "crown_height": 5.0,
+          "crown_radius": 3.0, "seed": 2, "sketch": {"n_max": 2, "bud_lifetime": 6}}
+    f = grow_forest(4, client="sync", **kw)
+    g = grow_forest(4, n_workers=2, processes=False, **kw)
+    _same(f, g)
+    h_max = 5.0 + 3.0
+    for tr, b in zip(f.trees, f.bases):
+        live = tr["pos"][tr["alive"]]
+        assert len(live) > 5
+        assert (live[:, 1] - b[1]).max() <= h_max + 2 * 2.0 + 1e-9  # at most one shoot (n_max * max length)
+    with pytest.raises(ValueError, match="sketch"):
+        grow_forest(2, client="sync", sketch="yes")
