@@ -43,8 +43,12 @@ def _merge_hash(keys):  # pragma: no cover - numba kernel, twin: _merge_numpy
     mask = size - 1
     for v in range(n):
         a, b, c = np.uint64(keys[v, 0]), np.uint64(keys[v, 1]), np.uint64(keys[v, 2])
-        h = (a * np.uint64(73856093)) ^ (b * np.uint64(19349663)) ^ (c * np.uint64(83492791))
-        h ^= h >> np.uint64(29)
+        h = (a << np.uint64(32)) ^ b ^ (c * np.uint64(0x9E3779B97F4A7C15))
+        h ^= h >> np.uint64(30)                               # splitmix64 finaliser: float bit patterns of
+        h *= np.uint64(0xBF58476D1CE4E5B9)                    # grid-aligned vertices share low bits
+        h ^= h >> np.uint64(27)
+        h *= np.uint64(0x94D049BB133111EB)
+        h ^= h >> np.uint64(31)
         s = np.int64(h & np.uint64(mask))
         while True:
             u = table[s]
