@@ -145,9 +145,7 @@ def plot_label_areas(table, *, ax=None, skip_zero: bool = True):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib
     if ax is None:
-        matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(6, 3.2), dpi=100)
     else:

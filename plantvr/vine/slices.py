@@ -153,10 +153,9 @@ def slice_figure(volume: np.ndarray, axis: int | str, index: int, *, level: floa
     Returns
     -------
     matplotlib.figure.Figure
-        Image axes: horizontal = the first remaining axis... shown as rows/columns of the slice with
-        ``origin="lower"`` so the first remaining axis runs up.
+        The slice with ``origin="lower"``: the second remaining axis runs right, the first runs up, both in
+        model units.
     """
-    import matplotlib
     from matplotlib.collections import LineCollection
 
     from plantvr.vine.colors import ColorTable
@@ -177,7 +176,6 @@ def slice_figure(volume: np.ndarray, axis: int | str, index: int, *, level: floa
         segs, seg_lab = res if labels is not None else (res, None)
     contours = [] if level is None else slice_contours(vol, level, a, index, spacing=sp)
     if ax is None:
-        matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
         fig, ax = plt.subplots(figsize=(5, 5), dpi=100)
     else:
