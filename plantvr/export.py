@@ -48,6 +48,9 @@ import numpy as np  # noqa: I001
 EXPORT_FORMATS = {"usd": ".usd", "glb": ".glb", "ply": ".ply", "obj": ".obj"}
 """``plantvr export --format`` choices and the suffix each writes (.usda/.usdc also pick USD)."""
 
+BILLBOARD_LOD = 4
+"""``lod`` value that exports the billboard impostor instead of a mesh level."""
+
 _SUFFIX_FORMAT = {".usd": "usd", ".usda": "usd", ".usdc": "usd", ".glb": "glb", ".ply": "ply", ".obj": "obj"}
 
 
@@ -75,7 +78,9 @@ def snapshot_export(snap: Snapshot, params: dict[str, Any], path: str | Path, *,
         Output file; its suffix (.usd/.usda/.usdc, .glb, .ply, .obj) picks the format.
     lod : int
         Level of :func:`plantvr.geometry.lod.lod_chain`, in [0, 3]: fewer cylinder sides and, from level 1 on,
-        twigs pruned to the level's triangle budget; leaves stay only on the nodes kept.
+        twigs pruned to the level's triangle budget; leaves stay only on the nodes kept. ``BILLBOARD_LOD`` (4)
+        writes the billboard impostor (.glb or .obj with its RGBA atlas), rendered offscreen from level 1 with
+        the leaves (:func:`plantvr.view.billboard.make_billboard`).
     leaves : bool
         Include the leaves.
     skinned : bool
@@ -87,19 +92,23 @@ def snapshot_export(snap: Snapshot, params: dict[str, Any], path: str | Path, *,
     pathlib.Path
     """
     from ._validation import check_choice, check_int
-    from .geometry.lod import LOD_RINGS, lod_chain
+    from .geometry.lod import lod_chain
 
     path = Path(path)
     fmt = _SUFFIX_FORMAT.get(path.suffix.lower())
     if fmt is None:
         check_choice("path suffix", path.suffix.lower(), tuple(_SUFFIX_FORMAT))
-    lod = check_int("lod", lod, 0, len(LOD_RINGS) - 1)
+    lod = check_int("lod", lod, 0, BILLBOARD_LOD)
+    billboard = lod == BILLBOARD_LOD
+    if billboard and fmt not in ("glb", "obj"):
+        raise ValueError(f"lod {BILLBOARD_LOD} (the billboard) is written as .glb or .obj, got {path.suffix!r}")
     if len(snap.pos) < 2:
         raise ValueError("the tree is empty (no internodes): grow it before exporting")
-    chain = lod_chain(snap.pos, snap.parent, snap.radius, main_child=snap.main_child, levels=lod + 1,
+    mesh_lod = 1 if billboard else lod
+    chain = lod_chain(snap.pos, snap.parent, snap.radius, main_child=snap.main_child, levels=mesh_lod + 1,
                       tip_radius=params["tip_radius"], bezier_w=params["bezier_weight"],
                       bark_rate=params["bark_rate"])
-    level = chain[lod]
+    level = chain[mesh_lod]
     branches = level.mesh
     leaf = None
     bud_node = _bud_nodes(snap)
@@ -116,6 +125,10 @@ def snapshot_export(snap: Snapshot, params: dict[str, Any], path: str | Path, *,
             if not len(leaf.faces):
                 leaf = None
     bark, leaf_tex = params["bark_texture"], params["leaf_texture"]
+    if billboard:
+        # offscreen rendering lives in the view layer
+        from .view.billboard import make_billboard
+        return make_billboard([branches, leaf], views=2, resolution=256).export(path)
     if fmt == "usd":
         from .geometry.usd import export_usd
         return export_usd(path, branches, leaf, order=np.asarray(snap.order, np.int64), bark=bark, leaf=leaf_tex)
@@ -136,7 +149,7 @@ def export_model_as(model: Model, path: str | Path, *, lod: int = 0, leaves: boo
     path : str or pathlib.Path
         Output file (.usd/.usda/.usdc, .glb, .ply, .obj).
     lod : int
-        LOD level in [0, 3] (see :func:`snapshot_export`).
+        LOD level in [0, 3], or 4 for the billboard (see :func:`snapshot_export`).
     leaves, skinned : bool
         As in :func:`snapshot_export`.
 
@@ -169,7 +182,8 @@ def export_main(argv: list[str] | None = None) -> int:
     ap.add_argument("tree_file", metavar="TREE_FILE", help="a tree saved by Model.save (.tree or .npz)")
     ap.add_argument("--format", choices=tuple(EXPORT_FORMATS), default=None,
                     help="output format (default: from the suffix of -o, else glb)")
-    ap.add_argument("--lod", type=int, default=0, help="LOD level 0 (full) to 3 (coarsest); default 0")
+    ap.add_argument("--lod", type=int, default=0,
+                    help="LOD level 0 (full) to 3 (coarsest), 4 = billboard (glb/obj); default 0")
     ap.add_argument("-o", "--output", default=None, help="output file (default: TREE_FILE with the format's suffix)")
     ap.add_argument("--no-leaves", action="store_true", help="branches only")
     ap.add_argument("--unskinned", action="store_true", help="glb without skeleton and growth animation")

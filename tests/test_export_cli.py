@@ -74,7 +74,7 @@ def test_lod_levels_reduce_triangles(saved, tmp_path):
 
 
 def test_obj_and_default_output(saved, tmp_path):
-    model, src = saved
+    _, src = saved
     copy = tmp_path / "tree.tree"
     copy.write_text(src.read_text())
     assert export_main([str(copy), "--format", "obj"]) == 0
@@ -101,6 +101,10 @@ def test_rejections(saved, tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
     assert export_main([str(src), "--lod", "7", "-o", str(tmp_path / "x.ply")]) == 2
     assert "lod must be" in capsys.readouterr().err
+    assert export_main([str(src), "--lod", "4", "-o", str(tmp_path / "x.ply")]) == 2
+    assert "billboard" in capsys.readouterr().err
+    assert export_main([str(src), "--lod", "-1", "-o", str(tmp_path / "x.ply")]) == 2
+    assert "lod must be" in capsys.readouterr().err
     assert not (tmp_path / "x.ply").exists()
     assert export_main([str(src), "--format", "usd", "-o", str(tmp_path / "x.ply")]) == 2
     assert "does not match" in capsys.readouterr().err
@@ -111,3 +115,16 @@ def test_rejections(saved, tmp_path, capsys):
     with pytest.raises(ValueError, match="empty"):
         snapshot_export(dataclasses.replace(model.snapshot, pos=np.zeros((1, 3)), parent=np.array([-1])),
                         model.params, tmp_path / "x.ply")
+
+
+def test_billboard_level(saved, tmp_path):
+    """--lod 4 writes the billboard impostor: crossed quads with an RGBA atlas."""
+    model, src = saved
+    out = tmp_path / "bb.glb"
+    assert export_main([str(src), "--format", "glb", "--lod", "4", "-o", str(out)]) == 0
+    mesh = trimesh.load(out, force="mesh", process=False)
+    assert len(mesh.faces) == 4
+    atlas = np.asarray(mesh.visual.material.baseColorTexture)
+    assert atlas.shape == (256, 512, 4) and atlas[..., 3].min() == 0 and atlas[..., 3].max() == 255
+    lo, hi = _chain(model, 0).mesh.vertices.min(0), _chain(model, 0).mesh.vertices.max(0)
+    assert mesh.bounds[1][1] >= hi[1] - 1e-6 and mesh.bounds[0][1] <= lo[1] + 1e-6
