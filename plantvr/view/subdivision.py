@@ -17,7 +17,7 @@ import pyvista as pv
 
 from .._validation import check_array
 
-__all__ = ["SubdivisionView", "side_by_side", "to_polydata"]
+__all__ = ["SubdivisionView", "checker_texture", "side_by_side", "textured_polydata", "to_polydata"]
 
 BARK = "#a0703c"
 CONTROL = "#d9c7a7"
@@ -55,6 +55,41 @@ def to_polydata(mesh) -> pv.PolyData:
         raise ValueError(f"faces must index vertices in [0, {len(V) - 1}], got range [{F.min()}, {F.max()}]")
     cells = np.column_stack([np.full(len(F), 3, np.int64), F]).ravel()
     return pv.PolyData(np.array(V, dtype=float), cells)
+
+
+def textured_polydata(vertices, faces, uv) -> pv.PolyData:
+    """A mesh with per-corner UVs as ``PolyData`` with texture coordinates, one point per face corner.
+
+    VTK stores one texture coordinate per point, so the corners are split for display only (spec §1.6: "vertices
+    split at UV seams for display only"); never subdivide this copy.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float64 ndarray
+    faces : (F, 3) int ndarray
+    uv : (F, 3, 2) float64 ndarray
+        Corner UVs (e.g. :func:`plantvr.subdivision.control_uvs`).
+
+    Returns
+    -------
+    pyvista.PolyData
+        ``3 F`` points, ``F`` triangles, ``active_texture_coordinates`` set.
+    """
+    V = check_array("vertices", vertices, shape=(None, 3))
+    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    T = check_array("uv", uv, shape=(len(F), 3, 2))
+    poly = to_polydata((V[F].reshape(-1, 3), np.arange(3 * len(F)).reshape(-1, 3)))
+    poly.active_texture_coordinates = T.reshape(-1, 2)
+    return poly
+
+
+def checker_texture(n: int = 8, size: int = 256) -> pv.Texture:
+    """A repeating ``n`` x ``n`` checkerboard (with a stripe along v, like bark) for looking at UV maps."""
+    y, x = np.mgrid[0:size, 0:size] * n // size
+    img = np.where((x + y) % 2 == 0, 205, 120).astype(np.uint8)
+    img[:, : size // (4 * n)] = 40                        # a dark stripe marks u = 0 (the seam)
+    rgb = np.stack([img, (img * 0.8).astype(np.uint8), (img * 0.55).astype(np.uint8)], axis=-1)
+    return pv.Texture(rgb)
 
 
 class SubdivisionView:
