@@ -1,8 +1,23 @@
 """Tree geometry: skeleton, generalized cylinders, LOD, bark UVs, leaves, export (spec 000_treewand §3, §8.1 items 16–22)."""
-from .mesh import (BranchMesh, IncrementalBranchMesh, MeshUpdate, Segments, build_branch_mesh, length_estimate, lod_level, rational_bezier,
-                   rational_bezier_tangent, ring_counts, smoothstep, transport_frame, tree_segments,
-                   update_branch_mesh)
+from .leaves import IncrementalLeafMesh, LeafMesh, build_leaves
+from .mesh import (
+    BranchMesh,
+    IncrementalBranchMesh,
+    MeshUpdate,
+    Segments,
+    build_branch_mesh,
+    length_estimate,
+    lod_level,
+    rational_bezier,
+    rational_bezier_tangent,
+    ring_counts,
+    smoothstep,
+    transport_frame,
+    tree_segments,
+    update_branch_mesh,
+)
 
-__all__ = ["BranchMesh", "IncrementalBranchMesh", "MeshUpdate", "Segments", "build_branch_mesh", "length_estimate", "lod_level", "rational_bezier",
+__all__ = ["BranchMesh", "IncrementalBranchMesh", "IncrementalLeafMesh", "LeafMesh", "MeshUpdate", "Segments",
+           "build_branch_mesh", "build_leaves", "length_estimate", "lod_level", "rational_bezier",
            "rational_bezier_tangent", "ring_counts", "smoothstep", "transport_frame", "tree_segments",
            "update_branch_mesh"]

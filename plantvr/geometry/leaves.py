@@ -7,9 +7,8 @@ textured quad (or a folded quad) attached at p2 with the final frame.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -18,7 +17,7 @@ from plantvr._validation import check_array, check_choice, check_int, check_poin
 
 from . import _kernels as K
 
-__all__ = ["LeafMesh", "LEAF_SHAPES", "select_leaf_buds", "initial_leaf_frames", "orient_leaves", "build_leaves"]
+__all__ = ["LEAF_SHAPES", "IncrementalLeafMesh", "LeafMesh", "build_leaves", "initial_leaf_frames", "orient_leaves", "select_leaf_buds"]
 
 LEAF_SHAPES = ("ovate", "lobed")
 _PETIOLE_UV = (0.5, 0.03)      # a texel of the stem drawn at the bottom of every leaf texture
@@ -170,7 +169,8 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
     if len(h) == 0:
         return h, r, u
     if kernel == "numba":
-        return _orient_numba(h, r, u, np.array([e["e_right"], e["e_up"], e["e_twist"]]), iterations, y, scale)
+        fn = _orient_numba if len(h) >= 2048 else _orient_serial
+        return fn(h, r, u, np.array([e["e_right"], e["e_up"], e["e_twist"]]), iterations, y, scale)
     for _ in range(iterations):
         for ax_name, tg_name, ek in (("u", "h", "e_right"), ("r", "u", "e_up"), ("h", "u", "e_twist")):
             if e[ek] == 0.0:
@@ -203,8 +203,7 @@ def _rot3(v0, v1, v2, a0, a1, a2, c, s_):
     return v0 * c + x0 * s_ + a0 * av, v1 * c + x1 * s_ + a1 * av, v2 * c + x2 * s_ + a2 * av
 
 
-@numba.njit(cache=True, nogil=True, parallel=True)
-def _orient_numba(h, r, u, e, iterations, y, scale):
+def _orient_impl(h, r, u, e, iterations, y, scale):
     """Per-leaf, allocation-free loop of Eq. 10.15 (twin: the vectorised body of :func:`orient_leaves`).
 
     Leaves run in parallel; r̂ is not rotated but rebuilt as ĥ × û after each step, as the twin does.
@@ -248,6 +247,10 @@ def _orient_numba(h, r, u, e, iterations, y, scale):
         R[i, 0], R[i, 1], R[i, 2] = r0, r1, r2
         U[i, 0], U[i, 1], U[i, 2] = u0, u1, u2
     return H, R, U
+
+
+_orient_numba = numba.njit(cache=True, nogil=True, parallel=True)(_orient_impl)
+_orient_serial = numba.njit(cache=True, nogil=True)(_orient_impl)     # small batches: no thread pool
 
 
 def _blade(shape: str):
@@ -364,3 +367,235 @@ def build_leaves(bud_pos, bud_dir, bud_radius, *, bud_up=None, leaf_size: float 
                         1.0, V, NRM, UV, NID, F)
         UV[nbv:] = _PETIOLE_UV
     return LeafMesh(V, F, NRM, UV, NID, np.stack([h, r, u], axis=1))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Incremental leaves (spec §3.5 applied to §3.4): a leaf is a pure function of its bud row, so unchanged buds
+# keep their geometry and only new or changed buds are oriented and meshed.
+def _row_hash(rows: np.ndarray) -> np.ndarray:
+    """(L,) uint64 FNV-1a-style hash of the float64 bit patterns of each row."""
+    bits = np.ascontiguousarray(rows, np.float64).view(np.uint64)
+    h = np.full(len(rows), np.uint64(0xCBF29CE484222325))
+    for c in range(bits.shape[1]):
+        h = (h ^ bits[:, c]) * np.uint64(0x100000001B3)
+    return h
+
+
+class IncrementalLeafMesh:
+    """Leaf mesh kept up to date bud by bud (spec §3.4 with the incremental update of §3.5).
+
+    Each leaf (blade + petiole) owns a fixed-size block of the buffers. A leaf's geometry depends only on its
+    bud's position, heading and lateral vector (and the options), so :meth:`update` matches bud rows by
+    content, keeps the blocks of unchanged buds, blanks those of vanished buds (degenerate faces) and orients
+    and meshes only new buds, in free blocks first. :meth:`to_leaf_mesh` returns the compact mesh, equal to
+    :func:`build_leaves` of the same buds with the same options.
+
+    Parameters
+    ----------
+    leaf_size, radius_threshold, petiole_length, e_twist, e_up, e_right, iterations, leaf_shape, up, increment,
+    petiole_sides
+        As in :func:`build_leaves` (``radius_threshold`` is required here).
+    petiole_radius : float
+        Required here (``build_leaves`` derives it from the smallest bud radius).
+
+    Attributes
+    ----------
+    buffer_version : int
+        Bumped when the buffers are re-allocated or compacted.
+    """
+
+    def __init__(self, *, radius_threshold: float, petiole_radius: float, leaf_size: float = 0.5,
+                 petiole_length: float = 0.1, e_twist: float = 0.05, e_up: float = 0.05, e_right: float = 0.05,
+                 iterations: int = 15, leaf_shape: str = "ovate", up=(0.0, 1.0, 0.0),
+                 increment: str = "per_iteration", petiole_sides: int = 5):
+        self.options = dict(
+            leaf_size=check_range("leaf_size", leaf_size, 0.0, np.inf),
+            radius_threshold=check_range("radius_threshold", radius_threshold, 0.0, np.inf),
+            petiole_length=check_range("petiole_length", petiole_length, 0.0, np.inf),
+            petiole_radius=check_range("petiole_radius", petiole_radius, 0.0, np.inf),
+            e_twist=check_range("e_twist", e_twist, 0.0, 10.0), e_up=check_range("e_up", e_up, 0.0, 10.0),
+            e_right=check_range("e_right", e_right, 0.0, 10.0),
+            iterations=check_int("iterations", iterations, 1, 1000),
+            leaf_shape=check_choice("leaf_shape", leaf_shape, LEAF_SHAPES),
+            up=tuple(float(x) for x in check_array("up", up, shape=(3,))),
+            increment=check_choice("increment", increment, ("per_iteration", "split")),
+            petiole_sides=check_int("petiole_sides", petiole_sides, 3, 16))
+        loc, _, bf = _blade(self.options["leaf_shape"])
+        self._nbv, self._nbf = len(loc), len(bf)
+        pet = self.options["petiole_length"] > 0 and self.options["petiole_radius"] > 0
+        ps = self.options["petiole_sides"]
+        self._npv, self._npf = (4 * (ps + 1), 3 * 2 * ps) if pet else (0, 0)
+        self.Bv, self.Bf = self._nbv + self._npv, self._nbf + self._npf
+        self.buffer_version = 0
+        self._n = 0                                    # slots in use (live or free)
+        self._V, self._NRM = np.zeros((0, 3)), np.zeros((0, 3), np.float32)
+        self._UV, self._BID = np.zeros((0, 2), np.float32), np.zeros(0, np.int64)
+        self._F = np.zeros((0, 3), np.int64)
+        self._rows, self._live, self._hash = np.zeros((0, 9)), np.zeros(0, bool), np.zeros(0, np.uint64)
+        self._frames, self._order = np.zeros((0, 3, 3)), np.zeros(0, np.int64)
+        self._grow_to(64)
+
+    def _grow_to(self, slots: int) -> None:
+        """Capacity for ``slots`` blocks (geometric growth; bumps ``buffer_version``)."""
+        cap = len(self._live)
+        if slots <= cap:
+            return
+        cap = max(slots, int(1.5 * cap) + 16)
+        n = self._n
+
+        def grow(a, rows, used, fill=0):
+            out = np.full((rows,) + a.shape[1:], fill, a.dtype)
+            out[:used] = a[:used]
+            return out
+        nv, nf = n * self.Bv, n * self.Bf
+        self._V, self._NRM = grow(self._V, cap * self.Bv, nv), grow(self._NRM, cap * self.Bv, nv)
+        self._UV, self._BID = grow(self._UV, cap * self.Bv, nv), grow(self._BID, cap * self.Bv, nv, -1)
+        self._F = grow(self._F, cap * self.Bf, nf)
+        self._rows, self._live, self._hash = grow(self._rows, cap, n), grow(self._live, cap, n), grow(self._hash, cap, n)
+        self._frames, self._order = grow(self._frames, cap, n), grow(self._order, cap, n, -1)
+        self.buffer_version += 1
+
+    # -- arrays -----------------------------------------------------------------------------------------
+    @property
+    def vertices(self) -> np.ndarray:
+        """(V, 3) float64 vertex rows in use (blocks of free slots are collapsed, degenerate)."""
+        return self._V[:self._n * self.Bv]
+
+    @property
+    def normals(self) -> np.ndarray:
+        """(V, 3) float32."""
+        return self._NRM[:self._n * self.Bv]
+
+    @property
+    def uv(self) -> np.ndarray:
+        """(V, 2) float32 leaf texture coordinates."""
+        return self._UV[:self._n * self.Bv]
+
+    @property
+    def bud_id(self) -> np.ndarray:
+        """(V,) int64 row of the latest bud arrays each vertex belongs to, -1 in free blocks."""
+        return self._BID[:self._n * self.Bv]
+
+    @property
+    def faces(self) -> np.ndarray:
+        """(F, 3) int64 faces in use; faces of free blocks are degenerate."""
+        return self._F[:self._n * self.Bf]
+
+    @property
+    def n_leaves(self) -> int:
+        """Live leaves."""
+        return int(self._live[:self._n].sum())
+
+    # -- update -----------------------------------------------------------------------------------------
+    def update(self, bud_pos, bud_dir, bud_radius, bud_up) -> dict:
+        """Bring the leaves to a new set of buds; orient and mesh only the new ones.
+
+        Parameters
+        ----------
+        bud_pos, bud_dir, bud_radius, bud_up
+            As in :func:`build_leaves` (``bud_up`` required: a leaf must be a function of its bud).
+
+        Returns
+        -------
+        dict
+            ``added`` and ``removed`` (leaf counts), ``slots`` (block indices written: block k covers vertex
+            rows ``k*Bv:(k+1)*Bv`` and face rows ``k*Bf:(k+1)*Bf``) and ``relayout`` (buffers re-allocated).
+        """
+        bud_pos = check_points("bud_pos", bud_pos)
+        nb = len(bud_pos)
+        bud_dir = check_array("bud_dir", bud_dir, shape=(nb, 3))
+        bud_radius = check_array("bud_radius", bud_radius, shape=(nb,))
+        bud_up = check_array("bud_up", bud_up, shape=(nb, 3))
+        o = self.options
+        sel = select_leaf_buds(bud_radius, radius_threshold=o["radius_threshold"], leaf_size=o["leaf_size"])
+        rows = np.hstack([bud_pos[sel], bud_dir[sel], bud_up[sel]])
+        h = _row_hash(rows)
+        n = self._n
+        live = np.flatnonzero(self._live[:n])
+        match = np.full(len(sel), -1, np.int64)
+        if len(live) and len(sel):
+            lo = np.argsort(self._hash[live], kind="stable")
+            lh = self._hash[live][lo]
+            j = np.minimum(np.searchsorted(lh, h), len(lh) - 1)
+            cand = live[lo[j]]
+            ok = (lh[j] == h) & np.all(self._rows[cand] == rows, axis=1)
+            match[ok] = cand[ok]
+            # a slot serves one bud: duplicates beyond the first become new leaves
+            m_idx = np.flatnonzero(match >= 0)
+            _, first = np.unique(match[m_idx], return_index=True)
+            dup = np.setdiff1d(m_idx, m_idx[first])
+            match[dup] = -1
+        keep = np.zeros(n, bool)
+        keep[match[match >= 0]] = True
+        gone = np.flatnonzero(self._live[:n] & ~keep)
+        self._live[gone] = False
+        self._blank(gone)
+        new = np.flatnonzero(match < 0)
+        free = np.flatnonzero(~self._live[:n])
+        take = free[:len(new)]
+        extra = len(new) - len(take)
+        v0 = self.buffer_version
+        if extra > 0:
+            self._grow_to(n + extra)
+            take = np.concatenate([take, np.arange(n, n + extra)])
+            self._n = n + extra
+        match[new] = take
+        if len(new):
+            self._write(take, bud_pos[sel[new]], bud_dir[sel[new]], bud_up[sel[new]], rows[new], h[new])
+        # bud rows shift between snapshots: refresh each live block's row index
+        self._order[:self._n] = -1
+        self._order[match] = sel
+        self._BID[:self._n * self.Bv].reshape(self._n, self.Bv)[:] = self._order[:self._n, None]
+        return dict(added=len(new), removed=len(gone),
+                    slots=np.concatenate([take, gone]), relayout=self.buffer_version != v0)
+
+    def _blank(self, slots: np.ndarray) -> None:
+        if not len(slots):
+            return
+        V = self._V.reshape(-1, self.Bv, 3)
+        V[slots] = V[slots, :1]
+        F = self._F.reshape(-1, self.Bf, 3)
+        F[slots] = (slots * self.Bv)[:, None, None]
+        self._hash[slots] = 0
+
+    def _write(self, slots, pos, dirs, ups, rows, h) -> None:
+        o = self.options
+        L = len(slots)
+        m = build_leaves(pos, dirs, np.zeros(L), bud_up=ups, leaf_size=o["leaf_size"], radius_threshold=1.0,
+                         petiole_length=o["petiole_length"], petiole_radius=o["petiole_radius"],
+                         e_twist=o["e_twist"], e_up=o["e_up"], e_right=o["e_right"], iterations=o["iterations"],
+                         leaf_shape=o["leaf_shape"], up=o["up"], increment=o["increment"],
+                         petiole_sides=o["petiole_sides"])
+        nbv, nbf, npv, npf = self._nbv, self._nbf, self._npv, self._npf
+        base = slots * self.Bv
+        src_b = (np.arange(L)[:, None] * nbv + np.arange(nbv)).ravel()
+        dst_b = (base[:, None] + np.arange(nbv)).ravel()
+        src_p = (L * nbv + np.arange(L)[:, None] * npv + np.arange(npv)).ravel()
+        dst_p = (base[:, None] + nbv + np.arange(npv)).ravel()
+        src, dst = np.concatenate([src_b, src_p]), np.concatenate([dst_b, dst_p])
+        self._V[dst] = m.vertices[src]
+        self._NRM[dst] = m.normals[src]
+        self._UV[dst] = m.uv[src]
+        fb = m.faces[:L * nbf].reshape(L, nbf, 3) - (np.arange(L) * nbv)[:, None, None] + base[:, None, None]
+        F = self._F.reshape(-1, self.Bf, 3)
+        F[slots, :nbf] = fb
+        if npf:
+            fp = (m.faces[L * nbf:].reshape(L, npf, 3) - (L * nbv + np.arange(L) * npv)[:, None, None]
+                  + (base + nbv)[:, None, None])
+            F[slots, nbf:] = fp
+        self._rows[slots], self._hash[slots], self._live[slots] = rows, h, True
+        self._frames[slots] = m.frames
+
+    def to_leaf_mesh(self) -> LeafMesh:
+        """The compact leaf mesh in bud order (blades, then petioles): equal to :func:`build_leaves`."""
+        q = np.flatnonzero(self._live[:self._n])
+        q = q[np.argsort(self._order[q], kind="stable")]
+        L, nbv, nbf, npv, npf = len(q), self._nbv, self._nbf, self._npv, self._npf
+        base = q * self.Bv
+        src = np.concatenate([(base[:, None] + np.arange(nbv)).ravel(), (base[:, None] + nbv + np.arange(npv)).ravel()])
+        V, NRM, UV, BID = self._V[src], self._NRM[src], self._UV[src], self._BID[src]
+        F = self._F.reshape(-1, self.Bf, 3)
+        fb = F[q, :nbf] - base[:, None, None] + (np.arange(L) * nbv)[:, None, None]
+        fp = F[q, nbf:] - (base + nbv)[:, None, None] + (L * nbv + np.arange(L) * npv)[:, None, None]
+        faces = np.concatenate([fb.reshape(-1, 3), fp.reshape(-1, 3)])
+        return LeafMesh(V, faces, NRM, UV, BID, self._frames[q].copy())

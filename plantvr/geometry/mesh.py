@@ -16,12 +16,23 @@ import numpy as np
 from plantvr._validation import check_array, check_int, check_points, check_range
 
 from . import _kernels as K
-from ._kernels import CAP_END, CAP_START, REC_SIZE
+from ._kernels import CAP_END, CAP_START
 
 __all__ = [
-    "Segments", "BranchMesh", "IncrementalBranchMesh", "MeshUpdate", "tree_segments", "lod_level", "ring_counts", "build_branch_mesh",
-    "update_branch_mesh", "rational_bezier", "rational_bezier_tangent", "length_estimate", "smoothstep",
+    "BranchMesh",
+    "IncrementalBranchMesh",
+    "MeshUpdate",
+    "Segments",
+    "build_branch_mesh",
+    "length_estimate",
+    "lod_level",
+    "rational_bezier",
+    "rational_bezier_tangent",
+    "ring_counts",
+    "smoothstep",
     "transport_frame",
+    "tree_segments",
+    "update_branch_mesh",
 ]
 
 LOD_FULL = (10, 64)

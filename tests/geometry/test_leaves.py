@@ -100,3 +100,55 @@ def test_orient_twins_agree(buds):
         a = orient_leaves(h, r, u, e_twist=0.08, e_up=0.05, e_right=0.1, increment=inc, kernel="numba")
         b = orient_leaves(h, r, u, e_twist=0.08, e_up=0.05, e_right=0.1, increment=inc, kernel="numpy")
         np.testing.assert_allclose(np.stack(a), np.stack(b), atol=1e-10)
+
+
+def test_parallel_and_serial_orient_agree():
+    from plantvr.geometry import leaves as LV
+    rng = np.random.default_rng(5)
+    h, r, u = initial_leaf_frames(rng.normal(size=(3000, 3)), rng=6)
+    e = np.array([0.1, 0.05, 0.08])
+    a = LV._orient_numba(h, r, u, e, 15, Y, 1.0)
+    b = LV._orient_serial(h, r, u, e, 15, Y, 1.0)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+
+
+# ---- incremental leaves -----------------------------------------------------------------------------
+def _bud_rows(rng, n):
+    pos = rng.normal(size=(n, 3))
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    return pos, d, rng.uniform(0.01, 0.05, n), rng.normal(size=(n, 3))
+
+
+def test_incremental_leaves_equal_build_leaves():
+    from plantvr.geometry.leaves import IncrementalLeafMesh
+    kw = dict(radius_threshold=0.03, petiole_radius=0.004, leaf_size=0.4, petiole_length=0.08, e_twist=0.07,
+              leaf_shape="lobed")
+    rng = np.random.default_rng(2)
+    pos, d, r, up = _bud_rows(rng, 150)
+    inc = IncrementalLeafMesh(**kw)
+    for step in range(6):
+        # buds are consumed (rows vanish, later rows shift), new ones appear, some radii cross the threshold
+        keep = rng.random(len(pos)) > 0.15
+        p2, d2, r2, u2 = _bud_rows(rng, 40)
+        pos, d, r, up = (np.concatenate([a[keep], b]) for a, b in ((pos, p2), (d, d2), (r, r2), (up, u2)))
+        r = r * np.where(rng.random(len(r)) < 0.05, 1.5, 1.0)
+        if step == 3:
+            pos, d, r, up = (np.concatenate([a, a[:5]]) for a in (pos, d, r, up))     # duplicate buds
+        res = inc.update(pos, d, r, up)
+        ref = build_leaves(pos, d, r, bud_up=up, **kw)
+        got = inc.to_leaf_mesh()
+        for k in ("vertices", "normals", "uv", "bud_id", "faces", "frames"):
+            np.testing.assert_array_equal(getattr(got, k), getattr(ref, k), err_msg=k)
+        assert inc.n_leaves == len(ref.frames)
+        if step:
+            assert res["added"] < 0.5 * len(ref.frames)          # only new buds were oriented and meshed
+        # the live buffers show exactly these leaves (free blocks are degenerate)
+        f = inc.faces[(inc.faces[:, 0] != inc.faces[:, 1]) | (inc.faces[:, 1] != inc.faces[:, 2])]
+        assert len(f) == len(ref.faces)
+        np.testing.assert_allclose(np.sort(inc.vertices[f].reshape(-1, 9), axis=0),
+                                   np.sort(ref.vertices[ref.faces].reshape(-1, 9), axis=0))
+    with pytest.raises(ValueError, match="bud_up must have shape"):
+        inc.update(pos, d, r, up[:3])
+    assert inc.n_leaves == len(build_leaves(pos, d, r, bud_up=up, **kw).frames)   # unchanged by the rejection
