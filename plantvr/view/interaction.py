@@ -11,6 +11,14 @@ mouse ray at a chosen depth. The same class serves three input sources:
 * a desktop controller emulator (:meth:`BrushInteractor.handle`) fed with the headset's input events
   (pose + analogue trigger + thumb angle), whose log replays identically.
 
+In a browser (JupyterLab or a trame app) the view is server-rendered: trame's remote view sends the
+mouse to the server, where ``vtkWebApplication.HandleInteractionEvent`` replays it on the plotter's
+(offscreen) VTK interactor, so the observers of :meth:`BrushInteractor.attach` fire exactly as in a
+desktop window, picking included; wheel events arrive as ``MouseWheelForward/BackwardEvent``.
+:func:`trame_app` builds such a page with hover enabled (``enable_picking``: the remote view then sends
+moves without a button, so the brush and the prune preview follow the mouse). pyvista's default
+``plotter.show(jupyter_backend="trame")`` view sends only drags: painting and pruning work, hover does not.
+
 The interactor owns no model state: the radius is ``model.brush_radius`` and the mode ``model.prune_mode``.
 """
 from __future__ import annotations
@@ -26,7 +34,7 @@ from .._validation import check_point, check_range
 from ..params import PARAM_BY_NAME
 from . import PRUNE, View
 
-__all__ = ["BrushInteractor", "PREVIEW_TRIGGER", "FULL_TRIGGER"]
+__all__ = ["FULL_TRIGGER", "PREVIEW_TRIGGER", "BrushInteractor", "trame_app"]
 
 #: Analogue trigger thresholds: above the first the brush shows (and prune previews), above the second it acts.
 PREVIEW_TRIGGER, FULL_TRIGGER = 0.1, 0.99
@@ -309,3 +317,64 @@ class BrushInteractor:
         """Detach and stop observing the model."""
         self.detach()
         self.model.unobserve(self._on_mode, names=["prune_mode"])
+
+
+def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: int = 480):
+    """A trame page with the brush's view (server rendered, hover on) and a live status line.
+
+    The brush is attached to the view's interactor; browser mouse events reach it through trame's
+    server-side event replay (see the module docstring). Start the page with ``server.start(port=...)``, or
+    in JupyterLab ``await layout.ready`` and display ``layout``.
+
+    Parameters
+    ----------
+    brush : BrushInteractor
+        Brush over the view to show; its model receives every command.
+    server : trame server, optional
+        Default: a new one named after the view.
+    width, height : int
+        Size of the view in the page, pixels.
+
+    Returns
+    -------
+    (server, layout)
+        The trame server and its ``DivLayout``; ``server.state`` has ``n_markers``, ``n_internodes``,
+        ``n_paint`` and ``brush_radius``, kept in sync with the model.
+
+    Raises
+    ------
+    ValueError
+        If ``trame`` or ``trame-pyvista`` is not installed (the message says what to install).
+    """
+    try:
+        from trame.app import get_server
+        from trame.ui.html import DivLayout
+        from trame.widgets import html
+        from trame_pyvista import PyVistaRemoteView
+    except ImportError as exc:
+        raise ValueError(f"trame_app needs trame and trame-pyvista ({exc}); pip install trame trame-pyvista") from None
+    if not isinstance(brush, BrushInteractor):
+        raise ValueError(f"brush must be a BrushInteractor, got {type(brush).__name__}")
+    width = int(check_range("width", width, 16, 8192))
+    height = int(check_range("height", height, 16, 8192))
+    model = brush.model
+    server = server or get_server(f"plantvr_brush_{id(brush.view):x}", client_type="vue3")
+    state = server.state
+
+    def sync(change=None) -> None:
+        state.n_markers = int(model.n_markers)
+        state.n_internodes = int(model.n_internodes)
+        state.n_paint = sum(1 for e in model.events.events if e.command in ("paint", "prune"))
+        state.brush_radius = round(float(model.brush_radius), 3)
+        state.flush()
+
+    with state:
+        sync()
+    model.observe(sync, names=["version", "brush_radius"])
+    brush.attach()
+    with DivLayout(server) as layout:
+        html.Div("markers {{ n_markers }} · internodes {{ n_internodes }} · brush commands {{ n_paint }} · "
+                 "radius {{ brush_radius }}", classes="plantvr-brush-status", id="plantvr-brush-status")
+        with html.Div(style=f"width:{width}px;height:{height}px", id="plantvr-brush-view"):
+            PyVistaRemoteView(brush.view.plotter, enable_picking=True, interactive_ratio=1, still_ratio=1)
+    return server, layout
