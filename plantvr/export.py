@@ -11,7 +11,8 @@ from .geometry.leaves import LeafMesh, build_leaves
 from .geometry.mesh import BranchMesh, build_branch_mesh
 from .model import Model, Snapshot
 
-__all__ = ["tree_geometry", "tree_trimesh", "export_model"]
+__all__ = ["tree_geometry", "tree_trimesh", "export_model", "snapshot_export", "export_model_as", "export_main",
+           "EXPORT_FORMATS", "BILLBOARD_LOD"]
 
 def tree_geometry(snap: Snapshot, params: dict[str, Any], *, leaves: bool = True,
                   lod: tuple[int, int] = (6, 32)) -> tuple[BranchMesh, LeafMesh | None]:
