@@ -303,6 +303,7 @@ class SketchEngine(GrowthEngine):
         self.width_constraints: dict[int, float] = {}
         self.width_info = None
         self._stroke_dirs: dict[bytes, np.ndarray] = {}
+        self.bud_override: dict[tuple[int, int], np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
 
     @staticmethod
@@ -380,7 +381,8 @@ class SketchEngine(GrowthEngine):
         state = super().__getstate__()
         state["sketch_state"] = {"sketch": dict(self.sketch), "seed": self.seed, "selected": self.selected,
                                  "width_constraints": dict(self.width_constraints),
-                                 "stroke_dirs": dict(self._stroke_dirs)}
+                                 "stroke_dirs": dict(self._stroke_dirs),
+                                 "bud_override": {k: v.copy() for k, v in self.bud_override.items()}}
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -388,6 +390,7 @@ class SketchEngine(GrowthEngine):
         self.sketch, self.seed, self.selected = dict(s["sketch"]), s["seed"], s["selected"]
         self.width_constraints = dict(s["width_constraints"])
         self._stroke_dirs = dict(s["stroke_dirs"])
+        self.bud_override = {k: v.copy() for k, v in s.get("bud_override", {}).items()}
         self.width_info = None
         super().__setstate__(state)
 
@@ -476,12 +479,28 @@ class SketchEngine(GrowthEngine):
         return res
 
 
-    def select(self, node: int | None) -> None:
-        """Selective growth (§2.8): only buds in the subtree of ``node`` may grow; ``None`` ends the mode."""
+    def select(self, node: int | None, direction=None) -> None:
+        """Selective growth (§2.8): only buds in the subtree of ``node`` may grow; ``None`` ends the mode.
+
+        With ``direction`` (3,), the bud at ``node`` (its lateral bud if it has one, else its terminal bud) is
+        re-oriented along it, as TreeSketch turns the nearest bud toward the initial brush-stroke direction.
+        """
+        t = self.tree
         if node is not None:
-            node = check_int("node", node, 0, self.tree.n - 1)
-            if not self.tree.alive[node]:
+            node = check_int("node", node, 0, t.n - 1)
+            if not t.alive[node]:
                 raise ValueError(f"node {node} is not alive")
+        if direction is not None:
+            if node is None:
+                raise ValueError("direction needs a selected node")
+            d = check_point("direction", direction)
+            if not np.linalg.norm(d) > 0:
+                raise ValueError("direction must be a non-zero vector")
+            slots = [k for k in range(1, t.nslots) if t.child[node, k] == BUD] + \
+                ([0] if t.child[node, 0] == BUD else [])
+            if not slots:
+                raise ValueError(f"node {node} has no bud to re-orient")
+            self.bud_override[(node, slots[0])] = d / np.linalg.norm(d)
         self.selected = node
 
     def prune_at(self, node: int) -> int:
@@ -512,6 +531,8 @@ class SketchEngine(GrowthEngine):
                                       if k < n_before and remap[k] >= 0}
             if self.selected is not None:
                 self.selected = int(remap[self.selected]) if remap[self.selected] >= 0 else None
+            self.bud_override = {(int(remap[n]), k): v for (n, k), v in self.bud_override.items()
+                                 if n < n_before and remap[n] >= 0}
         else:
             self.width_constraints = {k: v for k, v in self.width_constraints.items() if self.tree.alive[k]}
             if self.selected is not None and not self.tree.alive[self.selected]:
@@ -577,6 +598,10 @@ class SketchEngine(GrowthEngine):
             self.update_light()
         self._age_markers()
         self._drop_old_buds()
+        if self.bud_override:  # a re-oriented bud that grew (or died) needs no override any more
+            t = self.tree
+            self.bud_override = {(n, k): v for (n, k), v in self.bud_override.items()
+                                 if n < t.n and t.alive[n] and t.child[n, k] == BUD}
         self.step_count += 1
         t = self.tree
         stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
@@ -634,6 +659,11 @@ class SketchEngine(GrowthEngine):
         if delta and main.any():
             lat = bud_headings(t.head[node[main]], t.lat[node[main]], np.ones(int(main.sum()), np.int64), **kw)
             d[main] = deflect_heading(d[main], lat, delta)
+        if self.bud_override:
+            for i, key in enumerate(zip(node.tolist(), slot.tolist())):
+                v = self.bud_override.get(key)
+                if v is not None:
+                    d[i] = v
         return d
 
     def _active_buds(self) -> _Buds:

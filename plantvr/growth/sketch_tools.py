@@ -373,10 +373,11 @@ def nearest_node(engine: SketchEngine, point) -> int:
     return int(live[np.argmin(np.sum((t.pos[live] - point) ** 2, 1))])
 
 
-def select_branch(engine: SketchEngine, point) -> int:
-    """Press-and-hold: enter selective growth at the node nearest ``point``; returns that node (§2.8)."""
+def select_branch(engine: SketchEngine, point, direction=None) -> int:
+    """Press-and-hold: enter selective growth at the node nearest ``point``, its bud turned along the stroke's
+    initial ``direction`` when given; returns that node (§2.8)."""
     node = nearest_node(engine, point)
-    engine.select(node)
+    engine.select(node, direction)
     return node
 
 
@@ -469,6 +470,7 @@ class TreeLibrary:
                 "stroke_dirs": engine.stroke_directions(markers).tolist(),
                 "width_constraints": [[int(rank[k]), v] for k, v in engine.width_constraints.items()],
                 "selected": None if engine.selected is None else int(rank[engine.selected]),
+                "bud_override": [[int(rank[n]), int(k), *map(float, d)] for (n, k), d in engine.bud_override.items()],
                 "born": t.born[t.alive].tolist(), "creation_rank": rank[order].tolist()}
         path = self.folder / f"{name}.tree"
         path.write_text(tree_to_text(t, engine.params))
@@ -503,6 +505,7 @@ class TreeLibrary:
                 raise ValueError("creation_rank is not a permutation")
             cons = {int(k): float(v) for k, v in meta["width_constraints"]}
             sel = meta["selected"]
+            override = {(int(r[0]), int(r[1])): np.asarray(r[2:5], float) for r in meta.get("bud_override", [])}
             rng_state = meta["rng"]
             step_count = int(meta["step_count"])
         except (KeyError, TypeError, ValueError) as exc:
@@ -516,6 +519,7 @@ class TreeLibrary:
         e.rng.bit_generator.state = rng_state
         e.width_constraints = cons
         e.selected = None if sel is None else int(sel)
+        e.bud_override = override
         e._new_nodes = np.zeros(0, np.int64)
         e.rebuild_light()
         return e

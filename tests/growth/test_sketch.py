@@ -472,3 +472,28 @@ def test_ts_v25_region_constrains_autonomous_growth():
         assert ref[k].tobytes() == v.tobytes(), k
     with pytest.raises(ValueError, match="region"):
         e.set_options(region={"sites": [[0, 0]]})
+
+
+def test_ts_selective_reorients_nearest_bud():
+    """§2.8: press-hold on a branch point with a stroke direction turns that bud toward it; only it grows."""
+    params = {"w_heading": 1.0, "w_tropism": 0.0, "w_env": 0.0, "length_mode": "constant", "activation_threshold": 0.0}
+    e = _engine(n_max=1, params=params)
+    e.select(1, direction=[1.0, 0.0, 0.0])  # node 1: lateral bud re-oriented along +x
+    assert (1, 1) in e.bud_override
+    b = e.buds()
+    i = np.flatnonzero((b.node == 1) & (b.slot == 1))[0]
+    np.testing.assert_allclose(b.dir[i], [1.0, 0.0, 0.0])
+    e.add_markers(np.array([[2.5, 1.2, 0.0]]))
+    e.step()
+    t = e.tree
+    new = np.flatnonzero(t.born == 1)
+    assert len(new) == 1 and t.parent[new[0]] == 1 and t.child[1, 1] == new[0]
+    np.testing.assert_allclose(t.pos[new[0]] - t.pos[1], [1.0, 0.0, 0.0], atol=1e-12)  # alpha = 1 keeps it
+    assert not e.bud_override  # the bud grew: override dropped
+    import pickle
+
+    e.select(new[0], direction=[0, 0, 2.0])
+    f = pickle.loads(pickle.dumps(e))
+    np.testing.assert_array_equal(f.bud_override[(int(new[0]), 1)], [0, 0, 1.0])
+    with pytest.raises(ValueError, match="direction"):
+        e.select(None, direction=[1, 0, 0])

@@ -189,6 +189,9 @@ def test_ts_library_save_reload_continues_identically(tmp_path):
         e.step()
     prune_nearest(e, e.tree.pos[np.flatnonzero(e.tree.alive & (e.tree.order == 1))[0]])
     e.set_width(1, 0.4)
+    tip = int(np.flatnonzero(e.tree.alive & (e.tree.child[:, 0] == -1))[-1])
+    select_branch(e, e.tree.pos[tip], direction=[1.0, 0.5, 0.0])
+    assert e.bud_override
     e.set_options(mode="directed")
     s = StrokeEmitter(e, rng=4)
     s.begin([0.0, 6.0, 0.0])
@@ -200,6 +203,9 @@ def test_ts_library_save_reload_continues_identically(tmp_path):
     assert f.sketch == e.sketch and f.seed == e.seed and f.step_count == e.step_count
     np.testing.assert_array_equal(f.markers, e.markers)
     np.testing.assert_array_equal(f.stroke_directions(f.markers), e.stroke_directions(e.markers))
+    assert f.selected is not None and np.array_equal(f.tree.pos[f.selected], e.tree.pos[e.selected])
+    assert [(f.tree.pos[n].tolist(), k, d.tolist()) for (n, k), d in f.bud_override.items()] == \
+        [(e.tree.pos[n].tolist(), k, d.tolist()) for (n, k), d in e.bud_override.items()]
     for k, v in _live(e).items():
         np.testing.assert_array_equal(_live(f)[k], v, err_msg=k)
     for _ in range(3):
