@@ -4,9 +4,14 @@ import pytest
 
 pv = pytest.importorskip("pyvista")
 
-from plantvr.subdivision import build_control_mesh, control_uvs, parse_lsystem, tree_mesh  # noqa: E402
-from plantvr.view.subdivision import (SubdivisionView, checker_texture, side_by_side,  # noqa: E402
-                                      textured_polydata, to_polydata)
+from plantvr.subdivision import build_control_mesh, control_uvs, parse_lsystem, tree_mesh
+from plantvr.view.subdivision import (
+    SubdivisionView,
+    checker_texture,
+    side_by_side,
+    textured_polydata,
+    to_polydata,
+)
 
 TEXT = "F(2,0.2)[+F(1,0.1)][-F(1,0.1)]F(1,0.15)"
 
