@@ -659,11 +659,8 @@ class SketchEngine(GrowthEngine):
         if delta and main.any():
             lat = bud_headings(t.head[node[main]], t.lat[node[main]], np.ones(int(main.sum()), np.int64), **kw)
             d[main] = deflect_heading(d[main], lat, delta)
-        if self.bud_override:
-            for i, key in enumerate(zip(node.tolist(), slot.tolist())):
-                v = self.bud_override.get(key)
-                if v is not None:
-                    d[i] = v
+        for (n, k), v in self.bud_override.items():  # few entries: one vector test each
+            d[(node == n) & (slot == k)] = v
         return d
 
     def _active_buds(self) -> _Buds:
