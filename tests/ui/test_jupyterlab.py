@@ -3,8 +3,9 @@
 A JupyterLab server is started on 127.0.0.1 in a subprocess with a temporary notebook that makes a
 :class:`plantvr.Model` and an :class:`~plantvr.ui.InfluenceTriangle`. Headless Debian Chromium (playwright)
 runs the cells, drags the triangle's handle, then re-runs a cell that prints ``model.influence`` in the
-kernel; the printed weights are read back from the page. A last cell sets the weights in the kernel and
-the handle moves in the page. The server is always killed.
+kernel; the printed weights are read back from the page. A cell then sets the weights in the kernel and
+the handle moves in the page. In the same session a parameter slider of the generated panels is dragged
+(the model's λ follows) and a colour-wheel slice is clicked (the selected label follows). The server is always killed.
 Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 """
 import json
@@ -35,6 +36,12 @@ CELLS = [
      "model = plantvr.Model(seed=0)\nmodel.set_influence(1, 1, 1)\ntri = InfluenceTriangle(model)\ntri"),
     "print('INFLUENCE', *[f'{w:.4f}' for w in model.influence])",
     "model.set_influence(0.6, 0.2, 0.2)  # kernel -> browser",
+    ("from plantvr.ui import ParameterPanels\npanels = ParameterPanels(model)\n"
+     "panels.controls['apical_dominance']"),
+    "print('APICAL', f'{model.apical_dominance:.6f}', panels.controls['apical_dominance'].value)",
+    ("import numpy as np\nfrom plantvr.ui import ColorWheel\nfrom plantvr.vine.segmentation import Segmentation\n"
+     "seg = Segmentation(np.eye(3, dtype=np.float32), np.array([[0, 1, 2]]))\nwheel = ColorWheel(target=seg)\nwheel"),
+    "print('SELECTED', wheel.selected, len(wheel.colors))",
 ]
 
 
@@ -117,17 +124,22 @@ def _run_cell(page, index: int) -> None:
     }""", index)
 
 
-def _influence(page, timeout_s: float = 20.0) -> np.ndarray:
-    """Read the last 'INFLUENCE h t e' line printed by the second cell."""
-    loc = page.locator(".jp-Cell").nth(1).locator(".jp-OutputArea-output")
+def _printed(page, cell: int, pattern: str, timeout_s: float = 20.0) -> tuple[str, ...]:
+    """The groups of ``pattern`` in the output of ``cell`` (what the kernel printed)."""
+    loc = page.locator(".jp-Cell").nth(cell).locator(".jp-OutputArea-output")
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         if loc.count():
-            m = re.search(r"INFLUENCE ([\d.]+) ([\d.]+) ([\d.]+)", loc.last.inner_text())
+            m = re.search(pattern, loc.last.inner_text())
             if m:
-                return np.array([float(v) for v in m.groups()])
+                return m.groups()
         time.sleep(0.2)
-    raise AssertionError("the kernel printed no INFLUENCE line")
+    raise AssertionError(f"cell {cell} printed nothing matching {pattern!r}")
+
+
+def _influence(page) -> np.ndarray:
+    """Read the last 'INFLUENCE h t e' line printed by the second cell."""
+    return np.array([float(v) for v in _printed(page, 1, r"INFLUENCE ([\d.]+) ([\d.]+) ([\d.]+)")])
 
 
 def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
@@ -146,7 +158,7 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
                 && window.jupyterapp.shell.currentWidget.sessionContext.session
                 && window.jupyterapp.shell.currentWidget.sessionContext.session.kernel
                 && window.jupyterapp.shell.currentWidget.sessionContext.session.kernel.connectionStatus === 'connected'
-                && window.jupyterapp.shell.currentWidget.content.widgets.length === 3""", timeout=45_000)
+                && window.jupyterapp.shell.currentWidget.content.widgets.length === 7""", timeout=45_000)
             _run_cell(page, 0)
             handle = page.locator("circle.tri-handle")
             handle.wait_for(state="visible", timeout=45_000)
@@ -165,12 +177,14 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
             page.mouse.up()
             page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.000')")
 
-            _run_cell(page, 1)
+            # the drag's last comm message may still be queued behind the cell: re-run until it lands
             deadline = time.monotonic() + 20
-            after = _influence(page)
-            while np.allclose(after, before, atol=1e-3) and time.monotonic() < deadline:
-                time.sleep(0.2)
+            while True:
+                _run_cell(page, 1)
                 after = _influence(page)
+                if np.allclose(after, [0.0, 0.5, 0.5], atol=0.01) or time.monotonic() > deadline:
+                    break
+                time.sleep(0.3)
             page.screenshot(path=str(shots / "jupyterlab_triangle.png"))
             np.testing.assert_allclose(after, [0.0, 0.5, 0.5], atol=0.01)
 
@@ -178,6 +192,44 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
             page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.600')")
             cx = float(handle.get_attribute("cx"))
             assert cx == pytest.approx(pad + (0.6 * 0.5 + 0.2 * 1.0) * size, abs=0.5)
+
+            # a parameter slider (ipywidgets, generated from the table) dragged: the model follows
+            _run_cell(page, 3)
+            handle = page.locator(".jp-Cell").nth(3).locator(".noUi-handle").first
+            handle.wait_for(state="visible", timeout=30_000)
+            handle.scroll_into_view_if_needed()
+            _run_cell(page, 4)
+            before_lam = float(_printed(page, 4, r"APICAL ([\d.]+)")[0])
+            assert before_lam == pytest.approx(0.55)
+            hb = handle.bounding_box()
+            page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+            page.mouse.down()
+            page.mouse.move(hb["x"] + hb["width"] / 2 + 60, hb["y"] + hb["height"] / 2, steps=6)
+            page.mouse.up()
+            deadline, lam = time.monotonic() + 20, before_lam
+            while lam == pytest.approx(before_lam) and time.monotonic() < deadline:
+                _run_cell(page, 4)
+                lam, shown = (float(v) for v in _printed(page, 4, r"APICAL ([\d.]+) ([\d.]+)"))
+            assert lam > before_lam + 0.02 and lam == pytest.approx(shown, abs=1e-6) and lam <= 1.0
+            page.screenshot(path=str(shots / "jupyterlab_slider.png"))
+
+            # a colour-wheel slice clicked: the selected label changes in the kernel
+            _run_cell(page, 5)
+            wheel_svg = page.locator(".jp-Cell").nth(5).locator("svg.wheel-svg")
+            wheel_svg.wait_for(state="visible", timeout=30_000)
+            wheel_svg.scroll_into_view_if_needed()
+            _run_cell(page, 6)
+            n_colors = int(_printed(page, 6, r"SELECTED (\d+) (\d+)")[1])
+            box = wheel_svg.bounding_box()
+            C, R, k = 110 + 14 + 18, 110, 4
+            a = (k + 0.5) * 2 * np.pi / n_colors
+            page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
+            deadline, sel = time.monotonic() + 20, None
+            while sel != k and time.monotonic() < deadline:
+                _run_cell(page, 6)
+                sel = int(_printed(page, 6, r"SELECTED (\d+)")[0])
+            page.screenshot(path=str(shots / "jupyterlab_wheel.png"))
+            assert sel == k
             assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
         finally:
             browser.close()
