@@ -13,7 +13,8 @@ search is a numba kernel with a scipy ``csgraph`` twin used as the oracle in the
 from __future__ import annotations
 
 import heapq
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numba
 import numpy as np
@@ -34,13 +35,18 @@ class MeshGraph:
     indptr : (V + 1,) int64 ndarray
     indices : (2E,) int32 ndarray
         Neighbour ids, sorted within each row, no duplicates, no self loops.
-    weights : (2E,) float64 ndarray
-        Euclidean edge lengths, in model units.
+    vertices : (V, 3) ndarray
+        The mesh's vertex positions (a reference, for :attr:`weights`).
     """
 
     indptr: np.ndarray
     indices: np.ndarray
-    weights: np.ndarray
+    vertices: np.ndarray = field(repr=False)
+
+    @cached_property
+    def weights(self) -> np.ndarray:
+        """(2E,) float64 Euclidean edge lengths in model units (computed on first use: geodesic fill)."""
+        return _edge_lengths_numba(self.indptr, self.indices, self.vertices)
 
     @property
     def n_vertices(self) -> int:
@@ -49,18 +55,95 @@ class MeshGraph:
 
     @property
     def nbytes(self) -> int:
-        """Memory held by the three arrays."""
-        return int(self.indptr.nbytes + self.indices.nbytes + self.weights.nbytes)
+        """Memory held by the CSR arrays (and the edge lengths once computed)."""
+        w = self.__dict__.get("weights")
+        return int(self.indptr.nbytes + self.indices.nbytes + (0 if w is None else w.nbytes))
 
     def to_scipy(self, weighted: bool = True) -> sp.csr_matrix:
         """The graph as a scipy CSR matrix (edge lengths, or ones)."""
-        data = self.weights if weighted else np.ones_like(self.weights)
+        data = self.weights if weighted else np.ones(self.indices.size)
         n = self.n_vertices
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(n, n))
 
 
+@numba.njit(cache=True, nogil=True)
+def _edge_lengths_numba(indptr, indices, vertices):  # pragma: no cover - numba kernel, twin: _edge_lengths
+    w = np.empty(indices.size, np.float64)
+    for u in range(indptr.size - 1):
+        for e in range(indptr[u], indptr[u + 1]):
+            t = indices[e]
+            dx = np.float64(vertices[u, 0]) - np.float64(vertices[t, 0])
+            dy = np.float64(vertices[u, 1]) - np.float64(vertices[t, 1])
+            dz = np.float64(vertices[u, 2]) - np.float64(vertices[t, 2])
+            w[e] = np.sqrt(dx * dx + dy * dy + dz * dz)
+    return w
+
+
+def _edge_lengths(indptr, indices, vertices) -> np.ndarray:
+    """Numpy twin of :func:`_edge_lengths_numba`."""
+    n = indptr.size - 1
+    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+    d = vertices[rows].astype(np.float64) - vertices[indices].astype(np.float64)
+    return np.sqrt(np.einsum("ij,ij->i", d, d))
+
+
+@numba.njit(cache=True, nogil=True)
+def _csr_numba(faces, n):  # pragma: no cover - numba kernel, twin: _csr_scipy
+    """Vertex adjacency from triangles: count, scatter, then sort and de-duplicate each row in place."""
+    start = np.zeros(n + 1, np.int64)
+    for t in range(faces.shape[0]):
+        for k in range(3):
+            a, b = faces[t, k], faces[t, (k + 1) % 3]
+            if a != b:
+                start[a + 1] += 1
+                start[b + 1] += 1
+    for v in range(n):
+        start[v + 1] += start[v]
+    buf = np.empty(start[n], np.int32)
+    pos = start[:n].copy()
+    for t in range(faces.shape[0]):
+        for k in range(3):
+            a, b = faces[t, k], faces[t, (k + 1) % 3]
+            if a != b:
+                buf[pos[a]] = b
+                pos[a] += 1
+                buf[pos[b]] = a
+                pos[b] += 1
+    indptr = np.zeros(n + 1, np.int64)
+    m = 0
+    for v in range(n):
+        lo, hi = start[v], start[v + 1]
+        for j in range(lo + 1, hi):                        # insertion sort: rows are short (~12)
+            x = buf[j]
+            i = j - 1
+            while i >= lo and buf[i] > x:
+                buf[i + 1] = buf[i]
+                i -= 1
+            buf[i + 1] = x
+        for j in range(lo, hi):                            # compact unique ids (m <= lo: safe in place)
+            if j == lo or buf[j] != buf[j - 1]:
+                buf[m] = buf[j]
+                m += 1
+        indptr[v + 1] = m
+    return indptr, buf[:m].copy()
+
+
+def _csr_scipy(faces: np.ndarray, n: int):
+    """scipy twin of :func:`_csr_numba` (COO → CSR with duplicates summed)."""
+    f = faces.astype(np.int64, copy=False)
+    a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+    b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+    keep = a != b                                            # degenerate faces give no self loops
+    a, b = a[keep], b[keep]
+    m = sp.csr_matrix((np.ones(2 * a.size, np.int8), (np.concatenate([a, b]), np.concatenate([b, a]))),
+                      shape=(n, n))
+    m.sum_duplicates()
+    m.sort_indices()
+    return m.indptr.astype(np.int64), m.indices.astype(np.int32)
+
+
 def mesh_graph(vertices: np.ndarray, faces: np.ndarray) -> MeshGraph:
-    """Build the vertex adjacency (CSR) of a triangle mesh with edge lengths.
+    """Build the vertex adjacency (CSR) of a triangle mesh; edge lengths follow on first use.
 
     Parameters
     ----------
@@ -72,7 +155,8 @@ def mesh_graph(vertices: np.ndarray, faces: np.ndarray) -> MeshGraph:
     Returns
     -------
     MeshGraph
-        Each undirected mesh edge appears in both rows; shared edges appear once.
+        Each undirected mesh edge appears in both rows; shared edges appear once. About 32 B per vertex
+        (+48 B once edge lengths are needed) for a closed triangle mesh.
     """
     v = np.asarray(vertices)
     f = np.asarray(faces)
@@ -83,21 +167,10 @@ def mesh_graph(vertices: np.ndarray, faces: np.ndarray) -> MeshGraph:
     n = v.shape[0]
     if f.size and (int(f.min()) < 0 or int(f.max()) >= n):
         raise ValueError(f"faces must index vertices in [0, {n - 1}], got range [{f.min()}, {f.max()}]")
-    f = f.astype(np.int64, copy=False)
-    a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
-    b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
-    keep = a != b                                            # degenerate faces give no self loops
-    a, b = a[keep], b[keep]
-    m = sp.csr_matrix((np.ones(2 * a.size, np.int8), (np.concatenate([a, b]), np.concatenate([b, a]))),
-                      shape=(n, n))
-    m.sum_duplicates()
-    m.sort_indices()
-    indptr = m.indptr.astype(np.int64)
-    indices = m.indices.astype(np.int32)
-    rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
-    d = v[rows].astype(np.float64) - v[indices].astype(np.float64)
-    w = np.sqrt(np.einsum("ij,ij->i", d, d))
-    return MeshGraph(indptr, indices, w)
+    if n >= 2 ** 31:
+        raise ValueError(f"vertices must number fewer than 2**31 (int32 neighbour ids), got {n}")
+    indptr, indices = _csr_numba(np.ascontiguousarray(f), n)
+    return MeshGraph(indptr, indices, v)
 
 
 # ---------------------------------------------------------------------------------------------- kernels

@@ -61,6 +61,19 @@ def test_mesh_graph_matches_faces(surface, graph):
                                           for e in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))})
 
 
+def test_csr_kernel_matches_scipy_twin(surface):
+    f = surface.faces.copy()
+    f[5] = [f[5, 0], f[5, 0], f[5, 1]]                  # a degenerate face: no self loop
+    ip, ix = F._csr_numba(f, len(surface.vertices))
+    ip2, ix2 = F._csr_scipy(f, len(surface.vertices))
+    np.testing.assert_array_equal(ip, ip2)
+    np.testing.assert_array_equal(ix, ix2)
+    g = F.mesh_graph(surface.vertices, f)
+    assert g.nbytes == ip.nbytes + ix.nbytes             # edge lengths not built yet
+    assert g.weights.size == ix.size and g.nbytes == ip.nbytes + ix.nbytes + 8 * ix.size
+    np.testing.assert_array_equal(g.weights, F._edge_lengths(ip, ix, surface.vertices))
+
+
 def test_flood_equals_brute_force_and_csgraph(surface, graph, truth):
     nb = _brute_adjacency(surface.faces, len(surface.vertices))
     rng = np.random.default_rng(3)
@@ -96,10 +109,16 @@ def test_components_twin(graph, truth):
         assert n == csgraph.connected_components(sub, directed=False)[0]
 
 
-def test_kernels_match_twins_without_jit(monkeypatch, graph, truth):
+def test_kernels_match_twins_without_jit(monkeypatch, surface, graph, truth):
     """The kernels' Python source (coverage sees it) gives the same answers as the compiled ones."""
-    for name in ("_flood_numba", "_geodesic_numba", "_components_numba"):
+    for name in ("_flood_numba", "_geodesic_numba", "_components_numba", "_csr_numba", "_edge_lengths_numba"):
         monkeypatch.setattr(F, name, getattr(F, name).py_func)
+    f = surface.faces[:800]
+    g = F.mesh_graph(surface.vertices, f)
+    ip, ix = F._csr_scipy(f, len(surface.vertices))
+    np.testing.assert_array_equal(g.indptr, ip)
+    np.testing.assert_array_equal(g.indices, ix)
+    np.testing.assert_array_equal(g.weights, F._edge_lengths(ip, ix, surface.vertices))
     np.testing.assert_array_equal(F.flood_region(graph, truth, 7), F._flood_numpy(graph, truth, 7))
     ids, _ = F.flood_region(graph, truth, 7, radius=3.0, return_distances=True)
     np.testing.assert_array_equal(ids, F._geodesic_numpy(graph, truth, 7, 3.0)[0])
