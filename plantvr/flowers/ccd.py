@@ -567,9 +567,13 @@ def _incidence(elems: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarr
 
 
 def _gather(off: np.ndarray, ids: np.ndarray, verts: np.ndarray) -> np.ndarray:
+    """Unique elements incident to ``verts`` (vectorised CSR gather)."""
     if verts.size == 0:
         return np.zeros(0, np.int64)
-    return np.unique(np.concatenate([ids[off[v]:off[v + 1]] for v in verts]))
+    starts = off[verts]
+    cnt = off[verts + 1] - starts
+    idx = np.repeat(starts - np.cumsum(cnt) + cnt, cnt) + np.arange(int(cnt.sum()))
+    return np.unique(ids[idx])
 
 
 class CollisionDetector:

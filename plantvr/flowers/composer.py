@@ -146,8 +146,14 @@ class Canopy:
 
 
 def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams = SolverParams(), *,
-         collisions: bool = True, backend: str = "numba") -> tuple[np.ndarray, dict]:
+         collisions: bool = True, backend: str = "numba", prev_stages: np.ndarray | None = None
+         ) -> tuple[np.ndarray, dict]:
     """One simulation step of Algorithm 1 (spec 002 §3.5) from collision-free ``x``.
+
+    With ``prev_stages`` (the stages of ``x``), the prediction starts from ``x`` plus the kinematic
+    displacement of the placed animation between the two stages ("applyAnimation", Alg. 1 lines 2–4,
+    [INFERRED] reading); the constraints then only correct deviations caused by contacts. Without it the
+    prediction starts at ``x`` and the new rest values alone drive the growth.
 
     Returns
     -------
@@ -159,7 +165,11 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
     x = check_array("x", x, shape=(canopy.voff[-1], 3))
     stats = {"solver": 0.0, "broad": 0.0, "narrow": 0.0, "constraints": 0, "passes": 0, "rolled_back": 0}
     rest_len, rest_phi, target = canopy.targets(stages)
-    p = x.copy()
+    if prev_stages is not None:
+        prev = check_array("prev_stages", prev_stages, shape=(canopy.n_instances,))
+        p = x + (target - canopy.targets(prev)[2])
+    else:
+        p = x.copy()
     p[canopy.fixed] = target[canopy.fixed]                 # attachments from M_i (C8)
     t0 = time.perf_counter()
     pbd.solve_internal(p, canopy.w, canopy.edges, rest_len, canopy.quads, rest_phi,
@@ -184,6 +194,8 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
             return ccd.detect_collisions_numpy(x, p, canopy.faces, h=params.spacing, edges=canopy.edges,
                                                timings=stats)
     clean = False
+    active = np.zeros((0, 4), np.int64)
+    active_sides = np.zeros(0)
     for _ in range(params.max_collision_retries):
         cons, sides, _ = detect(p)
         stats["passes"] += 1
@@ -191,7 +203,11 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
             clean = True
             break
         stats["constraints"] += len(cons)
-        ccd.solve_collisions(p, w_col, cons, sides, h=params.spacing, k_collision=params.k_collision,
+        # [INFERRED] constraints found in earlier passes of this step stay in the set (unilateral, so an
+        # inactive one costs nothing); solving only the newest ones lets contacts ping-pong between passes
+        active, first = np.unique(np.concatenate([active, cons]), axis=0, return_index=True)
+        active_sides = np.concatenate([active_sides, sides])[first]
+        ccd.solve_collisions(p, w_col, active, active_sides, h=params.spacing, k_collision=params.k_collision,
                              iterations=params.collision_iterations)
     if not clean:                                          # fallback (I): roll back colliding vertices
         for _ in range(100):
@@ -221,7 +237,7 @@ def grow(canopy: Canopy, stages_per_step: np.ndarray, params: SolverParams = Sol
     x = canopy.initial_positions(S[0]) if x0 is None else check_array("x0", x0, shape=(canopy.voff[-1], 3))
     log = []
     for t in range(1, S.shape[0]):
-        x, st = step(canopy, x, S[t], params, collisions=collisions)
+        x, st = step(canopy, x, S[t], params, collisions=collisions, prev_stages=S[t - 1])
         if sanity_every and t % sanity_every == 0:
             st["intersections"] = ccd.count_static_intersections(x, canopy.faces, edges=canopy.edges)
         log.append(st)

@@ -66,8 +66,10 @@ def cone_dmin(positions: np.ndarray, *, alpha_deg: float, centre=(0.0, 0.0, 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             cosang = np.einsum("bqk,bk->bq", d, axis[start:stop]) / dist
         inside = cosang < cos_a if literal else cosang > cos_a   # ERRATUM A.4
+        # [INFERRED] the floret at the centre O has no outward direction: its cone is all of space,
+        # so it is never a ray floret (else every centripetally produced head gains one spurious ray)
+        inside |= nrm[start:stop] == 0
         inside &= dist > 0                                       # Q != P
-        inside &= nrm[start:stop] > 0                            # the centre floret has no cone axis
         out[start:stop] = np.where(inside, dist, np.inf).min(axis=1)
     return out
 
