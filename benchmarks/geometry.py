@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from plantvr.geometry import IncrementalBranchMesh, build_branch_mesh, update_branch_mesh
+from plantvr.geometry import IncrementalBranchMesh, IncrementalLeafMesh, build_branch_mesh, update_branch_mesh
 from plantvr.geometry import _kernels as K
 from plantvr.geometry.leaves import build_leaves
 
@@ -76,8 +76,9 @@ def _best(fn, repeat=3):
     return best, out
 
 
-def _buds(pos, parent, radius, seed=0):
-    """Every empty bud slot of the binary tree (a main bud on tips, a lateral bud on one-child nodes)."""
+def _buds(pos, parent, radius):
+    """Every empty bud slot of the binary tree (a main bud on tips, a lateral bud on one-child nodes), with
+    directions and up vectors that depend only on the node (so a bud keeps its row content between steps)."""
     n = len(pos)
     nk = np.bincount(parent[1:], minlength=n)
     tips, lat = np.flatnonzero(nk == 0), np.flatnonzero(nk <= 1)
@@ -85,12 +86,14 @@ def _buds(pos, parent, radius, seed=0):
     node = np.concatenate([tips, lat])
     d = pos[node] - pos[parent[node]]
     d /= np.linalg.norm(d, axis=1)[:, None]
-    lateral = np.arange(len(node)) >= len(tips)
-    a = np.random.default_rng(seed).normal(size=d.shape)
-    a -= np.sum(a * d, 1, keepdims=True) * d
-    a /= np.linalg.norm(a, axis=1)[:, None]
-    d = np.where(lateral[:, None], np.cos(0.8) * d + np.sin(0.8) * a, d)
-    return pos[node], d, radius[node]
+    e1 = np.cross(d, [0.3, 0.5, 0.81])
+    e1 /= np.linalg.norm(e1, axis=1)[:, None]
+    e2 = np.cross(d, e1)
+    phi = 2.4 * node[:, None]
+    a = np.cos(phi) * e1 + np.sin(phi) * e2
+    lateral = (np.arange(len(node)) >= len(tips))[:, None]
+    heading = np.where(lateral, np.cos(0.8) * d + np.sin(0.8) * a, d)
+    return pos[node], heading, radius[node], np.where(lateral, np.cos(0.8) * a - np.sin(0.8) * d, a)
 
 
 def _tube_baseline(pos, parent, radius, n_sides=10):
@@ -105,6 +108,9 @@ def _tube_baseline(pos, parent, radius, n_sides=10):
     def run():
         return pd.tube(scalars="radius", absolute=True, n_sides=n_sides, capping=False)
     return run
+
+
+LEAF_KW = dict(radius_threshold=0.03, leaf_size=0.3, petiole_length=0.05, petiole_radius=0.003)
 
 
 def _grow_step(pos, parent, main, rng, frac_tip=0.01, frac_lateral=0.005):
@@ -148,13 +154,13 @@ def main(argv: list[str] | None = None) -> dict:
           f"{'ours+leaves':>11} {'(cpu ms)':>8} {'pv.tube ms':>10} {'numpy twin ms':>13}")
     for n in sizes:
         pos, parent, radius, mc = random_tree(n, seed=n)
-        bp, bd, br = _buds(pos, parent, radius)
+        bp, bd, br, bu = _buds(pos, parent, radius)
 
         def build(lod=(10, 64)):
             return build_branch_mesh(pos, parent, radius, main_child=mc, tip_radius=0.01, lod=lod)
 
         def leaves():
-            return build_leaves(bp, bd, br, radius_threshold=0.03, leaf_size=0.3, petiole_length=0.05, rng=0)
+            return build_leaves(bp, bd, br, bud_up=bu, **LEAF_KW)
 
         build(), leaves()                                  # JIT warm-up (cached on disk afterwards)
         t_ours, mesh = _best(build)
@@ -193,12 +199,15 @@ def _incremental(n, steps, numba):
     print(f"\nincremental update after one growth step at {n} internodes ({steps} consecutive steps; the "
           f"update twice: numba threads = {numba.get_num_threads()} and 1)")
     print(f"{'step':>4} {'new':>5} {'changed':>8} {'verts rewritten':>15} {'update ms':>9} {'1-thread ms':>11} "
-          f"{'(cpu ms)':>8} {'copy-update ms':>14} {'full rebuild ms':>15} {'pv.tube ms':>10}")
+          f"{'(cpu ms)':>8} {'leaves +/-':>10} {'leaf upd ms':>11} {'(cpu ms)':>8} {'copy-update ms':>14} "
+          f"{'full rebuild ms':>15} {'+leaves ms':>10} {'pv.tube ms':>10}")
     kw = dict(tip_radius=0.01)
     rows = []
     threads = numba.get_num_threads()
     IncrementalBranchMesh(*trees[0][:3], main_child=trees[0][3], **kw).update(*trees[1][:3], main_child=trees[1][3])
     incs = {t: IncrementalBranchMesh(*trees[0][:3], main_child=trees[0][3], **kw) for t in (threads, 1)}
+    leaves = IncrementalLeafMesh(**LEAF_KW)
+    leaves.update(*_buds(*trees[0][:3]))
     old = build_branch_mesh(*trees[0][:3], main_child=trees[0][3], **kw)
     update_branch_mesh(build_branch_mesh(*trees[0][:3], main_child=trees[0][3], **kw), *trees[1][:3],
                        main_child=trees[1][3])                                   # warm-up
@@ -211,19 +220,28 @@ def _incremental(n, steps, numba):
         numba.set_num_threads(threads)
         upd = res[threads][2]
         t_copy, _, (old, _) = _cpu(lambda: update_branch_mesh(old, p, par, r, main_child=m))
+        buds = _buds(p, par, r)
+        numba.set_num_threads(1)
+        t_leaf, c_leaf, lres = _cpu(lambda: leaves.update(*buds))
+        numba.set_num_threads(threads)
         t_full, _ = _best(lambda: build_branch_mesh(p, par, r, main_child=m, **kw), repeat=1)
+        t_full_leaves, _ = _best(lambda: build_leaves(buds[0], buds[1], buds[2], bud_up=buds[3], **LEAF_KW),
+                                 repeat=1)
         t_tube, _ = _best(_tube_baseline(p, par, r), repeat=1)
         rewritten = int((upd.vertex_ranges[:, 1] - upd.vertex_ranges[:, 0]).sum()) if not upd.relayout else -1
         row = dict(step=k, internodes=len(p) - 1, new=len(p) - len(trees[k - 1][0]), changed=len(upd.changed),
                    vertices_rewritten=rewritten, relayout=upd.relayout, update_s=res[threads][0],
                    update_1thread_s=res[1][0], update_1thread_cpu_s=res[1][1], copy_update_s=t_copy,
-                   full_s=t_full, pv_tube_s=t_tube)
+                   leaves_added=lres["added"], leaves_removed=lres["removed"], leaf_update_1thread_s=t_leaf,
+                   leaf_update_1thread_cpu_s=c_leaf, full_s=t_full, full_leaves_s=t_full_leaves, pv_tube_s=t_tube)
         rows.append(row)
         print(f"{k:>4} {row['new']:>5} {row['changed']:>8} {rewritten:>15} {1e3 * row['update_s']:>9.1f} "
               f"{1e3 * row['update_1thread_s']:>11.1f} {1e3 * row['update_1thread_cpu_s']:>8.1f} "
-              f"{1e3 * t_copy:>14.1f} {1e3 * t_full:>15.1f} {1e3 * t_tube:>10.1f}")
-    med = {k: float(np.median([r[k] for r in rows])) for k in ("update_s", "update_1thread_s",
-                                                               "update_1thread_cpu_s", "copy_update_s", "full_s")}
+              f"{lres['added']:>5}/{lres['removed']:<4} {1e3 * t_leaf:>11.1f} {1e3 * c_leaf:>8.1f} "
+              f"{1e3 * t_copy:>14.1f} {1e3 * t_full:>15.1f} {1e3 * t_full_leaves:>10.1f} {1e3 * t_tube:>10.1f}")
+    med = {k: float(np.median([r[k] for r in rows])) for k in (
+        "update_s", "update_1thread_s", "update_1thread_cpu_s", "leaf_update_1thread_s", "leaf_update_1thread_cpu_s",
+        "copy_update_s", "full_s", "full_leaves_s")}
     print("median: " + ", ".join(f"{k} {1e3 * v:.1f} ms" for k, v in med.items()))
     ok = incs[1].to_branch_mesh()
     ref = build_branch_mesh(*trees[-1][:3], main_child=trees[-1][3], **kw)
@@ -239,7 +257,7 @@ def _render(outdir):
     from plantvr.geometry.textures import bark_texture, leaf_texture
     os.makedirs(outdir, exist_ok=True)
     pos, parent, radius, mc = random_tree(400, seed=3, tip_radius=0.015)
-    bp, bd, br = _buds(pos, parent, radius)
+    bp, bd, br, bu = _buds(pos, parent, radius)
     paths = []
     for lod, leaves, name in (((10, 64), True, "tree_lod10_64_leaves.png"), ((6, 32), False, "tree_lod6_32.png")):
         m = build_branch_mesh(pos, parent, radius, main_child=mc, lod=lod, bark_rate=2.0)
@@ -249,7 +267,7 @@ def _render(outdir):
         p.add_mesh(bark, texture=pv.Texture(np.ascontiguousarray(bark_texture("furrowed")[::-1, :, :3])),
                    show_edges=not leaves, edge_color="#331a00", line_width=0.5)
         if leaves:
-            lv = build_leaves(bp, bd, br, radius_threshold=0.03, leaf_size=0.35, petiole_length=0.05, rng=0)
+            lv = build_leaves(bp, bd, br, bud_up=bu, radius_threshold=0.03, leaf_size=0.35, petiole_length=0.05)
             lf = pv.PolyData(lv.vertices, np.column_stack([np.full(len(lv.faces), 3), lv.faces]).ravel())
             lf.active_texture_coordinates = lv.uv
             p.add_mesh(lf, texture=pv.Texture(np.ascontiguousarray(leaf_texture("ovate")[::-1])))

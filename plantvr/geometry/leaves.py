@@ -203,7 +203,8 @@ def _rot3(v0, v1, v2, a0, a1, a2, c, s_):
     return v0 * c + x0 * s_ + a0 * av, v1 * c + x1 * s_ + a1 * av, v2 * c + x2 * s_ + a2 * av
 
 
-def _orient_impl(h, r, u, e, iterations, y, scale):
+@numba.njit(cache=True, nogil=True, parallel=True)
+def _orient_numba(h, r, u, e, iterations, y, scale):
     """Per-leaf, allocation-free loop of Eq. 10.15 (twin: the vectorised body of :func:`orient_leaves`).
 
     Leaves run in parallel; r̂ is not rotated but rebuilt as ĥ × û after each step, as the twin does.
@@ -249,8 +250,14 @@ def _orient_impl(h, r, u, e, iterations, y, scale):
     return H, R, U
 
 
-_orient_numba = numba.njit(cache=True, nogil=True, parallel=True)(_orient_impl)
-_orient_serial = numba.njit(cache=True, nogil=True)(_orient_impl)     # small batches: no thread pool
+def _orient_serial(h, r, u, e, iterations, y, scale):
+    """:func:`_orient_numba` on one thread (small batches: waking the pool costs more than it saves)."""
+    prev = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        return _orient_numba(h, r, u, e, iterations, y, scale)
+    finally:
+        numba.set_num_threads(prev)
 
 
 def _blade(shape: str):
@@ -429,7 +436,7 @@ class IncrementalLeafMesh:
         self.buffer_version = 0
         self._n = 0                                    # slots in use (live or free)
         self._V, self._NRM = np.zeros((0, 3)), np.zeros((0, 3), np.float32)
-        self._UV, self._BID = np.zeros((0, 2), np.float32), np.zeros(0, np.int64)
+        self._UV = np.zeros((0, 2), np.float32)
         self._F = np.zeros((0, 3), np.int64)
         self._rows, self._live, self._hash = np.zeros((0, 9)), np.zeros(0, bool), np.zeros(0, np.uint64)
         self._frames, self._order = np.zeros((0, 3, 3)), np.zeros(0, np.int64)
@@ -440,7 +447,7 @@ class IncrementalLeafMesh:
         cap = len(self._live)
         if slots <= cap:
             return
-        cap = max(slots, int(1.5 * cap) + 16)
+        cap = max(slots + slots // 4, int(1.5 * cap) + 16)
         n = self._n
 
         def grow(a, rows, used, fill=0):
@@ -449,7 +456,7 @@ class IncrementalLeafMesh:
             return out
         nv, nf = n * self.Bv, n * self.Bf
         self._V, self._NRM = grow(self._V, cap * self.Bv, nv), grow(self._NRM, cap * self.Bv, nv)
-        self._UV, self._BID = grow(self._UV, cap * self.Bv, nv), grow(self._BID, cap * self.Bv, nv, -1)
+        self._UV = grow(self._UV, cap * self.Bv, nv)
         self._F = grow(self._F, cap * self.Bf, nf)
         self._rows, self._live, self._hash = grow(self._rows, cap, n), grow(self._live, cap, n), grow(self._hash, cap, n)
         self._frames, self._order = grow(self._frames, cap, n), grow(self._order, cap, n, -1)
@@ -473,8 +480,8 @@ class IncrementalLeafMesh:
 
     @property
     def bud_id(self) -> np.ndarray:
-        """(V,) int64 row of the latest bud arrays each vertex belongs to, -1 in free blocks."""
-        return self._BID[:self._n * self.Bv]
+        """(V,) int64 row of the latest bud arrays each vertex belongs to, -1 in free blocks (computed)."""
+        return np.repeat(np.where(self._live[:self._n], self._order[:self._n], -1), self.Bv)
 
     @property
     def faces(self) -> np.ndarray:
@@ -522,9 +529,9 @@ class IncrementalLeafMesh:
             match[ok] = cand[ok]
             # a slot serves one bud: duplicates beyond the first become new leaves
             m_idx = np.flatnonzero(match >= 0)
-            _, first = np.unique(match[m_idx], return_index=True)
-            dup = np.setdiff1d(m_idx, m_idx[first])
-            match[dup] = -1
+            o = np.argsort(match[m_idx], kind="stable")
+            ms = match[m_idx][o]
+            match[m_idx[o][1:][ms[1:] == ms[:-1]]] = -1
         keep = np.zeros(n, bool)
         keep[match[match >= 0]] = True
         gone = np.flatnonzero(self._live[:n] & ~keep)
@@ -545,7 +552,6 @@ class IncrementalLeafMesh:
         # bud rows shift between snapshots: refresh each live block's row index
         self._order[:self._n] = -1
         self._order[match] = sel
-        self._BID[:self._n * self.Bv].reshape(self._n, self.Bv)[:] = self._order[:self._n, None]
         return dict(added=len(new), removed=len(gone),
                     slots=np.concatenate([take, gone]), relayout=self.buffer_version != v0)
 
@@ -593,7 +599,8 @@ class IncrementalLeafMesh:
         L, nbv, nbf, npv, npf = len(q), self._nbv, self._nbf, self._npv, self._npf
         base = q * self.Bv
         src = np.concatenate([(base[:, None] + np.arange(nbv)).ravel(), (base[:, None] + nbv + np.arange(npv)).ravel()])
-        V, NRM, UV, BID = self._V[src], self._NRM[src], self._UV[src], self._BID[src]
+        V, NRM, UV = self._V[src], self._NRM[src], self._UV[src]
+        BID = np.concatenate([np.repeat(self._order[q], nbv), np.repeat(self._order[q], npv)])
         F = self._F.reshape(-1, self.Bf, 3)
         fb = F[q, :nbf] - base[:, None, None] + (np.arange(L) * nbv)[:, None, None]
         fp = F[q, nbf:] - (base + nbv)[:, None, None] + (L * nbv + np.arange(L) * npv)[:, None, None]
