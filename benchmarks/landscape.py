@@ -130,11 +130,14 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--quick", action="store_true", help="reduced size for CI (< 30 s)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--no-forest", action="store_true", help="TreeSketch figures only")
+    ap.add_argument("--sketch", action="store_true",
+                    help="forest of TreeSketch trees grown autonomously in their crown spaces (grow_forest(sketch=))")
+    ap.add_argument("--sizes", type=int, nargs="*", help="tree counts (default 10 30 100 300; 6 with --quick)")
     args = ap.parse_args(argv)
     sketch = sketch_figures(args.quick)
     if args.no_forest:
         return {"sketch": sketch}
-    sizes = [6] if args.quick else [10, 30, 100, 300]
+    sizes = args.sizes or ([6] if args.quick else [10, 30, 100, 300])
     kw = {"rounds": 2 if args.quick else 4, "steps_per_round": 3 if args.quick else 5, "n_darts": 150 if args.quick else 300,
               "seed": 1}
     from dask.distributed import Client, LocalCluster
@@ -154,6 +157,9 @@ def main(argv: list[str] | None = None) -> dict:
         for n in sizes:
             side = 9.0 * np.sqrt(n)
             common = dict(size=(side, side), min_dist=7.0, geometry=True, **kw)
+            if args.sketch:
+                common.update(sketch={"n_max": 2, "bud_lifetime": 6}, crown_height=6.0, crown_radius=4.0,
+                              params={"activation_threshold": 0.0, "length_mode": "constant", "tropism_angle": 20.0})
             t = time.perf_counter()
             f = grow_forest(n, client="sync", **common)
             ts = time.perf_counter() - t
