@@ -596,7 +596,7 @@ class IncrementalLeafMesh:
         """The compact leaf mesh in bud order (blades, then petioles): equal to :func:`build_leaves`."""
         q = np.flatnonzero(self._live[:self._n])
         q = q[np.argsort(self._order[q], kind="stable")]
-        L, nbv, nbf, npv, npf = len(q), self._nbv, self._nbf, self._npv, self._npf
+        L, nbv, nbf, npv = len(q), self._nbv, self._nbf, self._npv
         base = q * self.Bv
         src = np.concatenate([(base[:, None] + np.arange(nbv)).ravel(), (base[:, None] + nbv + np.arange(npv)).ravel()])
         V, NRM, UV = self._V[src], self._NRM[src], self._UV[src]
