@@ -154,9 +154,26 @@ class VineReviewApp:
         self._push()
         return n
 
+    def on_press(self, position) -> None:
+        """Left button down in the view (display coordinates)."""
+        self._press = position
+        self._dragged = False
+
+    def on_release(self, position) -> None:
+        """Left button up: a move of more than 4 pixels since the press was an orbit, not a click."""
+        p = getattr(self, "_press", None)
+        if p and position:
+            self._dragged = abs(position["x"] - p["x"]) + abs(position["y"] - p["y"]) > 4
+
     def on_pick(self, event) -> None:
-        """Browser click: local mode brings the picked world position, remote mode the display position."""
+        """Browser click: local mode brings the picked world position, remote mode the display position.
+
+        The click that ends an orbit drag is ignored (the browser fires a click after any press and release).
+        """
         self.last_pick = event
+        if getattr(self, "_dragged", False):
+            self._dragged = False
+            return
         if not event:
             return
         if "worldPosition" in event:
@@ -229,7 +246,11 @@ class VineReviewApp:
                 v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
             with layout.content, html.Div(style="position: relative; width: 100%; height: calc(100vh - 64px);"):
                 kw = {"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
-                          "interactor_settings": ("interactor_settings", _INTERACTOR)}
+                      "interactor_settings": ("interactor_settings", _INTERACTOR),
+                      # a DOM click also ends every orbit drag: press/release positions tell them apart
+                      "interactor_events": ("interactor_events", ["LeftButtonPress", "LeftButtonRelease"]),
+                      "LeftButtonPress": (self.on_press, "[$event.position]"),
+                      "LeftButtonRelease": (self.on_release, "[$event.position]")}
                 if self.mode == "local":
                     view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view", **kw)
                 else:

@@ -89,6 +89,15 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             assert stroke_bytes < 4 * app.proxy.n_vertices + 20_000 < scene_bytes
             page.screenshot(path=str(shots / "vine_review_painted.png"))
 
+            # an orbit drag ends with a DOM click too: it rotates the view and paints nothing
+            n_painted = np.count_nonzero(seg.labels)
+            page.mouse.move(cx - 120, cy + 40)
+            page.mouse.down()
+            page.mouse.move(cx + 60, cy - 20, steps=8)
+            page.mouse.up()
+            page.wait_for_timeout(1500)
+            assert np.count_nonzero(seg.labels) == n_painted and len(seg.history.undo_stack) == 1
+
             # undo from the toolbar restores the full-resolution labels
             page.locator(".vine-undo").click()
             assert _wait(page, lambda: not np.any(seg.labels))
@@ -97,6 +106,7 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             # paint again, then hide the selected colour: gone from the page, kept in the labels
             page.mouse.click(cx, cy)
             assert _wait(page, lambda: np.any(seg.labels == 3))
+            want = ball_query_brute(seg.vertices, np.asarray(app.last_pick["worldPosition"], float), 5.0)
             assert _wait(page, lambda: _yellow(_img(page)) > 30)
             page.locator(".vine-toggle").click()
             assert _wait(page, lambda: not seg.colors.visible[3])
