@@ -14,7 +14,7 @@ import numpy as np
 
 from plantvr._validation import check_choice, check_int
 
-__all__ = ["export_label_meshes", "label_mesh", "label_table", "plot_label_areas"]
+__all__ = ["export_label_meshes", "face_labels", "label_mesh", "label_table", "plot_label_areas"]
 
 _FORMATS = ("ply", "obj", "glb")
 

@@ -328,3 +328,46 @@ def test_preserve_rejects(surface):
         with pytest.raises(ValueError, match=match):
             seg.paint(surface.vertices[0], 5.0, 2, preserve=bad)
     assert not np.any(seg.labels) and not seg.event_log
+
+
+@pytest.fixture(scope="module")
+def ico():
+    import trimesh
+    m = trimesh.creation.icosphere(subdivisions=2)
+    return m.vertices.astype(np.float32), m.faces.astype(np.uint32)
+
+
+def test_property_fill_split_merge_random_labels(ico):
+    """Random labellings of an icosphere: fill = brute-force BFS, split parts = csgraph components,
+    merge + undo restores; every command is one undo step."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    v, f = ico
+    nb = _brute_adjacency(f, len(v))
+
+    @settings(max_examples=15, deadline=None, derandomize=True)
+    @given(seed=st.integers(0, 2 ** 32 - 1), k=st.integers(1, 4), vertex=st.integers(0, len(v) - 1))
+    def check(seed, k, vertex):
+        labels = np.random.default_rng(seed).integers(0, k, len(v)).astype(np.uint8)
+        seg = Segmentation(v, f, labels=labels)
+        region = _brute_flood(nb, labels, vertex)
+        target = (int(labels[vertex]) + 1) % 5
+        assert seg.fill(vertex, target) == region.size
+        assert np.flatnonzero(seg.labels != labels).tolist() == region.tolist()
+        seg.undo()
+        lab = int(labels[vertex])
+        sub = seg.graph.to_scipy()[labels == lab][:, labels == lab]
+        n = csgraph.connected_components(sub, directed=False)[0]
+        parts = seg.split_label(lab)
+        assert len(parts) == n
+        assert set(np.unique(seg.labels[labels == lab]).tolist()) == set(parts)
+        seg.undo()
+        other = (lab + 1) % 5
+        seg.merge_labels(other, lab)
+        assert not np.any(seg.labels == lab)
+        seg.undo()
+        np.testing.assert_array_equal(seg.labels, labels)
+        assert len(seg.history.undo_stack) == 0 and len(seg.history.redo_stack) == 1   # new commands clear redo
+
+    check()
