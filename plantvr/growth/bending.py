@@ -309,6 +309,33 @@ def _pipe_fold(parent, alive, fixed, fixed_d, node_n, tip_d, out):
             has[p] = True
 
 
+@numba.njit(cache=True, nogil=True)
+def _segments(parent, fixed):
+    """Segment of each node: its nearest constrained ancestor-or-self (-1: none); one forward pass."""
+    seg = np.full(parent.shape[0], -1, np.int64)
+    for i in range(parent.shape[0]):
+        if fixed[i]:
+            seg[i] = i
+        elif parent[i] >= 0:
+            seg[i] = seg[parent[i]]
+    return seg
+
+
+def _segments_numpy(parent, fixed):
+    """Readable twin of :func:`_segments`: pointer jumping up to the first constrained ancestor."""
+    seg = np.where(fixed, np.arange(len(parent)), -1)
+    ptr = np.where(fixed | (parent < 0), -1, parent)
+    while (ptr >= 0).any():
+        a = np.flatnonzero(ptr >= 0)
+        hit = seg[ptr[a]] >= 0
+        seg[a[hit]] = seg[ptr[a[hit]]]
+        ptr[a[hit]] = -1
+        rest = a[~hit]
+        ptr[rest] = np.where(fixed[ptr[rest]] | (parent[ptr[rest]] < 0), -1, parent[ptr[rest]])
+        seg[rest] = np.where(fixed[ptr[rest]] & (ptr[rest] >= 0), ptr[rest], seg[rest])
+    return seg
+
+
 def _pipe_fold_numpy(parent, alive, fixed, fixed_d, node_n, tip_d):
     """Readable twin of :func:`_pipe_fold`: the same fold, level by level from the deepest nodes."""
     n_all = len(parent)
@@ -387,16 +414,11 @@ def pipe_widths(parent: np.ndarray, alive: np.ndarray, *, tip_diameter: float, e
     fixed_d = np.zeros(n_all)
     for k, v in cons.items():
         fixed[k], fixed_d[k] = True, v
-    # segment of each node: its nearest constrained ancestor-or-self (-1: none)
-    seg = np.full(n_all, -1, np.int64)
-    for i in range(n_all):
-        seg[i] = i if fixed[i] else (seg[parent[i]] if parent[i] >= 0 else -1)
+    seg = _segments(parent, fixed)
     nchild = np.bincount(parent[alive & (parent >= 0)], minlength=n_all)
     tips = np.flatnonzero(alive & (nchild == 0) & ~fixed)
-    ext_nodes: dict[int, list[int]] = {c: [] for c in cons}
-    for t in tips:
-        if seg[t] >= 0:
-            ext_nodes[seg[t]].append(int(t))
+    tseg = seg[tips]
+    ext_nodes: dict[int, list[int]] = {c: tips[tseg == c].tolist() for c in cons}
     for c in cons:
         p = parent[c]
         if p >= 0 and seg[p] >= 0:

@@ -105,7 +105,14 @@ def test_ts_bend_validation():
 
 
 # -- pipe-model widths with constraints (spec 004 §2.10, V13) --------------------------------------------------
-from plantvr.growth.bending import _pipe_fold, _pipe_fold_numpy, pipe_widths, solve_exponent
+from plantvr.growth.bending import (
+    _pipe_fold,
+    _pipe_fold_numpy,
+    _segments,
+    _segments_numpy,
+    pipe_widths,
+    solve_exponent,
+)
 
 
 def _fan(m_tips, chain=3):
@@ -199,3 +206,15 @@ def test_ts_width_solve_speed():
     t = time.perf_counter()
     pipe_widths(par, np.ones(n, bool), tip_diameter=0.02, constraints=cons)
     assert time.perf_counter() - t < 0.5  # generous for CI; the benchmark reports the figure
+
+
+def test_ts_segments_twin():
+    rng = np.random.default_rng(8)
+    n = 2000
+    par = np.array([-1] + [int(rng.integers(max(0, i - 30), i)) for i in range(1, n)])
+    fixed = rng.random(n) < 0.02
+    ref = np.full(n, -1)
+    for i in range(n):  # the definition, as a plain loop
+        ref[i] = i if fixed[i] else (ref[par[i]] if par[i] >= 0 else -1)
+    np.testing.assert_array_equal(_segments(par, fixed), ref)
+    np.testing.assert_array_equal(_segments_numpy(par, fixed), ref)
