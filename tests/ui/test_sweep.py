@@ -35,7 +35,7 @@ def test_tasks_are_deterministic_serial_and_on_dask(table):
     assert again["state"] == table["state"][1]
     distributed = pytest.importorskip("dask.distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
         remote = sweep("fig12_7_vigor", GRID, client=client)
     assert list(remote["state"]) == list(table["state"])
 
