@@ -402,6 +402,9 @@ def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
                        main_child=None) -> tuple[BranchMesh, np.ndarray]:
     """Re-mesh a tree after a change, re-evaluating only the segments whose record changed (spec §3.5, item 20).
 
+    When the layout changes this copies every unchanged block into new arrays; for a stream of growth steps
+    use :class:`IncrementalBranchMesh`, which rewrites only the changed blocks.
+
     Parameters
     ----------
     old : BranchMesh
