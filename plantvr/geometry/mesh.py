@@ -215,8 +215,8 @@ def _check_tree(pos, parent, radius, alive, main_child):
         main_child = check_array("main_child", main_child, shape=(n,), dtype=np.int64)
         if np.any((main_child < -1) | (main_child >= n)):
             raise ValueError(f"main_child must be -1 or a node index in [0, {n - 1}]")
-    seglen = np.linalg.norm(pos[1:] - pos[parent[1:]], axis=1)
-    if np.any(seglen[alive[1:]] <= 0):
+    d = pos[1:] - pos[parent[1:]]
+    if np.any((np.einsum("ij,ij->i", d, d) <= 0) & alive[1:]):
         raise ValueError("pos must give every live internode a positive length")
     return pos, parent, radius, alive, main_child
 
