@@ -497,3 +497,32 @@ def test_ts_selective_reorients_nearest_bud():
     np.testing.assert_array_equal(f.bud_override[(int(new[0]), 1)], [0, 0, 1.0])
     with pytest.raises(ValueError, match="direction"):
         e.select(None, direction=[1, 0, 0])
+
+
+def _trend_tree(target=600, n_max=3, **params):
+    e = _engine(n_max=n_max, mode="autonomous", rng=1,
+                params={"activation_threshold": 0.0, "length_mode": "constant", **params})
+    while e.tree.n_internodes < target and e.step_count < 80:  # matched size, not matched iterations (§6.4)
+        e.step()
+    p = e.tree.pos[e.tree.alive]
+    return e, p[:, 1].max(), np.ptp(p[:, [0, 2]], axis=0).max()
+
+
+def test_ts_v10_trends_at_matched_size():
+    _, h0, w0 = _trend_tree(w_heading=0.3, w_tropism=0.3, w_env=0.4, tropism_angle=0.0)
+    _, h90, w90 = _trend_tree(w_heading=0.3, w_tropism=0.3, w_env=0.4, tropism_angle=90.0)
+    assert w90 / h90 > w0 / h0  # Fig. 4.17: plagiotropism is broad
+    ratios = [h / w for _, h, w in (_trend_tree(apical_dominance=lam) for lam in (0.46, 0.5, 0.54))]
+    assert ratios[0] < ratios[1] < ratios[2]  # Fig. 4.13: lambda up → excurrent
+
+    def grown_per_step(e):
+        return np.mean([s.grown for s in e.history])
+
+    assert grown_per_step(_trend_tree(light_exponent=2.5)[0]) < grown_per_step(_trend_tree(light_exponent=0.5)[0])
+
+    def mean_shoot(e):  # internodes per shoot: a shoot starts where the parent was made in another step
+        t = e.tree
+        i = np.flatnonzero(t.alive & (t.born > 0))
+        return len(i) / np.sum(t.born[t.parent[i]] != t.born[i])
+
+    assert mean_shoot(_trend_tree(n_max=6)[0]) > mean_shoot(_trend_tree(n_max=2)[0])  # Fig. 4.18
