@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import check_array, check_choice, check_int, check_range
 from plantvr.flowers import ccd, pbd
 
 __all__ = ["Canopy", "FloretType", "SolverParams", "grow", "step"]
@@ -226,18 +226,22 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
 
 def grow(canopy: Canopy, stages_per_step: np.ndarray, params: SolverParams = SolverParams(), *,
          collisions: bool = True, sanity_every: int = 0, x0: np.ndarray | None = None,
-         callback=None) -> tuple[np.ndarray, list[dict]]:
+         callback=None, prediction: str = "kinematic") -> tuple[np.ndarray, list[dict]]:
     """Run :func:`step` over a (T, n) schedule of per-instance stages; return final positions and stats.
 
     ``sanity_every > 0`` runs the static intersection check every that many steps and stores the count
     under ``intersections`` (must be 0). ``callback(t, x)`` is called after each step (e.g. OBJ export).
+    ``prediction``: "kinematic" starts each step from the animation's displacement (see :func:`step`),
+    "rest" from the previous positions with only the rest values changed (the App. B.5 prototype).
     """
     S = check_array("stages_per_step", stages_per_step, shape=(None, canopy.n_instances), min_rows=1)
+    prediction = check_choice("prediction", prediction, ("kinematic", "rest"))
     sanity_every = check_int("sanity_every", sanity_every, 0, 1_000_000)
     x = canopy.initial_positions(S[0]) if x0 is None else check_array("x0", x0, shape=(canopy.voff[-1], 3))
     log = []
     for t in range(1, S.shape[0]):
-        x, st = step(canopy, x, S[t], params, collisions=collisions, prev_stages=S[t - 1])
+        x, st = step(canopy, x, S[t], params, collisions=collisions,
+                     prev_stages=S[t - 1] if prediction == "kinematic" else None)
         if sanity_every and t % sanity_every == 0:
             st["intersections"] = ccd.count_static_intersections(x, canopy.faces, edges=canopy.edges)
         log.append(st)

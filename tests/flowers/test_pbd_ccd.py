@@ -210,12 +210,14 @@ def test_v23_two_petals_bending_onto_each_other_no_intersections():
     can = Canopy([T, T], [0, 0], [[0, 0, 0], [0, 0.1, -0.1]], [[0, 0, 1]] * 2, [[1, 0, 0]] * 2, [1.0, 1.0])
     S = np.column_stack([np.linspace(0, 1, 12), np.zeros(12)])
     params = SolverParams(solver_iterations=20)
-    x, log = grow(can, S, params, sanity_every=1)
+    _, log = grow(can, S, params, sanity_every=1, prediction="rest")      # the App. B.5 set-up
     assert all(st["intersections"] == 0 for st in log)
     assert sum(st["constraints"] for st in log) > 0
-    assert max(st["passes"] for st in log) <= params.max_collision_retries
+    assert max(st["passes"] for st in log) <= params.max_collision_retries      # V24: bounded retries
+    _, log = grow(can, S, params, sanity_every=1)                          # kinematic prediction
+    assert all(st["intersections"] == 0 for st in log)
     from plantvr.flowers.ccd import count_static_intersections
-    xn, _ = grow(can, S, params, collisions=False)
+    xn, _ = grow(can, S, params, collisions=False, prediction="rest")
     assert count_static_intersections(xn, can.faces) > 0
 
 
