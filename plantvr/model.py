@@ -204,10 +204,18 @@ class Model(_Params):
         self.events.record("set_prune_mode", on=bool(on))
         self.prune_mode = bool(on)
 
-    def reset(self) -> None:
-        """Start a new tree: remove every internode, leaving the base (§4.5 item 7)."""
-        self.events.record("reset")
+    def reset(self, seed: int | None = None) -> None:
+        """Start a new tree: remove every internode, leaving the base (§4.5 item 7).
+
+        With ``seed``, the random generator restarts too, so the same commands grow the same tree again.
+        """
+        if seed is not None:
+            seed = check_int("seed", seed, 0, 2**63 - 1)
+        self.events.record("reset", seed=seed)
         with self._lock:
+            if seed is not None:
+                self.seed = seed
+                self._engine.rng = np.random.default_rng(seed)
             self._engine.reset()
         self._publish()
 

@@ -189,3 +189,15 @@ def test_prune_mode_is_a_logged_command():
     other = plantvr.Model()
     m.events.replay(other)
     assert other.prune_mode
+
+
+def test_reset_with_seed_regrows_identically():
+    m = plantvr.Model(seed=1)
+    run(m, demo_session(), 10)
+    first = m.snapshot.pos.copy()
+    m.reset(seed=1)
+    assert m.n_internodes == 1
+    run(m, demo_session(), 10)
+    assert np.array_equal(m.snapshot.pos, first)
+    with pytest.raises(ValueError, match=r"seed must be an integer"):
+        m.reset(seed=-1)

@@ -38,3 +38,13 @@ def test_brush_turns_red_in_prune_mode(view):
     view.model.prune_mode = True
     assert np.allclose(view._brush_actor.GetProperty().GetColor(), pv.Color("#e03030").float_rgb)
     view.model.prune_mode = False
+
+
+def test_markers_can_be_hidden(view):
+    view.model.add_markers([[0.0, 20.0, 0.0]])
+    view.show_markers = False
+    view.model.paint([0, 21, 0], radius=1.0)
+    assert not view._marker_actor.GetVisibility()
+    view.show_markers = True
+    view.model.paint([0, 22, 0], radius=1.0)
+    assert view._marker_actor.GetVisibility()

@@ -69,6 +69,8 @@ class View:
         self._branches = pv.PolyData()
         self._leaves = pv.PolyData()
         self.show_leaves = show_leaves
+        self.show_markers = show_markers
+        self._marker_actor = None
         self._markers = pv.PolyData()
         self._drawn = -1
         self.brush_center = np.zeros(3)
@@ -117,10 +119,11 @@ class View:
             first = self._markers.n_points == 0
             self._markers.copy_from(pv.PolyData(np.asarray(snap.markers, float)))
             if first:
-                self.plotter.add_mesh(self._markers, color="#f5d142", point_size=4, render_points_as_spheres=True,
-                                      name="markers", pickable=False)
-        elif self._markers.n_points:
-            self._markers.copy_from(pv.PolyData(np.zeros((1, 3))))
+                self._marker_actor = self.plotter.add_mesh(
+                    self._markers, color="#f5d142", point_size=4, render_points_as_spheres=True, name="markers",
+                    pickable=False)
+        if self._marker_actor is not None:
+            self._marker_actor.SetVisibility(bool(len(snap.markers)) and self.show_markers)
         self.plotter.render()
 
     def set_brush(self, center, radius: float | None = None, visible: bool = True) -> None:
