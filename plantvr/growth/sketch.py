@@ -564,6 +564,11 @@ class SketchEngine(GrowthEngine):
             keep = {m.tobytes() for m in self.markers}
             self._stroke_dirs = {k: v for k, v in self._stroke_dirs.items() if k in keep}
 
+    def buds(self) -> _Buds:
+        """Every bud slot of the live tree (cached within a step while the tree does not change)."""
+        cached = self.__dict__.get("_buds_cache")
+        return cached if cached is not None else super().buds()
+
     def _add_autonomous_points(self) -> None:
         p = self.params
         b = self.buds()
@@ -579,10 +584,14 @@ class SketchEngine(GrowthEngine):
         """One TreeSketch iteration (§1.5): the engine's step with the TreeSketch shedding rule (§1.4.8)."""
         t0 = time.perf_counter()
         p, t = self.params, self.tree
-        if self.sketch["mode"] == "autonomous" and not self.halted:
-            self._add_autonomous_points()
-        self._occupy()
-        buds = self._active_buds()
+        self._buds_cache = super().buds()  # the tree does not change until _grow: one bud pass serves both
+        try:
+            if self.sketch["mode"] == "autonomous" and not self.halted:
+                self._add_autonomous_points()
+            self._occupy()
+            buds = self._active_buds()
+        finally:
+            self._buds_cache = None
         grown = 0
         if len(buds.node) and len(self.markers):
             owner = assign_treewand(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
