@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 
+import numba
 import numpy as np
 
 from plantvr._validation import check_choice, check_int
@@ -74,6 +75,76 @@ def _face_areas(v, f) -> np.ndarray:
     return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
 
 
+@numba.njit(cache=True, nogil=True)
+def _label_stats_numba(v, f, lab):  # pragma: no cover - numba kernel, twin: _label_stats_numpy
+    """One pass over vertices and faces: per-label vertex count, face count, area, bounding box."""
+    counts = np.zeros(256, np.int64)
+    nface = np.zeros(256, np.int64)
+    area = np.zeros(256, np.float64)
+    lo = np.full((256, 3), np.inf)
+    hi = np.full((256, 3), -np.inf)
+    for i in range(v.shape[0]):
+        k = lab[i]
+        counts[k] += 1
+        for d in range(3):
+            x = np.float64(v[i, d])
+            lo[k, d] = min(lo[k, d], x)
+            hi[k, d] = max(hi[k, d], x)
+    for t in range(f.shape[0]):
+        a, b, c = f[t, 0], f[t, 1], f[t, 2]
+        k = lab[a]
+        if lab[b] != k or lab[c] != k:
+            continue
+        e1x = np.float64(v[b, 0]) - np.float64(v[a, 0])
+        e1y = np.float64(v[b, 1]) - np.float64(v[a, 1])
+        e1z = np.float64(v[b, 2]) - np.float64(v[a, 2])
+        e2x = np.float64(v[c, 0]) - np.float64(v[a, 0])
+        e2y = np.float64(v[c, 1]) - np.float64(v[a, 1])
+        e2z = np.float64(v[c, 2]) - np.float64(v[a, 2])
+        cx = e1y * e2z - e1z * e2y
+        cy = e1z * e2x - e1x * e2z
+        cz = e1x * e2y - e1y * e2x
+        area[k] += 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
+        nface[k] += 1
+    return counts, nface, area, lo, hi
+
+
+def _label_stats_numpy(v, f, lab):
+    """Numpy twin of :func:`_label_stats_numba` (bbox rows of absent labels stay ±inf)."""
+    counts = np.bincount(lab, minlength=256)
+    present = np.flatnonzero(counts)
+    fl = face_labels(f, lab)
+    sel = fl >= 0
+    area = np.bincount(fl[sel], weights=_face_areas(v, f[sel]), minlength=256)
+    nface = np.bincount(fl[sel], minlength=256)
+    order = np.argsort(lab, kind="stable")
+    starts = np.concatenate([[0], np.cumsum(counts)])[present]
+    vs = v[order].astype(np.float64)
+    lo = np.full((256, 3), np.inf)
+    hi = np.full((256, 3), -np.inf)
+    lo[present] = np.minimum.reduceat(vs, starts, axis=0)
+    hi[present] = np.maximum.reduceat(vs, starts, axis=0)
+    return counts, nface, area, lo, hi
+
+
+@numba.njit(cache=True, nogil=True)
+def _components_per_label_numba(comp, lab):  # pragma: no cover - numba kernel, twin: _components_per_label
+    """Components are numbered by their smallest vertex id, so the first vertex of each is met in order."""
+    out = np.zeros(256, np.int64)
+    nxt = 0
+    for i in range(comp.size):
+        if comp[i] == nxt:
+            out[lab[i]] += 1
+            nxt += 1
+    return out
+
+
+def _components_per_label(comp, lab) -> np.ndarray:
+    """Numpy twin of :func:`_components_per_label_numba`."""
+    _, first = np.unique(comp[comp >= 0], return_index=True)
+    return np.bincount(lab[comp >= 0][first], minlength=256)
+
+
 def label_table(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *, colors=None,
                 names: dict | None = None, graph=None):
     """Per-label statistics as a pandas DataFrame, one row per label present, sorted by label.
@@ -102,21 +173,11 @@ def label_table(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *, 
     from plantvr.vine.fill import _components_numba, mesh_graph
     v, f, lab = _check_mesh(vertices, faces, labels)
     g = mesh_graph(v, f) if graph is None else graph
-    counts = np.bincount(lab, minlength=256)
+    counts, nface, area, lo, hi = _label_stats_numba(v, f, lab)
+    comp, _ = _components_numba(g.indptr, g.indices, lab, -1)
+    ncomp = _components_per_label_numba(comp, lab)
     present = np.flatnonzero(counts)
-    fl = face_labels(f, lab)
-    sel = fl >= 0
-    area = np.bincount(fl[sel], weights=_face_areas(v, f[sel]), minlength=256)
-    nface = np.bincount(fl[sel], minlength=256)
-    order = np.argsort(lab, kind="stable")
-    starts = np.concatenate([[0], np.cumsum(counts)])[present]
-    vs = v[order]
-    lo = np.minimum.reduceat(vs, starts, axis=0)
-    hi = np.maximum.reduceat(vs, starts, axis=0)
-    comp, n = _components_numba(g.indptr, g.indices, lab, -1)
-    first = np.full(n, len(v), np.int64)
-    np.minimum.at(first, comp, np.arange(len(v)))
-    ncomp = np.bincount(lab[first], minlength=256)
+    lo, hi = lo[present], hi[present]
     df = pd.DataFrame({
         "label": present.astype(np.int64), "vertices": counts[present], "faces": nface[present],
         "area": area[present],

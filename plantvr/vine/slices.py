@@ -9,6 +9,7 @@ the same grid edges) and the coloured cut.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_int, check_range
@@ -53,7 +54,13 @@ def plane_segments(vertices: np.ndarray, faces: np.ndarray, axis: int | str, pos
     end_labels : (S, 2) uint8 ndarray
         Only when ``labels`` is given.
     """
-    v = check_array("vertices", vertices, shape=(None, 3), min_rows=1)
+    v = np.asarray(vertices)
+    if v.dtype not in (np.float32, np.float64):
+        v = check_array("vertices", v, shape=(None, 3), min_rows=1)
+    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
+        raise ValueError(f"vertices must have shape (N, 3) with N >= 1, got {v.shape}")
+    if not np.isfinite(v).all():
+        raise ValueError("vertices must contain only finite values (no NaN or inf)")
     f = np.asarray(faces)
     if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
         raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
@@ -65,7 +72,72 @@ def plane_segments(vertices: np.ndarray, faces: np.ndarray, axis: int | str, pos
         labels = np.asarray(labels)
         if labels.shape != (len(v),) or labels.dtype != np.uint8:
             raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {labels.dtype} {labels.shape}")
+    lab = np.zeros(1, np.uint8) if labels is None else labels
+    segs, el = _plane_cut_numba(np.ascontiguousarray(v), np.ascontiguousarray(f), ax, pos, lab,
+                                labels is not None)
+    return segs if labels is None else (segs, el)
+
+
+@numba.njit(cache=True, nogil=True)
+def _plane_cut_numba(v, f, ax, pos, labels, with_labels):  # pragma: no cover - numba kernel, twin below
+    """Two passes over the faces (count, then fill) of the rule in :func:`_plane_cut_numpy`."""
+    nf = f.shape[0]
+    n = 0
+    for t in range(nf):
+        k = 0
+        for j in range(3):
+            if np.float64(v[f[t, j], ax]) - pos > 0:
+                k += 1
+        if k == 1 or k == 2:
+            n += 1
+    segs = np.empty((n, 2, 3), np.float64)
+    el = np.zeros((n, 2), np.uint8)
+    m = 0
+    up = np.zeros(3, np.bool_)
+    for t in range(nf):
+        k = 0
+        for j in range(3):
+            up[j] = np.float64(v[f[t, j], ax]) - pos > 0
+            k += up[j]
+        if k != 1 and k != 2:
+            continue
+        lone = 0
+        for j in range(3):
+            if up[j] == (k == 1):
+                lone = j
+                break
+        a, b, c = f[t, lone], f[t, (lone + 1) % 3], f[t, (lone + 2) % 3]
+        da = np.float64(v[a, ax]) - pos
+        db = np.float64(v[b, ax]) - pos
+        dc = np.float64(v[c, ax]) - pos
+        t0 = da / (da - db)
+        t1 = da / (da - dc)
+        same = True
+        for j in range(3):
+            va = np.float64(v[a, j])
+            x0 = va + t0 * (np.float64(v[b, j]) - va)
+            x1 = va + t1 * (np.float64(v[c, j]) - va)
+            if j == ax:
+                x0 = pos
+                x1 = pos
+            segs[m, 0, j] = x0
+            segs[m, 1, j] = x1
+            if x0 != x1:
+                same = False
+        if same:                                # a face touching the plane at one vertex gives a point
+            continue
+        if with_labels:
+            el[m, 0] = labels[a] if t0 <= 0.5 else labels[b]
+            el[m, 1] = labels[a] if t1 <= 0.5 else labels[c]
+        m += 1
+    return segs[:m].copy(), el[:m].copy()
+
+
+def _plane_cut_numpy(v, f, ax, pos, labels):
+    """Numpy twin of :func:`_plane_cut_numba`: (segments, end labels or None)."""
+    v = np.asarray(v, np.float64)
     d = v[:, ax] - pos
+    up = d > 0
     up = d > 0
     f = f.astype(np.int64, copy=False)
     fu = up[f]
@@ -93,7 +165,7 @@ def plane_segments(vertices: np.ndarray, faces: np.ndarray, axis: int | str, pos
     if not keep.all():
         segs, a, b, c, t0, t1 = segs[keep], a[keep], b[keep], c[keep], t0[keep], t1[keep]
     if labels is None:
-        return segs
+        return segs, None
     l0 = np.where(t0 <= 0.5, labels[a], labels[b])
     l1 = np.where(t1 <= 0.5, labels[a], labels[c])
     return segs, np.stack([l0, l1], axis=1).astype(np.uint8)

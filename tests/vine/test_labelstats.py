@@ -101,3 +101,19 @@ def test_rejects(tmp_path, surface, truth):
     with pytest.raises(ValueError, match="which must be an integer in"):
         L.export_label_meshes(tmp_path, v, f, truth, which=[-1])
     assert not list(tmp_path.iterdir())
+
+
+def test_kernels_match_numpy_twins(monkeypatch, surface, truth):
+    v, f = surface.vertices, surface.faces
+    got = L._label_stats_numba(v, f, truth)
+    want = L._label_stats_numpy(v, f, truth)
+    for a, b in zip(got, want):
+        np.testing.assert_allclose(a, b, rtol=1e-12)
+    from plantvr.vine.fill import label_components
+    comp, _ = label_components(mesh_graph(v, f), truth)
+    np.testing.assert_array_equal(L._components_per_label_numba(comp, truth), L._components_per_label(comp, truth))
+    monkeypatch.setattr(L, "_label_stats_numba", L._label_stats_numba.py_func)
+    monkeypatch.setattr(L, "_components_per_label_numba", L._components_per_label_numba.py_func)
+    small = f[:500]
+    t = L.label_table(v, small, truth)
+    assert t["faces"].sum() == int(np.sum(np.all(truth[small] == truth[small][:, :1], axis=1)))

@@ -102,3 +102,19 @@ def test_view_slices_follow_labels(tmp_path, head, surface, truth):
     assert vs.indices == {2: 32}
     vs.remove()
     p.close()
+
+
+@pytest.mark.parametrize(("axis", "pos"), [(0, 32.0), (1, 30.37), (2, 20.5)])
+def test_cut_kernel_matches_numpy_twin(monkeypatch, surface, truth, axis, pos):
+    v, f = surface.vertices, surface.faces
+    segs, el = S.plane_segments(v, f, axis, pos, labels=truth)
+    s2, e2 = S._plane_cut_numpy(v, f, axis, pos, truth)
+    np.testing.assert_array_equal(segs, s2)
+    np.testing.assert_array_equal(el, e2)
+    monkeypatch.setattr(S, "_plane_cut_numba", S._plane_cut_numba.py_func)
+    s3, e3 = S.plane_segments(v, f[:3000], axis, pos, labels=truth)
+    s4, e4 = S._plane_cut_numpy(v, f[:3000], axis, pos, truth)
+    np.testing.assert_array_equal(s3, s4)
+    np.testing.assert_array_equal(e3, e4)
+    with pytest.raises(ValueError, match="vertices must contain only finite values"):
+        S.plane_segments(np.full((3, 3), np.nan), np.array([[0, 1, 2]]), 0, 0.0)
