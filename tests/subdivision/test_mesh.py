@@ -108,7 +108,7 @@ def test_10k_branch_tree_fast_and_manifold():
     dt = time.perf_counter() - t
     assert len(cm.graph) > 9000
     _check_tree(cm)
-    assert dt < 30.0      # ~0.6 s on an idle 2-core box; timing proper lives in benchmarks/subdivision.py
+    assert dt < 30.0      # ~0.3 s (numba hulls) on the 2-core box; timing proper lives in benchmarks/subdivision.py
 
 
 def test_bad_mesh_parameters():
