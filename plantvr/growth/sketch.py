@@ -274,6 +274,10 @@ class SketchEngine(GrowthEngine):
         to this tree's base, "weights": (K,) their weights, "weight": this tree's weight, "h_max": height cap}``.
         Autonomous points outside the multiplicatively weighted Voronoi cell of the base (|q| / w <= |q - s_k| /
         w_k for every k) or above ``h_max`` are dropped, and growth halts once a node reaches ``h_max``.
+    depth : dict or None
+        Depth constraint (App. B): ``{"normal": (3,), "depth": d}``; attraction points farther than d from the
+        plane through the tree base with that normal (the view direction when enabled) are removed before they
+        affect growth.
     bud_lifetime : int or None
         Lateral buds still dormant this many iterations after their node was made are dropped (the slot becomes
         absent), which bounds the bud count (§1.4.9 [INFERRED, not in the thesis]); None keeps every bud.
@@ -282,7 +286,8 @@ class SketchEngine(GrowthEngine):
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None, n_max: int = 3,
                  trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4,
                  ellipse: tuple[float, float, float] = (1.0, 1.0, 0.0), shed_threshold: float = 0.0,
-                 stroke_tropism: bool = False, bud_lifetime: int | None = None, region: dict | None = None):
+                 stroke_tropism: bool = False, bud_lifetime: int | None = None, region: dict | None = None,
+                 depth: dict | None = None):
         opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
                 "deflection": check_range("deflection", deflection, 0.0, 90.0),
                 "mode": check_choice("mode", mode, ("directed", "autonomous")),
@@ -290,7 +295,7 @@ class SketchEngine(GrowthEngine):
                 "ellipse": self._check_ellipse(ellipse),
                 "shed_threshold": check_range("shed_threshold", shed_threshold, 0.0, np.inf),
                 "stroke_tropism": bool(stroke_tropism), "bud_lifetime": self._check_life(bud_lifetime),
-                "region": self._check_region(region)}
+                "region": self._check_region(region), "depth": self._check_depth(depth)}
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
         check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
         if isinstance(rng, (int, np.integer)):
@@ -305,6 +310,33 @@ class SketchEngine(GrowthEngine):
         self._stroke_dirs: dict[bytes, np.ndarray] = {}
         self.bud_override: dict[tuple[int, int], np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
+
+    @staticmethod
+    def _check_depth(depth) -> dict | None:
+        if depth is None:
+            return None
+        if not isinstance(depth, dict) or set(depth) != {"normal", "depth"}:
+            raise ValueError(f"depth must be a dict with keys normal, depth, got {depth!r}")
+        n = check_point("depth normal", depth["normal"])
+        if not np.linalg.norm(n) > 0:
+            raise ValueError("depth normal must be a non-zero vector")
+        return {"normal": (n / np.linalg.norm(n)).tolist(),
+                "depth": check_range("depth", depth["depth"], 0.0, np.inf)}
+
+    def in_depth(self, points: np.ndarray) -> np.ndarray:
+        """(N,) bool: points inside the depth slab (all True without a depth constraint)."""
+        pts = np.asarray(points, float).reshape(-1, 3)
+        d = self.sketch["depth"]
+        if d is None:
+            return np.ones(len(pts), bool)
+        return np.abs((pts - self.tree.pos[0]) @ np.asarray(d["normal"])) <= d["depth"]
+
+    def add_markers(self, points: np.ndarray) -> None:
+        """Append markers (age 0); with a depth constraint, points outside the slab are dropped (V16)."""
+        points = np.asarray(points, float).reshape(-1, 3)
+        if self.__dict__.get("sketch") is not None and self.sketch["depth"] is not None:
+            points = points[self.in_depth(points)]
+        super().add_markers(points)
 
     @staticmethod
     def _check_region(region) -> dict | None:
@@ -362,7 +394,8 @@ class SketchEngine(GrowthEngine):
                   "point_density": lambda v: check_int("point_density", v, 0, 1000),
                   "ellipse": self._check_ellipse,
                   "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, np.inf),
-                  "stroke_tropism": bool, "bud_lifetime": self._check_life, "region": self._check_region}
+                  "stroke_tropism": bool, "bud_lifetime": self._check_life, "region": self._check_region,
+                  "depth": self._check_depth}
         new = {}
         for k, v in opts.items():
             if k not in checks:

@@ -526,3 +526,28 @@ def test_ts_v10_trends_at_matched_size():
         return len(i) / np.sum(t.born[t.parent[i]] != t.born[i])
 
     assert mean_shoot(_trend_tree(n_max=6)[0]) > mean_shoot(_trend_tree(n_max=2)[0])  # Fig. 4.18
+
+
+def test_ts_v16_depth_constraint():
+    """No attraction point outside the depth slab reaches the competition step (App. B)."""
+    e = _engine(mode="autonomous", depth={"normal": [0.0, 0.0, 2.0], "depth": 1.5})
+    pts = np.random.default_rng(0).uniform(-5, 5, (500, 3))
+    e.add_markers(pts)
+    np.testing.assert_array_equal(e.markers, pts[np.abs(pts[:, 2]) <= 1.5])
+    e.markers, e.marker_age = e.markers[:0], e.marker_age[:0]
+    seen = []
+    orig = e._occupy
+
+    def spy():
+        seen.append(e.markers.copy())
+        orig()
+
+    e._occupy = spy
+    for _ in range(8):
+        e.step()
+    allpts = np.concatenate(seen)
+    assert len(allpts) > 50 and np.abs(allpts[:, 2]).max() <= 1.5
+    t = e.tree
+    assert np.abs(t.pos[t.alive, 2]).max() <= 1.5 + 2 * 3  # trees may extend slightly outside (one shoot)
+    with pytest.raises(ValueError, match="depth"):
+        e.set_options(depth={"normal": [0, 0, 0], "depth": 1.0})
