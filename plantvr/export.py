@@ -7,11 +7,11 @@ from typing import Any
 import trimesh
 
 from .geometry.export import export_tree
-from .geometry.leaves import LeafMesh, build_leaves
-from .geometry.mesh import BranchMesh, build_branch_mesh
+from .geometry.leaves import IncrementalLeafMesh, LeafMesh, build_leaves
+from .geometry.mesh import BranchMesh, IncrementalBranchMesh, build_branch_mesh
 from .model import Model, Snapshot
 
-__all__ = ["tree_geometry", "tree_trimesh", "export_model", "snapshot_export", "export_model_as", "export_main",
+__all__ = ["tree_geometry", "IncrementalTreeGeometry", "tree_trimesh", "export_model", "snapshot_export", "export_model_as", "export_main",
            "EXPORT_FORMATS", "BILLBOARD_LOD"]
 
 def tree_geometry(snap: Snapshot, params: dict[str, Any], *, leaves: bool = True,
@@ -29,6 +29,44 @@ def tree_geometry(snap: Snapshot, params: dict[str, Any], *, leaves: bool = True
                             iterations=params["leaf_iterations"],
                             leaf_shape=params["leaf_texture"], rng=0)
     return branches, leaf
+
+
+_GEOMETRY_PARAMS = ("tip_radius", "bezier_weight", "bark_rate", "leaf_size", "petiole_length", "petiole_twist",
+                    "petiole_bend_up", "petiole_bend_right", "leaf_iterations", "leaf_texture")
+
+
+class IncrementalTreeGeometry:
+    """Branch and leaf meshes kept across snapshots: each update re-meshes only what changed (spec §3.5, item 20).
+
+    Views call :meth:`update` with every new snapshot; a change of an appearance parameter rebuilds.
+    Buffers may hold degenerate rows (free blocks); use :func:`tree_geometry` for export.
+    """
+
+    def __init__(self, *, lod: tuple[int, int] = (6, 32), leaves: bool = True):
+        self.lod, self.leaves = lod, leaves
+        self._key: tuple | None = None
+        self.branches: IncrementalBranchMesh | None = None
+        self.leaf_mesh: IncrementalLeafMesh | None = None
+
+    def update(self, snap: Snapshot, params: dict[str, Any]) -> None:
+        """Bring the meshes to ``snap`` (the first call, or new appearance parameters, build from scratch)."""
+        key = tuple(params[k] for k in _GEOMETRY_PARAMS)
+        tip = params["tip_radius"]
+        if key != self._key or self.branches is None:
+            self._key = key
+            self.branches = IncrementalBranchMesh(snap.pos, snap.parent, snap.radius, main_child=snap.main_child,
+                                                  lod=self.lod, tip_radius=tip, bezier_w=params["bezier_weight"],
+                                                  bark_rate=params["bark_rate"])
+            self.leaf_mesh = IncrementalLeafMesh(
+                radius_threshold=3 * tip, petiole_radius=0.3 * tip, leaf_size=params["leaf_size"],
+                petiole_length=params["petiole_length"], e_twist=params["petiole_twist"],
+                e_up=params["petiole_bend_up"], e_right=params["petiole_bend_right"],
+                iterations=params["leaf_iterations"], leaf_shape=params["leaf_texture"]) if self.leaves else None
+        else:
+            self.branches.update(snap.pos, snap.parent, snap.radius, main_child=snap.main_child)
+        if self.leaf_mesh is not None:
+            b = snap.buds
+            self.leaf_mesh.update(b["pos"], b["dir"], b["radius"], b["up"])
 
 
 def tree_trimesh(model: Model, *, leaves: bool = False) -> trimesh.Trimesh:

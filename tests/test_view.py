@@ -48,3 +48,13 @@ def test_markers_can_be_hidden(view):
     view.show_markers = True
     view.model.paint([0, 22, 0], radius=1.0)
     assert view._marker_actor.GetVisibility()
+
+
+def test_view_meshes_incrementally_and_equals_a_rebuild(view):
+    from plantvr.export import tree_geometry
+    run(view.model, demo_session(), 3)
+    g = view._geometry
+    full, leaves = tree_geometry(view.model.snapshot, view.model.params, lod=(6, 32))
+    inc = g.branches.to_branch_mesh()
+    assert np.array_equal(inc.faces, full.faces) and np.allclose(inc.vertices, full.vertices)
+    assert len(g.leaf_mesh.to_leaf_mesh().faces) == len(leaves.faces)

@@ -15,6 +15,7 @@ import pyvista as pv  # noqa: E402
 
 from ..model import Model, Snapshot  # noqa: E402
 from ..params import PARAMS  # noqa: E402
+from ..export import IncrementalTreeGeometry  # noqa: E402
 
 __all__ = ["View", "branch_mesh"]
 
@@ -71,6 +72,7 @@ class View:
         self.show_leaves = show_leaves
         self.show_markers = show_markers
         self._marker_actor = None
+        self._geometry = IncrementalTreeGeometry(leaves=show_leaves)
         self._markers = pv.PolyData()
         self._drawn = -1
         self.brush_center = np.zeros(3)
@@ -107,7 +109,7 @@ class View:
         if snap.version == self._drawn:
             return
         self._drawn = snap.version
-        mesh, leaves = branch_mesh(snap, self.model.params, leaves=self.show_leaves)
+        mesh, leaves = self._meshes(snap)
         for target, new, kw in ((self._branches, mesh, dict(color=BARK, name="branches")),
                                 (self._leaves, leaves, dict(color=LEAF, name="leaves"))):
             first = target.n_points == 0
@@ -125,6 +127,18 @@ class View:
         if self._marker_actor is not None:
             self._marker_actor.SetVisibility(bool(len(snap.markers)) and self.show_markers)
         self.plotter.render()
+
+    def _meshes(self, snap: Snapshot) -> tuple[pv.PolyData, pv.PolyData]:
+        """Branch and leaf meshes of ``snap``, re-meshing only the segments and buds that changed."""
+        if snap.n_internodes == 0:
+            self._geometry = IncrementalTreeGeometry(leaves=self.show_leaves)
+            return pv.PolyData(), pv.PolyData()
+        g = self._geometry
+        g.update(snap, self.model.params)
+        b = g.branches
+        leaves = g.leaf_mesh
+        lv = _poly(leaves.vertices, leaves.faces) if leaves is not None and len(leaves.faces) else pv.PolyData()
+        return _poly(b.vertices, b.faces, b.normals), lv
 
     def set_brush(self, center, radius: float | None = None, visible: bool = True) -> None:
         """Place the brush sphere (green to grow, red to prune)."""
