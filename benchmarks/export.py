@@ -14,49 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from plantvr.geometry.synthetic import random_tree
 from plantvr.geometry import build_branch_mesh
 from plantvr.geometry.export import export_tree
 from plantvr.geometry.gltf_skin import export_skinned_glb
 from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import lod_chain
 from plantvr.geometry.usd import export_usd
-
-
-def random_tree(n_internodes: int, seed: int = 0, tip_radius: float = 0.01, exponent: float = 2.5):
-    """Random binary tree (y up) with pipe-model radii; returns pos, parent, radius, main_child."""
-    rng = np.random.default_rng(seed)
-    n = n_internodes + 1
-    pos, head = np.zeros((n, 3)), np.zeros((n, 3))
-    parent, main = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
-    nk = np.zeros(n, np.int64)
-    pos[1] = head[1] = (0, 1.0, 0)
-    parent[1], main[0], nk[0] = 0, 1, 1
-    buds = [1, 1]
-    noise = rng.normal(size=(n, 3))
-    for i in range(2, n):
-        k = rng.integers(len(buds))
-        p = buds[k]
-        buds[k] = buds[-1]
-        buds.pop()
-        a = noise[i] - (noise[i] @ head[p]) * head[p]
-        a /= np.linalg.norm(a)
-        ang = np.deg2rad(45.0 if nk[p] else 8.0)
-        d = np.cos(ang) * head[p] + np.sin(ang) * a + (0, 0.15, 0)
-        d /= np.linalg.norm(d)
-        pos[i], head[i], parent[i] = pos[p] + 0.3 * d, d, p
-        if nk[p] == 0:
-            main[p] = i
-        nk[p] += 1
-        buds += [i, i]
-    acc = np.zeros(n)
-    for i in range(n - 1, 0, -1):
-        if acc[i] == 0:
-            acc[i] = tip_radius ** exponent
-        if parent[i] > 0:
-            acc[parent[i]] += acc[i]
-    radius = acc ** (1 / exponent)
-    radius[0] = radius[1]
-    return pos, parent, radius, main
 
 
 def _time(fn, repeat: int):

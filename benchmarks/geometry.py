@@ -19,38 +19,10 @@ import time
 
 import numpy as np
 
+from plantvr.geometry.synthetic import random_tree
 from plantvr.geometry import IncrementalBranchMesh, IncrementalLeafMesh, build_branch_mesh, update_branch_mesh
 from plantvr.geometry import _kernels as K
 from plantvr.geometry.leaves import build_leaves
-
-
-def random_tree(n_internodes: int, seed: int = 0, tip_radius: float = 0.01, exponent: float = 2.5):
-    """Random binary tree (y up) with pipe-model radii; returns pos, parent, radius, main_child."""
-    rng = np.random.default_rng(seed)
-    n = n_internodes + 1
-    pos, head = np.zeros((n, 3)), np.zeros((n, 3))
-    parent, main = np.full(n, -1, np.int64), np.full(n, -1, np.int64)
-    nk = np.zeros(n, np.int64)
-    pos[1] = head[1] = (0, 1.0, 0)
-    parent[1], main[0], nk[0] = 0, 1, 1
-    buds = [1, 1]
-    noise = rng.normal(size=(n, 3))
-    for i in range(2, n):
-        k = rng.integers(len(buds))
-        p = buds[k]
-        buds[k] = buds[-1]
-        buds.pop()
-        a = noise[i] - (noise[i] @ head[p]) * head[p]
-        a /= np.linalg.norm(a)
-        ang = np.deg2rad(45.0 if nk[p] else 8.0)
-        d = np.cos(ang) * head[p] + np.sin(ang) * a + (0, 0.15, 0)
-        d /= np.linalg.norm(d)
-        pos[i], head[i], parent[i] = pos[p] + 0.3 * d, d, p
-        if nk[p] == 0:
-            main[p] = i
-        nk[p] += 1
-        buds += [i, i]
-    return pos, parent, pipe_radii(parent, tip_radius, exponent), main
 
 
 def pipe_radii(parent, tip_radius=0.01, exponent=2.5):
