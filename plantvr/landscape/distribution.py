@@ -1,12 +1,16 @@
-"""Tree-distribution kernels (Eqs. 6.1–6.2) and Ripley's K (Eq. 6.6) (spec 004_treesketch §3.4.2, §3.9)."""
+"""Tree distribution by deformation kernels (Eqs. 6.1–6.2, row/column inverse-CDF sampling, masks, species
+choice) and Ripley's K (Eq. 6.6) (spec 004_treesketch §3.4.2, §3.4.3, §3.9)."""
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import check_array, check_range
+from .._validation import check_array, check_choice, check_int, check_range
 
-__all__ = ["clustering_kernel", "inhibitory_kernel", "ripley_k"]
+__all__ = ["Distribution", "Species", "clustering_kernel", "distribute", "inhibitory_kernel", "ripley_k",
+           "row_prefix", "sample_field"]
 
 
 def _smooth(x: np.ndarray) -> np.ndarray:
@@ -69,3 +73,162 @@ def ripley_k(points: np.ndarray, t, *, area: float | None = None, box: tuple[flo
     # count_neighbors counts ordered pairs with d <= t, self pairs included; nextafter turns <= into <
     pairs = kd.count_neighbors(kd, np.nextafter(t, -np.inf)).astype(float) - n
     return A / n * pairs / n
+
+
+# -- sampling a probability field (§3.4.2, Fig. 6.5) ----------------------------------------------------------
+def row_prefix(field: np.ndarray) -> np.ndarray:
+    """Prefix sums of the row sums with a leading 0: R[0] = 0, R[i+1] = R[i] + sum(field[i]) (Fig. 6.5)."""
+    field = check_array("field", field, shape=(None, None))
+    return np.concatenate([[0.0], np.cumsum(field.sum(1))])
+
+
+def sample_field(field: np.ndarray, n: int = 1, *, mask: np.ndarray | None = None,
+                 rng: int | np.random.Generator | None = None) -> np.ndarray:
+    """Draw ``n`` positions from a probability field by inverse CDF, rows first (spec 004 §3.4.2).
+
+    k ~ U(0, R[max]) picks row r with R[r] <= k < R[r+1] and y = r + (k - R[r]) / (R[r+1] - R[r]); then the
+    column the same way within row r. Masked-out cells (``mask`` False: outside the brush, excluded, under water)
+    have probability 0.
+
+    Parameters
+    ----------
+    field : (ny, nx) float64 array
+        Non-negative weights.
+    n : int
+        Samples.
+    mask : (ny, nx) bool array, optional
+        Allowed cells.
+    rng : int or Generator or None
+
+    Returns
+    -------
+    (n, 2) float64 array
+        (x, y) in cell units: cell (i, j) spans [j, j+1) x [i, i+1).
+
+    References
+    ----------
+    .. [1] Longay thesis §6.4.1, Fig. 6.5; spec 004 §3.4.2 (prefix with a leading 0 [INFERRED]).
+    """
+    field = check_array("field", field, shape=(None, None))
+    n = check_int("n", n, 0, 10 ** 9)
+    if np.any(field < 0):
+        raise ValueError("field must be non-negative")
+    w = field if mask is None else np.where(check_array("mask", mask, shape=field.shape, dtype=bool), field, 0.0)
+    rng = np.random.default_rng(rng)
+    R = np.concatenate([[0.0], np.cumsum(w.sum(1))])
+    if not R[-1] > 0:
+        raise ValueError("field has no positive cell where the mask allows placement")
+    k = rng.uniform(0.0, R[-1], n)
+    r = np.clip(np.searchsorted(R, k, "right") - 1, 0, len(R) - 2)
+    y = r + (k - R[r]) / (R[r + 1] - R[r])
+    C = np.concatenate([np.zeros((w.shape[0], 1)), np.cumsum(w, 1)], 1)[r]  # (n, nx+1) prefix of each chosen row
+    m = rng.uniform(0.0, 1.0, n) * C[:, -1]
+    c = np.clip((C <= m[:, None]).sum(1) - 1, 0, w.shape[1] - 1)
+    lo, hi = C[np.arange(n), c], C[np.arange(n), c + 1]
+    x = c + np.where(hi > lo, (m - lo) / np.where(hi > lo, hi - lo, 1.0), 0.5)
+    return np.column_stack([x, y])
+
+
+@dataclass(frozen=True)
+class Species:
+    """A species for distribution: relative probability P_i, trunk width T_w (m; occupied radius S T_w / 2)
+    and the range of the per-instance scale S (§3.2, §3.4.3)."""
+
+    probability: float = 1.0
+    trunk_width: float = 0.5
+    scale: tuple[float, float] = (0.8, 1.2)
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """Placed trees: ``xy`` (N, 2) metres, ``species`` (N,) int, ``scale`` (N,), and the final ``fields``
+    (n_species, ny, nx)."""
+
+    xy: np.ndarray
+    species: np.ndarray
+    scale: np.ndarray
+    fields: np.ndarray
+
+
+def distribute(n: int, species: list[Species], interactions: dict, *, size: tuple[float, float] = (30.0, 30.0),
+               shape: tuple[int, int] = (128, 128), mask: np.ndarray | None = None,
+               rng: int | np.random.Generator | None = None) -> Distribution:
+    """Add ``n`` trees one by one with the deformation-kernel method (spec 004 §3.4.2–3.4.3).
+
+    Each addition chooses a species by cumulative P_i, a scale uniform in its range, a position from that
+    species' field (times ``mask``) by :func:`sample_field`, then multiplies the kernel of every ordered pair
+    (placed species i -> species j) into field j, centred at the new tree (r = S T_w / 2).
+
+    Parameters
+    ----------
+    n : int
+        Trees to add.
+    species : list of Species
+    interactions : dict {(i, j): (kind, s, a)}
+        ``kind`` "cluster" (Eq. 6.1) or "inhibit" (Eq. 6.2), scale s, active radius a (m); missing pairs do not
+        interact beyond the occupied radius.
+    size : (float, float)
+        Plot (width, depth) in metres, covered by the field.
+    shape : (int, int)
+        Field (ny, nx).
+    mask : (ny, nx) bool array, optional
+        Allowed cells (brush disc, not excluded, not under water).
+    rng : int or Generator or None
+
+    Returns
+    -------
+    Distribution
+
+    References
+    ----------
+    .. [1] Longay thesis §6.4, Eqs. 6.1–6.2, Figs. 6.4–6.9; spec 004 §3.4 (ERRATUM E9 for s < 1).
+    """
+    n = check_int("n", n, 0, 10 ** 7)
+    if not species:
+        raise ValueError("species must list at least one Species")
+    ns = len(species)
+    probs = np.array([check_range(f"species[{i}].probability", sp.probability, 0.0, 1.0)
+                      for i, sp in enumerate(species)])
+    if not probs.sum() > 0:
+        raise ValueError("at least one species probability must be positive")
+    for i, sp in enumerate(species):
+        check_range(f"species[{i}].trunk_width", sp.trunk_width, 0.0, np.inf)
+        lo = check_range(f"species[{i}].scale[0]", sp.scale[0], 0.0, np.inf, low_open=True)
+        check_range(f"species[{i}].scale[1]", sp.scale[1], lo, np.inf)
+    kern = {}
+    for key, (kind, sval, a) in interactions.items():
+        i, j = key
+        check_int("interaction species", i, 0, ns - 1)
+        check_int("interaction species", j, 0, ns - 1)
+        kind = check_choice("interaction kind", kind, ("cluster", "inhibit"))
+        sval = check_range("s", sval, 1.0 if kind == "inhibit" else 0.0, np.inf)  # ERRATUM E9
+        kern[(i, j)] = (kind, sval, check_range("a", a, 0.0, np.inf, low_open=True))
+    ny = check_int("shape[0]", shape[0], 1, 8192)
+    nx = check_int("shape[1]", shape[1], 1, 8192)
+    W = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
+    H = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    allow = None if mask is None else check_array("mask", mask, shape=(ny, nx), dtype=bool)
+    rng = np.random.default_rng(rng)
+    fields = np.ones((ns, ny, nx))
+    cx, cy = W / nx, H / ny
+    xs, ys = (np.arange(nx) + 0.5) * cx, (np.arange(ny) + 0.5) * cy
+    cum = np.cumsum(probs)
+    out_xy, out_sp, out_sc = np.zeros((n, 2)), np.zeros(n, np.int64), np.zeros(n)
+    for t in range(n):
+        i = int(np.searchsorted(cum, rng.uniform(0.0, cum[-1]), "right"))
+        i = min(i, ns - 1)
+        S = rng.uniform(*species[i].scale)
+        p = sample_field(fields[i], 1, mask=allow, rng=rng)[0] * (cx, cy)
+        out_xy[t], out_sp[t], out_sc[t] = p, i, S
+        r = S * species[i].trunk_width / 2
+        for j in range(ns):
+            kind, sval, a = kern.get((i, j), ("inhibit", 1.0, r + 1e-9))
+            a = max(a, r + 1e-9)
+            x0, x1 = np.searchsorted(xs, p[0] - a), np.searchsorted(xs, p[0] + a, "right")
+            y0, y1 = np.searchsorted(ys, p[1] - a), np.searchsorted(ys, p[1] + a, "right")
+            if x0 >= x1 or y0 >= y1:
+                continue
+            d = np.hypot(xs[None, x0:x1] - p[0], ys[y0:y1, None] - p[1])
+            k = (clustering_kernel if kind == "cluster" else inhibitory_kernel)(d, r=r, a=a, s=sval)
+            fields[j, y0:y1, x0:x1] *= k
+    return Distribution(out_xy, out_sp, out_sc, fields)

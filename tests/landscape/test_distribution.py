@@ -46,3 +46,52 @@ def test_ripley_brute_force_oracle():
     np.testing.assert_allclose(ripley_k(p, t, area=100.0), brute)
     with pytest.raises(ValueError, match="area"):
         ripley_k(p, 1.0)
+
+
+# -- deformation-kernel distribution (V19, V20) -----------------------------------------------------------------
+from scipy import stats
+
+from plantvr.landscape.distribution import Species, distribute, row_prefix, sample_field
+
+FIG65 = np.array([[6, 0, 2, 3, 0], [1, 2, 3, 4, 0], [2, 3, 1, 6, 2], [5, 5, 7, 8, 4], [0, 1, 4, 1, 5],
+                  [1, 1, 3, 2, 1]], float)
+
+
+def test_ts_v19_fig65_prefix_and_sampler_chi2():
+    np.testing.assert_array_equal(row_prefix(FIG65)[1:], [11, 21, 35, 64, 75, 83])
+    xy = sample_field(FIG65, 100_000, rng=1)
+    cells = np.floor(xy).astype(int)
+    counts = np.zeros_like(FIG65)
+    np.add.at(counts, (cells[:, 1], cells[:, 0]), 1)
+    assert counts[FIG65 == 0].sum() == 0
+    p = FIG65[FIG65 > 0] / FIG65.sum()
+    chi2 = stats.chisquare(counts[FIG65 > 0], p * len(xy))
+    assert chi2.pvalue > 1e-3
+    mask = np.ones_like(FIG65, bool)
+    mask[3] = False  # e.g. water across row 3
+    xy = sample_field(FIG65, 20_000, mask=mask, rng=2)
+    assert not np.any(np.floor(xy[:, 1]) == 3)
+    with pytest.raises(ValueError, match="no positive cell"):
+        sample_field(FIG65, 1, mask=np.zeros_like(FIG65, bool))
+
+
+def test_ts_v20_species_choice_scale_and_kernels():
+    sp = [Species(1.0, 0.4, (0.5, 1.5)), Species(0.25, 0.4, (2.0, 3.0))]
+    d = distribute(400, sp, {}, size=(60.0, 60.0), shape=(96, 96), rng=3)
+    frac = np.mean(d.species == 1)
+    assert abs(frac - 0.2) < 0.06  # P_1 / (P_0 + P_1)
+    s0 = d.scale[d.species == 0]
+    assert s0.min() >= 0.5 and s0.max() <= 1.5 and stats.kstest((s0 - 0.5) / 1.0, "uniform").pvalue > 1e-3
+    # clustering within a species vs strong inhibition: Ripley K at 3 m is larger for the clustered pattern
+    one = [Species(1.0, 0.4, (1.0, 1.0))]
+    clus = distribute(150, one, {(0, 0): ("cluster", 6.0, 4.0)}, rng=4)
+    inh = distribute(150, one, {(0, 0): ("inhibit", 1.0, 2.5)}, rng=4)
+    k_c = ripley_k(clus.xy, 3.0, box=(30.0, 30.0))[0]
+    k_i = ripley_k(inh.xy, 3.0, box=(30.0, 30.0))[0]
+    assert k_c > np.pi * 9 > k_i
+    d_min = np.min([np.linalg.norm(inh.xy[i] - inh.xy[j]) for i in range(150) for j in range(i)])
+    assert d_min > 0.2  # never inside another tree's occupied radius (S T_w / 2 = 0.2)
+    with pytest.raises(ValueError, match="s must be in"):
+        distribute(1, one, {(0, 0): ("inhibit", 0.5, 3.0)})
+    with pytest.raises(ValueError, match="interaction kind"):
+        distribute(1, one, {(0, 0): ("attract", 2.0, 3.0)})
