@@ -1,5 +1,13 @@
 """Landscapes (spec 004_treesketch §3): terrain height field, tree distribution, forests grown tree by tree on dask."""
-from .distribution import Distribution, Species, clustering_kernel, distribute, inhibitory_kernel, ripley_k, sample_field
+from .distribution import (
+           Distribution,
+           Species,
+           clustering_kernel,
+           distribute,
+           inhibitory_kernel,
+           ripley_k,
+           sample_field,
+)
 from .forest import Forest, crown_regions, grow_forest
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
