@@ -102,7 +102,7 @@ class Segmentation:
         self._observers: list[Callable] = []
         self.event_log: list[tuple] = []          # replayable commands: (op, *args), plain Python values
         self.autosave_path: str | None = None
-        self.preserve: bool | tuple[int, ...] = False   # default brush mode of paint(); see paint()
+        self._preserve: bool | tuple[int, ...] = False  # default brush mode of paint(); see paint()
         self._graph = None
         lo, hi = bounds(v)
         ext = hi - lo
@@ -129,7 +129,7 @@ class Segmentation:
 
     @property
     def graph(self):
-        """Vertex adjacency (CSR with edge lengths, :class:`plantvr.vine.fill.MeshGraph`), built once."""
+        """Vertex adjacency (CSR, :class:`plantvr.vine.fill.MeshGraph`; edge lengths on first use), built once."""
         if self._graph is None:
             from plantvr.vine.fill import mesh_graph
             self._graph = mesh_graph(self.vertices, self.faces)
@@ -166,6 +166,15 @@ class Segmentation:
         if not self.colors.visible[label]:
             raise ValueError(f"{name} {label} is hidden; show it before painting with it")
         return label
+
+    @property
+    def preserve(self) -> bool | tuple[int, ...]:
+        """Default preserve-labels brush mode of :meth:`paint` (False, True or a tuple of paintable labels)."""
+        return self._preserve
+
+    @preserve.setter
+    def preserve(self, value) -> None:
+        self._preserve = self.check_preserve(False if value is None else value)
 
     def check_preserve(self, preserve) -> bool | tuple[int, ...]:
         """Validate a preserve-labels mode: False, True (only unlabelled 0 is painted) or labels that may be
@@ -649,7 +658,7 @@ class Segmentation:
 
     def _adopt(self, other: Segmentation, *, same_mesh: bool = False, event_log: bool = False) -> None:
         """Take over ``other``'s state (observers, autosave path and brush mode stay; one "all" notice)."""
-        keep = {"_observers", "autosave_path", "preserve"} | ({"_index", "_graph"} if same_mesh else set())
+        keep = {"_observers", "autosave_path", "_preserve"} | ({"_index", "_graph"} if same_mesh else set())
         if not event_log:
             keep.add("event_log")
         self.__dict__.update({k: v for k, v in other.__dict__.items() if k not in keep})

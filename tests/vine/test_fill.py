@@ -371,3 +371,14 @@ def test_property_fill_split_merge_random_labels(ico):
         assert len(seg.history.undo_stack) == 0 and len(seg.history.redo_stack) == 1   # new commands clear redo
 
     check()
+
+
+def test_preserve_attribute_is_validated(surface):
+    seg = Segmentation(surface.vertices, surface.faces)
+    seg.preserve = [3, 0, 3]
+    assert seg.preserve == (0, 3)
+    with pytest.raises(ValueError, match="preserve must be an integer in"):
+        seg.preserve = (99,)
+    assert seg.preserve == (0, 3)
+    seg.preserve = None
+    assert seg.preserve is False
