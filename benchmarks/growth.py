@@ -94,7 +94,7 @@ def time_step(e: GrowthEngine, markers: int, rng, repeats: int = 3, scene: str =
         e2.marker_age[:] = 1
         buds = e2._active_buds()
         t0 = time.perf_counter()
-        st = e2.step()
+        e2.step()
         ms.append(1e3 * (time.perf_counter() - t0))
     return float(np.median(ms)), len(buds.node), e2, buds
 

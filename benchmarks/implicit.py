@@ -34,7 +34,6 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from plantvr.implicit import (Blend, FieldCache, field_pdf, grow_in_crown, lane_sample,  # noqa: E402
                               poisson_kernel, polygonize, sample_band, sample_inside, sample_mesh_near, sphere)
-from plantvr.implicit import _lane_kernels as lk  # noqa: E402
 
 THESIS = {"t61_no_cache": 94.7, "t61_cache": 4.1, "t62_lane": 145.9, "t62_exact_grid": 45.01,
           "t62_cache_grid": 8.67}

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
-import traitlets
 from traitlets import Bool, Dict, Float, HasTraits, Int, TraitType
 
 from ._validation import check_int, check_point, check_points, check_range

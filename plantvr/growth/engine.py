@@ -224,7 +224,7 @@ class GrowthEngine:
 
     def buds(self) -> _Buds:
         """Every bud slot of the live tree: node, slot, position and initial heading (Eqs. 9.1/9.2)."""
-        p, t = self.params, self.tree
+        t = self.tree
         node, slot = np.nonzero((t.child == BUD) & t.alive[:, None])
         return _Buds(node, slot, t.pos[node], self._bud_dirs(node, slot), None, t.bud_vigor[node, slot])
 

@@ -14,7 +14,6 @@ only if every line succeeds, so a rejected script leaves the session unchanged. 
 """
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from pathlib import Path
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
 

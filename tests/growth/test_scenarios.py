@@ -14,7 +14,7 @@ def _grow(session, steps=45, seed=0, **params):
 
 def _trunk_height_fraction(e):
     t = e.tree
-    n, top = 1, 1
+    n = 1
     while t.child[n, 0] >= 0 and t.alive[t.child[n, 0]]:
         n = t.child[n, 0]
     return t.pos[n, 1] / t.pos[t.alive, 1].max()

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from plantvr.implicit.blobtree import sphere, torus
+from plantvr.implicit.blobtree import sphere
 from plantvr.implicit.crown import default_roots, grow_in_crown, pipe_radii
 from plantvr.implicit.sampling import lane_in_node, poisson_kernel, sample_inside
 
