@@ -3,18 +3,26 @@ sessions (spec 000_vine §1.4–2.7, checklist items 1–3, 8–9, 13–17, 24, 
 
 Never imports pyvista/vtk or any UI; the view lives in :mod:`plantvr.view.segmentation`.
 """
+from plantvr.vine.bundle import Bundle, load_bundle, restore_bundle, save_bundle
 from plantvr.vine.colors import DEFAULT_PALETTE, ColorTable
 from plantvr.vine.depthcue import coarse_hull, depth_cue_colors, depth_factor, hull_distances, inside_hull
+from plantvr.vine.fill import MeshGraph, flood_region, label_components, mesh_graph
 from plantvr.vine.history import History, LabelEdit
 from plantvr.vine.index import GridIndex, KDTreeIndex, ball_query_brute
 from plantvr.vine.isosurface import Surface, extract_isosurface, signed_volume
+from plantvr.vine.labelstats import export_label_meshes, label_mesh, label_table, plot_label_areas
 from plantvr.vine.ply import write_ply
+from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
+from plantvr.vine.slices import plane_segments, slice_contours, slice_figure
 from plantvr.vine.synth import COMPONENTS, FlowerHead, synth_flowerhead, tile_mesh, vertex_labels_from_volume
 from plantvr.vine.views import SavedView, load_view, save_view, world_to_model
 from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume, suggest_level
 
 __all__ = [
+           "Bundle", "DisplayProxy", "MeshGraph", "export_label_meshes", "flood_region", "label_components",
+           "label_mesh", "label_table", "load_bundle", "mesh_graph", "plane_segments", "plot_label_areas",
+           "restore_bundle", "save_bundle", "slice_contours", "slice_figure",
            "COMPONENTS",
            "DEFAULT_PALETTE",
            "ColorTable",
