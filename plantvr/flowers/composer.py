@@ -217,6 +217,9 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
                 clean = True
                 break
             v = np.unique(cons)
+            v = v[w_col[v] > 0]                          # attachments keep their prescribed positions (C8)
+            if v.size == 0:
+                break
             stats["rolled_back"] += len(v)
             p[v] = x[v]
         if not clean:
