@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_choice, check_int, check_point, check_points, check_range
+from .._validation import check_array, check_choice, check_int, check_point, check_points, check_range
 from .bending import BendResult, bend_path, pipe_widths
 from .colonize import assign_treewand
 from .directions import _rotate, bud_headings, normalize, transport_lateral
@@ -274,6 +274,10 @@ class SketchEngine(GrowthEngine):
         to this tree's base, "weights": (K,) their weights, "weight": this tree's weight, "h_max": height cap}``.
         Autonomous points outside the multiplicatively weighted Voronoi cell of the base (|q| / w <= |q - s_k| /
         w_k for every k) or above ``h_max`` are dropped, and growth halts once a node reaches ``h_max``.
+    asymmetry : (2,) float or None
+        Neighbourhood-asymmetry vector **V** = (x, z) of a landscape tree (Eq. 6.4); the tropism becomes
+        **F** = (1 - a)(**V** + **T**) + a **T**, a = (h / h_max)^(1/2) with h the tree height and h_max the region's
+        (Eq. 6.5; no fade without a region), normalised before Eq. 4.5.
     depth : dict or None
         Depth constraint (App. B): ``{"normal": (3,), "depth": d}``; attraction points farther than d from the
         plane through the tree base with that normal (the view direction when enabled) are removed before they
@@ -287,7 +291,7 @@ class SketchEngine(GrowthEngine):
                  trunk_up: bool = False, deflection: float = 0.0, mode: str = "directed", point_density: int = 4,
                  ellipse: tuple[float, float, float] = (1.0, 1.0, 0.0), shed_threshold: float = 0.0,
                  stroke_tropism: bool = False, bud_lifetime: int | None = None, region: dict | None = None,
-                 depth: dict | None = None):
+                 depth: dict | None = None, asymmetry=None):
         opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
                 "deflection": check_range("deflection", deflection, 0.0, 90.0),
                 "mode": check_choice("mode", mode, ("directed", "autonomous")),
@@ -295,7 +299,8 @@ class SketchEngine(GrowthEngine):
                 "ellipse": self._check_ellipse(ellipse),
                 "shed_threshold": check_range("shed_threshold", shed_threshold, 0.0, np.inf),
                 "stroke_tropism": bool(stroke_tropism), "bud_lifetime": self._check_life(bud_lifetime),
-                "region": self._check_region(region), "depth": self._check_depth(depth)}
+                "region": self._check_region(region), "depth": self._check_depth(depth),
+                "asymmetry": self._check_asym(asymmetry)}
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
         check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
         if isinstance(rng, (int, np.integer)):
@@ -310,6 +315,12 @@ class SketchEngine(GrowthEngine):
         self._stroke_dirs: dict[bytes, np.ndarray] = {}
         self.bud_override: dict[tuple[int, int], np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
+
+    @staticmethod
+    def _check_asym(v) -> list | None:
+        if v is None:
+            return None
+        return check_array("asymmetry", v, shape=(2,)).tolist()
 
     @staticmethod
     def _check_depth(depth) -> dict | None:
@@ -395,7 +406,7 @@ class SketchEngine(GrowthEngine):
                   "ellipse": self._check_ellipse,
                   "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, np.inf),
                   "stroke_tropism": bool, "bud_lifetime": self._check_life, "region": self._check_region,
-                  "depth": self._check_depth}
+                  "depth": self._check_depth, "asymmetry": self._check_asym}
         new = {}
         for k, v in opts.items():
             if k not in checks:
@@ -737,6 +748,13 @@ class SketchEngine(GrowthEngine):
             S = np.linalg.norm(ssum, axis=1) > 1e-12
             ssum[S] /= np.linalg.norm(ssum[S], axis=1)[:, None]
         al, be, ga = barycentric(p["w_heading"], p["w_tropism"], p["w_env"])
+        fade = V_na = None
+        if self.sketch["asymmetry"] is not None:
+            vx, vz = self.sketch["asymmetry"]
+            V_na = np.array([vx, 0.0, vz])
+            reg = self.sketch["region"]
+            h = float(t.pos[t.alive, 1].max() - t.pos[0, 1])
+            fade = min(h / reg["h_max"], 1.0) ** 0.5 if reg is not None else 0.0
         theta = math.radians(p["tropism_angle"])
         delta = math.radians(self.sketch["deflection"])
         phyl = math.radians(p["phyllotaxis_angle"])
@@ -758,6 +776,8 @@ class SketchEngine(GrowthEngine):
             T = set_point_tropism(H[a], theta, main_axis=main_axis[a], trunk_up=self.sketch["trunk_up"], rng=rng)
             if S is not None:
                 T = np.where(S[a, None], ssum[a], T)
+            if fade is not None:  # Eq. 6.5, ERRATUM E8 (asym_fade)
+                T = normalize((1.0 - fade) * (V_na + T) + fade * T, fallback=T)
             d = normalize(al * H[a] + be * T + ga * E[a], fallback=H[a])
             lat = transport_lateral(prev_lat[a], prev_head[a], d, phyl)
             pos = tip[a] + length[a, None] * d

@@ -1,4 +1,5 @@
 """Landscapes (spec 004_treesketch §3): terrain height field, tree distribution, forests grown tree by tree on dask."""
+from .asymmetry import cell_geometry, landscape_tropism, neighbour_asymmetry
 from .distribution import (
            Distribution,
            Species,
@@ -12,5 +13,6 @@ from .forest import Forest, crown_regions, grow_forest
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
-__all__ = ["Distribution", "Forest", "Species", "clustering_kernel", "crown_regions", "distribute", "grow_forest",
-           "heightfield", "inhibitory_kernel", "poisson_disc", "ripley_k", "sample_field", "sample_height"]
+__all__ = ["Distribution", "Forest", "Species", "cell_geometry", "clustering_kernel", "crown_regions", "distribute",
+           "grow_forest", "heightfield", "inhibitory_kernel", "landscape_tropism", "neighbour_asymmetry", "poisson_disc",
+           "ripley_k", "sample_field", "sample_height"]

@@ -27,6 +27,7 @@ from .._validation import check_int, check_range
 from ..growth.engine import GrowthEngine
 from ..growth.sketch import SketchEngine
 from ..params import defaults
+from .asymmetry import cell_geometry, neighbour_asymmetry
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
@@ -180,19 +181,25 @@ def crown_regions(bases: np.ndarray, *, reach: float, h_max: float, weights: np.
     return out
 
 
-def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None):
+def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False):
     ss = np.random.SeedSequence(seed).spawn(len(bases))
     states = []
     regions = None
     if sketch is not None:
         regions = crown_regions(bases, reach=4.0 * crown_radius, h_max=crown_height + crown_radius)
+        if lean:  # Eqs. 6.3-6.4 with the region geometry of the same (unweighted) cells
+            xz = bases[:, [0, 2]]
+            C, B = cell_geometry(xz, size)
+            V = neighbour_asymmetry(xz, np.ones(len(xz)), 2.0 * crown_radius, centroids=C, bounding=B)
+            sketch = [{**sketch, "asymmetry": v.tolist()} for v in V]
     for i in range(len(bases)):
         if sketch is None:
             e = GrowthEngine(params, rng=np.random.default_rng(ss[i]))
             e.paint(np.array([0.0, crown_height, 0.0]), crown_radius, n_darts)
         else:
+            opts = sketch[i] if isinstance(sketch, list) else sketch
             e = SketchEngine(params, rng=int(ss[i].generate_state(1, np.uint64)[0] >> np.uint64(2)),
-                             **{"mode": "autonomous", **sketch, "region": regions[i]})
+                             **{"mode": "autonomous", **opts, "region": regions[i]})
         states.append(engine_state(e))
     return states
 
@@ -202,7 +209,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 n_darts: int = 300, terrain_amplitude: float = 3.0, params: dict[str, Any] | None = None,
                 seed: int = 0, client: Any = None, n_workers: int = 2, processes: bool = False,
                 compete: bool = True, tasks_per_round: int | None = None, geometry: bool = False,
-                sketch: dict[str, Any] | None = None) -> Forest:
+                sketch: dict[str, Any] | None = None, lean: bool = False) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -223,6 +230,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     sketch : dict, optional
         TreeSketch options (:class:`~plantvr.growth.sketch.SketchEngine` keywords, e.g. ``{"n_max": 3}``): grow
         every tree autonomously inside its crown space (weighted Voronoi cell, h_max) instead of painted crowns.
+    lean : bool
+        With ``sketch``: add the neighbourhood-asymmetry tropism (Eqs. 6.3–6.5, alpha_a = 1, alpha_d = 2,
+        r_i = the crown width 2 crown_radius), so trees at cluster edges lean into open space.
 
     Returns
     -------
@@ -250,7 +260,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
     if sketch is not None and not isinstance(sketch, dict):
         raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
-    states = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch)
+    states = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean))
 
     own, runner = None, client
     if client is None:

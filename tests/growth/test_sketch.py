@@ -551,3 +551,20 @@ def test_ts_v16_depth_constraint():
     assert np.abs(t.pos[t.alive, 2]).max() <= 1.5 + 2 * 3  # trees may extend slightly outside (one shoot)
     with pytest.raises(ValueError, match="depth"):
         e.set_options(depth={"normal": [0, 0, 0], "depth": 1.0})
+
+
+def test_ts_asymmetry_tropism_leans_away():
+    """Eq. 6.5 in growth: a tree with V = +x leans toward +x; the lean fades as it nears h_max."""
+    params = {"w_heading": 0.3, "w_tropism": 0.4, "w_env": 0.3, "activation_threshold": 0.0,
+              "length_mode": "constant"}
+    region = {"sites": [], "weights": [], "weight": 1.0, "h_max": 12.0}
+
+    def centroid_x(v):
+        e = _engine(n_max=2, mode="autonomous", params=params, region=region, asymmetry=v, rng=5)
+        for _ in range(8):
+            e.step()
+        return e.tree.pos[e.tree.alive, 0].mean()
+
+    assert centroid_x([2.0, 0.0]) > centroid_x(None) + 0.5
+    with pytest.raises(ValueError, match="asymmetry"):
+        _engine(asymmetry=[1.0, 2.0, 3.0])

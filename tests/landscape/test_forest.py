@@ -129,3 +129,25 @@ def test_ts_v25_v26_sketch_forest_in_crown_space():
         assert (live[:, 1] - b[1]).max() <= h_max + 2 * 2.0 + 1e-9  # at most one shoot (n_max * max length)
     with pytest.raises(ValueError, match="sketch"):
         grow_forest(2, client="sync", sketch="yes")
+
+
+def test_ts_forest_neighbour_asymmetry_lean():
+    """Eqs. 6.3-6.5 in the forest: with ``lean`` crowns shift along their neighbourhood-asymmetry vectors."""
+    from plantvr.landscape.asymmetry import cell_geometry, neighbour_asymmetry
+
+    kw = {"size": (24.0, 24.0), "min_dist": 4.0, "rounds": 2, "steps_per_round": 4, "crown_height": 5.0,
+          "crown_radius": 3.0, "seed": 3, "client": "sync", "sketch": {"n_max": 2, "bud_lifetime": 6},
+          "params": {"activation_threshold": 0.0, "length_mode": "constant", "w_tropism": 0.4, "w_heading": 0.3,
+                     "w_env": 0.3}}
+    plain, lean = grow_forest(12, **kw), grow_forest(12, lean=True, **kw)
+    xz = plain.bases[:, [0, 2]]
+    C, B = cell_geometry(xz, kw["size"])
+    V = neighbour_asymmetry(xz, np.ones(len(xz)), 6.0, centroids=C, bounding=B)
+    moving = np.linalg.norm(V, axis=1) > 0.1
+    assert moving.sum() >= 3
+
+    def shift(f):
+        c = np.array([t["pos"][t["alive"]][:, [0, 2]].mean(0) for t in f.trees]) - xz
+        return np.sum(c[moving] * V[moving] / np.linalg.norm(V[moving], axis=1)[:, None], axis=1).mean()
+
+    assert shift(lean) > shift(plain) + 0.2
