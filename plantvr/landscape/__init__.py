@@ -11,8 +11,8 @@ from .distribution import (
 )
 from .forest import Forest, crown_regions, grow_forest
 from .placement import poisson_disc
-from .terrain import heightfield, sample_height
+from .terrain import brush_height, brush_mask, heightfield, placement_mask, sample_height
 
-__all__ = ["Distribution", "Forest", "Species", "cell_geometry", "clustering_kernel", "crown_regions", "distribute",
-           "grow_forest", "heightfield", "inhibitory_kernel", "landscape_tropism", "neighbour_asymmetry", "poisson_disc",
-           "ripley_k", "sample_field", "sample_height"]
+__all__ = ["Distribution", "Forest", "Species", "brush_height", "brush_mask", "cell_geometry", "clustering_kernel", "crown_regions", "distribute",
+           "grow_forest", "heightfield", "inhibitory_kernel", "landscape_tropism", "neighbour_asymmetry", "placement_mask",
+           "poisson_disc", "ripley_k", "sample_field", "sample_height"]

@@ -1,4 +1,5 @@
-"""Terrain height field (spec 004_treesketch §3.3): a seeded multi-octave smoothed-noise surface, y up."""
+"""Terrain height field (spec 004_treesketch §3.3): a seeded multi-octave smoothed-noise surface (y up), raise /
+lower and exclusion brushes, water level, and the placement mask for the distribution."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +7,7 @@ from scipy.ndimage import gaussian_filter, map_coordinates
 
 from .._validation import check_array, check_int, check_range
 
-__all__ = ["heightfield", "sample_height"]
+__all__ = ["brush_height", "brush_mask", "heightfield", "placement_mask", "sample_height"]
 
 
 def heightfield(shape: tuple[int, int] = (128, 128), *, amplitude: float = 5.0, octaves: int = 4,
@@ -41,3 +42,54 @@ def sample_height(hf: np.ndarray, size: tuple[float, float], xz: np.ndarray) -> 
     return map_coordinates(hf, [cz, cx], order=1, mode="nearest")
 
 
+
+
+def _falloff(shape, size, center, radius):
+    nz, nx = shape
+    sx, sz = size
+    x = np.linspace(0.0, sx, nx)[None, :]
+    z = np.linspace(0.0, sz, nz)[:, None]
+    u = np.clip(1.0 - np.hypot(x - center[0], z - center[1]) / radius, 0.0, 1.0)
+    return u * u * u * (u * (6.0 * u - 15.0) + 10.0)  # the smoothstep of Eq. 6.1
+
+
+def brush_height(hf: np.ndarray, size: tuple[float, float], center, radius: float, amount: float) -> np.ndarray:
+    """Raise (``amount`` > 0) or lower the terrain under a round brush: h += amount * S(1 - d / radius), with the
+    smoothstep S of Eq. 6.1 (1 at the centre, 0 from the rim outwards). Returns a new (nz, nx) field (§3.3)."""
+    hf = check_array("hf", hf, shape=(None, None))
+    sx = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
+    sz = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    c = check_array("center", center, shape=(2,))
+    radius = check_range("radius", radius, 0.0, np.inf, low_open=True)
+    amount = check_range("amount", amount, -1e6, 1e6)
+    return hf + amount * _falloff(hf.shape, (sx, sz), c, radius)
+
+
+def brush_mask(mask: np.ndarray, size: tuple[float, float], center, radius: float, value: bool = True
+               ) -> np.ndarray:
+    """Paint ``value`` into a (nz, nx) bool mask (e.g. the exclusion brush, §3.3) inside a round brush; new array."""
+    mask = check_array("mask", mask, shape=(None, None), dtype=bool)
+    sx = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
+    sz = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    c = check_array("center", center, shape=(2,))
+    radius = check_range("radius", radius, 0.0, np.inf, low_open=True)
+    out = mask.copy()
+    out[_falloff(mask.shape, (sx, sz), c, radius) > 0] = bool(value)
+    return out
+
+
+def placement_mask(hf: np.ndarray, *, water_level: float = -np.inf, excluded: np.ndarray | None = None,
+                   shape: tuple[int, int] | None = None) -> np.ndarray:
+    """Cells where trees may be placed: above ``water_level`` and not ``excluded`` (§3.3, §3.4.3), resampled by
+    nearest cell centre to ``shape`` (the distribution field's (ny, nx)) when given."""
+    hf = check_array("hf", hf, shape=(None, None))
+    ok = hf >= float(water_level)
+    if excluded is not None:
+        ok &= ~check_array("excluded", excluded, shape=hf.shape, dtype=bool)
+    if shape is None:
+        return ok
+    ny = check_int("shape[0]", shape[0], 1, 8192)
+    nx = check_int("shape[1]", shape[1], 1, 8192)
+    iy = np.minimum(((np.arange(ny) + 0.5) / ny * ok.shape[0]).astype(int), ok.shape[0] - 1)
+    ix = np.minimum(((np.arange(nx) + 0.5) / nx * ok.shape[1]).astype(int), ok.shape[1] - 1)
+    return ok[np.ix_(iy, ix)]

@@ -95,3 +95,24 @@ def test_ts_v20_species_choice_scale_and_kernels():
         distribute(1, one, {(0, 0): ("inhibit", 0.5, 3.0)})
     with pytest.raises(ValueError, match="interaction kind"):
         distribute(1, one, {(0, 0): ("attract", 2.0, 3.0)})
+
+
+def test_ts_terrain_brushes_water_and_exclusion_mask_placement():
+    from plantvr.landscape.terrain import brush_height, brush_mask, placement_mask
+
+    size = (30.0, 30.0)
+    hf = np.zeros((61, 61))
+    up = brush_height(hf, size, (15.0, 15.0), 6.0, 2.0)
+    assert up[30, 30] == pytest.approx(2.0) and up[0, 0] == 0.0 and (up >= 0).all()
+    down = brush_height(up, size, (15.0, 15.0), 6.0, -2.0)
+    np.testing.assert_allclose(down, hf, atol=1e-12)  # raise then lower restores
+    excl = brush_mask(np.zeros_like(hf, bool), size, (5.0, 5.0), 4.0)
+    assert excl[10, 10] and not excl[40, 40]
+    water = brush_height(hf, size, (25.0, 25.0), 5.0, -3.0)
+    ok = placement_mask(water, water_level=-0.5, excluded=excl, shape=(32, 32))
+    assert ok.shape == (32, 32) and not ok[5, 5] and not ok[26, 26] and ok[16, 5]
+    d = distribute(200, [Species(1.0, 0.2)], {}, size=size, shape=(32, 32), mask=ok, rng=0)
+    cells = np.floor(d.xy / (30.0 / 32)).astype(int)
+    assert ok[cells[:, 1], cells[:, 0]].all()  # no tree under water or in the exclusion area
+    with pytest.raises(ValueError, match="radius"):
+        brush_height(hf, size, (1.0, 1.0), 0.0, 1.0)
