@@ -109,7 +109,7 @@ def lab(notebooks: Path) -> int:
 
 _DELEGATED = {  # sub-commands whose own parsers live beside their code
     "export": ("plantvr.export", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
-    "segment": ("plantvr.vine.app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
+    "segment": ("plantvr.view.vine_app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
 }
 
 

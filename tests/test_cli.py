@@ -26,3 +26,8 @@ def test_export_subcommand_round_trip(tmp_path):
     main(["demo", "--out", str(tmp_path), "--steps", "10", "--seed", "2"])
     assert main(["export", str(tmp_path / "tree.tree"), "--format", "obj", "-o", str(tmp_path / "t.obj")]) == 0
     assert trimesh.load(tmp_path / "t.obj", force="mesh").faces.shape[0] > 50
+
+
+def test_segment_subcommand_headless(tmp_path):
+    assert main(["segment", "synth", "--out", str(tmp_path), "--stamps", "3"]) == 0
+    assert trimesh.load(tmp_path / "segment.ply", process=False).faces.shape[0] > 100
