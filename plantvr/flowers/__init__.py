@@ -1,4 +1,4 @@
-"""Dense inflorescences (spec 002_inflorescences §2–§4, checklist §8.1 C1–C13, C17, C20–C21).
+"""Dense inflorescences (spec 002_inflorescences §2–§5, checklist §8.1 C1–C13, C17, C20–C25).
 
 Sub-modules
 -----------
@@ -17,6 +17,10 @@ ccd
     vertex-triangle and edge-edge collision constraints, static intersection check.
 composer
     Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations.
+models
+    Sunflower-like (34 rays) and Gaillardia-like (21 rays) heads: phyllotaxis, fate, florets, canopy.
+branching
+    Florets-first extended Rodkaew branching for corymbs and (compound) umbels, pipe widths, tube meshes.
 """
 from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets  # noqa: F401
 from plantvr.flowers.phyllotaxis import (  # noqa: F401

@@ -307,9 +307,7 @@ def _culled(a3, a2, a1, a0):
         return True
     if a0 < 0 and a1 < 0 and a0 + a1 < -abs(a2) - abs(a3):
         return True
-    if abs(a0) > abs(a1) + abs(a2) + abs(a3):
-        return True
-    return False
+    return abs(a0) > abs(a1) + abs(a2) + abs(a3)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -372,10 +370,9 @@ def _roots01(a, b, c, d, out, pts):
     m = 0
     for i in range(npts):
         t = pts[i]
-        if abs(_horner(a, b, c, d, t)) <= eps:
-            if m == 0 or t - out[m - 1] > 1e-10:
-                out[m] = t
-                m += 1
+        if abs(_horner(a, b, c, d, t)) <= eps and (m == 0 or t - out[m - 1] > 1e-10):
+            out[m] = t
+            m += 1
         if i + 1 < npts:
             lo, hi = pts[i], pts[i + 1]
             flo, fhi = _horner(a, b, c, d, lo), _horner(a, b, c, d, hi)

@@ -256,7 +256,7 @@ def polygonize_uv(lam: float | Callable = 0.2, eta: float | Callable = 5, *, gri
         raise ValueError("lam(v) must be finite and > 0 on [0, 1]")
     inv = 1 / lv
     G = np.concatenate([[0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(vg))])
-    n = max(1, int(round(G[-1])))
+    n = max(1, round(float(G[-1])))
     v_rows = np.interp(np.arange(n + 1) * G[-1] / n, G, vg)      # rescaled so v_n = 1 exactly
     v_rows[-1] = 1.0
     et = (np.full(n + 1, float(eta)) if np.isscalar(eta) else np.asarray(eta(v_rows), dtype=np.float64))

@@ -31,7 +31,7 @@ def test_v13_rest_values_under_placement_scale():
     can = Canopy([T], [0], [[1.0, 2.0, 3.0]], rot_up, rot_right, [s])
     for stage in (0.0, 0.4, 1.0):
         L, P, X = can.targets(np.array([stage]))
-        rl, rp, G = T.at(stage)
+        rl, rp, _ = T.at(stage)
         assert np.allclose(L, s * rl, rtol=1e-12)
         assert np.allclose(P, rp, atol=1e-12)
         # measured on the placed geometry

@@ -1,4 +1,5 @@
 """Tests for spec 002 §2: the floret editor core (V1–V8) and its bad-input errors."""
+import itertools
 import os
 
 import numpy as np
@@ -78,7 +79,7 @@ def test_v3_fusion_planes_and_welded_tube():
         normal = np.array([-np.sin(sgn * np.pi / n), np.cos(sgn * np.pi / n), 0.0])   # plane through the axis
         assert np.max(np.abs(net[col, :m] @ normal)) <= 1e-12
     fused = _floret(n_fold=n, fused=m)
-    loops, b = _boundary_loops(fused.faces)
+    loops, _ = _boundary_loops(fused.faces)
     assert loops == 2                       # base ring and the petal rim: the fused zone is a closed tube
     free = _floret(n_fold=n, fused=0)
     loops_free, _ = _boundary_loops(free.faces)
@@ -111,7 +112,7 @@ def test_v5_eq_2_1_spacing():
     lam = lambda x: 0.05 + 0.1 * x + 0.03 * np.sin(7 * x)
     _, _, v = polygonize_uv(lam, 3)
     G1 = quad(lambda x: 1 / lam(x), 0, 1, epsabs=1e-13)[0]
-    per = np.array([quad(lambda x: 1 / lam(x), a, b, epsabs=1e-13)[0] for a, b in zip(v[:-1], v[1:])])
+    per = np.array([quad(lambda x: 1 / lam(x), a, b, epsabs=1e-13)[0] for a, b in itertools.pairwise(v)])
     # each interval holds exactly one unit of the rescaled lambda (grid of 4001 nodes: 1e-6)
     assert np.max(np.abs(per - G1 / (len(v) - 1))) <= 1e-6
     assert v[0] == 0.0 and v[-1] == 1.0

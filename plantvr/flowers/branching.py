@@ -1,0 +1,372 @@
+"""Florets-first branching: the extended Rodkaew algorithm for corymbs and umbels (spec 002 §5; C22–C25).
+
+Particles start at the floret positions (at their emergence times) and trace branches toward the
+inflorescence base A0, steered by Eq. 7.1, H' = (w_a A + w_b B + w_h H) / (w_a + w_b + w_h), where B points to
+the nearest node of a *foreign* tree (another particle's tree or the established structure). A particle that
+comes within the merging distance of a foreign node grafts its tree there and the host's ID_branch is
+propagated through the grafted tree (read live, spec §5.3 pitfall 1). Corymbs of heads and compound umbels are
+generated level by level (Fig. 7.2b) and joined. Widths follow the pipe model d^p = sum d_i^p; a tube mesh is
+made along every segment.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantvr._validation import check_array, check_int, check_point, check_range
+
+__all__ = [
+    "BranchTree",
+    "compound_umbel",
+    "corymb",
+    "linear_wb",
+    "pipe_widths",
+    "rodkaew",
+    "scale_tree",
+    "tube_mesh",
+]
+
+
+@dataclass
+class BranchTree:
+    """A branching structure as parent pointers toward the base (node 0 is the base A0).
+
+    Attributes
+    ----------
+    pos : (N, 3) float64 ndarray
+        Node positions.
+    parent : (N,) int64 ndarray
+        Parent node (toward the base); -1 for the root (node 0).
+    branch_id : (N,) int64 ndarray
+        ID_branch of each node at the end of the run (all equal to the base's ID when connected).
+    tips : (K,) int64 ndarray
+        Node of each floret, in input order.
+    grafts : list of (child node, host node, host id, relabelled ids)
+        Every graft, for the ID checks of V38.
+    """
+
+    pos: np.ndarray
+    parent: np.ndarray
+    branch_id: np.ndarray
+    tips: np.ndarray
+    grafts: list
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of nodes."""
+        return int(self.pos.shape[0])
+
+    def depth_to_root(self) -> np.ndarray:
+        """Number of edges from every node to the root; raises ValueError on a cycle or a dangling node."""
+        n = self.n_nodes
+        depth = np.full(n, -1, np.int64)
+        depth[self.parent < 0] = 0
+        for start in range(n):
+            path = []
+            v = start
+            while depth[v] < 0:
+                path.append(v)
+                v = self.parent[v]
+                if len(path) > n:
+                    raise ValueError("branch structure has a cycle")
+            d = depth[v]
+            for u in reversed(path):
+                d += 1
+                depth[u] = d
+        return depth
+
+
+def linear_wb(radius: float, w_max: float = 1.0) -> Callable[[float], float]:
+    """w_b(d) = w_max (1 - d / radius) for d < radius, else 0 (a simple graphical function, Fig. 7.4)."""
+    radius = check_range("radius", radius, 0.0, 1e12, low_open=True)
+    w_max = check_range("w_max", w_max, 0.0, 1e12)
+    return lambda d: w_max * max(0.0, 1.0 - d / radius)
+
+
+class _Grid:
+    """Uniform grid of node ids (Teschner-style voxel lists) for the nearest-foreign-node query."""
+
+    def __init__(self, cell: float):
+        self.cell = cell
+        self.cells: dict[tuple[int, int, int], list[int]] = {}
+
+    def key(self, p):
+        return (int(np.floor(p[0] / self.cell)), int(np.floor(p[1] / self.cell)), int(np.floor(p[2] / self.cell)))
+
+    def add(self, i, p):
+        self.cells.setdefault(self.key(p), []).append(i)
+
+    def nearest_foreign(self, p, pos, bid, own, radius):
+        kx, ky, kz = self.key(p)
+        best, bd = -1, radius
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    for i in self.cells.get((kx + dx, ky + dy, kz + dz), ()):
+                        if bid[i] == own:                       # own tree ignored (Fig. 7.5a)
+                            continue
+                        d = float(np.sqrt(((pos[i] - p) ** 2).sum()))
+                        if d < bd:
+                            best, bd = i, d
+        return best, bd
+
+
+def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w_a: float = 1.0,
+            w_h: float = 1.0, w_b: Callable[[float], float] | None = None, delta: float = 0.01,
+            merge_dist: float | None = None, search_radius: float | None = None, merge: bool = True,
+            initial_direction: str = "down", max_steps: int = 100_000) -> BranchTree:
+    """Grow a branching structure from floret positions to the base (extended Rodkaew, spec 002 §5.3).
+
+    Parameters
+    ----------
+    florets : (K, 3) float64 array_like
+        Floret (tip) positions.
+    base : (3,) float64 array_like
+        Inflorescence base A0.
+    emergence : (K,) float64 array_like, optional
+        Emergence step of each floret's particle (default all 0).
+    w_a, w_h : float
+        Weights of the base attraction A and the previous direction H in Eq. 7.1.
+    w_b : callable d -> weight, optional
+        Attraction to the nearest foreign node as a function of its distance (default ``linear_wb(8 delta)``).
+    delta : float
+        Step length [INFERRED].
+    merge_dist, search_radius : float, optional
+        Grafting distance (default 1.2 delta) and nearest-neighbour range (default 8 delta) [INFERRED].
+    merge : bool
+        Graft onto foreign nodes; ``False`` with ``w_b = 0`` gives the umbel limit of Fig. 7.3a.
+    initial_direction : {"down", "base"}
+        H of a new particle: -z (the canopy normal reversed) or toward the base.
+
+    Returns
+    -------
+    BranchTree
+
+    References
+    ----------
+    .. [1] Owens 2016, §7.2, Eq. 7.1, Figs. 7.2–7.5; spec 002 §5.3 (live IDs, pitfall 1; umbel limit, pitfall 2).
+    """
+    F = check_array("florets", florets, shape=(None, 3), min_rows=1)
+    A0 = check_point("base", base)
+    K = F.shape[0]
+    tau = np.zeros(K) if emergence is None else check_array("emergence", emergence, shape=(K,))
+    w_a = check_range("w_a", w_a, 0.0, 1e12)
+    w_h = check_range("w_h", w_h, 0.0, 1e12)
+    delta = check_range("delta", delta, 0.0, 1e12, low_open=True)
+    merge_dist = 1.2 * delta if merge_dist is None else check_range("merge_dist", merge_dist, 0.0, 1e12)
+    search_radius = 8 * delta if search_radius is None else check_range("search_radius", search_radius, 0.0,
+                                                                         1e12, low_open=True)
+    if initial_direction not in ("down", "base"):
+        raise ValueError(f"initial_direction must be one of ['down', 'base'], got {initial_direction!r}")
+    max_steps = check_int("max_steps", max_steps, 1, 100_000_000)
+    wb = linear_wb(search_radius) if w_b is None else w_b
+    if w_a + w_h == 0:
+        raise ValueError("w_a + w_h must be > 0 so that every particle has a direction")
+
+    pos = [A0.copy()]
+    parent = [-1]
+    bid = [0]                                   # the base's ID_branch is 0
+    members: dict[int, list[int]] = {0: [0]}
+    grid = _Grid(search_radius)
+    grid.add(0, A0)
+    tips = np.full(K, -1, np.int64)
+    grafts = []
+    particles: list[list] = []                  # [node, H, active]
+    order = np.argsort(tau, kind="stable")
+    nxt = 0
+    step = 0
+    while True:
+        while nxt < K and tau[order[nxt]] <= step:
+            k = order[nxt]
+            nxt += 1
+            i = len(pos)
+            pos.append(F[k].copy())
+            parent.append(-1)
+            bid.append(i)                        # unique ID_branch per particle-tree pair
+            members[i] = [i]
+            grid.add(i, F[k])
+            tips[k] = i
+            H = np.array([0.0, 0.0, -1.0]) if initial_direction == "down" else A0 - F[k]
+            H = H / (np.linalg.norm(H) or 1.0)
+            particles.append([i, H, True])
+        active = [P for P in particles if P[2]]
+        if not active and nxt >= K:
+            break
+        if step >= max_steps:
+            raise ValueError(f"particles did not reach the base within max_steps={max_steps}")
+        for P in active:
+            node = P[0]
+            p = pos[node]
+            own = bid[node]                                       # read live (pitfall 1)
+            A = A0 - p
+            dA = float(np.linalg.norm(A))
+            if dA < delta:                                        # at the base
+                parent[node] = 0
+                _relabel(members, bid, own, 0, grafts, node, 0)
+                P[2] = False
+                continue
+            A /= dA
+            N, d = grid.nearest_foreign(p, pos, bid, own, search_radius)
+            wbv = float(wb(d)) if N >= 0 else 0.0
+            B = (pos[N] - p) / d if N >= 0 and d > 0 else np.zeros(3)
+            Hn = (w_a * A + wbv * B + w_h * P[1]) / (w_a + wbv + w_h)          # Eq. 7.1
+            nh = float(np.linalg.norm(Hn))
+            Hn = A if nh < 1e-15 else Hn / nh
+            q = p + delta * Hn
+            if merge and N >= 0 and np.linalg.norm(pos[N] - q) < merge_dist:
+                parent[node] = N                                  # graft onto the foreign tree
+                _relabel(members, bid, own, bid[N], grafts, node, N)
+                P[2] = False
+                continue
+            if np.linalg.norm(A0 - q) < delta:
+                parent[node] = 0
+                _relabel(members, bid, own, 0, grafts, node, 0)
+                P[2] = False
+                continue
+            m = len(pos)
+            pos.append(q)
+            parent.append(-1)
+            bid.append(own)
+            members[own].append(m)
+            grid.add(m, q)
+            parent[node] = m
+            P[0] = m
+            P[1] = Hn
+        step += 1
+    return BranchTree(np.array(pos), np.array(parent, np.int64), np.array(bid, np.int64), tips, grafts)
+
+
+def _relabel(members, bid, old, new, grafts, child, host):
+    if old != new:
+        moved = members.pop(old)
+        for v in moved:
+            bid[v] = new
+        members[new].extend(moved)
+    grafts.append((child, host, new, old))
+
+
+def pipe_widths(tree: BranchTree, *, tip_diameter: float = 1.0, p: float = 2.5) -> np.ndarray:
+    """Diameters by the pipe model: tips d0, d^p = sum of children's d^p (spec 002 §5.2 item 9, V40).
+
+    Returns
+    -------
+    (N,) float64 ndarray
+        Diameter of the segment from each node to its parent.
+    """
+    tip_diameter = check_range("tip_diameter", tip_diameter, 0.0, 1e12, low_open=True)
+    p = check_range("p", p, 1.0, 100.0)
+    depth = tree.depth_to_root()
+    acc = np.zeros(tree.n_nodes)
+    acc[tree.tips] = tip_diameter ** p
+    for v in np.argsort(-depth, kind="stable"):               # deepest first: children before parents
+        if tree.parent[v] >= 0:
+            acc[tree.parent[v]] += acc[v]
+    return acc ** (1.0 / p)
+
+
+def scale_tree(tree: BranchTree, scale, *, about=None) -> BranchTree:
+    """Free-form deformation by axis scaling about a point (uniform or allometric growth, spec §5.2 item 7)."""
+    s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
+    if np.any(~np.isfinite(s)) or np.any(s <= 0):
+        raise ValueError(f"scale must be finite and > 0, got {s.tolist()}")
+    c = tree.pos[0] if about is None else check_point("about", about)
+    return BranchTree(c + (tree.pos - c) * s, tree.parent.copy(), tree.branch_id.copy(), tree.tips.copy(),
+                      list(tree.grafts))
+
+
+def tube_mesh(tree: BranchTree, diameters: np.ndarray, *, sides: int = 6) -> tuple[np.ndarray, np.ndarray]:
+    """Open tube (prism) per segment, radius = diameter / 2 (spec 002 §5.2 item 9, C25).
+
+    Returns
+    -------
+    vertices : (2 S sides, 3) float64 ndarray
+    faces : (2 S sides, 3) int64 ndarray
+    """
+    sides = check_int("sides", sides, 3, 64)
+    d = check_array("diameters", diameters, shape=(tree.n_nodes,))
+    child = np.flatnonzero(tree.parent >= 0)
+    a, b = tree.pos[child], tree.pos[tree.parent[child]]
+    axis = b - a
+    ln = np.linalg.norm(axis, axis=1, keepdims=True)
+    axis = axis / np.where(ln > 0, ln, 1)
+    ref = np.where(np.abs(axis[:, 2:3]) < 0.9, [[0, 0, 1.0]], [[1.0, 0, 0]])
+    u = np.cross(axis, ref)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    w = np.cross(axis, u)
+    ang = 2 * np.pi * np.arange(sides) / sides
+    ring = np.cos(ang)[None, :, None] * u[:, None] + np.sin(ang)[None, :, None] * w[:, None]   # (S, sides, 3)
+    r = 0.5 * d[child][:, None, None]
+    verts = np.concatenate([a[:, None] + r * ring, b[:, None] + r * ring], axis=1).reshape(-1, 3)
+    base = (np.arange(len(child)) * 2 * sides)[:, None]
+    j = np.arange(sides)[None]
+    j1 = (j + 1) % sides
+    f1 = np.stack([base + j, base + j1, base + sides + j1], axis=-1)
+    f2 = np.stack([base + j, base + sides + j1, base + sides + j], axis=-1)
+    return verts, np.concatenate([f1.reshape(-1, 3), f2.reshape(-1, 3)]).astype(np.int64)
+
+
+def _vogel(n, radius, offset=0.5):
+    i = np.arange(n, dtype=np.float64)
+    r = radius * np.sqrt((i + offset) / (n - 1 + offset)) if n > 1 else np.zeros(1)
+    th = np.deg2rad(137.5 * i)
+    return np.column_stack([r * np.cos(th), r * np.sin(th), np.zeros(n)])
+
+
+def corymb(n_florets: int = 200, *, radius: float = 0.5, height: float = 1.0, emergence_interval: float = 0.5,
+           **kwargs) -> BranchTree:
+    """A corymb: florets on a flat canopy (Vogel pattern at z = height) branched to the base at the origin.
+
+    Florets emerge centripetally (rim first) every ``emergence_interval`` steps; other keywords go to
+    :func:`rodkaew` (defaults from the spec's prototype, §5.3 pitfall 3).
+    """
+    n_florets = check_int("n_florets", n_florets, 1, 1_000_000)
+    radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
+    height = check_range("height", height, 0.0, 1e6, low_open=True)
+    emergence_interval = check_range("emergence_interval", emergence_interval, 0.0, 1e6)
+    F = _vogel(n_florets, radius)[::-1] + [0, 0, height]       # rim first
+    tau = np.arange(n_florets) * emergence_interval
+    return rodkaew(F, [0.0, 0.0, 0.0], emergence=tau, **kwargs)
+
+
+def compound_umbel(n_umbellets: int = 8, florets_per_umbellet: int = 20, *, radius: float = 0.5,
+                   umbellet_radius: float = 0.08, height: float = 1.0, umbellet_height: float = 0.15,
+                   delta: float = 0.01) -> tuple[BranchTree, np.ndarray]:
+    """A two-level compound umbel generated level by level and joined (Fig. 7.2b, C24).
+
+    Level 1: each umbellet's florets (Vogel around its centre at z = height) to the umbellet base
+    (``umbellet_height`` below). Level 2: the umbellet bases to the inflorescence base at the origin. Both levels
+    use the umbel limit (w_b = 0, no merging), so every ray is straight.
+
+    Returns
+    -------
+    tree : BranchTree
+        The joined structure (node 0 = inflorescence base).
+    level : (N,) int8 ndarray
+        1 for umbellet nodes, 2 for main-umbel nodes (the base is level 2).
+    """
+    n_umbellets = check_int("n_umbellets", n_umbellets, 1, 100_000)
+    florets_per_umbellet = check_int("florets_per_umbellet", florets_per_umbellet, 1, 100_000)
+    centres = _vogel(n_umbellets, radius) + [0, 0, height]
+    bases = centres - [0, 0, umbellet_height]
+    kw = {"w_b": (lambda d: 0.0), "merge": False, "w_h": 0.0, "delta": delta}
+    main = rodkaew(bases, [0.0, 0.0, 0.0], initial_direction="base", **kw)
+    pos, parent, bid = [main.pos], [main.parent], [main.branch_id]
+    level = [np.full(main.n_nodes, 2, np.int8)]
+    tips, off = [], main.n_nodes
+    for j in range(n_umbellets):
+        F = _vogel(florets_per_umbellet, umbellet_radius) + centres[j]
+        sub = rodkaew(F, bases[j], initial_direction="base", **kw)
+        # node 0 of the umbellet is its base: identify it with the main level's tip for umbellet j
+        par = np.where(sub.parent > 0, sub.parent + off - 1, -1)
+        par[sub.parent == 0] = main.tips[j]
+        pos.append(sub.pos[1:])
+        parent.append(par[1:])
+        bid.append(np.zeros(sub.n_nodes - 1, np.int64))
+        level.append(np.full(sub.n_nodes - 1, 1, np.int8))
+        tips.append(sub.tips + off - 1)
+        off += sub.n_nodes - 1
+    tree = BranchTree(np.concatenate(pos), np.concatenate(parent), np.concatenate(bid), np.concatenate(tips),
+                      list(main.grafts))
+    return tree, np.concatenate(level)
