@@ -967,6 +967,35 @@ def _project_collision(p, w, cons, sides, h, k, iterations):
             p[ic, 2] -= lam * w[ic] * gcz
 
 
+def _project_collision_numpy(p, w, cons, sides, h, k, iterations):
+    """Readable numpy twin of ``_project_collision`` (same constraint order, same step limiter)."""
+    for _ in range(iterations):
+        for (iq, ia, ib, ic), s in zip(cons, sides):
+            q, a, b, c = p[iq], p[ia], p[ib], p[ic]
+            N = np.cross(b - a, c - a)
+            nN = np.linalg.norm(N)
+            if nN < 1e-300:
+                continue
+            n = N / nN
+            r = q - a
+            C = s * r.dot(n) - h                                   # Eq. 4.6 / 4.7
+            if C >= 0:
+                continue
+            rp = r - r.dot(n) * n
+            g_q, g_b, g_c = s * n, s * np.cross(c - a, rp) / nN, s * np.cross(rp, b - a) / nN
+            g_a = -(g_q + g_b + g_c)
+            grads = ((iq, g_q), (ia, g_a), (ib, g_b), (ic, g_c))
+            den = sum(w[i] * gi.dot(gi) for i, gi in grads)
+            if den < 1e-300:
+                continue
+            lam = k * C / den
+            gm = max(w[i] * np.linalg.norm(gi) for i, gi in grads)
+            if abs(lam) * gm > 2.0 * abs(C):
+                lam *= 2.0 * abs(C) / (abs(lam) * gm)
+            for i, gi in grads:
+                p[i] = p[i] - lam * w[i] * gi
+
+
 def solve_collisions(p: np.ndarray, w: np.ndarray, cons: np.ndarray, sides: np.ndarray, *,
                      h: float = 0.005, k_collision: float = 1.0, iterations: int = 10) -> np.ndarray:
     """Project unilateral collision constraints in place (Eqs. 4.6–4.7, Alg. 1 lines 16–20).

@@ -262,3 +262,19 @@ def test_spatial_hash_broad_phase_equals_brute_force_box_overlap():
     for cell in (0.01, 0.07, 1.0):
         got = {tuple(r) for r in ccd.broad_phase(x0, x1, e, e, pad=0.005, cell=cell, same_set=True)}
         assert got == brute
+
+
+def test_collision_projection_numba_equals_numpy_twin():
+    rng = np.random.default_rng(13)
+    x0, f = _strip(6, 6)
+    x0 = np.vstack([x0, x0 + [0.03, 0.04, 0.03]])
+    f = np.vstack([f, f + 36])
+    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    cons, sides, _ = ccd.detect_collisions(x0, x1, f)
+    assert len(cons) > 5
+    w = np.ones(len(x0))
+    w[:6] = 0.0
+    a, b = x1.copy(), x1.copy()
+    ccd._project_collision(a, w, cons, sides, 0.005, 1.0, 4)
+    ccd._project_collision_numpy(b, w, cons, sides, 0.005, 1.0, 4)
+    assert np.allclose(a, b, rtol=0, atol=1e-12)
