@@ -158,7 +158,8 @@ class GrowthEngine:
     def step(self) -> StepStats:
         """One TREEGROWTHSTEP (Alg. 9.2) and marker ageing (§2.2)."""
         t0 = time.perf_counter()
-        p, t = self.params, self.tree
+        p = self.params
+        self._before_step()
         self._occupy()
         buds = self._active_buds()
         grown = 0
@@ -166,18 +167,32 @@ class GrowthEngine:
             owner = assign_treewand(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
                                    view_angle=math.radians(p["view_angle"]))
             grown = self._grow(buds, owner)
+        t = self.tree
         self.grid.add(self.grid.cells_of(t.pos[self._new_nodes]), *self._lut)
         t.shadow_cast[self._new_nodes] = True
         self.update_light()
-        shed = self._remove(shed_mask(t.child, t.parent, t.alive, t.vigor, p["shed_count"] == "subtree"))
+        shed = self._remove(self.shed_mask())
         if shed:
             self.update_light()  # refresh after removals ([INFERRED], §2.10)
         self._age_markers()
+        self._after_step()
         self.step_count += 1
+        t = self.tree
         stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
                           len(self.markers), grown, shed)
         self.history.append(stats)
         return stats
+
+    def _before_step(self) -> None:
+        """Hook run first in :meth:`step` (variants add their own points here)."""
+
+    def _after_step(self) -> None:
+        """Hook run after marker ageing in :meth:`step`."""
+
+    def shed_mask(self) -> np.ndarray:
+        """Nodes to shed this step (§2.5): vigor below the direct or subtree internode count."""
+        t = self.tree
+        return shed_mask(t.child, t.parent, t.alive, t.vigor, self.params["shed_count"] == "subtree")
 
     def _age_markers(self) -> None:
         """Markers live ``marker_lifetime`` growth steps (§2.2); variants with persistent points override this."""
@@ -207,6 +222,7 @@ class GrowthEngine:
     def _occupy(self) -> None:
         """Remove markers within the occupation radius of a node (§2.3): new nodes vs all markers,
         and markers painted since the last step vs all nodes."""
+        new, self._new_nodes = self._new_nodes, np.zeros(0, np.int64)  # shadows of these are cast already
         if not len(self.markers):
             return
         t, r = self.tree, self.params["occupation_radius"]
@@ -215,10 +231,9 @@ class GrowthEngine:
         fresh = np.flatnonzero(self.marker_age == 0)
         if len(fresh):
             dead[fresh] = within_any(build_grid(self.markers[fresh], r), live, r)
-        new = self._new_nodes[t.alive[self._new_nodes]]
+        new = new[t.alive[new]]
         if len(new):
             dead |= within_any(build_grid(self.markers, max(r, self.params["view_radius"])), t.pos[new], r)
-        self._new_nodes = np.zeros(0, np.int64)
         if dead.any():
             self.markers, self.marker_age = self.markers[~dead], self.marker_age[~dead]
 

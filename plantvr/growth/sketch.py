@@ -29,16 +29,14 @@ and the same commands is bit-identical.
 from __future__ import annotations
 
 import math
-import time
 from typing import Any
 
 import numpy as np
 
 from .._validation import check_array, check_choice, check_int, check_point, check_points, check_range
 from .bending import BendResult, bend_path, pipe_widths
-from .colonize import assign_treewand
 from .directions import _rotate, bud_headings, normalize, transport_lateral
-from .engine import GrowthEngine, StepStats, _Buds
+from .engine import GrowthEngine, _Buds
 from .tree import BUD, NO_SLOT
 
 __all__ = [
@@ -624,43 +622,18 @@ class SketchEngine(GrowthEngine):
         self.add_markers(pts[self.in_region(pts)])
 
     # -- step ---------------------------------------------------------------------------------------
-    def step(self) -> StepStats:
-        """One TreeSketch iteration (§1.5): the engine's step with the TreeSketch shedding rule (§1.4.8)."""
-        t0 = time.perf_counter()
-        p, t = self.params, self.tree
+    def _before_step(self) -> None:
+        """TreeSketch iteration (§1.5) = the engine's step with these hooks and the §1.4.8 shedding rule."""
         self._buds_cache = super().buds()  # the tree does not change until _grow: one bud pass serves both
-        try:
-            if self.sketch["mode"] == "autonomous" and not self.halted:
-                self._add_autonomous_points()
-            self._occupy()
-            buds = self._active_buds()
-        finally:
-            self._buds_cache = None
-        grown = 0
-        if len(buds.node) and len(self.markers):
-            owner = assign_treewand(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
-                                    view_angle=math.radians(p["view_angle"]))
-            grown = self._grow(buds, owner)
-        else:
-            self._new_nodes = np.zeros(0, np.int64)
-        self.grid.add(self.grid.cells_of(t.pos[self._new_nodes]), *self._lut)
-        t.shadow_cast[self._new_nodes] = True
-        self.update_light()
-        shed = self._remove(self.shed_mask())
-        if shed:
-            self.update_light()
-        self._age_markers()
+        if self.sketch["mode"] == "autonomous" and not self.halted:
+            self._add_autonomous_points()
+
+    def _after_step(self) -> None:
         self._drop_old_buds()
         if self.bud_override:  # a re-oriented bud that grew (or died) needs no override any more
             t = self.tree
             self.bud_override = {(n, k): v for (n, k), v in self.bud_override.items()
                                  if n < t.n and t.alive[n] and t.child[n, k] == BUD}
-        self.step_count += 1
-        t = self.tree
-        stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
-                          len(self.markers), grown, shed)
-        self.history.append(stats)
-        return stats
 
     def _drop_old_buds(self) -> None:
         life = self.sketch["bud_lifetime"]
@@ -717,7 +690,10 @@ class SketchEngine(GrowthEngine):
         return d
 
     def _active_buds(self) -> _Buds:
-        b = super()._active_buds()
+        try:
+            b = super()._active_buds()
+        finally:
+            self._buds_cache = None
         if self.selected is not None:
             b = b.subset(self.tree.subtree_mask([self.selected])[b.node])
         return b

@@ -64,3 +64,19 @@ def test_tw_v16_shaded_limb_is_shed_and_its_shadow_removed():
     before = e.grid.read(probe)
     e.rebuild_light()
     assert np.allclose(before, e.grid.read(probe), atol=1e-9)
+
+
+def test_steps_without_markers_cast_no_extra_shadow():
+    """Regression: a step with no markers must not cast the previous step's new nodes' shadows again."""
+    e = GrowthEngine(defaults(), rng=0)
+    for s in range(12):
+        e.paint(np.array([0.0, 2 + 0.4 * s, 0.0]), 3.0, 150)
+        e.step()
+    e.markers, e.marker_age = np.zeros((0, 3)), np.zeros(0, np.int64)
+    for _ in range(5):
+        e.step()
+    t = e.tree
+    probe = e.grid.cells_of(t.pos[t.alive]) + [0, -1, 0]
+    before = e.grid.read(probe)
+    e.rebuild_light()
+    assert np.allclose(before, e.grid.read(probe), atol=1e-9)
