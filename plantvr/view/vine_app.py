@@ -1,9 +1,12 @@
 """In-browser review of a ViNE segmentation with trame (spec 000_vine §2.4–2.6; issues 6 and 14).
 
 The browser draws a decimated :class:`~plantvr.vine.proxy.DisplayProxy` on the user's own GPU (trame-vtk
-``VtkLocalView``, vtk.js): the mesh is sent once, and after each paint, undo or redo only the proxy's colour
-array is re-synchronised (trame-vtk's scene sync fetches arrays by content hash, so the unchanged points and
-triangles are never sent again). A click on the surface is picked in the browser (vtk.js hardware selector)
+``VtkLocalView``, vtk.js): the mesh and its colours are sent once, and after each paint, undo or redo only
+the changed proxy vertices travel, as a colour delta ``(ids uint32, rgba uint8)`` in the state variable
+``vine_delta`` that a small page hook (``vine_delta.js``) writes into the vtk.js actor's scalar array in place
+before re-rendering (8 B per changed proxy vertex instead of 4 B per proxy vertex). Hiding a colour or a new
+iso-value changes the triangles, so those re-synchronise the scene (trame-vtk fetches arrays by content hash:
+only the changed arrays travel). A click on the surface is picked in the browser (vtk.js hardware selector)
 and its world position comes back to the server, where the sphere brush paints the *full-resolution* labels;
 the proxy follows by per-vertex deltas. ``mode="remote"`` renders on the server instead (``VtkRemoteView``,
 images over the websocket) for comparison; ``benchmarks/vine_render.py`` measures both.
@@ -19,6 +22,7 @@ import os
 import socket
 import threading
 import time
+from pathlib import Path
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
@@ -31,6 +35,8 @@ from plantvr.vine.segmentation import Segmentation
 __all__ = ["VineReviewApp", "histogram_svg", "main_segment"]
 
 _IDS = itertools.count()
+_DELTA_JS = Path(__file__).with_name("vine_delta.js")
+_VIEW_REF = "vine_view"
 
 
 def histogram_svg(volume: np.ndarray, level: float, *, bins: int = 64, width: int = 260, height: int = 48) -> str:
@@ -99,6 +105,11 @@ class VineReviewApp:
         self.port: int | None = None
         self.url: str | None = None
         self.pushes = 0
+        self.deltas = 0                     # colour deltas sent (local mode)
+        self.delta_vertices = 0             # proxy vertices in them, in total
+        self.resyncs = 0                    # full colour re-synchronisations asked for by the page
+        self._pending: list[np.ndarray] = []
+        self._full = False
         self._thread: threading.Thread | None = None
         self._set_segmentation(seg, proxy)
         diag = float(np.linalg.norm(np.ptp(seg.vertices, axis=0)))
@@ -108,6 +119,7 @@ class VineReviewApp:
             "painted": 0, "can_undo": False, "can_redo": False, "level": float(level or 0.0),
             "histogram": histogram_svg(volume, level) if volume is not None else "",
             "colours": self._colour_items(), "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
+            "vine_delta": None,
         })
         self._build_ui()
 
@@ -130,6 +142,10 @@ class VineReviewApp:
         self.view.plotter.camera.elevation = -35
 
     def _on_proxy_change(self, kind, ids) -> None:
+        if kind == "labels" and ids is not None:
+            self._pending.append(np.asarray(ids))
+        else:
+            self._full = True
         self.state.can_undo = bool(self.seg.history.undo_stack)
         self.state.can_redo = bool(self.seg.history.redo_stack)
 
@@ -138,11 +154,46 @@ class VineReviewApp:
         return [{"value": k, "rgb": "rgb({},{},{})".format(*c.rgba[k, :3].tolist()), "visible": bool(c.visible[k])}
                 for k in range(len(c))]
 
+    def colour_delta(self) -> tuple[np.ndarray, np.ndarray]:
+        """The proxy vertices changed since the last push and their colours as drawn (consumes them).
+
+        Returns
+        -------
+        ids : (M,) uint32 ndarray
+            Sorted proxy vertex ids.
+        rgba : (M, 4) uint8 ndarray
+            Their colours, as in the view's colour array.
+        """
+        ids = (np.unique(np.concatenate(self._pending)) if self._pending else np.zeros(0, np.int64))
+        self._pending = []
+        return ids.astype(np.uint32), np.ascontiguousarray(self.view._rgba_array()[ids], dtype=np.uint8)
+
     def _push(self) -> None:
-        """Send what changed to the browser (only changed arrays for the local view; a new image for remote)."""
-        self.state.colours = self._colour_items()
+        """Send what changed to the browser.
+
+        Local mode: a colour delta of the changed proxy vertices when only labels changed, else a scene
+        re-synchronisation (changed arrays only). Remote mode: a new image.
+        """
+        items = self._colour_items()
+        if items != self.state.colours:
+            self.state.colours = items
         self.state.painted = int(np.count_nonzero(self.seg.labels))
         self.pushes += 1
+        if self.mode == "local" and not self._full:
+            ids, rgba = self.colour_delta()
+            if ids.size:
+                self.deltas += 1
+                self.delta_vertices += int(ids.size)
+                self.state.vine_delta = {"seq": self.deltas, "n": int(self.proxy.n_vertices),
+                                         "ids": ids.astype("<u4").tobytes(), "rgba": rgba.tobytes()}
+            return
+        self._pending, self._full = [], False
+        self.ctrl.view_update()
+
+    def resync(self, *_args) -> None:
+        """The page missed a delta (or loaded late): re-synchronise the whole scene once."""
+        self.resyncs += 1
+        self._pending, self._full = [], False
         self.ctrl.view_update()
 
     # ------------------------------------------------------------------ commands (also callable from code)
@@ -222,12 +273,13 @@ class VineReviewApp:
     # ------------------------------------------------------------------ page
     def _build_ui(self) -> None:
         from trame.ui.vuetify3 import SinglePageLayout
-        from trame.widgets import html
+        from trame.widgets import client, html
         from trame.widgets import vtk as vtk_widgets
         from trame.widgets import vuetify3 as v3
         ctrl = self.ctrl
         ctrl.undo, ctrl.redo, ctrl.toggle_selected = self.undo, self.redo, self.toggle_selected
         ctrl.apply_level = self.apply_level
+        self.server.trigger("vine_resync")(self.resync)
         with SinglePageLayout(self.server) as layout:
             layout.title.set_text("ViNE review")
             with layout.toolbar:
@@ -252,7 +304,12 @@ class VineReviewApp:
                       "LeftButtonPress": (self.on_press, "[$event.position]"),
                       "LeftButtonRelease": (self.on_release, "[$event.position]")}
                 if self.mode == "local":
-                    view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view", **kw)
+                    view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view",
+                                                    ref=_VIEW_REF, **kw)
+                    client.Script(_DELTA_JS.read_text())
+                    client.ClientStateChange(value="vine_delta",
+                                             change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
+                                                    "vine_delta)")
                 else:
                     view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
                                                      interactive_ratio=1, **kw)

@@ -67,8 +67,18 @@ def test_review_app_commands_without_a_browser(head):
     other.paint(p, 4.0, 4)
     assert n > 0 and np.array_equal(seg.labels, other.labels) and app.state.can_undo
     assert np.array_equal(app.view.mesh.point_data["rgba"], app.proxy.vertex_colors())
+    # the stroke travels as a colour delta of exactly the proxy vertices that changed (8 B each)
+    d = app.state.vine_delta
+    ids = np.frombuffer(d["ids"], "<u4")
+    want = np.unique(app.proxy.owner[np.nonzero(seg.labels)[0]])
+    assert d["seq"] == app.deltas == 1 and d["n"] == app.proxy.n_vertices and app.resyncs == 0
+    assert np.array_equal(ids, want[app.proxy.labels[want] != 0]) and len(d["rgba"]) == 4 * len(ids)
+    assert np.array_equal(np.frombuffer(d["rgba"], np.uint8).reshape(-1, 4), app.proxy.vertex_colors()[ids])
+    app.resync()                                                        # the page asked for a full resync
+    assert app.resyncs == 1 and app.deltas == 1
     app.undo()
     assert not seg.labels.any() and app.state.can_redo
+    assert app.deltas == 2 and np.array_equal(np.frombuffer(app.state.vine_delta["ids"], "<u4"), ids)
     app.redo()
     assert np.array_equal(seg.labels, other.labels)
     app.toggle_selected()

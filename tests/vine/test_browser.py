@@ -38,6 +38,13 @@ def _yellow(img):
     return int(((r > 90) & (g > 70) & (b < 0.45 * g) & (r > 1.6 * b + 30)).sum())
 
 
+def _hue_match(px, rgb=(240, 200, 30)):
+    """Cosine between pixel colours and a label colour: 1 for that colour under any shading."""
+    px = np.asarray(px, float).reshape(-1, 3)
+    c = np.asarray(rgb, float)
+    return (px @ c) / np.maximum(np.linalg.norm(px, axis=1) * np.linalg.norm(c), 1e-9)
+
+
 def _wait(page, cond, timeout=15.0):
     for _ in range(int(timeout / 0.1)):
         if cond():
@@ -85,8 +92,18 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             assert _wait(page, lambda: _yellow(_img(page)) > 30), "the painted colour did not reach the page"
             page.wait_for_timeout(300)
             stroke_bytes = sum(received)
-            # only the colour array (4 B per proxy vertex) and small state travel, never the points again
-            assert stroke_bytes < 4 * app.proxy.n_vertices + 20_000 < scene_bytes
+            # the page hook recoloured the vtk.js actor in place from one delta, without a scene resync
+            hook = page.evaluate("({...window.vineDelta})")
+            assert app.deltas == 1 and app.resyncs == 0 and app.pushes == 1
+            assert hook["applied"] == 1 and hook["resyncs"] == 0 and hook["vertices"] == app.delta_vertices > 0
+            # the picked pixel itself now shows the label colour (240, 200, 30), lit or shaded
+            centre = _img(page)[h - 1:h + 2, w - 1:w + 2]
+            assert np.all(_hue_match(before[h - 1:h + 2, w - 1:w + 2]) < 0.95)
+            assert np.all(_hue_match(centre) > 0.99) and centre.sum(axis=2).min() > 60, centre.tolist()
+            # only (id, rgba) of the changed proxy vertices (8 B each) and small state travel: never the whole
+            # colour array (4 B per proxy vertex), never the points
+            assert stroke_bytes < 8 * app.delta_vertices + 2_000 < 4 * app.proxy.n_vertices < scene_bytes, \
+                (stroke_bytes, app.delta_vertices, app.proxy.n_vertices)
             page.screenshot(path=str(shots / "vine_review_painted.png"))
 
             # an orbit drag ends with a DOM click too: it rotates the view and paints nothing
@@ -102,6 +119,7 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             page.locator(".vine-undo").click()
             assert _wait(page, lambda: not np.any(seg.labels))
             assert _wait(page, lambda: _yellow(_img(page)) == 0)
+            assert app.deltas == 2 and page.evaluate("window.vineDelta.applied") == 2    # undo: a delta too
 
             # paint again, then hide the selected colour: gone from the page, kept in the labels
             page.mouse.click(cx, cy)
@@ -117,4 +135,5 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             browser.close()
     finally:
         app.stop()
-    print(f"scene {scene_bytes:,} B, one stroke {stroke_bytes:,} B, proxy {app.proxy.n_vertices:,} vertices")
+    print(f"scene {scene_bytes:,} B, one stroke {stroke_bytes:,} B for {app.delta_vertices:,} changed of "
+          f"{app.proxy.n_vertices:,} proxy vertices")
