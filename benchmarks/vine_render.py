@@ -1,8 +1,12 @@
 """ViNE browser review benchmark (issue 14): client-side (vtk.js, trame-vtk ``VtkLocalView``) vs server-side
 (``VtkRemoteView``) rendering of the display proxy, driven in headless Chromium (software WebGL).
 
-For each mode: time to first frame and bytes received until then, one paint stroke (click → painted colour on
-screen: latency and bytes), and an orbit drag (bytes and time). The server-side offscreen frame time of the
+Three configurations in the same run: ``local`` (vtk.js, per-vertex colour deltas applied in place by the page
+hook), ``local-array`` (vtk.js, the whole colour array re-sent after each stroke: the former behaviour, the
+baseline for bytes per stroke) and ``remote`` (server renders, images stream).
+For each: time to first frame and bytes received until then, paint strokes (click → painted colour on screen:
+latency and bytes received per stroke, averaged over ``--strokes`` clicks at different spots), and an orbit
+drag (bytes and time). The server-side offscreen frame time of the
 same mesh (pyvista, EGL/llvmpipe on a CPU machine) is printed as the remote path's floor.
 
 Mesh: the display proxy of a synthetic head; by default a tiled mesh of ``--faces`` triangles (1.5 M, the
@@ -50,11 +54,15 @@ def _until(page, cond, timeout):
     return float("nan")
 
 
-def _measure(seg: Segmentation, mode: str, budget: int, radius: float, shots: Path | None) -> dict:
+def _measure(seg: Segmentation, config: str, budget: int, radius: float, shots: Path | None,
+             strokes: int = 3) -> dict:
     from playwright.sync_api import sync_playwright
 
     from plantvr.view.vine_app import VineReviewApp
-    app = VineReviewApp(seg, target_faces=budget, mode=mode, radius=radius, window_size=(800, 560))
+    mode = "remote" if config == "remote" else "local"
+    updates = "array" if config == "local-array" else "delta"
+    app = VineReviewApp(seg, target_faces=budget, mode=mode, radius=radius, window_size=(800, 560),
+                        colour_updates=updates)
     app.state.label = 2                                       # red
     url = app.start()
     out: dict = {"proxy_vertices": app.proxy.n_vertices, "proxy_faces": len(app.proxy.faces)}
@@ -78,17 +86,27 @@ def _measure(seg: Segmentation, mode: str, budget: int, radius: float, shots: Pa
             out["scene_bytes"] = sum(rx)
             box = page.locator(".vine-view").bounding_box()
             cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-            rx.clear()
-            red0 = _red(_view_img(page))
-            t0 = time.perf_counter()
-            page.mouse.click(cx, cy)
-            _until(page, lambda: _red(_view_img(page)) > red0 + 5, 30)
-            out["stroke_s"] = time.perf_counter() - t0
-            page.wait_for_timeout(300)
-            out["stroke_bytes"] = sum(rx)
-            out["stroke_full_res_changed"] = int(np.count_nonzero(seg.labels))
+            ts, nbytes, spots = [], [], [(0, 0), (-18, 10), (14, -12), (-6, -20), (20, 16)][:max(1, strokes)]
+            for k, (dx, dy) in enumerate(spots):
+                page.wait_for_timeout(300)
+                rx.clear()
+                red0 = _red(_view_img(page))
+                t0 = time.perf_counter()
+                page.mouse.click(cx + dx, cy + dy)
+                _until(page, lambda r0=red0: _red(_view_img(page)) > r0 + 5, 30)
+                ts.append(time.perf_counter() - t0)
+                page.wait_for_timeout(300)
+                nbytes.append(sum(rx))
+                if k == 0:
+                    out["stroke_full_res_changed"] = int(np.count_nonzero(seg.labels))
+            out["stroke_s"] = float(np.median(ts))
+            out["stroke_bytes"] = int(np.mean(nbytes))
+            out["stroke_bytes_each"] = nbytes
+            out["strokes"] = len(spots)
+            out["delta_vertices_per_stroke"] = app.delta_vertices / max(app.deltas, 1)
+            out["in_place"] = page.evaluate("window.vineDelta ? window.vineDelta.applied : 0")
             if shots is not None:
-                page.screenshot(path=str(shots / f"vine_render_{mode}.png"))
+                page.screenshot(path=str(shots / f"vine_render_{config}.png"))
             rx.clear()
             t0 = time.perf_counter()
             page.mouse.move(cx - 100, cy)
@@ -109,6 +127,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="one 64³ head, proxy 1/4 (CI)")
     ap.add_argument("--faces", type=int, default=1_500_000, help="triangles of the served proxy")
+    ap.add_argument("--strokes", type=int, default=3, help="clicks per configuration (1-5)")
     ap.add_argument("--shots", type=str, default=os.environ.get("PLANTVR_SCREENSHOTS"))
     a = ap.parse_args(argv)
     if not Path(CHROMIUM).exists():
@@ -146,16 +165,23 @@ def main(argv: list[str] | None = None) -> dict:
     px.close()
     print(f"server-side offscreen frame of the proxy (CPU, 800x560): {out['server_frame_ms']:.0f} ms")
 
-    for mode in ("local", "remote"):
-        r = _measure(seg, mode, budget, 0.05 * diag, shots)
-        out[mode] = r
-        print(f"{mode:6s}: first frame {r['first_frame_s']:.2f} s after {r['scene_bytes']:,} B; stroke "
-              f"{r['stroke_s'] * 1e3:.0f} ms, {r['stroke_bytes']:,} B ({r['stroke_full_res_changed']:,} full-res "
-              f"vertices painted); orbit drag {r['orbit_s']:.2f} s, {r['orbit_bytes']:,} B")
-    lo, re = out["local"], out["remote"]
-    print(f"choice: local (vtk.js) sends {lo['stroke_bytes']:,} B per stroke and {lo['orbit_bytes']:,} B per orbit "
-          f"vs remote {re['stroke_bytes']:,} / {re['orbit_bytes']:,} B; first frame {lo['first_frame_s']:.2f} s vs "
-          f"{re['first_frame_s']:.2f} s")
+    for config in ("local", "local-array", "remote"):
+        r = _measure(seg, config, budget, 0.05 * diag, shots, a.strokes)
+        out[config] = r
+        print(f"{config:11s}: first frame {r['first_frame_s']:.2f} s after {r['scene_bytes']:,} B; stroke "
+              f"{r['stroke_s'] * 1e3:.0f} ms (median of {r['strokes']}), {r['stroke_bytes']:,} B received per "
+              f"stroke ({r['stroke_full_res_changed']:,} full-res vertices painted by the first"
+              + (f"; {r['delta_vertices_per_stroke']:.0f} proxy vertices per delta, {r['in_place']} applied in "
+                 "place" if config == "local" else "")
+              + f"); orbit drag {r['orbit_s']:.2f} s, {r['orbit_bytes']:,} B")
+    lo, la, re = out["local"], out["local-array"], out["remote"]
+    print(f"bytes per stroke, same run: deltas {lo['stroke_bytes']:,} B vs whole colour array "
+          f"{la['stroke_bytes']:,} B ({la['stroke_bytes'] / max(lo['stroke_bytes'], 1):.0f}x less; proxy "
+          f"{lo['proxy_vertices']:,} vertices = {4 * lo['proxy_vertices']:,} B of colours) vs remote images "
+          f"{re['stroke_bytes']:,} B")
+    print(f"choice: local (vtk.js + deltas) sends {lo['stroke_bytes']:,} B per stroke and {lo['orbit_bytes']:,} B "
+          f"per orbit vs remote {re['stroke_bytes']:,} / {re['orbit_bytes']:,} B; first frame "
+          f"{lo['first_frame_s']:.2f} s vs {re['first_frame_s']:.2f} s")
     return out
 
 

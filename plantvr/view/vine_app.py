@@ -80,13 +80,19 @@ class VineReviewApp:
         Initial brush radius (default 2 % of the mesh diagonal).
     window_size : tuple of 2 int
         Server render-window size.
+    colour_updates : {"delta", "array"}
+        Local mode, after a paint/undo/redo: ``delta`` sends only the changed proxy vertices' colours (page
+        hook, in place); ``array`` re-synchronises the scene, which re-sends the whole colour array (the
+        former behaviour, kept as the benchmark's baseline).
     """
 
     def __init__(self, seg: Segmentation | None = None, *, proxy: DisplayProxy | None = None,
                  target_faces: int = 1_500_000, mode: str = "local", volume: np.ndarray | None = None,
-                 level: float | None = None, radius: float | None = None, window_size=(900, 700)):
+                 level: float | None = None, radius: float | None = None, window_size=(900, 700),
+                 colour_updates: str = "delta"):
         from trame.app import get_server
         mode = check_choice("mode", mode, ("local", "remote"))
+        self.colour_updates = check_choice("colour_updates", colour_updates, ("delta", "array"))
         target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
         if seg is None:
             if volume is None:
@@ -179,7 +185,7 @@ class VineReviewApp:
             self.state.colours = items
         self.state.painted = int(np.count_nonzero(self.seg.labels))
         self.pushes += 1
-        if self.mode == "local" and not self._full:
+        if self.mode == "local" and self.colour_updates == "delta" and not self._full:
             ids, rgba = self.colour_delta()
             if ids.size:
                 self.deltas += 1

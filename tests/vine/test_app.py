@@ -91,6 +91,8 @@ def test_review_app_commands_without_a_browser(head):
     assert app.view.mesh.n_points == app.proxy.n_vertices
     with pytest.raises(ValueError, match="mode"):
         VineReviewApp(seg, mode="webgpu")
+    with pytest.raises(ValueError, match="colour_updates"):
+        VineReviewApp(seg, colour_updates="mesh")
     with pytest.raises(ValueError, match="give a Segmentation"):
         VineReviewApp()
     app.view.close()
