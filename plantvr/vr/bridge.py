@@ -149,17 +149,25 @@ class VRBridge:
                  near: float = 0.05,
                  far: float = 100.0):
         self.model = model
-        self.layout = check_choice("layout", layout, ("side", "pair"))
         self.tube_sides = check_int("tube_sides", tube_sides, 3, 64)
+        self.leaves = bool(leaves)
+        self.mesh = check_choice("mesh", mesh, ("tubes", "cylinders"))
+        self._init_common(layout=layout, render_scale=render_scale, near=near, far=far, record=record,
+                          readback=readback)
+        self.controls = Controls(brush_radius=model.brush_radius, prune_mode=model.prune_mode,
+                                 scene=SceneTransform())
+        self._seen_radius = model.brush_radius
+        self._seen_prune = model.prune_mode
+
+    def _init_common(self, *, layout: str, render_scale: float, near: float, far: float, record: bool,
+                     readback: bool) -> None:
+        """Model-independent state (shared with :class:`plantvr.vr.vine_mode.VineBridge`)."""
+        self.layout = check_choice("layout", layout, ("side", "pair"))
         self.render_scale = check_range("render_scale", render_scale, 0.0, 1.0, low_open=True)
         self.near = check_range("near", near, 0.0, 10.0, low_open=True)
         self.far = check_range("far", far, self.near, 1e6, low_open=True)
         self.record = bool(record)
-        self.leaves = bool(leaves)
-        self.mesh = check_choice("mesh", mesh, ("tubes", "cylinders"))
         self.readback = bool(readback)
-        self.controls = Controls(brush_radius=model.brush_radius, prune_mode=model.prune_mode,
-                                 scene=SceneTransform())
         self.recording: list[InputFrame] = []
         self.frame_ms: deque = deque(maxlen=100_000)
         self.frames = 0
@@ -180,8 +188,6 @@ class VRBridge:
         self._meshes: tuple | None = None   # (snapshot version, branches, markers, leaves), swapped whole
         self._preview: tuple | None = None         # (snapshot, node indices) from the command worker
         self._preview_mesh: tuple | None = None    # (id, polydata)
-        self._seen_radius = model.brush_radius
-        self._seen_prune = model.prune_mode
 
     # -- lifecycle -----------------------------------------------------------------------------------------
     @property
@@ -319,7 +325,7 @@ class VRBridge:
             renderer = StereoRenderer(*self.render_size, layout=self.layout, near=self.near, far=self.far)
             poses = (ovr.TrackedDevicePose_t * ovr.k_unMaxTrackedDeviceCount)()
             event = ovr.VREvent_t()
-            drawn_mesh, drawn_preview = None, None
+            self._drawn_mesh, self._drawn_preview = None, None
             self.status = "running"
             self._ready.set()
             while not self._stop.is_set():
@@ -337,23 +343,8 @@ class VRBridge:
                 if self.record:
                     self.recording.append(frame)
                 self._sync_from_model()
-                for cmd in self.controls.update(frame):
-                    if cmd.name == "brush_radius":
-                        self._seen_radius = cmd.kwargs["radius"]
-                    elif cmd.name == "prune_mode":
-                        self._seen_prune = cmd.kwargs["on"]
-                    self._queue.put(cmd)
-                meshes = self._meshes
-                if meshes is not None and meshes[0] != drawn_mesh:
-                    renderer.set_meshes(meshes[1], meshes[2], leaves=meshes[3])
-                    drawn_mesh = meshes[0]
-                show = self.controls.prune_mode and self.controls.brush_visible
-                prev = self._preview_mesh if show else None
-                pid = prev[0] if prev else None
-                if pid != drawn_preview:
-                    import vtk  # noqa: PLC0415
-                    renderer.set_meshes(None, None, prev[1] if prev else vtk.vtkPolyData())
-                    drawn_preview = pid
+                self._enqueue(self.controls.update(frame))
+                self._update_content(renderer)
                 self._update_overlays(renderer)
                 eyes = [self.hmd_pose @ e for e in self.eye_to_head]
                 renderer.render(eyes, self.projection)
@@ -385,6 +376,29 @@ class VRBridge:
                 ovr.shutdown()
             except Exception as exc:  # noqa: BLE001  shutting down a lost runtime may fail too
                 warnings.warn(f"openvr.shutdown failed: {exc!r}", RuntimeWarning, stacklevel=1)
+
+    def _enqueue(self, cmds: list[Command]) -> None:
+        """Queue this frame's commands for the command thread (hook: subclasses route their own)."""
+        for cmd in cmds:
+            if cmd.name == "brush_radius":
+                self._seen_radius = cmd.kwargs["radius"]
+            elif cmd.name == "prune_mode":
+                self._seen_prune = cmd.kwargs["on"]
+            self._queue.put(cmd)
+
+    def _update_content(self, renderer) -> None:
+        """Hand the newest prepared meshes to the renderer (hook: the render thread calls it every frame)."""
+        meshes = self._meshes
+        if meshes is not None and meshes[0] != self._drawn_mesh:
+            renderer.set_meshes(meshes[1], meshes[2], leaves=meshes[3])
+            self._drawn_mesh = meshes[0]
+        show = self.controls.prune_mode and self.controls.brush_visible
+        prev = self._preview_mesh if show else None
+        pid = prev[0] if prev else None
+        if pid != self._drawn_preview:
+            import vtk  # noqa: PLC0415
+            renderer.set_meshes(None, None, prev[1] if prev else vtk.vtkPolyData())
+            self._drawn_preview = pid
 
     def _update_overlays(self, renderer) -> None:
         c = self.controls

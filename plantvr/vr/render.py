@@ -86,7 +86,9 @@ class _Scene:
             a.GetProperty().SetOpacity(0.85)
             a.SetVisibility(False)
             self.windows[name] = (a, m)
-        self.actors = [self.ground, self.branches, self.leaves, self.preview, self.markers, self.brush,
+        self.surface = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0), model=True)   # ViNE mesh
+        self.surface.SetVisibility(False)
+        self.actors = [self.ground, self.surface, self.branches, self.leaves, self.preview, self.markers, self.brush,
                        self.ray,
                        *(a for a, _ in self.windows.values())]
         self.ray.SetVisibility(False)
@@ -165,20 +167,49 @@ class StereoRenderer:
                     actor.GetMapper().SetInputData(poly)
                     actor.SetVisibility(poly.GetNumberOfPoints() > 0)
 
+    def set_surface(self, poly: vtk.vtkPolyData | None, *, scalars: str | None = "rgb") -> None:
+        """Show a coloured surface (ViNE segmentation mesh or its proxy) in model space; ``None`` hides it.
+
+        ``scalars`` names a uint8 RGB(A) point array drawn as direct colours (no lookup table).
+        """
+        for s in self.scenes:
+            actor = s.surface
+            if poly is None:
+                actor.SetVisibility(False)
+                continue
+            mapper = actor.GetMapper()
+            mapper.SetInputData(poly)
+            if scalars is not None:
+                mapper.SetScalarModeToUsePointFieldData()
+                mapper.SelectColorArray(scalars)
+                mapper.SetColorModeToDirectScalars()
+                mapper.ScalarVisibilityOn()
+            else:
+                mapper.ScalarVisibilityOff()
+            actor.GetProperty().BackfaceCullingOn()     # 000_vine §4.5
+            actor.SetVisibility(poly.GetNumberOfPoints() > 0)
+
+    def set_ground(self, visible: bool) -> None:
+        """Show or hide the ground disc."""
+        for s in self.scenes:
+            s.ground.SetVisibility(bool(visible))
+
     def set_model_matrix(self, m: np.ndarray) -> None:
         """Model-to-room similarity (view manipulation)."""
         for s in self.scenes:
             _vtk_matrix(m, s.model_matrix)
 
-    def set_brush(self, center_room: np.ndarray, radius_room: float, visible: bool, prune: bool) -> None:
-        """Brush sphere on the wand: green to grow, red to prune (§4.3, §4.4)."""
+    def set_brush(self, center_room: np.ndarray, radius_room: float, visible: bool, prune: bool,
+                  color: tuple[float, float, float] | None = None) -> None:
+        """Brush sphere on the wand: green to grow, red to prune (§4.3, §4.4), or ``color`` (RGB in [0, 1],
+        the active ViNE label, 000_vine §2.4.1)."""
         m = np.eye(4) * radius_room
         m[3, 3] = 1.0
         m[:3, 3] = center_room
         for s in self.scenes:
             _vtk_matrix(m, s.brush_matrix)
             s.brush.SetVisibility(bool(visible))
-            s.brush.GetProperty().SetColor(*(PRUNE if prune else GROW))
+            s.brush.GetProperty().SetColor(*(color if color is not None else PRUNE if prune else GROW))
 
     def set_ray(self, origin: np.ndarray | None, end: np.ndarray | None) -> None:
         """White pointing ray (§4.6); ``None`` hides it."""

@@ -1,0 +1,242 @@
+"""ViNE mode in the headset (spec 000_vine §2.1–2.6, §4.2–4.3): control map, then the bridge on the fake runtime."""
+import math
+import time
+
+import numpy as np
+import pytest
+import trimesh
+
+from plantvr import vr
+from plantvr.vine import Segmentation
+from plantvr.vine.proxy import DisplayProxy
+from plantvr.vr.controls import TIP_OFFSET, ControllerState, InputFrame, SceneTransform
+from plantvr.vr.vine_controls import VineControls, apply_vine_command, replay_vine, wheel_label
+
+
+@pytest.fixture
+def seg():
+    m = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    return Segmentation(np.asarray(m.vertices, np.float32), np.asarray(m.faces))
+
+
+def wand_at(scene: SceneTransform, p_model) -> np.ndarray:
+    """Controller pose (no rotation: pointing -z) whose brush tip is at model point ``p_model``."""
+    pose = np.eye(4)
+    pose[:3, 3] = scene.matrix[:3, :3] @ np.asarray(p_model, float) + scene.translation + [0, 0, TIP_OFFSET]
+    return pose
+
+
+def frame(t, *, left=None, right=None, hmd=None) -> InputFrame:
+    h = np.eye(4)
+    h[:3, 3] = (0.0, 1.6, 0.0)
+    return InputFrame(t, h if hmd is None else hmd, left or ControllerState(), right or ControllerState())
+
+
+def pad_at(angle_deg: float, r: float = 0.8) -> tuple[float, float]:
+    a = math.radians(angle_deg)
+    return (r * math.cos(a), r * math.sin(a))
+
+
+# -- pure control map ---------------------------------------------------------------------------------------
+def test_wheel_label_is_the_slice_rule_of_the_desktop_wheel():
+    from plantvr.ui.wheel import slice_at
+    rng = np.random.default_rng(0)
+    for x, y in rng.uniform(-1, 1, (300, 2)):
+        for k in (1, 5, 13):
+            assert wheel_label((x, y), k, 0) == slice_at(x, y, k, 0)
+    assert wheel_label((0.05, 0.05), 13, last=7) == 7                     # dead zone keeps the last label
+    assert wheel_label(pad_at(0.5 * 360 / 13 + 3 * 360 / 13), 13) == 3     # slice 3 centre
+    with pytest.raises(ValueError, match="n_labels"):
+        wheel_label((0.5, 0.5), 0)
+    with pytest.raises(ValueError, match="last"):
+        wheel_label((0.5, 0.5), 4, last=4)
+
+
+def test_trigger_press_paints_at_the_tip_as_one_undo_item(seg):
+    c = VineControls(n_labels=len(seg.colors), label=2, brush_radius=0.3, max_radius=seg.max_radius)
+    p0, p1 = seg.vertices[0].astype(float), seg.vertices[40].astype(float)
+    frames = [frame(0.00, right=ControllerState(pose=wand_at(c.scene, p0), trigger=0.5)),   # preview only
+              frame(0.01, right=ControllerState(pose=wand_at(c.scene, p0), trigger=1.0)),
+              frame(0.02, right=ControllerState(pose=wand_at(c.scene, p1), trigger=1.0)),
+              frame(0.03, right=ControllerState(pose=wand_at(c.scene, p1), trigger=0.0))]
+    cmds = [[cmd.name for cmd in c.update(f)] for f in frames]
+    assert cmds == [[], ["begin_stroke", "paint"], ["paint"], ["end_stroke"]]
+    c2 = VineControls(n_labels=len(seg.colors), label=2, brush_radius=0.3, max_radius=seg.max_radius)
+    replay_vine(seg, frames, c2)
+    d = np.linalg.norm(seg.vertices - seg.vertices[[0]], axis=1)
+    d1 = np.linalg.norm(seg.vertices - seg.vertices[[40]], axis=1)
+    inside = (d <= 0.3 - 1e-4) | (d1 <= 0.3 - 1e-4)
+    assert np.all(seg.labels[inside] == 2)
+    assert np.all(seg.labels[(d > 0.3 + 1e-4) & (d1 > 0.3 + 1e-4)] == 0)
+    assert len(seg.history.undo_stack) == 1                                  # one trigger press, one item
+    left_menu = [frame(0.04, left=ControllerState(menu=True)), frame(0.05)]
+    replay_vine(seg, left_menu, c2)                                          # left menu = undo
+    assert not seg.labels.any()
+    replay_vine(seg, [frame(0.06, right=ControllerState(menu=True)), frame(0.07)], c2)   # right menu = redo
+    assert np.all(seg.labels[inside] == 2)
+
+
+def test_wheel_selects_and_click_toggles_hide_and_hidden_label_does_not_paint(seg):
+    k = len(seg.colors)
+    c = VineControls(n_labels=k, label=1, brush_radius=0.3, max_radius=seg.max_radius)
+    target = 5
+    pad = pad_at((target + 0.5) * 360 / k)
+    replay_vine(seg, [frame(0, left=ControllerState(pad=pad, pad_touched=True))], c)
+    assert c.label == target and seg.colors.visible.all()
+    replay_vine(seg, [frame(0.01, left=ControllerState(pad=pad, pad_touched=True, pad_pressed=True)),
+                      frame(0.02, left=ControllerState(pad=pad, pad_touched=True, pad_pressed=True))], c)
+    assert not seg.colors.visible[target] and seg.colors.visible.sum() == k - 1   # one click, one toggle
+    cmds = c.update(frame(0.03, right=ControllerState(pose=wand_at(c.scene, seg.vertices[0]), trigger=1.0)))
+    assert cmds == []                                     # the active colour is hidden: nothing to paint
+    replay_vine(seg, [frame(0.04, left=ControllerState(pad=pad, pad_touched=True)),
+                      frame(0.05, left=ControllerState(pad=pad, pad_touched=True, pad_pressed=True))], c)
+    assert seg.colors.visible[target]
+
+
+def test_thumb_circle_resizes_the_brush(seg):
+    c = VineControls(n_labels=len(seg.colors), brush_radius=0.2, max_radius=seg.max_radius)
+    for i in range(37):                                   # one clockwise turn, 10° steps
+        c.update(frame(i * 0.01, right=ControllerState(pad=pad_at(-10 * i), pad_touched=True)))
+    assert c.brush_radius == pytest.approx(0.4, rel=1e-6)
+    c.update(frame(1.0))
+    for i in range(37):                                   # counter-clockwise: back to 0.2
+        c.update(frame(1.01 + i * 0.01, right=ControllerState(pad=pad_at(10 * i), pad_touched=True)))
+    assert c.brush_radius == pytest.approx(0.2, rel=1e-6)
+
+
+def test_save_view_then_cycle_restores_the_placement(seg):
+    c = VineControls(n_labels=len(seg.colors), max_radius=seg.max_radius)
+    hmd = np.eye(4)
+    hmd[:3, 3] = (0.3, 1.5, 0.2)
+    up = ControllerState(pad=(0.0, 0.8), pad_touched=True, pad_pressed=True)
+    down = ControllerState(pad=(0.0, -0.8), pad_touched=True, pad_pressed=True)
+    replay_vine(seg, [frame(0, right=up, hmd=hmd), frame(0.01, hmd=hmd)], c)
+    assert len(seg.views) == 1
+    before = c.scene.matrix.copy()
+    c.scene.translate([0.5, -0.2, 0.3])
+    c.scene.scale *= 2
+    replay_vine(seg, [frame(0.02, right=down, hmd=hmd), frame(0.03, hmd=hmd)], c)
+    np.testing.assert_allclose(c.scene.matrix, before, atol=1e-9)
+
+
+def test_one_grip_translates_the_model(seg):
+    c = VineControls(n_labels=len(seg.colors), max_radius=seg.max_radius)
+    t0 = c.scene.translation.copy()
+    for i in range(6):
+        pose = np.eye(4)
+        pose[:3, 3] = (0.01 * i, 1.0, -0.3)
+        c.update(frame(i / 90, left=ControllerState(pose=pose, grip=True)))
+    np.testing.assert_allclose(c.scene.translation - t0, [0.05, 0, 0], atol=1e-9)
+
+
+def test_apply_vine_command_rejects_unknown(seg):
+    from plantvr.vr.controls import Command
+    with pytest.raises(ValueError, match="command must be one of"):
+        apply_vine_command(seg, Command("prune"))
+
+
+# -- the bridge on the fake runtime -------------------------------------------------------------------------
+def _press(bridge, fake, pose, frames=3):
+    fake.right.pose = pose
+    fake.right.trigger = 1.0
+    bridge.wait_frames(frames)
+    fake.right.trigger = 0.0
+    bridge.wait_frames(2)
+    bridge.wait_commands()
+
+
+def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
+    with pytest.raises(ValueError, match="seg must be"):
+        vr.attach_segmentation(object())
+    bridge = vr.attach_segmentation(seg, readback=True)
+    assert vr.attach_segmentation(seg) is bridge
+    bridge.start()
+    try:
+        bridge.wait_frames(3)
+        blank = [im.copy() for im in bridge.last_images]
+        c = bridge.controls
+        c.brush_radius = 0.35
+        p = seg.vertices[0].astype(float)
+        _press(bridge, fake, wand_at(c.scene, p))
+        d = np.linalg.norm(seg.vertices - p, axis=1)
+        assert np.all(seg.labels[d <= 0.35 - 1e-4] == c.label) and not seg.labels[d > 0.35 + 1e-4].any()
+        assert len(seg.history.undo_stack) == 1 and bridge.command_errors == []
+        painted = seg.labels.copy()
+        bridge.wait_frames(4)
+        assert bridge.buffer.acquire()[0].tolist() == painted.tolist()
+        bridge.buffer.release()
+        assert any(not np.array_equal(a, b) for a, b in zip(blank, bridge.last_images))   # a visible change
+        # left pad: choose the painted colour, click to hide it
+        k = len(seg.colors)
+        fake.left.pad, fake.left.pad_touched = pad_at((c.label + 0.5) * 360 / k), True
+        bridge.wait_frames(2)
+        fake.left.pad_pressed = True
+        bridge.wait_frames(2)
+        fake.left.pad_pressed = fake.left.pad_touched = False
+        bridge.wait_frames(2)
+        bridge.wait_commands()
+        assert not seg.colors.visible[c.label]
+        fake.left.pad_touched, fake.left.pad_pressed = True, True
+        bridge.wait_frames(2)
+        fake.left.pad_pressed = fake.left.pad_touched = False
+        bridge.wait_frames(2)
+        bridge.wait_commands()
+        assert seg.colors.visible[c.label]
+        # left menu: undo
+        fake.left.menu = True
+        bridge.wait_frames(2)
+        fake.left.menu = False
+        bridge.wait_frames(2)
+        bridge.wait_commands()
+        assert not seg.labels.any()
+        assert all(sorted(e) == [0, 1] for e in fake.submissions_by_frame().values())
+    finally:
+        bridge.close()
+    assert bridge.command_errors == [] and bridge.error is None
+
+
+def test_frames_continue_during_a_slow_paint(seg, fake):
+    bridge = vr.VineBridge(seg)
+    real = seg.paint
+
+    def slow_paint(*args, **kwargs):
+        time.sleep(0.4)
+        return real(*args, **kwargs)
+
+    seg.paint = slow_paint              # instance attribute: the worker calls it through the public name
+    bridge.start()
+    try:
+        bridge.wait_frames(2)
+        fake.right.pose = wand_at(bridge.controls.scene, seg.vertices[3])
+        fake.right.trigger = 1.0
+        while not bridge.commands_done:   # begin_stroke issued; the first stamp is now sleeping
+            time.sleep(0.005)
+        f0 = bridge.frames
+        time.sleep(0.3)
+        assert bridge.frames - f0 >= 5, "render thread stalled behind the paint worker"
+        fake.right.trigger = 0.0
+        bridge.wait_frames(2)
+    finally:
+        bridge.close()
+    assert seg.labels[3] == bridge.controls.label and bridge.command_errors == []
+    assert len(seg.history.undo_stack) == 1
+
+
+def test_proxy_is_drawn_and_follows_paint(fake):
+    m = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    seg = Segmentation(np.asarray(m.vertices, np.float32), np.asarray(m.faces))
+    proxy = DisplayProxy(seg, target_faces=600)
+    bridge = vr.attach_segmentation(seg, proxy, depth_cue=False)
+    bridge.start()
+    try:
+        bridge.wait_frames(2)
+        assert bridge._surface[1].n_points == proxy.n_vertices < seg.n_vertices
+        bridge.controls.brush_radius = 0.5
+        _press(bridge, fake, wand_at(bridge.controls.scene, seg.vertices[0]))
+        bridge.wait_frames(4)
+    finally:
+        bridge.close()
+    assert seg.labels.any() and np.array_equal(bridge.buffer.acquire()[0], proxy.labels)
+    label = bridge.controls.label
+    rgb = bridge._surface[1].point_data["rgb"]
+    assert np.all(rgb[proxy.labels == label] == seg.colors.rgba[label, :3])
