@@ -313,7 +313,7 @@ class VineReviewApp:
                     view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view",
                                                     ref=_VIEW_REF, **kw)
                     client.Script(_DELTA_JS.read_text())
-                    client.ClientStateChange(value="vine_delta",
+                    client.ClientStateChange(value="vine_delta", trigger_on_create=True,
                                              change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
                                                     "vine_delta)")
                 else:

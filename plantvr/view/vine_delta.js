@@ -29,22 +29,28 @@
     return (inst.provides && inst.provides.view) || null;
   }
 
+  // Arrays this hook owns. trame-vtk's synchroniser caches fetched arrays by content hash and hands the same
+  // typed array to the actor, so the first delta after a sync copies it once (the cache keeps the content its
+  // hash names); later deltas then write into the copy in place.
+  const owned = new WeakSet();
+
   const vine = {
     seq: 0,
     applied: 0,      // deltas applied in place
     vertices: 0,     // proxy vertices recoloured in place, in total
-    resyncs: 0,
+    copies: 0,       // copy-on-first-write of a synchronised colour array
+    resyncs: 0,      // full re-synchronisations asked for (missed delta, page loaded late, view not ready)
+    resync(seq) {
+      vine.resyncs += 1;
+      window.trame.trigger("vine_resync", [seq]);
+      return false;
+    },
     apply(ref, delta) {
       if (!delta || typeof delta.seq !== "number") return false;
-      const view = localView(ref);
-      if (!view || !view.renderer) return false;
       const gap = delta.seq !== vine.seq + 1;
       vine.seq = delta.seq;
-      if (gap && delta.seq > 1) {
-        vine.resyncs += 1;
-        window.trame.trigger("vine_resync", [delta.seq]);
-        return false;
-      }
+      const view = localView(ref);
+      if (gap || !view || !view.renderer) return vine.resync(delta.seq);
       const idb = toBytes(delta.ids);
       const ids = new Uint32Array(idb.buffer.slice(idb.byteOffset, idb.byteOffset + idb.byteLength));
       const rgba = toBytes(delta.rgba);
@@ -56,7 +62,13 @@
         const pd = data.getPointData();
         const sc = pd.getArrayByName("rgba") || pd.getScalars();
         if (!sc || sc.getNumberOfComponents() !== 4 || sc.getNumberOfTuples() !== delta.n) continue;
-        const a = sc.getData();
+        let a = sc.getData();
+        if (!owned.has(a)) {
+          a = a.slice();
+          sc.setData(a, 4);
+          owned.add(a);
+          vine.copies += 1;
+        }
         for (let i = 0; i < ids.length; i++) {
           const d = 4 * ids[i], s = 4 * i;
           a[d] = rgba[s]; a[d + 1] = rgba[s + 1]; a[d + 2] = rgba[s + 2]; a[d + 3] = rgba[s + 3];
@@ -65,12 +77,11 @@
         data.modified();
         done = true;
       }
-      if (done) {
-        vine.applied += 1;
-        vine.vertices += ids.length;
-        view.renderWindow.render();
-      }
-      return done;
+      if (!done) return vine.resync(delta.seq);      // scene still loading: take the server's colours
+      vine.applied += 1;
+      vine.vertices += ids.length;
+      view.renderWindow.render();
+      return true;
     },
   };
   window.vineDelta = vine;

@@ -131,6 +131,29 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             assert _wait(page, lambda: _yellow(_img(page)) == 0)
             assert np.array_equal(np.nonzero(seg.labels == 3)[0], want)
             page.screenshot(path=str(shots / "vine_review_hidden.png"))
+
+            # show it again (scene resync), undo (a delta), hide and show once more: the page must not bring
+            # back the undone paint from trame-vtk's array cache (the hook copies a cached array before writing)
+            page.locator(".vine-toggle").click()
+            assert _wait(page, lambda: _yellow(_img(page)) > 30)
+            page.locator(".vine-undo").click()
+            assert _wait(page, lambda: not np.any(seg.labels == 3))
+            assert _wait(page, lambda: _yellow(_img(page)) == 0)
+            for _ in range(2):
+                page.locator(".vine-toggle").click()
+                page.wait_for_timeout(1000)
+                assert _yellow(_img(page)) == 0
+            assert seg.colors.visible[3]
+
+            # a page opened after strokes shows them (its hook sees a later delta and asks for a resync)
+            page.mouse.click(cx, cy)
+            assert _wait(page, lambda: np.any(seg.labels == 3))
+            assert _wait(page, lambda: _yellow(_img(page)) > 30)
+            late = browser.new_page(viewport={"width": 800, "height": 640})
+            late.goto(url)
+            late.wait_for_selector(".vine-view canvas", timeout=30_000)
+            assert _wait(late, lambda: _yellow(_img(late)) > 30), "a late page did not show the paint"
+            late.screenshot(path=str(shots / "vine_review_late_page.png"))
             assert not errors, errors
             browser.close()
     finally:
