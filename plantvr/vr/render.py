@@ -88,7 +88,12 @@ class _Scene:
             self.windows[name] = (a, m)
         self.surface = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0), model=True)   # ViNE mesh
         self.surface.SetVisibility(False)
-        self.actors = [self.ground, self.surface, self.branches, self.leaves, self.preview, self.markers, self.brush,
+        self.wheel_matrix = vtk.vtkMatrix4x4()                                      # ViNE colour wheel
+        self.wheel = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0))
+        self.wheel.SetUserMatrix(self.wheel_matrix)
+        self.wheel.SetVisibility(False)
+        self.wheel.GetProperty().SetLighting(False)
+        self.actors = [self.ground, self.surface, self.wheel, self.branches, self.leaves, self.preview, self.markers, self.brush,
                        self.ray,
                        *(a for a, _ in self.windows.values())]
         self.ray.SetVisibility(False)
@@ -188,6 +193,21 @@ class StereoRenderer:
                 mapper.ScalarVisibilityOff()
             actor.GetProperty().BackfaceCullingOn()     # 000_vine §4.5
             actor.SetVisibility(poly.GetNumberOfPoints() > 0)
+
+    def set_wheel(self, poly: vtk.vtkPolyData | None, pose: np.ndarray | None = None) -> None:
+        """Show a colour-wheel mesh (uint8 ``rgb`` cell array) at a room pose (the left controller's pad,
+        000_vine §2.4.1); ``poly=None`` keeps the mesh and only moves it, ``pose=None`` hides it."""
+        for s in self.scenes:
+            if poly is not None:
+                mapper = s.wheel.GetMapper()
+                mapper.SetInputData(poly)
+                mapper.SetScalarModeToUseCellFieldData()
+                mapper.SelectColorArray("rgb")
+                mapper.SetColorModeToDirectScalars()
+                mapper.ScalarVisibilityOn()
+            s.wheel.SetVisibility(pose is not None)
+            if pose is not None:
+                _vtk_matrix(pose, s.wheel_matrix)
 
     def set_ground(self, visible: bool) -> None:
         """Show or hide the ground disc."""

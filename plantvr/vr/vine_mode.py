@@ -28,7 +28,7 @@ from .bridge import VRBridge
 from .controls import Command, SceneTransform
 from .vine_controls import VineControls, apply_vine_command
 
-__all__ = ["VineBridge", "attach_segmentation"]
+__all__ = ["VineBridge", "attach_segmentation", "wheel_mesh"]
 
 #: Room point the model's bounding-box centre is placed at on start (m; in reach of a standing user).
 HOME = np.array([0.0, 1.1, -0.6])
@@ -45,6 +45,59 @@ def _surface_poly(vertices: np.ndarray, faces: np.ndarray, rgb: np.ndarray):
     else:
         poly = pv.PolyData.from_regular_faces(np.asarray(vertices, np.float32), f)
     poly.point_data["rgb"] = np.ascontiguousarray(rgb[:, :3], np.uint8)
+    return poly
+
+
+#: Wheel radius over the left trackpad (m): 1.5x a Vive pad of ~2 cm radius (000_vine §2.4.1).
+WHEEL_RADIUS = 0.03
+#: Wheel plane in the controller frame: pad x → x, pad y → −z (forward), normal → +y, pad centre offset.
+_WHEEL_LOCAL = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0.012], [0, -1.0, 0, 0.05], [0, 0, 0, 1.0]])
+
+
+def wheel_mesh(rgba: np.ndarray, visible: np.ndarray, selected: int, thumb: tuple[float, float] | None = None,
+               *, segments: int = 6):
+    """Colour-wheel polydata on the unit disc (000_vine §2.4.1, Fig. 5.9; §2.6, Fig. 5.11).
+
+    Slice k (counter-clockwise from +x, as :func:`~plantvr.vr.vine_controls.wheel_label`) has colour k;
+    the selected slice is extruded (+z), hidden colours are drawn darkened with a light radial line
+    through the slice, and a small dark disc marks the thumb. Cell array ``rgb`` (uint8).
+    """
+    import pyvista as pv
+    k = len(rgba)
+    pts, tris, cols = [], [], []
+
+    def fan(a0, a1, r0, r1, z, rgb):
+        base = len(pts)
+        angs = np.linspace(a0, a1, segments + 1)
+        for a in angs:
+            pts.append((r0 * np.cos(a), r0 * np.sin(a), z))
+            pts.append((r1 * np.cos(a), r1 * np.sin(a), z))
+        for i in range(segments):
+            q = base + 2 * i
+            tris.extend([(q, q + 1, q + 3), (q, q + 3, q + 2)])
+            cols.extend([rgb, rgb])
+
+    step = 2 * np.pi / k
+    for i in range(k):
+        rgb = np.asarray(rgba[i, :3], float)
+        z = 0.15 if i == selected else 0.0
+        if not visible[i]:
+            fan(i * step, (i + 1) * step, 0.0, 1.0, z, 0.3 * rgb)
+            mid = (i + 0.5) * step
+            fan(mid - 0.04, mid + 0.04, 0.2, 0.95, z + 0.01, (230.0, 230.0, 230.0))   # radial line
+        else:
+            fan(i * step, (i + 1) * step, 0.0, 1.0, z, rgb)
+    if thumb is not None:
+        x, y = float(thumb[0]), float(thumb[1])
+        base = len(pts)
+        pts.append((x, y, 0.25))
+        for a in np.linspace(0, 2 * np.pi, 9)[:-1]:
+            pts.append((x + 0.07 * np.cos(a), y + 0.07 * np.sin(a), 0.25))
+        for j in range(8):
+            tris.append((base, base + 1 + j, base + 1 + (j + 1) % 8))
+            cols.append((20.0, 20.0, 20.0))
+    poly = pv.PolyData.from_regular_faces(np.asarray(pts, np.float32), np.asarray(tris, np.int64))
+    poly.cell_data["rgb"] = np.clip(np.rint(cols), 0, 255).astype(np.uint8)
     return poly
 
 
@@ -108,6 +161,7 @@ class VineBridge(VRBridge):
         self._table_version = 0
         self._surface: tuple | None = None       # (build id, vtkPolyData), swapped whole
         self._drawn_surface = None
+        self._wheel_key = None
         self._hull = None
         self._sync_from_model()
         self.display.observe(self._on_change)
@@ -173,6 +227,20 @@ class VineBridge(VRBridge):
                            color=rgb)
         renderer.set_windows({})
         renderer.set_ray(None, None)
+        left = self.controls._prev.left if self.controls._prev is not None else None
+        if left is None or not left.valid:
+            renderer.set_wheel(None, None)
+            return
+        colors = self.seg.colors
+        thumb = None if c.wheel_thumb is None else (round(c.wheel_thumb[0], 2), round(c.wheel_thumb[1], 2))
+        key = (c.label, colors.visible.tobytes(), colors.rgba.tobytes(), thumb)
+        poly = None
+        if key != self._wheel_key:
+            poly = wheel_mesh(colors.rgba, colors.visible, c.label, thumb)
+            self._wheel_key = key
+        local = _WHEEL_LOCAL.copy()
+        local[:3, :3] *= WHEEL_RADIUS
+        renderer.set_wheel(poly, np.asarray(left.pose, float) @ local)
 
     # -- command (worker) thread ---------------------------------------------------------------------------
     @staticmethod

@@ -240,3 +240,22 @@ def test_proxy_is_drawn_and_follows_paint(fake):
     label = bridge.controls.label
     rgb = bridge._surface[1].point_data["rgb"]
     assert np.all(rgb[proxy.labels == label] == seg.colors.rgba[label, :3])
+
+
+def test_wheel_mesh_extrudes_the_selected_slice_and_marks_hidden_colours(seg):
+    from plantvr.vr.vine_mode import wheel_mesh
+    rgba = seg.colors.rgba
+    vis = np.ones(len(rgba), bool)
+    vis[4] = False
+    poly = wheel_mesh(rgba, vis, selected=2, thumb=(0.3, 0.4))
+    rgb = poly.cell_data["rgb"]
+    centres = poly.cell_centers().points
+    ang = np.arctan2(centres[:, 1], centres[:, 0]) % (2 * np.pi)
+    sl = np.floor(ang / (2 * np.pi / len(rgba))).astype(int)
+    frac = ang / (2 * np.pi / len(rgba)) - sl
+    base = (np.abs(centres[:, 2]) < 1e-6) & (frac > 0.01) & (frac < 0.99)   # off the slice borders
+    assert np.all(rgb[base & (sl == 0)] == rgba[0, :3])
+    assert np.all(centres[sl == 2][:, 2] > 0.1)                       # extruded
+    dark = rgb[base & (sl == 4)]
+    assert np.all(dark.astype(int) <= np.ceil(0.3 * rgba[4, :3].astype(int)))   # hidden: darkened
+    assert (centres[:, 2] > 0.2).sum() == 8                            # thumb marker
