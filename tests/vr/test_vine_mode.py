@@ -259,3 +259,28 @@ def test_wheel_mesh_extrudes_the_selected_slice_and_marks_hidden_colours(seg):
     dark = rgb[base & (sl == 4)]
     assert np.all(dark.astype(int) <= np.ceil(0.3 * rgba[4, :3].astype(int)))   # hidden: darkened
     assert (centres[:, 2] > 0.2).sum() == 8                            # thumb marker
+
+
+def test_recorded_headset_session_replays_identically(seg, fake):
+    scene = dict(scale=0.4, translation=(0.0, 1.1, -0.6))
+    bridge = vr.VineBridge(seg, record=True, depth_cue=False, scene=SceneTransform(**scene))
+    bridge.start()
+    try:
+        bridge.wait_frames(2)
+        for i in (0, 50, 120):
+            _press(bridge, fake, wand_at(SceneTransform(**scene), seg.vertices[i]))
+        fake.left.menu = True                      # undo the last stroke
+        bridge.wait_frames(2)
+        fake.left.menu = False
+        bridge.wait_frames(2)
+        bridge.wait_commands()
+    finally:
+        bridge.close()
+    assert seg.labels.any() and len(seg.history.undo_stack) == 2
+    m = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    fresh = Segmentation(np.asarray(m.vertices, np.float32), np.asarray(m.faces))
+    controls = VineControls(n_labels=len(fresh.colors), label=1, brush_radius=bridge.controls.brush_radius,
+                            max_radius=fresh.max_radius, scene=SceneTransform(**scene))
+    replay_vine(fresh, bridge.recording, controls)
+    np.testing.assert_array_equal(fresh.labels, seg.labels)
+    assert len(fresh.history.undo_stack) == 2
