@@ -262,7 +262,7 @@ def test_wheel_mesh_extrudes_the_selected_slice_and_marks_hidden_colours(seg):
 
 
 def test_recorded_headset_session_replays_identically(seg, fake):
-    scene = dict(scale=0.4, translation=(0.0, 1.1, -0.6))
+    scene = {"scale": 0.4, "translation": (0.0, 1.1, -0.6)}
     bridge = vr.VineBridge(seg, record=True, depth_cue=False, scene=SceneTransform(**scene))
     bridge.start()
     try:
