@@ -172,7 +172,7 @@ class VineReviewApp:
         """
         ids = (np.unique(np.concatenate(self._pending)) if self._pending else np.zeros(0, np.int64))
         self._pending = []
-        return ids.astype(np.uint32), np.ascontiguousarray(self.view._rgba_array()[ids], dtype=np.uint8)
+        return ids.astype(np.uint32), np.ascontiguousarray(self.view.mesh.point_data["rgba"][ids], dtype=np.uint8)
 
     def _push(self) -> None:
         """Send what changed to the browser.
