@@ -310,7 +310,8 @@ class VRBridge:
             pad_pressed=bool(pressed & bit(ovr.k_EButton_SteamVR_Touchpad)))
 
     def _sync_from_model(self) -> None:
-        """Adopt brush radius / prune mode changed elsewhere (notebook widgets), keep our own otherwise."""
+        """Adopt brush radius / prune mode when the model's value changes (a notebook widget, or our own queued
+        command landing); a headset change still in the queue is not undone by the model's older value."""
         r, p = self.model.brush_radius, self.model.prune_mode
         if r != self._seen_radius:
             self._seen_radius = self.controls.brush_radius = r
@@ -380,10 +381,6 @@ class VRBridge:
     def _enqueue(self, cmds: list[Command]) -> None:
         """Queue this frame's commands for the command thread (hook: subclasses route their own)."""
         for cmd in cmds:
-            if cmd.name == "brush_radius":
-                self._seen_radius = cmd.kwargs["radius"]
-            elif cmd.name == "prune_mode":
-                self._seen_prune = cmd.kwargs["on"]
             self._queue.put(cmd)
 
     def _update_content(self, renderer) -> None:
