@@ -60,6 +60,28 @@ class Snapshot:
         """Number of internodes (nodes except the base point)."""
         return max(len(self.pos) - 1, 0)
 
+    @classmethod
+    def from_tree(cls, tree, *, buds: dict[str, np.ndarray] | None = None, markers: np.ndarray | None = None,
+                  version: int = 0, step: int = 0, stats: StepStats | None = None) -> "Snapshot":
+        """Snapshot of a tree (a :class:`~plantvr.growth.tree.Tree` or a dict of its arrays): live nodes
+        compacted, parents and main children remapped. ``buds`` defaults to every bud slot with its node's
+        heading as direction."""
+        get = tree.__getitem__ if isinstance(tree, dict) else lambda k: getattr(tree, k)
+        alive, child = get("alive"), get("child")
+        live = np.flatnonzero(alive)
+        remap = np.full(len(alive), -1, np.int64)
+        remap[live] = np.arange(len(live))
+        par, main = get("parent")[live], child[live, 0]
+        par = np.where(par >= 0, remap[np.maximum(par, 0)], -1)
+        main = np.where(main >= 0, remap[np.maximum(main, 0)], -1)
+        if buds is None:
+            node, _ = np.nonzero((child == -1) & alive[:, None])
+            buds = {"pos": get("pos")[node], "dir": get("head")[node], "radius": get("radius")[node],
+                    "up": get("lat")[node]}
+        return cls(version, step, _frozen(get("pos")[live]), _frozen(par), _frozen(get("radius")[live]),
+                   _frozen(get("order")[live]), _frozen(np.zeros((0, 3)) if markers is None else markers), stats,
+                   _frozen(main), {k: _frozen(v) for k, v in buds.items()})
+
 
 def _frozen(a: np.ndarray) -> np.ndarray:
     a = np.array(a, copy=True)
@@ -284,20 +306,11 @@ class Model(_Params):
     def _make_snapshot(self, stats: StepStats | None) -> Snapshot:
         with self._lock:
             t = self._engine.tree
-            live = np.flatnonzero(t.alive)
-            remap = np.full(t.n, -1, np.int64)
-            remap[live] = np.arange(len(live))
-            par = t.parent[live]
-            par = np.where(par >= 0, remap[np.maximum(par, 0)], -1)
-            main = t.child[live, 0]
-            main = np.where(main >= 0, remap[np.maximum(main, 0)], -1)
             b = self._engine.buds()
             buds = {"pos": b.pos, "dir": b.dir, "radius": t.radius[b.node], "up": t.lat[b.node]}
             self._seq = getattr(self, "_seq", 0) + 1
-            return Snapshot(self._seq, self._engine.step_count, _frozen(t.pos[live]),
-                            _frozen(par), _frozen(t.radius[live]), _frozen(t.order[live]),
-                            _frozen(self._engine.markers), stats, _frozen(main),
-                            {k: _frozen(v) for k, v in buds.items()})
+            return Snapshot.from_tree(t, buds=buds, markers=self._engine.markers, version=self._seq,
+                                      step=self._engine.step_count, stats=stats)
 
     def _publish(self) -> None:
         """Hand the newest snapshot to the kernel thread; snapshots a slow observer has not taken yet are
