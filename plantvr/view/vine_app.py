@@ -11,8 +11,12 @@ and its world position comes back to the server, where the sphere brush paints t
 the proxy follows by per-vertex deltas. ``mode="remote"`` renders on the server instead (``VtkRemoteView``,
 images over the websocket) for comparison; ``benchmarks/vine_render.py`` measures both.
 
-Controls: colour selector, brush radius, undo/redo, hide/show of the selected colour, and, when started from
-a volume, an iso-value slider over the volume's histogram that re-extracts the surface.
+Controls: the colour wheel (§2.4.1 [T §5.4.1], §2.6 [T §5.6]: one slice per colour-table entry, the selected
+slice raised and outlined, hidden colours drawn with radial lines; a click selects the slice under the mouse by
+the rule of :func:`plantvr.ui.wheel.slice_at`, a shift-click hides or shows it), brush radius, undo/redo,
+hide/show of the selected colour, and, when started from a volume, an iso-value slider over the volume's
+histogram that re-extracts the surface. The wheel is an SVG built here (:func:`wheel_svg`) and re-sent when the
+selection, a colour or a visibility changes.
 """
 from __future__ import annotations
 
@@ -28,11 +32,11 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
 import numpy as np
 
-from plantvr._validation import check_choice, check_int, check_range
+from plantvr._validation import check_array, check_choice, check_int, check_range
 from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
 
-__all__ = ["VineReviewApp", "histogram_svg", "main_segment"]
+__all__ = ["WHEEL_RADIUS", "VineReviewApp", "histogram_svg", "main_segment", "wheel_svg"]
 
 _IDS = itertools.count()
 _DELTA_JS = Path(__file__).with_name("vine_delta.js")
@@ -51,6 +55,102 @@ def histogram_svg(volume: np.ndarray, level: float, *, bins: int = 64, width: in
     x = width * (float(level) - float(edges[0])) / max(float(edges[-1] - edges[0]), 1e-9)
     return (f'<svg class="vine-histogram" width="{width}" height="{height}" style="background:#223">{bars}'
             f'<line x1="{x:.1f}" x2="{x:.1f}" y1="0" y2="{height}" stroke="#f33" stroke-width="2"/></svg>')
+
+
+#: Wheel radius in CSS pixels; the selected slice is raised by a sixth of it, with a margin around.
+WHEEL_RADIUS = 72.0
+
+
+def _wheel_geometry(radius: float) -> tuple[float, float]:
+    """(raise, centre) of a wheel of ``radius`` px: the selected slice reaches ``radius + raise``."""
+    lift = radius / 6.0
+    return lift, radius + lift + 6.0
+
+
+def _ink(rgb) -> str:
+    """Black or white, whichever contrasts with ``rgb`` (luma 0.299/0.587/0.114)."""
+    r, g, b = (float(v) for v in rgb[:3])
+    return "#000" if 0.299 * r + 0.587 * g + 0.114 * b > 140 else "#fff"
+
+
+def wheel_svg(rgba, visible, selected: int, *, radius: float = WHEEL_RADIUS) -> str:
+    """The colour wheel as an SVG string (spec 000_vine §2.4.1, §2.6; Fig. 5.9, 5.11).
+
+    Slice ``k`` spans angles ``[k, k + 1) * 2π / K`` counter-clockwise from +x (y up), the rule of
+    :func:`plantvr.ui.wheel.slice_at`. The selected slice is drawn last, raised by ``radius / 6`` and outlined;
+    a hidden colour keeps its slice, crossed by five contrasting radial lines. Each slice is a ``<g>`` with
+    ``data-index``, class ``wheel-slice`` and, where they apply, ``selected`` and ``hidden``.
+
+    Parameters
+    ----------
+    rgba : (K, 3 or 4) uint8 array_like
+        The colour table, K in [1, 256].
+    visible : (K,) bool array_like
+        Visibility per colour.
+    selected : int
+        The active label, in [0, K).
+    radius : float
+        Wheel radius in px, in [8, 1000].
+
+    Returns
+    -------
+    str
+        ``<svg class="vine-wheel-svg" ...>`` of side ``2 * (radius + radius / 6 + 6)`` px.
+
+    References
+    ----------
+    .. [1] spec 000_vine §2.4.1 (wheel, slice index [INFERRED]) and §2.6 (hidden colours: radial lines).
+    """
+    c = np.asarray(rgba)
+    if c.ndim != 2 or c.shape[1] not in (3, 4) or not 1 <= c.shape[0] <= 256:
+        raise ValueError(f"rgba must have shape (K, 3) or (K, 4) with K in [1, 256], got {c.shape}")
+    c = check_array("rgba", c, shape=(None, c.shape[1]), dtype=np.float64)
+    if np.any(c < 0) or np.any(c > 255):
+        raise ValueError("rgba must be in [0, 255]")
+    n = c.shape[0]
+    vis = check_array("visible", visible, shape=(n,), dtype=bool)
+    selected = check_int("selected", selected, 0, n - 1)
+    radius = check_range("radius", radius, 8.0, 1000.0)
+    from plantvr.ui.wheel import DEAD_ZONE
+    lift, cen = _wheel_geometry(radius)
+    da = 2 * np.pi / n
+
+    def xy(r, a):
+        return cen + r * np.cos(a), cen - r * np.sin(a)
+
+    def pt(r, a):
+        return "{:.2f} {:.2f}".format(*xy(r, a))
+
+    parts = []
+    for k in [k for k in range(n) if k != selected] + [selected]:        # the selection on top
+        sel, hid = k == selected, not vis[k]
+        r, a0, a1 = (radius + lift if sel else radius), k * da, (k + 1) * da
+        fill = "rgb({},{},{})".format(*(round(v) for v in c[k, :3]))
+        if n == 1:
+            d = (f"M {cen - r:.2f} {cen:.2f} a {r:.2f} {r:.2f} 0 1 0 {2 * r:.2f} 0 "
+                 f"a {r:.2f} {r:.2f} 0 1 0 {-2 * r:.2f} 0")
+        else:
+            d = f"M {cen:.2f} {cen:.2f} L {pt(r, a0)} A {r:.2f} {r:.2f} 0 {int(da > np.pi)} 0 {pt(r, a1)} Z"
+        cls = "wheel-slice" + (" selected" if sel else "") + (" hidden" if hid else "")
+        g = [f'<g class="{cls}" data-index="{k}">',
+             (f'<path d="{d}" fill="{fill}" stroke="{"#111" if sel else "#fff"}" '
+              f'stroke-width="{3 if sel else 1}" stroke-linejoin="round"/>')]
+        ink = _ink(c[k])
+        if hid:                                                            # §2.6: radial lines across the slice
+            for i in range(1, 6):
+                a = a0 + i / 6 * da
+                (x1, y1), (x2, y2) = xy(0.25 * r, a), xy(0.97 * r, a)
+                g.append(f'<line class="wheel-hidden-line" x1="{x1:.2f}" y1="{y1:.2f}" x2="{x2:.2f}" '
+                         f'y2="{y2:.2f}" stroke="{ink}" stroke-width="2"/>')
+        tx, ty = xy(0.7 * r, a0 + da / 2)
+        g.append(f'<text x="{tx:.2f}" y="{ty + 4:.2f}" text-anchor="middle" font-size="11" '
+                 f'font-family="sans-serif" fill="{ink}" pointer-events="none">{k}</text></g>')
+        parts.append("".join(g))
+    side = 2 * cen
+    return (f'<svg class="vine-wheel-svg" xmlns="http://www.w3.org/2000/svg" width="{side:.0f}" '
+            f'height="{side:.0f}" viewBox="0 0 {side:.0f} {side:.0f}" style="display:block">{"".join(parts)}'
+            f'<circle cx="{cen:.2f}" cy="{cen:.2f}" r="{DEAD_ZONE * radius:.2f}" fill="#2a2a30" stroke="#888"/>'
+            "</svg>")
 
 
 def _free_port() -> int:
@@ -125,8 +225,9 @@ class VineReviewApp:
             "painted": 0, "can_undo": False, "can_redo": False, "level": float(level or 0.0),
             "histogram": histogram_svg(volume, level) if volume is not None else "",
             "colours": self._colour_items(), "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
-            "vine_delta": None,
+            "vine_delta": None, "wheel": "", "message": "",
         })
+        self._render_wheel()
         self._build_ui()
 
     # ------------------------------------------------------------------ model
@@ -183,6 +284,8 @@ class VineReviewApp:
         items = self._colour_items()
         if items != self.state.colours:
             self.state.colours = items
+        self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
+        self._render_wheel()
         self.state.painted = int(np.count_nonzero(self.seg.labels))
         self.pushes += 1
         if self.mode == "local" and self.colour_updates == "delta" and not self._full:
@@ -260,9 +363,54 @@ class VineReviewApp:
 
     def toggle_selected(self) -> None:
         """Hide or show the selected colour (on the full mesh and the proxy)."""
-        self.seg.toggle_visible(int(self.state.label))
-        self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
+        self.toggle_visible()
+
+    def toggle_visible(self, label: int | None = None) -> bool:
+        """Hide or show a colour (default: the selected one) on the full mesh and the proxy; returns the new
+        visibility."""
+        label = int(self.state.label) if label is None else check_int("label", label, 0, len(self.seg.colors) - 1)
+        shown = self.seg.toggle_visible(label)
         self._push()
+        return shown
+
+    def select(self, label: int) -> None:
+        """Make ``label`` the brush colour (the wheel's raised slice); hidden colours may be selected, but
+        painting with them is refused."""
+        self.state.label = check_int("label", label, 0, len(self.seg.colors) - 1)
+        self.state.message = ""
+        self._render_wheel()
+
+    def wheel_click(self, x: float, y: float, shift: bool = False) -> int | None:
+        """A click on the wheel at ``(x, y)`` CSS px from its top-left corner (the page sends it).
+
+        The slice is :func:`plantvr.ui.wheel.slice_at` of the position in wheel units (y up); inside the dead
+        zone the selected label is kept. A plain click selects the slice, a shift-click hides or shows it.
+        Clicks outside the (raised) wheel do nothing and return ``None``; otherwise the slice is returned.
+        """
+        from plantvr.ui.wheel import slice_at
+        x = check_range("x", x, -1e6, 1e6)
+        y = check_range("y", y, -1e6, 1e6)
+        lift, cen = _wheel_geometry(WHEEL_RADIUS)
+        u, v = (x - cen) / WHEEL_RADIUS, -(y - cen) / WHEEL_RADIUS
+        if np.hypot(u, v) > (WHEEL_RADIUS + lift) / WHEEL_RADIUS:
+            return None
+        n = len(self.seg.colors)
+        k = slice_at(u, v, n, last=min(int(self.state.label), n - 1))
+        if shift:
+            self.toggle_visible(k)
+        else:
+            self.select(k)
+        return k
+
+    def _render_wheel(self, **_state) -> None:
+        """Re-draw the wheel for the current table, visibility and selection (only sent when it changed)."""
+        c = self.seg.colors
+        label = int(self.state.label)
+        if not 0 <= label < len(c):                 # a new surface's table may be shorter
+            label = self.state.label = 0
+        svg = wheel_svg(c.rgba, c.visible, label)
+        if svg != self.state.wheel:
+            self.state.wheel = svg
 
     def apply_level(self) -> None:
         """Re-extract the isosurface at the slider's iso-value and show it (volume mode)."""
@@ -286,50 +434,59 @@ class VineReviewApp:
         ctrl.undo, ctrl.redo, ctrl.toggle_selected = self.undo, self.redo, self.toggle_selected
         ctrl.apply_level = self.apply_level
         self.server.trigger("vine_resync")(self.resync)
+        self.state.change("label")(self._render_wheel)
+        side = 2 * _wheel_geometry(WHEEL_RADIUS)[1]
+        # click position relative to the wheel's box (its SVG fills it exactly) and the shift key
+        where = ("[$event.clientX - $event.currentTarget.getBoundingClientRect().left, "
+                 "$event.clientY - $event.currentTarget.getBoundingClientRect().top, $event.shiftKey]")
         with SinglePageLayout(self.server) as layout:
             layout.title.set_text("ViNE review")
             with layout.toolbar:
                 v3.VSpacer()
-                with html.Div(classes="d-flex align-center vine-colours"):
-                    v3.VBtn(v_for="c in colours", key="c.value", icon=True, size="small", density="compact",
-                            classes=("'vine-colour ma-1 vine-colour-' + c.value",),
-                            style=(("{ background: c.rgb, opacity: c.visible ? 1 : 0.3, "
-                                   "outline: c.value === label ? '3px solid #222' : 'none' }"),),
-                            click="label = c.value")
                 v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=0.01, label="radius",
                            hide_details=True, density="compact", style="max-width: 220px",
                            classes="vine-radius mx-2")
                 v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
                 v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
                 v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
-            with layout.content, html.Div(style="position: relative; width: 100%; height: calc(100vh - 64px);"):
-                kw = {"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
-                      "interactor_settings": ("interactor_settings", _INTERACTOR),
-                      # a DOM click also ends every orbit drag: press/release positions tell them apart
-                      "interactor_events": ("interactor_events", ["LeftButtonPress", "LeftButtonRelease"]),
-                      "LeftButtonPress": (self.on_press, "[$event.position]"),
-                      "LeftButtonRelease": (self.on_release, "[$event.position]")}
-                if self.mode == "local":
-                    view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view",
-                                                    ref=_VIEW_REF, **kw)
-                    client.Script(_DELTA_JS.read_text())
-                    client.ClientStateChange(value="vine_delta", trigger_on_create=True,
-                                             change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
-                                                    "vine_delta)")
-                else:
-                    view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
-                                                     interactive_ratio=1, **kw)
-                ctrl.view_update = view.update
-                ctrl.view_reset_camera = view.reset_camera
-                with html.Div(style="position: absolute; left: 8px; bottom: 8px; color: #ddd; "
-                                    "font: 12px sans-serif;", classes="vine-status"):
-                    html.Div("{{ n_full.toLocaleString() }} vertices, proxy {{ n_proxy.toLocaleString() }}; "
-                             "painted {{ painted.toLocaleString() }}")
-                    if self.volume is not None:
-                        html.Div(v_html=("histogram",))
-                        v3.VSlider(v_model=("level",), min=1, max=float(np.iinfo(self.volume.dtype).max) - 1,
-                                   step=1, hide_details=True, density="compact", style="width: 260px",
-                                   label="iso", classes="vine-level", end=ctrl.apply_level)
+            with layout.content, html.Div(classes="d-flex", style="height: calc(100vh - 64px);"):
+                with html.Div(classes="vine-panel d-flex flex-column align-center pa-2",
+                              style="flex: 0 0 auto; background: #1b1b20; color: #ddd; font: 13px sans-serif;"):
+                    html.Div(v_html=("wheel",), classes="vine-wheel", click=(self.wheel_click, where),
+                             style=f"width: {side:.0f}px; height: {side:.0f}px; cursor: pointer; user-select: none;")
+                    html.Div("label {{ label }}{{ hidden.includes(label) ? ' (hidden)' : '' }}",
+                             classes="vine-label mt-1")
+                    html.Div("click: select, shift-click: hide/show", style="font-size: 11px; color: #999;")
+                    html.Div("{{ message }}", classes="vine-message", style="font-size: 11px; color: #f88; "
+                             f"max-width: {side:.0f}px;")
+                with html.Div(style="position: relative; flex: 1 1 auto; min-width: 0; height: 100%;"):
+                    kw = {"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
+                          "interactor_settings": ("interactor_settings", _INTERACTOR),
+                          # a DOM click also ends every orbit drag: press/release positions tell them apart
+                          "interactor_events": ("interactor_events", ["LeftButtonPress", "LeftButtonRelease"]),
+                          "LeftButtonPress": (self.on_press, "[$event.position]"),
+                          "LeftButtonRelease": (self.on_release, "[$event.position]")}
+                    if self.mode == "local":
+                        view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view",
+                                                        ref=_VIEW_REF, **kw)
+                        client.Script(_DELTA_JS.read_text())
+                        client.ClientStateChange(value="vine_delta", trigger_on_create=True,
+                                                 change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
+                                                        "vine_delta)")
+                    else:
+                        view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
+                                                         interactive_ratio=1, **kw)
+                    ctrl.view_update = view.update
+                    ctrl.view_reset_camera = view.reset_camera
+                    with html.Div(style="position: absolute; left: 8px; bottom: 8px; color: #ddd; "
+                                        "font: 12px sans-serif;", classes="vine-status"):
+                        html.Div("{{ n_full.toLocaleString() }} vertices, proxy {{ n_proxy.toLocaleString() }}; "
+                                 "painted {{ painted.toLocaleString() }}")
+                        if self.volume is not None:
+                            html.Div(v_html=("histogram",))
+                            v3.VSlider(v_model=("level",), min=1, max=float(np.iinfo(self.volume.dtype).max) - 1,
+                                       step=1, hide_details=True, density="compact", style="width: 260px",
+                                       label="iso", classes="vine-level", end=ctrl.apply_level)
         self.layout = layout
 
     # ------------------------------------------------------------------ serving
@@ -337,6 +494,7 @@ class VineReviewApp:
               host: str = "127.0.0.1") -> str:
         """Serve the page; returns its URL. With ``thread=True`` the server runs in a daemon thread."""
         self.port = _free_port() if not port else check_int("port", port, 1, 65535)
+        self._render_wheel()                        # the label may have been set from code before serving
         self.url = f"http://{host}:{self.port}/"
         kw = {"port": self.port, "open_browser": open_browser, "show_connection_info": False, "disable_logging": True,
                   "timeout": 0, "host": host}

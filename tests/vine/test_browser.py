@@ -160,3 +160,107 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
         app.stop()
     print(f"scene {scene_bytes:,} B, one stroke {stroke_bytes:,} B for {app.delta_vertices:,} changed of "
           f"{app.proxy.n_vertices:,} proxy vertices")
+
+
+def _slice_xy(k, n, r_frac=0.6, radius=None):
+    """CSS px, from the wheel's top-left corner, of a point inside slice ``k`` of ``n`` (y up, CCW from +x)."""
+    from plantvr.view.vine_app import WHEEL_RADIUS, _wheel_geometry
+    radius = WHEEL_RADIUS if radius is None else radius
+    cen = _wheel_geometry(WHEEL_RADIUS)[1]
+    a = (k + 0.5) * 2 * np.pi / n
+    return {"x": cen + r_frac * radius * np.cos(a), "y": cen - r_frac * radius * np.sin(a)}
+
+
+def _wheel_img(page):
+    from PIL import Image
+    img = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
+    b = page.locator(".vine-wheel").bounding_box()
+    return img[int(round(b["y"])):int(round(b["y"] + b["height"])), int(round(b["x"])):int(round(b["x"] + b["width"]))]
+
+
+def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
+    """Spec §2.4.1/§2.6 on the page: a click on a slice selects that colour (raised, outlined) and the next
+    click on the mesh paints with it; a shift-click hides the colour (radial lines; gone from the mesh, painting
+    with it refused) and shows it again."""
+    from plantvr.view.vine_app import WHEEL_RADIUS, VineReviewApp, _wheel_geometry
+    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
+    shots.mkdir(parents=True, exist_ok=True)
+    seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals)
+    n = len(seg.colors)
+    app = VineReviewApp(seg, target_faces=len(seg.faces) // 4, radius=5.0, window_size=(640, 480))
+    assert app.state.label == 1
+    url = app.start()
+    lift, cen = _wheel_geometry(WHEEL_RADIUS)
+    try:
+        with playwright_api.sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            page = browser.new_page(viewport={"width": 900, "height": 640})
+            errors = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(url)
+            page.wait_for_selector(".vine-view canvas", timeout=30_000)
+            page.wait_for_selector(".vine-wheel svg .wheel-slice", timeout=30_000)
+            wheel = page.locator(".vine-wheel")
+            box = page.locator(".vine-view").bounding_box()
+            cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+            h, w = int(box["height"] / 2), int(box["width"] / 2)
+            assert _wait(page, lambda: _img(page)[h, w].sum() > 150), "the mesh was not drawn"
+            assert page.locator(".vine-wheel .wheel-slice").count() == n
+            assert page.locator(".vine-wheel .wheel-slice.selected").get_attribute("data-index") == "1"
+
+            # a click on the yellow slice selects label 3: raised and outlined on the wheel
+            wheel.click(position=_slice_xy(3, n))
+            assert _wait(page, lambda: app.state.label == 3)
+            assert _wait(page, lambda: page.locator(".vine-wheel .wheel-slice.selected")
+                         .get_attribute("data-index") == "3")
+            assert "label 3" in page.locator(".vine-label").inner_text()
+            wimg = _wheel_img(page)
+            rim = _slice_xy(3, n, r_frac=(WHEEL_RADIUS + lift / 2) / WHEEL_RADIUS)   # in the raised band
+            rim4 = _slice_xy(4, n, r_frac=(WHEEL_RADIUS + lift / 2) / WHEEL_RADIUS)
+            assert _hue_match(wimg[int(rim["y"]), int(rim["x"])])[0] > 0.99        # slice 3 reaches the band
+            assert _hue_match(wimg[int(rim4["y"]), int(rim4["x"])], (60, 170, 60))[0] < 0.9   # slice 4 does not
+            page.screenshot(path=str(shots / "vine_wheel_selected.png"))
+
+            # the next click on the mesh paints with the wheel's colour, at full resolution
+            page.mouse.click(cx, cy)
+            assert _wait(page, lambda: np.any(seg.labels == 3)), "the click did not paint"
+            want = ball_query_brute(seg.vertices, np.asarray(app.last_pick["worldPosition"], float), 5.0)
+            assert np.array_equal(np.nonzero(seg.labels)[0], want) and set(np.unique(seg.labels)) == {0, 3}
+            assert _wait(page, lambda: _yellow(_img(page)) > 30)
+
+            # shift-click on slice 3 hides the colour: radial lines on the wheel, gone from the mesh
+            wheel.click(position=_slice_xy(3, n), modifiers=["Shift"])
+            assert _wait(page, lambda: not seg.colors.visible[3])
+            assert app.state.label == 3 and app.state.hidden == [3]
+            assert _wait(page, lambda: page.locator(".vine-wheel .wheel-slice.hidden").count() == 1)
+            assert page.locator(".vine-wheel .wheel-slice.hidden").get_attribute("data-index") == "3"
+            assert page.locator(".vine-wheel .wheel-slice.hidden .wheel-hidden-line").count() == 5
+            assert "(hidden)" in page.locator(".vine-label").inner_text()
+            assert _wait(page, lambda: _yellow(_img(page)) == 0)
+            page.screenshot(path=str(shots / "vine_wheel_hidden.png"))
+            # painting with a hidden colour is refused and says why
+            page.mouse.click(cx + 15, cy)
+            assert _wait(page, lambda: "hidden" in page.locator(".vine-message").inner_text())
+            assert np.array_equal(np.nonzero(seg.labels)[0], want)
+
+            # a click outside the wheel's disc (a corner of its box) changes nothing
+            wheel.click(position={"x": 2, "y": 2})
+            page.wait_for_timeout(500)
+            assert app.state.label == 3 and not seg.colors.visible[3]
+
+            # shift-click again shows it; select the blue slice and paint elsewhere with it
+            wheel.click(position=_slice_xy(3, n), modifiers=["Shift"])
+            assert _wait(page, lambda: seg.colors.visible[3])
+            assert _wait(page, lambda: _yellow(_img(page)) > 30)
+            assert _wait(page, lambda: page.locator(".vine-wheel .wheel-slice.hidden").count() == 0)
+            wheel.click(position=_slice_xy(6, n))
+            assert _wait(page, lambda: app.state.label == 6)
+            page.mouse.click(cx + 40, cy - 10)
+            assert _wait(page, lambda: np.any(seg.labels == 6)), "painting with the new selection failed"
+            assert np.all(seg.labels[want] > 0)
+            page.wait_for_timeout(500)
+            page.screenshot(path=str(shots / "vine_wheel_blue.png"))
+            assert not errors, errors
+            browser.close()
+    finally:
+        app.stop()
