@@ -13,8 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantvr._validation import check_int, check_range
+from plantvr.flowers.branching import BranchTree, compound_umbel, rodkaew, scale_tree
 from plantvr.flowers.composer import Canopy, FloretType
-from plantvr.flowers.fate import ray_florets
+from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets
 from plantvr.flowers.floret import Corolla, build_floret, petal_net
 from plantvr.flowers.phyllotaxis import (
     centripetal_fractionation,
@@ -22,9 +23,11 @@ from plantvr.flowers.phyllotaxis import (
     dome_receptacle,
     floret_stage,
     place_on_receptacle,
+    vogel_disc,
 )
 
-__all__ = ["FlowerHead", "disc_floret", "gaillardia_head", "ray_floret", "sunflower_head"]
+__all__ = ["FlowerHead", "dahlia_head", "disc_floret", "dyssodia_head", "gaillardia_head", "lilac_panicle",
+           "orlaya_umbel", "quill_floret", "ray_floret", "sunflower_head", "yarrow_corymb"]
 
 DISC, RAY = 0, 1
 
@@ -74,6 +77,12 @@ class FlowerHead:
     kind: np.ndarray          # (n,) int: DISC (0) or RAY (1)
     birth: np.ndarray         # (n,) float: production time (rim first, phase effect)
     opening_duration: float
+    head: np.ndarray | None = None        # (n,) int: head / umbellet / cyme of each floret (compound models)
+    centres: np.ndarray | None = None     # (H, 3): centre of each head / umbellet
+    tree: BranchTree | None = None        # branching structure (corymb, umbel, panicle), node 0 = base
+    level: np.ndarray | None = None       # (N,) int: branching level of each tree node
+    fate: np.ndarray | None = None        # (n,) int: fate.DISC / SMALL_RAY / LARGE_RAY (threshold models)
+    size: np.ndarray | None = None        # (n,) float: relative ray-petal size from d_min (Fig. 6.4c)
 
     @property
     def n_rays(self) -> int:
@@ -129,3 +138,241 @@ def gaillardia_head(n_florets: int = 150, *, alpha_deg: float = 75.0, detail: fl
     radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
     return _head(dome_receptacle(radius, 0.35 * radius), n_florets, alpha_deg, detail, n_frames, 0.65,
                  {"length": 2.6, "width": 1.1, "open_deg": 75.0}, 0.6)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# The remaining example models of spec 002 §6.2 / C28: dahlia, Dyssodia, yarrow, Orlaya, lilac
+
+
+def quill_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 2.2, incurve_deg: float = -70.0
+                 ) -> FloretType:
+    """An incurved, almost tubular ray floret (dahlia 'Jomanda', spec 002 §6.2): a narrow 3-fold fused tube
+    whose tip bends back toward the floret axis by ``incurve_deg``."""
+    detail = check_range("detail", detail, 0.1, 10.0)
+    n_frames = check_int("n_frames", n_frames, 2, 1000)
+    length = check_range("length", length, 0.0, 1e6, low_open=True)
+    incurve_deg = check_range("incurve_deg", incurve_deg, -180.0, 180.0)
+    bud = Corolla(petal_net(opening_deg=4, length=0.3, width=0.1, base_radius=0.05), n_fold=3, fused_rows=3)
+    opn = Corolla(petal_net(opening_deg=35, curl_deg=incurve_deg, length=length, width=0.32, base_radius=0.05),
+                  n_fold=3, fused_rows=3)
+    fm = build_floret([bud, opn], n_frames=n_frames, growth="sinusoidal", lam=0.2 * length / 2.2 / detail,
+                      eta=lambda v: 3 + 2 * detail * v)
+    return FloretType(fm.faces, fm.frames, fm.fixed)
+
+
+def _flat_frames(pos, centres):
+    """Florets facing +z on a planar canopy; ligules point away from their head centre."""
+    up = np.tile([0.0, 0.0, 1.0], (len(pos), 1))
+    out = (pos - centres) * [1.0, 1.0, 0.0]
+    n = np.linalg.norm(out, axis=1, keepdims=True)
+    out = np.where(n > 1e-12, out / np.where(n > 0, n, 1), [[1.0, 0.0, 0.0]])
+    return up, np.cross(up, out)
+
+
+def _heads(centres, n_per_head, radius, height_frac=0.3):
+    """Capitula of ``n_per_head`` florets (centripetal fractionation on a dome) around each centre."""
+    rec = dome_receptacle(radius, height_frac * radius)
+    s, a, birth = centripetal_fractionation(rec, area=rec.area / n_per_head, dt_prod=1.0 / n_per_head)
+    s, a, birth = s[:n_per_head], a[:n_per_head], birth[:n_per_head]
+    p, u, r = place_on_receptacle(rec, s, a)
+    H = len(centres)
+    pos = (p[None] + centres[:, None]).reshape(-1, 3)
+    return (pos, np.tile(u, (H, 1)), np.tile(r, (H, 1)), np.tile(birth, H),
+            np.repeat(np.arange(H), n_per_head), np.sqrt(rec.area / n_per_head))
+
+
+def dahlia_head(n_florets: int = 150, *, radius: float = 10.0, detail: float = 1.0, n_frames: int = 8,
+                incurve_deg: float = -70.0) -> FlowerHead:
+    """Dahlia 'Jomanda'-like ball (Figs. 9.1–9.2): phyllotaxis on a hemispherical receptacle, every floret an
+    incurved tubular ray floret; florets touch and collisions shape them (spec 002 §6.2).
+
+    There is no fate test: the head is "populated almost exclusively by ... ray florets", so every floret is
+    a quill; the phase effect opens the rim first.
+    """
+    n_florets = check_int("n_florets", n_florets, 3, 100_000)
+    radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
+    rec = dome_receptacle(radius, radius)                  # hemisphere: "approximately spherical surface"
+    s, a, birth = centripetal_fractionation(rec, area=rec.area / n_florets, dt_prod=1.0 / n_florets)
+    s, a, birth = s[:n_florets], a[:n_florets], birth[:n_florets]
+    pos, up, right = place_on_receptacle(rec, s, a)
+    spacing = np.sqrt(rec.area / n_florets)
+    kind = np.zeros(n_florets, np.int64)
+    can = Canopy([quill_floret(detail=detail, n_frames=n_frames, incurve_deg=incurve_deg)], kind, pos, up, right,
+                 np.full(n_florets, 0.8 * spacing))
+    centre = np.array([[0.0, 0.0, 0.0]])
+    return FlowerHead(can, np.full(n_florets, RAY), birth, 0.6, head=np.zeros(n_florets, np.int64),
+                      centres=centre)
+
+
+def dyssodia_head(florets_per_head: int = 55, *, n_outer: int = 5, head_radius: float = 2.0, ring: float = 2.4,
+                  alpha_deg: float = 53.0, th_b: float | None = None, detail: float = 1.0, n_frames: int = 8
+                  ) -> FlowerHead:
+    """Dyssodia decipiens-like compound head (Figs. 9.7–9.8): a central head surrounded by ``n_outer`` = 5 heads,
+    fate of Fig. 6.4b (spec 002 §4.6): ray iff d_min(P) > Th_b with Th_b larger than the distance between the
+    heads, O = centre of P's own head, alpha = 53 deg. Rays emerge "at the level of the entire inflorescence":
+    none in the central head, only on the outer sides of the peripheral heads.
+
+    ``th_b`` defaults to twice the distance between head centres (``2 ring head_radius``).
+    """
+    florets_per_head = check_int("florets_per_head", florets_per_head, 3, 100_000)
+    n_outer = check_int("n_outer", n_outer, 1, 64)
+    head_radius = check_range("head_radius", head_radius, 0.0, 1e6, low_open=True)
+    ring = check_range("ring", ring, 2.0, 1e3)
+    alpha_deg = check_range("alpha_deg", alpha_deg, 0.0, 180.0)
+    th_b = 2 * ring * head_radius if th_b is None else check_range("th_b", th_b, 0.0, 1e12, low_open=True)
+    t = np.deg2rad(90.0 + 360.0 / n_outer * np.arange(n_outer))
+    C = np.vstack([[0.0, 0.0, 0.0], np.column_stack([ring * head_radius * np.cos(t),
+                                                      ring * head_radius * np.sin(t), np.zeros(n_outer)])])
+    pos, up, right, birth, hid, spacing = _heads(C, florets_per_head, head_radius)
+    d = cone_dmin(pos * [1.0, 1.0, 0.0], alpha_deg=alpha_deg, centres=C[hid] * [1.0, 1.0, 0.0])
+    fate, size = floret_fate(d, th_b=th_b)
+    kind = np.where(fate > 0, RAY, DISC)
+    types = [disc_floret(detail=detail, n_frames=n_frames),
+             ray_floret(detail=detail, n_frames=n_frames, length=2.4, width=1.0, open_deg=80.0)]
+    pos = pos + (kind == RAY)[:, None] * 0.15 * spacing * up
+    can = Canopy(types, kind, pos, up, right, np.full(len(pos), 0.65 * spacing))
+    return FlowerHead(can, kind, birth, 0.6, head=hid, centres=C, fate=fate, size=size)
+
+
+def yarrow_corymb(n_heads: int = 13, florets_per_head: int = 6, *, head_radius: float = 1.0,
+                  head_spacing: float = 3.5, height: float = 14.0, alpha_deg: float = 53.0,
+                  th_a: float | None = None, detail: float = 1.0, n_frames: int = 8) -> FlowerHead:
+    """Yarrow-like corymb of heads (Figs. 1.3, 9.9–9.10, 9.13–9.14; spec 002 §6.2).
+
+    Head centres follow a Vogel spiral (the first level of the recursive pattern of Fig. 5.3, [INFERRED]
+    simplification) in a single plane at ``height``; florets in each head by centripetal fractionation; fate of
+    Fig. 6.4a: ray iff d_min(P) > Th_a with Th_a larger than the floret spacing in a head and smaller than the
+    distance between heads (default 0.7x the gap between neighbouring heads), alpha = 53 deg, so every head
+    differentiates its rays independently (6 florets per head give 5 rays, as in a yarrow capitulum). The branching structure is the extended Rodkaew algorithm from the head centres to
+    the base (florets first), with a high base attraction for an elongated corymb.
+    """
+    n_heads = check_int("n_heads", n_heads, 1, 10_000)
+    florets_per_head = check_int("florets_per_head", florets_per_head, 3, 10_000)
+    head_radius = check_range("head_radius", head_radius, 0.0, 1e6, low_open=True)
+    head_spacing = check_range("head_spacing", head_spacing, 2.0 * head_radius, 1e6)
+    height = check_range("height", height, 0.0, 1e6, low_open=True)
+    alpha_deg = check_range("alpha_deg", alpha_deg, 0.0, 180.0)
+    th_a = 0.7 * (head_spacing - 2 * head_radius) if th_a is None else check_range("th_a", th_a, 0.0, 1e12, low_open=True)
+    C = vogel_disc(n_heads, c=head_spacing / np.sqrt(np.pi) * 1.05) + [0.0, 0.0, height]
+    pos, up, right, birth, hid, spacing = _heads(C, florets_per_head, head_radius)
+    d = cone_dmin(pos * [1.0, 1.0, 0.0], alpha_deg=alpha_deg, centres=C[hid] * [1.0, 1.0, 0.0])
+    fate, size = floret_fate(d, th_a=th_a)
+    kind = np.where(fate > 0, RAY, DISC)
+    # branching in unit scale (the prototype's step and merge constants), then scaled to the scene
+    s = height
+    order = np.argsort(-np.linalg.norm(C[:, :2], axis=1), kind="stable")      # rim heads emerge first
+    tau = np.empty(n_heads)
+    tau[order] = np.arange(n_heads) * 2.0
+    tree = rodkaew(C / s, [0.0, 0.0, 0.0], emergence=tau, w_a=1.5, delta=0.01, merge_dist=0.012,
+                   search_radius=0.08)
+    tree = scale_tree(tree, s, about=[0.0, 0.0, 0.0])
+    types = [disc_floret(detail=detail, n_frames=n_frames),
+             ray_floret(detail=detail, n_frames=n_frames, length=1.6, width=1.2, open_deg=80.0)]
+    pos = pos + (kind == RAY)[:, None] * 0.15 * spacing * up
+    can = Canopy(types, kind, pos, up, right, np.full(len(pos), 0.65 * spacing))
+    level = np.ones(tree.n_nodes, np.int64)
+    return FlowerHead(can, kind, birth, 0.6, head=hid, centres=C, tree=tree, level=level, fate=fate, size=size)
+
+
+def orlaya_umbel(n_umbellets: int = 13, florets_per_umbellet: int = 21, *, scale: float = 10.0,
+                 alpha_deg: float = 53.0, th_a: float | None = None, th_b: float | None = None,
+                 detail: float = 1.0, n_frames: int = 8) -> FlowerHead:
+    """Orlaya grandiflora-like compound umbel (Figs. 1.1, 9.11–9.13; spec 002 §6.2).
+
+    Two branching levels generated separately and joined (Fig. 7.2b, :func:`compound_umbel`): spiral
+    phyllotaxis of umbellets in the umbel and of florets in each umbellet. Fate of Fig. 6.4c with O = the
+    umbellet centre and alpha = 53 deg: large rays where d_min > Th_b (periphery of the whole umbel), small
+    rays with size proportional to d_min where Th_a < d_min <= Th_b (outer florets of the umbellets), small
+    five-fold disc florets inside. Defaults: Th_a = 2x the floret spacing, Th_b = 1.2x the umbellet spacing.
+    """
+    n_umbellets = check_int("n_umbellets", n_umbellets, 1, 10_000)
+    florets_per_umbellet = check_int("florets_per_umbellet", florets_per_umbellet, 3, 10_000)
+    scale = check_range("scale", scale, 0.0, 1e6, low_open=True)
+    alpha_deg = check_range("alpha_deg", alpha_deg, 0.0, 180.0)
+    r_um = 0.5 * np.sqrt(n_umbellets / 13.0)
+    r_fl = 0.08 * np.sqrt(florets_per_umbellet / 21.0)
+    tree, level = compound_umbel(n_umbellets, florets_per_umbellet, radius=r_um, umbellet_radius=r_fl)
+    tree = scale_tree(tree, scale, about=[0.0, 0.0, 0.0])
+    pos = tree.pos[tree.tips]
+    hid = np.repeat(np.arange(n_umbellets), florets_per_umbellet)
+    C = np.array([pos[hid == j].mean(axis=0) for j in range(n_umbellets)])
+    fl_sp = scale * r_fl * np.sqrt(np.pi / florets_per_umbellet)
+    um_sp = scale * r_um * np.sqrt(np.pi / n_umbellets)
+    th_a = 2.0 * fl_sp if th_a is None else check_range("th_a", th_a, 0.0, 1e12, low_open=True)
+    th_b = 1.2 * um_sp if th_b is None else check_range("th_b", th_b, th_a, 1e12, low_open=True)
+    d = cone_dmin(pos * [1.0, 1.0, 0.0], alpha_deg=alpha_deg, centres=C[hid] * [1.0, 1.0, 0.0])
+    fate, size = floret_fate(d, th_a=th_a, th_b=th_b, small_size=0.6, large_size=1.0)
+    kind = np.where(fate > 0, RAY, DISC)
+    up, right = _flat_frames(pos, C[hid])
+    base = 0.6 * fl_sp
+    sc = np.where(kind == RAY, base * (0.35 + 0.65 * size), base)
+    types = [disc_floret(detail=detail, n_frames=n_frames, open_deg=70.0),
+             ray_floret(detail=detail, n_frames=n_frames, length=2.6, width=1.6, open_deg=85.0)]
+    radial = np.linalg.norm(pos[:, :2], axis=1)
+    birth = (radial.max() - radial) / max(radial.max(), 1e-12)        # outer florets first
+    can = Canopy(types, kind, pos, up, right, sc)
+    return FlowerHead(can, kind, birth, 0.6, head=hid, centres=C, tree=tree, level=level.astype(np.int64),
+                      fate=fate, size=size)
+
+
+def lilac_panicle(n_pairs: int = 6, *, height: float = 20.0, branch_length: float = 7.0, cyme: int = 3,
+                  detail: float = 1.0, n_frames: int = 8) -> FlowerHead:
+    """Lilac-like panicle, branching first (Figs. 4.9–4.10; spec 002 §6.2, after [8]).
+
+    A main axis with ``n_pairs`` decussate pairs of lateral branches (opposite, successive pairs at 90 deg)
+    whose length decreases linearly toward the apex (conical thyrse); every lateral and the apex end in a
+    cyme of ``cyme`` pedicels, each bearing one four-fold salverform floret. Florets are placed on the
+    branching structure and packed closely, so collisions displace and deform them (the only PBD use here).
+
+    Floret count: ``cyme * (2 n_pairs + 1)``. Tree levels: 1 main axis, 2 laterals, 3 pedicels.
+    """
+    n_pairs = check_int("n_pairs", n_pairs, 1, 1000)
+    height = check_range("height", height, 0.0, 1e6, low_open=True)
+    branch_length = check_range("branch_length", branch_length, 0.0, 1e6, low_open=True)
+    cyme = check_int("cyme", cyme, 1, 12)
+    pos, parent, level, tips, fl_up = [[0.0, 0.0, 0.0]], [-1], [1], [], []
+    ped = 0.12 * branch_length
+
+    def add(p, par, lv):
+        pos.append(list(p))
+        parent.append(par)
+        level.append(lv)
+        return len(pos) - 1
+
+    def add_cyme(node, direction):
+        d = np.asarray(direction, float) / np.linalg.norm(direction)
+        side = np.cross(d, [0.0, 0.0, 1.0])
+        side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-9 else np.array([1.0, 0.0, 0.0])
+        up2 = np.cross(side, d)
+        for k in range(cyme):
+            ang = 2 * np.pi * k / cyme
+            u = d + 0.8 * (np.cos(ang) * side + np.sin(ang) * up2) if cyme > 1 else d
+            u = u / np.linalg.norm(u)
+            tips.append(add(np.asarray(pos[node]) + ped * u, node, 3))
+            fl_up.append(u)
+
+    prev = 0
+    for i in range(n_pairs):
+        z = height * (0.25 + 0.7 * i / n_pairs)
+        node = add([0.0, 0.0, z], prev, 1)
+        prev = node
+        L = branch_length * (1.0 - 0.8 * i / n_pairs)
+        phi = (np.pi / 2) * i                                     # decussate
+        for sgn in (1.0, -1.0):
+            d = np.array([sgn * np.cos(phi), sgn * np.sin(phi), 0.9])
+            d /= np.linalg.norm(d)
+            end = add(np.asarray(pos[node]) + L * d, node, 2)
+            add_cyme(end, d)
+    apex = add([0.0, 0.0, height], prev, 1)
+    add_cyme(apex, [0.0, 0.0, 1.0])
+    pos, tips, fl_up = np.asarray(pos), np.asarray(tips, np.int64), np.asarray(fl_up)
+    tree = BranchTree(pos, np.asarray(parent, np.int64), np.zeros(len(pos), np.int64), tips, [])
+    n = len(tips)
+    ref = np.where(np.abs(fl_up[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    right = np.cross(fl_up, ref)
+    spacing = ped * 0.9
+    can = Canopy([disc_floret(detail=detail, n_frames=n_frames, n_fold=4, open_deg=80.0)], np.zeros(n, np.int64),
+                 pos[tips], fl_up, right, np.full(n, spacing))
+    birth = np.linspace(0.0, 1.0, n)                              # acropetal: lower branches open first
+    return FlowerHead(can, np.full(n, DISC), birth, 0.6, head=np.repeat(np.arange(n // cyme), cyme),
+                      tree=tree, level=np.asarray(level, np.int64))
