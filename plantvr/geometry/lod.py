@@ -1,8 +1,11 @@
 """LOD chain of a tree mesh: fewer cylinder sides and pruned twigs per level (spec 000_treewand §3.5; issue 16).
 
 Each level lowers the ring subdivisions (the ``lod`` pair of :func:`plantvr.geometry.mesh.lod_level`) and the
-bands along each segment, then, if the mesh is still above the level's triangle budget, removes the thinnest
-twigs: every lateral axis (chain of main children) whose base radius is below a cut radius is marked dead with
+bands along each segment, and widens each ring so that its polygon keeps the circle's mean projected width
+(:func:`silhouette_radius_scale`: a triangle inscribed in the circle is on average 17 % narrower, which at a
+distance where twigs are a pixel wide loses a fifth of the crown's silhouette). Twigs are pruned by projected
+size when ``prune_px`` is given (axes thinner than ``prune_px`` pixels at the nearest distance the level is used),
+then, if the mesh is still above the level's triangle budget, the thinnest twigs go: every lateral axis (chain of main children) whose base radius is below a cut radius is marked dead with
 its subtree, so the axes that stay keep their full length and the crown keeps its extent. The cut radius is
 the smallest one that meets the budget, found by bisection on the sorted radii using the exact face count of
 the segment layout (no mesh is built during the search).
@@ -13,22 +16,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int
+from plantvr._validation import check_array, check_int, check_range
 
-from .mesh import BranchMesh, _build, _check_options, _check_tree, _layout, tree_segments
+from .mesh import BranchMesh, _build, _check_options, _check_tree, _layout, lod_level, tree_segments
 
-__all__ = ["LOD_RATIOS", "LOD_RINGS", "LOD_U_STEPS", "LodLevel", "axis_start", "lod_chain", "triangle_count"]
+__all__ = ["LOD_RATIOS", "LOD_RINGS", "LOD_U_STEPS", "LodLevel", "axis_start", "lod_chain", "silhouette_radius_scale",
+           "triangle_count"]
 
 LOD_RINGS = ((10, 64), (4, 16), (3, 8), (3, 4))
-"""Ring subdivisions (at the tip radius, at 50× the tip radius) of levels 0–3.
+"""Ring subdivisions (at the tip radius, at 50× the tip radius) of levels 0–3."""
+LOD_U_STEPS = (4, 3, 2, 2)
+"""Bands along each segment of levels 0–3.
 
-Level 1 reaches its 30 % budget by fewer sides and bands alone on typical trees, so its rendered silhouette stays
-within IoU ≥ 0.9 of level 0 (tests/view/test_billboard.py); levels 2–3 also prune twigs and level 3 is meant for
-distances where the billboard (:mod:`plantvr.view.billboard`) takes over."""
-LOD_U_STEPS = (4, 2, 1, 1)
-"""Bands along each segment of levels 0–3."""
-LOD_RATIOS = (1.0, 0.3, 0.08, 0.02)
-"""Default triangle budgets of levels 0–3, as fractions of the full mesh."""
+Two bands is the least that keeps curved internodes curved: with one band (straight segments) a grown model
+tree's silhouette at 96 px falls to IoU 0.87 (with leaves), with two it stays at 0.96 (tests/view/test_billboard.py)."""
+LOD_RATIOS = (1.0, 0.32, 0.17, 0.16)
+"""Default triangle budgets of levels 0–3, as fractions of the full mesh.
+
+Measured (grown model tree, 356 nodes; random tree, 400 nodes): levels 1–3 make 0.30, 0.154, 0.154 of the full
+triangles without pruning, and keep rendered-silhouette IoU ≥ 0.94 (tree with its leaves) at the nearest distance
+where :func:`plantvr.view.billboard.lod_by_distance` picks them (384, 192, 96 px). Lower budgets force pruning,
+and pruning costs silhouette on such trees: their crowns are a haze of sub-pixel twigs whose sum is the silhouette
+(pruning axes below 0.25 px drops IoU to 0.78–0.89). On large trees (the 22,000-internode benchmark) levels 2 and 3
+differ more: (3, 4) rings on the thick limbs."""
 
 
 @dataclass
@@ -100,6 +110,28 @@ def axis_start(parent, main_child=None, alive=None) -> np.ndarray:
     return np.asarray(st, np.int64)
 
 
+def silhouette_radius_scale(sides) -> np.ndarray:
+    """Radius factor that gives a regular polygon of ``sides`` corners the mean projected width of its circle.
+
+    A regular n-gon inscribed in a circle of radius r has perimeter ``2 n r sin(π/n)``, so its width averaged over
+    directions is that over π (Cauchy), against 2r for the circle: the factor is ``π / (n sin(π/n))`` (1.209 for
+    a triangle, 1.111 for a square, 1.016 for 10 sides).
+
+    Parameters
+    ----------
+    sides : int or (M,) int array_like
+        At least 3.
+
+    Returns
+    -------
+    (M,) float64 ndarray
+    """
+    n = np.asarray(sides, float)
+    if np.any(n < 3):
+        raise ValueError(f"sides must be >= 3, got min {n.min()!r}")
+    return np.pi / (n * np.sin(np.pi / n))
+
+
 def _prune_mask(start, radius, alive, cut):
     keep = alive & (radius[start] >= cut)      # whole axes go: those whose base is thinner than the cut
     keep[0] = True
@@ -137,7 +169,8 @@ def triangle_count(pos, parent, radius, *, alive=None, main_child=None, lod=(10,
 
 def lod_chain(pos, parent, radius, *, alive=None, main_child=None, levels: int = 4, budgets=None,
               rings=LOD_RINGS, u_steps=LOD_U_STEPS, tip_radius: float | None = None, bezier_w: float = 3.0,
-              bark_rate: float = 1.0, bark_repeat: int = 1) -> list[LodLevel]:
+              bark_rate: float = 1.0, bark_repeat: int = 1, widen: bool = True, prune_px: float = 0.0,
+              screen_px=None) -> list[LodLevel]:
     """Branch meshes of decreasing detail meeting triangle budgets (spec §3.5 LOD rule; issue 16).
 
     Parameters
@@ -157,6 +190,16 @@ def lod_chain(pos, parent, radius, *, alive=None, main_child=None, levels: int =
         Tip radius of the LOD rule, shared by all levels; default the smallest live radius.
     bezier_w, bark_rate, bark_repeat
         As in :func:`plantvr.geometry.build_branch_mesh`.
+    widen : bool
+        Scale the radii of levels ≥ 1 by :func:`silhouette_radius_scale` of their ring subdivisions, so coarse
+        rings keep the silhouette width of level 0.
+    prune_px : float
+        Prune, at each level ≥ 1, the axes whose base radius projects below ``prune_px`` pixels when the tree
+        spans ``screen_px[k]`` pixels (its height, or crown width if larger). 0 (default): prune only to meet a
+        budget.
+    screen_px : sequence of float, optional
+        On-screen size of the tree at the nearest distance each level is used (required when ``prune_px > 0``),
+        e.g. ``(inf,) + LOD_SCREEN_PX[:3]`` of :mod:`plantvr.view.billboard`.
 
     Returns
     -------
@@ -184,6 +227,13 @@ def lod_chain(pos, parent, radius, *, alive=None, main_child=None, levels: int =
         if np.any(budgets < 1):
             raise ValueError(f"budgets must be >= 1, got {budgets.tolist()!r}")
         budgets = [int(b) for b in budgets]
+    prune_px = check_range("prune_px", prune_px, 0.0, 1e6)
+    if prune_px > 0:
+        if screen_px is None or len(screen_px) < levels:
+            raise ValueError(f"screen_px must give one size per level ({levels}) when prune_px > 0, got {screen_px!r}")
+        live = pos[1:][alive[1:]]
+        ext = np.ptp(live, axis=0) if len(live) else np.ones(3)
+        size = max(float(ext[1]), float(ext[0]), float(ext[2]), 1e-12)
     start = axis_start(parent, main_child, alive)
     cuts = np.unique(radius[start[1:]][alive[1:]])
     out: list[LodLevel] = []
@@ -191,22 +241,27 @@ def lod_chain(pos, parent, radius, *, alive=None, main_child=None, levels: int =
     prev_tris = None
     for k in range(levels):
         opts = optss[k]
+        rad = radius
+        if widen and k > 0:
+            rad = radius * silhouette_radius_scale(lod_level(radius, tip_radius=opts["tip_radius"], lod=opts["lod"]))
         budget = budgets[k] if prev_tris is None else min(budgets[k], prev_tris)
         cut = prev_cut
+        if prune_px > 0 and k > 0:
+            cut = max(cut, prune_px * size / float(screen_px[k]))
         keep = _prune_mask(start, radius, alive, cut)
-        if _count(pos, parent, radius, keep, main_child, opts) > budget:
-            lo = int(np.searchsorted(cuts, prev_cut))      # candidates cuts[lo:]; find the smallest that fits
+        if _count(pos, parent, rad, keep, main_child, opts) > budget:
+            lo = int(np.searchsorted(cuts, cut))      # candidates cuts[lo:]; find the smallest that fits
             hi = len(cuts) - 1
             while lo < hi:
                 mid = (lo + hi) // 2
-                if _count(pos, parent, radius, _prune_mask(start, radius, alive, cuts[mid]), main_child,
+                if _count(pos, parent, rad, _prune_mask(start, radius, alive, cuts[mid]), main_child,
                           opts) <= budget:
                     hi = mid
                 else:
                     lo = mid + 1
             cut = float(cuts[lo])
             keep = _prune_mask(start, radius, alive, cut)
-        seg = tree_segments(pos, parent, radius, alive=keep, main_child=main_child, bezier_w=opts["bezier_w"],
+        seg = tree_segments(pos, parent, rad, alive=keep, main_child=main_child, bezier_w=opts["bezier_w"],
                             bark_rate=opts["bark_rate"], _checked=True)
         mesh = _build(seg, opts)
         out.append(LodLevel(mesh=mesh, level=k, lod=tuple(opts["lod"]), u_steps=opts["u_steps"],
