@@ -36,7 +36,7 @@ from plantvr._validation import check_array, check_choice, check_int, check_rang
 from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
 
-__all__ = ["WHEEL_RADIUS", "VineReviewApp", "histogram_svg", "main_segment", "wheel_svg"]
+__all__ = ["WHEEL_RADIUS", "VineReviewApp", "histogram_svg", "main_segment", "wheel_geometry", "wheel_svg"]
 
 _IDS = itertools.count()
 _DELTA_JS = Path(__file__).with_name("vine_delta.js")
@@ -61,8 +61,10 @@ def histogram_svg(volume: np.ndarray, level: float, *, bins: int = 64, width: in
 WHEEL_RADIUS = 72.0
 
 
-def _wheel_geometry(radius: float) -> tuple[float, float]:
-    """(raise, centre) of a wheel of ``radius`` px: the selected slice reaches ``radius + raise``."""
+def wheel_geometry(radius: float) -> tuple[float, float]:
+    """(raise, centre) in px of a wheel of ``radius`` px in [8, 1000]: the selected slice reaches
+    ``radius + raise``; the wheel's square box has side ``2 * centre``."""
+    radius = check_range("radius", radius, 8.0, 1000.0)
     lift = radius / 6.0
     return lift, radius + lift + 6.0
 
@@ -112,7 +114,7 @@ def wheel_svg(rgba, visible, selected: int, *, radius: float = WHEEL_RADIUS) -> 
     selected = check_int("selected", selected, 0, n - 1)
     radius = check_range("radius", radius, 8.0, 1000.0)
     from plantvr.ui.wheel import DEAD_ZONE
-    lift, cen = _wheel_geometry(radius)
+    lift, cen = wheel_geometry(radius)
     da = 2 * np.pi / n
 
     def xy(r, a):
@@ -390,7 +392,7 @@ class VineReviewApp:
         from plantvr.ui.wheel import slice_at
         x = check_range("x", x, -1e6, 1e6)
         y = check_range("y", y, -1e6, 1e6)
-        lift, cen = _wheel_geometry(WHEEL_RADIUS)
+        lift, cen = wheel_geometry(WHEEL_RADIUS)
         u, v = (x - cen) / WHEEL_RADIUS, -(y - cen) / WHEEL_RADIUS
         if np.hypot(u, v) > (WHEEL_RADIUS + lift) / WHEEL_RADIUS:
             return None
@@ -435,7 +437,7 @@ class VineReviewApp:
         ctrl.apply_level = self.apply_level
         self.server.trigger("vine_resync")(self.resync)
         self.state.change("label")(self._render_wheel)
-        side = 2 * _wheel_geometry(WHEEL_RADIUS)[1]
+        side = 2 * wheel_geometry(WHEEL_RADIUS)[1]
         # click position relative to the wheel's box (its SVG fills it exactly) and the shift key
         where = ("[$event.clientX - $event.currentTarget.getBoundingClientRect().left, "
                  "$event.clientY - $event.currentTarget.getBoundingClientRect().top, $event.shiftKey]")
@@ -449,7 +451,9 @@ class VineReviewApp:
                 v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
                 v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
                 v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
-            with layout.content, html.Div(classes="d-flex", style="height: calc(100vh - 64px);"):
+            # fill v-main between the toolbar and the footer exactly (no page scroll, status line above the footer)
+            fill = "height: calc(100vh - var(--v-layout-top, 64px) - var(--v-layout-bottom, 0px));"
+            with layout.content, html.Div(classes="d-flex", style=fill):
                 with html.Div(classes="vine-panel d-flex flex-column align-center pa-2",
                               style="flex: 0 0 auto; background: #1b1b20; color: #ddd; font: 13px sans-serif;"):
                     html.Div(v_html=("wheel",), classes="vine-wheel", click=(self.wheel_click, where),

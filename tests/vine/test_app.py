@@ -96,3 +96,88 @@ def test_review_app_commands_without_a_browser(head):
     with pytest.raises(ValueError, match="give a Segmentation"):
         VineReviewApp()
     app.view.close()
+
+
+def _slices(svg):
+    import xml.etree.ElementTree as ET
+    root = ET.fromstring(svg)
+    ns = "{http://www.w3.org/2000/svg}"
+    return root, [g for g in root.iter(ns + "g") if "wheel-slice" in g.get("class", "")], ns
+
+
+def test_wheel_svg_slices_selection_raised_and_hidden_lines():
+    from plantvr.view.vine_app import WHEEL_RADIUS, wheel_geometry, wheel_svg
+    from plantvr.vine.colors import DEFAULT_PALETTE
+    n = len(DEFAULT_PALETTE)
+    visible = np.ones(n, bool)
+    visible[[2, 7]] = False
+    root, gs, ns = _slices(wheel_svg(DEFAULT_PALETTE, visible, 7))
+    lift, cen = wheel_geometry(WHEEL_RADIUS)
+    assert float(root.get("width")) == round(2 * cen) and len(gs) == n
+    assert [int(g.get("data-index")) for g in gs] == [k for k in range(n) if k != 7] + [7]   # selection on top
+    for g in gs:
+        k = int(g.get("data-index"))
+        path = g.find(ns + "path")
+        assert path.get("fill") == "rgb({},{},{})".format(*DEFAULT_PALETTE[k])
+        assert ("selected" in g.get("class")) == (k == 7) and ("hidden" in g.get("class")) == (k in (2, 7))
+        assert len(g.findall(ns + "line")) == (5 if k in (2, 7) else 0)               # §2.6 radial lines
+        # the arc ends lie on the slice's boundary angles, at the raised radius for the selection only
+        tok = path.get("d").split()
+        x0, y0, x1, y1 = float(tok[4]), float(tok[5]), float(tok[-3]), float(tok[-2])
+        r = WHEEL_RADIUS + (lift if k == 7 else 0.0)
+        for (x, y), a in (((x0, y0), k * 2 * np.pi / n), ((x1, y1), (k + 1) * 2 * np.pi / n)):
+            assert np.allclose([x, y], [cen + r * np.cos(a), cen - r * np.sin(a)], atol=0.01)
+        for line in g.findall(ns + "line"):                                             # lines stay in the slice
+            ang = np.arctan2(-(float(line.get("y2")) - cen), float(line.get("x2")) - cen) % (2 * np.pi)
+            assert k * 2 * np.pi / n < ang < (k + 1) * 2 * np.pi / n
+    _, one, _ = _slices(wheel_svg([[10, 20, 30]], [True], 0))                           # a one-colour table
+    assert len(one) == 1
+    with pytest.raises(ValueError, match="selected must be an integer in"):
+        wheel_svg(DEFAULT_PALETTE, visible, n)
+    with pytest.raises(ValueError, match="visible must have shape"):
+        wheel_svg(DEFAULT_PALETTE, visible[:3], 0)
+    with pytest.raises(ValueError, match="rgba must have shape"):
+        wheel_svg(np.zeros((0, 3)), [], 0)
+    with pytest.raises(ValueError, match="radius must be in"):
+        wheel_geometry(4)
+    with pytest.raises(ValueError, match=r"rgba must be in \[0, 255\]"):
+        wheel_svg([[300, 0, 0]], [True], 0)
+
+
+def test_review_app_wheel_click_follows_slice_at(surface):
+    pytest.importorskip("trame_vtk")
+    from plantvr.ui.wheel import slice_at
+    from plantvr.view.vine_app import WHEEL_RADIUS, VineReviewApp, wheel_geometry
+    seg = Segmentation(surface.vertices, surface.faces)
+    app = VineReviewApp(seg, target_faces=4000)
+    n = len(seg.colors)
+    lift, cen = wheel_geometry(WHEEL_RADIUS)
+    rng = np.random.default_rng(0)
+    for x, y in rng.uniform(0, 2 * cen, (200, 2)):
+        before = int(app.state.label)
+        u, v = (x - cen) / WHEEL_RADIUS, (cen - y) / WHEEL_RADIUS
+        k = app.wheel_click(x, y)
+        if np.hypot(u, v) > (WHEEL_RADIUS + lift) / WHEEL_RADIUS:
+            assert k is None and app.state.label == before                 # outside the wheel: nothing
+        else:
+            assert k == slice_at(u, v, n, last=before) == app.state.label  # dead zone keeps the selection
+            assert f'class="wheel-slice selected" data-index="{k}"' in app.state.wheel
+    a = 5.5 * 2 * np.pi / n
+    x, y = cen + 0.6 * WHEEL_RADIUS * np.cos(a), cen - 0.6 * WHEEL_RADIUS * np.sin(a)
+    app.select(2)
+    assert app.wheel_click(x, y, shift=True) == 5                            # shift-click: hide slice 5 ...
+    assert app.state.label == 2 and not seg.colors.visible[5] and app.state.hidden == [5]
+    assert 'class="wheel-slice hidden" data-index="5"' in app.state.wheel
+    assert app.wheel_click(cen, cen, shift=True) == 2                        # centre: the selected one
+    assert app.state.hidden == [2, 5] and 'class="wheel-slice selected hidden" data-index="2"' in app.state.wheel
+    app.toggle_selected()
+    app.wheel_click(x, y, shift=True)
+    assert seg.colors.visible.all() and app.state.hidden == [] and "hidden" not in app.state.wheel
+    seg.set_color(4, (1, 2, 3))                         # a recolour from code reaches the wheel with the next command
+    app.undo()
+    assert "rgb(1,2,3)" in app.state.wheel
+    with pytest.raises(ValueError, match="label must be an integer in"):
+        app.select(n)
+    with pytest.raises(ValueError, match=r"x must be in \["):
+        app.wheel_click(float("nan"), 0)
+    app.stop()

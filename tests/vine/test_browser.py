@@ -164,9 +164,9 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
 
 def _slice_xy(k, n, r_frac=0.6, radius=None):
     """CSS px, from the wheel's top-left corner, of a point inside slice ``k`` of ``n`` (y up, CCW from +x)."""
-    from plantvr.view.vine_app import WHEEL_RADIUS, _wheel_geometry
+    from plantvr.view.vine_app import WHEEL_RADIUS, wheel_geometry
     radius = WHEEL_RADIUS if radius is None else radius
-    cen = _wheel_geometry(WHEEL_RADIUS)[1]
+    cen = wheel_geometry(WHEEL_RADIUS)[1]
     a = (k + 0.5) * 2 * np.pi / n
     return {"x": cen + r_frac * radius * np.cos(a), "y": cen - r_frac * radius * np.sin(a)}
 
@@ -175,14 +175,15 @@ def _wheel_img(page):
     from PIL import Image
     img = np.asarray(Image.open(io.BytesIO(page.screenshot())).convert("RGB")).astype(int)
     b = page.locator(".vine-wheel").bounding_box()
-    return img[int(round(b["y"])):int(round(b["y"] + b["height"])), int(round(b["x"])):int(round(b["x"] + b["width"]))]
+    y0, x0 = round(b["y"]), round(b["x"])
+    return img[y0:y0 + round(b["height"]), x0:x0 + round(b["width"])]
 
 
 def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
     """Spec §2.4.1/§2.6 on the page: a click on a slice selects that colour (raised, outlined) and the next
     click on the mesh paints with it; a shift-click hides the colour (radial lines; gone from the mesh, painting
     with it refused) and shows it again."""
-    from plantvr.view.vine_app import WHEEL_RADIUS, VineReviewApp, _wheel_geometry
+    from plantvr.view.vine_app import WHEEL_RADIUS, VineReviewApp, wheel_geometry
     shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
     shots.mkdir(parents=True, exist_ok=True)
     seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals)
@@ -190,7 +191,7 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
     app = VineReviewApp(seg, target_faces=len(seg.faces) // 4, radius=5.0, window_size=(640, 480))
     assert app.state.label == 1
     url = app.start()
-    lift, cen = _wheel_geometry(WHEEL_RADIUS)
+    lift = wheel_geometry(WHEEL_RADIUS)[0]
     try:
         with playwright_api.sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
