@@ -26,7 +26,7 @@ import time
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 
 def grown_snapshot(target: int, seed: int = 0, max_s: float = 120.0):
@@ -156,6 +156,13 @@ def _rss_gib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20
 
 
+#: Triangles of the gerbera-class mesh (18 M vertices / 36 M faces, 000_vine §5.7).
+GERBERA_FACES = 36_000_000
+#: Peak RSS per full-resolution triangle of mesh + DisplayProxy build (fast-simplification dominates), measured
+#: here: 15.55 GiB at 36.26 M triangles (+ margin).
+PEAK_BYTES_PER_FACE = 0.45 * 2 ** 30 / 1e6
+
+
 def vine_segmentation(n_faces: int, head: int = 256, seed: int = 0):
     """A synthetic flower head (``head``³ voxels) tiled to at least ``n_faces`` triangles, with the
     ground-truth component labels of every vertex; returns ``(Segmentation, head_faces)``."""
@@ -199,7 +206,9 @@ def vine_case(args, w: int, h: int, frames: int) -> dict:
     """ViNE mode: full mesh → DisplayProxy → stereo frames through the VineBridge (000_vine §4.5, §5.7)."""
     from plantvr.vine.proxy import DisplayProxy
     from plantvr.vr.vine_mode import VineBridge
-    n_faces = args.vine_faces or (150_000 if args.quick else 36_000_000)
+    # full size: the gerbera class (36 M triangles) when the decimation's peak memory fits ``--mem-gib``
+    n_faces = args.vine_faces or (150_000 if args.quick else
+                                  int(min(GERBERA_FACES, args.mem_gib * 2 ** 30 / PEAK_BYTES_PER_FACE)))
     budget = args.proxy_faces or (40_000 if args.quick else 1_500_000)
     head = args.head or (64 if args.quick else 256)
     t0 = time.perf_counter()
@@ -214,7 +223,10 @@ def vine_case(args, w: int, h: int, frames: int) -> dict:
           f"({', '.join(f'{k} {v:.1f} s' for k, v in proxy.timings.items())}); peak RSS {_rss_gib():.2f} GiB")
     case = {"full_faces": len(seg.faces), "full_vertices": seg.n_vertices, "head": head,
             "proxy_faces": len(proxy.faces), "proxy_vertices": proxy.n_vertices, "make_s": t_make,
-            "proxy_s": t_proxy}
+            "proxy_s": t_proxy, "peak_rss_gib": _rss_gib()}
+    if not args.quick and not args.vine_faces and len(seg.faces) < GERBERA_FACES:
+        print(f"  (36 M triangles need ~{GERBERA_FACES * PEAK_BYTES_PER_FACE / 2 ** 30:.0f} GiB peak, over "
+              f"--mem-gib {args.mem_gib:g}: this is the largest mesh that fits; --vine-faces 36000000 runs it)")
     # the same coloured surface the mesher thread draws (depth cue from the benchmark's head position)
     probe = VineBridge(seg, proxy)
     scene = probe.controls.scene.matrix
@@ -258,7 +270,10 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--only", choices=("all", "trees", "vine"), default="all",
                     help="run the Tree Wand cases, the ViNE case, or both (default)")
     ap.add_argument("--vine-faces", type=int, default=None,
-                    help="ViNE full-mesh triangles (default 36M, the gerbera class; quick 150k)")
+                    help="ViNE full-mesh triangles (default: 36M, the gerbera class, or the most whose proxy build "
+                         "fits --mem-gib; quick 150k)")
+    ap.add_argument("--mem-gib", type=float, default=10.0,
+                    help="peak-memory budget that sizes the default ViNE mesh (36M triangles need ~16 GiB)")
     ap.add_argument("--proxy-faces", type=int, default=None,
                     help="ViNE DisplayProxy triangle budget (default 1.5M; quick 40k)")
     ap.add_argument("--head", type=int, default=None, help="flower-head volume size (default 256; quick 64)")
