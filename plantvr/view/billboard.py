@@ -132,7 +132,24 @@ def render_views(meshes, *, views: int = 2, resolution: int = 256, center=None, 
             out[k] = img if img.shape[2] == 4 else np.dstack([img, np.full(img.shape[:2], 255, np.uint8)])
     finally:
         pl.close()
+    for img in out:
+        _unblend(img)
     return out, center, half
+
+
+def _unblend(img: np.ndarray) -> None:
+    """Undo the background blending of partly covered (multisampled edge) pixels and fill the uncovered ones with
+    the mean covered colour, in place, so that a texture of the image has no pale fringes when filtered."""
+    a = img[..., 3].astype(float) / 255.0
+    empty, part = a == 0, (a > 0) & (a < 1)
+    if not np.any(~empty):
+        return
+    rgb = img[..., :3].astype(float)
+    bg = rgb[empty].mean(0) if np.any(empty) else np.zeros(3)
+    fix = (rgb[part] - (1.0 - a[part, None]) * bg) / a[part, None]
+    rgb[part] = fix
+    rgb[empty] = rgb[~empty].mean(0)
+    img[..., :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
 @dataclass
