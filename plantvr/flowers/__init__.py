@@ -1,4 +1,4 @@
-"""Dense inflorescences (spec 002_inflorescences §2–§5, checklist §8.1 C1–C13, C17, C20–C25).
+"""Dense inflorescences (spec 002_inflorescences §2–§5, checklist §8.1 C1–C14, C17, C20–C25, C28).
 
 Sub-modules
 -----------
@@ -18,7 +18,11 @@ ccd
 composer
     Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations.
 models
-    Sunflower-like (34 rays) and Gaillardia-like (21 rays) heads: phyllotaxis, fate, florets, canopy.
+    The seven example models of §6.2: sunflower-like (34 rays), Gaillardia-like (21 rays), dahlia (quills on a
+    hemisphere), Dyssodia (1 + 5 heads, Fig. 6.4b), yarrow (corymb of heads, Fig. 6.4a), Orlaya (two-level
+    umbel, Fig. 6.4c) and a lilac-like panicle.
+smoothing
+    Loop-subdivision post-process with collision resolution (§3.9, C14), reusing plantvr.subdivision.
 branching
     Florets-first extended Rodkaew branching for corymbs and (compound) umbels, pipe widths, tube meshes.
 """
