@@ -74,7 +74,7 @@ def test_unreachable_budget_keeps_trunk(tree):
 
 
 def test_validation(tree):
-    pos, parent, radius, mc = tree
+    pos, parent, radius, _ = tree
     with pytest.raises(ValueError, match="levels"):
         lod_chain(pos, parent, radius, levels=9)
     with pytest.raises(ValueError, match="budgets"):
