@@ -4,6 +4,9 @@ For a random tree with pipe-model radii and a leaf at every tip, prints the time
 ``plantvr.geometry`` beside two baselines measured in the same run: the plain PLY export (``export_tree`` to
 .ply, trimesh's binary PLY writer) and trimesh's own glb export of the same concatenated mesh. The issue's target:
 USD and glb of a 22,000-internode tree with leaves <= 2 s each. ``--quick`` runs 3,000 internodes (< 30 s).
+``--lod-iou`` renders each LOD level's silhouette IoU (with leaves) against level 0 at the nearest distance
+``lod_by_distance`` uses it; ``--forest`` times ForestView (LOD by camera distance) on a grown forest, with the
+triangles of every tree at level 0 as baseline.
 """
 from __future__ import annotations
 
@@ -37,6 +40,10 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--quick", action="store_true", help="3,000 internodes for CI (< 30 s)")
     ap.add_argument("--internodes", type=int, default=None, help="tree size (default 22,000; 3,000 with --quick)")
     ap.add_argument("--billboard", action="store_true", help="also time the billboard atlas (offscreen rendering)")
+    ap.add_argument("--lod-iou", action="store_true",
+                    help="also render each LOD level's silhouette IoU (with leaves) at the nearest distance it is used")
+    ap.add_argument("--forest", action="store_true",
+                    help="also time ForestView (LOD by distance) on a small grown forest: build, update, triangles")
     args = ap.parse_args(argv)
     n = args.internodes or (3_000 if args.quick else 22_000)
     repeat = 1 if args.quick else 3
@@ -77,6 +84,13 @@ def main(argv: list[str] | None = None) -> dict:
         from plantvr.view.billboard import make_billboard
         # rendered from LOD 1 (same silhouette, IoU >= 0.9; a fifth of the triangles, which llvmpipe pays for)
         res["billboard_s"], _ = _time(lambda: make_billboard([chain[1].mesh, leaves], resolution=256), 1)
+    if args.lod_iou:
+        from plantvr.view.billboard import LOD_SCREEN_PX, silhouette_iou
+        res["lod_iou"] = [float(silhouette_iou([chain[0].mesh, leaves], [lv.mesh, leaves], views=2,
+                                               resolution=int(px)).min())
+                          for lv, px in zip(chain[1:], LOD_SCREEN_PX)]
+    if args.forest:
+        res.update(_forest(quick=args.quick))
     print(f"tree: {n} internodes, {res['triangles']} branch + {res['leaf_triangles']} leaf triangles "
           f"({res['leaves']} leaves); mesh {res['mesh_s']:.3f} s, leaves {res['leaves_s']:.3f} s")
     print(f"{'export':<38}{'s':>8}{'x PLY':>8}")
@@ -88,9 +102,42 @@ def main(argv: list[str] | None = None) -> dict:
         rows.append(("billboard atlas 2 x 256 px (LOD 1)", "billboard_s"))
     for label, key in rows:
         print(f"{label:<38}{res[key]:>8.3f}{res[key] / base:>8.2f}")
+    if "lod_iou" in res:
+        print("LOD silhouette IoU with leaves at 384 / 192 / 96 px (target >= 0.9):",
+              [round(x, 3) for x in res["lod_iou"]])
+    if "forest_trees" in res:
+        print(f"ForestView, {res['forest_trees']} trees: build {res['forest_build_s']:.2f} s, update per camera move "
+              f"{1e3 * res['forest_update_s']:.2f} ms; triangles near / mid / far {res['forest_tris']} "
+              f"(all at level 0: {res['forest_tris_full']})")
     print(f"LOD triangles: {res['lod_triangles']}; target USD and glb <= 2 s at 22,000 internodes: "
           f"{'met' if max(res['usd_s'], res['skinned_glb_s']) <= 2.0 else 'NOT met'} at {n}")
     return res
+
+
+def _forest(quick: bool) -> dict:
+    """ForestView on a grown forest: build time, time of one update() after a camera move, visible triangles."""
+    from plantvr.landscape import grow_forest
+    from plantvr.view.forest import ForestView
+
+    n = 6 if quick else 30
+    f = grow_forest(n, size=(40.0 * np.sqrt(n), 40.0 * np.sqrt(n)), min_dist=10.0, rounds=2, steps_per_round=5,
+                    client="sync", seed=2)
+    t = time.perf_counter()
+    v = ForestView(f.trees, window_size=(1280, 720), billboard_px=128, observe=False)
+    build = time.perf_counter() - t
+    c = v.centers.mean(0)
+    tris, times = [], []
+    for back in (10.0, 100.0, 1000.0):
+        v.plotter.camera_position = [tuple(c + np.array([0.0, 2.0, -back - np.ptp(v.centers[:, 2]) / 2])),
+                                     tuple(c), (0, 1, 0)]
+        t = time.perf_counter()
+        v.update()
+        times.append(time.perf_counter() - t)
+        tris.append(v.triangles)
+    full = int(sum(t[0] for t in v.tris))
+    v.plotter.close()
+    return {"forest_trees": len(f.trees), "forest_build_s": build, "forest_update_s": float(np.mean(times)),
+            "forest_tris": tris, "forest_tris_full": full}
 
 
 if __name__ == "__main__":
