@@ -17,12 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr.geometry.synthetic import random_tree
 from plantvr.geometry import build_branch_mesh
 from plantvr.geometry.export import export_tree
 from plantvr.geometry.gltf_skin import export_skinned_glb
 from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import lod_chain
+from plantvr.geometry.synthetic import random_tree
 from plantvr.geometry.usd import export_usd
 
 
