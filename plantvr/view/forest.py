@@ -11,11 +11,11 @@ import os
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
-import pyvista as pv  # noqa: E402
+import numpy as np
+import pyvista as pv
 
-from ..geometry.lod import lod_chain  # noqa: E402
-from .billboard import BARK_RGB, BILLBOARD_LEVEL, LOD_SCREEN_PX, lod_by_distance, make_billboard  # noqa: E402
+from ..geometry.lod import lod_chain
+from .billboard import BARK_RGB, BILLBOARD_LEVEL, LOD_SCREEN_PX, lod_by_distance, make_billboard
 
 __all__ = ["ForestView", "tree_arrays"]
 
