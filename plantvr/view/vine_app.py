@@ -226,7 +226,7 @@ class VineReviewApp:
             "label": 1, "radius": r0, "radius_max": round(0.25 * diag, 3), "hidden": [],
             "painted": 0, "can_undo": False, "can_redo": False, "level": float(level or 0.0),
             "histogram": histogram_svg(volume, level) if volume is not None else "",
-            "colours": self._colour_items(), "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
+            "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
             "vine_delta": None, "wheel": "", "message": "",
         })
         self._render_wheel()
@@ -258,11 +258,6 @@ class VineReviewApp:
         self.state.can_undo = bool(self.seg.history.undo_stack)
         self.state.can_redo = bool(self.seg.history.redo_stack)
 
-    def _colour_items(self) -> list[dict]:
-        c = self.seg.colors
-        return [{"value": k, "rgb": "rgb({},{},{})".format(*c.rgba[k, :3].tolist()), "visible": bool(c.visible[k])}
-                for k in range(len(c))]
-
     def colour_delta(self) -> tuple[np.ndarray, np.ndarray]:
         """The proxy vertices changed since the last push and their colours as drawn (consumes them).
 
@@ -283,9 +278,6 @@ class VineReviewApp:
         Local mode: a colour delta of the changed proxy vertices when only labels changed, else a scene
         re-synchronisation (changed arrays only). Remote mode: a new image.
         """
-        items = self._colour_items()
-        if items != self.state.colours:
-            self.state.colours = items
         self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
         self._render_wheel()
         self.state.painted = int(np.count_nonzero(self.seg.labels))
@@ -350,6 +342,7 @@ class VineReviewApp:
             p = picker.GetPickPosition()
         try:
             self.paint_world(np.asarray(p, np.float64))
+            self.state.message = ""
         except ValueError as exc:                           # e.g. painting with a hidden colour
             self.state.message = str(exc)
 
@@ -451,11 +444,14 @@ class VineReviewApp:
                 v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
                 v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
                 v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
-            # fill v-main between the toolbar and the footer exactly (no page scroll, status line above the footer)
-            fill = "height: calc(100vh - var(--v-layout-top, 64px) - var(--v-layout-bottom, 0px));"
+            # fill v-main between the 64 px toolbar and the 20 px footer (no page scroll, status line above the
+            # footer); a fixed figure: following vuetify's --v-layout-* variables, set as the footer mounts, makes
+            # vtk.js's ResizeObserver report an undelivered-notifications loop
+            fill = "height: calc(100vh - 84px);"
             with layout.content, html.Div(classes="d-flex", style=fill):
                 with html.Div(classes="vine-panel d-flex flex-column align-center pa-2",
-                              style="flex: 0 0 auto; background: #1b1b20; color: #ddd; font: 13px sans-serif;"):
+                              style=f"flex: 0 0 {side + 24:.0f}px; overflow: hidden; background: #1b1b20; "
+                                    "color: #ddd; font: 13px sans-serif;"):
                     html.Div(v_html=("wheel",), classes="vine-wheel", click=(self.wheel_click, where),
                              style=f"width: {side:.0f}px; height: {side:.0f}px; cursor: pointer; user-select: none;")
                     html.Div("label {{ label }}{{ hidden.includes(label) ? ' (hidden)' : '' }}",
@@ -463,7 +459,8 @@ class VineReviewApp:
                     html.Div("click: select, shift-click: hide/show", style="font-size: 11px; color: #999;")
                     html.Div("{{ message }}", classes="vine-message", style="font-size: 11px; color: #f88; "
                              f"max-width: {side:.0f}px;")
-                with html.Div(style="position: relative; flex: 1 1 auto; min-width: 0; height: 100%;"):
+                with html.Div(style="position: relative; flex: 1 1 0; min-width: 0; height: 100%; "
+                                    "overflow: hidden;"):
                     kw = {"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
                           "interactor_settings": ("interactor_settings", _INTERACTOR),
                           # a DOM click also ends every orbit drag: press/release positions tell them apart

@@ -198,6 +198,9 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
             page = browser.new_page(viewport={"width": 900, "height": 640})
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
+            # console errors too (a layout that makes vtk.js's ResizeObserver loop logs one), bar trame's 405 probe
+            page.on("console", lambda m: m.type == "error" and "Failed to load resource" not in m.text
+                    and errors.append(m.text))
             page.goto(url)
             page.wait_for_selector(".vine-view canvas", timeout=30_000)
             page.wait_for_selector(".vine-wheel svg .wheel-slice", timeout=30_000)
@@ -259,6 +262,7 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
             page.mouse.click(cx + 40, cy - 10)
             assert _wait(page, lambda: np.any(seg.labels == 6)), "painting with the new selection failed"
             assert np.all(seg.labels[want] > 0)
+            assert _wait(page, lambda: page.locator(".vine-message").inner_text() == "")   # refusal cleared
             page.wait_for_timeout(500)
             page.screenshot(path=str(shots / "vine_wheel_blue.png"))
             assert not errors, errors
