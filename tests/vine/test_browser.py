@@ -152,7 +152,7 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             late = browser.new_page(viewport={"width": 800, "height": 640})
             late.goto(url)
             late.wait_for_selector(".vine-view canvas", timeout=30_000)
-            assert _wait(late, lambda: _yellow(_img(late)) > 30), "a late page did not show the paint"
+            assert _wait(late, lambda: _yellow(_img(late)) > 30, timeout=45.0), "a late page did not show the paint"
             late.screenshot(path=str(shots / "vine_review_late_page.png"))
             assert not errors, errors
             browser.close()
