@@ -36,13 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
+from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
-
-CHROMIUM = "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync"]
 
 
 def _view_img(page):
@@ -80,7 +77,7 @@ def _measure(seg: Segmentation, config: str, budget: int, radius: float, shots: 
     out: dict = {"proxy_vertices": app.proxy.n_vertices, "proxy_faces": len(app.proxy.faces)}
     try:
         with sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            browser = launch_chromium(p)
             page = browser.new_page(viewport={"width": 800, "height": 640})
             rx = []
             page.on("websocket", lambda ws: ws.on("framereceived", lambda m: rx.append(len(m))))

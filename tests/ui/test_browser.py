@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import plantvr
+from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.ui import ColorWheel, GrowthControl, InfluenceTriangle
 from plantvr.ui._assets import asset
 
-CHROMIUM = "/usr/bin/chromium"
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
 playwright_api = pytest.importorskip("playwright.sync_api")
@@ -49,9 +49,7 @@ window.rendered = true;
 @pytest.fixture(scope="module")
 def browser():
     with playwright_api.sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-            "--disable-component-update", "--disable-sync"])
+        b = launch_chromium(p)
         yield b
         b.close()
 

@@ -11,7 +11,6 @@ Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 import json
 import os
 import re
-import signal
 import socket
 import subprocess
 import sys
@@ -22,7 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
+from plantvr._browser import CHROMIUM, launch_chromium, stop_process_group
+
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
 playwright_api = pytest.importorskip("playwright.sync_api")
@@ -105,15 +105,7 @@ def lab(tmp_path):
                 time.sleep(0.3)
             yield url
         finally:
-            try:  # the whole process group: server and kernels
-                os.killpg(proc.pid, signal.SIGTERM)
-                proc.wait(10)
-            except (ProcessLookupError, subprocess.TimeoutExpired):
-                try:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-                proc.wait(5)
+            stop_process_group(proc)  # server and its kernels
 
 
 def _run_cell(page, index: int) -> None:
@@ -144,9 +136,7 @@ def _influence(page) -> np.ndarray:
 
 def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
     with playwright_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, timeout=30_000, args=[
-            "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-            "--disable-component-update", "--disable-sync"])
+        browser = launch_chromium(p, timeout=30_000)
         try:
             page = browser.new_page(viewport={"width": 1100, "height": 800})
             page.set_default_timeout(30_000)

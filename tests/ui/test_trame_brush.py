@@ -5,7 +5,6 @@ end to end: a trame page from :func:`plantvr.view.interaction.trame_app` in a su
 headless Chromium; the page's status line (synced from the model) shows the paint commands.
 """
 import os
-import signal
 import socket
 import subprocess
 import sys
@@ -18,6 +17,7 @@ import numpy as np
 import pytest
 
 import plantvr
+from plantvr._browser import CHROMIUM, launch_chromium, stop_process_group
 from plantvr.view import View
 from plantvr.view.interaction import BrushInteractor, trame_app
 
@@ -26,7 +26,6 @@ pytest.importorskip("trame_pyvista")
 from vtkmodules.vtkWebCore import vtkWebApplication
 
 REPO = Path(__file__).resolve().parents[2]
-CHROMIUM = "/usr/bin/chromium"
 
 
 @pytest.fixture
@@ -154,9 +153,7 @@ def test_drag_in_browser_paints_through_trame(tmp_path):
                     pytest.fail("trame app did not start in 60 s")
                 time.sleep(0.3)
             with playwright_api.sync_playwright() as p:
-                browser = p.chromium.launch(executable_path=CHROMIUM, timeout=30_000, args=[
-                    "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                    "--disable-component-update", "--disable-sync"])
+                browser = launch_chromium(p, timeout=30_000)
                 try:
                     page = browser.new_page(viewport={"width": 560, "height": 480})
                     page.set_default_timeout(30_000)
@@ -185,12 +182,4 @@ def test_drag_in_browser_paints_through_trame(tmp_path):
                 finally:
                     browser.close()
         finally:
-            try:
-                os.killpg(proc.pid, signal.SIGTERM)
-                proc.wait(10)
-            except (ProcessLookupError, subprocess.TimeoutExpired):
-                try:
-                    os.killpg(proc.pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
-                proc.wait(5)
+            stop_process_group(proc)

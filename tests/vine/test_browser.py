@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-CHROMIUM = "/usr/bin/chromium"
+from plantvr._browser import CHROMIUM, launch_chromium
+
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
 playwright_api = pytest.importorskip("playwright.sync_api")
@@ -19,9 +20,6 @@ pytest.importorskip("trame_vtk")
 
 from plantvr.vine.index import ball_query_brute
 from plantvr.vine.segmentation import Segmentation
-
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-        "--disable-component-update", "--disable-sync"]
 
 
 def _img(page):
@@ -64,7 +62,7 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
     url = app.start()
     try:
         with playwright_api.sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            browser = launch_chromium(p)
             page = browser.new_page(viewport={"width": 800, "height": 640})
             received = []
             page.on("websocket", lambda ws: ws.on("framereceived", lambda m: received.append(len(m))))
@@ -194,7 +192,7 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
     lift = wheel_geometry(WHEEL_RADIUS)[0]
     try:
         with playwright_api.sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            browser = launch_chromium(p)
             page = browser.new_page(viewport={"width": 900, "height": 640})
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
