@@ -21,6 +21,8 @@ import math
 import numba
 import numpy as np
 
+from plantvr._sorting import counting_sort
+
 #: Quantisation of unit vectors: 2**38 units per 1.0 (resolution 3.6e-12; sums exact up to 2**25 markers/node).
 QSCALE = float(2.0 ** 38)
 #: Opposite pulls cancel when the (unquantised) direction sum is shorter than this (spec 003 §1.4).
@@ -32,22 +34,6 @@ DUP_FRACTION = 1e-3
 # ----------------------------------------------------------------------------------------------------------------
 # grid (numpy, built once)
 # ----------------------------------------------------------------------------------------------------------------
-@numba.njit(cache=True, nogil=True)
-def _counting_sort(keys, nkeys):
-    """Stable counting sort of int keys in [0, nkeys): returns (order, start) with start of length nkeys+1."""
-    start = np.zeros(nkeys + 1, np.int64)
-    for k in keys:
-        start[k + 1] += 1
-    for i in range(nkeys):
-        start[i + 1] += start[i]
-    fill = start[:-1].copy()
-    order = np.empty(len(keys), np.int64)
-    for i in range(len(keys)):
-        order[fill[keys[i]]] = i
-        fill[keys[i]] += 1
-    return order, start
-
-
 def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max_cells: int | None = None):
     """Sort ``points`` into a dense uniform grid of cell size ``radius / cells_per_radius``.
 
@@ -71,7 +57,7 @@ def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max
     ijk = np.minimum(np.maximum(ijk, 0), dims - 1)
     cell = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
     ncell = int(np.prod(dims))
-    order, cell_start = _counting_sort(cell, ncell)  # == np.argsort(cell, kind="stable"), in O(m)
+    order, cell_start = counting_sort(cell, ncell, np.int64)  # == np.argsort(cell, kind="stable"), in O(m)
     cell_live = np.diff(cell_start).astype(np.int32)
     return origin.astype(np.float64), h, dims.astype(np.int64), reach, order, cell_start, cell_live
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from plantvr._sorting import counting_sort
+
 __all__ = ["PointGrid", "build_grid", "within_any"]
 
 _P1, _P2, _P3 = 73856093, 19349663, 83492791
@@ -19,24 +21,12 @@ def _bucket(ix, iy, iz, mask):
 
 
 @numba.njit(cache=True, nogil=True)
-def _build(points, h, nbuckets):
-    mask = nbuckets - 1
-    n = points.shape[0]
-    bucket = np.empty(n, np.int64)
-    start = np.zeros(nbuckets + 1, np.int64)
-    for i in range(n):
-        b = _bucket(np.int64(np.floor(points[i, 0] / h)), np.int64(np.floor(points[i, 1] / h)),
-                    np.int64(np.floor(points[i, 2] / h)), mask)
-        bucket[i] = b
-        start[b + 1] += 1
-    for b in range(nbuckets):
-        start[b + 1] += start[b]
-    fill = start[:-1].copy()
-    order = np.empty(n, np.int64)
-    for i in range(n):
-        order[fill[bucket[i]]] = i
-        fill[bucket[i]] += 1
-    return order, start
+def _buckets(points, h, mask):
+    bucket = np.empty(points.shape[0], np.int64)
+    for i in range(points.shape[0]):
+        bucket[i] = _bucket(np.int64(np.floor(points[i, 0] / h)), np.int64(np.floor(points[i, 1] / h)),
+                            np.int64(np.floor(points[i, 2] / h)), mask)
+    return bucket
 
 
 class PointGrid:
@@ -48,7 +38,7 @@ class PointGrid:
         self.points = points
         self.h = float(h)
         nb = 1 << max(4, int(2 * max(len(points), 1) - 1).bit_length())
-        self.order, self.start = _build(points, self.h, nb)
+        self.order, self.start = counting_sort(_buckets(points, self.h, nb - 1), nb, np.int64)
         self.mask = nb - 1
 
 

@@ -13,6 +13,7 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
+from plantvr._sorting import counting_sort
 from plantvr._validation import check_array, check_point, check_range
 
 __all__ = ["GridIndex", "KDTreeIndex", "ball_query_brute"]
@@ -76,22 +77,6 @@ def _cell_ids(points, origin, inv_h, dims):  # pragma: no cover - numba kernel
         k = min(max(k, 0), dims[2] - 1)
         out[v] = (i * dims[1] + j) * dims[2] + k
     return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _counting_sort(cell, n_cells):  # pragma: no cover - numba kernel
-    starts = np.zeros(n_cells + 1, np.int32)
-    for v in range(cell.shape[0]):
-        starts[cell[v] + 1] += 1
-    for c in range(n_cells):
-        starts[c + 1] += starts[c]
-    fill = starts[:-1].copy()
-    order = np.empty(cell.shape[0], np.int32)
-    for v in range(cell.shape[0]):
-        c = cell[v]
-        order[fill[c]] = v
-        fill[c] += 1
-    return order, starts
 
 
 @numba.njit(cache=True, nogil=True)
@@ -216,7 +201,7 @@ class GridIndex:
         self.inv_h = 1.0 / float(cell_size)
         self.dims = dims
         cell = _cell_ids(pts, lo, self.inv_h, dims)
-        self.order, self.starts = _counting_sort(cell, int(np.prod(dims)))
+        self.order, self.starts = counting_sort(cell, int(np.prod(dims)), np.int32)
         self._buf = np.empty(1024, np.int64)
 
     @property

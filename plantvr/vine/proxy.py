@@ -22,6 +22,7 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
+from plantvr._sorting import counting_sort
 from plantvr._validation import check_choice, check_int, check_range
 from plantvr.vine.segmentation import Segmentation
 
@@ -129,22 +130,6 @@ def _collapse_roots_numpy(n: int, collapses: np.ndarray) -> np.ndarray:
         parent = nxt
 
 
-@numba.njit(cache=True, nogil=True)
-def _csr(owner, n_proxy):  # pragma: no cover - numba kernel (counting sort by owner)
-    starts = np.zeros(n_proxy + 1, np.int64)
-    for v in range(owner.shape[0]):
-        starts[owner[v] + 1] += 1
-    for p in range(n_proxy):
-        starts[p + 1] += starts[p]
-    fill = starts[:-1].copy()
-    members = np.empty(owner.shape[0], np.int32)
-    for v in range(owner.shape[0]):
-        p = owner[v]
-        members[fill[p]] = v
-        fill[p] += 1
-    return members, starts
-
-
 # ---------------------------------------------------------------------------------------------- labels
 @numba.njit(cache=True, nogil=True)
 def _proxy_labels_kernel(members, starts, labels, visible, pids, out):  # pragma: no cover - twin below
@@ -210,7 +195,7 @@ def proxy_labels(owner: np.ndarray, n_proxy: int, labels: np.ndarray, visible: n
     n_proxy = check_int("n_proxy", n_proxy, 1, 2 ** 31 - 1)
     if own.shape != np.asarray(labels).shape:
         raise ValueError(f"owner and labels must have the same shape, got {own.shape} and {np.shape(labels)}")
-    members, starts = _csr(own.astype(np.int64), n_proxy)
+    members, starts = counting_sort(own, n_proxy, np.int32)
     out = np.zeros(n_proxy, np.uint8)
     _proxy_labels_kernel(members, starts, np.asarray(labels, np.uint8), _lut(visible), np.arange(n_proxy), out)
     return out
@@ -305,7 +290,7 @@ class DisplayProxy:
         self.method = method
         t3 = time.perf_counter()
         self.owner = owner.astype(np.int32)
-        self.members, self.starts = _csr(owner, len(self.vertices))
+        self.members, self.starts = counting_sort(owner, len(self.vertices), np.int32)
         self.normals = seg.normals if self.vertices is seg.vertices and seg.normals is not None \
             else _vertex_normals(self.vertices, self.faces.astype(np.int64))
         self.labels = np.zeros(len(self.vertices), np.uint8)
