@@ -21,3 +21,8 @@ __all__ = ["BranchMesh", "IncrementalBranchMesh", "IncrementalLeafMesh", "LeafMe
            "build_branch_mesh", "build_leaves", "length_estimate", "lod_level", "rational_bezier",
            "rational_bezier_tangent", "ring_counts", "smoothstep", "transport_frame", "tree_segments",
            "update_branch_mesh"]
+from .appearance import (FruitPlacement, contour_sides, place_fruit, thickest_main_child, thickest_path_mesh,
+                         vigor_leaf_colors)
+
+__all__ += ["FruitPlacement", "contour_sides", "place_fruit", "thickest_main_child", "thickest_path_mesh",
+            "vigor_leaf_colors"]
