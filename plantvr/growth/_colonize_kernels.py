@@ -340,14 +340,44 @@ def grow_numpy(nodes, parent, children, acc, candidates, children_limit, step, d
 # ----------------------------------------------------------------------------------------------------------------
 # Tree Wand assignment (Eq. 9.4): smallest d / l among perceiving buds
 # ----------------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True, nogil=True, inline="always")
+def _cell_in_cone(px, py, pz, bx, by, bz, origin, h, i, j, k, rc, cos_half, sin_half):
+    """Whether cell (i, j, k) may hold points of the cone (apex p, unit axis b, half-angle θ): conservative.
+
+    The cell's bounding sphere (radius ``rc``) seen from p subtends δ = asin(rc / dist); the sphere meets the
+    cone iff the axis angle of its centre is ≤ θ + δ, i.e. b·v ≥ dist·cos(θ + δ) (with a small margin).
+    """
+    vx = origin[0] + (i + 0.5) * h - px
+    vy = origin[1] + (j + 0.5) * h - py
+    vz = origin[2] + (k + 0.5) * h - pz
+    dist2 = vx * vx + vy * vy + vz * vz
+    if dist2 <= rc * rc:
+        return True
+    dist = math.sqrt(dist2)
+    sd = rc / dist
+    cd = math.sqrt(1.0 - sd * sd)
+    cos_sum = cos_half * cd - sin_half * sd  # cos(θ + δ), valid while θ + δ ≤ π, i.e. for θ ≤ π/2
+    return cos_half < 0.0 or vx * bx + vy * by + vz * bz >= dist * cos_sum - 1e-9 * dist
+
+# ----------------------------------------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, reach, cell_start, cell_live,
-                           pos_s, owner, best, view_radius, cos_half):
+                           pos_s, orig, owner, best, owner_in, view_radius, cos_half):
     """Offer buds to the markers in their perception cones; keeps the smallest d/l, ties to the lower bud id.
 
-    ``owner``/``best`` are in sorted-marker order and updated in place.  Returns the number of updates.
+    ``owner``/``best`` are in sorted-marker order, ``owner_in`` is the owner by input row (``orig``); all are
+    updated in place.  The result does not depend on the order of the buds.  Cells outside a bud's view
+    sphere or cone are skipped; within a cell a branch-free pass keeps the markers that may be in the cone
+    (a conservative test without square roots) and the exact test of the brute-force twin runs on those only.
+    Returns the number of updates.
     """
     vr2 = view_radius * view_radius
+    vr2m = vr2 * 1.0000001
+    c2 = cos_half * cos_half * (1.0 - 1e-9)
+    wide = cos_half <= 0.0
+    sin_half = math.sqrt(max(0.0, 1.0 - cos_half * cos_half))
+    rc = 0.5 * math.sqrt(3.0) * h  # radius of a cell's bounding sphere
+    cand = np.empty(1024, np.int64)
     changed = 0
     for b in range(bud_pos.shape[0]):
         px = bud_pos[b, 0]
@@ -371,14 +401,25 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
                         continue
                     if _box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2:
                         continue
-                    for s in range(start, end):
+                    if not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, ci, cj, ck, rc, cos_half, sin_half):
+                        continue
+                    if end - start > cand.shape[0]:
+                        cand = np.empty(2 * (end - start), np.int64)
+                    nc = 0
+                    for s in range(start, end):  # branch-free candidate pass
                         vx = pos_s[s, 0] - px
                         vy = pos_s[s, 1] - py
                         vz = pos_s[s, 2] - pz
                         d2 = vx * vx + vy * vy + vz * vz
-                        if d2 > vr2 * 1.0000001 or d2 == 0.0:
-                            continue
-                        d = math.sqrt(d2)
+                        dot = vx * bx + vy * by + vz * bz
+                        cand[nc] = s
+                        nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
+                    for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
+                        s = cand[t]
+                        vx = pos_s[s, 0] - px
+                        vy = pos_s[s, 1] - py
+                        vz = pos_s[s, 2] - pz
+                        d = math.sqrt(vx * vx + vy * vy + vz * vz)
                         if d > view_radius:
                             continue
                         if vx * bx + vy * by + vz * bz < d * cos_half:
@@ -388,6 +429,7 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
                         if key < best[s] or (key == best[s] and o >= 0 and bid < o):
                             best[s] = key
                             owner[s] = bid
+                            owner_in[orig[s]] = bid
                             changed += 1
     return changed
 
@@ -415,8 +457,8 @@ def treewand_assign_numpy(markers, bud_pos, bud_dir, bud_len, view_radius, cos_h
 
 # ---- incremental Tree Wand update ------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
-def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, cell_live, owner, best, view_radius,
-                            affected, n_aff):
+def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, cell_live, orig, owner, best,
+                            owner_in, view_radius, affected, n_aff):
     """Unassign the markers owned by buds ``ids`` (scanned around their previous positions ``old_pos``).
 
     Released sorted slots are appended to ``affected``; returns the new count.
@@ -439,6 +481,7 @@ def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, ce
                     for s in range(cell_start[c], cell_start[c] + cell_live[c]):
                         if owner[s] == bid:
                             owner[s] = -1
+                            owner_in[orig[s]] = -1
                             best[s] = np.inf
                             affected[n_aff] = s
                             n_aff += 1
@@ -446,8 +489,8 @@ def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, ce
 
 
 @numba.njit(cache=True, nogil=True)
-def treewand_reassign_kernel(slots, pos_s, owner, best, bud_pos, bud_dir, bud_len, bud_order, bud_cell_start,
-                             origin, h, dims, reach, view_radius, cos_half):
+def treewand_reassign_kernel(slots, pos_s, orig, owner, best, owner_in, bud_pos, bud_dir, bud_len, bud_order,
+                             bud_cell_start, origin, h, dims, reach, view_radius, cos_half):
     """Give each marker slot in ``slots`` its best bud among all buds (bud grid: ``bud_order`` by cell)."""
     vr2 = view_radius * view_radius
     for t in range(slots.shape[0]):
@@ -480,10 +523,11 @@ def treewand_reassign_kernel(slots, pos_s, owner, best, bud_pos, bud_dir, bud_le
                         if key < best[s] or (key == best[s] and o >= 0 and b < o):
                             best[s] = key
                             owner[s] = b
+                            owner_in[orig[s]] = b
 
 
 @numba.njit(cache=True, nogil=True)
-def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live, pos_s, orig, owner, best):
+def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live, pos_s, orig, owner, best, owner_in):
     """Swap-remove live markers with squared distance < ``r2`` to any of ``points``; returns the count."""
     killed = 0
     for j in range(points.shape[0]):
@@ -507,6 +551,7 @@ def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live
                         dy = pos_s[s, 1] - py
                         dz = pos_s[s, 2] - pz
                         if dx * dx + dy * dy + dz * dz < r2:
+                            owner_in[orig[s]] = -1
                             end -= 1
                             for a in range(3):
                                 t = pos_s[s, a]
@@ -526,15 +571,3 @@ def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live
                         s += 1
                     cell_live[c] = end - start
     return killed
-
-
-@numba.njit(cache=True, nogil=True)
-def live_slots_kernel(cell_start, cell_live, total):
-    """Sorted slots of the live markers."""
-    out = np.empty(total, np.int64)
-    t = 0
-    for c in range(cell_live.shape[0]):
-        for s in range(cell_start[c], cell_start[c] + cell_live[c]):
-            out[t] = s
-            t += 1
-    return out

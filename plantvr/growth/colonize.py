@@ -25,7 +25,7 @@ children_limit=None, stall_steps=None) -> ColonizationResult``
     -1 if none.  ``assign_treewand_reference`` is the brute-force O(b·m) oracle.
 ``TreeWandAssigner(markers, *, view_radius, view_angle)``
     Keeps a marker grid across steps for the Tree Wand engine:
-    ``update(bud_pos, bud_dir, bud_len, changed, *, alive=None) -> owner (M,) int64`` — incremental
+    ``update(bud_pos, bud_dir, bud_len, changed, *, alive=None) -> owner (M,) int32`` — incremental
     Eq. 9.4: buds are indexed by a stable id (arrays may grow), ``changed`` lists the ids added, moved,
     re-headed, re-lengthed or (de)activated since the last call (None: recompute all); markers owned by
     changed buds are released and re-offered to the buds near them (a per-call grid over buds), and the
@@ -45,6 +45,9 @@ markers within d_i of the nodes added in that step are examined.  Growth directi
 sums of quantised unit vectors (2**-38 resolution), updated as markers come and go, so only nodes whose
 marker set changed are re-evaluated — a node with an unchanged set would reproduce a child the
 duplicate guard rejects.  Per-marker state: 16 bytes (+ ≤ 10 bytes/marker of grid cells).
+Tree Wand mode also skips grid cells whose bounding sphere misses a bud's perception cone, tests a cell's
+markers in a branch-free pass without square roots before the exact test, offers buds in cell order, and keeps
+the owner by input row in step (4 more bytes per marker), so an update never makes an O(M) pass.
 """
 from __future__ import annotations
 
@@ -54,6 +57,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from plantvr._sorting import counting_sort
 from plantvr._validation import check_array, check_int, check_points, check_range
 from plantvr.growth import _colonize_kernels as K
 
@@ -461,7 +465,8 @@ def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, v
     if len(markers) == 0 or len(bud_pos) == 0:
         return np.full(len(markers), -1, np.int64)
     # assign() normalises bud_dir itself: normalising twice would change last bits versus the reference
-    return TreeWandAssigner(markers, view_radius=vr, view_angle=view_angle).assign(bud_pos, bud_dir, bud_len)
+    owner = TreeWandAssigner(markers, view_radius=vr, view_angle=view_angle).assign(bud_pos, bud_dir, bud_len)
+    return owner.astype(np.int64)
 
 
 def assign_treewand_reference(markers, bud_pos, bud_dir, bud_len, *, view_radius: float,
@@ -492,29 +497,28 @@ class TreeWandAssigner:
         Full apex angle of the perception cone, radians, in [0, 2π].
     """
 
-    def __init__(self, markers, *, view_radius: float, view_angle: float):
+    def __init__(self, markers, *, view_radius: float, view_angle: float, _cells_per_radius: int = 3):
         markers = check_points("markers", markers, min_rows=1)
         self.view_radius, self.cos_half = _check_cone(view_radius, view_angle)
         (self.origin, self.h, self.dims, self.reach, order, self.cell_start,
-         self.cell_live) = K.build_grid(markers, self.view_radius)
+         self.cell_live) = K.build_grid(markers, self.view_radius, _cells_per_radius)
         self.pos_s = np.ascontiguousarray(markers[order])
         self.orig = order.astype(np.int32)
         self.m = len(markers)
         self._owner_s = np.full(self.m, -1, np.int32)
+        self._owner_in = np.full(self.m, -1, np.int32)  # the same owners by input row, kept in step
         self._best_s = np.full(self.m, np.inf)
         self._prev_pos = None
 
     def assign(self, bud_pos, bud_dir, bud_len) -> np.ndarray:
-        """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int64 by input row (-1: none/dead)."""
+        """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int32 by input row (-1: none/dead)."""
         bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
-        owner_s = np.full(self.m, -1, np.int32)
-        best_s = np.full(self.m, np.inf)
+        owner_in = np.full(self.m, -1, np.int32)
         K.treewand_assign_kernel(bud_pos, bud_dir, bud_len, np.arange(len(bud_pos), dtype=np.int64), self.origin,
                                  self.h, self.dims, self.reach, self.cell_start, self.cell_live, self.pos_s,
-                                 owner_s, best_s, self.view_radius, self.cos_half)
-        owner = np.empty(self.m, np.int64)
-        owner[self.orig] = owner_s
-        return owner
+                                 self.orig, np.full(self.m, -1, np.int32), np.full(self.m, np.inf), owner_in,
+                                 self.view_radius, self.cos_half)
+        return owner_in
 
     def kill_within(self, points, radius: float) -> int:
         """Remove live markers closer than ``radius`` to any of ``points`` (occupation zones); returns the count.
@@ -526,7 +530,8 @@ class TreeWandAssigner:
         if len(points) == 0:
             return 0
         return int(K.kill_within_kernel(points, r * r, self.origin, self.h, self.dims, self.reach, self.cell_start,
-                                        self.cell_live, self.pos_s, self.orig, self._owner_s, self._best_s))
+                                        self.cell_live, self.pos_s, self.orig, self._owner_s, self._best_s,
+                                        self._owner_in))
 
     def update(self, bud_pos, bud_dir, bud_len, changed=None, *, alive=None) -> np.ndarray:
         """Incremental Eq. 9.4 assignment: cost grows with the buds changed, not with the markers alive.
@@ -543,8 +548,9 @@ class TreeWandAssigner:
 
         Returns
         -------
-        owner : (M,) int64 ndarray
-            Bud id per input marker row (smallest d/l, ties to the lowest id), -1 if none or dead.
+        owner : (M,) int32 ndarray
+            Bud id per input marker row (smallest d/l, ties to the lowest id), -1 if none or dead; a copy of
+            state kept in step by every kernel, so no O(M) pass is needed.
         """
         bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
         nb = len(bud_pos)
@@ -552,10 +558,9 @@ class TreeWandAssigner:
         ids_all = np.flatnonzero(alive).astype(np.int64)
         if changed is None or self._prev_pos is None:
             self._owner_s.fill(-1)
+            self._owner_in.fill(-1)
             self._best_s.fill(np.inf)
-            K.treewand_assign_kernel(bud_pos[ids_all], bud_dir[ids_all], bud_len[ids_all], ids_all, self.origin,
-                                     self.h, self.dims, self.reach, self.cell_start, self.cell_live, self.pos_s,
-                                     self._owner_s, self._best_s, self.view_radius, self.cos_half)
+            self._offer(bud_pos, bud_dir, bud_len, ids_all)
         else:
             changed = np.unique(check_array("changed", changed, shape=(None,), dtype=np.int64))
             if changed.size and (changed[0] < 0 or changed[-1] >= nb):
@@ -563,28 +568,28 @@ class TreeWandAssigner:
             old = changed[changed < len(self._prev_pos)]
             affected = np.empty(self.m, np.int64)
             n_aff = K.treewand_release_kernel(self._prev_pos[old], old, self.origin, self.h, self.dims, self.reach,
-                                              self.cell_start, self.cell_live, self._owner_s, self._best_s,
-                                              self.view_radius, affected, 0)
-            new = changed[alive[changed]]
-            K.treewand_assign_kernel(bud_pos[new], bud_dir[new], bud_len[new], new, self.origin, self.h, self.dims,
-                                     self.reach, self.cell_start, self.cell_live, self.pos_s, self._owner_s,
-                                     self._best_s, self.view_radius, self.cos_half)
+                                              self.cell_start, self.cell_live, self.orig, self._owner_s,
+                                              self._best_s, self._owner_in, self.view_radius, affected, 0)
+            self._offer(bud_pos, bud_dir, bud_len, changed[alive[changed]])
             if n_aff:
                 ijk = np.floor((bud_pos[ids_all] - self.origin) / self.h)
                 ijk = np.clip(ijk, 0, self.dims - 1).astype(np.int64)
                 cell = (ijk[:, 0] * self.dims[1] + ijk[:, 1]) * self.dims[2] + ijk[:, 2]
-                order = np.argsort(cell, kind="stable")
-                start = np.zeros(len(self.cell_live) + 1, np.int64)
-                np.cumsum(np.bincount(cell, minlength=len(self.cell_live)), out=start[1:])
-                K.treewand_reassign_kernel(affected[:n_aff], self.pos_s, self._owner_s, self._best_s, bud_pos,
-                                           bud_dir, bud_len, ids_all[order], start, self.origin, self.h, self.dims,
-                                           self.reach, self.view_radius, self.cos_half)
+                order, start = counting_sort(cell, len(self.cell_live), np.int64)
+                K.treewand_reassign_kernel(affected[:n_aff], self.pos_s, self.orig, self._owner_s, self._best_s,
+                                           self._owner_in, bud_pos, bud_dir, bud_len, ids_all[order], start,
+                                           self.origin, self.h, self.dims, self.reach, self.view_radius,
+                                           self.cos_half)
         self._prev_pos = bud_pos.copy()
-        owner = np.full(self.m, -1, np.int64)
-        n_live = self.cell_live.sum()
-        live_slots = K.live_slots_kernel(self.cell_start, self.cell_live, int(n_live))
-        owner[self.orig[live_slots]] = self._owner_s[live_slots]
-        return owner
+        return self._owner_in.copy()
+
+    def _offer(self, bud_pos, bud_dir, bud_len, ids):
+        """Offer buds ``ids`` to the live markers (kernel), in cell order for cache locality (order-independent)."""
+        ijk = np.floor((bud_pos[ids] - self.origin) / (self.h * (self.reach + 1)))
+        ids = ids[np.lexsort((ijk[:, 2], ijk[:, 1], ijk[:, 0]))]
+        K.treewand_assign_kernel(bud_pos[ids], bud_dir[ids], bud_len[ids], ids, self.origin, self.h, self.dims,
+                                 self.reach, self.cell_start, self.cell_live, self.pos_s, self.orig, self._owner_s,
+                                 self._best_s, self._owner_in, self.view_radius, self.cos_half)
 
     @property
     def live_index(self) -> np.ndarray:

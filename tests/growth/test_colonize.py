@@ -356,3 +356,18 @@ def test_tw_v5_incremental_update_equals_brute_force(seed):
         ref = np.where(ref >= 0, ids[np.maximum(ref, 0)], -1)
         ref[killed] = -1
         np.testing.assert_array_equal(owner, ref)
+
+
+@pytest.mark.parametrize("angle", [0.05, math.pi / 3, math.pi / 2 - 1e-9, math.pi / 2, 1.5 * math.pi])
+def test_tw_v5_cone_cell_culling_is_conservative(angle):
+    """Dense markers (many per grid cell) around buds whose cones graze cell corners: culling loses nothing."""
+    rng = np.random.default_rng(11)
+    markers = rng.uniform(-3, 3, size=(40_000, 3))
+    pos = rng.uniform(-2, 2, size=(60, 3))
+    dirs = rng.normal(size=(60, 3))
+    dirs[:6] = np.concatenate([np.eye(3), -np.eye(3)])  # axis-aligned headings hit cell faces exactly
+    lens = rng.uniform(0.5, 1.5, 60)
+    kw = dict(view_radius=2.0, view_angle=angle)
+    owner = assign_treewand(markers, pos, dirs, lens, **kw)
+    np.testing.assert_array_equal(owner, assign_treewand_reference(markers, pos, dirs, lens, **kw))
+    assert (owner >= 0).sum() > 0
