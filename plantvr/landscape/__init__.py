@@ -1,5 +1,14 @@
-"""Landscapes (spec 004_treesketch §3): terrain height field, tree distribution, forests grown tree by tree on dask."""
+"""Landscapes (spec 004_treesketch §3): terrain height field, tree distribution, forests grown tree by tree on dask,
+crown-space competition on layered voxels, glTF export with instancing."""
 from .asymmetry import cell_geometry, landscape_tropism, neighbour_asymmetry
+from .crowns import (
+           CrownVoxels,
+           VoxelSketchEngine,
+           claim_segments,
+           crown_voxels,
+           propagate_layer,
+           region_geometry,
+)
 from .distribution import (
            Distribution,
            Species,
@@ -9,10 +18,14 @@ from .distribution import (
            ripley_k,
            sample_field,
 )
-from .forest import Forest, crown_regions, grow_forest
+from .forest import Forest, crown_regions, grow_forest, regrow_tree
+from .gltf import export_distribution, export_forest, export_landscape, terrain_mesh
 from .placement import poisson_disc
 from .terrain import brush_height, brush_mask, heightfield, placement_mask, sample_height
 
-__all__ = ["Distribution", "Forest", "Species", "brush_height", "brush_mask", "cell_geometry", "clustering_kernel", "crown_regions", "distribute",
-           "grow_forest", "heightfield", "inhibitory_kernel", "landscape_tropism", "neighbour_asymmetry", "placement_mask",
-           "poisson_disc", "ripley_k", "sample_field", "sample_height"]
+__all__ = ["CrownVoxels", "Distribution", "Forest", "Species", "VoxelSketchEngine", "brush_height", "brush_mask",
+           "cell_geometry", "claim_segments", "clustering_kernel", "crown_regions", "crown_voxels", "distribute",
+           "export_distribution", "export_forest", "export_landscape", "grow_forest", "heightfield",
+           "inhibitory_kernel", "landscape_tropism", "neighbour_asymmetry", "placement_mask", "poisson_disc",
+           "propagate_layer", "region_geometry", "regrow_tree", "ripley_k", "sample_field", "sample_height",
+           "terrain_mesh"]

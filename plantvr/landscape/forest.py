@@ -23,15 +23,17 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import check_int, check_range
+from .._validation import check_choice, check_int, check_range
 from ..growth.engine import GrowthEngine
 from ..growth.sketch import SketchEngine
 from ..params import defaults
 from .asymmetry import cell_geometry, neighbour_asymmetry
+from .crowns import CrownVoxels, VoxelSketchEngine, crown_voxels, in_tree_region, region_geometry, tree_region
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
-__all__ = ["Forest", "crown_regions", "engine_from_state", "engine_state", "finish_task", "grow_forest", "grow_tree_task", "grow_trees_task", "round_task", "summary_task", "tree_mesh_task", "warm_up"]
+__all__ = ["Forest", "crown_regions", "engine_from_state", "engine_state", "finish_task", "grow_forest", "grow_tree_task",
+           "grow_trees_task", "regrow_tree", "round_task", "summary_task", "tree_mesh_task", "warm_up"]
 
 
 @dataclass
@@ -45,11 +47,25 @@ class Forest:
     size: tuple[float, float]
     timings: list[float] = field(default_factory=list)
     meshes: list[tuple[np.ndarray, np.ndarray]] | None = None
+    voxels: CrownVoxels | None = None
+    seeds: list[dict[str, Any]] | None = None
+    config: dict[str, Any] | None = None
 
     @property
     def n_internodes(self) -> int:
         """Live internodes over all trees."""
         return int(sum(t["alive"][1:].sum() for t in self.trees))
+
+    def regrow(self, tree: int, *, params: dict[str, Any] | None = None, sketch: dict[str, Any] | None = None
+               ) -> Forest:
+        """:func:`regrow_tree` of this forest."""
+        return regrow_tree(self, tree, params=params, sketch=sketch)
+
+    def export(self, path, *, instancing: bool = True, terrain: bool = True):
+        """Write the landscape as one binary glTF scene (:func:`plantvr.landscape.gltf.export_forest`)."""
+        from .gltf import export_forest
+
+        return export_forest(path, self, instancing=instancing, terrain=terrain)
 
 
 def engine_state(e: GrowthEngine) -> dict[str, Any]:
@@ -60,7 +76,7 @@ def engine_state(e: GrowthEngine) -> dict[str, Any]:
 
 def engine_from_state(params: dict[str, Any], state: dict[str, Any]) -> GrowthEngine:
     """Rebuild the engine of :func:`engine_state` (light grid recomputed from the live nodes) with ``params``."""
-    cls = SketchEngine if "sketch_state" in state else GrowthEngine
+    cls = (VoxelSketchEngine if "voxel_region" in state else SketchEngine) if "sketch_state" in state else GrowthEngine
     e = cls.__new__(cls)
     e.__setstate__({**state, "params": dict(params) if params else state["params"],
                     "tree": {k: v.copy() for k, v in state["tree"].items()},
@@ -109,7 +125,7 @@ def warm_up() -> float:
 
     t = time.perf_counter()
     p = defaults()
-    s = _seed_states(p, np.zeros((1, 3)), 0, 5.0, 4.0, 200)[0]
+    s = _seed_states(p, np.zeros((1, 3)), 0, 5.0, 4.0, 200)[0][0]
     for _ in range(3):
         s = grow_tree_task(p, s, 4)
     tree_mesh_task(s["tree"])
@@ -181,27 +197,56 @@ def crown_regions(bases: np.ndarray, *, reach: float, h_max: float, weights: np.
     return out
 
 
-def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False):
+def _voxel_setup(bases, size, crown_height, crown_radius, scales, shape):
+    """Crown voxels of every tree (spec §3.5): rates from the projected crown areas pi (S C_w / 2)^2 (ERRATUM
+    E3), h_max = S (crown_height + crown_radius), starting circles of radius 0.1 S crown_radius [INFERRED]."""
+    areas = np.pi * (scales * crown_radius) ** 2
+    h_max = scales * (crown_height + crown_radius)
+    return crown_voxels(bases[:, [0, 2]], areas, h_max, size=size, shape=shape,
+                        trunk_radius=0.1 * scales * crown_radius)
+
+
+def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False,
+                 regions="voronoi", scales=None, voxel_shape=(20, 128, 128)):
+    """Initial engine states (and the crown voxels in ``regions="voxels"`` mode)."""
     ss = np.random.SeedSequence(seed).spawn(len(bases))
+    S = np.ones(len(bases)) if scales is None else scales
     states = []
-    regions = None
+    voronoi = voxels = None
+    xz = bases[:, [0, 2]]
+    if regions == "voxels":
+        voxels = _voxel_setup(bases, size, crown_height, crown_radius, S, voxel_shape)
     if sketch is not None:
-        regions = crown_regions(bases, reach=4.0 * crown_radius, h_max=crown_height + crown_radius)
-        if lean:  # Eqs. 6.3-6.4 with the region geometry of the same (unweighted) cells
-            xz = bases[:, [0, 2]]
-            C, B = cell_geometry(xz, size)
-            V = neighbour_asymmetry(xz, np.ones(len(xz)), 2.0 * crown_radius, centroids=C, bounding=B)
+        if regions == "voronoi":
+            voronoi = crown_regions(bases, reach=4.0 * crown_radius * S.max(), h_max=crown_height + crown_radius,
+                                    weights=None if scales is None else S ** 2)
+            if scales is not None:
+                voronoi = [{**r, "h_max": float(s * r["h_max"])} for r, s in zip(voronoi, S)]
+        if lean:  # Eqs. 6.3-6.4 with the geometry of the same regions
+            if voxels is not None:
+                C, B = region_geometry(voxels)
+            else:
+                C, B = cell_geometry(xz, size, weights=None if scales is None else S ** 2)
+            V = neighbour_asymmetry(xz, S ** 2, 2.0 * crown_radius * S, centroids=C, bounding=B)
             sketch = [{**sketch, "asymmetry": v.tolist()} for v in V]
     for i in range(len(bases)):
+        vreg = None if voxels is None else {**tree_region(voxels, i), "base": bases[i].copy()}
         if sketch is None:
             e = GrowthEngine(params, rng=np.random.default_rng(ss[i]))
-            e.paint(np.array([0.0, crown_height, 0.0]), crown_radius, n_darts)
+            e.paint(np.array([0.0, S[i] * crown_height, 0.0]), S[i] * crown_radius, n_darts)
+            if vreg is not None:  # painted markers are kept only inside the tree's voxels
+                keep = in_tree_region(vreg, e.markers, vreg["base"])
+                e.markers, e.marker_age = e.markers[keep], e.marker_age[keep]
         else:
-            opts = sketch[i] if isinstance(sketch, list) else sketch
-            e = SketchEngine(params, rng=int(ss[i].generate_state(1, np.uint64)[0] >> np.uint64(2)),
-                             **{"mode": "autonomous", **opts, "region": regions[i]})
+            opts = {"mode": "autonomous", **(sketch[i] if isinstance(sketch, list) else sketch)}
+            rs = int(ss[i].generate_state(1, np.uint64)[0] >> np.uint64(2))
+            if vreg is None:
+                e = SketchEngine(params, rng=rs, **opts, region=voronoi[i])
+            else:
+                reg = {"sites": [], "weights": [], "weight": 1.0, "h_max": float(voxels.h_max[i])}
+                e = VoxelSketchEngine(params, rng=rs, voxel_region=vreg, **opts, region=reg)
         states.append(engine_state(e))
-    return states
+    return states, voxels
 
 
 def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), min_dist: float = 8.0,
@@ -209,7 +254,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 n_darts: int = 300, terrain_amplitude: float = 3.0, params: dict[str, Any] | None = None,
                 seed: int = 0, client: Any = None, n_workers: int = 2, processes: bool = False,
                 compete: bool = True, tasks_per_round: int | None = None, geometry: bool = False,
-                sketch: dict[str, Any] | None = None, lean: bool = False) -> Forest:
+                sketch: dict[str, Any] | None = None, lean: bool = False, regions: str = "voronoi",
+                voxel_shape: tuple[int, int, int] = (20, 128, 128),
+                scale_range: tuple[float, float] = (1.0, 1.0)) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -233,6 +280,17 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     lean : bool
         With ``sketch``: add the neighbourhood-asymmetry tropism (Eqs. 6.3–6.5, alpha_a = 1, alpha_d = 2,
         r_i = the crown width 2 crown_radius), so trees at cluster edges lean into open space.
+    regions : {"voronoi", "voxels"}
+        Crown space of each tree. ``"voronoi"``: with ``sketch``, the multiplicatively weighted Voronoi cell of
+        its base among its neighbours (painted trees are not restricted). ``"voxels"``: competition for crown
+        space on layered voxels (:func:`~plantvr.landscape.crowns.crown_voxels`, spec §3.5) over the plot; each
+        tree's markers (painted or autonomous) are kept only inside its voxels, and ``Forest.voxels`` holds the
+        claims. Trees depend on their regions only, which depend on the representative shapes, not on growth.
+    voxel_shape : (int, int, int)
+        (layers, rows along z, columns along x) of the voxel grid; layers span the tallest h_max.
+    scale_range : (float, float)
+        Per-tree scale S_i drawn uniformly (its own seeded stream): crown height and radius, h_max and the
+        crown area (competition rate, Voronoi weight S^2) scale with it. (1, 1) keeps every tree equal.
 
     Returns
     -------
@@ -253,6 +311,14 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         tasks_per_round = check_int("tasks_per_round", tasks_per_round, 1, 1_000_000)
     size = (check_range("size[0]", size[0], 0.0, np.inf, low_open=True),
             check_range("size[1]", size[1], 0.0, np.inf, low_open=True))
+    regions = check_choice("regions", regions, ("voronoi", "voxels"))
+    if len(voxel_shape) != 3:
+        raise ValueError(f"voxel_shape must be (layers, ny, nx), got {voxel_shape!r}")
+    voxel_shape = (check_int("voxel_shape[0]", voxel_shape[0], 1, 4096),
+                   check_int("voxel_shape[1]", voxel_shape[1], 1, 8192),
+                   check_int("voxel_shape[2]", voxel_shape[2], 1, 8192))
+    s_lo = check_range("scale_range[0]", scale_range[0], 0.0, np.inf, low_open=True)
+    s_hi = check_range("scale_range[1]", scale_range[1], s_lo, np.inf)
     p = {**defaults(), **(params or {})}
     rng = np.random.default_rng(seed)
     hf = heightfield((64, 64), amplitude=terrain_amplitude, rng=rng)
@@ -260,7 +326,12 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
     if sketch is not None and not isinstance(sketch, dict):
         raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
-    states = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean))
+    scales = None
+    if (s_lo, s_hi) != (1.0, 1.0):
+        scales = np.random.default_rng([seed, 0x5CA1E]).uniform(s_lo, s_hi, len(bases))
+    states, voxels = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean),
+                                  regions, scales, voxel_shape)
+    seeds = list(states)
 
     own, runner = None, client
     if client is None:
@@ -317,6 +388,61 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
             cluster = own.cluster
             own.close()
             cluster.close()
-    return Forest(bases, trees, hf, size, timings, meshes)
+    config = {"params": p, "rounds": rounds, "steps_per_round": steps_per_round, "geometry": bool(geometry),
+              "independent": sketch is not None or not compete, "scales": scales}
+    return Forest(bases, trees, hf, size, timings, meshes, voxels, seeds, config)
+
+
+def regrow_tree(forest: Forest, tree: int, *, params: dict[str, Any] | None = None,
+                sketch: dict[str, Any] | None = None) -> Forest:
+    """Regrow one tree of ``forest`` with new growth parameters or TreeSketch options (spec §3.8, V26).
+
+    The tree restarts from its seed state (same base, seed and crown space) and runs the forest's rounds; every
+    other tree, and its mesh, is carried over unchanged (the same arrays). Needs independent trees: a TreeSketch
+    forest, or one grown with ``compete=False`` (painted crowns that compete for markers each round cannot be
+    regrown alone).
+
+    Parameters
+    ----------
+    forest : Forest
+        Made by :func:`grow_forest`.
+    tree : int
+        Index of the tree.
+    params : dict, optional
+        Overrides of the forest's growth parameters for this tree.
+    sketch : dict, optional
+        New SketchEngine options for this tree (TreeSketch forests only), checked before anything is grown.
+
+    Returns
+    -------
+    Forest
+        A new forest; ``forest`` is not changed. Changes are relative to the forest's own settings (the seed
+        states are kept), so regrowing again without overrides restores the original tree.
+    """
+    if forest.seeds is None or forest.config is None:
+        raise ValueError("forest has no seed states; regrow needs a Forest made by grow_forest")
+    tree = check_int("tree", tree, 0, len(forest.trees) - 1)
+    cfg = forest.config
+    if not cfg["independent"]:
+        raise ValueError("regrow needs independent trees: grow the forest with sketch= or compete=False")
+    p = {**cfg["params"], **(params or {})}
+    state = forest.seeds[tree]
+    if sketch:
+        if "sketch_state" not in state:
+            raise ValueError("sketch options need a TreeSketch forest (grow_forest(sketch=...))")
+        e = engine_from_state(p, state)
+        e.set_options(**sketch)  # checked first: a rejected option raises before any growth
+        state = engine_state(e)
+    for _ in range(cfg["rounds"]):
+        state = grow_tree_task(p, state, cfg["steps_per_round"])
+    (t, mesh), = finish_task([state], [None], forest.bases[tree:tree + 1], cfg["geometry"])
+    trees = list(forest.trees)
+    trees[tree] = t
+    meshes = None
+    if forest.meshes is not None:
+        meshes = list(forest.meshes)
+        meshes[tree] = mesh if mesh is not None else tree_mesh_task(t)
+    return Forest(forest.bases, trees, forest.heights, forest.size, list(forest.timings), meshes, forest.voxels,
+                  forest.seeds, cfg)
 
 

@@ -151,3 +151,70 @@ def test_ts_forest_neighbour_asymmetry_lean():
         return np.sum(c[moving] * V[moving] / np.linalg.norm(V[moving], axis=1)[:, None], axis=1).mean()
 
     assert shift(lean) > shift(plain) + 0.2
+
+
+VOX = {"size": (30.0, 30.0), "min_dist": 6.0, "rounds": 2, "steps_per_round": 4, "crown_height": 5.0,
+       "crown_radius": 3.0, "seed": 2, "sketch": {"n_max": 2, "bud_lifetime": 6}, "regions": "voxels",
+       "voxel_shape": (10, 64, 64), "scale_range": (0.7, 1.4),
+       "params": {"activation_threshold": 0.0, "length_mode": "constant"}}
+
+
+def test_ts_v25_v26_voxel_forest_grows_inside_its_voxels():
+    """Crown-space competition on layered voxels as the forest's competition mode: nodes stay in their tree's
+    voxels up to one shoot, below h_max + one shoot; byte-identical meshes with a synchronous run and 2 workers."""
+    pytest.importorskip("dask.distributed")
+    from plantvr.landscape.crowns import in_tree_region, tree_region
+
+    f = grow_forest(6, client="sync", geometry=True, **VOX)
+    g = grow_forest(6, n_workers=2, processes=False, geometry=True, **VOX)
+    _same(f, g)
+    for (va, fa), (vb, fb) in zip(f.meshes, g.meshes):
+        assert len(fa) > 0 and va.tobytes() == vb.tobytes() and fa.tobytes() == fb.tobytes()
+    v = f.voxels
+    assert v is not None and v.owner.shape == (10, 64, 64) and np.all(v.owner[0] >= 0)
+    reach = 2 * 2.0  # n_max internodes of at most 2 length units
+    for i, (tr, b) in enumerate(zip(f.trees, f.bases)):
+        live = tr["pos"][tr["alive"]] - b
+        assert len(live) > 5
+        assert live[:, 1].max() <= v.h_max[i] + reach + 1e-9
+        inside = in_tree_region(tree_region(v, i), live, b)
+        assert inside.mean() > 0.8
+        cells = np.argwhere(v.owner == i)  # outside nodes are within one shoot of an own voxel centre
+        cx, cz = v.cell
+        centres = np.column_stack([(cells[:, 2] + 0.5) * cx, (cells[:, 0] + 0.5) * v.layer_height,
+                                   (cells[:, 1] + 0.5) * cz])
+        out = live[~inside] + [b[0], 0.0, b[2]]
+        if len(out):
+            d = cKDTree(centres).query(out)[0]
+            assert d.max() <= reach + 0.5 * np.linalg.norm([cx, v.layer_height, cz]) + 1e-9
+    # painted crowns in the same regions: markers kept only inside each tree's voxels
+    p = grow_forest(4, client="sync", **{**VOX, "sketch": None, "n_darts": 150, "rounds": 1})
+    assert p.n_internodes > 4
+
+
+def test_ts_v26_regrow_one_tree_leaves_the_others_unchanged():
+    f = grow_forest(5, client="sync", geometry=True, **VOX)
+    same = f.regrow(2)  # a replay from the seed state: the same bytes
+    _same(f, same)
+    h = f.regrow(2, params={"branch_angle": 70.0}, sketch={"n_max": 3})
+    for k, (a, b) in enumerate(zip(f.trees, h.trees)):
+        changed = any(a[key].tobytes() != b[key].tobytes() for key in a)
+        assert changed == (k == 2)
+        assert (f.meshes[k][0].tobytes() == h.meshes[k][0].tobytes()) == (k != 2)
+    assert h.voxels is f.voxels and f.trees[2] is not h.trees[2]
+    with pytest.raises(ValueError, match="n_max"):
+        f.regrow(1, sketch={"n_max": 0})
+    with pytest.raises(ValueError, match="tree"):
+        f.regrow(9)
+    c = grow_forest(3, client="sync", **{**SMALL, "rounds": 1})
+    with pytest.raises(ValueError, match="independent"):
+        c.regrow(0)
+
+
+def test_forest_regions_validation():
+    with pytest.raises(ValueError, match="regions"):
+        grow_forest(2, client="sync", regions="cubes")
+    with pytest.raises(ValueError, match="voxel_shape"):
+        grow_forest(2, client="sync", regions="voxels", voxel_shape=(0, 8, 8))
+    with pytest.raises(ValueError, match="scale_range"):
+        grow_forest(2, client="sync", scale_range=(2.0, 1.0))

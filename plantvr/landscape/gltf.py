@@ -1,0 +1,253 @@
+"""Landscape export as one binary glTF 2.0 scene with instancing (spec 004_treesketch §4.6 item 4, §3.10).
+
+A landscape is written as one ``.glb``: the terrain height field as a mesh, and one node per tree with its
+translation, rotation (about the vertical axis) and scale. Trees whose meshes are identical (the same
+species shape placed many times, [INFERRED] compared on their float32 bytes) share one glTF mesh that many
+nodes reference, so an instanced tree library costs one mesh per shape. The writer uses numpy, json and struct
+only; read the file back with ``trimesh.load(path, force="scene")``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._validation import check_array, check_range
+
+__all__ = ["export_distribution", "export_forest", "export_landscape", "terrain_mesh", "write_glb"]
+
+BARK_RGBA = (0.38, 0.26, 0.16, 1.0)
+TERRAIN_RGBA = (0.55, 0.53, 0.33, 1.0)
+_FLOAT, _UINT = 5126, 5125
+_ARRAY, _ELEMENTS = 34962, 34963
+
+
+def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
+    """Area-weighted vertex normals (unit; +y where a vertex has no face)."""
+    n = np.zeros_like(v)
+    if len(f):
+        fn = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+        for k in range(3):
+            np.add.at(n, f[:, k], fn)
+    ln = np.linalg.norm(n, axis=1)
+    out = np.tile([0.0, 1.0, 0.0], (len(v), 1))
+    ok = ln > 0
+    out[ok] = n[ok] / ln[ok, None]
+    return out
+
+
+def _check_mesh(name: str, mesh) -> tuple[np.ndarray, np.ndarray]:
+    v, f = mesh
+    v = check_array(f"{name} vertices", v, shape=(None, 3))
+    f = np.asarray(f)
+    if f.ndim != 2 or f.shape[1] != 3 or (len(f) and (f.min() < 0 or f.max() >= len(v))):
+        raise ValueError(f"{name} faces must be (F, 3) indices into its {len(v)} vertices, got shape {f.shape}")
+    return v, f.astype(np.int64)
+
+
+def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -> Path:
+    """Write meshes and the nodes that place them as one binary glTF 2.0 file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Output file, ``.glb``.
+    meshes : list of dict
+        ``{"vertices": (V, 3) float, "faces": (F, 3) int, "name": str, "color": (4,) RGBA in [0, 1]}``; one
+        glTF mesh (and material) each, with float32 positions, vertex normals and uint32 indices.
+    nodes : list of dict
+        ``{"mesh": int, "name": str, "translation": (3,), "rotation": (4,) quaternion (x, y, z, w),
+        "scale": (3,)}`` (transform entries optional); all are roots of the one scene.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".glb":
+        raise ValueError(f"path must end in .glb, got {path.suffix!r}")
+    for k, nd in enumerate(nodes):
+        m = nd.get("mesh")
+        if not isinstance(m, (int, np.integer)) or not 0 <= m < len(meshes):
+            raise ValueError(f"nodes[{k}] mesh must be an index in [0, {len(meshes)}), got {m!r}")
+    checked = [_check_mesh(f"meshes[{i}]", (m["vertices"], m["faces"])) for i, m in enumerate(meshes)]
+    chunks: list[bytes] = []
+    views: list[dict] = []
+    accessors: list[dict] = []
+    offset = 0
+
+    def add(arr: np.ndarray, atype: str, target: int, minmax: bool = False) -> int:
+        nonlocal offset
+        data = np.ascontiguousarray(arr).tobytes()
+        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(data), "target": target})
+        pad = (-len(data)) % 4
+        chunks.append(data + b"\0" * pad)
+        offset += len(data) + pad
+        ncomp = {"SCALAR": 1, "VEC3": 3}[atype]
+        acc = {"bufferView": len(views) - 1, "componentType": _FLOAT if arr.dtype == np.float32 else _UINT,
+               "count": int(arr.size // ncomp), "type": atype}
+        if minmax:
+            flat = arr.reshape(-1, ncomp)
+            acc["min"] = flat.min(0).astype(float).tolist()
+            acc["max"] = flat.max(0).astype(float).tolist()
+        accessors.append(acc)
+        return len(accessors) - 1
+
+    gl_meshes, materials = [], []
+    for i, ((v, f), m) in enumerate(zip(checked, meshes)):
+        rgba = [float(c) for c in m.get("color", BARK_RGBA)]
+        materials.append({"name": f"{m.get('name', f'mesh_{i}')}_material", "pbrMetallicRoughness": {
+            "baseColorFactor": rgba, "metallicFactor": 0.0, "roughnessFactor": 0.9}})
+        prim: dict[str, Any] = {"material": i, "mode": 4, "attributes": {}}
+        if len(f):
+            v32 = v.astype(np.float32)
+            prim["attributes"]["POSITION"] = add(v32, "VEC3", _ARRAY, minmax=True)
+            prim["attributes"]["NORMAL"] = add(_vertex_normals(v, f).astype(np.float32), "VEC3", _ARRAY)
+            prim["indices"] = add(f.astype(np.uint32).ravel(), "SCALAR", _ELEMENTS)
+        else:  # glTF needs POSITION: an empty mesh becomes one degenerate (zero-area) triangle
+            prim["attributes"]["POSITION"] = add(np.zeros((3, 3), np.float32), "VEC3", _ARRAY, minmax=True)
+        gl_meshes.append({"name": m.get("name", f"mesh_{i}"), "primitives": [prim]})
+    gl_nodes = []
+    for k, nd in enumerate(nodes):
+        out: dict[str, Any] = {"name": nd.get("name", f"node_{k}"), "mesh": int(nd["mesh"])}
+        for key, n in (("translation", 3), ("rotation", 4), ("scale", 3)):
+            if nd.get(key) is not None:
+                out[key] = check_array(f"nodes[{k}] {key}", nd[key], shape=(n,)).tolist()
+        gl_nodes.append(out)
+    blob = b"".join(chunks)
+    doc = {"asset": {"version": "2.0", "generator": "PlantVR landscape"}, "scene": 0,
+           "scenes": [{"name": "landscape", "nodes": list(range(len(gl_nodes)))}], "nodes": gl_nodes,
+           "meshes": gl_meshes, "materials": materials, "accessors": accessors, "bufferViews": views,
+           "buffers": [{"byteLength": len(blob)}]}
+    js = json.dumps(doc, separators=(",", ":")).encode()
+    js += b" " * ((-len(js)) % 4)
+    total = 12 + 8 + len(js) + 8 + len(blob)
+    with open(path, "wb") as fh:
+        fh.write(struct.pack("<4sII", b"glTF", 2, total))
+        fh.write(struct.pack("<I4s", len(js), b"JSON") + js)
+        fh.write(struct.pack("<I4s", len(blob), b"BIN\0") + blob)
+    return path
+
+
+def terrain_mesh(heights: np.ndarray, size: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Height field (ny, nx) over [0, size[0]] x [0, size[1]] (x columns, z rows, y up) as a triangle mesh
+    (vertices (ny nx, 3), faces (2 (ny-1)(nx-1), 3), normals up); the grid nodes are those of
+    :func:`~plantvr.landscape.terrain.sample_height`."""
+    h = check_array("heights", heights, shape=(None, None))
+    ny, nx = h.shape
+    if ny < 2 or nx < 2:
+        raise ValueError(f"heights must be at least 2 x 2, got {h.shape}")
+    W = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
+    D = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    X, Z = np.meshgrid(np.linspace(0.0, W, nx), np.linspace(0.0, D, ny))
+    v = np.column_stack([X.ravel(), h.ravel(), Z.ravel()])
+    idx = np.arange(ny * nx).reshape(ny, nx)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel()
+    f = np.concatenate([np.column_stack([a, b, c]), np.column_stack([c, b, d])])
+    return v, f
+
+
+def _mesh_key(v: np.ndarray, f: np.ndarray) -> bytes:
+    h = hashlib.sha1(np.round(v, 5).astype(np.float32).tobytes())
+    h.update(np.ascontiguousarray(f, np.int64).tobytes())
+    return h.digest()
+
+
+def export_landscape(path, trees: list[tuple[np.ndarray, np.ndarray]], positions: np.ndarray, *,
+                     yaw: np.ndarray | None = None, scale: np.ndarray | None = None,
+                     terrain: tuple[np.ndarray, tuple[float, float]] | None = None, names: list[str] | None = None,
+                     instancing: bool = True) -> Path:
+    """Write trees placed on a landscape, and the terrain, as one glTF scene with instancing.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        Output ``.glb``.
+    trees : list of (vertices (V, 3), faces (F, 3))
+        One mesh per tree in its own frame (base at the origin, y up). Trees whose meshes are identical share
+        one glTF mesh when ``instancing``.
+    positions : (N, 3) float64 array
+        World base of each tree (node translation).
+    yaw : (N,) float64 array, optional
+        Rotation about +y, radians (node rotation quaternion).
+    scale : (N,) float64 array, optional
+        Uniform scale (> 0) of each tree (node scale).
+    terrain : (heights (ny, nx), size (W, D)), optional
+        Height field written as the mesh "terrain" (one more node, identity transform).
+    names : list of str, optional
+        Node names (default ``tree_<i>``); a shared mesh is named after its first tree.
+    instancing : bool
+        Share identical meshes; False writes one mesh per tree.
+
+    Returns
+    -------
+    pathlib.Path
+
+    References
+    ----------
+    .. [1] Spec 004 §4.6 (4): "per-tree meshes plus an instance list (position, rotation, scale, species), plus
+       the terrain height field as a mesh" [INFERRED]; glTF 2.0 nodes share meshes.
+    """
+    n = len(trees)
+    pos = check_array("positions", positions, shape=(n, 3))
+    yaw = np.zeros(n) if yaw is None else check_array("yaw", yaw, shape=(n,))
+    sc = np.ones(n) if scale is None else check_array("scale", scale, shape=(n,))
+    if not np.all(sc > 0):
+        raise ValueError(f"scale must be positive, got min {sc.min()!r}")
+    if names is not None and len(names) != n:
+        raise ValueError(f"names must have one entry per tree ({n}), got {len(names)}")
+    checked = [_check_mesh(f"trees[{i}]", t) for i, t in enumerate(trees)]
+    ter = None if terrain is None else terrain_mesh(*terrain)
+    meshes: list[dict[str, Any]] = []
+    nodes: list[dict[str, Any]] = []
+    seen: dict[bytes, int] = {}
+    for i, (v, f) in enumerate(checked):
+        name = names[i] if names is not None else f"tree_{i}"
+        key = _mesh_key(v, f) if instancing else i
+        if key not in seen:
+            seen[key] = len(meshes)
+            meshes.append({"vertices": v, "faces": f, "name": name, "color": BARK_RGBA})
+        q = [0.0, float(np.sin(yaw[i] / 2)), 0.0, float(np.cos(yaw[i] / 2))]
+        nodes.append({"mesh": seen[key], "name": name, "translation": pos[i], "rotation": np.array(q),
+                      "scale": np.full(3, sc[i])})
+    if ter is not None:
+        meshes.append({"vertices": ter[0], "faces": ter[1], "name": "terrain", "color": TERRAIN_RGBA})
+        nodes.append({"mesh": len(meshes) - 1, "name": "terrain"})
+    return write_glb(path, meshes, nodes)
+
+
+def export_forest(path, forest, *, instancing: bool = True, terrain: bool = True) -> Path:
+    """Write a :class:`~plantvr.landscape.forest.Forest` as one glTF scene: every tree's branch mesh (its
+    ``meshes``, built now when the forest was grown without geometry) in its own frame, placed at its base;
+    identical trees share a mesh. ``terrain`` adds the height field."""
+    from .forest import tree_mesh_task
+
+    meshes = forest.meshes if forest.meshes is not None else [tree_mesh_task(t) for t in forest.trees]
+    local = [(np.asarray(v, float) - b if len(v) else np.zeros((0, 3)), f) for (v, f), b in zip(meshes, forest.bases)]
+    ter = (forest.heights, forest.size) if terrain else None
+    return export_landscape(path, local, forest.bases, terrain=ter, instancing=instancing)
+
+
+def export_distribution(path, distribution, prototypes: list[tuple[np.ndarray, np.ndarray]], *,
+                        heights: np.ndarray | None = None, size: tuple[float, float] = (30.0, 30.0),
+                        rng: int | np.random.Generator | None = None) -> Path:
+    """Write a :class:`~plantvr.landscape.distribution.Distribution` as an instanced tree library: one
+    prototype mesh per species (its representative tree, base at the origin), one node per placed tree with
+    its scale S_i and a random yaw; bases on ``heights`` (sampled bilinearly) when given, else y = 0."""
+    from .terrain import sample_height
+
+    sp = np.asarray(distribution.species, np.int64)
+    if len(sp) and (sp.min() < 0 or sp.max() >= len(prototypes)):
+        raise ValueError(f"prototypes must give a mesh for each of the {int(sp.max()) + 1} species, got "
+                         f"{len(prototypes)}")
+    xz = np.asarray(distribution.xy, float).reshape(-1, 2)
+    y = np.zeros(len(xz)) if heights is None else sample_height(np.asarray(heights, float), size, xz)
+    pos = np.column_stack([xz[:, 0], y, xz[:, 1]])
+    yaw = np.random.default_rng(rng).uniform(0.0, 2 * np.pi, len(xz))
+    ter = None if heights is None else (heights, size)
+    return export_landscape(path, [prototypes[s] for s in sp], pos, yaw=yaw, scale=distribution.scale,
+                            terrain=ter, names=[f"species{s}_{i}" for i, s in enumerate(sp)])
