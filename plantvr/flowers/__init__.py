@@ -41,3 +41,9 @@ from plantvr.flowers.phyllotaxis import (  # noqa: F401
     ridley_placement,
     vogel_disc,
 )
+from plantvr.flowers.dynamic import DynamicFrame, DynamicPhyllotaxis  # noqa: F401  (§4.3 dynamic phyllotaxis)
+from plantvr.flowers.hierarchical import (  # noqa: F401  (§4.4 hierarchical patterns)
+    HierarchicalPhyllotaxis,
+    LevelSpec,
+    hofmeister_angles,
+)

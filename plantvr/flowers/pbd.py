@@ -2,14 +2,15 @@
 
 Gauss-Seidel projection (Eq. 3.10, ERRATUM A.1) of Eq. 3.11 distance constraints and the thesis's signed
 dihedral bending constraint (Eq. 3.13, App. A behaviour via the closed-form signed-angle gradient of
-spec §3.3.2). Each numba kernel has a numpy twin with the same constraint order.
+spec §3.3.2), or Jacobi projection with per-vertex averaging (the thesis's GPU path, §3.10, V26). Each
+numba kernel has a numpy twin with the same constraint order.
 """
 from __future__ import annotations
 
 import numba
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import check_array, check_choice, check_int, check_range
 
 __all__ = [
     "bend_quads",
@@ -18,6 +19,7 @@ __all__ = [
     "mesh_edges",
     "signed_dihedrals",
     "solve_internal",
+    "solve_internal_jacobi_numpy",
     "solve_internal_numpy",
 ]
 
@@ -118,7 +120,8 @@ def _project_distance(p, w, i, j, rest, k):
 
 
 @numba.njit(cache=True, nogil=True)
-def _project_bend(p, w, q, rest, k):
+def _bend_delta(p, w, q, rest, k, d):
+    """Correction (4, 3) of one signed bending projection into ``d``; False if degenerate (Eq. 3.10)."""
     i1, i2, i3, i4 = q[0], q[1], q[2], q[3]
     ex = p[i2, 0] - p[i1, 0]
     ey = p[i2, 1] - p[i1, 1]
@@ -135,7 +138,7 @@ def _project_bend(p, w, q, rest, k):
     n11 = n1x * n1x + n1y * n1y + n1z * n1z
     n22 = n2x * n2x + n2y * n2y + n2z * n2z
     if ee < 1e-300 or n11 < 1e-300 * ee or n22 < 1e-300 * ee:
-        return
+        return False
     le = np.sqrt(ee)
     cx, cy, cz = _cross(n1x, n1y, n1z, n2x, n2y, n2z)
     sin = (ex * cx + ey * cy + ez * cz) / le
@@ -159,25 +162,81 @@ def _project_bend(p, w, q, rest, k):
     den = (w[i1] * (g1x * g1x + g1y * g1y + g1z * g1z) + w[i2] * (g2x * g2x + g2y * g2y + g2z * g2z)
            + w[i3] * (g3x * g3x + g3y * g3y + g3z * g3z) + w[i4] * (g4x * g4x + g4y * g4y + g4z * g4z))
     if den < 1e-300:
-        return
+        return False
     s = k * c / den
     # Step limiter [INFERRED]: a free hinge vertex with a near-zero gradient would take a huge step.
     gm = max(w[i1] * np.sqrt(g1x * g1x + g1y * g1y + g1z * g1z), w[i2] * np.sqrt(g2x * g2x + g2y * g2y + g2z * g2z),
              w[i3] * np.sqrt(g3x * g3x + g3y * g3y + g3z * g3z), w[i4] * np.sqrt(g4x * g4x + g4y * g4y + g4z * g4z))
     if abs(s) * gm > _MAX_STEP * le:
         s *= _MAX_STEP * le / (abs(s) * gm)
-    p[i1, 0] -= s * w[i1] * g1x
-    p[i1, 1] -= s * w[i1] * g1y
-    p[i1, 2] -= s * w[i1] * g1z
-    p[i2, 0] -= s * w[i2] * g2x
-    p[i2, 1] -= s * w[i2] * g2y
-    p[i2, 2] -= s * w[i2] * g2z
-    p[i3, 0] -= s * w[i3] * g3x
-    p[i3, 1] -= s * w[i3] * g3y
-    p[i3, 2] -= s * w[i3] * g3z
-    p[i4, 0] -= s * w[i4] * g4x
-    p[i4, 1] -= s * w[i4] * g4y
-    p[i4, 2] -= s * w[i4] * g4z
+    d[0, 0] = -(s * w[i1] * g1x)
+    d[0, 1] = -(s * w[i1] * g1y)
+    d[0, 2] = -(s * w[i1] * g1z)
+    d[1, 0] = -(s * w[i2] * g2x)
+    d[1, 1] = -(s * w[i2] * g2y)
+    d[1, 2] = -(s * w[i2] * g2z)
+    d[2, 0] = -(s * w[i3] * g3x)
+    d[2, 1] = -(s * w[i3] * g3y)
+    d[2, 2] = -(s * w[i3] * g3z)
+    d[3, 0] = -(s * w[i4] * g4x)
+    d[3, 1] = -(s * w[i4] * g4y)
+    d[3, 2] = -(s * w[i4] * g4z)
+    return True
+
+
+@numba.njit(cache=True, nogil=True)
+def _project_bend(p, w, q, rest, k):
+    d = np.empty((4, 3))
+    if _bend_delta(p, w, q, rest, k, d):
+        for a in range(4):
+            for b in range(3):
+                p[q[a], b] += d[a, b]
+
+
+@numba.njit(cache=True, nogil=True)
+def _solve_internal_jacobi_numba(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations, omega):
+    V = p.shape[0]
+    acc = np.zeros((V, 3))
+    cnt = np.zeros(V)
+    d = np.empty((4, 3))
+    for _ in range(iterations):
+        acc[:] = 0.0
+        cnt[:] = 0.0
+        for c in range(edges.shape[0]):          # every correction from the same positions p
+            i, j = edges[c, 0], edges[c, 1]
+            dx = p[i, 0] - p[j, 0]
+            dy = p[i, 1] - p[j, 1]
+            dz = p[i, 2] - p[j, 2]
+            ln = np.sqrt(dx * dx + dy * dy + dz * dz)
+            ws = w[i] + w[j]
+            if ws == 0.0 or ln < 1e-300:
+                continue
+            s = (ln - rest_len[c]) * k_len[c] / (ws * ln)
+            acc[i, 0] -= w[i] * s * dx
+            acc[i, 1] -= w[i] * s * dy
+            acc[i, 2] -= w[i] * s * dz
+            acc[j, 0] += w[j] * s * dx
+            acc[j, 1] += w[j] * s * dy
+            acc[j, 2] += w[j] * s * dz
+            if w[i] > 0:
+                cnt[i] += 1.0
+            if w[j] > 0:
+                cnt[j] += 1.0
+        for c in range(quads.shape[0]):
+            if _bend_delta(p, w, quads[c], rest_phi[c], k_bend[c], d):
+                for a in range(4):
+                    v = quads[c, a]
+                    if w[v] > 0:
+                        acc[v, 0] += d[a, 0]
+                        acc[v, 1] += d[a, 1]
+                        acc[v, 2] += d[a, 2]
+                        cnt[v] += 1.0
+        for v in range(V):                       # averaged, relaxed update (spec §3.10 option c)
+            if cnt[v] > 0:
+                f = omega / cnt[v]
+                p[v, 0] += f * acc[v, 0]
+                p[v, 1] += f * acc[v, 1]
+                p[v, 2] += f * acc[v, 2]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -224,6 +283,53 @@ def _bend_step_numpy(p, w, q, rest, k):
     p[q] -= s * w[q, None] * g                           # Eq. 3.10 (ERRATUM A.1)
 
 
+def _bend_delta_numpy(p, w, q, rest, k):
+    """(4, 3) correction of one bending projection from positions ``p`` (None if degenerate)."""
+    tmp = p[q].copy()
+    before = tmp.copy()
+    _bend_step_numpy(tmp, w[q], np.arange(4), rest, k)
+    return tmp - before
+
+
+def solve_internal_jacobi_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations, omega):
+    """Numpy twin of the Jacobi kernel: all corrections from the same positions, averaged per vertex."""
+    V = p.shape[0]
+    for _ in range(iterations):
+        acc = np.zeros((V, 3))
+        cnt = np.zeros(V)
+        i, j = edges[:, 0], edges[:, 1]
+        d = p[i] - p[j]
+        ln = np.linalg.norm(d, axis=1)
+        ws = w[i] + w[j]
+        ok = (ws > 0) & (ln >= 1e-300)
+        s = np.zeros(len(edges))
+        s[ok] = (ln[ok] - rest_len[ok]) * k_len[ok] / (ws[ok] * ln[ok])
+        for c in np.flatnonzero(ok):                # constraint order, as the kernel sums
+            acc[i[c]] -= w[i[c]] * s[c] * d[c]
+            acc[j[c]] += w[j[c]] * s[c] * d[c]
+            cnt[i[c]] += w[i[c]] > 0
+            cnt[j[c]] += w[j[c]] > 0
+        for c in range(len(quads)):
+            q = quads[c]
+            pts = p[q]
+            e = pts[1] - pts[0]
+            N1 = np.cross(pts[2] - pts[0], e)
+            N2 = np.cross(e, pts[3] - pts[0])
+            ee = e.dot(e)
+            if ee < 1e-300 or N1.dot(N1) < 1e-300 * ee or N2.dot(N2) < 1e-300 * ee:
+                continue
+            g = np.array(dihedral_gradient(*pts))
+            if np.sum(w[q] * np.einsum("ij,ij->i", g, g)) < 1e-300:
+                continue
+            dq = _bend_delta_numpy(p, w, q, rest_phi[c], k_bend[c])
+            for a in range(4):
+                if w[q[a]] > 0:
+                    acc[q[a]] += dq[a]
+                    cnt[q[a]] += 1
+        m = cnt > 0
+        p[m] += (omega / cnt[m])[:, None] * acc[m]
+
+
 def solve_internal_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations):
     """Numpy twin of the internal-constraint Gauss-Seidel kernel (same order, same result)."""
     for _ in range(iterations):
@@ -235,8 +341,9 @@ def solve_internal_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, 
 
 def solve_internal(p: np.ndarray, w: np.ndarray, edges: np.ndarray, rest_len: np.ndarray,
                    quads: np.ndarray, rest_phi: np.ndarray, *, k_stretch: float | np.ndarray = 0.99,
-                   k_bend: float | np.ndarray = 0.99, iterations: int = 50, backend: str = "numba") -> np.ndarray:
-    """Project distance and signed bending constraints in place, Gauss-Seidel (Alg. 1 lines 5–9).
+                   k_bend: float | np.ndarray = 0.99, iterations: int = 50, backend: str = "numba",
+                   method: str = "gauss-seidel", omega: float = 1.0) -> np.ndarray:
+    """Project distance and signed bending constraints in place (Alg. 1 lines 5–9; spec §3.10).
 
     Parameters
     ----------
@@ -256,6 +363,12 @@ def solve_internal(p: np.ndarray, w: np.ndarray, edges: np.ndarray, rest_len: np
     iterations : int
         Solver iterations (App. C.1 example 50).
     backend : {"numba", "numpy"}
+    method : {"gauss-seidel", "jacobi"}
+        Gauss-Seidel (the thesis's CPU path: each projection sees the previous ones) or Jacobi (its GPU
+        path: every correction computed from the same positions, then averaged per vertex over the
+        constraints that moved it and relaxed by ``omega``; independent of the constraint order).
+    omega : float
+        Jacobi over-relaxation in (0, 2) (ignored by Gauss-Seidel).
 
     Returns
     -------
@@ -279,6 +392,14 @@ def solve_internal(p: np.ndarray, w: np.ndarray, edges: np.ndarray, rest_len: np
     k_len = _stiffness("k_stretch", k_stretch, edges.shape[0])
     k_b = _stiffness("k_bend", k_bend, quads.shape[0])
     iterations = check_int("iterations", iterations, 0, 1_000_000)
+    method = check_choice("method", method, ("gauss-seidel", "jacobi"))
+    omega = check_range("omega", omega, 0.0, 2.0, low_open=True, high_open=True)
+    if backend not in ("numba", "numpy"):
+        raise ValueError(f"backend must be one of ['numba', 'numpy'], got {backend!r}")
+    if method == "jacobi":
+        kernel = _solve_internal_jacobi_numba if backend == "numba" else solve_internal_jacobi_numpy
+        kernel(p, w, edges, rest_len, k_len, quads, rest_phi, k_b, iterations, omega)
+        return p
     if backend == "numba":
         _solve_internal_numba(p, w, edges, rest_len, k_len, quads, rest_phi, k_b, iterations)
     elif backend == "numpy":

@@ -278,3 +278,110 @@ def test_collision_projection_numba_equals_numpy_twin():
     ccd._project_collision(a, w, cons, sides, 0.005, 1.0, 4)
     ccd._project_collision_numpy(b, w, cons, sides, 0.005, 1.0, 4)
     assert np.allclose(a, b, rtol=0, atol=1e-12)
+
+
+def _b5_scenario(steps=40):
+    """App. B.5: two 5x8 petal strips, B 0.08 above A and 0.1 along; A's rest lengths grow by 30 %, B curls
+    down onto A by 25 degrees per cross-row hinge; base rows attached."""
+    from plantvr.flowers.composer import Canopy, FloretType
+    x, f = _strip(5, 8)
+    row = np.rint(x[:, 1] / 0.1).astype(int)
+    grow_a = np.array([x * (1 + 0.3 * k / steps) for k in range(steps + 1)])
+    curl_b = []
+    for k in range(steps + 1):
+        seg = -np.deg2rad(25.0) * k / steps * np.arange(7)          # direction of segment j (downward curl)
+        fr = x.copy()
+        fr[:, 1] = np.concatenate([[0], np.cumsum(0.1 * np.cos(seg))])[row]
+        fr[:, 2] = np.concatenate([[0], np.cumsum(0.1 * np.sin(seg))])[row]
+        curl_b.append(fr)
+    fixed = np.flatnonzero(row == 0)
+    ta, tb = FloretType(f, grow_a, fixed), FloretType(f, np.array(curl_b), fixed)
+    can = Canopy([ta, tb], [0, 1], [[0, 0, 0], [0, 0.1, 0.08]], [[0, 0, 1]] * 2, [[1, 0, 0]] * 2, [1.0, 1.0])
+    return can, np.column_stack([np.linspace(0, 1, steps + 1)] * 2), ta, tb
+
+
+def test_v24_collision_retries_bounded_in_b5_scenario():
+    from plantvr.flowers.composer import SolverParams, grow
+    can, S, ta, tb = _b5_scenario()
+    assert np.allclose(ta.rest_len[-1] / ta.rest_len[0], 1.3)
+    hinge = np.abs(np.rad2deg(tb.rest_phi[-1] - tb.rest_phi[0]))
+    assert np.allclose(hinge.max(), 25.0) and np.allclose(np.sort(np.unique(hinge.round(9))), [0.0, 25.0])
+    params = SolverParams(solver_iterations=20)                     # App. B.5: 20 internal iterations
+    x, log = grow(can, S, params, sanity_every=1, prediction="rest")
+    passes = [st["passes"] for st in log]
+    assert max(passes) <= 3 < params.max_collision_retries          # V24 (PROTOTYPE: max 3)
+    assert all(st["rolled_back"] == 0 for st in log)                 # never needed the fallback
+    assert sum(st["constraints"] for st in log) > 0
+    assert all(st["intersections"] == 0 for st in log)               # V23 on the same scenario
+    assert x[:40][np.rint(_strip()[0][:, 1] / 0.1) == 7][:, 2].max() < -0.01   # A pushed down by contact
+    _, log_off = grow(can, S, params, collisions=False, sanity_every=1, prediction="rest")
+    assert max(st["intersections"] for st in log_off) > 0            # control: petals pass through
+
+
+def _cloth(n=10, h=0.1):
+    x, f = _strip(n, n, size=h)
+    e, q = pbd.mesh_edges(f), pbd.bend_quads(f)
+    w = np.ones(len(x))
+    w[x[:, 1] == 0] = 0.0                                            # pinned row
+    p0 = x + np.random.default_rng(0).normal(0, 0.2 * h, x.shape)
+    p0[w == 0] = x[w == 0]
+    return p0, w, e, pbd.edge_lengths(x, e), q, np.zeros(len(q))
+
+
+def _iterations_to_converge(method, omega=1.0, chunk=25, limit=40000):
+    p, w, e, rl, q, rp = _cloth()
+    for it in range(chunk, limit + 1, chunk):
+        pbd.solve_internal(p, w, e, rl, q, rp, k_stretch=1.0, k_bend=1.0, iterations=chunk, method=method,
+                           omega=omega)
+        if np.abs(pbd.edge_lengths(p, e) - rl).max() <= 1e-4 * 0.1:
+            return it, p
+    return None, p
+
+
+def test_v26_jacobi_and_gauss_seidel_both_converge_on_pinned_cloth():
+    gs, p_gs = _iterations_to_converge("gauss-seidel")
+    jac, p_j = _iterations_to_converge("jacobi", omega=1.5)
+    assert gs is not None and jac is not None                        # residual <= 1e-4 x edge length
+    assert gs < jac                                                   # Gauss-Seidel needs fewer iterations
+    w = _cloth()[1]
+    assert np.array_equal(p_gs[w == 0], p_j[w == 0])                # pins hold under both
+
+
+def test_v26_jacobi_does_not_depend_on_constraint_order():
+    p, w, e, rl, q, rp = _cloth()
+    rng = np.random.default_rng(7)
+    pe, pq = rng.permutation(len(e)), rng.permutation(len(q))
+    results = {}
+    for method in ("jacobi", "gauss-seidel"):
+        a, b = p.copy(), p.copy()
+        pbd.solve_internal(a, w, e, rl, q, rp, iterations=20, method=method)
+        pbd.solve_internal(b, w, e[pe], rl[pe], q[pq], rp[pq], iterations=20, method=method)
+        results[method] = np.abs(a - b).max()
+    assert results["jacobi"] <= 1e-12
+    assert results["gauss-seidel"] > 1e-6                             # Gauss-Seidel does
+
+
+def test_jacobi_numba_equals_numpy_twin():
+    rng = np.random.default_rng(8)
+    x, f = _strip(4, 5)
+    x[:, 2] += 0.02 * rng.normal(size=len(x))
+    e, q = pbd.mesh_edges(f), pbd.bend_quads(f)
+    rl = pbd.edge_lengths(x, e) * rng.uniform(0.8, 1.2, len(e))
+    rp = pbd.signed_dihedrals(x, q) + rng.normal(0, 0.3, len(q))
+    w = np.ones(len(x))
+    w[:4] = 0
+    a, b = x.copy(), x.copy()
+    pbd.solve_internal(a, w, e, rl, q, rp, iterations=7, method="jacobi", omega=1.3, backend="numba")
+    pbd.solve_internal(b, w, e, rl, q, rp, iterations=7, method="jacobi", omega=1.3, backend="numpy")
+    assert np.abs(a - b).max() <= 1e-12 and np.abs(a - x).max() > 1e-3
+    assert np.array_equal(a[:4], x[:4])
+
+
+def test_jacobi_bad_input_leaves_positions_untouched():
+    p, w, e, rl, q, rp = _cloth(4)
+    before = p.copy()
+    with pytest.raises(ValueError, match="method must be one of"):
+        pbd.solve_internal(p, w, e, rl, q, rp, method="sor")
+    with pytest.raises(ValueError, match="omega must be in"):
+        pbd.solve_internal(p, w, e, rl, q, rp, method="jacobi", omega=2.0)
+    assert np.array_equal(p, before)
