@@ -26,20 +26,20 @@ from plantvr._sorting import counting_sort
 from plantvr._validation import check_choice, check_int, check_range
 from plantvr.vine.segmentation import Segmentation
 
-__all__ = ["DisplayProxy", "merge_coincident", "proxy_labels"]
+__all__ = ["DisplayProxy", "decimate_with_owner", "merge_coincident", "proxy_labels"]
 
 
 # ---------------------------------------------------------------------------------------------- merging
 @numba.njit(cache=True, nogil=True)
 def _merge_hash(keys):  # pragma: no cover - numba kernel, twin: _merge_numpy
-    """First-occurrence unique rows of (V, 3) uint32 keys through an open-addressing hash table."""
+    """First-occurrence unique rows of (V, 3) uint32 keys (V < 2**30) through an open-addressing hash table."""
     n = keys.shape[0]
     size = 1
     while size < 2 * n:
         size *= 2
-    table = np.full(size, -1, np.int64)
-    inverse = np.empty(n, np.int64)
-    first = np.empty(n, np.int64)
+    table = np.full(size, -1, np.int32)                      # int32: 18 M vertices -> 256 MiB, not 512
+    inverse = np.empty(n, np.int32)
+    first = np.empty(n, np.int32)
     m = 0
     mask = size - 1
     for v in range(n):
@@ -54,9 +54,9 @@ def _merge_hash(keys):  # pragma: no cover - numba kernel, twin: _merge_numpy
         while True:
             u = table[s]
             if u < 0:
-                table[s] = m
-                first[m] = v
-                inverse[v] = m
+                table[s] = np.int32(m)
+                first[m] = np.int32(v)
+                inverse[v] = np.int32(m)
                 m += 1
                 break
             w = first[u]
@@ -73,7 +73,7 @@ def _merge_numpy(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     order = np.argsort(first, kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
-    return first[order].astype(np.int64), rank[inv.ravel()].astype(np.int64)
+    return first[order].astype(np.int32), rank[inv.ravel()].astype(np.int32)
 
 
 def merge_coincident(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -86,19 +86,32 @@ def merge_coincident(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarra
 
     Returns
     -------
-    unique : (U,) int64 ndarray
+    unique : (U,) int32 ndarray
         Id of the first vertex of each merged group, in first-occurrence order.
-    inverse : (V,) int64 ndarray
+    inverse : (V,) int32 ndarray
         Merged id of every input vertex (``vertices[unique][inverse]`` equals ``vertices``).
-    faces : (F', 3) int64 ndarray
+    faces : (F', 3) int32 ndarray
         Faces over merged ids, with faces that became degenerate removed.
+
+    Notes
+    -----
+    Everything is int32 (V < 2**30) and the faces are renumbered in place, so the extra memory is about
+    ``V * 26 + F * 13`` bytes (18 M vertices, 36 M faces: ~0.9 GiB) where int64 needed ~2.9 GiB.
     """
-    v = np.asarray(vertices, np.float32) + np.float32(0.0)       # -0.0 -> +0.0
-    keys = np.ascontiguousarray(v).view(np.uint32).reshape(-1, 3)
+    v = np.asarray(vertices, np.float32)
+    if len(v) >= 2 ** 30:
+        raise ValueError(f"vertices must be fewer than 2**30, got {len(v)}")
+    v = v + np.float32(0.0)                                   # -0.0 -> +0.0 (also the contiguous copy)
+    keys = v.view(np.uint32).reshape(-1, 3)
     first, inverse = _merge_hash(keys)
-    f = inverse[np.asarray(faces, np.int64)]
-    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return first, inverse, f[keep]
+    del v, keys
+    f = np.asarray(faces)
+    out = np.empty(f.shape, np.int32)
+    np.take(inverse, f, out=out)                              # no int64 copy of the faces
+    keep = out[:, 0] != out[:, 1]
+    keep &= out[:, 1] != out[:, 2]
+    keep &= out[:, 0] != out[:, 2]
+    return first, inverse, out if keep.all() else out[keep]
 
 
 # ---------------------------------------------------------------------------------------------- mapping
@@ -128,6 +141,142 @@ def _collapse_roots_numpy(n: int, collapses: np.ndarray) -> np.ndarray:
         if np.array_equal(nxt, parent):
             return parent
         parent = nxt
+
+
+def _collapse_owner(n: int, faces: np.ndarray, collapses: np.ndarray, n_out: int
+                    ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Owner of each of ``n`` input vertices among fast-simplification's ``n_out`` output vertices.
+
+    Follows the collapse history to each vertex's surviving root; survivors are the roots still referenced by a
+    non-degenerate face, output in id order. Returns ``(owner, survivors)`` with ``owner`` (n,) int32 (-1 where
+    the root was decimated away: a tiny component) and ``survivors`` (n_out,) int64 input ids, or None when the
+    survivors cannot be matched to the output.
+    """
+    root = _collapse_roots(n, collapses) if len(collapses) else np.arange(n)
+    ref = np.zeros(n, bool)
+    for lo in range(0, len(faces), 1 << 22):                  # in blocks: no (F, 3) int64 temporaries
+        rf = root[faces[lo:lo + (1 << 22)]]
+        nd = (rf[:, 0] != rf[:, 1]) & (rf[:, 1] != rf[:, 2]) & (rf[:, 0] != rf[:, 2])
+        ref[rf[nd].ravel()] = True
+    survivors = np.flatnonzero(ref)
+    if len(survivors) != n_out:
+        return None
+    rank = np.full(n, -1, np.int32)
+    rank[survivors] = np.arange(n_out, dtype=np.int32)       # fast-simplification keeps survivors in id order
+    return rank[root], survivors
+
+
+def _simplify(points: np.ndarray, faces: np.ndarray, target: int, agg: float, preserve_border: bool
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """fast-simplification to ``target`` faces: (points float64, faces int32, owner or None, survivors or None)."""
+    import fast_simplification
+    if target >= len(faces):
+        n = len(points)
+        return np.asarray(points, np.float64), faces, np.arange(n, dtype=np.int32), np.arange(n)
+    pts, pf, col = fast_simplification.simplify(np.asarray(points, np.float64), faces, target_count=int(target),
+                                                agg=agg, return_collapses=True, preserve_border=preserve_border)
+    pf = np.ascontiguousarray(pf, np.int32)
+    m = _collapse_owner(len(points), faces, np.asarray(col, np.int64), len(pts))
+    del col
+    return pts, pf, *(m if m is not None else (None, None))
+
+
+def _chunk_of_faces(vertices: np.ndarray, faces: np.ndarray, n_chunks: int) -> np.ndarray:
+    """(F,) uint8 chunk of each face: equal-count slabs along the longest axis, by the face's first vertex."""
+    ax = int(np.argmax(vertices.max(0) - vertices.min(0)))
+    x = vertices[:, ax][faces[:, 0]]
+    edges = np.quantile(x[:: max(1, len(x) // 1_000_000)], np.linspace(0, 1, n_chunks + 1)[1:-1])
+    return np.searchsorted(edges, x, side="right").astype(np.uint8)
+
+
+def decimate_with_owner(vertices: np.ndarray, faces: np.ndarray, target_faces: int, *, agg: float = 7.0,
+                        chunk_faces: int = 6_000_000) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Quadric decimation (fast-simplification) with the proxy vertex owning every input vertex.
+
+    Meshes above ``chunk_faces`` are decimated in two stages so that fast-simplification, which holds ~170 bytes
+    per triangle and ~120 per vertex and grows them by doubling (36 M faces: ~11 GiB at its peak), only ever
+    sees a bounded mesh: stage 1 decimates equal-count slabs of faces separately with their cut borders locked
+    (``preserve_border``; shared vertices stay identical), stage 2 decimates their union to the budget.
+
+    Parameters
+    ----------
+    vertices : (V, 3) float ndarray
+        Vertices without coincident duplicates (see :func:`merge_coincident`).
+    faces : (F, 3) int32 ndarray
+    target_faces : int
+        Triangle budget, in [4, 2**31 - 1].
+    agg : float
+        fast-simplification aggressiveness, in [0, 10].
+    chunk_faces : int
+        Most faces handed to one fast-simplification call, in [1000, 2**31 - 1].
+
+    Returns
+    -------
+    points : (P, 3) float32 ndarray
+    faces : (Fp, 3) uint32 ndarray
+    owner : (V,) int32 ndarray
+        Proxy vertex of every input vertex (its collapse survivor; the nearest proxy vertex where the survivor
+        was decimated away or the vertex is in no face).
+    """
+    target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
+    agg = check_range("agg", agg, 0.0, 10.0)
+    chunk_faces = check_int("chunk_faces", chunk_faces, 1000, 2 ** 31 - 1)
+    faces = np.ascontiguousarray(faces, np.int32)
+    n, nf = len(vertices), len(faces)
+    n_chunks = min(255, -(-nf // chunk_faces))
+    stage1 = min(nf, max(3 * target_faces, chunk_faces // 2))   # faces left after stage 1, all chunks together
+    if n_chunks <= 1 or stage1 >= nf:
+        pts, pf, owner, _ = _simplify(vertices, faces, target_faces, agg, False)
+        if owner is None:
+            owner = np.full(n, -1, np.int32)
+    else:
+        chunk = _chunk_of_faces(vertices, faces, n_chunks)
+        owner1 = np.full(n, -1, np.int32)                     # stage-1 owner of each input vertex (chunk-local)
+        owner1_chunk = np.zeros(n, np.uint8)
+        parts = []
+        for c in range(n_chunks):
+            fc = faces[chunk == c]
+            if not len(fc):
+                continue
+            glob, loc = np.unique(fc, return_inverse=True)
+            del fc
+            loc = loc.reshape(-1, 3).astype(np.int32)
+            tc = max(4, int(round(len(loc) * stage1 / nf)))
+            pts, pf, own, surv = _simplify(vertices[glob], loc, tc, agg, True)
+            if own is None:                                   # unmatched history: keep this chunk undecimated
+                pts, pf, own, surv = _simplify(vertices[glob], loc, len(loc), agg, True)
+            del loc
+            hit = own >= 0
+            owner1[glob[hit]] = own[hit]
+            owner1_chunk[glob[hit]] = c
+            parts.append((c, glob[surv], pts, pf))
+            del glob, own, surv, hit
+        del chunk
+        # union of the chunk meshes: locked cut vertices are survivors of both chunks with the same input id
+        gid = np.concatenate([p[1] for p in parts])
+        uniq, first, inv = np.unique(gid, return_index=True, return_inverse=True)
+        inv = inv.astype(np.int32)
+        pts1 = np.concatenate([p[2] for p in parts])[first]
+        offs = np.cumsum([0] + [len(p[1]) for p in parts])
+        f1 = np.concatenate([inv[o + p[3]] for o, p in zip(offs, parts)])
+        base = np.zeros(256, np.int64)
+        for o, p in zip(offs, parts):
+            base[p[0]] = o
+        del parts, gid, uniq, first
+        hit = owner1 >= 0
+        owner1[hit] = inv[base[owner1_chunk[hit]] + owner1[hit]]
+        del owner1_chunk, inv, base
+        pts, pf, owner2, _ = _simplify(pts1, f1, target_faces, agg, False)
+        if owner2 is None:
+            owner2 = np.full(len(pts1), -1, np.int32)
+        owner = np.where(hit, owner2[np.maximum(owner1, 0)], -1).astype(np.int32)
+        del owner1, hit
+    pts = np.ascontiguousarray(pts, np.float32)
+    lost = np.flatnonzero(owner < 0)
+    if lost.size:                                             # decimated-away components, or in no face
+        _, near = cKDTree(pts).query(np.asarray(vertices[lost], np.float64), workers=-1)
+        owner[lost] = near
+    return pts, np.ascontiguousarray(pf, np.uint32), owner
 
 
 # ---------------------------------------------------------------------------------------------- labels
@@ -233,6 +382,9 @@ class DisplayProxy:
         default). ``nearest``: each vertex belongs to its nearest proxy vertex (cKDTree).
     agg : float
         fast-simplification aggressiveness, in [0, 10].
+    chunk_faces : int
+        Most faces one fast-simplification call sees (bigger meshes are decimated in two stages, see
+        :func:`decimate_with_owner`), in [1000, 2**31 - 1]. Bounds the build's peak memory.
     observe : bool
         Follow the segmentation's changes (paint, undo, hide, colours) automatically.
 
@@ -243,7 +395,7 @@ class DisplayProxy:
     normals : (P, 3) float32 ndarray
     owner : (V,) int32 ndarray
         Proxy vertex of every full-resolution vertex.
-    members, starts : (V,) int32 and (P + 1,) int64 ndarrays
+    members, starts : (V,) int32 and (P + 1,) int32 ndarrays
         Members of proxy vertex ``p``: ``members[starts[p]:starts[p + 1]]``.
     labels : (P,) uint8 ndarray
         Proxy labels (see module docstring).
@@ -252,12 +404,13 @@ class DisplayProxy:
     """
 
     def __init__(self, seg: Segmentation, *, target_faces: int = 1_500_000, method: str = "collapse",
-                 agg: float = 7.0, observe: bool = True):
+                 agg: float = 7.0, chunk_faces: int = 6_000_000, observe: bool = True):
         if not isinstance(seg, Segmentation):
             raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
         target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
         method = check_choice("method", method, ("collapse", "nearest"))
         agg = check_range("agg", agg, 0.0, 10.0)
+        chunk_faces = check_int("chunk_faces", chunk_faces, 1000, 2 ** 31 - 1)
         self.seg = seg
         self.colors = seg.colors                              # shared table: recolouring edits it once
         self.timings: dict[str, float] = {}
@@ -266,31 +419,32 @@ class DisplayProxy:
         if len(seg.faces) <= target_faces:
             self.vertices = seg.vertices
             self.faces = seg.faces
-            owner = np.arange(seg.n_vertices, dtype=np.int64)
+            owner = np.arange(seg.n_vertices, dtype=np.int32)
             self.timings["merge"] = self.timings["decimate"] = 0.0
         else:
             first, inverse, mf = merge_coincident(seg.vertices, seg.faces)
             t1 = time.perf_counter()
             self.timings["merge"] = t1 - t0
-            import fast_simplification
-            pts, pf, collapses = fast_simplification.simplify(
-                seg.vertices[first], mf.astype(np.int32), target_count=int(target_faces), agg=agg,
-                return_collapses=True)
+            merged = seg.vertices[first]
+            del first
+            pts, pf, owner_m = decimate_with_owner(merged, mf, target_faces, agg=agg, chunk_faces=chunk_faces)
+            del mf
             t2 = time.perf_counter()
             self.timings["decimate"] = t2 - t1
-            self.vertices = np.ascontiguousarray(pts, np.float32)
-            self.faces = np.ascontiguousarray(pf, np.uint32)
-            owner_m = None
-            if method == "collapse":
-                owner_m = self._collapse_owner(seg.vertices[first], mf, np.asarray(collapses, np.int64))
-            if owner_m is None:                              # nearest, or the collapse order did not match
-                _, owner_m = cKDTree(self.vertices).query(seg.vertices[first], workers=-1)
-            owner = np.asarray(owner_m, np.int64)[inverse]
+            self.vertices, self.faces = pts, pf
+            if method == "nearest":
+                _, near = cKDTree(self.vertices).query(merged, workers=-1)
+                owner_m = near.astype(np.int32)
+                del near
+            del merged
+            owner = owner_m[inverse]                          # int32 (V,)
+            del owner_m, inverse
             self.timings["map"] = time.perf_counter() - t2
         self.method = method
         t3 = time.perf_counter()
-        self.owner = owner.astype(np.int32)
+        self.owner = owner
         self.members, self.starts = counting_sort(owner, len(self.vertices), np.int32)
+        del owner
         self.normals = seg.normals if self.vertices is seg.vertices and seg.normals is not None \
             else _vertex_normals(self.vertices, self.faces.astype(np.int64))
         self.labels = np.zeros(len(self.vertices), np.uint8)
@@ -301,23 +455,6 @@ class DisplayProxy:
         if observe:
             seg.observe(self._on_change)
             self._observing = True
-
-    def _collapse_owner(self, merged: np.ndarray, mf: np.ndarray, collapses: np.ndarray) -> np.ndarray | None:
-        """Owner over merged ids from the collapse history; None if it cannot be matched to the output."""
-        n = len(merged)
-        root = _collapse_roots(n, collapses) if len(collapses) else np.arange(n)
-        rf = root[mf]
-        nd = (rf[:, 0] != rf[:, 1]) & (rf[:, 1] != rf[:, 2]) & (rf[:, 0] != rf[:, 2])
-        ref = np.zeros(n, bool)
-        ref[rf[nd].ravel()] = True
-        if int(ref.sum()) != len(self.vertices):
-            return None
-        rank = np.cumsum(ref) - 1                            # fast-simplification keeps survivors in id order
-        owner = rank[root]
-        lost = ~ref[root]                                    # survivor decimated away: nearest proxy vertex
-        if lost.any():
-            _, owner[lost] = cKDTree(self.vertices).query(merged[lost], workers=-1)
-        return owner
 
     # ------------------------------------------------------------------ sizes
     @property

@@ -2,10 +2,12 @@
 proxy view == painting the full mesh, hiding acts on both."""
 import numpy as np
 import pytest
+import trimesh
 
 from plantvr.vine.index import ball_query_brute
 from plantvr.vine.proxy import (
     DisplayProxy,
+    decimate_with_owner,
     _collapse_roots,
     _collapse_roots_numpy,
     _merge_hash,
@@ -44,6 +46,41 @@ def test_mapping_covers_every_vertex_exactly_once(seg, proxy):
     d = np.linalg.norm(proxy.vertices[proxy.owner] - seg.vertices, axis=1)
     assert np.percentile(d, 95) < 4.0
     assert proxy.faces.max() < proxy.n_vertices and proxy.normals.shape == proxy.vertices.shape
+
+
+def test_chunked_decimation_maps_every_vertex_once(seg):
+    """Meshes above chunk_faces are decimated in two stages (slabs with locked cuts, then their union): the
+    mapping is still a partition, the cut vertices are not duplicated and the proxy is as good as one pass."""
+    whole = DisplayProxy(seg, target_faces=len(seg.faces) // 8, observe=False)
+    px = DisplayProxy(seg, target_faces=len(seg.faces) // 8, chunk_faces=len(seg.faces) // 5, observe=False)
+    assert px.owner.dtype == np.int32 and px.members.dtype == np.int32
+    assert np.array_equal(np.sort(px.members), np.arange(seg.n_vertices))
+    assert np.all(np.diff(px.starts) >= 1)
+    assert len(px.faces) <= len(seg.faces) // 8 + 8 and abs(px.n_vertices / whole.n_vertices - 1) < 0.1
+    assert len(np.unique(px.vertices, axis=0)) == px.n_vertices          # cut vertices merged across slabs
+    d = np.linalg.norm(px.vertices[px.owner] - seg.vertices, axis=1)
+    d_whole = np.linalg.norm(whole.vertices[whole.owner] - seg.vertices, axis=1)
+    assert np.percentile(d, 95) < 1.5 * np.percentile(d_whole, 95) + 0.5
+    # the proxy surface is no more open than the one-pass proxy (no cracks along the slab cuts)
+    def n_border(p):
+        m = trimesh.Trimesh(p.vertices, p.faces, process=False)
+        return len(trimesh.grouping.group_rows(m.edges_sorted, require_count=1))
+    assert n_border(px) <= n_border(whole) + 8
+    area = [trimesh.Trimesh(p.vertices, p.faces, process=False).area for p in (px, whole)]
+    assert abs(area[0] / area[1] - 1) < 0.05
+
+
+def test_decimate_with_owner_direct_and_rejects(surface):
+    first, inverse, mf = merge_coincident(surface.vertices, surface.faces)
+    assert mf.dtype == np.int32 and inverse.dtype == np.int32
+    merged = surface.vertices[first]
+    pts, pf, owner = decimate_with_owner(merged, mf, len(mf) // 10, chunk_faces=len(mf) // 3)
+    assert pts.dtype == np.float32 and pf.dtype == np.uint32 and owner.shape == (len(merged),)
+    assert owner.min() >= 0 and owner.max() < len(pts) and len(np.unique(owner)) == len(pts)
+    with pytest.raises(ValueError, match="chunk_faces"):
+        decimate_with_owner(merged, mf, 100, chunk_faces=10)
+    with pytest.raises(ValueError, match="target_faces"):
+        decimate_with_owner(merged, mf, 1)
 
 
 def test_nearest_method_maps_to_nearest_proxy_vertex(seg):
@@ -160,6 +197,8 @@ def test_rejected_arguments(seg):
         DisplayProxy(seg, target_faces=2)
     with pytest.raises(ValueError, match="method"):
         DisplayProxy(seg, method="random")
+    with pytest.raises(ValueError, match="chunk_faces"):
+        DisplayProxy(seg, chunk_faces=5)
     with pytest.raises(ValueError, match="seg must be"):
         DisplayProxy("mesh")
     px = DisplayProxy(seg, target_faces=len(seg.faces) // 4)
