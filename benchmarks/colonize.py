@@ -112,8 +112,12 @@ def run_classic(markers, args, out):
         c0 = time.process_time()
         ref = space_colonization_reference(markers, root, exact_ties=False, **kw)
         rows.append(_row("ckdtree", ref, time.process_time() - c0, n))
+    state = SpaceColonizer(markers, root, influence_radius=args.di, kill_radius=args.dk,
+                           step_size=args.D).state_bytes_per_marker
+    rows[0]["state_bytes_per_marker"] = round(state, 1)
     if not args.json:
         out(f"classic, N = {n}, d_i = {args.di}, d_k = {args.dk}, D = {args.D}, children_limit = {args.children_limit}")
+        out(f"  marker state beyond positions: {state:.1f} bytes per marker (target <= 32)")
         out(f"  {'impl':<8} {'steps':>5} {'nodes':>7} {'left':>6} {'cpu_s':>8} {'growth_cpu_s':>12} "
             f"{'median_ms':>9} {'max_ms':>8}")
         for r in rows:
@@ -199,9 +203,11 @@ def run_treewand(markers, args, out):
         if ms:
             rows.append(dict(impl=impl, markers=n, steps=len(ms), nodes=int(sc.n), markers_left=int(sc.n_live),
                              cpu_s=round(cpu, 4), growth_cpu_s=round(cpu, 4),
-                             median_ms=round(float(np.median(ms)), 3), max_ms=round(float(np.max(ms)), 3)))
+                             median_ms=round(float(np.median(ms)), 3), max_ms=round(float(np.max(ms)), 3),
+                             state_bytes_per_marker=round(ta.state_bytes_per_marker, 1)))
     if not args.json:
         out(f"treewand assignment (Eq. 9.4, one bud per node, view radius {args.di}, view angle 90 deg), N = {n}")
+        out(f"  marker state beyond positions: {ta.state_bytes_per_marker:.1f} bytes per marker (target <= 32)")
         out(f"  {'buds':>7} {'live':>7} {'update ms':>10} {'full ms':>8} {'cKDTree ms':>11}   (CPU ms; update = "
             f"incremental, buds added that step)")
         for i, (b, lv) in enumerate(samples):

@@ -137,6 +137,11 @@ def _check_classic(markers, roots, influence_radius, kill_radius, step_size, max
     return markers, roots, di, dk, d, max_steps, limit, stall
 
 
+def _state_bytes_per_marker(obj, names) -> float:
+    """Bytes of per-marker and grid state (arrays ``names`` of ``obj``) per marker, positions excluded."""
+    return sum(getattr(obj, n).nbytes for n in names) / max(len(obj.orig), 1)
+
+
 # ------------------------------------------------------------------------------------------------------------
 # classic mode, incremental kernel
 # ------------------------------------------------------------------------------------------------------------
@@ -245,6 +250,11 @@ class SpaceColonizer:
     def live_index(self) -> np.ndarray:
         """(K,) int64 input rows of the markers still alive, ascending."""
         return K.live_orig_kernel(self.cell_start, self.cell_live, self.orig)
+
+    @property
+    def state_bytes_per_marker(self) -> float:
+        """Marker state beyond positions, grid included, in bytes per marker (issue 13: ≤ 32)."""
+        return _state_bytes_per_marker(self, ("orig", "owner", "best", "cell_start", "cell_live", "cell_maxbest"))
 
     @property
     def markers_left(self) -> np.ndarray:
@@ -595,6 +605,12 @@ class TreeWandAssigner:
     def live_index(self) -> np.ndarray:
         """(K,) int64 input rows of the live markers, ascending."""
         return K.live_orig_kernel(self.cell_start, self.cell_live, self.orig)
+
+    @property
+    def state_bytes_per_marker(self) -> float:
+        """Marker state beyond positions, grid included, in bytes per marker (issue 13: ≤ 32)."""
+        return _state_bytes_per_marker(self, ("orig", "_owner_s", "_owner_in", "_best_s", "cell_start",
+                                              "cell_live"))
 
     @property
     def alive(self) -> np.ndarray:

@@ -371,3 +371,11 @@ def test_tw_v5_cone_cell_culling_is_conservative(angle):
     owner = assign_treewand(markers, pos, dirs, lens, **kw)
     np.testing.assert_array_equal(owner, assign_treewand_reference(markers, pos, dirs, lens, **kw))
     assert (owner >= 0).sum() > 0
+
+
+def test_marker_state_is_at_most_32_bytes_per_marker():
+    """Issue 13: per-marker state beyond the position (grid included) stays within 32 bytes."""
+    markers = np.random.default_rng(12).uniform(-10, 10, size=(50_000, 3))
+    sc = SpaceColonizer(markers, np.zeros(3), influence_radius=3.0, kill_radius=0.5, step_size=0.25)
+    ta = TreeWandAssigner(markers, view_radius=3.0, view_angle=math.pi / 2)
+    assert sc.state_bytes_per_marker <= 32 and ta.state_bytes_per_marker <= 32
