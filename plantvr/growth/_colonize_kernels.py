@@ -38,14 +38,15 @@ def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max
     """Sort ``points`` into a dense uniform grid of cell size ``radius / cells_per_radius``.
 
     The cell is enlarged when the grid would exceed ``max_cells`` (default ``max(4096, len(points) // 2)``), so
-    the grid costs at most 10 bytes per point.  Returns ``(origin, h, dims, reach, order, cell_start,
-    cell_live)``; ``reach`` = cells to scan either side of a query cell to cover ``radius``.
+    the grid costs at most 10 bytes per point.  Returns ``(origin, h, dims, reach, pos_s, orig, cell_start,
+    cell_live)``: ``pos_s`` are the points sorted by cell (stably), ``orig`` (int32) their input rows, and
+    ``reach`` the cells to scan either side of a query cell to cover ``radius``.
     """
     m = len(points)
     if max_cells is None:
         max_cells = max(4096, m // 2)
-    origin = points.min(axis=0)
-    extent = points.max(axis=0) - origin
+    lo, hi = _bounds(points)
+    origin, extent = lo, hi - lo
     h = float(radius) / cells_per_radius
     while True:
         dims = np.floor(extent / h).astype(np.int64) + 1
@@ -53,13 +54,46 @@ def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max
             break
         h *= 1.5
     reach = int(math.ceil(float(radius) / h - 1e-12))
-    ijk = np.floor((points - origin) / h).astype(np.int64)
-    ijk = np.minimum(np.maximum(ijk, 0), dims - 1)
-    cell = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
-    ncell = int(np.prod(dims))
-    order, cell_start = counting_sort(cell, ncell, np.int64)  # == np.argsort(cell, kind="stable"), in O(m)
+    pos_s, orig, cell_start = _sort_into_cells(points, origin, h, dims)
     cell_live = np.diff(cell_start).astype(np.int32)
-    return origin.astype(np.float64), h, dims.astype(np.int64), reach, order, cell_start, cell_live
+    return origin, h, dims, reach, pos_s, orig, cell_start, cell_live
+
+
+@numba.njit(cache=True, nogil=True)
+def _bounds(points):
+    lo = points[0].copy()
+    hi = points[0].copy()
+    for i in range(1, points.shape[0]):
+        for a in range(3):
+            x = points[i, a]
+            if x < lo[a]:
+                lo[a] = x
+            elif x > hi[a]:
+                hi[a] = x
+    return lo, hi
+
+
+@numba.njit(cache=True, nogil=True)
+def _sort_into_cells(points, origin, h, dims):
+    """Points sorted stably by grid cell (== ``points[np.argsort(cell, kind="stable")]``), in two O(m) passes."""
+    m = points.shape[0]
+    cell = np.empty(m, np.int64)
+    for i in range(m):
+        c = 0
+        for a in range(3):
+            k = int(math.floor((points[i, a] - origin[a]) / h))
+            k = min(max(k, 0), dims[a] - 1)
+            c = c * dims[a] + k
+        cell[i] = c
+    order, cell_start = counting_sort(cell, dims[0] * dims[1] * dims[2], np.int64)
+    pos_s = np.empty((m, 3), np.float64)
+    orig = np.empty(m, np.int32)
+    for t in range(m):
+        i = order[t]
+        orig[t] = i
+        for a in range(3):
+            pos_s[t, a] = points[i, a]
+    return pos_s, orig, cell_start
 
 
 @numba.njit(cache=True, nogil=True)

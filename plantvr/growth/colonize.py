@@ -175,10 +175,8 @@ class SpaceColonizer:
             markers, roots, influence_radius, kill_radius, step_size, 0, children_limit, None)
         self.di2, self.dk2, self.step_size, self.children_limit = di * di, dk * dk, d, limit
         self.dup2 = (K.DUP_FRACTION * d) ** 2
-        (self.origin, self.h, self.dims, self.reach, order, self.cell_start,
+        (self.origin, self.h, self.dims, self.reach, self.pos_s, self.orig, self.cell_start,
          self.cell_live) = K.build_grid(markers, di, _cells_per_radius)
-        self.pos_s = np.ascontiguousarray(markers[order])
-        self.orig = order.astype(np.int32)
         self.cell_maxbest = np.full(len(self.cell_live), np.inf)
         m = len(markers)
         self.owner = np.full(m, -1, np.int32)
@@ -510,10 +508,8 @@ class TreeWandAssigner:
     def __init__(self, markers, *, view_radius: float, view_angle: float, _cells_per_radius: int = 3):
         markers = check_points("markers", markers, min_rows=1)
         self.view_radius, self.cos_half = _check_cone(view_radius, view_angle)
-        (self.origin, self.h, self.dims, self.reach, order, self.cell_start,
+        (self.origin, self.h, self.dims, self.reach, self.pos_s, self.orig, self.cell_start,
          self.cell_live) = K.build_grid(markers, self.view_radius, _cells_per_radius)
-        self.pos_s = np.ascontiguousarray(markers[order])
-        self.orig = order.astype(np.int32)
         self.m = len(markers)
         self._owner_s = np.full(self.m, -1, np.int32)
         self._owner_in = np.full(self.m, -1, np.int32)  # the same owners by input row, kept in step
