@@ -16,7 +16,7 @@ from plantvr._validation import check_int, check_range
 from plantvr.flowers.branching import BranchTree, compound_umbel, rodkaew, scale_tree
 from plantvr.flowers.composer import Canopy, FloretType
 from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets
-from plantvr.flowers.floret import Corolla, build_floret, petal_net
+from plantvr.flowers.floret import Corolla, build_floret, make_bilateral, petal_net
 from plantvr.flowers.phyllotaxis import (
     centripetal_fractionation,
     disc_receptacle,
@@ -26,7 +26,7 @@ from plantvr.flowers.phyllotaxis import (
     vogel_disc,
 )
 
-__all__ = ["FlowerHead", "dahlia_head", "disc_floret", "dyssodia_head", "gaillardia_head", "lilac_panicle",
+__all__ = ["DAHLIA_BANDS", "FlowerHead", "dahlia_floret", "dahlia_head", "disc_floret", "dyssodia_head", "gaillardia_head", "lilac_panicle",
            "orlaya_umbel", "quill_floret", "ray_floret", "sunflower_head", "yarrow_corymb"]
 
 DISC, RAY = 0, 1
@@ -181,24 +181,113 @@ def _heads(centres, n_per_head, radius, height_frac=0.3):
             np.repeat(np.arange(H), n_per_head), np.sqrt(rec.area / n_per_head))
 
 
-def dahlia_head(n_florets: int = 150, *, radius: float = 10.0, detail: float = 1.0, n_frames: int = 8,
-                incurve_deg: float = -70.0) -> FlowerHead:
-    """Dahlia 'Jomanda'-like ball (Figs. 9.1–9.2): phyllotaxis on a hemispherical receptacle, every floret an
-    incurved tubular ray floret; florets touch and collisions shape them (spec 002 §6.2).
+def _roll_net(ctrl: np.ndarray, roll_deg: np.ndarray | float) -> np.ndarray:
+    """Roll a petal net's margins toward its adaxial side (incurved, cupped ligule), keeping row widths.
 
-    There is no fate test: the head is "populated almost exclusively by ... ray florets", so every floret is
-    a quill; the phase effect opens the rim first.
+    Each v-row of a net built along +x (midrib in the x-z plane, width along y) is bent onto a circular arc of
+    ``roll_deg`` half-angle about the midrib, so the arc length across the petal is preserved.
+    """
+    ctrl = ctrl.copy()
+    nu, nv = ctrl.shape[:2]
+    mid = ctrl[nu // 2]
+    roll = np.broadcast_to(np.deg2rad(np.asarray(roll_deg, dtype=np.float64)), (nv,))
+    for j in range(nv):
+        t = mid[min(j + 1, nv - 1)] - mid[max(j - 1, 0)]
+        t = t / np.linalg.norm(t)
+        adaxial = np.cross(t, [0.0, 1.0, 0.0])              # toward the floret axis for an opening petal
+        y = ctrl[:, j, 1]
+        hw = np.abs(y).max()
+        if hw < 1e-12 or roll[j] < 1e-9:
+            continue
+        R = hw / roll[j]
+        phi = y / R
+        ctrl[:, j, 1] = R * np.sin(phi)
+        ctrl[:, j] += (R * (1.0 - np.cos(phi)))[:, None] * adaxial
+    return make_bilateral(ctrl)
+
+
+def _cupped_net(length: float, width: float, opening_deg: float, incurve_deg: float, roll_deg: float, *,
+                nu: int = 7, nv: int = 7, base_radius: float = 0.05, base_width: float = 0.3) -> np.ndarray:
+    """A broad ligule with a rounded tip, leaning ``opening_deg`` from the floret axis, its tip bent by
+    ``incurve_deg`` and its margins rolled by ``roll_deg`` (dahlia ray floret, spec 002 §6.2)."""
+    t = np.linspace(0.0, 1.0, nv)
+    ang = np.deg2rad(opening_deg + incurve_deg * t)
+    seg = length / (nv - 1)
+    mid = np.zeros((nv, 3))
+    mid[0] = [base_radius, 0.0, 0.0]
+    for j in range(1, nv):
+        a = 0.5 * (ang[j - 1] + ang[j])
+        mid[j] = mid[j - 1] + seg * np.array([np.sin(a), 0.0, np.cos(a)])
+    rise = np.sin(0.5 * np.pi * np.minimum(t / 0.55, 1.0)) ** 0.7                # widening from the base
+    tip = np.sqrt(np.clip(1.0 - ((t - 0.55) / 0.47) ** 2, 0.0, 1.0))              # elliptic, rounded tip
+    prof = width * (base_width + (1.0 - base_width) * np.where(t <= 0.55, rise, tip))
+    prof[-1] = 0.35 * width
+    ctrl = np.repeat(mid[None], nu, axis=0)
+    ctrl[:, :, 1] = np.linspace(-1.0, 1.0, nu)[:, None] * prof[None, :] / 2
+    return _roll_net(ctrl, roll_deg)
+
+
+def dahlia_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.6, width: float = 2.4,
+                  open_deg: float = 60.0, incurve_deg: float = -30.0, roll_deg: float = 80.0) -> FloretType:
+    """An incurved, cupped ray floret of a ball dahlia (spec 002 §6.2, Figs. 9.1–9.2).
+
+    One broad ligule (n-fold 1) with a rounded tip whose margins roll toward its upper side by ``roll_deg``
+    ("incurved, almost tubular"); it opens from a tight, upright tube (the bud) to lean ``open_deg`` from the
+    floret axis with its tip bent back by ``incurve_deg``. Sizes are in units of the floret spacing. As for
+    :func:`ray_floret`, the ligule points along -y in floret coordinates (outward on a receptacle).
+    About 108 triangles at ``detail=1``.
+    """
+    detail = check_range("detail", detail, 0.1, 10.0)
+    n_frames = check_int("n_frames", n_frames, 2, 1000)
+    length = check_range("length", length, 0.0, 1e6, low_open=True)
+    width = check_range("width", width, 0.0, 1e6, low_open=True)
+    open_deg = check_range("open_deg", open_deg, -90.0, 120.0)
+    incurve_deg = check_range("incurve_deg", incurve_deg, -180.0, 180.0)
+    roll_deg = check_range("roll_deg", roll_deg, 0.0, 175.0)
+    bud = _cupped_net(0.35 * length, 0.5 * width, 5.0, -4.0, max(roll_deg, 150.0))
+    opn = _cupped_net(length, width, open_deg, incurve_deg, roll_deg)
+    fm = build_floret([Corolla(bud, n_fold=1), Corolla(opn, n_fold=1)], n_frames=n_frames, growth="sinusoidal",
+                      lam=0.11 / detail, eta=3 + 4 * detail)
+    rot = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])     # +x -> -y
+    return FloretType(fm.faces, fm.frames @ rot.T, fm.fixed)
+
+
+#: Dahlia bands over the polar angle of the receptacle (fraction of 90 deg): (from, opening deg, scale). The
+#: innermost florets lean over the apex and close the centre [INFERRED, from the photograph of Fig. 9.2].
+DAHLIA_BANDS = ((0.0, -30.0, 0.9), (0.1, 40.0, 0.9), (0.2, None, 1.0))
+
+
+def dahlia_head(n_florets: int = 300, *, radius: float = 10.0, detail: float = 1.0, n_frames: int = 8,
+                open_deg: float = 60.0, incurve_deg: float = -30.0, roll_deg: float = 80.0, length: float = 3.6,
+                width: float = 2.4) -> FlowerHead:
+    """Dahlia 'Jomanda'-like ball (Figs. 9.1–9.2): phyllotaxis on a hemispherical receptacle, every floret an
+    incurved, cupped ray floret; the florets overlap like scales and collisions shape them (spec 002 §6.2).
+
+    There is no fate test: the head is "populated almost exclusively by ... ray florets". Florets lean
+    ``open_deg`` away from the apex, so each one covers the base of its outer neighbours and the ligules
+    (``length`` x ``width`` floret spacings, margins rolled by ``roll_deg``) layer into a closed ball; toward the
+    apex they lean less and the innermost ones lean over the apex (:data:`DAHLIA_BANDS`). The phase effect
+    opens the rim first. 300 florets give about 32,000 triangles at ``detail=1`` (Table 4.1: 30,000).
     """
     n_florets = check_int("n_florets", n_florets, 3, 100_000)
     radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
+    open_deg = check_range("open_deg", open_deg, -90.0, 120.0)
+    detail = check_range("detail", detail, 0.1, 10.0)
+    n_frames = check_int("n_frames", n_frames, 2, 1000)
+    kw = {"detail": detail, "n_frames": n_frames, "length": length, "width": width, "roll_deg": roll_deg}
     rec = dome_receptacle(radius, radius)                  # hemisphere: "approximately spherical surface"
     s, a, birth = centripetal_fractionation(rec, area=rec.area / n_florets, dt_prod=1.0 / n_florets)
     s, a, birth = s[:n_florets], a[:n_florets], birth[:n_florets]
     pos, up, right = place_on_receptacle(rec, s, a)
     spacing = np.sqrt(rec.area / n_florets)
-    kind = np.zeros(n_florets, np.int64)
-    can = Canopy([quill_floret(detail=detail, n_frames=n_frames, incurve_deg=incurve_deg)], kind, pos, up, right,
-                 np.full(n_florets, 0.8 * spacing))
+    polar = np.arccos(np.clip(up[:, 2], -1.0, 1.0)) / (0.5 * np.pi)
+    types, kind, scale = [], np.zeros(n_florets, np.int64), np.full(n_florets, spacing)
+    for i, (start, ang, _) in enumerate(DAHLIA_BANDS):
+        ang = open_deg if ang is None else min(ang, open_deg)
+        types.append(dahlia_floret(open_deg=ang, incurve_deg=-incurve_deg / 2 if ang < 0 else incurve_deg, **kw))
+        kind[polar >= start] = i
+    scale *= np.array([b[2] for b in DAHLIA_BANDS])[kind]
+    can = Canopy(types, kind, pos, up, right, scale)
     centre = np.array([[0.0, 0.0, 0.0]])
     return FlowerHead(can, np.full(n_florets, RAY), birth, 0.6, head=np.zeros(n_florets, np.int64),
                       centres=centre)

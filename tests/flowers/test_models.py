@@ -1,6 +1,9 @@
 """The remaining example models of spec 002 §6.2 / C28: each model's defining property."""
+import time
+
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 from plantvr.flowers import fate
 from plantvr.flowers.composer import grow
@@ -24,6 +27,44 @@ def test_dahlia_ball_of_quills_on_a_sphere():
     np.testing.assert_allclose(rho, 5.0, atol=1e-6)
     assert p[:, 2].min() < 1.0 and p[:, 2].max() > 4.5       # from the apex down to the equator
     np.testing.assert_allclose(h.canopy.rot[:, :, 2], p / rho[:, None], atol=1e-3)   # florets face outward
+
+
+def _coverage(x, faces, face_instance, *, max_polar_deg=80.0, n_dirs=3000):
+    """Over outward directions from the head centre (polar angle <= max_polar_deg): the fraction that meet a
+    floret and the mean number of distinct florets each one meets (layers)."""
+    i = np.arange(n_dirs) + 0.5
+    z = 1 - 2 * i / n_dirs
+    phi = i * np.pi * (3 - np.sqrt(5))
+    d = np.column_stack([np.sqrt(1 - z**2) * np.cos(phi), np.sqrt(1 - z**2) * np.sin(phi), z])
+    d = d[d[:, 2] >= np.cos(np.deg2rad(max_polar_deg))]
+    w = np.array([(a, b) for a in range(6) for b in range(6 - a)]) / 5.0
+    bary = np.column_stack([w, 1 - w.sum(1)])
+    pts = np.einsum("sk,fkd->fsd", bary, x[faces]).reshape(-1, 3)
+    inst = np.repeat(face_instance, len(bary))
+    u = pts / np.linalg.norm(pts, axis=1, keepdims=True)
+    hits = cKDTree(u).query_ball_point(d, 0.5 * np.sqrt(4 * np.pi / n_dirs))
+    layers = np.array([np.unique(inst[h]).size for h in hits])
+    return float(np.mean(layers > 0)), float(layers.mean())
+
+
+def test_dahlia_is_a_dense_layered_ball():
+    h = dahlia_head(300, **KW)
+    can = h.canopy
+    assert can.n_instances == 300 and h.n_rays == 300
+    x = can.initial_positions(np.ones(300))                 # every floret open
+    cover, layers = _coverage(x, can.faces, can.face_instance)
+    assert cover > 0.97 and layers > 2.0                     # closed ball of overlapping scales
+    rho = np.linalg.norm(x, axis=1)
+    assert np.percentile(rho, 99) < 1.6 * 10.0               # a ball, not a burst of spikes
+    assert 28_000 <= len(dahlia_head(300, n_frames=2).canopy.faces) <= 36_000   # Table 4.1: 30,000 triangles
+
+
+def test_dahlia_grows_collision_free_in_reasonable_time():
+    h = dahlia_head(120, radius=6.0, **KW)
+    t0 = time.perf_counter()
+    _, log = grow(h.canopy, h.schedule(4), sanity_every=4)
+    assert time.perf_counter() - t0 < 30.0
+    assert log[-1]["intersections"] == 0
 
 
 def test_dyssodia_rays_at_the_level_of_the_whole_inflorescence():
