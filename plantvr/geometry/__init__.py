@@ -1,4 +1,12 @@
 """Tree geometry: skeleton, generalized cylinders, LOD, bark UVs, leaves, export (spec 000_treewand §3, §8.1 items 16–22)."""
+from .appearance import (
+    FruitPlacement,
+    contour_sides,
+    place_fruit,
+    thickest_main_child,
+    thickest_path_mesh,
+    vigor_leaf_colors,
+)
 from .leaves import IncrementalLeafMesh, LeafMesh, build_leaves
 from .mesh import (
     BranchMesh,
@@ -21,8 +29,6 @@ __all__ = ["BranchMesh", "IncrementalBranchMesh", "IncrementalLeafMesh", "LeafMe
            "build_branch_mesh", "build_leaves", "length_estimate", "lod_level", "rational_bezier",
            "rational_bezier_tangent", "ring_counts", "smoothstep", "transport_frame", "tree_segments",
            "update_branch_mesh"]
-from .appearance import (FruitPlacement, contour_sides, place_fruit, thickest_main_child, thickest_path_mesh,
-                         vigor_leaf_colors)
 
 __all__ += ["FruitPlacement", "contour_sides", "place_fruit", "thickest_main_child", "thickest_path_mesh",
             "vigor_leaf_colors"]

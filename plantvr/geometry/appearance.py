@@ -20,9 +20,20 @@ from .._validation import check_array, check_int, check_points, check_range
 from . import _kernels as K
 from .mesh import BranchMesh, _alloc, _check_tree, ring_counts, tree_segments
 
-__all__ = ["FruitPlacement", "HASH_PRIMES", "contour_sides", "fruit_probability", "hash_random", "hsv_to_rgb",
-           "place_fruit", "position_hash", "rgb_to_hsv", "thickest_main_child", "thickest_path_mesh",
-           "vigor_leaf_colors"]
+__all__ = [
+    "HASH_PRIMES",
+    "FruitPlacement",
+    "contour_sides",
+    "fruit_probability",
+    "hash_random",
+    "hsv_to_rgb",
+    "place_fruit",
+    "position_hash",
+    "rgb_to_hsv",
+    "thickest_main_child",
+    "thickest_path_mesh",
+    "vigor_leaf_colors",
+]
 
 #: Multipliers of the spatial hash (spec 004 §4.4 [INFERRED], Teschner et al. 2003).
 HASH_PRIMES = (73856093, 19349663, 83492791)
@@ -184,9 +195,9 @@ def thickest_path_mesh(pos, parent, radius, *, alive=None, tip_radius: float | N
     K._eval_segments_numba(seg.records, lay.counts, u_steps, seg.nodes, seg.caps,
                            np.arange(len(seg), dtype=np.int64), lay.v_off, lay.f_off, float(bark_repeat),
                            V, NRM, UV, NID, F)
-    opts = dict(bezier_w=bezier_w, u_steps=u_steps, lod=(3, c_max), tip_radius=tip_radius, bark_rate=bark_rate,
-                bark_repeat=bark_repeat, main_child=main, sides=dict(zip(axes.tolist(), sides.tolist())),
-                side_exponent=side_exponent)
+    opts = {"bezier_w": bezier_w, "u_steps": u_steps, "lod": (3, c_max), "tip_radius": tip_radius, "bark_rate": bark_rate,
+                "bark_repeat": bark_repeat, "main_child": main, "sides": dict(zip(axes.tolist(), sides.tolist())),
+                "side_exponent": side_exponent}
     return BranchMesh(V, F, NRM, UV, NID, seg, lay.counts, lay.v_off, lay.f_off, opts)
 
 

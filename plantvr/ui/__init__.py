@@ -3,7 +3,9 @@
 Every widget observes and commands a :class:`plantvr.Model` (or a segmentation); none keeps its own copy
 of the state. Front-end sources are in the top-level ``widgets/`` folder (``plantvr/_widgets`` in the wheel).
 """
+from .architecture import AngleWidget, ArchitecturePanel, ArchitectureState, GravimorphismEllipse, SchematicTree
 from .growth import GrowthControl, GrowthPlot
+from .library import LibraryPanel, apply_preset_values, preset_from_tree, tree_svg
 from .panels import IconSelector, ParameterPanels, make_control, param_traits
 from .presets import load_preset, read_preset, save_preset
 from .strokes import ScenarioPicker, list_scenarios, load_scenario, replay_scenario
@@ -24,3 +26,7 @@ def explorer(model, *, view=None):
     panels, control = ParameterPanels(model), GrowthControl(model)
     right = [control, ScenarioPicker(model)] + ([view] if view is not None else [])
     return W.HBox([panels, W.VBox(right)])
+
+
+__all__ += ["AngleWidget", "ArchitecturePanel", "ArchitectureState", "GravimorphismEllipse", "LibraryPanel",
+            "SchematicTree", "apply_preset_values", "preset_from_tree", "tree_svg"]

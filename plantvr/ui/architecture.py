@@ -77,7 +77,7 @@ def ellipse_rays(s_v: float, s_p: float, e_v: float, *, n: int = 16) -> tuple[np
     ----------
     .. [1] Longay thesis §4.4.3, Fig. 4.20B, §5.1.1 (red-to-green bud lines); spec 004 §1.4.6, §2.3 item 3.
     """
-    from .._validation import check_int  # noqa: PLC0415
+    from .._validation import check_int
 
     n = check_int("n", n, 1, 360)
     chi = np.arange(n) * (2.0 * math.pi / n)
@@ -114,7 +114,7 @@ def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iteration
         One row per live internode: x0, y0, x1, y1 (the projection on z = 0, in internode lengths), radius and
         branch order.
     """
-    from .._validation import check_int, check_range  # noqa: PLC0415
+    from .._validation import check_int, check_range
 
     iterations = check_int("iterations", iterations, 0, 200)
     slab = check_range("slab", slab, 0.0, np.inf, low_open=True)
@@ -365,7 +365,7 @@ class SchematicTree(_StateWidget):
         self.phyllotaxis_angle = s.phyllotaxis_angle
         key = (tuple(s.params.items()), tuple(s.options.items()))
         if key != self._key:  # only a parameter change regrows the schematic
-            import time  # noqa: PLC0415
+            import time
 
             t0 = time.perf_counter()
             self.segments = schematic_tree(s.params, s.options, iterations=self.iterations).ravel().tolist()

@@ -1,15 +1,26 @@
 """TreeSketch appearance: Eq. C.2 side counts on thickest-path tubes, fruit by p = r L^2, leaf hue by vigor (spec 004
 §4.1, §4.2, §4.4; V28, V30)."""
 import colorsys
+import itertools
 
 import numpy as np
 import pytest
 import trimesh
 
 from plantvr.geometry import build_branch_mesh
-from plantvr.geometry.appearance import (HASH_PRIMES, contour_sides, fruit_probability, hash_random, hsv_to_rgb,
-                                         place_fruit, position_hash, rgb_to_hsv, thickest_main_child,
-                                         thickest_path_mesh, vigor_leaf_colors)
+from plantvr.geometry.appearance import (
+    HASH_PRIMES,
+    contour_sides,
+    fruit_probability,
+    hash_random,
+    hsv_to_rgb,
+    place_fruit,
+    position_hash,
+    rgb_to_hsv,
+    thickest_main_child,
+    thickest_path_mesh,
+    vigor_leaf_colors,
+)
 from plantvr.geometry.synthetic import random_tree
 
 
@@ -116,7 +127,7 @@ def _buds(n=400, seed=0):
 
 
 def test_ts_v30_fruit_probability_and_hash_stability():
-    pos, d = _buds()
+    pos, _d = _buds()
     r = hash_random(pos, seed=7)
     assert np.all((r >= 0) & (r < 1))
     p = fruit_probability(r, np.full(len(r), 0.5))
@@ -136,7 +147,7 @@ def test_ts_v30_more_light_more_fruit_thin_branches_only():
     thin = np.full(len(pos), 0.01)
     counts = [place_fruit(pos, d, thin, np.full(len(pos), L), threshold=0.2, radius_threshold=0.02, seed=1).n_fruit
               for L in (0.3, 0.5, 0.7, 0.9, 1.0)]
-    assert counts[0] == 0 and all(b >= a for a, b in zip(counts, counts[1:])) and counts[-1] > counts[1]
+    assert counts[0] == 0 and all(b >= a for a, b in itertools.pairwise(counts)) and counts[-1] > counts[1]
     light = np.random.default_rng(2).random(len(pos))
     f = place_fruit(pos, d, thin, light, threshold=0.2, radius_threshold=0.02, seed=1)
     r = hash_random(pos, seed=1)
@@ -153,7 +164,7 @@ def test_ts_v30_more_light_more_fruit_thin_branches_only():
 def test_fruit_frames_droop_and_mesh():
     pos, d = _buds(300)
     light = np.ones(len(pos))
-    kw = dict(threshold=0.3, radius_threshold=1.0, size=0.2, seed=4)
+    kw = {"threshold": 0.3, "radius_threshold": 1.0, "size": 0.2, "seed": 4}
     for droop in (0.0, 0.5, 1.0):
         f = place_fruit(pos, d, np.full(len(pos), 0.1), light, droop=droop, **kw)
         H = d[f.index]
@@ -174,7 +185,7 @@ def test_fruit_frames_droop_and_mesh():
 
 def test_place_fruit_validation():
     pos, d = _buds(10)
-    kw = dict(radius_threshold=0.1)
+    kw = {"radius_threshold": 0.1}
     with pytest.raises(ValueError, match="bud_light must be in"):
         place_fruit(pos, d, np.zeros(10), np.full(10, 2.0), **kw)
     with pytest.raises(ValueError, match="threshold"):

@@ -13,9 +13,17 @@ from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.growth.sketch import SketchEngine, gravimorphism
 from plantvr.params import defaults
 from plantvr.ui import InfluenceTriangle
-from plantvr.ui._assets import asset
-from plantvr.ui.architecture import (ARCH_PARAMS, SKETCH_OPTIONS, AngleWidget, ArchitecturePanel, ArchitectureState,
-                                     GravimorphismEllipse, SchematicTree, ellipse_rays, schematic_tree)
+from plantvr.ui.architecture import (
+    ARCH_PARAMS,
+    SKETCH_OPTIONS,
+    AngleWidget,
+    ArchitecturePanel,
+    ArchitectureState,
+    GravimorphismEllipse,
+    SchematicTree,
+    ellipse_rays,
+    schematic_tree,
+)
 
 
 @pytest.fixture
