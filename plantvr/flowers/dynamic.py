@@ -216,14 +216,17 @@ class DynamicPhyllotaxis:
         primordium_area = _check_rate("primordium_area", primordium_area, positive=True)
         a_new = _eval("primordium_area", primordium_area, 0.0, positive=True)
         dt_prod = check_range("dt_prod", dt_prod, 0.0, 1e12, low_open=True)
-        threshold = a_new if threshold is None else check_range("threshold", threshold, 0.0, 1e12, low_open=True)
+        if threshold is None:
+            threshold = a_new
+        threshold = check_range("threshold", threshold, 0.0, 1e12, low_open=True)
         divergence_deg = check_range("divergence_deg", divergence_deg, -360.0, 360.0)
         alpha0_deg = check_range("alpha0_deg", alpha0_deg, -360.0, 360.0)
         anchor = check_choice("anchor", anchor, ("start", "centre"))
         max_primordia = check_int("max_primordia", max_primordia, 0, 100_000_000)
         profile_nodes = check_int("profile_nodes", profile_nodes, 3, 1_000_000)
         if mode == "divergent" and outer_area == 0 and not (callable(outer_rate) or outer_rate > 0):
-            raise ValueError("divergent fractionation needs an outer region: outer_area or outer_rate must be > 0")
+            raise ValueError("divergent fractionation needs an outer region: outer_area or outer_rate must "
+                             "be > 0")
         track = _ProfileTrack(profiles, profile_nodes)          # validates the profiles
         self.mode, self.anchor = mode, anchor
         self.inner_rate, self.outer_rate, self.primordium_area = inner_rate, outer_rate, primordium_area
@@ -315,8 +318,10 @@ class DynamicPhyllotaxis:
         """
         dt = check_range("dt", dt, 0.0, 1e12, low_open=True)
         t0, t1 = self.t, self.t + dt
-        g_in = 0.5 * (_eval("inner_rate", self.inner_rate, t0) + _eval("inner_rate", self.inner_rate, t1)) * dt
-        g_out = 0.5 * (_eval("outer_rate", self.outer_rate, t0) + _eval("outer_rate", self.outer_rate, t1)) * dt
+        g_in = 0.5 * (_eval("inner_rate", self.inner_rate, t0)
+                      + _eval("inner_rate", self.inner_rate, t1)) * dt
+        g_out = 0.5 * (_eval("outer_rate", self.outer_rate, t0)
+                       + _eval("outer_rate", self.outer_rate, t1)) * dt
         a_before = self.inner_area
         self.inner_area += g_in
         self.outer_area += g_out
@@ -337,8 +342,11 @@ class DynamicPhyllotaxis:
     # -- layout ----------------------------------------------------------------------------------------
     def _areas(self) -> np.ndarray:
         birth = np.asarray(self._birth, dtype=np.float64)
-        a = np.array([_eval("primordium_area", self.primordium_area, self.t - b, positive=True) for b in birth]) \
-            if callable(self.primordium_area) else np.full(birth.size, float(self.primordium_area))
+        if callable(self.primordium_area):
+            a = np.array([_eval("primordium_area", self.primordium_area, self.t - b, positive=True)
+                          for b in birth])
+        else:
+            a = np.full(birth.size, float(self.primordium_area))
         for i, v in self._override.items():
             a[i] = v
         return a

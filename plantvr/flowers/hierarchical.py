@@ -186,7 +186,8 @@ class HierarchicalPhyllotaxis:
         if m.children:
             ids = list(m.children)
             k = self.levels[m.level].packing
-            m.pattern.override_areas(ids, [self.meristems[m.children[e]].pattern.frame.total_area / k for e in ids])
+            areas = [self.meristems[m.children[e]].pattern.frame.total_area / k for e in ids]
+            m.pattern.override_areas(ids, areas)
         m.pattern.step(dt)
 
     def _convert(self) -> None:
@@ -199,7 +200,8 @@ class HierarchicalPhyllotaxis:
             for e in ready:
                 if int(e) in m.children:
                     continue
-                child = Meristem(m.level + 1, i, int(e), self.t, self._pattern(m.level + 1, float(fr.area[e])))
+                pattern = self._pattern(m.level + 1, float(fr.area[e]))
+                child = Meristem(m.level + 1, i, int(e), self.t, pattern)
                 m.children[int(e)] = len(self.meristems)
                 self.meristems.append(child)
 
@@ -289,7 +291,7 @@ def hofmeister_angles(pattern: HierarchicalPhyllotaxis) -> np.ndarray:
     tangent plane.
     """
     if not isinstance(pattern, HierarchicalPhyllotaxis):
-        raise TypeError(f"pattern must be a HierarchicalPhyllotaxis, got {type(pattern).__name__}")
+        raise ValueError(f"pattern must be a HierarchicalPhyllotaxis, got {type(pattern).__name__}")  # noqa: TRY004
     out = []
     for i, m in enumerate(pattern.meristems):
         if m.parent < 0 or m.pattern.n == 0:

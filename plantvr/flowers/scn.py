@@ -1,4 +1,4 @@
-"""FCComposer scene inputs: SCN placement files and RBA rigid-body animation series (spec 002 §3.8, §4.5; C16).
+"""FCComposer scene inputs: SCN placements and RBA rigid-body animation series (spec 002 §3.8, §4.5; C16).
 
 SCN (App. C.2): one placement per line, ``type: id pos_x pos_y pos_z scale_x scale_y scale_z up_x up_y up_z
 right_x right_y right_z [type fields]``; ``mtl: matID`` right after an entry assigns a material; ``#`` starts
@@ -195,7 +195,7 @@ def parse_scn(text: str, *, source: str = "<scn>") -> list[Placement]:
         ``mtl`` line without a preceding entry (or a second one), or an invalid frame.
     """
     if not isinstance(text, str):
-        raise ValueError(f"text must be a str, got {type(text).__name__}")
+        raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
     out: list[Placement] = []
     mtl_done = True
     for lineno, raw in enumerate(text.splitlines(), start=1):
@@ -226,8 +226,9 @@ def parse_scn(text: str, *, source: str = "<scn>") -> list[Placement]:
         n_extra = len(SCN_TYPES[kind])
         tokens = _expand_compact(tokens, n_extra)
         if len(tokens) != _PREAMBLE + n_extra:
-            raise ValueError(f"{where}: {kind!r} entries have {_PREAMBLE + n_extra} fields (id, position, scale, "
-                             f"up, right{', ' if n_extra else ''}{', '.join(SCN_TYPES[kind])}), got {len(tokens)}")
+            names = ", ".join(("id", "position", "scale", "up", "right", *SCN_TYPES[kind]))
+            raise ValueError(f"{where}: {kind!r} entries have {_PREAMBLE + n_extra} fields ({names}), "
+                             f"got {len(tokens)}")
         v = _numbers(tokens, where)
         if not v[0].is_integer() or v[0] < 0:
             raise ValueError(f"{where}: id must be a non-negative integer, got {tokens[0]!r}")
@@ -244,7 +245,7 @@ def format_scn(placements: Sequence[Placement], *, header: bool = True) -> str:
     lines = ["# type: ID Position Scale Up Right [type fields]"] if header else []
     for k, p in enumerate(placements):
         if not isinstance(p, Placement):
-            raise ValueError(f"placements[{k}] must be a Placement, got {type(p).__name__}")
+            raise ValueError(f"placements[{k}] must be a Placement, got {type(p).__name__}")  # noqa: TRY004
         lines.append(p.line())
         if p.material is not None:
             lines.append(f"mtl: {p.material}")
@@ -310,7 +311,8 @@ class RigidBodyFrame:
 
     def __eq__(self, other) -> bool:
         return isinstance(other, RigidBodyFrame) and all(
-            np.array_equal(getattr(self, k), getattr(other, k)) for k in ("ids", "position", "scale", "up", "right"))
+            np.array_equal(getattr(self, k), getattr(other, k))
+            for k in ("ids", "position", "scale", "up", "right"))
 
     __hash__ = None
 
@@ -318,7 +320,7 @@ class RigidBodyFrame:
 def parse_rba(text: str, *, source: str = "<rba>") -> RigidBodyFrame:
     """Parse one RBA file's text (App. C.3); ``#`` comment lines and blank lines are skipped."""
     if not isinstance(text, str):
-        raise ValueError(f"text must be a str, got {type(text).__name__}")
+        raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
     rows = []
     for lineno, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
@@ -343,7 +345,7 @@ def parse_rba(text: str, *, source: str = "<rba>") -> RigidBodyFrame:
 def format_rba(frame: RigidBodyFrame) -> str:
     """RBA text of one frame."""
     if not isinstance(frame, RigidBodyFrame):
-        raise ValueError(f"frame must be a RigidBodyFrame, got {type(frame).__name__}")
+        raise ValueError(f"frame must be a RigidBodyFrame, got {type(frame).__name__}")  # noqa: TRY004
     lines = []
     for k in range(frame.ids.size):
         nums = (frame.ids[k], *frame.position[k], *frame.scale[k], *frame.up[k], *frame.right[k])
@@ -372,9 +374,10 @@ def write_rba_sequence(folder, frames: Sequence[RigidBodyFrame], *, prefix: str 
     frames = list(frames)
     for k, f in enumerate(frames):
         if not isinstance(f, RigidBodyFrame):
-            raise ValueError(f"frames[{k}] must be a RigidBodyFrame, got {type(f).__name__}")
+            raise ValueError(f"frames[{k}] must be a RigidBodyFrame, got {type(f).__name__}")  # noqa: TRY004
     if not re.fullmatch(r"[A-Za-z0-9_.-]*", prefix) or (prefix and prefix[-1].isdigit()):
-        raise ValueError(f"prefix must be letters, digits, '_', '-', '.' and not end in a digit, got {prefix!r}")
+        raise ValueError(f"prefix must be letters, digits, '_', '-', '.' and not end in a digit, "
+                         f"got {prefix!r}")
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     width = max(4, len(str(max(len(frames) - 1, 0))))
@@ -407,7 +410,8 @@ def read_rba_sequence(folder, *, scene: Sequence[Placement] | None = None) -> li
     if scene is not None:
         for (_, p), f in zip(sorted(found), frames):
             if f.ids.size and f.ids.max() >= len(scene):
-                raise ValueError(f"{p}: id {int(f.ids.max())} has no entry in the {len(scene)}-entry SCN file")
+                raise ValueError(f"{p}: id {int(f.ids.max())} has no entry in the {len(scene)}-entry "
+                                 "SCN file")
     return frames
 
 
@@ -452,7 +456,8 @@ def load_scene_tree(root, rba_scenes: Mapping[int, str | Path]) -> dict[Path, li
             if p.kind != "rba":
                 continue
             if p.id not in rba_scenes:
-                raise ValueError(f"{path}: entry {k} is 'rba' with id {p.id}, which names no rigid body animation "
+                raise ValueError(f"{path}: entry {k} is 'rba' with id {p.id}, which names no rigid body "
+                                 "animation "
                                  f"(known ids: {sorted(rba_scenes)})")
             visit(Path(rba_scenes[p.id]))
         stack.pop()
@@ -466,9 +471,9 @@ def load_scene_tree(root, rba_scenes: Mapping[int, str | Path]) -> dict[Path, li
 # From phyllotaxis to files
 
 
-def scene_from_frames(frames: Sequence, *, object_id: int = 0, kind: str = "ca", area_ref: float | None = None,
-                      opening_frames: float = 100.0, frames_per_step: float = 1.0
-                      ) -> tuple[list[Placement], list[RigidBodyFrame]]:
+def scene_from_frames(frames: Sequence, *, object_id: int = 0, kind: str = "ca",
+                      area_ref: float | None = None, opening_frames: float = 100.0,
+                      frames_per_step: float = 1.0) -> tuple[list[Placement], list[RigidBodyFrame]]:
     """SCN placements and the RBA series of a dynamic pattern (spec §3.8 "static vs dynamic", §4.5).
 
     Primordium k becomes SCN entry k (production order), so RBA ids are production indices.
@@ -517,8 +522,8 @@ def scene_from_frames(frames: Sequence, *, object_id: int = 0, kind: str = "ca",
     for k in range(last.n):
         sc = float(np.sqrt(last.area[k] / area_ref))
         extra = () if kind == "o" else (to_frame(last.birth[k]), to_frame(last.birth[k]) + opening_frames)
-        placements.append(Placement(kind, object_id, last.position[k], (sc, sc, sc), last.up[k], last.right[k],
-                                    extra))
+        placements.append(Placement(kind, object_id, last.position[k], (sc, sc, sc), last.up[k],
+                                    last.right[k], extra))
     rba = []
     for f in frames:
         sc = np.sqrt(f.area / area_ref)

@@ -19,7 +19,8 @@ def _growing(mode):
     """One growing meristem per mode: region growth, primordium growth and two key profiles."""
     if mode == "centripetal":
         return DynamicPhyllotaxis([(0.0, disc_receptacle()), (30.0, dome_receptacle(1.0, 0.6))],
-                                  mode="centripetal", inner_area=2.0, inner_rate=lambda t: 0.02 * np.exp(-0.05 * t),
+                                  mode="centripetal", inner_area=2.0,
+                                  inner_rate=lambda t: 0.02 * np.exp(-0.05 * t),
                                   primordium_area=lambda a: 0.02 * (1 + 0.05 * a), dt_prod=0.5)
     if mode == "divergent":
         return DynamicPhyllotaxis(cone_receptacle(1.0, 0.4), mode="divergent", inner_area=1.0, outer_area=0.6,
@@ -88,7 +89,7 @@ def test_v29_dynamic_centripetal_fractionation_matches_static():
     A = 0.05
     fr = DynamicPhyllotaxis(mode="centripetal", inner_area=np.pi, primordium_area=A).run(100, 1.0)[-1]
     assert abs(fr.n - np.floor(np.pi / A)) <= 1                               # V29
-    assert 0 <= fr.inner_area < A                                             # stops only below one primordium
+    assert 0 <= fr.inner_area < A                                  # stops only below one primordium
     assert fr.receptacle.r[-1] == pytest.approx(1.0, rel=1e-12)              # no growth: disc of radius 1
     s_static, a_static, _ = centripetal_fractionation(disc_receptacle(1.0), area=A)
     assert np.max(np.abs(fr.s - s_static[:fr.n])) <= 1e-12
@@ -121,7 +122,8 @@ def test_placement_fields_are_a_frame():
 
 
 def test_centre_anchor_sits_mid_band():
-    fr = DynamicPhyllotaxis(mode="centripetal", inner_area=1.0, primordium_area=0.1, anchor="centre").run(5, 1)[-1]
+    dyn = DynamicPhyllotaxis(mode="centripetal", inner_area=1.0, primordium_area=0.1, anchor="centre")
+    fr = dyn.run(5, 1)[-1]
     a_s = _band_areas(fr)
     assert np.allclose(a_s, 1.0 - 0.1 * (np.arange(fr.n) + 0.5), atol=1e-12)
 

@@ -19,7 +19,8 @@ def _two_level(profile0=None, profile1=None, steps=40, packing=1.0):
 
 def _three_level():
     """Fig. 5.3-like recursive segregation in a flat, exponentially growing space."""
-    grow = LevelSpec(primordium_area=lambda a: 0.02 * np.exp(0.25 * a), inner_rate=lambda a: 0.01 * np.exp(0.25 * a),
+    grow = LevelSpec(primordium_area=lambda a: 0.02 * np.exp(0.25 * a),
+                     inner_rate=lambda a: 0.01 * np.exp(0.25 * a),
                      threshold=0.03, meristem_area=0.06, max_elements=6)
     last = LevelSpec(primordium_area=lambda a: 0.005 * np.exp(0.1 * a), inner_rate=0.01, threshold=0.006,
                      max_elements=12)
@@ -65,7 +66,8 @@ def test_area_bookkeeping_at_every_level():
         assert root.area[e] == H.meristems[c].pattern.frame.total_area
     H = _two_level(packing=0.5)
     for e, c in H.meristems[0].children.items():
-        assert H.meristems[0].pattern.frame.area[e] == pytest.approx(2 * H.meristems[c].pattern.frame.total_area)
+        child_area = H.meristems[c].pattern.frame.total_area
+        assert H.meristems[0].pattern.frame.area[e] == pytest.approx(2 * child_area)
 
 
 def test_only_last_level_makes_florets_and_fate_per_head():
@@ -84,7 +86,7 @@ def test_only_last_level_makes_florets_and_fate_per_head():
     assert per_head[:3].min() >= 1 and per_head[-2:].max() == 0   # cone rule alone: rays on peripheral heads
     kind, _ = floret_fate(d, th_a=0.2)
     per_head = np.bincount(fl["head"][kind > 0], minlength=len(H.meristems))[heads]
-    assert per_head.min() >= 1                                 # Th_a: every sub-head differentiates its own rays
+    assert per_head.min() >= 1                  # Th_a: every sub-head differentiates its own rays
 
 
 def test_deterministic():

@@ -32,8 +32,8 @@ def _random_scene(rng, n=30):
         if "frame_start" in SCN_TYPES[kind]:
             extra[:2] = sorted([int(rng.integers(0, 500)), float(rng.uniform(0, 1000))])
         up = rng.normal(size=3)
-        out.append(Placement(kind, int(rng.integers(0, 5)), rng.normal(size=3) * 1e3, rng.uniform(1e-6, 1e3, 3),
-                             up, np.cross(up, rng.normal(size=3)), tuple(extra),
+        out.append(Placement(kind, int(rng.integers(0, 5)), rng.normal(size=3) * 1e3,
+                             rng.uniform(1e-6, 1e3, 3), up, np.cross(up, rng.normal(size=3)), tuple(extra),
                              int(rng.integers(0, 256)) if k % 3 == 0 else None))
     return out
 
@@ -64,7 +64,7 @@ def test_thesis_example_lines():
 
 
 def test_placement_transform_maps_y_up_object():
-    p = Placement("o", 0, (1, 2, 3), (2, 2, 2), (0, 0, 1), (1, 0, 0.5))   # right not orthogonal: fixed on load
+    p = Placement("o", 0, (1, 2, 3), (2, 2, 2), (0, 0, 1), (1, 0, 0.5))   # right made orthogonal on load
     R = p.frame()
     assert np.allclose(R.T @ R, np.eye(3)) and np.linalg.det(R) == pytest.approx(1.0)
     x = p.transform([[0, 1, 0], [1, 0, 0]])
@@ -148,11 +148,13 @@ def test_rba_ids_must_exist_in_scene(tmp_path):
 def test_nested_scenes_and_cycle_detection(tmp_path):
     leaf = Placement("ca", 0, (0, 0, 0), (1, 1, 1), (0, 0, 1), (1, 0, 0), (0, 10))
     write_scn(tmp_path / "head.sce", [leaf])
-    write_scn(tmp_path / "plant.sce", [Placement("rba", 1, (0, 0, 0), (1, 1, 1), (0, 0, 1), (1, 0, 0), (0, 5))] * 2)
+    sub = Placement("rba", 1, (0, 0, 0), (1, 1, 1), (0, 0, 1), (1, 0, 0), (0, 5))
+    write_scn(tmp_path / "plant.sce", [sub, sub])
     tree = load_scene_tree(tmp_path / "plant.sce", {1: tmp_path / "head.sce"})
     assert len(tree) == 2 and tree[(tmp_path / "head.sce").resolve()] == [leaf]
     # head instantiates plant: plant -> head -> plant
-    write_scn(tmp_path / "head.sce", [Placement("rba", 2, (0, 0, 0), (1, 1, 1), (0, 0, 1), (1, 0, 0), (0, 5))])
+    back_ref = Placement("rba", 2, (0, 0, 0), (1, 1, 1), (0, 0, 1), (1, 0, 0), (0, 5))
+    write_scn(tmp_path / "head.sce", [back_ref])
     with pytest.raises(ValueError, match="recursive scene reference: plant.sce -> head.sce -> plant.sce"):
         load_scene_tree(tmp_path / "plant.sce", {1: tmp_path / "head.sce", 2: tmp_path / "plant.sce"})
     with pytest.raises(ValueError, match="names no rigid body animation"):
