@@ -34,6 +34,7 @@ __all__ = [
     "petal_net",
     "polygonize_uv",
     "read_obj_sequence",
+    "roll_margins",
     "write_obj_sequence",
 ]
 
@@ -74,11 +75,13 @@ def eval_surface(ctrl: np.ndarray, u: np.ndarray, v: np.ndarray, *, degree: tupl
 
 
 def petal_net(*, length: float = 1.0, width: float = 0.3, opening_deg: float = 45.0, curl_deg: float = 0.0,
-              nu: int = 5, nv: int = 6, base_radius: float = 0.05, base_width: float = 0.3) -> np.ndarray:
+              nu: int = 5, nv: int = 6, base_radius: float = 0.05, base_width: float = 0.3,
+              roll_deg: float = 0.0) -> np.ndarray:
     """A bilaterally symmetric petal control net in floret coordinates (petal 0 along +x, axis +z).
 
     The midrib starts at ``base_radius`` from the axis and leaves it at ``opening_deg`` from the floret
-    axis, bending by ``curl_deg`` in total towards the tip. Width follows a rounded profile.
+    axis, bending by ``curl_deg`` in total towards the tip. Width follows a rounded profile; ``roll_deg``
+    rolls the margins toward the upper side (:func:`roll_margins`).
     """
     length = check_range("length", length, 0.0, 1e6, low_open=True)
     width = check_range("width", width, 0.0, 1e6, low_open=True)
@@ -88,6 +91,7 @@ def petal_net(*, length: float = 1.0, width: float = 0.3, opening_deg: float = 4
     nv = check_int("nv", nv, 3, 64)
     base_radius = check_range("base_radius", base_radius, 0.0, 1e6)
     base_width = check_range("base_width", base_width, 0.0, 1.0)
+    roll_deg = check_range("roll_deg", roll_deg, 0.0, 175.0)
     t = np.linspace(0, 1, nv)
     ang = np.deg2rad(opening_deg + curl_deg * t)                 # angle from the axis along the midrib
     seg = length / (nv - 1)
@@ -100,6 +104,53 @@ def petal_net(*, length: float = 1.0, width: float = 0.3, opening_deg: float = 4
     s = np.linspace(-1, 1, nu)
     ctrl = np.repeat(mid[None], nu, axis=0)
     ctrl[:, :, 1] = s[:, None] * prof[None, :] / 2
+    return roll_margins(ctrl, roll_deg) if roll_deg > 0 else make_bilateral(ctrl)
+
+
+def roll_margins(ctrl: np.ndarray, roll_deg: float | np.ndarray) -> np.ndarray:
+    """Roll a petal net's margins toward its upper (adaxial) side: a cupped, incurved petal (spec 002 §2.1).
+
+    Each v-row of a net built along +x (midrib = middle u-column in the x-z plane, width along y) is bent
+    onto a circular arc about the midrib whose half-width subtends ``roll_deg``; the arc length across the
+    row is kept, so a roll changes the petal's shape, not its width. The result is made bilateral.
+
+    Parameters
+    ----------
+    ctrl : (nu, nv, 3) float64 array_like
+        Petal net (as :func:`petal_net` builds it).
+    roll_deg : float or (nv,) float64 array_like
+        Roll half-angle per row in degrees, in [0, 175].
+
+    Returns
+    -------
+    (nu, nv, 3) float64 ndarray
+    """
+    ctrl = check_array("ctrl", ctrl, shape=(None, None, 3)).copy()
+    nu, nv = ctrl.shape[:2]
+    if nu < 2 or nv < 2:
+        raise ValueError(f"ctrl must have at least 2 x 2 control points, got {nu} x {nv}")
+    roll = np.asarray(roll_deg, dtype=np.float64)
+    if roll.ndim == 0:
+        roll = np.full(nv, float(check_range("roll_deg", roll, 0.0, 175.0)))
+    roll = check_array("roll_deg", roll, shape=(nv,))
+    if np.any((roll < 0) | (roll > 175)):
+        raise ValueError(f"roll_deg must be in [0, 175] on every row, got {roll.tolist()!r}")
+    roll = np.deg2rad(roll)
+    mid = ctrl[nu // 2].copy()
+    for j in range(nv):
+        t = mid[min(j + 1, nv - 1)] - mid[max(j - 1, 0)]
+        n = np.linalg.norm(t)
+        if n < 1e-15:
+            continue
+        adaxial = np.cross(t / n, [0.0, 1.0, 0.0])           # toward the floret axis for an opening petal
+        y = ctrl[:, j, 1]
+        hw = np.abs(y).max()
+        if hw < 1e-12 or roll[j] < 1e-9:
+            continue
+        R = hw / roll[j]
+        phi = y / R
+        ctrl[:, j, 1] = R * np.sin(phi)
+        ctrl[:, j] += (R * (1.0 - np.cos(phi)))[:, None] * adaxial
     return make_bilateral(ctrl)
 
 

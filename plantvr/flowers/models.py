@@ -16,7 +16,7 @@ from plantvr._validation import check_int, check_range
 from plantvr.flowers.branching import BranchTree, compound_umbel, rodkaew, scale_tree
 from plantvr.flowers.composer import Canopy, FloretType
 from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets
-from plantvr.flowers.floret import Corolla, build_floret, make_bilateral, petal_net
+from plantvr.flowers.floret import Corolla, build_floret, petal_net, roll_margins
 from plantvr.flowers.phyllotaxis import (
     centripetal_fractionation,
     disc_receptacle,
@@ -181,31 +181,6 @@ def _heads(centres, n_per_head, radius, height_frac=0.3):
             np.repeat(np.arange(H), n_per_head), np.sqrt(rec.area / n_per_head))
 
 
-def _roll_net(ctrl: np.ndarray, roll_deg: np.ndarray | float) -> np.ndarray:
-    """Roll a petal net's margins toward its adaxial side (incurved, cupped ligule), keeping row widths.
-
-    Each v-row of a net built along +x (midrib in the x-z plane, width along y) is bent onto a circular arc of
-    ``roll_deg`` half-angle about the midrib, so the arc length across the petal is preserved.
-    """
-    ctrl = ctrl.copy()
-    nu, nv = ctrl.shape[:2]
-    mid = ctrl[nu // 2]
-    roll = np.broadcast_to(np.deg2rad(np.asarray(roll_deg, dtype=np.float64)), (nv,))
-    for j in range(nv):
-        t = mid[min(j + 1, nv - 1)] - mid[max(j - 1, 0)]
-        t = t / np.linalg.norm(t)
-        adaxial = np.cross(t, [0.0, 1.0, 0.0])              # toward the floret axis for an opening petal
-        y = ctrl[:, j, 1]
-        hw = np.abs(y).max()
-        if hw < 1e-12 or roll[j] < 1e-9:
-            continue
-        R = hw / roll[j]
-        phi = y / R
-        ctrl[:, j, 1] = R * np.sin(phi)
-        ctrl[:, j] += (R * (1.0 - np.cos(phi)))[:, None] * adaxial
-    return make_bilateral(ctrl)
-
-
 def _cupped_net(length: float, width: float, opening_deg: float, incurve_deg: float, roll_deg: float, *,
                 nu: int = 7, nv: int = 7, base_radius: float = 0.05, base_width: float = 0.3) -> np.ndarray:
     """A broad ligule with a rounded tip, leaning ``opening_deg`` from the floret axis, its tip bent by
@@ -224,7 +199,7 @@ def _cupped_net(length: float, width: float, opening_deg: float, incurve_deg: fl
     prof[-1] = 0.35 * width
     ctrl = np.repeat(mid[None], nu, axis=0)
     ctrl[:, :, 1] = np.linspace(-1.0, 1.0, nu)[:, None] * prof[None, :] / 2
-    return _roll_net(ctrl, roll_deg)
+    return roll_margins(ctrl, roll_deg)
 
 
 def dahlia_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.6, width: float = 2.4,

@@ -18,6 +18,7 @@ from plantvr.flowers.floret import (
     petal_net,
     polygonize_uv,
     read_obj_sequence,
+    roll_margins,
     write_obj_sequence,
 )
 
@@ -171,3 +172,27 @@ def test_bad_input_mismatched_pose_topology():
         blend_nets([a.petal, b.petal], 0.5)
     with pytest.raises(ValueError, match="lam"):
         polygonize_uv(-0.1, 3)
+
+
+def test_roll_margins_keeps_row_arc_length_and_symmetry_and_cups_upward():
+    flat = petal_net(opening_deg=60, length=2.0, width=1.0, nu=7, nv=6)
+    rolled = roll_margins(flat, 90.0)
+    np.testing.assert_array_equal(roll_margins(flat, 0.0), flat)              # no roll: unchanged
+    np.testing.assert_allclose(petal_net(opening_deg=60, length=2.0, width=1.0, nu=7, nv=6, roll_deg=90.0),
+                               rolled, atol=1e-12)
+    for j in range(1, 6):                                   # control points of a row lie on an arc of the same length
+        y = flat[:, j, 1]
+        r = rolled[:, j]
+        mid = r[3]
+        R = np.abs(y).max() / (np.pi / 2)
+        c = mid + R * np.cross((flat[3, min(j + 1, 5)] - flat[3, j - 1]) /
+                               np.linalg.norm(flat[3, min(j + 1, 5)] - flat[3, j - 1]), [0, 1, 0])
+        np.testing.assert_allclose(np.linalg.norm(r - c, axis=1), R, rtol=1e-9)
+    np.testing.assert_allclose(rolled[::-1] * [1, -1, 1], rolled, atol=1e-12)   # bilateral symmetry kept
+    # margins rise toward the floret axis side (upper surface): for a petal leaning to +x, they move to -x / +z
+    up = np.array([-np.cos(np.pi / 3), 0.0, np.sin(np.pi / 3)])
+    assert np.all((rolled[0, 2:] - rolled[3, 2:]) @ up > 0)
+    with pytest.raises(ValueError, match="roll_deg"):
+        roll_margins(flat, 200.0)
+    with pytest.raises(ValueError, match="roll_deg"):
+        petal_net(roll_deg=-1.0)
