@@ -173,12 +173,13 @@ def constraint_figures(quick: bool) -> dict:
     rng = np.random.default_rng(0)
     counts = [30, 300] if quick else [10, 30, 100, 300]
     shape = (20, 128, 128)
+    cx = 30.0 / 128
     crown_voxels(np.zeros((2, 2)), np.ones(2), np.ones(2), size=(30.0, 30.0), shape=(2, 8, 8))  # load the kernel
     for n in counts:
         xz = rng.uniform(0.0, 30.0, (n, 2))
         S = rng.uniform(0.6, 1.4, n)
         area, h_max = np.pi * (3.0 * S) ** 2, S * 10.0
-        kw = dict(size=(30.0, 30.0), shape=shape, trunk_radius=0.3 * S)
+        kw = {"size": (30.0, 30.0), "shape": shape, "trunk_radius": 0.3 * S}
         t = _best(lambda xz=xz, area=area, h_max=h_max, kw=kw: crown_voxels(xz, area, h_max, **kw), 3)
         v = crown_voxels(xz, area, h_max, **kw)
         t0 = time.perf_counter()
@@ -188,7 +189,6 @@ def constraint_figures(quick: bool) -> dict:
         layers = len(np.unique(np.packbits(h_max[None, :] > (np.arange(20) * v.layer_height)[:, None], axis=1),
                                axis=0))
         # every layer solved even when its participants repeat a lower layer's (no reuse)
-        cx = 30.0 / 128
         act = np.ascontiguousarray(h_max[None, :] > (np.arange(20) * v.layer_height)[:, None])
 
         def all_layers(xz=xz, area=area, act=act, S=S):
