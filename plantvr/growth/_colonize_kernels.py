@@ -137,6 +137,53 @@ def _box_gap2(x, y, z, origin, h, i, j, k):
     return g
 
 
+@numba.njit(cache=True, nogil=True)
+def _ball_cells(x, y, z, r2, origin, h, dims, reach, cells, gaps):
+    """Cells within ``reach`` of (x, y, z) whose box is within ``sqrt(r2)`` of it.
+
+    Writes their ids to ``cells`` and squared box distances to ``gaps`` (both of length ≥ (2·reach + 1)³)
+    and returns how many; every scan of the grid starts here.
+    """
+    ilo, ihi = _cell_range(x, origin, h, dims, reach, 0)
+    jlo, jhi = _cell_range(y, origin, h, dims, reach, 1)
+    klo, khi = _cell_range(z, origin, h, dims, reach, 2)
+    n = 0
+    for ci in range(ilo, ihi + 1):
+        for cj in range(jlo, jhi + 1):
+            for ck in range(klo, khi + 1):
+                g = _box_gap2(x, y, z, origin, h, ci, cj, ck)
+                if g <= r2:
+                    cells[n] = (ci * dims[1] + cj) * dims[2] + ck
+                    gaps[n] = g
+                    n += 1
+    return n
+
+
+@numba.njit(cache=True, nogil=True)
+def _cell_buffers(reach):
+    """Scratch arrays for :func:`_ball_cells`."""
+    k = (2 * reach + 1) ** 3
+    return np.empty(k, np.int64), np.empty(k, np.float64)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _swap_out(s, end, pos_s, orig, owner, best):
+    """Swap marker slot ``s`` with slot ``end`` (the last live slot of its cell, about to become dead)."""
+    for a in range(3):
+        t = pos_s[s, a]
+        pos_s[s, a] = pos_s[end, a]
+        pos_s[end, a] = t
+    t2 = orig[s]
+    orig[s] = orig[end]
+    orig[end] = t2
+    t3 = owner[s]
+    owner[s] = owner[end]
+    owner[end] = t3
+    t4 = best[s]
+    best[s] = best[end]
+    best[end] = t4
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # classic space colonization: incremental nearest-node update
 # ----------------------------------------------------------------------------------------------------------------
@@ -171,67 +218,52 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
     Returns ``(killed, n_dirty)``.
     """
     killed = 0
+    cells, gaps = _cell_buffers(reach)
     for j in range(n_old, n_new):
         px = nodes[j, 0]
         py = nodes[j, 1]
         pz = nodes[j, 2]
-        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
-        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
-        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
-        for ci in range(ilo, ihi + 1):
-            for cj in range(jlo, jhi + 1):
-                for ck in range(klo, khi + 1):
-                    c = (ci * dims[1] + cj) * dims[2] + ck
-                    start = cell_start[c]
-                    end = start + cell_live[c]
-                    if end == start:
-                        continue
-                    gap2 = _box_gap2(px, py, pz, origin, h, ci, cj, ck)
-                    if gap2 >= di2 or gap2 >= cell_maxbest[c]:
-                        continue
-                    mx = 0.0
-                    s = start
-                    while s < end:
-                        dx = pos_s[s, 0] - px
-                        dy = pos_s[s, 1] - py
-                        dz = pos_s[s, 2] - pz
-                        d2 = dx * dx + dy * dy + dz * dz
-                        if d2 < di2 and d2 < best[s]:
-                            old = owner[s]
-                            if old >= 0:
-                                qx, qy, qz = _q(pos_s[s, 0] - nodes[old, 0], pos_s[s, 1] - nodes[old, 1],
-                                                pos_s[s, 2] - nodes[old, 2])
-                                acc[old, 0] -= qx
-                                acc[old, 1] -= qy
-                                acc[old, 2] -= qz
-                                n_dirty = _mark(old, dirty_flag, dirty_list, n_dirty)
-                            if d2 < dk2:
-                                end -= 1
-                                for a in range(3):
-                                    t = pos_s[s, a]
-                                    pos_s[s, a] = pos_s[end, a]
-                                    pos_s[end, a] = t
-                                t2 = orig[s]
-                                orig[s] = orig[end]
-                                orig[end] = t2
-                                owner[s] = owner[end]
-                                owner[end] = -1
-                                best[s] = best[end]
-                                best[end] = 0.0
-                                killed += 1
-                                continue  # re-examine the marker swapped into slot s
-                            owner[s] = j
-                            best[s] = d2
-                            qx, qy, qz = _q(dx, dy, dz)
-                            acc[j, 0] += qx
-                            acc[j, 1] += qy
-                            acc[j, 2] += qz
-                            n_dirty = _mark(j, dirty_flag, dirty_list, n_dirty)
-                        if best[s] > mx:
-                            mx = best[s]
-                        s += 1
-                    cell_live[c] = end - start
-                    cell_maxbest[c] = mx
+        for q in range(_ball_cells(px, py, pz, di2, origin, h, dims, reach, cells, gaps)):
+            c = cells[q]
+            start = cell_start[c]
+            end = start + cell_live[c]
+            if end == start or gaps[q] >= di2 or gaps[q] >= cell_maxbest[c]:
+                continue
+            mx = 0.0
+            s = start
+            while s < end:
+                dx = pos_s[s, 0] - px
+                dy = pos_s[s, 1] - py
+                dz = pos_s[s, 2] - pz
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 < di2 and d2 < best[s]:
+                    old = owner[s]
+                    if old >= 0:
+                        qx, qy, qz = _q(pos_s[s, 0] - nodes[old, 0], pos_s[s, 1] - nodes[old, 1],
+                                        pos_s[s, 2] - nodes[old, 2])
+                        acc[old, 0] -= qx
+                        acc[old, 1] -= qy
+                        acc[old, 2] -= qz
+                        n_dirty = _mark(old, dirty_flag, dirty_list, n_dirty)
+                    if d2 < dk2:
+                        end -= 1
+                        _swap_out(s, end, pos_s, orig, owner, best)
+                        owner[end] = -1
+                        best[end] = 0.0
+                        killed += 1
+                        continue  # re-examine the marker swapped into slot s
+                    owner[s] = j
+                    best[s] = d2
+                    qx, qy, qz = _q(dx, dy, dz)
+                    acc[j, 0] += qx
+                    acc[j, 1] += qy
+                    acc[j, 2] += qz
+                    n_dirty = _mark(j, dirty_flag, dirty_list, n_dirty)
+                if best[s] > mx:
+                    mx = best[s]
+                s += 1
+            cell_live[c] = end - start
+            cell_maxbest[c] = mx
     return killed, n_dirty
 
 
@@ -375,12 +407,15 @@ def grow_numpy(nodes, parent, children, acc, candidates, children_limit, step, d
 # Tree Wand assignment (Eq. 9.4): smallest d / l among perceiving buds
 # ----------------------------------------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True, inline="always")
-def _cell_in_cone(px, py, pz, bx, by, bz, origin, h, i, j, k, rc, cos_half, sin_half):
-    """Whether cell (i, j, k) may hold points of the cone (apex p, unit axis b, half-angle θ): conservative.
+def _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half, sin_half):
+    """Whether cell ``c`` may hold points of the cone (apex p, unit axis b, half-angle θ): conservative.
 
     The cell's bounding sphere (radius ``rc``) seen from p subtends δ = asin(rc / dist); the sphere meets the
     cone iff the axis angle of its centre is ≤ θ + δ, i.e. b·v ≥ dist·cos(θ + δ) (with a small margin).
     """
+    k = c % dims[2]
+    j = (c // dims[2]) % dims[1]
+    i = c // (dims[1] * dims[2])
     vx = origin[0] + (i + 0.5) * h - px
     vy = origin[1] + (j + 0.5) * h - py
     vz = origin[2] + (k + 0.5) * h - pz
@@ -412,6 +447,7 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
     sin_half = math.sqrt(max(0.0, 1.0 - cos_half * cos_half))
     rc = 0.5 * math.sqrt(3.0) * h  # radius of a cell's bounding sphere
     cand = np.empty(1024, np.int64)
+    cells, gaps = _cell_buffers(reach)
     changed = 0
     for b in range(bud_pos.shape[0]):
         px = bud_pos[b, 0]
@@ -422,49 +458,41 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
         bz = bud_dir[b, 2]
         ln = bud_len[b]
         bid = bud_ids[b]
-        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
-        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
-        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
-        for ci in range(ilo, ihi + 1):
-            for cj in range(jlo, jhi + 1):
-                for ck in range(klo, khi + 1):
-                    c = (ci * dims[1] + cj) * dims[2] + ck
-                    start = cell_start[c]
-                    end = start + cell_live[c]
-                    if end == start:
-                        continue
-                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2:
-                        continue
-                    if not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, ci, cj, ck, rc, cos_half, sin_half):
-                        continue
-                    if end - start > cand.shape[0]:
-                        cand = np.empty(2 * (end - start), np.int64)
-                    nc = 0
-                    for s in range(start, end):  # branch-free candidate pass
-                        vx = pos_s[s, 0] - px
-                        vy = pos_s[s, 1] - py
-                        vz = pos_s[s, 2] - pz
-                        d2 = vx * vx + vy * vy + vz * vz
-                        dot = vx * bx + vy * by + vz * bz
-                        cand[nc] = s
-                        nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
-                    for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
-                        s = cand[t]
-                        vx = pos_s[s, 0] - px
-                        vy = pos_s[s, 1] - py
-                        vz = pos_s[s, 2] - pz
-                        d = math.sqrt(vx * vx + vy * vy + vz * vz)
-                        if d > view_radius:
-                            continue
-                        if vx * bx + vy * by + vz * bz < d * cos_half:
-                            continue
-                        key = d / ln
-                        o = owner[s]
-                        if key < best[s] or (key == best[s] and o >= 0 and bid < o):
-                            best[s] = key
-                            owner[s] = bid
-                            owner_in[orig[s]] = bid
-                            changed += 1
+        for q in range(_ball_cells(px, py, pz, vr2m, origin, h, dims, reach, cells, gaps)):
+            c = cells[q]
+            start = cell_start[c]
+            end = start + cell_live[c]
+            if end == start or not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half,
+                                                 sin_half):
+                continue
+            if end - start > cand.shape[0]:
+                cand = np.empty(2 * (end - start), np.int64)
+            nc = 0
+            for s in range(start, end):  # branch-free candidate pass
+                vx = pos_s[s, 0] - px
+                vy = pos_s[s, 1] - py
+                vz = pos_s[s, 2] - pz
+                d2 = vx * vx + vy * vy + vz * vz
+                dot = vx * bx + vy * by + vz * bz
+                cand[nc] = s
+                nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
+            for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
+                s = cand[t]
+                vx = pos_s[s, 0] - px
+                vy = pos_s[s, 1] - py
+                vz = pos_s[s, 2] - pz
+                d = math.sqrt(vx * vx + vy * vy + vz * vz)
+                if d > view_radius:
+                    continue
+                if vx * bx + vy * by + vz * bz < d * cos_half:
+                    continue
+                key = d / ln
+                o = owner[s]
+                if key < best[s] or (key == best[s] and o >= 0 and bid < o):
+                    best[s] = key
+                    owner[s] = bid
+                    owner_in[orig[s]] = bid
+                    changed += 1
     return changed
 
 
@@ -497,111 +525,84 @@ def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, ce
 
     Released sorted slots are appended to ``affected``; returns the new count.
     """
-    vr2 = view_radius * view_radius
+    vr2m = view_radius * view_radius * 1.0000001
+    cells, gaps = _cell_buffers(reach)
     for b in range(ids.shape[0]):
         bid = ids[b]
-        px = old_pos[b, 0]
-        py = old_pos[b, 1]
-        pz = old_pos[b, 2]
-        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
-        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
-        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
-        for ci in range(ilo, ihi + 1):
-            for cj in range(jlo, jhi + 1):
-                for ck in range(klo, khi + 1):
-                    c = (ci * dims[1] + cj) * dims[2] + ck
-                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2:
-                        continue
-                    for s in range(cell_start[c], cell_start[c] + cell_live[c]):
-                        if owner[s] == bid:
-                            owner[s] = -1
-                            owner_in[orig[s]] = -1
-                            best[s] = np.inf
-                            affected[n_aff] = s
-                            n_aff += 1
+        for q in range(_ball_cells(old_pos[b, 0], old_pos[b, 1], old_pos[b, 2], vr2m, origin, h, dims, reach,
+                                   cells, gaps)):
+            c = cells[q]
+            for s in range(cell_start[c], cell_start[c] + cell_live[c]):
+                if owner[s] == bid:
+                    owner[s] = -1
+                    owner_in[orig[s]] = -1
+                    best[s] = np.inf
+                    affected[n_aff] = s
+                    n_aff += 1
     return n_aff
 
 
 @numba.njit(cache=True, nogil=True)
 def treewand_reassign_kernel(slots, pos_s, orig, owner, best, owner_in, bud_pos, bud_dir, bud_len, bud_order,
                              bud_cell_start, origin, h, dims, reach, view_radius, cos_half):
-    """Give each marker slot in ``slots`` its best bud among all buds (bud grid: ``bud_order`` by cell)."""
+    """Give each marker slot in ``slots`` its best bud among all buds (bud grid: ``bud_order`` by cell).
+
+    Buds outside the grid are clamped into its border cells, so every cell within reach is scanned (no gap test).
+    """
     vr2 = view_radius * view_radius
+    cells, gaps = _cell_buffers(reach)
     for t in range(slots.shape[0]):
         s = slots[t]
         mx = pos_s[s, 0]
         my = pos_s[s, 1]
         mz = pos_s[s, 2]
-        ilo, ihi = _cell_range(mx, origin, h, dims, reach, 0)
-        jlo, jhi = _cell_range(my, origin, h, dims, reach, 1)
-        klo, khi = _cell_range(mz, origin, h, dims, reach, 2)
-        for ci in range(ilo, ihi + 1):
-            for cj in range(jlo, jhi + 1):
-                for ck in range(klo, khi + 1):
-                    c = (ci * dims[1] + cj) * dims[2] + ck
-                    for u in range(bud_cell_start[c], bud_cell_start[c + 1]):
-                        b = bud_order[u]
-                        vx = mx - bud_pos[b, 0]
-                        vy = my - bud_pos[b, 1]
-                        vz = mz - bud_pos[b, 2]
-                        d2 = vx * vx + vy * vy + vz * vz
-                        if d2 > vr2 * 1.0000001 or d2 == 0.0:
-                            continue
-                        d = math.sqrt(d2)
-                        if d > view_radius:
-                            continue
-                        if vx * bud_dir[b, 0] + vy * bud_dir[b, 1] + vz * bud_dir[b, 2] < d * cos_half:
-                            continue
-                        key = d / bud_len[b]
-                        o = owner[s]
-                        if key < best[s] or (key == best[s] and o >= 0 and b < o):
-                            best[s] = key
-                            owner[s] = b
-                            owner_in[orig[s]] = b
+        for q in range(_ball_cells(mx, my, mz, np.inf, origin, h, dims, reach, cells, gaps)):
+            c = cells[q]
+            for u in range(bud_cell_start[c], bud_cell_start[c + 1]):
+                b = bud_order[u]
+                vx = mx - bud_pos[b, 0]
+                vy = my - bud_pos[b, 1]
+                vz = mz - bud_pos[b, 2]
+                d2 = vx * vx + vy * vy + vz * vz
+                if d2 > vr2 * 1.0000001 or d2 == 0.0:
+                    continue
+                d = math.sqrt(d2)
+                if d > view_radius:
+                    continue
+                if vx * bud_dir[b, 0] + vy * bud_dir[b, 1] + vz * bud_dir[b, 2] < d * cos_half:
+                    continue
+                key = d / bud_len[b]
+                o = owner[s]
+                if key < best[s] or (key == best[s] and o >= 0 and b < o):
+                    best[s] = key
+                    owner[s] = b
+                    owner_in[orig[s]] = b
 
 
 @numba.njit(cache=True, nogil=True)
 def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live, pos_s, orig, owner, best, owner_in):
     """Swap-remove live markers with squared distance < ``r2`` to any of ``points``; returns the count."""
     killed = 0
+    cells, gaps = _cell_buffers(reach)
     for j in range(points.shape[0]):
         px = points[j, 0]
         py = points[j, 1]
         pz = points[j, 2]
-        ilo, ihi = _cell_range(px, origin, h, dims, reach, 0)
-        jlo, jhi = _cell_range(py, origin, h, dims, reach, 1)
-        klo, khi = _cell_range(pz, origin, h, dims, reach, 2)
-        for ci in range(ilo, ihi + 1):
-            for cj in range(jlo, jhi + 1):
-                for ck in range(klo, khi + 1):
-                    c = (ci * dims[1] + cj) * dims[2] + ck
-                    if _box_gap2(px, py, pz, origin, h, ci, cj, ck) >= r2:
-                        continue
-                    start = cell_start[c]
-                    end = start + cell_live[c]
-                    s = start
-                    while s < end:
-                        dx = pos_s[s, 0] - px
-                        dy = pos_s[s, 1] - py
-                        dz = pos_s[s, 2] - pz
-                        if dx * dx + dy * dy + dz * dz < r2:
-                            owner_in[orig[s]] = -1
-                            end -= 1
-                            for a in range(3):
-                                t = pos_s[s, a]
-                                pos_s[s, a] = pos_s[end, a]
-                                pos_s[end, a] = t
-                            t2 = orig[s]
-                            orig[s] = orig[end]
-                            orig[end] = t2
-                            t3 = owner[s]
-                            owner[s] = owner[end]
-                            owner[end] = t3
-                            t4 = best[s]
-                            best[s] = best[end]
-                            best[end] = t4
-                            killed += 1
-                            continue
-                        s += 1
-                    cell_live[c] = end - start
+        for q in range(_ball_cells(px, py, pz, r2, origin, h, dims, reach, cells, gaps)):
+            c = cells[q]
+            start = cell_start[c]
+            end = start + cell_live[c]
+            s = start
+            while s < end:
+                dx = pos_s[s, 0] - px
+                dy = pos_s[s, 1] - py
+                dz = pos_s[s, 2] - pz
+                if dx * dx + dy * dy + dz * dz < r2:
+                    owner_in[orig[s]] = -1
+                    end -= 1
+                    _swap_out(s, end, pos_s, orig, owner, best)
+                    killed += 1
+                    continue
+                s += 1
+            cell_live[c] = end - start
     return killed
