@@ -57,6 +57,11 @@ class _Buds:
                        (self.node, self.slot, self.pos, self.dir, self.length, self.vigor)))
 
 
+def sum_per_bud(owner: np.ndarray, values: np.ndarray, n_buds: int) -> np.ndarray:
+    """(n_buds, 3) sums of the rows of ``values`` (M, 3) grouped by ``owner`` (M,) in [0, n_buds)."""
+    return np.stack([np.bincount(owner, values[:, k], n_buds) for k in range(3)], 1)
+
+
 class GrowthEngine:
     """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict."""
 
@@ -267,7 +272,7 @@ class GrowthEngine:
         grow = np.flatnonzero(count > 0)
         if not len(grow):
             return 0
-        sums = np.stack([np.bincount(owner[hit], self.markers[hit, k], len(buds.node)) for k in range(3)], 1)
+        sums = sum_per_bud(owner[hit], self.markers[hit], len(buds.node))
         b = buds.dir[grow]
         e = normalize(sums[grow] / count[grow, None] - buds.pos[grow], fallback=b)
         node, slot = buds.node[grow], buds.slot[grow]

@@ -36,7 +36,7 @@ import numpy as np
 from .._validation import check_array, check_choice, check_int, check_point, check_points, check_range
 from .bending import BendResult, bend_path, pipe_widths
 from .directions import _rotate, bud_headings, normalize, transport_lateral
-from .engine import GrowthEngine, _Buds
+from .engine import GrowthEngine, _Buds, sum_per_bud
 from .tree import BUD, NO_SLOT
 
 __all__ = [
@@ -715,12 +715,12 @@ class SketchEngine(GrowthEngine):
         # E = normalize(sum of unit vectors to the selecting markers), spec §1.3.1 [INFERRED]
         o = owner[hit]
         u = normalize(self.markers[hit] - buds.pos[o])
-        sums = np.stack([np.bincount(o, u[:, k], len(buds.node)) for k in range(3)], 1)
+        sums = sum_per_bud(o, u, len(buds.node))
         E = normalize(sums[grow], fallback=buds.dir[grow])
         S = None
         if self.sketch["stroke_tropism"] and self._stroke_dirs:  # §2.7: T = mean stroke direction
             sd = self.stroke_directions(self.markers[hit])
-            ssum = np.stack([np.bincount(o, sd[:, k], len(buds.node)) for k in range(3)], 1)[grow]
+            ssum = sum_per_bud(o, sd, len(buds.node))[grow]
             S = np.linalg.norm(ssum, axis=1) > 1e-12
             ssum[S] /= np.linalg.norm(ssum[S], axis=1)[:, None]
         al, be, ga = barycentric(p["w_heading"], p["w_tropism"], p["w_env"])
