@@ -4,11 +4,16 @@ update, beside a full recompute of every proxy label (numba kernel and its numpy
 Mesh: a synthetic flower head tiled to the gerbera class (18 M vertices / 36 M faces) or, with ``--quick``,
 to 300 k vertices. The proxy budget defaults to 1.5 M triangles (``--quick``: 60 k).
 
-Run: ``python benchmarks/vine_proxy.py [--quick] [--vertices N] [--faces F]``.
+Memory: peak RSS of the process (``ru_maxrss``, mesh and segmentation included). The baseline is the one-pass
+build (``chunk_faces`` above the mesh size: fast-simplification sees the whole mesh), run in a forked child
+from the same state so its peak is comparable; ``--no-baseline`` skips it (at 36 M faces it needs ~16 GiB).
+
+Run: ``python benchmarks/vine_proxy.py [--quick] [--vertices N] [--faces F] [--chunk-faces C] [--no-baseline]``.
 """
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import resource
 import time
 
@@ -22,6 +27,37 @@ from plantvr.vine.synth import synth_flowerhead, tile_mesh
 
 def _rss_gib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20
+
+
+def _current_rss_gib() -> float:
+    with open("/proc/self/status") as fh:
+        for line in fh:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 2 ** 20
+    return float("nan")
+
+
+def _one_pass_child(seg, budget, conn) -> None:
+    """Forked child: the one-pass build (no chunking); reports (seconds, peak RSS GiB, RSS at start GiB)."""
+    start = _current_rss_gib()
+    t = time.perf_counter()
+    px = DisplayProxy(seg, target_faces=budget, chunk_faces=2 ** 31 - 1, observe=False)
+    conn.send((time.perf_counter() - t, _rss_gib(), start, px.n_vertices))
+    conn.close()
+
+
+def _one_pass_baseline(seg, budget) -> tuple[float, float, float, int] | None:
+    ctx = multiprocessing.get_context("fork")
+    recv, send = ctx.Pipe(duplex=False)
+    p = ctx.Process(target=_one_pass_child, args=(seg, budget, send))
+    p.start()
+    send.close()
+    try:
+        res = recv.recv()
+    except EOFError:                                          # killed (out of memory)
+        res = None
+    p.join()
+    return res
 
 
 def _radius_for(seg: Segmentation, c, hits: int) -> float:
@@ -42,6 +78,9 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--quick", action="store_true", help="300k vertices (CI)")
     ap.add_argument("--vertices", type=int, default=None, help="target vertex count (default 18M)")
     ap.add_argument("--faces", type=int, default=None, help="proxy triangle budget (default 1.5M)")
+    ap.add_argument("--chunk-faces", type=int, default=6_000_000,
+                    help="most faces per fast-simplification call (DisplayProxy chunk_faces)")
+    ap.add_argument("--no-baseline", action="store_true", help="skip the one-pass build in a forked child")
     a = ap.parse_args(argv)
     n_target = a.vertices or (300_000 if a.quick else 18_000_000)
     budget = a.faces or (60_000 if a.quick else 1_500_000)
@@ -52,19 +91,31 @@ def main(argv: list[str] | None = None) -> dict:
     v, f = tile_mesh(s.vertices, s.faces, n_target)
     del head, s
     seg = Segmentation(v, f)
-    print(f"mesh: {seg.n_vertices:,} vertices, {len(f):,} faces; proxy budget {budget:,} triangles; "
-          f"peak RSS so far {_rss_gib():.2f} GiB")
-    out: dict = {"vertices": seg.n_vertices, "faces": len(f), "budget": budget}
+    del v, f
+    before = _current_rss_gib()
+    print(f"mesh: {seg.n_vertices:,} vertices, {len(seg.faces):,} faces; proxy budget {budget:,} triangles; "
+          f"RSS before the build {before:.2f} GiB (peak so far {_rss_gib():.2f} GiB)", flush=True)
+    out: dict = {"vertices": seg.n_vertices, "faces": len(seg.faces), "budget": budget, "rss_before_gib": before}
+    base = None if a.no_baseline else _one_pass_baseline(seg, budget)
+    if base is not None:
+        out.update(one_pass_build_s=base[0], one_pass_peak_rss_gib=base[1])
+        print(f"baseline one-pass build (fast-simplification on the whole mesh, forked child): {base[0]:.2f} s, "
+              f"peak RSS {base[1]:.2f} GiB, {base[3]:,} proxy vertices", flush=True)
+    elif not a.no_baseline:
+        print("baseline one-pass build: the child died (out of memory?)", flush=True)
 
     t = time.perf_counter()
-    px = DisplayProxy(seg, target_faces=budget)
+    px = DisplayProxy(seg, target_faces=budget, chunk_faces=a.chunk_faces)
     build = time.perf_counter() - t
+    peak = _rss_gib()
     out.update(build_s=build, proxy_vertices=px.n_vertices, proxy_faces=len(px.faces),
-               mapping_bytes_per_vertex=px.nbytes / seg.n_vertices, peak_rss_gib=_rss_gib(),
+               mapping_bytes_per_vertex=px.nbytes / seg.n_vertices, peak_rss_gib=peak,
                **{f"{k}_s": val for k, val in px.timings.items()})
-    print(f"proxy build {build:.2f} s ({', '.join(f'{k} {val:.2f} s' for k, val in px.timings.items())}): "
+    vs = f"  vs one-pass {base[0]:.2f} s, {base[1]:.2f} GiB" if base is not None else ""
+    print(f"proxy build (chunk_faces {a.chunk_faces:,}) {build:.2f} s "
+          f"({', '.join(f'{k} {val:.2f} s' for k, val in px.timings.items())}): "
           f"{px.n_vertices:,} vertices, {len(px.faces):,} faces; mapping {px.nbytes / seg.n_vertices:.1f} B/vertex; "
-          f"peak RSS {_rss_gib():.2f} GiB")
+          f"peak RSS {peak:.2f} GiB{vs}", flush=True)
 
     # baselines: full recompute of all proxy labels
     reps = 3

@@ -13,7 +13,7 @@ import numpy as np
 
 from plantvr._validation import check_int, check_range
 
-__all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "tile_mesh", "vertex_labels_from_volume"]
+__all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "synth_vessels", "tile_mesh", "vertex_labels_from_volume"]
 
 #: Component names by label index (0 = background / unpainted).
 COMPONENTS = ("background", "stem", "receptacle", "centrifugal", "centripetal", "floret_vein",
@@ -226,6 +226,81 @@ def synth_flowerhead(shape: int | tuple[int, int, int] = 64, *, n_veins: int = 8
             vol[i:i + 16] = np.clip(np.rint(sl), 0, 255).astype(np.uint8)
     out = vol
     return FlowerHead(volume=out, labels=lab, level=_LEVEL)
+
+
+def synth_vessels(shape: int | tuple[int, int, int] = (256, 256, 128), *, n_trees: int | None = None,
+                  depth: int = 6, radius: float | None = None, noise_level: float = 4.0,
+                  rng: int | np.random.Generator | None = 0) -> tuple[np.ndarray, float]:
+    """Make a large synthetic vessel volume: branching tubes rising from the bottom, intensity only (issue 14).
+
+    Meant for isosurface benchmarks at the 1624x1624x710 class: it writes no label volume (1 byte per voxel in
+    all) and its surface grows with the volume's cross-section like a scanned flower head's vascular bundle.
+
+    Parameters
+    ----------
+    shape : int or tuple of 3 int
+        Volume size in voxels (X, Y, Z); an int gives a cube. Each in [16, 4096]. Axis 2 is "up".
+    n_trees : int, optional
+        Vessel trees, in [1, 100000]; default one per 96x96 voxels of the (X, Y) cross-section, which at
+        1624x1624x710 gives a gerbera-class surface (~35 M triangles).
+    depth : int
+        Branching generations per tree (each tube splits in two), in [1, 12].
+    radius : float, optional
+        Root tube radius in voxels, in [0.5, 1000]; default 4. Children are 0.75x.
+    noise_level : float
+        Standard deviation of additive Gaussian intensity noise, in grey levels, in [0, 50].
+    rng : int, numpy.random.Generator or None
+        Seed for the random placement.
+
+    Returns
+    -------
+    volume : (X, Y, Z) uint8 ndarray
+    level : float
+        Suggested iso-value (half the vessel contrast, off the integer grid).
+    """
+    if isinstance(shape, (int, np.integer)):
+        shape = (shape, shape, shape)
+    if len(tuple(shape)) != 3:
+        raise ValueError(f"shape must be an int or 3 ints, got {shape!r}")
+    shape = tuple(check_int("shape", s, 16, 4096) for s in shape)
+    sx, sy, sz = (float(s) for s in shape)
+    if n_trees is None:
+        n_trees = max(1, int(sx * sy / 96 ** 2))
+    n_trees = check_int("n_trees", n_trees, 1, 100000)
+    depth = check_int("depth", depth, 1, 12)
+    radius = check_range("radius", 4.0 if radius is None else radius, 0.5, 1000.0)
+    noise_level = check_range("noise_level", noise_level, 0.0, 50.0)
+    rng = np.random.default_rng(rng)
+    contrast = float(_CONTRAST[3])
+    caps = []
+    seg_len = sz / (depth + 1)
+    for _ in range(n_trees):
+        stack = [(np.array([rng.uniform(0, sx - 1), rng.uniform(0, sy - 1), 0.0]), np.array([0.0, 0.0, 1.0]),
+                  radius, 0)]
+        while stack:
+            p, d, r, g = stack.pop()
+            d = d + rng.normal(0, 0.35, 3)
+            d[2] = abs(d[2]) + 0.3                              # keep rising
+            d /= np.linalg.norm(d)
+            q = p + seg_len * rng.uniform(0.7, 1.2) * d
+            bend = 0.5 * (p + q) + rng.normal(0, 0.15 * seg_len, 3)
+            caps += _polyline(_bezier(p, bend, q, 6), r, 0.9 * r, 3)
+            if g + 1 < depth:
+                side = np.cross(d, rng.normal(size=3))
+                side /= np.linalg.norm(side) + 1e-12
+                for sgn in (1.0, -1.0):
+                    stack.append((q, d + 0.6 * sgn * side, 0.75 * r, g + 1))
+    cap = np.asarray(caps, np.float64)
+    cap[:, 9] = contrast
+    vol = np.zeros(shape, np.uint8)
+    _stamp_capsules(vol, np.zeros((1, 1, 1), np.uint8), cap, 1.5, np.inf)   # thr = inf: no label writes
+    if noise_level > 0:
+        for i in range(0, shape[0], 16):                      # slab by slab: the float temporary stays small
+            sl = vol[i:i + 16].astype(np.float32)
+            sl += noise_level * rng.standard_normal(sl.shape, dtype=np.float32)
+            np.clip(np.rint(sl, out=sl), 0, 255, out=sl)
+            vol[i:i + 16] = sl
+    return vol, 0.5 * contrast - 0.5
 
 
 def vertex_labels_from_volume(vertices: np.ndarray, volume: np.ndarray, labels: np.ndarray) -> np.ndarray:

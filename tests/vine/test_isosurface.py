@@ -156,3 +156,19 @@ def test_memmapped_npy_is_meshed_slab_by_slab(tmp_path, head):
     b = extract_isosurface(head.volume, head.level, slab=8)
     assert a.vertices.dtype == np.float32 and a.faces.dtype == np.uint32
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.faces, b.faces)
+
+
+def test_synth_vessels_is_deterministic_and_meshes_like_skimage():
+    from plantvr.vine.synth import synth_vessels
+    vol, level = synth_vessels((64, 64, 48), n_trees=3, depth=4, rng=2)
+    again, _ = synth_vessels((64, 64, 48), n_trees=3, depth=4, rng=2)
+    assert vol.dtype == np.uint8 and np.array_equal(vol, again)
+    assert 0.001 < (vol > level).mean() < 0.2                            # thin tubes, mostly background
+    fe = extract_isosurface(vol, level, slab=9)
+    sk = extract_isosurface(vol, level, slab=9, method="skimage")
+    a, b = _row_set(fe.vertices), _row_set(sk.vertices)
+    assert len(fe.faces) > 1000 and a <= b and len(b - a) <= 1e-3 * len(b)
+    with pytest.raises(ValueError, match="depth"):
+        synth_vessels(32, depth=0)
+    with pytest.raises(ValueError, match="shape"):
+        synth_vessels((32, 32))
