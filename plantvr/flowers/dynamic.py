@@ -241,6 +241,7 @@ class DynamicPhyllotaxis:
         self._front: list[int] = []
         self._alpha: list[float] = []
         self._override: dict[int, float] = {}
+        self._last_alpha: dict[int, float] = {}
         self._next_prod = 0.0
         self._stopped = [False, False]                        # per front, fractionation only
         self.frame = self._layout()
@@ -252,8 +253,9 @@ class DynamicPhyllotaxis:
         return len(self._birth)
 
     def _add(self, front: int, birth: float) -> None:
-        prev = [a for a, f in zip(self._alpha, self._front) if f == front]
-        self._alpha.append(prev[-1] + self.divergence if prev else self.alpha0)
+        prev = self._last_alpha.get(front)
+        self._alpha.append(self.alpha0 if prev is None else prev + self.divergence)
+        self._last_alpha[front] = self._alpha[-1]
         self._front.append(front)
         self._birth.append(birth)
 
@@ -322,16 +324,25 @@ class DynamicPhyllotaxis:
                       + _eval("inner_rate", self.inner_rate, t1)) * dt
         g_out = 0.5 * (_eval("outer_rate", self.outer_rate, t0)
                        + _eval("outer_rate", self.outer_rate, t1)) * dt
-        a_before = self.inner_area
-        self.inner_area += g_in
-        self.outer_area += g_out
-        if self.mode == "segregation":
-            self._produce_segregation(t0, dt, a_before)
-        else:
-            self._produce_fractionation(t1)
-        self.t = t1
-        self.frame = self._layout()
-        return self.frame
+        saved = (self.t, self.inner_area, self.outer_area, self.n, self._next_prod, list(self._stopped),
+                 dict(self._last_alpha))
+        try:
+            a_before = self.inner_area
+            self.inner_area += g_in
+            self.outer_area += g_out
+            if self.mode == "segregation":
+                self._produce_segregation(t0, dt, a_before)
+            else:
+                self._produce_fractionation(t1)
+            self.t = t1
+            frame = self._layout()                 # may call user functions that reject their input
+        except ValueError:
+            (self.t, self.inner_area, self.outer_area, n, self._next_prod, self._stopped,
+             self._last_alpha) = saved
+            del self._birth[n:], self._front[n:], self._alpha[n:]
+            raise
+        self.frame = frame
+        return frame
 
     def run(self, steps: int, dt: float) -> list[DynamicFrame]:
         """Run ``steps`` steps of length ``dt`` and return every frame (the RBA series of §3.8)."""
@@ -343,8 +354,22 @@ class DynamicPhyllotaxis:
     def _areas(self) -> np.ndarray:
         birth = np.asarray(self._birth, dtype=np.float64)
         if callable(self.primordium_area):
-            a = np.array([_eval("primordium_area", self.primordium_area, self.t - b, positive=True)
-                          for b in birth])
+            a = None
+            try:                                   # one vectorised call when the function takes arrays
+                with np.errstate(all="ignore"):
+                    v = np.asarray(self.primordium_area(self.t - birth), dtype=np.float64)
+                if v.shape == birth.shape:
+                    a = v.copy()
+            except (TypeError, ValueError):
+                a = None
+            if a is None:
+                a = np.array([_eval("primordium_area", self.primordium_area, self.t - b, positive=True)
+                              for b in birth], dtype=np.float64).reshape(birth.shape)
+            bad = ~(np.isfinite(a) & (a > 0))
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
+                raise ValueError(f"primordium_area({self.t - birth[k]!r}) must return a finite positive "
+                                 f"number, got {a[k]!r}")
         else:
             a = np.full(birth.size, float(self.primordium_area))
         for i, v in self._override.items():

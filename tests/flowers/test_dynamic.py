@@ -10,6 +10,7 @@ from plantvr.flowers import (
     cone_receptacle,
     disc_receptacle,
     dome_receptacle,
+    parastichy_numbers,
 )
 from plantvr.flowers.dynamic import FRONT_IN, FRONT_OUT, DynamicPhyllotaxis
 from plantvr.flowers.phyllotaxis import _band_integral
@@ -146,3 +147,39 @@ def test_bad_input():
     with pytest.raises(ValueError, match="dt must be in"):
         dyn.step(-1.0)
     assert dyn.frame is before and dyn.t == 0.0
+    dyn = DynamicPhyllotaxis(mode="segregation", inner_area=0.01, inner_rate=0.01, threshold=0.02,
+                             primordium_area=lambda a: 0.01 * (2.0 - a))          # negative after age 2
+    dyn.run(2, 1.0)
+    assert dyn.n == 1
+    state = (dyn.t, dyn.n, dyn.inner_area, dyn.frame)
+    with pytest.raises(ValueError, match="primordium_area"):
+        dyn.run(5, 1.0)
+    assert (dyn.t, dyn.n, dyn.inner_area, dyn.frame) == state                # a failed step changes nothing
+
+
+FIB = {1, 2, 3, 5, 8, 13, 21, 34, 55, 89, 144}
+
+
+@pytest.mark.parametrize("mode", ["centripetal", "segregation", "divergent"])
+def test_dynamic_patterns_have_fibonacci_parastichies(mode):
+    if mode == "segregation":
+        dyn = DynamicPhyllotaxis(dome_receptacle(1.0, 0.5), mode="segregation", inner_area=0.02,
+                                 inner_rate=0.02, threshold=0.03,
+                                 primordium_area=lambda a: 0.01 * np.exp(0.002 * a))
+        fr = dyn.run(300, 1.0)[-1]
+    elif mode == "centripetal":
+        dyn = DynamicPhyllotaxis(mode="centripetal", inner_area=np.pi, inner_rate=0.002, dt_prod=0.5,
+                                 primordium_area=lambda a: 0.005 * (1 + 0.01 * a))
+        fr = dyn.run(300, 1.0)[-1]
+    else:
+        dyn = DynamicPhyllotaxis(mode="divergent", inner_area=1.5, outer_area=1.5, primordium_area=0.005)
+        fr = dyn.run(400, 1.0)[-1]
+    checked = 0
+    for f in (FRONT_IN, FRONT_OUT):
+        idx = np.flatnonzero(fr.front == f)
+        if idx.size < 250:
+            continue
+        par = parastichy_numbers(fr.position[idx], select=np.arange(100, 250))
+        assert set(par) <= FIB and par[1] > par[0] >= 13
+        checked += 1
+    assert checked == (2 if mode == "divergent" else 1)
