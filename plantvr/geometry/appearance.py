@@ -125,8 +125,8 @@ class _Layout:
     sides: np.ndarray
 
 
-def _axis_layout(seg, u_steps: int, sides_of_axis: dict) -> _Layout:
-    sides = np.array([sides_of_axis[a] for a in seg.axis.tolist()], np.int64)
+def _axis_layout(seg, u_steps: int, axes: np.ndarray, axis_sides: np.ndarray) -> _Layout:
+    sides = axis_sides[np.searchsorted(axes, seg.axis)]  # axes sorted (np.unique)
     cnt = ring_counts(sides, sides, u_steps)
     cap_s = (seg.caps & K.CAP_START) > 0
     cap_e = (seg.caps & K.CAP_END) > 0
@@ -190,7 +190,7 @@ def thickest_path_mesh(pos, parent, radius, *, alive=None, tip_radius: float | N
     axes = np.unique(seg.axis)
     start = np.where(axes == 0, max(int(main[0]), 0), axes)
     sides = contour_sides(2.0 * radius[start], d_e=2.0 * tip_radius, n=side_exponent, c_max=c_max)
-    lay = _axis_layout(seg, u_steps, dict(zip(axes.tolist(), sides.tolist())))
+    lay = _axis_layout(seg, u_steps, axes, sides)
     V, NRM, UV, NID, F = _alloc(int(lay.v_off[-1]), int(lay.f_off[-1]))
     K._eval_segments_numba(seg.records, lay.counts, u_steps, seg.nodes, seg.caps,
                            np.arange(len(seg), dtype=np.int64), lay.v_off, lay.f_off, float(bark_repeat),

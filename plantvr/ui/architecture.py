@@ -84,7 +84,7 @@ def ellipse_rays(s_v: float, s_p: float, e_v: float, *, n: int = 16) -> tuple[np
     return chi, ellipse_distance(chi, s_v=s_v, s_p=s_p, e_v=e_v)
 
 
-def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iterations: int = 14, seed: int = 0,
+def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iterations: int = 12, seed: int = 0,
                    slab: float = 0.5, point_density: int = 4) -> np.ndarray:
     """The 2D schematic tree: the same growth model constrained to the plane z = 0 (spec 004 §2.3 item 1).
 
@@ -354,7 +354,7 @@ class SchematicTree(_StateWidget):
     build_ms = traitlets.Float(0.0).tag(sync=True)
     _synced = ("tropism_angle",)
 
-    def __init__(self, state: ArchitectureState, *, iterations: int = 14, **kwargs):
+    def __init__(self, state: ArchitectureState, *, iterations: int = 12, **kwargs):
         self.iterations = iterations
         self._key = None
         super().__init__(state, **kwargs)
@@ -502,7 +502,7 @@ class ArchitecturePanel(W.VBox):
         Sliders and switches by parameter name.
     """
 
-    def __init__(self, target, *, schematic_iterations: int = 14):
+    def __init__(self, target, *, schematic_iterations: int = 12):
         state = target if isinstance(target, ArchitectureState) else ArchitectureState(target)
         self.state = state
         self.schematic = SchematicTree(state, iterations=schematic_iterations)

@@ -91,6 +91,19 @@ def test_ts_v28_thickest_path_mesh_tubes_closed_three_sides_at_tips(tree):
         assert tm.is_watertight and tm.is_winding_consistent and tm.volume > 0
 
 
+def test_ts_v28_no_lateral_thicker_than_its_continuation(tree):
+    # the crack of Fig. C.7: a lateral tube wider than the tube continuing through its node; the thickest path
+    # never has one, while the apex-path (growth) topology of the same tree does
+    pos, parent, radius = tree
+    _, _, _, apex_main = random_tree(250, seed=3, tip_radius=0.01)
+
+    def cracks(main):
+        lat = np.flatnonzero((parent > 0) & (main[np.maximum(parent, 0)] != np.arange(len(parent))))
+        return int(np.sum(radius[lat] > radius[main[parent[lat]]] * (1 + 1e-12)))
+    assert cracks(thickest_main_child(parent, radius)) == 0
+    assert cracks(apex_main) > 0
+
+
 def test_thickest_path_mesh_matches_library_mesh_with_fixed_sides(tree):
     pos, parent, radius = tree
     ours = thickest_path_mesh(pos, parent, radius, c_max=3)  # every branch 3-sided
