@@ -10,6 +10,11 @@ autonomously (spec §3.7) inside its crown space: the multiplicatively weighted 
 neighbours (a stand-in for the layered boundary propagation of §3.5, which it resembles without the
 connectedness guarantee) capped at h_max = crown_height + crown_radius, where growth halts.
 
+With ``regions="voxels"`` the crown spaces come from the competition for crown space on layered voxels
+(:mod:`plantvr.landscape.crowns`, spec §3.5): every tree keeps its markers (painted, or autonomous with
+``sketch=``) inside the voxels it claimed, and :func:`regrow_tree` regrows one tree from its seed state while every
+other tree is carried over unchanged (§3.8).
+
 Tasks ship a plain state (the engine's pickled state: tree arrays, markers, RNG state) and rebuild the engine on
 the worker, so the result depends only on the seed: a synchronous run, a 2-worker LocalCluster and a multi-machine cluster give the same
 bytes. ``client=None`` starts a LocalCluster (2 workers) and closes it afterwards; ``client="sync"`` (or dask
@@ -23,7 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import check_choice, check_int, check_range
+from .._validation import check_array, check_choice, check_int, check_range
 from ..growth.engine import GrowthEngine
 from ..growth.sketch import SketchEngine
 from ..params import defaults
@@ -256,7 +261,8 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 compete: bool = True, tasks_per_round: int | None = None, geometry: bool = False,
                 sketch: dict[str, Any] | None = None, lean: bool = False, regions: str = "voronoi",
                 voxel_shape: tuple[int, int, int] = (20, 128, 128),
-                scale_range: tuple[float, float] = (1.0, 1.0)) -> Forest:
+                scale_range: tuple[float, float] = (1.0, 1.0), positions: np.ndarray | None = None,
+                scales: np.ndarray | None = None) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -291,6 +297,11 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     scale_range : (float, float)
         Per-tree scale S_i drawn uniformly (its own seeded stream): crown height and radius, h_max and the
         crown area (competition rate, Voronoi weight S^2) scale with it. (1, 1) keeps every tree equal.
+    positions : (N, 2) float64 array, optional
+        Tree bases (x, z) in metres, e.g. a :func:`~plantvr.landscape.distribution.distribute` result's ``xy``,
+        instead of the Poisson-disc placement (``n_trees`` and ``min_dist`` are then not used).
+    scales : (N,) float64 array, optional
+        Per-tree scales S_i (> 0) instead of ``scale_range`` (e.g. the distribution's ``scale``).
 
     Returns
     -------
@@ -322,12 +333,20 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     p = {**defaults(), **(params or {})}
     rng = np.random.default_rng(seed)
     hf = heightfield((64, 64), amplitude=terrain_amplitude, rng=rng)
-    xz = poisson_disc(size, min_dist, max_points=n_trees, rng=rng)
+    if positions is None:
+        xz = poisson_disc(size, min_dist, max_points=n_trees, rng=rng)
+    else:
+        xz = check_array("positions", positions, shape=(None, 2), min_rows=1)
+        if np.any(xz < 0) or np.any(xz > size):
+            raise ValueError(f"positions must lie in [0, {size[0]}] x [0, {size[1]}]")
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
     if sketch is not None and not isinstance(sketch, dict):
         raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
-    scales = None
-    if (s_lo, s_hi) != (1.0, 1.0):
+    if scales is not None:
+        scales = check_array("scales", scales, shape=(len(bases),))
+        if not np.all(scales > 0):
+            raise ValueError(f"scales must be positive, got min {scales.min()!r}")
+    elif (s_lo, s_hi) != (1.0, 1.0):
         scales = np.random.default_rng([seed, 0x5CA1E]).uniform(s_lo, s_hi, len(bases))
     states, voxels = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean),
                                   regions, scales, voxel_shape)

@@ -218,3 +218,27 @@ def test_forest_regions_validation():
         grow_forest(2, client="sync", regions="voxels", voxel_shape=(0, 8, 8))
     with pytest.raises(ValueError, match="scale_range"):
         grow_forest(2, client="sync", scale_range=(2.0, 1.0))
+
+
+def test_ts_v27_crown_centroids_more_uniform_than_clustered_bases():
+    """Fig. 6.24 on generated landscapes: clustered bases (deformation kernels), crowns grown in their voxels,
+    then with the neighbourhood-asymmetry tropism; K(5) - 25 pi of the crown centroids is closer to uniform than
+    the bases', and lower again with the tropism, in >= 4 of 5 seeds."""
+    from plantvr.landscape import Species, distribute, ripley_k
+
+    def excess(xz):
+        return float(np.ravel(ripley_k(xz, 5.0, box=(30.0, 30.0)))[0] - 25 * np.pi)
+
+    wins_bases = wins_na = 0
+    for seed in range(5):
+        d = distribute(30, [Species(1.0, 1.0, (0.7, 1.4))], {(0, 0): ("cluster", 4.0, 6.0)}, rng=seed)
+        kw = {"size": (30.0, 30.0), "rounds": 2, "steps_per_round": 4, "crown_height": 3.0, "crown_radius": 2.5,
+              "seed": seed, "client": "sync", "positions": d.xy, "scales": d.scale, "regions": "voxels",
+              "voxel_shape": (10, 96, 96), "sketch": {"n_max": 2, "bud_lifetime": 6},
+              "params": {"activation_threshold": 0.0, "length_mode": "constant", "w_tropism": 0.3, "w_heading": 0.3,
+                         "w_env": 0.4, "tropism_angle": 20.0}}
+        k = [excess(np.array([t["pos"][t["alive"]][:, [0, 2]].mean(0) for t in grow_forest(30, lean=lean, **kw).trees]))
+             for lean in (False, True)]
+        wins_bases += k[1] < excess(d.xy)
+        wins_na += k[1] < k[0]
+    assert wins_bases >= 4 and wins_na >= 4
