@@ -356,8 +356,12 @@ class FloretMesh:
 
 
 def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.ndarray = "linear",
-                 lam: float | Callable = 0.2, eta: float | Callable = 5, weld_tol: float = 1e-9) -> FloretMesh:
+                 lam: float | Callable = 0.2, eta: float | Callable = 5, weld_tol: float = 1e-9,
+                 weld: bool = True) -> FloretMesh:
     """Sample a floret's development as frames with one fixed topology (spec 002 §2.2–§2.4).
+
+    Vertices closer than ``weld_tol`` times the floret's size in the first frame (fused seams, the shared
+    base points of the petals) are welded into one; ``weld=False`` keeps every petal a separate sheet.
 
     Raises
     ------
@@ -373,6 +377,7 @@ def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.n
                              f"n_fold {p.n_fold}, fused rows {p.fused_rows}) from pose 0 "
                              f"({np.shape(p0.petal)}, {p0.n_fold}, {p0.fused_rows})")
     n_frames = check_int("n_frames", n_frames, 2, 100_000)
+    weld_tol = check_range("weld_tol", weld_tol, 0.0, 1.0)
     gf = growth_function(growth)
     uv, tri, _ = polygonize_uv(lam, eta)
     nets = [p.net() for p in poses]
@@ -389,7 +394,7 @@ def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.n
     # weld coincident vertices (fused seams, shared base points), found on the first frame
     X = frames_raw[0]
     scale = float(np.ptp(X, axis=0).max()) or 1.0
-    pairs = cKDTree(X).query_pairs(weld_tol * scale, output_type="ndarray")
+    pairs = cKDTree(X).query_pairs(weld_tol * scale, output_type="ndarray") if weld else np.zeros((0, 2), int)
     rep = np.arange(len(X))
     for a, b in sorted(map(tuple, np.sort(pairs, axis=1))):
         ra, rb = rep[a], rep[b]

@@ -30,3 +30,7 @@ def explorer(model, *, view=None):
 
 __all__ += ["AngleWidget", "ArchitecturePanel", "ArchitectureState", "GravimorphismEllipse", "LibraryPanel",
             "SchematicTree", "apply_preset_values", "preset_from_tree", "tree_svg"]
+
+from .floret_editor import FloretEditor  # issue 9: spec 002 floret editor
+
+__all__ += ["FloretEditor"]
