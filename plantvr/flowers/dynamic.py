@@ -193,7 +193,8 @@ class DynamicPhyllotaxis:
         (outer edge for the inner front, inner edge for the outer front; spec §4.3 layout) or at the band's
         area midpoint.
     max_primordia : int
-        Production stops after this many primordia.
+        Production stops after this many primordia, and from the next step on the inner and outer regions
+        stop growing (the meristem is used up [INFERRED]); primordia keep growing with age.
     profile_nodes : int
         Nodes per key profile when two or more keys are blended.
 
@@ -320,10 +321,11 @@ class DynamicPhyllotaxis:
         """
         dt = check_range("dt", dt, 0.0, 1e12, low_open=True)
         t0, t1 = self.t, self.t + dt
-        g_in = 0.5 * (_eval("inner_rate", self.inner_rate, t0)
-                      + _eval("inner_rate", self.inner_rate, t1)) * dt
-        g_out = 0.5 * (_eval("outer_rate", self.outer_rate, t0)
-                       + _eval("outer_rate", self.outer_rate, t1)) * dt
+        done = self.n >= self.max_primordia     # a used-up meristem stops growing (its regions stay as they are)
+        g_in = 0.0 if done else 0.5 * (_eval("inner_rate", self.inner_rate, t0)
+                                       + _eval("inner_rate", self.inner_rate, t1)) * dt
+        g_out = 0.0 if done else 0.5 * (_eval("outer_rate", self.outer_rate, t0)
+                                        + _eval("outer_rate", self.outer_rate, t1)) * dt
         saved = (self.t, self.inner_area, self.outer_area, self.n, self._next_prod, list(self._stopped),
                  dict(self._last_alpha))
         try:

@@ -183,3 +183,13 @@ def test_dynamic_patterns_have_fibonacci_parastichies(mode):
         assert set(par) <= FIB and par[1] > par[0] >= 13
         checked += 1
     assert checked == (2 if mode == "divergent" else 1)
+
+
+def test_used_up_meristem_stops_growing():
+    dyn = DynamicPhyllotaxis(mode="segregation", inner_area=0.01, inner_rate=0.01, primordium_area=0.02,
+                             threshold=0.03, max_primordia=5)
+    frames = dyn.run(40, 1.0)
+    assert frames[-1].n == 5
+    full = next(k for k, f in enumerate(frames) if f.n == 5)
+    assert frames[-1].inner_area == frames[full + 1].inner_area <= 0.03    # no naked disc growing forever
+    assert frames[-1].total_area == pytest.approx(frames[full + 1].total_area)
