@@ -102,8 +102,13 @@ def test_forest_dask_two_processes_same_bytes():
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         g = grow_forest(3, client=client, **SMALL)
+        gv = grow_forest(4, client=client, geometry=True, **VOX)  # voxel crown spaces travel with the states
     f = grow_forest(3, client="sync", **SMALL)
     _same(f, g)
+    fv = grow_forest(4, client="sync", geometry=True, **VOX)
+    _same(fv, gv)
+    assert all(a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes()
+               for a, b in zip(fv.meshes, gv.meshes))
 
 
 def test_forest_validation():
