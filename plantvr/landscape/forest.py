@@ -44,7 +44,10 @@ __all__ = ["Forest", "crown_regions", "engine_from_state", "engine_state", "fini
 @dataclass
 class Forest:
     """Grown forest: ``bases`` (N, 3) world base points (y up), ``trees`` one dict of tree arrays per tree in
-    world coordinates (``pos`` shifted by the base), ``heights`` the terrain, ``timings`` seconds per round."""
+    world coordinates (``pos`` shifted by the base), ``heights`` the terrain, ``timings`` seconds per round,
+    ``meshes`` the branch meshes (world coordinates) when grown with ``geometry=True``, ``voxels`` the crown-space
+    claims of ``regions="voxels"``, ``seeds`` every tree's initial engine state and ``config`` the growth settings
+    (both for :meth:`regrow`)."""
 
     bases: np.ndarray
     trees: list[dict[str, np.ndarray]]
