@@ -13,6 +13,7 @@ bookkeeping of V30 holds at every level.
 """
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -233,10 +234,15 @@ class HierarchicalPhyllotaxis:
             Time step (> 0).
         """
         dt = check_range("dt", dt, 0.0, 1e12, low_open=True)
-        self._advance(0, dt)
-        self.t += dt
-        self._convert()
-        self._place(0)
+        saved, t0 = copy.deepcopy(self.meristems), self.t     # a user function may fail mid-tree
+        try:
+            self._advance(0, dt)
+            self.t += dt
+            self._convert()
+            self._place(0)
+        except ValueError:
+            self.meristems, self.t = saved, t0
+            raise
 
     def run(self, steps: int, dt: float) -> None:
         """Run ``steps`` steps of length ``dt``."""

@@ -109,3 +109,22 @@ def test_bad_input():
         LevelSpec(packing=0.0)
     with pytest.raises(ValueError, match="profile must be a Receptacle"):
         LevelSpec(profile="cone")
+
+
+def test_failed_step_leaves_the_tree_unchanged():
+    H = HierarchicalPhyllotaxis(
+        [LevelSpec(primordium_area=lambda a: 0.05 * np.exp(0.3 * a), inner_rate=0.05, meristem_area=0.1,
+                   max_elements=4),
+         LevelSpec(primordium_area=lambda a: 0.01 * (3.0 - a), inner_rate=0.02, threshold=0.012)],   # < 0 at age 3
+        inner_area=0.05)
+    for _ in range(60):
+        before = (H.t, len(H.meristems), [m.pattern.n for m in H.meristems], H.florets()["position"].copy())
+        try:
+            H.step(0.5)
+        except ValueError as err:
+            assert "primordium_area" in str(err)
+            break
+    else:
+        pytest.fail("the level-1 area function never failed")
+    after = (H.t, len(H.meristems), [m.pattern.n for m in H.meristems], H.florets()["position"])
+    assert after[:3] == before[:3] and np.array_equal(after[3], before[3])
