@@ -525,9 +525,17 @@ class ArchitecturePanel(W.VBox):
             ctl.observe(lambda ch, n=name: self._from_control(n, ch["new"]), names="value")
         self.message = W.HTML("")
         state.observe(self._to_controls, names=["version"])
-        left = W.VBox([self.schematic, W.HBox([self.tropism, self.branching])])
-        right = W.VBox([W.HBox([self.ellipse, self.triangle])] + list(self.controls.values()) + [self.message])
-        super().__init__([W.HTML("<b>Architecture</b>"), W.HBox([left, right])])
+        wrap = W.Layout(flex_flow="row wrap", align_items="flex-start")
+        widgets = W.Box([self.schematic, self.tropism, self.branching, self.ellipse, self.triangle], layout=wrap)
+        sliders = [self.controls[k] for k in ("apical_dominance", "light_exponent", "shed_threshold", "n_max",
+                                              "base_length", "phyllotaxis_angle")]
+        for c in sliders:
+            c.layout = W.Layout(width="400px")
+            c.style = {"description_width": "170px"}
+        switches = W.HBox([self.controls["stroke_tropism"], self.controls["trunk_up"]])
+        super().__init__([W.HTML("<b>Architecture</b>"), widgets,
+                          W.GridBox(sliders, layout=W.Layout(grid_template_columns="repeat(auto-fill, 410px)")),
+                          switches, self.message])
 
     def _from_control(self, name: str, value) -> None:
         if getattr(self, "_syncing", False):
