@@ -27,6 +27,7 @@ __all__ = [
     "load_scene_tree",
     "parse_rba",
     "parse_scn",
+    "placements_from_arrays",
     "read_rba",
     "read_rba_sequence",
     "read_scn",
@@ -469,6 +470,43 @@ def load_scene_tree(root, rba_scenes: Mapping[int, str | Path]) -> dict[Path, li
 
 # -------------------------------------------------------------------------------------------------------
 # From phyllotaxis to files
+
+
+def placements_from_arrays(position: np.ndarray, up: np.ndarray, right: np.ndarray, scale: np.ndarray, *,
+                           kind: str = "o", object_id: int | np.ndarray = 0, extra: np.ndarray | None = None
+                           ) -> list[Placement]:
+    """SCN placements of a static pattern, e.g. :meth:`HierarchicalPhyllotaxis.florets` (spec §3.8).
+
+    Parameters
+    ----------
+    position, up, right : (n, 3) float64 array_like
+    scale : (n,) or (n, 3) float64 array_like
+        Uniform or per-axis scale.
+    kind : str
+        Entry type (one of :data:`SCN_TYPES`).
+    object_id : int or (n,) int array_like
+        Parameter-file object per placement (e.g. ray vs disc floret animation).
+    extra : (n, k) float64 array_like, optional
+        The type's own fields (k = ``len(SCN_TYPES[kind])``).
+
+    Returns
+    -------
+    list of Placement
+    """
+    kind = check_choice("kind", kind, tuple(SCN_TYPES))
+    position = check_array("position", position, shape=(None, 3))
+    n = position.shape[0]
+    up = check_array("up", up, shape=(n, 3))
+    right = check_array("right", right, shape=(n, 3))
+    scale = np.asarray(scale, dtype=np.float64)
+    if scale.ndim == 1:
+        scale = np.repeat(scale[:, None], 3, axis=1)
+    scale = check_array("scale", scale, shape=(n, 3))
+    ids = check_array("object_id", np.broadcast_to(np.asarray(object_id), (n,)), shape=(n,), dtype=np.int64)
+    k = len(SCN_TYPES[kind])
+    extra = np.zeros((n, 0)) if extra is None and k == 0 else check_array("extra", extra, shape=(n, k))
+    return [Placement(kind, int(ids[i]), position[i], scale[i], up[i], right[i], tuple(extra[i]))
+            for i in range(n)]
 
 
 def scene_from_frames(frames: Sequence, *, object_id: int = 0, kind: str = "ca",

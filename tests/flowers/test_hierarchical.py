@@ -115,7 +115,8 @@ def test_failed_step_leaves_the_tree_unchanged():
     H = HierarchicalPhyllotaxis(
         [LevelSpec(primordium_area=lambda a: 0.05 * np.exp(0.3 * a), inner_rate=0.05, meristem_area=0.1,
                    max_elements=4),
-         LevelSpec(primordium_area=lambda a: 0.01 * (3.0 - a), inner_rate=0.02, threshold=0.012)],   # < 0 at age 3
+         LevelSpec(primordium_area=lambda a: 0.01 * (3.0 - a),             # negative from age 3 on
+                   inner_rate=0.02, threshold=0.012)],
         inner_area=0.05)
     for _ in range(60):
         before = (H.t, len(H.meristems), [m.pattern.n for m in H.meristems], H.florets()["position"].copy())

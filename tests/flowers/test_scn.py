@@ -193,3 +193,22 @@ def test_bad_arguments():
         write_rba_sequence("/tmp/unused_rba", [], prefix="f1")
     with pytest.raises(ValueError, match=r"'o' entries have fields \[\]"):
         Placement("o", 0, (0, 0, 0), (1, 1, 1), (0, 1, 0), (1, 0, 0)).field("frame_end")
+
+
+def test_hierarchical_florets_to_scn_round_trip(tmp_path):
+    from plantvr.flowers.hierarchical import HierarchicalPhyllotaxis, LevelSpec
+    from plantvr.flowers.scn import placements_from_arrays
+    H = HierarchicalPhyllotaxis([LevelSpec(meristem_area=0.05, max_elements=4),
+                                 LevelSpec(primordium_area=0.01, threshold=0.012, max_elements=20)])
+    H.run(30, 1.0)
+    fl = H.florets()
+    kind = (fl["head"] % 2).astype(np.int64)                    # two floret animations
+    scene = placements_from_arrays(fl["position"], fl["up"], fl["right"], np.sqrt(fl["area"] / 0.01),
+                                   object_id=kind)
+    assert len(scene) == 80
+    write_scn(tmp_path / "compound.sce", scene)
+    back = read_scn(tmp_path / "compound.sce")
+    assert back == scene
+    assert np.array_equal(np.array([p.position for p in back]), fl["position"])
+    with pytest.raises(ValueError, match="extra must have shape"):
+        placements_from_arrays(fl["position"], fl["up"], fl["right"], np.ones(80), kind="ca")
