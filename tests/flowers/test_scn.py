@@ -155,7 +155,7 @@ def test_nested_scenes_and_cycle_detection(tmp_path):
     # head instantiates plant: plant -> head -> plant
     back_ref = Placement("rba", 2, (0, 0, 0), (1, 1, 1), (0, 0, 1), (1, 0, 0), (0, 5))
     write_scn(tmp_path / "head.sce", [back_ref])
-    with pytest.raises(ValueError, match="recursive scene reference: plant.sce -> head.sce -> plant.sce"):
+    with pytest.raises(ValueError, match=r"recursive scene reference: plant\.sce -> head\.sce -> plant\.sce"):
         load_scene_tree(tmp_path / "plant.sce", {1: tmp_path / "head.sce", 2: tmp_path / "plant.sce"})
     with pytest.raises(ValueError, match="names no rigid body animation"):
         load_scene_tree(tmp_path / "plant.sce", {1: tmp_path / "head.sce"})
