@@ -14,6 +14,12 @@ export function angleFromVector(dx, dyUp, side, lo, hi) {
 }
 
 function render({ model, el: host }) {
+  // drags send to the kernel at most every 120 ms (each change regrows the schematic there) and once on release
+  let lastSent = 0, pending = false;
+  function commit(force) {
+    const now = performance.now();
+    if (force || now - lastSent > 120) { model.save_changes(); lastSent = now; pending = false; } else pending = true;
+  }
   const root = document.createElement("div");
   root.className = "plantvr-arch plantvr-angles";
   const svg = el("svg", { width: W, height: H, class: "arch-svg angles-svg" });
@@ -77,9 +83,9 @@ function render({ model, el: host }) {
     const a = model.get("angles").slice();
     a[grab] = angleFromVector(x - O[0], O[1] - y, s.side, s.lo, s.hi);
     model.set("angles", a);
-    model.save_changes();
+    commit(false);
   });
-  const end = () => { grab = -1; };
+  const end = () => { grab = -1; if (pending) commit(true); };
   svg.addEventListener("pointerup", end);
   svg.addEventListener("pointercancel", end);
 

@@ -15,6 +15,12 @@ export function redGreen(t) {  // t in [0, 1]: red (few resources) -> green (man
 }
 
 function render({ model, el: host }) {
+  // drags send to the kernel at most every 120 ms (each change regrows the schematic there) and once on release
+  let lastSent = 0, pending = false;
+  function commit(force) {
+    const now = performance.now();
+    if (force || now - lastSent > 120) { model.save_changes(); lastSent = now; pending = false; } else pending = true;
+  }
   const root = document.createElement("div");
   root.className = "plantvr-arch plantvr-ellipse";
   const title = document.createElement("div");
@@ -73,7 +79,7 @@ function render({ model, el: host }) {
     if (grab === "s_v") sv = Math.max(0.05, Math.abs((O[1] - e * S) - y) / S);
     if (grab === "s_p") sp = Math.max(0.05, Math.abs(x - O[0]) / S);
     model.set("ellipse", [sv, sp, e]);
-    model.save_changes();
+    commit(false);
   }
   svg.addEventListener("pointerdown", (ev) => {
     const [x, y] = local(ev);
@@ -86,7 +92,7 @@ function render({ model, el: host }) {
     if (grab) svg.setPointerCapture?.(ev.pointerId);
   });
   svg.addEventListener("pointermove", move);
-  const end = () => { grab = null; };
+  const end = () => { grab = null; if (pending) commit(true); };
   svg.addEventListener("pointerup", end);
   svg.addEventListener("pointercancel", end);
 

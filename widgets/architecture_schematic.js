@@ -16,6 +16,12 @@ export function thetaFromVector(dx, dyUp) {
 }
 
 function render({ model, el: host }) {
+  // drags send to the kernel at most every 120 ms (each change regrows the schematic there) and once on release
+  let lastSent = 0, pending = false;
+  function commit(force) {
+    const now = performance.now();
+    if (force || now - lastSent > 120) { model.save_changes(); lastSent = now; pending = false; } else pending = true;
+  }
   const root = document.createElement("div");
   root.className = "plantvr-arch plantvr-schematic";
   const title = document.createElement("div");
@@ -93,11 +99,11 @@ function render({ model, el: host }) {
     const dx = ev.clientX - r.left - C[0], dy = C[1] - (ev.clientY - r.top);
     if (Math.hypot(dx, dy) < 4) return;
     model.set("tropism_angle", thetaFromVector(dx, dy));
-    model.save_changes();
+    commit(false);
   }
   svg.addEventListener("pointerdown", (ev) => { dragging = true; svg.setPointerCapture?.(ev.pointerId); setFromEvent(ev); });
   svg.addEventListener("pointermove", (ev) => { if (dragging) setFromEvent(ev); });
-  const end = () => { dragging = false; };
+  const end = () => { dragging = false; if (pending) commit(true); };
   svg.addEventListener("pointerup", end);
   svg.addEventListener("pointercancel", end);
 

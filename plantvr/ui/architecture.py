@@ -85,7 +85,7 @@ def ellipse_rays(s_v: float, s_p: float, e_v: float, *, n: int = 16) -> tuple[np
 
 
 def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iterations: int = 12, seed: int = 0,
-                   slab: float = 0.5, point_density: int = 4) -> np.ndarray:
+                   slab: float = 0.5, point_density: int = 4, max_internodes: int = 400) -> np.ndarray:
     """The 2D schematic tree: the same growth model constrained to the plane z = 0 (spec 004 §2.3 item 1).
 
     A fixed-seed autonomous run of a :class:`~plantvr.growth.sketch.SketchEngine` whose attraction points are kept in
@@ -107,6 +107,9 @@ def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iteration
         Half depth of the point slab around z = 0, internode lengths.
     point_density : int
         K of autonomous growth.
+    max_internodes : int
+        Growth stops early once the schematic has this many internodes, which bounds the refresh time whatever
+        the parameters (the thesis's "instantaneously", spec §8.2 [INFERRED] <= 50 ms).
 
     Returns
     -------
@@ -117,12 +120,15 @@ def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iteration
     from .._validation import check_int, check_range
 
     iterations = check_int("iterations", iterations, 0, 200)
+    max_internodes = check_int("max_internodes", max_internodes, 1, 10 ** 6)
     slab = check_range("slab", slab, 0.0, np.inf, low_open=True)
     p = {**defaults(), **validate(params), "phyllotaxis_angle": 180.0, "activation_threshold": 0.0}
     opts = {k: v for k, v in options.items() if k in SKETCH_OPTIONS and k != "stroke_tropism"}
     eng = SketchEngine(p, rng=seed, mode="autonomous", point_density=point_density,
                        depth={"normal": (0.0, 0.0, 1.0), "depth": slab}, **opts)
     for _ in range(iterations):
+        if eng.tree.n_internodes >= max_internodes:
+            break
         eng.step()
     t = eng.tree
     live = np.flatnonzero(t.alive & (t.parent >= 0))

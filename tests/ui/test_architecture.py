@@ -145,6 +145,9 @@ def test_schematic_tree_is_planar_deterministic_and_follows_parameters():
     assert not np.array_equal(down, a)
     with pytest.raises(ValueError, match="iterations"):
         schematic_tree(p, {}, iterations=-1)
+    # the refresh is bounded: growth stops at the first step that reaches max_internodes
+    bushy = schematic_tree(p, {"n_max": 6}, iterations=40, max_internodes=150)
+    assert 150 <= len(bushy) < 150 * 6
 
 
 # ---- widget trait round trips (what the browser writes) -----------------------------------------------------------
