@@ -257,11 +257,18 @@ class LibraryPanel(W.VBox):
     def save(self, name: str) -> Path:
         """Save the current tree as ``name`` (lossless, :meth:`TreeLibrary.save`) with its thumbnail."""
         e = self.engine
-        path = self.library.save(name, e)
+        name = self.library._name(name)
+        files = [self.library.folder / f"{name}{x}" for x in (".tree", ".json", ".thumb.svg")]
+        existed = [f.exists() for f in files]
         t = e.tree
-        (self.library.folder / f"{name}.thumb.svg").write_text(tree_svg(t.pos[: t.n], t.parent[: t.n],
-                                                                        alive=t.alive[: t.n],
-                                                                        radius=t.radius[: t.n]))
+        try:
+            path = self.library.save(name, e)
+            files[2].write_text(tree_svg(t.pos[: t.n], t.parent[: t.n], alive=t.alive[: t.n], radius=t.radius[: t.n]))
+        except OSError as exc:  # no half-written new entry is left behind
+            for f, old in zip(files, existed):
+                if not old:
+                    f.unlink(missing_ok=True)
+            raise ValueError(f"cannot save {name!r} in {self.library.folder}: {exc}") from None
         self._refresh_lists(select=name)
         self._ok(f"saved {name!r} ({t.n_internodes} internodes)")
         return path

@@ -149,3 +149,19 @@ def test_tree_svg_draws_every_live_internode():
     assert svg.startswith("<svg") and svg.count("<line") == t.n_internodes
     with pytest.raises(ValueError, match="size"):
         tree_svg(t.pos[: t.n], t.parent[: t.n], size=4)
+
+
+def test_failed_save_leaves_no_half_entry(tmp_path, monkeypatch):
+    e = _grown(steps=2)
+    lib = LibraryPanel(tmp_path, e)
+    real = type(tmp_path).write_text
+
+    def failing(self, *a, **k):
+        if self.suffix == ".json":
+            raise OSError("disk full")
+        return real(self, *a, **k)
+    monkeypatch.setattr(type(tmp_path), "write_text", failing)
+    with pytest.raises(ValueError, match="cannot save 'x'.*disk full"):
+        lib.save("x")
+    monkeypatch.undo()
+    assert lib.library.trees() == [] and not list(tmp_path.glob("x.*"))
