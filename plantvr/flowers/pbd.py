@@ -159,6 +159,7 @@ def _bend_delta(p, w, q, rest, k, d):
     g2x = -(t3 * g3x + t4 * g4x)
     g2y = -(t3 * g3y + t4 * g4y)
     g2z = -(t3 * g3z + t4 * g4z)
+    # ERRATUM A.1: the denominator of Eq. 3.10 sums w_j |grad_{p_j} C|^2 over the constraint's vertices j
     den = (w[i1] * (g1x * g1x + g1y * g1y + g1z * g1z) + w[i2] * (g2x * g2x + g2y * g2y + g2z * g2z)
            + w[i3] * (g3x * g3x + g3y * g3y + g3z * g3z) + w[i4] * (g4x * g4x + g4y * g4y + g4z * g4z))
     if den < 1e-300:

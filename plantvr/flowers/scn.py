@@ -41,7 +41,7 @@ __all__ = [
 SCN_TYPES: dict[str, tuple[str, ...]] = {
     "o": (),                                                   # place OBJ
     "ca": ("frame_start", "frame_end"),                        # constraint based animation
-    "i": ("interpolation",),                                   # interpolated instance of animation geometry
+    "i": ("interpolation",),         # ERRATUM A.13: "interploationValue"; interpolated instance of animation
     "ta": ("frame_start", "frame_end", "x", "y", "z"),         # translate geometry animation
     "ra": ("frame_start", "frame_end", "x", "y", "z", "angle"),  # rotate around axis by an angle
     "rba": ("frame_start", "frame_end"),                       # rigid body animation
@@ -194,6 +194,12 @@ def parse_scn(text: str, *, source: str = "<scn>") -> list[Placement]:
     ValueError
         On an unknown type, a wrong field count, a non-numeric or non-finite number, a non-integer id, an
         ``mtl`` line without a preceding entry (or a second one), or an invalid frame.
+
+    References
+    ----------
+    .. [1] Owens 2016, Ch. 8 d–f and App. C.2 (entry types); ERRATUM A.9 (4th vector is "right") and A.13
+       ("interploationValue"). Reading the example's run-together vectors ("000 111 010 100") digit by digit
+       is [INFERRED].
     """
     if not isinstance(text, str):
         raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
@@ -243,6 +249,7 @@ def parse_scn(text: str, *, source: str = "<scn>") -> list[Placement]:
 
 def format_scn(placements: Sequence[Placement], *, header: bool = True) -> str:
     """SCN text of ``placements`` (each followed by its ``mtl`` line when it has a material)."""
+    # ERRATUM A.9: the example's comment says "Up Left"; the 4th vector is "right" as in the field list
     lines = ["# type: ID Position Scale Up Right [type fields]"] if header else []
     for k, p in enumerate(placements):
         if not isinstance(p, Placement):
@@ -319,7 +326,23 @@ class RigidBodyFrame:
 
 
 def parse_rba(text: str, *, source: str = "<rba>") -> RigidBodyFrame:
-    """Parse one RBA file's text (App. C.3); ``#`` comment lines and blank lines are skipped."""
+    """Parse one RBA file's text; ``#`` comment lines and blank lines are skipped.
+
+    Parameters
+    ----------
+    text : str
+        File contents.
+    source : str
+        Name used in error messages.
+
+    Returns
+    -------
+    RigidBodyFrame
+
+    References
+    ----------
+    .. [1] Owens 2016, App. C.3 and Fig. 8.2 (ids index the companion SCN file's entries).
+    """
     if not isinstance(text, str):
         raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
     rows = []
