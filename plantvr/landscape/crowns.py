@@ -16,7 +16,7 @@ Python twin (:func:`propagate_layer_python`, ``heapq``) gives identical owners.
 
 Layers follow the terrain: layer k spans heights [k dz, (k + 1) dz) above each tree's own base, and tree i
 takes part in layer k iff h_max_i > k dz (spec §3.5 [INFERRED]). Hero trees claim the voxels their segments
-pass through afterwards (:func:`claim_segments`).
+pass through afterwards (:func:`claim_segments`, an exact 3D DDA by plane crossings).
 """
 from __future__ import annotations
 
@@ -310,26 +310,38 @@ def crown_voxels(bases: np.ndarray, areas: np.ndarray, h_max: np.ndarray, *, siz
     return CrownVoxels(owner, (W, D), dz, h.copy())
 
 
+def _traversed(s: np.ndarray, e: np.ndarray, edges: tuple[float, float, float], base_y: float) -> np.ndarray:
+    """Points (P, 3), one inside every voxel each segment passes through: the midpoints between consecutive
+    crossings of the grid planes (an exact 3D DDA), plus the end points."""
+    out = [s, e]
+    for a, b in zip(s, e):
+        d = b - a
+        ts = [np.array([0.0, 1.0])]
+        for axis, h, o in ((0, edges[0], 0.0), (2, edges[1], 0.0), (1, edges[2], base_y)):
+            if d[axis] != 0.0:
+                lo, hi = sorted((a[axis] - o, b[axis] - o))
+                k = np.arange(np.ceil(lo / h), np.floor(hi / h) + 1) * h
+                ts.append((k + o - a[axis]) / d[axis])
+        t = np.unique(np.clip(np.concatenate(ts), 0.0, 1.0))
+        out.append(a + d * (0.5 * (t[:-1] + t[1:]))[:, None])
+    return np.concatenate(out)
+
+
 def claim_segments(voxels: CrownVoxels, tree: int, starts: np.ndarray, ends: np.ndarray, *, base_y: float = 0.0
                    ) -> CrownVoxels:
     """Hero tree claims (spec §3.5): every voxel a segment of the tree passes through now belongs to ``tree``.
 
     ``starts``, ``ends`` (M, 3) world points (x, y, z), y measured with the layers above ``base_y`` (the hero's
-    base height). Segments are sampled at a quarter of the smallest voxel edge [INFERRED stand-in for a 3D
-    DDA]. Returns a new :class:`CrownVoxels` (the input is not changed).
+    base height). The voxels are found exactly (every crossing of a grid plane, a 3D DDA). Returns a new
+    :class:`CrownVoxels` (the input is not changed).
     """
     L, ny, nx = voxels.owner.shape
     tree = check_int("tree", tree, 0, len(voxels.h_max) - 1)
     s = check_array("starts", starts, shape=(None, 3))
     e = check_array("ends", ends, shape=(len(s), 3))
     cx, cz = voxels.cell
-    step = 0.25 * min(cx, cz, voxels.layer_height)
     owner = voxels.owner.copy()
-    seg = e - s
-    k = np.maximum(np.ceil(np.linalg.norm(seg, axis=1) / step).astype(np.int64), 1)
-    idx = np.repeat(np.arange(len(s)), k + 1)
-    off = np.arange(len(idx)) - np.repeat(np.cumsum(k + 1) - (k + 1), k + 1)
-    p = s[idx] + seg[idx] * (off / k[idx])[:, None]
+    p = _traversed(s, e, (cx, cz, voxels.layer_height), base_y)
     col = np.floor(p[:, 0] / cx).astype(np.int64)
     row = np.floor(p[:, 2] / cz).astype(np.int64)
     lay = np.floor((p[:, 1] - base_y) / voxels.layer_height).astype(np.int64)

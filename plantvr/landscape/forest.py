@@ -33,7 +33,15 @@ from ..growth.engine import GrowthEngine
 from ..growth.sketch import SketchEngine
 from ..params import defaults
 from .asymmetry import cell_geometry, neighbour_asymmetry
-from .crowns import CrownVoxels, VoxelSketchEngine, crown_voxels, in_tree_region, region_geometry, tree_region
+from .crowns import (
+    CrownVoxels,
+    VoxelSketchEngine,
+    claim_segments,
+    crown_voxels,
+    in_tree_region,
+    region_geometry,
+    tree_region,
+)
 from .placement import poisson_disc
 from .terrain import heightfield, sample_height
 
@@ -214,9 +222,17 @@ def _voxel_setup(bases, size, crown_height, crown_radius, scales, shape):
                         trunk_radius=0.1 * scales * crown_radius)
 
 
+def _hero_segments(tree: dict[str, np.ndarray], base: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """World segments (starts, ends) of a hero tree's live internodes (``pos`` tree-local, base at the origin)."""
+    idx = np.flatnonzero(tree["alive"] & (tree["parent"] >= 0))
+    return tree["pos"][tree["parent"][idx]] + base, tree["pos"][idx] + base
+
+
 def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False,
-                 regions="voronoi", scales=None, voxel_shape=(20, 128, 128)):
-    """Initial engine states (and the crown voxels in ``regions="voxels"`` mode)."""
+                 regions="voronoi", scales=None, voxel_shape=(20, 128, 128), heroes=()):
+    """Initial engine states (and the crown voxels in ``regions="voxels"`` mode). ``heroes``: (tree-local tree
+    arrays, world base) of pre-designed trees that do not compete but claim the voxels their segments pass
+    through (spec §3.5), before the grown trees' regions are cut out."""
     ss = np.random.SeedSequence(seed).spawn(len(bases))
     S = np.ones(len(bases)) if scales is None else scales
     states = []
@@ -224,6 +240,13 @@ def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketc
     xz = bases[:, [0, 2]]
     if regions == "voxels":
         voxels = _voxel_setup(bases, size, crown_height, crown_radius, S, voxel_shape)
+        if heroes:
+            n = len(bases)
+            hh = [max(float(t["pos"][t["alive"], 1].max()), 1e-6) for t, _ in heroes]
+            voxels = CrownVoxels(voxels.owner, voxels.size, voxels.layer_height, np.r_[voxels.h_max, hh])
+            for k, (t, b) in enumerate(heroes):
+                s0, s1 = _hero_segments(t, np.array([b[0], 0.0, b[2]]))  # layers above the hero base
+                voxels = claim_segments(voxels, n + k, s0, s1)
     if sketch is not None:
         if regions == "voronoi":
             voronoi = crown_regions(bases, reach=4.0 * crown_radius * S.max(), h_max=crown_height + crown_radius,
@@ -235,6 +258,7 @@ def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketc
                 C, B = region_geometry(voxels)
             else:
                 C, B = cell_geometry(xz, size, weights=None if scales is None else S ** 2)
+            C, B = C[:len(bases)], B[:len(bases)]
             V = neighbour_asymmetry(xz, S ** 2, 2.0 * crown_radius * S, centroids=C, bounding=B)
             sketch = [{**sketch, "asymmetry": v.tolist()} for v in V]
     for i in range(len(bases)):
@@ -265,7 +289,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 sketch: dict[str, Any] | None = None, lean: bool = False, regions: str = "voronoi",
                 voxel_shape: tuple[int, int, int] = (20, 128, 128),
                 scale_range: tuple[float, float] = (1.0, 1.0), positions: np.ndarray | None = None,
-                scales: np.ndarray | None = None) -> Forest:
+                scales: np.ndarray | None = None, heroes: list[dict[str, Any]] | None = None) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
@@ -305,6 +329,11 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         instead of the Poisson-disc placement (``n_trees`` and ``min_dist`` are then not used).
     scales : (N,) float64 array, optional
         Per-tree scales S_i (> 0) instead of ``scale_range`` (e.g. the distribution's ``scale``).
+    heroes : list of dict, optional
+        Hero trees (spec §3.4.3, §3.5), ``{"tree": tree arrays with the base at the origin (a grown tree's
+        ``pos``, ``parent``, ``alive``, ``radius``, ``child``), "position": (x, z)}``: placed as they are, not grown
+        and not regrown; with ``regions="voxels"`` they claim every voxel their internodes pass through before
+        the other trees' regions are cut out. They come after the grown trees in ``Forest.trees``.
 
     Returns
     -------
@@ -345,6 +374,18 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
     if sketch is not None and not isinstance(sketch, dict):
         raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
+    hero_in = []
+    for k, h in enumerate(heroes or []):
+        if not isinstance(h, dict) or set(h) != {"tree", "position"}:
+            raise ValueError(f"heroes[{k}] must be a dict with keys tree, position, got {h!r}")
+        t = h["tree"]
+        if not isinstance(t, dict) or not {"pos", "parent", "alive", "radius", "child"} <= set(t):
+            raise ValueError(f"heroes[{k}] tree must hold the arrays pos, parent, alive, radius, child")
+        q = check_array(f"heroes[{k}] position", h["position"], shape=(2,))
+        if not t["alive"].any():
+            raise ValueError(f"heroes[{k}] tree has no live node")
+        hb = np.array([q[0], float(sample_height(hf, size, q[None])[0]), q[1]])
+        hero_in.append(({key: np.asarray(v).copy() for key, v in t.items()}, hb))
     if scales is not None:
         scales = check_array("scales", scales, shape=(len(bases),))
         if not np.all(scales > 0):
@@ -352,7 +393,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     elif (s_lo, s_hi) != (1.0, 1.0):
         scales = np.random.default_rng([seed, 0x5CA1E]).uniform(s_lo, s_hi, len(bases))
     states, voxels = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean),
-                                  regions, scales, voxel_shape)
+                                  regions, scales, voxel_shape, hero_in)
     seeds = list(states)
 
     own, runner = None, client
@@ -405,6 +446,10 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                                   for b, c in zip(batches, chunks)) for x in part]
         trees = [t for t, _ in done]
         meshes = [m for _, m in done] if geometry else None
+        for t, hb in hero_in:  # hero trees as they are, in world coordinates
+            trees.append({**t, "pos": t["pos"] + hb})
+            if meshes is not None:
+                meshes.append(tree_mesh_task(trees[-1]))
     finally:
         if own is not None:
             cluster = own.cluster
@@ -412,6 +457,8 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
             cluster.close()
     config = {"params": p, "rounds": rounds, "steps_per_round": steps_per_round, "geometry": bool(geometry),
               "independent": sketch is not None or not compete, "scales": scales}
+    if hero_in:
+        bases = np.concatenate([bases, [hb for _, hb in hero_in]])
     return Forest(bases, trees, hf, size, timings, meshes, voxels, seeds, config)
 
 
@@ -444,6 +491,8 @@ def regrow_tree(forest: Forest, tree: int, *, params: dict[str, Any] | None = No
     if forest.seeds is None or forest.config is None:
         raise ValueError("forest has no seed states; regrow needs a Forest made by grow_forest")
     tree = check_int("tree", tree, 0, len(forest.trees) - 1)
+    if tree >= len(forest.seeds):
+        raise ValueError(f"tree {tree} is a hero tree (placed as designed); only trees 0..{len(forest.seeds) - 1} grow")
     cfg = forest.config
     if not cfg["independent"]:
         raise ValueError("regrow needs independent trees: grow the forest with sketch= or compete=False")

@@ -247,3 +247,32 @@ def test_ts_v27_crown_centroids_more_uniform_than_clustered_bases():
         wins_bases += k[1] < excess(d.xy)
         wins_na += k[1] < k[0]
     assert wins_bases >= 4 and wins_na >= 4
+
+
+def test_ts_v22_hero_tree_claims_its_voxels_in_the_forest(tmp_path):
+    """A hero tree (placed as designed) claims every voxel its internodes pass through; the grown trees' regions
+    exclude them, it is exported with the others and cannot be regrown."""
+    import trimesh
+
+    one = grow_forest(1, client="sync", **{**VOX, "scale_range": (1.3, 1.3), "seed": 9})
+    hero = {**one.trees[0], "pos": one.trees[0]["pos"] - one.bases[0]}
+    f = grow_forest(5, client="sync", geometry=True, heroes=[{"tree": hero, "position": (15.0, 15.0)}], **VOX)
+    n = len(f.trees) - 1
+    assert len(f.bases) == n + 1 and len(f.meshes) == n + 1
+    hb = f.bases[n]
+    np.testing.assert_allclose(f.trees[n]["pos"], hero["pos"] + hb)
+    v = f.voxels
+    alive = np.flatnonzero(hero["alive"] & (hero["parent"] >= 0))
+    t = np.linspace(0.0, 1.0, 9)[:, None, None]
+    p = (hero["pos"][hero["parent"][alive]] + t * (hero["pos"][alive] - hero["pos"][hero["parent"][alive]])).reshape(-1, 3)
+    cx, cz = v.cell
+    lay = (p[:, 1] / v.layer_height).astype(int)
+    ok = lay < v.owner.shape[0]
+    own = v.owner[lay[ok], ((p[ok, 2] + hb[2]) / cz).astype(int), ((p[ok, 0] + hb[0]) / cx).astype(int)]
+    assert len(own) > 10 and np.all(own == n)
+    with pytest.raises(ValueError, match="hero"):
+        f.regrow(n)
+    s = trimesh.load(f.export(tmp_path / "h.glb"), force="scene")
+    assert len(s.graph.nodes_geometry) == n + 2
+    with pytest.raises(ValueError, match="heroes"):
+        grow_forest(2, client="sync", heroes=[{"tree": hero}])
