@@ -66,7 +66,7 @@ def _slab_skimage(raw: np.ndarray, level: float, s: int, step: int):
         return None
     del block
     v[:, 0] += s
-    return v, f[:, [0, 2, 1]], n                         # scikit-image winds inward (spec §1.5 step 5)
+    return v, f[:, ::-1], n                              # scikit-image winds inward (spec §1.5 step 5)
 
 
 def _slab_flying_edges(raw: np.ndarray, level: float, s: int, step: int):
@@ -91,12 +91,13 @@ def _slab_flying_edges(raw: np.ndarray, level: float, s: int, step: int):
     out = fe.GetOutput()
     if out.GetNumberOfPoints() == 0 or out.GetNumberOfCells() == 0:
         return None
-    v = numpy_support.vtk_to_numpy(out.GetPoints().GetData())[:, ::-1].copy()          # (z, y, x) -> (x, y, z)
-    n = numpy_support.vtk_to_numpy(out.GetPointData().GetNormals())[:, ::-1].copy()
+    # zero-copy views (they keep VTK's arrays alive): (z, y, x) -> (x, y, z); the copy happens once, in _concat
+    v = numpy_support.vtk_to_numpy(out.GetPoints().GetData())[:, ::-1]
+    n = numpy_support.vtk_to_numpy(out.GetPointData().GetNormals())[:, ::-1]
     f = numpy_support.vtk_to_numpy(out.GetPolys().GetConnectivityArray()).reshape(-1, 3)
-    f = f[:, [0, 2, 1]]                                  # VTK winds outward; reversing the axes mirrors it
     keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return v, (f if keep.all() else f[keep]), n
+    f = f if keep.all() else f[keep]
+    return v, f[:, ::-1], n                              # VTK winds outward; reversing the axes mirrors it
 
 
 def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step_size: int = 1,
@@ -176,6 +177,7 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step
         verts_parts.append(np.asarray(v[keep] if n_keep < len(v) else v, np.float32))
         norm_parts.append(np.asarray(n[keep] if n_keep < len(v) else n, np.float32))
         faces_parts.append(ids.astype(np.uint32)[f])    # uint32 parts: one (F, 3) copy at the end, not three
+        # (f[:, ::-1] reverses each triangle: an odd permutation, the same as the spec's [0, 2, 1])
         n_total += n_keep
         on_end = np.flatnonzero(v[:, 0] == e)
         if on_end.size:
