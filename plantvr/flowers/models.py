@@ -229,7 +229,7 @@ def dahlia_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.6
 
 #: Dahlia bands over the polar angle of the receptacle (fraction of 90 deg): (from, opening deg, scale). The
 #: innermost florets lean over the apex and close the centre [INFERRED, from the photograph of Fig. 9.2].
-DAHLIA_BANDS = ((0.0, -30.0, 0.9), (0.1, 40.0, 0.9), (0.2, None, 1.0))
+DAHLIA_BANDS = ((0.0, -50.0, 1.2), (0.1, 45.0, 1.0), (0.2, None, 1.0))
 
 
 def dahlia_head(n_florets: int = 300, *, radius: float = 10.0, detail: float = 1.0, n_frames: int = 8,
