@@ -196,3 +196,17 @@ def test_roll_margins_keeps_row_arc_length_and_symmetry_and_cups_upward():
         roll_margins(flat, 200.0)
     with pytest.raises(ValueError, match="roll_deg"):
         petal_net(roll_deg=-1.0)
+
+
+def test_weld_off_keeps_separate_petal_sheets():
+    poses = [Corolla(petal_net(opening_deg=a, nu=5, nv=6), n_fold=4, fused_rows=2) for a in (10.0, 50.0)]
+    welded = build_floret(poses, n_frames=3)
+    sheets = build_floret(poses, n_frames=3, weld=False)
+    uv, tri, _ = polygonize_uv(0.2, 5)
+    assert sheets.frames.shape[1] == 4 * len(uv) and len(sheets.faces) == 4 * len(tri)
+    assert welded.frames.shape[1] < sheets.frames.shape[1]
+    # same surface: every unwelded vertex coincides with a welded one
+    d, _ = cKDTree(welded.frames[-1]).query(sheets.frames[-1])
+    assert d.max() < 1e-9
+    with pytest.raises(ValueError, match="weld_tol"):
+        build_floret(poses, weld_tol=-1.0)
