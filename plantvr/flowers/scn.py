@@ -28,6 +28,7 @@ __all__ = [
     "parse_rba",
     "parse_scn",
     "placements_from_arrays",
+    "rba_at",
     "read_rba",
     "read_rba_sequence",
     "read_scn",
@@ -437,6 +438,57 @@ def read_rba_sequence(folder, *, scene: Sequence[Placement] | None = None) -> li
                 raise ValueError(f"{p}: id {int(f.ids.max())} has no entry in the {len(scene)}-entry "
                                  "SCN file")
     return frames
+
+
+def rba_at(frames: Sequence[RigidBodyFrame], f: float, *, mode: str = "interpolate") -> RigidBodyFrame:
+    """Placements of an RBA series at a (fractional) frame ``f`` (spec §3.8 [INFERRED]).
+
+    Parameters
+    ----------
+    frames : sequence of RigidBodyFrame
+        The series, file k holding frame k.
+    f : float
+        Frame in [0, len(frames) - 1].
+    mode : {"interpolate", "floor"}
+        ``floor``: file floor(f). ``interpolate``: for ids in both neighbouring files, position and scale
+        linearly, the (up, right) frame by spherical linear interpolation of the rotation; ids present only
+        in the earlier file are kept as they are (newborn ids appear at the next file).
+
+    Returns
+    -------
+    RigidBodyFrame
+    """
+    from scipy.spatial.transform import Rotation
+
+    frames = list(frames)
+    if not frames or not all(isinstance(x, RigidBodyFrame) for x in frames):
+        raise ValueError("frames must be a non-empty sequence of RigidBodyFrame")
+    f = check_range("f", f, 0.0, float(len(frames) - 1))
+    mode = check_choice("mode", mode, ("interpolate", "floor"))
+    k = min(int(np.floor(f)), len(frames) - 1)
+    t = f - k
+    a = frames[k]
+    if mode == "floor" or t == 0.0:
+        return a
+    b = frames[k + 1]
+    common, ia, ib = np.intersect1d(a.ids, b.ids, assume_unique=True, return_indices=True)
+    pos, scale = a.position.copy(), a.scale.copy()
+    up, right = a.up.copy(), a.right.copy()
+    pos[ia] = (1 - t) * a.position[ia] + t * b.position[ib]
+    scale[ia] = (1 - t) * a.scale[ia] + t * b.scale[ib]
+
+    def frame_of(u, r):
+        u = u / np.linalg.norm(u, axis=1, keepdims=True)
+        r = r - np.einsum("ij,ij->i", r, u)[:, None] * u
+        r /= np.linalg.norm(r, axis=1, keepdims=True)
+        return Rotation.from_matrix(np.stack([r, u, np.cross(r, u)], axis=2))
+
+    if common.size:
+        ra, rb = frame_of(a.up[ia], a.right[ia]), frame_of(b.up[ib], b.right[ib])
+        rel = (ra.inv() * rb).as_rotvec()
+        m = (ra * Rotation.from_rotvec(t * rel)).as_matrix()        # slerp per placement
+        right[ia], up[ia] = m[:, :, 0], m[:, :, 1]
+    return RigidBodyFrame(a.ids, pos, scale, up, right)
 
 
 # -------------------------------------------------------------------------------------------------------

@@ -212,3 +212,23 @@ def test_hierarchical_florets_to_scn_round_trip(tmp_path):
     assert np.array_equal(np.array([p.position for p in back]), fl["position"])
     with pytest.raises(ValueError, match="extra must have shape"):
         placements_from_arrays(fl["position"], fl["up"], fl["right"], np.ones(80), kind="ca")
+
+
+def test_rba_at_interpolates_position_scale_and_frame():
+    from plantvr.flowers.scn import rba_at
+    c, s_ = np.cos(np.pi / 2), np.sin(np.pi / 2)
+    a = RigidBodyFrame([0, 1], [[0, 0, 0], [1, 1, 1]], [[1, 1, 1], [1, 1, 1]], [[0, 0, 1]] * 2,
+                       [[1, 0, 0]] * 2)
+    b = RigidBodyFrame([0, 2], [[2, 0, 0], [5, 5, 5]], [[3, 3, 3], [1, 1, 1]], [[0, 0, 1], [0, 1, 0]],
+                       [[c, s_, 0], [1, 0, 0]])
+    assert rba_at([a, b], 0.0) is a and rba_at([a, b], 1.0) is b and rba_at([a, b], 0.7, mode="floor") is a
+    m = rba_at([a, b], 0.5)
+    assert m.ids.tolist() == [0, 1]                          # the newborn id 2 appears with file 1
+    assert np.allclose(m.position[0], [1, 0, 0]) and np.allclose(m.scale[0], 2.0)
+    assert np.allclose(m.right[0], [np.cos(np.pi / 4), np.sin(np.pi / 4), 0])     # half of the 90 deg turn
+    assert np.allclose(m.up[0], [0, 0, 1])
+    assert np.array_equal(m.position[1], a.position[1])     # id 1 is absent from file 1: kept
+    with pytest.raises(ValueError, match="f must be in"):
+        rba_at([a, b], 1.5)
+    with pytest.raises(ValueError, match="non-empty sequence of RigidBodyFrame"):
+        rba_at([], 0.0)
