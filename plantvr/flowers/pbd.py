@@ -187,11 +187,67 @@ def _bend_delta(p, w, q, rest, k, d):
 
 @numba.njit(cache=True, nogil=True)
 def _project_bend(p, w, q, rest, k):
-    d = np.empty((4, 3))
-    if _bend_delta(p, w, q, rest, k, d):
-        for a in range(4):
-            for b in range(3):
-                p[q[a], b] += d[a, b]
+    """Gauss-Seidel bending projection in place (scalar updates; the same formulas as _bend_delta)."""
+    i1, i2, i3, i4 = q[0], q[1], q[2], q[3]
+    ex = p[i2, 0] - p[i1, 0]
+    ey = p[i2, 1] - p[i1, 1]
+    ez = p[i2, 2] - p[i1, 2]
+    ax = p[i3, 0] - p[i1, 0]
+    ay = p[i3, 1] - p[i1, 1]
+    az = p[i3, 2] - p[i1, 2]
+    bx = p[i4, 0] - p[i1, 0]
+    by = p[i4, 1] - p[i1, 1]
+    bz = p[i4, 2] - p[i1, 2]
+    n1x, n1y, n1z = _cross(ax, ay, az, ex, ey, ez)
+    n2x, n2y, n2z = _cross(ex, ey, ez, bx, by, bz)
+    ee = ex * ex + ey * ey + ez * ez
+    n11 = n1x * n1x + n1y * n1y + n1z * n1z
+    n22 = n2x * n2x + n2y * n2y + n2z * n2z
+    if ee < 1e-300 or n11 < 1e-300 * ee or n22 < 1e-300 * ee:
+        return
+    le = np.sqrt(ee)
+    cx, cy, cz = _cross(n1x, n1y, n1z, n2x, n2y, n2z)
+    sin = (ex * cx + ey * cy + ez * cz) / le
+    cos = n1x * n2x + n1y * n2y + n1z * n2z
+    phi = np.arctan2(sin, cos)
+    c = phi - rest
+    while c > np.pi:                 # wrap to (-pi, pi]: ERRATUM A.5
+        c -= 2 * np.pi
+    while c <= -np.pi:
+        c += 2 * np.pi
+    g3x, g3y, g3z = le * n1x / n11, le * n1y / n11, le * n1z / n11
+    g4x, g4y, g4z = le * n2x / n22, le * n2y / n22, le * n2z / n22
+    t3 = (ax * ex + ay * ey + az * ez) / ee
+    t4 = (bx * ex + by * ey + bz * ez) / ee
+    g1x = -((1 - t3) * g3x + (1 - t4) * g4x)
+    g1y = -((1 - t3) * g3y + (1 - t4) * g4y)
+    g1z = -((1 - t3) * g3z + (1 - t4) * g4z)
+    g2x = -(t3 * g3x + t4 * g4x)
+    g2y = -(t3 * g3y + t4 * g4y)
+    g2z = -(t3 * g3z + t4 * g4z)
+    # ERRATUM A.1: the denominator of Eq. 3.10 sums w_j |grad_{p_j} C|^2 over the constraint's vertices j
+    den = (w[i1] * (g1x * g1x + g1y * g1y + g1z * g1z) + w[i2] * (g2x * g2x + g2y * g2y + g2z * g2z)
+           + w[i3] * (g3x * g3x + g3y * g3y + g3z * g3z) + w[i4] * (g4x * g4x + g4y * g4y + g4z * g4z))
+    if den < 1e-300:
+        return
+    s = k * c / den
+    # Step limiter [INFERRED]: a free hinge vertex with a near-zero gradient would take a huge step.
+    gm = max(w[i1] * np.sqrt(g1x * g1x + g1y * g1y + g1z * g1z), w[i2] * np.sqrt(g2x * g2x + g2y * g2y + g2z * g2z),
+             w[i3] * np.sqrt(g3x * g3x + g3y * g3y + g3z * g3z), w[i4] * np.sqrt(g4x * g4x + g4y * g4y + g4z * g4z))
+    if abs(s) * gm > _MAX_STEP * le:
+        s *= _MAX_STEP * le / (abs(s) * gm)
+    p[i1, 0] -= s * w[i1] * g1x
+    p[i1, 1] -= s * w[i1] * g1y
+    p[i1, 2] -= s * w[i1] * g1z
+    p[i2, 0] -= s * w[i2] * g2x
+    p[i2, 1] -= s * w[i2] * g2y
+    p[i2, 2] -= s * w[i2] * g2z
+    p[i3, 0] -= s * w[i3] * g3x
+    p[i3, 1] -= s * w[i3] * g3y
+    p[i3, 2] -= s * w[i3] * g3z
+    p[i4, 0] -= s * w[i4] * g4x
+    p[i4, 1] -= s * w[i4] * g4y
+    p[i4, 2] -= s * w[i4] * g4z
 
 
 @numba.njit(cache=True, nogil=True)
