@@ -59,16 +59,18 @@ _DISC = {"nu": 5, "nv": 6, "base_radius": 0.06, "base_width": 0.3, "n_fold": 5, 
          "poses": [{"length": 0.35, "width": 0.07, "opening_deg": 6.0, "curl_deg": 0.0, "roll_deg": 0.0},
                    {"length": 0.6, "width": 0.25, "opening_deg": 25.0, "curl_deg": 10.0, "roll_deg": 0.0},
                    {"length": 0.8, "width": 0.42, "opening_deg": 55.0, "curl_deg": 25.0, "roll_deg": 0.0}]}
-#: Starting points matching the example models' florets (:mod:`plantvr.flowers.models`).
+_MESH = {"lam": 0.2, "eta": 5.0, "weld": True, "weld_tol": 1e-9, "warp": 2.0, "n_frames": 8}
+#: Starting points matching the example models' florets (:mod:`plantvr.flowers.models`); every preset sets
+#: every setting.
 PRESETS = {
-    "disc floret": {**_DISC, "growth": "sinusoidal", "n_poses": 2},
-    "ray floret": {"nu": 5, "nv": 7, "base_radius": 0.03, "base_width": 0.3, "n_fold": 1, "fused_rows": 0,
+    "disc floret": {**_MESH, **_DISC, "growth": "sinusoidal", "n_poses": 2},
+    "ray floret": {**_MESH, "nu": 5, "nv": 7, "base_radius": 0.03, "base_width": 0.3, "n_fold": 1, "fused_rows": 0,
                    "growth": "sinusoidal", "n_poses": 2, "lam": 0.12, "eta": 7.0,
                    "poses": [{"length": 0.3, "width": 0.12, "opening_deg": 8.0, "curl_deg": 0.0, "roll_deg": 0.0},
                              {"length": 1.6, "width": 0.5, "opening_deg": 40.0, "curl_deg": 5.0, "roll_deg": 0.0},
                              {"length": 3.0, "width": 0.9, "opening_deg": 80.0, "curl_deg": 15.0,
                               "roll_deg": 0.0}]},
-    "dahlia ray": {"nu": 7, "nv": 7, "base_radius": 0.05, "base_width": 0.3, "n_fold": 1, "fused_rows": 0,
+    "dahlia ray": {**_MESH, "nu": 7, "nv": 7, "base_radius": 0.05, "base_width": 0.3, "n_fold": 1, "fused_rows": 0,
                    "growth": "sinusoidal", "n_poses": 2, "lam": 0.11, "eta": 7.0,
                    "poses": [{"length": 1.26, "width": 1.2, "opening_deg": 5.0, "curl_deg": -4.0,
                               "roll_deg": 150.0},
@@ -76,7 +78,7 @@ PRESETS = {
                               "roll_deg": 110.0},
                              {"length": 3.6, "width": 2.4, "opening_deg": 60.0, "curl_deg": -30.0,
                               "roll_deg": 80.0}]},
-    "fused tube (3 poses)": {**_DISC, "n_fold": 6, "fused_rows": 4, "growth": "linear", "n_poses": 3},
+    "fused tube (3 poses)": {**_MESH, **_DISC, "n_fold": 6, "fused_rows": 4, "growth": "linear", "n_poses": 3},
 }
 
 

@@ -175,6 +175,8 @@ def test_every_preset_builds():
         ft = ed.floret_type()                               # usable by the composer
         can = Canopy([ft], [0, 0], [[0, 0, 0], [5, 0, 0]], [[0, 0, 1]] * 2, [[1, 0, 0]] * 2, [1.0, 1.0])
         assert can.voff[-1] == 2 * ft.frames.shape[1]
+    ed.load_preset("disc floret")                            # a preset sets every setting: no leftovers
+    np.testing.assert_array_equal(ed.floret.frames, _editor().floret.frames)
 
 
 def test_export_obj_sequence_round_trip(tmp_path):
