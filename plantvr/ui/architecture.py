@@ -7,7 +7,8 @@ engine, because the Model has no TreeSketch options). Every edit goes through :m
 which checks all values first (the parameter table, then the engine's own option checks on a probe engine) and
 only then writes the target, so a rejected edit leaves everything unchanged and the message names the parameter.
 
-The anywidgets (front ends in ``widgets/architecture_*.js``) keep no state beyond their synced traits:
+The anywidgets (one front end, ``widgets/architecture.js``, that draws the widget's ``kind``) keep no state beyond
+their synced traits:
 
 * :class:`SchematicTree`: the live 2D schematic tree, grown by the same model constrained to a plane (a fixed-seed
   autonomous run of a SketchEngine in a depth slab, distichous in-plane laterals), with the set-point tropism
@@ -286,8 +287,14 @@ class ArchitectureState(_ArchTraits):
 
 # -- widgets -------------------------------------------------------------------------------------------------------
 class _StateWidget(anywidget.AnyWidget):
-    """Base: a widget whose synced traits mirror some of an :class:`ArchitectureState`'s and command it."""
+    """Base: a widget whose synced traits mirror some of an :class:`ArchitectureState`'s and command it.
 
+    All kinds share one front end, ``widgets/architecture.js``, which draws the one named by :attr:`kind`.
+    """
+
+    _esm = asset("architecture.js")
+    _css = asset("architecture.css")
+    kind = traitlets.Unicode("", read_only=True).tag(sync=True)
     error = traitlets.Unicode("").tag(sync=True)
     _synced: tuple[str, ...] = ()
 
@@ -352,8 +359,7 @@ class SchematicTree(_StateWidget):
         Time of the last schematic run.
     """
 
-    _esm = asset("architecture_schematic.js")
-    _css = asset("architecture.css")
+    kind = traitlets.Unicode("schematic", read_only=True).tag(sync=True)
     segments = traitlets.List(traitlets.Float()).tag(sync=True)
     tropism_angle = traitlets.Float(0.0).tag(sync=True)
     phyllotaxis_angle = traitlets.Float(137.5).tag(sync=True)
@@ -398,8 +404,7 @@ class GravimorphismEllipse(_StateWidget):
         Distance d (= b at tau = 90 degrees) along each of ``n_rays`` bud directions, from :func:`ellipse_rays`.
     """
 
-    _esm = asset("architecture_ellipse.js")
-    _css = asset("architecture.css")
+    kind = traitlets.Unicode("ellipse", read_only=True).tag(sync=True)
     ellipse = traitlets.List(traitlets.Float(), default_value=[1.0, 1.0, 0.0], minlen=3, maxlen=3).tag(sync=True)
     rays = traitlets.List(traitlets.Float()).tag(sync=True)
     n_rays = traitlets.Int(16).tag(sync=True)
@@ -450,8 +455,7 @@ class AngleWidget(_StateWidget):
         Current values, degrees, in ``specs`` order; the browser writes them while a handle is dragged.
     """
 
-    _esm = asset("architecture_angles.js")
-    _css = asset("architecture.css")
+    kind = traitlets.Unicode("angles", read_only=True).tag(sync=True)
     angles = traitlets.List(traitlets.Float()).tag(sync=True)
     specs = traitlets.List(traitlets.Dict()).tag(sync=True)
     _synced = ("angles",)

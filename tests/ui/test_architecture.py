@@ -156,6 +156,8 @@ def test_widgets_round_trip_and_snap_back(engine):
     tree, ell = SchematicTree(s, iterations=6), GravimorphismEllipse(s)
     ang = AngleWidget(s)
     tro = AngleWidget(s, [{"name": "tropism_angle", "label": "θ", "lo": 0, "hi": 180, "side": 1, "color": "#00f"}])
+    assert (tree.kind, ell.kind, ang.kind) == ("schematic", "ellipse", "angles")   # one front end draws each kind
+    assert str(tree._esm) == str(ell._esm) == str(ang._esm)
     # browser -> engine
     tree.tropism_angle = 120.0
     assert engine.params["tropism_angle"] == 120.0 and tro.angles == [120.0] and tree.error == ""
