@@ -171,7 +171,7 @@ def constraint_figures(quick: bool) -> dict:
 
     out = {}
     rng = np.random.default_rng(0)
-    counts = [30, 300] if quick else [10, 30, 100, 300]
+    counts = [300] if quick else [10, 30, 100, 300]
     shape = (20, 128, 128)
     cx = 30.0 / 128
     crown_voxels(np.zeros((2, 2)), np.ones(2), np.ones(2), size=(30.0, 30.0), shape=(2, 8, 8))  # load the kernel
