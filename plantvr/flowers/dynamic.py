@@ -138,6 +138,7 @@ class _ProfileTrack:
             rec = keys[0][1]
             self.shapes = [(rec.r / np.sqrt(rec.area), rec.z / np.sqrt(rec.area))]
             self.single = True
+            self._unit = None
         else:
             u = np.linspace(0.0, 1.0, nodes)
             self.shapes = []
@@ -149,7 +150,9 @@ class _ProfileTrack:
 
     def unit_shape(self, t: float) -> Receptacle:
         if self.single:
-            r, z = self.shapes[0]
+            if self._unit is None:
+                self._unit = receptacle_from_profile(*self.shapes[0])
+            return self._unit
         else:
             j = int(np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, self.times.size - 2))
             f = float(np.clip((t - self.times[j]) / (self.times[j + 1] - self.times[j]), 0.0, 1.0))
@@ -238,9 +241,10 @@ class DynamicPhyllotaxis:
         self._track = track
         self.t = 0.0
         self.inner_area, self.outer_area = inner_area, outer_area
-        self._birth: list[float] = []
-        self._front: list[int] = []
-        self._alpha: list[float] = []
+        self._n = 0                                        # primordia in the growable buffers below
+        self._birth = np.empty(64)
+        self._front = np.empty(64, np.int8)
+        self._alpha = np.empty(64)
         self._override: dict[int, float] = {}
         self._last_alpha: dict[int, float] = {}
         self._next_prod = 0.0
@@ -251,14 +255,19 @@ class DynamicPhyllotaxis:
     @property
     def n(self) -> int:
         """Number of primordia produced so far."""
-        return len(self._birth)
+        return self._n
 
     def _add(self, front: int, birth: float) -> None:
+        n = self._n
+        if n == self._birth.size:                          # amortised O(1) append
+            self._birth, self._front, self._alpha = (np.concatenate([a, np.empty_like(a)])
+                                                     for a in (self._birth, self._front, self._alpha))
         prev = self._last_alpha.get(front)
-        self._alpha.append(self.alpha0 if prev is None else prev + self.divergence)
-        self._last_alpha[front] = self._alpha[-1]
-        self._front.append(front)
-        self._birth.append(birth)
+        self._alpha[n] = self.alpha0 if prev is None else prev + self.divergence
+        self._last_alpha[front] = float(self._alpha[n])
+        self._front[n] = front
+        self._birth[n] = birth
+        self._n = n + 1
 
     def _produce_fractionation(self, t1: float) -> None:
         fronts = (FRONT_IN,) if self.mode == "centripetal" else (FRONT_IN, FRONT_OUT)
@@ -321,7 +330,7 @@ class DynamicPhyllotaxis:
         """
         dt = check_range("dt", dt, 0.0, 1e12, low_open=True)
         t0, t1 = self.t, self.t + dt
-        done = self.n >= self.max_primordia     # a used-up meristem stops growing (its regions stay as they are)
+        done = self.n >= self.max_primordia     # a used-up meristem stops growing its regions
         g_in = 0.0 if done else 0.5 * (_eval("inner_rate", self.inner_rate, t0)
                                        + _eval("inner_rate", self.inner_rate, t1)) * dt
         g_out = 0.0 if done else 0.5 * (_eval("outer_rate", self.outer_rate, t0)
@@ -339,9 +348,8 @@ class DynamicPhyllotaxis:
             self.t = t1
             frame = self._layout()                 # may call user functions that reject their input
         except ValueError:
-            (self.t, self.inner_area, self.outer_area, n, self._next_prod, self._stopped,
+            (self.t, self.inner_area, self.outer_area, self._n, self._next_prod, self._stopped,
              self._last_alpha) = saved
-            del self._birth[n:], self._front[n:], self._alpha[n:]
             raise
         self.frame = frame
         return frame
@@ -354,7 +362,7 @@ class DynamicPhyllotaxis:
 
     # -- layout ----------------------------------------------------------------------------------------
     def _areas(self) -> np.ndarray:
-        birth = np.asarray(self._birth, dtype=np.float64)
+        birth = self._birth[:self._n]
         if callable(self.primordium_area):
             a = None
             try:                                   # one vectorised call when the function takes arrays
@@ -370,7 +378,8 @@ class DynamicPhyllotaxis:
             bad = ~(np.isfinite(a) & (a > 0))
             if bad.any():
                 k = int(np.flatnonzero(bad)[0])
-                raise ValueError(f"primordium_area({self.t - birth[k]!r}) must return a finite positive "
+                age = float(self.t - birth[k])
+                raise ValueError(f"primordium_area({age!r}) must return a finite positive "
                                  f"number, got {a[k]!r}")
         else:
             a = np.full(birth.size, float(self.primordium_area))
@@ -380,9 +389,9 @@ class DynamicPhyllotaxis:
 
     def _layout(self) -> DynamicFrame:
         n = self.n
-        birth = np.asarray(self._birth, dtype=np.float64).reshape(n)
-        front = np.asarray(self._front, dtype=np.int8).reshape(n)
-        alpha = np.asarray(self._alpha, dtype=np.float64).reshape(n)
+        birth = self._birth[:n].copy()                     # frames own their arrays
+        front = self._front[:n].copy()
+        alpha = self._alpha[:n].copy()
         area = self._areas().reshape(n)
         total = self.inner_area + area.sum() + self.outer_area
         unit = self._track.unit_shape(self.t)
