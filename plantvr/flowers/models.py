@@ -202,8 +202,8 @@ def _cupped_net(length: float, width: float, opening_deg: float, incurve_deg: fl
     return roll_margins(ctrl, roll_deg)
 
 
-def dahlia_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.6, width: float = 2.4,
-                  open_deg: float = 60.0, incurve_deg: float = -30.0, roll_deg: float = 80.0) -> FloretType:
+def dahlia_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.6, width: float = 2.2,
+                  open_deg: float = 60.0, incurve_deg: float = -30.0, roll_deg: float = 90.0) -> FloretType:
     """An incurved, cupped ray floret of a ball dahlia (spec 002 §6.2, Figs. 9.1–9.2).
 
     One broad ligule (n-fold 1) with a rounded tip whose margins roll toward its upper side by ``roll_deg``
@@ -233,8 +233,8 @@ DAHLIA_BANDS = ((0.0, -50.0, 1.2), (0.1, 45.0, 1.0), (0.2, None, 1.0))
 
 
 def dahlia_head(n_florets: int = 300, *, radius: float = 10.0, detail: float = 1.0, n_frames: int = 8,
-                open_deg: float = 60.0, incurve_deg: float = -30.0, roll_deg: float = 80.0, length: float = 3.6,
-                width: float = 2.4) -> FlowerHead:
+                open_deg: float = 60.0, incurve_deg: float = -30.0, roll_deg: float = 90.0, length: float = 3.6,
+                width: float = 2.2) -> FlowerHead:
     """Dahlia 'Jomanda'-like ball (Figs. 9.1–9.2): phyllotaxis on a hemispherical receptacle, every floret an
     incurved, cupped ray floret; the florets overlap like scales and collisions shape them (spec 002 §6.2).
 

@@ -76,8 +76,8 @@ PRESETS = {
                               "roll_deg": 150.0},
                              {"length": 2.4, "width": 1.8, "opening_deg": 30.0, "curl_deg": -15.0,
                               "roll_deg": 110.0},
-                             {"length": 3.6, "width": 2.4, "opening_deg": 60.0, "curl_deg": -30.0,
-                              "roll_deg": 80.0}]},
+                             {"length": 3.6, "width": 2.2, "opening_deg": 60.0, "curl_deg": -30.0,
+                              "roll_deg": 90.0}]},
     "fused tube (3 poses)": {**_MESH, **_DISC, "n_fold": 6, "fused_rows": 4, "growth": "linear", "n_poses": 3},
 }
 
