@@ -92,11 +92,12 @@ class Forest:
         """:func:`regrow_tree` of this forest."""
         return regrow_tree(self, tree, params=params, sketch=sketch)
 
-    def export(self, path, *, instancing: bool = True, terrain: bool = True):
+    def export(self, path, *, instancing: bool = True, terrain: bool = True, leaves: bool = False,
+               params: dict[str, Any] | None = None):
         """Write the landscape as one binary glTF scene (:func:`plantvr.landscape.gltf.export_forest`)."""
         from .gltf import export_forest
 
-        return export_forest(path, self, instancing=instancing, terrain=terrain)
+        return export_forest(path, self, instancing=instancing, terrain=terrain, leaves=leaves, params=params)
 
 
 def engine_state(e: GrowthEngine) -> dict[str, Any]:

@@ -22,6 +22,7 @@ __all__ = ["export_distribution", "export_forest", "export_landscape", "terrain_
 
 BARK_RGBA = (0.38, 0.26, 0.16, 1.0)
 TERRAIN_RGBA = (0.55, 0.53, 0.33, 1.0)
+LEAF_RGBA = (0.27, 0.55, 0.18, 1.0)
 _FLOAT, _UINT = 5126, 5125
 _ARRAY, _ELEMENTS = 34962, 34963
 
@@ -57,8 +58,10 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
     path : str or pathlib.Path
         Output file, ``.glb``.
     meshes : list of dict
-        ``{"vertices": (V, 3) float, "faces": (F, 3) int, "name": str, "color": (4,) RGBA in [0, 1]}``; one
-        glTF mesh (and material) each, with float32 positions, vertex normals and uint32 indices.
+        ``{"vertices": (V, 3) float, "faces": (F, 3) int, "name": str, "color": (4,) RGBA in [0, 1],
+        "double_sided": bool}``, or ``{"name": str, "parts": [such dicts]}`` for a mesh of several primitives
+        (e.g. bark and leaves); one glTF mesh each, with float32 positions, vertex normals and uint32 indices,
+        and one material per distinct colour.
     nodes : list of dict
         ``{"mesh": int, "name": str, "translation": (3,), "rotation": (4,) quaternion (x, y, z, w),
         "scale": (3,)}`` (transform entries optional); all are roots of the one scene.
@@ -74,7 +77,9 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
         m = nd.get("mesh")
         if not isinstance(m, (int, np.integer)) or not 0 <= m < len(meshes):
             raise ValueError(f"nodes[{k}] mesh must be an index in [0, {len(meshes)}), got {m!r}")
-    checked = [_check_mesh(f"meshes[{i}]", (m["vertices"], m["faces"])) for i, m in enumerate(meshes)]
+    parts = [m.get("parts", [m]) for m in meshes]
+    checked = [[_check_mesh(f"meshes[{i}] part {j}", (q["vertices"], q["faces"])) for j, q in enumerate(ps)]
+               for i, ps in enumerate(parts)]
     chunks: list[bytes] = []
     views: list[dict] = []
     accessors: list[dict] = []
@@ -97,20 +102,26 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
         accessors.append(acc)
         return len(accessors) - 1
 
-    gl_meshes, materials = [], []
-    for i, ((v, f), m) in enumerate(zip(checked, meshes)):
-        rgba = [float(c) for c in m.get("color", BARK_RGBA)]
-        materials.append({"name": f"{m.get('name', f'mesh_{i}')}_material", "pbrMetallicRoughness": {
-            "baseColorFactor": rgba, "metallicFactor": 0.0, "roughnessFactor": 0.9}})
-        prim: dict[str, Any] = {"material": i, "mode": 4, "attributes": {}}
-        if len(f):
-            v32 = v.astype(np.float32)
-            prim["attributes"]["POSITION"] = add(v32, "VEC3", _ARRAY, minmax=True)
-            prim["attributes"]["NORMAL"] = add(_vertex_normals(v, f).astype(np.float32), "VEC3", _ARRAY)
-            prim["indices"] = add(f.astype(np.uint32).ravel(), "SCALAR", _ELEMENTS)
-        else:  # glTF needs POSITION: an empty mesh becomes one degenerate (zero-area) triangle
-            prim["attributes"]["POSITION"] = add(np.zeros((3, 3), np.float32), "VEC3", _ARRAY, minmax=True)
-        gl_meshes.append({"name": m.get("name", f"mesh_{i}"), "primitives": [prim]})
+    gl_meshes, materials, mat_index = [], [], {}
+    for i, (cm, ps, m) in enumerate(zip(checked, parts, meshes)):
+        prims = []
+        for (v, f), q in zip(cm, ps):
+            rgba = tuple(float(c) for c in q.get("color", BARK_RGBA))
+            key = (rgba, bool(q.get("double_sided", False)))
+            if key not in mat_index:  # one material per colour, shared by the meshes
+                mat_index[key] = len(materials)
+                materials.append({"name": f"material_{len(materials)}", "doubleSided": key[1],
+                                  "pbrMetallicRoughness": {"baseColorFactor": list(rgba), "metallicFactor": 0.0,
+                                                           "roughnessFactor": 0.9}})
+            prim: dict[str, Any] = {"material": mat_index[key], "mode": 4, "attributes": {}}
+            if len(f):
+                prim["attributes"]["POSITION"] = add(v.astype(np.float32), "VEC3", _ARRAY, minmax=True)
+                prim["attributes"]["NORMAL"] = add(_vertex_normals(v, f).astype(np.float32), "VEC3", _ARRAY)
+                prim["indices"] = add(f.astype(np.uint32).ravel(), "SCALAR", _ELEMENTS)
+            else:  # glTF needs POSITION: an empty part becomes one degenerate (zero-area) triangle
+                prim["attributes"]["POSITION"] = add(np.zeros((3, 3), np.float32), "VEC3", _ARRAY, minmax=True)
+            prims.append(prim)
+        gl_meshes.append({"name": m.get("name", f"mesh_{i}"), "primitives": prims})
     gl_nodes = []
     for k, nd in enumerate(nodes):
         out: dict[str, Any] = {"name": nd.get("name", f"node_{k}"), "mesh": int(nd["mesh"])}
@@ -160,7 +171,7 @@ def _mesh_key(v: np.ndarray, f: np.ndarray) -> bytes:
 def export_landscape(path, trees: list[tuple[np.ndarray, np.ndarray]], positions: np.ndarray, *,
                      yaw: np.ndarray | None = None, scale: np.ndarray | None = None,
                      terrain: tuple[np.ndarray, tuple[float, float]] | None = None, names: list[str] | None = None,
-                     instancing: bool = True) -> Path:
+                     instancing: bool = True, leaves: list | None = None) -> Path:
     """Write trees placed on a landscape, and the terrain, as one glTF scene with instancing.
 
     Parameters
@@ -182,6 +193,9 @@ def export_landscape(path, trees: list[tuple[np.ndarray, np.ndarray]], positions
         Node names (default ``tree_<i>``); a shared mesh is named after its first tree.
     instancing : bool
         Share identical meshes; False writes one mesh per tree.
+    leaves : list of (vertices, faces) or None, optional
+        Leaf mesh of each tree in the same frame (None: no leaves); written as a second, double-sided primitive
+        of the tree's mesh.
 
     Returns
     -------
@@ -201,16 +215,22 @@ def export_landscape(path, trees: list[tuple[np.ndarray, np.ndarray]], positions
     if names is not None and len(names) != n:
         raise ValueError(f"names must have one entry per tree ({n}), got {len(names)}")
     checked = [_check_mesh(f"trees[{i}]", t) for i, t in enumerate(trees)]
+    if leaves is not None and len(leaves) != n:
+        raise ValueError(f"leaves must have one entry (or None) per tree ({n}), got {len(leaves)}")
+    lv = [None if leaves is None or leaves[i] is None else _check_mesh(f"leaves[{i}]", leaves[i]) for i in range(n)]
     ter = None if terrain is None else terrain_mesh(*terrain)
     meshes: list[dict[str, Any]] = []
     nodes: list[dict[str, Any]] = []
     seen: dict[bytes, int] = {}
     for i, (v, f) in enumerate(checked):
         name = names[i] if names is not None else f"tree_{i}"
-        key = _mesh_key(v, f) if instancing else i
+        key = (_mesh_key(v, f) + (b"" if lv[i] is None else _mesh_key(*lv[i]))) if instancing else i
         if key not in seen:
             seen[key] = len(meshes)
-            meshes.append({"vertices": v, "faces": f, "name": name, "color": BARK_RGBA})
+            part = [{"vertices": v, "faces": f, "color": BARK_RGBA}]
+            if lv[i] is not None:
+                part.append({"vertices": lv[i][0], "faces": lv[i][1], "color": LEAF_RGBA, "double_sided": True})
+            meshes.append({"name": name, "parts": part})
         q = [0.0, float(np.sin(yaw[i] / 2)), 0.0, float(np.cos(yaw[i] / 2))]
         nodes.append({"mesh": seen[key], "name": name, "translation": pos[i], "rotation": np.array(q),
                       "scale": np.full(3, sc[i])})
@@ -220,16 +240,40 @@ def export_landscape(path, trees: list[tuple[np.ndarray, np.ndarray]], positions
     return write_glb(path, meshes, nodes)
 
 
-def export_forest(path, forest, *, instancing: bool = True, terrain: bool = True) -> Path:
+def _tree_leaves(tree: dict[str, np.ndarray], p: dict[str, Any]) -> tuple[np.ndarray, np.ndarray] | None:
+    """Leaf mesh of a tree's arrays at its free bud slots (the leaf placement of ``plantvr.export.tree_geometry``,
+    called through :func:`plantvr.geometry.leaves.build_leaves`)."""
+    from ..geometry.leaves import build_leaves
+
+    node, _ = np.nonzero((tree["child"] == -1) & tree["alive"][:, None])
+    if p["leaf_size"] <= 0 or not len(node):
+        return None
+    leaf = build_leaves(tree["pos"][node], tree["head"][node], tree["radius"][node], bud_up=tree["lat"][node],
+                        leaf_size=p["leaf_size"], radius_threshold=3 * p["tip_radius"],
+                        petiole_length=p["petiole_length"], e_twist=p["petiole_twist"], e_up=p["petiole_bend_up"],
+                        e_right=p["petiole_bend_right"], iterations=p["leaf_iterations"],
+                        leaf_shape=p["leaf_texture"], rng=0)
+    return (leaf.vertices, leaf.faces) if len(leaf.faces) else None
+
+
+def export_forest(path, forest, *, instancing: bool = True, terrain: bool = True, leaves: bool = False,
+                  params: dict[str, Any] | None = None) -> Path:
     """Write a :class:`~plantvr.landscape.forest.Forest` as one glTF scene: every tree's branch mesh (its
     ``meshes``, built now when the forest was grown without geometry) in its own frame, placed at its base;
-    identical trees share a mesh. ``terrain`` adds the height field."""
+    identical trees share a mesh. ``terrain`` adds the height field. ``leaves`` builds each tree's leaves
+    (as ``plantvr.export.tree_geometry`` places them, with ``params`` over the defaults) as a second primitive."""
     from .forest import tree_mesh_task
 
     meshes = forest.meshes if forest.meshes is not None else [tree_mesh_task(t) for t in forest.trees]
     local = [(np.asarray(v, float) - b if len(v) else np.zeros((0, 3)), f) for (v, f), b in zip(meshes, forest.bases)]
+    lv = None
+    if leaves:
+        from ..params import defaults
+
+        p = {**defaults(), **(params or {})}
+        lv = [_tree_leaves({**t, "pos": t["pos"] - b}, p) for t, b in zip(forest.trees, forest.bases)]
     ter = (forest.heights, forest.size) if terrain else None
-    return export_landscape(path, local, forest.bases, terrain=ter, instancing=instancing)
+    return export_landscape(path, local, forest.bases, terrain=ter, instancing=instancing, leaves=lv)
 
 
 def export_distribution(path, distribution, prototypes: list[tuple[np.ndarray, np.ndarray]], *,

@@ -89,3 +89,18 @@ def test_gltf_validation(tmp_path):
     with pytest.raises(ValueError, match="heights"):
         terrain_mesh(np.zeros((1, 5)), (1.0, 1.0))
     assert not (tmp_path / "a.glb").exists()
+
+
+def test_forest_export_with_leaves(tmp_path):
+    f = grow_forest(3, size=(24.0, 24.0), min_dist=6.0, rounds=1, steps_per_round=4, crown_height=4.0,
+                    crown_radius=3.0, seed=6, client="sync", geometry=True, sketch={"n_max": 2, "bud_lifetime": 6},
+                    params={"activation_threshold": 0.0, "length_mode": "constant", "tip_radius": 0.03})
+    path = f.export(tmp_path / "leafy.glb", leaves=True, params={"tip_radius": 0.03, "leaf_size": 0.5})
+    s = trimesh.load(path, force="scene")
+    # one node per tree primitive (trimesh splits a mesh's primitives into geometries): bark + leaves + terrain
+    assert len(s.graph.nodes_geometry) == 2 * len(f.trees) + 1
+    leafy = [g for name, g in s.geometry.items() if len(g.faces) and np.allclose(g.visual.material.baseColorFactor[:3],
+                                                                                 [70, 140, 46], atol=2)]
+    assert len(leafy) == len(f.trees)
+    plain = trimesh.load(f.export(tmp_path / "bare.glb"), force="scene")
+    assert np.all(s.bounds[1] >= plain.bounds[1] - 1e-9)
