@@ -26,7 +26,13 @@ smoothing
 branching
     Florets-first extended Rodkaew branching for corymbs and (compound) umbels, pipe widths, tube meshes.
 """
+from plantvr.flowers.dynamic import DynamicFrame, DynamicPhyllotaxis  # noqa: F401  (§4.3 dynamic phyllotaxis)
 from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets  # noqa: F401
+from plantvr.flowers.hierarchical import (  # noqa: F401  (§4.4 hierarchical patterns)
+    HierarchicalPhyllotaxis,
+    LevelSpec,
+    hofmeister_angles,
+)
 from plantvr.flowers.phyllotaxis import (  # noqa: F401
     GOLDEN_ANGLE_DEG,
     Receptacle,
@@ -40,10 +46,4 @@ from plantvr.flowers.phyllotaxis import (  # noqa: F401
     receptacle_from_profile,
     ridley_placement,
     vogel_disc,
-)
-from plantvr.flowers.dynamic import DynamicFrame, DynamicPhyllotaxis  # noqa: F401  (§4.3 dynamic phyllotaxis)
-from plantvr.flowers.hierarchical import (  # noqa: F401  (§4.4 hierarchical patterns)
-    HierarchicalPhyllotaxis,
-    LevelSpec,
-    hofmeister_angles,
 )

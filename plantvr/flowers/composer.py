@@ -21,7 +21,11 @@ __all__ = ["Canopy", "FloretType", "SolverParams", "grow", "step"]
 
 @dataclass(frozen=True)
 class SolverParams:
-    """Algorithm 1 settings; defaults are the App. C.1 example file values (spec 002 §3.7)."""
+    """Algorithm 1 settings; defaults are the App. C.1 example file values (spec 002 §3.7).
+
+    ``method`` picks the internal-constraint solver: ``"gauss-seidel"`` (the thesis) or ``"jacobi"``
+    (order-independent, averaged per vertex, over-relaxed by ``omega`` in (0, 2); V26).
+    """
 
     solver_iterations: int = 50
     collision_iterations: int = 10
@@ -30,6 +34,8 @@ class SolverParams:
     k_bend: float = 0.99
     k_collision: float = 1.0
     spacing: float = 0.005
+    method: str = "gauss-seidel"
+    omega: float = 1.0
 
     def __post_init__(self):
         check_int("solver_iterations", self.solver_iterations, 0, 100_000)
@@ -38,6 +44,8 @@ class SolverParams:
         for name in ("k_stretch", "k_bend", "k_collision"):
             check_range(name, getattr(self, name), 0.0, 1.0)
         check_range("spacing", self.spacing, 0.0, 1e6)
+        check_choice("method", self.method, ("gauss-seidel", "jacobi"))
+        check_range("omega", self.omega, 0.0, 2.0, low_open=True, high_open=True)
 
 
 @dataclass
@@ -174,7 +182,8 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
     t0 = time.perf_counter()
     pbd.solve_internal(p, canopy.w, canopy.edges, rest_len, canopy.quads, rest_phi,
                        k_stretch=params.k_stretch, k_bend=params.k_bend,
-                       iterations=params.solver_iterations, backend=backend)
+                       iterations=params.solver_iterations, backend=backend, method=params.method,
+                       omega=params.omega)
     stats["solver"] = time.perf_counter() - t0
     if not collisions:
         return p, stats

@@ -85,6 +85,14 @@ def test_small_head_grows_collision_free():
     assert ccd.count_static_intersections(x, head.canopy.faces) == 0
 
 
+def test_v26_jacobi_head_grows_collision_free():
+    """The order-independent Jacobi solver drives a whole head through Algorithm 1 (SolverParams.method)."""
+    head = sunflower_head(21, detail=0.6, n_frames=4)
+    x, log = grow(head.canopy, head.schedule(5), SolverParams(method="jacobi", omega=1.5), sanity_every=1)
+    assert all(st["intersections"] == 0 for st in log)
+    assert ccd.count_static_intersections(x, head.canopy.faces) == 0
+
+
 def test_bad_input_composer():
     T = _type()
     with pytest.raises(ValueError, match="kind must be in"):
@@ -93,6 +101,10 @@ def test_bad_input_composer():
         Canopy([T], [0], [[0, 0, 0]], [[0, 0, 1.0]], [[1.0, 0, 0]], [0.0])
     with pytest.raises(ValueError, match="spacing"):
         SolverParams(spacing=-0.005)
+    with pytest.raises(ValueError, match="method must be"):
+        SolverParams(method="sor")
+    with pytest.raises(ValueError, match=r"omega must be in \(0.0, 2.0\)"):
+        SolverParams(method="jacobi", omega=2.0)
     can = Canopy([T], [0], [[0, 0, 0]], [[0, 0, 1.0]], [[1.0, 0, 0]], [1.0])
     with pytest.raises(ValueError, match="prediction"):
         grow(can, np.zeros((2, 1)), prediction="magic")
