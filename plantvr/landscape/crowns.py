@@ -276,6 +276,8 @@ def crown_voxels(bases: np.ndarray, areas: np.ndarray, h_max: np.ndarray, *, siz
     Returns
     -------
     CrownVoxels
+        A tree whose base cell another tree claimed first (two bases in one cell; the lower index wins ties)
+        owns no voxels in that layer.
 
     References
     ----------
