@@ -2,20 +2,14 @@
 naming the parameter, and the front ends driven in headless Chromium (spec 004 §2.3, §1.4.6, V5, V6)."""
 import json
 import math
-import os
-import re
-import socket
-import subprocess
-import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import plantvr
-from plantvr._browser import CHROMIUM, launch_chromium, stop_process_group
+from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.growth.sketch import SketchEngine, gravimorphism
 from plantvr.params import defaults
 from plantvr.ui import InfluenceTriangle
@@ -30,6 +24,8 @@ from plantvr.ui.architecture import (
     ellipse_rays,
     schematic_tree,
 )
+
+from ._jupyter import jupyter_lab, open_notebook, printed, run_cell, screenshot_dir
 
 
 @pytest.fixture
@@ -267,8 +263,7 @@ def _sync(page, wid, widget, *names):
 @pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")
 def test_architecture_widgets_in_chromium(tmp_path):
     playwright_api = pytest.importorskip("playwright.sync_api")
-    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    shots.mkdir(parents=True, exist_ok=True)
+    shots = screenshot_dir(tmp_path)
     engine = SketchEngine({**defaults(), "activation_threshold": 0.0}, rng=0, ellipse=(0.8, 1.3, 0.3))
     panel = ArchitecturePanel(engine, schematic_iterations=10)
     ws = {"schematic": panel.schematic, "ellipse": panel.ellipse, "branching": panel.branching,
@@ -365,114 +360,44 @@ LAB_CELLS = [
 ]
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.browser
 @pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")
 def test_architecture_panel_in_jupyterlab(tmp_path):
-
     playwright_api = pytest.importorskip("playwright.sync_api")
     pytest.importorskip("jupyterlab")
-    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    shots.mkdir(parents=True, exist_ok=True)
-    token, repo = "plantvr-arch-token", Path(__file__).resolve().parents[2]
-    root = tmp_path / "root"
-    root.mkdir()
-    nb = {"cells": [{"cell_type": "code", "execution_count": None, "id": f"c{i}", "metadata": {}, "outputs": [],
-                     "source": src} for i, src in enumerate(LAB_CELLS)],
-          "metadata": {"kernelspec": {"display_name": "Python 3", "language": "python", "name": "python3"}},
-          "nbformat": 4, "nbformat_minor": 5}
-    (root / "arch.ipynb").write_text(json.dumps(nb))
-    settings = tmp_path / "cfg" / "lab" / "user-settings" / "@jupyterlab" / "apputils-extension"
-    settings.mkdir(parents=True)
-    (settings / "notification.jupyterlab-settings").write_text(
-        json.dumps({"fetchNews": "false", "checkForUpdates": False, "doNotDisturbMode": True}))
-    port = _free_port()
-    env = {**os.environ, "JUPYTER_CONFIG_DIR": str(tmp_path / "cfg"), "JUPYTER_RUNTIME_DIR": str(tmp_path / "rt"),
-           "PYTHONPATH": os.pathsep.join([str(repo), os.environ.get("PYTHONPATH", "")])}
-    cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", f"--port={port}", "--ip=127.0.0.1",
-           f"--IdentityProvider.token={token}", f"--ServerApp.root_dir={root}", "--ServerApp.port_retries=0",
-           "--LabApp.expose_app_in_browser=True",
-           f"--LabApp.user_settings_dir={tmp_path / 'cfg' / 'lab' / 'user-settings'}",
-           f"--LabApp.workspaces_dir={tmp_path / 'ws'}", "--ServerApp.disable_check_xsrf=True"]
-    if hasattr(os, "geteuid") and os.geteuid() == 0:
-        cmd.append("--allow-root")
-    url = f"http://127.0.0.1:{port}"
-    with open(tmp_path / "lab.log", "wb") as log:
-        proc = subprocess.Popen(cmd, cwd=root, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    shots = screenshot_dir(tmp_path)
+    with jupyter_lab(tmp_path, {"arch.ipynb": LAB_CELLS}) as url, playwright_api.sync_playwright() as p:
+        browser = launch_chromium(p, timeout=30_000)
         try:
-            deadline = time.monotonic() + 40
-            while True:
-                assert proc.poll() is None, (tmp_path / "lab.log").read_text()[-2000:]
-                try:
-                    with urllib.request.urlopen(f"{url}/api/status?token={token}", timeout=2) as r:
-                        if r.status == 200:
-                            break
-                except OSError:
-                    pass
-                assert time.monotonic() < deadline, "jupyter lab did not start in 40 s"
+            page, errors = open_notebook(browser, url, "arch.ipynb", len(LAB_CELLS), viewport=(1300, 900))
+            run_cell(page, 0)
+            handle = page.locator('circle.angle-handle[data-name="branch_angle"]')
+            handle.wait_for(state="visible", timeout=45_000)
+            page.locator("line.schematic-seg").first.wait_for(state="attached", timeout=30_000)
+            assert page.locator("line.ellipse-ray").count() == 16
+            assert page.locator("svg.tri-svg").count() == 1                  # the reused triangle
+            page.screenshot(path=str(shots / "jupyterlab_architecture_before.png"))
+            # drag psi to ~70 degrees: the engine in the kernel follows
+            svg = page.locator('svg.angles-svg:has(circle[data-name="branch_angle"])').bounding_box()
+            O = (svg["x"] + 100, svg["y"] + 190 * 0.58)
+            hb = handle.bounding_box()
+            page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+            page.mouse.down()
+            a = math.radians(70)
+            page.mouse.move(O[0] + 70 * math.sin(a), O[1] - 70 * math.cos(a), steps=8)
+            page.mouse.up()
+            end, psi = time.monotonic() + 20, 45.0
+            while abs(psi - 70) > 1.5 and time.monotonic() < end:
+                run_cell(page, 1)
+                psi = float(printed(page, 1, r"PSI ([\d.]+)")[0])
                 time.sleep(0.3)
-
-            def run(page, i):
-                page.evaluate("""async (i) => { const app = window.jupyterapp, nb = app.shell.currentWidget;
-                    nb.content.activeCellIndex = i; await app.commands.execute('notebook:run-cell'); }""", i)
-
-            def printed(page, i, pattern):
-                loc = page.locator(".jp-Cell").nth(i).locator(".jp-OutputArea-output")
-                end = time.monotonic() + 20
-                while time.monotonic() < end:
-                    if loc.count():
-                        m = re.search(pattern, loc.last.inner_text())
-                        if m:
-                            return m.groups()
-                    time.sleep(0.2)
-                raise AssertionError(f"cell {i} printed nothing matching {pattern!r}")
-
-            with playwright_api.sync_playwright() as p:
-                browser = launch_chromium(p, timeout=30_000)
-                try:
-                    page = browser.new_page(viewport={"width": 1300, "height": 900})
-                    page.set_default_timeout(30_000)
-                    errors = []
-                    page.on("pageerror", lambda e: errors.append(str(e)))
-                    page.goto(f"{url}/lab/tree/arch.ipynb?token={token}", wait_until="domcontentloaded")
-                    page.wait_for_function("""() => { const w = window.jupyterapp && window.jupyterapp.shell.currentWidget;
-                        return w && w.sessionContext && w.sessionContext.session && w.sessionContext.session.kernel
-                          && w.sessionContext.session.kernel.connectionStatus === 'connected'
-                          && w.content.widgets.length === 3; }""", timeout=45_000)
-                    run(page, 0)
-                    handle = page.locator('circle.angle-handle[data-name="branch_angle"]')
-                    handle.wait_for(state="visible", timeout=45_000)
-                    page.locator("line.schematic-seg").first.wait_for(state="attached", timeout=30_000)
-                    assert page.locator("line.ellipse-ray").count() == 16
-                    assert page.locator("svg.tri-svg").count() == 1                  # the reused triangle
-                    page.screenshot(path=str(shots / "jupyterlab_architecture_before.png"))
-                    # drag psi to ~70 degrees: the engine in the kernel follows
-                    svg = page.locator('svg.angles-svg:has(circle[data-name="branch_angle"])').bounding_box()
-                    O = (svg["x"] + 100, svg["y"] + 190 * 0.58)
-                    hb = handle.bounding_box()
-                    page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-                    page.mouse.down()
-                    a = math.radians(70)
-                    page.mouse.move(O[0] + 70 * math.sin(a), O[1] - 70 * math.cos(a), steps=8)
-                    page.mouse.up()
-                    end, psi = time.monotonic() + 20, 45.0
-                    while abs(psi - 70) > 1.5 and time.monotonic() < end:
-                        run(page, 1)
-                        psi = float(printed(page, 1, r"PSI ([\d.]+)")[0])
-                        time.sleep(0.3)
-                    assert psi == pytest.approx(70.0, abs=1.5)
-                    # kernel -> browser: delta and the n_max slider follow a command in the kernel
-                    run(page, 2)
-                    page.wait_for_function("""() => [...document.querySelectorAll('.plantvr-angles .arch-readout')]
-                        .some(e => e.innerText.includes('δ deflection 30.0'))""", timeout=20_000)
-                    page.screenshot(path=str(shots / "jupyterlab_architecture.png"))
-                    assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
-                finally:
-                    browser.close()
+            assert psi == pytest.approx(70.0, abs=1.5)
+            # kernel -> browser: delta and the n_max slider follow a command in the kernel
+            run_cell(page, 2)
+            page.wait_for_function("""() => [...document.querySelectorAll('.plantvr-angles .arch-readout')]
+                .some(e => e.innerText.includes('δ deflection 30.0'))""", timeout=20_000)
+            page.screenshot(path=str(shots / "jupyterlab_architecture.png"))
+            assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
         finally:
-            stop_process_group(proc)
+            browser.close()
+

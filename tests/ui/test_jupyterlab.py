@@ -8,20 +8,15 @@ the handle moves in the page. In the same session a parameter slider of the gene
 (the model's λ follows) and a colour-wheel slice is clicked (the selected label follows). The server is always killed.
 Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 """
-import json
-import os
-import re
-import socket
-import subprocess
-import sys
 import time
-import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from plantvr._browser import CHROMIUM, launch_chromium, stop_process_group
+from plantvr._browser import CHROMIUM, launch_chromium
+
+from ._jupyter import jupyter_lab, open_notebook, printed, run_cell, screenshot_dir
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
@@ -29,8 +24,6 @@ playwright_api = pytest.importorskip("playwright.sync_api")
 pytest.importorskip("jupyterlab")
 pytest.importorskip("anywidget")
 
-TOKEN = "plantvr-test-token"
-REPO = Path(__file__).resolve().parents[2]
 CELLS = [
     ("import plantvr\nfrom plantvr.ui import InfluenceTriangle\n"
      "model = plantvr.Model(seed=0)\nmodel.set_influence(1, 1, 1)\ntri = InfluenceTriangle(model)\ntri"),
@@ -45,114 +38,32 @@ CELLS = [
 ]
 
 
-def _notebook(cells: list[str]) -> dict:
-    return {"cells": [{"cell_type": "code", "execution_count": None, "id": f"c{i}", "metadata": {},
-                       "outputs": [], "source": src} for i, src in enumerate(cells)],
-            "metadata": {"kernelspec": {"display_name": "Python 3", "language": "python", "name": "python3"}},
-            "nbformat": 4, "nbformat_minor": 5}
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
 def shots(tmp_path):
-    d = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    d.mkdir(parents=True, exist_ok=True)
-    return d
+    return screenshot_dir(tmp_path)
 
 
 @pytest.fixture
 def lab(tmp_path):
-    """A JupyterLab server on a free port, serving ``tmp_path/root``; yields its base URL."""
-    root = tmp_path / "root"
-    root.mkdir()
-    (root / "triangle.ipynb").write_text(json.dumps(_notebook(CELLS)))
-    port = _free_port()
-    env = {**os.environ, "JUPYTER_CONFIG_DIR": str(tmp_path / "cfg"), "JUPYTER_RUNTIME_DIR": str(tmp_path / "rt"),
-           "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
-           "VTK_DEFAULT_OPENGL_WINDOW": "vtkEGLRenderWindow"}
-    # no announcements/news pop-up over the notebook
-    settings = tmp_path / "cfg" / "lab" / "user-settings" / "@jupyterlab" / "apputils-extension"
-    settings.mkdir(parents=True)
-    (settings / "notification.jupyterlab-settings").write_text(
-        json.dumps({"fetchNews": "false", "checkForUpdates": False, "doNotDisturbMode": True}))
-    cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", f"--port={port}", "--ip=127.0.0.1",
-           f"--IdentityProvider.token={TOKEN}", f"--ServerApp.root_dir={root}", "--ServerApp.port_retries=0",
-           "--LabApp.expose_app_in_browser=True", f"--LabApp.user_settings_dir={tmp_path / 'cfg' / 'lab' / 'user-settings'}",
-           f"--LabApp.workspaces_dir={tmp_path / 'ws'}", "--ServerApp.disable_check_xsrf=True"]
-    if hasattr(os, "geteuid") and os.geteuid() == 0:  # CI containers run as root
-        cmd.append("--allow-root")
-    with open(tmp_path / "lab.log", "wb") as log:
-        proc = subprocess.Popen(cmd, cwd=root, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        url = f"http://127.0.0.1:{port}"
-        try:
-            deadline = time.monotonic() + 40
-            while True:
-                if proc.poll() is not None:
-                    pytest.fail(f"jupyter lab exited: {(tmp_path / 'lab.log').read_text()[-2000:]}")
-                try:
-                    with urllib.request.urlopen(f"{url}/api/status?token={TOKEN}", timeout=2) as r:
-                        if r.status == 200:
-                            break
-                except OSError:
-                    pass
-                if time.monotonic() > deadline:
-                    pytest.fail(f"jupyter lab did not start in 40 s: {(tmp_path / 'lab.log').read_text()[-2000:]}")
-                time.sleep(0.3)
-            yield url
-        finally:
-            stop_process_group(proc)  # server and its kernels
-
-
-def _run_cell(page, index: int) -> None:
-    page.evaluate("""async (i) => {
-        const app = window.jupyterapp, nb = app.shell.currentWidget;
-        nb.content.activeCellIndex = i;
-        await app.commands.execute('notebook:run-cell');
-    }""", index)
-
-
-def _printed(page, cell: int, pattern: str, timeout_s: float = 20.0) -> tuple[str, ...]:
-    """The groups of ``pattern`` in the output of ``cell`` (what the kernel printed)."""
-    loc = page.locator(".jp-Cell").nth(cell).locator(".jp-OutputArea-output")
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if loc.count():
-            m = re.search(pattern, loc.last.inner_text())
-            if m:
-                return m.groups()
-        time.sleep(0.2)
-    raise AssertionError(f"cell {cell} printed nothing matching {pattern!r}")
+    """A JupyterLab server on a free port serving ``triangle.ipynb``; yields its base URL."""
+    with jupyter_lab(tmp_path, {"triangle.ipynb": CELLS}) as url:
+        yield url
 
 
 def _influence(page) -> np.ndarray:
     """Read the last 'INFLUENCE h t e' line printed by the second cell."""
-    return np.array([float(v) for v in _printed(page, 1, r"INFLUENCE ([\d.]+) ([\d.]+) ([\d.]+)")])
+    return np.array([float(v) for v in printed(page, 1, r"INFLUENCE ([\d.]+) ([\d.]+) ([\d.]+)")])
 
 
 def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
     with playwright_api.sync_playwright() as p:
         browser = launch_chromium(p, timeout=30_000)
         try:
-            page = browser.new_page(viewport={"width": 1100, "height": 800})
-            page.set_default_timeout(30_000)
-            errors = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(f"{lab}/lab/tree/triangle.ipynb?token={TOKEN}", wait_until="domcontentloaded")
-            page.wait_for_function("""() => window.jupyterapp && window.jupyterapp.shell.currentWidget
-                && window.jupyterapp.shell.currentWidget.sessionContext
-                && window.jupyterapp.shell.currentWidget.sessionContext.session
-                && window.jupyterapp.shell.currentWidget.sessionContext.session.kernel
-                && window.jupyterapp.shell.currentWidget.sessionContext.session.kernel.connectionStatus === 'connected'
-                && window.jupyterapp.shell.currentWidget.content.widgets.length === 7""", timeout=45_000)
-            _run_cell(page, 0)
+            page, errors = open_notebook(browser, lab, "triangle.ipynb", len(CELLS), viewport=(1100, 800))
+            run_cell(page, 0)
             handle = page.locator("circle.tri-handle")
             handle.wait_for(state="visible", timeout=45_000)
-            _run_cell(page, 1)
+            run_cell(page, 1)
             before = _influence(page)
             np.testing.assert_allclose(before, [1 / 3] * 3, atol=1e-3)
             page.screenshot(path=str(shots / "jupyterlab_triangle_before.png"))
@@ -170,7 +81,7 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
             # the drag's last comm message may still be queued behind the cell: re-run until it lands
             deadline = time.monotonic() + 20
             while True:
-                _run_cell(page, 1)
+                run_cell(page, 1)
                 after = _influence(page)
                 if np.allclose(after, [0.0, 0.5, 0.5], atol=0.01) or time.monotonic() > deadline:
                     break
@@ -178,18 +89,18 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
             page.screenshot(path=str(shots / "jupyterlab_triangle.png"))
             np.testing.assert_allclose(after, [0.0, 0.5, 0.5], atol=0.01)
 
-            _run_cell(page, 2)  # the model moves the handle in the browser
+            run_cell(page, 2)  # the model moves the handle in the browser
             page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.600')")
             cx = float(handle.get_attribute("cx"))
             assert cx == pytest.approx(pad + (0.6 * 0.5 + 0.2 * 1.0) * size, abs=0.5)
 
             # a parameter slider (ipywidgets, generated from the table) dragged: the model follows
-            _run_cell(page, 3)
+            run_cell(page, 3)
             handle = page.locator(".jp-Cell").nth(3).locator(".noUi-handle").first
             handle.wait_for(state="visible", timeout=30_000)
             handle.scroll_into_view_if_needed()
-            _run_cell(page, 4)
-            before_lam = float(_printed(page, 4, r"APICAL ([\d.]+)")[0])
+            run_cell(page, 4)
+            before_lam = float(printed(page, 4, r"APICAL ([\d.]+)")[0])
             assert before_lam == pytest.approx(0.55)
             hb = handle.bounding_box()
             page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
@@ -198,26 +109,26 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
             page.mouse.up()
             deadline, lam = time.monotonic() + 20, before_lam
             while lam == pytest.approx(before_lam) and time.monotonic() < deadline:
-                _run_cell(page, 4)
-                lam, shown = (float(v) for v in _printed(page, 4, r"APICAL ([\d.]+) ([\d.]+)"))
+                run_cell(page, 4)
+                lam, shown = (float(v) for v in printed(page, 4, r"APICAL ([\d.]+) ([\d.]+)"))
             assert lam > before_lam + 0.02 and lam == pytest.approx(shown, abs=1e-6) and lam <= 1.0
             page.screenshot(path=str(shots / "jupyterlab_slider.png"))
 
             # a colour-wheel slice clicked: the selected label changes in the kernel
-            _run_cell(page, 5)
+            run_cell(page, 5)
             wheel_svg = page.locator(".jp-Cell").nth(5).locator("svg.wheel-svg")
             wheel_svg.wait_for(state="visible", timeout=30_000)
             wheel_svg.scroll_into_view_if_needed()
-            _run_cell(page, 6)
-            n_colors = int(_printed(page, 6, r"SELECTED (\d+) (\d+)")[1])
+            run_cell(page, 6)
+            n_colors = int(printed(page, 6, r"SELECTED (\d+) (\d+)")[1])
             box = wheel_svg.bounding_box()
             C, R, k = 110 + 14 + 18, 110, 4
             a = (k + 0.5) * 2 * np.pi / n_colors
             page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
             deadline, sel = time.monotonic() + 20, None
             while sel != k and time.monotonic() < deadline:
-                _run_cell(page, 6)
-                sel = int(_printed(page, 6, r"SELECTED (\d+)")[0])
+                run_cell(page, 6)
+                sel = int(printed(page, 6, r"SELECTED (\d+)")[0])
             page.screenshot(path=str(shots / "jupyterlab_wheel.png"))
             assert sel == k
             assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors

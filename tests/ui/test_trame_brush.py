@@ -4,28 +4,24 @@ First through trame-vtk's own server-side mouse handler (the code a remote view'
 end to end: a trame page from :func:`plantvr.view.interaction.trame_app` in a subprocess, dragged in
 headless Chromium; the page's status line (synced from the model) shows the paint commands.
 """
-import os
-import socket
-import subprocess
 import sys
 import textwrap
 import time
-import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import plantvr
-from plantvr._browser import CHROMIUM, launch_chromium, stop_process_group
+from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.view import View
 from plantvr.view.interaction import BrushInteractor, trame_app
+
+from ._jupyter import free_port, repo_env, screenshot_dir, serve
 
 trame_vtk_mouse = pytest.importorskip("trame_vtk.modules.vtk.protocols.mouse_handler")
 pytest.importorskip("trame_pyvista")
 from vtkmodules.vtkWebCore import vtkWebApplication
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
@@ -121,65 +117,42 @@ server.start(port=int(sys.argv[1]), open_browser=False, show_connection_info=Fal
 """
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.browser
 @pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")
 def test_drag_in_browser_paints_through_trame(tmp_path):
     playwright_api = pytest.importorskip("playwright.sync_api")
-    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    shots.mkdir(parents=True, exist_ok=True)
+    shots = screenshot_dir(tmp_path)
     (tmp_path / "app.py").write_text(textwrap.dedent(APP))
-    port = _free_port()
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")])}
-    with open(tmp_path / "app.log", "wb") as log:
-        proc = subprocess.Popen([sys.executable, str(tmp_path / "app.py"), str(port)], env=env, stdout=log,
-                                stderr=subprocess.STDOUT, start_new_session=True)
+    port = free_port()
+    app = [sys.executable, str(tmp_path / "app.py"), str(port)]
+    with (serve(app, f"http://127.0.0.1:{port}/", log=tmp_path / "app.log", what="trame app", timeout_s=60,
+                env=repo_env()),
+          playwright_api.sync_playwright() as p):
+        browser = launch_chromium(p, timeout=30_000)
         try:
-            deadline = time.monotonic() + 60
-            while True:
-                if proc.poll() is not None:
-                    pytest.fail(f"trame app exited: {(tmp_path / 'app.log').read_text()[-2000:]}")
-                try:
-                    with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2):
-                        break
-                except OSError:
-                    pass
-                if time.monotonic() > deadline:
-                    pytest.fail("trame app did not start in 60 s")
-                time.sleep(0.3)
-            with playwright_api.sync_playwright() as p:
-                browser = launch_chromium(p, timeout=30_000)
-                try:
-                    page = browser.new_page(viewport={"width": 560, "height": 480})
-                    page.set_default_timeout(30_000)
-                    page.goto(f"http://127.0.0.1:{port}/", wait_until="domcontentloaded")
-                    status = page.locator("#plantvr-brush-status")
-                    page.wait_for_function("""() => { const s = document.querySelector('#plantvr-brush-status');
-                        return s && /brush commands 0/.test(s.innerText); }""")
-                    page.wait_for_selector("#plantvr-brush-view img, #plantvr-brush-view canvas")
-                    time.sleep(1.0)  # first image
-                    box = page.locator("#plantvr-brush-view").bounding_box()
-                    x0, y0 = box["x"] + 0.5 * box["width"], box["y"] + 0.3 * box["height"]
-                    page.mouse.move(x0, y0)
-                    page.mouse.down()
-                    for k in range(12):
-                        page.mouse.move(x0 + 3 * k, y0 - 7 * k)
-                        time.sleep(0.05)
-                    page.mouse.up()
-                    page.wait_for_function("""() => !/brush commands 0 /.test(
-                        document.querySelector('#plantvr-brush-status').innerText)""")
-                    time.sleep(1.0)
-                    page.screenshot(path=str(shots / "trame_brush.png"))
-                    text = status.inner_text()
-                    n_cmd = int(text.split("brush commands")[1].split("·")[0])
-                    n_markers = int(text.split("markers")[1].split("·")[0])
-                    assert n_cmd >= 2 and n_markers > 18, text
-                finally:
-                    browser.close()
+            page = browser.new_page(viewport={"width": 560, "height": 480})
+            page.set_default_timeout(30_000)
+            page.goto(f"http://127.0.0.1:{port}/", wait_until="domcontentloaded")
+            status = page.locator("#plantvr-brush-status")
+            page.wait_for_function("""() => { const s = document.querySelector('#plantvr-brush-status');
+                return s && /brush commands 0/.test(s.innerText); }""")
+            page.wait_for_selector("#plantvr-brush-view img, #plantvr-brush-view canvas")
+            time.sleep(1.0)  # first image
+            box = page.locator("#plantvr-brush-view").bounding_box()
+            x0, y0 = box["x"] + 0.5 * box["width"], box["y"] + 0.3 * box["height"]
+            page.mouse.move(x0, y0)
+            page.mouse.down()
+            for k in range(12):
+                page.mouse.move(x0 + 3 * k, y0 - 7 * k)
+                time.sleep(0.05)
+            page.mouse.up()
+            page.wait_for_function("""() => !/brush commands 0 /.test(
+                document.querySelector('#plantvr-brush-status').innerText)""")
+            time.sleep(1.0)
+            page.screenshot(path=str(shots / "trame_brush.png"))
+            text = status.inner_text()
+            n_cmd = int(text.split("brush commands")[1].split("·")[0])
+            n_markers = int(text.split("markers")[1].split("·")[0])
+            assert n_cmd >= 2 and n_markers > 18, text
         finally:
-            stop_process_group(proc)
+            browser.close()

@@ -1,0 +1,153 @@
+"""Shared helpers of the browser tests that start a server: a free port, a server subprocess waited for and always
+killed, a JupyterLab server with its notebooks, and running / reading notebook cells from playwright.
+
+Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir), see :func:`screenshot_dir`.
+"""
+from __future__ import annotations
+
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+from plantvr._browser import stop_process_group
+
+TOKEN = "plantvr-test-token"
+REPO = Path(__file__).resolve().parents[2]
+
+# the notebook is open, its kernel connected and all its ``n`` cells are rendered
+_NOTEBOOK_READY = """(n) => { const w = window.jupyterapp && window.jupyterapp.shell.currentWidget;
+    return !!(w && w.sessionContext && w.sessionContext.session && w.sessionContext.session.kernel
+      && w.sessionContext.session.kernel.connectionStatus === 'connected' && w.content.widgets.length === n); }"""
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that is free now."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def screenshot_dir(tmp_path: Path) -> Path:
+    """``$PLANTVR_SCREENSHOTS`` (created) or ``tmp_path``."""
+    d = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+def repo_env(**extra: str) -> dict[str, str]:
+    """The environment with this checkout first on ``PYTHONPATH`` (for server subprocesses and their kernels)."""
+    return {**os.environ, "PYTHONPATH": os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]), **extra}
+
+
+@contextmanager
+def serve(cmd: list[str], probe: str, *, log: Path, what: str, timeout_s: float = 40.0, **popen) -> Iterator[None]:
+    """Run ``cmd`` in a new session (output to ``log``) until ``probe`` answers; kill it and its children on exit.
+
+    The test fails, with the end of the log, if the server exits or ``probe`` does not answer in ``timeout_s``.
+    """
+    with open(log, "wb") as out:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, start_new_session=True, **popen)
+        try:
+            deadline = time.monotonic() + timeout_s
+            while True:
+                if proc.poll() is not None:
+                    pytest.fail(f"{what} exited: {log.read_text()[-2000:]}")
+                try:
+                    with urllib.request.urlopen(probe, timeout=2):
+                        break
+                except OSError:
+                    pass
+                if time.monotonic() > deadline:
+                    pytest.fail(f"{what} did not start in {timeout_s:g} s: {log.read_text()[-2000:]}")
+                time.sleep(0.3)
+            yield
+        finally:
+            stop_process_group(proc)  # the server and everything it spawned (kernels)
+
+
+def notebook(cells: list[str]) -> dict:
+    """An nbformat 4 notebook of code cells, Python 3 kernel."""
+    return {"cells": [{"cell_type": "code", "execution_count": None, "id": f"c{i}", "metadata": {},
+                       "outputs": [], "source": src} for i, src in enumerate(cells)],
+            "metadata": {"kernelspec": {"display_name": "Python 3", "language": "python", "name": "python3"}},
+            "nbformat": 4, "nbformat_minor": 5}
+
+
+@contextmanager
+def jupyter_lab(tmp_path: Path, notebooks: dict[str, list[str]], *, token: str = TOKEN) -> Iterator[str]:
+    """A JupyterLab server on a free port serving ``tmp_path/root`` with ``notebooks`` (file name -> cells);
+    yields its base URL. Kernels import this checkout; no news or update pop-up covers the notebook."""
+    root = tmp_path / "root"
+    root.mkdir()
+    for name, cells in notebooks.items():
+        (root / name).write_text(json.dumps(notebook(cells)))
+    user_settings = tmp_path / "cfg" / "lab" / "user-settings"
+    settings = user_settings / "@jupyterlab" / "apputils-extension"
+    settings.mkdir(parents=True)
+    (settings / "notification.jupyterlab-settings").write_text(
+        json.dumps({"fetchNews": "false", "checkForUpdates": False, "doNotDisturbMode": True}))
+    port = free_port()
+    env = repo_env(JUPYTER_CONFIG_DIR=str(tmp_path / "cfg"), JUPYTER_RUNTIME_DIR=str(tmp_path / "rt"),
+                   VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", f"--port={port}", "--ip=127.0.0.1",
+           f"--IdentityProvider.token={token}", f"--ServerApp.root_dir={root}", "--ServerApp.port_retries=0",
+           "--LabApp.expose_app_in_browser=True", f"--LabApp.user_settings_dir={user_settings}",
+           f"--LabApp.workspaces_dir={tmp_path / 'ws'}", "--ServerApp.disable_check_xsrf=True"]
+    if hasattr(os, "geteuid") and os.geteuid() == 0:  # CI containers run as root
+        cmd.append("--allow-root")
+    url = f"http://127.0.0.1:{port}"
+    with serve(cmd, f"{url}/api/status?token={token}", log=tmp_path / "lab.log", what="jupyter lab",
+               cwd=root, env=env):
+        yield url
+
+
+def open_notebook(browser, url: str, name: str, n_cells: int, *, viewport: tuple[int, int],
+                  token: str = TOKEN):
+    """Open notebook ``name`` of the server at ``url`` in a new page and wait for its kernel.
+
+    Returns
+    -------
+    page
+        The playwright page (default timeout 30 s).
+    errors : list of str
+        Filled with the page's uncaught errors as they happen.
+    """
+    page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
+    page.set_default_timeout(30_000)
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(f"{url}/lab/tree/{name}?token={token}", wait_until="domcontentloaded")
+    page.wait_for_function(_NOTEBOOK_READY, arg=n_cells, timeout=45_000)
+    return page, errors
+
+
+def run_cell(page, index: int) -> None:
+    """Run cell ``index`` of the open notebook (the command JupyterLab's run button sends)."""
+    page.evaluate("""async (i) => {
+        const app = window.jupyterapp, nb = app.shell.currentWidget;
+        nb.content.activeCellIndex = i;
+        await app.commands.execute('notebook:run-cell');
+    }""", index)
+
+
+def printed(page, cell: int, pattern: str, timeout_s: float = 20.0) -> tuple[str, ...]:
+    """The groups of ``pattern`` in the output of ``cell`` (what the kernel printed)."""
+    loc = page.locator(".jp-Cell").nth(cell).locator(".jp-OutputArea-output")
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if loc.count():
+            m = re.search(pattern, loc.last.inner_text())
+            if m:
+                return m.groups()
+        time.sleep(0.2)
+    raise AssertionError(f"cell {cell} printed nothing matching {pattern!r}")
