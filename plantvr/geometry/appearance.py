@@ -17,8 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._validation import check_array, check_int, check_points, check_range
-from . import _kernels as K
-from .mesh import BranchMesh, _alloc, _check_tree, ring_counts, tree_segments
+from .mesh import BranchMesh, _check_options, _check_tree, _evaluate, _offsets, ring_counts, tree_segments
 
 __all__ = [
     "HASH_PRIMES",
@@ -117,28 +116,6 @@ def thickest_main_child(parent, radius, *, alive=None) -> np.ndarray:
     return main
 
 
-@dataclass
-class _Layout:
-    counts: np.ndarray
-    v_off: np.ndarray
-    f_off: np.ndarray
-    sides: np.ndarray
-
-
-def _axis_layout(seg, u_steps: int, axes: np.ndarray, axis_sides: np.ndarray) -> _Layout:
-    sides = axis_sides[np.searchsorted(axes, seg.axis)]  # axes sorted (np.unique)
-    cnt = ring_counts(sides, sides, u_steps)
-    cap_s = (seg.caps & K.CAP_START) > 0
-    cap_e = (seg.caps & K.CAP_END) > 0
-    nv = (cnt + 1).sum(1) + cap_s * (cnt[:, 0] + 1) + cap_e * (cnt[:, -1] + 1)
-    nf = (cnt[:, :-1] + cnt[:, 1:]).sum(1) + cap_s * cnt[:, 0] + cap_e * cnt[:, -1]
-    v_off = np.zeros(len(cnt) + 1, np.int64)
-    f_off = np.zeros(len(cnt) + 1, np.int64)
-    np.cumsum(nv, out=v_off[1:])
-    np.cumsum(nf, out=f_off[1:])
-    return _Layout(cnt, v_off, f_off, sides)
-
-
 def thickest_path_mesh(pos, parent, radius, *, alive=None, tip_radius: float | None = None,
                        side_exponent: float = 1.0, c_max: int = 32, bezier_w: float = 3.0, u_steps: int = 4,
                        bark_rate: float = 1.0, bark_repeat: int = 1) -> BranchMesh:
@@ -173,32 +150,20 @@ def thickest_path_mesh(pos, parent, radius, *, alive=None, tip_radius: float | N
     .. [1] Longay thesis App. C.3, Eq. C.2 (ERRATUM E4), Figs. C.5–C.7 (ERRATUM E5); spec 004 §4.2.
     """
     pos, parent, radius, alive, _ = _check_tree(pos, parent, radius, alive, None)
-    if tip_radius is None:
-        live = radius[1:][alive[1:]]
-        tip_radius = float(live.min()) if live.size else 1.0
-    tip_radius = check_range("tip_radius", tip_radius, 0.0, np.inf, low_open=True)
-    side_exponent = check_range("side_exponent", side_exponent, 1.0, 100.0)
     c_max = check_int("c_max", c_max, 3, 64)
-    bezier_w = check_range("bezier_w", bezier_w, 0.0, 1e3, low_open=True)
-    u_steps = check_int("u_steps", u_steps, 1, 64)
-    bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
-    bark_repeat = check_int("bark_repeat", bark_repeat, 1, 64)
+    opts = _check_options(bezier_w, u_steps, (3, c_max), tip_radius, bark_rate, bark_repeat, radius, alive)
+    side_exponent = check_range("side_exponent", side_exponent, 1.0, 100.0)
     main = thickest_main_child(parent, radius, alive=alive)
-    seg = tree_segments(pos, parent, radius, alive=alive, main_child=main, bezier_w=bezier_w, bark_rate=bark_rate,
-                        _checked=True)
+    seg = tree_segments(pos, parent, radius, alive=alive, main_child=main, bezier_w=opts["bezier_w"],
+                        bark_rate=opts["bark_rate"], _checked=True)
     # the width at the base of each branch: the internode that starts its axis (the trunk: node 0's main child)
     axes = np.unique(seg.axis)
     start = np.where(axes == 0, max(int(main[0]), 0), axes)
-    sides = contour_sides(2.0 * radius[start], d_e=2.0 * tip_radius, n=side_exponent, c_max=c_max)
-    lay = _axis_layout(seg, u_steps, axes, sides)
-    V, NRM, UV, NID, F = _alloc(int(lay.v_off[-1]), int(lay.f_off[-1]))
-    K._eval_segments_numba(seg.records, lay.counts, u_steps, seg.nodes, seg.caps,
-                           np.arange(len(seg), dtype=np.int64), lay.v_off, lay.f_off, float(bark_repeat),
-                           V, NRM, UV, NID, F)
-    opts = {"bezier_w": bezier_w, "u_steps": u_steps, "lod": (3, c_max), "tip_radius": tip_radius, "bark_rate": bark_rate,
-                "bark_repeat": bark_repeat, "main_child": main, "sides": dict(zip(axes.tolist(), sides.tolist())),
-                "side_exponent": side_exponent}
-    return BranchMesh(V, F, NRM, UV, NID, seg, lay.counts, lay.v_off, lay.f_off, opts)
+    sides = contour_sides(2.0 * radius[start], d_e=2.0 * opts["tip_radius"], n=side_exponent, c_max=c_max)
+    seg_sides = sides[np.searchsorted(axes, seg.axis)]  # axes sorted (np.unique)
+    cnt = ring_counts(seg_sides, seg_sides, opts["u_steps"])
+    opts.update(main_child=main, sides=dict(zip(axes.tolist(), sides.tolist())), side_exponent=side_exponent)
+    return _evaluate(seg, cnt, *_offsets(cnt, seg.caps), opts)
 
 
 # -- fruit (App. C.2) ----------------------------------------------------------------------------------------------

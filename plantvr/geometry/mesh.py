@@ -308,20 +308,25 @@ class BranchMesh:
         return slice(self.v_off[s], self.v_off[s + 1]), slice(self.f_off[s], self.f_off[s + 1])
 
 
-def _layout(seg: Segments, ksteps: int, tip_radius: float, lod):
-    r = seg.records
-    n0 = lod_level(r[:, K.REC_R0], tip_radius=tip_radius, lod=lod)
-    n1 = lod_level(r[:, K.REC_R2], tip_radius=tip_radius, lod=lod)
-    cnt = ring_counts(n0, n1, ksteps)
-    cap_s = (seg.caps & CAP_START) > 0
-    cap_e = (seg.caps & CAP_END) > 0
+def _offsets(cnt: np.ndarray, caps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First vertex and first face of each segment's block (ring counts ``cnt``, end-cap flags ``caps``)."""
+    cap_s = (caps & CAP_START) > 0
+    cap_e = (caps & CAP_END) > 0
     nv = (cnt + 1).sum(1) + cap_s * (cnt[:, 0] + 1) + cap_e * (cnt[:, -1] + 1)
     nf = (cnt[:, :-1] + cnt[:, 1:]).sum(1) + cap_s * cnt[:, 0] + cap_e * cnt[:, -1]
     v_off = np.zeros(len(cnt) + 1, np.int64)
     f_off = np.zeros(len(cnt) + 1, np.int64)
     np.cumsum(nv, out=v_off[1:])
     np.cumsum(nf, out=f_off[1:])
-    return cnt, v_off, f_off
+    return v_off, f_off
+
+
+def _layout(seg: Segments, ksteps: int, tip_radius: float, lod):
+    r = seg.records
+    n0 = lod_level(r[:, K.REC_R0], tip_radius=tip_radius, lod=lod)
+    n1 = lod_level(r[:, K.REC_R2], tip_radius=tip_radius, lod=lod)
+    cnt = ring_counts(n0, n1, ksteps)
+    return (cnt, *_offsets(cnt, seg.caps))
 
 
 def _alloc(nv: int, nf: int):
@@ -342,8 +347,8 @@ def _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, r
     tip_radius = check_range("tip_radius", tip_radius, 0.0, np.inf, low_open=True)
     bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
     bark_repeat = check_int("bark_repeat", bark_repeat, 1, 64)
-    return dict(bezier_w=bezier_w, u_steps=u_steps, lod=(lo, hi), tip_radius=tip_radius, bark_rate=bark_rate,
-                bark_repeat=bark_repeat)
+    return {"bezier_w": bezier_w, "u_steps": u_steps, "lod": (lo, hi), "tip_radius": tip_radius,
+            "bark_rate": bark_rate, "bark_repeat": bark_repeat}
 
 
 def build_branch_mesh(pos, parent, radius, *, alive=None, main_child=None, bezier_w: float = 3.0,
@@ -391,6 +396,11 @@ def build_branch_mesh(pos, parent, radius, *, alive=None, main_child=None, bezie
 
 def _build(seg: Segments, opts: dict, kernel: str = "numba") -> BranchMesh:
     cnt, v_off, f_off = _layout(seg, opts["u_steps"], opts["tip_radius"], opts["lod"])
+    return _evaluate(seg, cnt, v_off, f_off, opts, kernel)
+
+
+def _evaluate(seg: Segments, cnt, v_off, f_off, opts: dict, kernel: str = "numba") -> BranchMesh:
+    """Mesh every segment of ``seg`` with the ring counts ``cnt`` in the blocks ``v_off``/``f_off``."""
     V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
     fn = K._eval_segments_numba if kernel == "numba" else K._eval_segments_numpy
     fn(seg.records, cnt, opts["u_steps"], seg.nodes, seg.caps, np.arange(len(seg), dtype=np.int64), v_off,
