@@ -61,10 +61,12 @@ def test_dahlia_is_a_dense_layered_ball():
 
 def test_dahlia_grows_collision_free_in_reasonable_time():
     h = dahlia_head(120, radius=6.0, **KW)
-    t0 = time.perf_counter()
-    _, log = grow(h.canopy, h.schedule(4), sanity_every=4)
-    assert time.perf_counter() - t0 < 30.0
+    t0 = time.process_time()                                 # CPU time: robust to a busy machine
+    x, log = grow(h.canopy, h.schedule(4), sanity_every=4)
+    assert time.process_time() - t0 < 20.0                   # ~0.5 s; the quill head of the same size took ~8 s
     assert log[-1]["intersections"] == 0
+    cover, _ = _coverage(x, h.canopy.faces, h.canopy.face_instance)
+    assert cover > 0.9                                       # still a closed ball after the collisions
 
 
 def test_dyssodia_rays_at_the_level_of_the_whole_inflorescence():
