@@ -1,10 +1,12 @@
-"""Example flower-head models: sunflower-like and Gaillardia-like capitula (spec 002 §6, C28; Ch. 9).
+"""The seven example models of spec 002 §6.2 / C28 (Ch. 9): sunflower-like, Gaillardia-like, dahlia, Dyssodia,
+yarrow, Orlaya and lilac.
 
 Each model runs the pipeline of spec 002 §1.2 a–f: floret key poses → one OBJ-like animation per floret
 type (fixed topology) → centripetal fractionation on the receptacle (Eq. 5.2) → floret fate by the cone
 test (Eq. 6.1 with ERRATUM A.4) → stage from primordium age (phase effect) → a :class:`Canopy` whose
 growth :func:`~plantvr.flowers.composer.grow` resolves with PBD + CCD. The ray-floret count is emergent
 (from n and alpha), never assigned: 34 for the sunflower-like head, 21 for the Gaillardia-like head (V35).
+The dahlia is a ball of cupped, incurved ray florets layered like scales (:func:`dahlia_head`).
 """
 from __future__ import annotations
 
