@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from plantvr._browser import stop_process_group
+from plantvr._browser import launch_chromium, stop_process_group
 
 TOKEN = "plantvr-test-token"
 REPO = Path(__file__).resolve().parents[2]
@@ -111,24 +111,31 @@ def jupyter_lab(tmp_path: Path, notebooks: dict[str, list[str]], *, token: str =
         yield url
 
 
-def open_notebook(browser, url: str, name: str, n_cells: int, *, viewport: tuple[int, int],
-                  token: str = TOKEN):
-    """Open notebook ``name`` of the server at ``url`` in a new page and wait for its kernel.
+@contextmanager
+def notebook_page(url: str, name: str, n_cells: int, *, viewport: tuple[int, int], token: str = TOKEN):
+    """Open notebook ``name`` of the server at ``url`` in headless Chromium and wait for its kernel.
 
-    Returns
-    -------
+    Yields
+    ------
     page
-        The playwright page (default timeout 30 s).
+        The playwright page (default timeout 30 s); the browser is closed on exit.
     errors : list of str
         Filled with the page's uncaught errors as they happen.
     """
-    page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
-    page.set_default_timeout(30_000)
-    errors: list[str] = []
-    page.on("pageerror", lambda e: errors.append(str(e)))
-    page.goto(f"{url}/lab/tree/{name}?token={token}", wait_until="domcontentloaded")
-    page.wait_for_function(_NOTEBOOK_READY, arg=n_cells, timeout=45_000)
-    return page, errors
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = launch_chromium(p, timeout=30_000)
+        try:
+            page = browser.new_page(viewport={"width": viewport[0], "height": viewport[1]})
+            page.set_default_timeout(30_000)
+            errors: list[str] = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.goto(f"{url}/lab/tree/{name}?token={token}", wait_until="domcontentloaded")
+            page.wait_for_function(_NOTEBOOK_READY, arg=n_cells, timeout=45_000)
+            yield page, errors
+        finally:
+            browser.close()
 
 
 def run_cell(page, index: int) -> None:

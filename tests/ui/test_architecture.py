@@ -25,7 +25,7 @@ from plantvr.ui.architecture import (
     schematic_tree,
 )
 
-from ._jupyter import jupyter_lab, open_notebook, printed, run_cell, screenshot_dir
+from ._jupyter import jupyter_lab, notebook_page, printed, run_cell, screenshot_dir
 
 
 @pytest.fixture
@@ -363,41 +363,37 @@ LAB_CELLS = [
 @pytest.mark.browser
 @pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")
 def test_architecture_panel_in_jupyterlab(tmp_path):
-    playwright_api = pytest.importorskip("playwright.sync_api")
+    pytest.importorskip("playwright.sync_api")
     pytest.importorskip("jupyterlab")
     shots = screenshot_dir(tmp_path)
-    with jupyter_lab(tmp_path, {"arch.ipynb": LAB_CELLS}) as url, playwright_api.sync_playwright() as p:
-        browser = launch_chromium(p, timeout=30_000)
-        try:
-            page, errors = open_notebook(browser, url, "arch.ipynb", len(LAB_CELLS), viewport=(1300, 900))
-            run_cell(page, 0)
-            handle = page.locator('circle.angle-handle[data-name="branch_angle"]')
-            handle.wait_for(state="visible", timeout=45_000)
-            page.locator("line.schematic-seg").first.wait_for(state="attached", timeout=30_000)
-            assert page.locator("line.ellipse-ray").count() == 16
-            assert page.locator("svg.tri-svg").count() == 1                  # the reused triangle
-            page.screenshot(path=str(shots / "jupyterlab_architecture_before.png"))
-            # drag psi to ~70 degrees: the engine in the kernel follows
-            svg = page.locator('svg.angles-svg:has(circle[data-name="branch_angle"])').bounding_box()
-            O = (svg["x"] + 100, svg["y"] + 190 * 0.58)
-            hb = handle.bounding_box()
-            page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-            page.mouse.down()
-            a = math.radians(70)
-            page.mouse.move(O[0] + 70 * math.sin(a), O[1] - 70 * math.cos(a), steps=8)
-            page.mouse.up()
-            end, psi = time.monotonic() + 20, 45.0
-            while abs(psi - 70) > 1.5 and time.monotonic() < end:
-                run_cell(page, 1)
-                psi = float(printed(page, 1, r"PSI ([\d.]+)")[0])
-                time.sleep(0.3)
-            assert psi == pytest.approx(70.0, abs=1.5)
-            # kernel -> browser: delta and the n_max slider follow a command in the kernel
-            run_cell(page, 2)
-            page.wait_for_function("""() => [...document.querySelectorAll('.plantvr-angles .arch-readout')]
-                .some(e => e.innerText.includes('δ deflection 30.0'))""", timeout=20_000)
-            page.screenshot(path=str(shots / "jupyterlab_architecture.png"))
-            assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
-        finally:
-            browser.close()
+    with (jupyter_lab(tmp_path, {"arch.ipynb": LAB_CELLS}) as url,
+          notebook_page(url, "arch.ipynb", len(LAB_CELLS), viewport=(1300, 900)) as (page, errors)):
+        run_cell(page, 0)
+        handle = page.locator('circle.angle-handle[data-name="branch_angle"]')
+        handle.wait_for(state="visible", timeout=45_000)
+        page.locator("line.schematic-seg").first.wait_for(state="attached", timeout=30_000)
+        assert page.locator("line.ellipse-ray").count() == 16
+        assert page.locator("svg.tri-svg").count() == 1                  # the reused triangle
+        page.screenshot(path=str(shots / "jupyterlab_architecture_before.png"))
+        # drag psi to ~70 degrees: the engine in the kernel follows
+        svg = page.locator('svg.angles-svg:has(circle[data-name="branch_angle"])').bounding_box()
+        O = (svg["x"] + 100, svg["y"] + 190 * 0.58)
+        hb = handle.bounding_box()
+        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+        page.mouse.down()
+        a = math.radians(70)
+        page.mouse.move(O[0] + 70 * math.sin(a), O[1] - 70 * math.cos(a), steps=8)
+        page.mouse.up()
+        end, psi = time.monotonic() + 20, 45.0
+        while abs(psi - 70) > 1.5 and time.monotonic() < end:
+            run_cell(page, 1)
+            psi = float(printed(page, 1, r"PSI ([\d.]+)")[0])
+            time.sleep(0.3)
+        assert psi == pytest.approx(70.0, abs=1.5)
+        # kernel -> browser: delta and the n_max slider follow a command in the kernel
+        run_cell(page, 2)
+        page.wait_for_function("""() => [...document.querySelectorAll('.plantvr-angles .arch-readout')]
+            .some(e => e.innerText.includes('δ deflection 30.0'))""", timeout=20_000)
+        page.screenshot(path=str(shots / "jupyterlab_architecture.png"))
+        assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
 

@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from plantvr._browser import CHROMIUM, launch_chromium
+from plantvr._browser import CHROMIUM
 
-from ._jupyter import jupyter_lab, open_notebook, printed, run_cell, screenshot_dir
+from ._jupyter import jupyter_lab, notebook_page, printed, run_cell, screenshot_dir
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
-playwright_api = pytest.importorskip("playwright.sync_api")
+pytest.importorskip("playwright.sync_api")
 pytest.importorskip("jupyterlab")
 pytest.importorskip("anywidget")
 
@@ -56,81 +56,76 @@ def _influence(page) -> np.ndarray:
 
 
 def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
-    with playwright_api.sync_playwright() as p:
-        browser = launch_chromium(p, timeout=30_000)
-        try:
-            page, errors = open_notebook(browser, lab, "triangle.ipynb", len(CELLS), viewport=(1100, 800))
-            run_cell(page, 0)
-            handle = page.locator("circle.tri-handle")
-            handle.wait_for(state="visible", timeout=45_000)
+    with notebook_page(lab, "triangle.ipynb", len(CELLS), viewport=(1100, 800)) as (page, errors):
+        run_cell(page, 0)
+        handle = page.locator("circle.tri-handle")
+        handle.wait_for(state="visible", timeout=45_000)
+        run_cell(page, 1)
+        before = _influence(page)
+        np.testing.assert_allclose(before, [1 / 3] * 3, atol=1e-3)
+        page.screenshot(path=str(shots / "jupyterlab_triangle_before.png"))
+
+        svg = page.locator("svg.tri-svg").bounding_box()
+        pad, size, h = 28, 240, np.sqrt(3) / 2
+        hb = handle.bounding_box()
+        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+        page.mouse.down()
+        # to the middle of the T–E edge: H = 0, T = E = 1/2
+        page.mouse.move(svg["x"] + pad + 0.5 * size, svg["y"] + pad + h * size, steps=10)
+        page.mouse.up()
+        page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.000')")
+
+        # the drag's last comm message may still be queued behind the cell: re-run until it lands
+        deadline = time.monotonic() + 20
+        while True:
             run_cell(page, 1)
-            before = _influence(page)
-            np.testing.assert_allclose(before, [1 / 3] * 3, atol=1e-3)
-            page.screenshot(path=str(shots / "jupyterlab_triangle_before.png"))
+            after = _influence(page)
+            if np.allclose(after, [0.0, 0.5, 0.5], atol=0.01) or time.monotonic() > deadline:
+                break
+            time.sleep(0.3)
+        page.screenshot(path=str(shots / "jupyterlab_triangle.png"))
+        np.testing.assert_allclose(after, [0.0, 0.5, 0.5], atol=0.01)
 
-            svg = page.locator("svg.tri-svg").bounding_box()
-            pad, size, h = 28, 240, np.sqrt(3) / 2
-            hb = handle.bounding_box()
-            page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-            page.mouse.down()
-            # to the middle of the T–E edge: H = 0, T = E = 1/2
-            page.mouse.move(svg["x"] + pad + 0.5 * size, svg["y"] + pad + h * size, steps=10)
-            page.mouse.up()
-            page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.000')")
+        run_cell(page, 2)  # the model moves the handle in the browser
+        page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.600')")
+        cx = float(handle.get_attribute("cx"))
+        assert cx == pytest.approx(pad + (0.6 * 0.5 + 0.2 * 1.0) * size, abs=0.5)
 
-            # the drag's last comm message may still be queued behind the cell: re-run until it lands
-            deadline = time.monotonic() + 20
-            while True:
-                run_cell(page, 1)
-                after = _influence(page)
-                if np.allclose(after, [0.0, 0.5, 0.5], atol=0.01) or time.monotonic() > deadline:
-                    break
-                time.sleep(0.3)
-            page.screenshot(path=str(shots / "jupyterlab_triangle.png"))
-            np.testing.assert_allclose(after, [0.0, 0.5, 0.5], atol=0.01)
-
-            run_cell(page, 2)  # the model moves the handle in the browser
-            page.wait_for_function("() => document.querySelector('.tri-readout').innerText.includes('H 0.600')")
-            cx = float(handle.get_attribute("cx"))
-            assert cx == pytest.approx(pad + (0.6 * 0.5 + 0.2 * 1.0) * size, abs=0.5)
-
-            # a parameter slider (ipywidgets, generated from the table) dragged: the model follows
-            run_cell(page, 3)
-            handle = page.locator(".jp-Cell").nth(3).locator(".noUi-handle").first
-            handle.wait_for(state="visible", timeout=30_000)
-            handle.scroll_into_view_if_needed()
+        # a parameter slider (ipywidgets, generated from the table) dragged: the model follows
+        run_cell(page, 3)
+        handle = page.locator(".jp-Cell").nth(3).locator(".noUi-handle").first
+        handle.wait_for(state="visible", timeout=30_000)
+        handle.scroll_into_view_if_needed()
+        run_cell(page, 4)
+        before_lam = float(printed(page, 4, r"APICAL ([\d.]+)")[0])
+        assert before_lam == pytest.approx(0.55)
+        hb = handle.bounding_box()
+        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+        page.mouse.down()
+        page.mouse.move(hb["x"] + hb["width"] / 2 + 60, hb["y"] + hb["height"] / 2, steps=6)
+        page.mouse.up()
+        deadline, lam = time.monotonic() + 20, before_lam
+        while lam == pytest.approx(before_lam) and time.monotonic() < deadline:
             run_cell(page, 4)
-            before_lam = float(printed(page, 4, r"APICAL ([\d.]+)")[0])
-            assert before_lam == pytest.approx(0.55)
-            hb = handle.bounding_box()
-            page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-            page.mouse.down()
-            page.mouse.move(hb["x"] + hb["width"] / 2 + 60, hb["y"] + hb["height"] / 2, steps=6)
-            page.mouse.up()
-            deadline, lam = time.monotonic() + 20, before_lam
-            while lam == pytest.approx(before_lam) and time.monotonic() < deadline:
-                run_cell(page, 4)
-                lam, shown = (float(v) for v in printed(page, 4, r"APICAL ([\d.]+) ([\d.]+)"))
-            assert lam > before_lam + 0.02 and lam == pytest.approx(shown, abs=1e-6) and lam <= 1.0
-            page.screenshot(path=str(shots / "jupyterlab_slider.png"))
+            lam, shown = (float(v) for v in printed(page, 4, r"APICAL ([\d.]+) ([\d.]+)"))
+        assert lam > before_lam + 0.02 and lam == pytest.approx(shown, abs=1e-6) and lam <= 1.0
+        page.screenshot(path=str(shots / "jupyterlab_slider.png"))
 
-            # a colour-wheel slice clicked: the selected label changes in the kernel
-            run_cell(page, 5)
-            wheel_svg = page.locator(".jp-Cell").nth(5).locator("svg.wheel-svg")
-            wheel_svg.wait_for(state="visible", timeout=30_000)
-            wheel_svg.scroll_into_view_if_needed()
+        # a colour-wheel slice clicked: the selected label changes in the kernel
+        run_cell(page, 5)
+        wheel_svg = page.locator(".jp-Cell").nth(5).locator("svg.wheel-svg")
+        wheel_svg.wait_for(state="visible", timeout=30_000)
+        wheel_svg.scroll_into_view_if_needed()
+        run_cell(page, 6)
+        n_colors = int(printed(page, 6, r"SELECTED (\d+) (\d+)")[1])
+        box = wheel_svg.bounding_box()
+        C, R, k = 110 + 14 + 18, 110, 4
+        a = (k + 0.5) * 2 * np.pi / n_colors
+        page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
+        deadline, sel = time.monotonic() + 20, None
+        while sel != k and time.monotonic() < deadline:
             run_cell(page, 6)
-            n_colors = int(printed(page, 6, r"SELECTED (\d+) (\d+)")[1])
-            box = wheel_svg.bounding_box()
-            C, R, k = 110 + 14 + 18, 110, 4
-            a = (k + 0.5) * 2 * np.pi / n_colors
-            page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
-            deadline, sel = time.monotonic() + 20, None
-            while sel != k and time.monotonic() < deadline:
-                run_cell(page, 6)
-                sel = int(printed(page, 6, r"SELECTED (\d+)")[0])
-            page.screenshot(path=str(shots / "jupyterlab_wheel.png"))
-            assert sel == k
-            assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
-        finally:
-            browser.close()
+            sel = int(printed(page, 6, r"SELECTED (\d+)")[0])
+        page.screenshot(path=str(shots / "jupyterlab_wheel.png"))
+        assert sel == k
+        assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
