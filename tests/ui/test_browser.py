@@ -7,7 +7,6 @@ Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 """
 import io
 import json
-import os
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,8 @@ import plantvr
 from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.ui import ColorWheel, GrowthControl, InfluenceTriangle
 from plantvr.ui._assets import asset
+
+from ._jupyter import screenshot_dir
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
@@ -56,9 +57,7 @@ def browser():
 
 @pytest.fixture
 def shots(tmp_path):
-    d = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    d.mkdir(parents=True, exist_ok=True)
-    return d
+    return screenshot_dir(tmp_path)
 
 
 def _page(browser, widget, js: str, css: str | None = None):

@@ -8,14 +8,12 @@ import plantvr
 from plantvr.view import View
 from plantvr.view.interaction import BrushInteractor
 
+from ._views import grown_model_view
+
 
 @pytest.fixture(scope="module")
 def grown():
-    m = plantvr.Model(seed=0)
-    m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
-    m.step(15)
-    v = View(m, window_size=(400, 300))
-    v.screenshot()
+    m, v = grown_model_view()
     yield m, v
     v.close()
 

@@ -12,12 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import plantvr
 from plantvr._browser import CHROMIUM, launch_chromium
-from plantvr.view import View
 from plantvr.view.interaction import BrushInteractor, trame_app
 
 from ._jupyter import free_port, repo_env, screenshot_dir, serve
+from ._views import grown_model_view
 
 trame_vtk_mouse = pytest.importorskip("trame_vtk.modules.vtk.protocols.mouse_handler")
 pytest.importorskip("trame_pyvista")
@@ -26,11 +25,7 @@ from vtkmodules.vtkWebCore import vtkWebApplication
 
 @pytest.fixture
 def grown():
-    m = plantvr.Model(seed=0)
-    m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
-    m.step(15)
-    v = View(m, window_size=(400, 300))
-    v.screenshot()
+    m, v = grown_model_view()
     yield m, v
     v.close()
 
