@@ -5,6 +5,13 @@ Sub-modules
 phyllotaxis
     Ridley/Vogel placement on receptacles of revolution (Eqs. 5.1–5.2), centripetal fractionation,
     parastichy counting, stage from primordium age.
+dynamic
+    Dynamic phyllotaxis on a growing receptacle: centripetal/divergent fractionation and segregation with
+    area bookkeeping A_in + ΣA_i + A_out (V30, V31).
+hierarchical
+    Hierarchical patterns: elements that become meristems of their own, Hofmeister rule (V32).
+scn
+    SCN scene and RBA placement-series files (§3.8), lossless round trip.
 fate
     Floret fate by the cone test (Eqs. 6.1–6.2, ERRATUM A.4) and distance thresholds.
 floret
@@ -18,8 +25,8 @@ ccd
 composer
     Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations.
 models
-    The seven example models of §6.2: sunflower-like (34 rays), Gaillardia-like (21 rays), dahlia (quills on a
-    hemisphere), Dyssodia (1 + 5 heads, Fig. 6.4b), yarrow (corymb of heads, Fig. 6.4a), Orlaya (two-level
+    The seven example models of §6.2: sunflower-like (34 rays), Gaillardia-like (21 rays), dahlia (300 broad,
+    rolled, scale-like florets on a ball), Dyssodia (1 + 5 heads, Fig. 6.4b), yarrow (corymb of heads, Fig. 6.4a), Orlaya (two-level
     umbel, Fig. 6.4c) and a lilac-like panicle.
 smoothing
     Loop-subdivision post-process with collision resolution (§3.9, C14), reusing plantvr.subdivision.
