@@ -36,7 +36,7 @@ from plantvr._validation import check_array, check_choice, check_int, check_rang
 from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
 
-__all__ = ["WHEEL_RADIUS", "VineReviewApp", "histogram_svg", "main_segment", "wheel_geometry", "wheel_svg"]
+__all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry", "wheel_svg"]
 
 _IDS = itertools.count()
 _DELTA_JS = Path(__file__).with_name("vine_delta.js")
@@ -155,6 +155,55 @@ def wheel_svg(rgba, visible, selected: int, *, radius: float = WHEEL_RADIUS) -> 
             "</svg>")
 
 
+def camera_ray(camera: dict, x: float, y: float, size) -> tuple[np.ndarray, np.ndarray]:
+    """The viewing ray through a canvas position for a vtk.js (or VTK) camera.
+
+    Parameters
+    ----------
+    camera : dict
+        ``position``, ``focalPoint``, ``viewUp`` (3 floats each), ``viewAngle`` (vertical, degrees) and, for a
+        parallel projection, ``parallelProjection: true`` and ``parallelScale`` (half the view height).
+    x, y : float
+        Position in CSS pixels from the canvas's top-left corner (y down).
+    size : (2,) float
+        Canvas width and height in CSS pixels, each > 0.
+
+    Returns
+    -------
+    origin, direction : (3,) float64 ndarrays
+        Eye (perspective) or a point on the view plane behind the scene (parallel); unit direction.
+    """
+    if not isinstance(camera, dict):
+        raise ValueError(f"camera must be a dict, got {type(camera).__name__}")  # noqa: TRY004
+    pos = check_array("position", camera.get("position"), shape=(3,), dtype=np.float64)
+    fp = check_array("focalPoint", camera.get("focalPoint"), shape=(3,), dtype=np.float64)
+    up = check_array("viewUp", camera.get("viewUp"), shape=(3,), dtype=np.float64)
+    w, h = check_array("size", size, shape=(2,), dtype=np.float64)
+    if not (w > 0 and h > 0):
+        raise ValueError(f"size must be positive, got {(w, h)}")
+    x = check_range("x", x, -1e7, 1e7)
+    y = check_range("y", y, -1e7, 1e7)
+    f = fp - pos
+    dist = float(np.linalg.norm(f))
+    if dist == 0:
+        raise ValueError("camera position and focalPoint coincide")
+    f /= dist
+    right = np.cross(f, up)
+    if np.linalg.norm(right) == 0:
+        raise ValueError("camera viewUp is parallel to the view direction")
+    right /= np.linalg.norm(right)
+    upv = np.cross(right, f)
+    u, v = 2.0 * x / w - 1.0, 1.0 - 2.0 * y / h                    # normalised device coordinates
+    if camera.get("parallelProjection"):
+        s = check_range("parallelScale", camera.get("parallelScale"), 0.0, 1e12, low_open=True)
+        origin = pos + s * (u * (w / h) * right + v * upv)
+        return origin, f
+    half = np.tan(np.radians(check_range("viewAngle", camera.get("viewAngle", 30.0), 0.0, 180.0,
+                                         low_open=True, high_open=True)) / 2)
+    d = f + half * (u * (w / h) * right + v * upv)
+    return pos.copy(), d / np.linalg.norm(d)
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -186,16 +235,23 @@ class VineReviewApp:
         Local mode, after a paint/undo/redo: ``delta`` sends only the changed proxy vertices' colours (page
         hook, in place); ``array`` re-synchronises the scene, which re-sends the whole colour array (the
         former behaviour, kept as the benchmark's baseline).
+    interactive_faces : int or None
+        Local mode: triangle budget of the level-of-detail proxy the page draws instead of the display proxy
+        while a stroke or an orbit drag runs (software WebGL draws ~50k triangles at interactive rates, see
+        ``benchmarks/vine_render.py``), in [4, 2**31 - 1]; ``None`` (or a budget at or above the display
+        proxy's) draws the display proxy throughout.
     """
 
     def __init__(self, seg: Segmentation | None = None, *, proxy: DisplayProxy | None = None,
                  target_faces: int = 1_500_000, mode: str = "local", volume: np.ndarray | None = None,
                  level: float | None = None, radius: float | None = None, window_size=(900, 700),
-                 colour_updates: str = "delta"):
+                 colour_updates: str = "delta", interactive_faces: int | None = 50_000):
         from trame.app import get_server
         mode = check_choice("mode", mode, ("local", "remote"))
         self.colour_updates = check_choice("colour_updates", colour_updates, ("delta", "array"))
         target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
+        self.interactive_faces = (None if interactive_faces is None
+                                  else check_int("interactive_faces", interactive_faces, 4, 2 ** 31 - 1))
         if seg is None:
             if volume is None:
                 raise ValueError("give a Segmentation (seg) or a volume to mesh")
@@ -217,7 +273,15 @@ class VineReviewApp:
         self.delta_vertices = 0             # proxy vertices in them, in total
         self.resyncs = 0                    # full colour re-synchronisations asked for by the page
         self._pending: list[np.ndarray] = []
+        self._lod_pending: list[np.ndarray] = []
         self._full = False
+        self._stroking = False
+        self._loc = self._loc_key = None
+        self.last_pick: dict | None = None
+        self.last_stroke: list[np.ndarray] = []     # brush centres of the last stroke (world space)
+        #: server-side seconds and counts of the page's stroke requests (pick, paint, delta building)
+        self.stroke_stats = {"requests": 0, "stamps": 0, "misses": 0, "pick_s": 0.0, "paint_s": 0.0,
+                             "delta_s": 0.0}
         self._thread: threading.Thread | None = None
         self._set_segmentation(seg, proxy)
         diag = float(np.linalg.norm(np.ptp(seg.vertices, axis=0)))
@@ -227,6 +291,7 @@ class VineReviewApp:
             "painted": 0, "can_undo": False, "can_redo": False, "level": float(level or 0.0),
             "histogram": histogram_svg(volume, level) if volume is not None else "",
             "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
+            "n_lod": 0 if self.lod is None else self.lod.n_vertices, "paint_drag": False,
             "vine_delta": None, "wheel": "", "message": "",
         })
         self._render_wheel()
@@ -242,13 +307,34 @@ class VineReviewApp:
             old.plotter.remove_actor(old.actor)
             plotter = old.plotter
             self.proxy.close()
+        old_lod = getattr(self, "lod_view", None)
+        if old_lod is not None:
+            old_lod.src.unobserve(old_lod._on_change)
+            old_lod.plotter.remove_actor(old_lod.actor)
+            self.lod.close()
         self.seg = seg
         self.proxy = proxy if proxy is not None else DisplayProxy(seg, target_faces=self.target_faces)
         self.view = SegmentationView(seg, proxy=self.proxy, plotter=plotter, window_size=self.window_size,
                                      background=(0.08, 0.08, 0.1))
         self.proxy.observe(self._on_proxy_change)
+        self.lod = self.lod_view = None
+        self._lod_pending = []
+        if self.mode == "local" and self.interactive_faces is not None \
+                and len(self.proxy.faces) > self.interactive_faces:
+            # the level of detail drawn while a stroke or an orbit drag runs: visible here (trame-vtk sends
+            # hidden actors without their data), hidden by the page hook at rest
+            self.lod = DisplayProxy(seg, target_faces=self.interactive_faces)
+            self.lod_view = SegmentationView(seg, proxy=self.lod, plotter=self.view.plotter,
+                                             background=(0.08, 0.08, 0.1))
+            self.lod.observe(self._on_lod_change)
         self.view.plotter.reset_camera()
         self.view.plotter.camera.elevation = -35
+
+    def _on_lod_change(self, kind, ids) -> None:
+        if kind == "labels" and ids is not None:
+            self._lod_pending.append(np.asarray(ids))
+        else:
+            self._full = True
 
     def _on_proxy_change(self, kind, ids) -> None:
         if kind == "labels" and ids is not None:
@@ -258,8 +344,13 @@ class VineReviewApp:
         self.state.can_undo = bool(self.seg.history.undo_stack)
         self.state.can_redo = bool(self.seg.history.redo_stack)
 
-    def colour_delta(self) -> tuple[np.ndarray, np.ndarray]:
+    def colour_delta(self, *, lod: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """The proxy vertices changed since the last push and their colours as drawn (consumes them).
+
+        Parameters
+        ----------
+        lod : bool
+            Those of the interactive level of detail (:attr:`lod`) instead of the display proxy.
 
         Returns
         -------
@@ -268,35 +359,59 @@ class VineReviewApp:
         rgba : (M, 4) uint8 ndarray
             Their colours, as in the view's colour array.
         """
-        ids = (np.unique(np.concatenate(self._pending)) if self._pending else np.zeros(0, np.int64))
-        self._pending = []
-        return ids.astype(np.uint32), np.ascontiguousarray(self.view.mesh.point_data["rgba"][ids], dtype=np.uint8)
+        pending, view = (self._lod_pending, self.lod_view) if lod else (self._pending, self.view)
+        ids = (np.unique(np.concatenate(pending)) if pending else np.zeros(0, np.int64))
+        pending.clear()
+        if view is None:
+            return np.zeros(0, np.uint32), np.zeros((0, 4), np.uint8)
+        return ids.astype(np.uint32), np.ascontiguousarray(view.mesh.point_data["rgba"][ids], dtype=np.uint8)
+
+    def _delta(self, *, fine: bool = True, lod: bool = True) -> dict | None:
+        """One colour-delta batch ``{seq, n, ids, rgba, more}`` for the page hook, or None when nothing changed.
+
+        ``n, ids, rgba`` recolour the actor whose colour array has ``n`` tuples; ``more`` lists further
+        ``{n, ids, rgba}`` parts (the other level of detail) applied with the same sequence number.
+        """
+        parts = []
+        for want, is_lod, px in ((fine, False, self.proxy), (lod, True, self.lod)):
+            if not want or px is None:
+                continue
+            ids, rgba = self.colour_delta(lod=is_lod)
+            if ids.size:
+                parts.append({"n": int(px.n_vertices), "ids": ids.astype("<u4").tobytes(), "rgba": rgba.tobytes()})
+                self.delta_vertices += int(ids.size)
+        if not parts:
+            return None
+        self.deltas += 1
+        return {"seq": self.deltas, **parts[0], "more": parts[1:]}
+
+    def _status(self) -> None:
+        self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
+        self._render_wheel()
+        self.state.painted = int(np.count_nonzero(self.seg.labels))
+        self.state.can_undo = bool(self.seg.history.undo_stack)
+        self.state.can_redo = bool(self.seg.history.redo_stack)
 
     def _push(self) -> None:
         """Send what changed to the browser.
 
-        Local mode: a colour delta of the changed proxy vertices when only labels changed, else a scene
-        re-synchronisation (changed arrays only). Remote mode: a new image.
+        Local mode: a colour delta of the changed proxy vertices (both levels of detail) when only labels
+        changed, else a scene re-synchronisation (changed arrays only). Remote mode: a new image.
         """
-        self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
-        self._render_wheel()
-        self.state.painted = int(np.count_nonzero(self.seg.labels))
+        self._status()
         self.pushes += 1
         if self.mode == "local" and self.colour_updates == "delta" and not self._full:
-            ids, rgba = self.colour_delta()
-            if ids.size:
-                self.deltas += 1
-                self.delta_vertices += int(ids.size)
-                self.state.vine_delta = {"seq": self.deltas, "n": int(self.proxy.n_vertices),
-                                         "ids": ids.astype("<u4").tobytes(), "rgba": rgba.tobytes()}
+            d = self._delta()
+            if d is not None:
+                self.state.vine_delta = d
             return
-        self._pending, self._full = [], False
+        self._pending, self._lod_pending, self._full = [], [], False
         self.ctrl.view_update()
 
     def resync(self, *_args) -> None:
         """The page missed a delta (or loaded late): re-synchronise the whole scene once."""
         self.resyncs += 1
-        self._pending, self._full = [], False
+        self._pending, self._lod_pending, self._full = [], [], False
         self.ctrl.view_update()
 
     # ------------------------------------------------------------------ commands (also callable from code)
@@ -308,24 +423,117 @@ class VineReviewApp:
         self._push()
         return n
 
+    def _locator(self):
+        """vtkStaticCellLocator over the drawn display proxy (visible triangles), rebuilt when they change."""
+        mesh = self.view.mesh
+        key = (id(mesh), mesh.GetPolys().GetMTime(), mesh.GetPoints().GetMTime())
+        if self._loc_key != key:
+            from vtkmodules.vtkCommonDataModel import vtkPolyData, vtkStaticCellLocator
+            geom = vtkPolyData()                        # geometry only: colour edits must not trigger a rebuild
+            geom.SetPoints(mesh.GetPoints())
+            geom.SetPolys(mesh.GetPolys())
+            loc = vtkStaticCellLocator()
+            loc.SetDataSet(geom)
+            loc.BuildLocator()
+            b = np.asarray(mesh.bounds, np.float64).reshape(3, 2)
+            self._loc, self._loc_key, self._loc_geom = loc, key, geom
+            self._loc_box = (b.mean(axis=1), float(np.linalg.norm(b[:, 1] - b[:, 0])) or 1.0)
+        return self._loc
+
+    def pick_display(self, x: float, y: float, camera: dict, size) -> np.ndarray | None:
+        """World point of the drawn proxy under a page position, or None when the ray misses.
+
+        The page sends the position in CSS pixels from the canvas's top-left corner, the canvas size and its
+        vtk.js camera (it orbits in the browser); the ray (:func:`camera_ray`) is cast on the server against
+        the display proxy's visible triangles with VTK's ``vtkStaticCellLocator``.
+        """
+        if self.view.mesh.n_cells == 0:
+            return None
+        o, d = camera_ray(camera, x, y, size)
+        loc = self._locator()
+        centre, diag = self._loc_box
+        if camera.get("parallelProjection"):                # start behind the scene, seen from the camera
+            o = o - d * (abs(float(np.dot(centre - o, d))) + 2.0 * diag)
+        far = o + d * (float(np.linalg.norm(centre - o)) + 2.0 * diag)
+        from vtkmodules.vtkCommonCore import reference
+        t, sub, cell = reference(0.0), reference(0), reference(0)
+        x_hit, pc = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+        if not loc.IntersectWithLine(o, far, 0.0, t, x_hit, pc, sub, cell):
+            return None
+        return np.asarray(x_hit, np.float64)
+
+    def stroke(self, phase: str, points, camera: dict | None = None, size=None) -> dict | None:
+        """A brush stroke from the page: ``phase`` ``begin``, ``move`` or ``end`` of a paint drag, or ``click``.
+
+        Each page position in ``points`` ((K, 2) CSS px) is picked on the server (:meth:`pick_display`) and
+        stamped with the sphere brush on the full-resolution labels; a ``begin`` … ``end`` drag is one undo
+        item. The changed colours come back as the return value (the page hook applies them, one render per
+        batch): while the stroke runs only the interactive level of detail's (the one the page draws then),
+        at its end the display proxy's as well. A ``click`` is one undoable stamp, sent like an undo's delta.
+        """
+        phase = check_choice("phase", phase, ("begin", "move", "end", "click"))
+        pts = check_array("points", np.asarray(points if points is not None and len(points) else np.zeros((0, 2)),
+                                               np.float64).reshape(-1, 2), shape=(None, 2))
+        st = self.stroke_stats
+        st["requests"] += 1
+        label, r = int(self.state.label), float(self.state.radius)
+        if phase in ("begin", "click") and not self.seg.colors.visible[label]:
+            self.state.message = f"colour {label} is hidden: show it to paint with it"
+            return None
+        if phase == "begin":
+            if self._stroking:
+                self.seg.end_stroke()
+            self.seg.begin_stroke()
+            self._stroking, self.last_stroke = True, []
+        elif phase in ("move", "end") and not self._stroking:
+            return None
+        for x, y in pts:
+            t0 = time.perf_counter()
+            p = self.pick_display(x, y, camera, size)
+            t1 = time.perf_counter()
+            st["pick_s"] += t1 - t0
+            if p is None:
+                st["misses"] += 1
+                continue
+            self.last_pick = {"worldPosition": p.tolist(), "position": {"x": float(x), "y": float(y)}}
+            if phase == "click":
+                self.on_pick(self.last_pick)
+                st["paint_s"] += time.perf_counter() - t1
+                return None
+            self.view.paint_at(p, radius=r, label=label)
+            self.last_stroke.append(p)
+            st["stamps"] += 1
+            st["paint_s"] += time.perf_counter() - t1
+        t0 = time.perf_counter()
+        if phase == "end":
+            self.seg.end_stroke()
+            self._stroking = False
+            self.state.message = ""
+            self._status()
+        if self._full:                                  # the table changed meanwhile: take the whole scene
+            self._push()
+            return None
+        d = self._delta(fine=phase == "end" or self.lod is None, lod=True)
+        st["delta_s"] += time.perf_counter() - t0
+        return d
+
     def on_press(self, position) -> None:
-        """Left button down in the view (display coordinates)."""
+        """Remote mode: left button down in the view (display coordinates)."""
         self._press = position
         self._dragged = False
 
     def on_release(self, position) -> None:
-        """Left button up: a move of more than 4 pixels since the press was an orbit, not a click."""
+        """Remote mode: left button up; a move of more than 4 pixels since the press was an orbit, not a click."""
         p = getattr(self, "_press", None)
         if p and position:
             self._dragged = abs(position["x"] - p["x"]) + abs(position["y"] - p["y"]) > 4
 
     def on_pick(self, event) -> None:
-        """Browser click: local mode brings the picked world position, remote mode the display position.
-
-        The click that ends an orbit drag is ignored (the browser fires a click after any press and release).
-        """
+        """A picked surface point: ``{"worldPosition": [x, y, z]}`` (local mode, from :meth:`stroke`) or a
+        remote view's click ``{"position": {"x", "y"}}`` (display pixels, picked on the server's render
+        window). Paints one undoable stamp."""
         self.last_pick = event
-        if getattr(self, "_dragged", False):
+        if getattr(self, "_dragged", False):                # remote mode: the click that ends an orbit drag
             self._dragged = False
             return
         if not event:
@@ -355,6 +563,11 @@ class VineReviewApp:
         """Redo the last undone operation."""
         self.seg.redo()
         self._push()
+
+    def toggle_paint(self) -> None:
+        """Local mode: a left drag paints a stroke (on) or orbits the view (off; a click paints a stamp).
+        A ctrl-left drag always paints."""
+        self.state.paint_drag = not bool(self.state.paint_drag)
 
     def toggle_selected(self) -> None:
         """Hide or show the selected colour (on the full mesh and the proxy)."""
@@ -416,6 +629,7 @@ class VineReviewApp:
         self._set_segmentation(seg, None)
         self.state.histogram = histogram_svg(self.volume, level)
         self.state.n_full, self.state.n_proxy = seg.n_vertices, self.proxy.n_vertices
+        self.state.n_lod = 0 if self.lod is None else self.lod.n_vertices
         self._push()
         self.ctrl.view_reset_camera()
 
@@ -429,6 +643,8 @@ class VineReviewApp:
         ctrl.undo, ctrl.redo, ctrl.toggle_selected = self.undo, self.redo, self.toggle_selected
         ctrl.apply_level = self.apply_level
         self.server.trigger("vine_resync")(self.resync)
+        self.server.trigger("vine_stroke")(self.stroke)
+        ctrl.toggle_paint = self.toggle_paint
         self.state.change("label")(self._render_wheel)
         side = 2 * wheel_geometry(WHEEL_RADIUS)[1]
         # click position relative to the wheel's box (its SVG fills it exactly) and the shift key
@@ -441,6 +657,9 @@ class VineReviewApp:
                 v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=0.01, label="radius",
                            hide_details=True, density="compact", style="max-width: 220px",
                            classes="vine-radius mx-2")
+                if self.mode == "local":
+                    v3.VBtn("{{ paint_drag ? 'paint: drag' : 'paint: click' }}", click=ctrl.toggle_paint,
+                            classes="vine-paint", variant=("paint_drag ? 'flat' : 'text'",))
                 v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
                 v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
                 v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
@@ -461,13 +680,10 @@ class VineReviewApp:
                              f"max-width: {side:.0f}px;")
                 with html.Div(style="position: relative; flex: 1 1 0; min-width: 0; height: 100%; "
                                     "overflow: hidden;"):
-                    kw = {"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
-                          "interactor_settings": ("interactor_settings", _INTERACTOR),
-                          # a DOM click also ends every orbit drag: press/release positions tell them apart
-                          "interactor_events": ("interactor_events", ["LeftButtonPress", "LeftButtonRelease"]),
-                          "LeftButtonPress": (self.on_press, "[$event.position]"),
-                          "LeftButtonRelease": (self.on_release, "[$event.position]")}
+                    kw = {"interactor_settings": ("interactor_settings", _INTERACTOR)}
                     if self.mode == "local":
+                        # clicks and paint drags are handled by the page hook (server-side picking), orbit
+                        # drags by vtk.js; no hardware selector pass in the browser
                         view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view",
                                                         ref=_VIEW_REF, **kw)
                         client.Script(_DELTA_JS.read_text())
@@ -475,6 +691,11 @@ class VineReviewApp:
                                                  change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
                                                         "vine_delta)")
                     else:
+                        kw.update({"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
+                                   # a DOM click also ends every orbit drag: press/release positions tell them apart
+                                   "interactor_events": ("interactor_events", ["LeftButtonPress", "LeftButtonRelease"]),
+                                   "LeftButtonPress": (self.on_press, "[$event.position]"),
+                                   "LeftButtonRelease": (self.on_release, "[$event.position]")})
                         view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
                                                          interactive_ratio=1, **kw)
                     ctrl.view_update = view.update
@@ -496,6 +717,8 @@ class VineReviewApp:
         """Serve the page; returns its URL. With ``thread=True`` the server runs in a daemon thread."""
         self.port = _free_port() if not port else check_int("port", port, 1, 65535)
         self._render_wheel()                        # the label may have been set from code before serving
+        if self.mode == "local":
+            self._locator()                         # server-side picking: build the ray locator up front
         self.url = f"http://{host}:{self.port}/"
         kw = {"port": self.port, "open_browser": open_browser, "show_connection_info": False, "disable_logging": True,
                   "timeout": 0, "host": host}
@@ -524,6 +747,9 @@ class VineReviewApp:
             asyncio.run_coroutine_threadsafe(self.server.stop(), loop)
             self._thread.join(timeout=5)
         self.proxy.close()
+        if self.lod is not None:
+            self.lod.close()
+            self.lod_view.src.unobserve(self.lod_view._on_change)
         self.view.close()
 
 

@@ -1,11 +1,28 @@
-// ViNE review page hook (issue 14): apply per-vertex colour deltas to the vtk.js actor drawn by a trame-vtk
-// VtkLocalView, in place, instead of re-sending the whole colour array.
+// ViNE review page hook (issue 14): brush strokes picked on the server, per-vertex colour deltas applied to the
+// vtk.js actors drawn by a trame-vtk VtkLocalView in place, one render per animation frame, and a coarse level
+// of detail drawn while a stroke or an orbit drag runs.
 //
-// The server sets the state variable `vine_delta` = {seq, n, ids, rgba}: `ids` are the changed proxy vertex ids
-// (little-endian uint32) and `rgba` their colours (uint8, 4 per id), either as binary (Uint8Array through
-// wslink's msgpack) or base64 strings. `n` is the proxy vertex count: only a point array named "rgba" with that
-// many 4-component tuples is touched. A gap in `seq` (two deltas coalesced by Vue's watcher before this ran)
-// asks the server for a full colour resync (trigger "vine_resync"), so no stroke is ever lost.
+// Deltas. The server sends batches {seq, n, ids, rgba, more}: `ids` are changed proxy vertex ids (little-endian
+// uint32) and `rgba` their colours (uint8, 4 per id), as binary (Uint8Array through wslink's msgpack) or base64
+// strings; `n` picks the actor whose point array "rgba" has n 4-component tuples; `more` holds further
+// {n, ids, rgba} parts (the other level of detail) of the same batch. Batches come in the state variable
+// `vine_delta` (clicks, undo, redo) or as the return value of a stroke request. A gap in `seq` (two state
+// deltas coalesced by Vue's watcher before this ran) asks the server for a full resync (trigger
+// "vine_resync"), so no stroke is ever lost.
+//
+// Strokes. A left press on the view paints instead of orbiting when the state's `paint_drag` is on or ctrl is
+// held: the press, the moves and the release go to the server (trigger "vine_stroke" with the positions in CSS
+// px from the canvas's top-left corner, the canvas size and the vtk.js camera); at most one request is in
+// flight, the positions that arrive meanwhile travel together in the next one. Without paint_drag a click (press
+// and release within 4 px) paints one stamp the same way; longer drags orbit (vtk.js).
+//
+// Level of detail. When the state's `n_lod` is set, the actor with n_lod colour tuples (hidden at rest) is
+// drawn instead of the display proxy's (n_proxy tuples) from the stroke's press (or an orbit's start) until the
+// stroke's last batch has been applied (or the orbit ends).
+//
+// Timings. `window.vineDelta.log` records every stroke request (performance.now() at send and at reply, the
+// positions it carried, the bytes of colours it brought back) and `renders` the time of each render call;
+// the benchmark reads them.
 (function () {
   function toBytes(x) {
     if (x == null) return new Uint8Array(0);
@@ -29,39 +46,73 @@
     return (inst.provides && inst.provides.view) || null;
   }
 
+  function stateGet(name) {
+    const st = window.trame && window.trame.state;
+    return st && st.get ? st.get(name) : undefined;
+  }
+
+  // The actors whose point array "rgba" has n 4-component tuples, with that array.
+  function actorsWith(view, n) {
+    const out = [];
+    if (!view || !view.renderer || !n) return out;
+    for (const actor of view.renderer.getActors()) {
+      const mapper = actor.getMapper && actor.getMapper();
+      const data = mapper && mapper.getInputData && mapper.getInputData();
+      if (!data || !data.getPointData) continue;
+      const pd = data.getPointData();
+      const sc = pd.getArrayByName("rgba") || pd.getScalars();
+      if (sc && sc.getNumberOfComponents() === 4 && sc.getNumberOfTuples() === n) out.push({ actor, data, sc });
+    }
+    return out;
+  }
+
   // Arrays this hook owns. trame-vtk's synchroniser caches fetched arrays by content hash and hands the same
   // typed array to the actor, so the first delta after a sync copies it once (the cache keeps the content its
   // hash names); later deltas then write into the copy in place.
   const owned = new WeakSet();
+  const guarded = new WeakSet();
+  const REF = "vine_view";
 
   const vine = {
     seq: 0,
-    applied: 0,      // deltas applied in place
+    applied: 0,      // delta batches applied in place
     vertices: 0,     // proxy vertices recoloured in place, in total
     copies: 0,       // copy-on-first-write of a synchronised colour array
     resyncs: 0,      // full re-synchronisations asked for (missed delta, page loaded late, view not ready)
+    renders: [],     // [performance.now() after, ms spent] of each render this hook asked for
+    log: [],         // stroke requests: {phase, points, sent, back, bytes}
+    strokes: 0,      // strokes finished
+    lodShown: false,
+    stroke: null,
+    finish: false,   // gl.finish() after each render (benchmarks)
     resync(seq) {
       vine.resyncs += 1;
       window.trame.trigger("vine_resync", [seq]);
       return false;
     },
-    apply(ref, delta) {
-      if (!delta || typeof delta.seq !== "number") return false;
-      const gap = delta.seq !== vine.seq + 1;
-      vine.seq = delta.seq;
-      const view = localView(ref);
-      if (gap || !view || !view.renderer) return vine.resync(delta.seq);
-      const idb = toBytes(delta.ids);
+    // one render at the next animation frame, however many batches arrive before it
+    scheduleRender(view) {
+      if (vine._raf) return;
+      vine._raf = requestAnimationFrame(() => {
+        vine._raf = 0;
+        const t = performance.now();
+        view.renderWindow.render();
+        if (vine.finish) {               // benchmarks: wait for the (software) GPU, so frames are counted drawn
+          const gl = view.openglRenderWindow && view.openglRenderWindow.getContext();
+          if (gl) gl.finish();
+        }
+        const t1 = performance.now();
+        vine.renders.push([t1, t1 - t]);
+        if (vine.renders.length > 5000) vine.renders.splice(0, 1000);
+      });
+    },
+    applyPart(view, part) {
+      const targets = actorsWith(view, part.n);
+      if (!targets.length) return -1;
+      const idb = toBytes(part.ids);
       const ids = new Uint32Array(idb.buffer.slice(idb.byteOffset, idb.byteOffset + idb.byteLength));
-      const rgba = toBytes(delta.rgba);
-      let done = false;
-      for (const actor of view.renderer.getActors()) {
-        const mapper = actor.getMapper && actor.getMapper();
-        const data = mapper && mapper.getInputData && mapper.getInputData();
-        if (!data || !data.getPointData) continue;
-        const pd = data.getPointData();
-        const sc = pd.getArrayByName("rgba") || pd.getScalars();
-        if (!sc || sc.getNumberOfComponents() !== 4 || sc.getNumberOfTuples() !== delta.n) continue;
+      const rgba = toBytes(part.rgba);
+      for (const { data, sc } of targets) {
         let a = sc.getData();
         if (!owned.has(a)) {
           a = a.slice();
@@ -75,15 +126,179 @@
         }
         sc.modified();
         data.modified();
-        done = true;
       }
-      if (!done) return vine.resync(delta.seq);      // scene still loading: take the server's colours
+      return ids.length;
+    },
+    apply(ref, delta) {
+      if (!delta || typeof delta.seq !== "number") return false;
+      const gap = delta.seq !== vine.seq + 1;
+      vine.seq = delta.seq;
+      const view = localView(ref || REF);
+      if (gap || !view || !view.renderer) return vine.resync(delta.seq);
+      let n = 0;
+      for (const part of [delta, ...(delta.more || [])]) {
+        const k = vine.applyPart(view, part);
+        if (k < 0) return vine.resync(delta.seq);      // scene still loading: take the server's colours
+        n += k;
+      }
       vine.applied += 1;
-      vine.vertices += ids.length;
-      view.renderWindow.render();
+      vine.vertices += n;
+      vine.scheduleRender(view);
       return true;
     },
+    // draw the coarse level of detail (on) or the display proxy (off)
+    showLod(view, on) {
+      const nl = stateGet("n_lod"), np = stateGet("n_proxy");
+      if (!view || !nl) return;
+      vine.guardLod(view);
+      const coarse = actorsWith(view, nl), fine = actorsWith(view, np);
+      if (!coarse.length || !fine.length) return;
+      vine.lodShown = on;
+      for (const { actor } of coarse) actor.setVisibility(on);
+      for (const { actor } of fine) actor.setVisibility(!on);
+      vine.scheduleRender(view);
+    },
+    // The server keeps the level of detail's actor visible (trame-vtk sends hidden actors without their
+    // data); at rest this page hides it, also right after a scene synchronisation sets it visible again.
+    guardLod(view) {
+      const nl = stateGet("n_lod");
+      if (!view || !view.renderer || !nl) return;
+      for (const { actor } of actorsWith(view, nl)) {
+        if (!guarded.has(actor)) {
+          guarded.add(actor);
+          actor.onModified(() => { if (!vine.lodShown && actor.getVisibility()) actor.setVisibility(false); });
+        }
+        if (!vine.lodShown && actor.getVisibility()) {
+          actor.setVisibility(false);
+          vine.scheduleRender(view);
+        }
+      }
+    },
   };
+
+  // ---------------------------------------------------------------- strokes (server-side picking)
+  function canvasPos(e, el) {
+    const c = el.querySelector("canvas") || el;
+    const r = c.getBoundingClientRect();
+    return { p: [e.clientX - r.left, e.clientY - r.top], size: [r.width, r.height] };
+  }
+
+  function cameraOf(view) {
+    const c = view.renderer.getActiveCamera();
+    return {
+      position: Array.from(c.getPosition()), focalPoint: Array.from(c.getFocalPoint()),
+      viewUp: Array.from(c.getViewUp()), viewAngle: c.getViewAngle(),
+      parallelProjection: !!c.getParallelProjection(), parallelScale: c.getParallelScale(),
+    };
+  }
+
+  function batchBytes(d) {
+    if (!d) return 0;
+    let b = 0;
+    for (const p of [d, ...(d.more || [])]) b += toBytes(p.ids).byteLength + toBytes(p.rgba).byteLength;
+    return b;
+  }
+
+  async function send(phase, points, size, view) {
+    const entry = { phase, points: points.length, sent: performance.now(), back: 0, bytes: 0 };
+    vine.log.push(entry);
+    if (vine.log.length > 5000) vine.log.splice(0, 1000);
+    let res = null;
+    try {
+      res = await window.trame.trigger("vine_stroke", [phase, points, cameraOf(view), size]);
+    } catch (err) {
+      entry.error = String(err);
+    }
+    entry.back = performance.now();
+    entry.bytes = batchBytes(res);
+    if (res) vine.apply(REF, res);
+    return res;
+  }
+
+  async function pump() {
+    const s = vine.stroke;
+    if (!s || s.busy) return;
+    const phase = !s.begun ? "begin" : s.ended ? "end" : "move";
+    if (phase === "move" && !s.pts.length) return;
+    s.busy = true;
+    const pts = s.pts;
+    s.pts = [];
+    await send(phase, pts, s.size, s.view);
+    s.busy = false;
+    if (phase === "begin") s.begun = true;
+    if (phase === "end") {
+      vine.stroke = null;
+      vine.strokes += 1;
+      vine.showLod(s.view, false);
+      return;
+    }
+    pump();
+  }
+
+  function inView(e) {
+    const el = e.target && e.target.closest ? e.target.closest(".vine-view") : null;
+    return el;
+  }
+
+  window.addEventListener("pointerdown", (e) => {
+    const el = inView(e);
+    if (!el || e.button !== 0) return;
+    const view = localView(REF);
+    if (!view || !view.renderer) return;
+    const { p, size } = canvasPos(e, el);
+    vine.down = { x: e.clientX, y: e.clientY, p, size, el };
+    const paint = (stateGet("paint_drag") || e.ctrlKey) && !e.shiftKey && !e.altKey;
+    if (!paint) return;
+    e.stopPropagation();
+    e.preventDefault();
+    vine.down = null;
+    if (vine.stroke) return;
+    vine.stroke = { view, el, size, pts: [p], begun: false, ended: false, busy: false };
+    vine.showLod(view, true);
+    pump();
+  }, true);
+
+  window.addEventListener("pointermove", (e) => {
+    const s = vine.stroke;
+    if (!s || s.ended) return;
+    e.stopPropagation();
+    e.preventDefault();
+    s.pts.push(canvasPos(e, s.el).p);
+    pump();
+  }, true);
+
+  window.addEventListener("pointerup", (e) => {
+    const s = vine.stroke;
+    if (s && !s.ended) {
+      e.stopPropagation();
+      e.preventDefault();
+      s.pts.push(canvasPos(e, s.el).p);
+      s.ended = true;
+      pump();
+      return;
+    }
+    const d = vine.down;
+    vine.down = null;
+    if (!d || e.button !== 0) return;
+    if (Math.abs(e.clientX - d.x) + Math.abs(e.clientY - d.y) > 4) return;      // an orbit drag
+    const view = localView(REF);
+    if (view && view.renderer) send("click", [d.p], d.size, view);
+  }, true);
+
+  // orbit drags draw the level of detail too
+  function hookInteractor() {
+    const view = localView(REF);
+    if (!view || !view.interactor) return setTimeout(hookInteractor, 500);
+    if (view.__vineHooked) return;
+    view.__vineHooked = true;
+    const it = view.interactor;
+    if (it.onStartAnimation) it.onStartAnimation(() => { if (!vine.stroke) vine.showLod(view, true); });
+    if (it.onEndAnimation) it.onEndAnimation(() => { if (!vine.stroke) vine.showLod(view, false); });
+    return null;
+  }
+  setTimeout(hookInteractor, 500);
+  setInterval(() => vine.guardLod(localView(REF)), 250);
+
   window.vineDelta = vine;
   if (window.trame && window.trame.utils) window.trame.utils.vine = vine;
 })();
