@@ -267,3 +267,80 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
             browser.close()
     finally:
         app.stop()
+
+
+def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface, tmp_path):
+    """A paint drag (toolbar "paint: drag"): every position is picked on the server against the drawn proxy and
+    stamped on the full-resolution labels; the page draws the coarse level of detail while the stroke runs and
+    the display proxy again after it; the stroke is one undo item; only colour deltas travel."""
+    from plantvr.view.vine_app import VineReviewApp
+    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
+    shots.mkdir(parents=True, exist_ok=True)
+    seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals)
+    app = VineReviewApp(seg, target_faces=len(seg.faces) // 2, radius=4.0, window_size=(640, 480),
+                        interactive_faces=len(seg.faces) // 8)
+    assert app.lod is not None and app.lod.n_vertices < app.proxy.n_vertices
+    app.state.label = 3
+    url = app.start()
+    try:
+        with playwright_api.sync_playwright() as p:
+            browser = launch_chromium(p)
+            page = browser.new_page(viewport={"width": 800, "height": 640})
+            received = []
+            page.on("websocket", lambda ws: ws.on("framereceived", lambda m: received.append(len(m))))
+            errors = []
+            page.on("pageerror", lambda e: errors.append(str(e)))
+            page.on("console", lambda m: m.type == "error" and "Failed to load resource" not in m.text
+                    and errors.append(m.text))
+            page.goto(url)
+            page.wait_for_selector(".vine-view canvas", timeout=30_000)
+            box = page.locator(".vine-view").bounding_box()
+            cx, cy = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+            h, w = int(box["height"] / 2), int(box["width"] / 2)
+            assert _wait(page, lambda: _img(page)[h, w].sum() > 150), "the mesh was not drawn"
+            # at rest the page hides the level of detail's actor (the server keeps it visible to send it)
+            assert _wait(page, lambda: page.evaluate(
+                "() => { const v = window.trame.refs.vine_view.$.provides.view; const a = v.renderer.getActors();"
+                " return a.length === 2 && a.filter(x => x.getVisibility()).length === 1; }"))
+            page.locator(".vine-paint").click()
+            assert _wait(page, lambda: app.state.paint_drag)
+            page.wait_for_timeout(500)
+            received.clear()
+            cam0 = page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()")
+            page.evaluate("() => { window.__lod = []; const v = window.vineDelta;"
+                          " const f = () => { window.__lod.push(v.lodShown); if (window.__lod.length < 4000)"
+                          " requestAnimationFrame(f); }; requestAnimationFrame(f); }")
+            page.mouse.move(cx - 50, cy + 5)
+            page.mouse.down()
+            for k in range(1, 11):
+                page.mouse.move(cx - 50 + 10 * k, cy + 5 - 2 * np.sin(k / 2))
+            page.mouse.up()
+            assert _wait(page, lambda: page.evaluate("window.vineDelta.strokes") == 1, timeout=60.0)
+            assert _wait(page, lambda: _yellow(_img(page)) > 30), "the stroke did not reach the page"
+            page.wait_for_timeout(500)
+            stroke_bytes = sum(received)
+            # full resolution: exactly the union of brute-force spheres around the stamps; one undo item
+            centres = np.asarray(app.last_stroke)
+            assert len(centres) >= 3, centres
+            want = np.unique(np.concatenate([ball_query_brute(seg.vertices, c, 4.0) for c in centres]))
+            assert np.array_equal(np.nonzero(seg.labels)[0], want) and np.all(seg.labels[want] == 3)
+            assert len(seg.history.undo_stack) == 1 and not app._stroking
+            # the stamps lie along the drag (left to right in the view): a stroke, not a single spot
+            assert np.linalg.norm(centres[-1] - centres[0]) > 4.0
+            hook = page.evaluate("({...window.vineDelta, log: window.vineDelta.log.map(e => e.phase)})")
+            assert hook["log"][0] == "begin" and hook["log"][-1] == "end" and hook["resyncs"] == 0
+            assert hook["applied"] == app.deltas and hook["vertices"] == app.delta_vertices > 0
+            assert not hook["lodShown"] and True in page.evaluate("window.__lod")     # coarse while it ran
+            assert stroke_bytes < 8 * app.delta_vertices + 400 * len(hook["log"]) + 2_000, \
+                (stroke_bytes, app.delta_vertices, len(hook["log"]))
+            page.screenshot(path=str(shots / "vine_review_stroke.png"))
+            # the drag painted instead of orbiting: the camera did not move
+            assert np.allclose(page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()"), cam0)
+            page.locator(".vine-undo").click()
+            assert _wait(page, lambda: not np.any(seg.labels))
+            assert _wait(page, lambda: _yellow(_img(page)) == 0)
+            assert not errors, errors
+            browser.close()
+    finally:
+        app.stop()
+    print(f"stroke: {len(centres)} stamps, {stroke_bytes:,} B received for {app.delta_vertices:,} proxy vertices")
