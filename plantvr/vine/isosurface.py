@@ -59,6 +59,8 @@ def _seam_keys(v: np.ndarray) -> np.ndarray:
 
 def _slab_skimage(raw: np.ndarray, level: float, s: int, step: int):
     """scikit-image marching cubes of one slab: (vertices, faces wound outward, normals) or None."""
+    if raw.max() <= level or raw.min() >= level:        # no crossing: skip the float copy
+        return None
     block = raw.astype(np.float32)                       # only this slab is ever float
     try:
         v, f, n, _ = marching_cubes(block, level, step_size=step, allow_degenerate=False)
@@ -102,7 +104,7 @@ def _slab_flying_edges(raw: np.ndarray, level: float, s: int, step: int):
 
 def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step_size: int = 1,
                        spacing: tuple[float, float, float] = (1.0, 1.0, 1.0),
-                       method: str = "flying_edges") -> Surface:
+                       method: str = "flying_edges", workers: int = 2) -> Surface:
     """Extract the isosurface of a uint8/uint16 volume slab by slab (flying edges or Lewiner marching cubes).
 
     Parameters
@@ -123,6 +125,9 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step
     method : {"flying_edges", "skimage"}
         ``flying_edges``: VTK ``vtkFlyingEdges3D`` per slab (default, fastest). ``skimage``:
         ``skimage.measure.marching_cubes`` (Lewiner) per slab.
+    workers : int
+        Slabs meshed at once in threads, in [1, 64] (VTK releases the GIL; the seams are still merged in
+        order, so the result does not depend on it). Peak memory grows by one slab and its mesh per worker.
 
     Returns
     -------
@@ -144,39 +149,43 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step
         raise ValueError(f"spacing must be 3 numbers, got {spacing!r}")
     spacing = tuple(check_range("spacing", s, 0.0, 1e6, low_open=True) for s in spacing)
     method = check_choice("method", method, ("flying_edges", "skimage"))
+    workers = check_int("workers", workers, 1, 64)
     mesher = _slab_flying_edges if method == "flying_edges" else _slab_skimage
     slab = max(step_size, (slab // step_size) * step_size)
     nx = volume.shape[0]
     last = ((nx - 1) // step_size) * step_size           # last plane the mesher reaches
-    verts_parts, faces_parts, norm_parts = [], [], []
+    out_v, out_n, out_f = _Rows(3, np.float32), _Rows(3, np.float32), _Rows(3, np.uint32)
     n_total = 0
     prev_keys = prev_ids = None                          # seam vertices of the previous slab
-    for s in range(0, last, slab):
-        e = min(s + slab, last)
-        raw = np.asarray(volume[s:e + 1])
-        if raw.shape[0] < 2 or raw.max() <= level or raw.min() >= level:
-            prev_keys = prev_ids = None
-            continue
-        m = mesher(raw, level, s, step_size)
-        del raw
+    for s, e, m in _slabs_in_order(volume, level, slab, last, step_size, mesher, workers):
         if m is None:
             prev_keys = prev_ids = None
             continue
         v, f, n = m
-        ids = np.arange(n_total, n_total + len(v), dtype=np.int64)
-        keep = np.ones(len(v), bool)
+        if n_total + len(v) >= 2 ** 32:
+            raise ValueError(f"the surface has more than {2 ** 32 - 1} vertices, more than uint32 faces can index")
+        ids = np.arange(n_total, n_total + len(v), dtype=np.uint32)
+        keep = None
         on_start = np.flatnonzero(v[:, 0] == s)
         if prev_keys is not None and on_start.size:
             k = _seam_keys(v[on_start])
             pos = np.minimum(np.searchsorted(prev_keys, k), len(prev_keys) - 1)
             hit = prev_keys[pos] == k
-            ids[on_start[hit]] = prev_ids[pos[hit]]
-            keep[on_start[hit]] = False
-        n_keep = int(keep.sum())
-        ids[keep] = np.arange(n_total, n_total + n_keep)  # renumber the kept vertices densely
-        verts_parts.append(np.asarray(v[keep] if n_keep < len(v) else v, np.float32))
-        norm_parts.append(np.asarray(n[keep] if n_keep < len(v) else n, np.float32))
-        faces_parts.append(ids.astype(np.uint32)[f])    # uint32 parts: one (F, 3) copy at the end, not three
+            if hit.any():
+                keep = np.ones(len(v), bool)
+                keep[on_start[hit]] = False
+                ids[keep] = np.arange(n_total, n_total + int(keep.sum()), dtype=np.uint32)   # kept: dense ids
+                ids[on_start[hit]] = prev_ids[pos[hit]]
+        # write straight into the growing outputs: no per-slab copies, no final concatenation
+        grow = (n_total + len(v)) * last / e * 1.05      # projected total, to size the next growth
+        if keep is None:
+            out_v.append(v, grow)
+            out_n.append(n, grow)
+            n_keep = len(v)
+        else:
+            n_keep = out_v.append_compress(keep, v, grow)
+            out_n.append_compress(keep, n, grow)
+        out_f.append_take(ids, f, (len(out_f) + len(f)) * last / e * 1.05)
         # (f[:, ::-1] reverses each triangle: an odd permutation, the same as the spec's [0, 2, 1])
         n_total += n_keep
         on_end = np.flatnonzero(v[:, 0] == e)
@@ -187,25 +196,78 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 64, step
         else:
             prev_keys = prev_ids = None
         del v, f, n, ids, keep, m
-    if not verts_parts:
+    if n_total == 0:
         raise ValueError(f"level {level!r} gives no surface: the volume does not cross it")
-    if n_total >= 2 ** 32:
-        raise ValueError(f"the surface has {n_total} vertices, more than uint32 faces can index")
-    vertices = _concat(verts_parts)
+    vertices = out_v.result()
     if spacing != (1.0, 1.0, 1.0):
         vertices *= np.asarray(spacing, np.float32)
-    faces = _concat(faces_parts)
-    normals = _concat(norm_parts)
-    return Surface(vertices=vertices, faces=faces, normals=normals)
+    return Surface(vertices=vertices, faces=out_f.result(), normals=out_n.result())
 
 
-def _concat(parts: list) -> np.ndarray:
-    """Concatenate and free the parts as they are copied (peak: the result plus one part, not twice the mesh)."""
-    out = np.empty((sum(len(p) for p in parts), *parts[0].shape[1:]), parts[0].dtype)
-    o = 0
-    while parts:
-        p = parts.pop(0)
-        out[o:o + len(p)] = p
-        o += len(p)
-        del p
-    return out
+def _mesh_one(volume, level, s, e, step, mesher):
+    raw = np.asarray(volume[s:e + 1])                   # a slab that does not cross the level gives None
+    return mesher(raw, level, s, step) if raw.shape[0] >= 2 else None
+
+
+def _slabs_in_order(volume, level, slab, last, step, mesher, workers):
+    """Yield ``(s, e, mesh or None)`` per slab in order; up to ``workers`` slabs are meshed ahead in threads
+    (VTK's ``Update`` releases the GIL), so the seam merge of one slab overlaps the meshing of the next."""
+    starts = list(range(0, last, slab))
+    if workers <= 1:
+        for s in starts:
+            e = min(s + slab, last)
+            yield s, e, _mesh_one(volume, level, s, e, step, mesher)
+        return
+    from collections import deque
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(workers) as ex:
+        todo = deque()
+        it = iter(starts)
+        for s in it:
+            e = min(s + slab, last)
+            todo.append((s, e, ex.submit(_mesh_one, volume, level, s, e, step, mesher)))
+            if len(todo) > workers:                     # bounded look-ahead: memory of workers + 1 slabs
+                s0, e0, fut = todo.popleft()
+                yield s0, e0, fut.result()
+        while todo:
+            s0, e0, fut = todo.popleft()
+            yield s0, e0, fut.result()
+
+
+class _Rows:
+    """An (N, k) array grown in place (``ndarray.resize``: realloc/mremap, so no copy and no re-touched pages)."""
+
+    def __init__(self, k: int, dtype):
+        self.a = np.empty((0, k), dtype)
+        self.n = 0
+
+    def __len__(self) -> int:
+        return self.n
+
+    def _slot(self, m: int, projected: float) -> np.ndarray:
+        need = self.n + m
+        if need > len(self.a):
+            cap = max(need, int(projected), int(1.25 * len(self.a)))
+            self.a.resize((cap, self.a.shape[1]), refcheck=False)
+        return self.a[self.n:need]
+
+    def append(self, rows: np.ndarray, projected: float) -> int:
+        self._slot(len(rows), projected)[...] = rows
+        self.n += len(rows)
+        return len(rows)
+
+    def append_compress(self, keep: np.ndarray, rows: np.ndarray, projected: float) -> int:
+        m = int(np.count_nonzero(keep))
+        np.compress(keep, rows, axis=0, out=self._slot(m, projected))
+        self.n += m
+        return m
+
+    def append_take(self, table: np.ndarray, idx: np.ndarray, projected: float) -> int:
+        np.take(table, idx, out=self._slot(len(idx), projected), mode="clip")
+        self.n += len(idx)
+        return len(idx)
+
+    def result(self) -> np.ndarray:
+        self.a.resize((self.n, self.a.shape[1]), refcheck=False)
+        out, self.a = self.a, np.empty((0, self.a.shape[1]), self.a.dtype)
+        return out

@@ -108,6 +108,14 @@ def test_slabs_equal_whole_volume(head, slab, method):
     assert np.allclose(np.sort(part.vertices, axis=0), np.sort(whole.vertices, axis=0), atol=1e-4)
 
 
+@pytest.mark.parametrize("method", ["flying_edges", "skimage"])
+def test_threaded_slabs_give_the_identical_mesh(head, method):
+    one = extract_isosurface(head.volume, head.level, slab=4, method=method, workers=1)
+    many = extract_isosurface(head.volume, head.level, slab=4, method=method, workers=3)
+    for a, b in zip((one.vertices, one.faces, one.normals), (many.vertices, many.faces, many.normals)):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
 def test_tw_v1_downsampling_shrinks_mesh_about_4x(head):
     full = extract_isosurface(head.volume, head.level)
     half = extract_isosurface(downsample2(head.volume), head.level * 0.8)
@@ -130,6 +138,8 @@ def test_isosurface_rejects_bad_input(head):
         extract_isosurface(np.zeros((8, 8, 8), np.uint8), 10)
     with pytest.raises(ValueError, match="slab"):
         extract_isosurface(head.volume, head.level, slab=1)
+    with pytest.raises(ValueError, match="workers"):
+        extract_isosurface(head.volume, head.level, workers=0)
     with pytest.raises(ValueError, match="method"):
         extract_isosurface(head.volume, head.level, method="marching_tetrahedra")
 
