@@ -1,4 +1,4 @@
-"""TreeSketch growth variants (spec 004 §1.4, tests V2, V4, V5, V8, V10 δ)."""
+"""TreeSketch growth variants (spec 004 §1.4, tests V1–V12)."""
 import math
 
 import numpy as np
@@ -568,3 +568,109 @@ def test_ts_asymmetry_tropism_leans_away():
     assert centroid_x([2.0, 0.0]) > centroid_x(None) + 0.5
     with pytest.raises(ValueError, match="asymmetry"):
         _engine(asymmetry=[1.0, 2.0, 3.0])
+
+
+# ---------------------------------------------------------------------------------------------- V1, V3, V7, V9
+def _grown_sketch(**params):
+    e = _engine(params={"shadow_intensity": 0.05, **params}, rng=4)
+    rng = np.random.default_rng(4)
+    for _ in range(6):
+        e.add_markers(rng.uniform([-4, 1, -4], [4, 9, 4], (300, 3)))
+        e.step()
+    assert e.tree.n_internodes > 20
+    return e
+
+
+def _slot_vigor(t, n):
+    """Vigor handed to each of node n's slots: the child's vigor, or the bud's (0 for an absent slot)."""
+    return np.array([t.vigor[c] if c >= 0 else t.bud_vigor[n, s] for s, c in enumerate(t.child[n])])
+
+
+@pytest.mark.parametrize("lam", [0.5, 0.7, 0.999999, 1e-6])
+def test_ts_v1_eq41_conservation_and_limits(lam):
+    """Eq. 4.1: v_m + v_l = v at every node; λ = 0.5 splits by Q; λ → 1 starves laterals, λ → 0 the main axis."""
+    e = _grown_sketch()
+    e.set_params({"apical_dominance": lam})             # vigor of the same tree under this λ
+    t = e.tree
+    nodes = [n for n in np.flatnonzero(t.alive) if t.Qw[n] > 0]
+    for n in nodes:
+        vs = _slot_vigor(t, n)
+        assert math.isclose(vs.sum(), t.vigor[n], rel_tol=1e-12, abs_tol=1e-300)
+        q_m, q_l = t.Qslot[n, 0], t.Qslot[n, 1:].sum()
+        if lam == 0.5 and q_m > 0 and q_l > 0:
+            assert math.isclose(vs[0] / vs[1:].sum(), q_m / q_l, rel_tol=1e-9)
+        if lam > 0.99 and q_m > 0:                         # v_l / v ≤ (1 − λ)/λ · Q_l/Q_m → 0
+            assert vs[1:].sum() <= (1 - lam) / lam * q_l / q_m * t.vigor[n] * (1 + 1e-9)
+        if lam < 0.01 and q_l > 0:                         # v_m / v ≤ λ/(1 − λ) · Q_m/Q_l → 0
+            assert vs[0] <= lam / (1 - lam) * q_m / q_l * t.vigor[n] * (1 + 1e-9)
+    shares = [(_slot_vigor(t, n)[1:].sum() if lam > 0.5 else _slot_vigor(t, n)[0]) / t.vigor[n] for n in nodes
+              if t.Qslot[n, 0] > 0 and t.Qslot[n, 1:].sum() > 0]
+    if lam > 0.99 or lam < 0.01:
+        assert np.median(shares) < 1e-3                    # the starved side gets almost nothing
+
+
+def test_ts_v3_space_only_growth_all_buds_get_n_max():
+    """κ = 0 and a neutral ellipse: every bud collects Q = 1, so with λ = 0.5 all get v_max and n = n_max."""
+    e = _grown_sketch(light_exponent=0.0, apical_dominance=0.5)
+    assert e.sketch["ellipse"] == (1.0, 1.0, 0.0)
+    buds = e.buds()
+    np.testing.assert_allclose(buds.vigor, buds.vigor.max(), rtol=1e-12)
+    assert np.all(shoot_lengths(buds.vigor, e.sketch["n_max"]) == e.sketch["n_max"])
+
+
+def test_ts_v7_space_colonization_rules_fig44():
+    """Fig. 4.4: removal inside r, one cone selects its bud, two cones the closer, outside all stays; growth
+    follows the mean direction of the selecting points."""
+    from plantvr.growth.colonize import assign_treewand
+
+    buds = np.array([[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    heads = np.array([[0.0, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    lens = np.ones(2)
+    pts = np.array([[-0.5, 2.0, 0.0],     # only bud 0's cone
+                    [0.8, 2.0, 0.0],      # both cones, closer to bud 0
+                    [1.4, 2.0, 0.0],      # both cones, closer to bud 1
+                    [0.0, -2.0, 0.0]])    # behind both buds: no cone
+    owner = assign_treewand(pts, buds, heads, lens, view_radius=3.0, view_angle=math.radians(120))
+    assert owner.tolist() == [0, 0, 1, -1]
+    # occupation: a point inside r of a node is removed at the next step, the others stay
+    e = _engine(params={"w_heading": 0.0, "w_tropism": 0.0, "w_env": 1.0, "occupation_radius": 0.5}, n_max=1)
+    tip = int(np.flatnonzero(e.tree.alive)[-1])
+    p = e.tree.pos[tip]
+    e.add_markers(np.array([p + [0.1, 0.2, 0.0], p + [0.6, 2.0, 0.0], p + [-0.3, 2.5, 0.4]]))
+    e._occupy()
+    assert len(e.markers) == 2
+    # the enabled tip bud grows toward the mean direction of its selecting points (γ = 1: E only)
+    u = e.markers - p
+    E = (u / np.linalg.norm(u, axis=1, keepdims=True)).sum(0)
+    E /= np.linalg.norm(E)
+    e.step()
+    c = e.tree.child[tip, 0]
+    assert c >= 0
+    d = e.tree.pos[c] - p
+    np.testing.assert_allclose(d / np.linalg.norm(d), E, atol=1e-12)
+
+
+def test_ts_v9_shadow_isolated_below_and_reversible():
+    """An isolated bud is fully lit; q cells straight below a node the light is 1 − a·b^(−q) (b = 1/β > 1 here);
+    removing a node restores the previous grid."""
+    from plantvr.growth.shadow import ShadowGrid, shadow_lut
+
+    a, beta, q_max = 0.3, 0.6, 6
+    e = _engine(params={"shadow_intensity": a, "shadow_falloff": beta, "shadow_depth": q_max})
+    e.update_light()
+    tip = int(np.argmax(np.where(e.tree.alive, e.tree.pos[:, 1], -np.inf)))
+    assert e.tree.L[tip] == 1.0                                   # nothing above the top bud
+    g = ShadowGrid(1.0, 8)
+    offs, vals = shadow_lut(a, beta, q_max)
+    top = np.array([[4, 10, -3]])
+    g.add(top, offs, vals)
+    for q in range(1, q_max):
+        s = g.read(top + [0, -q, 0])[0]
+        assert math.isclose(1.0 - s, 1.0 - a * (1.0 / beta) ** (-q), rel_tol=1e-12)
+    assert g.read(top + [0, -q_max - 1, 0])[0] == 0.0
+    assert g.read(np.array([[40, 40, 40]]))[0] == 0.0            # an isolated bud: L = 1
+    before = g.blocks[: g.nblocks].copy()
+    other = np.array([[5, 12, -2]])
+    g.add(other, offs, vals)
+    g.add(other, offs, vals, sign=-1.0)
+    np.testing.assert_allclose(g.blocks[: g.nblocks][: len(before)], before, atol=1e-15, rtol=0)
