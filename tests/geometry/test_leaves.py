@@ -152,3 +152,20 @@ def test_incremental_leaves_equal_build_leaves():
     with pytest.raises(ValueError, match="bud_up must have shape"):
         inc.update(pos, d, r, up[:3])
     assert inc.n_leaves == len(build_leaves(pos, d, r, bud_up=up, **kw).frames)   # unchanged by the rejection
+
+
+def test_ts_v29_petiole_twist_sign_and_convergence():
+    """TreeSketch V29: T = up and a tilted blade → U converges toward T; the first twist is Ω_H = −e_H L·T
+    (L = U × H); all elasticities 0 → no reorientation."""
+    tilt = np.radians(30)
+    h = np.array([[1.0, 0.0, 0.0]])
+    u = np.array([[0.0, np.cos(tilt), np.sin(tilt)]])
+    L = np.cross(u, h)
+    e_h = 0.1
+    _, _, u1 = orient_leaves(h, L, u, e_twist=e_h, e_up=0, e_right=0, iterations=1)
+    omega_h = np.arctan2(np.cross(u[0], u1[0]) @ h[0], u[0] @ u1[0])
+    assert np.isclose(omega_h, -e_h * (L[0] @ [0.0, 1.0, 0.0]), rtol=1e-12)
+    _, _, u_end = orient_leaves(h, L, u, e_twist=e_h, e_up=0, e_right=0, iterations=200)
+    assert u_end[0] @ [0.0, 1.0, 0.0] > 1 - 1e-9
+    h0, r0, u0 = orient_leaves(h, L, u, e_twist=0, e_up=0, e_right=0, iterations=15)
+    np.testing.assert_allclose(u0, u, atol=1e-15)
