@@ -2,14 +2,22 @@
 
 The browser draws a decimated :class:`~plantvr.vine.proxy.DisplayProxy` on the user's own GPU (trame-vtk
 ``VtkLocalView``, vtk.js): the mesh and its colours are sent once, and after each paint, undo or redo only
-the changed proxy vertices travel, as a colour delta ``(ids uint32, rgba uint8)`` in the state variable
-``vine_delta`` that a small page hook (``vine_delta.js``) writes into the vtk.js actor's scalar array in place
-before re-rendering (8 B per changed proxy vertex instead of 4 B per proxy vertex). Hiding a colour or a new
-iso-value changes the triangles, so those re-synchronise the scene (trame-vtk fetches arrays by content hash:
-only the changed arrays travel). A click on the surface is picked in the browser (vtk.js hardware selector)
-and its world position comes back to the server, where the sphere brush paints the *full-resolution* labels;
-the proxy follows by per-vertex deltas. ``mode="remote"`` renders on the server instead (``VtkRemoteView``,
-images over the websocket) for comparison; ``benchmarks/vine_render.py`` measures both.
+the changed proxy vertices travel, as a colour delta ``(ids uint32, rgba uint8)`` that a small page hook
+(``vine_delta.js``) writes into the vtk.js actor's scalar array in place, drawing once per animation frame
+however many deltas arrived (8 B per changed proxy vertex instead of 4 B per proxy vertex). Hiding a colour or
+a new iso-value changes the triangles, so those re-synchronise the scene (trame-vtk fetches arrays by content
+hash: only the changed arrays travel).
+
+Painting (issue 14): a click, or a drag with "paint: drag" on (or ctrl held), sends its positions in CSS pixels
+and the page's vtk.js camera to the server (:meth:`VineReviewApp.stroke`; at most one request in flight, the
+positions that arrive meanwhile travel together); the server casts the viewing ray (:func:`camera_ray`)
+against the drawn proxy with VTK's ``vtkStaticCellLocator`` (no pick pass in the browser; ~0.1 ms) and the
+sphere brush paints the *full-resolution* labels, a drag being one undo item. While a stroke (or an orbit
+drag) runs the page draws a coarse level of detail (``interactive_faces``, 50k triangles by default, its
+colours following by deltas too) and the display proxy again when it ends: software WebGL draws ~50k
+triangles at interactive rates but needs ~0.4 s per 200k-triangle frame (``benchmarks/vine_render.py``).
+``mode="remote"`` renders on the server instead (``VtkRemoteView``, images over the websocket; clicks picked
+there with ``vtkCellPicker``) for comparison.
 
 Controls: the colour wheel (§2.4.1 [T §5.4.1], §2.6 [T §5.6]: one slice per colour-table entry, the selected
 slice raised and outlined, hidden colours drawn with radial lines; a click selects the slice under the mouse by
@@ -510,8 +518,9 @@ class VineReviewApp:
             self._stroking = False
             self.state.message = ""
             self._status()
-        if self._full:                                  # the table changed meanwhile: take the whole scene
+        if self._full or self.colour_updates == "array":    # the whole scene (a table change; the baseline)
             self._push()
+            st["delta_s"] += time.perf_counter() - t0
             return None
         d = self._delta(fine=phase == "end" or self.lod is None, lod=True)
         st["delta_s"] += time.perf_counter() - t0

@@ -84,7 +84,7 @@
     strokes: 0,      // strokes finished
     lodShown: false,
     stroke: null,
-    finish: false,   // gl.finish() after each render (benchmarks)
+    finish: false,   // wait for each render to be drawn (benchmarks)
     resync(seq) {
       vine.resyncs += 1;
       window.trame.trigger("vine_resync", [seq]);
@@ -97,9 +97,9 @@
         vine._raf = 0;
         const t = performance.now();
         view.renderWindow.render();
-        if (vine.finish) {               // benchmarks: wait for the (software) GPU, so frames are counted drawn
-          const gl = view.openglRenderWindow && view.openglRenderWindow.getContext();
-          if (gl) gl.finish();
+        if (vine.finish) {               // benchmarks: wait until the (software) GPU has drawn the frame: reading
+          const gl = view.openglRenderWindow && view.openglRenderWindow.getContext();   // a pixel back forces
+          if (gl) gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4)); // it (gl.finish does not)
         }
         const t1 = performance.now();
         vine.renders.push([t1, t1 - t]);
@@ -145,6 +145,11 @@
       vine.vertices += n;
       vine.scheduleRender(view);
       return true;
+    },
+    // the scene has arrived: the display proxy's actor (and the level of detail's) with their colour arrays
+    ready() {
+      const view = localView(REF), np = stateGet("n_proxy"), nl = stateGet("n_lod");
+      return !!(view && view.renderer && actorsWith(view, np).length && (!nl || actorsWith(view, nl).length));
     },
     // draw the coarse level of detail (on) or the display proxy (off)
     showLod(view, on) {
