@@ -96,158 +96,123 @@ def dihedral_gradient(p1, p2, p3, p4):
 _MAX_STEP = 0.25
 
 
-@numba.njit(cache=True, nogil=True)
+@numba.njit(cache=True, nogil=True, inline="always")
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@numba.njit(cache=True, nogil=True)
-def _project_distance(p, w, i, j, rest, k):
+@numba.njit(cache=True, nogil=True, inline="always")
+def _norm2(x, y, z):
+    return x * x + y * y + z * z
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _axpy(p, i, f, x, y, z):
+    """``p[i] += f * (x, y, z)``; a step ``p[i] -= a * g`` is ``_axpy(p, i, -a, *g)``, to the same bits."""
+    p[i, 0] += f * x
+    p[i, 1] += f * y
+    p[i, 2] += f * z
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _weighted_den(w, i1, i2, i3, i4, g1, g2, g3, g4):
+    """``sum_j w_j |g_j|^2`` over a four-vertex constraint (the denominator of Eq. 3.10, ERRATUM A.1)."""
+    return (w[i1] * _norm2(g1[0], g1[1], g1[2]) + w[i2] * _norm2(g2[0], g2[1], g2[2])
+            + w[i3] * _norm2(g3[0], g3[1], g3[2]) + w[i4] * _norm2(g4[0], g4[1], g4[2]))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _max_weighted_step(w, i1, i2, i3, i4, g1, g2, g3, g4):
+    """``max_j w_j |g_j|``: the largest move per unit multiplier, for the step limiters."""
+    return max(w[i1] * np.sqrt(_norm2(g1[0], g1[1], g1[2])), w[i2] * np.sqrt(_norm2(g2[0], g2[1], g2[2])),
+               w[i3] * np.sqrt(_norm2(g3[0], g3[1], g3[2])), w[i4] * np.sqrt(_norm2(g4[0], g4[1], g4[2])))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _move4(p, w, s, i1, i2, i3, i4, g1, g2, g3, g4):
+    """``p_j -= s w_j g_j`` for the four vertices of a constraint, in order (Eq. 3.10)."""
+    _axpy(p, i1, -(s * w[i1]), g1[0], g1[1], g1[2])
+    _axpy(p, i2, -(s * w[i2]), g2[0], g2[1], g2[2])
+    _axpy(p, i3, -(s * w[i3]), g3[0], g3[1], g3[2])
+    _axpy(p, i4, -(s * w[i4]), g4[0], g4[1], g4[2])
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _distance_terms(p, w, i, j, rest, k):
+    """``(ok, c, d)``: vertex i moves by ``-w_i c d`` and j by ``+w_j c d`` (Eq. 3.11 with Eq. 3.10)."""
     dx = p[i, 0] - p[j, 0]
     dy = p[i, 1] - p[j, 1]
     dz = p[i, 2] - p[j, 2]
-    ln = np.sqrt(dx * dx + dy * dy + dz * dz)
+    ln = np.sqrt(_norm2(dx, dy, dz))
     ws = w[i] + w[j]
     if ws == 0.0 or ln < 1e-300:
-        return
-    c = (ln - rest) * k / (ws * ln)
-    p[i, 0] -= w[i] * c * dx
-    p[i, 1] -= w[i] * c * dy
-    p[i, 2] -= w[i] * c * dz
-    p[j, 0] += w[j] * c * dx
-    p[j, 1] += w[j] * c * dy
-    p[j, 2] += w[j] * c * dz
+        return False, 0.0, dx, dy, dz
+    return True, (ln - rest) * k / (ws * ln), dx, dy, dz
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _bend_terms(p, w, i1, i2, i3, i4, rest, k):
+    """``(ok, s, g1, g2, g3, g4)`` of one signed bending projection: vertex j moves by ``-s w_j g_j``.
+
+    ``ok`` is False for a degenerate quad (Eq. 3.10, Eq. 3.13, closed-form gradient of spec §3.3.2).
+    """
+    ex = p[i2, 0] - p[i1, 0]
+    ey = p[i2, 1] - p[i1, 1]
+    ez = p[i2, 2] - p[i1, 2]
+    ax = p[i3, 0] - p[i1, 0]
+    ay = p[i3, 1] - p[i1, 1]
+    az = p[i3, 2] - p[i1, 2]
+    bx = p[i4, 0] - p[i1, 0]
+    by = p[i4, 1] - p[i1, 1]
+    bz = p[i4, 2] - p[i1, 2]
+    n1x, n1y, n1z = _cross(ax, ay, az, ex, ey, ez)
+    n2x, n2y, n2z = _cross(ex, ey, ez, bx, by, bz)
+    ee = _norm2(ex, ey, ez)
+    n11 = _norm2(n1x, n1y, n1z)
+    n22 = _norm2(n2x, n2y, n2z)
+    z = (0.0, 0.0, 0.0)
+    if ee < 1e-300 or n11 < 1e-300 * ee or n22 < 1e-300 * ee:
+        return False, 0.0, z, z, z, z
+    le = np.sqrt(ee)
+    cx, cy, cz = _cross(n1x, n1y, n1z, n2x, n2y, n2z)
+    sin = (ex * cx + ey * cy + ez * cz) / le
+    cos = n1x * n2x + n1y * n2y + n1z * n2z
+    phi = np.arctan2(sin, cos)
+    c = phi - rest
+    while c > np.pi:                 # wrap to (-pi, pi]: ERRATUM A.5
+        c -= 2 * np.pi
+    while c <= -np.pi:
+        c += 2 * np.pi
+    g3 = (le * n1x / n11, le * n1y / n11, le * n1z / n11)
+    g4 = (le * n2x / n22, le * n2y / n22, le * n2z / n22)
+    t3 = (ax * ex + ay * ey + az * ez) / ee
+    t4 = (bx * ex + by * ey + bz * ez) / ee
+    g1 = (-((1 - t3) * g3[0] + (1 - t4) * g4[0]), -((1 - t3) * g3[1] + (1 - t4) * g4[1]),
+          -((1 - t3) * g3[2] + (1 - t4) * g4[2]))
+    g2 = (-(t3 * g3[0] + t4 * g4[0]), -(t3 * g3[1] + t4 * g4[1]), -(t3 * g3[2] + t4 * g4[2]))
+    # ERRATUM A.1: the denominator of Eq. 3.10 sums w_j |grad_{p_j} C|^2 over the constraint's vertices j
+    den = _weighted_den(w, i1, i2, i3, i4, g1, g2, g3, g4)
+    if den < 1e-300:
+        return False, 0.0, z, z, z, z
+    s = k * c / den
+    # Step limiter [INFERRED]: a free hinge vertex with a near-zero gradient would take a huge step.
+    gm = _max_weighted_step(w, i1, i2, i3, i4, g1, g2, g3, g4)
+    if abs(s) * gm > _MAX_STEP * le:
+        s *= _MAX_STEP * le / (abs(s) * gm)
+    return True, s, g1, g2, g3, g4
 
 
 @numba.njit(cache=True, nogil=True)
 def _bend_delta(p, w, q, rest, k, d):
     """Correction (4, 3) of one signed bending projection into ``d``; False if degenerate (Eq. 3.10)."""
-    i1, i2, i3, i4 = q[0], q[1], q[2], q[3]
-    ex = p[i2, 0] - p[i1, 0]
-    ey = p[i2, 1] - p[i1, 1]
-    ez = p[i2, 2] - p[i1, 2]
-    ax = p[i3, 0] - p[i1, 0]
-    ay = p[i3, 1] - p[i1, 1]
-    az = p[i3, 2] - p[i1, 2]
-    bx = p[i4, 0] - p[i1, 0]
-    by = p[i4, 1] - p[i1, 1]
-    bz = p[i4, 2] - p[i1, 2]
-    n1x, n1y, n1z = _cross(ax, ay, az, ex, ey, ez)
-    n2x, n2y, n2z = _cross(ex, ey, ez, bx, by, bz)
-    ee = ex * ex + ey * ey + ez * ez
-    n11 = n1x * n1x + n1y * n1y + n1z * n1z
-    n22 = n2x * n2x + n2y * n2y + n2z * n2z
-    if ee < 1e-300 or n11 < 1e-300 * ee or n22 < 1e-300 * ee:
-        return False
-    le = np.sqrt(ee)
-    cx, cy, cz = _cross(n1x, n1y, n1z, n2x, n2y, n2z)
-    sin = (ex * cx + ey * cy + ez * cz) / le
-    cos = n1x * n2x + n1y * n2y + n1z * n2z
-    phi = np.arctan2(sin, cos)
-    c = phi - rest
-    while c > np.pi:                 # wrap to (-pi, pi]: ERRATUM A.5
-        c -= 2 * np.pi
-    while c <= -np.pi:
-        c += 2 * np.pi
-    g3x, g3y, g3z = le * n1x / n11, le * n1y / n11, le * n1z / n11
-    g4x, g4y, g4z = le * n2x / n22, le * n2y / n22, le * n2z / n22
-    t3 = (ax * ex + ay * ey + az * ez) / ee
-    t4 = (bx * ex + by * ey + bz * ez) / ee
-    g1x = -((1 - t3) * g3x + (1 - t4) * g4x)
-    g1y = -((1 - t3) * g3y + (1 - t4) * g4y)
-    g1z = -((1 - t3) * g3z + (1 - t4) * g4z)
-    g2x = -(t3 * g3x + t4 * g4x)
-    g2y = -(t3 * g3y + t4 * g4y)
-    g2z = -(t3 * g3z + t4 * g4z)
-    # ERRATUM A.1: the denominator of Eq. 3.10 sums w_j |grad_{p_j} C|^2 over the constraint's vertices j
-    den = (w[i1] * (g1x * g1x + g1y * g1y + g1z * g1z) + w[i2] * (g2x * g2x + g2y * g2y + g2z * g2z)
-           + w[i3] * (g3x * g3x + g3y * g3y + g3z * g3z) + w[i4] * (g4x * g4x + g4y * g4y + g4z * g4z))
-    if den < 1e-300:
-        return False
-    s = k * c / den
-    # Step limiter [INFERRED]: a free hinge vertex with a near-zero gradient would take a huge step.
-    gm = max(w[i1] * np.sqrt(g1x * g1x + g1y * g1y + g1z * g1z), w[i2] * np.sqrt(g2x * g2x + g2y * g2y + g2z * g2z),
-             w[i3] * np.sqrt(g3x * g3x + g3y * g3y + g3z * g3z), w[i4] * np.sqrt(g4x * g4x + g4y * g4y + g4z * g4z))
-    if abs(s) * gm > _MAX_STEP * le:
-        s *= _MAX_STEP * le / (abs(s) * gm)
-    d[0, 0] = -(s * w[i1] * g1x)
-    d[0, 1] = -(s * w[i1] * g1y)
-    d[0, 2] = -(s * w[i1] * g1z)
-    d[1, 0] = -(s * w[i2] * g2x)
-    d[1, 1] = -(s * w[i2] * g2y)
-    d[1, 2] = -(s * w[i2] * g2z)
-    d[2, 0] = -(s * w[i3] * g3x)
-    d[2, 1] = -(s * w[i3] * g3y)
-    d[2, 2] = -(s * w[i3] * g3z)
-    d[3, 0] = -(s * w[i4] * g4x)
-    d[3, 1] = -(s * w[i4] * g4y)
-    d[3, 2] = -(s * w[i4] * g4z)
-    return True
-
-
-@numba.njit(cache=True, nogil=True)
-def _project_bend(p, w, q, rest, k):
-    """Gauss-Seidel bending projection in place (scalar updates; the same formulas as _bend_delta)."""
-    i1, i2, i3, i4 = q[0], q[1], q[2], q[3]
-    ex = p[i2, 0] - p[i1, 0]
-    ey = p[i2, 1] - p[i1, 1]
-    ez = p[i2, 2] - p[i1, 2]
-    ax = p[i3, 0] - p[i1, 0]
-    ay = p[i3, 1] - p[i1, 1]
-    az = p[i3, 2] - p[i1, 2]
-    bx = p[i4, 0] - p[i1, 0]
-    by = p[i4, 1] - p[i1, 1]
-    bz = p[i4, 2] - p[i1, 2]
-    n1x, n1y, n1z = _cross(ax, ay, az, ex, ey, ez)
-    n2x, n2y, n2z = _cross(ex, ey, ez, bx, by, bz)
-    ee = ex * ex + ey * ey + ez * ez
-    n11 = n1x * n1x + n1y * n1y + n1z * n1z
-    n22 = n2x * n2x + n2y * n2y + n2z * n2z
-    if ee < 1e-300 or n11 < 1e-300 * ee or n22 < 1e-300 * ee:
-        return
-    le = np.sqrt(ee)
-    cx, cy, cz = _cross(n1x, n1y, n1z, n2x, n2y, n2z)
-    sin = (ex * cx + ey * cy + ez * cz) / le
-    cos = n1x * n2x + n1y * n2y + n1z * n2z
-    phi = np.arctan2(sin, cos)
-    c = phi - rest
-    while c > np.pi:                 # wrap to (-pi, pi]: ERRATUM A.5
-        c -= 2 * np.pi
-    while c <= -np.pi:
-        c += 2 * np.pi
-    g3x, g3y, g3z = le * n1x / n11, le * n1y / n11, le * n1z / n11
-    g4x, g4y, g4z = le * n2x / n22, le * n2y / n22, le * n2z / n22
-    t3 = (ax * ex + ay * ey + az * ez) / ee
-    t4 = (bx * ex + by * ey + bz * ez) / ee
-    g1x = -((1 - t3) * g3x + (1 - t4) * g4x)
-    g1y = -((1 - t3) * g3y + (1 - t4) * g4y)
-    g1z = -((1 - t3) * g3z + (1 - t4) * g4z)
-    g2x = -(t3 * g3x + t4 * g4x)
-    g2y = -(t3 * g3y + t4 * g4y)
-    g2z = -(t3 * g3z + t4 * g4z)
-    # ERRATUM A.1: the denominator of Eq. 3.10 sums w_j |grad_{p_j} C|^2 over the constraint's vertices j
-    den = (w[i1] * (g1x * g1x + g1y * g1y + g1z * g1z) + w[i2] * (g2x * g2x + g2y * g2y + g2z * g2z)
-           + w[i3] * (g3x * g3x + g3y * g3y + g3z * g3z) + w[i4] * (g4x * g4x + g4y * g4y + g4z * g4z))
-    if den < 1e-300:
-        return
-    s = k * c / den
-    # Step limiter [INFERRED]: a free hinge vertex with a near-zero gradient would take a huge step.
-    gm = max(w[i1] * np.sqrt(g1x * g1x + g1y * g1y + g1z * g1z), w[i2] * np.sqrt(g2x * g2x + g2y * g2y + g2z * g2z),
-             w[i3] * np.sqrt(g3x * g3x + g3y * g3y + g3z * g3z), w[i4] * np.sqrt(g4x * g4x + g4y * g4y + g4z * g4z))
-    if abs(s) * gm > _MAX_STEP * le:
-        s *= _MAX_STEP * le / (abs(s) * gm)
-    p[i1, 0] -= s * w[i1] * g1x
-    p[i1, 1] -= s * w[i1] * g1y
-    p[i1, 2] -= s * w[i1] * g1z
-    p[i2, 0] -= s * w[i2] * g2x
-    p[i2, 1] -= s * w[i2] * g2y
-    p[i2, 2] -= s * w[i2] * g2z
-    p[i3, 0] -= s * w[i3] * g3x
-    p[i3, 1] -= s * w[i3] * g3y
-    p[i3, 2] -= s * w[i3] * g3z
-    p[i4, 0] -= s * w[i4] * g4x
-    p[i4, 1] -= s * w[i4] * g4y
-    p[i4, 2] -= s * w[i4] * g4z
+    ok, s, g1, g2, g3, g4 = _bend_terms(p, w, q[0], q[1], q[2], q[3], rest, k)
+    if ok:
+        for a, g in enumerate((g1, g2, g3, g4)):
+            f = -(s * w[q[a]])
+            d[a, 0] = f * g[0]
+            d[a, 1] = f * g[1]
+            d[a, 2] = f * g[2]
+    return ok
 
 
 @numba.njit(cache=True, nogil=True)
@@ -261,48 +226,40 @@ def _solve_internal_jacobi_numba(p, w, edges, rest_len, k_len, quads, rest_phi, 
         cnt[:] = 0.0
         for c in range(edges.shape[0]):          # every correction from the same positions p
             i, j = edges[c, 0], edges[c, 1]
-            dx = p[i, 0] - p[j, 0]
-            dy = p[i, 1] - p[j, 1]
-            dz = p[i, 2] - p[j, 2]
-            ln = np.sqrt(dx * dx + dy * dy + dz * dz)
-            ws = w[i] + w[j]
-            if ws == 0.0 or ln < 1e-300:
-                continue
-            s = (ln - rest_len[c]) * k_len[c] / (ws * ln)
-            acc[i, 0] -= w[i] * s * dx
-            acc[i, 1] -= w[i] * s * dy
-            acc[i, 2] -= w[i] * s * dz
-            acc[j, 0] += w[j] * s * dx
-            acc[j, 1] += w[j] * s * dy
-            acc[j, 2] += w[j] * s * dz
-            if w[i] > 0:
-                cnt[i] += 1.0
-            if w[j] > 0:
-                cnt[j] += 1.0
+            ok, s, dx, dy, dz = _distance_terms(p, w, i, j, rest_len[c], k_len[c])
+            if ok:
+                _axpy(acc, i, -(w[i] * s), dx, dy, dz)
+                _axpy(acc, j, w[j] * s, dx, dy, dz)
+                if w[i] > 0:
+                    cnt[i] += 1.0
+                if w[j] > 0:
+                    cnt[j] += 1.0
         for c in range(quads.shape[0]):
             if _bend_delta(p, w, quads[c], rest_phi[c], k_bend[c], d):
                 for a in range(4):
                     v = quads[c, a]
                     if w[v] > 0:
-                        acc[v, 0] += d[a, 0]
-                        acc[v, 1] += d[a, 1]
-                        acc[v, 2] += d[a, 2]
+                        _axpy(acc, v, 1.0, d[a, 0], d[a, 1], d[a, 2])
                         cnt[v] += 1.0
         for v in range(V):                       # averaged, relaxed update (spec §3.10 option c)
             if cnt[v] > 0:
-                f = omega / cnt[v]
-                p[v, 0] += f * acc[v, 0]
-                p[v, 1] += f * acc[v, 1]
-                p[v, 2] += f * acc[v, 2]
+                _axpy(p, v, omega / cnt[v], acc[v, 0], acc[v, 1], acc[v, 2])
 
 
 @numba.njit(cache=True, nogil=True)
 def _solve_internal_numba(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations):
     for _ in range(iterations):
         for c in range(edges.shape[0]):
-            _project_distance(p, w, edges[c, 0], edges[c, 1], rest_len[c], k_len[c])
+            i, j = edges[c, 0], edges[c, 1]
+            ok, s, dx, dy, dz = _distance_terms(p, w, i, j, rest_len[c], k_len[c])
+            if ok:
+                _axpy(p, i, -(w[i] * s), dx, dy, dz)
+                _axpy(p, j, w[j] * s, dx, dy, dz)
         for c in range(quads.shape[0]):
-            _project_bend(p, w, quads[c], rest_phi[c], k_bend[c])
+            i1, i2, i3, i4 = quads[c, 0], quads[c, 1], quads[c, 2], quads[c, 3]
+            ok, s, g1, g2, g3, g4 = _bend_terms(p, w, i1, i2, i3, i4, rest_phi[c], k_bend[c])
+            if ok:
+                _move4(p, w, s, i1, i2, i3, i4, g1, g2, g3, g4)
 
 
 def _distance_step_numpy(p, w, i, j, rest, k):
@@ -317,35 +274,35 @@ def _distance_step_numpy(p, w, i, j, rest, k):
     p[j] += k * w[j] / ws * C * n
 
 
-def _bend_step_numpy(p, w, q, rest, k):
-    pts = p[q]
+def _bend_terms_numpy(pts, wq, rest, k):
+    """``(s, g)`` of one signed bending projection of the quad ``pts`` (4, 3) with inverse masses ``wq`` (4,):
+    vertex j moves by ``-s wq_j g_j``; None if the quad is degenerate (twin of ``_bend_terms``)."""
     e = pts[1] - pts[0]
     N1 = np.cross(pts[2] - pts[0], e)
     N2 = np.cross(e, pts[3] - pts[0])
     ee = e.dot(e)
     if ee < 1e-300 or N1.dot(N1) < 1e-300 * ee or N2.dot(N2) < 1e-300 * ee:
-        return
+        return None
     phi = np.arctan2(e.dot(np.cross(N1, N2)) / np.sqrt(ee), N1.dot(N2))
     C = (phi - rest + np.pi) % (2 * np.pi) - np.pi       # wrap (ERRATUM A.5)
     if C == -np.pi:
         C = np.pi
     g = np.array(dihedral_gradient(*pts))
-    den = np.sum(w[q] * np.einsum("ij,ij->i", g, g))
+    den = np.sum(wq * np.einsum("ij,ij->i", g, g))
     if den < 1e-300:
-        return
+        return None
     s = k * C / den
-    gm = np.max(w[q] * np.linalg.norm(g, axis=1))
+    gm = np.max(wq * np.linalg.norm(g, axis=1))
     if abs(s) * gm > _MAX_STEP * np.sqrt(ee):                # same step limiter as the kernel
         s *= _MAX_STEP * np.sqrt(ee) / (abs(s) * gm)
-    p[q] -= s * w[q, None] * g                           # Eq. 3.10 (ERRATUM A.1)
+    return s, g
 
 
-def _bend_delta_numpy(p, w, q, rest, k):
-    """(4, 3) correction of one bending projection from positions ``p`` (None if degenerate)."""
-    tmp = p[q].copy()
-    before = tmp.copy()
-    _bend_step_numpy(tmp, w[q], np.arange(4), rest, k)
-    return tmp - before
+def _bend_step_numpy(p, w, q, rest, k):
+    terms = _bend_terms_numpy(p[q], w[q], rest, k)
+    if terms is not None:
+        s, g = terms
+        p[q] -= s * w[q, None] * g                           # Eq. 3.10 (ERRATUM A.1)
 
 
 def solve_internal_jacobi_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k_bend, iterations, omega):
@@ -368,17 +325,11 @@ def solve_internal_jacobi_numpy(p, w, edges, rest_len, k_len, quads, rest_phi, k
             cnt[j[c]] += w[j[c]] > 0
         for c in range(len(quads)):
             q = quads[c]
-            pts = p[q]
-            e = pts[1] - pts[0]
-            N1 = np.cross(pts[2] - pts[0], e)
-            N2 = np.cross(e, pts[3] - pts[0])
-            ee = e.dot(e)
-            if ee < 1e-300 or N1.dot(N1) < 1e-300 * ee or N2.dot(N2) < 1e-300 * ee:
+            terms = _bend_terms_numpy(p[q], w[q], rest_phi[c], k_bend[c])
+            if terms is None:
                 continue
-            g = np.array(dihedral_gradient(*pts))
-            if np.sum(w[q] * np.einsum("ij,ij->i", g, g)) < 1e-300:
-                continue
-            dq = _bend_delta_numpy(p, w, q, rest_phi[c], k_bend[c])
+            s, g = terms
+            dq = (p[q] - s * w[q, None] * g) - p[q]       # the move of one Gauss-Seidel step from p
             for a in range(4):
                 if w[q[a]] > 0:
                     acc[q[a]] += dq[a]
