@@ -99,7 +99,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--quick", action="store_true", help="288x288x144 volume (CI)")
     ap.add_argument("--full", action="store_true", help="the 1624x1624x710 class")
     ap.add_argument("--shape", type=int, nargs=3, default=None)
-    ap.add_argument("--slab", type=int, default=64)
+    ap.add_argument("--slab", type=int, default=16)
     ap.add_argument("--reps", type=int, default=None, help="runs per method (best wall time); default 3, full 1")
     ap.add_argument("--no-skimage", action="store_true", help="skip scikit-image")
     ap.add_argument("--skimage-whole", action="store_true",
