@@ -248,7 +248,7 @@ def decimate_with_owner(vertices: np.ndarray, faces: np.ndarray, target_faces: i
             glob, loc = np.unique(fc, return_inverse=True)
             del fc
             loc = loc.reshape(-1, 3).astype(np.int32)
-            tc = max(4, int(round(len(loc) * stage1 / nf)))
+            tc = max(4, round(len(loc) * stage1 / nf))
             pts, pf, own, surv = _simplify(vertices[glob], loc, tc, agg, True)
             if own is None:                                   # unmatched history: keep this chunk undecimated
                 pts, pf, own, surv = _simplify(vertices[glob], loc, len(loc), agg, True)

@@ -7,12 +7,12 @@ import trimesh
 from plantvr.vine.index import ball_query_brute
 from plantvr.vine.proxy import (
     DisplayProxy,
-    decimate_with_owner,
     _collapse_roots,
     _collapse_roots_numpy,
     _merge_hash,
     _merge_numpy,
     _proxy_labels_numpy,
+    decimate_with_owner,
     merge_coincident,
     proxy_labels,
 )
