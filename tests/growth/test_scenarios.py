@@ -1,4 +1,8 @@
-"""TW-V23: the thesis scenarios of Figs. 12.1, 12.3 and 12.7 as seeded stroke replays."""
+"""TW-V23 (spec 000_treewand §8): the thesis scenarios of Figs. 12.1, 12.3 and 12.7 as seeded stroke replays.
+
+(a) Fig. 12.7 trunk test with λ = 0.6, (b) Fig. 12.3 columnar vs broad, (c) Fig. 12.1 fast vs slow sweep,
+(d) λ 0.4 vs 0.6 on the same strokes.
+"""
 import numpy as np
 
 from plantvr.growth.engine import GrowthEngine
@@ -20,7 +24,9 @@ def _trunk_height_fraction(e):
     return t.pos[n, 1] / t.pos[t.alive, 1].max()
 
 
-def test_tw_v23a_fig_12_7_length_modes():
+def test_tw_v23_a_fig_12_7_length_modes():
+    """Fig. 12.7: λ = 0.6, a vertical stroke above the root: the order-0 axis reaches a larger fraction of the
+    tree's height in vigor and order modes than in constant mode."""
     frac = {mode: np.mean([_trunk_height_fraction(_grow(vertical_stroke(), seed=s, apical_dominance=0.6,
                                                         length_mode=mode)) for s in range(3)])
             for mode in ("constant", "vigor", "order")}
@@ -33,14 +39,15 @@ def _crown_ratio(e):
     return width / (2 * np.ptp(p[:, 1]))
 
 
-def test_tw_v23b_fig_12_3_columnar():
+def test_tw_v23_b_fig_12_3_columnar():
+    """Fig. 12.3: tropism 0°, narrow view angle, high E → narrower crown than view angle 180°, tropism 90°."""
     broad = dict(view_angle=180.0, tropism_angle=90.0)
     columnar = dict(view_angle=40.0, tropism_angle=0.0, w_heading=0.2, w_tropism=0.2, w_env=0.6)
     s = sweep_session(8, 20)
     assert _crown_ratio(_grow(s, **columnar)) < _crown_ratio(_grow(s, **broad))
 
 
-def test_tw_v23d_lower_apical_dominance_more_laterals():
+def test_tw_v23_d_lower_apical_dominance_more_laterals():
     """λ 0.4 vs 0.6 on the same strokes: a larger share of order-≥1 internodes and a shorter trunk with 0.4."""
     def shares(lam):
         out = []
@@ -50,3 +57,37 @@ def test_tw_v23d_lower_apical_dominance_more_laterals():
         return np.mean(out, axis=0)
     low, high = shares(0.4), shares(0.6)
     assert low[0] > high[0] and low[1] < high[1]
+
+
+def _laterals(t):
+    """Base height and total length (whole subtree) of every first-order lateral on the trunk."""
+    seg = np.zeros(t.n)
+    seg[1:] = np.linalg.norm(t.pos[1:] - t.pos[t.parent[1:]], axis=1)
+    seg[~t.alive] = 0.0
+    for i in range(t.n - 1, 0, -1):            # children have larger indices: fold subtree lengths backwards
+        if t.alive[i]:
+            seg[t.parent[i]] += seg[i]
+    base = np.nonzero(t.alive & (t.order == 1) & (t.order[np.maximum(t.parent, 0)] == 0))[0]
+    return t.pos[t.parent[base], 1], seg[base]
+
+
+def test_tw_v23_c_fig_12_1_fast_vs_slow_sweep():
+    """Fig. 12.1: the same sweep up the trunk, fast (4 steps) vs slow (28 steps), changes the distribution of
+    lateral lengths: in the slow sweep the lowest laterals start earliest and end up the longest, by far more
+    than in the fast sweep (the conical silhouette of the slow sweep)."""
+    stats = {}
+    for name, sweep_steps in (("fast", 4), ("slow", 28)):
+        low, ratio = [], []
+        for seed in range(3):
+            h, length = _laterals(_grow(sweep_session(8, sweep_steps), seed=seed).tree)
+            assert len(h) >= 4, (name, seed, len(h))
+            o = np.argsort(h)
+            q = max(1, len(h) // 4)
+            low.append(length[o[:q]].mean())
+            ratio.append(length[o[:q]].mean() / length[o[-q:]].mean())
+            if name == "slow":
+                assert np.argmax(length) in o[:q], (seed, h, length)       # the longest lateral is a low one
+                assert np.corrcoef(h, length)[0, 1] < -0.5, (seed, h, length)
+        stats[name] = (np.mean(low), np.mean(ratio))
+    assert stats["slow"][0] > 1.5 * stats["fast"][0], stats                   # lowest laterals longer when slow
+    assert stats["slow"][1] > stats["fast"][1], stats                          # steeper length-vs-height profile

@@ -37,7 +37,7 @@ def _paint_exact(seg, truth):
             seg.paint_stroke(seg.vertices[truth == lab].astype(float), 0.0, int(lab))
 
 
-def test_v12a_component_segmentation_accuracy(surface, truth):
+def test_v12_a_component_segmentation_accuracy(surface, truth):
     seg = Segmentation(surface.vertices, surface.faces)
     # broad tissues first with a big brush, then veins with small brushes (thesis §6.1: broad, then fix)
     order = [("receptacle", 3.0), ("disk_floret", 2.0), ("ray_floret", 2.0), ("bract", 1.5), ("stem", 2.0),
@@ -50,7 +50,7 @@ def test_v12a_component_segmentation_accuracy(surface, truth):
     assert min(acc.values()) > 0.5, acc
 
 
-def test_v12b_unwrapping_layer_by_layer(surface, truth):
+def test_v12_b_unwrapping_layer_by_layer(surface, truth):
     seg = Segmentation(surface.vertices, surface.faces)
     _paint_exact(seg, truth)
     assert np.array_equal(seg.labels, truth)
@@ -64,7 +64,7 @@ def test_v12b_unwrapping_layer_by_layer(surface, truth):
     assert all(a > b for a, b in itertools.pairwise(n_faces))
 
 
-def test_v12c_isolating_one_vein(surface, truth, head):
+def test_v12_c_isolating_one_vein(surface, truth, head):
     seg = Segmentation(surface.vertices, surface.faces)
     _paint_exact(seg, truth)
     # one centrifugal vein = the centrifugal vertices in the angular sector around one vein direction
@@ -90,7 +90,7 @@ def noisy():
     return s, vertex_labels_from_volume(s.vertices, h.volume, h.labels)
 
 
-def test_v12d_noise_removal_with_selective_visibility_needs_fewer_stamps(noisy):
+def test_v12_d_noise_removal_with_selective_visibility_needs_fewer_stamps(noisy):
     s, truth = noisy
     noise = truth == L["noise"]
     assert noise.sum() > 50
