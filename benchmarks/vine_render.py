@@ -23,8 +23,8 @@ animation frame. With ``finish`` on, every render waits for the (software) GPU (
 Configurations: ``proxy`` paints while drawing the display proxy itself; ``lod`` draws the ``--lod``-face level of
 detail while the stroke (or an orbit) runs and the display proxy again after it (the default of the app);
 ``array`` is the baseline for bytes: each request re-synchronises the scene (the whole colour array) instead of
-sending deltas. Meshes: a synthetic head (64³ or 128³) tiled to the proxy budget and served as its own proxy,
-the view zoomed onto the first copy (the others stay in the scene and are drawn)
+sending deltas. Meshes: a synthetic head (64³ or 128³) copied in a row to the proxy budget and served as its own
+proxy, the view zoomed onto the last copy (the others stay in the scene and are drawn)
 (decimating an 18 M-vertex head to such a proxy is the core's part, ``benchmarks/vine_scale.py``); budgets
 ~50k, ~200k and ~1.5 M faces; ``--quick`` uses one 64³ head (23,862 faces) with a 6k-face level of detail.
 
@@ -56,7 +56,7 @@ import numpy as np
 from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.segmentation import Segmentation
-from plantvr.vine.synth import synth_flowerhead, tile_mesh
+from plantvr.vine.synth import synth_flowerhead
 
 #: One stroke, driven in the page: ctrl-pointer events on the canvas at 60 Hz, frames counted meanwhile.
 _STROKE_JS = """async ({dur, r}) => {
@@ -172,22 +172,24 @@ def _measure(browser, seg: Segmentation, budget: int, config: str, lod: int, rad
 
 
 def _mesh(budget: int, quick: bool):
-    """A synthetic head tiled to about ``budget`` faces; also the bounds of its first copy (the painted one)."""
+    """A synthetic head copied in a row along x to about ``budget`` faces, and the bounds of the last copy (the
+    painted one: nothing stands between it and the default camera)."""
     head = synth_flowerhead(64 if quick or budget < 100_000 else 128, rng=1)
     s = extract_isosurface(head.volume, head.level)
-    first = np.c_[s.vertices.min(axis=0), s.vertices.max(axis=0)].ravel()
     copies = 1 if quick else max(1, round(budget / len(s.faces)))
-    if copies == 1:
-        return s.vertices, s.faces, first
-    v, f = tile_mesh(s.vertices, s.faces, copies * len(s.vertices))
-    return v, f, first
+    v0, f0 = np.asarray(s.vertices, np.float32), np.asarray(s.faces, np.int64)
+    step = np.float32(1.05 * np.ptp(v0[:, 0]))
+    v = np.concatenate([v0 + np.float32([c * step, 0, 0]) for c in range(copies)])
+    f = np.concatenate([f0 + c * len(v0) for c in range(copies)]).astype(np.uint32)
+    last = v[(copies - 1) * len(v0):]
+    return v, f, np.c_[last.min(axis=0), last.max(axis=0)].ravel()
 
 
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="one 64³ head (23,862 faces), 6k-face LOD (CI)")
     ap.add_argument("--budgets", type=str, default="50000,200000,1500000", help="proxy face budgets")
-    ap.add_argument("--lod", type=int, default=50_000, help="faces of the level of detail drawn while painting")
+    ap.add_argument("--lod", type=int, default=20_000, help="faces of the level of detail drawn while painting")
     ap.add_argument("--seconds", type=float, default=3.0, help="length of the stroke")
     ap.add_argument("--shots", type=str, default=os.environ.get("PLANTVR_SCREENSHOTS"))
     a = ap.parse_args(argv)

@@ -13,9 +13,10 @@ and the page's vtk.js camera to the server (:meth:`VineReviewApp.stroke`; at mos
 positions that arrive meanwhile travel together); the server casts the viewing ray (:func:`camera_ray`)
 against the drawn proxy with VTK's ``vtkStaticCellLocator`` (no pick pass in the browser; ~0.1 ms) and the
 sphere brush paints the *full-resolution* labels, a drag being one undo item. While a stroke (or an orbit
-drag) runs the page draws a coarse level of detail (``interactive_faces``, 50k triangles by default, its
-colours following by deltas too) and the display proxy again when it ends: software WebGL draws ~50k
-triangles at interactive rates but needs ~0.4 s per 200k-triangle frame (``benchmarks/vine_render.py``).
+drag) runs the page draws a coarse level of detail (``interactive_faces``, 20k triangles by default, its
+colours following by deltas too) and the display proxy again when it ends: software WebGL (SwiftShader on a
+2-core CPU) draws a 24k-triangle frame in ~60 ms but a 200k-triangle one in ~0.65 s and a 1.5 M-triangle one in
+~1.7 s (``benchmarks/vine_render.py``); a real GPU draws all of them at full rate.
 ``mode="remote"`` renders on the server instead (``VtkRemoteView``, images over the websocket; clicks picked
 there with ``vtkCellPicker``) for comparison.
 
@@ -245,7 +246,7 @@ class VineReviewApp:
         former behaviour, kept as the benchmark's baseline).
     interactive_faces : int or None
         Local mode: triangle budget of the level-of-detail proxy the page draws instead of the display proxy
-        while a stroke or an orbit drag runs (software WebGL draws ~50k triangles at interactive rates, see
+        while a stroke or an orbit drag runs (software WebGL draws ~20k triangles at >= 5 frames per second, see
         ``benchmarks/vine_render.py``), in [4, 2**31 - 1]; ``None`` (or a budget at or above the display
         proxy's) draws the display proxy throughout.
     """
@@ -253,7 +254,7 @@ class VineReviewApp:
     def __init__(self, seg: Segmentation | None = None, *, proxy: DisplayProxy | None = None,
                  target_faces: int = 1_500_000, mode: str = "local", volume: np.ndarray | None = None,
                  level: float | None = None, radius: float | None = None, window_size=(900, 700),
-                 colour_updates: str = "delta", interactive_faces: int | None = 50_000):
+                 colour_updates: str = "delta", interactive_faces: int | None = 20_000):
         from trame.app import get_server
         mode = check_choice("mode", mode, ("local", "remote"))
         self.colour_updates = check_choice("colour_updates", colour_updates, ("delta", "array"))
@@ -423,8 +424,15 @@ class VineReviewApp:
         self.ctrl.view_update()
 
     # ------------------------------------------------------------------ commands (also callable from code)
+    def _close_stroke(self) -> None:
+        """End a stroke the page left open (its release never came) before another command."""
+        if self._stroking:
+            self._stroking = False
+            self.seg.end_stroke()
+
     def paint_world(self, point, *, radius: float | None = None, label: int | None = None) -> int:
         """Paint the full-resolution labels with the sphere brush at a world-space point; returns the count."""
+        self._close_stroke()
         r = float(self.state.radius if radius is None else radius)
         lab = int(self.state.label if label is None else label)
         n = self.view.paint_at(point, radius=r, label=lab)
@@ -489,8 +497,7 @@ class VineReviewApp:
             self.state.message = f"colour {label} is hidden: show it to paint with it"
             return None
         if phase == "begin":
-            if self._stroking:
-                self.seg.end_stroke()
+            self._close_stroke()
             self.seg.begin_stroke()
             self._stroking, self.last_stroke = True, []
         elif phase in ("move", "end") and not self._stroking:
@@ -565,11 +572,13 @@ class VineReviewApp:
 
     def undo(self) -> None:
         """Undo the last painting operation (full resolution)."""
+        self._close_stroke()
         self.seg.undo()
         self._push()
 
     def redo(self) -> None:
         """Redo the last undone operation."""
+        self._close_stroke()
         self.seg.redo()
         self._push()
 

@@ -135,6 +135,9 @@ def test_stroke_paints_full_resolution_as_one_undo_item_with_lod_deltas(surface)
     app.stroke("click", [(1, 1)], cam, (w, h))
     assert np.count_nonzero(seg.labels) == n and app.stroke_stats["misses"] >= 1
     assert app.stroke("move", [(w / 2, h / 2)], cam, (w, h)) is None       # no open stroke: ignored
+    app.stroke("begin", [(w / 2 + 5, h / 2)], cam, (w, h))                  # a release that never came:
+    app.undo()                                                              # undo ends the stroke, then undoes it
+    assert not app._stroking and len(seg.history.undo_stack) == 1 and np.count_nonzero(seg.labels) == n
     seg.hide(3)
     app.resync()
     assert app.stroke("begin", [(w / 2, h / 2)], cam, (w, h)) is None and "hidden" in app.state.message
