@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _common import best_of
 
 from plantvr.geometry import build_branch_mesh
 from plantvr.geometry.export import export_tree
@@ -24,15 +25,6 @@ from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import lod_chain
 from plantvr.geometry.synthetic import random_tree
 from plantvr.geometry.usd import export_usd
-
-
-def _time(fn, repeat: int):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -52,8 +44,8 @@ def main(argv: list[str] | None = None) -> dict:
     d = pos[tips] - pos[parent[tips]]
     d /= np.linalg.norm(d, axis=1)[:, None]
     build_branch_mesh(pos[:50], parent[:50], radius[:50])                      # JIT warm-up
-    t_mesh, mesh = _time(lambda: build_branch_mesh(pos, parent, radius, main_child=mc), repeat)
-    t_leaf, leaves = _time(lambda: build_leaves(pos[tips], d, radius[tips], leaf_size=0.3, petiole_length=0.05,
+    t_mesh, mesh = best_of(lambda: build_branch_mesh(pos, parent, radius, main_child=mc), repeat)
+    t_leaf, leaves = best_of(lambda: build_leaves(pos[tips], d, radius[tips], leaf_size=0.3, petiole_length=0.05,
                                                 rng=0), repeat)
     st = np.zeros(len(pos), np.int64)
     from plantvr.geometry.lod import axis_start
@@ -66,24 +58,24 @@ def main(argv: list[str] | None = None) -> dict:
         tmp = Path(tmp)
         import trimesh
 
-        res["ply_s"], _ = _time(lambda: export_tree(tmp / "t.ply", mesh, leaves), repeat)
+        res["ply_s"], _ = best_of(lambda: export_tree(tmp / "t.ply", mesh, leaves), repeat)
         both = trimesh.util.concatenate([mesh.to_trimesh(), leaves.to_trimesh()])
-        res["trimesh_glb_s"], _ = _time(lambda: both.export(tmp / "tm.glb"), repeat)
+        res["trimesh_glb_s"], _ = best_of(lambda: both.export(tmp / "tm.glb"), repeat)
         export_usd(tmp / "warm.usdc", mesh, leaves)
-        res["usd_s"], _ = _time(lambda: export_usd(tmp / "t.usdc", mesh, leaves, order=st), repeat)
-        res["usd_mesh_leaves_s"], _ = _time(lambda: export_usd(tmp / "m.usdc", mesh, leaves, order=st,
+        res["usd_s"], _ = best_of(lambda: export_usd(tmp / "t.usdc", mesh, leaves, order=st), repeat)
+        res["usd_mesh_leaves_s"], _ = best_of(lambda: export_usd(tmp / "m.usdc", mesh, leaves, order=st,
                                                                leaf_instancer=False), repeat)
-        res["skinned_glb_s"], _ = _time(lambda: export_skinned_glb(tmp / "s.glb", mesh, pos, parent, radius,
+        res["skinned_glb_s"], _ = best_of(lambda: export_skinned_glb(tmp / "s.glb", mesh, pos, parent, radius,
                                                                    main_child=mc, leaves=leaves, leaf_node=tips),
                                         repeat)
         res["usd_bytes"] = (tmp / "t.usdc").stat().st_size
         res["glb_bytes"] = (tmp / "s.glb").stat().st_size
-    res["lod_chain_s"], chain = _time(lambda: lod_chain(pos, parent, radius, main_child=mc), repeat)
+    res["lod_chain_s"], chain = best_of(lambda: lod_chain(pos, parent, radius, main_child=mc), repeat)
     res["lod_triangles"] = [lv.triangles for lv in chain]
     if args.billboard:
         from plantvr.view.billboard import make_billboard
         # rendered from LOD 1 (same silhouette, IoU >= 0.9; a fifth of the triangles, which llvmpipe pays for)
-        res["billboard_s"], _ = _time(lambda: make_billboard([chain[1].mesh, leaves], resolution=256), 1)
+        res["billboard_s"], _ = best_of(lambda: make_billboard([chain[1].mesh, leaves], resolution=256), 1)
     if args.lod_iou:
         from plantvr.view.billboard import LOD_SCREEN_PX, silhouette_iou
         res["lod_iou"] = [float(silhouette_iou([chain[0].mesh, leaves], [lv.mesh, leaves], views=2,

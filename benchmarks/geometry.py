@@ -18,6 +18,7 @@ import os
 import time
 
 import numpy as np
+from _common import best_of
 
 from plantvr.geometry.synthetic import random_tree
 from plantvr.geometry import IncrementalBranchMesh, IncrementalLeafMesh, build_branch_mesh, update_branch_mesh
@@ -37,15 +38,6 @@ def pipe_radii(parent, tip_radius=0.01, exponent=2.5):
     r = acc ** (1 / exponent)
     r[0] = r[1]
     return r
-
-
-def _best(fn, repeat=3):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def _buds(pos, parent, radius):
@@ -135,11 +127,11 @@ def main(argv: list[str] | None = None) -> dict:
             return build_leaves(bp, bd, br, bud_up=bu, **LEAF_KW)
 
         build(), leaves()                                  # JIT warm-up (cached on disk afterwards)
-        t_ours, mesh = _best(build)
-        t_fast, _ = _best(lambda: build((6, 32)))
-        t_leaf, lv = _best(leaves)
+        t_ours, mesh = best_of(build)
+        t_fast, _ = best_of(lambda: build((6, 32)))
+        t_leaf, lv = best_of(leaves)
         cpu = min(_cpu(lambda: (build(), leaves()))[1] for _ in range(3))
-        t_tube, tube = _best(_tube_baseline(pos, parent, radius), repeat=1)
+        t_tube, tube = best_of(_tube_baseline(pos, parent, radius), repeat=1)
         sample = np.arange(0, len(mesh.segments), max(1, len(mesh.segments) // 300), dtype=np.int64)
         V, NRM, UV, NID, F = (np.empty_like(a) for a in (mesh.vertices, mesh.normals, mesh.uv, mesh.node_id,
                                                           mesh.faces))
@@ -196,10 +188,10 @@ def _incremental(n, steps, numba):
         numba.set_num_threads(1)
         t_leaf, c_leaf, lres = _cpu(lambda: leaves.update(*buds))
         numba.set_num_threads(threads)
-        t_full, _ = _best(lambda: build_branch_mesh(p, par, r, main_child=m, **kw), repeat=1)
-        t_full_leaves, _ = _best(lambda: build_leaves(buds[0], buds[1], buds[2], bud_up=buds[3], **LEAF_KW),
+        t_full, _ = best_of(lambda: build_branch_mesh(p, par, r, main_child=m, **kw), repeat=1)
+        t_full_leaves, _ = best_of(lambda: build_leaves(buds[0], buds[1], buds[2], bud_up=buds[3], **LEAF_KW),
                                  repeat=1)
-        t_tube, _ = _best(_tube_baseline(p, par, r), repeat=1)
+        t_tube, _ = best_of(_tube_baseline(p, par, r), repeat=1)
         rewritten = int((upd.vertex_ranges[:, 1] - upd.vertex_ranges[:, 0]).sum()) if not upd.relayout else -1
         row = dict(step=k, internodes=len(p) - 1, new=len(p) - len(trees[k - 1][0]), changed=len(upd.changed),
                    vertices_rewritten=rewritten, relayout=upd.relayout, update_s=res[threads][0],

@@ -21,6 +21,7 @@ import argparse
 import time
 
 import numpy as np
+from _common import best_time
 
 from plantvr.landscape import grow_forest
 from plantvr.landscape.forest import warm_up
@@ -52,15 +53,6 @@ def cpu_capacity(n: int = 3_000_000) -> float:
     return 2 * one / two
 
 
-def _best(fn, repeat: int = 5) -> float:
-    best = np.inf
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
-
-
 def sketch_figures(quick: bool) -> dict:
     """Width solve, growth iteration, undo frame and lasso timings (ms) with their baselines."""
     import pickle
@@ -87,9 +79,9 @@ def sketch_figures(quick: bool) -> dict:
         tw.__setstate__(pickle.loads(state).__getstate__())
         tw.params = {**tw.params, "marker_lifetime": 1}
         tw.add_markers(pts)
-        t_tw = _best(lambda tw=tw: pickle.loads(pickle.dumps(tw)).step(), 3)
-        t_ts = _best(lambda state=state: pickle.loads(state).step(), 3)
-        t_pk = _best(lambda state=state: pickle.loads(state), 3)
+        t_tw = best_time(lambda tw=tw: pickle.loads(pickle.dumps(tw)).step(), 3)
+        t_ts = best_time(lambda state=state: pickle.loads(state).step(), 3)
+        t_pk = best_time(lambda state=state: pickle.loads(state), 3)
         n_buds = len(e.buds().node)
         key = "all buds" if life is None else f"bud lifetime {life}"
         out[f"step_ms[{key}]"] = 1e3 * (t_ts - t_pk)
@@ -97,8 +89,8 @@ def sketch_figures(quick: bool) -> dict:
               f"TreeSketch {1e3 * (t_ts - t_pk):6.1f} ms | Tree Wand step on the same tree and points "
               f"{1e3 * (t_tw - t_pk):6.1f} ms (baseline) | target <= 50 ms at 2e4")
     blob = pickle.dumps(e.__getstate__(), protocol=5)
-    t_frame = _best(lambda: e.__setstate__(pickle.loads(pickle.dumps(e.__getstate__(), protocol=5))), 3)
-    t_copy = _best(lambda: e.tree.copy(), 3)
+    t_frame = best_time(lambda: e.__setstate__(pickle.loads(pickle.dumps(e.__getstate__(), protocol=5))), 3)
+    t_copy = best_time(lambda: e.tree.copy(), 3)
     out["frame_ms"], out["frame_bytes"] = 1e3 * t_frame, len(blob)
     print(f"undo/ungrow frame (dump + restore, light rebuilt) at {e.tree.n_internodes} internodes: "
           f"{1e3 * t_frame:6.1f} ms, {len(blob) / 2 ** 20:.2f} MiB | tree.copy() {1e3 * t_copy:6.2f} ms (baseline)")
@@ -109,11 +101,11 @@ def sketch_figures(quick: bool) -> dict:
     cons = {1: 5.0}
     cons.update({int(k): 0.3 for k in rng.choice(np.arange(2, n), 19, replace=False)})
     alive = np.ones(n, bool)
-    t_w = _best(lambda: pipe_widths(par, alive, tip_diameter=0.02, constraints=cons))
+    t_w = best_time(lambda: pipe_widths(par, alive, tip_diameter=0.02, constraints=cons), 5)
     fixed, fd, nn = np.zeros(n, bool), np.zeros(n), np.full(n, 2.5)
     buf = np.zeros(n)
-    t_fold = _best(lambda: _pipe_fold(par, alive, fixed, fd, nn, 0.02, buf))
-    t_twin = _best(lambda: _pipe_fold_numpy(par, alive, fixed, fd, nn, 0.02), 3)
+    t_fold = best_time(lambda: _pipe_fold(par, alive, fixed, fd, nn, 0.02, buf), 5)
+    t_twin = best_time(lambda: _pipe_fold_numpy(par, alive, fixed, fd, nn, 0.02), 3)
     out["width_ms"] = 1e3 * t_w
     print(f"width solve, {n} internodes, 20 constraints: {1e3 * t_w:6.2f} ms (target <= 10 ms at 1e4) | "
           f"fold numba {1e3 * t_fold:6.3f} ms vs numpy twin {1e3 * t_twin:6.2f} ms (baseline)")
@@ -130,7 +122,7 @@ def sketch_figures(quick: bool) -> dict:
     inter = {(0, 0): ("cluster", 3.0, 5.0), (0, 1): ("inhibit", 2.0, 4.0), (1, 1): ("inhibit", 1.0, 6.0)}
     n_trees = 100 if quick else 300
     distribute(3, sp, inter, rng=0)
-    t_d = _best(lambda: distribute(n_trees, sp, inter, rng=0), 3)
+    t_d = best_time(lambda: distribute(n_trees, sp, inter, rng=0), 3)
 
     def naive():  # the same loop, every kernel multiplied into the whole field (spec §3.4.3 prototype)
         rng = np.random.default_rng(0)
@@ -147,7 +139,7 @@ def sketch_figures(quick: bool) -> dict:
                 a = max(a, r + 1e-9)
                 fields[j] *= (clustering_kernel if kind == "cluster" else inhibitory_kernel)(d, r=r, a=a, s=sv)
 
-    t_naive = _best(naive, 1)
+    t_naive = best_time(naive, 1)
     out["distribution_s"] = t_d
     print(f"distribution, {n_trees} trees, 2 species, 128x128 field over 30 m: {t_d:6.3f} s (target <= 0.27 s "
           f"for 300) | whole-field kernels {t_naive:6.3f} s (baseline)")
@@ -155,7 +147,7 @@ def sketch_figures(quick: bool) -> dict:
     a = np.linspace(0, 2 * np.pi, 64, endpoint=False)
     poly = np.column_stack([3 * np.cos(a) * (1 + 0.2 * np.cos(3 * a)), 2 * np.sin(a)])
     n_pts = 500 if quick else 5_000
-    t_l = _best(lambda: lasso_volume(poly, n_points=n_pts, rng=0), 3)
+    t_l = best_time(lambda: lasso_volume(poly, n_points=n_pts, rng=0), 3)
     out["lasso_ms"] = 1e3 * t_l
     print(f"lasso inflation (128 px raster, {n_pts} points): {1e3 * t_l:6.1f} ms")
     return out
@@ -180,7 +172,7 @@ def constraint_figures(quick: bool) -> dict:
         S = rng.uniform(0.6, 1.4, n)
         area, h_max = np.pi * (3.0 * S) ** 2, S * 10.0
         kw = {"size": (30.0, 30.0), "shape": shape, "trunk_radius": 0.3 * S}
-        t = _best(lambda xz=xz, area=area, h_max=h_max, kw=kw: crown_voxels(xz, area, h_max, **kw), 3)
+        t = best_time(lambda xz=xz, area=area, h_max=h_max, kw=kw: crown_voxels(xz, area, h_max, **kw), 3)
         v = crown_voxels(xz, area, h_max, **kw)
         t0 = time.perf_counter()
         w = crown_voxels(xz, area, h_max, engine="python", **kw)
@@ -196,7 +188,7 @@ def constraint_figures(quick: bool) -> dict:
             _propagate_layers(o, xz[:, 0] / cx, xz[:, 1] / cx, 0.3 * S / cx, area / area.max(), act)
             return o
 
-        t_all = _best(all_layers, 3)
+        t_all = best_time(all_layers, 3)
         same &= bool(np.array_equal(all_layers(), v.owner))
         out[f"constraint_s[{n}]"] = t
         print(f"constraint simulation, {n:3d} trees, 128x128x20 voxels ({layers} distinct layers, "

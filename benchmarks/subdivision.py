@@ -8,18 +8,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
 
 import numpy as np
-
-
-def _best(fn, repeat: int) -> float:
-    best = np.inf
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return best
+from _common import best_time
 
 
 def _vtk_loop(V: np.ndarray, F: np.ndarray, levels: int):
@@ -89,9 +80,9 @@ def main(argv: list[str] | None = None) -> dict:
     for nb in sizes:
         g = graph_from_arrays(*random_tree(nb + 1, rng=nb))
         cm = build_control_mesh(g)
-        t = _best(lambda g=g: build_control_mesh(g), repeat)
-        tq = _best(lambda g=g: build_control_mesh(g, hull="qhull"), 1)
-        tb = _best(lambda g=g: _tube_union_baseline(g), 1) if nb <= 3000 else float("nan")
+        t = best_time(lambda g=g: build_control_mesh(g), repeat)
+        tq = best_time(lambda g=g: build_control_mesh(g, hull="qhull"), 1)
+        tb = best_time(lambda g=g: _tube_union_baseline(g), 1) if nb <= 3000 else float("nan")
         row = {"branches": nb, "faces": len(cm.faces), "ours_s": t, "qhull_s": tq, "tubes_baseline_s": tb}
         out["build"].append(row)
         print(f"{nb:>9} {len(cm.faces):>9} {t:>8.3f} {1e6 * t / nb:>9.1f} {tq:>14.3f} {tb:>14.3f}")
@@ -109,9 +100,9 @@ def main(argv: list[str] | None = None) -> dict:
         g = graph_from_arrays(*random_tree(max(20, int(target / (38 * 16))) + 1, rng=5))
         cm = build_control_mesh(g, cap=True)
         V, F = subdivide_loop(cm.vertices, cm.faces, 2)
-        ours = _best(lambda V=V, F=F: subdivide_loop(V, F, 1), repeat)
+        ours = best_time(lambda V=V, F=F: subdivide_loop(V, F, 1), repeat)
         Vo, _ = subdivide_loop(V, F, 1)
-        tri = _best(lambda V=V, F=F: trimesh.remesh.subdivide_loop(V, F, iterations=1),
+        tri = best_time(lambda V=V, F=F: trimesh.remesh.subdivide_loop(V, F, iterations=1),
                     1 if len(F) > 400_000 else repeat)
         Vt, _ = trimesh.remesh.subdivide_loop(V, F, iterations=1)
         from scipy.spatial import cKDTree
@@ -119,7 +110,7 @@ def main(argv: list[str] | None = None) -> dict:
         dt = float(cKDTree(Vt).query(Vo)[0].max())
         if have_vtk:
             run = _vtk_loop(V, F, 1)
-            tv = _best(run, repeat)
+            tv = best_time(run, repeat)
             from vtk.util.numpy_support import vtk_to_numpy
 
             Pv = vtk_to_numpy(run().GetPoints().GetData()).astype(float)
@@ -135,8 +126,8 @@ def main(argv: list[str] | None = None) -> dict:
     g = graph_from_arrays(*random_tree(301, rng=6))
     cm = build_control_mesh(g, cap=True)
     V, F = cm.vertices, cm.faces
-    ours3 = _best(lambda: subdivide_loop(V, F, 3), repeat)
-    tri3 = _best(lambda: trimesh.remesh.subdivide_loop(V, F, iterations=3), 1)
+    ours3 = best_time(lambda: subdivide_loop(V, F, 3), repeat)
+    tri3 = best_time(lambda: trimesh.remesh.subdivide_loop(V, F, iterations=3), 1)
     print(f"\nthree levels from {len(F)} faces: ours {ours3:.3f} s, trimesh {tri3:.3f} s ({tri3 / ours3:.1f}x)")
     out["loop3"] = {"faces": len(F), "ours_s": ours3, "trimesh_s": tri3}
 
@@ -149,12 +140,12 @@ def main(argv: list[str] | None = None) -> dict:
 
     g = graph_from_arrays(*random_tree((300 if quick else 3000) + 1, rng=8))
     cm = build_control_mesh(g)
-    tu = _best(lambda: control_uvs(cm), repeat)
+    tu = best_time(lambda: control_uvs(cm), repeat)
     uv2 = subdivide_uvs(control_uvs(cm), 2)
     V2, F2 = subdivide_loop(cm.vertices, cm.faces, 2)
     with tempfile.TemporaryDirectory() as d:
-        tw = _best(lambda: write_obj(Path(d) / "a.obj", V2, F2, uv2), 1)
-        tt = _best(lambda: trimesh.Trimesh(V2, F2, process=False).export(Path(d) / "b.obj"), 1)
+        tw = best_time(lambda: write_obj(Path(d) / "a.obj", V2, F2, uv2), 1)
+        tt = best_time(lambda: trimesh.Trimesh(V2, F2, process=False).export(Path(d) / "b.obj"), 1)
     print(f"\nUVs of a {len(g)}-branch control mesh ({len(cm.faces)} faces): {tu:.3f} s; OBJ v/vt/vn of level 2 "
           f"({len(F2)} faces): ours {tw:.2f} s, trimesh export (no UVs) {tt:.2f} s")
     out["uv_obj"] = {"faces_control": len(cm.faces), "uv_s": tu, "faces_obj": len(F2), "obj_s": tw,

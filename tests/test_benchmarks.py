@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-BENCH = sorted((ROOT / "benchmarks").glob("*.py"))
+BENCH = sorted(p for p in (ROOT / "benchmarks").glob("*.py") if not p.name.startswith("_"))  # _common.py: helpers
 
 
 @pytest.mark.slow

@@ -15,6 +15,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_int, check_points, check_range
 
+from ._gltf import GltfBuffer, check_glb_path
 from .leaves import LeafMesh
 from .lod import axis_start
 from .mesh import BranchMesh
@@ -98,42 +99,7 @@ def tree_skeleton(pos, parent, radius, *, main_child=None, max_joints: int = 64)
     return Skeleton(joint_of_node=joint_of_node, start=start, parent=jpar, base=pos[parent[start]].copy())
 
 
-class _Bin:
-    """Accumulates buffer views and accessors of one binary chunk."""
-
-    def __init__(self, g):
-        self.g, self.chunks, self.size = g, [], 0
-
-    def add(self, arr, atype: str, *, target=None, minmax: bool = False) -> int:
-        import pygltflib as G
-
-        arr = np.ascontiguousarray(arr)
-        ctype = {np.dtype(np.float32): G.FLOAT, np.dtype(np.uint32): G.UNSIGNED_INT,
-                 np.dtype(np.uint16): G.UNSIGNED_SHORT, np.dtype(np.uint8): G.UNSIGNED_BYTE}[arr.dtype]
-        data = arr.tobytes()
-        pad = (-self.size) % 4
-        if pad:
-            self.chunks.append(b"\0" * pad)
-            self.size += pad
-        self.g.bufferViews.append(G.BufferView(buffer=0, byteOffset=self.size, byteLength=len(data),
-                                               target=target))
-        self.chunks.append(data)
-        self.size += len(data)
-        ncomp = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}[atype]
-        count = arr.size // ncomp
-        acc = G.Accessor(bufferView=len(self.g.bufferViews) - 1, componentType=ctype, count=count, type=atype)
-        if minmax:
-            flat = arr.reshape(count, ncomp)
-            acc.min = flat.min(0).astype(float).tolist()
-            acc.max = flat.max(0).astype(float).tolist()
-        self.g.accessors.append(acc)
-        return len(self.g.accessors) - 1
-
-    def blob(self) -> bytes:
-        return b"".join(self.chunks) + b"\0" * ((-self.size) % 4)
-
-
-def _primitive(b: _Bin, m, joints, material: int):
+def _primitive(b: GltfBuffer, m, joints, material: int):
     import pygltflib as G
 
     jt = np.uint8 if joints.max(initial=0) < 256 else np.uint16
@@ -185,9 +151,7 @@ def export_skinned_glb(path, branches: BranchMesh, pos, parent, radius, *, main_
     """
     import pygltflib as G
 
-    path = Path(path)
-    if path.suffix.lower() != ".glb":
-        raise ValueError(f"path must end in .glb, got {path.suffix!r}")
+    path = check_glb_path(path)
     sk = tree_skeleton(pos, parent, radius, main_child=main_child, max_joints=max_joints)
     n = len(sk.joint_of_node)
     if len(branches.node_id) and int(branches.node_id.max()) >= n:
@@ -203,7 +167,7 @@ def export_skinned_glb(path, branches: BranchMesh, pos, parent, radius, *, main_
 
     J = len(sk)
     g = G.GLTF2(asset=G.Asset(generator="PlantVR", version="2.0"))
-    b = _Bin(g)
+    b = GltfBuffer()
     g.materials = [
         G.Material(name="Bark", pbrMetallicRoughness=G.PbrMetallicRoughness(
             baseColorFactor=_BARK_RGBA, metallicFactor=0.0, roughnessFactor=0.9)),
@@ -248,6 +212,8 @@ def export_skinned_glb(path, branches: BranchMesh, pos, parent, radius, *, main_
                                                                                           path="scale")))
         g.animations = [G.Animation(name="growth", samplers=samplers, channels=channels)]
 
+    g.bufferViews = [G.BufferView(**v) for v in b.views]
+    g.accessors = [G.Accessor(**a) for a in b.accessors]
     blob = b.blob()
     g.buffers = [G.Buffer(byteLength=len(blob))]
     g.set_binary_blob(blob)

@@ -368,11 +368,16 @@ class Difference(Node):
     """CSG difference A - B: ``F = min(F_A, 2 iso - F_B) = min(F_A, 1 - F_B)`` ([EXT 102]); box = box of A."""
 
     def __init__(self, a: Node, b: Node):
-        self.a, self.b = _check_nodes("Difference", (a, b), 2)
-        self.bbox = self.a.bbox.copy()
+        self.a, self.b = _check_nodes(type(self).__name__, (a, b), 2)
+        self.bbox = self._operands()[0].bbox.copy()
+
+    def _operands(self) -> tuple[Node, Node]:
+        """(kept, removed): A - B."""
+        return self.a, self.b
 
     def _eval_inside(self, p, backend):
-        return np.minimum(self.a._eval(p, backend), 2 * ISO - self.b._eval(p, backend))
+        kept, removed = self._operands()
+        return np.minimum(kept._eval(p, backend), 2 * ISO - removed._eval(p, backend))
 
     def _transformed(self, m):
         return type(self)(self.a._transformed(m), self.b._transformed(m))
@@ -384,12 +389,9 @@ class Difference(Node):
 class Difference2(Difference):
     """"Difference 2" of the Boolean dialog (Fig. 4.2): the reversed difference B - A (spec §2.4 [INFERRED])."""
 
-    def __init__(self, a: Node, b: Node):
-        self.a, self.b = _check_nodes("Difference2", (a, b), 2)
-        self.bbox = self.b.bbox.copy()
-
-    def _eval_inside(self, p, backend):
-        return np.minimum(self.b._eval(p, backend), 2 * ISO - self.a._eval(p, backend))
+    def _operands(self) -> tuple[Node, Node]:
+        """(kept, removed): B - A."""
+        return self.b, self.a
 
 
 class TransformNode(Node):

@@ -210,6 +210,13 @@ class CommandSession:
             raise CommandError(c.lineno, tokens[0], "radius R must be > 0", c.text)
         return r
 
+    def _rows(self, c, tokens, width: int, least: int, what: str) -> np.ndarray:
+        """The numbers of ``tokens`` as rows of ``width`` (at least ``least`` rows), e.g. x y z triples."""
+        v = self._nums(c, tokens)
+        if len(v) % width or len(v) < width * least:
+            raise CommandError(c.lineno, c.args[-1], f"expected {what}", c.text)
+        return np.reshape(v, (-1, width))
+
     def _path(self, name):
         p = Path(name)
         return p if p.is_absolute() else self.base_dir / p
@@ -250,18 +257,12 @@ class CommandSession:
     def _cmd_polyline(self, c):
         a = c.args
         r = self._radius(c, a[1:2])
-        v = self._nums(c, a[2:])
-        if len(v) % 3 or len(v) < 6:
-            raise CommandError(c.lineno, a[-1], "expected x y z triples (at least two)", c.text)
-        self.surfaces[a[0]] = bt.polyline(np.reshape(v, (-1, 3)), r)
+        self.surfaces[a[0]] = bt.polyline(self._rows(c, a[2:], 3, 2, "x y z triples (at least two)"), r)
 
     def _cmd_revolve(self, c):
         a = c.args
         r = self._radius(c, a[1:2])
-        v = self._nums(c, a[2:])
-        if len(v) % 2 or len(v) < 6:
-            raise CommandError(c.lineno, a[-1], "expected rho z pairs (at least three)", c.text)
-        self.surfaces[a[0]] = Revolution(np.reshape(v, (-1, 2)), radius=r)
+        self.surfaces[a[0]] = Revolution(self._rows(c, a[2:], 2, 3, "rho z pairs (at least three)"), radius=r)
 
     def _cmd_sweep(self, c):
         a = c.args

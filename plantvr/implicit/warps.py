@@ -49,12 +49,11 @@ def taper_inverse(p: np.ndarray, k: float, z0: float = 0.0) -> np.ndarray:
     return out
 
 
-def bend_forward(p: np.ndarray, k: float, length: float) -> np.ndarray:
-    """Bend the segment 0 <= z <= L toward +x with curvature k (rho = 1/k); rigid beyond L, identity below 0.
+def _bend_mirrored(p, k, length, bend_positive) -> np.ndarray:
+    """Run a bend map written for ``k > 0`` on any k: mirror x for ``k < 0``, identity for ``k = 0``.
 
-    References
-    ----------
-    .. [1] Spec 003 §2.5 (forward map ``X = rho - (rho - x) cos(kz)``, ``Z = (rho - x) sin(kz)``) [INFERRED].
+    ``bend_positive(x, z, k, length, out)`` gets the (mirrored) x and z columns, ``|k|`` and the output (a copy
+    of the mirrored points) and writes the bent rows of ``out``.
     """
     p = check_points("p", p)
     sign = 1.0 if k >= 0 else -1.0
@@ -62,42 +61,52 @@ def bend_forward(p: np.ndarray, k: float, length: float) -> np.ndarray:
     x, y, z = sign * p[:, 0], p[:, 1], p[:, 2]
     out = np.column_stack([x, y, z]).copy()
     if k > 0:
-        rho = 1.0 / k
-        zc = np.clip(z, 0.0, length)
-        th = k * zc
-        extra = np.where(z > length, z - length, 0.0)
-        a = rho - x
-        X = rho - a * np.cos(th) + extra * np.sin(th)
-        Z = a * np.sin(th) + extra * np.cos(th)
-        bent = z >= 0
-        out[bent, 0] = X[bent]
-        out[bent, 2] = Z[bent]
+        bend_positive(x, z, k, length, out)
     out[:, 0] *= sign
     return out
+
+
+def _bend_forward_positive(x, z, k, length, out):
+    rho = 1.0 / k
+    zc = np.clip(z, 0.0, length)
+    th = k * zc
+    extra = np.where(z > length, z - length, 0.0)
+    a = rho - x
+    X = rho - a * np.cos(th) + extra * np.sin(th)
+    Z = a * np.sin(th) + extra * np.cos(th)
+    bent = z >= 0
+    out[bent, 0] = X[bent]
+    out[bent, 2] = Z[bent]
+
+
+def _bend_inverse_positive(X, Z, k, length, out):
+    rho = 1.0 / k
+    dx = rho - X
+    phi = np.arctan2(Z, dx)
+    th = k * length
+    arc = (phi >= 0) & (phi <= th)
+    out[arc, 0] = rho - np.hypot(dx[arc], Z[arc])
+    out[arc, 2] = phi[arc] / k
+    end = phi > th
+    a = dx[end] * np.cos(th) + Z[end] * np.sin(th)
+    b = -dx[end] * np.sin(th) + Z[end] * np.cos(th)
+    out[end, 0] = rho - a
+    out[end, 2] = length + b
+
+
+def bend_forward(p: np.ndarray, k: float, length: float) -> np.ndarray:
+    """Bend the segment 0 <= z <= L toward +x with curvature k (rho = 1/k); rigid beyond L, identity below 0.
+
+    References
+    ----------
+    .. [1] Spec 003 §2.5 (forward map ``X = rho - (rho - x) cos(kz)``, ``Z = (rho - x) sin(kz)``) [INFERRED].
+    """
+    return _bend_mirrored(p, k, length, _bend_forward_positive)
 
 
 def bend_inverse(p: np.ndarray, k: float, length: float) -> np.ndarray:
     """Inverse bend (spec §2.5): ``phi = atan2(Z, rho - X)`` selects identity, arc or rigid end region."""
-    p = check_points("p", p)
-    sign = 1.0 if k >= 0 else -1.0
-    k = abs(k)
-    X, Y, Z = sign * p[:, 0], p[:, 1], p[:, 2]
-    out = np.column_stack([X, Y, Z]).copy()
-    if k > 0:
-        rho = 1.0 / k
-        dx = rho - X
-        phi = np.arctan2(Z, dx)
-        th = k * length
-        arc = (phi >= 0) & (phi <= th)
-        out[arc, 0] = rho - np.hypot(dx[arc], Z[arc])
-        out[arc, 2] = phi[arc] / k
-        end = phi > th
-        a = dx[end] * np.cos(th) + Z[end] * np.sin(th)
-        b = -dx[end] * np.sin(th) + Z[end] * np.cos(th)
-        out[end, 0] = rho - a
-        out[end, 2] = length + b
-    out[:, 0] *= sign
-    return out
+    return _bend_mirrored(p, k, length, _bend_inverse_positive)
 
 
 class Warp(Node):

@@ -46,15 +46,26 @@ def _less(ta, ia, ca, tb, ib, cb):
 
 
 @numba.njit(cache=True, nogil=True)
+def _less_at(ht, hi, hc, a, b):
+    """Heap entry ``a`` comes before entry ``b``."""
+    return _less(ht[a], hi[a], hc[a], ht[b], hi[b], hc[b])
+
+
+@numba.njit(cache=True, nogil=True)
+def _swap(ht, hi, hc, a, b):
+    ht[a], ht[b] = ht[b], ht[a]
+    hi[a], hi[b] = hi[b], hi[a]
+    hc[a], hc[b] = hc[b], hc[a]
+
+
+@numba.njit(cache=True, nogil=True)
 def _push(ht, hi, hc, n, t, i, c):
     k = n
     ht[k], hi[k], hc[k] = t, i, c
     while k > 0:
         p = (k - 1) >> 1
-        if _less(ht[k], hi[k], hc[k], ht[p], hi[p], hc[p]):
-            ht[k], ht[p] = ht[p], ht[k]
-            hi[k], hi[p] = hi[p], hi[k]
-            hc[k], hc[p] = hc[p], hc[k]
+        if _less_at(ht, hi, hc, k, p):
+            _swap(ht, hi, hc, k, p)
             k = p
         else:
             break
@@ -73,12 +84,10 @@ def _pop(ht, hi, hc, n):
             break
         b = a + 1
         m = a
-        if b < n and _less(ht[b], hi[b], hc[b], ht[a], hi[a], hc[a]):
+        if b < n and _less_at(ht, hi, hc, b, a):
             m = b
-        if _less(ht[m], hi[m], hc[m], ht[k], hi[k], hc[k]):
-            ht[k], ht[m] = ht[m], ht[k]
-            hi[k], hi[m] = hi[m], hi[k]
-            hc[k], hc[m] = hc[m], hc[k]
+        if _less_at(ht, hi, hc, m, k):
+            _swap(ht, hi, hc, k, m)
             k = m
         else:
             break

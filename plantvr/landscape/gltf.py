@@ -17,14 +17,13 @@ from typing import Any
 import numpy as np
 
 from .._validation import check_array, check_range
+from ..geometry._gltf import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuffer, check_glb_path
 
 __all__ = ["export_distribution", "export_forest", "export_landscape", "terrain_mesh", "write_glb"]
 
 BARK_RGBA = (0.38, 0.26, 0.16, 1.0)
 TERRAIN_RGBA = (0.55, 0.53, 0.33, 1.0)
 LEAF_RGBA = (0.27, 0.55, 0.18, 1.0)
-_FLOAT, _UINT = 5126, 5125
-_ARRAY, _ELEMENTS = 34962, 34963
 
 
 def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
@@ -70,9 +69,7 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
     -------
     pathlib.Path
     """
-    path = Path(path)
-    if path.suffix.lower() != ".glb":
-        raise ValueError(f"path must end in .glb, got {path.suffix!r}")
+    path = check_glb_path(path)
     for k, nd in enumerate(nodes):
         m = nd.get("mesh")
         if not isinstance(m, (int, np.integer)) or not 0 <= m < len(meshes):
@@ -80,28 +77,7 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
     parts = [m.get("parts", [m]) for m in meshes]
     checked = [[_check_mesh(f"meshes[{i}] part {j}", (q["vertices"], q["faces"])) for j, q in enumerate(ps)]
                for i, ps in enumerate(parts)]
-    chunks: list[bytes] = []
-    views: list[dict] = []
-    accessors: list[dict] = []
-    offset = 0
-
-    def add(arr: np.ndarray, atype: str, target: int, minmax: bool = False) -> int:
-        nonlocal offset
-        data = np.ascontiguousarray(arr).tobytes()
-        views.append({"buffer": 0, "byteOffset": offset, "byteLength": len(data), "target": target})
-        pad = (-len(data)) % 4
-        chunks.append(data + b"\0" * pad)
-        offset += len(data) + pad
-        ncomp = {"SCALAR": 1, "VEC3": 3}[atype]
-        acc = {"bufferView": len(views) - 1, "componentType": _FLOAT if arr.dtype == np.float32 else _UINT,
-               "count": int(arr.size // ncomp), "type": atype}
-        if minmax:
-            flat = arr.reshape(-1, ncomp)
-            acc["min"] = flat.min(0).astype(float).tolist()
-            acc["max"] = flat.max(0).astype(float).tolist()
-        accessors.append(acc)
-        return len(accessors) - 1
-
+    buf = GltfBuffer()
     gl_meshes, materials, mat_index = [], [], {}
     for i, (cm, ps, m) in enumerate(zip(checked, parts, meshes)):
         prims = []
@@ -115,11 +91,14 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
                                                            "roughnessFactor": 0.9}})
             prim: dict[str, Any] = {"material": mat_index[key], "mode": 4, "attributes": {}}
             if len(f):
-                prim["attributes"]["POSITION"] = add(v.astype(np.float32), "VEC3", _ARRAY, minmax=True)
-                prim["attributes"]["NORMAL"] = add(_vertex_normals(v, f).astype(np.float32), "VEC3", _ARRAY)
-                prim["indices"] = add(f.astype(np.uint32).ravel(), "SCALAR", _ELEMENTS)
+                prim["attributes"]["POSITION"] = buf.add(v.astype(np.float32), "VEC3", target=ARRAY_BUFFER,
+                                                           minmax=True)
+                prim["attributes"]["NORMAL"] = buf.add(_vertex_normals(v, f).astype(np.float32), "VEC3",
+                                                         target=ARRAY_BUFFER)
+                prim["indices"] = buf.add(f.astype(np.uint32).ravel(), "SCALAR", target=ELEMENT_ARRAY_BUFFER)
             else:  # glTF needs POSITION: an empty part becomes one degenerate (zero-area) triangle
-                prim["attributes"]["POSITION"] = add(np.zeros((3, 3), np.float32), "VEC3", _ARRAY, minmax=True)
+                prim["attributes"]["POSITION"] = buf.add(np.zeros((3, 3), np.float32), "VEC3",
+                                                           target=ARRAY_BUFFER, minmax=True)
             prims.append(prim)
         gl_meshes.append({"name": m.get("name", f"mesh_{i}"), "primitives": prims})
     gl_nodes = []
@@ -129,10 +108,10 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
             if nd.get(key) is not None:
                 out[key] = check_array(f"nodes[{k}] {key}", nd[key], shape=(n,)).tolist()
         gl_nodes.append(out)
-    blob = b"".join(chunks)
+    blob = buf.blob()
     doc = {"asset": {"version": "2.0", "generator": "PlantVR landscape"}, "scene": 0,
            "scenes": [{"name": "landscape", "nodes": list(range(len(gl_nodes)))}], "nodes": gl_nodes,
-           "meshes": gl_meshes, "materials": materials, "accessors": accessors, "bufferViews": views,
+           "meshes": gl_meshes, "materials": materials, "accessors": buf.accessors, "bufferViews": buf.views,
            "buffers": [{"byteLength": len(blob)}]}
     js = json.dumps(doc, separators=(",", ":")).encode()
     js += b" " * ((-len(js)) % 4)

@@ -18,6 +18,18 @@ __all__ = ["joint_hulls"]
 
 
 @numba.njit(cache=True, nogil=True)
+def _add_face(P, fv, fn, fo, alive, edge, f, a, b, c, nv):  # pragma: no cover - compiled
+    """Store face ``f = (a, b, c)`` with unit normal ``nv``, mark it alive and register its three directed edges."""
+    fv[f, 0], fv[f, 1], fv[f, 2] = a, b, c
+    fn[f] = nv
+    fo[f] = (nv * P[a]).sum()
+    alive[f] = True
+    edge[a, b] = f
+    edge[b, c] = f
+    edge[c, a] = f
+
+
+@numba.njit(cache=True, nogil=True)
 def _hull_one(P, eps):  # pragma: no cover - compiled; twin-tested against Qhull
     n = P.shape[0]
     maxf = 16 * n + 32
@@ -60,14 +72,7 @@ def _hull_one(P, eps):  # pragma: no cover - compiled; twin-tested against Qhull
         if (nv * (cen - P[a])).sum() > 0:          # make it point away from the interior
             b, c = c, b
             nv = -nv
-        nv = nv / np.sqrt((nv ** 2).sum())
-        fv[nf, 0], fv[nf, 1], fv[nf, 2] = a, b, c
-        fn[nf] = nv
-        fo[nf] = (nv * P[a]).sum()
-        alive[nf] = True
-        edge[a, b] = nf
-        edge[b, c] = nf
-        edge[c, a] = nf
+        _add_face(P, fv, fn, fo, alive, edge, nf, a, b, c, nv / np.sqrt((nv ** 2).sum()))
         nf += 1
     used = np.zeros(n, np.bool_)
     used[i0] = used[i1] = used[i2] = used[i3] = True
@@ -105,14 +110,7 @@ def _hull_one(P, eps):  # pragma: no cover - compiled; twin-tested against Qhull
             a, b = hor[h, 0], hor[h, 1]
             nv = np.cross(P[b] - P[a], P[p] - P[a])
             ln = np.sqrt((nv ** 2).sum())
-            nv = nv / (ln if ln > 0 else 1.0)
-            fv[nf, 0], fv[nf, 1], fv[nf, 2] = a, b, p
-            fn[nf] = nv
-            fo[nf] = (nv * P[a]).sum()
-            alive[nf] = True
-            edge[a, b] = nf
-            edge[b, p] = nf
-            edge[p, a] = nf
+            _add_face(P, fv, fn, fo, alive, edge, nf, a, b, p, nv / (ln if ln > 0 else 1.0))
             nf += 1
         used[p] = True
     cnt = 0

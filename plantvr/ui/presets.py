@@ -16,6 +16,37 @@ __all__ = ["save_preset", "load_preset", "read_preset"]
 _FORMAT = 1
 
 
+# -- PlantVR JSON files (presets here, stroke files in .strokes): one set of path and I/O errors
+def _json_path(path: str | Path, kind: str) -> Path:
+    """``path`` as a Path; a ValueError naming the ``kind`` of file unless it ends in ``.json``."""
+    path = Path(path)
+    if path.suffix != ".json":
+        raise ValueError(f"{kind} path must end in .json, got {path.suffix!r}")
+    return path
+
+
+def _write_text(path: Path, text: str, kind: str) -> Path:
+    """Write ``text`` to ``path``; an OSError becomes a ValueError naming the ``kind`` of file."""
+    try:
+        path.write_text(text)
+    except OSError as exc:
+        raise ValueError(f"cannot write {kind} {path!s}: {exc}") from None
+    return path
+
+
+def _read_json(path: Path, kind: str) -> Any:
+    """The parsed JSON of a PlantVR file (preset, stroke file); a ValueError naming the ``kind`` of file and
+    its path when it is missing, unreadable or not JSON."""
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ValueError(f"{kind} {path!s} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read {kind} {path!s}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{kind} {path!s} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
+
+
 def save_preset(model, path: str | Path, *, windows: tuple[str, ...] | None = None) -> Path:
     """Write the model's parameters (optionally only those of ``windows``) as a JSON preset.
 
@@ -31,28 +62,15 @@ def save_preset(model, path: str | Path, *, windows: tuple[str, ...] | None = No
     -------
     Path
     """
-    path = Path(path)
-    if path.suffix != ".json":
-        raise ValueError(f"preset path must end in .json, got {path.suffix!r}")
+    path = _json_path(path, "preset")
     values = {p.name: getattr(model, p.name) for p in PARAMS if windows is None or p.window in windows}
-    try:
-        path.write_text(json.dumps({"plantvr_preset": _FORMAT, "params": values}, indent=1))
-    except OSError as exc:
-        raise ValueError(f"cannot write preset {path!s}: {exc}") from None
-    return path
+    return _write_text(path, json.dumps({"plantvr_preset": _FORMAT, "params": values}, indent=1), "preset")
 
 
 def read_preset(path: str | Path) -> dict[str, Any]:
     """Read and validate a preset file; returns ``{name: value}`` (checked against the table)."""
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"preset {path!s} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read preset {path!s}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"preset {path!s} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    data = _read_json(path, "preset")
     if not isinstance(data, dict) or data.get("plantvr_preset") != _FORMAT or not isinstance(data.get("params"), dict):
         raise ValueError(f"preset {path!s} is not a PlantVR preset "
                          f"(expected {{'plantvr_preset': {_FORMAT}, 'params': {{...}}}})")

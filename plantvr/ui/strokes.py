@@ -23,6 +23,7 @@ import ipywidgets as W
 from .._validation import check_choice, check_int, check_point, check_range
 from ..growth import scenarios as S
 from ..params import defaults, validate
+from .presets import _json_path, _read_json, _write_text
 
 __all__ = ["SCENARIOS", "SCENARIO_DIR", "Scenario", "ScenarioPicker", "list_scenarios", "load_scenario",
            "read_scenario", "record_scenario", "replay_scenario", "save_scenario"]
@@ -178,18 +179,12 @@ def save_scenario(scenario: Scenario, path: str | Path) -> Path:
     -------
     Path
     """
-    path = Path(path)
-    if path.suffix != ".json":
-        raise ValueError(f"scenario path must end in .json, got {path.suffix!r}")
+    path = _json_path(path, "scenario")
     head = {"plantvr_scenario": _FORMAT, "name": scenario.name, "figure": scenario.figure, "title": scenario.title,
             "notes": scenario.notes, "seed": scenario.seed, "params": scenario.params}
     body = ",\n".join("  " + json.dumps({"command": c, "kwargs": kw}) for c, kw in scenario.events)
     text = json.dumps(head, indent=1)[:-2] + ',\n "events": [\n' + body + "\n ]\n}\n"
-    try:
-        path.write_text(text)
-    except OSError as exc:
-        raise ValueError(f"cannot write scenario {path!s}: {exc}") from None
-    return path
+    return _write_text(path, text, "scenario")
 
 
 def _check_event(i: int, ev: Any) -> tuple[str, dict[str, Any]]:
@@ -224,14 +219,7 @@ def read_scenario(path: str | Path) -> Scenario:
         Missing, unreadable or not a PlantVR scenario, or any bad parameter or event (the message names it).
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"scenario {path!s} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read scenario {path!s}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"scenario {path!s} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    data = _read_json(path, "scenario")
     keys = ("name", "figure", "title", "notes", "seed", "params", "events")
     if (not isinstance(data, dict) or data.get("plantvr_scenario") != _FORMAT or any(k not in data for k in keys)
             or not isinstance(data["params"], dict) or not isinstance(data["events"], list)):
