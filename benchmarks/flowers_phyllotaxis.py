@@ -101,15 +101,7 @@ def _hierarchical(heads: int, florets: int, steps: int) -> dict:
 def _cloth(n: int):
     from plantvr.flowers import pbd
     h = 1.0 / (n - 1)
-    g = np.arange(n) * h
-    x = np.array([[i, j, 0.0] for i in g for j in g])
-    idx = np.arange(n * n).reshape(n, n)
-    f = []
-    for i in range(n - 1):
-        for j in range(n - 1):
-            a, b, c, d = idx[i, j], idx[i + 1, j], idx[i + 1, j + 1], idx[i, j + 1]
-            f += [[a, b, c], [a, c, d]]
-    f = np.array(f, np.int64)
+    x, f = pbd.cloth_patch(n, spacing=h)
     e, q = pbd.mesh_edges(f), pbd.bend_quads(f)
     w = np.ones(len(x))
     w[x[:, 1] == 0] = 0.0

@@ -60,6 +60,13 @@ def _cellkey(ix, iy, iz):
     return (ix + _KEY_OFF) | ((iy + _KEY_OFF) << 21) | ((iz + _KEY_OFF) << 42)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _cell_range(lo, hi, e, inv):
+    """Grid cells ``(x0, x1, y0, y1, z0, z1)`` (inclusive) covered by box ``e`` of ``lo``/``hi``."""
+    return (_ci(lo[e, 0], inv), _ci(hi[e, 0], inv), _ci(lo[e, 1], inv), _ci(hi[e, 1], inv),
+            _ci(lo[e, 2], inv), _ci(hi[e, 2], inv))
+
+
 @numba.njit(cache=True, nogil=True)
 def _swept_boxes_kernel(x0, x1, elems, ids, pad, lo, hi):
     """Padded AABBs of the elements' start and end positions, written in place for ``ids``."""
@@ -99,9 +106,7 @@ def _hash_insert(lo, hi, ids, inv, head, stamp, cur, nxt, elem, key, n):
     mask = head.size - 1
     for k in range(ids.size):
         e = ids[k]
-        x0, x1 = _ci(lo[e, 0], inv), _ci(hi[e, 0], inv)
-        y0, y1 = _ci(lo[e, 1], inv), _ci(hi[e, 1], inv)
-        z0, z1 = _ci(lo[e, 2], inv), _ci(hi[e, 2], inv)
+        x0, x1, y0, y1, z0, z1 = _cell_range(lo, hi, e, inv)
         for iz in range(z0, z1 + 1):
             for iy in range(y0, y1 + 1):
                 for ix in range(x0, x1 + 1):
@@ -130,9 +135,7 @@ def _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, inv, head, stam
     for k in range(qids.size):
         q = qids[k]
         token += 1
-        x0, x1 = _ci(qlo[q, 0], inv), _ci(qhi[q, 0], inv)
-        y0, y1 = _ci(qlo[q, 1], inv), _ci(qhi[q, 1], inv)
-        z0, z1 = _ci(qlo[q, 2], inv), _ci(qhi[q, 2], inv)
+        x0, x1, y0, y1, z0, z1 = _cell_range(qlo, qhi, q, inv)
         for iz in range(z0, z1 + 1):
             for iy in range(y0, y1 + 1):
                 for ix in range(x0, x1 + 1):

@@ -14,6 +14,7 @@ from plantvr._validation import check_array, check_choice, check_int, check_rang
 
 __all__ = [
     "bend_quads",
+    "cloth_patch",
     "dihedral_gradient",
     "edge_lengths",
     "mesh_edges",
@@ -22,6 +23,45 @@ __all__ = [
     "solve_internal_jacobi_numpy",
     "solve_internal_numpy",
 ]
+
+
+def cloth_patch(nx: int, ny: int | None = None, *, spacing: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Flat rectangular grid of ``nx`` x ``ny`` vertices in the z = 0 plane, two triangles per cell.
+
+    The cloth patch of V26 and the petal strips of the PBD/CCD tests (App. B.5).
+
+    Parameters
+    ----------
+    nx : int
+        Vertices along x (>= 2).
+    ny : int, optional
+        Vertices along y (>= 2); ``nx`` if omitted.
+    spacing : float
+        Grid step in x and y, in metres (> 0).
+
+    Returns
+    -------
+    x : (nx * ny, 3) float64 ndarray
+        Vertex ``i * ny + j`` at ``(i * spacing, j * spacing, 0)``.
+    faces : (2 (nx - 1) (ny - 1), 3) int64 ndarray
+        Triangles ``(a, b, c)`` and ``(a, c, d)`` of cell (i, j), with a = (i, j), b = (i + 1, j),
+        c = (i + 1, j + 1), d = (i, j + 1), cells in row-major order; normals along +z.
+
+    Examples
+    --------
+    >>> x, faces = cloth_patch(2, 3)
+    >>> x.shape, faces.tolist()
+    ((6, 3), [[0, 3, 4], [0, 4, 1], [1, 4, 5], [1, 5, 2]])
+    """
+    nx = check_int("nx", nx, 2, 1_000_000)
+    ny = nx if ny is None else check_int("ny", ny, 2, 1_000_000)
+    spacing = check_range("spacing", spacing, 0.0, np.inf, low_open=True)
+    gx, gy = np.meshgrid(np.arange(nx) * spacing, np.arange(ny) * spacing, indexing="ij")
+    x = np.column_stack([gx.ravel(), gy.ravel(), np.zeros(gx.size)])
+    idx = np.arange(nx * ny, dtype=np.int64).reshape(nx, ny)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    faces = np.stack([np.stack([a, b, c], axis=-1), np.stack([a, c, d], axis=-1)], axis=2)
+    return x, faces.reshape(-1, 3)
 
 
 def mesh_edges(faces: np.ndarray) -> np.ndarray:

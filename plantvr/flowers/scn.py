@@ -149,8 +149,22 @@ class Placement:
         return f"{self.kind}: " + " ".join(_fmt(v) for v in nums)
 
 
-def _where(source: str, lineno: int) -> str:
-    return f"{source}, line {lineno}"
+def _content_lines(text: str, source: str):
+    """Yield ``(where, line)`` for each stripped line of ``text`` that is neither blank nor a ``#`` comment."""
+    if not isinstance(text, str):
+        raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if line and not line.startswith("#"):
+            yield f"{source}, line {lineno}", line
+
+
+def _entry_numbers(tokens: list[str], where: str) -> list[float]:
+    """Numbers of an SCN/RBA entry whose first field is a non-negative integer id."""
+    v = _numbers(tokens, where)
+    if not v[0].is_integer() or v[0] < 0:
+        raise ValueError(f"{where}: id must be a non-negative integer, got {tokens[0]!r}")
+    return v
 
 
 def _numbers(tokens: list[str], where: str) -> list[float]:
@@ -202,15 +216,9 @@ def parse_scn(text: str, *, source: str = "<scn>") -> list[Placement]:
        ("interploationValue"). Reading the example's run-together vectors ("000 111 010 100") digit by digit
        is [INFERRED].
     """
-    if not isinstance(text, str):
-        raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
     out: list[Placement] = []
     mtl_done = True
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        where = _where(source, lineno)
+    for where, line in _content_lines(text, source):
         kind, colon, rest = line.partition(":")
         kind = kind.strip()
         if not colon:
@@ -237,9 +245,7 @@ def parse_scn(text: str, *, source: str = "<scn>") -> list[Placement]:
             names = ", ".join(("id", "position", "scale", "up", "right", *SCN_TYPES[kind]))
             raise ValueError(f"{where}: {kind!r} entries have {_PREAMBLE + n_extra} fields ({names}), "
                              f"got {len(tokens)}")
-        v = _numbers(tokens, where)
-        if not v[0].is_integer() or v[0] < 0:
-            raise ValueError(f"{where}: id must be a non-negative integer, got {tokens[0]!r}")
+        v = _entry_numbers(tokens, where)
         try:
             out.append(Placement(kind, int(v[0]), v[1:4], v[4:7], v[7:10], v[10:13], tuple(v[13:])))
         except ValueError as err:
@@ -332,9 +338,9 @@ def parse_rba(text: str, *, source: str = "<rba>") -> RigidBodyFrame:
     Parameters
     ----------
     text : str
-        File contents.
+        The RBA file's text: one line ``id x y z sx sy sz ux uy uz rx ry rz`` per placed entry.
     source : str
-        Name used in error messages.
+        File name that error messages start with.
 
     Returns
     -------
@@ -344,22 +350,13 @@ def parse_rba(text: str, *, source: str = "<rba>") -> RigidBodyFrame:
     ----------
     .. [1] Owens 2016, App. C.3 and Fig. 8.2 (ids index the companion SCN file's entries).
     """
-    if not isinstance(text, str):
-        raise ValueError(f"text must be a str, got {type(text).__name__}")  # noqa: TRY004
     rows = []
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        where = _where(source, lineno)
+    for where, line in _content_lines(text, source):
         tokens = line.split()
         if len(tokens) != _PREAMBLE:
             raise ValueError(f"{where}: RBA lines have {_PREAMBLE} fields (id, position, scale, up, right), "
                              f"got {len(tokens)}")
-        v = _numbers(tokens, where)
-        if not v[0].is_integer() or v[0] < 0:
-            raise ValueError(f"{where}: id must be a non-negative integer, got {tokens[0]!r}")
-        rows.append(v)
+        rows.append(_entry_numbers(tokens, where))
     a = np.array(rows, dtype=np.float64).reshape(len(rows), _PREAMBLE)
     try:
         return RigidBodyFrame(a[:, 0].astype(np.int64), a[:, 1:4], a[:, 4:7], a[:, 7:10], a[:, 10:13])

@@ -129,17 +129,19 @@ def test_centre_anchor_sits_mid_band():
     assert np.allclose(a_s, 1.0 - 0.1 * (np.arange(fr.n) + 0.5), atol=1e-12)
 
 
-def test_bad_input():
-    with pytest.raises(ValueError, match="mode must be one of"):
-        DynamicPhyllotaxis(mode="spiral")
-    with pytest.raises(ValueError, match="inner_area must be in"):
-        DynamicPhyllotaxis(inner_area=0.0)
-    with pytest.raises(ValueError, match="outer region"):
-        DynamicPhyllotaxis(mode="divergent")
-    with pytest.raises(ValueError, match="strictly increasing"):
-        DynamicPhyllotaxis([(1.0, disc_receptacle()), (0.0, disc_receptacle())])
-    with pytest.raises(ValueError, match=r"profiles\[0\]"):
-        DynamicPhyllotaxis([(0.0, "disc")])
+@pytest.mark.parametrize("kwargs, match", [
+    ({"mode": "spiral"}, "mode must be one of"),
+    ({"inner_area": 0.0}, "inner_area must be in"),
+    ({"mode": "divergent"}, "outer region"),
+    ({"profiles": [(1.0, disc_receptacle()), (0.0, disc_receptacle())]}, "strictly increasing"),
+    ({"profiles": [(0.0, "disc")]}, r"profiles\[0\]"),
+])
+def test_bad_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        DynamicPhyllotaxis(**kwargs)
+
+
+def test_rejected_step_leaves_the_meristem_unchanged():
     dyn = DynamicPhyllotaxis(mode="segregation", inner_area=0.01, inner_rate=lambda t: -1.0)
     before = dyn.frame
     with pytest.raises(ValueError, match="inner_rate"):

@@ -96,19 +96,17 @@ def test_deterministic():
     assert all(np.array_equal(a[k], b[k]) for k in a)
 
 
-def test_bad_input():
-    with pytest.raises(ValueError, match="meristem_area must be set"):
-        HierarchicalPhyllotaxis([LevelSpec(), LevelSpec()])
-    with pytest.raises(ValueError, match="non-empty sequence of LevelSpec"):
-        HierarchicalPhyllotaxis([])
-    with pytest.raises(ValueError, match="mode must be one of"):
-        LevelSpec(mode="whorl")
-    with pytest.raises(ValueError, match="outer_rate > 0"):
-        LevelSpec(mode="divergent")
-    with pytest.raises(ValueError, match="packing must be in"):
-        LevelSpec(packing=0.0)
-    with pytest.raises(ValueError, match="profile must be a Receptacle"):
-        LevelSpec(profile="cone")
+@pytest.mark.parametrize("make, match", [
+    (lambda: HierarchicalPhyllotaxis([LevelSpec(), LevelSpec()]), "meristem_area must be set"),
+    (lambda: HierarchicalPhyllotaxis([]), "non-empty sequence of LevelSpec"),
+    (lambda: LevelSpec(mode="whorl"), "mode must be one of"),
+    (lambda: LevelSpec(mode="divergent"), "outer_rate > 0"),
+    (lambda: LevelSpec(packing=0.0), "packing must be in"),
+    (lambda: LevelSpec(profile="cone"), "profile must be a Receptacle"),
+], ids=["meristem_area", "empty", "mode", "outer_rate", "packing", "profile"])
+def test_bad_input(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
 
 
 def test_failed_step_leaves_the_tree_unchanged():

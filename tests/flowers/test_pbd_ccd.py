@@ -5,16 +5,35 @@ import pytest
 from plantvr.flowers import ccd, pbd
 
 
-def _strip(nx=5, ny=8, z=0.0, shift=0.0, size=0.1):
-    gx, gy = np.meshgrid(np.arange(nx) * size, np.arange(ny) * size + shift, indexing="ij")
-    x = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, z)])
-    idx = np.arange(nx * ny).reshape(nx, ny)
-    f = []
-    for i in range(nx - 1):
-        for j in range(ny - 1):
-            a, b, c, d = idx[i, j], idx[i + 1, j], idx[i + 1, j + 1], idx[i, j + 1]
-            f += [[a, b, c], [a, c, d]]
-    return x, np.array(f, np.int64)
+def _strip(nx=5, ny=8, size=0.1):
+    return pbd.cloth_patch(nx, ny, spacing=size)
+
+
+def _bent_strip(seed, nx, ny, *, noise=0.02, pinned=4, mod=pbd):
+    """A strip with jittered heights, perturbed rest lengths and angles and ``pinned`` attached vertices."""
+    rng = np.random.default_rng(seed)
+    x, f = _strip(nx, ny)
+    x[:, 2] += noise * rng.normal(size=len(x))
+    e, q = mod.mesh_edges(f), mod.bend_quads(f)
+    rl = mod.edge_lengths(x, e) * rng.uniform(0.8, 1.2, len(e))
+    rp = mod.signed_dihedrals(x, q) + rng.normal(0, 0.3, len(q))
+    w = np.ones(len(x))
+    w[:pinned] = 0
+    return x, w, e, rl, q, rp
+
+
+def _two_strips(rng, n, offset):
+    """Two n x n strips, the second shifted by ``offset``, and end positions jittered by 0.03."""
+    x0, f = _strip(n, n)
+    x0 = np.vstack([x0, x0 + offset])
+    f = np.vstack([f, f + n * n])
+    return x0, f, x0 + rng.normal(0, 0.03, x0.shape)
+
+
+def _point_through_triangle():
+    """Vertex 0 falls from z = 0.37 to -0.63 through the triangle (1, 2, 3) in the z = 0 plane."""
+    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
+    return np.array([[1, 2, 3]]), np.vstack([[0.2, 0.2, 0.37], tri]), np.vstack([[0.2, 0.2, -0.63], tri])
 
 
 def test_v9_distance_projection_exact_and_momentum():
@@ -78,14 +97,7 @@ def test_v12_mirror_test_signed_converges_through_flat(rest):
 
 
 def test_pbd_numba_equals_numpy_twin():
-    rng = np.random.default_rng(1)
-    x, f = _strip(4, 5)
-    x[:, 2] += 0.02 * rng.normal(size=len(x))
-    e, q = pbd.mesh_edges(f), pbd.bend_quads(f)
-    rl = pbd.edge_lengths(x, e) * rng.uniform(0.8, 1.2, len(e))
-    rp = pbd.signed_dihedrals(x, q) + rng.normal(0, 0.3, len(q))
-    w = np.ones(len(x))
-    w[:4] = 0
+    x, w, e, rl, q, rp = _bent_strip(1, 4, 5)
     a, b = x.copy(), x.copy()
     pbd.solve_internal(a, w, e, rl, q, rp, iterations=5, backend="numba")
     pbd.solve_internal(b, w, e, rl, q, rp, iterations=5, backend="numpy")
@@ -119,16 +131,14 @@ def test_v18_root_finder_known_roots(roots):
 
 
 def test_v19_vt_crossing_beside_and_parity():
-    f = np.array([[1, 2, 3]])
-    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
-    x0 = np.vstack([[0.2, 0.2, 0.37], tri])
-    x1 = np.vstack([[0.2, 0.2, -0.63], tri])
+    f, x0, x1 = _point_through_triangle()
+    tri = x0[1:]
     cons, sides, kind = ccd.detect_collisions(x0, x1, f)
     assert cons.tolist() == [[0, 1, 2, 3]] and sides[0] == 1.0 and kind[0] == 0
     x1b = np.vstack([[1.2, 1.2, -0.63], tri])
     assert len(ccd.detect_collisions(x0, x1b, f)[0]) == 0
     # crossing and re-crossing: triangle vertex a moves so the plane sweeps the point twice
-    x0c = np.vstack([[0.2, 0.2, 0.1], [[0, 0, 0], [1, 0, 0], [0, 1, 0.0]]])
+    x0c = np.vstack([[0.2, 0.2, 0.1], tri])
     x1c = np.vstack([[0.2, 0.2, 0.1], [[0, 0, 0.1], [1, 0, 0.1], [0, 1, 0.1]]])
     x1c[1:, 2] = [0.0, 0.0, 0.0]
     assert len(ccd.detect_collisions(x0c, x1c, f)[0]) == 0
@@ -151,11 +161,7 @@ def test_v20_ee_crossing_and_skew_rejection():
 
 
 def test_v21_broad_phase_complete_vs_brute_force():
-    rng = np.random.default_rng(4)
-    x0, f = _strip(6, 6)
-    x0 = np.vstack([x0, x0 + [0.05, 0.05, 0.04]])
-    f = np.vstack([f, f + 36])
-    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    x0, f, x1 = _two_strips(np.random.default_rng(4), 6, [0.05, 0.05, 0.04])
     verts = np.arange(len(x0))[:, None]
     brute = np.array([(v, t) for v in range(len(x0)) for t in range(len(f)) if v not in f[t]])
     allc, _, _ = ccd._narrow(x0, x1, brute, verts, f, 0, 1e-6, 1e-9)
@@ -168,10 +174,7 @@ def test_v21_broad_phase_complete_vs_brute_force():
 
 
 def test_v22_collision_projection_restores_side():
-    f = np.array([[1, 2, 3]])
-    tri = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.0]])
-    x0 = np.vstack([[0.2, 0.2, 0.37], tri])
-    x1 = np.vstack([[0.2, 0.2, -0.63], tri])
+    f, x0, x1 = _point_through_triangle()
     cons, sides, _ = ccd.detect_collisions(x0, x1, f)
     p = x1.copy()
     ccd.solve_collisions(p, np.ones(4), cons, sides, h=0.005, k_collision=1.0, iterations=10)
@@ -180,11 +183,7 @@ def test_v22_collision_projection_restores_side():
 
 
 def test_narrow_numba_equals_numpy_twin():
-    rng = np.random.default_rng(5)
-    x0, f = _strip(6, 6)
-    x0 = np.vstack([x0, x0 + [0.05, 0.05, 0.03]])
-    f = np.vstack([f, f + 36])
-    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    x0, f, x1 = _two_strips(np.random.default_rng(5), 6, [0.05, 0.05, 0.03])
     a = ccd.detect_collisions(x0, x1, f)
     b = ccd.detect_collisions_numpy(x0, x1, f)
     assert len(a[0]) > 0
@@ -231,10 +230,7 @@ def test_bad_input_negative_thickness():
 
 def test_incremental_redetect_equals_full_detection():
     rng = np.random.default_rng(11)
-    x0, f = _strip(7, 7)
-    x0 = np.vstack([x0, x0 + [0.03, 0.04, 0.03]])
-    f = np.vstack([f, f + 49])
-    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    x0, f, x1 = _two_strips(rng, 7, [0.03, 0.04, 0.03])
     det = ccd.CollisionDetector(f, len(x0), h=0.005)
     cons, sides, _ = det.detect(x0, x1)
     assert len(cons) > 0
@@ -265,11 +261,7 @@ def test_spatial_hash_broad_phase_equals_brute_force_box_overlap():
 
 
 def test_collision_projection_numba_equals_numpy_twin():
-    rng = np.random.default_rng(13)
-    x0, f = _strip(6, 6)
-    x0 = np.vstack([x0, x0 + [0.03, 0.04, 0.03]])
-    f = np.vstack([f, f + 36])
-    x1 = x0 + rng.normal(0, 0.03, x0.shape)
+    x0, f, x1 = _two_strips(np.random.default_rng(13), 6, [0.03, 0.04, 0.03])
     cons, sides, _ = ccd.detect_collisions(x0, x1, f)
     assert len(cons) > 5
     w = np.ones(len(x0))
@@ -362,14 +354,7 @@ def test_v26_jacobi_does_not_depend_on_constraint_order():
 
 
 def test_jacobi_numba_equals_numpy_twin():
-    rng = np.random.default_rng(8)
-    x, f = _strip(4, 5)
-    x[:, 2] += 0.02 * rng.normal(size=len(x))
-    e, q = pbd.mesh_edges(f), pbd.bend_quads(f)
-    rl = pbd.edge_lengths(x, e) * rng.uniform(0.8, 1.2, len(e))
-    rp = pbd.signed_dihedrals(x, q) + rng.normal(0, 0.3, len(q))
-    w = np.ones(len(x))
-    w[:4] = 0
+    x, w, e, rl, q, rp = _bent_strip(8, 4, 5)
     a, b = x.copy(), x.copy()
     pbd.solve_internal(a, w, e, rl, q, rp, iterations=7, method="jacobi", omega=1.3, backend="numba")
     pbd.solve_internal(b, w, e, rl, q, rp, iterations=7, method="jacobi", omega=1.3, backend="numpy")
@@ -401,14 +386,7 @@ def pbd_nojit(monkeypatch):
 def test_pbd_kernels_without_jit_match_twins(pbd_nojit):
     """The kernels run as plain Python (coverage sees their lines) and equal the numpy twins (STYLE §8)."""
     mod = pbd_nojit
-    rng = np.random.default_rng(9)
-    x, f = _strip(3, 4)
-    x[:, 2] += 0.03 * rng.normal(size=len(x))
-    e, q = mod.mesh_edges(f), mod.bend_quads(f)
-    rl = mod.edge_lengths(x, e) * rng.uniform(0.8, 1.2, len(e))
-    rp = mod.signed_dihedrals(x, q) + rng.normal(0, 0.3, len(q))
-    w = np.ones(len(x))
-    w[:3] = 0
+    x, w, e, rl, q, rp = _bent_strip(9, 3, 4, noise=0.03, pinned=3, mod=mod)
     for method in ("gauss-seidel", "jacobi"):
         a, b = x.copy(), x.copy()
         mod.solve_internal(a, w, e, rl, q, rp, iterations=3, method=method, omega=1.2, backend="numba")
