@@ -69,7 +69,7 @@ _STROKE_JS = """async ({dur, r}) => {
   const ev = (type, x, y) => c.dispatchEvent(new PointerEvent(type, {clientX: x, clientY: y, button: 0,
       buttons: type === 'pointerup' ? 0 : 1, ctrlKey: true, bubbles: true, cancelable: true, pointerId: 1,
       isPrimary: true}));
-  const n0 = v.strokes, r0 = v.renders.length, l0 = v.log.length;
+  const n0 = v.strokes, r0 = v.renders.length, l0 = v.log.length, fast0 = v.fast, ap0 = v.applied;
   const t0 = performance.now();
   ev('pointerdown', cx - r, cy);
   let moves = 0;
@@ -85,7 +85,7 @@ _STROKE_JS = """async ({dur, r}) => {
   const tEnd = performance.now();
   run = false;
   v.finish = false;
-  return {t0, tUp, tEnd, moves, frames: frames.filter(t => t >= t0 && t <= tUp).length,
+  return {t0, tUp, tEnd, moves, fast: v.fast - fast0, applied: v.applied - ap0, frames: frames.filter(t => t >= t0 && t <= tUp).length,
           renders: v.renders.slice(r0).filter(x => x[0] >= t0 && x[0] <= tUp).map(x => x[1]),
           rtt: v.log.slice(l0).map(e => e.back - e.sent), points: v.log.slice(l0).map(e => e.points),
           last_render_ms: v.renders.length ? v.renders[v.renders.length - 1][1] : 0};
@@ -151,7 +151,7 @@ def _measure(browser, seg: Segmentation, budget: int, config: str, lod: int, rad
             "fps": r["frames"] / dur, "updates_per_s": len(r["renders"]) / dur,
             "render_ms": float(np.median(r["renders"])) if r["renders"] else float("nan"),
             "rtt_ms": float(np.median(r["rtt"])), "end_s": (r["tEnd"] - r["tUp"]) / 1e3,
-            "final_render_ms": r["last_render_ms"], "moves": r["moves"], "requests": st["requests"],
+            "final_render_ms": r["last_render_ms"], "moves": r["moves"], "fast": r["fast"], "applied": r["applied"], "requests": st["requests"],
             "stamps": st["stamps"], "misses": st["misses"], "bytes_rx": sum(rx), "bytes_tx": sum(tx),
             "changed_full": int(np.count_nonzero(seg.labels)), "delta_vertices": app.delta_vertices,
             "pick_ms": 1e3 * st["pick_s"] / stamps, "paint_ms": 1e3 * st["paint_s"] / stamps,
@@ -219,7 +219,8 @@ def main(argv: list[str] | None = None) -> dict:
                       f"({r['scene_bytes']:,} B), redraw {r['draw_ms']:.0f} ms, with buffer rebuild "
                       f"{r['rebuild_ms']:.0f} ms; painting {r['fps']:.1f} fps, {r['updates_per_s']:.1f} updates/s "
                       f"(render {r['render_ms']:.0f} ms, rtt {r['rtt_ms']:.0f} ms, {r['stamps']} stamps from "
-                      f"{r['requests']} requests, {r['moves']} moves, {r['misses']} misses); end of stroke {r['end_s']:.2f} s; "
+                      f"{r['requests']} requests, {r['moves']} moves, {r['misses']} misses; {r['fast']} of {r['applied']} batches' "
+                      f"actors recoloured in the GPU buffer); end of stroke {r['end_s']:.2f} s; "
                       f"{r['bytes_rx']:,} B received / {r['bytes_tx']:,} B sent per stroke for "
                       f"{r['delta_vertices']:,} changed proxy vertices ({r['changed_full']:,} full-res; whole "
                       f"colour array {r['colour_array_bytes']:,} B); server per stamp: pick {r['pick_ms']:.2f} ms, "

@@ -118,6 +118,8 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             assert _wait(page, lambda: not np.any(seg.labels))
             assert _wait(page, lambda: _yellow(_img(page)) == 0)
             assert app.deltas == 2 and page.evaluate("window.vineDelta.applied") == 2    # undo: a delta too
+            # ... written straight into the GPU colour buffer (no vertex-buffer rebuild): the paint is gone
+            assert page.evaluate("window.vineDelta.fast") == 1
 
             # paint again, then hide the selected colour: gone from the page, kept in the labels
             page.mouse.click(cx, cy)
@@ -331,6 +333,7 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
             assert hook["log"][0] == "begin" and hook["log"][-1] == "end" and hook["resyncs"] == 0
             assert hook["applied"] == app.deltas and hook["vertices"] == app.delta_vertices > 0
             assert not hook["lodShown"] and True in page.evaluate("window.__lod")     # coarse while it ran
+            assert hook["fast"] > 0                   # later deltas of the stroke: into the GPU colour buffer
             assert stroke_bytes < 8 * app.delta_vertices + 400 * len(hook["log"]) + 2_000, \
                 (stroke_bytes, app.delta_vertices, len(hook["log"]))
             page.screenshot(path=str(shots / "vine_review_stroke.png"))
