@@ -36,6 +36,23 @@ def _point_through_triangle():
     return np.array([[1, 2, 3]]), np.vstack([[0.2, 0.2, 0.37], tri]), np.vstack([[0.2, 0.2, -0.63], tri])
 
 
+def test_cloth_patch_grid_orientation_and_bad_input():
+    import trimesh
+    x, f = pbd.cloth_patch(4, 3, spacing=0.5)
+    assert x.shape == (12, 3) and f.shape == (12, 3) and f.dtype == np.int64
+    assert np.array_equal(x[5], [0.5, 1.0, 0.0])                             # vertex i * ny + j
+    mesh = trimesh.Trimesh(x, f, process=False)
+    assert mesh.area == pytest.approx(1.5 * 1.0, abs=1e-12)
+    assert np.allclose(mesh.face_normals, [0, 0, 1])                          # all faces along +z
+    assert len(pbd.mesh_edges(f)) == 3 * 3 + 4 * 2 + 3 * 2                    # rows, columns, diagonals
+    assert len(pbd.bend_quads(f)) == len(pbd.mesh_edges(f)) - 2 * (3 + 2)     # every interior edge
+    assert np.array_equal(pbd.cloth_patch(3)[0], pbd.cloth_patch(3, 3, spacing=0.1)[0])
+    with pytest.raises(ValueError, match="nx must be an integer in"):
+        pbd.cloth_patch(1)
+    with pytest.raises(ValueError, match="spacing must be in"):
+        pbd.cloth_patch(3, 3, spacing=0.0)
+
+
 def test_v9_distance_projection_exact_and_momentum():
     p = np.array([[0.0, 0, 0], [1.0, 0.5, 0.2]])
     w = np.array([1.0, 3.0])
