@@ -222,8 +222,9 @@ def decimate_with_owner(vertices: np.ndarray, faces: np.ndarray, target_faces: i
     points : (P, 3) float32 ndarray
     faces : (Fp, 3) uint32 ndarray
     owner : (V,) int32 ndarray
-        Proxy vertex of every input vertex (its collapse survivor; the nearest proxy vertex where the survivor
-        was decimated away or the vertex is in no face).
+        Proxy vertex of every input vertex: its collapse survivor; the nearest proxy vertex where the survivor
+        was decimated away, the vertex is in no face, or the survivor lies more than 3 median proxy edge lengths
+        away (long collapse chains; every proxy vertex keeps at least one member).
     """
     target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
     agg = check_range("agg", agg, 0.0, 10.0)
@@ -241,13 +242,18 @@ def decimate_with_owner(vertices: np.ndarray, faces: np.ndarray, target_faces: i
         owner1 = np.full(n, -1, np.int32)                     # stage-1 owner of each input vertex (chunk-local)
         owner1_chunk = np.zeros(n, np.uint8)
         parts = []
+        used = np.zeros(n, bool)                              # O(V) relabelling per chunk instead of a sort
+        local = np.empty(n, np.int32)
         for c in range(n_chunks):
             fc = faces[chunk == c]
             if not len(fc):
                 continue
-            glob, loc = np.unique(fc, return_inverse=True)
+            used[fc.ravel()] = True
+            glob = np.flatnonzero(used)                       # == np.unique(fc)
+            used[glob] = False
+            local[glob] = np.arange(len(glob), dtype=np.int32)
+            loc = local[fc]                                   # == np.unique(fc, return_inverse=True)[1]
             del fc
-            loc = loc.reshape(-1, 3).astype(np.int32)
             tc = max(4, round(len(loc) * stage1 / nf))
             pts, pf, own, surv = _simplify(vertices[glob], loc, tc, agg, True)
             if own is None:                                   # unmatched history: keep this chunk undecimated
@@ -258,7 +264,7 @@ def decimate_with_owner(vertices: np.ndarray, faces: np.ndarray, target_faces: i
             owner1_chunk[glob[hit]] = c
             parts.append((c, glob[surv], pts, pf))
             del glob, own, surv, hit
-        del chunk
+        del chunk, used, local
         # union of the chunk meshes: locked cut vertices are survivors of both chunks with the same input id
         gid = np.concatenate([p[1] for p in parts])
         uniq, first, inv = np.unique(gid, return_index=True, return_inverse=True)
@@ -279,11 +285,43 @@ def decimate_with_owner(vertices: np.ndarray, faces: np.ndarray, target_faces: i
         owner = np.where(hit, owner2[np.maximum(owner1, 0)], -1).astype(np.int32)
         del owner1, hit
     pts = np.ascontiguousarray(pts, np.float32)
+    pf = np.ascontiguousarray(pf, np.uint32)
+    tree = None
     lost = np.flatnonzero(owner < 0)
     if lost.size:                                             # decimated-away components, or in no face
-        _, near = cKDTree(pts).query(np.asarray(vertices[lost], np.float64), workers=-1)
+        tree = cKDTree(pts)
+        _, near = tree.query(np.asarray(vertices[lost], np.float64), workers=-1)
         owner[lost] = near
-    return pts, np.ascontiguousarray(pf, np.uint32), owner
+    _pull_far_members(vertices, pts, pf, owner, tree)
+    return pts, pf, owner
+
+
+def _pull_far_members(vertices: np.ndarray, pts: np.ndarray, pf: np.ndarray, owner: np.ndarray,
+                      tree: cKDTree | None = None, factor: float = 3.0) -> None:
+    """Give a vertex further than ``factor`` median proxy edges from its collapse survivor to the nearest proxy
+    vertex instead (long collapse chains on flat parts), in place; every proxy vertex keeps at least one member."""
+    if not len(pf):
+        return
+    e = pts[pf[:, 0].astype(np.int64)] - pts[pf[:, 1].astype(np.int64)]
+    lim2 = float(np.median(np.einsum("ij,ij->i", e, e))) * factor ** 2
+    far = []
+    for lo in range(0, len(owner), 1 << 22):                  # in blocks: no (V, 3) temporaries
+        d = pts[owner[lo:lo + (1 << 22)]] - vertices[lo:lo + (1 << 22)]
+        far.append(lo + np.flatnonzero(np.einsum("ij,ij->i", d, d) > lim2))
+    far = np.concatenate(far)
+    if not far.size:
+        return
+    tree = tree if tree is not None else cKDTree(pts)
+    _, near = tree.query(np.asarray(vertices[far], np.float64), workers=-1)
+    old = owner[far].copy()
+    owner[far] = near
+    for _ in range(4):                                        # undo moves that left a proxy vertex memberless
+        empty = np.bincount(owner, minlength=len(pts)) == 0
+        if not empty.any():
+            return
+        back = empty[old]
+        owner[far[back]] = old[back]
+    owner[far] = old                                          # give up: the plain collapse map
 
 
 # ---------------------------------------------------------------------------------------------- labels

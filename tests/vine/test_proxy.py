@@ -61,6 +61,13 @@ def test_chunked_decimation_maps_every_vertex_once(seg):
     d = np.linalg.norm(px.vertices[px.owner] - seg.vertices, axis=1)
     d_whole = np.linalg.norm(whole.vertices[whole.owner] - seg.vertices, axis=1)
     assert np.percentile(d, 95) < 1.5 * np.percentile(d_whole, 95) + 0.5
+    # members far from their collapse survivor (long chains) went to their nearest proxy vertex instead
+    from scipy.spatial import cKDTree
+    e = px.vertices[px.faces[:, 0]] - px.vertices[px.faces[:, 1]]
+    lim = 3.0 * np.sqrt(np.median(np.einsum("ij,ij->i", e, e)))
+    d_near, _ = cKDTree(px.vertices).query(seg.vertices)
+    assert np.all((d <= lim + 1e-4) | (d <= d_near + 1e-4))
+    assert d.max() <= max(lim, d_near.max()) + 1e-4
     # the proxy surface is no more open than the one-pass proxy (no cracks along the slab cuts)
     def n_border(p):
         m = trimesh.Trimesh(p.vertices, p.faces, process=False)
