@@ -6,7 +6,7 @@
 import numpy as np
 
 from plantvr.growth.engine import GrowthEngine
-from plantvr.growth.scenarios import sweep_session, vertical_stroke, run
+from plantvr.growth.scenarios import run, sweep_session, vertical_stroke
 from plantvr.params import defaults
 
 
@@ -41,8 +41,8 @@ def _crown_ratio(e):
 
 def test_tw_v23_b_fig_12_3_columnar():
     """Fig. 12.3: tropism 0°, narrow view angle, high E → narrower crown than view angle 180°, tropism 90°."""
-    broad = dict(view_angle=180.0, tropism_angle=90.0)
-    columnar = dict(view_angle=40.0, tropism_angle=0.0, w_heading=0.2, w_tropism=0.2, w_env=0.6)
+    broad = {"view_angle": 180.0, "tropism_angle": 90.0}
+    columnar = {"view_angle": 40.0, "tropism_angle": 0.0, "w_heading": 0.2, "w_tropism": 0.2, "w_env": 0.6}
     s = sweep_session(8, 20)
     assert _crown_ratio(_grow(s, **columnar)) < _crown_ratio(_grow(s, **broad))
 

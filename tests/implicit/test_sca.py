@@ -19,15 +19,14 @@ pytest.importorskip("plantvr.growth.colonize")
 
 @pytest.fixture(scope="module")
 def crown_points():
-    crown = sphere((0.0, 6.0, 0.0), 8.0)
-    return crown, sample_inside(crown, 1500, rng=22)
+    return sample_inside(sphere((0.0, 6.0, 0.0), 8.0), 1500, rng=22)
 
 
 def test_v22_step_invariants_against_brute_force(crown_points):
-    crown, pts = crown_points
+    pts = crown_points
     roots = np.array([[-1.5, -0.5, 0.0], [1.5, -0.5, 0.3]])                # two roots compete for markers
     D, dk, di = 0.4, 0.8, 3.0
-    kw = dict(step_size=D, kill_radius=dk, influence_radius=di, stall_steps=None)
+    kw = {"step_size": D, "kill_radius": dk, "influence_radius": di, "stall_steps": None}
     prev = None
     checked_growth = 0
     for k in range(1, 16):

@@ -52,13 +52,13 @@ def parse_appendix_d(text: str) -> dict:
             source = "ygg"
         elif squashed.startswith("treedr"):
             source = "td"
-        elif squashed.startswith("-realtr") or squashed.startswith("realtr"):
+        elif squashed.startswith(("-realtr", "realtr")):
             source = "real"
         elif line.startswith("Participants"):
             ids = [int(re.sub(r"\D", "", tok)) for tok in line.split()[1:]]
             assert len(ids) == 18
             half = 0 if ids[0] == 1 else 18
-        elif line.startswith("/") or line.startswith("Mean"):
+        elif line.startswith(("/", "Mean")):
             toks = line.split()
             vals = [float(v) for v in toks[1:]]
             assert len(vals) == 18, line

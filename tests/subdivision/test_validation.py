@@ -6,7 +6,13 @@ import numpy as np
 import pytest
 import trimesh
 
-from plantvr.subdivision import build_control_mesh, cap_boundaries, graph_from_arrays, parse_lsystem, subdivide_loop
+from plantvr.subdivision import (
+    build_control_mesh,
+    cap_boundaries,
+    graph_from_arrays,
+    parse_lsystem,
+    subdivide_loop,
+)
 from plantvr.subdivision.graph import random_tree
 from plantvr.subdivision.loop import boundary_loops
 
@@ -117,7 +123,7 @@ def test_v20_coarser_control_mesh_shrinks_more_and_length_is_kept():
     for S in (4, 6, 8):
         cm = build_control_mesh(g, sides=S, compensate_radius=False)
         assert cm.n_segments.tolist() == [6]                              # round(20 / π)
-        V, F = subdivide_loop(cm.vertices, cm.faces, 5)
+        V, _F = subdivide_loop(cm.vertices, cm.faces, 5)
         mid = np.abs(V[:, 1] - 10) < 2
         mid_r[S] = float(np.hypot(V[mid, 0], V[mid, 2]).mean())
         assert mid_r[S] < 1.0                                             # Loop shrinks the tube ...
