@@ -199,7 +199,7 @@
       const rgba = toBytes(part.rgba);
       for (const { actor, data, sc } of targets) {
         let a = sc.getData();
-        const fast = owned.has(a) ? colourBuffer(view, actor, data, sc) : null;
+        const fast = colourBuffer(view, actor, data, sc);     // before the copy below (same content)
         if (!owned.has(a)) {
           a = a.slice();
           sc.setData(a, 4);

@@ -119,7 +119,7 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             assert _wait(page, lambda: _yellow(_img(page)) == 0)
             assert app.deltas == 2 and page.evaluate("window.vineDelta.applied") == 2    # undo: a delta too
             # ... written straight into the GPU colour buffer (no vertex-buffer rebuild): the paint is gone
-            assert page.evaluate("window.vineDelta.fast") == 1
+            assert page.evaluate("window.vineDelta.fast") == 2
 
             # paint again, then hide the selected colour: gone from the page, kept in the labels
             page.mouse.click(cx, cy)
