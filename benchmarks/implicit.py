@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> dict:
           f"({cache.n_cubes} cubes; thesis 2275) + filter {t_filter:.3f} s = {t_build + t_filter:.3f} s "
           f"(x{t_rej / (t_build + t_filter):.1f}) | approx {t_approx:.3f} s, {in_band:.1%} truly in band | "
           f"thesis: {THESIS['t61_no_cache']} s without, {THESIS['t61_cache']} s with (x23)")
-    ball = sphere(radius=20.0)
+    ball = sphere(radius=20.0)                # command semantics: radius/2 = 10
     t_srej, _ = _best(lambda: sample_band(ball, n_pts, band=band, method="rejection", rng=3), rep)
     t_scache, _ = _best(lambda: sample_band(ball, n_pts, band=band, method="cache", rng=3), rep)
     res.update(time_sphere_rejection_s=t_srej, time_sphere_cache_s=t_scache)
@@ -153,8 +153,9 @@ def main(argv: list[str] | None = None) -> dict:
     res.update(time_t62_lane_rejection_s=t_l1, time_t62_exact_grid_s=t_l2, time_t62_cache_grid_s=t_l3,
                t62_ordering_reproduced=bool(order_ok))
     print(f"Table 6.2 analogue (1000 Poisson pts, grid {grid[0]}^3): Lane+rejection {t_l1:.3f} s "
-          f"({len(r1.points)} pts, {r1.draws} draws) | exact-initialized grid {t_l2:.3f} s | cache-initialized grid "
-          f"{t_l3:.3f} s | thesis {THESIS['t62_lane']} / {THESIS['t62_exact_grid']} / {THESIS['t62_cache_grid']} s | "
+          f"({len(r1.points)} pts, {r1.draws} draws) | exact-initialized grid {t_l2:.3f} s ({len(r2.points)} pts) | "
+          f"cache-initialized grid {t_l3:.3f} s ({len(r3.points)} pts; grid cells count when their centre is in the "
+          f"band, so a thin band on a coarse grid holds fewer than {n_pts}) | thesis {THESIS['t62_lane']} / {THESIS['t62_exact_grid']} / {THESIS['t62_cache_grid']} s | "
           f"thesis ordering reproduced: {order_ok}")
 
     # --- Lane Poisson (B-2) -------------------------------------------------------------------------------------
