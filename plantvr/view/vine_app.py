@@ -783,7 +783,7 @@ _INTERACTOR = [
 
 
 def main_segment(argv: list[str] | None = None) -> int:
-    """``plantvr segment VOLUME_OR_SYNTH [--level L] [--port P] [--out DIR]`` (issue 14).
+    """``plantvr segment VOLUME_OR_SYNTH [--level L] [--port P] [--faces F] [--lod F] [--out DIR]`` (issue 14).
 
     Builds the isosurface of a volume (or opens a mesh, or a synthetic head with ``synth`` / ``synth:N``), then
     either serves the browser review page (until interrupted) or, with ``--out``, paints a scripted demo
@@ -799,6 +799,8 @@ def main_segment(argv: list[str] | None = None) -> int:
     ap.add_argument("--downsample", action="store_true", help="2x block-mean downsampling before meshing")
     ap.add_argument("--port", type=int, default=None, help="port of the review page (default: a free one)")
     ap.add_argument("--faces", type=int, default=1_500_000, help="display-proxy triangle budget")
+    ap.add_argument("--lod", type=int, default=20_000,
+                    help="triangles drawn while a stroke or an orbit runs (0: draw the display proxy throughout)")
     ap.add_argument("--mode", choices=("local", "remote"), default="local",
                     help="local: the browser draws the proxy (vtk.js); remote: the server renders")
     ap.add_argument("--out", type=str, default=None, help="headless: paint a demo and write PLY/session/PNG here")
@@ -831,7 +833,9 @@ def main_segment(argv: list[str] | None = None) -> int:
         print(f"painted {n:,} vertices; wrote {out / 'segment.ply'}, {out / 'segment_session.npz'}, "
               f"{out / 'segment.png'}")
         return 0
-    app = VineReviewApp(seg, target_faces=a.faces, mode=a.mode, volume=src.volume, level=src.level)
-    print(f"display proxy: {app.proxy.n_vertices:,} vertices, {len(app.proxy.faces):,} faces")
+    app = VineReviewApp(seg, target_faces=a.faces, mode=a.mode, volume=src.volume, level=src.level,
+                        interactive_faces=a.lod or None)
+    print(f"display proxy: {app.proxy.n_vertices:,} vertices, {len(app.proxy.faces):,} faces"
+          + (f"; level of detail while painting: {len(app.lod.faces):,} faces" if app.lod is not None else ""))
     app.start(a.port, thread=False, open_browser=False)
     return 0

@@ -131,6 +131,7 @@ def test_stroke_paints_full_resolution_as_one_undo_item_with_lod_deltas(surface)
     # a click is one undoable stamp; a miss paints nothing; a hidden colour is refused
     assert app.stroke("click", [(w / 2, h / 2)], cam, (w, h)) is None
     assert len(seg.history.undo_stack) == 1 and seg.labels.any()
+    hit = np.asarray(app.last_pick["worldPosition"])
     n = np.count_nonzero(seg.labels)
     app.stroke("click", [(1, 1)], cam, (w, h))
     assert np.count_nonzero(seg.labels) == n and app.stroke_stats["misses"] >= 1
@@ -140,6 +141,8 @@ def test_stroke_paints_full_resolution_as_one_undo_item_with_lod_deltas(surface)
     assert not app._stroking and len(seg.history.undo_stack) == 1 and np.count_nonzero(seg.labels) == n
     seg.hide(3)
     app.resync()
+    behind = app.pick_display(w / 2, h / 2, cam, (w, h))                    # hidden triangles are not picked
+    assert behind is None or np.linalg.norm(behind - hit) > 1.0
     assert app.stroke("begin", [(w / 2, h / 2)], cam, (w, h)) is None and "hidden" in app.state.message
     assert not app._stroking
     with pytest.raises(ValueError, match="phase"):
