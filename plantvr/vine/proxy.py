@@ -17,8 +17,8 @@ Memory: fast-simplification holds ~170 bytes per triangle and ~120 per vertex in
 one call on a 36 M-face gerbera-class mesh peaks near 14 GiB. Meshes above ``chunk_faces`` (6 M) are therefore
 decimated in two stages (:func:`decimate_with_owner`): equal-count slabs with their cut borders locked, then the
 union of the slabs to the budget; the owner map is the composition of the two collapse histories. Merging and
-mapping use int32 ids throughout. Measured at 36 M faces (``benchmarks/vine_proxy.py``): 3.7 GiB peak RSS
-against 14.4 GiB for the one-pass build, in about the same time.
+mapping use int32 ids throughout. Measured at 36 M faces on 2 cores (``benchmarks/vine_proxy.py``): 85 s and
+3.65 GiB peak RSS (mesh included) against 94 s and 14.4 GiB for the one-pass build.
 """
 from __future__ import annotations
 
