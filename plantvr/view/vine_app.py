@@ -249,6 +249,22 @@ class VineReviewApp:
         while a stroke or an orbit drag runs (software WebGL draws ~20k triangles at >= 5 frames per second, see
         ``benchmarks/vine_render.py``), in [4, 2**31 - 1]; ``None`` (or a budget at or above the display
         proxy's) draws the display proxy throughout.
+
+    Attributes
+    ----------
+    proxy, view : DisplayProxy, SegmentationView
+        The display proxy and its (server-side) view, whose render window the page mirrors.
+    lod, lod_view : DisplayProxy, SegmentationView or None
+        The level of detail drawn while painting (built from ``seg`` with ``interactive_faces``) and its view.
+    last_pick : dict or None
+        The last picked point, ``{"worldPosition": [x, y, z], ...}``.
+    last_stroke : list of (3,) ndarray
+        Brush centres (world space) of the last stroke.
+    deltas, delta_vertices, resyncs, pushes : int
+        Colour-delta batches sent, proxy vertices in them (both levels), scene resyncs the page asked for, pushes.
+    stroke_stats : dict
+        Server-side counts and seconds of the page's stroke requests: ``requests``, ``stamps``, ``misses``,
+        ``pick_s``, ``paint_s``, ``delta_s``.
     """
 
     def __init__(self, seg: Segmentation | None = None, *, proxy: DisplayProxy | None = None,
