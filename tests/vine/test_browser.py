@@ -342,6 +342,21 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
             page.locator(".vine-undo").click()
             assert _wait(page, lambda: not np.any(seg.labels))
             assert _wait(page, lambda: _yellow(_img(page)) == 0)
+            # with "paint: click" a left drag orbits (drawing the level of detail meanwhile) and paints nothing
+            page.locator(".vine-paint").click()
+            assert _wait(page, lambda: not app.state.paint_drag)
+            page.wait_for_timeout(300)
+            page.evaluate("() => { window.__lod = []; const v = window.vineDelta;"
+                          " const f = () => { window.__lod.push(v.lodShown); if (window.__lod.length < 4000)"
+                          " requestAnimationFrame(f); }; requestAnimationFrame(f); }")
+            page.mouse.move(cx - 60, cy)
+            page.mouse.down()
+            page.mouse.move(cx + 40, cy - 20, steps=8)
+            page.mouse.up()
+            page.wait_for_timeout(1000)
+            assert not np.allclose(page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()"), cam0)
+            assert True in page.evaluate("window.__lod") and not page.evaluate("window.vineDelta.lodShown")
+            assert not np.any(seg.labels) and len(seg.history.undo_stack) == 0
             assert not errors, errors
             browser.close()
     finally:
