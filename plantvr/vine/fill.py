@@ -142,6 +142,19 @@ def _csr_scipy(faces: np.ndarray, n: int):
     return m.indptr.astype(np.int64), m.indices.astype(np.int32)
 
 
+def _check_mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices, faces) as arrays, checked: (V, 3) with V >= 1, and (F, 3) integer ids in [0, V - 1]."""
+    v = np.asarray(vertices)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
+        raise ValueError(f"vertices must have shape (V, 3) with V >= 1, got {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
+        raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
+    if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
+        raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
+    return v, f
+
+
 def mesh_graph(vertices: np.ndarray, faces: np.ndarray) -> MeshGraph:
     """Build the vertex adjacency (CSR) of a triangle mesh; edge lengths follow on first use.
 
@@ -158,15 +171,8 @@ def mesh_graph(vertices: np.ndarray, faces: np.ndarray) -> MeshGraph:
         Each undirected mesh edge appears in both rows; shared edges appear once. About 32 B per vertex
         (+48 B once edge lengths are needed) for a closed triangle mesh.
     """
-    v = np.asarray(vertices)
-    f = np.asarray(faces)
-    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
-        raise ValueError(f"vertices must have shape (V, 3) with V >= 1, got {v.shape}")
-    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
-        raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
+    v, f = _check_mesh_arrays(vertices, faces)
     n = v.shape[0]
-    if f.size and (int(f.min()) < 0 or int(f.max()) >= n):
-        raise ValueError(f"faces must index vertices in [0, {n - 1}], got range [{f.min()}, {f.max()}]")
     if n >= 2 ** 31:
         raise ValueError(f"vertices must number fewer than 2**31 (int32 neighbour ids), got {n}")
     indptr, indices = _csr_numba(np.ascontiguousarray(f), n)
@@ -175,24 +181,33 @@ def mesh_graph(vertices: np.ndarray, faces: np.ndarray) -> MeshGraph:
 
 # ---------------------------------------------------------------------------------------------- kernels
 @numba.njit(cache=True, nogil=True)
-def _flood_numba(indptr, indices, labels, seed):  # pragma: no cover - numba kernel, twin: _flood_numpy
-    """BFS from ``seed`` through vertices with the seed's label; returns the visited ids, sorted."""
-    n = indptr.size - 1
+def _bfs_fill(indptr, indices, labels, seed, mark, unset, value, queue):  # pragma: no cover - numba kernel
+    """Breadth-first fill from ``seed`` through vertices with the seed's label whose ``mark`` is still
+    ``unset``: sets their ``mark`` to ``value`` and lists them in ``queue`` (seed first, in visit order);
+    returns how many."""
     target = labels[seed]
-    seen = np.zeros(n, np.bool_)
-    queue = np.empty(n, np.int64)
+    mark[seed] = value
     queue[0] = seed
-    seen[seed] = True
     head, tail = 0, 1
     while head < tail:
         u = queue[head]
         head += 1
         for e in range(indptr[u], indptr[u + 1]):
             w = indices[e]
-            if not seen[w] and labels[w] == target:
-                seen[w] = True
+            if mark[w] == unset and labels[w] == target:
+                mark[w] = value
                 queue[tail] = w
                 tail += 1
+    return tail
+
+
+@numba.njit(cache=True, nogil=True)
+def _flood_numba(indptr, indices, labels, seed):  # pragma: no cover - numba kernel, twin: _flood_numpy
+    """BFS from ``seed`` through vertices with the seed's label; returns the visited ids, sorted."""
+    n = indptr.size - 1
+    seen = np.zeros(n, np.bool_)
+    queue = np.empty(n, np.int64)
+    tail = _bfs_fill(indptr, indices, labels, seed, seen, False, True, queue)
     if tail * 16 > n:                                   # big region: a pass over the mask beats a sort
         k = 0
         for v in range(n):
@@ -246,19 +261,7 @@ def _components_numba(indptr, indices, labels, only):  # pragma: no cover - numb
     for s in range(n):
         if comp[s] >= 0 or (only >= 0 and labels[s] != only):
             continue
-        lab = labels[s]
-        comp[s] = c
-        queue[0] = s
-        head, tail = 0, 1
-        while head < tail:
-            u = queue[head]
-            head += 1
-            for e in range(indptr[u], indptr[u + 1]):
-                w = indices[e]
-                if comp[w] < 0 and labels[w] == lab:
-                    comp[w] = c
-                    queue[tail] = w
-                    tail += 1
+        _bfs_fill(indptr, indices, labels, s, comp, -1, c, queue)
         c += 1
     return comp, c
 

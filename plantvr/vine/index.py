@@ -80,75 +80,75 @@ def _cell_ids(points, origin, inv_h, dims):  # pragma: no cover - numba kernel
 
 
 @numba.njit(cache=True, nogil=True)
-def _cell_range(c, r, origin, inv_h, dims):  # pragma: no cover - numba kernel
+def _row_spans(starts, origin, inv_h, dims, c, r):  # pragma: no cover - numba kernel
+    """The cells a ball query visits, as (rows, 2) [start, end) spans of the vertex order: one per (i, j) grid
+    row, whose cells k in [lo, hi] are contiguous in the order. No rows if the ball's box misses the grid."""
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
     for a in range(3):
         lo[a] = max(int(np.floor((c[a] - r - origin[a]) * inv_h)), 0)
         hi[a] = min(int(np.floor((c[a] + r - origin[a]) * inv_h)), dims[a] - 1)
-    return lo, hi
+    if hi[0] < lo[0] or hi[1] < lo[1] or hi[2] < lo[2]:
+        return np.empty((0, 2), np.int64)
+    spans = np.empty(((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1), 2), np.int64)
+    q = 0
+    for i in range(lo[0], hi[0] + 1):
+        for j in range(lo[1], hi[1] + 1):
+            base = (i * dims[1] + j) * dims[2]
+            spans[q, 0] = starts[base + lo[2]]
+            spans[q, 1] = starts[base + hi[2] + 1]
+            q += 1
+    return spans
+
+
+@numba.njit(cache=True, nogil=True)
+def _dist2(points, v, c):  # pragma: no cover - numba kernel
+    """Squared distance of vertex v to c, in float64 on float32 positions (Eq. 5.16)."""
+    dx = np.float64(points[v, 0]) - c[0]
+    dy = np.float64(points[v, 1]) - c[1]
+    dz = np.float64(points[v, 2]) - c[2]
+    return dx * dx + dy * dy + dz * dz
 
 
 @numba.njit(cache=True, nogil=True)
 def _grid_query(points, order, starts, origin, inv_h, dims, c, r, out):  # pragma: no cover
     """Write ids of points within r of c into out; return the count (may exceed len(out))."""
-    lo, hi = _cell_range(c, r, origin, inv_h, dims)
+    spans = _row_spans(starts, origin, inv_h, dims, c, r)
     r2 = r * r
     cnt = 0
-    for i in range(lo[0], hi[0] + 1):
-        for j in range(lo[1], hi[1] + 1):
-            base = (i * dims[1] + j) * dims[2]
-            for k in range(lo[2], hi[2] + 1):
-                cell = base + k
-                for s in range(starts[cell], starts[cell + 1]):
-                    v = order[s]
-                    dx = np.float64(points[v, 0]) - c[0]
-                    dy = np.float64(points[v, 1]) - c[1]
-                    dz = np.float64(points[v, 2]) - c[2]
-                    if dx * dx + dy * dy + dz * dz <= r2:
-                        if cnt < out.shape[0]:
-                            out[cnt] = v
-                        cnt += 1
+    for q in range(spans.shape[0]):
+        for v in order[spans[q, 0]:spans[q, 1]]:
+            if _dist2(points, v, c) <= r2:
+                if cnt < out.shape[0]:
+                    out[cnt] = v
+                cnt += 1
     return cnt
 
 
 @numba.njit(cache=True, nogil=True)
 def _grid_candidates(starts, origin, inv_h, dims, c, r):  # pragma: no cover
     """Upper bound on hits: the number of points in the cells the query visits."""
-    lo, hi = _cell_range(c, r, origin, inv_h, dims)
-    total = 0
-    for i in range(lo[0], hi[0] + 1):
-        for j in range(lo[1], hi[1] + 1):
-            base = (i * dims[1] + j) * dims[2]
-            total += starts[base + hi[2] + 1] - starts[base + lo[2]] if hi[2] >= lo[2] else 0
-    return total
+    spans = _row_spans(starts, origin, inv_h, dims, c, r)
+    return (spans[:, 1] - spans[:, 0]).sum()
 
 
 @numba.njit(cache=True, nogil=True)
 def _grid_paint(points, order, starts, origin, inv_h, dims, c, r, labels, paintable, label,
                 out_idx, out_old):  # pragma: no cover - numba kernel, twin: _paint_numpy
     """Fused brush stamp: query, skip hidden and same-label vertices, record old values, write."""
-    lo, hi = _cell_range(c, r, origin, inv_h, dims)
+    spans = _row_spans(starts, origin, inv_h, dims, c, r)
     r2 = r * r
     cnt = 0
-    for i in range(lo[0], hi[0] + 1):
-        for j in range(lo[1], hi[1] + 1):
-            base = (i * dims[1] + j) * dims[2]
-            for k in range(lo[2], hi[2] + 1):
-                cell = base + k
-                for s in range(starts[cell], starts[cell + 1]):
-                    v = order[s]
-                    old = labels[v]
-                    if old == label or not paintable[old]:
-                        continue
-                    dx = np.float64(points[v, 0]) - c[0]
-                    dy = np.float64(points[v, 1]) - c[1]
-                    dz = np.float64(points[v, 2]) - c[2]
-                    if dx * dx + dy * dy + dz * dz <= r2:
-                        out_idx[cnt] = v
-                        out_old[cnt] = old
-                        labels[v] = label
-                        cnt += 1
+    for q in range(spans.shape[0]):
+        for v in order[spans[q, 0]:spans[q, 1]]:
+            old = labels[v]
+            if old == label or not paintable[old]:
+                continue
+            if _dist2(points, v, c) <= r2:
+                out_idx[cnt] = v
+                out_old[cnt] = old
+                labels[v] = label
+                cnt += 1
     return cnt
 
 

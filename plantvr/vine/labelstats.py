@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from plantvr._validation import check_choice, check_int
+from plantvr.vine.fill import _check_mesh_arrays, _components_numba, mesh_graph
 
 __all__ = ["export_label_meshes", "face_labels", "label_mesh", "label_table", "plot_label_areas"]
 
@@ -21,15 +22,8 @@ _FORMATS = ("ply", "obj", "glb")
 
 
 def _check_mesh(vertices, faces, labels):
-    v = np.asarray(vertices)
-    f = np.asarray(faces)
+    v, f = _check_mesh_arrays(vertices, faces)
     lab = np.asarray(labels)
-    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
-        raise ValueError(f"vertices must have shape (V, 3) with V >= 1, got {v.shape}")
-    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
-        raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
-    if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
-        raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
     if lab.shape != (len(v),) or lab.dtype != np.uint8:
         raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {lab.dtype} {lab.shape}")
     return v, f, lab
@@ -170,7 +164,6 @@ def label_table(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *, 
     """
     import pandas as pd
 
-    from plantvr.vine.fill import _components_numba, mesh_graph
     v, f, lab = _check_mesh(vertices, faces, labels)
     g = mesh_graph(v, f) if graph is None else graph
     counts, nface, area, lo, hi = _label_stats_numba(v, f, lab)

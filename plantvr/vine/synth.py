@@ -121,6 +121,15 @@ def _bezier(p0, p1, p2, n):
     return (1 - t) ** 2 * p0 + 2 * (1 - t) * t * p1 + t ** 2 * p2
 
 
+def _check_shape(shape) -> tuple[int, int, int]:
+    """A volume size (int: a cube, or 3 ints), each checked in [16, 4096]."""
+    if isinstance(shape, (int, np.integer)):
+        shape = (shape, shape, shape)
+    if len(tuple(shape)) != 3:
+        raise ValueError(f"shape must be an int or 3 ints, got {shape!r}")
+    return tuple(check_int("shape", s, 16, 4096) for s in shape)
+
+
 def synth_flowerhead(shape: int | tuple[int, int, int] = 64, *, n_veins: int = 8, n_florets: int | None = None,
                      noise_blobs: int = 12, noise_level: float = 4.0,
                      rng: int | np.random.Generator | None = 0) -> FlowerHead:
@@ -150,11 +159,7 @@ def synth_flowerhead(shape: int | tuple[int, int, int] = 64, *, n_veins: int = 8
     ----------
     .. [1] Spec 000_vine §5.2 (generator); component glossary of §5.1 (thesis Ch. 6).
     """
-    if isinstance(shape, (int, np.integer)):
-        shape = (shape, shape, shape)
-    if len(tuple(shape)) != 3:
-        raise ValueError(f"shape must be an int or 3 ints, got {shape!r}")
-    shape = tuple(check_int("shape", s, 16, 4096) for s in shape)
+    shape = _check_shape(shape)
     n_veins = check_int("n_veins", n_veins, 1, 64)
     noise_blobs = check_int("noise_blobs", noise_blobs, 0, 10000)
     noise_level = check_range("noise_level", noise_level, 0.0, 50.0)
@@ -258,11 +263,7 @@ def synth_vessels(shape: int | tuple[int, int, int] = (256, 256, 128), *, n_tree
     level : float
         Suggested iso-value (half the vessel contrast, off the integer grid).
     """
-    if isinstance(shape, (int, np.integer)):
-        shape = (shape, shape, shape)
-    if len(tuple(shape)) != 3:
-        raise ValueError(f"shape must be an int or 3 ints, got {shape!r}")
-    shape = tuple(check_int("shape", s, 16, 4096) for s in shape)
+    shape = _check_shape(shape)
     sx, sy, sz = (float(s) for s in shape)
     if n_trees is None:
         n_trees = max(1, int(sx * sy / 96 ** 2))
