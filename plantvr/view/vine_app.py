@@ -317,7 +317,7 @@ class VineReviewApp:
             "histogram": histogram_svg(volume, level) if volume is not None else "",
             "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
             "n_lod": 0 if self.lod is None else self.lod.n_vertices, "paint_drag": False,
-            "vine_delta": None, "wheel": "", "message": "",
+            "vine_delta": None, "vine_stale": False, "wheel": "", "message": "",
         })
         self._render_wheel()
         self._build_ui()
@@ -407,6 +407,8 @@ class VineReviewApp:
                 self.delta_vertices += int(ids.size)
         if not parts:
             return None
+        if not self.state.vine_stale:                   # the scene a page loads now lacks this: it must resync
+            self.state.vine_stale = True
         self.deltas += 1
         return {"seq": self.deltas, **parts[0], "more": parts[1:]}
 
@@ -431,12 +433,14 @@ class VineReviewApp:
                 self.state.vine_delta = d
             return
         self._pending, self._lod_pending, self._full = [], [], False
+        self.state.vine_stale = False
         self.ctrl.view_update()
 
     def resync(self, *_args) -> None:
         """The page missed a delta (or loaded late): re-synchronise the whole scene once."""
         self.resyncs += 1
         self._pending, self._lod_pending, self._full = [], [], False
+        self.state.vine_stale = False
         self.ctrl.view_update()
 
     # ------------------------------------------------------------------ commands (also callable from code)

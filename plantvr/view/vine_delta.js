@@ -16,6 +16,9 @@
 // flight, the positions that arrive meanwhile travel together in the next one. Without paint_drag a click (press
 // and release within 4 px) paints one stamp the same way; longer drags orbit (vtk.js).
 //
+// A page that loads while the server's scene is older than the deltas sent since (state `vine_stale`) asks for
+// a resync once its view is ready.
+//
 // Level of detail. When the state's `n_lod` is set, the actor with n_lod colour tuples (hidden at rest) is
 // drawn instead of the display proxy's (n_proxy tuples) from the stroke's press (or an orbit's start) until the
 // stroke's last batch has been applied (or the orbit ends).
@@ -386,6 +389,8 @@
     if (!view || !view.interactor) return setTimeout(hookInteractor, 500);
     if (view.__vineHooked) return;
     view.__vineHooked = true;
+    // a page opened after deltas were sent got the scene of the last synchronisation: take the current one
+    if (stateGet("vine_stale") && !vine.applied && !vine.resyncs) vine.resync(0);
     const it = view.interactor;
     if (it.onStartAnimation) it.onStartAnimation(() => { if (!vine.stroke) vine.showLod(view, true); });
     if (it.onEndAnimation) it.onEndAnimation(() => { if (!vine.stroke) vine.showLod(view, false); });

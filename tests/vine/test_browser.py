@@ -337,6 +337,15 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
             assert stroke_bytes < 8 * app.delta_vertices + 400 * len(hook["log"]) + 2_000, \
                 (stroke_bytes, app.delta_vertices, len(hook["log"]))
             page.screenshot(path=str(shots / "vine_review_stroke.png"))
+            # a page opened now (its scene predates the stroke, whose deltas went to the painting page only)
+            # asks for a resync and shows the stroke
+            assert app.state.vine_stale
+            late = browser.new_page(viewport={"width": 800, "height": 640})
+            late.goto(url)
+            late.wait_for_selector(".vine-view canvas", timeout=30_000)
+            assert _wait(late, lambda: _yellow(_img(late)) > 30, timeout=45.0), "a late page did not show the stroke"
+            assert late.evaluate("window.vineDelta.resyncs") == 1 and not app.state.vine_stale
+            late.close()
             # the drag painted instead of orbiting: the camera did not move
             assert np.allclose(page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()"), cam0)
             page.locator(".vine-undo").click()
