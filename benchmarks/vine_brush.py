@@ -13,34 +13,12 @@ import argparse
 import time
 
 import numpy as np
+from _common import best_time, radius_for
 from scipy.spatial import cKDTree
 
-from plantvr.vine.index import GridIndex
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
-
-
-def _best(fn, reps):
-    ts = []
-    for _ in range(reps):
-        t = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t)
-    return float(np.min(ts))          # best of N: the 2-core machine is shared
-
-
-def _radius_for(index: GridIndex, c, hits: int) -> float:
-    lo, hi = 0.0, 1.0
-    while len(index.query(c, hi)) < hits:
-        hi *= 2
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        if len(index.query(c, mid)) < hits:
-            lo = mid
-        else:
-            hi = mid
-    return hi
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -80,7 +58,7 @@ def main(argv: list[str] | None = None) -> dict:
     for hits in (100, 10_000, 100_000):
         if hits > V // 3:
             continue
-        radii = [_radius_for(seg.index, c, hits) for c in centres[:3]]
+        radii = [radius_for(seg.index, c, hits) for c in centres[:3]]
         k = [0]
 
         def stamp():
@@ -88,15 +66,15 @@ def main(argv: list[str] | None = None) -> dict:
             seg.paint(centres[i], radii[i], 1 + (k[0] // 3) % 2)     # alternate labels: always a real change
             k[0] += 1
         stamp()
-        t_grid = _best(stamp, reps)
-        t_query = _best(lambda: seg.index.query(centres[0], radii[0]), reps)
+        t_grid = best_time(stamp, reps)
+        t_query = best_time(lambda: seg.index.query(centres[0], radii[0]), reps)
         v32, c32, r2 = v, centres[0].astype(np.float32), np.float32(radii[0] ** 2)
-        t_brute = _best(lambda: np.nonzero(((v32 - c32) ** 2).sum(1) <= r2)[0], 3)
+        t_brute = best_time(lambda: np.nonzero(((v32 - c32) ** 2).sum(1) <= r2)[0], 3)
         row = {"stamp_ms": 1e3 * t_grid, "grid_query_ms": 1e3 * t_query, "brute_ms": 1e3 * t_brute}
         msg = (f"{hits:>7,} hits: paint stamp incl. undo record {row['stamp_ms']:.2f} ms | grid query "
                f"{row['grid_query_ms']:.2f} ms | brute-force numpy {row['brute_ms']:.1f} ms")
         if tree is not None:
-            row["kdtree_ms"] = 1e3 * _best(lambda: np.asarray(tree.query_ball_point(centres[0], radii[0]),
+            row["kdtree_ms"] = 1e3 * best_time(lambda: np.asarray(tree.query_ball_point(centres[0], radii[0]),
                                                                 np.int64), reps)
             msg += f" | cKDTree query+array {row['kdtree_ms']:.2f} ms"
         print(msg)
@@ -104,14 +82,14 @@ def main(argv: list[str] | None = None) -> dict:
 
     # undo / redo of a large operation (10^6 vertices at full size)
     big = min(1_000_000, V // 3)
-    r = _radius_for(seg.index, centres[4], big)
+    r = radius_for(seg.index, centres[4], big)
     seg.paint(centres[4], r, 7)
     e = seg.history.undo_stack[-1]
-    t_u = _best(lambda: (seg.undo(), seg.redo()), 3) / 2
+    t_u = best_time(lambda: (seg.undo(), seg.redo()), 3) / 2
     out["undo_op_vertices"] = len(e)
     out["undo_ms"] = 1e3 * t_u
     out["undo_record_bytes_per_changed_vertex"] = e.nbytes / len(e)
-    t_copy = _best(lambda: seg.labels.copy(), 3)
+    t_copy = best_time(lambda: seg.labels.copy(), 3)
     print(f"undo/redo of a {len(e):,}-vertex operation: {out['undo_ms']:.1f} ms "
           f"({out['undo_record_bytes_per_changed_vertex']:.0f} B/changed vertex) | baseline full label copy "
           f"{1e3 * t_copy:.1f} ms ({V:,} B)")
@@ -122,8 +100,8 @@ def main(argv: list[str] | None = None) -> dict:
     out["hull_build_s"] = time.perf_counter() - t
     eye = v.max(0).astype(np.float64) * 1.3
     hull_distances(hull, eye)
-    out["hull_frame_ms"] = 1e3 * _best(lambda: hull_distances(hull, eye), 50)
-    out["hull_frame_numpy_ms"] = 1e3 * _best(lambda: _hull_distances_numpy(hull, eye), 20)
+    out["hull_frame_ms"] = 1e3 * best_time(lambda: hull_distances(hull, eye), 50)
+    out["hull_frame_numpy_ms"] = 1e3 * best_time(lambda: _hull_distances_numpy(hull, eye), 20)
     print(f"depth cue: coarse hull {len(hull.vertices)} vertices built in {out['hull_build_s']:.2f} s; per frame "
           f"(inside test, d_c, d_f) {out['hull_frame_ms']:.3f} ms | numpy twin {out['hull_frame_numpy_ms']:.3f} ms")
     print(f"labels: {out['label_bytes_per_vertex']:.0f} B/vertex per buffer; triple buffer {3 * V / 2**20:.0f} MiB")

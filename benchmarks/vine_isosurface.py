@@ -9,56 +9,28 @@ slower than whole-volume flying edges; the 1624x1624x710 class uint8 volume in <
 
 Run: ``python benchmarks/vine_isosurface.py [--quick] [--shape X Y Z] [--slab N] [--reps R] [--skimage-whole]``
 (default 812 812 355, an eighth of the 1624 1624 710 class; ``--full`` is that class). Baselines: VTK flying
-edges on the whole volume, both as raw VTK output (zero-copy views: a lower bound) and through
-``extract_isosurface`` with one slab (the same Surface product: (x, y, z) float32, uint32 outward faces).
+edges on the whole volume, both as the core's slab kernel called once (zero-copy VTK views, fixed up in place: a
+lower bound) and through ``extract_isosurface`` with one slab (the same Surface product: (x, y, z) float32, uint32
+outward faces).
 """
 from __future__ import annotations
 
 import argparse
-import multiprocessing
-import resource
 import time
 
 import numpy as np
+from _common import cpu_seconds, current_rss_gib, in_forked_child, peak_rss_gib
 
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.vine.isosurface import _slab_flying_edges, extract_isosurface
 from plantvr.vine.synth import synth_vessels
 
 _GIB = 2 ** 30
 
 
-def _rss() -> float:
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) * 1024 / _GIB
-    return float("nan")
-
-
-def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
-
-
 def _whole_flying_edges(vol: np.ndarray, level: float):
-    """Baseline: one vtkFlyingEdges3D over the whole volume, output as zero-copy numpy views."""
-    from vtkmodules.util import numpy_support
-    from vtkmodules.vtkCommonDataModel import vtkImageData
-    from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D
-    img = vtkImageData()
-    img.SetDimensions(*vol.shape[::-1])
-    img.GetPointData().SetScalars(numpy_support.numpy_to_vtk(np.ascontiguousarray(vol).ravel(), deep=False))
-    fe = vtkFlyingEdges3D()
-    fe.SetInputData(img)
-    fe.SetValue(0, level)
-    fe.ComputeNormalsOn()
-    fe.ComputeGradientsOff()
-    fe.ComputeScalarsOff()
-    fe.Update()
-    out = fe.GetOutput()
-    v = numpy_support.vtk_to_numpy(out.GetPoints().GetData())
-    f = numpy_support.vtk_to_numpy(out.GetPolys().GetConnectivityArray()).reshape(-1, 3)
-    return v, f, out
+    """Baseline: one flying-edges pass over the whole volume (the core's slab kernel with one slab), output as
+    zero-copy views of VTK's arrays."""
+    return _slab_flying_edges(vol, level, 0, 1)
 
 
 def _whole_skimage(vol: np.ndarray, level: float):
@@ -67,31 +39,17 @@ def _whole_skimage(vol: np.ndarray, level: float):
     return v, f, None
 
 
-def _child(fn, reps, conn) -> None:
-    start = _rss()
+def _measure(fn, reps: int):
+    """In the forked child: (best wall s, best CPU s, peak RSS GiB, RSS at start GiB, vertices, faces)."""
+    start = current_rss_gib()
     best, cpu, res = np.inf, np.inf, None
     for _ in range(reps):
         res = None
-        c, t = _cpu(), time.perf_counter()
+        c, t = cpu_seconds(), time.perf_counter()
         res = fn()
-        best, cpu = min(best, time.perf_counter() - t), min(cpu, _cpu() - c)
+        best, cpu = min(best, time.perf_counter() - t), min(cpu, cpu_seconds() - c)
     v, f = (res.vertices, res.faces) if hasattr(res, "vertices") else res[:2]
-    conn.send((best, cpu, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20, start, len(v), len(f)))
-    conn.close()
-
-
-def _run(fn, reps: int):
-    ctx = multiprocessing.get_context("fork")
-    recv, send = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_child, args=(fn, reps, send))
-    p.start()
-    send.close()
-    try:
-        res = recv.recv()
-    except EOFError:                                       # killed (out of memory)
-        res = None
-    p.join()
-    return res
+    return best, cpu, peak_rss_gib(), start, len(v), len(f)
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -111,7 +69,7 @@ def main(argv: list[str] | None = None) -> dict:
     t = time.perf_counter()
     vol, level = synth_vessels(shape, rng=0)
     print(f"vessel volume {shape} uint8 ({vol.nbytes / _GIB:.2f} GiB, made in {time.perf_counter() - t:.1f} s), "
-          f"level {level}; RSS {_rss():.2f} GiB", flush=True)
+          f"level {level}; RSS {current_rss_gib():.2f} GiB", flush=True)
     warm = np.zeros((8, 8, 8), np.uint8)
     warm[3:5, 3:5, 3:5] = 255
     extract_isosurface(warm, level)                        # imports and first-call costs outside the timing
@@ -120,7 +78,7 @@ def main(argv: list[str] | None = None) -> dict:
     nx = vol.shape[0]
     methods = [("slab-wise flying edges (default, 2 threads)", lambda: extract_isosurface(vol, level, slab=a.slab)),
                ("slab-wise flying edges, 1 thread", lambda: extract_isosurface(vol, level, slab=a.slab, workers=1)),
-               ("baseline whole-volume VTK flying edges (raw VTK output)", lambda: _whole_flying_edges(vol, level)),
+               ("baseline whole-volume VTK flying edges (zero-copy output)", lambda: _whole_flying_edges(vol, level)),
                ("baseline whole-volume flying edges, same Surface output",
                 lambda: extract_isosurface(vol, level, slab=nx, workers=1))]
     if not a.no_skimage:
@@ -131,7 +89,7 @@ def main(argv: list[str] | None = None) -> dict:
     out: dict = {"shape": shape, "slab": a.slab}
     keys = ("slab_fe", "slab_fe_1thread", "whole_fe", "whole_fe_surface", "slab_skimage", "whole_skimage")
     for key, (name, fn) in zip(keys, methods):
-        r = _run(fn, 1 if key.endswith("skimage") and not a.quick else reps)
+        r = in_forked_child(_measure, fn, 1 if key.endswith("skimage") and not a.quick else reps)
         if r is None:
             print(f"{name}: the child died (out of memory?)", flush=True)
             continue

@@ -13,11 +13,10 @@ Run: ``python benchmarks/vine_proxy.py [--quick] [--vertices N] [--faces F] [--c
 from __future__ import annotations
 
 import argparse
-import multiprocessing
-import resource
 import time
 
 import numpy as np
+from _common import current_rss_gib, in_forked_child, peak_rss_gib, radius_for
 
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.proxy import DisplayProxy, _proxy_labels_numpy
@@ -25,52 +24,13 @@ from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
 
 
-def _rss_gib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2 ** 20
-
-
-def _current_rss_gib() -> float:
-    with open("/proc/self/status") as fh:
-        for line in fh:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) / 2 ** 20
-    return float("nan")
-
-
-def _one_pass_child(seg, budget, conn) -> None:
-    """Forked child: the one-pass build (no chunking); reports (seconds, peak RSS GiB, RSS at start GiB)."""
-    start = _current_rss_gib()
+def _one_pass(seg, budget) -> tuple[float, float, float, int]:
+    """In the forked child: the one-pass build (no chunking); (seconds, peak RSS GiB, RSS at start GiB, proxy
+    vertices)."""
+    start = current_rss_gib()
     t = time.perf_counter()
     px = DisplayProxy(seg, target_faces=budget, chunk_faces=2 ** 31 - 1, observe=False)
-    conn.send((time.perf_counter() - t, _rss_gib(), start, px.n_vertices))
-    conn.close()
-
-
-def _one_pass_baseline(seg, budget) -> tuple[float, float, float, int] | None:
-    ctx = multiprocessing.get_context("fork")
-    recv, send = ctx.Pipe(duplex=False)
-    p = ctx.Process(target=_one_pass_child, args=(seg, budget, send))
-    p.start()
-    send.close()
-    try:
-        res = recv.recv()
-    except EOFError:                                          # killed (out of memory)
-        res = None
-    p.join()
-    return res
-
-
-def _radius_for(seg: Segmentation, c, hits: int) -> float:
-    lo, hi = 0.0, 1.0
-    while len(seg.index.query(c, hi)) < hits:
-        hi *= 2
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        if len(seg.index.query(c, mid)) < hits:
-            lo = mid
-        else:
-            hi = mid
-    return hi
+    return time.perf_counter() - t, peak_rss_gib(), start, px.n_vertices
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -92,11 +52,11 @@ def main(argv: list[str] | None = None) -> dict:
     del head, s
     seg = Segmentation(v, f)
     del v, f
-    before = _current_rss_gib()
+    before = current_rss_gib()
     print(f"mesh: {seg.n_vertices:,} vertices, {len(seg.faces):,} faces; proxy budget {budget:,} triangles; "
-          f"RSS before the build {before:.2f} GiB (peak so far {_rss_gib():.2f} GiB)", flush=True)
+          f"RSS before the build {before:.2f} GiB (peak so far {peak_rss_gib():.2f} GiB)", flush=True)
     out: dict = {"vertices": seg.n_vertices, "faces": len(seg.faces), "budget": budget, "rss_before_gib": before}
-    base = None if a.no_baseline else _one_pass_baseline(seg, budget)
+    base = None if a.no_baseline else in_forked_child(_one_pass, seg, budget)
     if base is not None:
         out.update(one_pass_build_s=base[0], one_pass_peak_rss_gib=base[1])
         print(f"baseline one-pass build (fast-simplification on the whole mesh, forked child): {base[0]:.2f} s, "
@@ -107,7 +67,7 @@ def main(argv: list[str] | None = None) -> dict:
     t = time.perf_counter()
     px = DisplayProxy(seg, target_faces=budget, chunk_faces=a.chunk_faces)
     build = time.perf_counter() - t
-    peak = _rss_gib()
+    peak = peak_rss_gib()
     out.update(build_s=build, proxy_vertices=px.n_vertices, proxy_faces=len(px.faces),
                mapping_bytes_per_vertex=px.nbytes / seg.n_vertices, peak_rss_gib=peak,
                **{f"{k}_s": val for k, val in px.timings.items()})
@@ -135,7 +95,7 @@ def main(argv: list[str] | None = None) -> dict:
     rng = np.random.default_rng(0)
     for hits in (10_000, 100_000):
         c = seg.vertices[rng.integers(seg.n_vertices)].astype(np.float64)
-        r = _radius_for(seg, c, hits)
+        r = radius_for(seg.index, c, hits, steps=30)
         times, changed = [], []
         for k in range(6):
             lab = 1 + k % 5
