@@ -111,7 +111,8 @@ def test_components_twin(graph, truth):
 
 def test_kernels_match_twins_without_jit(monkeypatch, surface, graph, truth):
     """The kernels' Python source (coverage sees it) gives the same answers as the compiled ones."""
-    for name in ("_flood_numba", "_geodesic_numba", "_components_numba", "_csr_numba", "_edge_lengths_numba"):
+    for name in ("_bfs_fill", "_flood_numba", "_geodesic_numba", "_components_numba", "_csr_numba",
+                 "_edge_lengths_numba"):
         monkeypatch.setattr(F, name, getattr(F, name).py_func)
     f = surface.faces[:800]
     g = F.mesh_graph(surface.vertices, f)

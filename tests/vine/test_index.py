@@ -51,6 +51,9 @@ def test_grid_paint_kernel_equals_numpy_twin():
         order = np.argsort(ia)
         assert np.array_equal(ia[order], ib) and np.array_equal(oa[order], ob)
         assert np.array_equal(lab_a, lab_b)
+    for c in ([500.0, 0, 0], [0, -500.0, 0], [0, 0, 500.0]):          # the ball's box misses the grid
+        ia, oa = GRID.paint(np.array(c), 5.0, lab_a, paintable, 1)
+        assert len(ia) == len(oa) == 0 and np.array_equal(lab_a, lab_b)
 
 
 def test_grid_memory_is_small():
