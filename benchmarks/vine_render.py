@@ -30,32 +30,36 @@ proxy, the view zoomed onto the last copy (the others stay in the scene and are 
 
 Run: ``python benchmarks/vine_render.py [--quick] [--budgets 50000,200000,1500000] [--seconds S]``.
 
-Measured (2-core CPU machine with other work running, load average ~7; headless Chromium, SwiftShader WebGL,
-596x556 canvas; a 3 s stroke; the last of four full runs, the others within about +-30 %):
+Measured (2-core CPU machine, headless Chromium, SwiftShader WebGL, 596x556 canvas, a 3 s stroke), two full
+runs: A with other work running on the machine (load average ~7), B quieter (load ~2). fps = page frames per
+second (rAF), upd/s = renders showing new paint per second, render = one such render, bytes = websocket bytes
+the page received during the stroke (``array``: whole colour arrays instead of deltas, same stroke):
 
-====================  ======  ==========  ============  =================  ==================  =============
-proxy (faces)         drawn   fps (rAF)   updates/s     render per update  B received/stroke   whole arrays
-====================  ======  ==========  ============  =================  ==================  =============
-47,724                proxy   11.5        4.5 (4.3-5.5) 200 ms             7,286               7,575,421
-47,724                20k LOD 18.9        7.0           117 ms             12,193
-218,916               proxy   8.1         3.2 (1.2-3.2) 292 ms             21,015              11,685,263
-218,916               20k LOD 29.5        10.6          63 ms              33,694
-1,532,412             proxy   1.6         0.6           1.4 s              6,463
-1,532,412             20k LOD 42.5        7.8           49 ms              36,309
-====================  ======  ==========  ============  =================  ==================  =============
+==========  =======  ===============  ===============  ===============  ================  ==================
+proxy       drawn    A: fps / upd/s   B: fps / upd/s   render (A / B)   bytes (A / B)     bytes, ``array``
+==========  =======  ===============  ===============  ===============  ================  ==================
+47,724      proxy    11.5 / 4.5       16.5 / 6.9       200 / 120 ms     7,286 / 8,967     7.6 / 4.4 MB
+47,724      20k LOD  18.9 / 7.0       29.5 / 12.3      117 / 48 ms      12,193 / 15,152
+218,916     proxy     8.1 / 3.2        6.4 / 2.4       292 / 373 ms     21,015 / 16,053   11.7 / 5.4 MB
+218,916     20k LOD  29.5 / 10.6      23.4 / 8.2       63 / 89 ms       33,694 / 31,444
+1,532,412   proxy     1.6 / 0.6        2.7 / 0.9       1.4 / 1.0 s      6,463 / 8,087
+1,532,412   20k LOD  42.5 / 7.8       44.8 / 7.8       49 / 48 ms       36,309 / 36,758
+==========  =======  ===============  ===============  ===============  ================  ==================
 
 - Which budget reaches >= 5 fps in software WebGL: painting while drawing a proxy of ~50k faces is at the edge
-  (4-5.5 paint updates/s over four runs; 11-15 fps page frame rate); with the 20k-face level of detail that
-  the app draws while a stroke runs (its default), painting runs at 7-11 updates/s and 19-43 fps at every
-  budget, 1.5 M faces included. Drawing the 200k- or 1.5 M-face proxy itself while painting does not reach
-  5 fps in software (0.3-0.7 s and 1.1-2 s per frame): a 1.5 M-face proxy needs a real GPU to be drawn at
-  interactive rates; in software it is drawn once per stroke, when the stroke ends (1-2 s, "end of stroke").
+  (4.3-6.9 paint updates/s over five runs, depending on the machine's load; 11-17 fps page frame rate); with
+  the 20k-face level of detail the app draws while a stroke runs (its default), painting runs at 7-12
+  updates/s and 19-45 fps at every budget, 1.5 M faces included. Drawing the 200k- or 1.5 M-face proxy itself
+  while painting does not reach 5 fps in software (0.3-0.7 s and 1-2 s per frame): a 1.5 M-face proxy needs a
+  real GPU to be drawn at interactive rates; in software it is drawn once per stroke, when the stroke ends
+  (0.5-2 s, "end of stroke").
 - Where a stroke's time goes (per update): the render dominates (SwiftShader, one frame at this canvas: ~60 ms
-  at 24k triangles, 120-200 ms at 48k, 0.26-0.7 s at 219k, 1.1-2 s at 1.5 M); the request's round trip is 7-20 ms when the page is not busy drawing; the server
-  spends ~0.4-0.7 ms picking (``vtkStaticCellLocator``, ~0.1 ms of it the ray query) and ~1-2 ms stamping
-  (full-resolution labels and both proxies) per stamp and ~0.2 ms building a delta. Colour deltas go straight
-  into vtk.js's GPU colour buffer ("recoloured in the GPU buffer": all batches), so marking the data modified
-  (which rebuilds all vertex buffers: 1.45-2.6 s instead of 1.1-1.2 s for a 1.5 M-face frame) is avoided.
+  at 24k triangles, 110-200 ms at 48k, 0.26-0.7 s at 219k, 0.5-2 s at 1.5 M); the request's round trip is
+  7-20 ms when the page is not busy drawing; the server spends ~0.4-0.7 ms picking (``vtkStaticCellLocator``,
+  ~0.1 ms of it the ray query) and ~1-2 ms stamping (full-resolution labels and both proxies) per stamp and
+  ~0.2 ms building a delta. Colour deltas go straight into vtk.js's GPU colour buffer ("recoloured in the GPU
+  buffer": all batches), so marking the data modified (which rebuilds all vertex buffers: a 1.5 M-face frame
+  then takes 1.4-2.6 s instead of 0.5-1.2 s) is avoided.
 - Bytes per stroke: ~8 B per changed proxy vertex (uint32 id + RGBA, both levels of detail) plus ~200 B of
   message framing per request: 7-36 KB per 3 s stroke, against 7.6-11.7 MB when every request re-sends the
   whole colour array (``array``; 4 B per proxy vertex) and 46 MB for the 1.5 M-face scene itself. The page
