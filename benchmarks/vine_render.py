@@ -7,7 +7,8 @@ the view's centre for ``--seconds``. The page hook sends the positions to the se
 flight, positions coalesced meanwhile), the server picks them (``vtkStaticCellLocator`` on the drawn proxy) and
 stamps the full-resolution labels, and each reply's colour delta is applied in place and drawn at the next
 animation frame. With ``finish`` on, every render waits for the (software) GPU (it reads one pixel back:
-``gl.finish`` returns before SwiftShader has drawn), so a frame is only counted once it has been drawn. Measured per configuration:
+``gl.finish`` returns before SwiftShader has drawn), so a frame is only counted once it has been drawn.
+Measured per configuration:
 
 - ``first frame``: page load until the scene's actors and colour arrays are there and drawn;
 - ``redraw`` / ``with buffer rebuild``: one frame of the display proxy at rest, drawn as is and after marking its
@@ -181,7 +182,8 @@ def _measure(browser, seg: Segmentation, budget: int, config: str, lod: int, rad
             "fps": r["frames"] / dur, "updates_per_s": len(r["renders"]) / dur,
             "render_ms": float(np.median(r["renders"])) if r["renders"] else float("nan"),
             "rtt_ms": float(np.median(r["rtt"])), "end_s": (r["tEnd"] - r["tUp"]) / 1e3,
-            "final_render_ms": r["last_render_ms"], "moves": r["moves"], "fast": r["fast"], "applied": r["applied"], "requests": st["requests"],
+            "final_render_ms": r["last_render_ms"], "moves": r["moves"], "fast": r["fast"],
+            "applied": r["applied"], "requests": st["requests"],
             "stamps": st["stamps"], "misses": st["misses"], "bytes_rx": sum(rx), "bytes_tx": sum(tx),
             "changed_full": int(np.count_nonzero(seg.labels)), "delta_vertices": app.delta_vertices,
             "pick_ms": 1e3 * st["pick_s"] / stamps, "paint_ms": 1e3 * st["paint_s"] / stamps,
@@ -249,7 +251,8 @@ def main(argv: list[str] | None = None) -> dict:
                       f"({r['scene_bytes']:,} B), redraw {r['draw_ms']:.0f} ms, with buffer rebuild "
                       f"{r['rebuild_ms']:.0f} ms; painting {r['fps']:.1f} fps, {r['updates_per_s']:.1f} updates/s "
                       f"(render {r['render_ms']:.0f} ms, rtt {r['rtt_ms']:.0f} ms, {r['stamps']} stamps from "
-                      f"{r['requests']} requests, {r['moves']} moves, {r['misses']} misses; {r['fast']} of {r['applied']} batches' "
+                      f"{r['requests']} requests, {r['moves']} moves, {r['misses']} misses; {r['fast']} of "
+                      f"{r['applied']} batches' "
                       f"actors recoloured in the GPU buffer); end of stroke {r['end_s']:.2f} s; "
                       f"{r['bytes_rx']:,} B received / {r['bytes_tx']:,} B sent per stroke for "
                       f"{r['delta_vertices']:,} changed proxy vertices ({r['changed_full']:,} full-res; whole "

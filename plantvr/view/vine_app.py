@@ -45,7 +45,8 @@ from plantvr._validation import check_array, check_choice, check_int, check_rang
 from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.segmentation import Segmentation
 
-__all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry", "wheel_svg"]
+__all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry",
+           "wheel_svg"]
 
 _IDS = itertools.count()
 _DELTA_JS = Path(__file__).with_name("vine_delta.js")

@@ -152,7 +152,10 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
             late = browser.new_page(viewport={"width": 800, "height": 640})
             late.goto(url)
             late.wait_for_selector(".vine-view canvas", timeout=30_000)
-            assert _wait(late, lambda: _yellow(_img(late)) > 30, timeout=45.0), "a late page did not show the paint"
+            assert _wait(late, lambda: _yellow(_img(late)) > 30, timeout=45.0), \
+                ("a late page did not show the paint", app.resyncs, app.state.vine_stale,
+                 late.evaluate("({...window.vineDelta, log: 0, renders: 0, stroke: 0})"),
+                 late.screenshot(path=str(shots / "vine_review_late_page_failed.png")))
             late.screenshot(path=str(shots / "vine_review_late_page.png"))
             assert not errors, errors
             browser.close()
@@ -271,6 +274,9 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
         app.stop()
 
 
+_CAMERA_JS = "window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()"
+
+
 def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface, tmp_path):
     """A paint drag (toolbar "paint: drag"): every position is picked on the server against the drawn proxy and
     stamped on the full-resolution labels; the page draws the coarse level of detail while the stroke runs and
@@ -308,7 +314,7 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
             assert _wait(page, lambda: app.state.paint_drag)
             page.wait_for_timeout(500)
             received.clear()
-            cam0 = page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()")
+            cam0 = page.evaluate(_CAMERA_JS)
             page.evaluate("() => { window.__lod = []; const v = window.vineDelta;"
                           " const f = () => { window.__lod.push(v.lodShown); if (window.__lod.length < 4000)"
                           " requestAnimationFrame(f); }; requestAnimationFrame(f); }")
@@ -347,7 +353,7 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
             assert late.evaluate("window.vineDelta.resyncs") == 1 and not app.state.vine_stale
             late.close()
             # the drag painted instead of orbiting: the camera did not move
-            assert np.allclose(page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()"), cam0)
+            assert np.allclose(page.evaluate(_CAMERA_JS), cam0)
             page.locator(".vine-undo").click()
             assert _wait(page, lambda: not np.any(seg.labels))
             assert _wait(page, lambda: _yellow(_img(page)) == 0)
@@ -363,7 +369,7 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
             page.mouse.move(cx + 40, cy - 20, steps=8)
             page.mouse.up()
             page.wait_for_timeout(1000)
-            assert not np.allclose(page.evaluate("window.trame.refs.vine_view.$.provides.view.renderer.getActiveCamera().getPosition()"), cam0)
+            assert not np.allclose(page.evaluate(_CAMERA_JS), cam0)
             assert True in page.evaluate("window.__lod") and not page.evaluate("window.vineDelta.lodShown")
             assert not np.any(seg.labels) and len(seg.history.undo_stack) == 0
             assert not errors, errors
