@@ -26,7 +26,7 @@ detail while the stroke (or an orbit) runs and the display proxy again after it 
 ``array`` is the baseline for bytes: each request re-synchronises the scene (the whole colour array) instead of
 sending deltas. Meshes: a synthetic head (64³ or 128³) copied in a row to the proxy budget and served as its own
 proxy, the view zoomed onto the last copy (the others stay in the scene and are drawn)
-(decimating an 18 M-vertex head to such a proxy is the core's part, ``benchmarks/vine_scale.py``); budgets
+(decimating an 18 M-vertex head to such a proxy is the core's part, ``benchmarks/vine_proxy.py``); budgets
 ~50k, ~200k and ~1.5 M faces; ``--quick`` uses one 64³ head (23,862 faces) with a 6k-face level of detail.
 
 Run: ``python benchmarks/vine_render.py [--quick] [--budgets 50000,200000,1500000] [--seconds S]``.
