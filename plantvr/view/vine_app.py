@@ -256,7 +256,8 @@ class VineReviewApp:
     proxy, view : DisplayProxy, SegmentationView
         The display proxy and its (server-side) view, whose render window the page mirrors.
     lod, lod_view : DisplayProxy, SegmentationView or None
-        The level of detail drawn while painting (built from ``seg`` with ``interactive_faces``) and its view.
+        The level of detail drawn while painting (decimated from the display proxy to ``interactive_faces``)
+        and its view.
     last_pick : dict or None
         The last picked point, ``{"worldPosition": [x, y, z], ...}``.
     last_stroke : list of (3,) ndarray
@@ -349,7 +350,7 @@ class VineReviewApp:
                 and len(self.proxy.faces) > self.interactive_faces:
             # the level of detail drawn while a stroke or an orbit drag runs: visible here (trame-vtk sends
             # hidden actors without their data), hidden by the page hook at rest
-            self.lod = DisplayProxy(seg, target_faces=self.interactive_faces)
+            self.lod = self.proxy.coarser(self.interactive_faces)     # not a second pass over the full mesh
             self.lod_view = SegmentationView(seg, proxy=self.lod, plotter=self.view.plotter,
                                              background=(0.08, 0.08, 0.1))
             self.lod.observe(self._on_lod_change)

@@ -432,6 +432,9 @@ class DisplayProxy:
         :func:`decimate_with_owner`), in [1000, 2**31 - 1]. Bounds the build's peak memory.
     observe : bool
         Follow the segmentation's changes (paint, undo, hide, colours) automatically.
+    base : DisplayProxy or None
+        Decimate this proxy's display mesh of the same ``seg`` instead of the full-resolution mesh and compose
+        the owner maps (a coarser level of detail without decimating the full mesh again); see :meth:`coarser`.
 
     Attributes
     ----------
@@ -449,9 +452,12 @@ class DisplayProxy:
     """
 
     def __init__(self, seg: Segmentation, *, target_faces: int = 1_500_000, method: str = "collapse",
-                 agg: float = 7.0, chunk_faces: int = 6_000_000, observe: bool = True):
+                 agg: float = 7.0, chunk_faces: int = 6_000_000, observe: bool = True,
+                 base: "DisplayProxy | None" = None):
         if not isinstance(seg, Segmentation):
             raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+        if base is not None and (not isinstance(base, DisplayProxy) or base.seg is not seg):
+            raise ValueError("base must be a DisplayProxy of the same segmentation")
         target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
         method = check_choice("method", method, ("collapse", "nearest"))
         agg = check_range("agg", agg, 0.0, 10.0)
@@ -461,16 +467,17 @@ class DisplayProxy:
         self.timings: dict[str, float] = {}
         self._observers: list[Callable] = []
         t0 = time.perf_counter()
-        if len(seg.faces) <= target_faces:
-            self.vertices = seg.vertices
-            self.faces = seg.faces
-            owner = np.arange(seg.n_vertices, dtype=np.int32)
+        src_v, src_f = (seg.vertices, seg.faces) if base is None else (base.vertices, base.faces)
+        if len(src_f) <= target_faces:
+            self.vertices = src_v
+            self.faces = src_f
+            owner = np.arange(seg.n_vertices, dtype=np.int32) if base is None else base.owner.copy()
             self.timings["merge"] = self.timings["decimate"] = 0.0
         else:
-            first, inverse, mf = merge_coincident(seg.vertices, seg.faces)
+            first, inverse, mf = merge_coincident(src_v, src_f)
             t1 = time.perf_counter()
             self.timings["merge"] = t1 - t0
-            merged = seg.vertices[first]
+            merged = src_v[first]
             del first
             pts, pf, owner_m = decimate_with_owner(merged, mf, target_faces, agg=agg, chunk_faces=chunk_faces)
             del mf
@@ -482,8 +489,10 @@ class DisplayProxy:
                 owner_m = near.astype(np.int32)
                 del near
             del merged
-            owner = owner_m[inverse]                          # int32 (V,)
+            owner = owner_m[inverse]                          # int32 (V,) (of the base's vertices with a base)
             del owner_m, inverse
+            if base is not None:
+                owner = owner[base.owner]
             self.timings["map"] = time.perf_counter() - t2
         self.method = method
         t3 = time.perf_counter()
@@ -500,6 +509,15 @@ class DisplayProxy:
         if observe:
             seg.observe(self._on_change)
             self._observing = True
+
+    def coarser(self, target_faces: int, **kwargs) -> "DisplayProxy":
+        """A coarser proxy of the same segmentation, decimated from this one's display mesh.
+
+        Its owner map is this proxy's composed with the new decimation, so every full-resolution vertex still
+        belongs to exactly one vertex of it; cheap next to decimating the full-resolution mesh again (the level
+        of detail the browser draws while a stroke runs). ``kwargs`` as for :class:`DisplayProxy`.
+        """
+        return DisplayProxy(self.seg, target_faces=target_faces, base=self, **kwargs)
 
     # ------------------------------------------------------------------ sizes
     @property

@@ -199,6 +199,27 @@ def test_paint_through_proxy_view_equals_full_mesh_paint(surface, seg, proxy):
     proxy.close()
 
 
+def test_coarser_proxy_composes_the_owner_maps(seg, proxy):
+    """A level of detail decimated from the proxy: every full-resolution vertex still has exactly one owner,
+    owner = (proxy → coarse) ∘ (full → proxy), and its labels follow paint like any proxy's."""
+    lod = proxy.coarser(len(proxy.faces) // 4)
+    assert len(lod.faces) <= len(proxy.faces) // 4 + 8 and lod.n_vertices < proxy.n_vertices
+    assert np.array_equal(np.sort(lod.members), np.arange(seg.n_vertices))
+    assert np.all(np.diff(lod.starts) >= 1)
+    p2c = np.empty(proxy.n_vertices, np.int64)
+    p2c[proxy.owner] = lod.owner                              # each proxy vertex's members share a coarse owner
+    assert np.array_equal(p2c[proxy.owner], lod.owner)
+    d = np.linalg.norm(lod.vertices[lod.owner] - seg.vertices, axis=1)
+    assert np.percentile(d, 95) < 8.0
+    seg.paint(seg.vertices[seg.n_vertices // 2], 6.0, 3)
+    assert np.array_equal(lod.labels, _recomputed(lod, seg))
+    same = proxy.coarser(10 * len(proxy.faces))               # within the budget: the proxy's own mesh
+    assert same.vertices is proxy.vertices and np.array_equal(same.owner, proxy.owner)
+    other = Segmentation(seg.vertices, seg.faces)
+    with pytest.raises(ValueError, match="base must be a DisplayProxy of the same segmentation"):
+        DisplayProxy(other, base=proxy)
+
+
 def test_rejected_arguments(seg):
     with pytest.raises(ValueError, match="target_faces"):
         DisplayProxy(seg, target_faces=2)
