@@ -93,18 +93,25 @@ def petal_net(*, length: float = 1.0, width: float = 0.3, opening_deg: float = 4
     base_width = check_range("base_width", base_width, 0.0, 1.0)
     roll_deg = check_range("roll_deg", roll_deg, 0.0, 175.0)
     t = np.linspace(0, 1, nv)
-    ang = np.deg2rad(opening_deg + curl_deg * t)                 # angle from the axis along the midrib
-    seg = length / (nv - 1)
-    mid = np.zeros((nv, 3))
-    mid[0] = [base_radius, 0.0, 0.0]
-    for j in range(1, nv):
-        a = 0.5 * (ang[j - 1] + ang[j])
-        mid[j] = mid[j - 1] + seg * np.array([np.sin(a), 0.0, np.cos(a)])
+    mid = midrib(length, opening_deg, curl_deg, nv, base_radius)
     prof = width * (base_width + (1 - base_width) * np.sin(np.pi * np.clip(0.15 + 0.85 * t, 0, 1)) ** 0.8)
     s = np.linspace(-1, 1, nu)
     ctrl = np.repeat(mid[None], nu, axis=0)
     ctrl[:, :, 1] = s[:, None] * prof[None, :] / 2
     return roll_margins(ctrl, roll_deg) if roll_deg > 0 else make_bilateral(ctrl)
+
+
+def midrib(length: float, opening_deg: float, curl_deg: float, nv: int, base_radius: float) -> np.ndarray:
+    """(nv, 3) midrib of a petal in the x-z plane: ``nv`` equal steps of total ``length`` from (base_radius, 0, 0),
+    leaning ``opening_deg`` from the floret axis (+z) at the base and ``curl_deg`` more at the tip (linear in
+    arc length, midpoint angle per step). Inputs are checked by the callers."""
+    ang = np.deg2rad(opening_deg + curl_deg * np.linspace(0, 1, nv))
+    a = 0.5 * (ang[:-1] + ang[1:])
+    steps = np.zeros((nv, 3))
+    steps[0, 0] = base_radius
+    steps[1:, 0] = length / (nv - 1) * np.sin(a)
+    steps[1:, 2] = length / (nv - 1) * np.cos(a)
+    return np.cumsum(steps, axis=0)                             # sequential sums, as stepping along the rib
 
 
 def roll_margins(ctrl: np.ndarray, roll_deg: float | np.ndarray) -> np.ndarray:

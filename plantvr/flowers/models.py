@@ -18,7 +18,7 @@ from plantvr._validation import check_int, check_range
 from plantvr.flowers.branching import BranchTree, compound_umbel, rodkaew, scale_tree
 from plantvr.flowers.composer import Canopy, FloretType
 from plantvr.flowers.fate import cone_dmin, floret_fate, ray_florets
-from plantvr.flowers.floret import Corolla, build_floret, petal_net, roll_margins
+from plantvr.flowers.floret import Corolla, build_floret, midrib, petal_net, roll_margins
 from plantvr.flowers.phyllotaxis import (
     centripetal_fractionation,
     disc_receptacle,
@@ -188,13 +188,7 @@ def _cupped_net(length: float, width: float, opening_deg: float, incurve_deg: fl
     """A broad ligule with a rounded tip, leaning ``opening_deg`` from the floret axis, its tip bent by
     ``incurve_deg`` and its margins rolled by ``roll_deg`` (dahlia ray floret, spec 002 §6.2)."""
     t = np.linspace(0.0, 1.0, nv)
-    ang = np.deg2rad(opening_deg + incurve_deg * t)
-    seg = length / (nv - 1)
-    mid = np.zeros((nv, 3))
-    mid[0] = [base_radius, 0.0, 0.0]
-    for j in range(1, nv):
-        a = 0.5 * (ang[j - 1] + ang[j])
-        mid[j] = mid[j - 1] + seg * np.array([np.sin(a), 0.0, np.cos(a)])
+    mid = midrib(length, opening_deg, incurve_deg, nv, base_radius)
     rise = np.sin(0.5 * np.pi * np.minimum(t / 0.55, 1.0)) ** 0.7                # widening from the base
     tip = np.sqrt(np.clip(1.0 - ((t - 0.55) / 0.47) ** 2, 0.0, 1.0))              # elliptic, rounded tip
     prof = width * (base_width + (1.0 - base_width) * np.where(t <= 0.55, rise, tip))

@@ -511,10 +511,16 @@ class TreeWandAssigner:
         (self.origin, self.h, self.dims, self.reach, self.pos_s, self.orig, self.cell_start,
          self.cell_live) = K.build_grid(markers, self.view_radius, _cells_per_radius)
         self.m = len(markers)
-        self._owner_s = np.full(self.m, -1, np.int32)
-        self._owner_in = np.full(self.m, -1, np.int32)  # the same owners by input row, kept in step
-        self._best_s = np.full(self.m, np.inf)
+        self._owner_s = self._owner_in = self._best_s = None  # incremental state, made by _state() when needed
         self._prev_pos = None
+
+    def _state(self) -> None:
+        """Allocate the incremental state (owner and best by sorted slot, owner by input row) on first use, so a
+        stateless :meth:`assign` (the engine's path) never pays for it."""
+        if self._owner_s is None:
+            self._owner_s = np.full(self.m, -1, np.int32)
+            self._owner_in = np.full(self.m, -1, np.int32)
+            self._best_s = np.full(self.m, np.inf)
 
     def assign(self, bud_pos, bud_dir, bud_len) -> np.ndarray:
         """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int32 by input row (-1: none/dead)."""
@@ -535,6 +541,7 @@ class TreeWandAssigner:
         r = check_range("radius", radius, 0.0, self.view_radius, low_open=True)
         if len(points) == 0:
             return 0
+        self._state()
         return int(K.kill_within_kernel(points, r * r, self.origin, self.h, self.dims, self.reach, self.cell_start,
                                         self.cell_live, self.pos_s, self.orig, self._owner_s, self._best_s,
                                         self._owner_in))
@@ -562,6 +569,7 @@ class TreeWandAssigner:
         nb = len(bud_pos)
         alive = np.ones(nb, bool) if alive is None else check_array("alive", alive, shape=(nb,), dtype=bool)
         ids_all = np.flatnonzero(alive).astype(np.int64)
+        self._state()
         if changed is None or self._prev_pos is None:
             self._owner_s.fill(-1)
             self._owner_in.fill(-1)
@@ -605,6 +613,7 @@ class TreeWandAssigner:
     @property
     def state_bytes_per_marker(self) -> float:
         """Marker state beyond positions, grid included, in bytes per marker (issue 13: ≤ 32)."""
+        self._state()
         return _state_bytes_per_marker(self, ("orig", "_owner_s", "_owner_in", "_best_s", "cell_start",
                                               "cell_live"))
 

@@ -477,14 +477,20 @@ class TreeLibrary:
         (self.folder / f"{name}.json").write_text(json.dumps(meta))
         return path
 
-    def load(self, name: str) -> SketchEngine:
-        """Rebuild the engine saved as ``name``; raises ``ValueError`` on a missing or corrupt entry."""
+    def read_entry(self, name: str) -> tuple[str, Any]:
+        """The ``.tree`` text and the parsed ``.json`` metadata saved as ``name`` (``ValueError`` if unreadable)."""
         name = self._name(name)
         try:
             text = (self.folder / f"{name}.tree").read_text()
             meta = json.loads((self.folder / f"{name}.json").read_text())
         except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ValueError(f"cannot read library tree {name!r} in {self.folder}: {exc}") from None
+        return text, meta
+
+    def load(self, name: str) -> SketchEngine:
+        """Rebuild the engine saved as ``name``; raises ``ValueError`` on a missing or corrupt entry."""
+        name = self._name(name)
+        text, meta = self.read_entry(name)
         if not isinstance(meta, dict) or meta.get("format") != _LIB_FORMAT:
             raise ValueError(f"{name}.json is not a TreeSketch library entry (format {_LIB_FORMAT!r})")
         tree, params = tree_from_text(text)

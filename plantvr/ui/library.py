@@ -15,7 +15,6 @@ Storage is :class:`plantvr.growth.sketch_tools.TreeLibrary` (``<name>.tree`` + `
 from __future__ import annotations
 
 import html
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -114,12 +113,7 @@ def preset_from_tree(library: TreeLibrary, name: str, *, kind: str = "growth") -
     from .._validation import check_choice
 
     kind = check_choice("kind", kind, _KINDS)
-    name = library._name(name)
-    try:
-        text = (library.folder / f"{name}.tree").read_text()
-        meta = json.loads((library.folder / f"{name}.json").read_text())
-    except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read library tree {name!r} in {library.folder}: {exc}") from None
+    text, meta = library.read_entry(name)
     _, params = tree_from_text(text)
     params.pop("branching", None)  # the node topology of that tree, not a parameter to carry to another
     opts = dict(meta.get("options", {})) if isinstance(meta, dict) else {}

@@ -51,10 +51,29 @@ def _wait(page, cond, timeout=15.0):
     return cond()
 
 
+def _shots(tmp_path) -> Path:
+    d = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
+    d.mkdir(parents=True, exist_ok=True)
+    return d
+
+
+def _open_page(browser, width: int, *, received: list | None = None, console: bool = False):
+    """A page that collects page errors (and console errors bar trame's 405 probe when ``console``; a layout that
+    makes vtk.js's ResizeObserver loop logs one) and the sizes of received websocket frames into ``received``."""
+    page = browser.new_page(viewport={"width": width, "height": 640})
+    if received is not None:
+        page.on("websocket", lambda ws: ws.on("framereceived", lambda m: received.append(len(m))))
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    if console:
+        page.on("console", lambda m: m.type == "error" and "Failed to load resource" not in m.text
+                and errors.append(m.text))
+    return page, errors
+
+
 def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path):
     from plantvr.view.vine_app import VineReviewApp
-    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    shots.mkdir(parents=True, exist_ok=True)
+    shots = _shots(tmp_path)
     seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals)
     app = VineReviewApp(seg, target_faces=len(seg.faces) // 4, radius=5.0, window_size=(640, 480))
     assert app.proxy.n_vertices < seg.n_vertices // 3
@@ -63,11 +82,8 @@ def test_click_paints_full_resolution_labels_through_the_proxy(surface, tmp_path
     try:
         with playwright_api.sync_playwright() as p:
             browser = launch_chromium(p)
-            page = browser.new_page(viewport={"width": 800, "height": 640})
             received = []
-            page.on("websocket", lambda ws: ws.on("framereceived", lambda m: received.append(len(m))))
-            errors = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
+            page, errors = _open_page(browser, 800, received=received)
             page.goto(url)
             page.wait_for_selector(".vine-view canvas", timeout=30_000)
             box = page.locator(".vine-view").bounding_box()
@@ -180,8 +196,7 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
     click on the mesh paints with it; a shift-click hides the colour (radial lines; gone from the mesh, painting
     with it refused) and shows it again."""
     from plantvr.view.vine_app import WHEEL_RADIUS, VineReviewApp, wheel_geometry
-    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    shots.mkdir(parents=True, exist_ok=True)
+    shots = _shots(tmp_path)
     seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals)
     n = len(seg.colors)
     app = VineReviewApp(seg, target_faces=len(seg.faces) // 4, radius=5.0, window_size=(640, 480))
@@ -191,12 +206,7 @@ def test_colour_wheel_selects_paints_and_hides(surface, tmp_path):
     try:
         with playwright_api.sync_playwright() as p:
             browser = launch_chromium(p)
-            page = browser.new_page(viewport={"width": 900, "height": 640})
-            errors = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            # console errors too (a layout that makes vtk.js's ResizeObserver loop logs one), bar trame's 405 probe
-            page.on("console", lambda m: m.type == "error" and "Failed to load resource" not in m.text
-                    and errors.append(m.text))
+            page, errors = _open_page(browser, 900, console=True)
             page.goto(url)
             page.wait_for_selector(".vine-view canvas", timeout=30_000)
             page.wait_for_selector(".vine-wheel svg .wheel-slice", timeout=30_000)
@@ -275,8 +285,7 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
     stamped on the full-resolution labels; the page draws the coarse level of detail while the stroke runs and
     the display proxy again after it; the stroke is one undo item; only colour deltas travel."""
     from plantvr.view.vine_app import VineReviewApp
-    shots = Path(os.environ.get("PLANTVR_SCREENSHOTS", tmp_path))
-    shots.mkdir(parents=True, exist_ok=True)
+    shots = _shots(tmp_path)
     seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals)
     app = VineReviewApp(seg, target_faces=len(seg.faces) // 2, radius=4.0, window_size=(640, 480),
                         interactive_faces=len(seg.faces) // 8)
@@ -286,13 +295,8 @@ def test_paint_drag_stroke_on_the_lod_paints_full_resolution_and_undoes(surface,
     try:
         with playwright_api.sync_playwright() as p:
             browser = launch_chromium(p)
-            page = browser.new_page(viewport={"width": 800, "height": 640})
             received = []
-            page.on("websocket", lambda ws: ws.on("framereceived", lambda m: received.append(len(m))))
-            errors = []
-            page.on("pageerror", lambda e: errors.append(str(e)))
-            page.on("console", lambda m: m.type == "error" and "Failed to load resource" not in m.text
-                    and errors.append(m.text))
+            page, errors = _open_page(browser, 800, received=received, console=True)
             page.goto(url)
             page.wait_for_selector(".vine-view canvas", timeout=30_000)
             box = page.locator(".vine-view").bounding_box()
