@@ -16,7 +16,17 @@ __all__ = [
     "check_points",
     "check_point",
     "check_array",
+    "MAX_COORD",
+    "MAX_COUNT",
 ]
+
+#: Largest coordinate magnitude any PlantVR entry point accepts (model units: metres for trees, the scan's
+#: units for ViNE). Far beyond any plant or scan, and small enough that grid kernels can index cells of it
+#: without integer overflow (issue 20: a marker at 1e100 or a node at 1e19 crashed or stalled the kernels).
+MAX_COORD = 1e6
+
+#: Largest element count (markers, darts, nodes, faces) a single command may ask for.
+MAX_COUNT = 100_000_000
 
 
 def check_range(name: str, value: Any, low: float, high: float, *,
@@ -57,10 +67,11 @@ def check_choice(name: str, value: Any, choices: tuple) -> Any:
 
 
 def check_array(name: str, value: Any, *, shape: tuple, dtype: Any = np.float64,
-                finite: bool = True, min_rows: int = 0) -> np.ndarray:
+                finite: bool = True, min_rows: int = 0, max_abs: float | None = None) -> np.ndarray:
     """Return ``value`` as a C-contiguous array of ``dtype`` and the given shape.
 
-    ``shape`` uses ``None`` for a free dimension, e.g. ``(None, 3)`` for points.
+    ``shape`` uses ``None`` for a free dimension, e.g. ``(None, 3)`` for points; ``max_abs`` bounds the
+    magnitude of every element.
     """
     try:
         arr = np.asarray(value, dtype=dtype)
@@ -72,17 +83,21 @@ def check_array(name: str, value: Any, *, shape: tuple, dtype: Any = np.float64,
         raise ValueError(f"{name} must have at least {min_rows} rows, got {arr.shape[0]}")
     if finite and arr.dtype.kind == "f" and not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    if max_abs is not None and arr.size and arr.dtype.kind in "fiu":
+        mag = max(float(arr.max()), -float(arr.min()))
+        if mag > max_abs:
+            raise ValueError(f"{name} values must lie in [-{max_abs:g}, {max_abs:g}], got magnitude {mag:g}")
     return np.ascontiguousarray(arr)
 
 
-def check_points(name: str, value: Any, *, min_rows: int = 0) -> np.ndarray:
-    """Return ``value`` as a finite ``(N, 3)`` float64 array."""
-    return check_array(name, value, shape=(None, 3), min_rows=min_rows)
+def check_points(name: str, value: Any, *, min_rows: int = 0, max_abs: float = MAX_COORD) -> np.ndarray:
+    """Return ``value`` as a finite ``(N, 3)`` float64 array with coordinates inside ``±max_abs``."""
+    return check_array(name, value, shape=(None, 3), min_rows=min_rows, max_abs=max_abs)
 
 
-def check_point(name: str, value: Any) -> np.ndarray:
-    """Return ``value`` as a finite ``(3,)`` float64 array."""
-    return check_array(name, value, shape=(3,))
+def check_point(name: str, value: Any, *, max_abs: float = MAX_COORD) -> np.ndarray:
+    """Return ``value`` as a finite ``(3,)`` float64 array with coordinates inside ``±max_abs``."""
+    return check_array(name, value, shape=(3,), max_abs=max_abs)
 
 
 def _interval(low, high, low_open, high_open) -> str:

@@ -16,16 +16,23 @@ __all__ = ["main"]
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def demo(out: Path, steps: int, seed: int) -> dict:
-    """Grow a tree from the built-in strokes and write tree.ply, tree.glb and tree.png to ``out``."""
+def demo(out: Path, steps: int, seed: int, *, install: bool = True) -> dict:
+    """Grow a tree from the built-in strokes and write tree.ply, tree.glb and tree.png to ``out``.
+
+    With ``install`` (the default, so the README's first command sets up a fresh machine), Debian's EGL/Mesa
+    packages are installed through ``apt-get`` when offscreen rendering would otherwise be impossible.
+    """
     from tqdm import tqdm
 
     from . import Model
     from .export import export_model, tree_trimesh
     from .growth.scenarios import demo_session, run
 
-    out.mkdir(parents=True, exist_ok=True)
-    ensure_system_packages(browser=False)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out {str(out)!r} cannot be created: {exc.strerror or exc}") from None
+    ensure_system_packages(browser=False, install=install)
     model = Model(seed=seed)
     t0 = time.perf_counter()
     stats = run(model, demo_session(), steps, tqdm(range(steps), desc="growing", unit="step"))
@@ -76,30 +83,56 @@ def _egl_missing() -> bool:
     return ctypes.util.find_library("EGL") is None
 
 
-def ensure_system_packages(*, browser: bool = True) -> None:
-    """Install Debian's EGL/Mesa (offscreen VTK) and, for tests, chromium, when missing and possible."""
+_WHY = {"libegl1": "EGL, for offscreen VTK rendering", "libgl1-mesa-dri": "Mesa's software OpenGL driver",
+        "chromium": "headless Chromium, for the browser tests"}
+
+
+def ensure_system_packages(*, browser: bool = True, install: bool = True) -> None:
+    """Install Debian's EGL/Mesa (offscreen VTK) and, for tests, chromium, when missing and possible.
+
+    Says what it installs and why before running ``apt-get`` (as root only); ``install=False``
+    (``--no-install``) only says what is missing.
+    """
     need = ["libegl1", "libgl1-mesa-dri"] if _egl_missing() else []
     if browser and not shutil.which("chromium"):
         need.append("chromium")
     if not need:
         return
-    if not shutil.which("apt-get") or os.geteuid() != 0:
-        print(f"plantvr: please install {' '.join(need)} (apt-get); rendering or browser tests may be skipped")
+    why = "; ".join(f"{n} ({_WHY[n]})" for n in need)
+    if not install or not shutil.which("apt-get") or os.geteuid() != 0:
+        print(f"plantvr: missing system packages: {why}. Install them with `apt-get install {' '.join(need)}`; "
+              "until then rendering or browser tests may be skipped", file=sys.stderr)
         return
+    print(f"plantvr: installing system packages with apt-get (pass --no-install to skip): {why}", flush=True)
     env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
     subprocess.run(["apt-get", "update", "-qq"], check=False, env=env)
     subprocess.run(["apt-get", "install", "-y", "-qq", *need], check=False, env=env)
 
 
-def test(extra: list[str]) -> int:
-    """Install system packages the tests need, then run pytest on tests/ and the notebooks (nbval)."""
-    ensure_system_packages()
+#: The bounds-checked pass of ``plantvr test``: every test that drives numba kernels, recompiled with
+#: ``NUMBA_BOUNDSCHECK=1`` into a cache of its own (issue 20), so an out-of-bounds index fails as IndexError.
+BOUNDSCHECK_TESTS = ["tests", "-m", "not browser and not slow", "--ignore=tests/ui", "--ignore=tests/view",
+                     "--ignore=tests/test_benchmarks.py", "--ignore=tests/test_cli.py", "--ignore=tests/test_view.py"]
+
+
+def test(extra: list[str], *, install: bool = True, boundscheck: bool = True) -> int:
+    """Install system packages the tests need, run pytest on tests/ and the notebooks (nbval), then the
+    kernel tests once more with numba bounds checking."""
+    ensure_system_packages(install=install)
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     os.environ.setdefault("MPLBACKEND", "Agg")
-    args = [sys.executable, "-m", "pytest", "tests", "notebooks", "--nbval-lax", "-p", "no:cacheprovider",
-            "--timeout", "900", *extra]
+    common = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--timeout", "900"]
+    args = [*common, "tests", "notebooks", "--nbval-lax", *extra]
     print("+", " ".join(args), flush=True)
-    return subprocess.call(args, cwd=ROOT)
+    rc = subprocess.call(args, cwd=ROOT)
+    if rc != 0 or extra or not boundscheck:
+        return rc
+    import tempfile  # noqa: PLC0415
+    with tempfile.TemporaryDirectory(prefix="plantvr-nbc-") as cache:
+        env = {**os.environ, "NUMBA_BOUNDSCHECK": "1", "NUMBA_CACHE_DIR": cache}
+        args = [*common, "-q", *BOUNDSCHECK_TESTS]
+        print("+ NUMBA_BOUNDSCHECK=1", " ".join(args), flush=True)
+        return subprocess.call(args, cwd=ROOT, env=env)
 
 
 def lab(notebooks: Path) -> int:
@@ -113,9 +146,38 @@ _DELEGATED = {  # sub-commands whose own parsers live beside their code
 }
 
 
+def _int_in(flag: str, low: int, high: int):
+    """argparse type: an integer in [low, high]; argparse prints the message as a one-line usage error."""
+    def parse(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            v = None
+        if v is None or not low <= v <= high:
+            raise argparse.ArgumentTypeError(f"{flag} must be >= {low} and <= {high}, got {text!r}")
+        return v
+    return parse
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``plantvr`` command."""
+    """Entry point of the ``plantvr`` command.
+
+    A bad argument or input file ends in one line on stderr (``plantvr CMD: error: ...``) and exit code 2,
+    never a traceback.
+    """
     argv = sys.argv[1:] if argv is None else list(argv)
+    cmd = argv[0] if argv else ""
+    try:
+        return _main(argv)
+    except (ValueError, OSError) as exc:
+        msg = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        if isinstance(exc, OSError) and exc.filename:
+            msg = f"{msg}: {exc.filename!s}"
+        print(f"plantvr {cmd}: error: {msg}".replace("\n", " "), file=sys.stderr)
+        return 2
+
+
+def _main(argv: list[str]) -> int:
     if argv and argv[0] in _DELEGATED:
         mod, fn, _ = _DELEGATED[argv[0]]
         return int(getattr(importlib.import_module(mod), fn)(argv[1:]) or 0)
@@ -125,25 +187,26 @@ def main(argv: list[str] | None = None) -> int:
         sub.add_parser(name, help=f"{text} (plantvr {name} --help)")
     d = sub.add_parser("demo", help="grow a tree from built-in strokes; write tree.ply, tree.glb, tree.png")
     d.add_argument("--out", type=Path, default=Path("demo_out"))
-    d.add_argument("--steps", type=int, default=80)
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--steps", type=_int_in("--steps", 1, 100_000), default=80)
+    d.add_argument("--seed", type=_int_in("--seed", 0, 2**63 - 1), default=0)
+    d.add_argument("--no-install", action="store_true", help="never run apt-get (only say what is missing)")
     la = sub.add_parser("lab", help="open JupyterLab on the notebooks")
     la.add_argument("notebooks", nargs="?", type=Path, default=ROOT / "notebooks")
     sub.add_parser("info", help="versions and optional features")
     t = sub.add_parser("test", help="install test prerequisites and run the test suite")
+    t.add_argument("--no-install", action="store_true", help="never run apt-get (only say what is missing)")
+    t.add_argument("--no-boundscheck", action="store_true", help="skip the NUMBA_BOUNDSCHECK=1 pass")
     t.add_argument("pytest_args", nargs=argparse.REMAINDER)
     a = ap.parse_args(argv)
     if a.cmd == "demo":
-        if a.steps < 1:
-            ap.error(f"--steps must be >= 1, got {a.steps}")
-        demo(a.out, a.steps, a.seed)
+        demo(a.out, a.steps, a.seed, install=not a.no_install)
         return 0
     if a.cmd == "lab":
         return lab(a.notebooks)
     if a.cmd == "info":
         info()
         return 0
-    return test(a.pytest_args)
+    return test(a.pytest_args, install=not a.no_install, boundscheck=not a.no_boundscheck)
 
 
 if __name__ == "__main__":

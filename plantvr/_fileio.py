@@ -1,0 +1,193 @@
+"""Atomic writes and bounded reads shared by every PlantVR file format (issue 20: nothing loses work).
+
+Every save goes through :func:`atomic_write`: the bytes go to a temporary file in the target's folder,
+are flushed and fsync-ed, then renamed over the target, so a save that fails half way (disk full, a bad
+value met while writing, a killed kernel) leaves the previous file as it was and no temporary file behind.
+
+Every zip/npz read goes through :func:`read_npz` or :func:`read_zip`: the member list and each member's
+declared size (and, for ``.npy`` members, the array header) are checked against a stated cap *before*
+anything is inflated, so a zip bomb is refused at the cost of reading its central directory. ``zipfile``
+never inflates past a member's declared size, so the declared sizes bound the memory a read can take.
+"""
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import os
+import tempfile
+import zipfile
+from collections.abc import Collection, Iterator, Mapping
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+__all__ = ["MAX_READ_BYTES", "atomic_write", "write_atomic", "write_npz", "read_npz", "read_zip",
+           "digest_arrays"]
+
+#: Default cap on the inflated size of one zip/npz file PlantVR reads (bytes). Readers of formats whose
+#: files are bigger by design (a 36 M-face segmentation with its mesh) pass a larger ``max_bytes``.
+MAX_READ_BYTES = 16 * 2**30
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO[Any]]:
+    """Open a temporary file beside ``path``; on a clean exit it replaces ``path`` atomically.
+
+    On any exception the temporary file is removed and ``path`` is left untouched.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to (re)write. Its folder must exist.
+    mode : {"wb", "w"}
+        Binary or text (UTF-8) mode.
+    """
+    if mode not in ("wb", "w"):
+        raise ValueError(f"mode must be 'wb' or 'w', got {mode!r}")
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ValueError(f"cannot write {os.fspath(path)!r}: folder {os.fspath(folder)!r} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, mode, **({"encoding": "utf-8", "newline": ""} if mode == "w" else {})) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        with contextlib.suppress(OSError):  # keep the target's permissions when overwriting
+            os.chmod(tmp, os.stat(path).st_mode & 0o7777 if path.exists() else 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    with contextlib.suppress(OSError):  # make the rename itself durable
+        dfd = os.open(folder, os.O_RDONLY)
+        try:
+            os.fsync(dfd)
+        finally:
+            os.close(dfd)
+
+
+def write_atomic(path: str | os.PathLike, data: bytes | str) -> Path:
+    """Write ``data`` (bytes, or text as UTF-8) to ``path`` atomically; returns the path."""
+    with atomic_write(path, "w" if isinstance(data, str) else "wb") as fh:
+        fh.write(data)
+    return Path(path)
+
+
+def write_npz(path: str | os.PathLike, arrays: Mapping[str, np.ndarray], *, compress: bool = True) -> Path:
+    """Write ``arrays`` as an ``.npz`` file atomically (no pickles); returns the path."""
+    with atomic_write(path) as fh:
+        (np.savez_compressed if compress else np.savez)(fh, **arrays)
+    return Path(path)
+
+
+def _zip_error(what: str, path, msg: str) -> ValueError:
+    return ValueError(f"cannot read {what} {os.fspath(path)!r}: {msg}")
+
+
+def _open_zip(path, what: str) -> zipfile.ZipFile:
+    try:
+        return zipfile.ZipFile(path)
+    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, ValueError) as exc:
+        raise _zip_error(what, path, f"not a readable zip file ({exc})") from None
+
+
+def _check_members(z: zipfile.ZipFile, path, what: str, *, max_bytes: int, max_members: int,
+                   allowed: Collection[str] | None) -> list[zipfile.ZipInfo]:
+    infos = z.infolist()
+    if len(infos) > max_members:
+        raise _zip_error(what, path, f"{len(infos)} members, more than the {max_members} allowed")
+    names = [i.filename for i in infos]
+    if len(set(names)) != len(names):
+        raise _zip_error(what, path, "duplicate member names")
+    if allowed is not None:
+        extra = sorted(set(names) - set(allowed))
+        if extra:
+            raise _zip_error(what, path, f"unexpected members {extra[:5]}")
+    total = sum(i.file_size for i in infos)
+    if total > max_bytes:
+        raise _zip_error(what, path, f"members declare {total} bytes inflated, more than the cap of {max_bytes}")
+    return infos
+
+
+def read_zip(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MAX_READ_BYTES,
+             max_members: int = 10_000, allowed: Collection[str] | None = None) -> dict[str, bytes]:
+    """Return ``{member name: bytes}`` of a zip file whose declared sizes fit ``max_bytes``.
+
+    Raises ``ValueError`` naming ``what`` and the path for a corrupt, truncated or oversized file.
+    """
+    with _open_zip(path, what) as z:
+        infos = _check_members(z, path, what, max_bytes=max_bytes, max_members=max_members, allowed=allowed)
+        try:
+            return {i.filename: z.read(i) for i in infos}
+        except (OSError, EOFError, zipfile.BadZipFile, RuntimeError, ValueError, NotImplementedError) as exc:
+            raise _zip_error(what, path, f"corrupt member ({exc})") from None
+
+
+def read_npz(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MAX_READ_BYTES,
+             max_members: int = 1_000, allowed: Collection[str] | None = None) -> dict[str, np.ndarray]:
+    """Return the arrays of an ``.npz`` file, each header checked before its data is inflated.
+
+    Each member must be a ``.npy`` whose header declares a non-object dtype and a shape whose byte size
+    matches the member's declared size; the sum of declared sizes must fit ``max_bytes``. ``allowed``
+    (array names, without ``.npy``) refuses unknown members.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what`` and the path: not a zip, truncated, bit-flipped (CRC), a bomb, a pickle, a header
+        that lies about its size.
+    """
+    allowed_members = None if allowed is None else {f"{n}.npy" for n in allowed}
+    out: dict[str, np.ndarray] = {}
+    with _open_zip(path, what) as z:
+        infos = _check_members(z, path, what, max_bytes=max_bytes, max_members=max_members,
+                               allowed=allowed_members)
+        for info in infos:
+            name = info.filename
+            if not name.endswith(".npy"):
+                raise _zip_error(what, path, f"member {name!r} is not a .npy array")
+            try:
+                with z.open(info) as fh:
+                    version = np.lib.format.read_magic(fh)
+                    read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                                   else np.lib.format.read_array_header_2_0)
+                    shape, fortran, dtype = read_header(fh, max_header_size=10_000)
+                    if dtype.hasobject:
+                        raise _zip_error(what, path, f"array {name[:-4]!r} holds Python objects (refused)")
+                    n = int(np.prod(shape, dtype=object)) * dtype.itemsize
+                    if n != info.file_size - fh.tell():
+                        raise _zip_error(what, path, f"array {name[:-4]!r} declares {n} bytes of data but its "
+                                         f"member holds {info.file_size - fh.tell()}")
+                    data = bytearray(n)
+                    if fh.readinto(memoryview(data)) != n:
+                        raise _zip_error(what, path, f"array {name[:-4]!r} is truncated")
+            except ValueError as exc:
+                if str(exc).startswith("cannot read"):
+                    raise
+                raise _zip_error(what, path, f"array {name[:-4]!r} is unreadable ({exc})") from None
+            except (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError) as exc:
+                raise _zip_error(what, path, f"corrupt member {name!r} ({exc})") from None
+            arr = np.frombuffer(data, dtype=dtype)
+            out[name[:-4]] = arr.reshape(shape, order="F" if fortran else "C")
+    return out
+
+
+def digest_arrays(arrays: Mapping[str, np.ndarray]) -> str:
+    """SHA-256 (hex) over the names, dtypes, shapes and bytes of ``arrays`` in name order (a checksum)."""
+    h = hashlib.sha256()
+    for k in sorted(arrays):
+        a = np.ascontiguousarray(arrays[k])
+        h.update(f"{k}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(memoryview(a).cast("B") if a.size else b"")
+    return h.hexdigest()
+
+
+def _npy_bytes(a: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
+    return buf.getvalue()
