@@ -14,7 +14,7 @@ import anywidget
 import numpy as np
 import traitlets
 
-from .._validation import check_array
+from .._validation import MAX_COORD, check_array, check_range
 from ._assets import asset
 
 __all__ = ["CORNERS", "COLORS", "LABELS", "barycentric", "clamp_to_triangle", "point_from_weights",
@@ -29,10 +29,13 @@ LABELS = ("H heading", "T tropism", "E environment")
 
 def _points(name: str, value, width: int) -> tuple[np.ndarray, bool]:
     """Check one point ``(width,)`` or many ``(N, width)``; return ``(N, width)`` and whether it was one."""
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be numbers of shape ({width},) or (N, {width}), got {value!r}") from None
     if arr.ndim == 1:
-        return check_array(name, arr, shape=(width,)).reshape(1, width), True
-    return check_array(name, arr, shape=(None, width)), False
+        return check_array(name, arr, shape=(width,), max_abs=MAX_COORD).reshape(1, width), True
+    return check_array(name, arr, shape=(None, width), max_abs=MAX_COORD), False
 
 
 def _area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
@@ -139,7 +142,7 @@ def sub_triangle_areas(p, corners=CORNERS) -> np.ndarray:
         Unsigned areas; divided by the triangle's area they are the weights (TW-V11).
     """
     c = check_array("corners", corners, shape=(3, 2))
-    q = check_array("p", p, shape=(2,))
+    q = check_array("p", p, shape=(2,), max_abs=MAX_COORD)
     return 0.5 * np.abs(np.array([_area2(q, c[1], c[2]), _area2(c[0], q, c[2]), _area2(c[0], c[1], q)]))
 
 
@@ -201,7 +204,7 @@ class InfluenceTriangle(anywidget.AnyWidget):
 
     def set_weights(self, H: float, T: float, E: float) -> None:
         """Set (H, T, E) (normalised by the model), as the browser would."""
-        self.weights = [H, T, E]
+        self.weights = [check_range(n, v, 0.0, math.inf) for n, v in (("H", H), ("T", T), ("E", E))]
 
     @property
     def point(self) -> np.ndarray:

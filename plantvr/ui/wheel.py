@@ -58,9 +58,12 @@ def slice_at(x: float, y: float, n_slices: int, last: int = 0) -> int:
 
 def rgb_to_hex(rgb) -> str:
     """``(r, g, b)`` in [0, 255] → ``"#rrggbb"``."""
-    c = np.asarray(rgb, dtype=float).ravel()[:3]
-    if c.shape != (3,) or np.any(c < 0) or np.any(c > 255):
-        raise ValueError(f"rgb must be 3 values in [0, 255], got {np.asarray(rgb).tolist()}")
+    try:
+        c = np.asarray(rgb, dtype=float).ravel()[:3]
+    except (TypeError, ValueError):
+        c = np.zeros(0)
+    if c.shape != (3,) or not np.all((c >= 0) & (c <= 255)):  # NaN fails too
+        raise ValueError(f"rgb must be 3 values in [0, 255], got {rgb!r}")
     return "#" + "".join(f"{int(round(v)):02x}" for v in c)
 
 

@@ -13,6 +13,8 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
+from .._fileio import atomic_write  # noqa: E402
+from .._validation import check_int, check_point, check_range  # noqa: E402
 from ..model import Model, Snapshot  # noqa: E402
 from ..params import PARAMS  # noqa: E402
 from ..export import IncrementalTreeGeometry  # noqa: E402
@@ -62,6 +64,9 @@ class View:
 
     def __init__(self, model: Model, *, off_screen: bool | None = None, window_size=(900, 700),
                  show_markers: bool = True, show_leaves: bool = True):
+        if not isinstance(model, Model):
+            raise TypeError(f"model must be a plantvr.Model, got {type(model).__name__}")
+        window_size = _check_window_size(window_size)
         if off_screen is None:
             off_screen = not os.environ.get("DISPLAY")
         self.model = model
@@ -142,18 +147,32 @@ class View:
 
     def set_brush(self, center, radius: float | None = None, visible: bool = True) -> None:
         """Place the brush sphere (green to grow, red to prune)."""
-        self.brush_center = np.asarray(center, float)
+        center = check_point("center", center)
         if radius is not None:
-            self.brush_radius = float(radius)
+            radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
+        if not isinstance(visible, (bool, np.bool_)):
+            raise TypeError(f"visible must be True or False, got {visible!r}")
+        self.brush_center = center
+        if radius is not None:
+            self.brush_radius = radius
         self._brush.copy_from(pv.Sphere(radius=self.brush_radius, center=self.brush_center,
                                         theta_resolution=24, phi_resolution=16))
         self._brush_actor.SetVisibility(visible)
         self.plotter.render()
 
     def screenshot(self, path: str | Path | None = None, *, window_size=None) -> np.ndarray:
-        """Render offscreen and return the image (and write a PNG when ``path`` is given)."""
+        """Render offscreen and return the image (and write a PNG atomically when ``path`` is given)."""
+        if window_size is not None:
+            window_size = _check_window_size(window_size)
+        if path is not None and Path(path).suffix.lower() != ".png":
+            raise ValueError(f"path must end in .png, got {str(path)!r}")
         self.update()
-        return self.plotter.screenshot(str(path) if path else None, window_size=window_size, return_img=True)
+        img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
+        if path is not None:
+            from PIL import Image  # noqa: PLC0415
+            with atomic_write(path) as fh:
+                Image.fromarray(img).save(fh, format="PNG")
+        return img
 
     def show(self, jupyter_backend: str = "trame", **kwargs):
         """Show in JupyterLab (trame: ``"trame"`` remote-rendered, ``"client"``, ``"server"``) or a window."""
@@ -164,3 +183,11 @@ class View:
         self.model.unobserve(self._on_change, names=["version"])
         self.model.unobserve(self._on_mode, names=["prune_mode"])
         self.plotter.close()
+
+
+def _check_window_size(window_size) -> tuple[int, int]:
+    try:
+        w, h = window_size
+    except (TypeError, ValueError):
+        raise ValueError(f"window_size must be (width, height) in pixels, got {window_size!r}") from None
+    return check_int("window_size width", w, 16, 16384), check_int("window_size height", h, 16, 16384)
