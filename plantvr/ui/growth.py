@@ -13,7 +13,7 @@ import anywidget
 import ipywidgets as W
 import traitlets
 
-from .._validation import check_range
+from .._validation import check_int, check_range
 from ._assets import asset
 
 __all__ = ["GrowthPlot", "GrowthControl"]
@@ -51,8 +51,11 @@ class GrowthControl(W.VBox):
     PLAY_STEPS = 100_000  # steps asked of the worker by Play; Pause stops it early
 
     def __init__(self, model, *, steps_per_second: float = 10.0, max_points: int = 500):
+        from ..model import Model  # noqa: PLC0415
+        if not isinstance(model, Model):
+            raise TypeError(f"model must be a plantvr.Model, got {type(model).__name__}")
         self.model = model
-        self.max_points = int(max_points)
+        self.max_points = check_int("max_points", max_points, 1, 1_000_000)
         self.rate = W.BoundedFloatText(value=check_range("steps_per_second", steps_per_second, 0, 1000,
                                                          low_open=True),
                                        min=0.1, max=1000, step=1, description="steps/s",

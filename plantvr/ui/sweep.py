@@ -18,10 +18,26 @@ from typing import Any
 
 import numpy as np
 
+from .._validation import check_int
 from ..params import PARAM_BY_NAME, validate
 from .strokes import Scenario, load_scenario, replay_scenario
 
 __all__ = ["grow_variant", "sweep", "thumbnail", "thumbnail_grid", "tree_metrics"]
+
+#: Most grid points one :func:`sweep` call may grow.
+MAX_POINTS = 100_000
+
+
+def _seed(seed) -> int | None:
+    return None if seed is None else check_int("seed", seed, 0, 2**63 - 1)
+
+
+def _size(size) -> tuple[int, int]:
+    try:
+        w, h = size
+    except (TypeError, ValueError):
+        raise ValueError(f"size must be (width, height) in pixels, got {size!r}") from None
+    return check_int("size width", w, 16, 4096), check_int("size height", h, 16, 4096)
 
 
 def tree_metrics(model) -> dict[str, float]:
@@ -67,9 +83,12 @@ def grow_variant(scenario: str | Scenario, params: dict[str, Any], *, seed: int 
         model's ``.npz`` bytes, for :func:`thumbnail`).
     """
     from ..model import Model
+    seed = _seed(seed)
+    if not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of parameter -> value, got {type(params).__name__}")
     sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
     checked = validate(params)
-    sc = dataclasses.replace(sc, params={**sc.params, **checked}, seed=sc.seed if seed is None else int(seed))
+    sc = dataclasses.replace(sc, params={**sc.params, **checked}, seed=sc.seed if seed is None else seed)
     t0 = time.perf_counter()
     model = Model(seed=sc.seed)
     replay_scenario(model, sc)
@@ -101,6 +120,7 @@ def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed:
         ``seconds`` and ``state``.
     """
     import pandas as pd
+    seed = _seed(seed)
     if not isinstance(grid, dict) or not grid:
         raise ValueError(f"grid must be a non-empty dict of parameter -> list of values, got {grid!r:.80}")
     for name, values in grid.items():
@@ -108,6 +128,9 @@ def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed:
             raise ValueError(f"grid parameter must be one of the parameter table's names, got {name!r}")
         if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__") or len(list(values)) == 0:
             raise ValueError(f"grid[{name!r}] must be a non-empty list of values, got {values!r:.80}")
+    n_points = int(np.prod([len(list(v)) for v in grid.values()], dtype=object))
+    if n_points > MAX_POINTS:
+        raise ValueError(f"grid must have at most {MAX_POINTS} points, got {n_points}")
     points = [dict(zip(grid, combo)) for combo in itertools.product(*(list(v) for v in grid.values()))]
     for p in points:
         validate(p)
@@ -131,11 +154,12 @@ def thumbnail(state: bytes, *, size: tuple[int, int] = (200, 200), leaves: bool 
     from ..view import View
     if not isinstance(state, (bytes, bytearray)) or not state:
         raise ValueError("state must be the non-empty .npz bytes of grow_variant")
+    size = _size(size)
     with tempfile.TemporaryDirectory() as d:
         path = Path(d) / "tree.npz"
         path.write_bytes(state)
         model = Model.load(path)
-    view = View(model, off_screen=True, window_size=tuple(size), show_leaves=leaves)
+    view = View(model, off_screen=True, window_size=size, show_leaves=leaves)
     try:
         markers = view.plotter.actors.get("markers")
         if markers is not None:  # the tree only
@@ -174,6 +198,7 @@ def thumbnail_grid(table, rows: str, cols: str, *, size: tuple[int, int] = (200,
     (H, W, 3) uint8 ndarray
     """
     from PIL import Image, ImageDraw
+    size = _size(size)
     for name in (rows, cols) + ((metric,) if metric else ()):
         if name not in table.columns:
             raise ValueError(f"{name!r} must be a column of the sweep table, got {list(table.columns)}")
