@@ -85,6 +85,7 @@ class BrushInteractor:
         -------
         (3,) float64 ndarray
         """
+        x, y = check_range("x", x, -1e6, 1e6), check_range("y", y, -1e6, 1e6)
         ren = self.view.plotter.renderer
         actor = self.view.plotter.actors.get("branches")
         if actor is not None and actor.GetVisibility():
@@ -192,6 +193,8 @@ class BrushInteractor:
 
     def set_markers_visible(self, visible: bool) -> None:
         """Show or hide the marker cloud."""
+        if not isinstance(visible, (bool, np.bool_)):
+            raise ValueError(f"visible must be True or False, got {visible!r}")
         actor = self.view.plotter.actors.get("markers")
         if actor is not None:
             actor.SetVisibility(bool(visible))
@@ -236,10 +239,50 @@ class BrushInteractor:
         0.1 hidden, below 0.99 preview, else act), ``{"type": "thumb", "dphi": a}`` (radians, clockwise
         positive), ``{"type": "toggle_prune"}``, ``{"type": "markers", "visible": b}``.
         """
+        self._apply(self.check_event(event))
+
+    def replay(self, events) -> None:
+        """Apply a list of input events (e.g. another interactor's :attr:`log`) in order; every event is
+        checked before the first is applied, so a bad one changes nothing."""
+        if isinstance(events, (str, bytes, dict)) or not hasattr(events, "__iter__"):
+            raise ValueError(f"events must be a list of event dicts, got {type(events).__name__}")
+        checked = []
+        for i, ev in enumerate(events):
+            try:
+                checked.append(self.check_event(ev))
+            except ValueError as exc:
+                raise ValueError(f"events[{i}]: {exc}") from None
+        for ev in checked:
+            self._apply(ev)
+
+    @staticmethod
+    def check_event(event: dict[str, Any]) -> dict[str, Any]:
+        """Return ``event`` checked and normalised (plain JSON values), or raise ``ValueError`` naming the field."""
         kind = event.get("type") if isinstance(event, dict) else None
+
+        def field(name: str, default: Any = None) -> Any:
+            if name not in event and default is None:
+                raise ValueError(f"a {kind!r} event needs the field {name!r}, got {sorted(event)}")
+            return event.get(name, default)
+
         if kind == "pose":
-            pos = check_point("pos", event["pos"])
-            t = check_range("trigger", event.get("trigger", 0.0), 0.0, 1.0)
+            return {"type": "pose", "pos": check_point("pos", field("pos")).tolist(),
+                    "trigger": check_range("trigger", field("trigger", 0.0), 0.0, 1.0)}
+        if kind == "thumb":
+            return {"type": "thumb", "dphi": check_range("dphi", field("dphi"), -1e6, 1e6)}
+        if kind == "toggle_prune":
+            return {"type": "toggle_prune"}
+        if kind == "markers":
+            visible = field("visible")
+            if not isinstance(visible, (bool, np.bool_)):
+                raise ValueError(f"visible must be True or False, got {visible!r}")
+            return {"type": "markers", "visible": bool(visible)}
+        raise ValueError(f"event type must be one of ['pose', 'thumb', 'toggle_prune', 'markers'], got {kind!r}")
+
+    def _apply(self, event: dict[str, Any]) -> None:
+        kind = event["type"]
+        if kind == "pose":
+            pos, t = np.asarray(event["pos"], float), event["trigger"]
             if t < PREVIEW_TRIGGER:
                 self.leave()
             elif t < FULL_TRIGGER:
@@ -249,22 +292,13 @@ class BrushInteractor:
                 self.drag(pos)
             else:
                 self.press(pos)
-            event = {"type": "pose", "pos": pos.tolist(), "trigger": t}
         elif kind == "thumb":
             self.thumb(event["dphi"])
         elif kind == "toggle_prune":
             self.toggle_prune()
-        elif kind == "markers":
-            self.set_markers_visible(event["visible"])
         else:
-            raise ValueError(f"event type must be one of ['pose', 'thumb', 'toggle_prune', 'markers'], "
-                             f"got {kind!r}")
-        self.log.append(dict(event))
-
-    def replay(self, events) -> None:
-        """Apply a list of input events (e.g. another interactor's :attr:`log`) in order."""
-        for ev in list(events):
-            self.handle(ev)
+            self.set_markers_visible(event["visible"])
+        self.log.append(event)
 
     # -- VTK mouse binding -----------------------------------------------------------------------------
     def attach(self) -> None:

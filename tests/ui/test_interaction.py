@@ -167,3 +167,31 @@ def test_controller_emulator_log_replays_identically():
         b2.handle({"type": "jump"})
     with pytest.raises(ValueError, match=r"trigger must be in \[0.0, 1.0\]"):
         b2.handle({"type": "pose", "pos": [0, 0, 0], "trigger": 2})
+
+
+def test_input_events_are_checked_at_the_door(fuzz):
+    """Browser/headset events with missing fields, NaN, or non-bool flags are clear errors; a replay that
+    holds one bad event changes nothing (issue 20)."""
+    m = plantvr.Model(seed=0)
+    v = plantvr.View(m, off_screen=True, window_size=(64, 64))
+    b = BrushInteractor(v)
+    try:
+        for ev, param in [({"type": "pose"}, "pos"), ({"type": "thumb"}, "dphi"),
+                          ({"type": "markers", "visible": "no"}, "visible"), ({"type": "markers"}, "visible"),
+                          ({"type": "pose", "pos": [math.nan, 0, 0]}, "pos"),
+                          ({"type": "pose", "pos": [1e300, 0, 0], "trigger": 1.0}, "pos"),
+                          ({"type": "thumb", "dphi": math.inf}, "dphi"), ("pose", "type"), (None, "type")]:
+            assert isinstance(fuzz.call("BrushInteractor.handle", b.handle, ev, param=param), ValueError)
+        for x, y in [(math.nan, 0), (0, math.inf), ("a", 0), (1e300, 0)]:
+            assert isinstance(fuzz.call("BrushInteractor.world_point", b.world_point, x, y, param=("x", "y")),
+                              ValueError)
+        assert isinstance(fuzz.call("BrushInteractor.set_markers_visible", b.set_markers_visible, "no",
+                                    param="visible"), ValueError)
+        good = {"type": "pose", "pos": [0.0, 3.0, 0.0], "trigger": 1.0}
+        exc = fuzz.call("BrushInteractor.replay", b.replay, [good, {"type": "thumb", "dphi": "x"}], param="dphi")
+        assert isinstance(exc, ValueError) and "events[1]" in str(exc)
+        assert m.n_markers == 0 and b.log == [] and m.events.events == []
+        assert isinstance(fuzz.call("BrushInteractor.replay", b.replay, "pose", param="events"), ValueError)
+    finally:
+        b.close()
+        v.close()
