@@ -23,7 +23,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["MAX_READ_BYTES", "atomic_write", "write_atomic", "write_npz", "read_npz", "read_zip",
+__all__ = ["MAX_READ_BYTES", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
            "digest_arrays"]
 
 #: Default cap on the inflated size of one zip/npz file PlantVR reads (bytes). Readers of formats whose
@@ -82,6 +82,19 @@ def write_npz(path: str | os.PathLike, arrays: Mapping[str, np.ndarray], *, comp
     """Write ``arrays`` as an ``.npz`` file atomically (no pickles); returns the path."""
     with atomic_write(path) as fh:
         (np.savez_compressed if compress else np.savez)(fh, **arrays)
+    return Path(path)
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray) -> Path:
+    """Write an (H, W, 3|4) uint8 image as a PNG atomically (screenshots, thumbnails, atlases)."""
+    if Path(path).suffix.lower() != ".png":
+        raise ValueError(f"path must end in .png, got {os.fspath(path)!r}")
+    img = np.asarray(image)
+    if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
+        raise ValueError(f"image must be (H, W, 3 or 4) uint8, got {img.dtype} {img.shape}")
+    from PIL import Image  # noqa: PLC0415
+    with atomic_write(path) as fh:
+        Image.fromarray(img).save(fh, format="PNG")
     return Path(path)
 
 

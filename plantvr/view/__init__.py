@@ -13,7 +13,7 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
-from .._fileio import atomic_write  # noqa: E402
+from .._fileio import write_png  # noqa: E402
 from .._validation import check_int, check_point, check_range  # noqa: E402
 from ..model import Model, Snapshot  # noqa: E402
 from ..params import PARAMS  # noqa: E402
@@ -169,9 +169,7 @@ class View:
         self.update()
         img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
         if path is not None:
-            from PIL import Image  # noqa: PLC0415
-            with atomic_write(path) as fh:
-                Image.fromarray(img).save(fh, format="PNG")
+            write_png(path, img)
         return img
 
     def show(self, jupyter_backend: str = "trame", **kwargs):

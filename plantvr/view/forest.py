@@ -14,7 +14,9 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 import pyvista as pv
 
+from .._validation import check_array, check_int
 from ..geometry.lod import lod_chain
+from . import _check_window_size
 from .billboard import BARK_RGB, BILLBOARD_LEVEL, LOD_SCREEN_PX, lod_by_distance, make_billboard
 
 __all__ = ["ForestView", "tree_arrays"]
@@ -77,10 +79,16 @@ class ForestView:
 
     def __init__(self, trees, plotter=None, *, levels: int = 4, billboard: bool = True, billboard_px: int = 128,
                  thresholds=LOD_SCREEN_PX, window_size=(800, 600), observe: bool = True):
-        if not len(trees):
+        if isinstance(trees, (str, bytes, dict)) or not hasattr(trees, "__len__") or not len(trees):
             raise ValueError("trees must be a non-empty list of trees")
+        levels = check_int("levels", levels, 1, 4)
+        billboard_px = check_int("billboard_px", billboard_px, 8, 4096)
+        th = check_array("thresholds", thresholds, shape=(None,), min_rows=1)
+        if np.any(th <= 0) or np.any(th > 1e6):
+            raise ValueError(f"thresholds must be screen heights in (0, 1e6] px, got {th.tolist()}")
+        window_size = _check_window_size(window_size)
         self.plotter = plotter if plotter is not None else pv.Plotter(off_screen=True, window_size=window_size)
-        self.thresholds = tuple(float(t) for t in thresholds)
+        self.thresholds = tuple(float(t) for t in th)
         self.chains, self.actors, self.tris = [], [], []
         centers, heights = [], []
         for tree in trees:

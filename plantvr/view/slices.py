@@ -62,11 +62,15 @@ class VolumeSlices:
                  seg: Segmentation | None = None, spacing=(1.0, 1.0, 1.0), indices: dict | None = None,
                  line_width: float = 5.0, opacity: float = 1.0, cmap: str = "gray"):
         vol = np.asarray(volume)
-        if vol.ndim != 3:
-            raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
+        if vol.ndim != 3 or min(vol.shape) < 1 or vol.dtype.kind not in "biuf":
+            raise ValueError(f"volume must be a non-empty 3-D numeric array, got {vol.dtype} {vol.shape}")
+        if vol.dtype.kind == "f" and not np.all(np.isfinite(vol)):
+            raise ValueError("volume must contain only finite values (no NaN or inf)")
         if seg is not None and not isinstance(seg, Segmentation):
             raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")
-        sp = check_array("spacing", spacing, shape=(3,))
+        sp = check_array("spacing", spacing, shape=(3,), max_abs=1e6)
+        if np.any(sp <= 0):
+            raise ValueError(f"spacing must be positive, got {sp.tolist()}")
         if level is not None:
             level = check_range("level", level, -np.inf, np.inf, low_open=True, high_open=True)
         self.line_width = check_range("line_width", line_width, 0.0, 50.0, low_open=True)

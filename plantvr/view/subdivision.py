@@ -15,7 +15,9 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 import pyvista as pv
 
+from .._fileio import write_png
 from .._validation import check_array
+from . import _check_window_size
 
 __all__ = ["SubdivisionView", "checker_texture", "side_by_side", "textured_polydata", "to_polydata"]
 
@@ -112,6 +114,7 @@ class SubdivisionView:
 
     def __init__(self, control=None, surface=None, *, off_screen: bool | None = None,
                  window_size=(1000, 500), titles=("control mesh", "Loop subdivision")):
+        window_size = _check_window_size(window_size)
         if off_screen is None:
             off_screen = not os.environ.get("DISPLAY")
         self.plotter = pv.Plotter(shape=(1, 2), off_screen=off_screen, window_size=list(window_size),
@@ -180,7 +183,12 @@ class SubdivisionView:
 
     def screenshot(self, path: str | Path | None = None) -> np.ndarray:
         """Render offscreen and return the (H, W, 3) uint8 image; also write a PNG when ``path`` is given."""
-        return self.plotter.screenshot(None if path is None else os.fspath(path), return_img=True)
+        if path is not None and Path(path).suffix.lower() != ".png":
+            raise ValueError(f"path must end in .png, got {os.fspath(path)!r}")
+        img = self.plotter.screenshot(None, return_img=True)
+        if path is not None:
+            write_png(path, img)
+        return img
 
     def png(self) -> bytes:
         """The current picture as PNG bytes (for an ``ipywidgets.Image``)."""
