@@ -21,7 +21,7 @@ import numpy as np  # noqa: E402
 import vtk  # noqa: E402
 from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
 
-from .._validation import check_choice, check_int  # noqa: E402
+from .._validation import check_choice, check_int, check_range  # noqa: E402
 from .math3d import gl_projection  # noqa: E402
 
 __all__ = ["StereoRenderer", "LAYOUTS"]
@@ -132,7 +132,8 @@ class StereoRenderer:
         self.width = check_int("width", width, 1, 16384)
         self.height = check_int("height", height, 1, 16384)
         self.layout = check_choice("layout", layout, LAYOUTS)
-        self.near, self.far = float(near), float(far)
+        self.near = check_range("near", near, 0.0, 1e3, low_open=True)
+        self.far = check_range("far", far, self.near, 1e6, low_open=True)
         self.windows: list[vtk.vtkRenderWindow] = []
         self.renderers: list[vtk.vtkRenderer] = []
         self.scenes: list[_Scene] = []

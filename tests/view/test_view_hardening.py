@@ -63,3 +63,13 @@ def test_volume_slices_input(fuzz, volume, spacing, param):
                           ValueError)
     finally:
         pl.close()
+
+
+@pytest.mark.parametrize("kw, param", [({"near": 0}, "near"), ({"near": math.nan}, "near"),
+                                       ({"far": 0.01}, "far"), ({"far": math.inf}, "far"), ({"width": 0}, "width"),
+                                       ({"layout": "3d"}, "layout")])
+def test_stereo_renderer_options(fuzz, kw, param):
+    from plantvr.vr.render import StereoRenderer
+    args = {"width": 32, "height": 32, **kw}
+    w, h = args.pop("width"), args.pop("height")
+    assert isinstance(fuzz.call("StereoRenderer", StereoRenderer, w, h, param=param, **args), ValueError)
