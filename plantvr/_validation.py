@@ -37,7 +37,7 @@ def check_range(name: str, value: Any, low: float, high: float, *,
     """
     try:
         v = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name} must be a number in {_interval(low, high, low_open, high_open)}, "
                          f"got {value!r}") from None
     ok = np.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
@@ -75,7 +75,7 @@ def check_array(name: str, value: Any, *, shape: tuple, dtype: Any = np.float64,
     """
     try:
         arr = np.asarray(value, dtype=dtype)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name} must be an array of shape {_shape_str(shape)}, got {type(value).__name__}") from None
     if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
         raise ValueError(f"{name} must have shape {_shape_str(shape)}, got {arr.shape}")

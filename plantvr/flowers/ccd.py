@@ -14,7 +14,7 @@ import time
 import numba
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_range
 
 __all__ = [
     "CollisionDetector",
@@ -549,12 +549,21 @@ def mesh_edges_of(faces: np.ndarray) -> np.ndarray:
 
 
 def _check_step(x0, x1, faces):
-    x0 = check_array("x0", x0, shape=(None, 3))
-    x1 = check_array("x1", x1, shape=x0.shape)
-    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
-    if faces.size and (faces.min() < 0 or faces.max() >= x0.shape[0]):
-        raise ValueError(f"faces must index vertices in [0, {x0.shape[0] - 1}]")
+    x0 = check_array("x0", x0, shape=(None, 3), max_abs=MAX_COORD)
+    x1 = check_array("x1", x1, shape=x0.shape, max_abs=MAX_COORD)
+    faces = _check_index("faces", faces, 3, x0.shape[0])
     return x0, x1, faces
+
+
+def _check_index(name: str, arr, width: int, n: int) -> np.ndarray:
+    """An ``(K, width)`` int64 array whose entries index a table of ``n`` rows (kernels never see others)."""
+    try:
+        a = check_array(name, arr, shape=(None, width), dtype=np.int64)
+    except OverflowError:
+        raise ValueError(f"{name} must hold integer indices in [0, {n - 1}], got non-finite or huge values") from None
+    if a.size and (a.min() < 0 or a.max() >= n):
+        raise ValueError(f"{name} must index vertices in [0, {n - 1}], got range [{a.min()}, {a.max()}]")
+    return a
 
 
 def _incidence(elems: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -598,12 +607,9 @@ class CollisionDetector:
     def __init__(self, faces: np.ndarray, n_vertices: int, *, h: float = 0.005, edges: np.ndarray | None = None,
                  cell: float | None = None):
         self.h = check_range("h", h, 0.0, 1e6)
-        self.faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
-        self.nv = check_int("n_vertices", n_vertices, 0, 1 << 40)
-        if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= self.nv):
-            raise ValueError(f"faces must index vertices in [0, {self.nv - 1}]")
-        self.edges = mesh_edges_of(self.faces) if edges is None else \
-            check_array("edges", edges, shape=(None, 2), dtype=np.int64)
+        self.nv = check_int("n_vertices", n_vertices, 0, MAX_COUNT)
+        self.faces = _check_index("faces", faces, 3, self.nv)
+        self.edges = mesh_edges_of(self.faces) if edges is None else _check_index("edges", edges, 2, self.nv)
         self.cell = None if cell is None else check_range("cell", cell, 0.0, 1e12, low_open=True)
         self.verts = np.arange(self.nv, dtype=np.int64)[:, None]
         self.vt_off, self.vt_ids = _incidence(self.faces, self.nv)
@@ -633,8 +639,8 @@ class CollisionDetector:
     def detect(self, x0: np.ndarray, x1: np.ndarray, *, timings: dict | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Full CCD pass over one step (see :func:`detect_collisions` for the returned arrays)."""
-        x0 = check_array("x0", x0, shape=(self.nv, 3))
-        x1 = check_array("x1", x1, shape=(self.nv, 3))
+        x0 = check_array("x0", x0, shape=(self.nv, 3), max_abs=MAX_COORD)
+        x1 = check_array("x1", x1, shape=(self.nv, 3), max_abs=MAX_COORD)
         self.x0 = np.ascontiguousarray(x0)
         self.x1 = np.ascontiguousarray(x1).copy()
         t0 = time.perf_counter()
@@ -1008,7 +1014,15 @@ def solve_collisions(p: np.ndarray, w: np.ndarray, cons: np.ndarray, sides: np.n
     h = check_range("h", h, 0.0, 1e6)
     k_collision = check_range("k_collision", k_collision, 0.0, 1.0)
     iterations = check_int("iterations", iterations, 0, 1_000_000)
-    cons = check_array("cons", cons, shape=(None, 4), dtype=np.int64)
+    if not (isinstance(p, np.ndarray) and p.dtype == np.float64 and p.ndim == 2 and p.shape[1] == 3
+            and p.flags.c_contiguous):
+        raise ValueError("p must be a C-contiguous (V, 3) float64 ndarray (it is updated in place)")
+    if not np.all(np.isfinite(p)):
+        raise ValueError("p must contain only finite values (no NaN or inf)")
+    w = check_array("w", w, shape=(p.shape[0],))
+    if np.any(w < 0):
+        raise ValueError("w (inverse masses) must be >= 0")
+    cons = _check_index("cons", cons, 4, p.shape[0])
     sides = check_array("sides", sides, shape=(cons.shape[0],))
     if cons.shape[0]:
         _project_collision(p, np.ascontiguousarray(w, dtype=np.float64), cons, sides, h, k_collision, iterations)
@@ -1047,8 +1061,8 @@ def count_static_intersections(x: np.ndarray, faces: np.ndarray, *, edges: np.nd
     int
         0 for an intersection-free mesh.
     """
-    x = check_array("x", x, shape=(None, 3))
-    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
-    edges = mesh_edges_of(faces) if edges is None else np.asarray(edges, np.int64)
+    x = check_array("x", x, shape=(None, 3), max_abs=MAX_COORD)
+    faces = _check_index("faces", faces, 3, x.shape[0])
+    edges = mesh_edges_of(faces) if edges is None else _check_index("edges", edges, 2, x.shape[0])
     pairs = broad_phase(x, x, edges, faces, pad=1e-12 * (1 + float(np.abs(x).max(initial=0))))
     return int(_seg_tri_count(x, pairs, edges, faces))

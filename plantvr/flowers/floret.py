@@ -19,7 +19,8 @@ from scipy.interpolate import BSpline
 from scipy.spatial import Delaunay, cKDTree
 from scipy.spatial.transform import Rotation, Slerp
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._fileio import write_atomic
+from plantvr._validation import MAX_COORD, check_array, check_int, check_range
 
 __all__ = [
     "Corolla",
@@ -37,6 +38,10 @@ __all__ = [
     "roll_margins",
     "write_obj_sequence",
 ]
+
+#: Most frames of one OBJ sequence and largest OBJ / weight file a reader accepts (bytes).
+MAX_OBJ_FRAMES = 100_000
+MAX_OBJ_BYTES = 1 << 30
 
 
 def clamped_knots(n_ctrl: int, degree: int) -> np.ndarray:
@@ -425,20 +430,42 @@ def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.n
 
 def write_obj_sequence(folder: str, faces: np.ndarray, frames: np.ndarray, *, prefix: str = "frame",
                        fixed: np.ndarray | None = None) -> list[str]:
-    """Write frames as ``<prefix>_<k>.obj`` (same faces) and an optional ``weight.txt`` (spec 002 §2.4, V8)."""
+    """Write frames as ``<prefix>_<k>.obj`` (same faces) and an optional ``weight.txt`` (spec 002 §2.4, V8).
+
+    Everything is checked and formatted before a file is touched; each file is written atomically, and frames
+    of an earlier, longer sequence with the same prefix are removed (they would be read back as part of it).
+    """
     faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
-    frames = check_array("frames", frames, shape=(None, None, 3))
-    os.makedirs(folder, exist_ok=True)
+    frames = check_array("frames", frames, shape=(None, None, 3), max_abs=MAX_COORD)
+    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z0-9_.-]*[A-Za-z_.-]|", prefix):
+        raise ValueError(f"prefix must be letters, digits, '_', '-', '.' and not end in a digit, got {prefix!r}")
+    if len(frames) > MAX_OBJ_FRAMES:
+        raise ValueError(f"frames must hold at most {MAX_OBJ_FRAMES} frames, got {len(frames)}")
+    n_v = frames.shape[1]
+    if faces.size and (faces.min() < 0 or faces.max() >= n_v):
+        raise ValueError(f"faces must index the {n_v} vertices of a frame, got range [{faces.min()}, {faces.max()}]")
+    if fixed is not None:
+        fixed = check_array("fixed", fixed, shape=(None,), dtype=np.int64)
+        if fixed.size and (fixed.min() < 0 or fixed.max() >= n_v):
+            raise ValueError(f"fixed must index the {n_v} vertices of a frame, got range "
+                             f"[{fixed.min()}, {fixed.max()}]")
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except (OSError, TypeError) as exc:
+        raise ValueError(f"cannot create folder {folder!r}: {exc}") from None
     paths = []
     fl = "\n".join(f"f {a} {b} {c}" for a, b, c in faces + 1)
     for k, X in enumerate(frames):
         path = os.path.join(folder, f"{prefix}_{k:04d}.obj")
-        with open(path, "w") as fh:
-            fh.write("\n".join(f"v {x!r} {y!r} {z!r}" for x, y, z in X.tolist()))
-            fh.write("\n" + fl + "\n")
+        write_atomic(path, "\n".join(f"v {x!r} {y!r} {z!r}" for x, y, z in X.tolist()) + "\n" + fl + "\n")
         paths.append(path)
+    pat = re.compile(re.escape(prefix) + r"_?(\d+)\.obj$")
+    keep = {os.path.basename(p) for p in paths}
+    for f in os.listdir(folder):
+        if pat.fullmatch(f) and f not in keep and os.path.isfile(os.path.join(folder, f)):
+            os.unlink(os.path.join(folder, f))
     if fixed is not None:
-        np.savetxt(os.path.join(folder, "weight.txt"), np.asarray(fixed, np.int64), fmt="%d")
+        write_atomic(os.path.join(folder, "weight.txt"), "".join(f"{int(i)}\n" for i in fixed))
     return paths
 
 
@@ -451,28 +478,81 @@ def read_obj_sequence(folder: str, *, prefix: str = "frame") -> tuple[np.ndarray
     frames : (K, V, 3) float64 ndarray
     fixed : (A,) int64 ndarray or None
         From ``weight.txt`` if present.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and line: a missing folder, a non-number, a non-finite or huge coordinate, a face
+        index outside the frame's vertices, frames of different topology, a file larger than the cap.
     """
+    if not isinstance(prefix, str):
+        raise ValueError(f"prefix must be a str, got {type(prefix).__name__}")
+    try:
+        names = os.listdir(folder)
+    except (OSError, TypeError) as exc:
+        raise ValueError(f"cannot list OBJ folder {folder!r}: {exc}") from None
     pat = re.compile(re.escape(prefix) + r"_?(\d+)\.obj$")
-    files = sorted((int(m.group(1)), f) for f in os.listdir(folder) if (m := pat.search(f)))
+    files = sorted((int(m.group(1)), f) for f in names if (m := pat.search(f)))
     if not files:
         raise ValueError(f"no '{prefix}_<n>.obj' files in {folder!r}")
+    if len(files) > MAX_OBJ_FRAMES:
+        raise ValueError(f"{folder!r} holds {len(files)} frames, more than the {MAX_OBJ_FRAMES} allowed")
+    if len({k for k, _ in files}) != len(files):
+        raise ValueError(f"{folder!r}: two OBJ files share a frame number")
     faces0, frames = None, []
     for _, f in files:
         vs, fs = [], []
-        with open(os.path.join(folder, f)) as fh:
-            for line in fh:
+        text = _read_obj_text(os.path.join(folder, f))
+        for lineno, line in enumerate(text.splitlines(), 1):
+            try:
                 if line.startswith("v "):
-                    vs.append([float(t) for t in line.split()[1:4]])
+                    v = [float(t) for t in line.split()[1:4]]
+                    if len(v) != 3:
+                        raise ValueError("a vertex needs 3 coordinates")
+                    vs.append(v)
                 elif line.startswith("f "):
-                    fs.append([int(t.split("/")[0]) - 1 for t in line.split()[1:4]])
-        fs = np.array(fs, np.int64)
+                    face = [int(t.split("/")[0]) - 1 for t in line.split()[1:4]]
+                    if len(face) != 3:
+                        raise ValueError("a face needs 3 vertex indices")
+                    fs.append(face)
+            except ValueError as exc:
+                raise ValueError(f"{f} line {lineno}: {exc} in {line[:80]!r}") from None
+        X = np.array(vs, dtype=np.float64).reshape(-1, 3)
+        if not np.all(np.isfinite(X)) or (X.size and np.abs(X).max() > MAX_COORD):
+            raise ValueError(f"{f}: vertex coordinates must be finite and inside +-{MAX_COORD:g}")
+        fs = np.array(fs, np.int64).reshape(-1, 3)
+        if fs.size and (fs.min() < 0 or fs.max() >= len(X)):
+            raise ValueError(f"{f}: face indices must be in [1, {len(X)}], got range [{fs.min() + 1}, "
+                             f"{fs.max() + 1}]")
         if faces0 is None:
             faces0 = fs
         elif fs.shape != faces0.shape or np.any(fs != faces0):
             raise ValueError(f"frame {f!r} has a different topology from the first frame")
-        frames.append(np.array(vs))
+        frames.append(X)
     if len({len(v) for v in frames}) != 1:
         raise ValueError("OBJ frames have different vertex counts")
     wpath = os.path.join(folder, "weight.txt")
-    fixed = np.atleast_1d(np.loadtxt(wpath, dtype=np.int64)) if os.path.exists(wpath) else None
+    fixed = None
+    if os.path.exists(wpath):
+        tokens = _read_obj_text(wpath).split()
+        try:
+            fixed = np.array([int(t) for t in tokens], dtype=np.int64)
+        except (ValueError, OverflowError):
+            raise ValueError(f"weight.txt: expected one vertex index per line in {folder!r}") from None
+        if fixed.size and (fixed.min() < 0 or fixed.max() >= len(frames[0])):
+            raise ValueError(f"weight.txt: vertex indices must be in [0, {len(frames[0]) - 1}], got range "
+                             f"[{fixed.min()}, {fixed.max()}]")
     return faces0, np.stack(frames), fixed
+
+
+def _read_obj_text(path: str) -> str:
+    try:
+        size = os.path.getsize(path)
+        if size > MAX_OBJ_BYTES:
+            raise ValueError(f"{path!r} has {size} bytes, more than the {MAX_OBJ_BYTES} allowed")
+        with open(path, "rb") as fh:
+            return fh.read().decode("utf-8")
+    except OSError as exc:
+        raise ValueError(f"cannot read {path!r}: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path!r} is not UTF-8 text (corrupt file?): {exc}") from None

@@ -174,6 +174,10 @@ def _invert_F(s: np.ndarray, g: np.ndarray, F: np.ndarray, target: np.ndarray) -
     return s[j] + np.clip(x, 0.0, h)
 
 
+#: Most primordia one placement call produces.
+MAX_PRIMORDIA = 10_000_000
+
+
 def ridley_placement(receptacle: Receptacle, *, area: float | Callable[[np.ndarray], np.ndarray],
                      n: int | None = None, s0: float = 0.0, offset: float = 0.5,
                      divergence_deg: float = GOLDEN_ANGLE_DEG, alpha0_deg: float = 0.0,
@@ -214,6 +218,10 @@ def ridley_placement(receptacle: Receptacle, *, area: float | Callable[[np.ndarr
     ----------
     .. [1] Owens 2016, §5.2, Eqs. 5.1–5.2; spec 002 §4.2 (solver by inverting the cumulative integral).
     """
+    if not isinstance(receptacle, Receptacle):
+        raise ValueError(f"receptacle must be a Receptacle, got {type(receptacle).__name__}")
+    if not (callable(area) or np.isscalar(area)) or isinstance(area, (str, bool, np.bool_)):
+        raise ValueError(f"area must be a number or a callable s -> area, got {type(area).__name__}")
     L = receptacle.length
     s0 = check_range("s0", s0, 0.0, L)
     offset = check_range("offset", offset, 0.0, 1.0)
@@ -224,6 +232,10 @@ def ridley_placement(receptacle: Receptacle, *, area: float | Callable[[np.ndarr
         check_range("area", area, 0.0, 1e12, low_open=True)
     s, g, F = _band_integral(receptacle, area, refine)
     F0 = float(np.interp(s0, s, F))
+    if not np.isfinite(F[-1]) or F[-1] - F0 > MAX_PRIMORDIA:
+        raise ValueError(f"area is too small for this receptacle: more than {MAX_PRIMORDIA} primordia would fit "
+                         f"(got area={area!r})" if np.isscalar(area) else
+                         f"area(s) is too small for this receptacle: more than {MAX_PRIMORDIA} primordia would fit")
     n_fit = int(np.floor(F[-1] - F0 - offset + 1e-12)) + 1
     if n is None:
         n = max(n_fit, 0)

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int, check_range
+from plantvr._fileio import write_atomic
+from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_range
 
 __all__ = [
     "SCN_TYPES",
@@ -50,6 +51,9 @@ SCN_TYPES: dict[str, tuple[str, ...]] = {
 #: Number of material definitions (App. C.2: "256 material definitions").
 N_MATERIALS = 256
 _PREAMBLE = 13
+#: Largest SCN/RBA file a reader accepts (bytes) and largest magnitude of a frame number / type field.
+MAX_FILE_BYTES = 1 << 30
+MAX_FIELD = 1e12
 
 
 def _fmt(v: float) -> str:
@@ -92,8 +96,8 @@ class Placement:
     def __post_init__(self):
         check_choice("kind", self.kind, tuple(SCN_TYPES))
         object.__setattr__(self, "id", check_int("id", self.id, 0, 2**62))
-        for name in ("position", "scale", "up", "right"):
-            v = check_array(name, getattr(self, name), shape=(3,))
+        for name in ("position", "scale", "up", "right"):   # a position is any finite float (pure data)
+            v = check_array(name, getattr(self, name), shape=(3,), max_abs=None if name == "position" else MAX_COORD)
             object.__setattr__(self, name, tuple(float(x) for x in v))
         if not np.all(np.asarray(self.scale) > 0):
             raise ValueError(f"scale must be > 0 on every axis, got {self.scale}")
@@ -103,7 +107,7 @@ class Placement:
             raise ValueError(f"up must be non-zero and right not parallel to it, got up={self.up}, "
                              f"right={self.right}")
         names = SCN_TYPES[self.kind]
-        extra = check_array("extra", self.extra, shape=(len(names),))
+        extra = check_array("extra", self.extra, shape=(len(names),), max_abs=MAX_FIELD)
         object.__setattr__(self, "extra", tuple(float(x) for x in extra))
         if "frame_start" in names and self.extra[1] < self.extra[0]:
             raise ValueError(f"frame_end must be >= frame_start, got {self.extra[0]} .. {self.extra[1]}")
@@ -162,8 +166,8 @@ def _content_lines(text: str, source: str):
 def _entry_numbers(tokens: list[str], where: str) -> list[float]:
     """Numbers of an SCN/RBA entry whose first field is a non-negative integer id."""
     v = _numbers(tokens, where)
-    if not v[0].is_integer() or v[0] < 0:
-        raise ValueError(f"{where}: id must be a non-negative integer, got {tokens[0]!r}")
+    if not v[0].is_integer() or v[0] < 0 or v[0] > 2**62:
+        raise ValueError(f"{where}: id must be a non-negative integer (at most 2**62), got {tokens[0]!r}")
     return v
 
 
@@ -269,16 +273,22 @@ def format_scn(placements: Sequence[Placement], *, header: bool = True) -> str:
 
 def _read_text(path) -> str:
     try:
-        return Path(path).read_text(encoding="utf-8")
+        path = Path(path)
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ValueError(f"cannot read {str(path)!r}: {size} bytes, more than the {MAX_FILE_BYTES} allowed")
+        return path.read_bytes().decode("utf-8")
+    except TypeError:
+        raise ValueError(f"path must be a file path, got {type(path).__name__}") from None
     except (OSError, UnicodeDecodeError) as err:
         raise ValueError(f"cannot read {str(path)!r}: {err}") from None
 
 
 def write_scn(path, placements: Sequence[Placement]) -> Path:
-    """Write an SCN file; returns its path."""
+    """Write an SCN file atomically (a failed write leaves the old file); returns its path."""
     text = format_scn(placements)                             # validates before touching the file
     path = Path(path)
-    path.write_text(text, encoding="utf-8")
+    write_atomic(path, text)
     return path
 
 
@@ -313,9 +323,10 @@ class RigidBodyFrame:
         n = ids.size
         object.__setattr__(self, "ids", ids)
         for name in ("position", "scale", "up", "right"):
-            object.__setattr__(self, name, check_array(name, getattr(self, name), shape=(n, 3)))
-        if n and ids.min() < 0:
-            raise ValueError(f"ids must be >= 0, got {ids.min()}")
+            object.__setattr__(self, name, check_array(name, getattr(self, name), shape=(n, 3),
+                                                       max_abs=None if name == "position" else MAX_COORD))
+        if n and (ids.min() < 0 or ids.max() > 2**62):
+            raise ValueError(f"ids must be in [0, 2**62], got range [{ids.min()}, {ids.max()}]")
         if np.unique(ids).size != n:
             raise ValueError("ids must be unique within one RBA file")
         if np.any(self.scale <= 0):
@@ -379,7 +390,7 @@ def write_rba(path, frame: RigidBodyFrame) -> Path:
     """Write one RBA file; returns its path."""
     text = format_rba(frame)
     path = Path(path)
-    path.write_text(text, encoding="utf-8")
+    write_atomic(path, text)
     return path
 
 
@@ -403,7 +414,17 @@ def write_rba_sequence(folder, frames: Sequence[RigidBodyFrame], *, prefix: str 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     width = max(4, len(str(max(len(frames) - 1, 0))))
-    return [write_rba(folder / f"{prefix}{k:0{width}d}.rba", f) for k, f in enumerate(frames)]
+    texts = [format_rba(f) for f in frames]                   # all formatted before any file is touched
+    paths = [folder / f"{prefix}{k:0{width}d}.rba" for k in range(len(frames))]
+    for path, text in zip(paths, texts):
+        write_atomic(path, text)
+    # frames of an earlier, longer sequence would be read back as part of this one: remove them
+    keep = {p.name for p in paths}
+    for p in folder.iterdir():
+        m = _NUMBERED.match(p.name)
+        if m and m.group(1) == prefix and p.name not in keep and p.is_file():
+            p.unlink()
+    return paths
 
 
 def read_rba_sequence(folder, *, scene: Sequence[Placement] | None = None) -> list[RigidBodyFrame]:
@@ -418,6 +439,8 @@ def read_rba_sequence(folder, *, scene: Sequence[Placement] | None = None) -> li
     folder = Path(folder)
     if not folder.is_dir():
         raise ValueError(f"RBA folder {str(folder)!r} does not exist")
+    if scene is not None and not all(isinstance(p, Placement) for p in scene):
+        raise ValueError("scene must be a list of Placement")
     found = []
     for p in folder.iterdir():
         m = _NUMBERED.match(p.name)
@@ -428,6 +451,8 @@ def read_rba_sequence(folder, *, scene: Sequence[Placement] | None = None) -> li
     nums = [k for k, _ in found]
     if len(set(nums)) != len(nums):
         raise ValueError(f"{str(folder)!r}: two RBA files share a frame number")
+    if len(nums) > 10**6:
+        raise ValueError(f"{str(folder)!r}: more than 10**6 RBA files")
     frames = [read_rba(p) for _, p in sorted(found)]
     if scene is not None:
         for (_, p), f in zip(sorted(found), frames):

@@ -10,7 +10,11 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["lane_run_numba", "lane_run_numpy", "recompute_sums", "set_cell", "apply_kernel_numba"]
+__all__ = ["lane_run_numba", "lane_run_numpy", "recompute_sums", "set_cell", "apply_kernel_numba", "PDF_CAP"]
+
+#: Kernel products are clamped here, so repeated boosts (cluster kernels) never overflow to inf, whose
+#: product with a zero kernel value would be NaN and make the cell picks fail (issue 20).
+PDF_CAP = 1e300
 
 
 @numba.njit(cache=True, nogil=True)
@@ -61,7 +65,8 @@ def apply_kernel_numba(G, Y, Z, lo, h, x, kr, kv, linear):  # pragma: no cover
                 dz = lo[2] + (k + 0.5) * h[2] - x[2]
                 d = np.sqrt(dx * dx + dy * dy + dz * dz)
                 if d < sup:
-                    G[i, j, k] *= _kernel_value(d, kr, kv, linear)
+                    g = G[i, j, k] * _kernel_value(d, kr, kv, linear)
+                    G[i, j, k] = g if g < PDF_CAP else PDF_CAP
             s = 0.0
             for k in range(nz):
                 s += G[i, j, k]
@@ -89,8 +94,14 @@ def lane_run_numba(G, Y, Z, lo, h, kr, kv, linear, U, n_target, out, n_have):  #
         u = U[used]
         used += 1
         i = _pick(Z, u[0] * total)
+        if i < 0:                          # no positive slab (cannot happen with a finite pdf): stop
+            return n_have, used, True
         j = _pick(Y[i], u[1] * Z[i])
+        if j < 0:
+            return n_have, used, True
         k = _pick(G[i, j], u[2] * Y[i, j])
+        if k < 0:
+            return n_have, used, True
         x[0] = lo[0] + (i + u[3]) * h[0]
         x[1] = lo[1] + (j + u[4]) * h[1]
         x[2] = lo[2] + (k + u[5]) * h[2]
@@ -131,7 +142,7 @@ def apply_kernel_numpy(G, Y, Z, lo, h, x, kr, kv, linear):
     axes = [lo[a] + (np.arange(sl[a].start, sl[a].stop) + 0.5) * h[a] - x[a] for a in range(3)]
     dx, dy, dz = np.meshgrid(*axes, indexing="ij")
     d = np.sqrt(dx * dx + dy * dy + dz * dz)
-    G[sl] *= np.where(d < sup, _kernel_value_numpy(d, kr, kv, linear), 1.0)
+    G[sl] = np.minimum(G[sl] * np.where(d < sup, _kernel_value_numpy(d, kr, kv, linear), 1.0), PDF_CAP)
     Y[sl[0], sl[1]] = G[sl[0], sl[1], :].sum(axis=2)
     Z[sl[0]] = Y[sl[0], :].sum(axis=1)
 

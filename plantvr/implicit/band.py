@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int, check_range
+from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_points, check_range
 
 from .blobtree import Node
-from .sampling import rejection_sample
+from .sampling import MAX_POINTS, _check_grid_box, rejection_sample
+
+#: Most cube corners of one cache (dense corner grid).
+MAX_CORNERS = 2e8
 
 __all__ = ["FieldCache", "sample_band"]
 
@@ -20,7 +23,7 @@ __all__ = ["FieldCache", "sample_band"]
 def _check_band(band):
     try:
         lo, hi = float(band[0]), float(band[1])
-    except (TypeError, ValueError, IndexError):
+    except (TypeError, ValueError, IndexError, KeyError):
         raise ValueError(f"band must be a pair (f_lo, f_hi), got {band!r}") from None
     if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
         raise ValueError(f"band must satisfy f_lo < f_hi (finite), got {band!r}")
@@ -69,17 +72,18 @@ class FieldCache:
         if not isinstance(node, Node):
             raise ValueError(f"node must be a BlobTree Node, got {type(node).__name__}")
         self.node = node
-        self.edge = check_range("edge", edge, 0.0, np.inf, low_open=True)
+        self.edge = check_range("edge", edge, 0.0, MAX_COORD, low_open=True)
         self.band = _check_band(band)
-        box = node.bbox if bbox is None else check_array("bbox", bbox, shape=(2, 3))
-        if np.any(box[1] <= box[0]):
-            raise ValueError(f"bbox must have hi > lo on every axis, got {np.asarray(box).tolist()} (empty envelope)")
-        self.origin = box[0].copy()
-        self.shape = tuple(int(v) for v in np.ceil((box[1] - box[0]) / self.edge).astype(int))
-        if np.prod(np.array(self.shape) + 1, dtype=float) > 2e8:
-            raise ValueError(f"edge={edge} gives {self.shape} cubes, too many; use a larger edge")
+        box = node.bbox if bbox is None else check_array("bbox", bbox, shape=(2, 3), max_abs=MAX_COORD)
+        box = _check_grid_box(box)
+        counts = np.ceil((box[1] - box[0]) / self.edge)           # float first: a tiny edge cannot overflow
+        if np.prod(counts + 1) > MAX_CORNERS:
+            raise ValueError(f"edge must give at most {MAX_CORNERS:g} cube corners over the box, got edge={edge} "
+                             f"({counts.astype(np.float64).tolist()} cubes); use a larger edge")
         check_choice("method", method, ("dense", "bfs"))
         seeds = check_int("seeds", seeds, 1, 10**6)
+        self.origin = box[0].copy()
+        self.shape = tuple(int(v) for v in counts)
         self.method = method
         if method == "dense":
             axes = [self.origin[i] + self.edge * np.arange(self.shape[i] + 1) for i in range(3)]
@@ -155,7 +159,7 @@ class FieldCache:
 
     def classify(self, p, *, band=None, mode: str = "approx") -> np.ndarray:
         """Band membership by the cache: table hit and trilinear value in band (``approx``) or exact (``filter``)."""
-        p = check_array("p", p, shape=(None, 3))
+        p = check_points("p", p)
         check_choice("mode", mode, ("approx", "filter"))
         lo, hi = self.band if band is None else _check_band(band)
         _, hit = self.lookup(p)
@@ -204,13 +208,14 @@ def sample_band(node: Node, n: int, *, band=(0.40, 0.41), method: str = "cache",
     lo, hi = _check_band(band)
     check_choice("method", method, ("rejection", "cache"))
     check_choice("cache_mode", cache_mode, ("filter", "approx"))
-    n = check_int("n", n, 0, 10**8)
+    n = check_int("n", n, 0, MAX_POINTS)
+    max_draws = check_int("max_draws", max_draws, 1, 10**12)
+    if cache is not None and not isinstance(cache, FieldCache):
+        raise ValueError(f"cache must be a FieldCache, got {type(cache).__name__}")
     if method == "rejection":
         return rejection_sample(node, n, f_lo=lo, f_hi=hi, rng=rng, max_draws=max_draws)
     if cache is None:
         cache = FieldCache(node, edge=edge, band=(lo, hi))
-    elif not isinstance(cache, FieldCache):
-        raise ValueError(f"cache must be a FieldCache, got {type(cache).__name__}")
     if cache.n_cubes == 0:
         raise ValueError(f"the cache holds no cube meeting the band {band}: empty envelope or band outside the field")
     rng = np.random.default_rng(rng)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_point, check_points, check_range
+from plantvr._validation import MAX_COORD, check_array, check_choice, check_point, check_points, check_range
 
 from . import _kernels
 from .fields import ISO, wyvill_from_sq
@@ -22,6 +22,21 @@ __all__ = [
 ]
 
 BACKENDS = ("numba", "numpy")
+
+#: Smallest radius of influence / length a primitive accepts: ``R**2`` stays a normal float, so the field
+#: kernels never divide by zero (issue 20).
+MIN_RADIUS = 1e-9
+#: Largest magnitude of one scale factor (``scale s sx sy sz``), and of any coordinate of a node's support box.
+MAX_SCALE = 1e9
+MAX_BOX = 1e9
+
+
+def _check_box(owner: str, box: np.ndarray) -> np.ndarray:
+    """Refuse a support box that is not finite or reaches past ``±MAX_BOX`` (a runaway scale or radius)."""
+    if not np.all(np.isfinite(box)) or np.abs(box).max() > MAX_BOX:
+        raise ValueError(f"{owner} has a support box outside [-{MAX_BOX:g}, {MAX_BOX:g}] "
+                         f"(got {np.asarray(box).tolist()}): scale or radius too large")
+    return box
 
 
 def box_transform(bbox: np.ndarray, matrix: np.ndarray) -> np.ndarray:
@@ -47,10 +62,14 @@ def box_transform(bbox: np.ndarray, matrix: np.ndarray) -> np.ndarray:
 
 def scale_matrix(sx: float, sy: float, sz: float) -> np.ndarray:
     """4x4 non-uniform scale about the origin (factors must be non-zero)."""
+    out = []
     for name, v in (("sx", sx), ("sy", sy), ("sz", sz)):
-        if not np.isfinite(float(v)) or float(v) == 0.0:
-            raise ValueError(f"{name} must be a finite non-zero number, got {v!r}")
-    return np.diag([float(sx), float(sy), float(sz), 1.0])
+        f = check_range(name, v, -MAX_SCALE, MAX_SCALE)
+        if abs(f) < 1.0 / MAX_SCALE:
+            raise ValueError(f"{name} must be a non-zero number with {1.0 / MAX_SCALE:g} <= |{name}| <= "
+                             f"{MAX_SCALE:g}, got {v!r}")
+        out.append(f)
+    return np.diag([*out, 1.0])
 
 
 def translate_matrix(offset) -> np.ndarray:
@@ -71,6 +90,14 @@ def rotate_matrix(axis, angle_deg: float) -> np.ndarray:
     kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     m = np.eye(4)
     m[:3, :3] = np.eye(3) + np.sin(a) * kx + (1 - np.cos(a)) * (kx @ kx)
+    return m
+
+
+def _check_matrix(matrix) -> np.ndarray:
+    """A finite, invertible (4, 4) affine matrix with entries inside ``±MAX_SCALE``."""
+    m = check_array("matrix", matrix, shape=(4, 4), max_abs=MAX_SCALE)
+    if abs(np.linalg.det(m[:3, :3])) < 1e-300:
+        raise ValueError("matrix must be invertible (its 3x3 part has zero determinant)")
     return m
 
 
@@ -120,9 +147,7 @@ class Node:
 
     def transformed(self, matrix) -> "Node":
         """Return this node under the affine map ``matrix`` (4, 4): ``F'(p) = F(M^-1 p)``."""
-        m = check_array("matrix", matrix, shape=(4, 4))
-        if abs(np.linalg.det(m[:3, :3])) < 1e-300:
-            raise ValueError("matrix must be invertible (its 3x3 part has zero determinant)")
+        m = _check_matrix(matrix)
         return self._transformed(m)
 
     def _transformed(self, m: np.ndarray) -> "Node":
@@ -193,7 +218,7 @@ class CircleSkeleton:
         if np.linalg.norm(n) == 0:
             raise ValueError("normal must be a non-zero vector, got (0, 0, 0)")
         self.normal = n / np.linalg.norm(n)
-        self.rho = check_range("rho", rho, 0.0, np.inf, low_open=True)
+        self.rho = check_range("rho", rho, MIN_RADIUS, MAX_COORD)
 
     def distance_sq(self, q):
         d = q - self.center
@@ -212,6 +237,8 @@ class PolylineSkeleton:
 
     def __init__(self, vertices):
         self.vertices = check_points("vertices", vertices, min_rows=2)
+        if len(self.vertices) > MAX_POLYLINE:
+            raise ValueError(f"vertices must have at most {MAX_POLYLINE} rows, got {len(self.vertices)}")
 
     def distance_sq(self, q):
         best = np.full(len(q), np.inf)
@@ -221,6 +248,10 @@ class PolylineSkeleton:
 
     def local_bbox(self):
         return np.array([self.vertices.min(axis=0), self.vertices.max(axis=0)])
+
+
+#: Most vertices of one polyline skeleton (its distance is a Python loop over segments).
+MAX_POLYLINE = 100_000
 
 
 class Primitive(Node):
@@ -242,11 +273,15 @@ class Primitive(Node):
 
     def __init__(self, skeleton, radius: float = 1.0, matrix=None):
         self.skeleton = skeleton
-        self.radius = check_range("radius", radius, 0.0, np.inf, low_open=True)
-        self.matrix = np.eye(4) if matrix is None else check_array("matrix", matrix, shape=(4, 4))
+        if not isinstance(skeleton, (PointSkeleton, SegmentSkeleton, CircleSkeleton, PolylineSkeleton)):
+            raise ValueError(f"skeleton must be a Point/Segment/Circle/PolylineSkeleton, got {type(skeleton).__name__}")
+        self.skeleton = skeleton
+        self.radius = check_range("radius", radius, MIN_RADIUS, MAX_COORD)
+        self.matrix = np.eye(4) if matrix is None else _check_matrix(matrix)
         self.minv = np.linalg.inv(self.matrix)
         lo, hi = skeleton.local_bbox()
-        self.bbox = box_transform(np.array([lo - self.radius, hi + self.radius]), self.matrix)
+        self.bbox = _check_box("Primitive", box_transform(np.array([lo - self.radius, hi + self.radius]),
+                                                          self.matrix))
 
     @property
     def packable(self) -> bool:
@@ -399,9 +434,9 @@ class TransformNode(Node):
 
     def __init__(self, child: Node, matrix):
         self.child = _check_nodes("TransformNode", (child,), 1)[0]
-        self.matrix = check_array("matrix", matrix, shape=(4, 4))
+        self.matrix = _check_matrix(matrix)
         self.minv = np.linalg.inv(self.matrix)
-        self.bbox = box_transform(child.bbox, self.matrix)
+        self.bbox = _check_box("TransformNode", box_transform(child.bbox, self.matrix))
 
     def _eval_inside(self, p, backend):
         return self.child._eval(p @ self.minv[:3, :3].T + self.minv[:3, 3], backend)

@@ -9,8 +9,10 @@ Verbatim thesis scripts run as written::
                            save_point_set points.txt
 
 A script is parsed completely before anything runs, and it runs on a copy of the session state that is committed
-only if every line succeeds, so a rejected script leaves the session unchanged. Errors are ``CommandError``
-(a ``ValueError``) naming the line number and the offending token.
+only if every line succeeds, so a rejected script leaves the session unchanged; the files its ``save_point_set``
+lines write are written (atomically) only then, too. Errors are ``CommandError`` (a ``ValueError``) naming the
+line number and the offending token. :meth:`CommandSession.save_script` writes a script that
+:meth:`CommandSession.replay` with the same session ``seed`` turns back into the same session.
 """
 from __future__ import annotations
 
@@ -19,14 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._validation import check_int
+from plantvr._fileio import write_atomic
+from plantvr._validation import MAX_COORD, check_int, check_range
 
 from . import blobtree as bt
 from .band import FieldCache, sample_band
 from .crown import default_roots, grow_in_crown
 from .fields import ISO
 from .mesh_sampling import sample_mesh_near
-from .pointsets import PROPS_DEFAULTS, PointSet, densify, load_point_set, read_props, save_point_set
+from .pointsets import (PROPS_DEFAULTS, PointSet, densify, load_point_set, read_props, read_text_file,
+                        save_point_set)
 from .sampling import cluster_kernel, lane_in_node, poisson_kernel, sample_inside
 from .skinning import Circle2D, Revolution, Skin, SkinPath
 from .warps import Warp
@@ -87,15 +91,28 @@ COMMANDS = {
 }
 
 
+#: Most lines and characters of one script.
+MAX_SCRIPT_LINES = 1_000_000
+MAX_SCRIPT_CHARS = 1 << 28
+#: Most vertices / faces of a mesh loaded by ``load_mesh``.
+MAX_MESH_ELEMENTS = 50_000_000
+
+
 def parse_script(text: str) -> list[Command]:
     """Parse a script into commands (``#`` comments, blank lines skipped); check names and argument counts."""
     if not isinstance(text, str):
         raise ValueError(f"text must be a string, got {type(text).__name__}")
+    if len(text) > MAX_SCRIPT_CHARS:
+        raise ValueError(f"text must hold at most {MAX_SCRIPT_CHARS} characters, got {len(text)}")
+    if "\0" in text:
+        raise ValueError("text must not contain NUL characters (a binary or corrupt file?)")
     out = []
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.split("#", 1)[0].strip()
         if not line:
             continue
+        if len(out) >= MAX_SCRIPT_LINES:
+            raise CommandError(lineno, line.split()[0], f"scripts hold at most {MAX_SCRIPT_LINES} commands", raw)
         tokens = line.split()
         name, args = tokens[0], tuple(tokens[1:])
         if name not in COMMANDS:
@@ -126,38 +143,55 @@ class CommandSession:
     """
 
     def __init__(self, *, base_dir=".", seed: int = 0, default_radius: float = 1.0):
-        self.base_dir = Path(base_dir)
+        try:
+            self.base_dir = Path(base_dir)
+        except TypeError:
+            raise ValueError(f"base_dir must be a path, got {type(base_dir).__name__}") from None
         self.seed = check_int("seed", seed, 0, 2**63 - 1)
-        self.default_radius = float(default_radius)
+        self.default_radius = check_range("default_radius", default_radius, bt.MIN_RADIUS, MAX_COORD)
         self.surfaces: dict = {}
         self.meshes: dict = {}
         self.points = PointSet()
         self.trees: list = []
         self.history: list[str] = []
         self._gen_count = 0
+        self._pending: dict = {}                    # path -> PointSet written when the running script commits
 
     # ------------------------------------------------------------------ public API
     def run(self, text: str) -> "CommandSession":
         """Parse and run a script; on any error the session is left unchanged and ``CommandError`` is raised."""
         commands = parse_script(text)
         state = self._snapshot()
+        self._pending = {}
         try:
             for c in commands:
                 try:
                     getattr(self, f"_cmd_{c.name}")(c)
                 except CommandError:
                     raise
-                except ValueError as exc:
+                except (ValueError, OverflowError, ZeroDivisionError) as exc:
                     raise CommandError(c.lineno, c.name, str(exc), c.text) from exc
                 self.history.append(c.text.strip())
-        except Exception:
+            for path, (points, header) in self._pending.items():   # every line ran: write the saved files
+                try:
+                    save_point_set(path, points, header=header)
+                except (OSError, ValueError) as exc:
+                    raise ValueError(f"save_point_set: cannot write {str(path)!r}: {exc}") from None
+        except BaseException:
             self._restore(state)
             raise
+        finally:
+            self._pending = {}
         return self
 
+    def script_text(self) -> str:
+        """The script :meth:`save_script` writes: the commands run so far, one per line. Replaying it with the
+        session's seed (``replay(path, seed=...)``) reproduces the session."""
+        return "\n".join(self.history) + "\n"
+
     def save_script(self, path) -> None:
-        """Write the commands run so far, one per line (replay with :meth:`replay`)."""
-        Path(path).write_text("\n".join(self.history) + "\n")
+        """Write the commands run so far, one per line (replay with :meth:`replay`); atomic."""
+        write_atomic(path, self.script_text())
 
     @classmethod
     def replay(cls, path, **kwargs) -> "CommandSession":
@@ -166,7 +200,8 @@ class CommandSession:
         if not path.is_file():
             raise ValueError(f"path {str(path)!r} does not exist")
         kwargs.setdefault("base_dir", path.parent)
-        return cls(**kwargs).run(path.read_text())
+        session = cls(**kwargs)
+        return session.run(read_text_file(path, "script"))
 
     def surface(self, name: str) -> bt.Node:
         """The named surface (ValueError if unknown)."""
@@ -181,7 +216,7 @@ class CommandSession:
 
     def _restore(self, s):
         (self.surfaces, self.meshes, self.points, self.trees, self.history, self._gen_count, self.seed) = \
-            (s[0], s[1], s[2], s[3], s[4], s[5], s[6])
+            (dict(s[0]), dict(s[1]), s[2], list(s[3]), list(s[4]), s[5], s[6])
 
     # ------------------------------------------------------------------ helpers
     @staticmethod
@@ -206,8 +241,9 @@ class CommandSession:
         if not tokens:
             return self.default_radius
         r = self._nums(c, tokens[:1])[0]
-        if r <= 0:
-            raise CommandError(c.lineno, tokens[0], "radius R must be > 0", c.text)
+        if not bt.MIN_RADIUS <= r <= MAX_COORD:
+            raise CommandError(c.lineno, tokens[0], f"radius R must be in [{bt.MIN_RADIUS:g}, {MAX_COORD:g}]",
+                               c.text)
         return r
 
     def _rows(self, c, tokens, width: int, least: int, what: str) -> np.ndarray:
@@ -350,13 +386,29 @@ class CommandSession:
         path = self._path(c.args[1])
         if not path.is_file():
             raise CommandError(c.lineno, c.args[1], "mesh file does not exist", c.text)
-        m = trimesh.load(path, process=False, force="mesh")
-        self.meshes[c.args[0]] = (np.asarray(m.vertices, dtype=float), np.asarray(m.faces, dtype=np.int64))
+        try:
+            m = trimesh.load(path, process=False, force="mesh")
+            v = np.asarray(m.vertices, dtype=float).reshape(-1, 3)
+            f = np.asarray(m.faces, dtype=np.int64).reshape(-1, 3)
+        except Exception as exc:      # trimesh raises many kinds on a corrupt file: report it as this line's error
+            raise CommandError(c.lineno, c.args[1], f"cannot read the mesh ({type(exc).__name__}: {exc})",
+                               c.text) from None
+        if len(v) > MAX_MESH_ELEMENTS or len(f) > MAX_MESH_ELEMENTS:
+            raise CommandError(c.lineno, c.args[1], f"mesh has more than {MAX_MESH_ELEMENTS} vertices or faces",
+                               c.text)
+        if len(f) == 0 or len(v) < 3:
+            raise CommandError(c.lineno, c.args[1], "mesh has no triangles", c.text)
+        if not np.all(np.isfinite(v)) or np.abs(v).max() > MAX_COORD:
+            raise CommandError(c.lineno, c.args[1], f"mesh vertices must be finite and inside +-{MAX_COORD:g}",
+                               c.text)
+        if f.min() < 0 or f.max() >= len(v):
+            raise CommandError(c.lineno, c.args[1], f"mesh faces must index its {len(v)} vertices", c.text)
+        self.meshes[c.args[0]] = (v, f)
 
     def _cmd_seed(self, c):
         v = self._nums(c, c.args)[0]
-        if v < 0 or v != int(v):
-            raise CommandError(c.lineno, c.args[0], "seed must be a non-negative integer", c.text)
+        if v < 0 or v != int(v) or v > 2**63 - 1:
+            raise CommandError(c.lineno, c.args[0], "seed must be an integer in [0, 2**63 - 1]", c.text)
         self.seed, self._gen_count = int(v), 0
 
     # ------------------------------------------------------------------ point commands
@@ -375,7 +427,10 @@ class CommandSession:
                 path = self._path(t)
                 if not path.is_file():
                     raise CommandError(c.lineno, t, "props file does not exist", c.text)
-                file_props = read_props(path)
+                try:
+                    file_props = read_props(path)
+                except ValueError as exc:
+                    raise CommandError(c.lineno, t, str(exc), c.text) from None
                 props.update({k: v for k, v in file_props.items() if v != PROPS_DEFAULTS[k]})
         return props
 
@@ -437,8 +492,8 @@ class CommandSession:
     def _cmd_point_set_densify(self, c):
         sec = self._get(c, c.args[0])
         n = self._nums(c, c.args[1:2])[0]
-        if n < 0 or n != int(n):
-            raise CommandError(c.lineno, c.args[1], "N must be a non-negative integer", c.text)
+        if n < 0 or n != int(n) or n > 10**8:
+            raise CommandError(c.lineno, c.args[1], "N must be an integer in [0, 100000000]", c.text)
         kv = self._props(c, c.args[2:])
         rng = self._rng(kv, False)
         self.points = densify(self.points, sec, int(n), source=f"{c.args[0]}:densify", r_min=kv["min_distance"],
@@ -448,10 +503,18 @@ class CommandSession:
         self.points = PointSet()
 
     def _cmd_save_point_set(self, c):
-        save_point_set(self._path(c.args[0]), self.points, header={"seed": self.seed})
+        path = self._path(c.args[0])
+        if not path.parent.is_dir():
+            raise CommandError(c.lineno, c.args[0], "the folder of this point file does not exist", c.text)
+        # written when the whole script has run (a later bad line must not leave the file changed)
+        self._pending.pop(path, None)
+        self._pending[path] = (self.points, {"seed": self.seed})
 
     def _cmd_load_point_set(self, c):
         path = self._path(c.args[0])
+        if path in self._pending:                   # saved earlier in this script: read what it will hold
+            self.points = self._pending[path][0]
+            return
         if not path.is_file():
             raise CommandError(c.lineno, c.args[0], "point file does not exist", c.text)
         self.points = load_point_set(path)
@@ -465,10 +528,18 @@ class CommandSession:
         step = self._nums(c, [kv.get("step", "1.0")])[0]
         kill = self._nums(c, [kv.get("kill", str(2 * step))])[0]
         infl = np.inf if kv.get("influence", "inf") == "inf" else self._nums(c, [kv["influence"]])[0]
-        max_steps = int(self._nums(c, [kv.get("max_steps", "500")])[0])
+        ms = self._nums(c, [kv.get("max_steps", "500")])[0]
+        if ms != int(ms):
+            raise CommandError(c.lineno, kv["max_steps"], "max_steps must be an integer", c.text)
+        max_steps = int(ms)
         if len(self.points) == 0:
             raise CommandError(c.lineno, "grow", "no attraction points: run point_set_gen first", c.text)
-        roots = (np.reshape(self._nums(c, kv["root"].split(",")), (-1, 3)) if "root" in kv
-                 else default_roots(self.points.points))
+        if "root" in kv:
+            r = self._nums(c, kv["root"].split(","))
+            if len(r) == 0 or len(r) % 3:
+                raise CommandError(c.lineno, kv["root"], "root must be x,y,z (triples)", c.text)
+            roots = np.reshape(r, (-1, 3))
+        else:
+            roots = default_roots(self.points.points)
         self.trees.append(grow_in_crown(self.points.points, roots, step_size=step, kill_radius=kill,
                                         influence_radius=infl, max_steps=max_steps))

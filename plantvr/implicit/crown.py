@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantvr._validation import check_int, check_points, check_range
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_int, check_points, check_range
 
 from .blobtree import Node
 
@@ -80,16 +80,23 @@ def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, 
     .. [1] Kochhar 2010, §2.5, §7.2; Runions et al. 2007 [83]; spec 003 §1.3-1.5.
     """
     markers = check_points("markers", markers)
+    if len(markers) > MAX_COUNT:
+        raise ValueError(f"markers must have at most {MAX_COUNT} rows, got {len(markers)}")
     if len(markers) == 0:
         raise ValueError("markers is empty: the crown envelope produced no attraction points "
                          "(check the surface, its scale and the distribution)")
     roots = default_roots(markers, up=up) if roots is None else check_points("roots", roots, min_rows=1)
-    step_size = check_range("step_size", step_size, 0.0, np.inf, low_open=True)
-    kill_radius = check_range("kill_radius", kill_radius, 0.0, np.inf, low_open=True)
+    step_size = check_range("step_size", step_size, 1e-9, MAX_COORD)
+    kill_radius = check_range("kill_radius", kill_radius, 1e-9, MAX_COORD)
+    if not (isinstance(influence_radius, (int, float, np.integer, np.floating))
+            and not isinstance(influence_radius, bool) and float(influence_radius) == np.inf):
+        influence_radius = check_range("influence_radius", influence_radius, 0.0, 4 * MAX_COORD, low_open=True)
     influence_radius = float(influence_radius)
-    if not influence_radius > 0 or np.isnan(influence_radius):
-        raise ValueError(f"influence_radius must be in (0, inf], got {influence_radius!r}")
     max_steps = check_int("max_steps", max_steps, 1, 10**7)
+    if children_limit is not None:
+        children_limit = check_int("children_limit", children_limit, 1, 10**6)
+    if stall_steps is not None and not (isinstance(stall_steps, (int, np.integer)) and stall_steps == -1):
+        stall_steps = check_int("stall_steps", stall_steps, 1, 10**7)
     try:
         from plantvr.growth.colonize import space_colonization
     except ImportError as exc:  # pragma: no cover - depends on the growth package landing
@@ -103,6 +110,8 @@ def grow_in_crown(markers, roots=None, *, step_size: float, kill_radius: float, 
         # the kernel takes a finite d_i: twice the diagonal of markers and roots reaches every marker from any node
         allp = np.vstack([markers, roots])
         influence_radius = 2.0 * float(np.linalg.norm(allp.max(axis=0) - allp.min(axis=0))) + 2.0 * step_size
+        if influence_radius <= kill_radius:         # coincident markers and roots: any node reaches them all
+            influence_radius = 2.0 * kill_radius
     if kill_radius >= influence_radius:
         raise ValueError(f"kill_radius must be smaller than influence_radius ({influence_radius}), got {kill_radius}")
     return space_colonization(markers, roots, influence_radius=influence_radius, kill_radius=kill_radius,
@@ -136,7 +145,10 @@ def pipe_radii(parent, *, r0: float = 0.01, exponent: float = 2.5) -> np.ndarray
     >>> pipe_radii([-1, 0, 0], r0=1.0, exponent=2.0).round(6).tolist()
     [1.414214, 1.0, 1.0]
     """
-    par = np.asarray(parent)
+    try:
+        par = np.asarray(parent)
+    except (TypeError, ValueError):
+        raise ValueError(f"parent must be a 1D integer array, got {type(parent).__name__}") from None
     if par.ndim != 1 or (par.size and not np.issubdtype(par.dtype, np.integer)):
         raise ValueError(f"parent must be a 1D integer array, got dtype {par.dtype} shape {par.shape}")
     par = par.astype(np.int64)

@@ -4,9 +4,12 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from plantvr._validation import check_array, check_choice, check_int, check_range
+from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_points, check_range
 
-__all__ = ["face_cdf", "sample_mesh_near"]
+__all__ = ["face_cdf", "sample_mesh_near", "MAX_SAMPLES"]
+
+#: Most points one call draws.
+MAX_SAMPLES = 10**8
 
 
 def face_cdf(vertices, faces) -> np.ndarray:
@@ -28,8 +31,11 @@ def face_cdf(vertices, faces) -> np.ndarray:
     ----------
     .. [1] Kochhar 2010, §6.3, Eq. 6.1.
     """
-    v = check_array("vertices", vertices, shape=(None, 3), min_rows=3)
-    f = check_array("faces", faces, shape=(None, 3), dtype=np.int64, min_rows=1)
+    v = check_points("vertices", vertices, min_rows=3)
+    try:
+        f = check_array("faces", faces, shape=(None, 3), dtype=np.int64, min_rows=1)
+    except OverflowError:
+        raise ValueError("faces must be an (F, 3) array of vertex indices, got non-finite or huge values") from None
     if f.min() < 0 or f.max() >= len(v):
         raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
     area = 0.5 * np.linalg.norm(np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]), axis=1)
@@ -76,18 +82,18 @@ def sample_mesh_near(vertices, faces, n: int, *, offset=(0.02, 0.1), selection: 
     cdf = face_cdf(vertices, faces)
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    n = check_int("n", n, 0, 10**9)
+    n = check_int("n", n, 0, MAX_SAMPLES)
     check_choice("selection", selection, ("area", "uniform"))
     try:
         u_min, u_max = float(offset[0]), float(offset[1])
     except (TypeError, ValueError, IndexError):
         raise ValueError(f"offset must be a pair (u_min, u_max), got {offset!r}") from None
-    check_range("offset[0]", u_min, -1e12, 1e12)
-    check_range("offset[1]", u_max, u_min, 1e12)
+    check_range("offset[0]", u_min, -MAX_COORD, MAX_COORD)
+    check_range("offset[1]", u_max, u_min, MAX_COORD)
     if vertex_normals is None:
         vn = trimesh.Trimesh(v, f, process=False).vertex_normals
     else:
-        vn = check_array("vertex_normals", vertex_normals, shape=(len(v), 3))
+        vn = check_array("vertex_normals", vertex_normals, shape=(len(v), 3), max_abs=MAX_COORD)
     rng = np.random.default_rng(rng)
     if selection == "area":
         idx = np.searchsorted(cdf, rng.random(n), side="right") - 1
@@ -101,6 +107,7 @@ def sample_mesh_near(vertices, faces, n: int, *, offset=(0.02, 0.1), selection: 
     tri = f[idx]
     p = (1 - s - t) * v[tri[:, 0]] + s * v[tri[:, 1]] + t * v[tri[:, 2]]
     nrm = (1 - s - t) * vn[tri[:, 0]] + s * vn[tri[:, 1]] + t * vn[tri[:, 2]]
-    nrm /= np.linalg.norm(nrm, axis=1)[:, None]
+    ln = np.linalg.norm(nrm, axis=1)
+    nrm /= np.where(ln > 0, ln, 1.0)[:, None]        # a zero normal (degenerate fan) gives no offset, not NaN
     u = rng.uniform(u_min, u_max, (n, 1))
     return p + u * nrm, idx

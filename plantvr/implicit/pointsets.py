@@ -7,18 +7,43 @@ raise.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_points, check_range
+from plantvr._fileio import write_atomic
+from plantvr._validation import MAX_COUNT, check_array, check_int, check_points, check_range
 
 from .blobtree import Node
 from .fields import ISO
 
 __all__ = ["PointSet", "thin", "densify", "save_point_set", "load_point_set", "PROPS_DEFAULTS", "read_props",
-           "write_props"]
+           "write_props", "MAX_TEXT_BYTES", "read_text_file"]
+
+#: Largest text file (points, props, scripts) a reader accepts (bytes).
+MAX_TEXT_BYTES = 1 << 30
+#: Most source names of one point set.
+MAX_SOURCES = 100_000
+
+
+def read_text_file(path, what: str) -> str:
+    """UTF-8 text of a file no larger than :data:`MAX_TEXT_BYTES`, or a ValueError naming ``what`` and the path."""
+    path = Path(path)
+    try:
+        size = path.stat().st_size
+        if not path.is_file():
+            raise ValueError(f"{what} {str(path)!r} is not a file")
+        if size > MAX_TEXT_BYTES:
+            raise ValueError(f"{what} {str(path)!r} has {size} bytes, more than the {MAX_TEXT_BYTES} allowed")
+        return path.read_bytes().decode("utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"{what} {str(path)!r} does not exist") from None
+    except OSError as exc:
+        raise ValueError(f"cannot read {what} {str(path)!r}: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{what} {str(path)!r} is not UTF-8 text (corrupt file?): {exc}") from None
 
 
 @dataclass
@@ -31,9 +56,26 @@ class PointSet:
 
     def __post_init__(self):
         self.points = check_points("points", self.points)
-        self.tags = np.asarray(self.tags, dtype=np.int64).reshape(-1)
+        if len(self.points) > MAX_COUNT:
+            raise ValueError(f"points must have at most {MAX_COUNT} rows, got {len(self.points)}")
+        try:
+            tags = np.asarray(self.tags)
+            if tags.size and tags.dtype.kind not in "iu" and not (
+                    tags.dtype.kind in "fb" and np.all(np.isfinite(tags.astype(float)))
+                    and np.all(tags.astype(float) == np.round(tags.astype(float)))):
+                raise TypeError
+            self.tags = tags.astype(np.int64).reshape(-1)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"tags must be integers, got {np.asarray(self.tags, dtype=object).dtype}") from None
         if len(self.tags) != len(self.points):
             raise ValueError(f"tags must have one entry per point ({len(self.points)}), got {len(self.tags)}")
+        if not isinstance(self.sources, list) or not all(isinstance(x, str) for x in self.sources):
+            raise ValueError(f"sources must be a list of str, got {self.sources!r}"[:200])
+        if len(self.sources) > MAX_SOURCES:
+            raise ValueError(f"sources must hold at most {MAX_SOURCES} names, got {len(self.sources)}")
+        if len(self.tags) and (self.tags.min() < 0 or (self.sources and self.tags.max() >= len(self.sources))):
+            raise ValueError(f"tags must index sources, in [0, {max(len(self.sources) - 1, 0)}], got range "
+                             f"[{self.tags.min()}, {self.tags.max()}]")
 
     def __len__(self):
         return len(self.points)
@@ -42,11 +84,15 @@ class PointSet:
     def from_points(cls, points, source: str) -> "PointSet":
         """A single-source set."""
         p = check_points("points", points)
-        return cls(p, np.zeros(len(p), dtype=np.int64), [str(source)])
+        if not isinstance(source, str):
+            raise ValueError(f"source must be a str, got {type(source).__name__}")
+        return cls(p, np.zeros(len(p), dtype=np.int64), [source])
 
     def add(self, points, source: str) -> "PointSet":
         """New set with ``points`` appended under ``source`` (existing points untouched)."""
         p = check_points("points", points)
+        if not isinstance(source, str):
+            raise ValueError(f"source must be a str, got {type(source).__name__}")
         sources = list(self.sources)
         if source not in sources:
             sources.append(str(source))
@@ -55,7 +101,13 @@ class PointSet:
 
     def select(self, mask) -> "PointSet":
         """Subset by boolean mask, keeping order and tag names."""
-        m = np.asarray(mask, dtype=bool)
+        try:
+            m = np.asarray(mask)
+        except (TypeError, ValueError):
+            raise ValueError(f"mask must be a boolean array of shape ({len(self)},), "
+                             f"got {type(mask).__name__}") from None
+        if m.shape != (len(self),) or m.dtype != bool:
+            raise ValueError(f"mask must be a boolean array of shape ({len(self)},), got {m.dtype} {m.shape}")
         return PointSet(self.points[m], self.tags[m], list(self.sources))
 
 
@@ -164,15 +216,25 @@ def save_point_set(path, points, *, header: dict | None = None) -> None:
         Generator parameters and seed, written as ``# key = value``.
     """
     lines = []
+    if header is not None and not isinstance(header, dict):
+        raise ValueError(f"header must be a dict, got {type(header).__name__}")
     for k, v in (header or {}).items():
-        lines.append(f"# {k} = {v}")
+        text = f"{k} = {v}"
+        if "\n" in text or "\r" in text or str(k).strip().startswith("sources"):
+            raise ValueError(f"header entry {str(k)!r} must be one line and not 'sources', got {text[:80]!r}")
+        lines.append(f"# {text}")
     if isinstance(points, PointSet):
-        lines.append("# sources = " + " ".join(s.replace(" ", "_") for s in points.sources))
+        lines.append("# sources = " + " ".join(_source_token(s) for s in points.sources))
         body = [f"{x:.6g} {y:.6g} {z:.6g} {t}" for (x, y, z), t in zip(points.points, points.tags)]
     else:
         p = check_points("points", points)
         body = [f"{x:.6g} {y:.6g} {z:.6g}" for x, y, z in p]
-    Path(path).write_text("\n".join(lines + body) + "\n")
+    write_atomic(path, "\n".join(lines + body) + "\n")
+
+
+def _source_token(name: str) -> str:
+    """A source name as one whitespace-free token of the ``# sources =`` line (empty -> ``_``)."""
+    return re.sub(r"\s", "_", name) or "_"
 
 
 def load_point_set(path) -> PointSet:
@@ -180,9 +242,10 @@ def load_point_set(path) -> PointSet:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"path {str(path)!r} does not exist")
+    text = read_text_file(path, "point file")
     sources = None
     rows = []
-    for lineno, line in enumerate(path.read_text().splitlines(), 1):
+    for lineno, line in enumerate(text.splitlines(), 1):
         s = line.strip()
         if not s:
             continue
@@ -194,16 +257,25 @@ def load_point_set(path) -> PointSet:
         if len(parts) not in (3, 4):
             raise ValueError(f"{path.name} line {lineno}: expected 3 or 4 numbers, got {s!r}")
         try:
-            rows.append([float(v) for v in parts[:3]] + [int(parts[3]) if len(parts) == 4 else 0])
+            xyz = [float(v) for v in parts[:3]]
+            tag = int(parts[3]) if len(parts) == 4 else 0
         except ValueError:
             raise ValueError(f"{path.name} line {lineno}: not a number in {s!r}") from None
+        if not all(np.isfinite(xyz)) or max(abs(v) for v in xyz) > 1e6:
+            raise ValueError(f"{path.name} line {lineno}: coordinates must be finite and inside +-1e6, got {s!r}")
+        if not 0 <= tag < MAX_SOURCES:
+            raise ValueError(f"{path.name} line {lineno}: tag must be in [0, {MAX_SOURCES - 1}], got {parts[3]!r}")
+        rows.append(xyz + [tag])
     arr = np.array(rows, dtype=np.float64).reshape(-1, 4)
     tags = arr[:, 3].astype(np.int64)
     if sources is None:
         sources = [f"source{i}" for i in range(int(tags.max()) + 1)] if len(tags) else []
     if len(tags) and tags.max() >= len(sources):
         raise ValueError(f"{path.name}: tag {tags.max()} has no source name")
-    return PointSet(check_array("points", arr[:, :3], shape=(None, 3)), tags, sources)
+    try:
+        return PointSet(check_array("points", arr[:, :3], shape=(None, 3)), tags, sources)
+    except ValueError as exc:
+        raise ValueError(f"{path.name}: {exc}") from None
 
 
 PROPS_DEFAULTS = {
@@ -224,8 +296,12 @@ def _parse_prop(key, raw, where):
     vals = raw.split()
     try:
         if key == "num_points" or key == "seed":
+            if len(vals) != 1:
+                raise ValueError(f"{key} takes one integer, got {raw!r}")
             return check_int(key, float(vals[0]), 0, 10**9)
         if key == "grid":
+            if len(vals) not in (1, 3):
+                raise ValueError(f"grid takes 1 or 3 integers, got {raw!r}")
             g = tuple(int(v) for v in vals) if len(vals) == 3 else (int(vals[0]),) * 3
             return tuple(check_int("grid", v, 1, 1024) for v in g)
         if key == "exact":
@@ -235,11 +311,20 @@ def _parse_prop(key, raw, where):
         if key in ("band", "offset"):
             if len(vals) != 2:
                 raise ValueError(f"{key} needs two numbers, got {raw!r}")
-            return (float(vals[0]), float(vals[1]))
+            pair = (check_range(key, vals[0], -1e6, 1e6), check_range(key, vals[1], -1e6, 1e6))
+            if not pair[1] > pair[0] if key == "band" else not pair[1] >= pair[0]:
+                raise ValueError(f"{key} must be increasing, got {raw!r}")
+            return pair
+        if len(vals) != 1:
+            raise ValueError(f"{key} takes one number, got {raw!r}")
         if key == "r1" and vals[0].lower() == "none":
             return None
-        return check_range(key, float(vals[0]), 0.0, 1e12)
-    except (ValueError, IndexError) as exc:
+        if key == "gamma":
+            return check_range(key, float(vals[0]), 0.0, 100.0)
+        if key == "alpha":
+            return check_range(key, float(vals[0]), 0.0, 1e6, low_open=True)
+        return check_range(key, float(vals[0]), 0.0, 1e6, low_open=key in ("min_distance", "r1"))
+    except (ValueError, IndexError, OverflowError) as exc:
         raise ValueError(f"{where}: bad value for {key!r}: {exc}") from None
 
 
@@ -255,9 +340,16 @@ def read_props(path_or_text, *, name: str | None = None) -> dict:
         path = Path(path_or_text)
         if not path.is_file():
             raise ValueError(f"props file {str(path)!r} does not exist")
-        text, where = path.read_text(), path.name
+        text, where = read_text_file(path, "props file"), path.name
+    elif isinstance(path_or_text, str):
+        text, where = path_or_text, name or "props"
     else:
-        text, where = str(path_or_text), name or "props"
+        raise ValueError(f"path_or_text must be a path or the text of a props file, got "
+                         f"{type(path_or_text).__name__}")
+    return _parse_props(text, where)
+
+
+def _parse_props(text: str, where: str) -> dict:
     out = dict(PROPS_DEFAULTS)
     for lineno, line in enumerate(text.splitlines(), 1):
         s = line.split("#", 1)[0].strip()
@@ -274,6 +366,8 @@ def read_props(path_or_text, *, name: str | None = None) -> dict:
 
 def write_props(path, props: dict) -> None:
     """Write a ``.props`` file from a dict of known keys."""
+    if not isinstance(props, dict):
+        raise ValueError(f"props must be a dict, got {type(props).__name__}")
     lines = []
     for k, v in props.items():
         if k not in PROPS_DEFAULTS:
@@ -281,4 +375,20 @@ def write_props(path, props: dict) -> None:
         if v is None:
             continue
         lines.append(f"{k} = {' '.join(str(x) for x in v) if isinstance(v, (tuple, list)) else v}")
-    Path(path).write_text("\n".join(lines) + "\n")
+    text = "\n".join(lines) + "\n"
+    parsed = _parse_props(text, "props")               # what is written must read back: check before writing
+    for k, v in props.items():
+        if v is not None and "\n" in str(v):
+            raise ValueError(f"props value of {k!r} must be one line, got {str(v)[:80]!r}")
+        if v is not None and not _same_value(parsed[k], v):
+            raise ValueError(f"props value of {k!r} does not read back as written: {v!r} -> {parsed[k]!r}")
+    write_atomic(path, text)
+
+
+def _same_value(a, b) -> bool:
+    if isinstance(a, tuple):
+        return isinstance(b, (tuple, list)) and len(a) == len(b) and all(_same_value(x, y) for x, y in zip(a, b))
+    try:
+        return a == b or float(a) == float(b)
+    except (TypeError, ValueError):
+        return False

@@ -4,11 +4,14 @@ from __future__ import annotations
 import numpy as np
 from skimage.measure import marching_cubes
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import MAX_COORD, check_array, check_int, check_range
 
 from .blobtree import Node
 
-__all__ = ["sample_grid", "polygonize"]
+__all__ = ["sample_grid", "polygonize", "MAX_RESOLUTION"]
+
+#: Largest grid resolution along the longest box edge (512**3 samples: ~3 GB of query points).
+MAX_RESOLUTION = 512
 
 
 def sample_grid(node: Node, *, resolution: int = 96, bbox=None, pad: int = 1):
@@ -36,11 +39,14 @@ def sample_grid(node: Node, *, resolution: int = 96, bbox=None, pad: int = 1):
     """
     if not isinstance(node, Node):
         raise ValueError(f"node must be a BlobTree Node, got {type(node).__name__}")
-    resolution = check_int("resolution", resolution, 4, 1024)
+    resolution = check_int("resolution", resolution, 4, MAX_RESOLUTION)
     pad = check_int("pad", pad, 0, 16)
-    box = node.bbox if bbox is None else check_array("bbox", bbox, shape=(2, 3))
+    box = node.bbox if bbox is None else check_array("bbox", bbox, shape=(2, 3), max_abs=MAX_COORD)
     if np.any(box[1] <= box[0]):
         raise ValueError(f"bbox must have hi > lo on every axis, got {box.tolist()} (empty envelope?)")
+    if np.abs(box).max() > MAX_COORD:
+        raise ValueError(f"bbox (the node's support box) must lie in [-{MAX_COORD:g}, {MAX_COORD:g}], got "
+                         f"{box.tolist()}: scale the surface down")
     h = float(np.max(box[1] - box[0])) / (resolution - 1)
     counts = np.ceil((box[1] - box[0]) / h).astype(int) + 1 + 2 * pad
     origin = box[0] - pad * h

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
+from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_points, check_range
 
 from . import _lane_kernels as lk
 from .blobtree import Node
@@ -23,6 +23,29 @@ __all__ = [
 ]
 
 
+#: Most points one sampler call returns (Lane's method allocates its output up front).
+MAX_POINTS = 10**8
+MAX_LANE_POINTS = 10**7
+#: Most cells of one Lane/field grid (2**25 cells: ~0.8 GB of cell centres).
+MAX_GRID_CELLS = 2**25
+#: Smallest box edge a grid may cover (cells must stay representable against the coordinates).
+MIN_EXTENT = 1e-9
+#: Largest pdf value; kernel products are clamped below ``lk.PDF_CAP`` so the pdf never overflows.
+MAX_PDF = 1e100
+
+
+def _check_band(band, name: str = "band"):
+    try:
+        lo, hi = float(band[0]), float(band[1])
+        if len(band) != 2:
+            raise IndexError
+    except (TypeError, ValueError, IndexError, KeyError):
+        raise ValueError(f"{name} must be a pair (f_lo, f_hi), got {band!r}") from None
+    if np.isnan(lo) or np.isnan(hi) or not hi > lo:
+        raise ValueError(f"{name} must be (f_lo, f_hi) with f_hi > f_lo, got {band!r}")
+    return lo, hi
+
+
 def _check_node(node):
     if not isinstance(node, Node):
         raise ValueError(f"node must be a BlobTree Node, got {type(node).__name__}")
@@ -30,9 +53,18 @@ def _check_node(node):
 
 
 def _box(node, bbox):
-    box = node.bbox if bbox is None else check_array("bbox", bbox, shape=(2, 3))
+    box = node.bbox if bbox is None else check_array("bbox", bbox, shape=(2, 3), max_abs=MAX_COORD)
+    return _check_grid_box(box)
+
+
+def _check_grid_box(box):
     if np.any(box[1] <= box[0]):
         raise ValueError(f"bbox must have hi > lo on every axis, got {np.asarray(box).tolist()} (empty envelope)")
+    if np.abs(box).max() > MAX_COORD:
+        raise ValueError(f"bbox (the node's support box) must lie in [-{MAX_COORD:g}, {MAX_COORD:g}], got "
+                         f"{np.asarray(box).tolist()}: scale the surface down")
+    if np.any(box[1] - box[0] < MIN_EXTENT):
+        raise ValueError(f"bbox must be at least {MIN_EXTENT:g} wide on every axis, got {np.asarray(box).tolist()}")
     return box
 
 
@@ -67,9 +99,11 @@ def rejection_sample(node: Node, n: int, *, f_lo: float, f_hi: float = np.inf, r
     .. [1] Kochhar 2010, §6.1 (uniform rejection in the AABB), §6.2.1 (band condition); spec 003 §3.2, §3.6.1.
     """
     _check_node(node)
-    n = check_int("n", n, 0, 10**8)
-    f_lo = check_range("f_lo", f_lo, -np.inf, np.inf) if np.isfinite(f_lo) else float(f_lo)
-    f_hi = float(f_hi)
+    n = check_int("n", n, 0, MAX_POINTS)
+    f_lo, f_hi = _check_band((f_lo, f_hi), "f_lo, f_hi")
+    for name, v in (("f_lo", f_lo), ("f_hi", f_hi)):
+        if np.isfinite(v) and abs(v) > MAX_COORD:
+            raise ValueError(f"{name} must be -inf, inf or a field value in [-{MAX_COORD:g}, {MAX_COORD:g}], got {v!r}")
     if not f_hi > f_lo:
         raise ValueError(f"f_hi must be greater than f_lo, got f_lo={f_lo}, f_hi={f_hi}")
     max_draws = check_int("max_draws", max_draws, 1, 10**12)
@@ -78,7 +112,8 @@ def rejection_sample(node: Node, n: int, *, f_lo: float, f_hi: float = np.inf, r
     out, have, draws, batch = [], 0, 0, 4096
     while have < n:
         if draws >= max_draws:
-            raise ValueError(f"envelope is empty or the band ({f_lo}, {f_hi}) too thin: {have} of {n} points "
+            raise ValueError(f"envelope is empty or the band f_lo, f_hi = ({f_lo}, {f_hi}) too thin: "
+                             f"{have} of {n} points "
                              f"after {draws} draws (raise max_draws or widen the band)")
         b = min(batch, max_draws - draws)
         p = box[0] + (box[1] - box[0]) * rng.random((b, 3))
@@ -123,7 +158,7 @@ def sample_inside(node: Node, n: int, *, iso: float = ISO, rng=None, bbox=None,
 # ------------------------------------------------------------------------------------------------ inverse CDF
 def step_cdf(values) -> np.ndarray:
     """CDF values ``F_i`` at the interval ends of a step pdf (``F_0 = 0``, ``F_n = 1``)."""
-    c = check_array("values", values, shape=(None,), min_rows=1)
+    c = check_array("values", values, shape=(None,), min_rows=1, max_abs=MAX_PDF)
     if np.any(c < 0) or c.sum() <= 0:
         raise ValueError("values must be non-negative with a positive sum")
     return np.r_[0.0, np.cumsum(c)] / c.sum()
@@ -151,11 +186,16 @@ def icdf_step_1d(values, y, *, a: float = 0.0, b: float = 1.0) -> np.ndarray:
     .. [1] Kochhar 2010, §5.2.2 (step pdf CDF; general ``x - a - i dx``, ERRATUM A.5); spec 003 §3.3.
     """
     cdf = step_cdf(values)
-    a = check_range("a", a, -np.inf, np.inf)
-    b = check_range("b", b, -np.inf, np.inf)
+    a = check_range("a", a, -1e12, 1e12)
+    b = check_range("b", b, -1e12, 1e12)
     if not b > a:
         raise ValueError(f"b must be greater than a, got a={a}, b={b}")
-    y = np.asarray(y, dtype=np.float64)
+    try:
+        y = np.asarray(y, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"y must be an array of numbers in [0, 1], got {type(y).__name__}") from None
+    if not np.all((y >= 0) & (y <= 1)):
+        raise ValueError("y must hold uniform variates in [0, 1] (no NaN)")
     n = len(cdf) - 1
     i = np.clip(np.searchsorted(cdf, y, side="right") - 1, 0, n - 1)
     dx = (b - a) / n
@@ -190,16 +230,20 @@ def sample_step_pdf(pdf, n: int, *, bbox=None, rng=None) -> np.ndarray:
     ----------
     .. [1] Kochhar 2010, §5.2.1-5.2.2, Figs. 5.5-5.6; spec 003 §3.3 (C-9).
     """
-    g = np.asarray(pdf, dtype=np.float64)
+    try:
+        g = np.asarray(pdf, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"pdf must be a 1D, 2D or 3D array of numbers, got {type(pdf).__name__}") from None
     if g.ndim not in (1, 2, 3) or g.size == 0:
         raise ValueError(f"pdf must be a non-empty 1D, 2D or 3D array, got shape {g.shape}")
-    if not np.all(np.isfinite(g)) or np.any(g < 0) or g.sum() <= 0:
-        raise ValueError("pdf must be finite, non-negative and have a positive sum")
+    if not np.all(np.isfinite(g)) or np.any(g < 0) or g.max() > MAX_PDF or g.sum() <= 0:
+        raise ValueError(f"pdf must be finite, non-negative (at most {MAX_PDF:g}) and have a positive sum")
     d = g.ndim
-    box = np.array([np.zeros(d), np.ones(d)]) if bbox is None else check_array("bbox", bbox, shape=(2, d))
+    box = (np.array([np.zeros(d), np.ones(d)]) if bbox is None
+           else check_array("bbox", bbox, shape=(2, d), max_abs=MAX_COORD))
     if np.any(box[1] <= box[0]):
         raise ValueError(f"bbox must have hi > lo on every axis, got {box.tolist()}")
-    n = check_int("n", n, 0, 10**9)
+    n = check_int("n", n, 0, MAX_POINTS)
     rng = np.random.default_rng(rng)
     u = rng.random((n, 2 * d))
     idx = np.zeros((n, d), dtype=np.int64)
@@ -246,8 +290,8 @@ class LaneKernel:
 
 def custom_kernel(radii, values, *, interp: str = "linear") -> LaneKernel:
     """Tabulated kernel (spec §3.4 [INFERRED]): non-negative values at increasing radii."""
-    r = check_array("radii", radii, shape=(None,), min_rows=1)
-    v = check_array("values", values, shape=(len(r),))
+    r = check_array("radii", radii, shape=(None,), min_rows=1, max_abs=MAX_COORD)
+    v = check_array("values", values, shape=(len(r),), max_abs=1e6)
     check_choice("interp", interp, ("step", "linear"))
     if np.any(r <= 0) or np.any(np.diff(r) <= 0):
         raise ValueError(f"radii must be positive and strictly increasing, got {r.tolist()}")
@@ -258,16 +302,24 @@ def custom_kernel(radii, values, *, interp: str = "linear") -> LaneKernel:
 
 def poisson_kernel(r_min: float) -> LaneKernel:
     """Poisson kernel (Fig. 5.7): h = 0 for d < r_min, 1 beyond."""
-    r_min = check_range("r_min", r_min, 0.0, np.inf, low_open=True)
+    r_min = check_range("r_min", r_min, 0.0, MAX_COORD, low_open=True)
     return LaneKernel(np.array([r_min]), np.array([0.0]), "step")
 
 
 def cluster_kernel(r0: float, r1: float | None = None, alpha: float = 3.0) -> LaneKernel:
     """Cluster kernel (Fig. 5.9): 0 below r0, ``alpha > 1`` in [r0, r1), 1 beyond (defaults r1 = 2 r0, alpha 3)."""
-    r0 = check_range("r0", r0, 0.0, np.inf, low_open=True)
-    r1 = 2 * r0 if r1 is None else check_range("r1", r1, r0, np.inf, low_open=True)
+    r0 = check_range("r0", r0, 0.0, MAX_COORD, low_open=True)
+    r1 = 2 * r0 if r1 is None else check_range("r1", r1, r0, 2 * MAX_COORD, low_open=True)
     alpha = check_range("alpha", alpha, 0.0, 1e6, low_open=True)
     return LaneKernel(np.array([r0, r1]), np.array([0.0, alpha]), "step")
+
+
+def _check_kernel(kernel):
+    """A LaneKernel whose tables the numba kernels can index: increasing positive radii, bounded values."""
+    if not isinstance(kernel, LaneKernel):
+        raise ValueError(f"kernel must be a LaneKernel, got {type(kernel).__name__}")
+    custom_kernel(kernel.radii, kernel.values, interp=kernel.interp)
+    return kernel
 
 
 @dataclass(frozen=True)
@@ -325,19 +377,16 @@ def lane_sample(pdf, n: int, *, bbox, kernel: LaneKernel, rng=None, accept=None,
     ----------
     .. [1] Kochhar 2010, §5.2.2, §6.1, Figs. 5.7-5.9, 6.1-6.2; Lane & Prusinkiewicz 2002 [54]; spec 003 §3.4.
     """
-    G = check_array("pdf", pdf, shape=(None, None, None)).copy()
+    G = check_array("pdf", pdf, shape=(None, None, None), max_abs=MAX_PDF).copy()
     if G.size == 0 or np.any(G < 0):
         raise ValueError(f"pdf must be non-empty and non-negative, got shape {G.shape}")
-    box = check_array("bbox", bbox, shape=(2, 3))
-    if np.any(box[1] <= box[0]):
-        raise ValueError(f"bbox must have hi > lo on every axis, got {box.tolist()}")
-    if not isinstance(kernel, LaneKernel):
-        raise ValueError(f"kernel must be a LaneKernel, got {type(kernel).__name__}")
-    n = check_int("n", n, 0, 10**8)
+    box = _check_grid_box(check_array("bbox", bbox, shape=(2, 3), max_abs=MAX_COORD))
+    _check_kernel(kernel)
+    n = check_int("n", n, 0, MAX_LANE_POINTS)
     check_choice("backend", backend, ("numba", "numpy"))
     max_rej = check_int("max_rejections_per_cell", max_rejections_per_cell, 1, 10**9)
     if min_distance is not None:
-        min_distance = check_range("min_distance", min_distance, 0.0, np.inf, low_open=True)
+        min_distance = check_range("min_distance", min_distance, 0.0, MAX_COORD, low_open=True)
     if accept is not None and not callable(accept):
         raise ValueError(f"accept must be callable, got {type(accept).__name__}")
     rng = np.random.default_rng(rng)
@@ -356,7 +405,7 @@ def lane_sample(pdf, n: int, *, bbox, kernel: LaneKernel, rng=None, accept=None,
     if accept is None and min_distance is None:
         have = 0
         while have < n:
-            U = rng.random((max(64, 2 * (n - have)), 6))
+            U = rng.random((min(max(64, 2 * (n - have)), 1 << 21), 6))    # same stream, bounded memory
             have, used, saturated = run(G, Y, Z, lo, h, kr, kv, linear, U, n, out, have)
             draws += used
             if saturated:
@@ -456,19 +505,22 @@ def field_pdf(node: Node, *, shape=(64, 64, 64), bbox=None, mode: str = "inside"
     .. [1] Kochhar 2010, §6.1, Fig. 6.3, Fig. 7.5, §6.2.3; spec 003 §3.5, §3.6.3 (C-11).
     """
     _check_node(node)
-    shape = tuple(check_int(f"shape[{i}]", s, 1, 4096) for i, s in enumerate(shape))
-    if len(shape) != 3:
-        raise ValueError(f"shape must have 3 entries, got {shape}")
+    shape = _check_shape(shape)
     check_choice("mode", mode, ("inside", "band", "band_corners", "inverse", "callable"))
     iso = check_range("iso", iso, 0.0, np.inf, low_open=True)
     gamma = check_range("gamma", gamma, 0.0, 100.0)
     box = _box(node, bbox)
     if mode in ("band", "band_corners"):
-        if band is None or len(band) != 2 or not float(band[1]) > float(band[0]):
-            raise ValueError(f"band must be (f_lo, f_hi) with f_hi > f_lo, got {band!r}")
-        band = (float(band[0]), float(band[1]))
+        band = _check_band(band)
     if mode == "callable" and not callable(func):
         raise ValueError(f"func must be callable for mode='callable', got {type(func).__name__}")
+    if cache is not None:
+        from .band import FieldCache
+
+        if not isinstance(cache, FieldCache):
+            raise ValueError(f"cache must be a FieldCache, got {type(cache).__name__}")
+        if mode != "band":
+            raise ValueError(f"cache is only used with mode='band', got mode={mode!r}")
     h = (box[1] - box[0]) / np.array(shape)
     if mode == "band_corners":
         axes = [box[0][i] + h[i] * np.arange(shape[i] + 1) for i in range(3)]
@@ -495,6 +547,21 @@ def field_pdf(node: Node, *, shape=(64, 64, 64), bbox=None, mode: str = "inside"
         if not np.all(np.isfinite(g)) or np.any(g < 0):
             raise ValueError("func must return finite non-negative values")
     return g, box
+
+
+def _check_shape(shape) -> tuple:
+    """Grid shape: 3 positive ints with at most :data:`MAX_GRID_CELLS` cells in all."""
+    try:
+        items = list(shape)
+    except TypeError:
+        raise ValueError(f"shape must have 3 entries, got {shape!r}") from None
+    if len(items) != 3:
+        raise ValueError(f"shape must have 3 entries, got {shape!r}")
+    shape = tuple(check_int(f"shape[{i}]", s, 1, 4096) for i, s in enumerate(items))
+    cells = shape[0] * shape[1] * shape[2]
+    if cells > MAX_GRID_CELLS:
+        raise ValueError(f"shape {shape} has {cells} cells, more than the {MAX_GRID_CELLS} allowed")
+    return shape
 
 
 def _tight_box(node: Node, level: float, *, res: int = 33) -> np.ndarray:
@@ -551,6 +618,14 @@ def lane_in_node(node: Node, n: int, *, kernel: LaneKernel, shape=(64, 64, 64), 
     LaneResult
         Points, saturation flag, draws and final pdf.
     """
+    _check_node(node)
+    _check_kernel(kernel)
+    check_choice("mode", mode, ("inside", "band", "band_corners", "inverse", "callable"))
+    iso = check_range("iso", iso, 0.0, np.inf, low_open=True)
+    if band is not None or mode in ("band", "band_corners"):
+        band = _check_band(band)
+    _check_shape(shape)
+    n = check_int("n", n, 0, MAX_LANE_POINTS)
     if bbox is None:
         bbox = _tight_box(node, iso if mode in ("inside", "inverse") else (min(band) if band is not None else iso))
     pdf, box = field_pdf(node, shape=shape, bbox=bbox, mode=mode, iso=iso, band=band, gamma=gamma)

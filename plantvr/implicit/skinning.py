@@ -12,9 +12,10 @@ import numpy as np
 from scipy.interpolate import BSpline, make_interp_spline
 from scipy.spatial import cKDTree
 
-from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
+from plantvr._validation import (MAX_COORD, check_array, check_choice, check_int, check_point, check_points,
+                                 check_range)
 
-from .blobtree import Node
+from .blobtree import MIN_RADIUS, Node, _check_box
 from .fields import wyvill_from_sq
 
 __all__ = ["Polygon2D", "Circle2D", "SkinPath", "Skin", "Revolution", "sweep", "rmf_double_reflection"]
@@ -24,7 +25,12 @@ class Polygon2D:
     """Closed planar cross-section curve (M >= 3 vertices) with a signed distance, negative inside."""
 
     def __init__(self, vertices):
-        self.vertices = check_array("vertices", vertices, shape=(None, 2), min_rows=3)
+        self.vertices = check_array("vertices", vertices, shape=(None, 2), min_rows=3, max_abs=MAX_COORD)
+        if len(self.vertices) > 100_000:
+            raise ValueError(f"vertices must have at most 100000 rows, got {len(self.vertices)}")
+        e = np.roll(self.vertices, -1, axis=0) - self.vertices
+        if np.any(np.einsum("ij,ij->i", e, e) <= 0):
+            raise ValueError("vertices must not repeat consecutively (a zero-length polygon edge was found)")
 
     @property
     def extent(self) -> float:
@@ -54,8 +60,8 @@ class Circle2D:
     """Circular cross-section of radius ``r`` centred at ``center`` (2,) in the section plane."""
 
     def __init__(self, r: float, center=(0.0, 0.0)):
-        self.r = check_range("r", r, 0.0, np.inf, low_open=True)
-        self.center = check_array("center", center, shape=(2,))
+        self.r = check_range("r", r, 0.0, MAX_COORD, low_open=True)
+        self.center = check_array("center", center, shape=(2,), max_abs=MAX_COORD)
 
     @property
     def extent(self) -> float:
@@ -139,7 +145,7 @@ class SkinPath:
         if normal is None:
             axis = np.eye(3)[np.argmin(np.abs(t0))]
         else:
-            axis = np.asarray(normal, dtype=float)
+            axis = check_point("normal", normal)
         n0 = axis - (axis @ t0) * t0
         if np.linalg.norm(n0) < 1e-12:
             raise ValueError("normal must not be parallel to the path tangent at its start")
@@ -215,7 +221,7 @@ class Skin(Node):
         if not isinstance(path, SkinPath):
             raise ValueError(f"path must be a SkinPath, got {type(path).__name__}")
         self.path = path
-        self.radius = check_range("radius", radius, 0.0, np.inf, low_open=True)
+        self.radius = check_range("radius", radius, MIN_RADIUS, MAX_COORD)
         self.interpolation = check_choice("interpolation", interpolation, ("linear", "quadratic", "cubic"))
         secs = []
         for i, entry in enumerate(sections):
@@ -225,6 +231,8 @@ class Skin(Node):
                 raise ValueError(f"sections[{i}] must be a pair (s, curve), got {entry!r}") from None
             s = check_range(f"sections[{i}] s", s, 0.0, 1.0)
             curves = list(curves) if isinstance(curves, (list, tuple)) else [curves]
+            if not curves:
+                raise ValueError(f"sections[{i}] must hold at least one curve")
             for c in curves:
                 if not hasattr(c, "signed_distance"):
                     raise ValueError(f"sections[{i}] curve must be a Polygon2D or Circle2D, got {type(c).__name__}")
@@ -239,7 +247,7 @@ class Skin(Node):
         self.degree = degree
         ext = max(c.extent for _, cs in secs for c in cs)
         lo, hi = path.bbox
-        self.bbox = np.array([lo - ext - self.radius, hi + ext + self.radius])
+        self.bbox = _check_box("Skin", np.array([lo - ext - self.radius, hi + ext + self.radius]))
 
     def _weights(self, s: np.ndarray) -> np.ndarray:
         m = len(self.sections)
@@ -307,10 +315,11 @@ class Revolution(Node):
         self.profile = Polygon2D(profile)
         if np.any(self.profile.vertices[:, 0] < 0):
             raise ValueError("profile must lie in the half-plane rho >= 0 (first column)")
-        self.radius = check_range("radius", radius, 0.0, np.inf, low_open=True)
+        self.radius = check_range("radius", radius, MIN_RADIUS, MAX_COORD)
         v = self.profile.vertices
         r = v[:, 0].max() + self.radius
-        self.bbox = np.array([[-r, -r, v[:, 1].min() - self.radius], [r, r, v[:, 1].max() + self.radius]])
+        self.bbox = _check_box("Revolution", np.array([[-r, -r, v[:, 1].min() - self.radius],
+                                                         [r, r, v[:, 1].max() + self.radius]]))
 
     def _eval_inside(self, p, backend):
         rz = np.column_stack([np.hypot(p[:, 0], p[:, 1]), p[:, 2]])

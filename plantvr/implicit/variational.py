@@ -13,7 +13,10 @@ from plantvr._validation import check_points, check_range
 
 from .blobtree import Node
 
-__all__ = ["Variational"]
+__all__ = ["Variational", "MAX_CONSTRAINTS"]
+
+#: Most constraints (boundary + interior) of one surface: the RBF system is dense, (M + 4)^2 floats.
+MAX_CONSTRAINTS = 10_000
 
 
 class Variational(Node):
@@ -43,9 +46,18 @@ class Variational(Node):
         iv = check_range("interior_value", interior_value, 0.0, np.inf, low_open=True)
         self.gain = check_range("gain", gain, 0.0, np.inf, low_open=True)
         margin = check_range("margin", margin, 0.0, 10.0)
+        if len(b) + len(i) > MAX_CONSTRAINTS:
+            raise ValueError(f"boundary and interior must hold at most {MAX_CONSTRAINTS} points together, got "
+                             f"{len(b) + len(i)}")
         centres = np.vstack([b, i])
+        if len(np.unique(centres, axis=0)) != len(centres):
+            raise ValueError("boundary and interior must not repeat a point (the RBF system would be singular)")
         values = np.r_[np.zeros(len(b)), np.full(len(i), iv)]
-        self.rbf = RBFInterpolator(centres, values, kernel="cubic", degree=1)
+        try:
+            self.rbf = RBFInterpolator(centres, values, kernel="cubic", degree=1)
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            raise ValueError(f"boundary and interior give a singular RBF system (coplanar or degenerate "
+                             f"points?): {exc}") from None
         lo, hi = centres.min(axis=0), centres.max(axis=0)
         pad = margin * float(np.linalg.norm(hi - lo))
         self.bbox = np.array([lo - pad, hi + pad])

@@ -9,6 +9,14 @@ import numpy as np
 
 from plantvr._validation import check_choice, check_points, check_range
 
+#: Bounds of the warp parameters (rad or 1/unit for k, units for z0 and L).
+MAX_K = 1e6
+MAX_LEN = 1e12
+
+
+def _k(k):
+    return check_range("k", k, -MAX_K, MAX_K)
+
 from .blobtree import Node
 
 __all__ = ["twist_forward", "twist_inverse", "taper_forward", "taper_inverse", "bend_forward", "bend_inverse",
@@ -18,6 +26,7 @@ __all__ = ["twist_forward", "twist_inverse", "taper_forward", "taper_inverse", "
 def twist_forward(p: np.ndarray, k: float) -> np.ndarray:
     """Twist about z by ``theta = k z`` (k in rad per unit length)."""
     p = check_points("p", p)
+    k = _k(k)
     th = k * p[:, 2]
     c, s = np.cos(th), np.sin(th)
     return np.column_stack([p[:, 0] * c - p[:, 1] * s, p[:, 0] * s + p[:, 1] * c, p[:, 2]])
@@ -35,14 +44,14 @@ def _taper_s(z, k, z0):
 def taper_forward(p: np.ndarray, k: float, z0: float = 0.0) -> np.ndarray:
     """Taper ``(x s(z), y s(z), z)`` with ``s(z) = 1 + k (z - z0)``."""
     p = check_points("p", p)
-    s = _taper_s(p[:, 2], k, z0)
+    s = _taper_s(p[:, 2], _k(k), check_range("z0", z0, -MAX_LEN, MAX_LEN))
     return np.column_stack([p[:, 0] * s, p[:, 1] * s, p[:, 2]])
 
 
 def taper_inverse(p: np.ndarray, k: float, z0: float = 0.0) -> np.ndarray:
     """Inverse taper ``(x/s(z), y/s(z), z)``; rows with ``s(z) <= 0`` become NaN (no preimage)."""
     p = check_points("p", p)
-    s = _taper_s(p[:, 2], k, z0)
+    s = _taper_s(p[:, 2], _k(k), check_range("z0", z0, -MAX_LEN, MAX_LEN))
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.column_stack([p[:, 0] / s, p[:, 1] / s, p[:, 2]])
     out[s <= 0] = np.nan
@@ -56,6 +65,8 @@ def _bend_mirrored(p, k, length, bend_positive) -> np.ndarray:
     of the mirrored points) and writes the bent rows of ``out``.
     """
     p = check_points("p", p)
+    k = _k(k)
+    length = check_range("length", length, 0.0, MAX_LEN)
     sign = 1.0 if k >= 0 else -1.0
     k = abs(k)
     x, y, z = sign * p[:, 0], p[:, 1], p[:, 2]
@@ -135,9 +146,9 @@ class Warp(Node):
             raise ValueError(f"child must be a BlobTree Node, got {type(child).__name__}")
         self.child = child
         self.kind = check_choice("kind", kind, ("twist", "taper", "bend"))
-        self.k = check_range("k", k, -1e6, 1e6)
-        self.z0 = check_range("z0", z0, -1e12, 1e12)
-        self.length = check_range("length", length, 0.0, 1e12)
+        self.k = _k(k)
+        self.z0 = check_range("z0", z0, -MAX_LEN, MAX_LEN)
+        self.length = check_range("length", length, 0.0, MAX_LEN)
         lo, hi = child.bbox
         if self.kind == "taper":
             s_ends = _taper_s(np.array([lo[2], hi[2]]), self.k, self.z0)
@@ -149,9 +160,12 @@ class Warp(Node):
         margin = 0.02 * np.linalg.norm(hi - lo) + 1e-9
         if self.kind == "twist":
             rmax = np.max(np.hypot(lattice[:, 0], lattice[:, 1]))
-            self.bbox = np.array([[-rmax, -rmax, lo[2]], [rmax, rmax, hi[2]]])
+            bbox = np.array([[-rmax, -rmax, lo[2]], [rmax, rmax, hi[2]]])
         else:
-            self.bbox = np.array([mapped.min(axis=0) - margin, mapped.max(axis=0) + margin])
+            bbox = np.array([mapped.min(axis=0) - margin, mapped.max(axis=0) + margin])
+        from .blobtree import _check_box
+
+        self.bbox = _check_box("Warp", bbox)
 
     def forward(self, p):
         """Forward map w(p) (for bounding boxes and tests)."""

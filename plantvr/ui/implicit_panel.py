@@ -20,6 +20,7 @@ import ipywidgets as W
 import numpy as np
 import traitlets
 
+from .._validation import check_int
 from ..implicit import CommandError, CommandSession, polygonize
 from ..implicit.commands import DISTRIBUTIONS
 
@@ -145,8 +146,13 @@ class ImplicitPanel(W.VBox):
 
     def __init__(self, session: CommandSession | None = None, *, script: str | None = None, resolution: int = 40,
                  max_points: int = 3000):
+        if session is not None and not isinstance(session, CommandSession):
+            raise ValueError(f"session must be a CommandSession, got {type(session).__name__}")
+        if script is not None and not isinstance(script, str):
+            raise ValueError(f"script must be a str, got {type(script).__name__}")
         self.session = session if session is not None else CommandSession()
-        self.resolution, self.max_points = int(resolution), int(max_points)
+        self.resolution = check_int("resolution", resolution, 8, 160)
+        self.max_points = check_int("max_points", max_points, 0, 10**6)
         self.script = W.Textarea(value=_EXAMPLE if script is None else script,
                                  placeholder="sphere s 10 0 5 0\npoint_set_gen s uniform num_points=500",
                                  layout=W.Layout(width="100%", height="180px"))
@@ -163,7 +169,7 @@ class ImplicitPanel(W.VBox):
         self.preview = W.Image(format="png", layout=W.Layout(width="400px"))
         self.run_button.on_click(lambda _: self.run())
         self.clear_button.on_click(lambda _: setattr(self.script, "value", ""))
-        self.save_button.on_click(lambda _: self.save())
+        self.save_button.on_click(lambda _: self._save_clicked())
         self.load_button.on_click(lambda _: self.replay())
         self._syncing = False
         self.surface.observe(lambda ch: None if self._syncing else self.refresh(), names="value")
@@ -324,9 +330,19 @@ class ImplicitPanel(W.VBox):
     def save(self, path=None) -> Path:
         """Write the session's commands to ``path`` (default the path box)."""
         path = Path(self.path.value if path is None else path)
-        self.session.save_script(path)
+        try:
+            self.session.save_script(path)            # atomic: a failed save leaves the old file as it was
+        except (OSError, ValueError) as exc:
+            self._show_error("", 0, "", f"cannot save {path}: {exc}")
+            raise ValueError(f"cannot save the script to {str(path)!r}: {exc}") from None
         self.status.value = f"saved {len(self.session.history)} commands to {html.escape(str(path))}"
         return path
+
+    def _save_clicked(self) -> None:
+        try:
+            self.save()
+        except ValueError:                             # already shown in the error box
+            pass
 
     def replay(self, path=None) -> bool:
         """Replace the session by a new one that replays the script file at ``path`` (default the path box).
@@ -337,7 +353,10 @@ class ImplicitPanel(W.VBox):
         try:
             new = CommandSession.replay(path, seed=self.session.seed, default_radius=self.session.default_radius)
         except CommandError as exc:
-            text = path.read_text() if path.is_file() else ""
+            try:
+                text = path.read_text(encoding="utf-8") if path.is_file() else ""
+            except (OSError, UnicodeDecodeError):
+                text = ""
             self._show_error(text, exc.lineno, exc.token, str(exc))
             return False
         except ValueError as exc:
