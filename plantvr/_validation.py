@@ -16,6 +16,7 @@ __all__ = [
     "check_points",
     "check_point",
     "check_array",
+    "check_size",
     "MAX_COORD",
     "MAX_COUNT",
 ]
@@ -64,6 +65,15 @@ def check_choice(name: str, value: Any, choices: tuple) -> Any:
     if value not in choices:
         raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
     return value
+
+
+def check_size(name: str, value: Any, low: int, high: int) -> tuple[int, int]:
+    """Return ``value`` as a ``(width, height)`` pair of ints in [low, high] (pixels) or raise ``ValueError``."""
+    try:
+        w, h = value
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be (width, height) in pixels, got {value!r}") from None
+    return check_int(f"{name} width", w, low, high), check_int(f"{name} height", h, low, high)
 
 
 def check_array(name: str, value: Any, *, shape: tuple, dtype: Any = np.float64,

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_int
+from .._validation import check_int, check_size
 from ..params import PARAM_BY_NAME, validate
 from .strokes import Scenario, load_scenario, replay_scenario
 
@@ -33,11 +33,7 @@ def _seed(seed) -> int | None:
 
 
 def _size(size) -> tuple[int, int]:
-    try:
-        w, h = size
-    except (TypeError, ValueError):
-        raise ValueError(f"size must be (width, height) in pixels, got {size!r}") from None
-    return check_int("size width", w, 16, 4096), check_int("size height", h, 16, 4096)
+    return check_size("size", size, 16, 4096)
 
 
 def tree_metrics(model) -> dict[str, float]:

@@ -14,7 +14,7 @@ import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
 from .._fileio import write_png  # noqa: E402
-from .._validation import check_int, check_point, check_range  # noqa: E402
+from .._validation import check_point, check_range, check_size  # noqa: E402
 from ..model import Model, Snapshot  # noqa: E402
 from ..params import PARAMS  # noqa: E402
 from ..export import IncrementalTreeGeometry  # noqa: E402
@@ -183,9 +183,6 @@ class View:
         self.plotter.close()
 
 
+
 def _check_window_size(window_size) -> tuple[int, int]:
-    try:
-        w, h = window_size
-    except (TypeError, ValueError):
-        raise ValueError(f"window_size must be (width, height) in pixels, got {window_size!r}") from None
-    return check_int("window_size width", w, 16, 16384), check_int("window_size height", h, 16, 16384)
+    return check_size("window_size", window_size, 16, 16384)
