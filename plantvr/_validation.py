@@ -17,6 +17,7 @@ __all__ = [
     "check_point",
     "check_array",
     "check_size",
+    "check_index",
     "MAX_COORD",
     "MAX_COUNT",
 ]
@@ -62,6 +63,8 @@ def check_int(name: str, value: Any, low: int, high: int) -> int:
 
 def check_choice(name: str, value: Any, choices: tuple) -> Any:
     """Return ``value`` if it is one of ``choices`` or raise ``ValueError``."""
+    if not isinstance(value, (str, bytes, int, float, bool, type(None), np.generic)):  # arrays, lists, ...
+        raise ValueError(f"{name} must be one of {list(choices)}, got {type(value).__name__}")
     if value not in choices:
         raise ValueError(f"{name} must be one of {list(choices)}, got {value!r}")
     return value
@@ -98,6 +101,46 @@ def check_array(name: str, value: Any, *, shape: tuple, dtype: Any = np.float64,
         if mag > max_abs:
             raise ValueError(f"{name} values must lie in [-{max_abs:g}, {max_abs:g}], got magnitude {mag:g}")
     return np.ascontiguousarray(arr)
+
+
+def check_index(name: str, value: Any, *, shape: tuple, low: int, high: int, table: str | None = None
+                ) -> np.ndarray:
+    """Return ``value`` as a C-contiguous int64 array of ``shape`` with every entry in ``[low, high]``.
+
+    ``check_array(..., dtype=np.int64)`` would cast ``0.5`` to ``0`` and overflow on ``2**70``; index arrays
+    go through this check instead, so a numba kernel never sees an index outside the table it reads.
+
+    Integral floats (``1.0``) are accepted; ``0.5``, NaN, inf, booleans, strings and integers beyond int64
+    raise ``ValueError`` naming ``name`` and the allowed range.
+    """
+    rng = f"[{low}, {high}]"
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be an integer array with entries in {rng}, "
+                         f"got {type(value).__name__}") from None
+    if raw.dtype.kind == "O":                               # e.g. a Python int beyond int64
+        try:
+            raw = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError, OverflowError):
+            raise ValueError(f"{name} must be an integer array with entries in {rng}, "
+                             f"got non-numeric entries") from None
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must be an integer array with entries in {rng}, got dtype {raw.dtype}")
+    if raw.dtype.kind == "f":
+        if raw.size and not np.all(np.isfinite(raw)):
+            raise ValueError(f"{name} must hold integers in {rng}, got NaN or inf")
+        if raw.size and not np.all(raw == np.round(raw)):
+            bad = raw.ravel()[np.flatnonzero(raw.ravel() != np.round(raw.ravel()))[0]]
+            raise ValueError(f"{name} must hold integers in {rng}, got {float(bad)!r}")
+    if raw.size:
+        lo, hi = raw.min(), raw.max()
+        if lo < low or hi > high:
+            bad = lo if lo < low else hi
+            if table is not None:
+                raise ValueError(f"{name} must index {table} in {rng}, got range [{lo.item()!r}, {hi.item()!r}]")
+            raise ValueError(f"{name} entries must lie in {rng}, got {bad.item()!r}")
+    return check_array(name, raw, shape=shape, dtype=np.int64)
 
 
 def check_points(name: str, value: Any, *, min_rows: int = 0, max_abs: float = MAX_COORD) -> np.ndarray:

@@ -213,6 +213,7 @@ def export_main(argv: list[str] | None = None) -> int:
         0 on success, 2 when the tree file or an option is rejected (the reason is printed to stderr).
     """
     import argparse
+    import os
     import sys
     import time
 
@@ -227,6 +228,11 @@ def export_main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-leaves", action="store_true", help="branches only")
     ap.add_argument("--unskinned", action="store_true", help="glb without skeleton and growth animation")
     args = ap.parse_args(sys.argv[1:] if argv is None else argv)
+
+    def fail(msg: str) -> int:                # one line, no traceback (cli.main prints the same way)
+        print(f"plantvr export: error: {msg}".replace("\n", " "), file=sys.stderr)
+        return 2
+
     src = Path(args.tree_file)
     if args.output is not None:
         out = Path(args.output)
@@ -235,20 +241,28 @@ def export_main(argv: list[str] | None = None) -> int:
             if fmt is None:
                 out = out.with_suffix(EXPORT_FORMATS[args.format])
             else:
-                print(f"plantvr export: --format {args.format} does not match the output suffix {out.suffix!r}",
-                      file=sys.stderr)
-                return 2
+                return fail(f"--format {args.format} does not match the output suffix {out.suffix!r}")
     else:
         out = src.with_suffix(EXPORT_FORMATS[args.format or "glb"])
     try:
+        if _SUFFIX_FORMAT.get(out.suffix.lower()) is None:
+            raise ValueError(f"-o {str(out)!r}: the output suffix must be one of {sorted(_SUFFIX_FORMAT)}")
+        if not 0 <= args.lod <= BILLBOARD_LOD:
+            raise ValueError(f"lod must be an integer in [0, {BILLBOARD_LOD}], got {args.lod}")
+        folder = out.parent if str(out.parent) else Path(".")
+        if not folder.is_dir():
+            raise ValueError(f"-o {str(out)!r}: the folder {str(folder)!r} does not exist")
+        if not os.access(folder, os.W_OK):
+            raise ValueError(f"-o {str(out)!r}: the folder {str(folder)!r} is not writable")
         if not src.is_file():
             raise ValueError(f"TREE_FILE {str(src)!r} does not exist")
         model = Model.load(src)
         t0 = time.perf_counter()
         path = export_model_as(model, out, lod=args.lod, leaves=not args.no_leaves, skinned=not args.unskinned)
     except ValueError as exc:
-        print(f"plantvr export: {exc}", file=sys.stderr)
-        return 2
+        return fail(str(exc))
+    except OSError as exc:                     # disk full, permission denied while writing
+        return fail(f"{exc.strerror or exc}{f': {exc.filename}' if exc.filename else ''}")
     print(f"wrote {path} ({model.snapshot.n_internodes} internodes, LOD {args.lod}, "
           f"{time.perf_counter() - t0:.2f} s)")
     return 0

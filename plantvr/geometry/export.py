@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from plantvr._fileio import write_atomic
 from plantvr._validation import check_choice
 
 from .leaves import LeafMesh
@@ -85,9 +86,10 @@ def export_tree(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, b
 
     path = Path(path)
     suffix = check_choice("path suffix", path.suffix.lower(), FORMATS)
+    _check_meshes(branches, leaves)
     scene = tree_scene(branches, leaves, bark=bark, leaf=leaf)
     if suffix == ".glb":
-        path.write_bytes(trimesh.exchange.gltf.export_glb(scene, include_normals=True))
+        write_atomic(path, trimesh.exchange.gltf.export_glb(scene, include_normals=True))
     elif suffix == ".ply":
         parts = [branches] + ([leaves] if leaves is not None and len(leaves.faces) else [])
         rgb = [_BARK_RGB, _LEAF_RGB]
@@ -97,12 +99,33 @@ def export_tree(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, b
         cols = np.concatenate([np.tile(np.array([*c, 255], np.uint8), (len(p.vertices), 1)) for p, c in zip(parts, rgb)])
         mesh = trimesh.Trimesh(verts, faces, vertex_normals=np.concatenate([p.normals for p in parts]),
                                vertex_colors=cols, process=False)
-        path.write_bytes(trimesh.exchange.ply.export_ply(mesh, encoding="binary", include_attributes=False))
+        write_atomic(path, trimesh.exchange.ply.export_ply(mesh, encoding="binary", include_attributes=False))
     else:
         mesh = trimesh.util.concatenate(list(scene.geometry.values()))
         text, tex = trimesh.exchange.obj.export_obj(mesh, include_normals=True, include_texture=True,
                                                     return_texture=True, mtl_name=path.stem + ".mtl")
-        path.write_text(text)
-        for name, data in tex.items():
-            (path.parent / name).write_bytes(data)
+        if not (path.parent if str(path.parent) else Path(".")).is_dir():
+            raise ValueError(f"cannot write {str(path)!r}: folder {str(path.parent)!r} does not exist")
+        for name, data in tex.items():            # material and textures first, the .obj that names them last
+            write_atomic(path.parent / name, data)
+        write_atomic(path, text)
     return path
+
+
+def _check_meshes(branches, leaves) -> None:
+    """Branch and leaf meshes must be consistent (faces index their vertices) before anything is written."""
+    from plantvr.subdivision._checks import check_mesh
+
+    for name, m in (("branches", branches), ("leaves", leaves)):
+        if m is None:
+            continue
+        if not all(hasattr(m, a) for a in ("vertices", "faces", "normals", "uv")):
+            raise ValueError(f"{name} must be a BranchMesh or LeafMesh, got {type(m).__name__}")
+        try:
+            V, _ = check_mesh(m.vertices, m.faces)
+        except ValueError as exc:
+            raise ValueError(f"{name}: {exc}") from None
+        for a, k in (("normals", 3), ("uv", 2)):
+            arr = np.asarray(getattr(m, a))
+            if arr.shape != (len(V), k) or not np.all(np.isfinite(arr)):
+                raise ValueError(f"{name}.{a} must be a finite ({len(V)}, {k}) array, got shape {arr.shape}")

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_points, check_range
+from plantvr._fileio import write_atomic
+from plantvr._validation import MAX_COORD, check_array, check_index, check_int, check_points, check_range
 
 from ._gltf import GltfBuffer, check_glb_path
 from .leaves import LeafMesh
@@ -73,12 +74,12 @@ def tree_skeleton(pos, parent, radius, *, main_child=None, max_joints: int = 64)
     """
     pos = check_points("pos", pos, min_rows=2)
     n = len(pos)
-    parent = check_array("parent", parent, shape=(n,), dtype=np.int64)
-    radius = check_array("radius", radius, shape=(n,), dtype=np.float64)
+    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
+    radius = check_array("radius", radius, shape=(n,), dtype=np.float64, max_abs=MAX_COORD)
     if parent[0] != -1 or np.any(parent[1:] < 0) or np.any(parent[1:] >= np.arange(1, n)):
         raise ValueError("parent must be -1 for node 0 and satisfy 0 <= parent[i] < i for i > 0")
     if main_child is not None:
-        main_child = check_array("main_child", main_child, shape=(n,), dtype=np.int64)
+        main_child = check_index("main_child", main_child, shape=(n,), low=-1, high=n - 1)
     max_joints = check_int("max_joints", max_joints, 1, 65535)
     st = axis_start(parent, main_child)
     st[0] = 1
@@ -154,15 +155,19 @@ def export_skinned_glb(path, branches: BranchMesh, pos, parent, radius, *, main_
     path = check_glb_path(path)
     sk = tree_skeleton(pos, parent, radius, main_child=main_child, max_joints=max_joints)
     n = len(sk.joint_of_node)
-    if len(branches.node_id) and int(branches.node_id.max()) >= n:
-        raise ValueError(f"branches.node_id refers to node {int(branches.node_id.max())}, but the tree has {n}")
+    from .export import _check_meshes
+    _check_meshes(branches, leaves)
+    V = len(branches.vertices)
+    node_id = check_index("branches.node_id", branches.node_id, shape=(V,), low=0, high=max(n - 1, 0))
+    if len(node_id) and int(node_id.max()) >= n:
+        raise ValueError(f"branches.node_id refers to node {int(node_id.max())}, but the tree has {n}")
     birth = np.arange(n, dtype=float) if birth is None else check_array("birth", birth, shape=(n,))
     duration = check_range("duration", duration, 0.0, 1e6, low_open=True)
     steps = check_int("steps", steps, 1, 1000)
     if leaves is not None and leaf_node is not None:
-        leaf_node = check_array("leaf_node", leaf_node, shape=(None,), dtype=np.int64)
-        if len(leaves.bud_id) and (leaves.bud_id.max() >= len(leaf_node) or leaf_node.min() < 0
-                                   or leaf_node.max() >= n):
+        leaf_node = check_index("leaf_node", leaf_node, shape=(None,), low=0, high=n - 1)
+        bud_id = check_index("leaves.bud_id", leaves.bud_id, shape=(len(leaves.vertices),), low=0, high=2**62)
+        if len(bud_id) and bud_id.max() >= len(leaf_node):
             raise ValueError("leaf_node must give a node index in [0, N) for every bud_id of the leaves")
 
     J = len(sk)
@@ -173,9 +178,9 @@ def export_skinned_glb(path, branches: BranchMesh, pos, parent, radius, *, main_
             baseColorFactor=_BARK_RGBA, metallicFactor=0.0, roughnessFactor=0.9)),
         G.Material(name="Leaf", doubleSided=True, pbrMetallicRoughness=G.PbrMetallicRoughness(
             baseColorFactor=_LEAF_RGBA, metallicFactor=0.0, roughnessFactor=0.8))]
-    prims = [_primitive(b, branches, sk.joint_of_node[branches.node_id], 0)]
+    prims = [_primitive(b, branches, sk.joint_of_node[node_id], 0)]
     if leaves is not None and len(leaves.faces):
-        lj = (sk.joint_of_node[leaf_node[leaves.bud_id]] if leaf_node is not None
+        lj = (sk.joint_of_node[leaf_node[bud_id]] if leaf_node is not None
               else np.zeros(len(leaves.vertices), np.int64))
         prims.append(_primitive(b, leaves, lj, 1))
     g.meshes = [G.Mesh(name="tree", primitives=prims)]
@@ -217,5 +222,8 @@ def export_skinned_glb(path, branches: BranchMesh, pos, parent, radius, *, main_
     blob = b.blob()
     g.buffers = [G.Buffer(byteLength=len(blob))]
     g.set_binary_blob(blob)
-    g.save_binary(str(path))
+    chunks = g.save_to_bytes()
+    if not chunks:                                      # pragma: no cover - pygltflib refuses the document
+        raise ValueError(f"cannot write {str(path)!r}: pygltflib produced no .glb data")
+    write_atomic(path, b"".join(chunks))               # a failed save leaves the old file (issue 20)
     return path

@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_points, check_range
+from plantvr._validation import (
+    MAX_COORD, MAX_COUNT, check_array, check_index, check_int, check_points, check_range,
+)
 
 from . import _kernels as K
 from ._kernels import CAP_END, CAP_START
@@ -202,19 +204,26 @@ class Segments:
 def _check_tree(pos, parent, radius, alive, main_child):
     pos = check_points("pos", pos, min_rows=2)
     n = len(pos)
-    parent = check_array("parent", parent, shape=(n,), dtype=np.int64)
-    radius = check_array("radius", radius, shape=(n,), dtype=np.float64)
+    if n > MAX_COUNT:
+        raise ValueError(f"pos must have at most {MAX_COUNT} rows (nodes), got {n}")
+    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
+    radius = check_array("radius", radius, shape=(n,), dtype=np.float64, max_abs=MAX_COORD)
     if parent[0] != -1 or np.any(parent[1:] < 0) or np.any(parent[1:] >= np.arange(1, n)):
         raise ValueError("parent must be -1 for node 0 and satisfy 0 <= parent[i] < i for i > 0")
     if np.any(radius[1:] <= 0):
         raise ValueError(f"radius must be > 0 for every internode, got min {radius[1:].min()!r}")
-    alive = np.ones(n, bool) if alive is None else check_array("alive", alive, shape=(n,), dtype=np.bool_)
+    if alive is None:
+        alive = np.ones(n, bool)
+    else:
+        a = np.asarray(alive) if not isinstance(alive, str) else None
+        if a is None or not (a.dtype == np.bool_ or (a.dtype.kind in "iu" and np.isin(a, (0, 1)).all())):
+            raise ValueError(f"alive must be a bool array of shape ({n},), got "
+                             f"{type(alive).__name__ if a is None else a.dtype}")
+        alive = check_array("alive", a, shape=(n,), dtype=np.bool_)
     if main_child is None:
         main_child = np.zeros(0, np.int64)
     else:
-        main_child = check_array("main_child", main_child, shape=(n,), dtype=np.int64)
-        if np.any((main_child < -1) | (main_child >= n)):
-            raise ValueError(f"main_child must be -1 or a node index in [0, {n - 1}]")
+        main_child = check_index("main_child", main_child, shape=(n,), low=-1, high=n - 1)
     d = pos[1:] - pos[parent[1:]]
     if np.any((np.einsum("ij,ij->i", d, d) <= 0) & alive[1:]):
         raise ValueError("pos must give every live internode a positive length")
@@ -387,7 +396,7 @@ def build_branch_mesh(pos, parent, radius, *, alive=None, main_child=None, bezie
     """
     pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
     opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive)
-    if kernel not in ("numba", "numpy"):
+    if not isinstance(kernel, str) or kernel not in ("numba", "numpy"):
         raise ValueError(f"kernel must be one of ['numba', 'numpy'], got {kernel!r}")
     seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=opts["bezier_w"],
                         bark_rate=opts["bark_rate"], _checked=True)

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_range
+from plantvr._validation import check_choice, check_range
 
 from .leaves import LEAF_SHAPES, LeafMesh, _blade
 from .mesh import BranchMesh
@@ -269,28 +269,61 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     check_choice("leaf", leaf, LEAF_TEXTURES)
     meters_per_unit = check_range("meters_per_unit", meters_per_unit, 0.0, np.inf, low_open=True)
     leaf_shape = check_choice("leaf_shape", leaf if leaf_shape is None else leaf_shape, LEAF_SHAPES)
+    from plantvr._validation import check_index
+
+    from .export import _check_meshes
+    _check_meshes(branches, leaves)
+    node_id = check_index("branches.node_id", branches.node_id, shape=(len(branches.vertices),), low=0,
+                          high=2**62)
     inst = None
     if leaves is not None and len(leaves.faces) and leaf_instancer:
         inst = leaf_instances(leaves, leaf_shape=leaf_shape)        # raises before any file is written
     if order is not None:
-        nmax = int(branches.node_id.max()) + 1 if len(branches.node_id) else 0
-        order = check_array("order", order, shape=(None,), dtype=np.int64)
+        nmax = int(node_id.max()) + 1 if len(node_id) else 0
+        order = check_index("order", order, shape=(None,), low=0, high=2**31 - 1)
         if len(order) < nmax:
             raise ValueError(f"order must have at least {nmax} entries (one per node), got {len(order)}")
     Gf, Sdf, Usd, UsdGeom, UsdShade, Vt = _pxr()
 
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ValueError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
     bark_tex = leaf_tex = None
     if textures:
-        from PIL import Image
+        from plantvr._fileio import write_png
 
         from .textures import bark_texture, leaf_texture
         bark_tex = f"{path.stem}_bark.png"
-        Image.fromarray(np.asarray(bark_texture(bark))).save(path.parent / bark_tex)
+        write_png(folder / bark_tex, np.asarray(bark_texture(bark)))
         if leaves is not None:
             leaf_tex = f"{path.stem}_leaf.png"
-            Image.fromarray(np.asarray(leaf_texture(leaf))).save(path.parent / leaf_tex)
+            write_png(folder / leaf_tex, np.asarray(leaf_texture(leaf)))
 
-    stage = Usd.Stage.CreateNew(str(path))
+    # the layer is saved to a temporary file of the same format in the same folder, then its bytes replace
+    # ``path`` atomically: a failed export leaves the previous file and no temporary file (issue 20)
+    import contextlib
+    import os
+    import tempfile
+
+    from plantvr._fileio import write_atomic
+
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+    os.close(fd)
+    os.unlink(tmp)
+    try:
+        _write_stage(tmp, branches, leaves, inst, order, bark_tex, leaf_tex, meters_per_unit)
+        with open(tmp, "rb") as fh:
+            data = fh.read()
+        write_atomic(path, data)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+    return path
+
+
+def _write_stage(tmp: str, branches, leaves, inst, order, bark_tex, leaf_tex, meters_per_unit) -> None:
+    Gf, Sdf, Usd, UsdGeom, UsdShade, Vt = _pxr()
+    stage = Usd.Stage.CreateNew(tmp)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     UsdGeom.SetStageMetersPerUnit(stage, meters_per_unit)
     root = UsdGeom.Xform.Define(stage, "/Tree")
@@ -316,4 +349,3 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
                             leaves.uv[nv:])
                 _mesh(stage, "/Tree/Petioles", pet, leaf_mat, double_sided=False)
     stage.GetRootLayer().Save()
-    return path

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from plantvr._fileio import write_atomic
 from plantvr._validation import check_choice, check_int
 
 from .graph import BranchGraph, graph_from_arrays, joint_offsets, pair_offset, simplify
@@ -208,9 +209,10 @@ def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
             uri = buf.get("uri")
             if uri in files:
                 buf["uri"] = f"{path.stem}.bin" if len(files) == 1 else f"{path.stem}_{uri}"
-                (path.parent / buf["uri"]).write_bytes(files[uri])
-        path.write_text(json.dumps(doc))
+                write_atomic(path.parent / buf["uri"], files[uri])
+        write_atomic(path, json.dumps(doc))
     else:
-        mesh.export(path, file_type=ft)
+        data = mesh.export(file_type=ft)          # bytes or text, written atomically (issue 20)
+        write_atomic(path, data)
     return path
 

@@ -11,11 +11,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_range
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_index, check_range
+
 
 __all__ = ["BranchGraph", "graph_from_arrays", "joint_offsets", "pair_offset", "random_tree", "simplify"]
 
 _EPS = 1e-9
+#: Smallest branch radius accepted (model units); thinner joints degenerate to points in float64.
+MIN_RADIUS = 1e-9
 
 
 @dataclass(frozen=True)
@@ -70,29 +73,41 @@ class BranchGraph:
         ValueError
             Naming the offending array and the first bad branch.
         """
-        n = len(self.parent)
+        try:
+            n = len(self.parent)
+        except TypeError:
+            raise ValueError(f"parent must be an integer array, got {type(self.parent).__name__}") from None
+        if not 1 <= n <= MAX_COUNT:
+            raise ValueError(f"the graph must have between 1 and {MAX_COUNT} branches, got {n}")
+        arr = {}
         for name in ("start", "end"):
-            check_array(name, getattr(self, name), shape=(n, 3))
+            arr[name] = check_array(name, getattr(self, name), shape=(n, 3), max_abs=MAX_COORD)
         for name in ("r0", "r1"):
-            r = check_array(name, getattr(self, name), shape=(n,))
-            bad = np.flatnonzero(~(r > 0))
+            r = arr[name] = check_array(name, getattr(self, name), shape=(n,))
+            bad = np.flatnonzero(~((r >= MIN_RADIUS) & (r <= MAX_COORD)))
             if bad.size:
-                raise ValueError(f"{name} must be > 0 for every branch, got {r[bad[0]]!r} at branch {bad[0]}")
+                raise ValueError(f"{name} must be > 0 (in [{MIN_RADIUS:g}, {MAX_COORD:g}]) for every branch, got "
+                                 f"{r[bad[0]]!r} at branch {bad[0]}")
+        parent = arr["parent"] = check_index("parent", self.parent, shape=(n,), low=-1, high=n - 1)
         idx = np.arange(n)
-        bad = np.flatnonzero((self.parent < -1) | (self.parent >= idx))
+        bad = np.flatnonzero((parent < -1) | (parent >= idx))
         if bad.size:
             raise ValueError(f"parent must satisfy -1 <= parent[i] < i (no cycles), got parent[{bad[0]}] = "
-                             f"{self.parent[bad[0]]}")
-        L = self.length
+                             f"{parent[bad[0]]}")
+        start, end = arr["start"], arr["end"]
+        L = np.linalg.norm(end - start, axis=1)
         bad = np.flatnonzero(~(L > _EPS))
         if bad.size:
             raise ValueError(f"branch {bad[0]} has zero length (start == end)")
-        has_p = self.parent >= 0
-        gap = np.linalg.norm(self.start[has_p] - self.end[self.parent[has_p]], axis=1)
-        bad = np.flatnonzero(gap > 1e-9 * max(1.0, float(np.abs(self.end).max())))
+        has_p = parent >= 0
+        gap = np.linalg.norm(start[has_p] - end[parent[has_p]], axis=1)
+        bad = np.flatnonzero(gap > 1e-9 * max(1.0, float(np.abs(end).max())))
         if bad.size:
             b = np.flatnonzero(has_p)[bad[0]]
-            raise ValueError(f"branch {b} starts {gap[bad[0]]:.3g} away from the end of its parent {self.parent[b]}")
+            raise ValueError(f"branch {b} starts {gap[bad[0]]:.3g} away from the end of its parent {parent[b]}")
+        for k, v in arr.items():              # canonical float64 / int64 arrays (equal values) once all passed
+            if getattr(self, k) is not v:
+                object.__setattr__(self, k, v)
         return self
 
 
@@ -122,9 +137,11 @@ def graph_from_arrays(pos, parent, radius) -> BranchGraph:
         If shapes disagree, ``parent`` is not a forward-ordered tree (a cycle), a radius is not positive or
         an internode has zero length.
     """
-    pos = check_array("pos", pos, shape=(None, 3), min_rows=2)
+    pos = check_array("pos", pos, shape=(None, 3), min_rows=2, max_abs=MAX_COORD)
     n = len(pos)
-    parent = check_array("parent", parent, shape=(n,), dtype=np.int64)
+    if n > MAX_COUNT:
+        raise ValueError(f"pos must have at most {MAX_COUNT} rows (nodes), got {n}")
+    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
     radius = check_array("radius", radius, shape=(n,))
     if parent[0] != -1:
         raise ValueError(f"parent[0] must be -1 (node 0 is the root), got {parent[0]}")
@@ -133,9 +150,10 @@ def graph_from_arrays(pos, parent, radius) -> BranchGraph:
     if bad.size:
         raise ValueError(f"parent must satisfy 0 <= parent[i] < i for i > 0 (a forward-ordered tree without "
                          f"cycles), got parent[{bad[0]}] = {parent[bad[0]]}")
-    bad = np.flatnonzero(~(radius > 0))
+    bad = np.flatnonzero(~((radius >= MIN_RADIUS) & (radius <= MAX_COORD)))
     if bad.size:
-        raise ValueError(f"radius must be > 0 at every node, got {radius[bad[0]]!r} at node {bad[0]}")
+        raise ValueError(f"radius must be > 0 (in [{MIN_RADIUS:g}, {MAX_COORD:g}]) at every node, got "
+                         f"{radius[bad[0]]!r} at node {bad[0]}")
     L = np.linalg.norm(pos[1:] - pos[parent[1:]], axis=1)
     bad = np.flatnonzero(~(L > _EPS))
     if bad.size:

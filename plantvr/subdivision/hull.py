@@ -203,10 +203,24 @@ def joint_hulls(P: np.ndarray, ptr: np.ndarray, *, method: str = "incremental", 
     n_vertices : (J,) int64 ndarray
         Points of each joint that are hull vertices (V6 asks for all of them).
     """
-    P = np.ascontiguousarray(P, dtype=np.float64)
-    ptr = np.ascontiguousarray(ptr, dtype=np.int64)
+    from plantvr._validation import MAX_COORD, check_array, check_choice, check_index, check_range
+
+    from ._checks import MAX_JOINT_POINTS
+
+    check_choice("method", method, ("incremental", "qhull"))
+    P = check_array("P", P, shape=(None, 3), max_abs=MAX_COORD)
+    ptr = check_index("ptr", ptr, shape=(None,), low=0, high=len(P))
+    eps = check_range("eps", eps, 0.0, 1e-2)
+    size = np.diff(ptr)
+    if len(ptr) < 1 or ptr[0] != 0 or ptr[-1] != len(P) or np.any(size < 4):
+        raise ValueError(f"ptr must run from 0 to len(P) = {len(P)} in steps of at least 4 points per joint")
+    if size.max(initial=0) > MAX_JOINT_POINTS:
+        raise ValueError(f"ptr: a joint has {int(size.max())} points, more than the {MAX_JOINT_POINTS} allowed")
     if method == "qhull":
-        return _hulls_qhull(P, ptr)
-    if method != "incremental":
-        raise ValueError(f"method must be one of ['incremental', 'qhull'], got {method!r}")
+        from scipy.spatial import QhullError
+        try:
+            return _hulls_qhull(P, ptr)
+        except QhullError as exc:
+            raise ValueError(f"P: Qhull cannot build a joint hull (degenerate points: {str(exc).splitlines()[0]})"
+                             ) from None
     return _hulls_numba(P, ptr, float(eps))

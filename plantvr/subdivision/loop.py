@@ -9,7 +9,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int
+from plantvr._validation import MAX_COUNT, check_choice, check_index, check_int
+
+from ._checks import check_mesh
 
 __all__ = ["boundary_loops", "cap_boundaries", "edge_table", "loop_weight", "subdivide_loop"]
 
@@ -40,7 +42,8 @@ def loop_weight(n: np.ndarray, *, weight_rule: str = "loop_cos") -> np.ndarray:
     [0.1875, 0.0625]
     """
     check_choice("weight_rule", weight_rule, ("loop_cos", "as_printed_sin"))
-    n = np.asarray(n, dtype=np.float64)
+    n = check_index("n", n, shape=np.shape(n) if not isinstance(n, str) else (None,), low=0, high=MAX_COUNT
+                    ).astype(np.float64)
     trig = np.cos if weight_rule == "loop_cos" else np.sin  # ERRATUM A1
     with np.errstate(divide="ignore", invalid="ignore"):
         k = (0.625 - (0.375 + 0.25 * trig(2.0 * np.pi / n)) ** 2) / n
@@ -131,7 +134,11 @@ def edge_table(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarr
     face_edges : (F, 3) int64 ndarray
         Edge ids of the face edges (0,1), (1,2), (2,0).
     """
-    return _edge_table_numba(np.ascontiguousarray(faces, dtype=np.int64), int(n_vertices))
+    n_vertices = check_int("n_vertices", n_vertices, 0, MAX_COUNT)
+    faces = check_index("faces", faces, shape=(None, 3), low=0, high=max(n_vertices - 1, 0))
+    if faces.size and not n_vertices:
+        raise ValueError("faces index vertices, but n_vertices is 0")
+    return _edge_table_numba(faces, n_vertices)
 
 
 def _wsum(idx: np.ndarray, vals: np.ndarray, n: int) -> np.ndarray:
@@ -237,13 +244,13 @@ def subdivide_loop(vertices, faces, levels: int = 1, *, weight_rule: str = "loop
     .. [1] Loop, C. Smooth subdivision surfaces based on triangles (1987); Pieterse, Yggdrasil report §4.4.2;
        spec 001 ERRATA A1, A2, A3.
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    V, F = check_mesh(vertices, faces)
     levels = check_int("levels", levels, 0, 8)
     check_choice("weight_rule", weight_rule, ("loop_cos", "as_printed_sin"))
     check_choice("boundary_rule", boundary_rule, ("fixed", "loop_cubic"))
-    if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise ValueError(f"faces must index vertices in [0, {len(V) - 1}], got range [{F.min()}, {F.max()}]")
+    if len(F) * 4 ** levels > MAX_COUNT:
+        raise ValueError(f"levels: {levels} levels of {len(F)} faces give {len(F) * 4 ** levels} faces, more than "
+                         f"the {MAX_COUNT} allowed")
     if levels == 0 or len(F) == 0:
         return V.copy(), F.copy()
     E, FE = edge_table(F, len(V))
@@ -265,6 +272,8 @@ def boundary_loops(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.n
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
+    n_vertices = check_int("n_vertices", n_vertices, 0, MAX_COUNT)
+    faces = check_index("faces", faces, shape=(None, 3), low=0, high=max(n_vertices - 1, 0))
     he = faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).astype(np.int64)
     key = np.minimum(he[:, 0], he[:, 1]) * np.int64(n_vertices) + np.maximum(he[:, 0], he[:, 1])
     _, inv, cnt = np.unique(key, return_inverse=True, return_counts=True)
@@ -294,8 +303,7 @@ def cap_boundaries(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     faces : (F + B, 3) int64 ndarray
         One cap triangle per boundary edge appended, wound consistently with the mesh.
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    V, F = check_mesh(vertices, faces)
     be, lab = boundary_loops(F, len(V))
     if len(be) == 0:
         return V.copy(), F.copy()

@@ -18,13 +18,15 @@ import warnings
 
 import numpy as np
 
-from plantvr._validation import check_choice, check_range
+from plantvr._validation import MAX_COORD, check_choice, check_range
 
-from .graph import BranchGraph
+from .graph import _EPS, MIN_RADIUS, BranchGraph
 
 __all__ = ["parse_lsystem"]
 
 _TOKEN = re.compile(r"\s*(?:([A-Za-z_]\w*)\s*\(([^()]*)\)|([\[\]Ff+\-&^/\\|]))")
+#: Longest L-system string accepted (characters).
+MAX_TEXT = 10_000_000
 _ARITY = {"sb": (0,), "eb": (0,), "movrel3f": (3,), "rotrel3f": (4,), "cylinder": (3,)}
 
 
@@ -77,10 +79,12 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
     """
     if not isinstance(text, str):
         raise ValueError(f"text must be a str, got {type(text).__name__}")
+    if len(text) > MAX_TEXT:
+        raise ValueError(f"text must have at most {MAX_TEXT} characters, got {len(text)}")
     angle_unit = check_choice("angle_unit", angle_unit, ("radians", "degrees"))
     turn = np.deg2rad(check_range("angle", angle, -360.0, 360.0))
-    step = check_range("step", step, 0.0, np.inf, low_open=True)
-    radius = check_range("radius", radius, 0.0, np.inf, low_open=True)
+    step = check_range("step", step, _EPS, MAX_COORD, low_open=True)
+    radius = check_range("radius", radius, MIN_RADIUS, MAX_COORD)
     body = text
     head = re.match(r"\s*LST\s+[0-9.]+", body)
     pos0 = head.end() if head else 0
@@ -95,6 +99,9 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         nonlocal cur
         if not (a > 0 and b > 0):
             raise ValueError(f"text: branch at position {at} has a non-positive radius ({a}, {b})")
+        if np.abs(p).max() > MAX_COORD:
+            raise ValueError(f"text: branch at position {at} starts at {p.tolist()}, outside "
+                             f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
         if not L > 0:
             raise ValueError(f"text: zero-length branch at position {at} (length {L})")
         s = p.copy()
@@ -140,6 +147,9 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
                     raise ValueError(f"text: bad numeric argument in {m.group(0).strip()!r} at position {at}") from None
             if not all(np.isfinite(vals)):
                 raise ValueError(f"text: non-finite argument in {m.group(0).strip()!r} at position {at}")
+            if any(abs(v) > MAX_COORD for v in vals):
+                raise ValueError(f"text: argument in {m.group(0).strip()!r} at position {at} must lie in "
+                                 f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
             if key in ("f",):
                 if len(vals) not in (0, 1, 2):
                     raise ValueError(f"text: {name} takes 0-2 arguments (length, radius), got {len(vals)} at "
@@ -195,4 +205,7 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         raise ValueError("text: the string contains no branch (no Cylinder or F symbol)")
     g = BranchGraph(np.array(start), np.array(end), np.array(r0, float), np.array(r1, float),
                     np.array(parent, np.int64))
-    return g
+    try:
+        return g.validate()
+    except ValueError as exc:
+        raise ValueError(f"text: {exc}") from None

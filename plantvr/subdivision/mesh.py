@@ -14,8 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import check_choice, check_int, check_range
+from plantvr._validation import MAX_COUNT, check_choice, check_int, check_range
 
+from ._checks import MAX_JOINT_POINTS
 from .graph import BranchGraph, Joints, joint_pairs, simplify
 from .hull import joint_hulls
 from .loop import cap_boundaries, subdivide_loop
@@ -232,11 +233,21 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
         raise ValueError(f"graph must be a BranchGraph, got {type(graph).__name__}")
     graph.validate()
     S = sides
+    roots = np.flatnonzero(graph.parent < 0)
+    _, shared = np.unique(graph.start[roots], axis=0, return_counts=True)
+    big = max(int(graph.n_children.max(initial=0)) + 1, int(shared.max(initial=0)))
+    if big * S > MAX_JOINT_POINTS:
+        raise ValueError(f"graph: a joint has {big} branches; at sides={S} at most {MAX_JOINT_POINTS // S} "
+                         f"branches may meet at one joint")
     f = radius_factor(S) if compensate_radius else 1.0
     scaled = BranchGraph(graph.start, graph.end, graph.r0 / f, graph.r1 / f, graph.parent)
     g, off_s, off_e, joints = simplify(scaled, offset_mode=offset_mode, min_offset=min_offset,
                                        max_offset_factor=max_offset_factor, offset_margin=offset_margin)
     nb = len(g)
+    big = int(np.diff(joints.joint_ptr).max(initial=0))
+    if big * S > MAX_JOINT_POINTS:
+        raise ValueError(f"graph: a joint has {big} branches; at sides={S} at most {MAX_JOINT_POINTS // S} "
+                         f"branches may meet at one joint")
     L = g.length
     ax = g.axis
     leaf = g.is_leaf
@@ -250,7 +261,13 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     pe = g.start + (L * te)[:, None] * ax
     Lt = L * (te - ts)
     rnd = {"round": np.round, "floor": np.floor, "ceil": np.ceil}[rounding]
-    N = np.maximum(1, rnd(Lt / (np.pi * 0.5 * (rs + re)))).astype(np.int64)   # Eq. E10, E11
+    with np.errstate(over="ignore", invalid="ignore"):
+        Nf = np.maximum(1, rnd(Lt / (np.pi * 0.5 * (rs + re))))                  # Eq. E10, E11
+    if not np.all(np.isfinite(Nf)) or float(Nf.sum() + nb) * S > MAX_COUNT:
+        raise ValueError(f"graph: the control mesh would need {float(np.nansum(Nf) + nb) * S:.3g} vertices, more "
+                         f"than the {MAX_COUNT} allowed (branches far longer than their radius); thicken or "
+                         f"shorten the branches")
+    N = Nf.astype(np.int64)
     u, w = _frames(g)
     # --- tube vertices (all branches at once)
     rings = N + 1
@@ -336,6 +353,10 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     P = C[mj][:, None] + Rs[mj][:, None, None] * (Y - C[mj][:, None]) / np.linalg.norm(
         Y - C[mj][:, None], axis=2, keepdims=True)
     P = P.reshape(-1, S, 3)
+    if not np.all(np.isfinite(P)):
+        jj = int(mj[np.flatnonzero(~np.isfinite(P).all(axis=(1, 2)))[0]])
+        raise ValueError(f"graph: joint of branches {mb[joints.joint_ptr[jj]:joints.joint_ptr[jj + 1]].tolist()} is "
+                         f"degenerate (its loops collapse to a point); thicken or lengthen these branches")
     ptr = joints.joint_ptr
     tri, hull_n, hull_v = joint_hulls(P.reshape(-1, 3), ptr * S, method=hull)   # outward, ERRATUM A6
     miss = hull_v != size * S

@@ -10,7 +10,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from plantvr._validation import check_array, check_range
+from plantvr._validation import MAX_COUNT, check_int, check_range
+
+from ._checks import check_mesh
 
 __all__ = ["self_intersections"]
 
@@ -61,11 +63,9 @@ def self_intersections(vertices, faces, *, eps: float = 1e-9, chunk: int = 2_000
     .. [1] Möller, T. A fast triangle-triangle intersection test (1997); Möller & Trumbore, Fast, minimum storage
        ray-triangle intersection (1997). Spec 001 V13.
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    V, F = check_mesh(vertices, faces)
     eps = check_range("eps", eps, 0.0, 0.1)
-    if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise ValueError(f"faces must index vertices in [0, {len(V) - 1}], got range [{F.min()}, {F.max()}]")
+    chunk = check_int("chunk", chunk, 1, MAX_COUNT)
     if len(F) < 2:
         return np.zeros((0, 2), np.int64)
     T = V[F]

@@ -11,8 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int
+from plantvr._fileio import atomic_write
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int
 
+from ._checks import check_mesh
 from .loop import edge_table
 
 __all__ = [
@@ -99,10 +101,15 @@ def propagate_uvs(vertices, faces, uv, known, *, wrap: str = "triangle") -> np.n
     ----------
     .. [1] Pieterse, Yggdrasil report §4.3.3, Fig. 4.22; spec 001 ERRATUM A8.
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    V, F = check_mesh(vertices, faces)
     UV = check_array("uv", uv, shape=(len(F), 3, 2), finite=False).copy()
+    known = np.asarray(known) if not isinstance(known, str) else None
+    if known is None or known.dtype != bool:
+        raise ValueError(f"known must be a bool array of shape ({len(F)},), got "
+                         f"{type(known).__name__ if known is None else known.dtype}")
     known = check_array("known", known, shape=(len(F),), dtype=bool).copy()
+    if np.any(np.abs(UV[known]) > MAX_COORD) or not np.all(np.isfinite(UV[known])):
+        raise ValueError(f"uv of the known faces must be finite and lie in [-{MAX_COORD:g}, {MAX_COORD:g}]")
     wrap = check_choice("wrap", wrap, ("triangle", "coordinate", "none"))
     if known.all() or len(F) == 0:
         return UV
@@ -225,8 +232,11 @@ def subdivide_uvs(uv, levels: int = 1) -> np.ndarray:
     .. [1] Pieterse, Yggdrasil report §4.4.3: "the texture coordinate of a new edge point is set as the midpoint
        of the texture coordinates associated with the edge".
     """
-    T = check_array("uv", uv, shape=(None, 3, 2))
+    T = check_array("uv", uv, shape=(None, 3, 2), max_abs=MAX_COORD)
     levels = check_int("levels", levels, 0, 8)
+    if len(T) * 4 ** levels > MAX_COUNT:
+        raise ValueError(f"levels: {levels} levels of {len(T)} faces give {len(T) * 4 ** levels} faces, more than "
+                         f"the {MAX_COUNT} allowed")
     for _ in range(levels):
         a, b, c = T[:, 0], T[:, 1], T[:, 2]
         ab, bc, ca = 0.5 * (a + b), 0.5 * (b + c), 0.5 * (c + a)
@@ -248,8 +258,7 @@ def vertex_normals(vertices, faces) -> np.ndarray:
     (V, 3) float64 ndarray
         Unit normals (zero for unused vertices).
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    V, F = check_mesh(vertices, faces)
     fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     fn /= np.maximum(np.linalg.norm(fn, axis=1, keepdims=True), 1e-300)
     vn = np.zeros_like(V)
@@ -285,12 +294,12 @@ def write_obj(path, vertices, faces, uv=None, *, normals: bool = True, name: str
     ----------
     .. [1] Pieterse, Yggdrasil report §4.2.5 ("the indexing starts at one").
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
-    if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise ValueError(f"faces must index vertices in [0, {len(V) - 1}], got range [{F.min()}, {F.max()}]")
+    V, F = check_mesh(vertices, faces)
     if uv is not None:
-        uv = check_array("uv", uv, shape=(len(F), 3, 2))
+        uv = check_array("uv", uv, shape=(len(F), 3, 2), max_abs=MAX_COORD)
+    normals = _check_bool("normals", normals)
+    if not isinstance(name, str) or not name or any(c.isspace() for c in name):
+        raise ValueError(f"name must be a non-empty str without whitespace, got {name!r}")
     path = Path(path)
     head = f"# PlantVR Yggdrasil mesh: {len(V)} vertices, {len(F)} faces\ng {name}\n"
     blocks = [_fmt_rows("v %.17g %.17g %.17g\n", V)]
@@ -304,11 +313,20 @@ def write_obj(path, vertices, faces, uv=None, *, normals: bool = True, name: str
         idx.append(F + 1)
     corner = {1: "%d", 2: "%d/%d" if uv is not None else "%d//%d", 3: "%d/%d/%d"}[len(idx)]
     blocks.append(_fmt_rows("f " + " ".join([corner] * 3) + "\n", np.stack(idx, axis=2).reshape(len(F), -1)))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w") as fh:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"path: cannot create the folder of {os.fspath(path)!r} ({exc.strerror or exc})") from None
+    with atomic_write(path, "w") as fh:       # a failed save leaves the old file and no temporary file
         fh.write(head)
         fh.writelines(blocks)
     return path
+
+
+def _check_bool(name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
 
 
 def _fmt_rows(line: str, A: np.ndarray, chunk: int = 100_000) -> str:
@@ -342,34 +360,75 @@ def read_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     ValueError
         If the file is missing, a face is not a triangle or an index is out of range.
     """
+    from plantvr._fileio import MAX_READ_BYTES
+
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"path: no such OBJ file {os.fspath(path)!r}")
-    v, vt, f = [], [], []
-    with open(path) as fh:
-        for ln, line in enumerate(fh, 1):
-            tok = line.split()
-            if not tok or tok[0].startswith("#"):
-                continue
-            if tok[0] == "v":
-                v.append([float(x) for x in tok[1:4]])
-            elif tok[0] == "vt":
-                vt.append([float(x) for x in tok[1:3]])
-            elif tok[0] == "f":
-                if len(tok) != 4:
-                    raise ValueError(f"path: line {ln} is a face with {len(tok) - 1} corners; only triangles are read")
-                f.append([c.split("/") for c in tok[1:]])
+    where = f"path: OBJ file {os.fspath(path)!r}"
+    if path.stat().st_size > MAX_READ_BYTES:
+        raise ValueError(f"{where} is larger than the {MAX_READ_BYTES} bytes allowed")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{where} is unreadable or not text ({exc})") from None
+
+    def nums(tok: list[str], k: int, ln: int, what: str) -> list[float]:
+        if len(tok) < k:
+            raise ValueError(f"{where} line {ln}: {what} needs {k} numbers, got {len(tok)}")
+        try:
+            x = [float(t) for t in tok[:k]]
+        except ValueError:
+            raise ValueError(f"{where} line {ln}: {what} has a non-numeric value in {' '.join(tok)!r}") from None
+        if not all(np.isfinite(x)) or max(map(abs, x)) > MAX_COORD:
+            raise ValueError(f"{where} line {ln}: {what} values must be finite and lie in "
+                             f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
+        return x
+
+    v, vt, f, f_ln, n_vn = [], [], [], [], 0
+    for ln, line in enumerate(text.splitlines(), 1):
+        tok = line.split()
+        if not tok or tok[0].startswith("#"):
+            continue
+        if tok[0] == "v":
+            v.append(nums(tok[1:], 3, ln, "vertex"))
+        elif tok[0] == "vt":
+            vt.append(nums(tok[1:], 2, ln, "texture coordinate"))
+        elif tok[0] == "vn":
+            nums(tok[1:], 3, ln, "normal")
+            n_vn += 1
+        elif tok[0] == "f":
+            if len(tok) != 4:
+                raise ValueError(f"path: line {ln} is a face with {len(tok) - 1} corners; only triangles are read")
+            corners = [c.split("/") for c in tok[1:]]
+            if any(len(c) > 3 for c in corners):
+                raise ValueError(f"{where} line {ln}: face corner {tok[1:]} is not v, v/vt, v//vn or v/vt/vn")
+            f.append(corners)
+            f_ln.append(ln)
+        if len(v) + len(vt) + len(f) > MAX_COUNT:
+            raise ValueError(f"{where} has more than {MAX_COUNT} elements")
     V = np.array(v, float).reshape(-1, 3)
     T = np.array(vt, float).reshape(-1, 2)
 
-    def idx(s: str, n: int, ln: str) -> int:
-        i = int(s)
+    def idx(s: str, n: int, what: str, ln: int) -> int:
+        try:
+            i = int(s)
+        except ValueError:
+            raise ValueError(f"{where} line {ln}: {what} index {s!r} is not an integer") from None
         i = i - 1 if i > 0 else n + i
         if not 0 <= i < n:
-            raise ValueError(f"path: {ln} index {s} out of range 1..{n}")
+            raise ValueError(f"path: {what} index {s} out of range 1..{n} (line {ln})")
         return i
 
-    F = np.array([[idx(c[0], len(V), "vertex") for c in face] for face in f], np.int64).reshape(-1, 3)
+    F = np.array([[idx(c[0], len(V), "vertex", ln) for c in face] for face, ln in zip(f, f_ln)],
+                 np.int64).reshape(-1, 3)
+    for face, ln in zip(f, f_ln):               # every index given must be an integer inside its table
+        for c in face:
+            if len(c) > 1 and c[1] != "":
+                idx(c[1], len(T), "texture", ln)
+            if len(c) > 2 and c[2] != "":
+                idx(c[2], n_vn, "normal", ln)
     has_uv = bool(f) and all(len(c) > 1 and c[1] != "" for face in f for c in face)
-    UV = (T[np.array([[idx(c[1], len(T), "texture") for c in face] for face in f])] if has_uv else None)
+    UV = (T[np.array([[idx(c[1], len(T), "texture", ln) for c in face] for face, ln in zip(f, f_ln)],
+                     np.int64)] if has_uv else None)
     return V, F, UV

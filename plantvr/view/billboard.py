@@ -192,18 +192,30 @@ class Billboard:
                                visual=trimesh.visual.TextureVisuals(uv=self.uv, material=mat))
 
     def save_atlas(self, path) -> Path:
-        """Write the atlas as an RGBA PNG."""
-        from PIL import Image
-        path = Path(path)
-        Image.fromarray(self.atlas).save(path)
-        return path
+        """Write the atlas as an RGBA PNG (atomically: a failed save leaves the old file)."""
+        from .._fileio import write_png
+        return write_png(Path(path), self.atlas)
 
     def export(self, path) -> Path:
         """Write the billboard as .glb (atlas embedded) or .obj (with .mtl and PNG beside it)."""
+        import trimesh
+
+        from .._fileio import write_atomic
+
         path = Path(path)
         if path.suffix.lower() not in (".glb", ".obj"):
             raise ValueError(f"path suffix must be '.glb' or '.obj', got {path.suffix!r}")
-        self.to_trimesh().export(path)
+        folder = path.parent if str(path.parent) else Path(".")
+        if not folder.is_dir():
+            raise ValueError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
+
+        class _Atomic(trimesh.resolvers.FilePathResolver):  # the .mtl and texture beside an .obj, atomically
+            def write(self, name, data):
+                write_atomic(self.absolute(name), data)
+
+        data = trimesh.exchange.export.export_mesh(self.to_trimesh(), None, file_type=path.suffix.lower()[1:],
+                                                   resolver=_Atomic(str(path.absolute())))
+        write_atomic(path, data)
         return path
 
 

@@ -576,20 +576,86 @@ def apply_command(model, cmd: Command) -> Any:
 
 def save_recording(frames: list[InputFrame], path: str | Path) -> Path:
     """Write headset input frames as JSON lines (replay them with :func:`replay`)."""
+    from .._fileio import write_atomic
+
     path = Path(path)
-    path.write_text("".join(json.dumps(f.to_dict()) + "\n" for f in frames))
+    if isinstance(frames, InputFrame) or not all(isinstance(f, InputFrame) for f in frames):
+        raise ValueError("frames must be a list of InputFrame")
+    text = "".join(json.dumps(f.to_dict(), allow_nan=False) + "\n" for f in _checked_frames(frames))
+    write_atomic(path, text)                   # a failed save leaves the old recording (issue 20)
     return path
 
 
-def load_recording(path: str | Path) -> list[InputFrame]:
-    """Read frames written by :func:`save_recording`; a corrupt file raises ``ValueError``."""
-    out = []
-    for i, line in enumerate(Path(path).read_text().splitlines(), 1):
+#: Largest recording read, in bytes (about 20 minutes of 90-fps frames).
+MAX_RECORDING_BYTES = 256 * 2**20
+
+
+def _checked_frames(frames):
+    for i, f in enumerate(frames):
         try:
-            out.append(InputFrame.from_dict(json.loads(line)))
-        except (json.JSONDecodeError, KeyError, TypeError, IndexError, ValueError):
-            raise ValueError(f"recording {path!s} line {i} is not a headset input frame") from None
+            _check_frame(f)
+        except ValueError as exc:
+            raise ValueError(f"frames[{i}]: {exc}") from None
+        yield f
+
+
+def _check_frame(f: InputFrame) -> None:
+    """A frame as :meth:`InputFrame.to_dict` writes it: finite time and poses, trigger and pad in range."""
+    check_range("t", f.t, -1e12, 1e12)
+    check_array("hmd", f.hmd, shape=(4, 4), max_abs=1e6)
+    for hand in ("left", "right"):
+        c = getattr(f, hand)
+        check_array(f"{hand}.pose", c.pose, shape=(4, 4), max_abs=1e6)
+        check_range(f"{hand}.trigger", c.trigger, 0.0, 1.0)
+        for k in (0, 1):
+            check_range(f"{hand}.pad[{k}]", c.pad[k], -1.0, 1.0)
+
+
+def _frame_from_json(d: Any) -> InputFrame:
+    hands = ("left", "right")
+    keys = ("pose", "valid", "trigger", "grip", "menu", "pad", "pad_touched", "pad_pressed")
+    if not isinstance(d, dict) or set(d) != {"t", "hmd", *hands}:
+        raise ValueError("expected the keys t, hmd, left, right")
+    for h in hands:
+        c = d[h]
+        if not isinstance(c, dict) or set(c) != set(keys):
+            raise ValueError(f"{h} must hold the keys {', '.join(keys)}")
+        bad = [k for k in ("valid", "grip", "menu", "pad_touched", "pad_pressed") if not isinstance(c[k], bool)]
+        if bad:
+            raise ValueError(f"{h}.{bad[0]} must be true or false")
+        if not (isinstance(c["pad"], list) and len(c["pad"]) == 2):
+            raise ValueError(f"{h}.pad must be a pair of numbers")
+        if any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in (c["trigger"], *c["pad"])):
+            raise ValueError(f"{h}.trigger and {h}.pad must be numbers")
+    if isinstance(d["t"], bool) or not isinstance(d["t"], (int, float)):
+        raise ValueError("t must be a number")
+    f = InputFrame.from_dict(d)
+    _check_frame(f)
+    return f
+
+
+def load_recording(path: str | Path) -> list[InputFrame]:
+    """Read frames written by :func:`save_recording`; a corrupt file raises ``ValueError`` (naming the line)."""
+    path = Path(path)
+    try:
+        if path.stat().st_size > MAX_RECORDING_BYTES:
+            raise ValueError(f"recording {path!s} is larger than the {MAX_RECORDING_BYTES} bytes allowed")
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ValueError(f"recording {path!s} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read recording {path!s}: {exc}") from None
+    out = []
+    for i, line in enumerate(text.splitlines(), 1):
+        try:
+            out.append(_frame_from_json(json.loads(line, parse_constant=_no_constant)))
+        except (json.JSONDecodeError, KeyError, TypeError, IndexError, ValueError, RecursionError) as exc:
+            raise ValueError(f"recording {path!s} line {i} is not a headset input frame ({exc})"[:300]) from None
     return out
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a finite number")
 
 
 def replay(model, frames: list[InputFrame], controls: Controls | None = None) -> Controls:
