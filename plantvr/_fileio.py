@@ -17,6 +17,7 @@ import io
 import os
 import tempfile
 import zipfile
+import zlib
 from collections.abc import Collection, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
@@ -24,7 +25,10 @@ from typing import IO, Any
 import numpy as np
 
 __all__ = ["MAX_READ_BYTES", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
-           "digest_arrays"]
+           "npy_headers", "zip_directory", "digest_arrays"]
+
+#: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream).
+_READ_ERRORS = (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error)
 
 #: Default cap on the inflated size of one zip/npz file PlantVR reads (bytes). Readers of formats whose
 #: files are bigger by design (a 36 M-face segmentation with its mesh) pass a larger ``max_bytes``.
@@ -106,7 +110,7 @@ def _open_zip(path, what: str) -> zipfile.ZipFile:
     try:
         return zipfile.ZipFile(path)
     except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, ValueError) as exc:
-        raise _zip_error(what, path, f"not a readable zip file ({exc})") from None
+        raise _zip_error(what, path, f"corrupt, truncated or not a zip file ({exc})") from None
 
 
 def _check_members(z: zipfile.ZipFile, path, what: str, *, max_bytes: int, max_members: int,
@@ -137,7 +141,7 @@ def read_zip(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MA
         infos = _check_members(z, path, what, max_bytes=max_bytes, max_members=max_members, allowed=allowed)
         try:
             return {i.filename: z.read(i) for i in infos}
-        except (OSError, EOFError, zipfile.BadZipFile, RuntimeError, ValueError, NotImplementedError) as exc:
+        except (*_READ_ERRORS, ValueError) as exc:
             raise _zip_error(what, path, f"corrupt member ({exc})") from None
 
 
@@ -166,12 +170,7 @@ def read_npz(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MA
                 raise _zip_error(what, path, f"member {name!r} is not a .npy array")
             try:
                 with z.open(info) as fh:
-                    version = np.lib.format.read_magic(fh)
-                    read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
-                                   else np.lib.format.read_array_header_2_0)
-                    shape, fortran, dtype = read_header(fh, max_header_size=10_000)
-                    if dtype.hasobject:
-                        raise _zip_error(what, path, f"array {name[:-4]!r} holds Python objects (refused)")
+                    shape, fortran, dtype = _read_header(fh, path, what, name)
                     n = int(np.prod(shape, dtype=object)) * dtype.itemsize
                     if n != info.file_size - fh.tell():
                         raise _zip_error(what, path, f"array {name[:-4]!r} declares {n} bytes of data but its "
@@ -183,11 +182,59 @@ def read_npz(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MA
                 if str(exc).startswith("cannot read"):
                     raise
                 raise _zip_error(what, path, f"array {name[:-4]!r} is unreadable ({exc})") from None
-            except (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError) as exc:
+            except _READ_ERRORS as exc:
                 raise _zip_error(what, path, f"corrupt member {name!r} ({exc})") from None
             arr = np.frombuffer(data, dtype=dtype)
             out[name[:-4]] = arr.reshape(shape, order="F" if fortran else "C")
     return out
+
+
+def _read_header(fh, path, what: str, name: str) -> tuple[tuple, bool, np.dtype]:
+    """(shape, fortran order, dtype) from an open ``.npy`` member, refusing object arrays."""
+    version = np.lib.format.read_magic(fh)
+    read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+    try:
+        shape, fortran, dtype = read(fh, max_header_size=10_000)
+    except SyntaxError as exc:  # a damaged header dict
+        raise ValueError(f"header is not a .npy header ({exc})") from None
+    if dtype.hasobject:
+        raise _zip_error(what, path, f"array {name[:-4]!r} holds Python objects (refused)")
+    return tuple(int(x) for x in shape), fortran, dtype
+
+
+def npy_headers(path: str | os.PathLike, *, what: str = "file", prefix: str = "",
+                max_members: int = 1_000) -> dict[str, tuple[tuple, np.dtype]]:
+    """``{array name: (shape, dtype)}`` of the ``.npy`` members under ``prefix``, inflating only their headers.
+
+    Lets a reader refuse an array larger than its format allows (labels longer than the mesh) before
+    :func:`read_npz` inflates anything. Raises ``ValueError`` like :func:`read_npz`.
+    """
+    out: dict[str, tuple[tuple, np.dtype]] = {}
+    with _open_zip(path, what) as z:
+        infos = _check_members(z, path, what, max_bytes=2**63, max_members=max_members, allowed=None)
+        for info in infos:
+            name = info.filename
+            if not (name.startswith(prefix) and name.endswith(".npy")):
+                continue
+            try:
+                with z.open(info) as fh:
+                    shape, _fortran, dtype = _read_header(fh, path, what, name)
+            except ValueError as exc:
+                if str(exc).startswith("cannot read"):
+                    raise
+                raise _zip_error(what, path, f"array {name[:-4]!r} has an unreadable header ({exc})") from None
+            except _READ_ERRORS as exc:
+                raise _zip_error(what, path, f"array {name[:-4]!r} has an unreadable header ({exc})") from None
+            out[name[len(prefix):-4]] = (shape, dtype)
+    return out
+
+
+def zip_directory(path: str | os.PathLike, *, what: str = "file", max_members: int = 1_000
+                  ) -> tuple[list[str], bytes]:
+    """Member names and the zip comment, from the central directory only (nothing is inflated)."""
+    with _open_zip(path, what) as z:
+        infos = _check_members(z, path, what, max_bytes=2**63, max_members=max_members, allowed=None)
+        return [i.filename for i in infos], z.comment
 
 
 def digest_arrays(arrays: Mapping[str, np.ndarray]) -> str:

@@ -194,7 +194,24 @@ class SegmentationView:
         elif self.depth_cue:
             self._refresh_colors()
         self.plotter.render()
-        return self.plotter.screenshot(None if path is None else os.fspath(path), return_img=True)
+        img = self.plotter.screenshot(None, return_img=True)
+        if path is not None:                        # written atomically: a failed write keeps the old image
+            import io
+
+            from PIL import Image
+
+            from plantvr._fileio import write_atomic
+            p = os.fspath(path)
+            ext = os.path.splitext(p)[1].lower()
+            if not ext:
+                p, ext = p + ".png", ".png"
+            fmt = Image.registered_extensions().get(ext)
+            if fmt is None:
+                raise ValueError(f"path must end in an image suffix such as .png, got {p!r}")
+            buf = io.BytesIO()
+            Image.fromarray(img).save(buf, format=fmt)
+            write_atomic(p, buf.getvalue())
+        return img
 
     def close(self) -> None:
         """Stop observing and close the plotter."""

@@ -30,12 +30,16 @@ selection, a colour or a visibility changes.
 from __future__ import annotations
 
 import asyncio
+import hmac
 import itertools
 import os
+import secrets
 import socket
+import sys
 import threading
 import time
 from pathlib import Path
+from urllib.parse import urlencode
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
@@ -214,6 +218,69 @@ def camera_ray(camera: dict, x: float, y: float, size) -> tuple[np.ndarray, np.n
     return pos.copy(), d / np.linalg.norm(d)
 
 
+_LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
+
+
+def access_guard(token: str, port: int, host: str = "127.0.0.1"):
+    """An aiohttp middleware that admits only requests carrying ``token``, from the page's own origin.
+
+    Like Jupyter's: the URL the server prints carries ``?token=...``; a request with it (compared in constant
+    time) gets an HTTP-only cookie for this port (``SameSite=Lax``) and, for the page itself, a redirect to the
+    same URL without the token, so later requests (page assets, the websocket, a reload) authenticate by
+    cookie. Every other request is refused with 403: no token or cookie (any local process), a foreign
+    ``Origin`` header (a page of another site trying the websocket or a form post), or, when listening on a
+    loopback address, a ``Host`` header naming another host (DNS rebinding).
+
+    Parameters
+    ----------
+    token : str
+        The secret, at least 16 characters.
+    port : int
+        The port served (names the cookie and the allowed origins).
+    host : str
+        The interface listened on.
+    """
+    from aiohttp import web
+    if not isinstance(token, str) or len(token) < 16:
+        raise ValueError("token must be a string of at least 16 characters")
+    port = check_int("port", port, 1, 65535)
+    cookie = f"plantvr_vine_{port}"
+    loopback = host in (*_LOOPBACK, "::1")
+    hosts = {f"{h}:{port}" for h in (*_LOOPBACK, host if ":" not in host else f"[{host}]")}
+
+    def refuse(why: str):
+        return web.Response(status=403, text=f"plantvr segment: forbidden: {why}\n")
+
+    def same(a: str | None) -> bool:
+        return a is not None and hmac.compare_digest(a.encode(), token.encode())
+
+    @web.middleware
+    async def guard(request, handler):
+        host_hdr = request.headers.get("Host", "")
+        if loopback and host_hdr not in hosts:
+            return refuse(f"unexpected Host header {host_hdr!r}")
+        origin = request.headers.get("Origin")
+        if origin is not None and origin not in {f"http://{h}" for h in (hosts if loopback else {host_hdr})}:
+            return refuse(f"requests from origin {origin!r} are not allowed")
+        given = request.query.get("token")
+        auth = request.headers.get("Authorization", "")
+        ok = same(given) or same(request.cookies.get(cookie)) or (auth.startswith("token ") and same(auth[6:]))
+        if not ok:
+            return refuse("open the URL printed by plantvr segment, with its ?token=...")
+        if given is not None and request.path in ("/", "/index.html") \
+                and request.headers.get("Upgrade", "").lower() != "websocket":
+            rest = [(k, v) for k, v in request.query.items() if k != "token"]
+            resp = web.Response(status=302, headers={"Location": "/index.html" + ("?" + urlencode(rest) if rest else "")})
+            resp.set_cookie(cookie, token, httponly=True, samesite="Lax", path="/")
+            return resp
+        resp = await handler(request)
+        if given is not None and not resp.prepared:
+            resp.set_cookie(cookie, token, httponly=True, samesite="Lax", path="/")
+        return resp
+
+    return guard
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -310,6 +377,10 @@ class VineReviewApp:
         self.stroke_stats = {"requests": 0, "stamps": 0, "misses": 0, "pick_s": 0.0, "paint_s": 0.0,
                              "delta_s": 0.0}
         self._thread: threading.Thread | None = None
+        #: the review page's credential (Jupyter-style): :attr:`url` carries it, requests without it are refused
+        self.token = secrets.token_urlsafe(32)
+        self._host = "127.0.0.1"
+        self.ctrl.on_server_bind.add(self._secure)
         self._set_segmentation(seg, proxy)
         diag = float(np.linalg.norm(np.ptp(seg.vertices, axis=0)))
         r0 = 0.02 * diag if radius is None else check_range("radius", radius, 0.0, seg.max_radius, low_open=True)
@@ -752,17 +823,33 @@ class VineReviewApp:
         self.layout = layout
 
     # ------------------------------------------------------------------ serving
+    def _secure(self, wslink_server) -> None:
+        """trame's ``on_server_bind``: put :func:`access_guard` in front of every route (page, assets, websocket)."""
+        wslink_server.app.middlewares.append(access_guard(self.token, self.port, self._host))
+
     def start(self, port: int | None = None, *, open_browser: bool = False, thread: bool = True,
               host: str = "127.0.0.1") -> str:
-        """Serve the page; returns its URL. With ``thread=True`` the server runs in a daemon thread."""
+        """Serve the page; returns its URL, which carries the access token (``?token=...``).
+
+        With ``thread=True`` the server runs in a daemon thread; otherwise the URL is printed and this call
+        blocks. Every request without the token (or the cookie the tokened URL sets), or from another origin,
+        is refused (:func:`access_guard`).
+        """
         self.port = _free_port() if not port else check_int("port", port, 1, 65535)
+        if not isinstance(host, str) or not host:
+            raise ValueError(f"host must be a non-empty string, got {host!r}")
+        self._host = host
         self._render_wheel()                        # the label may have been set from code before serving
         if self.mode == "local":
             self._locator()                         # server-side picking: build the ray locator up front
-        self.url = f"http://{host}:{self.port}/"
-        kw = {"port": self.port, "open_browser": open_browser, "show_connection_info": False, "disable_logging": True,
-                  "timeout": 0, "host": host}
+        self.url = f"http://{host if ':' not in host else f'[{host}]'}:{self.port}/?token={self.token}"
+        if open_browser:                            # trame would open the page without the token
+            import webbrowser
+            self.ctrl.on_server_ready.add(lambda **_: webbrowser.open(self.url))
+        kw = {"port": self.port, "open_browser": False, "show_connection_info": False, "disable_logging": True,
+              "timeout": 0, "host": host}
         if not thread:
+            print(f"ViNE review page (keep the token private): {self.url}", flush=True)
             self.server.start(**kw)
             return self.url
 
@@ -829,10 +916,29 @@ def main_segment(argv: list[str] | None = None) -> int:
     ap.add_argument("--stamps", type=int, default=24, help="demo brush stamps with --out")
     a = ap.parse_args(argv)
     try:
-        src = open_source(a.source, level=a.level, downsample=a.downsample)
-    except ValueError as exc:
-        print(f"plantvr segment: {exc}")
+        return _segment(a, open_source, paint_demo)
+    except ValueError as exc:                       # one line on stderr and exit code 2, never a traceback
+        print(f"plantvr segment: error: {exc}".replace("\n", " "), file=sys.stderr)
         return 2
+
+
+def _check_segment_args(a) -> None:
+    """Every option of ``plantvr segment`` checked before the source is opened or anything is written."""
+    check_int("--faces", a.faces, 4, 2 ** 31 - 1)
+    if a.lod != 0:
+        check_int("--lod", a.lod, 4, 2 ** 31 - 1)
+    check_int("--stamps", a.stamps, 1, 100_000)
+    if a.port is not None:
+        check_int("--port", a.port, 0, 65535)
+    if a.level is not None:
+        check_range("--level", a.level, -1e300, 1e300)
+    if a.out is not None and not a.out.strip():
+        raise ValueError("--out must be a folder path, got ''")
+
+
+def _segment(a, open_source, paint_demo) -> int:
+    _check_segment_args(a)
+    src = open_source(a.source, level=a.level, downsample=a.downsample)
     seg = src.seg
     print(f"surface: {seg.n_vertices:,} vertices, {len(seg.faces):,} faces"
           + (f" (iso-value {src.level:g})" if src.level is not None else ""))
@@ -841,7 +947,10 @@ def main_segment(argv: list[str] | None = None) -> int:
 
         from plantvr.view.segmentation import SegmentationView
         out = Path(a.out)
-        out.mkdir(parents=True, exist_ok=True)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"--out {str(out)!r} cannot be created: {exc.strerror or exc}") from None
         n = paint_demo(seg, truth=src.truth, stamps=a.stamps)
         seg.export_ply(out / "segment.ply")
         seg.save(out / "segment_session.npz", include_mesh=False)

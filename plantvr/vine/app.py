@@ -63,8 +63,14 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
     """
     from plantvr.vine.isosurface import extract_isosurface
     from plantvr.vine.volume import downsample2, load_volume, suggest_level
+    if not isinstance(source, (str, os.PathLike)):
+        raise ValueError(f"source must be 'synth', 'synth:N' or a volume/mesh path, got {type(source).__name__}")
     s = os.fspath(source)
+    if not s.strip():
+        raise ValueError("source must be 'synth', 'synth:N' or a volume/mesh path, got ''")
     size = check_int("size", size, 16, 1024)
+    if not isinstance(downsample, (bool, np.bool_)):
+        raise ValueError(f"downsample must be True or False, got {downsample!r}")
     if s == "synth" or s.startswith("synth:"):
         if ":" in s:
             try:
@@ -85,13 +91,22 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
         raise ValueError(f"source must be 'synth', 'synth:N' or an existing volume/mesh file, got {s!r}")
     if p.suffix.lower() in _MESH_SUFFIXES:
         import trimesh
-        m = trimesh.load(p, force="mesh", process=False)
-        seg = Segmentation(np.asarray(m.vertices, np.float32), np.asarray(m.faces))
-        return Source(seg, None, None, None)
+        try:
+            m = trimesh.load(p, force="mesh", process=False)
+            v, f = np.asarray(m.vertices, np.float32), np.asarray(m.faces)
+        except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many types on a corrupt file
+            raise ValueError(f"could not read mesh {s!r}: {type(exc).__name__}: {exc}") from None
+        if len(v) == 0 or len(f) == 0:
+            raise ValueError(f"mesh {s!r} has no triangles")
+        return Source(Segmentation(v, f), None, None, None)
     vol = load_volume(p)
     if downsample:
         vol = downsample2(vol)
-    lev = suggest_level(vol) if level is None else float(level)
+    lo, hi = float(vol.min()), float(vol.max())
+    if lo == hi:
+        raise ValueError(f"volume {s!r} is constant (every voxel is {lo:g}): it has no surface to extract")
+    lev = suggest_level(vol) if level is None else check_range("level", level, lo, hi, low_open=True,
+                                                                high_open=True)
     surf = extract_isosurface(vol, lev)
     return Source(Segmentation(surf.vertices, surf.faces, normals=surf.normals), vol, lev, None)
 

@@ -21,7 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_zip, zip_directory
 from plantvr._validation import check_array, check_int, check_range
+from plantvr.vine._filecheck import check_elements
 
 __all__ = ["Bundle", "load_bundle", "restore_bundle", "save_bundle", "volume_sha256"]
 
@@ -29,6 +31,9 @@ BUNDLE_FORMAT = 1
 _MAGIC = "plantvr-vine-bundle"
 _STAMP = (1980, 1, 1, 0, 0, 0)
 _STORED = ("arrays/vertices.npy", "arrays/normals.npy")
+
+#: Cap on the inflated size of a bundle :func:`load_bundle` reads (bytes), checked before inflating.
+MAX_BUNDLE_BYTES = MAX_READ_BYTES
 
 
 def volume_sha256(volume: np.ndarray) -> str:
@@ -167,9 +172,7 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
     members = [("manifest.json", json.dumps(manifest, sort_keys=True, indent=1).encode())]
     members += [(f"arrays/{k}.npy", _npy_bytes(arrays[k])) for k in sorted(arrays)]
     digest = _digest(members)
-    p = os.fspath(path)
-    tmp = p + ".tmp"
-    with zipfile.ZipFile(tmp, "w") as z:
+    with atomic_write(path) as fh, zipfile.ZipFile(fh, "w") as z:   # a failed save leaves the old file
         for name, data in members:
             info = zipfile.ZipInfo(name, date_time=_STAMP)
             # float meshes barely deflate (~10 %) and cost most of the time: store them
@@ -177,7 +180,6 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
             info.external_attr = 0o644 << 16
             z.writestr(info, data, compresslevel=1)
         z.comment = f"{_MAGIC} sha256={digest}".encode()
-    os.replace(tmp, p)
     return digest
 
 
@@ -190,16 +192,26 @@ def _digest(members) -> str:
 
 
 def _read(path) -> tuple[dict, dict]:
+    from plantvr.vine.segmentation import _STATE_NAMES, Segmentation
+    from plantvr.vine.volume import _check_declared
     p = os.fspath(path)
-    try:
-        with zipfile.ZipFile(p) as z:
-            comment = z.comment.decode("ascii", "replace")
-            names = z.namelist()
-            if "manifest.json" not in names:
-                raise ValueError(f"bundle {p!r} has no manifest.json (not a ViNE bundle)")
-            members = [(n, z.read(n)) for n in ["manifest.json"] + sorted(n for n in names if n != "manifest.json")]
-    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, KeyError, RuntimeError) as exc:
-        raise ValueError(f"could not read bundle {p!r} (corrupt, truncated or not a zip file): {exc}") from None
+    if not os.path.isfile(p):
+        raise ValueError(f"bundle {p!r} does not exist")
+    # sizes first: every array header against what its mesh allows, the total against the cap, unknown
+    # members refused, all before anything is inflated
+    names, comment = zip_directory(p, what="bundle", max_members=64)
+    if "manifest.json" not in names:
+        raise ValueError(f"bundle {p!r} has no manifest.json (not a ViNE bundle)")
+    heads = npy_headers(p, what="bundle", prefix="arrays/", max_members=64)
+    rows = heads.get("vertices", heads.get("labels", ((None,), None)))[0]
+    n = int(rows[0]) if len(rows) in (1, 2) and rows[0] is not None else None
+    check_elements(heads, Segmentation._element_bounds(n), what="bundle", path=p)
+    if "volume" in heads:
+        _check_declared(p, *heads["volume"])
+    allowed = {"manifest.json"} | {f"arrays/{k}.npy" for k in (*_STATE_NAMES, "volume")}
+    data = read_zip(p, what="bundle", max_bytes=MAX_BUNDLE_BYTES, max_members=64, allowed=allowed)
+    members = [(k, data.pop(k)) for k in ["manifest.json"] + sorted(k for k in data if k != "manifest.json")]
+    comment = comment.decode("ascii", "replace")
     want = comment.partition("sha256=")[2]
     if not comment.startswith(_MAGIC) or not want:
         raise ValueError(f"bundle {p!r} has no PlantVR checksum (not a ViNE bundle)")
@@ -216,16 +228,53 @@ def _read(path) -> tuple[dict, dict]:
     if manifest.get("format") != BUNDLE_FORMAT:
         raise ValueError(f"bundle {p!r}: format must be {BUNDLE_FORMAT}, got {manifest.get('format')!r}")
     arrays = {}
-    for name, data in members[1:]:
+    for name, blob in members[1:]:
         if not (name.startswith("arrays/") and name.endswith(".npy")):
             raise ValueError(f"bundle {p!r}: unexpected member {name!r}")
         try:
-            arrays[name[7:-4]] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
-        except (ValueError, EOFError) as exc:
+            arrays[name[7:-4]] = np.lib.format.read_array(io.BytesIO(blob), allow_pickle=False)
+        except (ValueError, EOFError, SyntaxError) as exc:
             raise ValueError(f"bundle {p!r}: array {name!r} is unreadable: {exc}") from None
     if sorted(arrays) != manifest.get("arrays"):
         raise ValueError(f"bundle {p!r}: arrays {sorted(arrays)} differ from the manifest's list")
+    _check_manifest(manifest, p)
     return manifest, arrays
+
+
+def _is_num(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and bool(np.isfinite(x))
+
+
+def _check_manifest(man: dict, p: str) -> None:
+    """Types and ranges of every manifest field load_bundle uses; raises ``ValueError`` naming the field."""
+    def bad(field, want):
+        raise ValueError(f"bundle {p!r}: manifest field {field!r} must be {want}, got {man.get(field)!r:.200}")
+    if not isinstance(man.get("include_mesh"), bool):
+        bad("include_mesh", "true or false")
+    if man.get("level") is not None and not _is_num(man["level"]):
+        bad("level", "a finite number or null")
+    slab = man.get("slab", 64)
+    if not (isinstance(slab, int) and not isinstance(slab, bool) and 2 <= slab <= 65536):
+        bad("slab", "an integer in [2, 65536]")
+    sp = man.get("spacing", [1.0, 1.0, 1.0])
+    if not (isinstance(sp, list) and len(sp) == 3 and all(_is_num(x) and 0 < x <= 1e6 for x in sp)):
+        bad("spacing", "3 numbers in (0, 1e6]")
+    sha = man.get("volume_sha256")
+    if sha is not None and not (isinstance(sha, str) and len(sha) == 64):
+        bad("volume_sha256", "a 64-digit hex string or null")
+    if man.get("volume_path") is not None and not isinstance(man["volume_path"], str):
+        bad("volume_path", "a string or null")
+    mesh = man.get("mesh")
+    if not (isinstance(mesh, list) and len(mesh) == 3 and all(isinstance(x, int) and x >= 0 for x in mesh)):
+        bad("mesh", "3 non-negative integers (vertices, faces, fingerprint)")
+    pres = man.get("preserve", False)
+    if not (isinstance(pres, bool) or (isinstance(pres, list) and all(isinstance(x, int) for x in pres))):
+        bad("preserve", "true, false or a list of labels")
+    events = man.get("event_log", [])
+    if not (isinstance(events, list) and all(isinstance(e, list) and e and isinstance(e[0], str) for e in events)):
+        bad("event_log", "a list of [op, *args] lists")
+    if not isinstance(man.get("meta", {}), dict):
+        bad("meta", "an object")
 
 
 def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, index: str = "grid") -> Bundle:
@@ -287,8 +336,6 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
     pres = man.get("preserve", False)
     seg.preserve = seg.check_preserve(pres if isinstance(pres, bool) else tuple(pres))
     events = man.get("event_log", [])
-    if not isinstance(events, list):
-        raise ValueError(f"bundle {p!r}: event_log must be a list")  # noqa: TRY004
     seg.event_log = [_from_json(e) for e in events]
     return Bundle(seg, level=man.get("level"), volume=volume, volume_sha256=want,
                   volume_path=man.get("volume_path"), spacing=tuple(man.get("spacing", (1.0, 1.0, 1.0))),

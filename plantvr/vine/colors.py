@@ -29,11 +29,14 @@ class ColorTable:
     def __init__(self, colors=None):
         if colors is None:
             colors = DEFAULT_PALETTE
-        c = np.asarray(colors)
+        try:
+            c = np.asarray(colors)
+        except (TypeError, ValueError):
+            raise ValueError(f"colors must be an (N, 3) or (N, 4) uint8 array, got {type(colors).__name__}") from None
         if c.ndim != 2 or c.shape[1] not in (3, 4) or not 1 <= c.shape[0] <= 256:
             raise ValueError(f"colors must have shape (N, 3) or (N, 4) with N in [1, 256], got {c.shape}")
-        if c.dtype.kind == "f":
-            raise ValueError("colors must be integers in [0, 255] (uint8), got floats")
+        if c.dtype.kind not in "iu":
+            raise ValueError(f"colors must be integers in [0, 255] (uint8), got dtype {c.dtype}")
         if c.min() < 0 or c.max() > 255:
             raise ValueError(f"colors must be in [0, 255], got range [{c.min()}, {c.max()}]")
         self.rgba = np.full((c.shape[0], 4), 255, np.uint8)
@@ -48,24 +51,41 @@ class ColorTable:
         """Validate a label index against this table."""
         return check_int(name, label, 0, len(self) - 1)
 
+    @staticmethod
+    def check_rgb(name: str, rgb) -> np.ndarray:
+        """Validate a colour: 3 or 4 integer components in [0, 255] (RGB or RGBA); returns them as uint8.
+
+        Non-integral components (``200.7``) are refused rather than rounded, out-of-range ones rather than
+        clamped.
+        """
+        if isinstance(rgb, (str, bytes)):
+            raise ValueError(f"{name} must be 3 or 4 integers in [0, 255], got {rgb!r}")
+        try:
+            c = check_array(name, rgb, shape=(None,), dtype=np.float64)
+        except ValueError:
+            raise ValueError(f"{name} must be 3 or 4 integers in [0, 255], got {rgb!r}") from None
+        if c.shape[0] not in (3, 4):
+            raise ValueError(f"{name} must be 3 or 4 integers in [0, 255], got {c.shape[0]} values")
+        bad = [float(x) for x in c if not (0 <= x <= 255 and float(x).is_integer())]
+        if bad:
+            raise ValueError(f"{name} components must be integers in [0, 255], got {[float(x) for x in c]} "
+                             f"(bad: {bad})")
+        return c.astype(np.uint8)
+
     def set_color(self, label: int, rgb) -> None:
         """Recolour one entry (indices untouched)."""
         label = self.check_label("label", label)
-        c = check_array("rgb", rgb, shape=(None,), dtype=np.float64)
-        if c.shape[0] not in (3, 4) or c.min() < 0 or c.max() > 255:
-            raise ValueError(f"rgb must be 3 or 4 values in [0, 255], got {list(c)}")
-        self.rgba[label, :c.shape[0]] = np.rint(c).astype(np.uint8)
+        c = self.check_rgb("rgb", rgb)
+        self.rgba[label, :c.shape[0]] = c
         self.version += 1
 
     def add_color(self, rgb) -> int:
         """Append a colour; returns its label."""
         if len(self) >= 256:
             raise ValueError("colour table is full (256 entries, one uint8 per vertex)")
-        c = check_array("rgb", rgb, shape=(None,), dtype=np.float64)
-        if c.shape[0] not in (3, 4) or c.min() < 0 or c.max() > 255:
-            raise ValueError(f"rgb must be 3 or 4 values in [0, 255], got {list(c)}")
+        c = self.check_rgb("rgb", rgb)
         row = np.full((1, 4), 255, np.uint8)
-        row[0, :c.shape[0]] = np.rint(c).astype(np.uint8)
+        row[0, :c.shape[0]] = c
         self.rgba = np.vstack([self.rgba, row])
         self.visible = np.append(self.visible, True)
         self.version += 1
@@ -74,6 +94,8 @@ class ColorTable:
     def set_visible(self, label: int, visible: bool) -> None:
         """Show or hide every vertex of one colour."""
         label = self.check_label("label", label)
+        if not isinstance(visible, (bool, np.bool_)):
+            raise ValueError(f"visible must be True or False, got {visible!r}")
         self.visible[label] = bool(visible)
         self.version += 1
 

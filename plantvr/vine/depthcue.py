@@ -273,9 +273,19 @@ def depth_factor(d: np.ndarray, d_c: float, d_f: float, *, p: float = 0.85, s: f
     """
     p = check_range("p", p, 0.0, 1.0)
     s = check_range("s", s, 0.0, 100.0, low_open=True)
+    if not isinstance(mode, str):
+        raise ValueError(f"mode must be one of ['p_exp', 'fog', 'literal'], got {mode!r:.80}")
     mode = check_choice("mode", mode, ("p_exp", "fog", "literal"))
+    d_c = check_range("d_c", d_c, -1e300, 1e300)
+    d_f = check_range("d_f", d_f, -1e300, 1e300)
+    try:
+        dd = np.asarray(d, np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"d must be an array of distances, got {type(d).__name__}") from None
+    if not np.all(np.isfinite(dd)):
+        raise ValueError("d must contain only finite distances (no NaN or inf)")
     span = max(float(d_f) - float(d_c), 1e-12)
-    x = np.clip((np.asarray(d, np.float64) - d_c) / span, 0.0, 1.0)
+    x = np.clip((dd - d_c) / span, 0.0, 1.0)
     if mode == "p_exp":
         return p * np.exp(s * (x - 1.0))                       # ERRATUM A.4 (normalised variant)
     if mode == "fog":

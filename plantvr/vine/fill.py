@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from plantvr._validation import check_int, check_range
+from plantvr._validation import MAX_COORD, check_int, check_range
 
 __all__ = ["MeshGraph", "flood_region", "label_components", "mesh_graph"]
 
@@ -144,10 +144,17 @@ def _csr_scipy(faces: np.ndarray, n: int):
 
 def _check_mesh_arrays(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     """(vertices, faces) as arrays, checked: (V, 3) with V >= 1, and (F, 3) integer ids in [0, V - 1]."""
-    v = np.asarray(vertices)
-    f = np.asarray(faces)
-    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1:
-        raise ValueError(f"vertices must have shape (V, 3) with V >= 1, got {v.shape}")
+    try:
+        v = np.asarray(vertices)
+        f = np.asarray(faces)
+    except (TypeError, ValueError):
+        raise ValueError("vertices and faces must be numeric arrays of shape (V, 3) and (F, 3)") from None
+    if v.ndim != 2 or v.shape[1] != 3 or v.shape[0] < 1 or v.dtype.kind not in "fiu":
+        raise ValueError(f"vertices must be a numeric array of shape (V, 3) with V >= 1, got {v.dtype} {v.shape}")
+    if v.dtype.kind == "f" and not np.all(np.isfinite(v)):
+        raise ValueError("vertices must contain only finite values (no NaN or inf)")
+    if float(np.abs(v).max()) > MAX_COORD:
+        raise ValueError(f"vertices must lie in [-{MAX_COORD:g}, {MAX_COORD:g}], got magnitude {float(np.abs(v).max()):g}")
     if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
         raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
     if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):

@@ -14,7 +14,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from plantvr._sorting import counting_sort
-from plantvr._validation import check_array, check_point, check_range
+from plantvr._validation import MAX_COORD, check_array, check_point, check_range
 
 __all__ = ["GridIndex", "KDTreeIndex", "ball_query_brute"]
 
@@ -36,7 +36,9 @@ def ball_query_brute(points: np.ndarray, center, radius: float) -> np.ndarray:
     ----------
     .. [1] Thesis Eqs. 5.15–5.16 (spec 000_vine §2.4.3).
     """
-    c = np.asarray(center, np.float64)
+    points = check_array("points", points, shape=(None, 3), dtype=np.float64, max_abs=MAX_COORD)
+    c = check_point("center", center)
+    radius = check_range("radius", radius, 0.0, 1e13)
     d0 = points[:, 0].astype(np.float64) - c[0]
     d1 = points[:, 1].astype(np.float64) - c[1]
     d2 = points[:, 2].astype(np.float64) - c[2]

@@ -50,8 +50,9 @@ class Surface:
 
 def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
     """Signed volume of a triangle mesh (positive when faces wind counter-clockwise seen from outside)."""
-    v = np.asarray(vertices, np.float64)
-    f = np.asarray(faces, np.int64)
+    from plantvr.vine.fill import _check_mesh_arrays
+    v, f = _check_mesh_arrays(vertices, faces)
+    v, f = v.astype(np.float64), f.astype(np.int64)
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
 

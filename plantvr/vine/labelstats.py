@@ -248,6 +248,7 @@ def export_label_meshes(directory: str | os.PathLike, vertices: np.ndarray, face
     """
     import trimesh
 
+    from plantvr._fileio import write_atomic
     from plantvr.vine.ply import write_ply
     v, f, lab = _check_mesh(vertices, faces, labels)
     fmt = check_choice("fmt", fmt, _FORMATS)
@@ -266,6 +267,6 @@ def export_label_meshes(directory: str | os.PathLike, vertices: np.ndarray, face
             write_ply(path, sv, sf, colors=rgba, labels=lab[ids])
         else:
             m = trimesh.Trimesh(sv, sf, vertex_colors=rgba, process=False)
-            m.export(path)
+            write_atomic(path, m.export(file_type=fmt))
         out[int(k)] = path
     return out

@@ -8,6 +8,7 @@ import os
 
 import numpy as np
 
+from plantvr._fileio import atomic_write
 from plantvr._validation import check_array, check_int
 
 __all__ = ["write_ply"]
@@ -72,7 +73,7 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
     header = ["ply", "format binary_little_endian 1.0", "comment PlantVR ViNE segmentation",
               f"element vertex {len(v)}", *[f"property {p}" for p in props],
               f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
-    with open(path, "wb") as fh:
+    with atomic_write(path) as fh:                        # a failed write leaves the old file, no leftovers
         fh.write(("\n".join(header) + "\n").encode("ascii"))
         for a in range(0, len(v), chunk):                 # chunked: peak memory ~ chunk rows, not the mesh
             b = min(a + chunk, len(v))

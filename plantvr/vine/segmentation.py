@@ -11,13 +11,15 @@ import colorsys
 import contextlib
 import itertools
 import os
-import zipfile
 import zlib
+from collections import deque
 from collections.abc import Callable
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int, check_point, check_range
+from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_npz, write_atomic
+from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
+from plantvr.vine._filecheck import check_elements
 from plantvr.vine.colors import ColorTable
 from plantvr.vine.history import History, LabelEdit, merge_stamps
 from plantvr.vine.index import GridIndex, KDTreeIndex, bounds
@@ -27,6 +29,17 @@ from plantvr.vine.views import SavedView
 __all__ = ["Segmentation"]
 
 _FORMAT = 1
+
+#: Cap on the inflated size of a session file :meth:`Segmentation.load` / :meth:`~Segmentation.restore` reads
+#: (bytes; a 36 M-face session with its mesh and a full undo history is about 1.5 GB).
+MAX_SESSION_BYTES = MAX_READ_BYTES
+
+#: Largest number of saved views a session file may hold.
+MAX_VIEWS = 1_000_000
+
+_STATE_NAMES = ("format", "vertices", "faces", "normals", "labels", "rgba", "visible", "views", "undo_idx",
+                "undo_old", "undo_new", "undo_off", "redo_idx", "redo_old", "redo_new", "redo_off",
+                "history_limits", "mesh")
 
 
 def _distinct_color(k: int) -> tuple[int, int, int]:
@@ -66,7 +79,7 @@ class Segmentation:
 
     def __init__(self, vertices, faces, *, labels=None, colors: ColorTable | None = None, normals=None,
                  index: str = "grid", max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20):
-        v = check_array("vertices", vertices, shape=(None, 3), dtype=np.float32, min_rows=1)
+        v = check_array("vertices", vertices, shape=(None, 3), dtype=np.float32, min_rows=1, max_abs=MAX_COORD)
         f = np.asarray(faces)
         if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
             raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
@@ -86,6 +99,8 @@ class Segmentation:
             lab = lab.copy()
         if normals is not None:
             normals = check_array("normals", normals, shape=(len(v), 3), dtype=np.float32)
+        if not isinstance(index, str):
+            raise ValueError(f"index must be one of ['grid', 'kdtree'], got {index!r:.80}")
         index = check_choice("index", index, ("grid", "kdtree"))
         history = History(max_items=max_undo, max_bytes=max_undo_bytes)
         self.vertices = v
@@ -103,6 +118,7 @@ class Segmentation:
         self.event_log: list[tuple] = []          # replayable commands: (op, *args), plain Python values
         self.autosave_path: str | None = None
         self._preserve: bool | tuple[int, ...] = False  # default brush mode of paint(); see paint()
+        self._hold = 0                            # > 0: autosave deferred (replay saves once at its end)
         self._graph = None
         lo, hi = bounds(v)
         ext = hi - lo
@@ -149,10 +165,16 @@ class Segmentation:
         """Stop notifying ``callback``."""
         self._observers = [c for c in self._observers if c is not callback]
 
-    def _notify(self, kind: str, ids: np.ndarray | None) -> None:
+    def _changed(self, kind: str | None = None, ids: np.ndarray | None = None) -> None:
+        """The one path every state change takes: bump :attr:`version`, notify observers (when ``kind`` is
+        given) and autosave (outside strokes), so no command can change state without being saved."""
         self.version += 1
-        for cb in list(self._observers):
-            cb(kind, ids)
+        if kind is not None:
+            for cb in list(self._observers):
+                cb(kind, ids)
+        self._after_operation()
+
+    _notify = _changed
 
     # ------------------------------------------------------------------ painting
     def _check_paint(self, center, radius, label):
@@ -245,7 +267,6 @@ class Segmentation:
                 self.history.push(edit)
         if idx.size:
             self._notify("labels", idx)
-            self._after_operation()
         return int(idx.size)
 
     def paint_stroke(self, centers, radius: float, label: int,
@@ -296,7 +317,7 @@ class Segmentation:
         elif parts:
             self.history.redo_stack.clear()       # it wrote labels (and wrote them back): redo is stale
         if parts:
-            self._after_operation()
+            self._changed()
         return edit
 
     def abort_stroke(self) -> None:
@@ -318,7 +339,6 @@ class Segmentation:
         e = self.history.undo(self.labels)
         if e is not None:
             self._notify("labels", e.indices)
-            self._after_operation()
         return e
 
     def redo(self) -> LabelEdit | None:
@@ -329,7 +349,6 @@ class Segmentation:
         e = self.history.redo(self.labels)
         if e is not None:
             self._notify("labels", e.indices)
-            self._after_operation()
         return e
 
     # ------------------------------------------------------------------ fill, split, merge (issue 15)
@@ -350,7 +369,6 @@ class Segmentation:
         self.labels[idx] = new
         self.history.push(edit)
         self._notify("labels", idx)
-        self._after_operation()
         return edit
 
     def fill(self, vertex: int, label: int, radius: float | None = None) -> int:
@@ -434,14 +452,19 @@ class Segmentation:
         if not movers:
             return [label]
         new_labels = []
-        for _ in movers:
-            k = self.colors.add_color(_distinct_color(len(self.colors)))
-            new_labels.append(k)
-        self._notify("colors", None)
-        lut = np.full(n, -1, np.int64)
-        lut[movers] = new_labels
-        ids = np.flatnonzero((comp >= 0) & (lut[np.maximum(comp, 0)] >= 0))
-        self._commit(ids, lut[comp[ids]].astype(np.uint8))
+        self._hold += 1                           # one autosave for the new colours and the relabelling
+        try:
+            for _ in movers:
+                k = self.colors.add_color(_distinct_color(len(self.colors)))
+                new_labels.append(k)
+            self._notify("colors", None)
+            lut = np.full(n, -1, np.int64)
+            lut[movers] = new_labels
+            ids = np.flatnonzero((comp >= 0) & (lut[np.maximum(comp, 0)] >= 0))
+            self._commit(ids, lut[comp[ids]].astype(np.uint8))
+        finally:
+            self._hold -= 1
+        self._after_operation()
         return [label, *new_labels]
 
     def merge_labels(self, keep: int, other: int) -> int:
@@ -463,14 +486,46 @@ class Segmentation:
         """Apply a recorded event log (``seg.event_log`` of another session on the same mesh).
 
         The same replay gives identical label arrays (spec §2.0, checklist item 4). Every event is checked
-        first; an unknown operation raises ``ValueError`` before anything is applied.
+        first: the whole log is applied to a scratch copy of this session, and only when every event succeeded
+        does this session take the result (observers get one ``"all"`` notice, autosave writes once). An
+        unknown operation or a bad argument anywhere raises ``ValueError`` naming the event, and this session
+        is left unchanged.
         """
-        events = [tuple(e) for e in events]
-        for e in events:
-            if not e or e[0] not in self._REPLAYABLE:
-                raise ValueError(f"event must start with one of {list(self._REPLAYABLE)}, got {e!r}")
-        for op, *args in events:
-            getattr(self, op)(*args)
+        if isinstance(events, (str, bytes)) or not hasattr(events, "__iter__"):
+            raise ValueError(f"events must be a list of (op, *args) tuples, got {type(events).__name__}")
+        checked = []
+        for i, e in enumerate(events):
+            if isinstance(e, (str, bytes)) or not isinstance(e, (tuple, list)) or not e \
+                    or not isinstance(e[0], str) or e[0] not in self._REPLAYABLE:
+                raise ValueError(f"event must start with one of {list(self._REPLAYABLE)}, got events[{i}] = {e!r}")
+            checked.append(tuple(e))
+        if not checked:
+            return
+        scratch = self._scratch()
+        for i, (op, *args) in enumerate(checked):
+            try:
+                getattr(scratch, op)(*args)
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"events[{i}] {checked[i]!r} cannot be applied: {exc}") from None
+        self._adopt(scratch, same_mesh=True, event_log=True)
+
+    def _scratch(self) -> Segmentation:
+        """A copy sharing the mesh, index and graph, with its own labels, colours, history, views and log (no
+        observers, no autosave): commands on it leave this session untouched."""
+        c = object.__new__(type(self))
+        c.__dict__.update(self.__dict__)
+        c.labels = self.labels.copy()
+        c.colors = self.colors.copy()
+        c.history = History(max_items=self.history.max_items, max_bytes=self.history.max_bytes)
+        c.history.undo_stack = deque(self.history.undo_stack)
+        c.history.redo_stack = deque(self.history.redo_stack)
+        c.views = list(self.views)
+        c.event_log = list(self.event_log)
+        c._stroke = None if self._stroke is None else list(self._stroke)
+        c._observers = []
+        c.autosave_path = None
+        c._hold = 0
+        return c
 
     # ------------------------------------------------------------------ colours and visibility
     def set_color(self, label: int, rgb) -> None:
@@ -491,7 +546,6 @@ class Segmentation:
         self.colors.set_visible(label, visible)
         self.event_log.append(("set_visible", int(label), bool(visible)))
         self._notify("visibility", None)
-        self._after_operation()
 
     def hide(self, label: int) -> None:
         """Hide a colour."""
@@ -527,6 +581,7 @@ class Segmentation:
         if not isinstance(view, SavedView):
             raise ValueError(f"view must be a SavedView, got {type(view).__name__}")  # noqa: TRY004
         self.views.append(view)
+        self._changed()
         return len(self.views) - 1
 
     # ------------------------------------------------------------------ persistence
@@ -564,25 +619,47 @@ class Segmentation:
     def save(self, path: str | os.PathLike, *, compress: bool = False, include_mesh: bool = True) -> None:
         """Save mesh, labels, colour table, visibility, views and undo/redo history to one ``.npz`` file.
 
-        Written to a temporary file first and renamed, so a crash never leaves a half-written session.
+        Written atomically (:func:`plantvr._fileio.atomic_write`: a temporary file beside ``path``, fsync,
+        rename), so a save that fails half way leaves the previous file as it was and no temporary file.
         With ``include_mesh=False`` only the segmentation state is written (about 1 byte per vertex plus the
         history), tied to this mesh by a fingerprint; :meth:`restore` it onto a segmentation of the same mesh.
         """
         if self._stroke is not None:
             raise ValueError("a stroke is open; end_stroke() before saving")
-        path = os.fspath(path)
-        tmp = path + ".tmp"
-        with open(tmp, "wb") as fh:
-            (np.savez_compressed if compress else np.savez)(fh, **self._state_arrays(include_mesh))
-        os.replace(tmp, path)
+        arrays = self._state_arrays(include_mesh)
+        with atomic_write(path) as fh:
+            (np.savez_compressed if compress else np.savez)(fh, **arrays)
+
+    @staticmethod
+    def _element_bounds(n_vertices: int | None) -> dict[str, int]:
+        """Largest element count of each state array for a mesh of ``n_vertices`` (None: not known yet)."""
+        b = {"format": 1, "history_limits": 2, "mesh": 3, "rgba": 4 * 256, "visible": 256,
+             "views": 13 * MAX_VIEWS, "undo_off": 10_001, "redo_off": 10_001}
+        if n_vertices is not None:
+            b.update(labels=n_vertices, normals=3 * n_vertices)
+            for side in ("undo", "redo"):                 # at most 10000 edits of at most V vertices each
+                b.update({f"{side}_{k}": 10_000 * n_vertices for k in ("idx", "old", "new")})
+        return b
+
+    @staticmethod
+    def _read_arrays(path, *, what: str, base: Segmentation | None = None) -> dict:
+        """The state arrays of a session file, every size checked before it is inflated."""
+        heads = npy_headers(path, what=what, max_members=64)
+        n = base.n_vertices if base is not None and "vertices" not in heads else None
+        if n is not None and "labels" in heads and heads["labels"][0] != (n,):
+            raise ValueError(f"{what} {os.fspath(path)!r} belongs to another mesh: it labels "
+                             f"{list(heads['labels'][0])} vertices, this mesh has {n}")
+        if "vertices" in heads:
+            shape, _ = heads["vertices"]
+            n = int(shape[0]) if len(shape) == 2 else None
+        check_elements(heads, Segmentation._element_bounds(n), what=what, path=path)
+        return read_npz(path, what=what, max_bytes=MAX_SESSION_BYTES, allowed=_STATE_NAMES)
 
     @staticmethod
     def _read_state(path, base: Segmentation | None = None) -> dict:
-        try:
-            with np.load(path, allow_pickle=False) as z:
-                d = {k: z[k] for k in z.files}
-        except (OSError, EOFError, ValueError, zipfile.BadZipFile, KeyError) as exc:
-            raise ValueError(f"could not read segmentation file {os.fspath(path)!r}: {exc}") from None
+        if not os.path.isfile(path):
+            raise ValueError(f"segmentation file {os.fspath(path)!r} does not exist")
+        d = Segmentation._read_arrays(path, what="segmentation file", base=base)
         return Segmentation._check_state(d, path, base)
 
     @staticmethod
@@ -602,29 +679,57 @@ class Segmentation:
         need = ("format", "vertices", "faces", "labels", "rgba", "visible", "views", "undo_idx", "undo_old",
                 "undo_new", "undo_off", "redo_idx", "redo_old", "redo_new", "redo_off", "history_limits")
         missing = [k for k in need if k not in d]
+        where = f"segmentation file {os.fspath(path)!r}"
         if missing:
-            raise ValueError(f"segmentation file {os.fspath(path)!r} is missing arrays {missing}")
-        if d["format"].tolist() != [_FORMAT]:
-            raise ValueError(f"segmentation file format must be {_FORMAT}, got {d['format'].tolist()}")
-        v, lab = d["vertices"], d["labels"]
-        if v.dtype != np.float32 or v.ndim != 2 or v.shape[1] != 3:
-            raise ValueError(f"segmentation file: vertices must be float32 (V, 3), got {v.dtype} {v.shape}")
+            raise ValueError(f"{where} is missing arrays {missing}")
+        fmt = d["format"]
+        if fmt.dtype.kind not in "iu" or fmt.tolist() != [_FORMAT]:
+            raise ValueError(f"{where}: format must be [{_FORMAT}], got {fmt.tolist()}")
+        v, lab, f = d["vertices"], d["labels"], d["faces"]
+        if v.dtype != np.float32 or v.ndim != 2 or v.shape[1] != 3 or len(v) < 1:
+            raise ValueError(f"{where}: vertices must be float32 (V, 3) with V >= 1, got {v.dtype} {v.shape}")
+        if not np.all(np.isfinite(v)) or float(np.abs(v).max()) > MAX_COORD:
+            raise ValueError(f"{where}: vertices must be finite and within +-{MAX_COORD:g}")
+        if f.dtype.kind not in "iu" or f.ndim != 2 or f.shape[1] != 3:
+            raise ValueError(f"{where}: faces must be integer (F, 3), got {f.dtype} {f.shape}")
+        if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
+            raise ValueError(f"{where}: faces index vertices out of range [0, {len(v) - 1}]")
+        nrm = d.get("normals")
+        if nrm is not None and (nrm.dtype != np.float32 or nrm.shape != v.shape or not np.all(np.isfinite(nrm))):
+            raise ValueError(f"{where}: normals must be finite float32 {v.shape}, got {nrm.dtype} {nrm.shape}")
         if lab.dtype != np.uint8 or lab.shape != (len(v),):
-            raise ValueError(f"segmentation file: labels must be uint8 ({len(v)},), got {lab.dtype} {lab.shape}")
+            raise ValueError(f"{where}: labels must be uint8 ({len(v)},), got {lab.dtype} {lab.shape}")
         rgba, vis = d["rgba"], d["visible"]
-        if rgba.dtype != np.uint8 or rgba.ndim != 2 or rgba.shape[1] != 4 or vis.shape != (len(rgba),):
-            raise ValueError("segmentation file: colour table must be uint8 (N, 4) with N visibility flags")
+        if rgba.dtype != np.uint8 or rgba.ndim != 2 or rgba.shape[1] != 4 or not 1 <= len(rgba) <= 256 \
+                or vis.shape != (len(rgba),) or vis.dtype.kind not in "bui":
+            raise ValueError(f"{where}: colour table must be uint8 (N, 4), N in [1, 256], with N visibility flags")
+        if lab.size and int(lab.max()) >= len(rgba):
+            raise ValueError(f"{where}: labels must be < {len(rgba)} (colour table size), got max {lab.max()}")
+        lim = d["history_limits"]
+        if lim.dtype.kind not in "iu" or lim.shape != (2,) or not 1 <= int(lim[0]) <= 10000 \
+                or not 0 <= int(lim[1]) <= 2 ** 62:
+            raise ValueError(f"{where}: history_limits must be [max_items in [1, 10000], max_bytes in "
+                             f"[0, 2**62]], got {lim.tolist()}")
         for side in ("undo", "redo"):
             idx, old, new, off = (d[f"{side}_{k}"] for k in ("idx", "old", "new", "off"))
+            if idx.dtype.kind not in "iu" or off.dtype.kind not in "iu" or old.dtype != np.uint8 \
+                    or new.dtype != np.uint8 or idx.ndim != 1 or old.ndim != 1 or new.ndim != 1:
+                raise ValueError(f"{where}: {side} history arrays have the wrong dtypes or shapes")
             if not (len(idx) == len(old) == len(new)) or off.ndim != 1 or off.size < 1 or off[0] != 0 \
-                    or off[-1] != len(idx) or np.any(np.diff(off) < 0):
-                raise ValueError(f"segmentation file: {side} history arrays are inconsistent")
+                    or off[-1] != len(idx) or np.any(np.diff(off) < 0) or off.size - 1 > 10000:
+                raise ValueError(f"{where}: {side} history arrays are inconsistent")
             if idx.size and (idx.min() < 0 or idx.max() >= len(v)):
-                raise ValueError(f"segmentation file: {side} history indexes vertices out of range")
+                raise ValueError(f"{where}: {side} history indexes vertices out of range")
             if (old.size and old.max() >= len(rgba)) or (new.size and new.max() >= len(rgba)):
-                raise ValueError(f"segmentation file: {side} history labels exceed the colour table")
-        if d["views"].ndim != 2 or d["views"].shape[1] != 13:
-            raise ValueError(f"segmentation file: views must be (N, 13), got {d['views'].shape}")
+                raise ValueError(f"{where}: {side} history labels exceed the colour table")
+        views = d["views"]
+        if views.dtype != np.float64 or views.ndim != 2 or views.shape[1] != 13:
+            raise ValueError(f"{where}: views must be float64 (N, 13), got {views.dtype} {views.shape}")
+        for i, a in enumerate(views):
+            try:
+                SavedView.from_array(a)
+            except ValueError as exc:
+                raise ValueError(f"{where}: view {i} is invalid ({exc})") from None
         return d
 
     @classmethod
@@ -636,7 +741,7 @@ class Segmentation:
     @classmethod
     def _from_state(cls, d: dict, *, index: str = "grid") -> Segmentation:
         table = ColorTable(d["rgba"])
-        table.visible = d["visible"].astype(bool).copy()
+        table.visible = d["visible"].astype(bool)
         lim = d["history_limits"]
         seg = cls(d["vertices"], d["faces"], labels=d["labels"], colors=table, normals=d.get("normals"),
                   index=index, max_undo=int(lim[0]), max_undo_bytes=int(lim[1]))
@@ -658,7 +763,7 @@ class Segmentation:
 
     def _adopt(self, other: Segmentation, *, same_mesh: bool = False, event_log: bool = False) -> None:
         """Take over ``other``'s state (observers, autosave path and brush mode stay; one "all" notice)."""
-        keep = {"_observers", "autosave_path", "_preserve"} | ({"_index", "_graph"} if same_mesh else set())
+        keep = {"_observers", "autosave_path", "_preserve", "_hold"} | ({"_index", "_graph"} if same_mesh else set())
         if not event_log:
             keep.add("event_log")
         self.__dict__.update({k: v for k, v in other.__dict__.items() if k not in keep})
@@ -673,7 +778,7 @@ class Segmentation:
         self._after_operation()
 
     def _after_operation(self) -> None:
-        if self.autosave_path is not None and self._stroke is None:
+        if self.autosave_path is not None and self._stroke is None and not self._hold:
             self.save(self.autosave_path, include_mesh=False)
 
     # ------------------------------------------------------------------ export
@@ -691,7 +796,14 @@ class Segmentation:
             raise ValueError(f"path must end in .glb or .gltf, got {p!r}")
         faces = self.visible_faces() if visible_only else self.faces
         m = trimesh.Trimesh(self.vertices, faces, vertex_colors=self.vertex_colors(), process=False)
-        m.export(p)
+        data = m.export(file_type=p.rsplit(".", 1)[1].lower())
+        if isinstance(data, dict):                # .gltf: the JSON plus its buffer files, each written atomically
+            data[os.path.basename(p)] = data.pop("model.gltf")
+            folder = os.path.dirname(p)
+            for name in sorted(data, key=lambda n: n == os.path.basename(p)):   # the .gltf last
+                write_atomic(os.path.join(folder, name), data[name])
+        else:
+            write_atomic(p, data)
 
     def label_table(self, names: dict | None = None):
         """Per-label statistics (pandas DataFrame): see :func:`plantvr.vine.labelstats.label_table`."""
@@ -701,7 +813,9 @@ class Segmentation:
 
     def export_label_table(self, path: str | os.PathLike, names: dict | None = None) -> None:
         """Write :meth:`label_table` as CSV."""
-        self.label_table(names).to_csv(os.fspath(path), index=False)
+        table = self.label_table(names)
+        with atomic_write(path, "w") as fh:
+            table.to_csv(fh, index=False)
 
     def export_label_meshes(self, directory: str | os.PathLike, *, fmt: str = "ply", which=None,
                             prefix: str = "label") -> dict[int, str]:

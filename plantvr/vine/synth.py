@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from plantvr._validation import check_int, check_range
+from plantvr._validation import MAX_COORD, check_array, check_int, check_range
 
 __all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "synth_vessels", "tile_mesh", "vertex_labels_from_volume"]
 
@@ -123,10 +123,10 @@ def _bezier(p0, p1, p2, n):
 
 def _check_shape(shape) -> tuple[int, int, int]:
     """A volume size (int: a cube, or 3 ints), each checked in [16, 4096]."""
-    if isinstance(shape, (int, np.integer)):
+    if isinstance(shape, (int, np.integer, float, np.floating)) and not isinstance(shape, (bool, np.bool_)):
         shape = (shape, shape, shape)
-    if len(tuple(shape)) != 3:
-        raise ValueError(f"shape must be an int or 3 ints, got {shape!r}")
+    if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__") or len(tuple(shape)) != 3:
+        raise ValueError(f"shape must be an int or 3 ints, got {shape!r:.80}")
     return tuple(check_int("shape", s, 16, 4096) for s in shape)
 
 
@@ -322,7 +322,13 @@ def vertex_labels_from_volume(vertices: np.ndarray, volume: np.ndarray, labels: 
     -------
     (V,) uint8 ndarray
     """
-    v = np.asarray(vertices, np.float64)
+    from plantvr.vine.volume import _check_volume
+    v = check_array("vertices", vertices, shape=(None, 3), max_abs=MAX_COORD)
+    volume = _check_volume("volume", volume)
+    labels = np.asarray(labels) if isinstance(labels, np.ndarray) else labels
+    if not isinstance(labels, np.ndarray) or labels.shape != volume.shape or labels.dtype != np.uint8:
+        raise ValueError(f"labels must be a uint8 array of the volume's shape {volume.shape}, got "
+                         f"{getattr(labels, 'dtype', type(labels).__name__)} {getattr(labels, 'shape', '')}")
     base = np.floor(v).astype(np.int64)
     best = np.full(len(v), -1, np.int64)
     out = np.zeros(len(v), np.uint8)
@@ -355,9 +361,13 @@ def tile_mesh(vertices: np.ndarray, faces: np.ndarray, n_vertices: int, *, gap: 
     vertices : (V', 3) float32 ndarray
     faces : (F', 3) uint32 ndarray
     """
+    from plantvr.vine.fill import _check_mesh_arrays
     n_vertices = check_int("n_vertices", n_vertices, 1, 2 ** 31 - 1)
-    v = np.asarray(vertices, np.float32)
-    f = np.asarray(faces, np.int64)
+    gap = check_range("gap", gap, 0.0, 1e3)
+    v, f = _check_mesh_arrays(vertices, faces)
+    v, f = v.astype(np.float32), f.astype(np.int64)
+    if (n_vertices // len(v) + 1) * max(len(f), 1) > 2 ** 31 - 1:
+        raise ValueError(f"n_vertices {n_vertices} would need more than 2**31 - 1 faces")
     copies = int(np.ceil(n_vertices / max(len(v), 1)))
     side = int(np.ceil(copies ** (1 / 3)))
     ext = (v.max(0) - v.min(0)) * gap

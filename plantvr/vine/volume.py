@@ -10,11 +10,72 @@ from pathlib import Path
 
 import numpy as np
 
+from plantvr._fileio import atomic_write, npy_headers, read_npz
 from plantvr._validation import check_choice, check_int
 
-__all__ = ["downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]
+__all__ = ["MAX_VOLUME_BYTES", "downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]
 
 _DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
+
+#: Largest volume (bytes) :func:`load_volume` reads into memory: every size a file declares (``.npy``/``.npz``
+#: headers, TIFF pages) is checked against it before anything is allocated. Memory-mapped ``.npy`` files need
+#: no memory, so they are only checked against the file's real length.
+MAX_VOLUME_BYTES = 16 * 2 ** 30
+
+
+def _check_declared(path, shape, dtype, *, mapped: bool = False) -> None:
+    """Refuse a declared volume that is not (X, Y, Z) uint8/uint16 or too big to read, before allocating it."""
+    dtype = np.dtype(dtype)
+    shape = tuple(int(s) for s in shape)
+    if len(shape) != 3:
+        raise ValueError(f"volume in {str(path)!r} must be a 3-D array (X, Y, Z), got shape {shape}")
+    if dtype not in _DTYPES:
+        raise ValueError(f"volume in {str(path)!r} must have dtype uint8 or uint16, got {dtype}")
+    n = int(np.prod(shape, dtype=object)) * dtype.itemsize
+    if not mapped and n > MAX_VOLUME_BYTES:
+        raise ValueError(f"volume in {str(path)!r} declares shape {shape} ({n} bytes), more than the "
+                         f"{MAX_VOLUME_BYTES} bytes load_volume reads into memory")
+
+
+def _npy_header(p: Path) -> tuple[tuple, np.dtype, int]:
+    """(shape, dtype, data offset) of a ``.npy`` file, reading its header only."""
+    try:
+        with open(p, "rb") as fh:
+            version = np.lib.format.read_magic(fh)
+            read = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                    else np.lib.format.read_array_header_2_0)
+            shape, _fortran, dtype = read(fh, max_header_size=10_000)
+            return shape, dtype, fh.tell()
+    except (OSError, EOFError, ValueError, SyntaxError) as exc:
+        raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
+
+
+def _tiff_declared(path, *, mapped: bool) -> None:
+    """Check the page shapes a TIFF file declares (tifffile reads the IFDs only)."""
+    import tifffile
+    try:
+        size = os.path.getsize(path)
+        with tifffile.TiffFile(str(path)) as tf:
+            series = tf.series[0]
+            shape, dtype = tuple(series.shape), series.dtype
+            for page in tf.pages:                      # every strip/tile inside the file (else: truncated)
+                ends = [o + n for o, n in zip(page.dataoffsets, page.databytecounts)]
+                if not ends or max(ends) > size:
+                    raise ValueError(f"page data ends at byte {max(ends, default=0)}, past the file's {size}")
+    except Exception as exc:  # noqa: BLE001 - tifffile raises many types (struct, KeyError, TiffFileError) on bad files
+        raise ValueError(f"could not read {str(path)!r} as TIFF: {type(exc).__name__}: {exc}") from None
+    if len(shape) == 2:
+        shape = (1, *shape)
+    _check_declared(path, shape, dtype, mapped=mapped)
+
+
+def _tiff_read(fn, *args, path, **kw):
+    try:
+        return fn(*args, **kw)
+    except MemoryError:
+        raise ValueError(f"volume in {str(path)!r} does not fit in memory") from None
+    except Exception as exc:  # noqa: BLE001 - see _tiff_declared
+        raise ValueError(f"could not read {str(path)!r} as TIFF: {type(exc).__name__}: {exc}") from None
 
 
 def _check_volume(name: str, vol) -> np.ndarray:
@@ -42,6 +103,12 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
     mmap : bool
         Memory-map ``.npy`` files and uncompressed TIFF files instead of reading them.
 
+    Raises
+    ------
+    ValueError
+        A missing, truncated or corrupt file, or one declaring a volume that is not 3-D uint8/uint16 or
+        larger than :data:`MAX_VOLUME_BYTES` (checked from the file's headers before anything is allocated).
+
     Returns
     -------
     (X, Y, Z) uint8 or uint16 ndarray
@@ -59,37 +126,62 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
         files = sorted([f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff")])
         if not files:
             raise ValueError(f"folder {str(p)!r} holds no .tif/.tiff slices")
-        vol = tifffile.imread([str(f) for f in files])
+        shapes = []
+        for f in files:
+            try:
+                with tifffile.TiffFile(str(f)) as tf:
+                    shapes.append((tuple(tf.series[0].shape), tf.series[0].dtype))
+            except Exception as exc:  # noqa: BLE001 - see _tiff_declared
+                raise ValueError(f"could not read slice {str(f)!r} as TIFF: {type(exc).__name__}: {exc}") from None
+        if len({sh for sh in shapes}) != 1 or len(shapes[0][0]) != 2:
+            raise ValueError(f"folder {str(p)!r}: every slice must be one 2-D image of the same shape and dtype, "
+                             f"got {sorted({(s, str(d)) for s, d in shapes})[:3]}")
+        _check_declared(p, (len(files), *shapes[0][0]), shapes[0][1])
+        vol = _tiff_read(tifffile.imread, [str(f) for f in files], path=p)
     else:
         suffix = p.suffix.lower()
         if suffix in (".tif", ".tiff"):
             import tifffile
             vol = None
+            _tiff_declared(p, mapped=True)
             if mmap:
                 try:
                     vol = tifffile.memmap(str(p), mode="r")
+                    _check_declared(p, vol.shape if vol.ndim != 2 else (1, *vol.shape), vol.dtype, mapped=True)
                 except ValueError:
                     vol = None
+                except Exception:  # noqa: BLE001 - not memory-mappable (compressed, tiled, odd IFDs): read it
+                    vol = None
             if vol is None:
-                vol = tifffile.imread(str(p))
+                _tiff_declared(p, mapped=False)           # read into memory: the size cap applies
+                vol = _tiff_read(tifffile.imread, str(p), path=p)
         elif suffix == ".npy":
+            shape, dtype, offset = _npy_header(p)
+            _check_declared(p, shape, dtype, mapped=mmap)
+            n = int(np.prod(shape, dtype=object)) * dtype.itemsize
+            have = p.stat().st_size - offset
+            if n != have:
+                raise ValueError(f"could not read {str(p)!r} as .npy: its header declares {n} bytes of data "
+                                 f"but the file holds {have} (truncated or corrupt)")
             try:
                 vol = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
-            except (ValueError, OSError) as exc:
+            except (ValueError, OSError, EOFError) as exc:
                 raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
         elif suffix == ".npz":
-            import zipfile
             try:
-                with np.load(p, allow_pickle=False) as z:
-                    arrays = {n: z[n] for n in z.files}
-            except (OSError, EOFError, ValueError, zipfile.BadZipFile) as exc:
-                raise ValueError(f"could not read {str(p)!r} as .npz: {exc}") from None
-            names = list(arrays)
+                heads = npy_headers(p, what="volume file", max_members=1000)
+            except ValueError as exc:
+                raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
+            names = list(heads)
             if key is None:
                 key = "volume" if "volume" in names else (names[0] if len(names) == 1 else None)
             if key is None or key not in names:
                 raise ValueError(f"key must name one of the arrays {names} in {str(p)!r}, got {key!r}")
-            vol = arrays[key]
+            _check_declared(p, *heads[key])
+            try:
+                vol = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
+            except ValueError as exc:
+                raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
         else:
             raise ValueError(f"path must end in .tif, .tiff, .npy or .npz (or be a folder), got {str(p)!r}")
     return _check_volume("volume", vol)
@@ -100,13 +192,26 @@ def save_volume(path: str | os.PathLike, volume: np.ndarray) -> None:
     volume = _check_volume("volume", volume)
     p = Path(path)
     suffix = check_choice("path suffix", p.suffix.lower(), (".tif", ".tiff", ".npy", ".npz"))
-    if suffix in (".tif", ".tiff"):
-        import tifffile
-        tifffile.imwrite(str(p), np.ascontiguousarray(volume))
-    elif suffix == ".npy":
-        np.save(p, volume)
-    else:
-        np.savez_compressed(p, volume=volume)
+    with atomic_write(p) as fh:                    # a failed write leaves the old file, no leftovers
+        if suffix in (".tif", ".tiff"):
+            import tifffile
+            tifffile.imwrite(_Unnamed(fh), np.ascontiguousarray(volume))
+        elif suffix == ".npy":
+            np.save(fh, volume)
+        else:
+            np.savez_compressed(fh, volume=volume)
+
+
+class _Unnamed:
+    """A file object without ``name`` (tifffile takes the temporary file's integer name for a path)."""
+
+    def __init__(self, fh):
+        self._fh = fh
+
+    def __getattr__(self, k):
+        if k == "name":
+            raise AttributeError(k)
+        return getattr(self._fh, k)
 
 
 def downsample2(volume: np.ndarray, *, method: str = "mean", slab: int = 32) -> np.ndarray:
@@ -196,6 +301,8 @@ def suggest_level(volume: np.ndarray, *, bins: int = 256) -> float:
     """
     from skimage.filters import threshold_otsu
     counts, edges = histogram(volume, bins=bins)
+    if np.count_nonzero(counts) < 2:
+        raise ValueError("volume is constant (all voxels in one histogram bin): no iso-value separates it")
     centres = 0.5 * (edges[:-1] + edges[1:])
     t = float(threshold_otsu(hist=(counts, centres)))
     return float(np.floor(t)) + 0.5
