@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import check_array, check_int, check_point, check_range
+from plantvr._validation import MAX_COORD, check_array, check_int, check_point, check_range
 
 __all__ = [
     "BranchTree",
@@ -53,6 +53,16 @@ class BranchTree:
     tips: np.ndarray
     grafts: list
 
+    def __post_init__(self):
+        # every reader of a tree (pipe widths, tubes, scaling) indexes with these tables: check them once here
+        self.pos = check_array("pos", self.pos, shape=(None, 3), min_rows=1, max_abs=_MAX_TREE_COORD)
+        n = self.pos.shape[0]
+        self.parent = _index_array("parent", self.parent, (n,), -1, n - 1)
+        self.branch_id = _index_array("branch_id", self.branch_id, (n,), -(2 ** 62), 2 ** 62)
+        self.tips = _index_array("tips", self.tips, (None,), 0, n - 1)
+        if not isinstance(self.grafts, list):
+            raise ValueError(f"grafts must be a list, got {type(self.grafts).__name__}")
+
     @property
     def n_nodes(self) -> int:
         """Number of nodes."""
@@ -76,6 +86,29 @@ class BranchTree:
                 d += 1
                 depth[u] = d
         return depth
+
+
+#: Largest node coordinate magnitude of a BranchTree (scene units): trees are built from florets inside
+#: MAX_COORD and may be scaled up, but never to values whose differences overflow.
+_MAX_TREE_COORD = 1e9
+
+
+def _index_array(name: str, value, shape: tuple, low: int, high: int) -> np.ndarray:
+    """An int64 array of ``shape`` with entries in [low, high]; NaN, inf, fractions, huge values refused."""
+    try:
+        arr = np.asarray(value)
+        if arr.dtype.kind not in "iub":
+            f = np.asarray(arr, dtype=np.float64)
+            if f.size and (not np.all(np.isfinite(f)) or np.any(f != np.round(f))
+                           or np.abs(f).max() > 2.0 ** 62):
+                raise ValueError
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be an integer array with entries in [{low}, {high}]") from None
+    arr = check_array(name, arr, shape=shape, dtype=np.int64)
+    if arr.size and (arr.min() < low or arr.max() > high):
+        raise ValueError(f"{name} must hold entries in [{low}, {high}], got values in "
+                         f"[{arr.min()}, {arr.max()}]")
+    return arr
 
 
 def linear_wb(radius: float, w_max: float = 1.0) -> Callable[[float], float]:
@@ -148,19 +181,31 @@ def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w
     ----------
     .. [1] Owens 2016, §7.2, Eq. 7.1, Figs. 7.2–7.5; spec 002 §5.3 (live IDs, pitfall 1; umbel limit, pitfall 2).
     """
-    F = check_array("florets", florets, shape=(None, 3), min_rows=1)
+    F = check_array("florets", florets, shape=(None, 3), min_rows=1, max_abs=MAX_COORD)
     A0 = check_point("base", base)
-    K = F.shape[0]
+    K = check_int("florets count", F.shape[0], 1, 1_000_000)
+    max_steps = check_int("max_steps", max_steps, 1, 100_000_000)
     tau = np.zeros(K) if emergence is None else check_array("emergence", emergence, shape=(K,))
+    if tau.size and (tau.min() < -1e12 or tau.max() > max_steps):
+        raise ValueError(f"emergence must be in [-1e12, max_steps={max_steps}], got values in "
+                         f"[{tau.min()!r}, {tau.max()!r}]")
     w_a = check_range("w_a", w_a, 0.0, 1e12)
     w_h = check_range("w_h", w_h, 0.0, 1e12)
-    delta = check_range("delta", delta, 0.0, 1e12, low_open=True)
+    delta = check_range("delta", delta, 0.0, 1e11, low_open=True)      # 8 delta is a valid search radius
     merge_dist = 1.2 * delta if merge_dist is None else check_range("merge_dist", merge_dist, 0.0, 1e12)
     search_radius = 8 * delta if search_radius is None else check_range("search_radius", search_radius, 0.0,
                                                                          1e12, low_open=True)
     if initial_direction not in ("down", "base"):
         raise ValueError(f"initial_direction must be one of ['down', 'base'], got {initial_direction!r}")
-    max_steps = check_int("max_steps", max_steps, 1, 100_000_000)
+    # some particle must walk to the base (every tree ends there), one delta per step: refuse what cannot
+    # finish within max_steps at the door instead of after max_steps slow steps
+    reach = (float(np.min(np.linalg.norm(F - A0, axis=1))) - delta) / delta
+    if reach > max_steps + float(tau.max() if tau.size else 0.0):
+        raise ValueError(f"delta={delta!r} is too small: the nearest floret is {reach:.3g} steps from the "
+                         "base, "
+                         f"more than max_steps={max_steps}")
+    if w_b is not None and not callable(w_b):
+        raise ValueError(f"w_b must be a callable d -> weight or None, got {type(w_b).__name__}")
     wb = linear_wb(search_radius) if w_b is None else w_b
     if w_a + w_h == 0:
         raise ValueError("w_a + w_h must be > 0 so that every particle has a direction")
@@ -209,7 +254,7 @@ def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w
                 continue
             A /= dA
             N, d = grid.nearest_foreign(p, pos, bid, own, search_radius)
-            wbv = float(wb(d)) if N >= 0 else 0.0
+            wbv = _weight(wb, d) if N >= 0 else 0.0
             B = (pos[N] - p) / d if N >= 0 and d > 0 else np.zeros(3)
             Hn = (w_a * A + wbv * B + w_h * P[1]) / (w_a + wbv + w_h)          # Eq. 7.1
             nh = float(np.linalg.norm(Hn))
@@ -238,6 +283,16 @@ def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w
     return BranchTree(np.array(pos), np.array(parent, np.int64), np.array(bid, np.int64), tips, grafts)
 
 
+def _weight(wb, d: float) -> float:
+    try:
+        v = float(wb(d))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"w_b({d!r}) must return a number: {exc}") from None
+    if not (np.isfinite(v) and 0.0 <= v <= 1e12):
+        raise ValueError(f"w_b({d!r}) must return a finite weight in [0, 1e12], got {v!r}")
+    return v
+
+
 def _relabel(members, bid, old, new, grafts, child, host):
     if old != new:
         moved = members.pop(old)
@@ -255,6 +310,7 @@ def pipe_widths(tree: BranchTree, *, tip_diameter: float = 1.0, p: float = 2.5) 
     (N,) float64 ndarray
         Diameter of the segment from each node to its parent.
     """
+    _check_tree(tree)
     tip_diameter = check_range("tip_diameter", tip_diameter, 0.0, 1e12, low_open=True)
     p = check_range("p", p, 1.0, 100.0)
     depth = tree.depth_to_root()
@@ -268,11 +324,18 @@ def pipe_widths(tree: BranchTree, *, tip_diameter: float = 1.0, p: float = 2.5) 
 
 def scale_tree(tree: BranchTree, scale, *, about=None) -> BranchTree:
     """Free-form deformation by axis scaling about a point (uniform or allometric growth, spec §5.2 item 7)."""
-    s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
-    if np.any(~np.isfinite(s)) or np.any(s <= 0):
-        raise ValueError(f"scale must be finite and > 0, got {s.tolist()}")
+    _check_tree(tree)
+    try:
+        s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,))
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"scale must be a number or 3 numbers, got {scale!r:.80}") from None
+    if np.any(~np.isfinite(s)) or np.any(s <= 0) or np.any(s > 1e6):
+        raise ValueError(f"scale must be finite and in (0, 1e6], got {s.tolist()}")
     c = tree.pos[0] if about is None else check_point("about", about)
-    return BranchTree(c + (tree.pos - c) * s, tree.parent.copy(), tree.branch_id.copy(), tree.tips.copy(),
+    new = c + (tree.pos - c) * s
+    if np.abs(new).max() > _MAX_TREE_COORD:
+        raise ValueError(f"scale {s.tolist()} moves nodes beyond ±{_MAX_TREE_COORD:g}")
+    return BranchTree(new, tree.parent.copy(), tree.branch_id.copy(), tree.tips.copy(),
                       list(tree.grafts))
 
 
@@ -284,8 +347,11 @@ def tube_mesh(tree: BranchTree, diameters: np.ndarray, *, sides: int = 6) -> tup
     vertices : (2 S sides, 3) float64 ndarray
     faces : (2 S sides, 3) int64 ndarray
     """
+    _check_tree(tree)
     sides = check_int("sides", sides, 3, 64)
-    d = check_array("diameters", diameters, shape=(tree.n_nodes,))
+    d = check_array("diameters", diameters, shape=(tree.n_nodes,), max_abs=_MAX_TREE_COORD)
+    if d.size and d.min() < 0:
+        raise ValueError(f"diameters must be >= 0, got {d.min()!r}")
     child = np.flatnonzero(tree.parent >= 0)
     a, b = tree.pos[child], tree.pos[tree.parent[child]]
     axis = b - a
@@ -307,6 +373,11 @@ def tube_mesh(tree: BranchTree, diameters: np.ndarray, *, sides: int = 6) -> tup
     return verts, np.concatenate([f1.reshape(-1, 3), f2.reshape(-1, 3)]).astype(np.int64)
 
 
+def _check_tree(tree) -> None:
+    if not isinstance(tree, BranchTree):
+        raise ValueError(f"tree must be a BranchTree, got {type(tree).__name__}")
+
+
 def _vogel(n, radius, offset=0.5):
     i = np.arange(n, dtype=np.float64)
     r = radius * np.sqrt((i + offset) / (n - 1 + offset)) if n > 1 else np.zeros(1)
@@ -325,6 +396,10 @@ def corymb(n_florets: int = 200, *, radius: float = 0.5, height: float = 1.0, em
     radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
     height = check_range("height", height, 0.0, 1e6, low_open=True)
     emergence_interval = check_range("emergence_interval", emergence_interval, 0.0, 1e6)
+    max_steps = check_int("max_steps", kwargs.get("max_steps", 100_000), 1, 100_000_000)
+    if (n_florets - 1) * emergence_interval > max_steps:
+        raise ValueError(f"emergence_interval * (n_florets - 1) must be <= max_steps={max_steps}, got "
+                         f"{(n_florets - 1) * emergence_interval!r}")
     F = _vogel(n_florets, radius)[::-1] + [0, 0, height]       # rim first
     tau = np.arange(n_florets) * emergence_interval
     return rodkaew(F, [0.0, 0.0, 0.0], emergence=tau, **kwargs)
@@ -348,6 +423,14 @@ def compound_umbel(n_umbellets: int = 8, florets_per_umbellet: int = 20, *, radi
     """
     n_umbellets = check_int("n_umbellets", n_umbellets, 1, 100_000)
     florets_per_umbellet = check_int("florets_per_umbellet", florets_per_umbellet, 1, 100_000)
+    if n_umbellets * florets_per_umbellet > 1_000_000:
+        raise ValueError(f"n_umbellets * florets_per_umbellet must be <= 1000000, got "
+                         f"{n_umbellets * florets_per_umbellet}")
+    radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
+    umbellet_radius = check_range("umbellet_radius", umbellet_radius, 0.0, 1e6, low_open=True)
+    height = check_range("height", height, -1e6, 1e6)
+    umbellet_height = check_range("umbellet_height", umbellet_height, -1e6, 1e6)
+    delta = check_range("delta", delta, 0.0, 1e6, low_open=True)
     centres = _vogel(n_umbellets, radius) + [0, 0, height]
     bases = centres - [0, 0, umbellet_height]
     kw = {"w_b": (lambda d: 0.0), "merge": False, "w_h": 0.0, "delta": delta}

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int, check_range
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
 from plantvr.flowers import ccd, pbd
 
 __all__ = ["Canopy", "FloretType", "SolverParams", "grow", "step"]
@@ -61,19 +61,27 @@ class FloretType:
     rest_phi: np.ndarray = field(init=False)
 
     def __post_init__(self):
-        self.faces = check_array("faces", self.faces, shape=(None, 3), dtype=np.int64)
-        self.frames = check_array("frames", self.frames, shape=(None, None, 3), min_rows=1)
-        self.fixed = check_array("fixed", self.fixed, shape=(None,), dtype=np.int64)
-        V = self.frames.shape[1]
-        if self.faces.size and (self.faces.min() < 0 or self.faces.max() >= V):
-            raise ValueError(f"faces must index the {V} frame vertices")
+        faces = _int_table("faces", self.faces, (None, 3))
+        frames = check_array("frames", self.frames, shape=(None, None, 3), min_rows=1, max_abs=MAX_COORD)
+        fixed = _int_table("fixed", self.fixed, (None,))
+        V = frames.shape[1]
+        if faces.shape[0] == 0:
+            raise ValueError("faces must hold at least one triangle (the settings gave an empty floret mesh)")
+        if faces.size and (faces.min() < 0 or faces.max() >= V):
+            raise ValueError(f"faces must index the {V} vertices of frames, got values in "
+                             f"[{faces.min()}, {faces.max()}]")
+        if fixed.size and (fixed.min() < 0 or fixed.max() >= V):
+            raise ValueError(f"fixed must index the {V} vertices of frames, got values in "
+                             f"[{fixed.min()}, {fixed.max()}]")
+        self.faces, self.frames, self.fixed = faces, frames, fixed
         self.edges = pbd.mesh_edges(self.faces)
         self.quads = pbd.bend_quads(self.faces)
         self.rest_len = np.stack([pbd.edge_lengths(X, self.edges) for X in self.frames])
         self.rest_phi = np.stack([pbd.signed_dihedrals(X, self.quads) for X in self.frames])
 
     def at(self, stage: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rest lengths, rest angles and geometry at a stage in [0, 1] (linear between frames)."""
+        """Rest lengths, rest angles and geometry at a stage in [0, 1] (linear between frames; clipped)."""
+        stage = check_range("stage", stage, -1e12, 1e12)
         K = self.frames.shape[0]
         x = np.clip(stage, 0, 1) * (K - 1)
         i = min(int(np.floor(x)), K - 2) if K > 1 else 0
@@ -99,20 +107,39 @@ class Canopy:
     """
 
     def __init__(self, types, kind, position, up, right, scale):
-        self.types = list(types)
-        kind = check_array("kind", kind, shape=(None,), dtype=np.int64)
+        try:
+            types = list(types)
+        except TypeError:
+            raise ValueError(f"types must be a sequence of FloretType, got {type(types).__name__}") from None
+        if not types or not all(isinstance(t, FloretType) for t in types):
+            raise ValueError(f"types must be a non-empty sequence of FloretType, got {types!r:.200}")
+        kind = _int_table("kind", kind, (None,))
         n = kind.size
-        if n and (kind.min() < 0 or kind.max() >= len(self.types)):
-            raise ValueError(f"kind must be in [0, {len(self.types) - 1}]")
-        self.position = check_array("position", position, shape=(n, 3))
-        up = check_array("up", up, shape=(n, 3))
-        right = check_array("right", right, shape=(n, 3))
-        self.scale = check_array("scale", scale, shape=(n,))
-        if np.any(self.scale <= 0):
-            raise ValueError("scale must be > 0")
-        up = up / np.linalg.norm(up, axis=1, keepdims=True)
+        if n == 0:
+            raise ValueError("kind must name at least one floret instance, got none")
+        if kind.min() < 0 or kind.max() >= len(types):
+            raise ValueError(f"kind must be in [0, {len(types) - 1}], got values in "
+                             f"[{kind.min()}, {kind.max()}]")
+        position = check_array("position", position, shape=(n, 3), max_abs=MAX_COORD)
+        up = check_array("up", up, shape=(n, 3), max_abs=MAX_COORD)
+        right = check_array("right", right, shape=(n, 3), max_abs=MAX_COORD)
+        scale = check_array("scale", scale, shape=(n,), max_abs=MAX_COORD)
+        if np.any(scale <= 0):
+            raise ValueError(f"scale must be > 0, got {scale.min()!r}")
+        total = int(sum(types[k].frames.shape[1] for k in kind))
+        if total > MAX_COUNT:
+            raise ValueError(f"the canopy must have at most {MAX_COUNT} vertices, got {total} (kind)")
+        nu = np.linalg.norm(up, axis=1, keepdims=True)
+        if np.any(nu < 1e-12):
+            raise ValueError(f"up must be non-zero vectors, got {up[int(np.argmin(nu[:, 0]))].tolist()}")
+        up = up / nu
+        n0 = np.linalg.norm(right, axis=1, keepdims=True)
         right = right - np.einsum("ij,ij->i", right, up)[:, None] * up
-        right /= np.linalg.norm(right, axis=1, keepdims=True)
+        nr = np.linalg.norm(right, axis=1, keepdims=True)
+        if np.any(nr <= 1e-9 * n0) or np.any(n0 == 0):
+            raise ValueError("right must be non-zero and not parallel to up")
+        right /= nr
+        self.types, self.position, self.scale = types, position, scale
         self.rot = np.stack([right, np.cross(up, right), up], axis=2)     # columns: local x, y, z
         self.kind = kind
         nv = np.array([self.types[k].frames.shape[1] for k in kind], np.int64)
@@ -139,7 +166,7 @@ class Canopy:
 
     def targets(self, stages: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Rest lengths, rest angles and placed stage geometry for per-instance stages (C8, C9, V13)."""
-        stages = check_array("stages", stages, shape=(self.n_instances,))
+        stages = check_array("stages", stages, shape=(self.n_instances,), max_abs=1e12)
         L, P, X = [], [], []
         for i, k in enumerate(self.kind):
             rl, rp, g = self.types[k].at(stages[i])
@@ -170,11 +197,13 @@ def step(canopy: Canopy, x: np.ndarray, stages: np.ndarray, params: SolverParams
         ``solver``, ``broad``, ``narrow`` seconds, ``constraints`` created, ``passes`` (detect passes),
         ``rolled_back`` vertices of the fallback.
     """
-    x = check_array("x", x, shape=(canopy.voff[-1], 3))
+    canopy, params = _check_run(canopy, params)
+    backend = check_choice("backend", backend, ("numba", "numpy"))
+    x = check_array("x", x, shape=(canopy.voff[-1], 3), max_abs=MAX_COORD)
     stats = {"solver": 0.0, "broad": 0.0, "narrow": 0.0, "constraints": 0, "passes": 0, "rolled_back": 0}
     rest_len, rest_phi, target = canopy.targets(stages)
     if prev_stages is not None:
-        prev = check_array("prev_stages", prev_stages, shape=(canopy.n_instances,))
+        prev = check_array("prev_stages", prev_stages, shape=(canopy.n_instances,), max_abs=1e12)
         p = x + (target - canopy.targets(prev)[2])
     else:
         p = x.copy()
@@ -246,10 +275,15 @@ def grow(canopy: Canopy, stages_per_step: np.ndarray, params: SolverParams = Sol
     ``prediction``: "kinematic" starts each step from the animation's displacement (see :func:`step`),
     "rest" from the previous positions with only the rest values changed (the App. B.5 prototype).
     """
-    S = check_array("stages_per_step", stages_per_step, shape=(None, canopy.n_instances), min_rows=1)
+    canopy, params = _check_run(canopy, params)
+    if callback is not None and not callable(callback):
+        raise ValueError(f"callback must be callable or None, got {type(callback).__name__}")
+    S = check_array("stages_per_step", stages_per_step, shape=(None, canopy.n_instances), min_rows=1,
+                    max_abs=1e12)
     prediction = check_choice("prediction", prediction, ("kinematic", "rest"))
     sanity_every = check_int("sanity_every", sanity_every, 0, 1_000_000)
-    x = canopy.initial_positions(S[0]) if x0 is None else check_array("x0", x0, shape=(canopy.voff[-1], 3))
+    x = (canopy.initial_positions(S[0]) if x0 is None
+         else check_array("x0", x0, shape=(canopy.voff[-1], 3), max_abs=MAX_COORD))
     log = []
     for t in range(1, S.shape[0]):
         x, st = step(canopy, x, S[t], params, collisions=collisions,
@@ -260,3 +294,30 @@ def grow(canopy: Canopy, stages_per_step: np.ndarray, params: SolverParams = Sol
         if callback is not None:
             callback(t, x)
     return x, log
+
+
+def _int_table(name: str, value, shape: tuple) -> np.ndarray:
+    """An int64 array of ``shape``; NaN, inf and huge or fractional values are refused (not truncated)."""
+    try:
+        arr = np.asarray(value) if not isinstance(value, np.ndarray) else value
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be an integer array of shape {shape}, "
+                         f"got {type(value).__name__}") from None
+    if arr.dtype.kind == "f" or arr.dtype == object:
+        try:
+            f = np.asarray(arr, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be an integer array, got {type(value).__name__}") from None
+        if not np.all(np.isfinite(f)) or np.any(f != np.round(f)) or (f.size and np.abs(f).max() > 2.0 ** 62):
+            raise ValueError(f"{name} must hold finite integer values")
+    elif arr.dtype.kind not in "iub":
+        raise ValueError(f"{name} must be an integer array, got dtype {arr.dtype}")
+    return check_array(name, arr, shape=shape, dtype=np.int64)
+
+
+def _check_run(canopy, params):
+    if not isinstance(canopy, Canopy):
+        raise ValueError(f"canopy must be a Canopy, got {type(canopy).__name__}")
+    if not isinstance(params, SolverParams):
+        raise ValueError(f"params must be a SolverParams, got {type(params).__name__}")
+    return canopy, params

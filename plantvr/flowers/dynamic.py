@@ -41,6 +41,8 @@ MODES = ("centripetal", "divergent", "segregation")
 FRONT_IN, FRONT_OUT = 0, 1
 
 Rate = float | Callable[[float], float]
+#: Fractionation production rounds one step may take (dt / dt_prod); bounds the time a step can take.
+MAX_ROUNDS = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -108,7 +110,10 @@ def _check_rate(name: str, value: Rate, *, positive: bool = False) -> Rate:
 
 
 def _eval(name: str, fn: Rate, x: float, *, positive: bool = False) -> float:
-    v = float(fn(x)) if callable(fn) else float(fn)
+    try:
+        v = float(fn(x)) if callable(fn) else float(fn)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"{name}({x!r}) must return a number: {exc}") from None
     if not np.isfinite(v) or v < 0 or (positive and v == 0):
         raise ValueError(f"{name}({x!r}) must return a finite {'positive' if positive else 'non-negative'} "
                          f"number, got {v!r}")
@@ -271,7 +276,14 @@ class DynamicPhyllotaxis:
 
     def _produce_fractionation(self, t1: float) -> None:
         fronts = (FRONT_IN,) if self.mode == "centripetal" else (FRONT_IN, FRONT_OUT)
+        rounds = 0
         while self._next_prod <= t1 + 1e-12 * max(1.0, abs(t1)) and not all(self._stopped[f] for f in fronts):
+            if self.n >= self.max_primordia:               # used up: no round can produce any more
+                break
+            rounds += 1
+            if rounds > MAX_ROUNDS or self._next_prod + self.dt_prod == self._next_prod:
+                raise ValueError(f"dt / dt_prod must be at most {MAX_ROUNDS} production rounds per step "
+                                 f"(dt_prod={self.dt_prod!r} at t={self._next_prod!r})")
             for f in fronts:
                 if self._stopped[f] or self.n >= self.max_primordia:
                     continue
@@ -308,6 +320,11 @@ class DynamicPhyllotaxis:
         areas : sequence of float
             Positive areas, one per id.
         """
+        try:
+            ids, areas = list(ids), list(areas)
+        except TypeError:
+            raise ValueError(f"ids and areas must be sequences, got {type(ids).__name__}, "
+                             f"{type(areas).__name__}") from None
         ids = [check_int("ids", i, 0, max(self.n - 1, 0)) for i in ids]
         areas = [check_range("areas", a, 0.0, 1e12, low_open=True) for a in areas]
         if len(ids) != len(areas) or (ids and self.n == 0):
@@ -330,13 +347,20 @@ class DynamicPhyllotaxis:
         """
         dt = check_range("dt", dt, 0.0, 1e12, low_open=True)
         t0, t1 = self.t, self.t + dt
+        fronts = (FRONT_IN,) if self.mode == "centripetal" else (FRONT_IN, FRONT_OUT)
+        if (self.mode != "segregation" and self.n < self.max_primordia
+                and not all(self._stopped[f] for f in fronts)
+                and (t1 - self._next_prod) / self.dt_prod > MAX_ROUNDS):
+            raise ValueError(f"dt must be at most {MAX_ROUNDS} production intervals "
+                             f"(dt_prod={self.dt_prod!r}), "
+                             f"got {dt!r}")
         done = self.n >= self.max_primordia     # a used-up meristem stops growing its regions
         g_in = 0.0 if done else 0.5 * (_eval("inner_rate", self.inner_rate, t0)
                                        + _eval("inner_rate", self.inner_rate, t1)) * dt
         g_out = 0.0 if done else 0.5 * (_eval("outer_rate", self.outer_rate, t0)
                                         + _eval("outer_rate", self.outer_rate, t1)) * dt
         saved = (self.t, self.inner_area, self.outer_area, self.n, self._next_prod, list(self._stopped),
-                 dict(self._last_alpha))
+                 dict(self._last_alpha), self._birth.copy(), self._front.copy(), self._alpha.copy())
         try:
             a_before = self.inner_area
             self.inner_area += g_in
@@ -347,9 +371,9 @@ class DynamicPhyllotaxis:
                 self._produce_fractionation(t1)
             self.t = t1
             frame = self._layout()                 # may call user functions that reject their input
-        except ValueError:
+        except Exception:                          # noqa: BLE001 - any failure leaves the head unchanged
             (self.t, self.inner_area, self.outer_area, self._n, self._next_prod, self._stopped,
-             self._last_alpha) = saved
+             self._last_alpha, self._birth, self._front, self._alpha) = saved
             raise
         self.frame = frame
         return frame

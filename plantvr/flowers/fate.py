@@ -7,11 +7,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantvr._validation import check_array, check_point, check_range
+from plantvr._validation import check_array, check_int, check_point, check_range
 
 __all__ = ["DISC", "LARGE_RAY", "SMALL_RAY", "cone_dmin", "floret_fate", "ray_florets"]
 
 DISC, SMALL_RAY, LARGE_RAY = 0, 1, 2
+#: Floret pairs one vectorised block of :func:`cone_dmin` holds (about 100 MB of work arrays).
+_MAX_BLOCK_PAIRS = 4_000_000
 
 
 def cone_dmin(positions: np.ndarray, *, alpha_deg: float, centre=(0.0, 0.0, 0.0),
@@ -45,19 +47,21 @@ def cone_dmin(positions: np.ndarray, *, alpha_deg: float, centre=(0.0, 0.0, 0.0)
     ----------
     .. [1] Owens 2016, Ch. 6, Eqs. 6.1–6.2. ERRATUM A.4: finite iff PQ^ . OP^ > cos(alpha), Q != P.
     """
-    P = check_array("positions", positions, shape=(None, 3))
+    P = check_array("positions", positions, shape=(None, 3), max_abs=1e12)
+    block = check_int("block", block, 1, 1_000_000)
     amax = 360.0 if full_angle else 180.0
     alpha = check_range("alpha_deg", alpha_deg, 0.0, amax)
     half = np.deg2rad(alpha / 2 if full_angle else alpha)
     if centres is None:
         O = np.broadcast_to(check_point("centre", centre), P.shape)
     else:
-        O = check_array("centres", centres, shape=P.shape)
+        O = check_array("centres", centres, shape=P.shape, max_abs=1e12)
     op = P - O
     nrm = np.linalg.norm(op, axis=1, keepdims=True)
     axis = np.divide(op, nrm, out=np.zeros_like(op), where=nrm > 0)
     cos_a = np.cos(half)
     n = P.shape[0]
+    block = min(block, max(1, _MAX_BLOCK_PAIRS // max(n, 1)))   # memory bound: rows x n pairs per block
     out = np.full(n, np.inf)
     for start in range(0, n, block):
         stop = min(n, start + block)

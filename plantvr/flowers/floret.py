@@ -293,6 +293,11 @@ def growth_function(kind: str | np.ndarray = "linear") -> Callable[[np.ndarray],
 # Polygonization (spec 002 §2.3)
 
 
+#: Sample rows and samples in all that one petal's Eq. 2.1 polygonization may take (issue 20).
+MAX_UV_ROWS = 100_000
+MAX_UV_SAMPLES = 2_000_000
+
+
 def polygonize_uv(lam: float | Callable = 0.2, eta: float | Callable = 5, *, grid: int = 4001
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Parameter-space samples and one fixed triangulation (Eq. 2.1, odd rows, Delaunay; C3, V5–V6).
@@ -319,12 +324,17 @@ def polygonize_uv(lam: float | Callable = 0.2, eta: float | Callable = 5, *, gri
         raise ValueError("lam(v) must be finite and > 0 on [0, 1]")
     inv = 1 / lv
     G = np.concatenate([[0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(vg))])
+    if not G[-1] <= MAX_UV_ROWS:                                   # Eq. 2.1 row count, before allocating
+        raise ValueError(f"lam must give at most {MAX_UV_ROWS} sample rows (Eq. 2.1), got {float(G[-1]):.3g}")
     n = max(1, round(float(G[-1])))
     v_rows = np.interp(np.arange(n + 1) * G[-1] / n, G, vg)      # rescaled so v_n = 1 exactly
     v_rows[-1] = 1.0
     et = (np.full(n + 1, float(eta)) if np.isscalar(eta) else np.asarray(eta(v_rows), dtype=np.float64))
     if np.any(~np.isfinite(et)) or np.any(et < 1):
         raise ValueError("eta(v) must be finite and >= 1 on [0, 1]")
+    if float(np.sum(np.minimum(et, 1e12))) > MAX_UV_SAMPLES:
+        raise ValueError(f"eta must give at most {MAX_UV_SAMPLES} samples in all, "
+                         f"got {float(np.sum(et)):.3g}")
     m = np.ceil(et - 1e-12).astype(int)
     m += (m % 2 == 0)                                              # odd: a vertex on u = 1/2
     uv = []

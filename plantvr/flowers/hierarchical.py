@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_range
-from plantvr.flowers.dynamic import MODES, DynamicFrame, DynamicPhyllotaxis, Rate
+from plantvr.flowers.dynamic import MODES, DynamicFrame, DynamicPhyllotaxis, Rate, _check_rate, _eval
 from plantvr.flowers.phyllotaxis import GOLDEN_ANGLE_DEG, Receptacle
 
 __all__ = ["HierarchicalPhyllotaxis", "LevelSpec", "Meristem", "hofmeister_angles"]
@@ -73,6 +73,14 @@ class LevelSpec:
                 check_range("outer_rate", self.outer_rate, 0.0, 1e12) == 0:
             raise ValueError("divergent fractionation needs outer_rate > 0 (child meristems start without an "
                              "outer region)")
+        # every value a child meristem will take is checked here, not when it first grows (mid-step)
+        _check_rate("primordium_area", self.primordium_area, positive=True)
+        _eval("primordium_area", self.primordium_area, 0.0, positive=True)
+        _check_rate("inner_rate", self.inner_rate)
+        _check_rate("outer_rate", self.outer_rate)
+        if self.threshold is not None:
+            check_range("threshold", self.threshold, 0.0, 1e12, low_open=True)
+        check_range("dt_prod", self.dt_prod, 0.0, 1e12, low_open=True)
         if self.meristem_area is not None:
             check_range("meristem_area", self.meristem_area, 0.0, 1e12, low_open=True)
         check_int("max_elements", self.max_elements, 0, 100_000_000)
@@ -125,6 +133,10 @@ class Meristem:
         return v[:, :1] * self.e1 + v[:, 1:2] * e2 + v[:, 2:] * self.up
 
 
+#: Hierarchy levels at most (the thesis shows 2 or 3; each level multiplies the meristem count).
+MAX_LEVELS = 16
+
+
 def _unit(v: np.ndarray) -> np.ndarray | None:
     n = float(np.linalg.norm(v))
     return v / n if n > 1e-12 else None
@@ -153,7 +165,13 @@ class HierarchicalPhyllotaxis:
 
     def __init__(self, levels: Sequence[LevelSpec], *, inner_area: float = 0.05,
                  divergence_deg: float = GOLDEN_ANGLE_DEG, alpha0_deg: float = 0.0):
-        levels = list(levels)
+        try:
+            levels = list(levels)
+        except TypeError:
+            raise ValueError(f"levels must be a non-empty sequence of LevelSpec, "
+                             f"got {type(levels).__name__}") from None
+        if len(levels) > MAX_LEVELS:
+            raise ValueError(f"levels must hold at most {MAX_LEVELS} LevelSpec, got {len(levels)}")
         if not levels or not all(isinstance(L, LevelSpec) for L in levels):
             raise ValueError(f"levels must be a non-empty sequence of LevelSpec, got {levels!r}")
         for k, L in enumerate(levels[:-1]):
@@ -240,7 +258,7 @@ class HierarchicalPhyllotaxis:
             self.t += dt
             self._convert()
             self._place(0)
-        except ValueError:
+        except Exception:                                      # noqa: BLE001 - any failure: state unchanged
             self.meristems, self.t = saved, t0
             raise
 

@@ -42,6 +42,8 @@ def disc_floret(*, detail: float = 1.0, n_frames: int = 8, n_fold: int = 5, open
     """
     detail = check_range("detail", detail, 0.1, 10.0)
     n_frames = check_int("n_frames", n_frames, 2, 1000)
+    n_fold = check_int("n_fold", n_fold, 2, 64)
+    open_deg = check_range("open_deg", open_deg, -180.0, 180.0)
     bud = Corolla(petal_net(opening_deg=6, length=0.35, width=0.07, base_radius=0.06), n_fold=n_fold,
                   fused_rows=3)
     opn = Corolla(petal_net(opening_deg=open_deg, curl_deg=25, length=0.8, width=0.42, base_radius=0.06),
@@ -60,8 +62,9 @@ def ray_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.0, w
     """
     detail = check_range("detail", detail, 0.1, 10.0)
     n_frames = check_int("n_frames", n_frames, 2, 1000)
-    length = check_range("length", length, 0.0, 1e6, low_open=True)
-    width = check_range("width", width, 0.0, 1e6, low_open=True)
+    length = check_range("length", length, 0.01, 1e6)         # lam scales with it (Eq. 2.1 rows)
+    width = check_range("width", width, 0.01, 1e6)             # narrower ligules polygonize to nothing
+    open_deg = check_range("open_deg", open_deg, -180.0, 180.0)
     bud = petal_net(opening_deg=8, length=0.3, width=0.12, base_radius=0.03, nu=5, nv=7)
     opn = petal_net(opening_deg=open_deg, curl_deg=15, length=length, width=width, base_radius=0.03,
                     nu=5, nv=7)
@@ -94,7 +97,8 @@ class FlowerHead:
     def schedule(self, n_steps: int, *, t_end: float | None = None) -> np.ndarray:
         """(n_steps + 1, n) per-instance stages from t = 0 (all buds) to ``t_end`` (default: all open)."""
         n_steps = check_int("n_steps", n_steps, 1, 1_000_000)
-        t_end = float(self.birth.max() + self.opening_duration) if t_end is None else t_end
+        t_end = (float(self.birth.max() + self.opening_duration) if t_end is None
+                 else check_range("t_end", t_end, -1e12, 1e12))
         return np.array([floret_stage(t - self.birth, opening_duration=self.opening_duration, growth="linear")
                          for t in np.linspace(0.0, t_end, n_steps + 1)])
 
@@ -152,7 +156,7 @@ def quill_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 2.2,
     whose tip bends back toward the floret axis by ``incurve_deg``."""
     detail = check_range("detail", detail, 0.1, 10.0)
     n_frames = check_int("n_frames", n_frames, 2, 1000)
-    length = check_range("length", length, 0.0, 1e6, low_open=True)
+    length = check_range("length", length, 0.01, 1e6)         # lam scales with it (Eq. 2.1 rows)
     incurve_deg = check_range("incurve_deg", incurve_deg, -180.0, 180.0)
     bud = Corolla(petal_net(opening_deg=4, length=0.3, width=0.1, base_radius=0.05), n_fold=3, fused_rows=3)
     opn = Corolla(petal_net(opening_deg=35, curl_deg=incurve_deg, length=length, width=0.32, base_radius=0.05),
@@ -211,7 +215,7 @@ def dahlia_floret(*, detail: float = 1.0, n_frames: int = 8, length: float = 3.6
     detail = check_range("detail", detail, 0.1, 10.0)
     n_frames = check_int("n_frames", n_frames, 2, 1000)
     length = check_range("length", length, 0.0, 1e6, low_open=True)
-    width = check_range("width", width, 0.0, 1e6, low_open=True)
+    width = check_range("width", width, 0.01, 1e6)             # narrower ligules polygonize to nothing
     open_deg = check_range("open_deg", open_deg, -90.0, 120.0)
     incurve_deg = check_range("incurve_deg", incurve_deg, -180.0, 180.0)
     roll_deg = check_range("roll_deg", roll_deg, 0.0, 175.0)
@@ -314,6 +318,9 @@ def yarrow_corymb(n_heads: int = 13, florets_per_head: int = 6, *, head_radius: 
     alpha_deg = check_range("alpha_deg", alpha_deg, 0.0, 180.0)
     th_a = 0.7 * (head_spacing - 2 * head_radius) if th_a is None else check_range("th_a", th_a, 0.0, 1e12, low_open=True)
     C = vogel_disc(n_heads, c=head_spacing / np.sqrt(np.pi) * 1.05) + [0.0, 0.0, height]
+    spread = float(np.abs(C[:, :2]).max())
+    if spread > 100.0 * height:                 # the branching runs in units of height (delta = 0.01)
+        raise ValueError(f"height must be at least 1/100 of the corymb's spread ({spread!r}), got {height!r}")
     pos, up, right, birth, hid, spacing = _heads(C, florets_per_head, head_radius)
     d = cone_dmin(pos * [1.0, 1.0, 0.0], alpha_deg=alpha_deg, centres=C[hid] * [1.0, 1.0, 0.0])
     fate, size = floret_fate(d, th_a=th_a)
@@ -359,6 +366,9 @@ def orlaya_umbel(n_umbellets: int = 13, florets_per_umbellet: int = 21, *, scale
     fl_sp = scale * r_fl * np.sqrt(np.pi / florets_per_umbellet)
     um_sp = scale * r_um * np.sqrt(np.pi / n_umbellets)
     th_a = 2.0 * fl_sp if th_a is None else check_range("th_a", th_a, 0.0, 1e12, low_open=True)
+    if th_b is None and th_a >= 1.2 * um_sp:
+        raise ValueError(f"th_a must be below th_b (default 1.2x the umbellet spacing = {1.2 * um_sp!r}), "
+                         f"got {th_a!r}")
     th_b = 1.2 * um_sp if th_b is None else check_range("th_b", th_b, th_a, 1e12, low_open=True)
     d = cone_dmin(pos * [1.0, 1.0, 0.0], alpha_deg=alpha_deg, centres=C[hid] * [1.0, 1.0, 0.0])
     fate, size = floret_fate(d, th_a=th_a, th_b=th_b, small_size=0.6, large_size=1.0)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int, check_range
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
 
 __all__ = [
     "bend_quads",
@@ -66,7 +66,7 @@ def cloth_patch(nx: int, ny: int | None = None, *, spacing: float = 0.1) -> tupl
 
 def mesh_edges(faces: np.ndarray) -> np.ndarray:
     """Unique undirected edges (E, 2) int64 of a triangle mesh, sorted, ``i < j``."""
-    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    faces = _index_table("faces", faces, 3, MAX_COUNT)
     e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     return np.unique(e, axis=0)
 
@@ -77,7 +77,7 @@ def bend_quads(faces: np.ndarray) -> np.ndarray:
     Triangle (p1, p2, p3) holds the directed edge p1->p2 and triangle (p1, p4, p2) the edge p2->p1
     (the ordering of Eq. 3.12), so the orientation of the mesh fixes the sign convention.
     """
-    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    faces = _index_table("faces", faces, 3, MAX_COUNT)
     if faces.shape[0] == 0:
         return np.zeros((0, 4), np.int64)
     V = int(faces.max()) + 1
@@ -93,8 +93,21 @@ def bend_quads(faces: np.ndarray) -> np.ndarray:
     return np.column_stack([d[idx, 0], d[idx, 1], opp[idx], opp[partner[idx]]]).astype(np.int64)
 
 
+def _index_table(name: str, arr, width: int, n: int) -> np.ndarray:
+    """An ``(K, width)`` int64 table whose entries index ``n`` vertices (kernels never see others)."""
+    try:
+        a = check_array(name, arr, shape=(None, width), dtype=np.int64)
+    except OverflowError:
+        raise ValueError(f"{name} must hold vertex indices in [0, {n - 1}], got huge values") from None
+    if a.size and (a.min() < 0 or a.max() >= n):
+        raise ValueError(f"{name} must index vertices in [0, {n - 1}], got values in [{a.min()}, {a.max()}]")
+    return a
+
+
 def edge_lengths(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """Length of every edge, (E,) float64 (rest values of Eq. 3.11)."""
+    x = check_array("x", x, shape=(None, 3))
+    edges = _index_table("edges", edges, 2, x.shape[0])
     return np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
 
 
@@ -105,6 +118,8 @@ def signed_dihedrals(x: np.ndarray, quads: np.ndarray) -> np.ndarray:
     ----------
     .. [1] Owens 2016, Eq. 3.13 and App. A; ERRATUM A.5 (signed range, wrapped differences).
     """
+    x = check_array("x", x, shape=(None, 3))
+    quads = _index_table("quads", quads, 4, x.shape[0])
     p1, p2, p3, p4 = (x[quads[:, k]] for k in range(4))
     e = p2 - p1
     n1 = np.cross(p3 - p1, e)
@@ -119,6 +134,7 @@ def signed_dihedrals(x: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 def dihedral_gradient(p1, p2, p3, p4):
     """Closed-form gradient (g1, g2, g3, g4) of the signed bend angle (spec 002 §3.3.2) for one quad."""
+    p1, p2, p3, p4 = (check_array(f"p{k + 1}", q, shape=(3,)) for k, q in enumerate((p1, p2, p3, p4)))
     e = p2 - p1
     N1 = np.cross(p3 - p1, e)
     N2 = np.cross(e, p4 - p1)
@@ -131,6 +147,10 @@ def dihedral_gradient(p1, p2, p3, p4):
     g2 = -(t3 * g3 + t4 * g4)
     return g1, g2, g3, g4
 
+
+#: Largest rest bend angle magnitude (radians) :func:`solve_internal` accepts: blended rest angles lie in
+#: (-2 pi, 2 pi); the kernels' wrapping loop needs a bounded difference.
+_MAX_REST_PHI = 4 * np.pi
 
 #: Largest bending correction of one vertex per projection, as a fraction of the hinge edge length.
 _MAX_STEP = 0.25
@@ -430,17 +450,21 @@ def solve_internal(p: np.ndarray, w: np.ndarray, edges: np.ndarray, rest_len: np
     if not (isinstance(p, np.ndarray) and p.dtype == np.float64 and p.ndim == 2 and p.shape[1] == 3
             and p.flags.c_contiguous):
         raise ValueError("p must be a C-contiguous (V, 3) float64 ndarray (it is updated in place)")
+    check_array("p", p, shape=(None, 3), max_abs=MAX_COORD)     # finite, inside the coordinate bound
     V = p.shape[0]
     w = check_array("w", w, shape=(V,))
     if np.any(w < 0):
         raise ValueError("w (inverse masses) must be >= 0")
     edges = check_array("edges", edges, shape=(None, 2), dtype=np.int64)
     quads = check_array("quads", quads, shape=(None, 4), dtype=np.int64)
-    rest_len = check_array("rest_len", rest_len, shape=(edges.shape[0],))
-    rest_phi = check_array("rest_phi", rest_phi, shape=(quads.shape[0],))
+    rest_len = check_array("rest_len", rest_len, shape=(edges.shape[0],), max_abs=4 * MAX_COORD)
+    # the kernels wrap phi - rest into (-pi, pi] by steps of 2 pi: a huge rest angle would never wrap (hang)
+    rest_phi = check_array("rest_phi", rest_phi, shape=(quads.shape[0],), max_abs=_MAX_REST_PHI)
     for name, arr in (("edges", edges), ("quads", quads)):
         if arr.size and (arr.min() < 0 or arr.max() >= V):
             raise ValueError(f"{name} must index vertices in [0, {V - 1}]")
+    if rest_len.size and rest_len.min() < 0:
+        raise ValueError(f"rest_len must be >= 0, got {rest_len.min()!r}")
     k_len = _stiffness("k_stretch", k_stretch, edges.shape[0])
     k_b = _stiffness("k_bend", k_bend, quads.shape[0])
     iterations = check_int("iterations", iterations, 0, 1_000_000)

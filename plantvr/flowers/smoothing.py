@@ -13,12 +13,36 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantvr._validation import check_array, check_choice, check_int
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int
 from plantvr.flowers import ccd
 from plantvr.flowers.composer import SolverParams
 from plantvr.subdivision.loop import edge_table, subdivide_loop
 
 __all__ = ["loop_smooth", "midpoint_subdivide", "resolve_collisions"]
+
+
+#: Faces :func:`loop_smooth` may produce (each iteration quadruples them).
+MAX_SMOOTH_FACES = 50_000_000
+
+
+def _faces(faces, n: int) -> np.ndarray:
+    try:
+        F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    except OverflowError:
+        raise ValueError("faces must hold vertex indices, got huge values") from None
+    if F.size and (F.min() < 0 or F.max() >= n):
+        raise ValueError(f"faces must index vertices in [0, {n - 1}], got values in [{F.min()}, {F.max()}]")
+    if len(F) > MAX_COUNT:
+        raise ValueError(f"faces must have at most {MAX_COUNT} rows, got {len(F)}")
+    return F
+
+
+def _params(params) -> SolverParams:
+    if params is None:
+        return SolverParams()
+    if not isinstance(params, SolverParams):
+        raise ValueError(f"params must be a SolverParams or None, got {type(params).__name__}")
+    return params
 
 
 def midpoint_subdivide(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -27,8 +51,8 @@ def midpoint_subdivide(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndar
     Vertex order and faces equal those of ``subdivide_loop(vertices, faces, 1)``: the old vertices first,
     then one vertex per edge of :func:`plantvr.subdivision.loop.edge_table` (asserted in V25).
     """
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    V = check_array("vertices", vertices, shape=(None, 3), max_abs=MAX_COORD)
+    F = _faces(faces, len(V))
     E, _ = edge_table(F, len(V))
     _, F2 = subdivide_loop(V, F, 1)
     return np.vstack([V, 0.5 * (V[E[:, 0]] + V[E[:, 1]])]), F2
@@ -47,10 +71,14 @@ def resolve_collisions(x0: np.ndarray, p: np.ndarray, faces: np.ndarray, w: np.n
     (V, 3) float64 ndarray
         Collision-free end positions.
     """
-    params = SolverParams() if params is None else params
-    x0 = check_array("x0", x0, shape=(None, 3))
-    p = check_array("p", p, shape=x0.shape).copy()
-    w = check_array("w", w, shape=(x0.shape[0],))
+    params = _params(params)
+    x0 = check_array("x0", x0, shape=(None, 3), max_abs=MAX_COORD)
+    p = check_array("p", p, shape=x0.shape, max_abs=MAX_COORD).copy()
+    w = check_array("w", w, shape=(x0.shape[0],), max_abs=1e12)
+    if w.size and w.min() < 0:
+        raise ValueError(f"w (inverse masses) must be >= 0, got {w.min()!r}")
+    if stats is not None and not isinstance(stats, dict):
+        raise ValueError(f"stats must be a dict or None, got {type(stats).__name__}")
     det = ccd.CollisionDetector(faces, x0.shape[0], h=params.spacing, edges=edges)
     st = stats if stats is not None else {}
     for key in ("passes", "constraints", "rolled_back"):
@@ -124,14 +152,17 @@ def loop_smooth(vertices: np.ndarray, faces: np.ndarray, n_iter: int = 2, *, fix
     vertices : (V', 3) float64 ndarray
     faces : (4**n_iter F, 3) int64 ndarray
     """
-    params = SolverParams() if params is None else params
-    V = check_array("vertices", vertices, shape=(None, 3))
-    F = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
+    params = _params(params)
+    V = check_array("vertices", vertices, shape=(None, 3), max_abs=MAX_COORD)
+    F = _faces(faces, len(V))
     n_iter = check_int("n_iter", n_iter, 0, 6)
     pin = check_choice("pin", pin, ("attachments", "coarse"))
     boundary_rule = check_choice("boundary_rule", boundary_rule, ("loop_cubic", "fixed"))
-    if F.size and (F.min() < 0 or F.max() >= len(V)):
-        raise ValueError(f"faces must index vertices in [0, {len(V) - 1}]")
+    if len(F) * 4 ** n_iter > MAX_SMOOTH_FACES:
+        raise ValueError(f"n_iter={n_iter} would make {len(F) * 4 ** n_iter} faces from {len(F)}; at most "
+                         f"{MAX_SMOOTH_FACES} (lower n_iter)")
+    if stats is not None and not isinstance(stats, list):
+        raise ValueError(f"stats must be a list or None, got {type(stats).__name__}")
     fx = np.zeros(0, np.int64) if fixed is None else check_array("fixed", fixed, shape=(None,), dtype=np.int64)
     if fx.size and (fx.min() < 0 or fx.max() >= len(V)):
         raise ValueError(f"fixed must index vertices in [0, {len(V) - 1}]")

@@ -26,7 +26,7 @@ import ipywidgets as W
 import numpy as np
 import traitlets
 
-from .._validation import check_choice, check_int, check_range
+from .._validation import MAX_COORD, check_array, check_choice, check_int, check_range
 from ..flowers.composer import FloretType
 from ..flowers.floret import Corolla, FloretMesh, build_floret, growth_function, petal_net, write_obj_sequence
 
@@ -95,6 +95,7 @@ def frame_at(floret: FloretMesh, t: float) -> np.ndarray:
     -------
     (V, 3) float64 ndarray
     """
+    floret = _check_floret(floret)
     t = check_range("t", t, 0.0, 1.0)
     K = floret.frames.shape[0]
     x = t * (K - 1)
@@ -142,10 +143,21 @@ def preview_png(floret: FloretMesh, t: float = 1.0, *, size: tuple[int, int] = (
     bytes
         PNG data.
     """
+    floret = _check_floret(floret)
     t = check_range("t", t, 0.0, 1.0)
+    if not isinstance(size, (tuple, list, np.ndarray)) or len(size) != 2:
+        raise ValueError(f"size must be (width, height) in pixels, got {size!r:.80}")
     w, h = (check_int("size[0]", size[0], 64, 4096), check_int("size[1]", size[1], 64, 4096))
+    show_edges = _check_bool("show_edges", show_edges)
+    if camera is not None:
+        camera = [tuple(r) for r in check_array("camera", camera, shape=(3, 3), max_abs=MAX_COORD).tolist()]
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
+
+    try:
+        pv.Color(color)
+    except (TypeError, ValueError):
+        raise ValueError(f"color must be a colour name or '#rrggbb', got {color!r:.80}") from None
 
     pl = pv.Plotter(off_screen=True, window_size=(w, h))
     try:
@@ -162,6 +174,66 @@ def preview_png(floret: FloretMesh, t: float = 1.0, *, size: tuple[int, int] = (
     buf = io.BytesIO()
     Image.fromarray(np.asarray(img)).save(buf, format="PNG")
     return buf.getvalue()
+
+
+class _Checked(traitlets.TraitType):
+    """A trait whose every value, from code or a linked control, goes through a PlantVR check: a bad value
+    raises ``ValueError`` naming the setting (never a bare ``TraitError``) and changes nothing (issue 20)."""
+
+    def __init__(self, default_value, check, **kwargs):
+        super().__init__(default_value, **kwargs)
+        self._check_value = check
+
+    def validate(self, obj, value):
+        return self._check_value(self.name, value)
+
+
+class _Setting(_Checked):
+    """A numeric setting of :data:`_RANGES`: an int or a float inside its slider's range."""
+
+    def __init__(self, default_value, **kwargs):
+        super().__init__(default_value, _check_setting, **kwargs)
+
+
+def _check_setting(name: str, value):
+    _, lo, hi, step = _RANGES[name]
+    if isinstance(step, int):
+        return check_int(name, value, lo, hi)
+    return check_range(name, value, lo, hi)
+
+
+def _check_bool(name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _check_str(name: str, value) -> str:
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be a string, got {type(value).__name__}")
+    return value
+
+
+def _check_pose_list(value) -> list[dict]:
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"poses must be a list of 3 key poses (bud, middle, open), "
+                         f"got {type(value).__name__}")
+    poses = list(value)
+    if len(poses) != 3:
+        raise ValueError(f"poses must hold 3 key poses (bud, middle, open), got {len(poses)}")
+    out = []
+    for i, p in enumerate(poses):
+        if not isinstance(p, dict) or set(p) != set(POSE_KEYS):
+            got = sorted(map(str, p)) if isinstance(p, dict) else type(p).__name__
+            raise ValueError(f"poses[{i}] must be a dict with the keys {list(POSE_KEYS)}, got {got}")
+        out.append({k: check_range(f"poses[{i}].{k}", p[k], *_RANGES[k][1:3]) for k in POSE_KEYS})
+    return out
+
+
+def _check_floret(floret) -> FloretMesh:
+    if not isinstance(floret, FloretMesh):
+        raise ValueError(f"floret must be a FloretMesh, got {type(floret).__name__}")
+    return floret
 
 
 def _pose_defaults() -> list[dict]:
@@ -192,34 +264,37 @@ class FloretEditor(W.VBox):
     """
 
     # petal topology and shape shared by every key pose
-    nu = traitlets.Int(5, help="control points across a petal")
-    nv = traitlets.Int(6, help="control points along a petal (control rows)")
-    base_radius = traitlets.Float(0.06, help="distance of the petal base from the floret axis")
-    base_width = traitlets.Float(0.3, help="petal width at the base, as a fraction of its width")
+    nu = _Setting(5, help="control points across a petal")
+    nv = _Setting(6, help="control points along a petal (control rows)")
+    base_radius = _Setting(0.06, help="distance of the petal base from the floret axis")
+    base_width = _Setting(0.3, help="petal width at the base, as a fraction of its width")
     # corolla
-    n_fold = traitlets.Int(5, help="petals replicated about the floret axis")
-    fused_rows = traitlets.Int(3, help="control rows fused with the neighbouring petals")
-    weld = traitlets.Bool(True, help="weld coincident vertices (fused seams, shared base points)")
-    weld_tol = traitlets.Float(1e-9, help="welding distance, as a fraction of the floret size")
+    n_fold = _Setting(5, help="petals replicated about the floret axis")
+    fused_rows = _Setting(3, help="control rows fused with the neighbouring petals")
+    weld = _Checked(True, _check_bool, help=
+                    "weld coincident vertices (fused seams, shared base points)")
+    weld_tol = _Setting(1e-9, help="welding distance, as a fraction of the floret size")
     # key poses: the pose sliders edit poses[pose_index]
-    n_poses = traitlets.Int(2, help="key poses: 2 (bud, open) or 3 (bud, middle, open)")
-    pose_index = traitlets.Int(2, help="key pose edited by the pose sliders: 0 bud, 1 middle, 2 open")
-    poses = traitlets.List(traitlets.Dict(), help="settings of the three key poses")
-    length = traitlets.Float(0.8)
-    width = traitlets.Float(0.42)
-    opening_deg = traitlets.Float(55.0)
-    curl_deg = traitlets.Float(25.0)
-    roll_deg = traitlets.Float(0.0)
+    n_poses = _Setting(2, help="key poses: 2 (bud, open) or 3 (bud, middle, open)")
+    pose_index = _Checked(2, lambda n, v: check_int(n, v, 0, 2),
+                          help="key pose edited by the pose sliders: 0 bud, 1 middle, 2 open")
+    poses = _Checked([], lambda n, v: _check_pose_list(v), help="settings of the three key poses")
+    length = _Setting(0.8)
+    width = _Setting(0.42)
+    opening_deg = _Setting(55.0)
+    curl_deg = _Setting(25.0)
+    roll_deg = _Setting(0.0)
     # development and polygonization
-    growth = traitlets.Unicode("sinusoidal", help="time-warp growth function")
-    warp = traitlets.Float(2.0, help="exponent of the 'power' growth function t**warp")
-    n_frames = traitlets.Int(8, help="frames of the animation")
-    lam = traitlets.Float(0.2, help="lambda of Eq. 2.1: spacing between sample rows")
-    eta = traitlets.Float(5.0, help="eta: samples per row (rounded up to odd)")
-    time = traitlets.Float(1.0, help="growth time shown by the preview")
+    growth = _Checked("sinusoidal", lambda n, v: check_choice(n, v, GROWTH_KINDS),
+                      help="time-warp growth function")
+    warp = _Setting(2.0, help="exponent of the 'power' growth function t**warp")
+    n_frames = _Setting(8, help="frames of the animation")
+    lam = _Setting(0.2, help="lambda of Eq. 2.1: spacing between sample rows")
+    eta = _Setting(5.0, help="eta: samples per row (rounded up to odd)")
+    time = _Setting(1.0, help="growth time shown by the preview")
     # outputs
-    message = traitlets.Unicode("")
-    version = traitlets.Int(0)
+    message = _Checked("", lambda n, v: _check_str(n, v))
+    version = _Checked(0, lambda n, v: check_int(n, v, 0, 2 ** 62))
 
     def __init__(self, *, preset: str | None = "disc floret", live_preview: bool = True,
                  preview_size: tuple[int, int] = (420, 420)):
@@ -249,36 +324,12 @@ class FloretEditor(W.VBox):
             self.redraw()
 
     # ------------------------------------------------------------------ validation (code path)
-    @traitlets.validate(*_RANGES)
-    def _check(self, proposal):
-        name, value = proposal["trait"].name, proposal["value"]
-        _, lo, hi, step = _RANGES[name]
-        if isinstance(step, int):
-            return check_int(name, value, lo, hi)
-        return check_range(name, value, lo, hi)
-
     @traitlets.validate("pose_index")
     def _check_pose_index(self, proposal):
         i = check_int("pose_index", proposal["value"], 0, 2)
         if self.n_poses == 2 and i == 1:
             raise ValueError("pose_index must be 0 (bud) or 2 (open) with 2 key poses, got 1")
         return i
-
-    @traitlets.validate("growth")
-    def _check_growth(self, proposal):
-        return check_choice("growth", proposal["value"], GROWTH_KINDS)
-
-    @traitlets.validate("poses")
-    def _check_poses(self, proposal):
-        poses = list(proposal["value"])
-        if len(poses) != 3:
-            raise ValueError(f"poses must hold 3 key poses (bud, middle, open), got {len(poses)}")
-        out = []
-        for i, p in enumerate(poses):
-            if set(p) != set(POSE_KEYS):
-                raise ValueError(f"poses[{i}] must have the keys {list(POSE_KEYS)}, got {sorted(p)}")
-            out.append({k: check_range(f"poses[{i}].{k}", p[k], *_RANGES[k][1:3]) for k in POSE_KEYS})
-        return out
 
     # ------------------------------------------------------------------ core calls
     def corollas(self) -> list[Corolla]:
@@ -476,8 +527,10 @@ class FloretEditor(W.VBox):
     def export_obj(self, folder: str | os.PathLike, *, prefix: str = "frame") -> list[str]:
         """Write the floret as an OBJ sequence (one file per frame, shared faces) and ``weight.txt`` with the
         attachment vertices (spec 002 §2.4, V8). Returns the paths written."""
+        if not isinstance(folder, (str, os.PathLike)) or not os.fspath(folder).strip():
+            raise ValueError(f"folder must be a non-empty path, got {folder!r}")
         fm = self._floret
-        return write_obj_sequence(str(folder), fm.faces, fm.frames, prefix=prefix, fixed=fm.fixed)
+        return write_obj_sequence(os.fspath(folder), fm.faces, fm.frames, prefix=prefix, fixed=fm.fixed)
 
     # ------------------------------------------------------------------ widgets
     def _slider(self, name: str):
@@ -530,5 +583,12 @@ class FloretEditor(W.VBox):
         self.children = [W.HBox([left, right])]
 
     def _export_clicked(self) -> None:
-        paths = self.export_obj(Path(self.folder.value))
+        """The Export button: the folder comes from the browser's text field, so a bad one is reported in
+        the panel instead of raising inside the widget callback."""
+        try:
+            paths = self.export_obj(self.folder.value)
+        except (ValueError, OSError) as exc:
+            self.export_status.value = (f"<span class='floret-error' style='color:#b00020'>Not exported: "
+                                        f"{html.escape(str(exc))}</span>")
+            return
         self.export_status.value = f"wrote {len(paths)} OBJ files to {html.escape(str(Path(self.folder.value)))}"
