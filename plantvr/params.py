@@ -3,6 +3,10 @@
 Traits of :class:`plantvr.Model`, notebook sliders, the ``.tree`` file header and validation are all
 generated from :data:`PARAMS`; nothing else restates a range or a default.
 Defaults marked [INFERRED] in the spec are the spec's suggested values unless noted.
+
+Every range was reviewed for issue 20: each value it accepts, extremes included (a denormal ``base_length`` or
+``view_radius``, ``darts_per_paint = 10**6``, ``fine_cells = 64`` with ``shadow_depth = 32``), keeps growth
+working; the kernels clip, cap or coarsen instead (tests/growth/test_hardening.py), so no range was narrowed.
 """
 from __future__ import annotations
 

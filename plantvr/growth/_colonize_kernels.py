@@ -45,14 +45,23 @@ def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max
     m = len(points)
     if max_cells is None:
         max_cells = max(4096, m // 2)
+    h = float(radius) / cells_per_radius
+    if m == 0 or not (math.isfinite(h) and radius > 0):
+        raise ValueError(f"build_grid needs M >= 1 points and radius in (0, inf), got M = {m}, radius = {radius!r}")
     lo, hi = _bounds(points)
     origin, extent = lo, hi - lo
-    h = float(radius) / cells_per_radius
-    while True:
-        dims = np.floor(extent / h).astype(np.int64) + 1
-        if int(np.prod(dims.astype(np.float64))) <= max_cells:
+    if not np.all(np.isfinite(extent)):
+        raise ValueError("build_grid needs finite points (no NaN or inf)")
+    h = max(h, float(np.finfo(np.float64).tiny))  # a denormal radius / 3 rounds to 0
+    lb = 0.5 * float(extent.max()) / max_cells  # any h below this gives more than 2 max_cells cells: skip them
+    while h < lb:  # the same sequence of products as the loop below, without its numpy calls
+        h *= 1.5
+    while True:  # cell counts in float64: a tiny radius (issue 20: 1e-20) must not overflow the int64 cast
+        dims_f = np.floor(extent / h) + 1.0
+        if np.prod(dims_f) <= max_cells:
             break
         h *= 1.5
+    dims = dims_f.astype(np.int64)
     reach = int(math.ceil(float(radius) / h - 1e-12))
     pos_s, orig, cell_start = _sort_into_cells(points, origin, h, dims)
     cell_live = np.diff(cell_start).astype(np.int32)
@@ -101,7 +110,7 @@ def _cell_range(x, origin, h, dims, reach, axis):
     """Inclusive range of grid cells along ``axis`` within ``reach`` cells of coordinate ``x``."""
     f = (x - origin[axis]) / h
     n = dims[axis]
-    if f < -reach - 1.0:
+    if not f >= -reach - 1.0:  # also NaN: no cell, and no float -> int conversion of it
         return 1, 0
     if f > n + reach + 1.0:
         return 1, 0

@@ -60,6 +60,7 @@ import numpy as np
 from plantvr._sorting import counting_sort
 from plantvr._validation import check_array, check_int, check_points, check_range
 from plantvr.growth import _colonize_kernels as K
+from plantvr.growth.spatial import REACH
 
 __all__ = [
     "ColonizationResult",
@@ -173,6 +174,7 @@ class SpaceColonizer:
                  children_limit: int | None = None, _cells_per_radius: int = 3):
         markers, roots, di, dk, d, _, limit, _ = _check_classic(
             markers, roots, influence_radius, kill_radius, step_size, 0, children_limit, None)
+        _cells_per_radius = check_int("_cells_per_radius", _cells_per_radius, 1, 8)
         self.di2, self.dk2, self.step_size, self.children_limit = di * di, dk * dk, d, limit
         self.dup2 = (K.DUP_FRACTION * d) ** 2
         (self.origin, self.h, self.dims, self.reach, self.pos_s, self.orig, self.cell_start,
@@ -422,7 +424,7 @@ def space_colonization_reference(markers, roots, *, influence_radius: float, kil
 # Tree Wand assignment (Eq. 9.4)
 # ------------------------------------------------------------------------------------------------------------
 def _check_buds(bud_pos, bud_dir, bud_len):
-    bud_pos = check_points("bud_pos", bud_pos)
+    bud_pos = check_points("bud_pos", bud_pos, max_abs=REACH)  # nodes overshoot a marker by one internode
     b = len(bud_pos)
     bud_dir = check_array("bud_dir", bud_dir, shape=(b, 3))
     bud_len = check_array("bud_len", bud_len, shape=(b,))
@@ -467,7 +469,7 @@ def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, v
     ----------
     .. [1] Tree Wand thesis §9.4, Eq. 9.4; view angle read as full apex angle (spec 000_treewand §2.3 [INFERRED]).
     """
-    markers = check_points("markers", markers)
+    markers = check_points("markers", markers, max_abs=REACH)
     bud_pos, _, _ = _check_buds(bud_pos, bud_dir, bud_len)
     vr, cos_half = _check_cone(view_radius, view_angle)
     if len(markers) == 0 or len(bud_pos) == 0:
@@ -486,7 +488,7 @@ def assign_treewand_reference(markers, bud_pos, bud_dir, bud_len, *, view_radius
     owner : (M,) int64 ndarray
         As :func:`assign_treewand`.
     """
-    markers = check_points("markers", markers)
+    markers = check_points("markers", markers, max_abs=REACH)
     bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
     vr, cos_half = _check_cone(view_radius, view_angle)
     return K.treewand_assign_numpy(markers, bud_pos, bud_dir, bud_len, vr, cos_half)[0]
@@ -506,8 +508,9 @@ class TreeWandAssigner:
     """
 
     def __init__(self, markers, *, view_radius: float, view_angle: float, _cells_per_radius: int = 3):
-        markers = check_points("markers", markers, min_rows=1)
+        markers = check_points("markers", markers, min_rows=1, max_abs=REACH)
         self.view_radius, self.cos_half = _check_cone(view_radius, view_angle)
+        _cells_per_radius = check_int("_cells_per_radius", _cells_per_radius, 1, 8)
         (self.origin, self.h, self.dims, self.reach, self.pos_s, self.orig, self.cell_start,
          self.cell_live) = K.build_grid(markers, self.view_radius, _cells_per_radius)
         self.m = len(markers)
@@ -537,7 +540,7 @@ class TreeWandAssigner:
 
         Cost ~ points × markers within ``radius`` of them; the incremental state of :meth:`update` follows.
         """
-        points = check_points("points", points)
+        points = check_points("points", points, max_abs=REACH)
         r = check_range("radius", radius, 0.0, self.view_radius, low_open=True)
         if len(points) == 0:
             return 0

@@ -12,16 +12,42 @@ from typing import Any
 
 import numpy as np
 
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
+from plantvr.params import PARAM_BY_NAME, validate
+
 from .colonize import assign_treewand
 from .directions import bud_headings, growth_directions, normalize, transport_lateral, tropism_vectors
 from .lengths import internode_lengths
-from .markers import poisson_darts
-from .shadow import ShadowGrid, shadow_lut
-from .spatial import build_grid, within_any
+from .markers import _poisson_darts
+from .shadow import ShadowGrid, ShadowGridFull, shadow_lut
+from .spatial import REACH, PointGrid, _within_any_trusted
 from .tree import BUD, Tree
-from .vigor import accumulate_light, distribute_vigor, pipe_radius, shed_mask
+from .vigor import accumulate_light_kernel, distribute_vigor_kernel, pipe_radius_kernel, shed_mask_kernel
 
-__all__ = ["GrowthEngine", "StepStats"]
+__all__ = ["GrowthEngine", "StepStats", "check_engine_params"]
+
+#: Shortest internode length a bud produces: Eq. 9.17 with a denormal base length rounds to 0 otherwise.
+MIN_LENGTH = float(np.finfo(np.float64).tiny)
+#: Smallest cell of the occupation grids: below it a grid over ±REACH would clip every marker into one cell.
+_MIN_CELL = REACH * 2.0 ** -40
+
+
+def check_engine_params(params: Any, *, partial: bool = False) -> dict[str, Any]:
+    """``params`` checked against the parameter table (names known, values in range), complete unless ``partial``.
+
+    Raises ``ValueError`` naming the parameter; returns a new dict of converted values.
+    """
+    if not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of growth parameters, got {type(params).__name__}")
+    bad = [k for k in params if not isinstance(k, str)]
+    if bad:
+        raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
+    out = validate(params)
+    if not partial:
+        missing = sorted(set(PARAM_BY_NAME) - set(out))
+        if missing:
+            raise ValueError(f"params is missing {missing[:5]} (start from plantvr.params.defaults())")
+    return out
 
 
 @dataclass(frozen=True)
@@ -66,7 +92,13 @@ class GrowthEngine:
     """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict."""
 
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None):
-        self.params = dict(params)
+        params = check_engine_params(params)
+        if isinstance(rng, (bool, np.bool_)) or not (rng is None or isinstance(rng, (
+                int, np.integer, np.random.Generator, np.random.SeedSequence, np.random.BitGenerator))):
+            raise ValueError(f"rng must be a non-negative int seed, a numpy Generator or None, got {rng!r}")
+        if isinstance(rng, (int, np.integer)):
+            check_int("rng", rng, 0, 2 ** 128 - 1)
+        self.params = params
         self.rng = np.random.default_rng(rng)
         self.reset()
 
@@ -83,7 +115,9 @@ class GrowthEngine:
         self.rebuild_light()
 
     def set_params(self, params: dict[str, Any]) -> None:
-        """Apply already-validated parameters; a change of shadow or topology settings rebuilds what depends on it."""
+        """Apply parameters (checked against the table first; nothing changes if one is rejected); a change of
+        shadow or topology settings rebuilds what depends on it."""
+        params = check_engine_params(params, partial=True)
         old = self.params
         self.params = {**old, **params}
         if any(old[k] != self.params[k] for k in ("shadow_intensity", "shadow_falloff", "shadow_depth",
@@ -93,46 +127,86 @@ class GrowthEngine:
             self.update_light()
 
     def rebuild_light(self) -> None:
-        """Rebuild the shadow grid from every live node, then light, vigor and radius (§2.6, after loading)."""
+        """Rebuild the shadow grid from every live node, then light, vigor and radius (§2.6, after loading).
+
+        The cell is the base length (§2.6) unless the live nodes' pyramids would need more than the grid's cell
+        cap (e.g. a tiny ``base_length`` set on a grown tree, issue 20): then the cell doubles until they fit.
+        """
         p = self.params
         self._lut = shadow_lut(p["shadow_intensity"], p["shadow_falloff"], p["shadow_depth"],
                                p["shadow_loop_inclusive"])
-        self.grid = ShadowGrid(p["base_length"], p["fine_cells"])
         t = self.tree
         live = np.flatnonzero(t.alive)
-        self.grid.add(self.grid.cells_of(t.pos[live]), *self._lut)
+        cell = p["base_length"]
+        while True:
+            self.grid = ShadowGrid(cell, p["fine_cells"])
+            try:
+                self.grid._add_cells(self.grid.cells_of(t.pos[live]), *self._lut)
+                break
+            except ShadowGridFull:
+                if not cell * 2.0 < np.inf:  # cannot happen (one cell always fits); stay shadowless
+                    self.grid = ShadowGrid(cell, p["fine_cells"])
+                    break
+                cell *= 2.0
         t.shadow_cast[:] = t.alive
         self.update_light()
+
+    def _cast(self, nodes: np.ndarray, sign: float = 1.0) -> None:
+        """Add (remove) the shadow pyramids of ``nodes``; a grid that would outgrow its cap is rebuilt coarser."""
+        t = self.tree
+        try:
+            self.grid._add_cells(self.grid.cells_of(t.pos[nodes]), *self._lut, sign=sign)
+        except ShadowGridFull:
+            self.rebuild_light()
 
     def update_light(self) -> None:
         """Recompute illumination L, then light, vigor and pipe radius over the whole tree (§2.5, §2.8)."""
         p, t = self.params, self.tree
-        s = self.grid.read(self.grid.cells_of(t.pos))
+        s = self.grid._read_cells(self.grid.cells_of(t.pos))
         t.L[:] = np.clip(1.0 - s, 0.0, 1.0)  # ambiguity A.20: L = clamp(1 - s, 0, 1)
         self._vigor()
-        pipe_radius(t.child, t.alive, p["tip_radius"], p["radius_exp"], t.radius)
+        pipe_radius_kernel(t.child, t.alive, p["tip_radius"], p["radius_exp"], t.radius)
 
     def _vigor(self) -> None:
         p, t = self.params, self.tree
-        accumulate_light(t.child, t.alive, t.L, t.light_factor, p["light_exponent"], p["apical_dominance"], t.Q, t.Qw, t.Qslot)
-        distribute_vigor(t.child, t.alive, t.Qslot, t.Qw, p["apical_dominance"], p["vigor_mult"], t.vigor,
-                         t.bud_vigor)
+        accumulate_light_kernel(t.child, t.alive, t.L, t.light_factor, p["light_exponent"], p["apical_dominance"],
+                                t.Q, t.Qw, t.Qslot)
+        distribute_vigor_kernel(t.child, t.alive, t.Qslot, t.Qw, p["apical_dominance"], p["vigor_mult"], t.vigor,
+                                t.bud_vigor)
 
     # -- commands -----------------------------------------------------------------------------------
     def paint(self, center: np.ndarray, radius: float, n_darts: int | None = None) -> int:
-        """Throw Poisson darts in the brush sphere (§2.2); returns the number of markers added."""
-        n = self.params["darts_per_paint"] if n_darts is None else n_darts
-        new = poisson_darts(center, radius, n, self.markers, self.params["occupation_radius"], self.rng)
-        self.add_markers(new)
+        """Throw Poisson darts in the brush sphere (§2.2); returns the number of markers added.
+
+        ``center`` (3,) within ±MAX_COORD, ``radius`` in [0, MAX_COORD], ``n_darts`` in [0, MAX_COUNT]
+        (default ``darts_per_paint``).
+        """
+        center = check_point("center", center)
+        radius = check_range("radius", radius, 0.0, MAX_COORD)
+        n = self.params["darts_per_paint"] if n_darts is None else check_int("n_darts", n_darts, 0, MAX_COUNT)
+        new = _poisson_darts(center, radius, n, self.markers, self.params["occupation_radius"], self.rng)
+        self._append_markers(new)
         return len(new)
 
     def add_markers(self, points: np.ndarray) -> None:
-        """Append markers as they are (age 0), e.g. an imported or scripted marker cloud."""
+        """Append markers as they are (age 0), e.g. an imported or scripted marker cloud: (N, 3) within ±REACH."""
+        points = check_points("points", points, max_abs=REACH)
+        if len(self.markers) + len(points) > MAX_COUNT:
+            raise ValueError(f"points would make {len(self.markers) + len(points)} markers, more than "
+                             f"MAX_COUNT = {MAX_COUNT}")
+        self._append_markers(points)
+
+    def _append_markers(self, points: np.ndarray) -> None:
         self.markers = np.concatenate([self.markers, points])
         self.marker_age = np.concatenate([self.marker_age, np.zeros(len(points), np.int64)])
 
     def prune_preview(self, center: np.ndarray, radius: float) -> np.ndarray:
-        """Mask of the nodes a prune would remove: internodes whose midpoint is in the brush, with subtrees (§4.4)."""
+        """Mask of the nodes a prune would remove: internodes whose midpoint is in the brush, with subtrees (§4.4).
+
+        ``center`` (3,) within ±MAX_COORD, ``radius`` in [0, 2 MAX_COORD].
+        """
+        center = check_point("center", center)
+        radius = check_range("radius", radius, 0.0, 2 * MAX_COORD)
         t = self.tree
         par = np.maximum(t.parent, 0)
         mid = 0.5 * (t.pos + t.pos[par])
@@ -151,8 +225,8 @@ class GrowthEngine:
         t = self.tree
         gone = t.remove(mask)
         cast = gone[t.shadow_cast[gone]]
-        self.grid.add(self.grid.cells_of(t.pos[cast]), *self._lut, sign=-1.0)
         t.shadow_cast[cast] = False
+        self._cast(cast, -1.0)
         if t.n > 64 and t.alive.sum() < 0.7 * t.n:
             remap = t.compact()
             self._new_nodes = remap[self._new_nodes]
@@ -173,8 +247,8 @@ class GrowthEngine:
                                    view_angle=math.radians(p["view_angle"]))
             grown = self._grow(buds, owner)
         t = self.tree
-        self.grid.add(self.grid.cells_of(t.pos[self._new_nodes]), *self._lut)
         t.shadow_cast[self._new_nodes] = True
+        self._cast(self._new_nodes)
         self.update_light()
         shed = self._remove(self.shed_mask())
         if shed:
@@ -197,7 +271,7 @@ class GrowthEngine:
     def shed_mask(self) -> np.ndarray:
         """Nodes to shed this step (§2.5): vigor below the direct or subtree internode count."""
         t = self.tree
-        return shed_mask(t.child, t.parent, t.alive, t.vigor, self.params["shed_count"] == "subtree")
+        return shed_mask_kernel(t.child, t.parent, t.alive, t.vigor, self.params["shed_count"] == "subtree")
 
     def _age_markers(self) -> None:
         """Markers live ``marker_lifetime`` growth steps (§2.2); variants with persistent points override this."""
@@ -234,11 +308,13 @@ class GrowthEngine:
         live = t.pos[t.alive]
         dead = np.zeros(len(self.markers), bool)
         fresh = np.flatnonzero(self.marker_age == 0)
+        h = max(r, _MIN_CELL)  # the test is exact for any cell size; the floor keeps cells apart for a tiny r
         if len(fresh):
-            dead[fresh] = within_any(build_grid(self.markers[fresh], r), live, r)
+            dead[fresh] = _within_any_trusted(PointGrid._trusted(self.markers[fresh], h), live, r)
         new = new[t.alive[new]]
         if len(new):
-            dead |= within_any(build_grid(self.markers, max(r, self.params["view_radius"])), t.pos[new], r)
+            dead |= _within_any_trusted(PointGrid._trusted(self.markers, max(h, self.params["view_radius"])),
+                                        t.pos[new], r)
         if dead.any():
             self.markers, self.marker_age = self.markers[~dead], self.marker_age[~dead]
 
@@ -262,6 +338,7 @@ class GrowthEngine:
         b = allb.subset(allb.vigor > p["activation_threshold"])
         b.length = internode_lengths(p["length_mode"], base=p["base_length"], mult=p["max_len_mult"],
                                      order=t.order[b.node] + (b.slot > 0), vigor=b.vigor, vmax=vmax)
+        np.maximum(b.length, MIN_LENGTH, out=b.length)  # a no-op unless base_length is denormal
         return b
 
     def _grow(self, buds: _Buds, owner: np.ndarray) -> int:

@@ -10,6 +10,8 @@ from typing import Callable, Iterable
 
 import numpy as np
 
+from plantvr._validation import check_int
+
 __all__ = ["demo_session", "vertical_stroke", "sweep_session", "run", "y_session", "broad_session",
            "concentrations_session", "crown_session"]
 
@@ -51,7 +53,11 @@ def demo_session(darts: int = 150) -> Session:
 
 
 def run(target, session: Session, steps: int, progress: Iterable[int] | None = None) -> list:
-    """Paint with ``session`` and grow one step, ``steps`` times; returns the step statistics."""
+    """Paint with ``session`` and grow one step, ``steps`` times (in [0, 10**9]); returns the step statistics."""
+    if progress is None:
+        steps = check_int("steps", steps, 0, 10 ** 9)
+    if not callable(session):
+        raise ValueError(f"session must be a function (target, step) -> None, got {type(session).__name__}")
     out = []
     for s in progress if progress is not None else range(steps):
         session(target, s)
