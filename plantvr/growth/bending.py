@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .._validation import check_array, check_int, check_point, check_range
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_range
 
 __all__ = ["BendResult", "WidthResult", "bend_path", "pipe_widths", "rotation_matrix", "solve_exponent", "stiffness"]
 
@@ -53,6 +53,8 @@ class BendResult:
 def rotation_matrix(v: np.ndarray) -> np.ndarray:
     """Rodrigues: the rotation matrix of rotation vector ``v`` (3,) (angle = |v|, radians)."""
     v = np.asarray(v, float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        v = check_array("v", v, shape=(3,), max_abs=1e12)
     a = float(np.linalg.norm(v))
     if a < 1e-300:
         return np.eye(3)
@@ -71,8 +73,21 @@ def _log(R: np.ndarray) -> np.ndarray:
 
 
 def stiffness(radius: np.ndarray, length: np.ndarray) -> np.ndarray:
-    """Eq. A.3: flexural stiffness w = r^4 / l per internode (elastic modulus and constants dropped)."""
-    return np.asarray(radius, float) ** 4 / np.asarray(length, float)
+    """Eq. A.3: flexural stiffness w = r^4 / l per internode (elastic modulus and constants dropped).
+
+    ``radius`` and ``length`` are positive and finite (arrays of one shape, or scalars).
+    """
+    try:
+        r, ln = np.asarray(radius, float), np.asarray(length, float)
+    except (TypeError, ValueError):
+        raise ValueError(f"radius and length must be numbers or arrays, got {type(radius).__name__} and "
+                         f"{type(length).__name__}") from None
+    for name, a in (("radius", r), ("length", ln)):
+        if not np.all(np.isfinite(a) & (a > 0) & (a <= MAX_COORD)):
+            raise ValueError(f"{name} must be positive and at most {MAX_COORD:g}")
+    if r.shape != ln.shape and r.ndim and ln.ndim:
+        raise ValueError(f"radius and length must have one shape, got {r.shape} and {ln.shape}")
+    return r ** 4 / ln
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -128,15 +143,18 @@ def bend_path(pos: np.ndarray, parent: np.ndarray, radius: np.ndarray, path, tar
     ----------
     .. [1] Longay thesis §5.3.1, App. A, Eq. A.3 (w = r^4/l); spec 004 §2.9 (circular editing, rigid transport).
     """
-    pos = check_array("pos", pos, shape=(None, 3))
+    pos = check_array("pos", pos, shape=(None, 3), max_abs=MAX_COORD)
     n = len(pos)
     parent = np.asarray(parent)
     if parent.shape != (n,) or not np.issubdtype(parent.dtype, np.integer) or (parent >= n).any() or \
             (parent < -1).any():
         raise ValueError(f"parent must be an (n,) int array of indices in [-1, {n - 1}], got shape {parent.shape}")
     parent = parent.astype(np.int64)
-    radius = check_array("radius", radius, shape=(n,))
-    path = np.asarray(path)
+    radius = check_array("radius", radius, shape=(n,), max_abs=MAX_COORD)
+    try:
+        path = np.asarray(path)
+    except (TypeError, ValueError):
+        raise ValueError(f"path must be a sequence of node indices, got {type(path).__name__}") from None
     if path.ndim != 1 or len(path) < 2 or not np.issubdtype(path.dtype, np.integer) or \
             (path < 0).any() or (path >= n).any():
         raise ValueError(f"path must be a sequence of at least 2 node indices in [0, {n - 1}], got {path!r}")
@@ -145,12 +163,15 @@ def bend_path(pos: np.ndarray, parent: np.ndarray, radius: np.ndarray, path, tar
         raise ValueError("path must follow the tree: parent[path[k]] == path[k-1] for every k >= 1")
     target = check_point("target", target)
     max_iter = check_int("max_iter", max_iter, 1, 100_000)
-    tol = check_range("tol", tol, 0.0, np.inf, low_open=True)
+    tol = check_range("tol", tol, 0.0, MAX_COORD, low_open=True)
     seg = pos[path[1:]] - pos[path[:-1]]
     length = np.linalg.norm(seg, axis=1)
     r = radius[path[1:]]
-    if (length <= 0).any() or (r <= 0).any():
-        raise ValueError("every path internode needs a positive length and radius")
+    if (length <= 1e-12).any() or (r <= 1e-12).any():
+        raise ValueError("every path internode needs a length and radius above 1e-12")
+    if float(r.max()) / float(r.min()) > 1e6:  # w = r^4 / l spans at most 1e24 (the solve stays well posed)
+        raise ValueError(f"radius along the path must stay within a factor 1e6, got {float(r.min()):.3g} .. "
+                         f"{float(r.max()):.3g}")
     reach = float(length.sum())
     if np.linalg.norm(target - pos[path[0]]) > reach * (1 + 1e-12):
         raise ValueError(f"target is {np.linalg.norm(target - pos[path[0]]):.6g} from the path base, "
@@ -247,11 +268,17 @@ def solve_exponent(d_c: float, d_k: np.ndarray, *, bounds: tuple[float, float] =
     ----------
     .. [1] Longay thesis §5.3.2, Eqs. 5.1–5.3; spec 004 §2.10, ERRATUM E2 (log(M+1)).
     """
-    d_c = check_range("d_c", d_c, 0.0, np.inf, low_open=True)
-    d_k = np.asarray(d_k, float)
-    if d_k.ndim != 1 or len(d_k) < 2 or not np.all(np.isfinite(d_k) & (d_k > 0)):
-        raise ValueError(f"d_k must be a 1-D array of at least 2 positive diameters, got {d_k!r}")
-    lo, hi = float(bounds[0]), float(bounds[1])
+    d_c = check_range("d_c", d_c, _MIN_D, MAX_COORD)
+    try:
+        d_k = np.asarray(d_k, float)
+    except (TypeError, ValueError):
+        raise ValueError(f"d_k must be a 1-D array of positive diameters, got {type(d_k).__name__}") from None
+    if d_k.ndim != 1 or len(d_k) < 2 or not np.all(np.isfinite(d_k) & (d_k >= _MIN_D) & (d_k <= MAX_COORD)):
+        raise ValueError(f"d_k must be a 1-D array of at least 2 diameters in [{_MIN_D:g}, {MAX_COORD:g}], "
+                         f"got {d_k!r}")
+    lo, hi = _check_bounds(bounds)
+    tol = check_range("tol", tol, 0.0, 1.0, low_open=True)
+    max_iter = check_int("max_iter", max_iter, 1, 100_000)
     lk, lc = np.log(d_k), np.log(d_c)
     m = len(d_k)
 
@@ -284,6 +311,19 @@ def solve_exponent(d_c: float, d_k: np.ndarray, *, bounds: tuple[float, float] =
             break
         n = nn
     return float(n), True
+
+
+#: Diameters and exponents of the pipe model are bounded so that d^n neither overflows nor underflows
+#: (1e-9^20 and 1e6^20 are far inside float64).
+_MIN_D, _MAX_EXP = 1e-9, 20.0
+
+
+def _check_bounds(bounds) -> tuple[float, float]:
+    if isinstance(bounds, (str, bytes)) or not hasattr(bounds, "__len__") or len(bounds) != 2:
+        raise ValueError(f"bounds must be (n_lo, n_hi), got {bounds!r}")
+    lo = check_range("bounds[0]", bounds[0], 0.05, _MAX_EXP)
+    hi = check_range("bounds[1]", bounds[1], lo, _MAX_EXP, low_open=True)
+    return lo, hi
 
 
 @numba.njit(cache=True, nogil=True)
@@ -393,23 +433,27 @@ def pipe_widths(parent: np.ndarray, alive: np.ndarray, *, tip_diameter: float, e
     ----------
     .. [1] Longay thesis §5.3.2, Eqs. 5.1–5.3, Figs. 5.19–5.20; spec 004 §2.10, ERRATUM E2.
     """
-    parent = np.asarray(parent)
-    n_all = len(parent)
-    if parent.ndim != 1 or not np.issubdtype(parent.dtype, np.integer) or \
+    try:
+        parent = np.asarray(parent)
+    except (TypeError, ValueError):
+        raise ValueError(f"parent must be an (n,) int array, got {type(parent).__name__}") from None
+    n_all = len(parent) if parent.ndim else 0
+    if parent.ndim != 1 or not np.issubdtype(parent.dtype, np.integer) or n_all > MAX_COUNT or \
             np.any(parent >= np.arange(n_all)) or np.any(parent < -1):
         raise ValueError("parent must be an (n,) int array with -1 <= parent[i] < i")
     parent = parent.astype(np.int64)
-    alive = np.asarray(alive, bool)
-    if alive.shape != (n_all,):
-        raise ValueError(f"alive must have shape ({n_all},), got {alive.shape}")
-    tip_d = check_range("tip_diameter", tip_diameter, 0.0, np.inf, low_open=True)
-    exponent = check_range("exponent", exponent, 0.1, 100.0)
+    alive = check_array("alive", alive, shape=(n_all,), dtype=bool)
+    tip_d = check_range("tip_diameter", tip_diameter, _MIN_D, MAX_COORD)
+    exponent = check_range("exponent", exponent, 0.1, _MAX_EXP)
+    bounds = _check_bounds(bounds)
+    if constraints is not None and not isinstance(constraints, dict):
+        raise ValueError(f"constraints must be a dict {{node: diameter}} or None, got {type(constraints).__name__}")
     cons = {}
     for k, v in (constraints or {}).items():
         k = check_int("constraint node", k, 1, n_all - 1)
         if not alive[k]:
             raise ValueError(f"constraint node {k} is not alive")
-        cons[k] = check_range(f"constraint diameter at node {k}", v, 0.0, np.inf, low_open=True)
+        cons[k] = check_range(f"constraint diameter at node {k}", v, _MIN_D, MAX_COORD)
     fixed = np.zeros(n_all, bool)
     fixed_d = np.zeros(n_all)
     for k, v in cons.items():

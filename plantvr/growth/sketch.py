@@ -33,7 +33,17 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_array, check_choice, check_int, check_point, check_points, check_range
+from .._validation import (
+    MAX_COORD,
+    MAX_COUNT,
+    check_array,
+    check_choice,
+    check_int,
+    check_point,
+    check_points,
+    check_range,
+)
+from ..params import PARAM_BY_NAME, validate
 from .bending import BendResult, bend_path, pipe_widths
 from .directions import _rotate, bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, _Buds, sum_per_bud
@@ -53,6 +63,72 @@ __all__ = [
 
 _Y = np.array([0.0, 1.0, 0.0])
 
+#: Largest |coarse index| and pyramid offset of the shadow grid (plantvr.growth.shadow): nodes farther out than
+#: (GRID_COARSE - 2) * fine_cells - GRID_OFFSET cells from the origin cannot be indexed (issue 20:
+#: ``base_length = 1e-20`` after growth crashed ``ShadowGrid.add``).
+try:
+    from .shadow import COARSE_LIMIT as GRID_COARSE
+    from .shadow import MAX_OFFSET as GRID_OFFSET
+except ImportError:  # pragma: no cover - an older shadow grid without stated bounds
+    GRID_COARSE, GRID_OFFSET = 2 ** 14, 64
+#: Bounds of the gravimorphism ellipse's semi-axes and offset: beyond them Eq. 4.6 overflows to NaN vigor.
+ELLIPSE_RANGE = (1e-6, 1e6)
+#: Most neighbour sites a crown region may list (the region test is a (points x sites) distance table).
+MAX_SITES = 10_000
+
+
+def _check_bool(name: str, value: Any) -> bool:
+    """``value`` as a bool; only True/False (or 0/1) are accepted, so ``"no"`` is not silently True."""
+    if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
+        return bool(value)
+    raise ValueError(f"{name} must be True or False, got {value!r}")
+
+
+def _rows3(name: str, value: Any) -> np.ndarray:
+    """``value`` as a finite (N, 3) float64 array (a single (3,) row is promoted)."""
+    try:
+        a = np.asarray(value, float)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be an (N, 3) array, got {type(value).__name__}") from None
+    return check_array(name, np.atleast_2d(a), shape=(None, 3))
+
+
+def check_params(params: Any, *, partial: bool = False) -> dict[str, Any]:
+    """The engine's parameter dict checked against the parameter table (every name known, every value in its
+    range); complete unless ``partial``. Raises ``ValueError`` naming the parameter."""
+    if not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of growth parameters, got {type(params).__name__}")
+    bad = [k for k in params if not isinstance(k, str)]
+    if bad:
+        raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
+    out = validate(params)
+    if not partial:
+        missing = sorted(set(PARAM_BY_NAME) - set(out))
+        if missing:
+            raise ValueError(f"params is missing {missing[:5]} (start from plantvr.params.defaults())")
+    return out
+
+
+def grid_reach(params: dict[str, Any]) -> float:
+    """Largest |x| or |z| (and |y| / 3) a node or marker may have for the shadow grid of ``params`` to index it."""
+    return ((GRID_COARSE - 2) * params["fine_cells"] - GRID_OFFSET) * params["base_length"]
+
+
+def check_grid_reach(params: dict[str, Any], pos: np.ndarray, *, name: str = "base_length") -> None:
+    """Raise ``ValueError`` (naming ``name``) unless every point of ``pos`` (N, 3) lies where the shadow grid of
+    ``params`` (cell ``base_length``, ``fine_cells``) can index it: |x|, |z| and |y| / 3 within :func:`grid_reach`."""
+    if not len(pos):
+        return
+    ext = max(float(np.abs(pos[:, [0, 2]]).max()), float(np.abs(pos[:, 1]).max()) / 3.0)
+    reach = grid_reach(params)
+    if ext > reach:
+        if name == "base_length":
+            raise ValueError(f"base_length must be at least {params['base_length'] * ext / reach:.3g} for a tree "
+                             f"reaching {ext:.6g} from the origin (the shadow grid indexes "
+                             f"{reach / params['base_length']:.0f} cells), got {params['base_length']!r}")
+        raise ValueError(f"{name} must lie within {reach:.6g} of the origin (|y| within {3 * reach:.6g}) for the "
+                         f"shadow grid of base_length {params['base_length']!r}, got {ext:.6g}")
+
 
 def barycentric(alpha: float, beta: float, gamma: float) -> tuple[float, float, float]:
     """Normalise non-negative weights to the triangle alpha + beta + gamma = 1 (Eq. 4.5, ERRATUM E7).
@@ -65,6 +141,10 @@ def barycentric(alpha: float, beta: float, gamma: float) -> tuple[float, float, 
     s = a + b + c
     if s <= 0:
         raise ValueError(f"growth weights must not all be zero, got {(alpha, beta, gamma)!r}")
+    if not math.isfinite(s):  # huge weights: normalise by the largest first (1e308 thrice is (1/3, 1/3, 1/3))
+        m = max(a, b, c)
+        a, b, c = a / m, b / m, c / m
+        s = a + b + c
     return a / s, b / s, c / s
 
 
@@ -95,7 +175,11 @@ def set_point_tropism(heading: np.ndarray, theta: float, *, main_axis: np.ndarra
     .. [1] Longay thesis §4.4.2, Eq. 4.5; spec 004 §1.4.5 (closed form and eps [INFERRED]).
     """
     theta = check_range("theta", theta, 0.0, math.pi)
-    H = np.atleast_2d(np.asarray(heading, float))
+    H = _rows3("heading", heading)
+    if main_axis is not None:
+        main_axis = check_array("main_axis", main_axis, shape=(len(H),), dtype=bool)
+    trunk_up = _check_bool("trunk_up", trunk_up)
+    eps = check_range("eps", eps, 0.0, 1.0)
     hp = H - (H @ _Y)[:, None] * _Y
     near = np.linalg.norm(np.cross(H, _Y), axis=1) < eps
     if near.any():
@@ -113,8 +197,12 @@ def deflect_heading(heading: np.ndarray, lateral: np.ndarray, delta: float) -> n
 
     Rows whose heading and lateral direction are parallel are returned unchanged. ``delta`` in radians.
     """
-    H = np.atleast_2d(np.asarray(heading, float))
-    axis = np.cross(H, np.atleast_2d(np.asarray(lateral, float)))
+    H = _rows3("heading", heading)
+    L = _rows3("lateral", lateral)
+    if len(L) not in (1, len(H)):
+        raise ValueError(f"lateral must have 1 or {len(H)} rows like heading, got {len(L)}")
+    delta = check_range("delta", delta, -2 * math.pi, 2 * math.pi)
+    axis = np.cross(H, L)
     n = np.linalg.norm(axis, axis=1)
     out = H.copy()
     ok = n > 1e-12
@@ -130,7 +218,7 @@ def shoot_lengths(vigor: np.ndarray, n_max: int) -> np.ndarray:
     with v < v_max / n_max gets 0 (dormant). All-zero vigor gives zeros.
     """
     n_max = check_int("n_max", n_max, 0, 10_000)
-    v = np.asarray(vigor, float)
+    v = check_array("vigor", vigor, shape=(None,))
     if v.size == 0:
         return np.zeros(0, np.int64)
     vmax = float(v.max())
@@ -153,8 +241,14 @@ def autonomous_points(pos: np.ndarray, heading: np.ndarray, vigor: np.ndarray, *
     r_in = check_range("r_in", r_in, 0.0, np.inf)
     r_out = check_range("r_out", r_out, r_in, np.inf)
     half_angle = check_range("half_angle", half_angle, 0.0, math.pi)
+    if r_out > MAX_COORD:
+        raise ValueError(f"r_out must be in [{r_in}, {MAX_COORD:g}], got {r_out!r}")
+    pos = check_points("pos", pos)
+    H = normalize(check_array("heading", heading, shape=(len(pos), 3)))
+    v = check_array("vigor", vigor, shape=(len(pos),))
+    if len(pos) * (1 + density) > MAX_COUNT:
+        raise ValueError(f"pos and density ask for up to {len(pos) * (1 + density)} points, more than {MAX_COUNT}")
     rng = np.random.default_rng(rng)
-    pos, H, v = np.asarray(pos, float), normalize(np.asarray(heading, float)), np.asarray(vigor, float)
     if len(pos) == 0:
         return np.zeros((0, 3))
     vmax = float(v.max())
@@ -180,10 +274,16 @@ def ellipse_distance(chi: np.ndarray, *, s_v: float, s_p: float, e_v: float) -> 
     A = cos^2 chi / s_v^2 + sin^2 chi / s_p^2, B = -2 e_v cos chi / s_v^2, C = e_v^2 / s_v^2 - 1, clamped >= 0;
     0 where the ray misses the ellipse. The neutral ellipse (1, 1, 0) gives d = 1.
     """
-    s_v = check_range("s_v", s_v, 0.0, np.inf, low_open=True)
-    s_p = check_range("s_p", s_p, 0.0, np.inf, low_open=True)
-    e_v = check_range("e_v", e_v, -np.inf, np.inf)
-    chi = np.asarray(chi, float)
+    lo, hi = ELLIPSE_RANGE
+    s_v = check_range("s_v", s_v, lo, hi)
+    s_p = check_range("s_p", s_p, lo, hi)
+    e_v = check_range("e_v", e_v, -hi, hi)
+    try:
+        chi = np.asarray(chi, float)
+    except (TypeError, ValueError):
+        raise ValueError(f"chi must be an array of angles, got {type(chi).__name__}") from None
+    if not np.all(np.isfinite(chi)):
+        raise ValueError("chi must contain only finite values (no NaN or inf)")
     c, s = np.cos(chi), np.sin(chi)
     A = c * c / s_v ** 2 + s * s / s_p ** 2
     B = -2.0 * e_v * c / s_v ** 2
@@ -204,8 +304,10 @@ def gravimorphism(parent_heading: np.ndarray, bud_dir: np.ndarray, *, s_v: float
     ----------
     .. [1] Longay thesis §4.4.3, Eqs. 4.6–4.7; spec 004 §1.4.6, §5.1 (HVP frame), ERRATUM E1 (epitony = upper).
     """
-    H = normalize(np.atleast_2d(np.asarray(parent_heading, float)))
-    D = np.atleast_2d(np.asarray(bud_dir, float))
+    H = normalize(_rows3("parent_heading", parent_heading))
+    D = _rows3("bud_dir", bud_dir)
+    if len(D) != len(H):
+        raise ValueError(f"bud_dir must have {len(H)} rows like parent_heading, got {len(D)}")
     cos_t = np.clip(H @ _Y, -1.0, 1.0)
     V = normalize(_Y - cos_t[:, None] * H, fallback=np.array([1.0, 0.0, 0.0]))
     P = np.cross(V, H)
@@ -222,11 +324,15 @@ def branch_point(parent: np.ndarray, alive: np.ndarray, node: int, *, protected=
     constraint leaves a stub (§5.3.3). Returns -1 when nothing may be cut (``node`` itself protected, the
     base point or the first internode). ``parent`` (n,) int, ``alive`` (n,) bool.
     """
-    parent = np.asarray(parent)
-    node = check_int("node", node, 0, len(parent) - 1)
+    parent = check_array("parent", parent, shape=(None,), dtype=np.int64)
+    n = len(parent)
+    if n and (np.any(parent >= np.arange(n)) or np.any(parent < -1)):
+        raise ValueError("parent must be an (n,) int array with -1 <= parent[i] < i")
+    alive = check_array("alive", alive, shape=(n,), dtype=bool)
+    node = check_int("node", node, 0, n - 1)
     if not alive[node]:
         raise ValueError(f"node {node} is not alive")
-    protected = {int(k) for k in protected}
+    protected = {check_int("protected node", k, 0, n - 1) for k in protected}
     if node <= 1 or node in protected:
         return -1
     live_children = np.bincount(parent[np.asarray(alive, bool) & (parent >= 0)], minlength=len(parent))
@@ -290,21 +396,18 @@ class SketchEngine(GrowthEngine):
                  ellipse: tuple[float, float, float] = (1.0, 1.0, 0.0), shed_threshold: float = 0.0,
                  stroke_tropism: bool = False, bud_lifetime: int | None = None, region: dict | None = None,
                  depth: dict | None = None, asymmetry=None):
-        opts = {"n_max": check_int("n_max", n_max, 1, 1000), "trunk_up": bool(trunk_up),
-                "deflection": check_range("deflection", deflection, 0.0, 90.0),
-                "mode": check_choice("mode", mode, ("directed", "autonomous")),
-                "point_density": check_int("point_density", point_density, 0, 1000),
-                "ellipse": self._check_ellipse(ellipse),
-                "shed_threshold": check_range("shed_threshold", shed_threshold, 0.0, np.inf),
-                "stroke_tropism": bool(stroke_tropism), "bud_lifetime": self._check_life(bud_lifetime),
-                "region": self._check_region(region), "depth": self._check_depth(depth),
-                "asymmetry": self._check_asym(asymmetry)}
+        params = check_params(params)
+        opts = self._check_options(dict(n_max=n_max, trunk_up=trunk_up, deflection=deflection, mode=mode,
+                                        point_density=point_density, ellipse=ellipse, shed_threshold=shed_threshold,
+                                        stroke_tropism=stroke_tropism, bud_lifetime=bud_lifetime, region=region,
+                                        depth=depth, asymmetry=asymmetry))
         barycentric(params["w_heading"], params["w_tropism"], params["w_env"])
-        check_range("tropism_angle", params["tropism_angle"], 0.0, 180.0)
-        if isinstance(rng, (int, np.integer)):
-            seed = int(rng)
-        else:
+        if isinstance(rng, (int, np.integer)) and not isinstance(rng, (bool, np.bool_)):
+            seed = check_int("rng (seed)", rng, 0, 2 ** 63 - 1)
+        elif rng is None or isinstance(rng, (np.random.Generator, np.random.SeedSequence)):
             seed = int(np.random.default_rng(rng).integers(2 ** 62))
+        else:
+            raise ValueError(f"rng must be a seed in [0, {2 ** 63 - 1}], a numpy Generator or None, got {rng!r}")
         self.sketch = opts
         self.seed = seed
         self.selected: int | None = None
@@ -314,11 +417,36 @@ class SketchEngine(GrowthEngine):
         self.bud_override: dict[tuple[int, int], np.ndarray] = {}
         super().__init__(params, rng=np.random.default_rng([seed, 0x5EED]))
 
+    @classmethod
+    def _option_checks(cls) -> dict[str, Any]:
+        return {"n_max": lambda v: check_int("n_max", v, 1, 1000),
+                "trunk_up": lambda v: _check_bool("trunk_up", v),
+                "deflection": lambda v: check_range("deflection", v, 0.0, 90.0),
+                "mode": lambda v: check_choice("mode", v if isinstance(v, str) else repr(v)[:80],
+                                               ("directed", "autonomous")),
+                "point_density": lambda v: check_int("point_density", v, 0, 1000),
+                "ellipse": cls._check_ellipse,
+                "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, 1e12),
+                "stroke_tropism": lambda v: _check_bool("stroke_tropism", v),
+                "bud_lifetime": cls._check_life, "region": cls._check_region,
+                "depth": cls._check_depth, "asymmetry": cls._check_asym}
+
+    @classmethod
+    def _check_options(cls, opts: dict[str, Any]) -> dict[str, Any]:
+        """Checked copies of TreeSketch options (constructor keywords); nothing is written."""
+        checks = cls._option_checks()
+        new = {}
+        for k, v in opts.items():
+            if k not in checks:
+                raise ValueError(f"unknown SketchEngine option {k!r}; expected one of {sorted(checks)}")
+            new[k] = checks[k](v)
+        return new
+
     @staticmethod
     def _check_asym(v) -> list | None:
         if v is None:
             return None
-        return check_array("asymmetry", v, shape=(2,)).tolist()
+        return check_array("asymmetry", v, shape=(2,), max_abs=MAX_COORD).tolist()
 
     @staticmethod
     def _check_depth(depth) -> dict | None:
@@ -327,10 +455,10 @@ class SketchEngine(GrowthEngine):
         if not isinstance(depth, dict) or set(depth) != {"normal", "depth"}:
             raise ValueError(f"depth must be a dict with keys normal, depth, got {depth!r}")
         n = check_point("depth normal", depth["normal"])
-        if not np.linalg.norm(n) > 0:
-            raise ValueError("depth normal must be a non-zero vector")
+        if not np.linalg.norm(n) > 1e-12:
+            raise ValueError(f"depth normal must be a non-zero vector, got {n.tolist()}")
         return {"normal": (n / np.linalg.norm(n)).tolist(),
-                "depth": check_range("depth", depth["depth"], 0.0, np.inf)}
+                "depth": check_range("depth", depth["depth"], 0.0, 1e12)}
 
     def in_depth(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points inside the depth slab (all True without a depth constraint)."""
@@ -341,11 +469,60 @@ class SketchEngine(GrowthEngine):
         return np.abs((pts - self.tree.pos[0]) @ np.asarray(d["normal"])) <= d["depth"]
 
     def add_markers(self, points: np.ndarray) -> None:
-        """Append markers (age 0); with a depth constraint, points outside the slab are dropped (V16)."""
-        points = np.asarray(points, float).reshape(-1, 3)
+        """Append markers (age 0); with a depth constraint, points outside the slab are dropped (V16).
+
+        ``points`` (N, 3) (or a flat array of N * 3 values) inside ±``MAX_COORD``; at most ``MAX_COUNT`` markers.
+        """
+        points = self._check_marker_points("points", points)
+        if len(self.markers) + len(points) > MAX_COUNT:
+            raise ValueError(f"points would make {len(self.markers) + len(points)} markers, more than {MAX_COUNT}")
+        check_grid_reach(self.params, points, name="points")
         if self.__dict__.get("sketch") is not None and self.sketch["depth"] is not None:
             points = points[self.in_depth(points)]
         super().add_markers(points)
+
+    @staticmethod
+    def _check_marker_points(name: str, points) -> np.ndarray:
+        try:
+            arr = np.asarray(points, float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{name} must be an (N, 3) array of points, got {type(points).__name__}") from None
+        if arr.ndim == 1 and arr.size % 3 == 0:  # a flat list of coordinates, as before
+            arr = arr.reshape(-1, 3)
+        return check_points(name, arr)
+
+    def paint(self, center: np.ndarray, radius: float, n_darts: int | None = None) -> int:
+        """Throw Poisson darts in the brush sphere (§2.2), checked at the door; returns the markers added."""
+        center = check_point("center", center)
+        radius = check_range("radius", radius, 0.0, MAX_COORD, low_open=True)
+        if n_darts is not None:
+            n_darts = check_int("n_darts", n_darts, 1, PARAM_BY_NAME["darts_per_paint"].range[1])
+        return super().paint(center, radius, n_darts)
+
+    def prune_preview(self, center: np.ndarray, radius: float) -> np.ndarray:
+        """Mask of the nodes a prune brush at ``center`` (3,) with ``radius`` would remove (§4.4)."""
+        return super().prune_preview(check_point("center", center),
+                                     check_range("radius", radius, 0.0, 2 * MAX_COORD))
+
+    def prune(self, center: np.ndarray, radius: float) -> int:
+        """Remove what :meth:`prune_preview` shows; returns the number of internodes removed."""
+        return super().prune(check_point("center", center), check_range("radius", radius, 0.0, 2 * MAX_COORD))
+
+    def checked_params(self, params: dict[str, Any]) -> dict[str, Any]:
+        """The parameters :meth:`set_params` would apply (``self.params`` updated by ``params``), checked against
+        the table and against this tree (the shadow grid must index it); nothing is written."""
+        new = {**self.params, **check_params(params, partial=True)}
+        barycentric(new["w_heading"], new["w_tropism"], new["w_env"])
+        if new["branching"] != self.params["branching"] and self.tree.n_internodes:
+            raise ValueError(f"branching cannot change on a grown tree (its nodes have {self.tree.nslots} slots), "
+                             f"got {new['branching']!r}; start a new engine")
+        t = self.tree
+        check_grid_reach(new, np.concatenate([t.pos[: t.n][t.alive[: t.n]], self.markers]))
+        return new
+
+    def set_params(self, params: dict[str, Any]) -> None:
+        """Change growth parameters; every value is checked (:meth:`checked_params`) before any is applied."""
+        super().set_params(self.checked_params(params))
 
     @staticmethod
     def _check_region(region) -> dict | None:
@@ -353,13 +530,17 @@ class SketchEngine(GrowthEngine):
             return None
         if not isinstance(region, dict) or set(region) != {"sites", "weights", "weight", "h_max"}:
             raise ValueError(f"region must be a dict with keys sites, weights, weight, h_max, got {region!r}")
-        sites = np.asarray(region["sites"], float).reshape(-1, 2)
-        weights = np.asarray(region["weights"], float).reshape(-1)
-        if len(weights) != len(sites) or not np.all(np.isfinite(sites)) or not np.all(weights > 0):
-            raise ValueError("region sites must be (K, 2) finite and weights (K,) positive")
+        sites, weights = region["sites"], region["weights"]
+        sites = np.zeros((0, 2)) if np.size(sites) == 0 else \
+            check_array("region sites", sites, shape=(None, 2), max_abs=2 * MAX_COORD)
+        weights = np.zeros(0) if np.size(weights) == 0 else check_array("region weights", weights, shape=(None,))
+        if len(sites) > MAX_SITES:
+            raise ValueError(f"region sites must list at most {MAX_SITES} neighbours, got {len(sites)}")
+        if len(weights) != len(sites) or not np.all((weights >= 1e-12) & (weights <= 1e12)):
+            raise ValueError(f"region weights must be ({len(sites)},) like the sites, each in [1e-12, 1e12]")
         return {"sites": sites.tolist(), "weights": weights.tolist(),
-                "weight": check_range("region weight", region["weight"], 0.0, np.inf, low_open=True),
-                "h_max": check_range("region h_max", region["h_max"], 0.0, np.inf, low_open=True)}
+                "weight": check_range("region weight", region["weight"], 1e-12, 1e12),
+                "h_max": check_range("region h_max", region["h_max"], 0.0, MAX_COORD, low_open=True)}
 
     def in_region(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points inside the tree's crown space (all True without a region)."""
@@ -389,27 +570,16 @@ class SketchEngine(GrowthEngine):
 
     @staticmethod
     def _check_ellipse(ellipse) -> tuple[float, float, float]:
-        if len(ellipse) != 3:
+        if isinstance(ellipse, (str, bytes)) or not hasattr(ellipse, "__len__") or len(ellipse) != 3:
             raise ValueError(f"ellipse must be (s_v, s_p, e_v), got {ellipse!r}")
-        return (check_range("ellipse s_v", ellipse[0], 0.0, np.inf, low_open=True),
-                check_range("ellipse s_p", ellipse[1], 0.0, np.inf, low_open=True),
-                check_range("ellipse e_v", ellipse[2], -np.inf, np.inf))
+        lo, hi = ELLIPSE_RANGE
+        return (check_range("ellipse s_v", ellipse[0], lo, hi),
+                check_range("ellipse s_p", ellipse[1], lo, hi),
+                check_range("ellipse e_v", ellipse[2], -hi, hi))
 
     def set_options(self, **opts: Any) -> None:
         """Change TreeSketch options (the keywords of the constructor except ``rng``); all checked first."""
-        checks = {"n_max": lambda v: check_int("n_max", v, 1, 1000), "trunk_up": bool,
-                  "deflection": lambda v: check_range("deflection", v, 0.0, 90.0),
-                  "mode": lambda v: check_choice("mode", v, ("directed", "autonomous")),
-                  "point_density": lambda v: check_int("point_density", v, 0, 1000),
-                  "ellipse": self._check_ellipse,
-                  "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, np.inf),
-                  "stroke_tropism": bool, "bud_lifetime": self._check_life, "region": self._check_region,
-                  "depth": self._check_depth, "asymmetry": self._check_asym}
-        new = {}
-        for k, v in opts.items():
-            if k not in checks:
-                raise ValueError(f"unknown SketchEngine option {k!r}; expected one of {sorted(checks)}")
-            new[k] = checks[k](v)
+        new = self._check_options(opts)
         self.sketch.update(new)
         if "ellipse" in new:
             self.update_light()
@@ -474,20 +644,21 @@ class SketchEngine(GrowthEngine):
     def _apply_widths(self) -> None:
         p, t = self.params, self.tree
         cons = {k: v for k, v in self.width_constraints.items() if k < t.n and t.alive[k]}
-        res = pipe_widths(t.parent, t.alive, tip_diameter=2.0 * p["tip_radius"], exponent=p["radius_exp"],
+        res = pipe_widths(t.parent, t.alive, tip_diameter=max(2.0 * p["tip_radius"], 1e-9), exponent=p["radius_exp"],
                           constraints=cons)
         t.radius[:] = 0.5 * res.diameter
         self.width_info = res
 
     def set_width(self, node: int, diameter: float | None) -> None:
-        """Add, change or (``diameter=None``) remove the width constraint on the internode ending at ``node``."""
+        """Add, change or (``diameter=None``) remove the width constraint on the internode ending at ``node``
+        (``diameter`` in [1e-9, MAX_COORD])."""
         node = check_int("node", node, 1, self.tree.n - 1)
         if not self.tree.alive[node]:
             raise ValueError(f"node {node} is not alive")
         if diameter is None:
             self.width_constraints.pop(node, None)
         else:
-            self.width_constraints[node] = check_range("diameter", diameter, 0.0, np.inf, low_open=True)
+            self.width_constraints[node] = check_range("diameter", diameter, 1e-9, MAX_COORD)
         self.update_light()
 
     # -- editing: bending, selection, pruning at a branching point -----------------------------------
@@ -499,7 +670,7 @@ class SketchEngine(GrowthEngine):
         path = [end]
         while path[-1] != base:
             if path[-1] <= 0:
-                raise ValueError(f"node {end} is not in the subtree of node {base}")
+                raise ValueError(f"end node {end} is not in the subtree of base node {base}")
             path.append(int(t.parent[path[-1]]))
         return np.array(path[::-1], np.int64)
 
@@ -584,10 +755,13 @@ class SketchEngine(GrowthEngine):
     # -- markers: strokes, directed and autonomous policies ------------------------------------------
     def add_stroke_points(self, points: np.ndarray, directions: np.ndarray) -> None:
         """Add attraction points that remember a stroke direction (unit rows) for sketch-based tropism."""
-        points = check_points("points", points)
-        directions = normalize(check_points("directions", directions))
+        points = self._check_marker_points("points", points)
+        directions = normalize(check_array("directions", directions, shape=(None, 3)))
         if len(directions) != len(points):
             raise ValueError(f"directions must have {len(points)} rows like points, got {len(directions)}")
+        if len(self.markers) + len(points) > MAX_COUNT:
+            raise ValueError(f"points would make {len(self.markers) + len(points)} markers, more than {MAX_COUNT}")
+        check_grid_reach(self.params, points, name="points")
         for p, d in zip(points, directions):
             self._stroke_dirs[p.tobytes()] = d
         self.add_markers(points)
@@ -595,6 +769,7 @@ class SketchEngine(GrowthEngine):
     def stroke_directions(self, points: np.ndarray) -> np.ndarray:
         """Stroke direction of each marker row (zeros for markers not made by a stroke)."""
         zero = np.zeros(3)
+        points = np.zeros((0, 3)) if np.size(points) == 0 else check_array("points", points, shape=(None, 3))
         return np.array([self._stroke_dirs.get(np.ascontiguousarray(p).tobytes(), zero) for p in points]
                         ).reshape(-1, 3)
 
@@ -619,7 +794,10 @@ class SketchEngine(GrowthEngine):
         pts = autonomous_points(b.pos, b.dir, b.vigor, density=self.sketch["point_density"],
                                 r_in=p["occupation_radius"], r_out=max(p["view_radius"], p["occupation_radius"]),
                                 half_angle=math.radians(p["view_angle"]) / 2, rng=self._rng(1))
-        self.add_markers(pts[self.in_region(pts)])
+        keep = self.in_region(pts)
+        reach = grid_reach(p)  # points the shadow grid could not index are not generated (tiny base_length)
+        keep &= (np.abs(pts[:, [0, 2]]).max(1) <= reach) & (np.abs(pts[:, 1]) <= 3 * reach)
+        self.add_markers(pts[keep])
 
     # -- step ---------------------------------------------------------------------------------------
     def _before_step(self) -> None:
@@ -662,7 +840,8 @@ class SketchEngine(GrowthEngine):
         par = np.maximum(t.parent, 0)
         is_lat = alive & (t.parent >= 0) & (t.child[par, 0] != np.arange(t.n))
         is_lat[:2] = False
-        ratio = (t.vigor / t.vigor[0]) / (size / t.n_internodes)
+        with np.errstate(divide="ignore", invalid="ignore"):  # dead nodes (size 0) are never roots
+            ratio = (t.vigor / t.vigor[0]) / (size / t.n_internodes)
         roots = np.flatnonzero(is_lat & (ratio < th))
         if not len(roots):
             return mask

@@ -17,8 +17,10 @@ a widget or a line of code can drive them alike.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
+import os
 import pickle
 import re
 from collections.abc import Iterator
@@ -30,10 +32,11 @@ from typing import Any
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from .._validation import check_array, check_int, check_point, check_range
+from .._fileio import atomic_write, write_atomic
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
-from .sketch import SketchEngine
+from .sketch import SketchEngine, check_params
 from .treefile import tree_from_text, tree_to_text
 
 __all__ = ["PRESETS", "LassoVolume", "StrokeEmitter", "Timeline", "TreeLibrary", "lasso_volume", "nearest_node",
@@ -41,6 +44,9 @@ __all__ = ["PRESETS", "LassoVolume", "StrokeEmitter", "Timeline", "TreeLibrary",
 
 
 # -- brush / sketch strokes (§2.5) --------------------------------------------------------------------------
+#: Most points one :meth:`StrokeEmitter.move` may emit (expected count): bounds memory whatever the radius.
+MAX_POINTS_PER_MOVE = 10_000_000
+
 class StrokeEmitter:
     """Emit attraction points into ``engine`` along a stroke (spec 004 §2.5).
 
@@ -67,8 +73,8 @@ class StrokeEmitter:
         if not isinstance(engine, SketchEngine):
             raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
         self.engine = engine
-        self.rate = check_range("rate", rate, 0.0, np.inf, low_open=True)
-        self.spacing = check_range("spacing", spacing, 0.0, np.inf, low_open=True)
+        self.rate = check_range("rate", rate, 0.0, 1e9, low_open=True)
+        self.spacing = check_range("spacing", spacing, 1e-9, MAX_COORD)
         self.rng = np.random.default_rng(rng)
         self._c: np.ndarray | None = None
         self._carry = 0.0
@@ -89,11 +95,17 @@ class StrokeEmitter:
         if self._c is None:
             raise ValueError("move() before begin(): start a stroke first")
         c = check_point("point", point)
-        radius = check_range("radius", radius, 0.0, np.inf)
-        dt = check_range("dt", dt, 0.0, np.inf)
+        radius = check_range("radius", radius, 0.0, MAX_COORD)
+        dt = check_range("dt", dt, 0.0, 1e6)
         c0, seg = self._c, c - self._c
         length = float(np.linalg.norm(seg))
         direction = seg / length if length > 0 else None
+        expect = self.rate * radius ** 3 * dt if radius > 0 else length / self.spacing
+        if expect > MAX_POINTS_PER_MOVE:  # checked before anything is drawn: a rejected move changes nothing
+            raise ValueError(f"radius, dt and rate (or the sketch spacing) ask for about {expect:.3g} points in one "
+                             f"move, more than {MAX_POINTS_PER_MOVE}; move in smaller steps")
+        if len(self.engine.markers) + 2 * expect + 64 > MAX_COUNT:
+            raise ValueError(f"the engine holds {len(self.engine.markers)} markers; this move would pass {MAX_COUNT}")
         if radius > 0:
             m = int(self.rng.poisson(self.rate * radius ** 3 * dt))
             centres = c0 + self.rng.random((m, 1)) * seg
@@ -190,11 +202,12 @@ class Timeline:
         steps carry over between calls, as with the spring-loaded Grow slider. Returns the signed steps made."""
         speed = check_range("speed", speed, -1e6, 1e6)
         seconds = check_range("seconds", seconds, 0.0, 1e6)
-        if speed * self._carry < 0:  # the slider changed direction: drop the fraction
-            self._carry = 0.0
-        self._carry += speed * seconds
-        k = math.floor(abs(self._carry)) * (1 if self._carry >= 0 else -1)
-        self._carry -= k
+        carry = 0.0 if speed * self._carry < 0 else self._carry  # the slider changed direction: drop the fraction
+        carry += speed * seconds
+        k = math.floor(abs(carry)) * (1 if carry >= 0 else -1)
+        if abs(k) > 10 ** 6:
+            raise ValueError(f"speed * seconds must ask for at most {10 ** 6} steps, got {speed!r} * {seconds!r}")
+        self._carry = carry - k
         return self.grow(k) if k >= 0 else -self.ungrow(-k)
 
     # -- edits --------------------------------------------------------------------------------------
@@ -245,6 +258,10 @@ class Timeline:
 
 
 # -- lasso inflation (§2.6, V15) ------------------------------------------------------------------------------
+#: Bounds of :func:`lasso_volume`: raster pixels and generated points.
+MAX_LASSO_PIXELS = 1 << 24
+MAX_LASSO_POINTS = 10_000_000
+
 @dataclass(frozen=True)
 class LassoVolume:
     """A lasso silhouette inflated to a volume, and the points filling it.
@@ -267,7 +284,7 @@ class LassoVolume:
 
     def to_plane(self, points: np.ndarray) -> np.ndarray:
         """(N, 3) world points -> (N, 3) plane coordinates (a along u, b along v, c along w)."""
-        d = np.asarray(points, float) - self.origin
+        d = check_array("points", points, shape=(None, 3)) - self.origin
         return np.stack([d @ self.u, d @ self.v, d @ self.w], 1)
 
     def contains(self, points: np.ndarray) -> np.ndarray:
@@ -316,20 +333,29 @@ def lasso_volume(polygon, *, origin=(0.0, 0.0, 0.0), u=(1.0, 0.0, 0.0), v=(0.0, 
     from skimage.draw import polygon as raster_polygon
     from skimage.morphology import medial_axis
 
-    poly = check_array("polygon", polygon, shape=(None, 2), min_rows=3)
+    poly = check_array("polygon", polygon, shape=(None, 2), min_rows=3, max_abs=MAX_COORD)
+    if len(poly) > 1_000_000:
+        raise ValueError(f"polygon must have at most 1000000 vertices, got {len(poly)}")
     origin = check_point("origin", origin)
-    u = normalize(check_point("u", u))
+    u = check_point("u", u)
+    if not np.linalg.norm(u) > 1e-12:
+        raise ValueError(f"u must be a non-zero vector, got {u.tolist()}")
+    u = normalize(u)
     v = check_point("v", v)
     v = v - (v @ u) * u
     if np.linalg.norm(v) < 1e-12:
         raise ValueError("u and v must not be parallel")
     v = normalize(v)
     w = np.cross(u, v)
-    n_points = check_int("n_points", n_points, 0, 10 ** 8)
+    n_points = check_int("n_points", n_points, 0, MAX_LASSO_POINTS)
     ext = poly.max(0) - poly.min(0)
-    if ext.min() <= 0:
+    if not ext.min() > 1e-9 * max(float(np.abs(poly).max()), 1e-300):
         raise ValueError(f"polygon must enclose an area, got extent {ext.tolist()}")
-    pixel = ext.max() / 128.0 if pixel is None else check_range("pixel", pixel, 0.0, np.inf, low_open=True)
+    pixel = ext.max() / 128.0 if pixel is None else check_range("pixel", pixel, 0.0, MAX_COORD, low_open=True)
+    cells = np.ceil((ext + 4 * pixel) / pixel) + 1
+    if float(np.prod(cells)) > MAX_LASSO_PIXELS:
+        raise ValueError(f"pixel must be at least {float(np.sqrt(np.prod(ext + 4 * pixel) / MAX_LASSO_PIXELS)):.3g} "
+                         f"for this polygon (the raster may hold {MAX_LASSO_PIXELS} pixels), got {pixel!r}")
     lo = poly.min(0) - 2 * pixel
     shape = tuple(np.ceil((poly.max(0) + 2 * pixel - lo) / pixel).astype(int)[::-1] + 1)  # (rows, cols)
     rr, cc = raster_polygon((poly[:, 1] - lo[1]) / pixel, (poly[:, 0] - lo[0]) / pixel, shape)
@@ -351,14 +377,17 @@ def lasso_volume(polygon, *, origin=(0.0, 0.0, 0.0), u=(1.0, 0.0, 0.0), v=(0.0, 
     box_hi = np.array([lo[0] + (shape[1] - 0.5) * pixel, lo[1] + (shape[0] - 0.5) * pixel, hmax])
     frac = max(float(2 * h.sum() * pixel ** 2) / float(np.prod(box_hi - box_lo)), 1e-3)
     got: list[np.ndarray] = []
-    count = 0
+    count = stall = 0
     while count < n_points:
-        m = int(1.2 * (n_points - count) / frac) + 16
+        m = min(int(1.2 * (n_points - count) / frac) + 16, 1 << 22)  # batches bound the memory
         q = rng.uniform(box_lo, box_hi, (m, 3))
         world = origin + q[:, :1] * u + q[:, 1:2] * v + q[:, 2:] * w
         keep = world[vol.contains(world)]
         got.append(keep[: n_points - count])
         count += len(got[-1])
+        stall = 0 if len(keep) else stall + 1
+        if stall > 32:
+            raise ValueError("polygon's envelope is too thin to sample at this pixel size; pass a smaller pixel")
     pts = np.concatenate(got) if got else np.zeros((0, 3))
     return LassoVolume(pts, mask, h, axis, origin, u, v, w, lo, float(pixel))
 
@@ -366,10 +395,14 @@ def lasso_volume(polygon, *, origin=(0.0, 0.0, 0.0), u=(1.0, 0.0, 0.0), v=(0.0, 
 # -- picking: selective growth and pruning (§2.8, §2.11) -------------------------------------------------------
 def nearest_node(engine: SketchEngine, point) -> int:
     """The live node (internode tip, not the base point) nearest to ``point`` (3,)."""
+    if not isinstance(engine, SketchEngine):
+        raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
     point = check_point("point", point)
     t = engine.tree
-    live = np.flatnonzero(t.alive)
+    live = np.flatnonzero(t.alive[: t.n])
     live = live[live > 0]
+    if not len(live):
+        raise ValueError("engine has no internode to pick")
     return int(live[np.argmin(np.sum((t.pos[live] - point) ** 2, 1))])
 
 
@@ -421,7 +454,84 @@ PRESETS: dict[str, dict[str, Any]] = {
 }
 
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}$")
-_LIB_FORMAT = "plantvr-treesketch 1"
+_LIB_FORMAT = "plantvr-treesketch 2"
+_OLD_FORMATS = ("plantvr-treesketch 1",)  # read (no checksum), never written
+#: Largest library file (``.tree``, ``.json`` or ``.preset.json``) :class:`TreeLibrary` reads, bytes.
+MAX_ENTRY_BYTES = 1 << 30
+
+
+def _sha256(data: str) -> str:
+    return hashlib.sha256(data.encode("utf-8")).hexdigest()
+
+
+def _canonical(meta: dict) -> str:
+    """The text a library checksum covers: ``meta`` without its ``checksum``, keys sorted."""
+    return json.dumps({k: v for k, v in meta.items() if k != "checksum"}, sort_keys=True, separators=(",", ":"))
+
+
+def _sealed(meta: dict) -> str:
+    """``meta`` as JSON text with a SHA-256 ``checksum`` of its other fields (checked on load)."""
+    return json.dumps({**meta, "checksum": _sha256(_canonical(meta))}, allow_nan=False)
+
+
+def _read_text(path: Path, what: str) -> str:
+    """The UTF-8 text of ``path``, refused (``ValueError``) when missing, unreadable or over MAX_ENTRY_BYTES."""
+    try:
+        size = path.stat().st_size
+        if size > MAX_ENTRY_BYTES:
+            raise ValueError(f"cannot read {what} {path}: {size} bytes, more than the cap of {MAX_ENTRY_BYTES}")
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_ENTRY_BYTES + 1)
+        return data.decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read {what} {path}: {exc}") from None
+
+
+def _parse_json(text: str, what: str) -> Any:
+    try:
+        return json.loads(text)
+    except (json.JSONDecodeError, RecursionError, ValueError) as exc:
+        raise ValueError(f"cannot read {what}: not valid JSON ({str(exc)[:200]})") from None
+
+
+def _open_meta(text: str, what: str, *, hand_written: bool = False) -> dict:
+    """Parse a library JSON file and check its format and (format 2) checksum. ``hand_written`` accepts a file
+    without a ``format`` (a preset typed by hand), which is then checked value by value only."""
+    meta = _parse_json(text, what)
+    if hand_written and isinstance(meta, dict) and "format" not in meta:
+        return meta
+    if not isinstance(meta, dict) or meta.get("format") not in (_LIB_FORMAT, *_OLD_FORMATS):
+        fmt = meta.get("format") if isinstance(meta, dict) else None
+        raise ValueError(f"{what} is not a TreeSketch library file (format {_LIB_FORMAT!r}), got format {fmt!r}")
+    if meta["format"] == _LIB_FORMAT and meta.get("checksum") != _sha256(_canonical(meta)):
+        raise ValueError(f"{what} is damaged: its checksum does not match its contents")
+    return meta
+
+
+def _float_rows(name: str, value: Any, cols: int, *, rows: int | None = None, max_abs: float = MAX_COORD
+                ) -> np.ndarray:
+    if isinstance(value, list) and not value:
+        arr = np.zeros((0, cols))
+    else:
+        if not isinstance(value, list):
+            raise ValueError(f"{name} must be a list of rows, got {type(value).__name__}")
+        arr = check_array(name, value, shape=(rows, cols), max_abs=max_abs)
+    if rows is not None and len(arr) != rows:
+        raise ValueError(f"{name} must have {rows} rows, got {len(arr)}")
+    if len(arr) > MAX_COUNT:
+        raise ValueError(f"{name} must have at most {MAX_COUNT} rows, got {len(arr)}")
+    return arr
+
+
+def _int_list(name: str, value: Any, n: int, lo: int, hi: int) -> np.ndarray:
+    if not isinstance(value, list) or not all(isinstance(v, int) and not isinstance(v, bool) for v in value):
+        raise ValueError(f"{name} must be a list of integers")
+    if len(value) != n:
+        raise ValueError(f"{name} must have {n} entries, got {len(value)}")
+    arr = np.array(value, dtype=object)
+    if n and not all(lo <= v <= hi for v in value):
+        raise ValueError(f"{name} entries must be in [{lo}, {hi}]")
+    return np.asarray(arr.tolist() if n else [], np.int64)
 
 
 class TreeLibrary:
@@ -433,11 +543,22 @@ class TreeLibrary:
     continues exactly as the saved one (node indices are renumbered in depth-first order; radius, light and
     vigor are recomputed). A preset is ``<name>.preset.json`` with ``{"params": ..., "options": ...}``; the
     built-in :data:`PRESETS` are always available.
+
+    Files are JSON and text only (nothing is unpickled). Every save is atomic (:mod:`plantvr._fileio`): a failed
+    save leaves the previous files as they were. Format 2 (written since issue 20) seals each JSON file with a
+    SHA-256 checksum of its contents, and an entry's JSON with the checksum of its ``.tree`` text, so a damaged
+    or mismatched file is refused on load; every value read is checked (types, finite values, ranges, indices)
+    before an engine is built. Format 1 files (no checksum) are still read.
     """
 
     def __init__(self, folder: str | Path):
+        if not isinstance(folder, (str, Path)):
+            raise ValueError(f"folder must be a path, got {type(folder).__name__}")
         self.folder = Path(folder)
-        self.folder.mkdir(parents=True, exist_ok=True)
+        try:
+            self.folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"cannot use folder {self.folder!s} as a tree library: {exc}") from None
 
     @staticmethod
     def _name(name: str) -> str:
@@ -456,7 +577,11 @@ class TreeLibrary:
 
     # -- trees --------------------------------------------------------------------------------------
     def save(self, name: str, engine: SketchEngine) -> Path:
-        """Save ``engine``'s full state as ``name``; returns the ``.tree`` path."""
+        """Save ``engine``'s full state as ``name``; returns the ``.tree`` path.
+
+        Both files are written to temporary files first and renamed over the old ones only when both are complete,
+        so a failed save (disk full, a bad value) leaves the previous entry intact.
+        """
         name = self._name(name)
         if not isinstance(engine, SketchEngine):
             raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
@@ -464,6 +589,7 @@ class TreeLibrary:
         order = t.preorder()  # the .tree file's node order
         rank = np.cumsum(t.alive) - 1  # creation order among live nodes: growth visits nodes in this order
         markers = engine.markers
+        text = tree_to_text(t, engine.params)
         meta = {"format": _LIB_FORMAT, "options": engine.sketch, "seed": engine.seed,
                 "step_count": engine.step_count, "rng": engine.rng.bit_generator.state,
                 "markers": markers.tolist(), "marker_age": engine.marker_age.tolist(),
@@ -471,60 +597,106 @@ class TreeLibrary:
                 "width_constraints": [[int(rank[k]), v] for k, v in engine.width_constraints.items()],
                 "selected": None if engine.selected is None else int(rank[engine.selected]),
                 "bud_override": [[int(rank[n]), int(k), *map(float, d)] for (n, k), d in engine.bud_override.items()],
-                "born": t.born[t.alive].tolist(), "creation_rank": rank[order].tolist()}
+                "born": t.born[t.alive].tolist(), "creation_rank": rank[order].tolist(),
+                "tree_sha256": _sha256(text)}
+        try:
+            js = _sealed(meta)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"cannot save {name!r}: the engine state is not JSON-serialisable ({exc})") from None
         path = self.folder / f"{name}.tree"
-        path.write_text(tree_to_text(t, engine.params))
-        (self.folder / f"{name}.json").write_text(json.dumps(meta))
+        with atomic_write(self.folder / f"{name}.json", "w") as fj:
+            fj.write(js)
+            fj.flush()
+            os.fsync(fj.fileno())  # the metadata is on disk before the .tree is replaced
+            with atomic_write(path, "w") as ft:
+                ft.write(text)
         return path
 
     def read_entry(self, name: str) -> tuple[str, Any]:
-        """The ``.tree`` text and the parsed ``.json`` metadata saved as ``name`` (``ValueError`` if unreadable)."""
+        """The ``.tree`` text and the parsed, checksum-verified ``.json`` metadata saved as ``name``
+        (``ValueError`` if missing, unreadable, damaged or mismatched)."""
         name = self._name(name)
-        try:
-            text = (self.folder / f"{name}.tree").read_text()
-            meta = json.loads((self.folder / f"{name}.json").read_text())
-        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ValueError(f"cannot read library tree {name!r} in {self.folder}: {exc}") from None
+        text = _read_text(self.folder / f"{name}.tree", f"library tree {name!r}")
+        meta = _open_meta(_read_text(self.folder / f"{name}.json", f"library tree {name!r}"),
+                          f"library tree {name!r} in {self.folder} ({name}.json)")
+        if meta["format"] == _LIB_FORMAT and meta.get("tree_sha256") != _sha256(text):
+            raise ValueError(f"library tree {name!r} is damaged: {name}.tree does not match {name}.json "
+                             "(one of them was changed or only partly saved)")
         return text, meta
 
     def load(self, name: str) -> SketchEngine:
         """Rebuild the engine saved as ``name``; raises ``ValueError`` on a missing or corrupt entry."""
         name = self._name(name)
         text, meta = self.read_entry(name)
-        if not isinstance(meta, dict) or meta.get("format") != _LIB_FORMAT:
-            raise ValueError(f"{name}.json is not a TreeSketch library entry (format {_LIB_FORMAT!r})")
-        tree, params = tree_from_text(text)
         from ..params import defaults
+        from .sketch import check_grid_reach
 
         try:
-            opts = dict(meta["options"])
-            opts["ellipse"] = tuple(opts["ellipse"])
-            e = SketchEngine({**defaults(), **params}, rng=int(meta["seed"]), **opts)
-            markers = np.asarray(meta["markers"], float).reshape(-1, 3)
-            dirs = np.asarray(meta["stroke_dirs"], float).reshape(-1, 3)
-            age = np.asarray(meta["marker_age"], np.int64)
-            born = np.asarray(meta["born"], np.int64)
-            crank = np.asarray(meta["creation_rank"], np.int64)
-            if len(born) != tree.n or len(crank) != tree.n or len(age) != len(markers) or len(dirs) != len(markers):
-                raise ValueError("array lengths do not match the tree")
-            if not np.array_equal(np.sort(crank), np.arange(tree.n)):
+            tree, params = tree_from_text(text)
+            n = tree.n
+            pos = check_points("tree node positions", tree.pos[:n])
+            check_array("tree node frames", np.concatenate([tree.head[:n], tree.lat[:n]]), shape=(None, 3),
+                        max_abs=1e6)
+            params = {**defaults(), **params}
+            check_grid_reach(params, pos, name="tree node positions")
+            if not isinstance(meta.get("options"), dict):
+                raise ValueError("options must be a dict of SketchEngine options")
+            seed = meta.get("seed")
+            if not isinstance(seed, int) or isinstance(seed, bool):
+                raise ValueError(f"seed must be an integer, got {seed!r}")
+            step_count = meta.get("step_count")
+            if not isinstance(step_count, int) or isinstance(step_count, bool):
+                raise ValueError(f"step_count must be an integer, got {step_count!r}")
+            step_count = check_int("step_count", step_count, 0, 10 ** 9)
+            e = SketchEngine(params, rng=seed, **meta["options"])
+            markers = _float_rows("markers", meta.get("markers"), 3)
+            dirs = _float_rows("stroke_dirs", meta.get("stroke_dirs"), 3, rows=len(markers), max_abs=2.0)
+            age = _int_list("marker_age", meta.get("marker_age"), len(markers), 0, 10 ** 9)
+            born = _int_list("born", meta.get("born"), n, 0, 10 ** 9)
+            crank = _int_list("creation_rank", meta.get("creation_rank"), n, 0, n - 1)
+            if not np.array_equal(np.sort(crank), np.arange(n)):
                 raise ValueError("creation_rank is not a permutation")
-            cons = {int(k): float(v) for k, v in meta["width_constraints"]}
-            sel = meta["selected"]
-            override = {(int(r[0]), int(r[1])): np.asarray(r[2:5], float) for r in meta.get("bud_override", [])}
-            rng_state = meta["rng"]
-            step_count = int(meta["step_count"])
-        except (KeyError, TypeError, ValueError) as exc:
+            new_tree = _reorder(tree, crank)
+            cons = {}
+            wc = meta.get("width_constraints")
+            if not isinstance(wc, list):
+                raise ValueError("width_constraints must be a list of [node, diameter] pairs")
+            for item in wc:
+                if not isinstance(item, list) or len(item) != 2:
+                    raise ValueError(f"width_constraints entries must be [node, diameter], got {item!r}")
+                k = check_int("width constraint node", item[0], 1, n - 1)
+                cons[k] = check_range("width constraint diameter", item[1], 1e-9, MAX_COORD)
+            sel = meta.get("selected")
+            sel = None if sel is None else check_int("selected", sel, 0, n - 1)
+            override = {}
+            bo = meta.get("bud_override", [])
+            if not isinstance(bo, list):
+                raise ValueError("bud_override must be a list of [node, slot, dx, dy, dz]")
+            for r in bo:
+                if not isinstance(r, list) or len(r) != 5:
+                    raise ValueError(f"bud_override entries must be [node, slot, dx, dy, dz], got {r!r}")
+                key = (check_int("bud_override node", r[0], 0, n - 1),
+                       check_int("bud_override slot", r[1], 0, tree.nslots - 1))
+                override[key] = check_array("bud_override direction", r[2:5], shape=(3,), max_abs=2.0)
+            rng_state = meta.get("rng")
+            if not isinstance(rng_state, dict) or rng_state.get("bit_generator") != type(e.rng.bit_generator).__name__:
+                raise ValueError(f"rng must be a {type(e.rng.bit_generator).__name__} generator state")
+            try:
+                e.rng.bit_generator.state = rng_state
+            except (TypeError, ValueError, KeyError, OverflowError) as exc:
+                raise ValueError(f"rng state is invalid ({exc})") from None
+        except ValueError as exc:
             raise ValueError(f"library tree {name!r} is corrupt: {exc}") from None
-        e.tree = _reorder(tree, crank)
-        e.tree.born[:] = born
+        except (KeyError, TypeError, IndexError, OverflowError) as exc:
+            raise ValueError(f"library tree {name!r} is corrupt: {exc!r}") from None
+        e.tree = new_tree
+        e.tree.born[:n] = born
         e.markers, e.marker_age = markers, age
         stroke = np.linalg.norm(dirs, axis=1) > 0
         e._stroke_dirs = {m.tobytes(): d for m, d in zip(markers[stroke], dirs[stroke])}
         e.step_count = step_count
-        e.rng.bit_generator.state = rng_state
         e.width_constraints = cons
-        e.selected = None if sel is None else int(sel)
+        e.selected = sel
         e.bud_override = override
         e._new_nodes = np.zeros(0, np.int64)
         e.rebuild_light()
@@ -532,38 +704,50 @@ class TreeLibrary:
 
     # -- presets ------------------------------------------------------------------------------------
     def save_preset(self, name: str, engine: SketchEngine, *, keys: list[str] | None = None) -> Path:
-        """Save ``engine``'s growth parameters (all, or ``keys``) and TreeSketch options as preset ``name``."""
+        """Save ``engine``'s growth parameters (all, or ``keys``) and TreeSketch options as preset ``name``
+        (atomically, sealed with a checksum)."""
         name = self._name(name)
+        if not isinstance(engine, SketchEngine):
+            raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
+        if keys is not None:
+            if isinstance(keys, str) or not all(isinstance(k, str) for k in keys):
+                raise ValueError(f"keys must be a list of parameter names, got {keys!r}")
+            unknown = sorted(set(keys) - set(engine.params))
+            if unknown:
+                raise ValueError(f"keys must be parameter names, got unknown {unknown[:5]}")
         params = engine.params if keys is None else {k: engine.params[k] for k in keys}
         path = self.folder / f"{name}.preset.json"
-        path.write_text(json.dumps({"format": _LIB_FORMAT, "params": params, "options": engine.sketch}))
+        write_atomic(path, _sealed({"format": _LIB_FORMAT, "params": params, "options": engine.sketch}))
         return path
 
     def preset(self, name: str) -> dict[str, Any]:
-        """The preset ``name`` as ``{"params": {...}, "options": {...}}`` (a saved one shadows a built-in)."""
+        """The preset ``name`` as ``{"params": {...}, "options": {...}}`` (a saved one shadows a built-in); a saved
+        preset is checked (format, checksum, every parameter and option) when read."""
         name = self._name(name)
         path = self.folder / f"{name}.preset.json"
         if path.exists():
+            what = f"preset {name!r}"
+            data = _open_meta(_read_text(path, what), what, hand_written=True)
             try:
-                data = json.loads(path.read_text())
-                return {"params": dict(data["params"]), "options": dict(data["options"])}
-            except (OSError, json.JSONDecodeError, KeyError, TypeError) as exc:
+                if not isinstance(data.get("params"), dict) or not isinstance(data.get("options"), dict):
+                    raise ValueError("params and options must be dicts")
+                check_params(data["params"], partial=True)
+                SketchEngine._check_options(data["options"])
+            except ValueError as exc:
                 raise ValueError(f"preset {name!r} is corrupt: {exc}") from None
+            return {"params": dict(data["params"]), "options": dict(data["options"])}
         if name in PRESETS:
             return {k: dict(v) for k, v in PRESETS[name].items()}
         raise ValueError(f"unknown preset {name!r}; available: {self.presets()}")
 
     def apply_preset(self, name: str, engine: SketchEngine) -> None:
-        """Load preset ``name`` into ``engine``: parameters validated first, then options; all checked before
-        anything is set."""
-        from ..params import validate
-
+        """Load preset ``name`` into ``engine``: parameters and options are all checked (against the table, the
+        engine's option checks and this tree) before anything is set."""
+        if not isinstance(engine, SketchEngine):
+            raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
         pre = self.preset(name)
-        params = validate(pre["params"])
-        opts = dict(pre["options"])
-        if "ellipse" in opts:
-            opts["ellipse"] = tuple(opts["ellipse"])
-        probe = SketchEngine({**engine.params, **params}, rng=0)
-        probe.set_options(**opts)  # raises before the engine is touched
+        params = check_params(pre["params"], partial=True)
+        opts = engine._check_options(pre["options"])
+        engine.checked_params(params)  # raises before the engine is touched
         engine.set_options(**opts)
         engine.set_params(params)

@@ -28,8 +28,18 @@ from typing import Any
 import numba
 import numpy as np
 
-from .._validation import check_array, check_choice, check_int, check_range
+from .._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
 from ..growth.sketch import SketchEngine
+from .terrain import pair
+
+#: Bounds of the crown-space grids: cells of one layer (each layer's event heap holds up to 4 entries per cell),
+#: voxels in all, trees, and the spread of crown areas (rates a / max a must stay >= 1e-12: no zero rate).
+MAX_LAYER_CELLS = 1 << 22
+MAX_VOXELS = 1 << 27
+MAX_TREES = 1_000_000
+MIN_AREA_RATIO = 1e-12
+#: Smallest plot side (m): base positions / cell sizes stay far inside int64 in the kernel.
+MIN_SIZE = 1e-6
 
 __all__ = ["CrownVoxels", "VoxelSketchEngine", "claim_segments", "crown_voxels", "propagate_layer",
            "propagate_layer_python", "region_geometry", "tree_region"]
@@ -176,15 +186,49 @@ def propagate_layer_python(shape: tuple[int, int], bx, bz, r0, rate, active) -> 
 
 
 def _check_trees(bases, areas, trunk_radius, n_name="bases"):
-    b = check_array(n_name, bases, shape=(None, 2), min_rows=1)
+    b = check_array(n_name, bases, shape=(None, 2), min_rows=1, max_abs=MAX_COORD)
     n = len(b)
-    a = check_array("areas", areas, shape=(n,))
+    if n > MAX_TREES:
+        raise ValueError(f"{n_name} must hold at most {MAX_TREES} trees, got {n}")
+    a = check_array("areas", areas, shape=(n,), max_abs=1e300)
     if not np.all(a > 0):
         raise ValueError(f"areas must be positive (projected crown areas), got min {a.min()!r}")
-    r0 = np.broadcast_to(np.asarray(trunk_radius, float), (n,)).copy()
-    if not np.all(np.isfinite(r0) & (r0 >= 0)):
-        raise ValueError(f"trunk_radius must be finite and >= 0, got {trunk_radius!r}")
+    if a.min() < MIN_AREA_RATIO * a.max():
+        raise ValueError(f"areas must lie within a factor {1 / MIN_AREA_RATIO:g} of each other (front rates), got "
+                         f"{a.min():.3g} .. {a.max():.3g}")
+    if np.ndim(trunk_radius) == 0:
+        r0 = np.full(n, check_range("trunk_radius", trunk_radius, 0.0, MAX_COORD))
+    else:
+        r0 = check_array("trunk_radius", trunk_radius, shape=(n,), max_abs=MAX_COORD)
+        if not np.all(r0 >= 0):
+            raise ValueError(f"trunk_radius must be finite and >= 0, got min {r0.min()!r}")
     return b, a, r0
+
+
+def _check_plot(size, ny, nx, layers=1):
+    if ny * nx > MAX_LAYER_CELLS or layers * ny * nx > MAX_VOXELS:
+        raise ValueError(f"shape must have at most {MAX_LAYER_CELLS} cells per layer and {MAX_VOXELS} voxels, "
+                         f"got {layers} x {ny} x {nx}")
+    W, D = pair("size", size)
+    if min(W, D) < MIN_SIZE:
+        raise ValueError(f"size must be at least {MIN_SIZE:g} m on each side, got {size!r}")
+    return W, D
+
+
+def _check_voxels(voxels) -> CrownVoxels:
+    """Raise ``ValueError`` unless ``voxels`` is a consistent :class:`CrownVoxels` (owners index its trees)."""
+    if not isinstance(voxels, CrownVoxels):
+        raise ValueError(f"voxels must be a CrownVoxels, got {type(voxels).__name__}")
+    o = voxels.owner
+    if not isinstance(o, np.ndarray) or o.ndim != 3 or o.dtype.kind not in "iu" or o.size > MAX_VOXELS:
+        raise ValueError("voxels owner must be a (layers, ny, nx) int array of at most "
+                         f"{MAX_VOXELS} voxels")
+    h = check_array("voxels h_max", voxels.h_max, shape=(None,), max_abs=MAX_COORD)
+    if o.size and (o.min() < -1 or o.max() >= len(h)):
+        raise ValueError(f"voxels owner must hold tree indices in [-1, {len(h) - 1}], got {o.min()} .. {o.max()}")
+    pair("voxels size", voxels.size)
+    check_range("voxels layer_height", voxels.layer_height, 0.0, MAX_COORD, low_open=True)
+    return voxels
 
 
 def propagate_layer(shape: tuple[int, int], bases: np.ndarray, areas: np.ndarray, *, size: tuple[float, float],
@@ -217,10 +261,8 @@ def propagate_layer(shape: tuple[int, int], bases: np.ndarray, areas: np.ndarray
     ----------
     .. [1] Longay thesis §6.5.1, Figs. 6.13–6.16; spec 004 §3.5 (event-driven fronts [INFERRED]).
     """
-    ny = check_int("shape[0]", shape[0], 1, 8192)
-    nx = check_int("shape[1]", shape[1], 1, 8192)
-    W = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
-    D = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    ny, nx = pair("shape", shape, kind="int", low=1, high=8192)
+    W, D = _check_plot(size, ny, nx)
     b, a, r0 = _check_trees(bases, areas, trunk_radius)
     act = np.ones(len(b), bool) if active is None else check_array("active", active, shape=(len(b),), dtype=bool)
     engine = check_choice("engine", engine, ("numba", "python"))
@@ -294,15 +336,16 @@ def crown_voxels(bases: np.ndarray, areas: np.ndarray, h_max: np.ndarray, *, siz
     """
     b, a, r0 = _check_trees(bases, areas, trunk_radius)
     n = len(b)
-    h = check_array("h_max", h_max, shape=(n,))
+    h = check_array("h_max", h_max, shape=(n,), max_abs=MAX_COORD)
     if not np.all(h > 0):
         raise ValueError(f"h_max must be positive, got min {h.min()!r}")
+    if isinstance(shape, (str, bytes)) or not hasattr(shape, "__len__") or len(shape) != 3:
+        raise ValueError(f"shape must be (layers, ny, nx), got {shape!r}")
     L = check_int("shape[0]", shape[0], 1, 4096)
     ny = check_int("shape[1]", shape[1], 1, 8192)
     nx = check_int("shape[2]", shape[2], 1, 8192)
-    W = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
-    D = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
-    top = float(h.max()) if height is None else check_range("height", height, 0.0, np.inf, low_open=True)
+    W, D = _check_plot(size, ny, nx, L)
+    top = float(h.max()) if height is None else check_range("height", height, 0.0, MAX_COORD, low_open=True)
     engine = check_choice("engine", engine, ("numba", "python"))
     dz = top / L
     active = h[None, :] > (np.arange(L) * dz)[:, None]            # tree i reaches above the bottom of layer k
@@ -346,11 +389,16 @@ def claim_segments(voxels: CrownVoxels, tree: int, starts: np.ndarray, ends: np.
     base height). The voxels are found exactly (every crossing of a grid plane, a 3D DDA). Returns a new
     :class:`CrownVoxels` (the input is not changed).
     """
-    L, ny, nx = voxels.owner.shape
+    L, ny, nx = _check_voxels(voxels).owner.shape
     tree = check_int("tree", tree, 0, len(voxels.h_max) - 1)
-    s = check_array("starts", starts, shape=(None, 3))
-    e = check_array("ends", ends, shape=(len(s), 3))
+    s = check_array("starts", starts, shape=(None, 3), max_abs=MAX_COORD)
+    e = check_array("ends", ends, shape=(len(s), 3), max_abs=MAX_COORD)
+    base_y = check_range("base_y", base_y, -MAX_COORD, MAX_COORD)
     cx, cz = voxels.cell
+    crossings = float(np.sum(np.abs(e - s) / np.array([cx, voxels.layer_height, cz]))) + 3 * len(s)
+    if crossings > 1e7:
+        raise ValueError(f"starts and ends cross about {crossings:.3g} voxel planes, more than 1e7 (segments far "
+                         "longer than the voxels)")
     owner = voxels.owner.copy()
     p = _traversed(s, e, (cx, cz, voxels.layer_height), base_y)
     col = np.floor(p[:, 0] / cx).astype(np.int64)
@@ -364,7 +412,7 @@ def claim_segments(voxels: CrownVoxels, tree: int, starts: np.ndarray, ends: np.
 def tree_region(voxels: CrownVoxels, tree: int) -> dict[str, Any]:
     """The voxels of one tree, cropped: ``{"origin": (x0, z0) metres, "cell": (cx, cz), "layer_height": dz,
     "mask": (L, h, w) bool}`` (empty mask when the tree owns nothing)."""
-    tree = check_int("tree", tree, 0, len(voxels.h_max) - 1)
+    tree = check_int("tree", tree, 0, len(_check_voxels(voxels).h_max) - 1)
     m = voxels.owner == tree
     cx, cz = voxels.cell
     if not m.any():
@@ -396,7 +444,7 @@ def in_tree_region(region: dict[str, Any], points: np.ndarray, base: np.ndarray)
 def region_geometry(voxels: CrownVoxels) -> tuple[np.ndarray, np.ndarray]:
     """Centroid C_i (N, 2) of each tree's voxels (x, z) and the bounding-circle radius B_i about it (Eq. 6.4
     inputs; pooling all layers weights each layer by its voxel count, spec §3.6 [INFERRED])."""
-    L, ny, nx = voxels.owner.shape
+    L, ny, nx = _check_voxels(voxels).owner.shape
     n = len(voxels.h_max)
     cx, cz = voxels.cell
     o = voxels.owner.reshape(L, -1)
@@ -437,11 +485,14 @@ class VoxelSketchEngine(SketchEngine):
             raise ValueError("voxel_region must be a dict with keys origin, cell, layer_height, mask, base, "
                              f"got {reg!r}")
         mask = np.asarray(reg["mask"])
-        if mask.dtype != bool or mask.ndim != 3:
-            raise ValueError(f"voxel_region mask must be a 3-D bool array, got {mask.dtype} {mask.shape}")
-        return {"origin": tuple(float(v) for v in reg["origin"]), "cell": tuple(float(v) for v in reg["cell"]),
-                "layer_height": check_range("layer_height", reg["layer_height"], 0.0, np.inf, low_open=True),
-                "mask": mask, "base": np.asarray(reg["base"], float).reshape(3)}
+        if mask.dtype != bool or mask.ndim != 3 or mask.size > MAX_VOXELS:
+            raise ValueError(f"voxel_region mask must be a 3-D bool array of at most {MAX_VOXELS} voxels, got "
+                             f"{mask.dtype} {mask.shape}")
+        origin = check_array("voxel_region origin", reg["origin"], shape=(2,), max_abs=MAX_COORD)
+        cell = pair("voxel_region cell", reg["cell"], low=MIN_SIZE / 8192, high=MAX_COORD)
+        return {"origin": tuple(float(v) for v in origin), "cell": cell,
+                "layer_height": check_range("layer_height", reg["layer_height"], 0.0, MAX_COORD, low_open=True),
+                "mask": mask, "base": check_point("voxel_region base", reg["base"])}
 
     def in_region(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: below h_max and inside the tree's voxels."""

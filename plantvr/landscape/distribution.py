@@ -7,10 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import check_array, check_choice, check_int, check_range
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
+from .terrain import MAX_CELLS, check_field, pair
 
 __all__ = ["Distribution", "Species", "clustering_kernel", "distribute", "inhibitory_kernel", "ripley_k",
            "row_prefix", "sample_field"]
+
+
+#: Largest field weight :func:`sample_field` accepts (the row sums stay finite for any field size).
+MAX_WEIGHT = 2.0 ** 900
 
 
 def _smooth(x: np.ndarray) -> np.ndarray:
@@ -18,9 +23,16 @@ def _smooth(x: np.ndarray) -> np.ndarray:
 
 
 def _check_kernel(d, r, a, s):
-    d = np.asarray(d, float)
-    r = check_range("r", r, 0.0, np.inf)
-    a = check_range("a", a, r, np.inf, low_open=True)
+    try:
+        d = np.asarray(d, float)
+    except (TypeError, ValueError):
+        raise ValueError(f"d must be an array of distances, got {type(d).__name__}") from None
+    if not np.all(np.isfinite(d)):
+        raise ValueError("d must contain only finite distances (no NaN or inf)")
+    r = check_range("r", r, 0.0, MAX_COORD)
+    a = check_range("a", a, r, 2 * MAX_COORD, low_open=True)
+    if not (a - r) > 1e-12 * max(a, 1.0):
+        raise ValueError(f"a must exceed r by more than round-off, got r={r!r}, a={a!r}")
     return d, r, a
 
 
@@ -31,7 +43,7 @@ def clustering_kernel(d, *, r: float, a: float, s: float) -> np.ndarray:
     scale (values s > 1 attract: the kernel peaks at s just outside r).
     """
     d, r, a = _check_kernel(d, r, a, s)
-    s = check_range("s", s, 0.0, np.inf)
+    s = check_range("s", s, 0.0, 1e12)
     x = 1.0 - (d - r) / (a - r)
     k = (s - 1.0) * _smooth(np.clip(x, 0.0, 1.0)) + 1.0
     return np.where(d <= r, 0.0, np.where(d <= a, k, 1.0))
@@ -43,7 +55,7 @@ def inhibitory_kernel(d, *, r: float, a: float, s: float) -> np.ndarray:
     ERRATUM E9: s < 1 would give negative probabilities and is rejected; larger s = weaker inhibition.
     """
     d, r, a = _check_kernel(d, r, a, s)
-    s = check_range("s", s, 1.0, np.inf)  # ERRATUM E9
+    s = check_range("s", s, 1.0, 1e12)  # ERRATUM E9
     x = (d - r) / (a - r)
     k = 1.0 - 1.0 / s + _smooth(np.clip(x, 0.0, 1.0)) / s
     return np.where(d <= r, 0.0, np.where(d <= a, k, 1.0))
@@ -57,17 +69,16 @@ def ripley_k(points: np.ndarray, t, *, area: float | None = None, box: tuple[flo
     correction), so complete spatial randomness gives K(t) = pi t^2 without edge bias (ERRATUM E10: the
     uniform reference is CSR). Without ``box`` no correction is made and ``area`` must be given.
     """
-    pts = check_array("points", points, shape=(None, 2), min_rows=2)
-    t = np.atleast_1d(np.asarray(t, float))
+    pts = check_array("points", points, shape=(None, 2), min_rows=2, max_abs=MAX_COORD)
+    t = check_array("t", np.atleast_1d(np.asarray(t, float)), shape=(None,), max_abs=1e12)
     if box is not None:
-        w = check_range("box[0]", box[0], 0.0, np.inf, low_open=True)
-        h = check_range("box[1]", box[1], 0.0, np.inf, low_open=True)
+        w, h = pair("box", box)
         A = w * h
         kd = cKDTree(np.mod(pts, [w, h]), boxsize=[w, h])
     else:
         if area is None:
             raise ValueError("area must be given when box is None")
-        A = check_range("area", area, 0.0, np.inf, low_open=True)
+        A = check_range("area", area, 0.0, 1e24, low_open=True)
         kd = cKDTree(pts)
     n = len(pts)
     # count_neighbors counts ordered pairs with d <= t, self pairs included; nextafter turns <= into <
@@ -78,7 +89,7 @@ def ripley_k(points: np.ndarray, t, *, area: float | None = None, box: tuple[flo
 # -- sampling a probability field (§3.4.2, Fig. 6.5) ----------------------------------------------------------
 def row_prefix(field: np.ndarray) -> np.ndarray:
     """Prefix sums of the row sums with a leading 0: R[0] = 0, R[i+1] = R[i] + sum(field[i]) (Fig. 6.5)."""
-    field = check_array("field", field, shape=(None, None))
+    field = check_field("field", field, max_abs=MAX_WEIGHT)
     return np.concatenate([[0.0], np.cumsum(field.sum(1))])
 
 
@@ -109,8 +120,11 @@ def sample_field(field: np.ndarray, n: int = 1, *, mask: np.ndarray | None = Non
     ----------
     .. [1] Longay thesis §6.4.1, Fig. 6.5; spec 004 §3.4.2 (prefix with a leading 0 [INFERRED]).
     """
-    field = check_array("field", field, shape=(None, None))
+    field = check_field("field", field, max_abs=MAX_WEIGHT)
     n = check_int("n", n, 0, 10 ** 9)
+    if n * (field.shape[1] + 1) > MAX_COUNT:
+        raise ValueError(f"n must be at most {MAX_COUNT // (field.shape[1] + 1)} for a field {field.shape[1]} cells "
+                         f"wide (memory), got {n}")
     if np.any(field < 0):
         raise ValueError("field must be non-negative")
     w = field if mask is None else np.where(check_array("mask", mask, shape=field.shape, dtype=bool), field, 0.0)
@@ -184,29 +198,37 @@ def distribute(n: int, species: list[Species], interactions: dict, *, size: tupl
     .. [1] Longay thesis §6.4, Eqs. 6.1–6.2, Figs. 6.4–6.9; spec 004 §3.4 (ERRATUM E9 for s < 1).
     """
     n = check_int("n", n, 0, 10 ** 7)
-    if not species:
-        raise ValueError("species must list at least one Species")
+    if not isinstance(species, (list, tuple)) or not species or \
+            not all(isinstance(sp, Species) for sp in species):
+        raise ValueError(f"species must be a list of at least one Species, got {species!r}"[:300])
     ns = len(species)
+    if ns > 1000:
+        raise ValueError(f"species must list at most 1000 species, got {ns}")
+    if not isinstance(interactions, dict):
+        raise ValueError(f"interactions must be a dict {{(i, j): (kind, s, a)}}, got {type(interactions).__name__}")
     probs = np.array([check_range(f"species[{i}].probability", sp.probability, 0.0, 1.0)
                       for i, sp in enumerate(species)])
     if not probs.sum() > 0:
         raise ValueError("at least one species probability must be positive")
     for i, sp in enumerate(species):
-        check_range(f"species[{i}].trunk_width", sp.trunk_width, 0.0, np.inf)
-        lo = check_range(f"species[{i}].scale[0]", sp.scale[0], 0.0, np.inf, low_open=True)
-        check_range(f"species[{i}].scale[1]", sp.scale[1], lo, np.inf)
+        check_range(f"species[{i}].trunk_width", sp.trunk_width, 0.0, MAX_COORD)
+        lo, hi = pair(f"species[{i}].scale", sp.scale, high=1e6)
+        if hi < lo:
+            raise ValueError(f"species[{i}].scale must be (low, high) with low <= high, got {sp.scale!r}")
     kern = {}
-    for key, (kind, sval, a) in interactions.items():
-        i, j = key
+    for key, val in interactions.items():
+        if not isinstance(key, tuple) or len(key) != 2 or not isinstance(val, (tuple, list)) or len(val) != 3:
+            raise ValueError(f"interactions must map (i, j) to (kind, s, a), got {key!r}: {val!r}")
+        (i, j), (kind, sval, a) = key, val
         check_int("interaction species", i, 0, ns - 1)
         check_int("interaction species", j, 0, ns - 1)
         kind = check_choice("interaction kind", kind, ("cluster", "inhibit"))
-        sval = check_range("s", sval, 1.0 if kind == "inhibit" else 0.0, np.inf)  # ERRATUM E9
-        kern[(i, j)] = (kind, sval, check_range("a", a, 0.0, np.inf, low_open=True))
-    ny = check_int("shape[0]", shape[0], 1, 8192)
-    nx = check_int("shape[1]", shape[1], 1, 8192)
-    W = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
-    H = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+        sval = check_range("s", sval, 1.0 if kind == "inhibit" else 0.0, 1e12)  # ERRATUM E9
+        kern[(int(i), int(j))] = (kind, sval, check_range("a", a, 0.0, 2 * MAX_COORD, low_open=True))
+    ny, nx = pair("shape", shape, kind="int", low=1, high=8192)
+    if ns * ny * nx > 2 * MAX_CELLS:
+        raise ValueError(f"shape {shape!r} with {ns} species needs {ns * ny * nx} field cells, more than {2 * MAX_CELLS}")
+    W, H = pair("size", size)
     allow = None if mask is None else check_array("mask", mask, shape=(ny, nx), dtype=bool)
     rng = np.random.default_rng(rng)
     fields = np.ones((ns, ny, nx))
@@ -231,4 +253,6 @@ def distribute(n: int, species: list[Species], interactions: dict, *, size: tupl
             d = np.hypot(xs[None, x0:x1] - p[0], ys[y0:y1, None] - p[1])
             k = (clustering_kernel if kind == "cluster" else inhibitory_kernel)(d, r=r, a=a, s=sval)
             fields[j, y0:y1, x0:x1] *= k
+            if fields[j, y0:y1, x0:x1].max() > 2.0 ** 800:  # attraction piles up: rescale by an exact power of 2
+                fields[j] *= 2.0 ** -400  # (relative weights, hence every later sample, unchanged)
     return Distribution(out_xy, out_sp, out_sc, fields)

@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import check_array, check_choice, check_int, check_range
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
 from ..growth.engine import GrowthEngine
-from ..growth.sketch import SketchEngine
+from ..growth.sketch import SketchEngine, _check_bool, check_params
 from ..params import defaults
 from .asymmetry import cell_geometry, neighbour_asymmetry
 from .crowns import (
@@ -43,7 +43,7 @@ from .crowns import (
     tree_region,
 )
 from .placement import poisson_disc
-from .terrain import heightfield, sample_height
+from .terrain import heightfield, pair, sample_height
 
 __all__ = [
     "Forest",
@@ -97,6 +97,7 @@ class Forest:
         """Write the landscape as one binary glTF scene (:func:`plantvr.landscape.gltf.export_forest`)."""
         from .gltf import export_forest
 
+        _check_bool("instancing", instancing), _check_bool("terrain", terrain), _check_bool("leaves", leaves)
         return export_forest(path, self, instancing=instancing, terrain=terrain, leaves=leaves, params=params)
 
 
@@ -224,12 +225,37 @@ def _compete(states: list[dict], bases: np.ndarray, radius: float) -> None:
             s["markers"], s["marker_age"] = s["markers"][~d], s["marker_age"][~d]
 
 
+def _check_tree_arrays(name: str, t: dict) -> dict[str, np.ndarray]:
+    """Copies of a tree's arrays (pos, parent, alive, radius, child, ...), checked: shapes, finite bounded
+    positions and radii, parent and child indices inside the tree."""
+    pos = check_array(f"{name} pos", t["pos"], shape=(None, 3), max_abs=MAX_COORD)
+    n = len(pos)
+    if n > MAX_COUNT:
+        raise ValueError(f"{name} must have at most {MAX_COUNT} nodes, got {n}")
+    parent = np.asarray(t["parent"])
+    if parent.shape != (n,) or parent.dtype.kind not in "iu" or (n and (parent.min() < -1 or parent.max() >= n)):
+        raise ValueError(f"{name} parent must be ({n},) indices in [-1, {n - 1}]")
+    child = np.asarray(t["child"])
+    if child.ndim != 2 or len(child) != n or child.dtype.kind not in "iu" or (child.size and child.max() >= n) \
+            or (child.size and child.min() < -2):
+        raise ValueError(f"{name} child must be ({n}, slots) indices below {n} (or -1 / -2)")
+    alive = np.asarray(t["alive"])
+    if alive.shape != (n,) or alive.dtype != bool:
+        raise ValueError(f"{name} alive must be a ({n},) bool array")
+    radius = check_array(f"{name} radius", t["radius"], shape=(n,), max_abs=MAX_COORD)
+    out = {key: np.asarray(v).copy() for key, v in t.items()}
+    out.update(pos=pos.copy(), radius=radius.copy())
+    return out
+
+
 def crown_regions(bases: np.ndarray, *, reach: float, h_max: float, weights: np.ndarray | None = None
                   ) -> list[dict[str, Any]]:
     """Per tree, the SketchEngine ``region`` of its crown space: neighbours within ``reach`` (x, z distance) as
     sites relative to the base, with their weights (default 1: plain Voronoi cells), and the height cap."""
-    bases = np.asarray(bases, float)
-    w = np.ones(len(bases)) if weights is None else np.asarray(weights, float)
+    bases = check_array("bases", bases, shape=(None, 3), max_abs=MAX_COORD)
+    reach = check_range("reach", reach, 0.0, 4 * MAX_COORD)
+    h_max = check_range("h_max", h_max, 0.0, MAX_COORD, low_open=True)
+    w = np.ones(len(bases)) if weights is None else check_array("weights", weights, shape=(len(bases),), max_abs=1e12)
     xz = bases[:, [0, 2]]
     kd = cKDTree(xz)
     out = []
@@ -370,6 +396,14 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     import time
 
     n_trees = check_int("n_trees", n_trees, 1, 100_000)
+    seed = check_int("seed", seed, 0, 2 ** 63 - 1)
+    terrain_amplitude = check_range("terrain_amplitude", terrain_amplitude, 0.0, 1e6)
+    compete, geometry, lean, processes = (_check_bool("compete", compete), _check_bool("geometry", geometry),
+                                          _check_bool("lean", lean), _check_bool("processes", processes))
+    if params is not None and not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
+    if not (client is None or (isinstance(client, str) and client == "sync") or hasattr(client, "submit")):
+        raise ValueError(f"client must be None, 'sync' or a dask Client, got {client!r}")
     rounds = check_int("rounds", rounds, 0, 10_000)
     steps_per_round = check_int("steps_per_round", steps_per_round, 1, 10_000)
     min_dist = check_range("min_dist", min_dist, 0.0, np.inf, low_open=True)
@@ -379,23 +413,41 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     n_workers = check_int("n_workers", n_workers, 1, 1024)
     if tasks_per_round is not None:
         tasks_per_round = check_int("tasks_per_round", tasks_per_round, 1, 1_000_000)
-    size = (check_range("size[0]", size[0], 0.0, np.inf, low_open=True),
-            check_range("size[1]", size[1], 0.0, np.inf, low_open=True))
+    if n_trees * n_darts > MAX_COUNT:
+        raise ValueError(f"n_trees * n_darts must be at most {MAX_COUNT}, got {n_trees} * {n_darts}")
+    size = pair("size", size)
     regions = check_choice("regions", regions, ("voronoi", "voxels"))
-    if len(voxel_shape) != 3:
+    if isinstance(voxel_shape, (str, bytes)) or not hasattr(voxel_shape, "__len__") or len(voxel_shape) != 3:
         raise ValueError(f"voxel_shape must be (layers, ny, nx), got {voxel_shape!r}")
     voxel_shape = (check_int("voxel_shape[0]", voxel_shape[0], 1, 4096),
                    check_int("voxel_shape[1]", voxel_shape[1], 1, 8192),
                    check_int("voxel_shape[2]", voxel_shape[2], 1, 8192))
-    s_lo = check_range("scale_range[0]", scale_range[0], 0.0, np.inf, low_open=True)
-    s_hi = check_range("scale_range[1]", scale_range[1], s_lo, np.inf)
-    p = {**defaults(), **(params or {})}
+    s_lo, s_hi = pair("scale_range", scale_range, high=1e6)
+    if s_hi < s_lo:
+        raise ValueError(f"scale_range must be (low, high) with low <= high, got {scale_range!r}")
+    p = check_params({**defaults(), **(params or {})})
+    if sketch is not None:
+        if not isinstance(sketch, dict):
+            raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
+        bad = sorted(set(sketch) & {"region", "asymmetry", "rng", "voxel_region"})
+        if bad:
+            raise ValueError(f"sketch must not set {bad} (grow_forest sets each tree's own)")
+        try:  # every option checked before anything is grown
+            SketchEngine._check_options({"mode": "autonomous", **sketch})
+        except ValueError as exc:
+            raise ValueError(f"sketch: {exc}") from None
+    if heroes is not None and not isinstance(heroes, (list, tuple)):
+        raise ValueError(f"heroes must be a list of dicts or None, got {type(heroes).__name__}")
     rng = np.random.default_rng(seed)
     hf = heightfield((64, 64), amplitude=terrain_amplitude, rng=rng)
     if positions is None:
         xz = poisson_disc(size, min_dist, max_points=n_trees, rng=rng)
     else:
-        xz = check_array("positions", positions, shape=(None, 2), min_rows=1)
+        xz = check_array("positions", positions, shape=(None, 2), min_rows=1, max_abs=MAX_COORD)
+        if len(xz) > 100_000:
+            raise ValueError(f"positions must hold at most 100000 trees, got {len(xz)}")
+        if len(xz) * n_darts > MAX_COUNT:
+            raise ValueError(f"positions * n_darts must be at most {MAX_COUNT}, got {len(xz)} * {n_darts}")
         if np.any(xz < 0) or np.any(xz > size):
             raise ValueError(f"positions must lie in [0, {size[0]}] x [0, {size[1]}]")
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
@@ -408,13 +460,14 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         t = h["tree"]
         if not isinstance(t, dict) or not {"pos", "parent", "alive", "radius", "child"} <= set(t):
             raise ValueError(f"heroes[{k}] tree must hold the arrays pos, parent, alive, radius, child")
-        q = check_array(f"heroes[{k}] position", h["position"], shape=(2,))
+        t = _check_tree_arrays(f"heroes[{k}] tree", t)
+        q = check_array(f"heroes[{k}] position", h["position"], shape=(2,), max_abs=MAX_COORD)
         if not t["alive"].any():
             raise ValueError(f"heroes[{k}] tree has no live node")
         hb = np.array([q[0], float(sample_height(hf, size, q[None])[0]), q[1]])
-        hero_in.append(({key: np.asarray(v).copy() for key, v in t.items()}, hb))
+        hero_in.append((t, hb))
     if scales is not None:
-        scales = check_array("scales", scales, shape=(len(bases),))
+        scales = check_array("scales", scales, shape=(len(bases),), max_abs=1e6)
         if not np.all(scales > 0):
             raise ValueError(f"scales must be positive, got min {scales.min()!r}")
     elif (s_lo, s_hi) != (1.0, 1.0):
@@ -524,6 +577,12 @@ def regrow_tree(forest: Forest, tree: int, *, params: dict[str, Any] | None = No
         A new forest; ``forest`` is not changed. Changes are relative to the forest's own settings (the seed
         states are kept), so regrowing again without overrides restores the original tree.
     """
+    if not isinstance(forest, Forest):
+        raise ValueError(f"forest must be a Forest, got {type(forest).__name__}")
+    if params is not None and not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
+    if sketch is not None and not isinstance(sketch, dict):
+        raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {type(sketch).__name__}")
     if forest.seeds is None or forest.config is None:
         raise ValueError("forest has no seed states; regrow needs a Forest made by grow_forest")
     tree = check_int("tree", tree, 0, len(forest.trees) - 1)
@@ -532,9 +591,14 @@ def regrow_tree(forest: Forest, tree: int, *, params: dict[str, Any] | None = No
     cfg = forest.config
     if not cfg["independent"]:
         raise ValueError("regrow needs independent trees: grow the forest with sketch= or compete=False")
-    p = {**cfg["params"], **(params or {})}
+    p = check_params({**cfg["params"], **(params or {})})
+    if (params or {}).get("branching", p["branching"]) != cfg["params"]["branching"]:
+        raise ValueError("params cannot change branching when regrowing a tree (its seed has the forest's)")
     state = forest.seeds[tree]
     if sketch:
+        bad = sorted(set(sketch) & {"region", "asymmetry", "voxel_region"})
+        if bad:
+            raise ValueError(f"sketch must not set {bad} (the tree keeps its crown space)")
         if "sketch_state" not in state:
             raise ValueError("sketch options need a TreeSketch forest (grow_forest(sketch=...))")
         e = engine_from_state(p, state)

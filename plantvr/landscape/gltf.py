@@ -16,7 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_array, check_range
+from .._fileio import atomic_write
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_range
 from ..geometry._gltf import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuffer, check_glb_path
 
 __all__ = ["export_distribution", "export_forest", "export_landscape", "terrain_mesh", "write_glb"]
@@ -40,13 +41,35 @@ def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
     return out
 
 
+#: Largest coordinate written (float32 positions and transforms stay exact enough and finite).
+MAX_GLB_COORD = 1e12
+
+
 def _check_mesh(name: str, mesh) -> tuple[np.ndarray, np.ndarray]:
+    if isinstance(mesh, (str, bytes, dict)) or not hasattr(mesh, "__len__") or len(mesh) != 2:
+        raise ValueError(f"{name} must be (vertices, faces), got {type(mesh).__name__}")
     v, f = mesh
-    v = check_array(f"{name} vertices", v, shape=(None, 3))
-    f = np.asarray(f)
-    if f.ndim != 2 or f.shape[1] != 3 or (len(f) and (f.min() < 0 or f.max() >= len(v))):
-        raise ValueError(f"{name} faces must be (F, 3) indices into its {len(v)} vertices, got shape {f.shape}")
+    v = check_array(f"{name} vertices", v, shape=(None, 3), max_abs=MAX_GLB_COORD)
+    if len(v) >= 2 ** 32 or len(v) > MAX_COUNT:
+        raise ValueError(f"{name} vertices must be fewer than {MAX_COUNT}, got {len(v)}")
+    try:
+        f = np.asarray(f)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} faces must be an (F, 3) int array, got {type(f).__name__}") from None
+    if f.size == 0:
+        f = np.zeros((0, 3), np.int64)
+    if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu" or len(f) > MAX_COUNT or \
+            (len(f) and (f.min() < 0 or f.max() >= len(v))):
+        raise ValueError(f"{name} faces must be (F, 3) integer indices into its {len(v)} vertices, got "
+                         f"{f.dtype} {f.shape}")
     return v, f.astype(np.int64)
+
+
+def _check_rgba(name: str, c) -> tuple[float, ...]:
+    rgba = check_array(name, c, shape=(4,))
+    if np.any(rgba < 0) or np.any(rgba > 1):
+        raise ValueError(f"{name} must be RGBA values in [0, 1], got {rgba.tolist()}")
+    return tuple(float(x) for x in rgba)
 
 
 def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -> Path:
@@ -70,13 +93,35 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
     pathlib.Path
     """
     path = check_glb_path(path)
+    if not isinstance(meshes, (list, tuple)) or not all(isinstance(m, dict) for m in meshes):
+        raise ValueError("meshes must be a list of dicts")
+    if not isinstance(nodes, (list, tuple)) or not all(isinstance(nd, dict) for nd in nodes):
+        raise ValueError("nodes must be a list of dicts")
     for k, nd in enumerate(nodes):
         m = nd.get("mesh")
-        if not isinstance(m, (int, np.integer)) or not 0 <= m < len(meshes):
+        if isinstance(m, (bool, np.bool_)) or not isinstance(m, (int, np.integer)) or not 0 <= m < len(meshes):
             raise ValueError(f"nodes[{k}] mesh must be an index in [0, {len(meshes)}), got {m!r}")
-    parts = [m.get("parts", [m]) for m in meshes]
+        if not isinstance(nd.get("name", ""), str):
+            raise ValueError(f"nodes[{k}] name must be a str, got {nd.get('name')!r}")
+    parts = []
+    for i, m in enumerate(meshes):
+        ps = m.get("parts", [m])
+        if not isinstance(ps, (list, tuple)) or not ps or not all(isinstance(q, dict) for q in ps):
+            raise ValueError(f"meshes[{i}] parts must be a non-empty list of dicts")
+        if not isinstance(m.get("name", ""), str):
+            raise ValueError(f"meshes[{i}] name must be a str, got {m.get('name')!r}")
+        for j, q in enumerate(ps):
+            if "vertices" not in q or "faces" not in q:
+                raise ValueError(f"meshes[{i}] part {j} must have vertices and faces")
+            _check_rgba(f"meshes[{i}] part {j} color", q.get("color", BARK_RGBA))
+        parts.append(ps)
     checked = [[_check_mesh(f"meshes[{i}] part {j}", (q["vertices"], q["faces"])) for j, q in enumerate(ps)]
                for i, ps in enumerate(parts)]
+    transforms = []
+    for k, nd in enumerate(nodes):  # every transform checked before anything is written
+        transforms.append({key: check_array(f"nodes[{k}] {key}", nd[key], shape=(n,), max_abs=MAX_GLB_COORD).tolist()
+                           for key, n in (("translation", 3), ("rotation", 4), ("scale", 3))
+                           if nd.get(key) is not None})
     buf = GltfBuffer()
     gl_meshes, materials, mat_index = [], [], {}
     for i, (cm, ps, m) in enumerate(zip(checked, parts, meshes)):
@@ -104,9 +149,7 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
     gl_nodes = []
     for k, nd in enumerate(nodes):
         out: dict[str, Any] = {"name": nd.get("name", f"node_{k}"), "mesh": int(nd["mesh"])}
-        for key, n in (("translation", 3), ("rotation", 4), ("scale", 3)):
-            if nd.get(key) is not None:
-                out[key] = check_array(f"nodes[{k}] {key}", nd[key], shape=(n,)).tolist()
+        out.update(transforms[k])
         gl_nodes.append(out)
     blob = buf.blob()
     doc = {"asset": {"version": "2.0", "generator": "PlantVR landscape"}, "scene": 0,
@@ -116,7 +159,7 @@ def write_glb(path, meshes: list[dict[str, Any]], nodes: list[dict[str, Any]]) -
     js = json.dumps(doc, separators=(",", ":")).encode()
     js += b" " * ((-len(js)) % 4)
     total = 12 + 8 + len(js) + 8 + len(blob)
-    with open(path, "wb") as fh:
+    with atomic_write(path) as fh:  # a failed write leaves any previous file intact
         fh.write(struct.pack("<4sII", b"glTF", 2, total))
         fh.write(struct.pack("<I4s", len(js), b"JSON") + js)
         fh.write(struct.pack("<I4s", len(blob), b"BIN\0") + blob)
@@ -127,12 +170,13 @@ def terrain_mesh(heights: np.ndarray, size: tuple[float, float]) -> tuple[np.nda
     """Height field (ny, nx) over [0, size[0]] x [0, size[1]] (x columns, z rows, y up) as a triangle mesh
     (vertices (ny nx, 3), faces (2 (ny-1)(nx-1), 3), normals up); the grid nodes are those of
     :func:`~plantvr.landscape.terrain.sample_height`."""
-    h = check_array("heights", heights, shape=(None, None))
+    from .terrain import check_field, pair
+
+    h = check_field("heights", heights)
     ny, nx = h.shape
     if ny < 2 or nx < 2:
         raise ValueError(f"heights must be at least 2 x 2, got {h.shape}")
-    W = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
-    D = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    W, D = pair("size", size)
     X, Z = np.meshgrid(np.linspace(0.0, W, nx), np.linspace(0.0, D, ny))
     v = np.column_stack([X.ravel(), h.ravel(), Z.ravel()])
     idx = np.arange(ny * nx).reshape(ny, nx)
@@ -185,14 +229,20 @@ def export_landscape(path, trees: list[tuple[np.ndarray, np.ndarray]], positions
     .. [1] Spec 004 §4.6 (4): "per-tree meshes plus an instance list (position, rotation, scale, species), plus
        the terrain height field as a mesh" [INFERRED]; glTF 2.0 nodes share meshes.
     """
+    if not isinstance(trees, (list, tuple)):
+        raise ValueError(f"trees must be a list of (vertices, faces), got {type(trees).__name__}")
     n = len(trees)
-    pos = check_array("positions", positions, shape=(n, 3))
-    yaw = np.zeros(n) if yaw is None else check_array("yaw", yaw, shape=(n,))
-    sc = np.ones(n) if scale is None else check_array("scale", scale, shape=(n,))
+    pos = check_array("positions", positions, shape=(n, 3), max_abs=MAX_GLB_COORD)
+    yaw = np.zeros(n) if yaw is None else check_array("yaw", yaw, shape=(n,), max_abs=1e6)
+    sc = np.ones(n) if scale is None else check_array("scale", scale, shape=(n,), max_abs=1e6)
     if not np.all(sc > 0):
         raise ValueError(f"scale must be positive, got min {sc.min()!r}")
+    if names is not None and (not isinstance(names, (list, tuple)) or not all(isinstance(x, str) for x in names)):
+        raise ValueError("names must be a list of str")
     if names is not None and len(names) != n:
         raise ValueError(f"names must have one entry per tree ({n}), got {len(names)}")
+    if terrain is not None and (not isinstance(terrain, (tuple, list)) or len(terrain) != 2):
+        raise ValueError("terrain must be (heights, size)")
     checked = [_check_mesh(f"trees[{i}]", t) for i, t in enumerate(trees)]
     if leaves is not None and len(leaves) != n:
         raise ValueError(f"leaves must have one entry (or None) per tree ({n}), got {len(leaves)}")
@@ -241,15 +291,23 @@ def export_forest(path, forest, *, instancing: bool = True, terrain: bool = True
     ``meshes``, built now when the forest was grown without geometry) in its own frame, placed at its base;
     identical trees share a mesh. ``terrain`` adds the height field. ``leaves`` builds each tree's leaves
     (as ``plantvr.export.tree_geometry`` places them, with ``params`` over the defaults) as a second primitive."""
-    from .forest import tree_mesh_task
+    from .forest import Forest, tree_mesh_task
 
+    if not isinstance(forest, Forest):
+        raise ValueError(f"forest must be a Forest, got {type(forest).__name__}")
+    if len(forest.trees) != len(forest.bases) or (forest.meshes is not None and len(forest.meshes) != len(forest.trees)):
+        raise ValueError("forest trees, bases and meshes must have one entry per tree")
+    if params is not None and not isinstance(params, dict):
+        raise ValueError(f"params must be a dict or None, got {type(params).__name__}")
     meshes = forest.meshes if forest.meshes is not None else [tree_mesh_task(t) for t in forest.trees]
     local = [(np.asarray(v, float) - b if len(v) else np.zeros((0, 3)), f) for (v, f), b in zip(meshes, forest.bases)]
     lv = None
     if leaves:
         from ..params import defaults
 
-        p = {**defaults(), **(params or {})}
+        from ..params import validate
+
+        p = {**defaults(), **validate(params or {})}
         lv = [_tree_leaves({**t, "pos": t["pos"] - b}, p) for t, b in zip(forest.trees, forest.bases)]
     ter = (forest.heights, forest.size) if terrain else None
     return export_landscape(path, local, forest.bases, terrain=ter, instancing=instancing, leaves=lv)
@@ -263,12 +321,18 @@ def export_distribution(path, distribution, prototypes: list[tuple[np.ndarray, n
     its scale S_i and a random yaw; bases on ``heights`` (sampled bilinearly) when given, else y = 0."""
     from .terrain import sample_height
 
-    sp = np.asarray(distribution.species, np.int64)
+    from .distribution import Distribution
+
+    if not isinstance(distribution, Distribution):
+        raise ValueError(f"distribution must be a Distribution, got {type(distribution).__name__}")
+    if not isinstance(prototypes, (list, tuple)):
+        raise ValueError(f"prototypes must be a list of (vertices, faces), got {type(prototypes).__name__}")
+    xz = check_array("distribution xy", distribution.xy, shape=(None, 2), max_abs=MAX_COORD)
+    sp = check_array("distribution species", distribution.species, shape=(len(xz),), dtype=np.int64)
     if len(sp) and (sp.min() < 0 or sp.max() >= len(prototypes)):
         raise ValueError(f"prototypes must give a mesh for each of the {int(sp.max()) + 1} species, got "
                          f"{len(prototypes)}")
-    xz = np.asarray(distribution.xy, float).reshape(-1, 2)
-    y = np.zeros(len(xz)) if heights is None else sample_height(np.asarray(heights, float), size, xz)
+    y = np.zeros(len(xz)) if heights is None else sample_height(heights, size, xz)
     pos = np.column_stack([xz[:, 0], y, xz[:, 1]])
     yaw = np.random.default_rng(rng).uniform(0.0, 2 * np.pi, len(xz))
     ter = None if heights is None else (heights, size)

@@ -6,6 +6,7 @@ import math
 import numpy as np
 
 from .._validation import check_int, check_range
+from .terrain import MAX_CELLS, pair
 
 __all__ = ["poisson_disc"]
 
@@ -17,9 +18,11 @@ def poisson_disc(size: tuple[float, float], min_dist: float, *, max_points: int 
     Bridson's algorithm: active list, ``k`` candidates per point in the annulus [r, 2r), background grid of
     cell r/sqrt(2). Stops at ``max_points`` when given. Deterministic for a seed.
     """
-    w = check_range("size[0]", size[0], 0.0, np.inf, low_open=True)
-    h = check_range("size[1]", size[1], 0.0, np.inf, low_open=True)
+    w, h = pair("size", size)
     r = check_range("min_dist", min_dist, 0.0, np.inf, low_open=True)
+    if math.ceil(w * math.sqrt(2.0) / r) * math.ceil(h * math.sqrt(2.0) / r) > MAX_CELLS:
+        raise ValueError(f"min_dist must be at least {math.sqrt(2.0 * w * h / MAX_CELLS):.3g} for a {w} x {h} plot "
+                         f"(the background grid may hold {MAX_CELLS} cells), got {min_dist!r}")
     k = check_int("k", k, 1, 1000)
     cap = None if max_points is None else check_int("max_points", max_points, 0, 10_000_000)
     rng = np.random.default_rng(rng)

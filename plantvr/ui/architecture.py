@@ -122,7 +122,12 @@ def schematic_tree(params: dict[str, Any], options: dict[str, Any], *, iteration
 
     iterations = check_int("iterations", iterations, 0, 200)
     max_internodes = check_int("max_internodes", max_internodes, 1, 10 ** 6)
-    slab = check_range("slab", slab, 0.0, np.inf, low_open=True)
+    slab = check_range("slab", slab, 0.0, 1e6, low_open=True)
+    seed = check_int("seed", seed, 0, 2 ** 63 - 1)
+    point_density = check_int("point_density", point_density, 0, 1000)
+    if not isinstance(params, dict) or not isinstance(options, dict):
+        raise ValueError(f"params and options must be dicts, got {type(params).__name__} and "
+                         f"{type(options).__name__}")
     p = {**defaults(), **validate(params), "phyllotaxis_angle": 180.0, "activation_threshold": 0.0}
     opts = {k: v for k, v in options.items() if k in SKETCH_OPTIONS and k != "stroke_tropism"}
     eng = SketchEngine(p, rng=seed, mode="autonomous", point_density=point_density,
@@ -245,7 +250,7 @@ class ArchitectureState(_ArchTraits):
                 e = opts["ellipse"]
                 if not isinstance(e, (tuple, list, np.ndarray)) or len(e) != 3:
                     raise ValueError(f"ellipse must be (s_v, s_p, e_v), got {e!r}")
-                opts["ellipse"] = tuple(float(x) for x in e)
+                opts["ellipse"] = SketchEngine._check_ellipse(e)
             for k in ("trunk_up", "stroke_tropism"):
                 if k in opts and opts[k] not in (True, False, 0, 1):
                     raise ValueError(f"{k} must be True or False, got {opts[k]!r}")
@@ -256,6 +261,8 @@ class ArchitectureState(_ArchTraits):
                 opts = {k: probe.sketch[k] for k in opts}
             finally:
                 probe.sketch = saved
+        if params and isinstance(self._target, SketchEngine):
+            self._target.checked_params(params)  # the engine's own checks against its tree (shadow grid reach)
         return params, opts
 
     def _probe_engine(self) -> SketchEngine:
@@ -481,8 +488,10 @@ class AngleWidget(_StateWidget):
         names = [s["name"] for s in self.specs]
         if name not in names:
             raise ValueError(f"name must be one of {names}, got {name!r}")
+        from .._validation import check_range
+
         a = list(self.angles)
-        a[names.index(name)] = float(value)
+        a[names.index(name)] = check_range(name, value, -1e6, 1e6)
         self.angles = a
 
 

@@ -22,6 +22,7 @@ from typing import Any
 import ipywidgets as W
 import numpy as np
 
+from .._fileio import write_atomic
 from ..growth.sketch import SketchEngine
 from ..growth.sketch_tools import TreeLibrary
 from ..growth.treefile import tree_from_text
@@ -56,10 +57,17 @@ def tree_svg(pos, parent, *, alive=None, radius=None, size: int = 160) -> str:
     """
     from .._validation import check_int, check_points
 
+    from .._validation import check_array
+
     pos = check_points("pos", pos)
-    parent = np.asarray(parent, np.int64)
+    n = len(pos)
+    parent = check_array("parent", parent, shape=(n,), dtype=np.int64)
+    if n and (parent.min() < -1 or parent.max() >= n):
+        raise ValueError(f"parent must hold indices in [-1, {n - 1}], got {int(parent.min())} .. {int(parent.max())}")
     size = check_int("size", size, 16, 2048)
-    alive = np.ones(len(pos), bool) if alive is None else np.asarray(alive, bool)
+    alive = np.ones(n, bool) if alive is None else check_array("alive", alive, shape=(n,), dtype=bool)
+    if radius is not None:
+        radius = check_array("radius", radius, shape=(n,), max_abs=1e6)
     live = np.flatnonzero(alive & (parent >= 0))
     pad = 0.06 * size
     pts = pos[alive][:, :2] if alive.any() else np.zeros((1, 2))
@@ -83,6 +91,28 @@ def tree_svg(pos, parent, *, alive=None, radius=None, size: int = 160) -> str:
     return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" viewBox="0 0 {size} {size}">'
             f'<rect width="{size}" height="{size}" fill="#fbfbf7"/>'
             f'<g stroke="#5b3a1e" stroke-linecap="round">{"".join(lines)}</g></svg>')
+
+
+_THUMB_TAGS = {"svg", "rect", "g", "line"}
+_MAX_THUMB_BYTES = 4 << 20
+
+
+def _read_thumbnail(path: Path) -> str:
+    """A saved thumbnail's SVG, shown only if it is what :func:`tree_svg` writes (bounded; no scripts, links or
+    event handlers, since the text goes into the page's HTML)."""
+    import re
+
+    try:
+        if path.stat().st_size > _MAX_THUMB_BYTES:
+            return "<i>thumbnail too large</i>"
+        text = path.read_bytes().decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        return "<i>unreadable thumbnail</i>"
+    tags = set(re.findall(r"<\s*/?\s*([A-Za-z][\w:-]*)", text))
+    if not text.startswith("<svg") or not tags <= _THUMB_TAGS or re.search(r"\son\w*\s*=|href|javascript:|<!", text,
+                                                                          re.IGNORECASE):
+        return "<i>thumbnail not shown (not a PlantVR thumbnail)</i>"
+    return text
 
 
 def _select(params: dict[str, Any], kind: str) -> dict[str, Any]:
@@ -142,9 +172,9 @@ def apply_preset_values(target, preset: dict[str, Any]) -> None:
         else None
     if engine is None and model is None:
         raise TypeError(f"target must be a SketchEngine, a Model or an ArchitectureState, got {type(target).__name__}")
-    if engine is not None and opts:
-        probe = SketchEngine({**engine.params, **params}, rng=0)
-        probe.set_options(**opts)  # raises before the engine is touched
+    if engine is not None:  # everything is checked before the engine is touched
+        opts = engine._check_options(opts)
+        engine.checked_params(params)
     if engine is not None:
         if opts:
             engine.set_options(**opts)
@@ -245,7 +275,7 @@ class LibraryPanel(W.VBox):
             self.thumb.value = ""
             return
         path = self.library.folder / f"{name}.thumb.svg"
-        self.thumb.value = path.read_text() if path.exists() else "<i>no thumbnail</i>"
+        self.thumb.value = _read_thumbnail(path) if path.exists() else "<i>no thumbnail</i>"
 
     # -- commands (what the buttons call) -------------------------------------------------------------------------
     def save(self, name: str) -> Path:
@@ -257,7 +287,8 @@ class LibraryPanel(W.VBox):
         t = e.tree
         try:
             path = self.library.save(name, e)
-            files[2].write_text(tree_svg(t.pos[: t.n], t.parent[: t.n], alive=t.alive[: t.n], radius=t.radius[: t.n]))
+            write_atomic(files[2], tree_svg(t.pos[: t.n], t.parent[: t.n], alive=t.alive[: t.n],
+                                            radius=t.radius[: t.n]))
         except OSError as exc:  # no half-written new entry is left behind
             for f, old in zip(files, existed):
                 if not old:

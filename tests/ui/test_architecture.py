@@ -397,3 +397,35 @@ def test_architecture_panel_in_jupyterlab(tmp_path):
         page.screenshot(path=str(shots / "jupyterlab_architecture.png"))
         assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
 
+
+
+# -- issue 20: every edit checked at the door, a rejected edit changes nothing ---------------------------------------
+@pytest.mark.parametrize("name,value", [("w_heading", float("nan")), ("tropism_angle", 1e300), ("n_max", 10 ** 12),
+                                        ("ellipse", (1.0, "x", 0.0)), ("ellipse", (1e-300, 1.0, 0.0)),
+                                        ("trunk_up", "no"), ("base_length", 1e-20), ("deflection", None),
+                                        ("shed_threshold", float("inf")), ("bogus", 1)])
+def test_fuzz_architecture_state_set(fuzz, name, value):
+    e = SketchEngine(defaults(), rng=0)
+    e.add_markers([[0.0, 2.0, 0.0]])
+    e.step()
+    s = ArchitectureState(e)
+    before = (dict(e.params), dict(e.sketch), s.params, s.options)
+    assert isinstance(fuzz.call("ArchitectureState.set", s.set, **{name: value},
+                                param=(name, "ellipse", "architecture")), ValueError)
+    assert (dict(e.params), dict(e.sketch), s.params, s.options) == before
+
+
+def test_set_influence_with_huge_weights_is_normalised():
+    s = ArchitectureState(SketchEngine(defaults(), rng=0))
+    s.set_influence(1e308, 1e308, 1e308)
+    assert s.influence == pytest.approx((1 / 3, 1 / 3, 1 / 3))
+
+
+def test_fuzz_schematic_and_angles(fuzz):
+    for kw, param in (({"seed": -1}, "seed"), ({"slab": float("nan")}, "slab"), ({"point_density": 10 ** 6},
+                      "point_density"), ({"iterations": 10 ** 9}, "iterations")):
+        assert isinstance(fuzz.call("schematic_tree", schematic_tree, {}, {}, **kw, param=param), ValueError)
+    assert isinstance(fuzz.call("schematic_tree", schematic_tree, "p", {}, param="params"), ValueError)
+    w = AngleWidget(ArchitectureState(SketchEngine(defaults(), rng=0)))
+    assert isinstance(fuzz.call("AngleWidget.set_angle", w.set_angle, "branch_angle", "x", param="branch_angle"),
+                      ValueError)

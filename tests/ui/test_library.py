@@ -154,14 +154,45 @@ def test_tree_svg_draws_every_live_internode():
 def test_failed_save_leaves_no_half_entry(tmp_path, monkeypatch):
     e = _grown(steps=2)
     lib = LibraryPanel(tmp_path, e)
-    real = type(tmp_path).write_text
+    import os
 
-    def failing(self, *a, **k):
-        if self.suffix == ".json":
-            raise OSError("disk full")
-        return real(self, *a, **k)
-    monkeypatch.setattr(type(tmp_path), "write_text", failing)
+    def failing(fd):  # saves are atomic (plantvr._fileio): the disk fills while the files are synced
+        raise OSError("disk full")
+    monkeypatch.setattr(os, "fsync", failing)
     with pytest.raises(ValueError, match="cannot save 'x'.*disk full"):
         lib.save("x")
     monkeypatch.undo()
     assert lib.library.trees() == [] and not list(tmp_path.glob("x.*"))
+
+
+# -- issue 20: validated inputs, safe thumbnails ---------------------------------------------------------------------
+def test_fuzz_tree_svg(fuzz):
+    pos = np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]])
+    for kw, param in (({"parent": [-1, 0, 10 ** 9]}, "parent"), ({"parent": [-1, 0]}, "parent"),
+                      ({"pos": [[0, np.nan, 0]] * 3}, "pos"), ({"alive": [True]}, "alive"),
+                      ({"radius": [np.inf] * 3}, "radius"), ({"size": 10 ** 9}, "size")):
+        args = {"pos": pos, "parent": [-1, 0, 1], **kw}
+        assert isinstance(fuzz.call("tree_svg", tree_svg, args.pop("pos"), args.pop("parent"), **args, param=param),
+                          ValueError)
+
+
+def test_foreign_thumbnail_is_not_injected(tmp_path):
+    e = _grown(steps=2)
+    lib = LibraryPanel(tmp_path, e)
+    lib.save("x")
+    (tmp_path / "x.thumb.svg").write_text('<svg onload="alert(1)"><script>alert(1)</script></svg>')
+    lib._show("x")
+    assert "script" not in lib.thumb.value and "onload" not in lib.thumb.value
+    lib.save("x")
+    lib._show("x")
+    assert lib.thumb.value.startswith("<svg")
+
+
+def test_apply_preset_values_checks_everything_first(fuzz):
+    e = _grown(steps=2)
+    before = (dict(e.params), dict(e.sketch))
+    for preset in ({"params": {"base_length": 1e-20}, "options": {"n_max": 4}},
+                   {"params": {"w_env": 0.3}, "options": {"n_max": 0}},
+                   {"params": {"tropism_angle": float("nan")}}, "preset", {"params": [1]}):
+        assert isinstance(fuzz.call("apply_preset_values", apply_preset_values, e, preset), ValueError)
+    assert (e.params, e.sketch) == before
