@@ -16,7 +16,7 @@ from typing import Any
 
 from ._validation import check_choice, check_int, check_range
 
-__all__ = ["Param", "PARAMS", "PARAM_BY_NAME", "WINDOWS", "defaults", "validate"]
+__all__ = ["Param", "PARAMS", "PARAM_BY_NAME", "WINDOWS", "check_params", "defaults", "validate"]
 
 #: Parameter windows (spec §4.6; colours are the menu colours of §4.5, ambiguity A.21 resolved in figure order).
 WINDOWS = {"form": ("Tree form", "#3a9a3a"), "appearance": ("Appearance", "#c0392b"),
@@ -165,3 +165,21 @@ def validate(values: dict[str, Any]) -> dict[str, Any]:
 def radians(values: dict[str, Any], name: str) -> float:
     """Return the degree-valued parameter ``name`` of ``values`` in radians."""
     return math.radians(values[name])
+
+
+def check_params(params: Any, *, partial: bool = False) -> dict[str, Any]:
+    """``params`` checked against the parameter table (names known, values in range), complete unless ``partial``.
+
+    Raises ``ValueError`` naming the parameter; returns a new dict of converted values.
+    """
+    if not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of growth parameters, got {type(params).__name__}")
+    bad = [k for k in params if not isinstance(k, str)]
+    if bad:
+        raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
+    out = validate(params)
+    if not partial:
+        missing = sorted(set(PARAM_BY_NAME) - set(out))
+        if missing:
+            raise ValueError(f"params is missing {missing[:5]} (start from plantvr.params.defaults())")
+    return out

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
-from plantvr.params import PARAM_BY_NAME, validate
+from plantvr.params import check_params
 
 from .colonize import assign_treewand
 from .directions import bud_headings, growth_directions, normalize, transport_lateral, tropism_vectors
@@ -24,30 +24,12 @@ from .spatial import REACH, PointGrid, _within_any_trusted
 from .tree import BUD, Tree
 from .vigor import accumulate_light_kernel, distribute_vigor_kernel, pipe_radius_kernel, shed_mask_kernel
 
-__all__ = ["GrowthEngine", "StepStats", "check_engine_params"]
+__all__ = ["GrowthEngine", "StepStats"]
 
 #: Shortest internode length a bud produces: Eq. 9.17 with a denormal base length rounds to 0 otherwise.
 MIN_LENGTH = float(np.finfo(np.float64).tiny)
 #: Smallest cell of the occupation grids: below it a grid over ±REACH would clip every marker into one cell.
 _MIN_CELL = REACH * 2.0 ** -40
-
-
-def check_engine_params(params: Any, *, partial: bool = False) -> dict[str, Any]:
-    """``params`` checked against the parameter table (names known, values in range), complete unless ``partial``.
-
-    Raises ``ValueError`` naming the parameter; returns a new dict of converted values.
-    """
-    if not isinstance(params, dict):
-        raise ValueError(f"params must be a dict of growth parameters, got {type(params).__name__}")
-    bad = [k for k in params if not isinstance(k, str)]
-    if bad:
-        raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
-    out = validate(params)
-    if not partial:
-        missing = sorted(set(PARAM_BY_NAME) - set(out))
-        if missing:
-            raise ValueError(f"params is missing {missing[:5]} (start from plantvr.params.defaults())")
-    return out
 
 
 @dataclass(frozen=True)
@@ -92,7 +74,7 @@ class GrowthEngine:
     """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict."""
 
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None):
-        params = check_engine_params(params)
+        params = check_params(params)
         if isinstance(rng, (bool, np.bool_)) or not (rng is None or isinstance(rng, (
                 int, np.integer, np.random.Generator, np.random.SeedSequence, np.random.BitGenerator))):
             raise ValueError(f"rng must be a non-negative int seed, a numpy Generator or None, got {rng!r}")
@@ -117,7 +99,7 @@ class GrowthEngine:
     def set_params(self, params: dict[str, Any]) -> None:
         """Apply parameters (checked against the table first; nothing changes if one is rejected); a change of
         shadow or topology settings rebuilds what depends on it."""
-        params = check_engine_params(params, partial=True)
+        params = check_params(params, partial=True)
         old = self.params
         self.params = {**old, **params}
         if any(old[k] != self.params[k] for k in ("shadow_intensity", "shadow_falloff", "shadow_depth",

@@ -43,7 +43,7 @@ from .._validation import (
     check_points,
     check_range,
 )
-from ..params import PARAM_BY_NAME, validate
+from ..params import PARAM_BY_NAME, check_params
 from .bending import BendResult, bend_path, pipe_widths
 from .directions import _rotate, bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, _Buds, sum_per_bud
@@ -91,22 +91,6 @@ def _rows3(name: str, value: Any) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be an (N, 3) array, got {type(value).__name__}") from None
     return check_array(name, np.atleast_2d(a), shape=(None, 3))
-
-
-def check_params(params: Any, *, partial: bool = False) -> dict[str, Any]:
-    """The engine's parameter dict checked against the parameter table (every name known, every value in its
-    range); complete unless ``partial``. Raises ``ValueError`` naming the parameter."""
-    if not isinstance(params, dict):
-        raise ValueError(f"params must be a dict of growth parameters, got {type(params).__name__}")
-    bad = [k for k in params if not isinstance(k, str)]
-    if bad:
-        raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
-    out = validate(params)
-    if not partial:
-        missing = sorted(set(PARAM_BY_NAME) - set(out))
-        if missing:
-            raise ValueError(f"params is missing {missing[:5]} (start from plantvr.params.defaults())")
-    return out
 
 
 def grid_reach(params: dict[str, Any]) -> float:

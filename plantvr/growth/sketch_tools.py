@@ -36,7 +36,8 @@ from .._fileio import atomic_write, write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
-from .sketch import SketchEngine, check_params
+from ..params import check_params
+from .sketch import SketchEngine
 from .treefile import tree_from_text, tree_to_text
 
 __all__ = ["PRESETS", "LassoVolume", "StrokeEmitter", "Timeline", "TreeLibrary", "lasso_volume", "nearest_node",
