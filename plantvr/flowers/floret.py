@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import BSpline
-from scipy.spatial import Delaunay, cKDTree
+from scipy.spatial import Delaunay, QhullError, cKDTree
 from scipy.spatial.transform import Rotation, Slerp
 
 from plantvr._fileio import write_atomic
@@ -342,7 +342,12 @@ def polygonize_uv(lam: float | Callable = 0.2, eta: float | Callable = 5, *, gri
         u = np.array([0.5]) if mi == 1 else np.linspace(0, 1, mi)
         uv.append(np.column_stack([u, np.full(mi, vi)]))
     uv = np.concatenate(uv)
-    tri = Delaunay(uv).simplices.astype(np.int64)
+    if np.all(m == 1):  # one sample per row: the samples lie on u = 1/2 and span no surface
+        raise ValueError(f"eta must give more than one sample on some row (eta(v) > 1), got {float(et.max()):.3g}")
+    try:
+        tri = Delaunay(uv).simplices.astype(np.int64)
+    except QhullError as exc:
+        raise ValueError(f"lam and eta give samples that span no surface ({str(exc).splitlines()[0]})") from None
     a, b, c = uv[tri[:, 0]], uv[tri[:, 1]], uv[tri[:, 2]]
     cr = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
     tri = tri[np.abs(cr) > 1e-14]

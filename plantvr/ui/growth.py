@@ -136,7 +136,9 @@ class GrowthControl(W.VBox):
 
     def close(self) -> None:
         """Stop growth and observing the model."""
-        self.model.stop()
-        self.model.unobserve(self._on_version, names=["version"])
-        self.model.unobserve(self._on_growing, names=["growing"])
+        model = getattr(self, "model", None)  # None when the constructor refused its arguments
+        if model is not None:
+            model.stop()
+            model.unobserve(self._on_version, names=["version"])
+            model.unobserve(self._on_growing, names=["growing"])
         super().close()
