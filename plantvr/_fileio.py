@@ -15,6 +15,7 @@ import contextlib
 import hashlib
 import io
 import os
+import struct
 import tempfile
 import zipfile
 import zlib
@@ -25,10 +26,10 @@ from typing import IO, Any
 import numpy as np
 
 __all__ = ["MAX_READ_BYTES", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
-           "npy_headers", "zip_directory", "digest_arrays"]
+           "npy_bytes", "npy_headers", "zip_directory", "digest_arrays"]
 
 #: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream).
-_READ_ERRORS = (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error)
+_READ_ERRORS = (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error, struct.error)
 
 #: Default cap on the inflated size of one zip/npz file PlantVR reads (bytes). Readers of formats whose
 #: files are bigger by design (a 36 M-face segmentation with its mesh) pass a larger ``max_bytes``.
@@ -109,7 +110,8 @@ def _zip_error(what: str, path, msg: str) -> ValueError:
 def _open_zip(path, what: str) -> zipfile.ZipFile:
     try:
         return zipfile.ZipFile(path)
-    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, ValueError) as exc:
+    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, ValueError, NotImplementedError,
+            struct.error) as exc:  # a flipped bit in the central directory: "zip file version 14.8"
         raise _zip_error(what, path, f"corrupt, truncated or not a zip file ({exc})") from None
 
 
@@ -247,7 +249,8 @@ def digest_arrays(arrays: Mapping[str, np.ndarray]) -> str:
     return h.hexdigest()
 
 
-def _npy_bytes(a: np.ndarray) -> bytes:
+def npy_bytes(a: np.ndarray) -> bytes:
+    """``.npy`` bytes of ``a`` with its shape kept (0-d included), no pickles (members of zip formats)."""
     buf = io.BytesIO()
-    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
+    np.lib.format.write_array(buf, np.array(a, order="C", copy=True), allow_pickle=False)
     return buf.getvalue()

@@ -118,6 +118,13 @@ def test_npz_resume_grows_identically(tmp_path, grown_model):
     assert np.array_equal(a.snapshot.pos, b.snapshot.pos)
 
 
+def _signed(content: str) -> str:
+    """``content`` with the version-2 header and its checksum line (plantvr.growth.treefile)."""
+    import hashlib
+    text = "# plantvr-tree 2\n" + content.rstrip("\n") + "\n"
+    return text + f"# sha256={hashlib.sha256(text.encode()).hexdigest()}\n"
+
+
 @pytest.mark.parametrize("content,match", [
     ("w_heading=0.3\ntree=N(0,0,0", "malformed node"),
     ("view_radius=-3\ntree=N(0,0,0,0,1,0,1,0,0)[N(0,1,0,0,1,0,1,0,0)BB]--", "view_radius must be in"),
@@ -126,7 +133,7 @@ def test_npz_resume_grows_identically(tmp_path, grown_model):
 ])
 def test_failed_load_raises_and_leaves_model_unchanged(tmp_path, content, match, grown_model):
     bad = tmp_path / "bad.tree"
-    bad.write_text(content)
+    bad.write_text(_signed(content))  # a well-formed envelope, so the parser meets the damage inside
     m = grown_model
     before, params = m.snapshot, m.params
     with pytest.raises(ValueError, match=match):

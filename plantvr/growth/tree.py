@@ -7,12 +7,19 @@ unfolds forwards. Node 0 is the base point, node 1 the tip of the first internod
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
-__all__ = ["Tree", "BUD", "NO_SLOT"]
+from .._validation import MAX_COORD
+
+__all__ = ["Tree", "BUD", "NO_SLOT", "MAX_NODES", "check_tree_arrays"]
 
 BUD = -1
 NO_SLOT = -2
+
+#: Most nodes a tree read from a file may have (about 0.9 GB of arrays); far beyond any grown tree.
+MAX_NODES = 4_000_000
 
 _FIELDS = {  # name: (trailing shape, dtype)
     "pos": ((3,), np.float64), "head": ((3,), np.float64), "lat": ((3,), np.float64),
@@ -157,6 +164,26 @@ class Tree:
             stack.extend(int(c) for c in ch[n, ::-1] if c >= 0 and alive[c])
         return np.array(out, np.int64)
 
+    def check(self, what: str = "tree") -> "Tree":
+        """Raise ``ValueError`` unless the rows in use form a tree the kernels can run on; returns ``self``.
+
+        See :func:`check_tree_arrays` (the one validation of tree arrays, used by every reader).
+        """
+        check_tree_arrays({k: v[: self.n] for k, v in self._data.items()}, self.nslots, what=what)
+        return self
+
+    @classmethod
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray], nslots: int, *, what: str = "tree") -> "Tree":
+        """Return a tree holding copies of ``arrays`` (one per field, as :meth:`arrays` returns them), after
+        :func:`check_tree_arrays`; raises ``ValueError`` naming ``what`` and the bad field."""
+        check_tree_arrays(arrays, nslots, what=what)
+        n = len(arrays["pos"])
+        t = cls(nslots, n)
+        for k in _FIELDS:
+            t._data[k][:n] = arrays[k]
+        t.n = n
+        return t
+
     def copy(self) -> "Tree":
         """Return a deep copy trimmed to the rows in use."""
         t = Tree(self.nslots, max(self.n, 1))
@@ -168,3 +195,100 @@ class Tree:
     def arrays(self) -> dict[str, np.ndarray]:
         """Return copies of every field, trimmed to the rows in use."""
         return {k: v[: self.n].copy() for k, v in self._data.items()}
+
+
+def check_tree_arrays(arrays: Mapping[str, np.ndarray], nslots: int, *, what: str = "tree") -> None:
+    """Raise ``ValueError`` unless ``arrays`` describe a tree every kernel can index safely.
+
+    Checked, before anything is written anywhere (issue 20: a child index of 10**9, a node at 1e19 or a NaN
+    position crashed the kernels): exactly the fields of :class:`Tree`, each of shape ``(n, *trailing)`` and
+    its exact dtype, ``2 <= n <=`` :data:`MAX_NODES`; every float finite; positions inside ±``MAX_COORD``;
+    headings and lateral vectors of unit length; ``light_factor`` in [0, MAX_COORD]; ``order`` in [0, n],
+    ``born`` >= 0; node 0 is the live base point (parent -1) and node 1 its live main child; every other
+    parent index is smaller than its node's; every child slot holds ``BUD``, ``NO_SLOT`` (always in the slots
+    past ``nslots``) or a larger node index whose parent is that node, each node in at most one slot, and
+    every live node but the base sits in a slot of its live parent.
+
+    Parameters
+    ----------
+    arrays : mapping of str to ndarray
+        One array per field (``pos``, ``parent``, ``child``, ...).
+    nslots : {2, 3}
+        Slots per node: 2 alternate, 3 opposite branching.
+    what : str
+        Names the source in messages (e.g. the file).
+    """
+    def fail(msg: str):
+        raise ValueError(f"{what}: {msg}")
+
+    if isinstance(nslots, (bool, np.bool_)) or nslots not in (2, 3):
+        fail(f"nslots must be 2 (alternate) or 3 (opposite), got {nslots!r}")
+    if not isinstance(arrays, Mapping):
+        fail(f"tree arrays must be a mapping of field names to arrays, got {type(arrays).__name__}")
+    missing, extra = sorted(set(_FIELDS) - set(arrays)), sorted(set(arrays) - set(_FIELDS))
+    if missing or extra:
+        fail(f"tree fields must be exactly {sorted(_FIELDS)}; missing {missing}, unknown {extra[:5]}")
+    pos = arrays["pos"]
+    if not isinstance(pos, np.ndarray) or pos.ndim != 2:
+        fail(f"field 'pos' must be an array of shape (n, 3), got {getattr(pos, 'shape', type(pos).__name__)}")
+    n = len(pos)
+    if not 2 <= n <= MAX_NODES:
+        fail(f"a tree must have between 2 and {MAX_NODES} nodes, got {n}")
+    for k, (trail, dtype) in _FIELDS.items():
+        a = arrays[k]
+        if not isinstance(a, np.ndarray) or a.shape != (n, *trail):
+            fail(f"field {k!r} must have shape {(n, *trail)}, got {getattr(a, 'shape', type(a).__name__)}")
+        if a.dtype != np.dtype(dtype):
+            fail(f"field {k!r} must have dtype {np.dtype(dtype)}, got {a.dtype}")
+        if a.dtype.kind == "f" and not np.isfinite(a).all():
+            fail(f"field {k!r} must contain only finite values (no NaN or inf)")
+    for k in ("pos", "head", "lat"):
+        mag = float(np.abs(arrays[k]).max())
+        if mag > MAX_COORD:
+            fail(f"field {k!r} values must lie in [-{MAX_COORD:g}, {MAX_COORD:g}], got magnitude {mag:g}")
+    for k in ("head", "lat"):
+        dev = float(np.abs(np.linalg.norm(arrays[k], axis=1) - 1.0).max())
+        if dev > 1e-6:
+            fail(f"field {k!r} must hold unit vectors (|norm - 1| <= 1e-6), got a deviation of {dev:g}")
+    lf = arrays["light_factor"]
+    if lf.min() < 0 or lf.max() > MAX_COORD:
+        fail(f"field 'light_factor' must lie in [0, {MAX_COORD:g}], got [{lf.min():g}, {lf.max():g}]")
+    order, born = arrays["order"], arrays["born"]
+    if order.min() < 0 or order.max() > n:
+        fail(f"field 'order' must lie in [0, {n}], got [{order.min()}, {order.max()}]")
+    if born.min() < 0:
+        fail(f"field 'born' must be >= 0, got {born.min()}")
+    alive, parent, child = arrays["alive"], arrays["parent"], arrays["child"]
+    if not (alive[0] and alive[1]):
+        fail("the base point (node 0) and the first internode (node 1) must be alive")
+    if parent[0] != -1:
+        fail(f"tree_parent[0] (the base point) must be -1, got {parent[0]}")
+    idx = np.arange(n)
+    bad = np.flatnonzero((parent[1:] < 0) | (parent[1:] >= idx[1:])) + 1
+    if bad.size:
+        i = int(bad[0])
+        fail(f"parent[{i}] must be in [0, {i - 1}] (a parent comes before its child), got {parent[i]}")
+    ok = (child == BUD) | (child == NO_SLOT) | ((child > idx[:, None]) & (child < n))
+    if not ok.all():
+        i, s = map(int, np.argwhere(~ok)[0])
+        fail(f"child[{i}, {s}] must be {BUD} (bud), {NO_SLOT} (no slot) or a node index in [{i + 1}, {n - 1}], "
+             f"got {child[i, s]}")
+    if nslots == 2 and np.any(child[:, 2] != NO_SLOT):
+        i = int(np.flatnonzero(child[:, 2] != NO_SLOT)[0])
+        fail(f"child[{i}, 2] must be {NO_SLOT} (no slot) in a two-way (alternate) tree, got {child[i, 2]}")
+    if child[0, 0] != 1:
+        fail(f"child[0, 0] must be 1 (the first internode), got {child[0, 0]}")
+    src, slot = np.nonzero(child >= 0)
+    dst = child[src, slot]
+    if np.any(parent[dst] != src):
+        j = int(np.flatnonzero(parent[dst] != src)[0])
+        fail(f"child[{src[j]}, {slot[j]}] = {dst[j]} but parent[{dst[j]}] = {parent[dst[j]]}")
+    refs = np.bincount(dst, minlength=n)
+    if refs.max(initial=0) > 1:
+        fail(f"node {int(np.argmax(refs))} sits in more than one child slot")
+    if np.any(alive[src] & ~alive[dst]):
+        j = int(np.flatnonzero(alive[src] & ~alive[dst])[0])
+        fail(f"child[{src[j]}, {slot[j]}] of a live node points at the dead node {dst[j]}")
+    orphan = np.flatnonzero(alive[1:] & ((refs[1:] == 0) | ~alive[parent[1:]])) + 1
+    if orphan.size:
+        fail(f"live node {int(orphan[0])} is not in a child slot of its live parent {parent[orphan[0]]}")

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_zip, zip_directory
+from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_bytes, npy_headers, read_zip, zip_directory
 from plantvr._validation import check_array, check_int, check_range
 from plantvr.vine._filecheck import check_elements
 
@@ -87,12 +87,6 @@ def _to_json(x):
 
 def _from_json(x):
     return tuple(_from_json(y) for y in x) if isinstance(x, list) else x
-
-
-def _npy_bytes(a: np.ndarray) -> bytes:
-    buf = io.BytesIO()
-    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
-    return buf.getvalue()
 
 
 def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = None, level: float | None = None,
@@ -170,7 +164,7 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
         "arrays": sorted(arrays),
     }
     members = [("manifest.json", json.dumps(manifest, sort_keys=True, indent=1).encode())]
-    members += [(f"arrays/{k}.npy", _npy_bytes(arrays[k])) for k in sorted(arrays)]
+    members += [(f"arrays/{k}.npy", npy_bytes(arrays[k])) for k in sorted(arrays)]
     digest = _digest(members)
     with atomic_write(path) as fh, zipfile.ZipFile(fh, "w") as z:   # a failed save leaves the old file
         for name, data in members:
