@@ -14,7 +14,7 @@ import time
 import numba
 import numpy as np
 
-from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_range
+from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_index, check_int, check_range
 
 __all__ = [
     "CollisionDetector",
@@ -551,19 +551,8 @@ def mesh_edges_of(faces: np.ndarray) -> np.ndarray:
 def _check_step(x0, x1, faces):
     x0 = check_array("x0", x0, shape=(None, 3), max_abs=MAX_COORD)
     x1 = check_array("x1", x1, shape=x0.shape, max_abs=MAX_COORD)
-    faces = _check_index("faces", faces, 3, x0.shape[0])
+    faces = check_index("faces", faces, shape=(None, 3), low=0, high=x0.shape[0] - 1, table="vertices")
     return x0, x1, faces
-
-
-def _check_index(name: str, arr, width: int, n: int) -> np.ndarray:
-    """An ``(K, width)`` int64 array whose entries index a table of ``n`` rows (kernels never see others)."""
-    try:
-        a = check_array(name, arr, shape=(None, width), dtype=np.int64)
-    except OverflowError:
-        raise ValueError(f"{name} must hold integer indices in [0, {n - 1}], got non-finite or huge values") from None
-    if a.size and (a.min() < 0 or a.max() >= n):
-        raise ValueError(f"{name} must index vertices in [0, {n - 1}], got range [{a.min()}, {a.max()}]")
-    return a
 
 
 def _incidence(elems: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
@@ -608,8 +597,9 @@ class CollisionDetector:
                  cell: float | None = None):
         self.h = check_range("h", h, 0.0, 1e6)
         self.nv = check_int("n_vertices", n_vertices, 0, MAX_COUNT)
-        self.faces = _check_index("faces", faces, 3, self.nv)
-        self.edges = mesh_edges_of(self.faces) if edges is None else _check_index("edges", edges, 2, self.nv)
+        self.faces = check_index("faces", faces, shape=(None, 3), low=0, high=self.nv - 1, table="vertices")
+        self.edges = mesh_edges_of(self.faces) if edges is None else check_index(
+            "edges", edges, shape=(None, 2), low=0, high=self.nv - 1, table="vertices")
         self.cell = None if cell is None else check_range("cell", cell, 0.0, 1e12, low_open=True)
         self.verts = np.arange(self.nv, dtype=np.int64)[:, None]
         self.vt_off, self.vt_ids = _incidence(self.faces, self.nv)
@@ -1022,7 +1012,7 @@ def solve_collisions(p: np.ndarray, w: np.ndarray, cons: np.ndarray, sides: np.n
     w = check_array("w", w, shape=(p.shape[0],))
     if np.any(w < 0):
         raise ValueError("w (inverse masses) must be >= 0")
-    cons = _check_index("cons", cons, 4, p.shape[0])
+    cons = check_index("cons", cons, shape=(None, 4), low=0, high=p.shape[0] - 1, table="vertices")
     sides = check_array("sides", sides, shape=(cons.shape[0],))
     if cons.shape[0]:
         _project_collision(p, np.ascontiguousarray(w, dtype=np.float64), cons, sides, h, k_collision, iterations)
@@ -1062,7 +1052,8 @@ def count_static_intersections(x: np.ndarray, faces: np.ndarray, *, edges: np.nd
         0 for an intersection-free mesh.
     """
     x = check_array("x", x, shape=(None, 3), max_abs=MAX_COORD)
-    faces = _check_index("faces", faces, 3, x.shape[0])
-    edges = mesh_edges_of(faces) if edges is None else _check_index("edges", edges, 2, x.shape[0])
+    faces = check_index("faces", faces, shape=(None, 3), low=0, high=x.shape[0] - 1, table="vertices")
+    edges = mesh_edges_of(faces) if edges is None else check_index(
+        "edges", edges, shape=(None, 2), low=0, high=x.shape[0] - 1, table="vertices")
     pairs = broad_phase(x, x, edges, faces, pad=1e-12 * (1 + float(np.abs(x).max(initial=0))))
     return int(_seg_tri_count(x, pairs, edges, faces))

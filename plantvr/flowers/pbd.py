@@ -10,7 +10,9 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
+from plantvr._validation import (
+    MAX_COORD, MAX_COUNT, check_array, check_choice, check_index, check_int, check_range,
+)
 
 __all__ = [
     "bend_quads",
@@ -66,7 +68,7 @@ def cloth_patch(nx: int, ny: int | None = None, *, spacing: float = 0.1) -> tupl
 
 def mesh_edges(faces: np.ndarray) -> np.ndarray:
     """Unique undirected edges (E, 2) int64 of a triangle mesh, sorted, ``i < j``."""
-    faces = _index_table("faces", faces, 3, MAX_COUNT)
+    faces = check_index("faces", faces, shape=(None, 3), low=0, high=MAX_COUNT - 1, table="vertices")
     e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     return np.unique(e, axis=0)
 
@@ -77,7 +79,7 @@ def bend_quads(faces: np.ndarray) -> np.ndarray:
     Triangle (p1, p2, p3) holds the directed edge p1->p2 and triangle (p1, p4, p2) the edge p2->p1
     (the ordering of Eq. 3.12), so the orientation of the mesh fixes the sign convention.
     """
-    faces = _index_table("faces", faces, 3, MAX_COUNT)
+    faces = check_index("faces", faces, shape=(None, 3), low=0, high=MAX_COUNT - 1, table="vertices")
     if faces.shape[0] == 0:
         return np.zeros((0, 4), np.int64)
     V = int(faces.max()) + 1
@@ -93,21 +95,10 @@ def bend_quads(faces: np.ndarray) -> np.ndarray:
     return np.column_stack([d[idx, 0], d[idx, 1], opp[idx], opp[partner[idx]]]).astype(np.int64)
 
 
-def _index_table(name: str, arr, width: int, n: int) -> np.ndarray:
-    """An ``(K, width)`` int64 table whose entries index ``n`` vertices (kernels never see others)."""
-    try:
-        a = check_array(name, arr, shape=(None, width), dtype=np.int64)
-    except OverflowError:
-        raise ValueError(f"{name} must hold vertex indices in [0, {n - 1}], got huge values") from None
-    if a.size and (a.min() < 0 or a.max() >= n):
-        raise ValueError(f"{name} must index vertices in [0, {n - 1}], got values in [{a.min()}, {a.max()}]")
-    return a
-
-
 def edge_lengths(x: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """Length of every edge, (E,) float64 (rest values of Eq. 3.11)."""
     x = check_array("x", x, shape=(None, 3))
-    edges = _index_table("edges", edges, 2, x.shape[0])
+    edges = check_index("edges", edges, shape=(None, 2), low=0, high=x.shape[0] - 1, table="vertices")
     return np.linalg.norm(x[edges[:, 0]] - x[edges[:, 1]], axis=1)
 
 
@@ -119,7 +110,7 @@ def signed_dihedrals(x: np.ndarray, quads: np.ndarray) -> np.ndarray:
     .. [1] Owens 2016, Eq. 3.13 and App. A; ERRATUM A.5 (signed range, wrapped differences).
     """
     x = check_array("x", x, shape=(None, 3))
-    quads = _index_table("quads", quads, 4, x.shape[0])
+    quads = check_index("quads", quads, shape=(None, 4), low=0, high=x.shape[0] - 1, table="vertices")
     p1, p2, p3, p4 = (x[quads[:, k]] for k in range(4))
     e = p2 - p1
     n1 = np.cross(p3 - p1, e)
