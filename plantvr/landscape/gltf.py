@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .._fileio import atomic_write
-from .._validation import MAX_COORD, MAX_COUNT, check_array, check_range
+from .._validation import MAX_COORD, MAX_COUNT, check_array
 from ..geometry._gltf import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuffer, check_glb_path
 
 __all__ = ["export_distribution", "export_forest", "export_landscape", "terrain_mesh", "write_glb"]

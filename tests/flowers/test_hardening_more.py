@@ -4,7 +4,6 @@ the parameter, a rejected command leaves the object unchanged, and no kernel loo
 bounds on input that passed the door."""
 from __future__ import annotations
 
-import copy
 import io
 import pickle
 

@@ -10,8 +10,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from plantvr import implicit as im
-from plantvr.implicit import blobtree as bt
-from plantvr.implicit import sampling as smp
 from plantvr.implicit import warps as wp
 from plantvr.implicit._lane_kernels import PDF_CAP
 
