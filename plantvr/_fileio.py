@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import io
+import json
 import os
 import struct
 import tempfile
@@ -25,7 +26,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["MAX_READ_BYTES", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
+__all__ = ["MAX_JSON_BYTES", "MAX_READ_BYTES", "read_json", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
            "npy_bytes", "npy_headers", "zip_directory", "digest_arrays"]
 
 #: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream).
@@ -254,3 +255,32 @@ def npy_bytes(a: np.ndarray) -> bytes:
     buf = io.BytesIO()
     np.lib.format.write_array(buf, np.array(a, order="C", copy=True), allow_pickle=False)
     return buf.getvalue()
+
+
+#: Largest PlantVR JSON file (preset, stroke file) read, in bytes.
+MAX_JSON_BYTES = 64 * 2**20
+
+
+def _reject_constant(name: str):
+    raise ValueError(f"{name} is not a finite number")
+
+
+def read_json(path: Path, kind: str) -> Any:
+    """The parsed JSON of a PlantVR file (preset, stroke file, log header); a ValueError naming the ``kind`` of file and
+    its path when it is missing, too large, unreadable, not JSON, or holds NaN/Infinity or nesting too deep."""
+    try:
+        if path.stat().st_size > MAX_JSON_BYTES:
+            raise ValueError(f"{kind} {path!s} is larger than the {MAX_JSON_BYTES} bytes allowed")
+        return json.loads(path.read_text(encoding="utf-8"), parse_constant=_reject_constant)
+    except FileNotFoundError:
+        raise ValueError(f"{kind} {path!s} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ValueError(f"cannot read {kind} {path!s}: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{kind} {path!s} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    except RecursionError:
+        raise ValueError(f"{kind} {path!s} is nested too deeply") from None
+    except ValueError as exc:
+        if str(exc).startswith(kind):
+            raise
+        raise ValueError(f"{kind} {path!s}: {exc}") from None

@@ -22,12 +22,15 @@ from traitlets import Bool, Dict, Float, HasTraits, Int, TraitType
 
 from ._fileio import write_atomic
 from ._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
-from .events import REPLAYABLE, Event, EventLog
+from .commandlog import CommandLog, Event
 from .growth.engine import GrowthEngine, StepStats
 from .growth.treefile import MAX_TREE_BYTES, state_from_npz, state_to_bytes, tree_from_text, tree_to_text
 from .params import PARAMS, Param, validate
 
 __all__ = ["Model", "Snapshot"]
+
+REPLAYABLE = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence", "set_prune_mode",
+              "reset")
 
 
 class ParamTrait(TraitType):
@@ -114,6 +117,8 @@ class Model(_Params):
     True
     """
 
+    COMMANDS = REPLAYABLE
+
     version = Int(0, help="Bumped after every change; views observe it.")
     n_internodes = Int(1, help="Live internodes in the latest snapshot.")
     n_markers = Int(0, help="Live markers in the latest snapshot.")
@@ -128,7 +133,7 @@ class Model(_Params):
         checked = validate(params)
         super().__init__(**checked)
         self.seed = seed
-        self.events = EventLog()
+        self.events = CommandLog(REPLAYABLE, document="treewand")
         self._lock = threading.RLock()
         self._batch: int | None = None   # thread setting traits in set_params: the observer applies, logs nothing
         self._restoring = False          # restore() sets the traits of an engine it built itself
@@ -302,7 +307,7 @@ class Model(_Params):
     # -- door checks (shared by the commands and by replay) -------------------------------------------------
     def check_command(self, command: str, kwargs: dict[str, Any]) -> None:
         """Raise ``ValueError`` unless ``getattr(self, command)(**kwargs)`` passes the door checks (nothing is
-        changed); :meth:`EventLog.replay <plantvr.events.EventLog.replay>` checks a whole log this way first."""
+        changed); :meth:`CommandLog.replay <plantvr.commandlog.CommandLog.replay>` checks a whole log this way first."""
         if command not in REPLAYABLE:
             raise ValueError(f"command must be one of {list(REPLAYABLE)}, got {command!r}"[:300])
         if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):

@@ -1,7 +1,12 @@
-"""The one parameter table of the Tree Wand model (spec 000_treewand §4.11, tables B.1–B.3 + hidden settings).
+"""The one parameter-table mechanism, and the Tree Wand table (spec 000_treewand §4.11, tables B.1–B.3 + hidden).
 
-Traits of :class:`plantvr.Model`, notebook sliders, the ``.tree`` file header and validation are all
-generated from :data:`PARAMS`; nothing else restates a range or a default.
+Every document declares its parameters once, as a :class:`ParamTable` of :class:`Param` rows (name, symbol,
+range or choices, default, unit, doc, thesis reference, window). From the table come the document's traits
+(:meth:`ParamTable.traits`), validation (:meth:`ParamTable.validate`), the notebook sliders and panels
+(:mod:`plantvr.ui.panels`), JSON presets in one format (:meth:`ParamTable.preset_text`,
+:meth:`ParamTable.read_preset`) and the parameter reference page (:meth:`ParamTable.reference`); nothing else
+restates a range or a default. :data:`TREEWAND` is the Tree Wand table; :data:`PARAMS`, :func:`validate` and
+:func:`defaults` are its rows and checks.
 Defaults marked [INFERRED] in the spec are the spec's suggested values unless noted.
 
 Every range was reviewed for issue 20: each value it accepts, extremes included (a denormal ``base_length`` or
@@ -10,13 +15,24 @@ working; the kernels clip, cap or coarsen instead (tests/growth/test_hardening.p
 """
 from __future__ import annotations
 
+import json
 import math
+import os
 from dataclasses import dataclass, field
-from typing import Any
+from functools import cached_property
+from pathlib import Path
+from typing import Any, Iterable
 
+from traitlets import HasTraits, TraitType
+
+from ._fileio import read_json, write_atomic
 from ._validation import check_choice, check_int, check_range
 
-__all__ = ["Param", "PARAMS", "PARAM_BY_NAME", "WINDOWS", "check_params", "defaults", "validate"]
+__all__ = ["Param", "ParamTable", "ParamTrait", "PRESET_FORMAT", "PARAMS", "PARAM_BY_NAME", "TREEWAND", "WINDOWS",
+           "check_params", "defaults", "validate"]
+
+#: Version of the JSON preset format, ``{"plantvr_preset": 1, "table": name, "params": {name: value}}``.
+PRESET_FORMAT = 1
 
 #: Parameter windows (spec §4.6; colours are the menu colours of §4.5, ambiguity A.21 resolved in figure order).
 WINDOWS = {"form": ("Tree form", "#3a9a3a"), "appearance": ("Appearance", "#c0392b"),
@@ -53,6 +69,153 @@ class Param:
         if self.kind is int:
             return check_int(self.name, value, int(low), int(high))
         return check_range(self.name, value, low, high, low_open=self.low_open, high_open=self.high_open)
+
+
+class ParamTrait(TraitType):
+    """A trait whose default, type and range come from one :class:`Param`."""
+
+    def __init__(self, param: Param):
+        super().__init__(default_value=param.default, help=param.doc)
+        self.param = param
+        self.tag(param=param, window=param.window)
+
+    def validate(self, obj, value):
+        return self.param.check(value)
+
+
+class ParamTable:
+    """A document's parameters, declared once.
+
+    Parameters
+    ----------
+    name : str
+        Table name (``"treewand"``, ``"treesketch"``, ...), written into presets.
+    params : iterable of Param
+        The rows, in display order; names must be unique.
+    windows : dict, optional
+        ``{window: (title, colour)}`` of the panels the rows are grouped in (default: one window per distinct
+        ``Param.window``, titled by its name).
+    """
+
+    def __init__(self, name: str, params: Iterable[Param], windows: dict[str, tuple[str, str]] | None = None):
+        self.name = name
+        self.params: tuple[Param, ...] = tuple(params)
+        self.by_name: dict[str, Param] = {p.name: p for p in self.params}
+        if len(self.by_name) != len(self.params):
+            raise ValueError(f"parameter table {name!r} repeats a name")
+        self.windows = dict(windows) if windows is not None else {p.window: (p.window.title(), "#777777")
+                                                                  for p in self.params}
+
+    def __iter__(self):
+        return iter(self.params)
+
+    def __len__(self) -> int:
+        return len(self.params)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.by_name
+
+    def __getitem__(self, name: str) -> Param:
+        return self.by_name[name]
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.params]
+
+    def defaults(self) -> dict[str, Any]:
+        """``{name: default}`` of every row."""
+        return {p.name: p.default for p in self.params}
+
+    def validate(self, values: dict[str, Any]) -> dict[str, Any]:
+        """A checked copy of ``values``; unknown names and bad values raise ``ValueError`` naming them."""
+        out = {}
+        for name, value in values.items():
+            if name not in self.by_name:
+                raise ValueError(f"unknown parameter {name!r}; known parameters: {sorted(self.by_name)}")
+            out[name] = self.by_name[name].check(value)
+        return out
+
+    def check(self, params: Any, *, partial: bool = False) -> dict[str, Any]:
+        """``params`` (a dict) checked: names known, values in range, and complete unless ``partial``."""
+        if not isinstance(params, dict):
+            raise ValueError(f"params must be a dict of {self.name} parameters, got {type(params).__name__}")
+        bad = [k for k in params if not isinstance(k, str)]
+        if bad:
+            raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
+        out = self.validate(params)
+        if not partial:
+            missing = sorted(set(self.by_name) - set(out))
+            if missing:
+                raise ValueError(f"params is missing {missing[:5]} (start from the table's defaults())")
+        return out
+
+    @cached_property
+    def traits(self) -> type[HasTraits]:
+        """A ``HasTraits`` class with one :class:`ParamTrait` per row: a document class lists it as a base."""
+        return type(f"_{self.name.title()}Params", (HasTraits,), {p.name: ParamTrait(p) for p in self.params})
+
+    # -- presets: the one JSON format -------------------------------------------------------------------
+    def preset_text(self, values: dict[str, Any]) -> str:
+        """``values`` (checked) as preset JSON text."""
+        return json.dumps({"plantvr_preset": PRESET_FORMAT, "table": self.name, "params": self.validate(values)},
+                          indent=1)
+
+    def save_preset(self, path: str | os.PathLike, values: dict[str, Any]) -> Path:
+        """Write ``values`` as a ``.json`` preset, atomically."""
+        path = _json_path(path)
+        try:
+            return write_atomic(path, self.preset_text(values))
+        except OSError as exc:
+            raise ValueError(f"cannot write preset {path!s}: {exc}") from None
+
+    def read_preset(self, path: str | os.PathLike) -> dict[str, Any]:
+        """The checked ``{name: value}`` of a preset file; a foreign, damaged or out-of-range one raises
+        ``ValueError`` naming the file (presets written before tables had names load too)."""
+        path = Path(path)
+        data = read_json(path, "preset")
+        if (not isinstance(data, dict) or data.get("plantvr_preset") != PRESET_FORMAT
+                or not isinstance(data.get("params"), dict)):
+            raise ValueError(f"preset {path!s} is not a PlantVR preset "
+                             f"(expected {{'plantvr_preset': {PRESET_FORMAT}, 'params': {{...}}}})")
+        if data.get("table", self.name) != self.name:
+            raise ValueError(f"preset {path!s} holds {data['table']!r} parameters, not {self.name!r} ones"[:300])
+        try:
+            return self.validate(data["params"])
+        except ValueError as exc:
+            raise ValueError(f"preset {path!s}: {exc}") from None
+
+    # -- the reference page ---------------------------------------------------------------------------------
+    def reference(self) -> str:
+        """The parameter reference page of this table, as Markdown (one section per window)."""
+        lines = [f"## {self.name} parameters", ""]
+        for key, (title, _) in self.windows.items():
+            rows = [p for p in self.params if p.window == key]
+            if not rows:
+                continue
+            lines += [f"### {title}", "", "| name | symbol | default | allowed | unit | thesis | meaning |",
+                      "|---|---|---|---|---|---|---|"]
+            for p in rows:
+                allowed = ", ".join(map(str, p.choices)) if p.choices else _interval(p)
+                lines.append(f"| `{p.name}` | {p.symbol} | {p.default!r} | {allowed} | {p.unit} | {p.ref} | "
+                             f"{p.doc} |")
+            lines.append("")
+        return "\n".join(lines)
+
+
+def _interval(p: Param) -> str:
+    if p.kind is bool or p.range is None:
+        return "True, False"
+    lo, hi = p.range
+    return f"{'(' if p.low_open else '['}{lo:g}, {hi:g}{')' if p.high_open else ']'}"
+
+
+def _json_path(path) -> Path:
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"preset path must be a str or path-like ending in .json, got {type(path).__name__}")
+    path = Path(path)
+    if path.suffix != ".json":
+        raise ValueError(f"preset path must end in .json, got {path.suffix!r}")
+    return path
 
 
 def _p(name, kind, default, window, ref, doc, **kw) -> Param:
@@ -144,42 +307,13 @@ PARAMS: tuple[Param, ...] = (
     _p("leaf_iterations", int, 15, "hidden", "§3.4", "Leaf reorientation iterations.", range=(1, 100)),
 )
 
-PARAM_BY_NAME: dict[str, Param] = {p.name: p for p in PARAMS}
+#: The Tree Wand parameter table (the :class:`plantvr.Model` document's).
+TREEWAND = ParamTable("treewand", PARAMS, WINDOWS)
+PARAM_BY_NAME: dict[str, Param] = TREEWAND.by_name
+#: ``{name: default}`` of the Tree Wand table.
+defaults = TREEWAND.defaults
+#: Tree Wand values checked (unknown names and bad values raise ``ValueError``).
+validate = TREEWAND.validate
+#: A Tree Wand parameter dict checked, complete unless ``partial``.
+check_params = TREEWAND.check
 
-
-def defaults() -> dict[str, Any]:
-    """Return ``{name: default}`` for every parameter."""
-    return {p.name: p.default for p in PARAMS}
-
-
-def validate(values: dict[str, Any]) -> dict[str, Any]:
-    """Return a checked copy of ``values``; unknown names and bad values raise ``ValueError``."""
-    out = {}
-    for name, value in values.items():
-        if name not in PARAM_BY_NAME:
-            raise ValueError(f"unknown parameter {name!r}; known parameters: {sorted(PARAM_BY_NAME)}")
-        out[name] = PARAM_BY_NAME[name].check(value)
-    return out
-
-
-def radians(values: dict[str, Any], name: str) -> float:
-    """Return the degree-valued parameter ``name`` of ``values`` in radians."""
-    return math.radians(values[name])
-
-
-def check_params(params: Any, *, partial: bool = False) -> dict[str, Any]:
-    """``params`` checked against the parameter table (names known, values in range), complete unless ``partial``.
-
-    Raises ``ValueError`` naming the parameter; returns a new dict of converted values.
-    """
-    if not isinstance(params, dict):
-        raise ValueError(f"params must be a dict of growth parameters, got {type(params).__name__}")
-    bad = [k for k in params if not isinstance(k, str)]
-    if bad:
-        raise ValueError(f"params keys must be parameter names, got {bad[0]!r}")
-    out = validate(params)
-    if not partial:
-        missing = sorted(set(PARAM_BY_NAME) - set(out))
-        if missing:
-            raise ValueError(f"params is missing {missing[:5]} (start from plantvr.params.defaults())")
-    return out

@@ -13,7 +13,7 @@ import pytest
 
 import plantvr
 from plantvr import _fileio
-from plantvr.events import EventLog
+from plantvr.commandlog import CommandLog as EventLog
 from plantvr.growth import treefile
 from plantvr.growth.tree import Tree, check_tree_arrays
 from plantvr.params import PARAMS
@@ -414,7 +414,7 @@ def test_event_log_round_trip_truncations_flips_and_versions(tmp_path):
     bad.write_text(body + json.dumps({"plantvr_events": 1, "count": 1,
                                       "sha256": hashlib.sha256(body.encode()).hexdigest()}) + "\n")
     with pytest.raises(ValueError, match="event command must be one of"):
-        EventLog.load(bad)
+        EventLog.load(bad, plantvr.Model.COMMANDS)
 
 
 def test_replay_checks_every_event_before_issuing_any(tmp_path):

@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import plantvr
-from plantvr.events import Event, EventLog
+from plantvr.commandlog import CommandLog as EventLog, Event
 from plantvr.params import PARAMS
 
 NASTY = [float("nan"), float("inf"), -float("inf"), 1e300, -1e300, 1e19, -9.3e18, 10**12, 2**63, 2**64, 1e-20,

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from .._fileio import write_atomic
+from .._fileio import read_json as _read_json, write_atomic
 from ..params import PARAMS, validate
 
 __all__ = ["save_preset", "load_preset", "read_preset"]
@@ -26,10 +26,6 @@ def _json_path(path: str | Path, kind: str) -> Path:
     return path
 
 
-#: Largest PlantVR JSON file (preset, stroke file) read, in bytes.
-MAX_JSON_BYTES = 64 * 2**20
-
-
 def _write_text(path: Path, text: str, kind: str) -> Path:
     """Write ``text`` to ``path`` atomically (a failed save leaves the old file and no temporary file); an
     OSError becomes a ValueError naming the ``kind`` of file."""
@@ -40,31 +36,6 @@ def _write_text(path: Path, text: str, kind: str) -> Path:
     except ValueError as exc:
         raise ValueError(f"cannot write {kind} {path!s}: {exc}") from None
     return path
-
-
-def _reject_constant(name: str):
-    raise ValueError(f"{name} is not a finite number")
-
-
-def _read_json(path: Path, kind: str) -> Any:
-    """The parsed JSON of a PlantVR file (preset, stroke file); a ValueError naming the ``kind`` of file and
-    its path when it is missing, too large, unreadable, not JSON, or holds NaN/Infinity or nesting too deep."""
-    try:
-        if path.stat().st_size > MAX_JSON_BYTES:
-            raise ValueError(f"{kind} {path!s} is larger than the {MAX_JSON_BYTES} bytes allowed")
-        return json.loads(path.read_text(encoding="utf-8"), parse_constant=_reject_constant)
-    except FileNotFoundError:
-        raise ValueError(f"{kind} {path!s} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read {kind} {path!s}: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{kind} {path!s} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
-    except RecursionError:
-        raise ValueError(f"{kind} {path!s} is nested too deeply") from None
-    except ValueError as exc:
-        if str(exc).startswith(kind):
-            raise
-        raise ValueError(f"{kind} {path!s}: {exc}") from None
 
 
 def save_preset(model, path: str | Path, *, windows: tuple[str, ...] | None = None) -> Path:

@@ -1,13 +1,15 @@
-"""Input-event log and replay (DESIGN: every command a widget, view or headset issues is logged).
+"""The one command log of every document, and replay by command name (DESIGN "Documents").
 
-A session is a list of ``(command, kwargs)`` pairs in the order the model applied them (a model records each
-command under its lock when it applies it, so edits made during background growth land between the steps
-they followed); replaying it on a model seeded the same way reproduces the same tree (spec 000_treewand §8.3
-TW-V23 scenarios are replays).
+A session is a list of ``(command, kwargs)`` pairs in the order the document applied them (a document records
+each command under its lock when it applies it, so edits made during background growth land between the steps
+they followed); replaying it on a fresh document of the same kind reproduces the same state (spec 000_treewand
+§8.3 TW-V23 scenarios are replays; spec 000_vine §2.0 sessions are replays). Widgets, the 3D view and the
+headset all end in document commands, so one log records what any of them did.
 
 File format: one JSON object per line, ``{"command", "kwargs", "t"}``, then a last line
-``{"plantvr_events": 1, "count": n, "sha256": hex}`` whose digest covers every byte before it, so a truncated
-or damaged log is refused instead of replaying part of a session.
+``{"plantvr_events": 1, "count": n, "sha256": hex}`` (plus ``"document": kind`` when the log knows it) whose
+digest covers every byte before it, so a truncated or damaged log is refused instead of replaying part of a
+session.
 """
 from __future__ import annotations
 
@@ -24,13 +26,10 @@ import numpy as np
 
 from ._fileio import write_atomic
 
-__all__ = ["Event", "EventLog", "REPLAYABLE", "LOG_VERSION", "MAX_LOG_BYTES"]
-
-REPLAYABLE = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence", "set_prune_mode",
-              "reset")
+__all__ = ["Event", "CommandLog", "LOG_VERSION", "MAX_LOG_BYTES"]
 #: Version of the event-log file format (the trailer's ``plantvr_events``).
 LOG_VERSION = 1
-#: Largest event-log file :meth:`EventLog.load` reads (bytes).
+#: Largest event-log file :meth:`CommandLog.load` reads (bytes).
 MAX_LOG_BYTES = 256 * 2**20
 
 
@@ -43,33 +42,61 @@ class Event:
     t: float = field(default_factory=time.time)
 
 
-class EventLog:
-    """Append-only list of :class:`Event`, saved as JSON lines with a checksum trailer."""
+class CommandLog:
+    """Append-only list of :class:`Event`, saved as JSON lines with a checksum trailer.
 
-    def __init__(self) -> None:
+    Parameters
+    ----------
+    commands : tuple of str, optional
+        The replayable command names of the document kind this log belongs to; events outside it are refused
+        when recorded, loaded or replayed. ``None`` accepts any name (checked against the document on replay).
+    document : str, optional
+        The document kind (``Document.KIND``), written into the trailer and checked on load.
+    """
+
+    def __init__(self, commands: tuple[str, ...] | None = None, *, document: str | None = None) -> None:
         self.events: list[Event] = []
+        self.commands = None if commands is None else tuple(commands)
+        self.document = document
 
     def record(self, command: str, **kwargs: Any) -> Event:
         """Append a command (numpy values become lists) and return its event."""
+        if self.commands is not None and command not in self.commands:
+            raise ValueError(f"command must be one of {list(self.commands)}, got {command!r}"[:300])
         ev = Event(command, {k: _plain(v) for k, v in kwargs.items()})
         self.events.append(ev)
         return ev
 
+    def extend(self, command: str, entry: Event | None, key: str, amount: int = 1) -> Event:
+        """Add ``amount`` to ``entry.kwargs[key]`` while ``entry`` is the newest event (consecutive growth
+        steps merge into one), else record a new ``command`` with ``key=amount``; returns the entry."""
+        if entry is not None and self.events and self.events[-1] is entry:
+            entry.kwargs[key] += amount
+            return entry
+        return self.record(command, **{key: amount})
+
     def __len__(self) -> int:
         return len(self.events)
 
-    def check(self, model=None) -> None:
+    def __iter__(self):
+        return iter(self.events)
+
+    def _names(self, doc) -> tuple[str, ...] | None:
+        return getattr(doc, "COMMANDS", None) if doc is not None else self.commands
+
+    def check(self, doc=None) -> None:
         """Raise ``ValueError`` unless every event is a replayable command with well-formed arguments.
 
-        With ``model``, each event's arguments also go through the model's door checks
-        (``model.check_command``), so :meth:`replay` fails before issuing anything.
+        With ``doc``, each event's arguments also go through the document's door checks
+        (``doc.check_command``), so :meth:`replay` fails before issuing anything.
         """
-        check = getattr(model, "check_command", None)
+        names = self._names(doc)
+        check = getattr(doc, "check_command", None)
         for i, ev in enumerate(self.events):
             if not isinstance(ev, Event):
                 raise ValueError(f"event {i} must be an Event, got {type(ev).__name__}")
-            if ev.command not in REPLAYABLE:
-                raise ValueError(f"event {i}: event command must be one of {list(REPLAYABLE)}, got {ev.command!r}")
+            if names is not None and ev.command not in names:
+                raise ValueError(f"event {i}: event command must be one of {list(names)}, got {ev.command!r}"[:300])
             if not isinstance(ev.kwargs, dict) or not all(isinstance(k, str) for k in ev.kwargs):
                 raise ValueError(f"event {i} ({ev.command}): kwargs must be a dict with str keys, "
                                  f"got {ev.kwargs!r}"[:300])
@@ -79,12 +106,17 @@ class EventLog:
                 except ValueError as exc:
                     raise ValueError(f"event {i} ({ev.command}): {exc}") from None
 
-    def replay(self, model) -> None:
-        """Issue every logged command on ``model`` in order; every event is checked first, so a bad one
-        raises ``ValueError`` before anything is issued."""
-        self.check(model)
+    def replay(self, doc) -> None:
+        """Issue every logged command on ``doc`` by name, in order (``doc.replay(log)`` when the document has
+        one, which may apply the whole log atomically). Every event is checked first, so a bad one raises
+        ``ValueError`` before anything is issued."""
+        replay = getattr(doc, "replay", None)
+        if replay is not None:
+            replay(self)
+            return
+        self.check(doc)
         for ev in list(self.events):
-            getattr(model, ev.command)(**ev.kwargs)
+            getattr(doc, ev.command)(**ev.kwargs)
 
     def to_text(self) -> str:
         """The log as file text (JSON lines and the checksum trailer)."""
@@ -93,16 +125,22 @@ class EventLog:
                            for e in self.events)
         except (TypeError, ValueError, RecursionError) as exc:
             raise ValueError(f"event log holds a value a JSON file cannot store: {exc}") from None
-        digest = hashlib.sha256(body.encode("utf-8")).hexdigest()
-        return body + json.dumps({"plantvr_events": LOG_VERSION, "count": len(self.events), "sha256": digest}) + "\n"
+        trailer = {"plantvr_events": LOG_VERSION, "count": len(self.events),
+                   "sha256": _digest(body.encode("utf-8"), self.document)}
+        if self.document is not None:
+            trailer["document"] = self.document
+        return body + json.dumps(trailer) + "\n"
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the log atomically; returns the path."""
         return write_atomic(_check_path(path), self.to_text())
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "EventLog":
-        """Read a log written by :meth:`save`; a truncated, damaged or foreign file raises ``ValueError``."""
+    def load(cls, path: str | os.PathLike, commands: tuple[str, ...] | None = None, *,
+             document: str | None = None) -> "CommandLog":
+        """Read a log written by :meth:`save`; a truncated, damaged or foreign file raises ``ValueError``.
+        With ``commands`` (a document's ``COMMANDS``) and ``document`` (its ``KIND``) the events and the trailer
+        are checked against them."""
         path = _check_path(path)
         try:
             with open(path, "rb") as fh:
@@ -111,10 +149,11 @@ class EventLog:
             raise ValueError(f"cannot read event log {str(path)!r}: {exc}") from None
         if len(raw) > MAX_LOG_BYTES:
             raise ValueError(f"event log {path!s} is larger than the cap of {MAX_LOG_BYTES} bytes")
-        return cls.from_text(raw, where=str(path))
+        return cls.from_text(raw, where=str(path), commands=commands, document=document)
 
     @classmethod
-    def from_text(cls, text: str | bytes, *, where: str = "text") -> "EventLog":
+    def from_text(cls, text: str | bytes, *, where: str = "text", commands: tuple[str, ...] | None = None,
+                  document: str | None = None) -> "CommandLog":
         """Parse what :meth:`to_text` wrote (see :meth:`load`)."""
         if isinstance(text, bytes):
             try:
@@ -135,9 +174,13 @@ class EventLog:
         if trailer["plantvr_events"] != LOG_VERSION or isinstance(trailer["plantvr_events"], bool):
             raise ValueError(f"event log {where}: format version {trailer['plantvr_events']!r} is not supported "
                              f"(this PlantVR reads version {LOG_VERSION})"[:300])
-        if trailer.get("sha256") != hashlib.sha256(body.encode("utf-8", "surrogatepass")).hexdigest():
+        kind = trailer.get("document")
+        if trailer.get("sha256") != _digest(body.encode("utf-8", "surrogatepass"), kind):
             raise ValueError(f"event log {where}: checksum mismatch (the file is damaged or was edited)")
-        log = cls()
+        kind = document if kind is None else kind
+        if document is not None and kind != document:
+            raise ValueError(f"event log {where} records a {kind!r} session, not a {document!r} one"[:300])
+        log = cls(commands, document=kind if isinstance(kind, str) else None)
         for i, line in enumerate(body.splitlines(), 1):
             try:
                 d = json.loads(line)
@@ -148,8 +191,8 @@ class EventLog:
                 ok = False
             if not ok:
                 raise ValueError(f"event log {where} line {i} is not a PlantVR event")
-            if d["command"] not in REPLAYABLE:
-                raise ValueError(f"event log {where} line {i}: event command must be one of {list(REPLAYABLE)}, "
+            if commands is not None and d["command"] not in commands:
+                raise ValueError(f"event log {where} line {i}: event command must be one of {list(commands)}, "
                                  f"got {d['command']!r}"[:300])
             log.events.append(Event(d["command"], d["kwargs"], float(d["t"])))
         if trailer.get("count") != len(log.events):
@@ -157,6 +200,14 @@ class EventLog:
                              f"the file holds {len(log.events)}"[:300])
         log.check()
         return log
+
+
+def _digest(body: bytes, document: Any) -> str:
+    """SHA-256 of the event lines, and of the document kind when the trailer names one."""
+    h = hashlib.sha256(body)
+    if document is not None:
+        h.update(b"\ndocument=" + str(document).encode("utf-8", "surrogatepass"))
+    return h.hexdigest()
 
 
 def _check_path(path) -> Path:

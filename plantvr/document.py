@@ -1,0 +1,404 @@
+"""The one document base every part's state lives on (DESIGN "Documents"; issue 21).
+
+A :class:`Document` is a traitlets object with
+
+- ``version`` and a ``change`` event (a :class:`Change`: what changed, as a kind and element ids) that views,
+  widgets and the headset observe: ``doc.observe(fn, names="change")``;
+- one :class:`~plantvr.history.History` (byte-budgeted undo atoms, grouped, stage/commit/abort);
+- one :class:`~plantvr.commandlog.CommandLog`: every command is logged when it is applied, and
+  :meth:`Document.replay` re-issues a log by command name;
+- parameters: traits generated from the document's :class:`~plantvr.params.ParamTable` (``PARAMS``), set one
+  at a time or with :meth:`Document.set_params` (logged as one command), saved and read as presets;
+- snapshots for renderers on other threads: :meth:`Document.changed` publishes ``make_snapshot()``; the kernel
+  thread applies the newest one (older ones are replaced, never queued) and a render thread reads
+  :attr:`Document.latest` without waiting;
+- autosave after every state-changing command, atomic (:mod:`plantvr._fileio`).
+
+A subclass declares ``KIND``, ``COMMANDS`` (its replayable commands; each has a door check ``_check_<name>``
+that raises ``ValueError`` and changes nothing), ``PARAMS``, and implements :meth:`state_bytes` (and
+:meth:`get_state`/:meth:`set_state` for whole-state undo atoms), :meth:`save` and :meth:`scene`.
+"""
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import inspect
+import threading
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, ClassVar, Iterator
+
+import numpy as np
+from traitlets import Any as AnyTrait
+from traitlets import Bool, HasTraits, Int, MetaHasTraits
+
+from .commandlog import CommandLog
+from .history import History, StateAtom, _merge
+from .params import ParamTable, ParamTrait
+
+__all__ = ["Change", "Document", "kernel_loop"]
+
+
+@dataclass(frozen=True)
+class Change:
+    """What one change did: ``kind`` (``"labels"``, ``"tree"``, ``"params"``, ``"all"``, ...), the element
+    ``ids`` it touched (None: everything of that kind), the document ``version`` after it, and the ``command``
+    that made it."""
+
+    kind: str
+    ids: np.ndarray | None
+    version: int
+    command: str | None = None
+
+
+class _DocumentMeta(MetaHasTraits):
+    """Adds one :class:`~plantvr.params.ParamTrait` per row of a class's ``PARAMS`` table to the class."""
+
+    def __new__(mcls, name, bases, namespace, **kw):
+        table = namespace.get("PARAMS")
+        if isinstance(table, ParamTable):
+            for p in table:
+                namespace.setdefault(p.name, ParamTrait(p))
+        return super().__new__(mcls, name, bases, namespace, **kw)
+
+
+class Document(HasTraits, metaclass=_DocumentMeta):
+    """Base of every PlantVR document (see the module docstring).
+
+    A subclass that sets ``PARAMS`` gets one trait per parameter, generated from the table.
+
+    Parameters
+    ----------
+    max_undo : int
+        Undo depth, in [1, 10000].
+    max_undo_bytes : int
+        Byte budget of the undo and redo records.
+    **params
+        Initial parameter values, checked against ``PARAMS``.
+    """
+
+    #: Document kind, written into command logs and files.
+    KIND: ClassVar[str] = "document"
+    #: Replayable command names; each has a door check ``_check_<name>``.
+    COMMANDS: ClassVar[tuple[str, ...]] = ()
+    #: The document's parameter table (None: no parameters).
+    PARAMS: ClassVar[ParamTable | None] = None
+
+    version = Int(0, help="Bumped after every change; views observe it.")
+    change = AnyTrait(None, allow_none=True, help="The latest Change (observe names='change').")
+    can_undo = Bool(False, help="Whether undo() has something to take back.")
+    can_redo = Bool(False, help="Whether redo() has something to apply again.")
+
+    def __init__(self, *, max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20, **params: Any):
+        checked = self.PARAMS.validate(params) if self.PARAMS is not None else {}
+        if self.PARAMS is None and params:
+            raise ValueError(f"{type(self).__name__} takes no parameters, got {sorted(params)}")
+        history = History(max_items=max_undo, max_bytes=max_undo_bytes)
+        super().__init__(**checked)
+        self.history = history
+        self.log = CommandLog(self.COMMANDS, document=self.KIND)
+        self._lock = threading.RLock()
+        self._batch: int | None = None    # thread inside set_params: trait observers log nothing
+        self._restoring = False           # a load sets traits of state it built itself
+        self._hold = 0                    # > 0: autosave deferred (replay, batches)
+        self._dirty = False               # a change happened while held
+        self._autosave_path: Path | None = None
+        self.autosave_error: str | None = None
+        self._loop = kernel_loop()
+        self._seq = 0
+        self._pending: tuple[Any, Change] | None = None
+        self.latest: Any = None           # newest published snapshot, for render threads
+        self.snapshot: Any = None         # newest snapshot applied on the kernel thread
+        if self.PARAMS is not None:
+            self.observe(self._on_param, names=self.PARAMS.names)
+
+    # -- parameters -------------------------------------------------------------------------------------
+    @property
+    def params(self) -> dict[str, Any]:
+        """Current parameter values, ``{name: value}``."""
+        return {} if self.PARAMS is None else {p.name: getattr(self, p.name) for p in self.PARAMS}
+
+    def _check_set_params(self, **params: Any) -> dict[str, Any]:
+        if self.PARAMS is None:
+            raise ValueError(f"{type(self).__name__} has no parameters")
+        return self.PARAMS.validate(params)
+
+    def set_params(self, **params: Any) -> None:
+        """Set several parameters at once; all are checked before any is set. Logged as one command."""
+        checked = self._check_set_params(**params)
+        with self._lock:
+            self._batch = threading.get_ident()
+            try:
+                with self.hold_trait_notifications():
+                    for k, v in checked.items():
+                        setattr(self, k, v)
+            finally:
+                self._batch = None
+            self.log.record("set_params", **checked)
+        self._autosave()
+
+    def _on_param(self, change) -> None:
+        if self._restoring:
+            return
+        with self._lock:
+            self.apply_param(change["name"], change["new"])
+            direct = self._batch != threading.get_ident()
+            if direct:  # a trait set directly (a slider): logged like set_params, so replay sees it
+                self.log.record("set_params", **{change["name"]: change["new"]})
+        self.changed("params", command="set_params", save=direct)
+
+    def apply_param(self, name: str, value: Any) -> None:
+        """Hook: make the numeric state follow a parameter that was just set (called under the lock)."""
+
+    def save_preset(self, path, *, names: list[str] | None = None) -> Path:
+        """Write the parameters (or only ``names``) as a JSON preset, atomically."""
+        if self.PARAMS is None:
+            raise ValueError(f"{type(self).__name__} has no parameters")
+        unknown = [n for n in names or () if n not in self.PARAMS]
+        if unknown:
+            raise ValueError(f"names must be parameters of {self.PARAMS.name}, got {unknown[0]!r}")
+        values = self.params if names is None else {n: getattr(self, n) for n in names}
+        return self.PARAMS.save_preset(path, values)
+
+    def load_preset(self, path) -> dict[str, Any]:
+        """Apply a preset (every value checked first; a bad file changes nothing); returns the values set."""
+        if self.PARAMS is None:
+            raise ValueError(f"{type(self).__name__} has no parameters")
+        values = self.PARAMS.read_preset(path)
+        self.set_params(**values)
+        return values
+
+    # -- commands ---------------------------------------------------------------------------------------
+    def check_command(self, command: str, kwargs: dict[str, Any]) -> None:
+        """Raise ``ValueError`` unless ``getattr(self, command)(**kwargs)`` passes the door checks (nothing is
+        changed); :meth:`replay` checks a whole log this way first."""
+        if command not in self.COMMANDS:
+            raise ValueError(f"command must be one of {list(self.COMMANDS)}, got {command!r}"[:300])
+        if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):
+            raise ValueError(f"kwargs of {command} must be a dict with str keys, got {kwargs!r}"[:300])
+        check = getattr(self, f"_check_{command}", None)
+        if check is None:
+            raise ValueError(f"{type(self).__name__}.{command} has no door check")  # a bug, not user input
+        try:
+            inspect.signature(check).bind(**kwargs)
+        except TypeError as exc:
+            raise ValueError(f"{command} arguments do not fit: {exc}") from None
+        check(**kwargs)
+
+    def replay(self, log: CommandLog) -> None:
+        """Issue every command of ``log`` by name, in order; every event is checked first, so a bad one raises
+        ``ValueError`` before anything is issued. Autosave writes once, at the end."""
+        if not isinstance(log, CommandLog):
+            raise ValueError(f"log must be a CommandLog, got {type(log).__name__}")
+        log.check(self)
+        with self.held():
+            for ev in list(log.events):
+                getattr(self, ev.command)(**ev.kwargs)
+
+    # -- history ----------------------------------------------------------------------------------------
+    def _check_undo(self) -> None:
+        return None
+
+    def _check_redo(self) -> None:
+        return None
+
+    def undo(self):
+        """Take back the last operation; returns its atom, or None when there is nothing to undo."""
+        with self._lock:
+            self.before_undo()
+            done = self.history.undo(self)
+            self.log.record("undo")
+        return self._after_history(done, "undo")
+
+    def redo(self):
+        """Apply the last undone operation again; returns its atom, or None."""
+        with self._lock:
+            self.before_undo()
+            done = self.history.redo(self)
+            self.log.record("redo")
+        return self._after_history(done, "redo")
+
+    def before_undo(self) -> None:
+        """Hook: finish an open gesture before undo/redo (ViNE ends an open stroke)."""
+
+    def _after_history(self, done, command: str):
+        if done is None:
+            self._sync_undo_traits()
+            return None
+        item, (kind, ids) = done
+        self.changed(kind, ids, command=command)
+        return item
+
+    def _sync_undo_traits(self) -> None:
+        self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
+
+    @contextlib.contextmanager
+    def undoable(self, kind: str = "all") -> Iterator[None]:
+        """Record what the block does to the whole state as one :class:`~plantvr.history.StateAtom` (for
+        operations, like a growth step, whose delta is not practical to keep); nothing when it changed nothing."""
+        before = self.get_state()
+        yield
+        after = self.get_state()
+        if not _same(before, after):
+            self.history.push(StateAtom(before, after, kind))
+
+    def get_state(self) -> Any:
+        """The whole state, for a :class:`~plantvr.history.StateAtom` (default: :meth:`state_bytes`)."""
+        return self.state_bytes()
+
+    def set_state(self, state: Any) -> None:
+        """Replace the whole state with what :meth:`get_state` returned."""
+        raise NotImplementedError(f"{type(self).__name__} has no whole-state undo")
+
+    def state_bytes(self) -> bytes:
+        """Deterministic bytes of everything a session changes (replay and undo tests compare them)."""
+        raise NotImplementedError
+
+    # -- the one change path ----------------------------------------------------------------------------
+    def make_snapshot(self) -> Any:
+        """Hook: an immutable picture of the state for renderers (None: no snapshot)."""
+        return None
+
+    def on_snapshot(self, snapshot: Any) -> None:
+        """Hook: set derived traits from a snapshot just applied on the kernel thread."""
+
+    def changed(self, kind: str = "all", ids: np.ndarray | None = None, *, command: str | None = None,
+                save: bool = True) -> None:
+        """The one path every state change takes: publish a snapshot, bump :attr:`version` and send the
+        :class:`Change` on the kernel thread, and autosave (``save``), so no command changes state unseen or
+        unsaved. Callable from any thread; changes a slow kernel has not applied yet are merged."""
+        snap = self.make_snapshot()
+        with self._lock:
+            self._seq += 1
+            change = Change(kind, None if ids is None else np.asarray(ids), self._seq, command)
+            if snap is not None:
+                self.latest = snap
+            scheduled = self._pending is not None
+            if scheduled:
+                old_snap, old = self._pending
+                k, merged = _merge([(old.kind, old.ids), (kind, change.ids)])
+                change = Change(k, merged, self._seq, command)
+                snap = old_snap if snap is None else snap
+            self._pending = (snap, change)
+        if not scheduled:
+            self._call_in_kernel(self._apply_pending)
+        if save:
+            self._autosave()
+
+    def _apply_pending(self) -> None:
+        with self._lock:
+            pending, self._pending = self._pending, None
+        if pending is None:
+            return
+        snap, change = pending
+        if change.version < self.version:
+            return
+        with self.hold_trait_notifications():
+            if snap is not None:
+                self.snapshot = snap
+                self.on_snapshot(snap)
+            self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
+            self.version = change.version
+        self.change = change
+
+    def flush(self) -> None:
+        """Apply a pending change now (after background work, or from a test)."""
+        self._apply_pending()
+
+    def _call_in_kernel(self, fn: Callable[[], None]) -> None:
+        loop = self._loop
+        if threading.current_thread() is threading.main_thread() or loop is None or not loop.is_running():
+            fn()
+        else:
+            loop.call_soon_threadsafe(fn)
+
+    # -- autosave ---------------------------------------------------------------------------------------
+    def save(self, path) -> Path:
+        """Write the document to ``path`` atomically."""
+        raise NotImplementedError
+
+    def enable_autosave(self, path) -> Path | None:
+        """Save to ``path`` now and after every state-changing command; ``None`` turns it off.
+
+        Each save is atomic. A failed autosave does not stop the command: it warns and sets
+        :attr:`autosave_error` (cleared by the next successful one).
+        """
+        if path is None:
+            self._autosave_path = None
+            return None
+        path = self.save(path)  # fails here, not later, for a folder that does not exist
+        self._autosave_path = Path(path)
+        self.autosave_error = None
+        return self._autosave_path
+
+    def disable_autosave(self) -> None:
+        """Stop autosaving."""
+        self._autosave_path = None
+
+    @property
+    def autosave_path(self) -> Path | None:
+        """Where the document autosaves, or ``None``."""
+        return self._autosave_path
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[None]:
+        """Defer autosave to the end of the block (one save for a replay or a batch of commands)."""
+        self._hold += 1
+        try:
+            yield
+        finally:
+            self._hold -= 1
+            if not self._hold and self._dirty:
+                self._dirty = False
+                self._autosave()
+
+    def _autosave(self) -> None:
+        path = self._autosave_path
+        if path is None:
+            return
+        if self._hold:
+            self._dirty = True
+            return
+        try:
+            self.save(path)
+        except (OSError, ValueError) as exc:
+            self.autosave_error = f"autosave to {str(path)!r} failed: {exc}"
+            warnings.warn(self.autosave_error, RuntimeWarning, stacklevel=3)
+        else:
+            self.autosave_error = None
+
+    # -- views ------------------------------------------------------------------------------------------
+    def scene(self) -> dict[str, Any]:
+        """What a view draws: ``{name: content}`` with :class:`~plantvr.types.TreeArrays`,
+        :class:`~plantvr.types.TriMesh` (with optional per-vertex ``colors``), :class:`~plantvr.types.Points`
+        or :class:`~plantvr.types.Instances` values; :class:`plantvr.View` picks one actor layer per type."""
+        return {}
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, (bytes, bytearray)) or isinstance(b, (bytes, bytearray)):
+        return a == b
+    if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):
+        return a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
+    if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    return a is b or a == b
+
+
+def kernel_loop() -> asyncio.AbstractEventLoop | None:
+    """The running event loop of the kernel thread (ipykernel), or None in scripts."""
+    try:
+        return asyncio.get_running_loop()
+    except RuntimeError:
+        pass
+    try:  # ipykernel: the cell runs on the thread of a running loop
+        from IPython import get_ipython  # noqa: PLC0415
+        if get_ipython() is not None:
+            loop = asyncio.get_event_loop_policy().get_event_loop()
+            return loop if loop.is_running() else None
+    except Exception:  # no IPython / no loop: apply changes directly
+        return None
+    return None
