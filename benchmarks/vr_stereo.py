@@ -31,7 +31,7 @@ import numpy as np
 
 def grown_snapshot(target: int, seed: int = 0, max_s: float = 120.0):
     """Grow a seeded tree with random strokes until it has ``target`` internodes (or ``max_s`` passes)."""
-    from plantvr.model import Model
+    from plantvr.documents.treewand import Model
     m = Model(seed=seed, base_length=0.2, occupation_radius=0.2, view_radius=0.8, darts_per_paint=400)
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
@@ -43,7 +43,7 @@ def grown_snapshot(target: int, seed: int = 0, max_s: float = 120.0):
 
 def synthetic_snapshot(n: int, seed: int = 0):
     """A seeded branching tree with exactly ``n`` internodes (main axis continues, laterals at 45°)."""
-    from plantvr.model import Snapshot
+    from plantvr.documents.treewand import Snapshot
     rng = np.random.default_rng(seed)
     pos = np.zeros((n + 1, 3))
     parent = np.full(n + 1, -1, np.int64)
@@ -133,7 +133,7 @@ def time_layout(branches, markers, width: int, height: int, layout: str, frames:
 
 def bridge_run(snap, width: int, height: int, frames: int):
     """Frame times of the full bridge (fake runtime) showing ``snap``; returns the bridge."""
-    from plantvr.model import Model
+    from plantvr.documents.treewand import Model
     from plantvr.vr import VRBridge, fake_openvr
     fake_openvr.install()
     fake_openvr.runtime.render_size = (width, height)

@@ -10,7 +10,7 @@ from typing import Any
 
 __version__ = "0.1.0"
 
-_LAZY = {"Model": "plantvr.model", "View": "plantvr.view"}
+_LAZY = {"Model": "plantvr.documents.treewand", "View": "plantvr.view"}
 
 
 def __getattr__(name: str) -> Any:  # lazy: importing plantvr must not start VTK

@@ -9,7 +9,7 @@ import trimesh
 from .geometry.export import export_tree
 from .geometry.leaves import IncrementalLeafMesh, LeafMesh, build_leaves
 from .geometry.mesh import BranchMesh, IncrementalBranchMesh, build_branch_mesh
-from .model import Model, Snapshot
+from .documents.treewand import Model, Snapshot
 
 __all__ = ["tree_geometry", "IncrementalTreeGeometry", "tree_trimesh", "export_model", "snapshot_export", "export_model_as", "export_main",
            "EXPORT_FORMATS", "BILLBOARD_LOD"]

@@ -120,7 +120,7 @@ def test_failed_save_keeps_the_previous_file_and_leaves_no_temp(tmp_path, monkey
             fh.write(data[: len(data) // 2])
             raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(plantvr.model, "write_atomic", half_then_fail)
+    monkeypatch.setattr(plantvr.documents.treewand, "write_atomic", half_then_fail)
     with pytest.raises(OSError, match="No space"):
         other.save(path)
     assert path.read_bytes() == before and os.listdir(tmp_path) == [path.name]
@@ -184,7 +184,7 @@ def test_tree_truncations_versions_and_caps_are_refused(tmp_path, small, monkeyp
     assert "no checksum" in _restore_rejected(m, bad, tmp_path, before)
     bad.write_text(good.replace("tree=N(0.0", "tree=N(0.5", 1))
     assert "checksum mismatch" in _restore_rejected(m, bad, tmp_path, before)
-    monkeypatch.setattr(plantvr.model, "MAX_TREE_BYTES", 100)
+    monkeypatch.setattr(plantvr.documents.treewand, "MAX_TREE_BYTES", 100)
     bad.write_text(good)
     assert "cap" in _restore_rejected(m, bad, tmp_path, before)
 

@@ -34,7 +34,8 @@ import numpy as np
 import traitlets
 
 from ..growth.sketch import SketchEngine, barycentric, ellipse_distance
-from ..model import Model, ParamTrait
+from ..documents.treewand import Model
+from ..params import ParamTrait
 from ..params import PARAM_BY_NAME, defaults, validate
 from ._assets import asset
 from .panels import make_control

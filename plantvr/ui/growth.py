@@ -51,7 +51,7 @@ class GrowthControl(W.VBox):
     PLAY_STEPS = 100_000  # steps asked of the worker by Play; Pause stops it early
 
     def __init__(self, model, *, steps_per_second: float = 10.0, max_points: int = 500):
-        from ..model import Model  # noqa: PLC0415
+        from ..documents.treewand import Model  # noqa: PLC0415
         if not isinstance(model, Model):
             raise TypeError(f"model must be a plantvr.Model, got {type(model).__name__}")
         self.model = model

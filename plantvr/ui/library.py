@@ -26,7 +26,7 @@ from .._fileio import write_atomic
 from ..growth.sketch import SketchEngine
 from ..growth.sketch_tools import TreeLibrary
 from ..growth.treefile import tree_from_text
-from ..model import Model
+from ..documents.treewand import Model
 from ..params import PARAM_BY_NAME, validate
 from .architecture import ArchitectureState
 

@@ -250,7 +250,7 @@ def load_scenario(name: str) -> Scenario:
 def _reseed(model, seed: int, params: dict[str, Any]) -> None:
     """Put ``model`` in the state of a fresh ``Model(seed, **params)`` (tree, markers, RNG), via its
     lossless ``restore`` (the model has no public re-seed command)."""
-    from ..model import Model
+    from ..documents.treewand import Model
     fresh = Model(seed=seed, **params)
     with tempfile.TemporaryDirectory() as d:
         path = fresh.save(Path(d) / "start.npz")

@@ -78,7 +78,7 @@ def grow_variant(scenario: str | Scenario, params: dict[str, Any], *, seed: int 
         The grid point's ``params``, :func:`tree_metrics`, ``seconds`` (wall time) and ``state`` (the
         model's ``.npz`` bytes, for :func:`thumbnail`).
     """
-    from ..model import Model
+    from ..documents.treewand import Model
     seed = _seed(seed)
     if not isinstance(params, dict):
         raise ValueError(f"params must be a dict of parameter -> value, got {type(params).__name__}")
@@ -146,7 +146,7 @@ def thumbnail(state: bytes, *, size: tuple[int, int] = (200, 200), leaves: bool 
     (H, W, 3) uint8 ndarray
     """
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    from ..model import Model
+    from ..documents.treewand import Model
     from ..view import View
     if not isinstance(state, (bytes, bytearray)) or not state:
         raise ValueError("state must be the non-empty .npz bytes of grow_variant")

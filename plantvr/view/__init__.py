@@ -15,7 +15,7 @@ import pyvista as pv  # noqa: E402
 
 from .._fileio import write_png  # noqa: E402
 from .._validation import check_point, check_range, check_size  # noqa: E402
-from ..model import Model, Snapshot  # noqa: E402
+from ..documents.treewand import Model, Snapshot  # noqa: E402
 from ..params import PARAMS  # noqa: E402
 from ..export import IncrementalTreeGeometry  # noqa: E402
 

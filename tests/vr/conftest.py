@@ -1,7 +1,7 @@
 """Fixtures for headset-mode tests: the fake openvr runtime and a small grown model."""
 import pytest
 
-from plantvr.model import Model
+from plantvr.documents.treewand import Model
 from plantvr.vr import fake_openvr
 
 

@@ -187,7 +187,7 @@ def test_bridge_argument_checks(model):
 
 
 def test_recorded_headset_session_replays_identically_without_a_headset(fake):
-    from plantvr.model import Model
+    from plantvr.documents.treewand import Model
 
     def fresh():
         m = Model(seed=7)

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from plantvr.model import Model
+from plantvr.documents.treewand import Model
 from plantvr.vr import controls as C
 from plantvr.vr.fake_openvr import pose_matrix
 from plantvr.vr.math3d import quat_from_matrix, quat_rotate, quat_to_matrix

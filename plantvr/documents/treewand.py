@@ -20,12 +20,12 @@ from typing import Any, Callable
 import numpy as np
 from traitlets import Bool, Dict, Float, HasTraits, Int, TraitType
 
-from ._fileio import write_atomic
-from ._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
-from .commandlog import CommandLog, Event
-from .growth.engine import GrowthEngine, StepStats
-from .growth.treefile import MAX_TREE_BYTES, state_from_npz, state_to_bytes, tree_from_text, tree_to_text
-from .params import PARAMS, Param, validate
+from .._fileio import write_atomic
+from .._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
+from ..commandlog import CommandLog, Event
+from ..growth.engine import GrowthEngine, StepStats
+from ..growth.treefile import MAX_TREE_BYTES, state_from_npz, state_to_bytes, tree_from_text, tree_to_text
+from ..params import PARAMS, Param, validate
 
 __all__ = ["Model", "Snapshot"]
 
@@ -494,7 +494,7 @@ class Model(_Params):
     @property
     def vr(self):
         """Headset mode for this model: ``model.vr.start()`` / ``model.vr.stop()`` (OpenVR bridge thread)."""
-        from .vr import attach  # noqa: PLC0415  (UI layer, imported on first use)
+        from ..vr import attach  # noqa: PLC0415  (UI layer, imported on first use)
         return attach(self)
 
     @property
