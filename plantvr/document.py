@@ -205,30 +205,26 @@ class Document(HasTraits, metaclass=_DocumentMeta):
 
     def undo(self):
         """Take back the last operation; returns its atom, or None when there is nothing to undo."""
-        with self._lock:
-            self.before_undo()
-            done = self.history.undo(self)
-            self.log.record("undo")
-        return self._after_history(done, "undo")
+        return self._travel("undo")
 
     def redo(self):
         """Apply the last undone operation again; returns its atom, or None."""
+        return self._travel("redo")
+
+    def _travel(self, command: str):
         with self._lock:
             self.before_undo()
-            done = self.history.redo(self)
-            self.log.record("redo")
-        return self._after_history(done, "redo")
-
-    def before_undo(self) -> None:
-        """Hook: finish an open gesture before undo/redo (ViNE ends an open stroke)."""
-
-    def _after_history(self, done, command: str):
+            done = getattr(self.history, command)(self)
+            self.log.record(command)
         if done is None:
             self._sync_undo_traits()
             return None
         item, (kind, ids) = done
         self.changed(kind, ids, command=command)
         return item
+
+    def before_undo(self) -> None:
+        """Hook: finish an open gesture before undo/redo (ViNE ends an open stroke)."""
 
     def _sync_undo_traits(self) -> None:
         self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
