@@ -4,23 +4,23 @@ For trees of ~5,000 and ~22,000 internodes, renders both eyes offscreen at heads
 (2016 x 2240 per eye; ``--quick``: 504 x 560) with the two layouts of
 :class:`plantvr.vr.render.StereoRenderer` ("side": one window, two renderers sharing GPU buffers; "pair":
 one window per eye), beside a single-eye baseline (one window, one renderer) measured in the same run.
-Then runs the whole bridge against the fake OpenVR runtime and prints its frame-time histogram.
+Then runs the whole headset bridge (:class:`plantvr.vr.Headset`) against the fake OpenVR runtime and prints its
+frame-time histogram.
 
 ViNE mode (spec 000_vine §4.5, §5.7): a synthetic flower head (``synth_flowerhead``) is tiled up toward the
 gerbera class (36 M triangles; ``--vine-faces``), decimated to a :class:`plantvr.vine.proxy.DisplayProxy` of
-~1.5 M triangles (``--proxy-faces``), and the proxy is drawn through :class:`plantvr.vr.VineBridge` (fake
-runtime; mesher thread, depth cue, colour wheel) at headset resolution, beside a single-eye baseline and a
-bare two-eye render of the same coloured surface measured in the same run.
+~1.5 M triangles (``--proxy-faces``); the coloured, depth-cued proxy surface is timed beside a single-eye
+baseline, and the segmentation document is drawn through :class:`plantvr.vr.Headset` (fake runtime; mesher
+thread, depth cue, colour wheel) at headset resolution, as its ``scene()`` presents it.
 Target in a headset: <= 11.1 ms per stereo frame (90 fps). On a CPU-only machine VTK renders with Mesa
 llvmpipe, so absolute numbers are far from that; the ratios still show what stereo costs.
 
 The 5k tree is grown by the model (seeded); growing 22k internodes takes minutes on 2 cores, so the
-larger tree is a seeded synthetic branching tree with the same snapshot layout (``--grow-all`` grows it).
+larger tree is a seeded synthetic branching tree (``--grow-all`` grows it).
 """
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import time
 
@@ -29,8 +29,9 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 
 
-def grown_snapshot(target: int, seed: int = 0, max_s: float = 120.0):
-    """Grow a seeded tree with random strokes until it has ``target`` internodes (or ``max_s`` passes)."""
+def grown_tree(target: int, seed: int = 0, max_s: float = 120.0):
+    """Grow a seeded tree with random strokes until it has ``target`` internodes (or ``max_s`` passes); returns
+    its :class:`~plantvr.types.TreeArrays`."""
     from plantvr.documents.treewand import Model
     m = Model(seed=seed, base_length=0.2, occupation_radius=0.2, view_radius=0.8, darts_per_paint=400)
     rng = np.random.default_rng(seed)
@@ -38,12 +39,12 @@ def grown_snapshot(target: int, seed: int = 0, max_s: float = 120.0):
     while m.n_internodes < target and time.perf_counter() - t0 < max_s:
         m.paint_stroke(rng.uniform([-4, 0.5, -4], [4, 9, 4], (20, 3)), radius=2.0)
         m.step(2)
-    return m.snapshot
+    return m.latest.tree
 
 
-def synthetic_snapshot(n: int, seed: int = 0):
+def synthetic_tree(n: int, seed: int = 0):
     """A seeded branching tree with exactly ``n`` internodes (main axis continues, laterals at 45°)."""
-    from plantvr.documents.treewand import Snapshot
+    from plantvr.types import TreeArrays
     rng = np.random.default_rng(seed)
     pos = np.zeros((n + 1, 3))
     parent = np.full(n + 1, -1, np.int64)
@@ -80,11 +81,7 @@ def synthetic_snapshot(n: int, seed: int = 0):
     main_child = np.full(n + 1, -1, np.int64)
     first = np.flatnonzero(parent >= 0)[::-1]          # reversed: the lowest index (main) child wins
     main_child[parent[first]] = first
-    fields = {"version": 1, "step": 0, "pos": pos, "parent": parent, "radius": radius, "order": order,
-              "markers": np.zeros((0, 3)), "stats": None, "main_child": main_child,
-              "buds": {k: np.zeros((0, 3)) for k in ("pos", "dir", "up")} | {"radius": np.zeros(0)}}
-    names = {f.name for f in dataclasses.fields(Snapshot)}
-    return Snapshot(**{k: v for k, v in fields.items() if k in names})
+    return TreeArrays.from_arrays(pos, parent, radius, order, main_child)
 
 
 def _eyes(frame: int):
@@ -103,6 +100,7 @@ def time_layout(branches, markers, width: int, height: int, layout: str, frames:
 
     With ``surface`` (a coloured ViNE polydata with a uint8 ``rgb`` point array) that is drawn instead of
     ``branches``/``markers``, with the ground hidden, as in ViNE mode."""
+    from plantvr.vr.bridge import BARK, MARKER
     from plantvr.vr.render import StereoRenderer
     r = StereoRenderer(width, height, layout="side" if layout == "single" else layout)
     if layout == "single":   # one window of one eye with one renderer
@@ -112,9 +110,9 @@ def time_layout(branches, markers, width: int, height: int, layout: str, frames:
         r.renderers[0].SetViewport(0, 0, 1, 1)
         rw.SetSize(width, height)
     if surface is None:
-        r.set_meshes(branches, markers)
+        r.set_content({"tree": (branches, {"color": BARK}), "markers": (markers, {"color": MARKER, "points": True})})
     else:
-        r.set_surface(surface)
+        r.set_content({"surface": (surface, {"scalars": "rgb", "cull": True})})
         r.set_ground(False)
     r.set_model_matrix(scene_matrix)
     out = []
@@ -131,15 +129,22 @@ def time_layout(branches, markers, width: int, height: int, layout: str, frames:
     return out
 
 
-def bridge_run(snap, width: int, height: int, frames: int):
-    """Frame times of the full bridge (fake runtime) showing ``snap``; returns the bridge."""
-    from plantvr.documents.treewand import Model
-    from plantvr.vr import VRBridge, fake_openvr
+def bridge_run(tree, width: int, height: int, frames: int):
+    """Frame times of the full headset bridge (fake runtime) showing ``tree``; returns the headset."""
+    from plantvr.document import Document
+    from plantvr.vr import Headset, fake_openvr
+
+    class Shown(Document):
+        """A document whose scene is the benchmark tree."""
+
+        KIND = "benchmark_tree"
+
+        def scene(self):
+            return {"tree": tree}
+
     fake_openvr.install()
     fake_openvr.runtime.render_size = (width, height)
-    m = Model(seed=0)
-    m.snapshot = snap           # show the benchmark tree (read-only use of the snapshot slot)
-    b = VRBridge(m)
+    b = Headset(Shown())
     b.controls.scene.scale, b.controls.scene.translation = 0.25, np.array([0.0, 0.0, -0.6])
     b.start(timeout=600)
     b.wait_frames(frames + 2, timeout=600)
@@ -166,9 +171,9 @@ PEAK_BYTES_PER_FACE = 0.45 * 2 ** 30 / 1e6
 def vine_segmentation(n_faces: int, head: int = 256, seed: int = 0):
     """A synthetic flower head (``head``³ voxels) tiled to at least ``n_faces`` triangles, with the
     ground-truth component labels of every vertex; returns ``(Segmentation, head_faces)``."""
+    from plantvr.documents.labels import Segmentation
     from plantvr.vine.colors import ColorTable
     from plantvr.vine.isosurface import extract_isosurface
-    from plantvr.vine.segmentation import Segmentation
     from plantvr.vine.synth import synth_flowerhead, tile_mesh, vertex_labels_from_volume
     fh = synth_flowerhead(head, rng=seed)
     s = extract_isosurface(fh.volume, fh.level)
@@ -182,30 +187,31 @@ def vine_segmentation(n_faces: int, head: int = 256, seed: int = 0):
     return seg, len(s.faces)
 
 
-def vine_bridge_run(seg, proxy, width: int, height: int, frames: int, timeout: float = 900.0):
-    """Frame times of ViNE headset mode (fake runtime) drawing ``proxy``; returns the bridge.
+def vine_bridge_run(seg, width: int, height: int, frames: int, timeout: float = 900.0):
+    """Frame times of the headset (fake runtime) drawing the segmentation document; returns the headset.
 
     Frames rendered before the mesher thread published the first coloured surface are not counted."""
-    from plantvr.vr import attach_segmentation, fake_openvr
+    from plantvr.vr import attach, fake_openvr
     fake_openvr.install()
     fake_openvr.runtime.render_size = (width, height)
-    b = attach_segmentation(seg, proxy)
+    b = attach(seg)
     t0 = time.perf_counter()
     b.start(timeout=timeout)
-    while b.running and (b._drawn_surface in (None, -1)) and time.perf_counter() - t0 < timeout:
+    while b.running and b._drawn_content is None and time.perf_counter() - t0 < timeout:
         time.sleep(0.01)
     b.wait_frames(1, timeout=timeout)        # the first frame with the surface uploads its buffers
     b.frame_ms.clear()
     b.wait_frames(frames, timeout=timeout)
-    b.close()
+    b.stop()
     fake_openvr.uninstall()
     return b
 
 
 def vine_case(args, w: int, h: int, frames: int) -> dict:
-    """ViNE mode: full mesh → DisplayProxy → stereo frames through the VineBridge (000_vine §4.5, §5.7)."""
+    """ViNE mode: full mesh → DisplayProxy → stereo frames through the Headset (000_vine §4.5, §5.7)."""
+    from plantvr.types import TriMesh
     from plantvr.vine.proxy import DisplayProxy
-    from plantvr.vr.vine_mode import VineBridge
+    from plantvr.vr import Headset
     # full size: the gerbera class (36 M triangles) when the decimation's peak memory fits ``--mem-gib``
     n_faces = args.vine_faces or (150_000 if args.quick else
                                   int(min(GERBERA_FACES, args.mem_gib * 2 ** 30 / PEAK_BYTES_PER_FACE)))
@@ -228,14 +234,18 @@ def vine_case(args, w: int, h: int, frames: int) -> dict:
         print(f"  (36 M triangles need ~{GERBERA_FACES * PEAK_BYTES_PER_FACE / 2 ** 30:.0f} GiB peak, over "
               f"--mem-gib {args.mem_gib:g}: this is the largest mesh that fits; --vine-faces 36000000 runs it)")
     # the same coloured surface the mesher thread draws (depth cue from the benchmark's head position)
-    probe = VineBridge(seg, proxy)
+    probe = Headset(seg)
     scene = probe.controls.scene.matrix
     eyes, _ = _eyes(0)
     eye_model = probe.controls.scene.to_model(0.5 * (eyes[0][:3, 3] + eyes[1][:3, 3]))
+    colors = seg.colors
+    vis = colors.visible[proxy.labels]
+    f = proxy.faces
+    mesh = TriMesh(proxy.vertices, f[vis[f[:, 0]] & vis[f[:, 1]] & vis[f[:, 2]]])
+    mesh.colors = colors.rgba[proxy.labels]
     t0 = time.perf_counter()
-    surface = probe.build_surface(proxy.labels, eye_model)
+    surface = probe.build_layers({"surface": mesh}, eye_model)["surface"][0]
     case["surface_ms"] = 1000 * (time.perf_counter() - t0)
-    probe.close()
     print(f"  coloured surface (colours, hidden triangles dropped, depth cue; mesher thread): "
           f"{case['surface_ms']:.0f} ms")
     single = time_layout(None, None, w, h, "single", frames, scene, surface=surface)
@@ -244,11 +254,12 @@ def vine_case(args, w: int, h: int, frames: int) -> dict:
     one = case["single_ms"]
     print(f"  baseline single eye          {one:9.1f} ms   (x2 = {2 * one:.1f} ms)")
     print(f"  stereo side (renderer only)  {case['side_ms']:9.1f} ms   = {case['side_ms'] / one:.2f} x single eye")
-    b = vine_bridge_run(seg, proxy, w, h, frames)
+    b = vine_bridge_run(seg, w, h, frames)
     st = b.stats()
     case["bridge"] = st
     ms = np.asarray(b.frame_ms, float)
-    print(f"  VineBridge (fake runtime, layout side, {len(ms)} frames): median {st['median_ms']:.1f} ms, "
+    drawn = b.content[1]["surface"][0].n_cells if b.content else 0
+    print(f"  Headset on the segmentation ({drawn:,} triangles drawn; fake runtime, layout side, {len(ms)} frames): median {st['median_ms']:.1f} ms, "
           f"p95 {st['p95_ms']:.1f} ms per stereo frame = {st['median_ms'] / one:.2f} x single eye; "
           f"target 11.1 ms (90 fps): {'met' if st['median_ms'] <= 11.1 else 'missed'}; status {st['status']}"
           + (f", errors {b.command_errors[:2]}" if b.command_errors else ""))
@@ -284,9 +295,11 @@ def main(argv: list[str] | None = None) -> dict:
 
     import pyvista as pv
 
-    from plantvr.view import branch_mesh
-    from plantvr.vr.bridge import _tube_mesh
+    from plantvr.io.tree import branch_mesh
+    from plantvr.params import TREEWAND
+    from plantvr.vr.bridge import tube_mesh
     from plantvr.vr.controls import SceneTransform
+    appearance = TREEWAND.defaults()
     scene = SceneTransform(scale=0.25, translation=(0.0, 0.0, -0.6)).matrix
     results: dict = {"eye": (w, h), "frames": frames, "cases": []}
     print(f"stereo frame time, {w}x{h} per eye, {frames} frames after warm-up, tube sides {args.sides}")
@@ -296,18 +309,19 @@ def main(argv: list[str] | None = None) -> dict:
     for i, n in enumerate(sizes if args.only in ("all", "trees") else []):
         t0 = time.perf_counter()
         if i == 0 or args.grow_all:
-            snap, how = grown_snapshot(n), "grown"
+            snap, how = grown_tree(n), "grown"
         else:
-            snap, how = synthetic_snapshot(n), "synthetic"
+            snap, how = synthetic_tree(n), "synthetic"
         t_make = time.perf_counter() - t0
         t0 = time.perf_counter()
-        branches = _tube_mesh(snap, args.sides)
+        branches = tube_mesh(snap, args.sides)
         t_mesh = 1000 * (time.perf_counter() - t0)
-        branch_mesh(synthetic_snapshot(50), sides=args.sides)   # shared generalized cylinders: JIT first
+        lod = (args.sides, args.sides)
+        branch_mesh(synthetic_tree(50), appearance, lod=lod)   # shared generalized cylinders: JIT first
         t0 = time.perf_counter()
-        branch_mesh(snap, sides=args.sides)
+        branch_mesh(snap, appearance, lod=lod)
         t_cyl = 1000 * (time.perf_counter() - t0)
-        markers = pv.PolyData(np.asarray(snap.markers, float)) if len(snap.markers) else pv.PolyData()
+        markers = pv.PolyData()
         tris = branches.triangulate().n_cells
         cyl = f", generalized cylinders {t_cyl:.0f} ms"
         print(f"\ntree: {snap.n_internodes} internodes ({how} in {t_make:.1f} s), {tris} triangles; "

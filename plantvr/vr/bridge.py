@@ -1,15 +1,25 @@
-"""OpenVR bridge mirroring the model into a headset (spec 000_treewand §4.1, §4.10, §4.12; 000_vine §4.2–4.5).
+"""The headset bridge: any document mirrored into an OpenVR headset (spec 000_treewand §4.1, §4.10, §4.12;
+000_vine §2.1–2.6, §4.2–4.5).
 
-Three threads, none of which holds the model lock while rendering:
+``plantvr.vr.attach(doc)`` returns the :class:`Headset` of a :class:`~plantvr.document.Document` (it attaches
+from outside: the document holds no reference to it); ``start()`` opens headset mode, ``stop()`` ends it.
+Three threads, none of which holds the document lock while rendering:
 
-* **render** (``plantvr-vr-render``): ``waitGetPoses`` (OpenVR running start), read the controllers, run
-  the control map, render both eyes of the latest prepared meshes, submit both textures. No simulation and
-  no model command runs here (§4.10).
-* **commands** (``plantvr-vr-commands``): issues the control map's commands on the model through the same
-  methods the notebook uses (so they land in ``model.events``); consecutive paint stamps of one radius
-  become one ``paint_stroke``.
-* **mesher** (``plantvr-vr-mesher``): turns each new ``model.snapshot`` into tube and marker meshes and
-  publishes them by swapping one reference (the render thread always takes the newest complete set).
+* **render** (``plantvr-vr-render``): ``waitGetPoses`` (OpenVR running start), read the controllers, run the
+  control map (:class:`~plantvr.vr.controls.Controls`, the document kind's
+  :class:`~plantvr.vr.controls.ControlMap`), render both eyes of the newest prepared content, submit both
+  textures. No simulation and no document command runs here (§4.10).
+* **commands** (``plantvr-vr-commands``, ViNE's *worker*): issues the control map's commands on the document by
+  name (``getattr(doc, name)(**kwargs)``, the methods the notebook uses), so they land in ``doc.log``;
+  consecutive paint stamps of one radius become one stroke where the map says so. A slow command never stalls
+  the render thread, which keeps drawing the last content it was handed.
+* **mesher** (``plantvr-vr-mesher``): when the document publishes a change (``doc.latest`` / ``doc.version``),
+  turns its :meth:`~plantvr.document.Document.scene` into one VTK layer per entry — tree arrays as tubes (or
+  generalized cylinders), points, triangle meshes (per-vertex ``colors`` with the depth cue of 000_vine §2.2),
+  instances — and publishes them by swapping one reference.
+
+A recording of input frames (``record=True``) replays through the same control map and command path without a
+headset: :meth:`Headset.replay` / :func:`replay`.
 """
 from __future__ import annotations
 
@@ -19,19 +29,31 @@ import sys
 import threading
 import time
 import warnings
+import weakref
 from collections import deque
 from typing import Any
 
 import numpy as np
 
 from .._validation import check_choice, check_int, check_range
-from .controls import Command, ControllerState, Controls, InputFrame, SceneTransform, apply_command
+from ..document import Document
+from ..io.tree import branch_mesh, leaf_mesh
+from ..params import TREEWAND
+from ..types import Instances, Points, TreeArrays, TriMesh
+from ..vine.depthcue import coarse_hull, depth_cue_colors
+from .controls import Command, ControllerState, Controls, InputFrame, SceneTransform, issue
 from .math3d import hmd34_to_array, hmd44_to_array
 
-__all__ = ["VRBridge", "attach", "HISTOGRAM_EDGES_MS"]
+__all__ = ["HISTOGRAM_EDGES_MS", "HOME", "HOME_SIZE", "Headset", "attach", "replay"]
 
 #: Frame-time histogram bins, ms: 90 fps (11.1 ms), 45 fps, 30 fps (§4.10) ...
 HISTOGRAM_EDGES_MS = (0.0, 5.5, 11.1, 22.2, 33.3, 50.0, 100.0, 250.0, 1000.0, np.inf)
+#: Room point a document without a tree has its bounding-box centre placed at on start (m; in reach).
+HOME = np.array([0.0, 1.1, -0.6])
+#: Room size of that bounding-box diagonal on start (m).
+HOME_SIZE = 0.8
+#: Colours of the content layers (RGB in [0, 1]).
+BARK, MARKER, SURFACE = (0.545, 0.353, 0.169), (0.96, 0.82, 0.26), (0.85, 0.83, 0.78)
 
 INSTALL_HINT = ("install the extra with `pip install plantvr[vr]` (PyPI package 'openvr', pyopenvr) and "
                 "Steam + SteamVR (run SteamVR once so it registers its runtime path)")
@@ -61,64 +83,72 @@ def _init_openvr(openvr):
         raise RuntimeError(f"OpenVR could not start ({text}); is SteamVR running?") from None
 
 
-def _tube_mesh(snap, sides: int):
-    """Fast headset branch mesh: VTK tube filter over the internode segments, radius per internode."""
-    import pyvista as pv  # noqa: PLC0415
-    kids = np.flatnonzero(np.asarray(snap.parent) >= 0)
-    if not len(kids):
-        return pv.PolyData()
-    k = len(kids)
-    pts = np.concatenate([snap.pos[snap.parent[kids]], snap.pos[kids]])
-    poly = pv.PolyData(pts, lines=np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel())
-    r = np.asarray(snap.radius, float)[kids]
-    poly["radius"] = np.concatenate([r, r])
-    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=False)
-
-
-def _mesh_from_snapshot(snap, sides: int, params: dict | None = None, leaves: bool = False,
-                        kind: str = "tubes"):
-    """(branches, markers, leaves) vtkPolyData of a snapshot.
-
-    ``kind="tubes"``: :func:`_tube_mesh` (fast, no leaves); ``"cylinders"``: the shared generalized-cylinder
-    geometry of :func:`plantvr.view.branch_mesh` (spec 000_treewand §3.2), with leaves when asked.
-    """
-    import pyvista as pv  # noqa: PLC0415
-    leaf = pv.PolyData()
-    if not snap.n_internodes:
-        branches = pv.PolyData()
-    elif kind == "tubes":
-        branches = _tube_mesh(snap, sides)
-    else:
-        from ..view import branch_mesh  # noqa: PLC0415
-        out = branch_mesh(snap, params, leaves=leaves, sides=sides)
-        branches, leaf = out if isinstance(out, tuple) else (out, pv.PolyData())
-    markers = pv.PolyData(np.asarray(snap.markers, float)) if len(snap.markers) else pv.PolyData()
-    return branches, markers, leaf
-
-
-def _preview_mesh(snap, nodes: np.ndarray, sides: int):
-    """Red tubes over the internodes a prune would remove (§4.4 partial trigger)."""
-    import pyvista as pv  # noqa: PLC0415
-    nodes = np.asarray(nodes, np.int64)
-    nodes = nodes[(nodes < len(snap.pos)) & (nodes >= 0)]
-    nodes = nodes[snap.parent[nodes] >= 0] if len(nodes) else nodes
-    if not len(nodes):
-        return pv.PolyData()
-    pts = np.concatenate([snap.pos[snap.parent[nodes]], snap.pos[nodes]])
+# -- content layers (mesher thread) -----------------------------------------------------------------------
+def _segments(tree: TreeArrays, nodes: np.ndarray, radius: np.ndarray, sides: int, capping: bool):
+    import pyvista as pv
     k = len(nodes)
+    if not k:
+        return pv.PolyData()
+    pts = np.concatenate([tree.pos[tree.parent[nodes]], tree.pos[nodes]])
     poly = pv.PolyData(pts, lines=np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel())
-    r = np.asarray(snap.radius, float)[nodes] * 1.15 + 1e-3
-    poly["radius"] = np.concatenate([r, r])
-    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=True)
+    poly["radius"] = np.concatenate([radius, radius])
+    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=capping)
 
 
-class VRBridge:
-    """Headset mode for a :class:`plantvr.Model`: ``start()`` opens it, ``stop()`` ends it.
+def tube_mesh(tree: TreeArrays, sides: int):
+    """Fast headset branch mesh: VTK tube filter over the internodes, radius per internode."""
+    kids = np.flatnonzero(np.asarray(tree.parent) >= 0)
+    return _segments(tree, kids, np.asarray(tree.radius, float)[kids], sides, capping=False)
+
+
+def preview_mesh(tree: TreeArrays, nodes: np.ndarray, sides: int):
+    """Red tubes over the internodes a prune would remove (§4.4 partial trigger)."""
+    nodes = np.asarray(nodes, np.int64)
+    nodes = nodes[(nodes < len(tree.pos)) & (nodes >= 0)]
+    nodes = nodes[tree.parent[nodes] >= 0] if len(nodes) else nodes
+    return _segments(tree, nodes, np.asarray(tree.radius, float)[nodes] * 1.15 + 1e-3, sides, capping=True)
+
+
+def _surface_poly(vertices: np.ndarray, faces: np.ndarray, rgb: np.ndarray | None = None):
+    """vtkPolyData of a triangle mesh, with a uint8 ``rgb`` point array when colours are given."""
+    import pyvista as pv
+    f = np.asarray(faces, np.int64)
+    v = np.asarray(vertices, np.float32)
+    poly = pv.PolyData.from_regular_faces(v, f) if len(f) else pv.PolyData(v)
+    if rgb is not None:
+        poly.point_data["rgb"] = np.ascontiguousarray(np.asarray(rgb)[:, :3], np.uint8)
+    return poly
+
+
+def _bounds(content: dict[str, Any]) -> tuple[np.ndarray, np.ndarray] | None:
+    pts = []
+    for c in content.values():
+        if isinstance(c, TreeArrays):
+            pts.append(c.pos)
+        elif isinstance(c, Points):
+            pts.append(np.asarray(c.xyz, float).reshape(-1, 3))
+        elif isinstance(c, TriMesh):
+            pts.append(np.asarray(c.vertices, float))
+        elif isinstance(c, Instances):
+            pts.append(np.asarray(c.transforms, float).reshape(-1, 4, 4)[:, :3, 3])
+    pts = [p for p in pts if len(p)]
+    if not pts:
+        return None
+    allp = np.concatenate(pts)
+    return allp.min(axis=0), allp.max(axis=0)
+
+
+class Headset:
+    """Headset mode for any :class:`~plantvr.document.Document`: ``start()`` opens it, ``stop()`` ends it.
 
     Parameters
     ----------
-    model : plantvr.Model
-        The shared model; the bridge reads its snapshots and issues its commands.
+    doc : Document
+        The shared document; the headset draws its :meth:`~plantvr.document.Document.scene` and issues its
+        commands by name, through the control map of its kind (:data:`~plantvr.vr.controls.CONTROL_MAPS`).
+    controls : Controls, optional
+        The control map state (default :meth:`Controls.for_document <plantvr.vr.controls.Controls.for_document>`
+        with ``scene`` and a brush of 3 % of the content's size when the document has no ``brush_radius``).
     layout : {"side", "pair"}
         Stereo layout of :class:`~plantvr.vr.render.StereoRenderer`.
     tube_sides : int
@@ -126,48 +156,77 @@ class VRBridge:
     render_scale : float
         Fraction of the runtime's recommended per-eye size to render (1.0 in a headset).
     mesh : {"tubes", "cylinders"}
-        Branch mesh: VTK tubes over the internodes (fast, the default) or the shared generalized
-        cylinders of :func:`plantvr.view.branch_mesh` (smooth joins, leaves; its first build compiles
-        numba kernels, ~1 s; later builds cost about 1.3x the tubes, ``benchmarks/vr_stereo.py``).
+        Branch mesh of tree content: VTK tubes over the internodes (fast, the default) or the shared generalized
+        cylinders of :func:`plantvr.io.tree.branch_mesh` (smooth joins, leaves; its first build compiles numba
+        kernels, ~1 s; later builds cost about 1.3x the tubes, ``benchmarks/vr_stereo.py``).
     leaves : bool
-        With ``mesh="cylinders"``, also show the leaves (spec 000_treewand §3.4).
+        With ``mesh="cylinders"``, also show the leaves of a document whose snapshot has ``buds`` (Tree Wand,
+        §3.4; :func:`plantvr.io.tree.leaf_mesh`).
     record : bool
-        Keep every :class:`~plantvr.vr.controls.InputFrame` in :attr:`recording` (replay with
-        :func:`plantvr.vr.replay`).
+        Keep every :class:`~plantvr.vr.controls.InputFrame` in :attr:`recording` (replay with :meth:`replay`).
     readback : bool
         Copy both eye images to :attr:`last_images` every frame (tests, thumbnails; slow).
+    near, far : float
+        Clipping planes, metres.
+    depth_cue : bool
+        Blend the per-vertex colours of coloured meshes toward ``background`` with distance (000_vine §2.2,
+        Eq. 5.8, normalised variant).
+    background : 3 ints
+        Depth-cue target colour (dark: "further = darker", 000_vine §2.2.1 [INFERRED]).
+    eye_step : float
+        Fraction of the content size the eye must move before the depth cue is recomputed.
+    scene : SceneTransform, optional
+        Initial placement; default: a document with tree content at a quarter scale 1 m ahead on the ground,
+        any other with its bounding box centred at :data:`HOME`, diagonal :data:`HOME_SIZE` metres.
 
     Examples
     --------
-    >>> bridge = plantvr.vr.attach(model)      # doctest: +SKIP
-    >>> bridge.start()                          # doctest: +SKIP
-    >>> bridge.stop()                           # doctest: +SKIP
+    >>> headset = plantvr.vr.attach(doc)      # doctest: +SKIP
+    >>> headset.start()                        # doctest: +SKIP
+    >>> headset.stop()                         # doctest: +SKIP
     """
 
-    def __init__(self, model, *, layout: str = "side", tube_sides: int = 6, render_scale: float = 1.0,
-                 mesh: str = "tubes", leaves: bool = False, record: bool = False, readback: bool = False,
-                 near: float = 0.05,
-                 far: float = 100.0):
-        self.model = model
+    def __init__(self, doc, *, controls: Controls | None = None, layout: str = "side", tube_sides: int = 6,
+                 render_scale: float = 1.0, mesh: str = "tubes", leaves: bool = False, record: bool = False,
+                 readback: bool = False, near: float = 0.05, far: float = 100.0, depth_cue: bool = True,
+                 background=(0, 0, 0), eye_step: float = 0.02, scene: SceneTransform | None = None):
+        if not isinstance(doc, Document):
+            raise ValueError(f"doc must be a plantvr Document, got {type(doc).__name__}")  # noqa: TRY004
+        if scene is not None and not isinstance(scene, SceneTransform):
+            raise ValueError(f"scene must be a SceneTransform, got {type(scene).__name__}")
+        if controls is not None and not isinstance(controls, Controls):
+            raise ValueError(f"controls must be a Controls, got {type(controls).__name__}")
         self.tube_sides = check_int("tube_sides", tube_sides, 3, 64)
-        self.leaves = bool(leaves)
         self.mesh = check_choice("mesh", mesh, ("tubes", "cylinders"))
-        self._init_common(layout=layout, render_scale=render_scale, near=near, far=far, record=record,
-                          readback=readback)
-        self.controls = Controls(brush_radius=model.brush_radius, prune_mode=model.prune_mode,
-                                 scene=SceneTransform())
-        self._seen_radius = model.brush_radius
-        self._seen_prune = model.prune_mode
-
-    def _init_common(self, *, layout: str, render_scale: float, near: float, far: float, record: bool,
-                     readback: bool) -> None:
-        """Model-independent state (shared with :class:`plantvr.vr.vine_mode.VineBridge`)."""
+        self.leaves = bool(leaves)
         self.layout = check_choice("layout", layout, ("side", "pair"))
         self.render_scale = check_range("render_scale", render_scale, 0.0, 1.0, low_open=True)
         self.near = check_range("near", near, 0.0, 10.0, low_open=True)
         self.far = check_range("far", far, self.near, 1e6, low_open=True)
+        self.eye_step = check_range("eye_step", eye_step, 0.0, 1.0)
+        bg = np.asarray(background, float)
+        if bg.shape != (3,) or not np.all(np.isfinite(bg)) or bg.min() < 0 or bg.max() > 255:
+            raise ValueError(f"background must be 3 values in [0, 255], got {list(np.ravel(bg))}"[:300])
+        self.doc = doc
+        self.depth_cue = bool(depth_cue)
+        self.background = tuple(round(x) for x in bg)
         self.record = bool(record)
         self.readback = bool(readback)
+        content = doc.scene()
+        box = _bounds(content)
+        lo, hi = box if box is not None else (np.zeros(3), np.ones(3))
+        self.size = float(np.linalg.norm(hi - lo)) or 1.0
+        #: Tree content stands on the ground disc; other content floats at :data:`HOME`.
+        self.ground = any(isinstance(c, TreeArrays) for c in content.values())
+        if scene is None and controls is None and not self.ground:
+            s = HOME_SIZE / self.size
+            scene = SceneTransform(scale=s, translation=HOME - s * 0.5 * (lo + hi))
+        if controls is None:
+            radius = None
+            if not hasattr(doc, "brush_radius"):
+                radius = min(0.03 * self.size, float(getattr(doc, "max_radius", np.inf)))
+            controls = Controls.for_document(doc, brush_radius=radius, scene=scene)
+        self.controls = controls
         self.recording: list[InputFrame] = []
         self.frame_ms: deque = deque(maxlen=100_000)
         self.frames = 0
@@ -185,9 +244,10 @@ class VRBridge:
         self._stop = threading.Event()
         self._ready = threading.Event()
         self._queue: queue.Queue = queue.Queue()
-        self._meshes: tuple | None = None   # (snapshot version, branches, markers, leaves), swapped whole
-        self._preview: tuple | None = None         # (snapshot, node indices) from the command worker
-        self._preview_mesh: tuple | None = None    # (id, polydata)
+        self.content: tuple[int, dict] | None = None   # (build id, {name: (polydata, style)}), swapped whole
+        self._preview: tuple | None = None             # (tree, node indices) from the command thread
+        self.preview: tuple | None = None              # (id, polydata) of the prune preview
+        self._hull_of: tuple | None = None             # (vertices, CoarseHull) of the depth cue
 
     # -- lifecycle -----------------------------------------------------------------------------------------
     @property
@@ -195,7 +255,7 @@ class VRBridge:
         """True while the render thread runs."""
         return any(t.is_alive() for t in self._threads[:1])
 
-    def start(self, *, timeout: float = 60.0) -> "VRBridge":
+    def start(self, *, timeout: float = 60.0) -> Headset:
         """Open headset mode: import and initialise OpenVR, then start the render, command and mesh threads.
 
         Raises
@@ -234,17 +294,20 @@ class VRBridge:
         return self
 
     def stop(self, timeout: float | None = 30.0) -> None:
-        """End headset mode: stop and join the threads, shut OpenVR down. The model keeps all work."""
+        """End headset mode: stop and join the threads, shut OpenVR down. The document keeps all work; a stroke
+        left open by a held trigger is finished (one undo item)."""
         self._stop.set()
         me = threading.current_thread()
         for t in self._threads:
             if t is not me:
                 t.join(timeout)
+        for cmd in self.controls.close_stroke():
+            self._issue(cmd)
         if self.status not in ("lost",):
             self.status = "stopped"
 
     def wait_frames(self, n: int, timeout: float = 30.0) -> int:
-        """Block until ``n`` more frames were rendered (or the bridge stopped); returns the frame count."""
+        """Block until ``n`` more frames were rendered (or the headset stopped); returns the frame count."""
         target = self.frames + n
         t_end = time.monotonic() + timeout
         while self.frames < target and self.running and time.monotonic() < t_end:
@@ -252,10 +315,26 @@ class VRBridge:
         return self.frames
 
     def wait_commands(self, timeout: float = 30.0) -> None:
-        """Block until every queued controller command has been issued on the model."""
+        """Block until every queued controller command has been issued on the document."""
         t_end = time.monotonic() + timeout
         while (self._queue.unfinished_tasks or not self._queue.empty()) and time.monotonic() < t_end:
             time.sleep(0.002)
+
+    # -- replay --------------------------------------------------------------------------------------------
+    def replay(self, frames: list[InputFrame]) -> Controls:
+        """Feed recorded frames through this headset's control map into the document, synchronously, without a
+        headset or threads: the same commands the live command thread issues (a rejected one raises
+        ``ValueError``); a stroke still open at the end is finished. Returns the controls."""
+        if isinstance(frames, InputFrame) or not all(isinstance(f, InputFrame) for f in frames):
+            raise ValueError("frames must be a list of InputFrame")
+        c = self.controls
+        for f in frames:
+            c.follow(self.doc)
+            for cmd in c.coalesce(c.update(f)):
+                issue(self.doc, cmd)
+        for cmd in c.close_stroke():
+            issue(self.doc, cmd)
+        return c
 
     # -- statistics ----------------------------------------------------------------------------------------
     def histogram(self, edges=HISTOGRAM_EDGES_MS) -> tuple[np.ndarray, np.ndarray]:
@@ -287,8 +366,7 @@ class VRBridge:
         ovr, sysm = self._openvr, self._system
         eyes = (ovr.Eye_Left, ovr.Eye_Right)
         self.eye_to_head = [hmd34_to_array(sysm.getEyeToHeadTransform(e)) for e in eyes]
-        self.projection = [hmd44_to_array(sysm.getProjectionMatrix(e, self.near, self.far))
-                           for e in (ovr.Eye_Left, ovr.Eye_Right)]
+        self.projection = [hmd44_to_array(sysm.getProjectionMatrix(e, self.near, self.far)) for e in eyes]
 
     def _controller(self, poses, role: int) -> ControllerState:
         ovr, sysm = self._openvr, self._system
@@ -299,6 +377,7 @@ class VRBridge:
         if not ok:
             return ControllerState(pose=hmd34_to_array(poses[i].mDeviceToAbsoluteTracking), valid=False)
         pressed, touched = int(st.ulButtonPressed), int(st.ulButtonTouched)
+
         def bit(button_id: int) -> int:   # openvr.h ButtonMaskFromId
             return 1 << int(button_id)
         return ControllerState(
@@ -309,24 +388,16 @@ class VRBridge:
             pad_touched=bool(touched & bit(ovr.k_EButton_SteamVR_Touchpad)),
             pad_pressed=bool(pressed & bit(ovr.k_EButton_SteamVR_Touchpad)))
 
-    def _sync_from_model(self) -> None:
-        """Adopt brush radius / prune mode when the model's value changes (a notebook widget, or our own queued
-        command landing); a headset change still in the queue is not undone by the model's older value."""
-        r, p = self.model.brush_radius, self.model.prune_mode
-        if r != self._seen_radius:
-            self._seen_radius = self.controls.brush_radius = r
-        if p != self._seen_prune:
-            self._seen_prune = self.controls.prune_mode = p
-
     def _render_loop(self) -> None:
-        from .render import StereoRenderer  # noqa: PLC0415  (VTK only on this thread)
+        from .render import StereoRenderer
         ovr = self._openvr
         renderer = None
         try:
             renderer = StereoRenderer(*self.render_size, layout=self.layout, near=self.near, far=self.far)
+            renderer.set_ground(self.ground)
             poses = (ovr.TrackedDevicePose_t * ovr.k_unMaxTrackedDeviceCount)()
             event = ovr.VREvent_t()
-            self._drawn_mesh, self._drawn_preview = None, None
+            self._drawn_content, self._drawn_preview, self._wheel_key = None, None, None
             self.status = "running"
             self._ready.set()
             while not self._stop.is_set():
@@ -343,8 +414,9 @@ class VRBridge:
                                    self._controller(poses, ovr.TrackedControllerRole_RightHand))
                 if self.record:
                     self.recording.append(frame)
-                self._sync_from_model()
-                self._enqueue(self.controls.update(frame))
+                self.controls.follow(self.doc)
+                for cmd in self.controls.update(frame):
+                    self._queue.put(cmd)
                 self._update_content(renderer)
                 self._update_overlays(renderer)
                 eyes = [self.hmd_pose @ e for e in self.eye_to_head]
@@ -367,7 +439,7 @@ class VRBridge:
             self.error = exc
             self.status = "lost"
             self._ready.set()
-            print(f"plantvr headset mode stopped: {type(exc).__name__}: {exc}. The model keeps all work; "
+            print(f"plantvr headset mode stopped: {type(exc).__name__}: {exc}. The document keeps all work; "
                   f"call start() again when the headset is back.", file=sys.stderr)
         finally:
             self._stop.set()
@@ -378,40 +450,46 @@ class VRBridge:
             except Exception as exc:  # noqa: BLE001  shutting down a lost runtime may fail too
                 warnings.warn(f"openvr.shutdown failed: {exc!r}", RuntimeWarning, stacklevel=1)
 
-    def _enqueue(self, cmds: list[Command]) -> None:
-        """Queue this frame's commands for the command thread (hook: subclasses route their own)."""
-        for cmd in cmds:
-            self._queue.put(cmd)
-
     def _update_content(self, renderer) -> None:
-        """Hand the newest prepared meshes to the renderer (hook: the render thread calls it every frame)."""
-        meshes = self._meshes
-        if meshes is not None and meshes[0] != self._drawn_mesh:
-            renderer.set_meshes(meshes[1], meshes[2], leaves=meshes[3])
-            self._drawn_mesh = meshes[0]
-        show = self.controls.prune_mode and self.controls.brush_visible
-        prev = self._preview_mesh if show else None
+        """Hand the newest prepared layers and prune preview to the renderer (every frame, render thread)."""
+        content = self.content
+        if content is not None and content[0] != self._drawn_content:
+            renderer.set_content(content[1])
+            self._drawn_content = content[0]
+        c = self.controls
+        prev = self.preview if (c.prune_mode and c.brush_visible) else None
         pid = prev[0] if prev else None
         if pid != self._drawn_preview:
-            import vtk  # noqa: PLC0415
-            renderer.set_meshes(None, None, prev[1] if prev else vtk.vtkPolyData())
+            renderer.set_preview(prev[1] if prev else None)
             self._drawn_preview = pid
 
     def _update_overlays(self, renderer) -> None:
         c = self.controls
         renderer.set_model_matrix(c.scene.matrix)
-        renderer.set_brush(c.brush_center_room, c.brush_radius * c.scene.scale, c.brush_visible, c.prune_mode)
+        colors = getattr(self.doc, "colors", None) if c.cmap.labels else None
+        rgb = None if colors is None else tuple(float(x) / 255.0 for x in colors.rgba[c.label, :3])
+        renderer.set_brush(c.brush_center_room, c.brush_radius * c.scene.scale, c.brush_visible, c.prune_mode,
+                           color=rgb)
         renderer.set_windows(c.windows)
-        right = self._prev_right()
+        right = c._prev.right if c._prev is not None else None
         if c.windows and right is not None and right.valid:
-            end = right.position + 1.5 * right.heading
-            renderer.set_ray(right.position, end)
+            renderer.set_ray(right.position, right.position + 1.5 * right.heading)
         else:
             renderer.set_ray(None, None)
-
-    def _prev_right(self) -> ControllerState | None:
-        prev = self.controls._prev
-        return prev.right if prev is not None else None
+        left = c._prev.left if c._prev is not None else None
+        if colors is None or left is None or not left.valid:
+            renderer.set_wheel(None, None)
+            return
+        from .render import WHEEL_LOCAL, WHEEL_RADIUS, wheel_mesh
+        thumb = None if c.wheel_thumb is None else (round(c.wheel_thumb[0], 2), round(c.wheel_thumb[1], 2))
+        key = (c.label, colors.visible.tobytes(), colors.rgba.tobytes(), thumb)
+        poly = None
+        if key != self._wheel_key:
+            poly = wheel_mesh(colors.rgba, colors.visible, c.label, thumb)
+            self._wheel_key = key
+        local = WHEEL_LOCAL.copy()
+        local[:3, :3] *= WHEEL_RADIUS
+        renderer.set_wheel(poly, np.asarray(left.pose, float) @ local)
 
     # -- command thread ------------------------------------------------------------------------------------
     def _command_loop(self) -> None:
@@ -427,69 +505,148 @@ class VRBridge:
                 except queue.Empty:
                     break
             try:
-                for c in self._coalesce(batch):
+                for c in self.controls.coalesce(batch):
                     self._issue(c)
             finally:
                 for _ in batch:
                     self._queue.task_done()
 
-    @staticmethod
-    def _coalesce(batch: list[Command]) -> list[Command]:
-        """Merge runs of paint stamps with one radius into a paint_stroke; keep only the last preview."""
-        out: list[Command] = []
-        last_preview = max((i for i, c in enumerate(batch) if c.name == "prune_preview"), default=-1)
-        for i, c in enumerate(batch):
-            if c.name == "prune_preview" and i != last_preview:
-                continue
-            if c.name == "paint" and out and out[-1].name in ("paint", "paint_stroke") \
-                    and out[-1].kwargs["radius"] == c.kwargs["radius"]:
-                prev = out.pop()
-                pts = [prev.kwargs["center"]] if prev.name == "paint" else list(prev.kwargs["points"])
-                out.append(Command("paint_stroke", {"points": pts + [c.kwargs["center"]],
-                                                    "radius": c.kwargs["radius"]}))
-            else:
-                out.append(c)
-        return out
-
     def _issue(self, cmd: Command) -> None:
         try:
-            snap = self.model.snapshot
-            result = apply_command(self.model, cmd)
-            if cmd.name == "prune_preview":
-                self._preview = (snap, result)
+            preview = cmd.name == self.controls.cmap.by_gesture.get("prune_half_trigger")
+            tree = self._tree() if preview else None
+            result = issue(self.doc, cmd)
+            if preview and tree is not None:
+                self._preview = (tree, result)
             self.commands_done += 1
-        except Exception as exc:  # a rejected command must not kill headset mode
+        except Exception as exc:  # noqa: BLE001  a rejected command must not kill headset mode
             self.command_errors.append((cmd, f"{type(exc).__name__}: {exc}"))
 
+    def _tree(self) -> TreeArrays | None:
+        return next((c for c in self.doc.scene().values() if isinstance(c, TreeArrays)), None)
+
     # -- mesh thread ---------------------------------------------------------------------------------------
+    def eye_model(self) -> np.ndarray:
+        """(3,) eye midpoint (head position) in model space."""
+        return self.controls.scene.to_model(np.asarray(self.hmd_pose, float)[:3, 3])
+
+    def build_layers(self, content: dict[str, Any], eye_model: np.ndarray | None = None) -> dict[str, tuple]:
+        """``{name: (vtkPolyData, style)}`` of a document's scene content (the renderer draws one actor per
+        name): tree arrays as tubes or generalized cylinders (plus ``"<name>_leaves"``), points, triangle meshes
+        (per-vertex ``colors`` through the depth cue toward :attr:`background` seen from ``eye_model``),
+        instances (the prototype copied to every transform)."""
+        import pyvista as pv
+        out: dict[str, tuple] = {}
+        for name, c in content.items():
+            if isinstance(c, TreeArrays):
+                out.update(self._tree_layers(name, c))
+            elif isinstance(c, Points):
+                xyz = np.asarray(c.xyz, float).reshape(-1, 3)
+                poly = pv.PolyData(xyz) if len(xyz) else pv.PolyData()
+                rgb = np.asarray(c.colors) if c.colors is not None else None
+                if rgb is not None and rgb.ndim == 2 and len(xyz):
+                    poly.point_data["rgb"] = np.ascontiguousarray(rgb[:, :3], np.uint8)
+                    out[name] = (poly, {"scalars": "rgb", "points": True})
+                else:
+                    col = MARKER if rgb is None else tuple(float(x) / 255.0 for x in rgb[:3])
+                    out[name] = (poly, {"color": col, "points": True})
+            elif isinstance(c, TriMesh):
+                out[name] = self._mesh_layer(c, eye_model)
+            elif isinstance(c, Instances):
+                v, f = np.asarray(c.mesh.vertices, float), np.asarray(c.mesh.faces, np.int64)
+                m = np.asarray(c.transforms, float).reshape(-1, 4, 4)
+                vs = np.einsum("kij,vj->kvi", m[:, :3, :3], v) + m[:, None, :3, 3]
+                fs = f[None] + (len(v) * np.arange(len(m)))[:, None, None]
+                out[name] = (_surface_poly(vs.reshape(-1, 3), fs.reshape(-1, 3)), {"color": BARK})
+        return out
+
+    def _tree_layers(self, name: str, tree: TreeArrays) -> dict[str, tuple]:
+        import pyvista as pv
+        style = {"color": BARK}
+        if self.mesh == "tubes" or tree.n_internodes == 0:
+            return {name: (tube_mesh(tree, self.tube_sides) if tree.n_internodes else pv.PolyData(), style)}
+        params = {**TREEWAND.defaults(), **self.doc.params}
+        snap = self.doc.latest
+        b = branch_mesh(tree, params, lod=(self.tube_sides, self.tube_sides))
+        leaf = leaf_mesh(snap.buds, params) if self.leaves and hasattr(snap, "buds") else None
+        out = {name: (_surface_poly(b.vertices, b.faces), style)}
+        if leaf is not None:
+            out[f"{name}_leaves"] = (_surface_poly(leaf.vertices, leaf.faces), {"color": (0.27, 0.55, 0.2)})
+        return out
+
+    def _mesh_layer(self, mesh: TriMesh, eye_model: np.ndarray | None) -> tuple:
+        colors = getattr(mesh, "colors", None)
+        if colors is None:
+            return _surface_poly(mesh.vertices, mesh.faces), {"color": SURFACE}
+        rgba = np.asarray(colors)
+        v = np.asarray(mesh.vertices)
+        if self.depth_cue and eye_model is not None and len(v) >= 4:
+            rgba = depth_cue_colors(rgba, v, eye_model, self._hull(v), background=self.background)
+        return _surface_poly(v, mesh.faces, rgba), {"scalars": "rgb", "cull": True}
+
+    def _hull(self, v: np.ndarray):
+        """The coarse hull of the depth cue, built once per vertex array (rebuilt when the vertices change)."""
+        ref = self._hull_of
+        step = max(1, len(v) // 4096)
+        if ref is None or ref[0].shape != v.shape or not np.array_equal(ref[0][::step], v[::step]):
+            ref = self._hull_of = (v, coarse_hull(v, n_vertices=min(274, max(5, len(v) // 4))))
+        return ref[1]
+
+    def _coloured(self, content: dict[str, Any]) -> bool:
+        return self.depth_cue and any(isinstance(c, TriMesh) and getattr(c, "colors", None) is not None
+                                      for c in content.values())
+
     def _mesh_loop(self) -> None:
-        built = None
-        built_preview = None
-        n_preview = 0
+        built, content, built_eye, n, n_preview, built_preview = None, None, None, 0, 0, None
         while not self._stop.is_set():
-            snap = self.model.snapshot
-            if snap.version != built:
-                try:
-                    self._meshes = (snap.version, *_mesh_from_snapshot(
-                        snap, self.tube_sides, self.model.params, self.leaves, self.mesh))
-                except Exception as exc:  # noqa: BLE001
-                    self.command_errors.append((Command("mesh"), repr(exc)))
-                built = snap.version
+            doc = self.doc
+            key = (doc.latest, doc.version)
+            fresh = built is None or key[0] is not built[0] or key[1] != built[1]
+            try:
+                if fresh:
+                    content = doc.scene()
+                eye = self.eye_model() if self._coloured(content) else None
+                moved = eye is not None and (built_eye is None
+                                             or np.linalg.norm(eye - built_eye) > self.eye_step * self.size)
+                if fresh or moved:
+                    layers = self.build_layers(content, eye)
+                    n += 1
+                    self.content = (n, layers)
+                    built_eye = eye
+            except Exception as exc:  # noqa: BLE001  a bad scene must not kill headset mode
+                self.command_errors.append((Command("mesh"), repr(exc)))
+            built = key
             pv = self._preview
             if pv is not None and pv is not built_preview:
                 n_preview += 1
-                self._preview_mesh = (n_preview, _preview_mesh(pv[0], pv[1], self.tube_sides))
+                self.preview = (n_preview, preview_mesh(pv[0], pv[1], self.tube_sides))
                 built_preview = pv
             self._stop.wait(0.005)
 
 
-def attach(model, **kwargs) -> VRBridge:
-    """Return the model's headset bridge, creating it on first use (``model.vr`` in the notebook).
+_HEADSETS: weakref.WeakKeyDictionary[Document, Headset] = weakref.WeakKeyDictionary()
+_HEADSETS_LOCK = threading.Lock()
 
-    The bridge is kept on the model as ``model._vr_bridge``; keyword arguments apply on creation only.
+
+def attach(doc, **kwargs) -> Headset:
+    """Return the headset of a document, creating it on first use; keyword arguments (those of
+    :class:`Headset`) apply on creation only. The headset attaches from outside: the document holds no reference
+    to it (a weak registry here maps documents to their headsets).
+
+    Examples
+    --------
+    >>> headset = plantvr.vr.attach(model)   # doctest: +SKIP
+    >>> headset.start()                       # doctest: +SKIP
     """
-    bridge = getattr(model, "_vr_bridge", None)
-    if bridge is None:
-        bridge = VRBridge(model, **kwargs)
-        model._vr_bridge = bridge
-    return bridge
+    with _HEADSETS_LOCK:
+        headset = _HEADSETS.get(doc) if isinstance(doc, Document) else None
+        if headset is None:
+            headset = Headset(doc, **kwargs)
+            _HEADSETS[doc] = headset
+        return headset
+
+
+def replay(doc, frames: list[InputFrame], controls: Controls | None = None, **kwargs) -> Controls:
+    """Replay recorded headset frames into ``doc`` without a headset, through a :class:`Headset`'s control map and
+    command path (:meth:`Headset.replay`); returns the controls. ``kwargs`` are those of :class:`Headset`."""
+    return Headset(doc, controls=controls, **kwargs).replay(frames)

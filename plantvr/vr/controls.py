@@ -1,31 +1,55 @@
-"""Headset control map: controllers in, commands out (spec 000_treewand §4.1–4.6, 000_vine §2.0–2.1, §2.4.1).
+"""Headset control map: controllers in, document commands out (spec 000_treewand §4.1–4.6, 000_vine §2.0–2.6).
 
 Device-independent: :class:`Controls` consumes one :class:`InputFrame` per rendered frame (HMD pose and a
 :class:`ControllerState` per hand, from OpenVR, a desktop emulator or a recording) and returns the
-:class:`Command` list to issue on the shared model. View manipulation (one-grip translation with
-momentum, two-grip handle bar) edits the :class:`SceneTransform` that places the model in the room, and
-never touches the model. Nothing here imports openvr or VTK, so a recorded session replays without a
-headset (:func:`replay`).
+:class:`Command` list to issue on a document: ``getattr(doc, cmd.name)(**cmd.kwargs)`` (:func:`issue`), so every
+command lands in the document's :class:`~plantvr.commandlog.CommandLog`. One gesture code serves every
+document; a :class:`ControlMap` per document kind (``CONTROL_MAPS``, keyed by command name) says which gesture
+issues which command. View manipulation (one-grip translation with momentum, two-grip handle bar) edits the
+:class:`SceneTransform` that places the document in the room and never touches the document. Nothing here
+imports openvr or VTK, so a recorded session replays without a headset (:func:`plantvr.vr.replay`).
 """
 from __future__ import annotations
 
 import json
 import math
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
 from .._validation import check_array, check_int, check_range
-from ..params import PARAM_BY_NAME
+from ..params import TREEWAND
+from ..vine.views import SavedView, load_view, save_view
 from .math3d import quat_conj, quat_from_axis_angle, quat_from_matrix, quat_mul, quat_to_matrix
 
 __all__ = [
-    "ControllerState", "InputFrame", "Command", "SceneTransform", "BrushGesture", "OneGripTranslate",
-    "handlebar_step", "smoothed_velocity", "MENU_ITEMS", "WINDOW_COLORS", "menu_item_at", "place_window",
-    "ray_hits_window", "Controls", "apply_command", "save_recording", "load_recording", "replay",
+    "CONTROL_MAPS",
+    "GESTURES",
+    "MENU_ITEMS",
+    "WINDOW_COLORS",
+    "BrushGesture",
+    "Command",
+    "ControlMap",
+    "ControllerState",
+    "Controls",
+    "InputFrame",
+    "OneGripTranslate",
+    "SceneTransform",
+    "control_map",
+    "handlebar_step",
+    "issue",
+    "load_recording",
+    "menu_item_at",
+    "place_window",
+    "ray_hits_window",
+    "save_recording",
+    "smoothed_velocity",
+    "wheel_label",
 ]
 
 TRIGGER_PREVIEW = 0.1   # [INFERRED] 000_vine §2.4.1: show the brush from ~0.1
@@ -37,7 +61,9 @@ PAD_DEAD_ZONE = 0.25    # thumb closer to the pad centre gives no reliable angle
 TIP_OFFSET = 0.05       # m from the controller origin along its -z (pointing) axis to the brush centre
 WINDOW_DISTANCE = 1.0   # m, §4.6
 WINDOW_SIZE = (0.6, 0.4)  # m (width, height) of a parameter window [INFERRED]
-RADIUS_RANGE = PARAM_BY_NAME["brush_radius"].range
+RADIUS_RANGE = TREEWAND["brush_radius"].range
+WHEEL_DEAD_ZONE = 0.15  # thumb radius below which the colour wheel keeps the last label (000_vine §2.4.1 [INFERRED])
+STAMP_SPACING = 0.1     # a stroke adds a stamp once the tip moved this fraction of the radius [INFERRED]
 
 #: The 7 menu functions, counter-clockwise from the green icon (§4.5).
 MENU_ITEMS = ("appearance", "tree_form", "light", "prune_mode", "save", "load", "new_tree")
@@ -102,7 +128,7 @@ class ControllerState:
                 "pad_pressed": bool(self.pad_pressed)}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "ControllerState":
+    def from_dict(cls, d: dict[str, Any]) -> ControllerState:
         """Inverse of :meth:`to_dict`."""
         return cls(pose=check_array("pose", d["pose"], shape=(4, 4)), valid=bool(d["valid"]),
                    trigger=float(d["trigger"]), grip=bool(d["grip"]), menu=bool(d["menu"]),
@@ -125,7 +151,7 @@ class InputFrame:
                 "left": self.left.to_dict(), "right": self.right.to_dict()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "InputFrame":
+    def from_dict(cls, d: dict[str, Any]) -> InputFrame:
         """Inverse of :meth:`to_dict`."""
         return cls(float(d["t"]), check_array("hmd", d["hmd"], shape=(4, 4)),
                    ControllerState.from_dict(d["left"]), ControllerState.from_dict(d["right"]))
@@ -133,7 +159,7 @@ class InputFrame:
 
 @dataclass(frozen=True)
 class Command:
-    """A model command the control map asks for: ``name`` is a key of :func:`apply_command`."""
+    """A document command the control map asks for: ``getattr(doc, name)(**kwargs)`` (:func:`issue`)."""
 
     name: str
     kwargs: dict[str, Any] = field(default_factory=dict)
@@ -311,7 +337,7 @@ class BrushGesture:
     r"""Thumb circles on the trackpad scale the brush: :math:`R \leftarrow R\,2^{-\Delta\phi/2\pi}`.
 
     φ is the thumb angle, counter-clockwise positive (pad y up), so one clockwise circle doubles R and one
-    counter-clockwise circle halves it; R is clamped to the ``brush_radius`` parameter range.
+    counter-clockwise circle halves it; R is clamped to ``bounds`` (default: the ``brush_radius`` parameter range).
 
     References
     ----------
@@ -322,7 +348,8 @@ class BrushGesture:
     def __init__(self) -> None:
         self._last: float | None = None
 
-    def update(self, pad: tuple[float, float], touched: bool, radius: float) -> float:
+    def update(self, pad: tuple[float, float], touched: bool, radius: float,
+               bounds: tuple[float, float] = RADIUS_RANGE) -> float:
         """Return the new radius for this frame's thumb position."""
         x, y = float(pad[0]), float(pad[1])
         if not touched or math.hypot(x, y) < PAD_DEAD_ZONE:
@@ -334,7 +361,7 @@ class BrushGesture:
             return radius
         d = (phi - self._last + math.pi) % (2 * math.pi) - math.pi
         self._last = phi
-        return float(np.clip(radius * 2.0 ** (-d / (2 * math.pi)), *RADIUS_RANGE))
+        return float(np.clip(radius * 2.0 ** (-d / (2 * math.pi)), *bounds))
 
 
 # -- menu and windows -----------------------------------------------------------------------------------
@@ -393,63 +420,289 @@ def ray_hits_window(origin, direction, window_pose, size=WINDOW_SIZE) -> tuple[f
     return (float(u), float(v)) if 0 <= u <= 1 and 0 <= v <= 1 else None
 
 
-# -- the control map -------------------------------------------------------------------------------------
-class Controls:
-    """Tree Wand control map (§4.1): turns :class:`InputFrame` s into model :class:`Command` s.
+# -- colour wheel (ViNE) ----------------------------------------------------------------------------------
+def wheel_label(pad: tuple[float, float], n_labels: int, last: int = 0) -> int:
+    """Label under the thumb on the left-pad colour wheel.
 
-    Right hand: brush on the wand (trigger: partial = preview, full = paint or prune), thumb circles
-    scale the brush. Left trackpad: the 7-item menu (hover highlights, click activates). Grips move the
-    model (one = translate with momentum, two = handle bar). A controller pointing at an open window
-    neither paints nor moves the view (§4.1).
+    ``k = floor((atan2(y, x) mod 2π) / (2π / K))`` with K = ``n_labels`` slices counter-clockwise from +x
+    (slice k is colour-table entry k, 0 = unpainted); within :data:`WHEEL_DEAD_ZONE` of the centre the
+    ``last`` label is kept. The same rule as :func:`plantvr.ui.wheel.slice_at` (which lives in a widget
+    module that imports anywidget, so the headset thread keeps this pure copy; a test asserts they agree).
 
     Parameters
     ----------
-    brush_radius : float
-        Initial brush radius, model units (mirrors ``model.brush_radius``).
-    prune_mode : bool
-        Initial mode (mirrors ``model.prune_mode``).
-    scene : SceneTransform, optional
-        Placement of the model in the room.
-    save_path : str
-        File of menu items 5 and 6 (``default.tree``, §4.5).
+    pad : (float, float)
+        Thumb position on the trackpad, [-1, 1]², y up.
+    n_labels : int
+        K, in [1, 256].
+    last : int
+        Label returned in the dead zone, in [0, K).
+
+    Returns
+    -------
+    int
+        Label in [0, K).
+
+    References
+    ----------
+    .. [1] Spec 000_vine §2.4.1 (slice index [INFERRED]); thesis §5.4.1, Fig. 5.9.
+    """
+    n_labels = check_int("n_labels", n_labels, 1, 256)
+    last = check_int("last", last, 0, n_labels - 1)
+    x = check_range("pad x", pad[0], -math.inf, math.inf)
+    y = check_range("pad y", pad[1], -math.inf, math.inf)
+    if math.hypot(x, y) < WHEEL_DEAD_ZONE:
+        return last
+    return min(int((math.atan2(y, x) % (2 * math.pi)) / (2 * math.pi / n_labels)), n_labels - 1)
+
+
+# -- control maps: which gesture issues which document command ------------------------------------------
+#: Every controller gesture a :class:`ControlMap` can bind, with the keyword arguments of its command.
+GESTURES: Mapping[str, str] = MappingProxyType({
+    "trigger": "full trigger: a brush stamp at the wand tip every frame (center, radius[, label])",
+    "trigger_run": "a run of trigger stamps of one radius, merged by the headset's command thread (points, radius)",
+    "trigger_press": "full trigger pressed: a stroke opens; its stamps follow only as the tip moves (no kwargs)",
+    "trigger_release": "trigger released, or a menu button pressed: the open stroke closes (no kwargs)",
+    "sketch_press": "full trigger pressed: a sketch stroke opens at the wand tip (point)",
+    "sketch_move": "full trigger held: the sketch brush follows the tip every frame (point, radius, dt)",
+    "sketch_release": "trigger released, or a menu button pressed: the sketch stroke closes (no kwargs)",
+    "prune_trigger": "full trigger in prune mode; again only once the tip moved a quarter radius (center, radius)",
+    "prune_half_trigger": "partial trigger in prune mode: the red preview, not logged (center, radius)",
+    "thumb_circle": "thumb circles on the right pad: one clockwise turn doubles the brush radius (brush_radius)",
+    "menu_prune_mode": "left-pad menu item 4: the brush prunes / grows (on)",
+    "menu_save": "left-pad menu item 5 (path)",
+    "menu_load": "left-pad menu item 6 (path)",
+    "menu_reset": "left-pad menu item 7 (no kwargs)",
+    "wheel_click": "left-pad click on the colour wheel: hide / show the colour under the thumb (label, visible)",
+    "right_click": "right-pad click (steps=1)",
+    "right_click_up": "right-pad click, upper half: save the current view (view); the lower half loads the next one",
+    "left_menu": "left menu button (no kwargs)",
+    "right_menu": "right menu button (no kwargs)",
+})
+
+
+@dataclass(frozen=True)
+class ControlMap:
+    """The commands one document kind gets from the headset, keyed by command name.
+
+    Parameters
+    ----------
+    kind : str
+        The document kind (``Document.KIND``).
+    commands : mapping of str to str
+        Document command (a method name) → the :data:`GESTURES` entry that issues it.
+    labels : bool
+        The left pad is the colour wheel (the active label goes into every stamp); otherwise it is the
+        7-item menu when a ``menu_*`` gesture is bound (§4.5), else unused.
     """
 
-    def __init__(self, *, brush_radius: float = 1.0, prune_mode: bool = False,
-                 scene: SceneTransform | None = None, save_path: str = "default.tree"):
-        self.brush_radius = check_range("brush_radius", brush_radius, *RADIUS_RANGE)
+    kind: str
+    commands: Mapping[str, str]
+    labels: bool = False
+
+    def __post_init__(self):
+        bad = sorted(set(self.commands.values()) - set(GESTURES))
+        if bad:
+            raise ValueError(f"commands gestures must be among {sorted(GESTURES)}, got {bad[0]!r}")
+        gestures = list(self.commands.values())
+        dup = sorted({g for g in gestures if gestures.count(g) > 1})
+        if dup:
+            raise ValueError(f"gesture {dup[0]!r} is bound to more than one command")
+        object.__setattr__(self, "commands", MappingProxyType(dict(self.commands)))
+
+    @property
+    def by_gesture(self) -> dict[str, str]:
+        """Gesture → command name."""
+        return {g: c for c, g in self.commands.items()}
+
+    @property
+    def left_pad(self) -> str:
+        """``"wheel"``, ``"menu"`` or ``"none"``."""
+        if self.labels:
+            return "wheel"
+        return "menu" if any(g.startswith("menu_") for g in self.commands.values()) else "none"
+
+
+#: The headset's commands per document kind (000_treewand §4.1, §4.5; 000_vine §2.0: the thesis leaves the
+#: undo/redo buttons open, "most plausibly the two menu buttons" [INFERRED]; right-pad click = one growth step
+#: [INFERRED]). A document kind without an entry gets undo/redo on the menu buttons (:func:`control_map`).
+CONTROL_MAPS: Mapping[str, ControlMap] = MappingProxyType({m.kind: m for m in (
+    ControlMap("treewand", {"paint": "trigger", "paint_stroke": "trigger_run", "prune": "prune_trigger",
+                            "prune_preview": "prune_half_trigger", "set_params": "thumb_circle",
+                            "set_prune_mode": "menu_prune_mode", "save": "menu_save", "restore": "menu_load",
+                            "reset": "menu_reset", "step": "right_click", "undo": "left_menu",
+                            "redo": "right_menu"}),
+    ControlMap("vine", {"begin_stroke": "trigger_press", "paint": "trigger", "end_stroke": "trigger_release",
+                        "set_visible": "wheel_click", "add_view": "right_click_up", "undo": "left_menu",
+                        "redo": "right_menu"}, labels=True),
+    ControlMap("treesketch", {"begin_stroke": "sketch_press", "move_stroke": "sketch_move",
+                              "end_stroke": "sketch_release", "set_params": "thumb_circle", "grow": "right_click",
+                              "undo": "left_menu", "redo": "right_menu"}),
+)})
+
+
+def control_map(doc) -> ControlMap:
+    """The :class:`ControlMap` of a document (by its ``KIND``); a kind without a table gets undo/redo on the
+    menu buttons when it has those commands, and view manipulation only otherwise."""
+    kind = getattr(doc, "KIND", None)
+    if kind in CONTROL_MAPS:
+        return CONTROL_MAPS[kind]
+    names = getattr(doc, "COMMANDS", ())
+    return ControlMap(str(kind), {c: g for c, g in (("undo", "left_menu"), ("redo", "right_menu")) if c in names})
+
+
+# -- the control map -------------------------------------------------------------------------------------
+class Controls:
+    """One control map for every document (§4.1, 000_vine §2.0): :class:`InputFrame` s in, :class:`Command` s out.
+
+    Right hand: brush on the wand (trigger: partial = preview, full = stamp, stroke or prune, as ``cmap`` binds
+    them), thumb circles scale the brush, pad click. Left trackpad: the 7-item menu (hover highlights, click
+    activates) or the colour wheel (touch selects the label, click hides / shows it). Menu buttons: ``cmap``'s
+    ``left_menu`` / ``right_menu`` commands (undo / redo); an open stroke is closed first. Grips move the
+    document (one = translate with momentum, two = handle bar). A controller pointing at an open window neither
+    paints nor moves the view (§4.1).
+
+    Parameters
+    ----------
+    cmap : ControlMap
+        Which gesture issues which command (default: Tree Wand's).
+    brush_radius : float
+        Initial brush radius, model units, in ``radius_range``.
+    radius_range : (float, float)
+        Bounds of the thumb-circle gesture (default: the ``brush_radius`` parameter range).
+    prune_mode : bool
+        Initial mode (mirrors the document's ``prune_mode``).
+    n_labels, label : int
+        Colour-table size and active label (colour-wheel maps).
+    scene : SceneTransform, optional
+        Placement of the document in the room.
+    save_path : str
+        File of menu items 5 and 6 (``default.tree``, §4.5).
+
+    Attributes
+    ----------
+    visible : (K,) bool ndarray or None
+        Colour visibility (:meth:`follow` points it at ``doc.colors.visible``); a hidden active label does not
+        paint (the document would refuse it, 000_vine §2.6).
+    views : list of SavedView
+        Saved views to cycle through (:meth:`follow` points it at ``doc.views``).
+    painting : bool
+        A stroke is open (trigger fully pressed).
+    """
+
+    def __init__(self, cmap: ControlMap | None = None, *, brush_radius: float = 1.0,
+                 radius_range: tuple[float, float] = RADIUS_RANGE, prune_mode: bool = False, n_labels: int = 1,
+                 label: int | None = None, scene: SceneTransform | None = None, save_path: str = "default.tree"):
+        cmap = CONTROL_MAPS["treewand"] if cmap is None else cmap
+        if not isinstance(cmap, ControlMap):
+            raise ValueError(f"cmap must be a ControlMap, got {type(cmap).__name__}")  # noqa: TRY004
+        lo = check_range("radius_range[0]", radius_range[0], 0.0, math.inf, low_open=True)
+        self.radius_range = (lo, check_range("radius_range[1]", radius_range[1], lo, math.inf))
+        self.cmap = cmap
+        self._cmd = cmap.by_gesture
+        self.brush_radius = check_range("brush_radius", brush_radius, *self.radius_range)
         self.prune_mode = bool(prune_mode)
+        self.n_labels = check_int("n_labels", n_labels, 1, 256)
+        self.label = check_int("label", min(1, self.n_labels - 1) if label is None else label, 0, self.n_labels - 1)
         self.scene = scene or SceneTransform()
         self.save_path = str(save_path)
         self.gesture = BrushGesture()
         self.translate = OneGripTranslate()
         self.windows: dict[str, np.ndarray] = {}     # open windows: name -> pose
         self.menu_hover: int | None = None
+        self.wheel_thumb: tuple[float, float] | None = None
         self.pointing: tuple[str, tuple[float, float]] | None = None
         self.brush_visible = False
         self.brush_center_room = np.zeros(3)
+        self.visible: np.ndarray | None = None
+        self.views: list[SavedView] = []
+        self.view_index = -1
+        self.painting = False
         self._prev: InputFrame | None = None
         self._grip_mode = 0            # 0, 1 (which hand in _grip_hand) or 2
         self._grip_hand = "right"
         self._last_prune: np.ndarray | None = None
+        self._last_stamp: tuple | None = None
+        self._seen: dict[str, Any] = {}
+
+    @classmethod
+    def for_document(cls, doc, *, brush_radius: float | None = None, **kwargs: Any) -> Controls:
+        """Controls with the document's control map (:func:`control_map`) and settings: brush radius and prune
+        mode from its traits, the radius range from its parameter table (or ``doc.max_radius``), the colour
+        table size."""
+        cmap = control_map(doc)
+        table = getattr(doc, "PARAMS", None)
+        if table is not None and "brush_radius" in table:
+            kwargs.setdefault("radius_range", table["brush_radius"].range)
+        elif getattr(doc, "max_radius", None) is not None:
+            kwargs.setdefault("radius_range", (1e-6 * float(doc.max_radius), float(doc.max_radius)))
+        if brush_radius is None:
+            brush_radius = getattr(doc, "brush_radius", None)
+        if brush_radius is not None:
+            lo, hi = kwargs.get("radius_range", RADIUS_RANGE)
+            kwargs["brush_radius"] = float(np.clip(brush_radius, lo, hi))
+        if hasattr(doc, "prune_mode"):
+            kwargs.setdefault("prune_mode", bool(doc.prune_mode))
+        if cmap.labels and getattr(doc, "colors", None) is not None:
+            kwargs.setdefault("n_labels", len(doc.colors))
+        controls = cls(cmap, **kwargs)
+        controls.follow(doc)
+        return controls
 
     @property
     def brush_center(self) -> np.ndarray:
         """(3,) brush centre in model space."""
         return self.scene.to_model(self.brush_center_room)
 
+    @property
+    def hidden(self) -> bool:
+        """The active label is hidden (it does not paint)."""
+        return (self.cmap.labels and self.visible is not None and self.label < len(self.visible)
+                and not self.visible[self.label])
+
+    def follow(self, doc) -> None:
+        """Adopt what changed in the document since the last call (a notebook widget, or one of our own queued
+        commands landing): brush radius and prune mode when the map binds them, the colour table's size and
+        visibility, the saved views. A headset change still queued is not undone by the document's older value;
+        values the controls were built with stay until the document's change."""
+        names = []
+        if self._cmd.get("thumb_circle") == "set_params":
+            names.append("brush_radius")
+        if "menu_prune_mode" in self._cmd:
+            names.append("prune_mode")
+        for name in names:
+            if hasattr(doc, name):
+                v = getattr(doc, name)
+                if name in self._seen and v != self._seen[name]:
+                    setattr(self, name, v)
+                self._seen[name] = v
+        colors = getattr(doc, "colors", None) if self.cmap.labels else None
+        if colors is not None:
+            self.visible = colors.visible
+            self.n_labels = len(colors)
+            self.label = min(self.label, self.n_labels - 1)
+        views = getattr(doc, "views", None)
+        if isinstance(views, list):
+            self.views = views
+
     def update(self, frame: InputFrame) -> list[Command]:
-        """Advance one frame; return the commands to issue on the model, in order."""
-        prev = self._prev or frame
+        """Advance one frame; return the commands to issue on the document, in order."""
+        prev = self._prev or InputFrame(frame.t, frame.hmd)   # first frame: every button counts as a press
         dt = max(frame.t - prev.t, 0.0)
         cmds: list[Command] = []
-        self._menu(frame.left, prev.left, cmds)
+        pad = self.cmap.left_pad
+        if pad == "menu":
+            self._menu(frame.left, prev.left, cmds)
+        elif pad == "wheel":
+            self._wheel(frame.left, prev.left, cmds)
+        self._buttons(frame, prev, cmds)
         self._pointing(frame.right)
         self._view(frame, prev, dt)
-        self._brush(frame.right, cmds)
+        self._brush(frame.right, dt, cmds)
         self._prev = frame
         return cmds
 
-    # - menu (left pad)
+    # - left pad: menu
     def _menu(self, cur: ControllerState, old: ControllerState, cmds: list[Command]) -> None:
         self.menu_hover = menu_item_at(cur.pad) if cur.pad_touched else None
         if cur.pad_pressed and not old.pad_pressed and self.menu_hover is not None:
@@ -467,16 +720,76 @@ class Controls:
             else:
                 src = pose if pose is not None else (self._prev.right.pose if self._prev else np.eye(4))
                 self.windows[name] = place_window(np.asarray(src, float))
-        elif name == "prune_mode":
+            return cmds
+        gesture = {"prune_mode": "menu_prune_mode", "save": "menu_save", "load": "menu_load"}.get(name, "menu_reset")
+        command = self._cmd.get(gesture)
+        if command is None:
+            return cmds
+        if gesture == "menu_prune_mode":
             self.prune_mode = not self.prune_mode
-            cmds.append(Command("prune_mode", {"on": self.prune_mode}))
-        elif name == "save":
-            cmds.append(Command("save", {"path": self.save_path}))
-        elif name == "load":
-            cmds.append(Command("load", {"path": self.save_path}))
+            cmds.append(Command(command, {"on": self.prune_mode}))
+        elif gesture in ("menu_save", "menu_load"):
+            cmds.append(Command(command, {"path": self.save_path}))
         else:
-            cmds.append(Command("reset"))
+            cmds.append(Command(command))
         return cmds
+
+    # - left pad: colour wheel and hide/show
+    def _wheel(self, cur: ControllerState, old: ControllerState, cmds: list[Command]) -> None:
+        self.wheel_thumb = cur.pad if (cur.pad_touched and cur.valid) else None
+        if self.wheel_thumb is None:
+            return
+        self.label = wheel_label(cur.pad, self.n_labels, self.label)
+        command = self._cmd.get("wheel_click")
+        if command is not None and cur.pad_pressed and not old.pad_pressed:
+            shown = True if self.visible is None or self.label >= len(self.visible) else bool(self.visible[self.label])
+            cmds.append(Command(command, {"label": self.label, "visible": not shown}))
+
+    # - menu buttons; right pad click
+    def _buttons(self, f: InputFrame, p: InputFrame, cmds: list[Command]) -> None:
+        for pressed, was, gesture in ((f.left.menu, p.left.menu, "left_menu"),
+                                      (f.right.menu, p.right.menu, "right_menu")):
+            if pressed and not was and gesture in self._cmd:
+                cmds.extend(self.close_stroke())          # 000_vine §2.5 [INFERRED]: finish the operation first
+                cmds.append(Command(self._cmd[gesture]))
+        r = f.right
+        if not (r.valid and r.pad_pressed and not p.right.pad_pressed):
+            return
+        if "right_click" in self._cmd:
+            cmds.append(Command(self._cmd["right_click"], {"steps": 1}))
+        elif "right_click_up" in self._cmd:
+            if r.pad[1] >= 0.0:
+                view = self.current_view(f.hmd)
+                if view is not None:
+                    cmds.append(Command(self._cmd["right_click_up"], {"view": view}))
+            else:
+                self.next_view(f.hmd)
+
+    def current_view(self, hmd: np.ndarray) -> SavedView | None:
+        """The placement relative to the head's horizontal facing (000_vine §2.3); ``None`` if looking straight
+        up or down (no horizontal facing)."""
+        hmd = np.asarray(hmd, float)
+        try:
+            return save_view(self.scene.translation, self.scene.rotation, self.scene.scale,
+                             viewer_position=hmd[:3, 3], view_dir=-hmd[:3, 2])
+        except ValueError:
+            return None
+
+    def next_view(self, hmd: np.ndarray) -> int | None:
+        """Place the document at the next saved view for the current head (000_vine §2.3 load); returns its
+        number."""
+        if not self.views:
+            return None
+        hmd = np.asarray(hmd, float)
+        k = (self.view_index + 1) % len(self.views)
+        try:
+            pos, rot, scale = load_view(self.views[k], viewer_position=hmd[:3, 3], view_dir=-hmd[:3, 2])
+        except ValueError:
+            return None
+        self.scene.translation, self.scene.rotation, self.scene.scale = pos, rot, float(scale)
+        self.translate.velocity = np.zeros(3)
+        self.view_index = k
+        return k
 
     # - windows: pointing ray of the right hand
     def _pointing(self, right: ControllerState) -> None:
@@ -519,63 +832,105 @@ class Controls:
         self._grip_mode, self._grip_hand = mode, hand
 
     # - brush (right hand)
-    def _brush(self, right: ControllerState, cmds: list[Command]) -> None:
-        new_r = self.gesture.update(right.pad, right.pad_touched and right.valid, self.brush_radius)
+    def _brush(self, right: ControllerState, dt: float, cmds: list[Command]) -> None:
+        touched = right.pad_touched and right.valid and not right.pad_pressed
+        new_r = self.gesture.update(right.pad, touched, self.brush_radius, self.radius_range)
         if new_r != self.brush_radius:
             self.brush_radius = new_r
-            cmds.append(Command("brush_radius", {"radius": new_r}))
+            if "thumb_circle" in self._cmd:
+                cmds.append(Command(self._cmd["thumb_circle"], {"brush_radius": new_r}))
         self.brush_center_room = right.tip
         self.brush_visible = right.valid and right.trigger >= TRIGGER_PREVIEW and self.pointing is None
         if not self.brush_visible:
             self._last_prune = None
+            cmds.extend(self.close_stroke())
             return
         c = self.brush_center
-        if right.trigger >= TRIGGER_FULL:
-            if not self.prune_mode:
-                cmds.append(Command("paint", {"center": c, "radius": self.brush_radius}))
+        if self.prune_mode and "prune_trigger" in self._cmd:
+            if right.trigger < TRIGGER_FULL:
+                self._last_prune = None
+                if "prune_half_trigger" in self._cmd:
+                    cmds.append(Command(self._cmd["prune_half_trigger"], {"center": c, "radius": self.brush_radius}))
             elif self._last_prune is None or np.linalg.norm(c - self._last_prune) > 0.25 * self.brush_radius:
-                cmds.append(Command("prune", {"center": c, "radius": self.brush_radius}))
+                cmds.append(Command(self._cmd["prune_trigger"], {"center": c, "radius": self.brush_radius}))
                 self._last_prune = c
-        else:
-            self._last_prune = None
-            if self.prune_mode:
-                cmds.append(Command("prune_preview", {"center": c, "radius": self.brush_radius}))
+            return
+        if right.trigger < TRIGGER_FULL or self.hidden:
+            cmds.extend(self.close_stroke())
+            return
+        self._stamp(c, dt, cmds)
+
+    def _stamp(self, c: np.ndarray, dt: float, cmds: list[Command]) -> None:
+        if "sketch_press" in self._cmd:
+            if not self.painting:
+                self.painting = True
+                cmds.append(Command(self._cmd["sketch_press"], {"point": c}))
+            elif "sketch_move" in self._cmd:
+                cmds.append(Command(self._cmd["sketch_move"], {"point": c, "radius": self.brush_radius, "dt": dt}))
+            return
+        kw = {"center": c, "radius": self.brush_radius}
+        if self.cmap.labels:
+            kw["label"] = self.label
+        if "trigger_press" not in self._cmd:
+            if "trigger" in self._cmd:
+                cmds.append(Command(self._cmd["trigger"], kw))
+            return
+        if not self.painting:
+            if "trigger_press" in self._cmd:
+                cmds.append(Command(self._cmd["trigger_press"]))
+            self.painting = True
+            self._last_stamp = None
+        elif self._last_stamp is not None and self._last_stamp[1:] == (self.brush_radius, self.label) \
+                and np.linalg.norm(c - self._last_stamp[0]) <= STAMP_SPACING * self.brush_radius:
+            return   # a wand held still adds nothing to the stroke: do not queue work for the worker
+        self._last_stamp = (c, self.brush_radius, self.label)
+        if "trigger" in self._cmd:
+            cmds.append(Command(self._cmd["trigger"], kw))
+
+    def close_stroke(self) -> list[Command]:
+        """Close an open stroke: the command that finishes it (``trigger_release`` / ``sketch_release``); empty
+        when no stroke is open."""
+        if not self.painting:
+            return []
+        self.painting = False
+        release = self._cmd.get("trigger_release", self._cmd.get("sketch_release"))
+        return [Command(release)] if release is not None else []
+
+    def coalesce(self, batch: list[Command]) -> list[Command]:
+        """Merge runs of ``trigger`` stamps with one radius into the map's ``trigger_run`` command (a paint
+        stroke) and keep only the last ``prune_half_trigger`` preview; other maps pass the batch unchanged."""
+        stamp, run = self._cmd.get("trigger"), self._cmd.get("trigger_run")
+        preview = self._cmd.get("prune_half_trigger")
+        out: list[Command] = []
+        last_preview = max((i for i, c in enumerate(batch) if c.name == preview), default=-1)
+        for i, c in enumerate(batch):
+            if preview is not None and c.name == preview and i != last_preview:
+                continue
+            if run is not None and c.name == stamp and out and out[-1].name in (stamp, run) \
+                    and out[-1].kwargs["radius"] == c.kwargs["radius"]:
+                prev = out.pop()
+                pts = [prev.kwargs["center"]] if prev.name == stamp else list(prev.kwargs["points"])
+                out.append(Command(run, {"points": pts + [c.kwargs["center"]], "radius": c.kwargs["radius"]}))
+            else:
+                out.append(c)
+        return out
 
 
-def apply_command(model, cmd: Command) -> Any:
-    """Issue ``cmd`` through the same model method the notebook uses (commands are logged there).
-
-    ``paint`` → :meth:`Model.paint`, ``paint_stroke`` → :meth:`Model.paint_stroke`, ``prune`` →
-    :meth:`Model.prune`, ``prune_preview`` → :meth:`Model.prune_preview` (its result returned),
-    ``brush_radius`` → ``set_params(brush_radius=...)``, ``prune_mode`` → the ``prune_mode`` trait,
-    ``save``/``load`` → :meth:`Model.save`/:meth:`Model.restore`, ``reset`` → :meth:`Model.reset`.
-    """
-    k = cmd.kwargs
-    if cmd.name == "paint":
-        return model.paint(k["center"], k["radius"])
-    if cmd.name == "paint_stroke":
-        return model.paint_stroke(k["points"], k["radius"])
-    if cmd.name == "prune":
-        return model.prune(k["center"], k["radius"])
-    if cmd.name == "prune_preview":
-        return model.prune_preview(k["center"], k["radius"])
-    if cmd.name == "brush_radius":
-        return model.set_params(brush_radius=k["radius"])
-    if cmd.name == "prune_mode":
-        model.set_prune_mode(bool(k["on"]))
-        return None
-    if cmd.name == "save":
-        return model.save(k["path"])
-    if cmd.name == "load":
-        return model.restore(k["path"])
-    if cmd.name == "reset":
-        return model.reset()
-    raise ValueError(f"command must be one of paint, paint_stroke, prune, prune_preview, brush_radius, "
-                     f"prune_mode, save, load, reset; got {cmd.name!r}")
+def issue(doc, cmd: Command) -> Any:
+    """Issue ``cmd`` on ``doc`` through the method of the same name, as notebook code does
+    (``getattr(doc, cmd.name)(**cmd.kwargs)``): a replayable command lands in ``doc.log``. A name the document
+    does not have raises ``ValueError``."""
+    if not isinstance(cmd, Command):
+        raise ValueError(f"cmd must be a Command, got {type(cmd).__name__}")  # noqa: TRY004
+    fn = getattr(doc, cmd.name, None) if not cmd.name.startswith("_") else None
+    if not callable(fn):
+        names = [c for c in control_map(doc).commands if callable(getattr(doc, c, None))]
+        raise ValueError(f"command must be one of {names} ({type(doc).__name__}), got {cmd.name!r}"[:300])  # noqa: TRY004
+    return fn(**cmd.kwargs)
 
 
 def save_recording(frames: list[InputFrame], path: str | Path) -> Path:
-    """Write headset input frames as JSON lines (replay them with :func:`replay`)."""
+    """Write headset input frames as JSON lines (replay them with :func:`plantvr.vr.replay`)."""
     from .._fileio import write_atomic
 
     path = Path(path)
@@ -656,12 +1011,3 @@ def load_recording(path: str | Path) -> list[InputFrame]:
 
 def _no_constant(name: str):
     raise ValueError(f"{name} is not a finite number")
-
-
-def replay(model, frames: list[InputFrame], controls: Controls | None = None) -> Controls:
-    """Feed recorded frames through a :class:`Controls` into ``model``, synchronously, without a headset."""
-    controls = controls or Controls(brush_radius=model.brush_radius, prune_mode=model.prune_mode)
-    for f in frames:
-        for cmd in controls.update(f):
-            apply_command(model, cmd)
-    return controls

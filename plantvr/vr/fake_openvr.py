@@ -18,11 +18,11 @@ import sys
 import threading
 import time
 import types
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
-__all__ = ["install", "uninstall", "runtime", "FakeRuntime", "make_module"]
+__all__ = ["FakeRuntime", "install", "make_module", "runtime", "uninstall"]
 
 # -- constants (values as in openvr.h / pyopenvr) ----------------------------------------------------------
 VRApplication_Scene = 1
@@ -205,7 +205,7 @@ class FakeRuntime:
         self.ipd = 0.064
         self.frame_period = 0.0
         self.frame = 0
-        self.on_frame: Callable[[int, "FakeRuntime"], None] | None = None
+        self.on_frame: Callable[[int, FakeRuntime], None] | None = None
         self.fail_at_frame: int | None = None
         self.quit_at_frame: int | None = None
         self.hmd_pose = pose_matrix((0.0, 1.6, 0.0))

@@ -8,8 +8,16 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "quat_mul", "quat_conj", "quat_rotate", "quat_from_axis_angle", "quat_from_matrix", "quat_to_matrix",
-    "hmd34_to_array", "hmd44_to_array", "similarity", "gl_projection",
+    "gl_projection",
+    "hmd34_to_array",
+    "hmd44_to_array",
+    "quat_conj",
+    "quat_from_axis_angle",
+    "quat_from_matrix",
+    "quat_mul",
+    "quat_rotate",
+    "quat_to_matrix",
+    "similarity",
 ]
 
 _EPS = 1e-12

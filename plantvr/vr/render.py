@@ -1,4 +1,4 @@
-"""Offscreen stereo rendering of model snapshots with VTK (spec 000_vine §4.5, 000_treewand §4.10).
+"""Offscreen stereo rendering of a document's content layers with VTK (spec 000_vine §4.5, 000_treewand §4.10).
 
 Two layouts, measured in ``benchmarks/vr_stereo.py``:
 
@@ -8,8 +8,9 @@ Two layouts, measured in ``benchmarks/vr_stereo.py``:
 * ``"pair"``: one window (GL context) per eye, each with its own mappers over the same meshes.
 
 Each eye's camera is the HMD pose times OpenVR's eye-to-head transform, with OpenVR's projection
-(x/y rows) and an OpenGL depth row (:func:`~plantvr.vr.math3d.gl_projection`). The model's placement in
-the room is the actors' user matrix, so view manipulation never rebuilds a mesh.
+(x/y rows) and an OpenGL depth row (:func:`~plantvr.vr.math3d.gl_projection`). Content comes as named layers
+(:meth:`StereoRenderer.set_content`, one actor per name); the document's placement in the room is the actors'
+user matrix, so view manipulation never rebuilds a mesh.
 """
 from __future__ import annotations
 
@@ -17,18 +18,17 @@ import os
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
-import numpy as np  # noqa: E402
-import vtk  # noqa: E402
-from vtk.util.numpy_support import vtk_to_numpy  # noqa: E402
+import numpy as np
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
 
-from .._validation import check_choice, check_int, check_range  # noqa: E402
-from .math3d import gl_projection  # noqa: E402
+from .._validation import check_choice, check_int, check_range
+from .math3d import gl_projection
 
-__all__ = ["StereoRenderer", "LAYOUTS"]
+__all__ = ["LAYOUTS", "WHEEL_LOCAL", "WHEEL_RADIUS", "StereoRenderer", "wheel_mesh"]
 
 LAYOUTS = ("side", "pair")
-LEAF = (0.27, 0.55, 0.2)
-BARK, MARKER, GROW, PRUNE = (0.545, 0.353, 0.169), (0.96, 0.82, 0.26), (0.18, 0.8, 0.25), (0.88, 0.19, 0.19)
+GROW, PRUNE = (0.18, 0.8, 0.25), (0.88, 0.19, 0.19)
 _WINDOW_RGB = {"appearance": (0.18, 0.8, 0.25), "tree_form": (0.88, 0.19, 0.19), "light": (0.19, 0.38, 0.88)}
 
 
@@ -42,16 +42,13 @@ def _vtk_matrix(a: np.ndarray, out: vtk.vtkMatrix4x4 | None = None) -> vtk.vtkMa
 
 
 class _Scene:
-    """The actors of one GL context: branches, prune preview, markers, ground, brush, ray, windows."""
+    """The actors of one GL context: content layers, prune preview, ground, brush, ray, windows, colour wheel."""
 
     def __init__(self) -> None:
         self.model_matrix = vtk.vtkMatrix4x4()
-        self.branches = self._actor(vtk.vtkPolyData(), BARK, model=True)
+        self.content: dict[str, vtk.vtkActor] = {}
+        self.renderers: list[vtk.vtkRenderer] = []
         self.preview = self._actor(vtk.vtkPolyData(), PRUNE, model=True)
-        self.leaves = self._actor(vtk.vtkPolyData(), LEAF, model=True)
-        self.markers = self._actor(vtk.vtkPolyData(), MARKER, model=True)
-        self.markers.GetProperty().SetPointSize(3)
-        self.markers.GetProperty().SetLighting(False)
         disc = vtk.vtkRegularPolygonSource()
         disc.SetNumberOfSides(48)
         disc.SetRadius(8.0)
@@ -86,15 +83,12 @@ class _Scene:
             a.GetProperty().SetOpacity(0.85)
             a.SetVisibility(False)
             self.windows[name] = (a, m)
-        self.surface = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0), model=True)   # ViNE mesh
-        self.surface.SetVisibility(False)
         self.wheel_matrix = vtk.vtkMatrix4x4()                                      # ViNE colour wheel
         self.wheel = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0))
         self.wheel.SetUserMatrix(self.wheel_matrix)
         self.wheel.SetVisibility(False)
         self.wheel.GetProperty().SetLighting(False)
-        self.actors = [self.ground, self.surface, self.wheel, self.branches, self.leaves, self.preview, self.markers, self.brush,
-                       self.ray,
+        self.actors = [self.ground, self.wheel, self.preview, self.brush, self.ray,
                        *(a for a, _ in self.windows.values())]
         self.ray.SetVisibility(False)
         self.brush.SetVisibility(False)
@@ -111,9 +105,18 @@ class _Scene:
             a.SetUserMatrix(self.model_matrix)
         return a
 
+    def layer(self, name: str) -> vtk.vtkActor:
+        """The content actor of ``name``, created (and added to this context's renderers) on first use."""
+        actor = self.content.get(name)
+        if actor is None:
+            actor = self.content[name] = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0), model=True)
+            for ren in self.renderers:
+                ren.AddActor(actor)
+        return actor
+
 
 class StereoRenderer:
-    """Offscreen two-eye renderer of the tree, markers, brush, pointing ray and parameter windows.
+    """Offscreen two-eye renderer of content layers, brush, pointing ray, parameter windows and colour wheel.
 
     Create, use and close it on one thread (the bridge's render thread): a GL context is bound to it.
 
@@ -154,6 +157,7 @@ class StereoRenderer:
                 ren.GradientBackgroundOn()
                 for a in scene.actors:
                     ren.AddActor(a)
+                scene.renderers.append(ren)
                 cam = ren.GetActiveCamera()
                 cam.SetUseExplicitProjectionTransformMatrix(True)
                 rw.AddRenderer(ren)
@@ -163,37 +167,42 @@ class StereoRenderer:
         self._mesh_version = None
 
     # -- content -------------------------------------------------------------------------------------------
-    def set_meshes(self, branches: vtk.vtkPolyData | None, markers: vtk.vtkPolyData | None,
-                   preview: vtk.vtkPolyData | None = None, leaves: vtk.vtkPolyData | None = None) -> None:
-        """Show new branch/marker/preview/leaf meshes (``None`` keeps the current one); uploaded on render."""
+    def set_content(self, layers: dict[str, tuple]) -> None:
+        """Show content layers ``{name: (vtkPolyData, style)}`` in model space, one actor per name (names not
+        given are hidden); uploaded on render. ``style`` keys: ``color`` (RGB in [0, 1]), ``scalars`` (a uint8
+        RGB(A) point array drawn as direct colours), ``points`` (draw vertices, unlit), ``cull`` (back faces)."""
         for s in self.scenes:
-            for actor, poly in ((s.branches, branches), (s.markers, markers), (s.preview, preview),
-                                (s.leaves, leaves)):
-                if poly is not None:
-                    actor.GetMapper().SetInputData(poly)
-                    actor.SetVisibility(poly.GetNumberOfPoints() > 0)
+            for name, actor in s.content.items():
+                if name not in layers:
+                    actor.SetVisibility(False)
+            for name, (poly, style) in layers.items():
+                actor = s.layer(name)
+                mapper = actor.GetMapper()
+                mapper.SetInputData(poly)
+                prop = actor.GetProperty()
+                scalars = style.get("scalars")
+                if scalars is not None:
+                    mapper.SetScalarModeToUsePointFieldData()
+                    mapper.SelectColorArray(scalars)
+                    mapper.SetColorModeToDirectScalars()
+                    mapper.ScalarVisibilityOn()
+                else:
+                    mapper.ScalarVisibilityOff()
+                    prop.SetColor(*style.get("color", (1.0, 1.0, 1.0)))
+                if style.get("points"):
+                    prop.SetRepresentationToPoints()
+                    prop.SetPointSize(3)
+                    prop.SetLighting(False)
+                if style.get("cull"):
+                    prop.BackfaceCullingOn()     # 000_vine §4.5
+                actor.SetVisibility(poly.GetNumberOfPoints() > 0)
 
-    def set_surface(self, poly: vtk.vtkPolyData | None, *, scalars: str | None = "rgb") -> None:
-        """Show a coloured surface (ViNE segmentation mesh or its proxy) in model space; ``None`` hides it.
-
-        ``scalars`` names a uint8 RGB(A) point array drawn as direct colours (no lookup table).
-        """
+    def set_preview(self, poly: vtk.vtkPolyData | None) -> None:
+        """Show the red prune preview (§4.4 partial trigger) in model space; ``None`` hides it."""
         for s in self.scenes:
-            actor = s.surface
-            if poly is None:
-                actor.SetVisibility(False)
-                continue
-            mapper = actor.GetMapper()
-            mapper.SetInputData(poly)
-            if scalars is not None:
-                mapper.SetScalarModeToUsePointFieldData()
-                mapper.SelectColorArray(scalars)
-                mapper.SetColorModeToDirectScalars()
-                mapper.ScalarVisibilityOn()
-            else:
-                mapper.ScalarVisibilityOff()
-            actor.GetProperty().BackfaceCullingOn()     # 000_vine §4.5
-            actor.SetVisibility(poly.GetNumberOfPoints() > 0)
+            if poly is not None:
+                s.preview.GetMapper().SetInputData(poly)
+            s.preview.SetVisibility(poly is not None and poly.GetNumberOfPoints() > 0)
 
     def set_wheel(self, poly: vtk.vtkPolyData | None, pose: np.ndarray | None = None) -> None:
         """Show a colour-wheel mesh (uint8 ``rgb`` cell array) at a room pose (the left controller's pad,
@@ -294,3 +303,56 @@ class StereoRenderer:
         for rw in self.windows:
             rw.Finalize()
         self.windows, self.renderers, self.scenes = [], [], []
+
+
+#: Wheel radius over the left trackpad (m): 1.5x a Vive pad of ~2 cm radius (000_vine §2.4.1).
+WHEEL_RADIUS = 0.03
+#: Wheel plane in the controller frame: pad x → x, pad y → −z (forward), normal → +y, pad centre offset.
+WHEEL_LOCAL = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0.012], [0, -1.0, 0, 0.05], [0, 0, 0, 1.0]])
+
+
+def wheel_mesh(rgba: np.ndarray, visible: np.ndarray, selected: int, thumb: tuple[float, float] | None = None,
+               *, segments: int = 6):
+    """Colour-wheel polydata on the unit disc (000_vine §2.4.1, Fig. 5.9; §2.6, Fig. 5.11).
+
+    Slice k (counter-clockwise from +x, as :func:`~plantvr.vr.controls.wheel_label`) has colour k;
+    the selected slice is extruded (+z), hidden colours are drawn darkened with a light radial line
+    through the slice, and a small dark disc marks the thumb. Cell array ``rgb`` (uint8).
+    """
+    import pyvista as pv
+    k = len(rgba)
+    pts, tris, cols = [], [], []
+
+    def fan(a0, a1, r0, r1, z, rgb):
+        base = len(pts)
+        angs = np.linspace(a0, a1, segments + 1)
+        for a in angs:
+            pts.append((r0 * np.cos(a), r0 * np.sin(a), z))
+            pts.append((r1 * np.cos(a), r1 * np.sin(a), z))
+        for i in range(segments):
+            q = base + 2 * i
+            tris.extend([(q, q + 1, q + 3), (q, q + 3, q + 2)])
+            cols.extend([rgb, rgb])
+
+    step = 2 * np.pi / k
+    for i in range(k):
+        rgb = np.asarray(rgba[i, :3], float)
+        z = 0.15 if i == selected else 0.0
+        if not visible[i]:
+            fan(i * step, (i + 1) * step, 0.0, 1.0, z, 0.3 * rgb)
+            mid = (i + 0.5) * step
+            fan(mid - 0.04, mid + 0.04, 0.2, 0.95, z + 0.01, (230.0, 230.0, 230.0))   # radial line
+        else:
+            fan(i * step, (i + 1) * step, 0.0, 1.0, z, rgb)
+    if thumb is not None:
+        x, y = float(thumb[0]), float(thumb[1])
+        base = len(pts)
+        pts.append((x, y, 0.25))
+        for a in np.linspace(0, 2 * np.pi, 9)[:-1]:
+            pts.append((x + 0.07 * np.cos(a), y + 0.07 * np.sin(a), 0.25))
+        for j in range(8):
+            tris.append((base, base + 1 + j, base + 1 + (j + 1) % 8))
+            cols.append((20.0, 20.0, 20.0))
+    poly = pv.PolyData.from_regular_faces(np.asarray(pts, np.float32), np.asarray(tris, np.int64))
+    poly.cell_data["rgb"] = np.clip(np.rint(cols), 0, 255).astype(np.uint8)
+    return poly

@@ -1,4 +1,5 @@
-"""The OpenVR bridge against the fake runtime: lifecycle, errors, stereo submission, controls, threads."""
+"""The headset bridge on a Tree Wand Model against the fake runtime: lifecycle, errors, stereo submission, controls,
+threads."""
 import sys
 import threading
 import time
@@ -14,7 +15,7 @@ from plantvr.vr.fake_openvr import pose_matrix
 def test_start_without_openvr_package_says_what_to_install(model, monkeypatch):
     fake_openvr.uninstall()
     monkeypatch.setitem(sys.modules, "openvr", None)        # import openvr -> ImportError
-    bridge = vr.VRBridge(model)
+    bridge = vr.Headset(model)
     with pytest.raises(RuntimeError, match=r"'openvr' Python package.*pip install plantvr\[vr\].*SteamVR"):
         bridge.start()
     assert not bridge.running
@@ -24,10 +25,10 @@ def test_start_without_runtime_reports_path_registry_and_steamvr(model, fake):
     fake.installed = False
     with pytest.raises(RuntimeError,
                        match=r"no OpenVR runtime.*PathRegistryNotFound.*install Steam and SteamVR"):
-        vr.VRBridge(model).start()
+        vr.Headset(model).start()
     fake.installed, fake.hmd_present = True, False
     with pytest.raises(RuntimeError, match="no headset found"):
-        vr.VRBridge(model).start()
+        vr.Headset(model).start()
     assert fake.init_count == 0
 
 
@@ -53,12 +54,12 @@ def test_lifecycle_both_eyes_every_frame_matching_sizes(model, fake):
     assert counts.sum() == len(bridge.frame_ms) == bridge.frames
     assert "ms" in bridge.histogram_text() and bridge.stats()["frames"] == bridge.frames
     assert bridge.command_errors == []
-    version, branches, markers, _ = bridge._meshes
-    assert version == model.snapshot.version and branches.n_points > 0 and markers.n_points == model.n_markers
+    layers = bridge.content[1]
+    assert layers["tree"][0].n_points > 0 and layers["markers"][0].n_points == model.n_markers
 
 
 def test_pair_layout_submits_a_texture_per_eye(model, fake):
-    bridge = vr.VRBridge(model, layout="pair", readback=True)
+    bridge = vr.Headset(model, layout="pair", readback=True)
     bridge.start()
     bridge.wait_frames(2)
     bridge.stop()
@@ -69,7 +70,7 @@ def test_pair_layout_submits_a_texture_per_eye(model, fake):
 
 
 def test_head_pose_moves_the_view(model, fake):
-    bridge = vr.VRBridge(model, readback=True)
+    bridge = vr.Headset(model, readback=True)
     bridge.start()
     bridge.wait_frames(2)
     before = bridge.last_images[0].copy()
@@ -82,8 +83,8 @@ def test_head_pose_moves_the_view(model, fake):
 
 
 def test_controller_trigger_paints_through_the_model(model, fake):
-    bridge = vr.VRBridge(model)
-    n0, e0 = model.n_markers, len(model.events)
+    bridge = vr.Headset(model)
+    n0, e0 = model.n_markers, len(model.log)
     fake.right.pose = pose_matrix((0.0, 0.8, -0.9))
     bridge.start()
     bridge.wait_frames(2)
@@ -94,7 +95,7 @@ def test_controller_trigger_paints_through_the_model(model, fake):
     bridge.wait_commands()
     bridge.stop()
     assert model.n_markers > n0
-    new = [e.command for e in model.events.events[e0:]]
+    new = [e.command for e in model.log.events[e0:]]
     assert set(new) <= {"paint", "paint_stroke"} and new
     centre = bridge.controls.scene.to_model(fake.right.pose[:3, 3] + 0.05 * -fake.right.pose[:3, 2])
     d = np.linalg.norm(model.snapshot.markers[n0:] - centre, axis=1)
@@ -102,7 +103,7 @@ def test_controller_trigger_paints_through_the_model(model, fake):
 
 
 def test_menu_press_in_the_headset_toggles_prune_mode_on_the_model(model, fake):
-    bridge = vr.VRBridge(model)
+    bridge = vr.Headset(model)
     a = np.pi / 2 + 3 * 2 * np.pi / 7
     fake.left.pad, fake.left.pad_touched = (0.9 * np.cos(a), 0.9 * np.sin(a)), True
     bridge.start()
@@ -130,7 +131,7 @@ def test_frames_continue_while_a_slow_growth_step_runs(model, fake):
         return real_step()
 
     engine.step = slow_step
-    bridge = vr.VRBridge(model)
+    bridge = vr.Headset(model)
     bridge.start()
     bridge.wait_frames(2)
     worker = model.grow(1, background=True)
@@ -149,7 +150,7 @@ def test_frames_continue_while_a_slow_growth_step_runs(model, fake):
 
 
 def test_runtime_loss_stops_cleanly_and_the_model_keeps_its_work(model, fake, capsys):
-    bridge = vr.VRBridge(model)
+    bridge = vr.Headset(model)
     bridge.start()
     bridge.wait_frames(2)
     snap = model.snapshot
@@ -171,7 +172,7 @@ def test_runtime_loss_stops_cleanly_and_the_model_keeps_its_work(model, fake, ca
 
 
 def test_vrevent_quit_stops_the_bridge(model, fake):
-    bridge = vr.VRBridge(model)
+    bridge = vr.Headset(model)
     bridge.start()
     bridge.wait_frames(1)
     fake.quit_at_frame = fake.frame + 1
@@ -181,9 +182,9 @@ def test_vrevent_quit_stops_the_bridge(model, fake):
 
 def test_bridge_argument_checks(model):
     with pytest.raises(ValueError, match="layout must be one of"):
-        vr.VRBridge(model, layout="quad")
+        vr.Headset(model, layout="quad")
     with pytest.raises(ValueError, match="render_scale"):
-        vr.VRBridge(model, render_scale=0)
+        vr.Headset(model, render_scale=0)
 
 
 def test_recorded_headset_session_replays_identically_without_a_headset(fake):
@@ -196,7 +197,7 @@ def test_recorded_headset_session_replays_identically_without_a_headset(fake):
         return m
 
     live = fresh()
-    bridge = vr.VRBridge(live, record=True)
+    bridge = vr.Headset(live, record=True)
     fake.right.pose = pose_matrix((0.05, 0.9, -0.9))
     bridge.start()
     bridge.wait_frames(2)
@@ -213,7 +214,7 @@ def test_recorded_headset_session_replays_identically_without_a_headset(fake):
 
 
 def test_prune_mode_partial_trigger_shows_the_red_preview(model, fake):
-    bridge = vr.VRBridge(model)
+    bridge = vr.Headset(model)
     bridge.controls.scene.scale, bridge.controls.scene.translation = 1.0, np.zeros(3)
     node = model.snapshot.pos[len(model.snapshot.pos) // 2]
     fake.right.pose = pose_matrix(node + [0, 0, 0.05])           # brush tip on a node
@@ -223,8 +224,8 @@ def test_prune_mode_partial_trigger_shows_the_red_preview(model, fake):
     fake.right.trigger = 0.5
     bridge.wait_frames(3)
     t_end = time.monotonic() + 10
-    while bridge._preview_mesh is None and time.monotonic() < t_end:
+    while bridge.preview is None and time.monotonic() < t_end:
         time.sleep(0.01)
     bridge.stop()
-    assert bridge._preview_mesh is not None and bridge._preview_mesh[1].n_points > 0
+    assert bridge.preview is not None and bridge.preview[1].n_points > 0
     assert model.n_internodes == n                                # a preview removes nothing

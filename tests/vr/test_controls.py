@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from plantvr import vr
 from plantvr.documents.treewand import Model
 from plantvr.vr import controls as C
 from plantvr.vr.fake_openvr import pose_matrix
@@ -42,10 +43,10 @@ def test_controls_gesture_emits_brush_radius_command_and_replays_into_model():
     m = Model(seed=0)
     frames = [C.InputFrame(i / 90, right=C.ControllerState(pad=p, pad_touched=True))
               for i, p in enumerate(circle())]
-    ctl = C.replay(m, frames)
+    ctl = vr.replay(m, frames)
     assert m.brush_radius == pytest.approx(2.0, rel=0.01)
     assert ctl.brush_radius == m.brush_radius
-    assert m.events.events[-1].command == "set_params"
+    assert m.log.events[-1].command == "set_params"
 
 
 def test_smoothed_velocity_eq_5_2():
@@ -169,9 +170,9 @@ def test_menu_selection_all_seven_items(tmp_path):
         assert name in ctl.windows
     press_menu(ctl, 0)
     assert "appearance" not in ctl.windows
-    assert [c.name for c in press_menu(ctl, 3)] == ["prune_mode"] and ctl.prune_mode
+    assert [c.name for c in press_menu(ctl, 3)] == ["set_prune_mode"] and ctl.prune_mode
     assert press_menu(ctl, 4)[0] == C.Command("save", {"path": str(tmp_path / "default.tree")})
-    assert press_menu(ctl, 5)[0].name == "load"
+    assert press_menu(ctl, 5)[0].name == "restore"
     assert press_menu(ctl, 6)[0].name == "reset"
 
 
@@ -180,10 +181,10 @@ def test_menu_save_load_reset_through_the_model(tmp_path, model):
     n = model.n_internodes
     for k in (4, 6):
         for cmd in press_menu(ctl, k):
-            C.apply_command(model, cmd)
+            C.issue(model, cmd)
     assert model.n_internodes <= 1 < n          # "leaving the base"
     for cmd in press_menu(ctl, 5):
-        C.apply_command(model, cmd)
+        C.issue(model, cmd)
     assert model.n_internodes == n
 
 
@@ -207,12 +208,12 @@ def test_controller_paint_lands_in_the_model_at_the_tip_in_model_space():
     cmds = ctl.update(C.InputFrame(0.0, right=C.ControllerState(pose=pose, trigger=1.0)))
     assert [c.name for c in cmds] == ["paint"]
     for c in cmds:
-        C.apply_command(m, c)
+        C.issue(m, c)
     tip = pose[:3, 3] + C.TIP_OFFSET * -pose[:3, 2]
     centre = (tip - [0, 0, -1.0]) / 0.25
     assert m.n_markers > 0
     assert np.all(np.linalg.norm(m.snapshot.markers - centre, axis=1) <= 1.0 + 1e-9)
-    assert m.events.events[-1].command == "paint"
+    assert m.log.events[-1].command == "paint"
     # partial trigger previews (shows the brush) but never paints
     assert ctl.update(C.InputFrame(0.1, right=C.ControllerState(pose=pose, trigger=0.5))) == []
     assert ctl.brush_visible
@@ -235,12 +236,12 @@ def test_prune_mode_partial_previews_full_prunes_tw_v17b(model):
     pose[:3, 3] = target + [0, 0, C.TIP_OFFSET]     # tip exactly on the node
     cmds = ctl.update(C.InputFrame(0.0, right=C.ControllerState(pose=pose, trigger=0.5)))
     assert [c.name for c in cmds] == ["prune_preview"]
-    preview = C.apply_command(model, cmds[0])
+    preview = C.issue(model, cmds[0])
     assert len(preview) > 0
     n = model.n_internodes
     cmds = ctl.update(C.InputFrame(0.1, right=C.ControllerState(pose=pose, trigger=1.0)))
     assert [c.name for c in cmds] == ["prune"]
-    removed = C.apply_command(model, cmds[0])
+    removed = C.issue(model, cmds[0])
     assert removed == len(preview) and model.n_internodes == n - removed
     # holding still does not prune again
     assert ctl.update(C.InputFrame(0.2, right=C.ControllerState(pose=pose, trigger=1.0))) == []
@@ -258,8 +259,8 @@ def test_recorded_session_replays_identically(tmp_path):
     path = C.save_recording(frames, tmp_path / "session.jsonl")
     loaded = C.load_recording(path)
     a, b = Model(seed=5), Model(seed=5)
-    C.replay(a, frames)
-    C.replay(b, loaded)
+    vr.replay(a, frames)
+    vr.replay(b, loaded)
     b.step(3)
     a.step(3)
     np.testing.assert_array_equal(a.snapshot.markers, b.snapshot.markers)
@@ -270,12 +271,12 @@ def test_recorded_session_replays_identically(tmp_path):
         C.load_recording(tmp_path / "bad.jsonl")
 
 
-def test_apply_command_rejects_unknown_and_bad_values_leave_model_unchanged():
+def test_issue_rejects_unknown_and_bad_values_leave_model_unchanged():
     m = Model(seed=0)
     with pytest.raises(ValueError, match="command must be one of"):
-        C.apply_command(m, C.Command("fly"))
+        C.issue(m, C.Command("fly"))
     with pytest.raises(ValueError, match="radius"):
-        C.apply_command(m, C.Command("paint", {"center": [0, 1, 0], "radius": -1.0}))
+        C.issue(m, C.Command("paint", {"center": [0, 1, 0], "radius": -1.0}))
     assert m.n_markers == 0
     with pytest.raises(ValueError, match="brush_radius"):
         C.Controls(brush_radius=100.0)

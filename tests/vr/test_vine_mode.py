@@ -1,4 +1,5 @@
-"""ViNE mode in the headset (spec 000_vine §2.1–2.6, §4.2–4.3): control map, then the bridge on the fake runtime."""
+"""ViNE labels in the headset (spec 000_vine §2.1–2.6, §4.2–4.3): the ViNE control map, then the bridge on the fake
+runtime."""
 import math
 import time
 
@@ -7,10 +8,30 @@ import pytest
 import trimesh
 
 from plantvr import vr
-from plantvr.vine import Segmentation
-from plantvr.vine.proxy import DisplayProxy
-from plantvr.vr.controls import TIP_OFFSET, ControllerState, InputFrame, SceneTransform
-from plantvr.vr.vine_controls import VineControls, apply_vine_command, replay_vine, wheel_label
+from plantvr.documents.labels import Segmentation
+from plantvr.vr.controls import (
+    CONTROL_MAPS,
+    TIP_OFFSET,
+    Command,
+    ControllerState,
+    Controls,
+    InputFrame,
+    SceneTransform,
+    issue,
+    wheel_label,
+)
+
+VINE = CONTROL_MAPS["vine"]
+
+
+def VineControls(*, n_labels, label=None, brush_radius=1.0, max_radius=1e6, scene=None):
+    """The one control map with the ViNE table (what ``Controls.for_document(seg)`` builds)."""
+    return Controls(VINE, n_labels=n_labels, label=label, brush_radius=brush_radius,
+                    radius_range=(1e-6 * max_radius, max_radius), scene=scene)
+
+
+def replay_vine(seg, frames, controls):
+    return vr.replay(seg, frames, controls)
 
 
 @pytest.fixture
@@ -129,10 +150,9 @@ def test_one_grip_translates_the_model(seg):
     np.testing.assert_allclose(c.scene.translation - t0, [0.05, 0, 0], atol=1e-9)
 
 
-def test_apply_vine_command_rejects_unknown(seg):
-    from plantvr.vr.controls import Command
+def test_issue_rejects_unknown(seg):
     with pytest.raises(ValueError, match="command must be one of"):
-        apply_vine_command(seg, Command("prune"))
+        issue(seg, Command("prune"))
 
 
 # -- the bridge on the fake runtime -------------------------------------------------------------------------
@@ -146,10 +166,10 @@ def _press(bridge, fake, pose, frames=3):
 
 
 def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
-    with pytest.raises(ValueError, match="seg must be"):
-        vr.attach_segmentation(object())
-    bridge = vr.attach_segmentation(seg, readback=True)
-    assert vr.attach_segmentation(seg) is bridge
+    with pytest.raises(ValueError, match="doc must be"):
+        vr.attach(object())
+    bridge = vr.attach(seg, readback=True)
+    assert vr.attach(seg) is bridge
     bridge.start()
     try:
         bridge.wait_frames(3)
@@ -161,10 +181,9 @@ def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
         d = np.linalg.norm(seg.vertices - p, axis=1)
         assert np.all(seg.labels[d <= 0.35 - 1e-4] == c.label) and not seg.labels[d > 0.35 + 1e-4].any()
         assert len(seg.history.undo_stack) == 1 and bridge.command_errors == []
-        painted = seg.labels.copy()
         bridge.wait_frames(4)
-        assert bridge.buffer.acquire()[0].tolist() == painted.tolist()
-        bridge.buffer.release()
+        rgb = bridge.content[1]["surface"][0].point_data["rgb"]
+        assert len(rgb) == seg.n_vertices and bridge.depth_cue    # coloured (depth-cued) surface of the scene
         assert any(not np.array_equal(a, b) for a, b in zip(blank, bridge.last_images))   # a visible change
         # left pad: choose the painted colour, click to hide it
         k = len(seg.colors)
@@ -191,12 +210,12 @@ def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
         assert not seg.labels.any()
         assert all(sorted(e) == [0, 1] for e in fake.submissions_by_frame().values())
     finally:
-        bridge.close()
+        bridge.stop()
     assert bridge.command_errors == [] and bridge.error is None
 
 
 def test_frames_continue_during_a_slow_paint(seg, fake):
-    bridge = vr.VineBridge(seg)
+    bridge = vr.Headset(seg)
     real = seg.paint
 
     def slow_paint(*args, **kwargs):
@@ -217,33 +236,32 @@ def test_frames_continue_during_a_slow_paint(seg, fake):
         fake.right.trigger = 0.0
         bridge.wait_frames(2)
     finally:
-        bridge.close()
+        bridge.stop()
     assert seg.labels[3] == bridge.controls.label and bridge.command_errors == []
     assert len(seg.history.undo_stack) == 1
 
 
-def test_proxy_is_drawn_and_follows_paint(fake):
-    m = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
-    seg = Segmentation(np.asarray(m.vertices, np.float32), np.asarray(m.faces))
-    proxy = DisplayProxy(seg, target_faces=600)
-    bridge = vr.attach_segmentation(seg, proxy, depth_cue=False)
+def test_surface_colours_follow_paint_and_hidden_triangles_drop(seg, fake):
+    bridge = vr.attach(seg, depth_cue=False)
     bridge.start()
     try:
         bridge.wait_frames(2)
-        assert bridge._surface[1].n_points == proxy.n_vertices < seg.n_vertices
         bridge.controls.brush_radius = 0.5
         _press(bridge, fake, wand_at(bridge.controls.scene, seg.vertices[0]))
         bridge.wait_frames(4)
+        label = bridge.controls.label
+        surf = bridge.content[1]["surface"][0]
+        assert seg.labels.any() and np.all(surf.point_data["rgb"][seg.labels == label] == seg.colors.rgba[label, :3])
+        seg.set_visible(label, False)
+        bridge.wait_frames(4)
+        surf = bridge.content[1]["surface"][0]
+        assert surf.n_cells == len(seg.visible_faces()) < len(seg.faces)
     finally:
-        bridge.close()
-    assert seg.labels.any() and np.array_equal(bridge.buffer.acquire()[0], proxy.labels)
-    label = bridge.controls.label
-    rgb = bridge._surface[1].point_data["rgb"]
-    assert np.all(rgb[proxy.labels == label] == seg.colors.rgba[label, :3])
+        bridge.stop()
 
 
 def test_wheel_mesh_extrudes_the_selected_slice_and_marks_hidden_colours(seg):
-    from plantvr.vr.vine_mode import wheel_mesh
+    from plantvr.vr.render import wheel_mesh
     rgba = seg.colors.rgba
     vis = np.ones(len(rgba), bool)
     vis[4] = False
@@ -263,7 +281,7 @@ def test_wheel_mesh_extrudes_the_selected_slice_and_marks_hidden_colours(seg):
 
 def test_recorded_headset_session_replays_identically(seg, fake):
     scene = {"scale": 0.4, "translation": (0.0, 1.1, -0.6)}
-    bridge = vr.VineBridge(seg, record=True, depth_cue=False, scene=SceneTransform(**scene))
+    bridge = vr.Headset(seg, record=True, depth_cue=False, scene=SceneTransform(**scene))
     bridge.start()
     try:
         bridge.wait_frames(2)
@@ -275,7 +293,7 @@ def test_recorded_headset_session_replays_identically(seg, fake):
         bridge.wait_frames(2)
         bridge.wait_commands()
     finally:
-        bridge.close()
+        bridge.stop()
     assert seg.labels.any() and len(seg.history.undo_stack) == 2
     m = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
     fresh = Segmentation(np.asarray(m.vertices, np.float32), np.asarray(m.faces))
