@@ -7,9 +7,11 @@ import pytest
 import trimesh
 
 from plantvr import Model
-from plantvr.export import _bud_nodes, export_main, export_model_as, snapshot_export
+from plantvr.cli import export_main
 from plantvr.geometry.lod import lod_chain
 from plantvr.growth.scenarios import demo_session, run
+from plantvr.io.tree import bud_nodes, export_model_as, snapshot_export
+from plantvr.types import TreeArrays
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +30,7 @@ def _chain(model, lod):
 
 def test_buds_sit_on_nodes(saved):
     model, _ = saved
-    nodes = _bud_nodes(model.snapshot)
+    nodes = bud_nodes(model.snapshot)
     assert len(nodes) > 0 and (nodes >= 0).all()
     np.testing.assert_array_equal(model.snapshot.pos[nodes], model.snapshot.buds["pos"])
 
@@ -113,7 +115,7 @@ def test_rejections(saved, tmp_path, capsys):
     with pytest.raises(ValueError, match="suffix"):
         snapshot_export(model.snapshot, model.params, tmp_path / "x.stl")
     with pytest.raises(ValueError, match="empty"):
-        snapshot_export(dataclasses.replace(model.snapshot, pos=np.zeros((1, 3)), parent=np.array([-1])),
+        snapshot_export(dataclasses.replace(model.snapshot, tree=TreeArrays.from_arrays(np.zeros((1, 3)), [-1])),
                         model.params, tmp_path / "x.ply")
 
 

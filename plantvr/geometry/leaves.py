@@ -14,6 +14,7 @@ import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
+from plantvr.types import TriMesh
 
 from . import _kernels as K
 
@@ -23,8 +24,8 @@ LEAF_SHAPES = ("ovate", "lobed")
 _PETIOLE_UV = (0.5, 0.03)      # a texel of the stem drawn at the bottom of every leaf texture
 
 
-@dataclass
-class LeafMesh:
+@dataclass(eq=False)
+class LeafMesh(TriMesh):
     """Triangle mesh of all leaves (blades and petioles).
 
     Attributes
@@ -46,11 +47,6 @@ class LeafMesh:
     uv: np.ndarray
     bud_id: np.ndarray
     frames: np.ndarray
-
-    def to_trimesh(self):
-        """Return a ``trimesh.Trimesh`` (``process=False``) with the vertex normals."""
-        import trimesh
-        return trimesh.Trimesh(self.vertices, self.faces, vertex_normals=self.normals, process=False)
 
 
 def select_leaf_buds(bud_radius, *, radius_threshold: float, leaf_size: float) -> np.ndarray:

@@ -16,6 +16,7 @@ import numpy as np
 from plantvr._validation import (
     MAX_COORD, MAX_COUNT, check_array, check_index, check_int, check_points, check_range,
 )
+from plantvr.types import TriMesh
 
 from . import _kernels as K
 from ._kernels import CAP_END, CAP_START
@@ -272,8 +273,8 @@ def tree_segments(pos, parent, radius, *, alive=None, main_child=None, bezier_w:
 
 
 # ---------------------------------------------------------------------------------------------------------
-@dataclass
-class BranchMesh:
+@dataclass(eq=False)
+class BranchMesh(TriMesh):
     """Triangle mesh of the branches plus the layout that allows segment-wise updates.
 
     Attributes
@@ -306,11 +307,6 @@ class BranchMesh:
     v_off: np.ndarray
     f_off: np.ndarray
     options: dict = field(default_factory=dict)
-
-    def to_trimesh(self):
-        """Return a ``trimesh.Trimesh`` (``process=False``) with the analytic vertex normals."""
-        import trimesh
-        return trimesh.Trimesh(self.vertices, self.faces, vertex_normals=self.normals, process=False)
 
     def segment_slice(self, s: int) -> tuple[slice, slice]:
         """Vertex and face slices of segment ``s``."""

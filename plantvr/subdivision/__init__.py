@@ -5,23 +5,20 @@ Pipeline::
     g = parse_lsystem("F(2,0.2)[+F(1,0.1)][-F(1,0.1)]F(1,0.15)", angle=40)   # or graph_from_arrays(pos, parent, radius)
     cm = build_control_mesh(g, sides=4)                                        # open at base and tips
     mesh = tree_mesh(g, levels=3)                                              # watertight trimesh.Trimesh
-    export_mesh(mesh, "tree.ply")
+    plantvr.io.mesh.export_mesh(mesh, "tree.ply")                          # writers live in plantvr.io
     mesh, uv = tree_mesh_uv(g, levels=3)                                       # + per-corner bark UVs (F, 3, 2)
-    write_obj("tree.obj", mesh.vertices, mesh.faces, uv)                       # f v/vt/vn, seams kept
+    plantvr.io.obj.write_obj("tree.obj", mesh.vertices, mesh.faces, uv)       # f v/vt/vn, seams kept
 """
 from __future__ import annotations
 
-from pathlib import Path
-
-from plantvr._fileio import write_atomic
-from plantvr._validation import check_choice, check_int
+from plantvr._validation import check_int
 
 from .graph import BranchGraph, graph_from_arrays, joint_offsets, pair_offset, simplify
 from .loop import cap_boundaries, loop_weight, subdivide_loop
 from .lsystem import parse_lsystem
 from .mesh import ControlMesh, build_control_mesh, radius_factor
 from .selfintersect import self_intersections
-from .uv import branch_uvs, control_uvs, propagate_uvs, read_obj, subdivide_uvs, vertex_normals, write_obj
+from .uv import branch_uvs, control_uvs, propagate_uvs, read_obj, subdivide_uvs, vertex_normals
 
 __all__ = [
     "BranchGraph",
@@ -31,7 +28,6 @@ __all__ = [
     "build_control_mesh",
     "cap_boundaries",
     "control_uvs",
-    "export_mesh",
     "graph_from_arrays",
     "joint_offsets",
     "loop_weight",
@@ -47,7 +43,6 @@ __all__ = [
     "tree_mesh",
     "tree_mesh_uv",
     "vertex_normals",
-    "write_obj",
 ]
 
 
@@ -147,7 +142,7 @@ def tree_mesh_uv(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bo
     mesh : trimesh.Trimesh
         The same mesh as :func:`tree_mesh` with the same arguments (``process=False``).
     uv : (F, 3, 2) float64 ndarray
-        Corner UVs of every face; write them with :func:`write_obj`.
+        Corner UVs of every face; write them with :func:`plantvr.io.obj.write_obj`.
     """
     import numpy as np
     import trimesh
@@ -164,55 +159,3 @@ def tree_mesh_uv(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bo
         known = np.arange(len(F)) < nf
         uv = propagate_uvs(V, F, uv, known, wrap=wrap)
     return trimesh.Trimesh(V, F, process=False), uv
-
-
-def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
-    """Write a mesh to PLY, OBJ or glTF/GLB through trimesh.
-
-    Parameters
-    ----------
-    mesh : trimesh.Trimesh or ControlMesh
-        The mesh.
-    path : str or Path
-        Output file; the suffix picks the format unless ``file_type`` is given.
-    file_type : {"ply", "obj", "gltf", "glb"}, optional
-        Format.
-
-    Returns
-    -------
-    Path
-        The written path (a ``.gltf`` also writes its buffer ``<stem>.bin`` beside it).
-
-    Raises
-    ------
-    ValueError
-        For an unknown format or a mesh that is neither a ``trimesh.Trimesh`` nor a :class:`ControlMesh`.
-    """
-    path = Path(path)
-    ft = check_choice("file_type", (file_type or path.suffix.lstrip(".")).lower(), ("ply", "obj", "gltf", "glb"))
-    if isinstance(mesh, ControlMesh):
-        mesh = mesh.to_trimesh()
-    if not hasattr(mesh, "export"):
-        raise ValueError(f"mesh must be a trimesh.Trimesh or ControlMesh, got {type(mesh).__name__}")
-    if ft == "gltf":
-        import json
-
-        import trimesh
-        from trimesh.exchange.gltf import export_gltf
-
-        # one buffer named after the file, so two .gltf files in one folder do not overwrite each other's
-        # default "gltf_buffer*.bin" [INFERRED]
-        files = export_gltf(trimesh.Scene(mesh), merge_buffers=True)
-        doc = json.loads(files.pop("model.gltf"))
-        path.parent.mkdir(parents=True, exist_ok=True)
-        for buf in doc.get("buffers", []):
-            uri = buf.get("uri")
-            if uri in files:
-                buf["uri"] = f"{path.stem}.bin" if len(files) == 1 else f"{path.stem}_{uri}"
-                write_atomic(path.parent / buf["uri"], files[uri])
-        write_atomic(path, json.dumps(doc))
-    else:
-        data = mesh.export(file_type=ft)          # bytes or text, written atomically (issue 20)
-        write_atomic(path, data)
-    return path
-

@@ -1,4 +1,6 @@
-"""Per-corner texture coordinates, their linear subdivision and an OBJ writer/reader (spec 001_subdivision §2.6, §2.7, §3.3).
+"""Per-corner texture coordinates, their linear subdivision and an OBJ reader (spec 001_subdivision §2.6, §2.7, §3.3).
+
+The OBJ writer is :func:`plantvr.io.obj.write_obj`.
 
 UVs live on face corners, ``(F, 3, 2)`` arrays, so seams cost nothing: branches get the report's cylindrical
 map (U from the loop index, V repeating every two segments), every other face (joints, caps) gets UVs by
@@ -11,7 +13,6 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import atomic_write
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int
 
 from ._checks import check_mesh
@@ -24,7 +25,6 @@ __all__ = [
     "read_obj",
     "subdivide_uvs",
     "vertex_normals",
-    "write_obj",
 ]
 
 
@@ -266,77 +266,6 @@ def vertex_normals(vertices, faces) -> np.ndarray:
         for d in range(3):
             vn[:, d] += np.bincount(F[:, c], weights=fn[:, d], minlength=len(V))
     return vn / np.maximum(np.linalg.norm(vn, axis=1, keepdims=True), 1e-300)
-
-
-def write_obj(path, vertices, faces, uv=None, *, normals: bool = True, name: str = "yggdrasil") -> Path:
-    """Wavefront OBJ with ``v``, ``vt`` (de-duplicated per-corner UVs), ``vn`` and 1-based ``f v/vt/vn`` (§2.7, C15).
-
-    Floats are written with 17 significant digits, so :func:`read_obj` gives back the exact arrays.
-
-    Parameters
-    ----------
-    path : str or Path
-        Output file.
-    vertices : (V, 3) float64 ndarray
-    faces : (F, 3) int ndarray
-    uv : (F, 3, 2) float64 ndarray, optional
-        Per-corner UVs; seams (one vertex, several UVs) are kept.
-    normals : bool
-        Write per-vertex ``vn`` (:func:`vertex_normals`).
-    name : str
-        The ``g`` group name.
-
-    Returns
-    -------
-    Path
-
-    References
-    ----------
-    .. [1] Pieterse, Yggdrasil report §4.2.5 ("the indexing starts at one").
-    """
-    V, F = check_mesh(vertices, faces)
-    if uv is not None:
-        uv = check_array("uv", uv, shape=(len(F), 3, 2), max_abs=MAX_COORD)
-    normals = _check_bool("normals", normals)
-    if not isinstance(name, str) or not name or any(c.isspace() for c in name):
-        raise ValueError(f"name must be a non-empty str without whitespace, got {name!r}")
-    path = Path(path)
-    head = f"# PlantVR Yggdrasil mesh: {len(V)} vertices, {len(F)} faces\ng {name}\n"
-    blocks = [_fmt_rows("v %.17g %.17g %.17g\n", V)]
-    idx = [F + 1]
-    if uv is not None:
-        tab, inv = np.unique(uv.reshape(-1, 2), axis=0, return_inverse=True)
-        blocks.append(_fmt_rows("vt %.17g %.17g\n", tab))
-        idx.append(inv.reshape(-1, 3) + 1)
-    if normals:
-        blocks.append(_fmt_rows("vn %.17g %.17g %.17g\n", vertex_normals(V, F)))
-        idx.append(F + 1)
-    corner = {1: "%d", 2: "%d/%d" if uv is not None else "%d//%d", 3: "%d/%d/%d"}[len(idx)]
-    blocks.append(_fmt_rows("f " + " ".join([corner] * 3) + "\n", np.stack(idx, axis=2).reshape(len(F), -1)))
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"path: cannot create the folder of {os.fspath(path)!r} ({exc.strerror or exc})") from None
-    with atomic_write(path, "w") as fh:       # a failed save leaves the old file and no temporary file
-        fh.write(head)
-        fh.writelines(blocks)
-    return path
-
-
-def _check_bool(name: str, value) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {value!r}")
-    return bool(value)
-
-
-def _fmt_rows(line: str, A: np.ndarray, chunk: int = 100_000) -> str:
-    """``line % row`` for every row of ``A`` (one printf-style pass per chunk, no per-row Python call)."""
-    A = A.tolist() if A.dtype.kind == "f" else A.astype(np.int64).tolist()
-    out = []
-    for i in range(0, len(A), chunk):
-        rows = A[i:i + chunk]
-        out.append((line * len(rows)) % tuple(x for r in rows for x in r))
-    return "".join(out)
 
 
 def read_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:

@@ -1,5 +1,5 @@
 """Per-label meshes, statistics table and area chart (spec 000_vine §6 "named labels and per-label mesh
-export", §2.7 export; issue 15).
+export", §2.7 export; issue 15). The files are written by :mod:`plantvr.io.labels`.
 
 A label's mesh is the faces whose three vertices carry that label, with its vertices renumbered compactly.
 The table has one row per label present: vertex count, face count, surface area (of the label's mesh),
@@ -8,17 +8,13 @@ the label, the parts :meth:`Segmentation.split_label` would make).
 """
 from __future__ import annotations
 
-import os
-
 import numba
 import numpy as np
 
-from plantvr._validation import check_choice, check_int
+from plantvr._validation import check_int
 from plantvr.vine.fill import _check_mesh_arrays, _components_numba, mesh_graph
 
-__all__ = ["export_label_meshes", "face_labels", "label_mesh", "label_table", "plot_label_areas"]
-
-_FORMATS = ("ply", "obj", "glb")
+__all__ = ["face_labels", "label_mesh", "label_table", "plot_label_areas"]
 
 
 def _check_mesh(vertices, faces, labels):
@@ -218,55 +214,3 @@ def plot_label_areas(table, *, ax=None, skip_zero: bool = True):
     ax.set_title("Surface area per label")
     fig.tight_layout()
     return fig
-
-
-def export_label_meshes(directory: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray,
-                        labels: np.ndarray, *, fmt: str = "ply", colors=None, which=None,
-                        prefix: str = "label") -> dict[int, str]:
-    """Write one mesh file per label (faces whose three vertices carry it).
-
-    Parameters
-    ----------
-    directory : path
-        Existing directory.
-    vertices, faces, labels : ndarray
-        The mesh and its (V,) uint8 labels.
-    fmt : {"ply", "obj", "glb"}
-        PLY through :func:`plantvr.vine.ply.write_ply` (with colours and labels), OBJ and glTF binary through
-        trimesh (``process=False``, vertex order kept).
-    colors : ColorTable, optional
-        Vertex colours for PLY/glb.
-    which : iterable of int, optional
-        Labels to write; default every label with at least one face.
-    prefix : str
-        File name prefix: ``{prefix}_{label:03d}.{fmt}``.
-
-    Returns
-    -------
-    dict of int to str
-        Label to written path.
-    """
-    import trimesh
-
-    from plantvr._fileio import write_atomic
-    from plantvr.vine.ply import write_ply
-    v, f, lab = _check_mesh(vertices, faces, labels)
-    fmt = check_choice("fmt", fmt, _FORMATS)
-    d = os.fspath(directory)
-    if not os.path.isdir(d):
-        raise ValueError(f"directory must be an existing directory, got {d!r}")
-    fl = face_labels(f, lab)
-    have = np.flatnonzero(np.bincount(fl[fl >= 0], minlength=256))
-    todo = have if which is None else sorted({check_int("which", k, 0, 255) for k in which})
-    out = {}
-    for k in todo:
-        sv, sf, ids = label_mesh(v, f, lab, int(k))
-        path = os.path.join(d, f"{prefix}_{int(k):03d}.{fmt}")
-        rgba = None if colors is None else np.repeat(colors.rgba[int(k)][None], len(sv), axis=0)
-        if fmt == "ply":
-            write_ply(path, sv, sf, colors=rgba, labels=lab[ids])
-        else:
-            m = trimesh.Trimesh(sv, sf, vertex_colors=rgba, process=False)
-            write_atomic(path, m.export(file_type=fmt))
-        out[int(k)] = path
-    return out

@@ -4,9 +4,9 @@ import pytest
 import trimesh
 
 from plantvr.geometry import build_branch_mesh
-from plantvr.geometry.export import export_tree, tree_scene
 from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES, bark_texture, leaf_texture
+from plantvr.io.tree import export_tree
 
 from ._trees import random_tree
 
@@ -63,4 +63,4 @@ def test_export_rejects_unknown_format(meshes, tmp_path):
     with pytest.raises(ValueError, match="path suffix must be one of"):
         export_tree(tmp_path / "tree.stl", m)
     with pytest.raises(ValueError, match="bark must be one of"):
-        tree_scene(m, bark="oak")
+        export_tree(tmp_path / "tree.glb", m, bark="oak")

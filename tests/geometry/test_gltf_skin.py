@@ -5,9 +5,9 @@ import pytest
 import trimesh
 
 from plantvr.geometry import build_branch_mesh
-from plantvr.geometry.gltf_skin import export_skinned_glb, tree_skeleton
 from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import axis_start
+from plantvr.io.tree import export_skinned_glb, tree_skeleton
 
 from ._trees import random_tree
 

@@ -9,9 +9,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from plantvr.geometry import build_branch_mesh, build_leaves
-from plantvr.geometry.export import export_tree
-from plantvr.geometry.gltf_skin import export_skinned_glb, tree_skeleton
 from plantvr.geometry.lod import lod_chain
+from plantvr.io.tree import export_skinned_glb, export_tree, tree_skeleton
 
 from ._trees import random_tree
 
@@ -97,7 +96,7 @@ def test_exporters_refuse_inconsistent_meshes(tree, meshes, tmp_path):
 
 def _usd(path, br, leaf):
     pytest.importorskip("pxr")
-    from plantvr.geometry.usd import export_usd
+    from plantvr.io.usd import export_usd
     return export_usd(path, br, leaf)
 
 

@@ -11,7 +11,7 @@ from ._trees import random_tree
 pxr = pytest.importorskip("pxr")
 from pxr import Usd, UsdGeom, UsdShade, UsdUtils
 
-from plantvr.geometry.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd, leaf_instances
+from plantvr.io.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd, leaf_instances
 
 
 @pytest.fixture(scope="module")

@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 import trimesh
 
+from plantvr.io.gltf import write_glb
+from plantvr.io.landscape import export_distribution, export_forest, export_landscape, terrain_mesh
 from plantvr.landscape import grow_forest
 from plantvr.landscape.distribution import Species, distribute
-from plantvr.landscape.gltf import export_distribution, export_landscape, terrain_mesh, write_glb
 
 
 def _yaw(a):
@@ -47,7 +48,7 @@ def test_forest_export_one_scene(tmp_path):
                     crown_radius=3.0, seed=5, client="sync", geometry=True, regions="voxels",
                     voxel_shape=(8, 48, 48), sketch={"n_max": 2, "bud_lifetime": 6},
                     params={"activation_threshold": 0.0, "length_mode": "constant"})
-    path = f.export(tmp_path / "forest.glb")
+    path = export_forest(tmp_path / "forest.glb", f)
     s = trimesh.load(path, force="scene")
     assert len(s.graph.nodes_geometry) == len(f.trees) + 1
     assert len(s.geometry) == len(f.trees) + 1  # grown trees differ: no sharing
@@ -57,7 +58,6 @@ def test_forest_export_one_scene(tmp_path):
     terrain = s.geometry["terrain"]
     assert len(terrain.faces) == len(tf) and terrain.face_normals[:, 1].min() > 0  # up-facing height field
     # the same forest twice in the scene shares meshes; the default tree meshes come from f.meshes
-    from plantvr.landscape.gltf import export_forest
     f2 = type(f)(np.concatenate([f.bases, f.bases + [30.0, 0, 0]]), f.trees * 2, f.heights, f.size,
                  meshes=f.meshes + [(v + [30.0, 0, 0], fc) for v, fc in f.meshes])
     s2 = trimesh.load(export_forest(tmp_path / "twice.glb", f2, terrain=False), force="scene")
@@ -95,12 +95,12 @@ def test_forest_export_with_leaves(tmp_path):
     f = grow_forest(3, size=(24.0, 24.0), min_dist=6.0, rounds=1, steps_per_round=4, crown_height=4.0,
                     crown_radius=3.0, seed=6, client="sync", geometry=True, sketch={"n_max": 2, "bud_lifetime": 6},
                     params={"activation_threshold": 0.0, "length_mode": "constant", "tip_radius": 0.03})
-    path = f.export(tmp_path / "leafy.glb", leaves=True, params={"tip_radius": 0.03, "leaf_size": 0.5})
+    path = export_forest(tmp_path / "leafy.glb", f, leaves=True, params={"tip_radius": 0.03, "leaf_size": 0.5})
     s = trimesh.load(path, force="scene")
     # one node per tree primitive (trimesh splits a mesh's primitives into geometries): bark + leaves + terrain
     assert len(s.graph.nodes_geometry) == 2 * len(f.trees) + 1
     leafy = [g for name, g in s.geometry.items() if len(g.faces) and np.allclose(g.visual.material.baseColorFactor[:3],
                                                                                  [70, 140, 46], atol=2)]
     assert len(leafy) == len(f.trees)
-    plain = trimesh.load(f.export(tmp_path / "bare.glb"), force="scene")
+    plain = trimesh.load(export_forest(tmp_path / "bare.glb", f), force="scene")
     assert np.all(s.bounds[1] >= plain.bounds[1] - 1e-9)

@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from plantvr.io.obj import write_obj
 from plantvr.subdivision import (
     BranchGraph,
     build_control_mesh,
@@ -18,7 +19,6 @@ from plantvr.subdivision.uv import (
     read_obj,
     subdivide_uvs,
     vertex_normals,
-    write_obj,
 )
 
 from ._helpers import star_graph
@@ -186,7 +186,7 @@ def test_v19_extraordinary_vertices_invariant_and_on_joint_rings(seed):
 
 
 def test_two_gltf_files_in_one_folder_keep_their_own_buffers(tmp_path):
-    from plantvr.subdivision import export_mesh
+    from plantvr.io.mesh import export_mesh
 
     a, b = trimesh.creation.box(), trimesh.creation.icosphere(1)
     export_mesh(a, tmp_path / "a.gltf")

@@ -7,10 +7,11 @@ import pytest
 import trimesh
 from scipy.sparse import csgraph
 
+from plantvr.documents.labels import Segmentation
+from plantvr.io import labels as IO
 from plantvr.vine import labelstats as L
 from plantvr.vine.colors import ColorTable
 from plantvr.vine.fill import mesh_graph
-from plantvr.vine.segmentation import Segmentation
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +51,7 @@ def test_export_label_meshes_formats(tmp_path, surface, truth):
     for fmt in ("ply", "obj", "glb"):
         d = tmp_path / fmt
         d.mkdir()
-        out = L.export_label_meshes(d, surface.vertices, surface.faces, truth, fmt=fmt, colors=ColorTable(),
+        out = IO.write_label_meshes(d, surface.vertices, surface.faces, truth, fmt=fmt, colors=ColorTable(),
                                     which=[2, 3])
         assert sorted(out) == [2, 3]
         for k, p in out.items():
@@ -59,7 +60,7 @@ def test_export_label_meshes_formats(tmp_path, surface, truth):
             sv, sf, _ = L.label_mesh(surface.vertices, surface.faces, truth, k)
             assert len(m.faces) == len(sf)
             assert m.area == pytest.approx(trimesh.Trimesh(sv, sf, process=False).area, rel=1e-5)
-    out = L.export_label_meshes(tmp_path, surface.vertices, surface.faces, truth)
+    out = IO.write_label_meshes(tmp_path, surface.vertices, surface.faces, truth)
     assert sorted(out) == sorted(set(np.unique(truth[surface.faces][np.all(
         truth[surface.faces] == truth[surface.faces][:, :1], axis=1)][:, 0]).tolist()))
 
@@ -82,24 +83,24 @@ def test_segmentation_wrappers(tmp_path, surface, truth):
     seg = Segmentation(surface.vertices, surface.faces, labels=truth)
     t = seg.label_table()
     assert t["vertices"].sum() == seg.n_vertices
-    out = seg.export_label_meshes(tmp_path, fmt="ply", which=[1])
+    out = IO.export_label_meshes(seg, tmp_path, fmt="ply", which=[1])
     assert list(out) == [1]
-    seg.export_label_table(tmp_path / "t.csv")
+    IO.export_label_table(seg, tmp_path / "t.csv")
     assert pd.read_csv(tmp_path / "t.csv").shape[0] == len(t)
 
 
 def test_rejects(tmp_path, surface, truth):
     v, f = surface.vertices, surface.faces
     with pytest.raises(ValueError, match="fmt must be one of"):
-        L.export_label_meshes(tmp_path, v, f, truth, fmt="stl")
+        IO.write_label_meshes(tmp_path, v, f, truth, fmt="stl")
     with pytest.raises(ValueError, match="directory must be an existing directory"):
-        L.export_label_meshes(tmp_path / "nope", v, f, truth)
+        IO.write_label_meshes(tmp_path / "nope", v, f, truth)
     with pytest.raises(ValueError, match="labels must be uint8"):
         L.label_table(v, f, truth.astype(np.int32))
     with pytest.raises(ValueError, match="label must be an integer in"):
         L.label_mesh(v, f, truth, 256)
     with pytest.raises(ValueError, match="which must be an integer in"):
-        L.export_label_meshes(tmp_path, v, f, truth, which=[-1])
+        IO.write_label_meshes(tmp_path, v, f, truth, which=[-1])
     assert not list(tmp_path.iterdir())
 
 

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from plantvr.vine.ply import write_ply
+from plantvr.io.ply import write_ply
 
 
 def test_chunked_writer_is_byte_identical_and_read_by_trimesh(surface, tmp_path):

@@ -1,4 +1,4 @@
-"""USD export of a tree: mesh prims with UVs, normals, UsdPreviewSurface materials, branch-order subsets
+"""The one USD writer. USD export of a tree: mesh prims with UVs, normals, UsdPreviewSurface materials, branch-order subsets
 (spec 000_treewand §3.3–§3.4; issue 16).
 
 Layout of the stage (Y up, metres)::
@@ -21,9 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from plantvr._validation import check_choice, check_range
+from plantvr.geometry.leaves import LEAF_SHAPES, LeafMesh, _blade
+from plantvr.geometry.mesh import BranchMesh
 
-from .leaves import LEAF_SHAPES, LeafMesh, _blade
-from .mesh import BranchMesh
+from ._checks import check_tree_meshes
 
 __all__ = ["BARK_MATERIAL", "LEAF_MATERIAL", "LeafInstances", "export_usd", "leaf_instances"]
 
@@ -239,7 +240,7 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
         Also write the procedural bark and leaf textures as PNGs beside the file and read them in the
         materials through UsdUVTexture; otherwise the materials carry constant colours.
     bark, leaf : str
-        Texture choices, as in :func:`plantvr.geometry.export.tree_scene`.
+        Texture choices, as in :func:`plantvr.io.tree.export_tree`.
     meters_per_unit : float
         Stage metadata ``metersPerUnit``.
     leaf_instancer : bool
@@ -261,7 +262,7 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     ----------
     .. [1] OpenUSD UsdGeomMesh, UsdGeomSubset and UsdPreviewSurface specifications.
     """
-    from .textures import BARK_TEXTURES, LEAF_TEXTURES
+    from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES
 
     path = Path(path)
     check_choice("suffix", path.suffix.lower(), (".usd", ".usda", ".usdc"))
@@ -271,8 +272,7 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     leaf_shape = check_choice("leaf_shape", leaf if leaf_shape is None else leaf_shape, LEAF_SHAPES)
     from plantvr._validation import check_index
 
-    from .export import _check_meshes
-    _check_meshes(branches, leaves)
+    check_tree_meshes(branches, leaves)
     node_id = check_index("branches.node_id", branches.node_id, shape=(len(branches.vertices),), low=0,
                           high=2**62)
     inst = None
@@ -291,8 +291,7 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     bark_tex = leaf_tex = None
     if textures:
         from plantvr._fileio import write_png
-
-        from .textures import bark_texture, leaf_texture
+        from plantvr.geometry.textures import bark_texture, leaf_texture
         bark_tex = f"{path.stem}_bark.png"
         write_png(folder / bark_tex, np.asarray(bark_texture(bark)))
         if leaves is not None:

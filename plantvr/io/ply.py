@@ -1,6 +1,8 @@
-"""Binary PLY export with per-vertex colours through numpy structured arrays (spec 000_vine §2.7, item 24).
+"""The one PLY writer: binary little-endian PLY through numpy structured arrays (spec 000_vine §2.7, item 24;
+spec 000_treewand §3; issue 21).
 
-One ``tofile`` per element, so a 36 M-face mesh is written in about the time it takes to copy it.
+One ``tofile`` per element, so a 36 M-face mesh is written in about the time it takes to copy it. Every PLY
+PlantVR writes (segmentations, label meshes, tree meshes, subdivision surfaces) goes through :func:`write_ply`.
 """
 from __future__ import annotations
 
@@ -16,14 +18,14 @@ __all__ = ["write_ply"]
 
 def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, *, colors: np.ndarray | None = None,
               labels: np.ndarray | None = None, normals: np.ndarray | None = None,
-              chunk: int = 1 << 20) -> None:
+              double: bool = False, comment: str = "PlantVR ViNE segmentation", chunk: int = 1 << 20) -> None:
     """Write a binary little-endian PLY mesh with optional vertex colours, labels and normals.
 
     Parameters
     ----------
     path : str or path-like
     vertices : (V, 3) float ndarray
-        Written as float32.
+        Written as float32 (``double``: float64).
     faces : (F, 3) integer ndarray
         Vertex ids < V, written as int32 lists of 3.
     colors : (V, 3) or (V, 4) uint8 ndarray, optional
@@ -32,6 +34,10 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
         Written as a ``label`` uchar property.
     normals : (V, 3) float ndarray, optional
         Written as ``nx ny nz`` float32.
+    double : bool
+        Write the positions as ``double`` (float64) instead of ``float``.
+    comment : str
+        The header's ``comment`` line (one line of printable ASCII).
     chunk : int
         Rows packed per write, in [1, 2**31]; bounds the extra memory.
 
@@ -39,8 +45,10 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
     ----------
     .. [1] Spec 000_vine §2.7 step 1: PLY "with colours stored at the vertices" [T §6.4].
     """
-    v = check_array("vertices", vertices, shape=(None, 3), dtype=np.float32)
+    v = check_array("vertices", vertices, shape=(None, 3), dtype=np.float64 if double else np.float32)
     chunk = check_int("chunk", chunk, 1, 2 ** 31)
+    if not isinstance(comment, str) or not comment.isascii() or not comment.isprintable():
+        raise ValueError(f"comment must be one line of printable ASCII, got {comment!r}")
     f = np.asarray(faces)
     if f.ndim != 2 or f.shape[1] != 3 or f.dtype.kind not in "iu":
         raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
@@ -48,8 +56,9 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
         raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
     if len(v) >= 2 ** 31:
         raise ValueError(f"vertices must number fewer than 2**31 for int32 PLY faces, got {len(v)}")
-    fields = [("x", "<f4"), ("y", "<f4"), ("z", "<f4")]
-    props = ["float x", "float y", "float z"]
+    ft, fname = ("<f8", "double") if double else ("<f4", "float")
+    fields = [("x", ft), ("y", ft), ("z", ft)]
+    props = [f"{fname} x", f"{fname} y", f"{fname} z"]
     if normals is not None:
         normals = check_array("normals", normals, shape=(len(v), 3), dtype=np.float32)
         fields += [("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")]
@@ -70,7 +79,7 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
         props.append("uchar label")
     vdt = np.dtype(fields)
     fdt = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
-    header = ["ply", "format binary_little_endian 1.0", "comment PlantVR ViNE segmentation",
+    header = ["ply", "format binary_little_endian 1.0", f"comment {comment}",
               f"element vertex {len(v)}", *[f"property {p}" for p in props],
               f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
     with atomic_write(path) as fh:                        # a failed write leaves the old file, no leftovers

@@ -1,8 +1,8 @@
-"""plantvr.geometry._gltf: the one glTF buffer packer of the .glb writers (gltf_skin, landscape.gltf)."""
+"""plantvr.io.gltf: the one glTF buffer packer and document builder behind every .glb PlantVR writes."""
 import numpy as np
 import pytest
 
-from plantvr.geometry._gltf import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuffer, check_glb_path
+from plantvr.io.gltf import ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, GltfBuffer, check_glb_path
 
 
 def test_views_are_4_byte_aligned_and_round_trip():
