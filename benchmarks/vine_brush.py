@@ -16,8 +16,8 @@ import numpy as np
 from _common import best_time, radius_for
 from scipy.spatial import cKDTree
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.isosurface import extract_isosurface
-from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
 
 

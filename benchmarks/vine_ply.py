@@ -14,8 +14,8 @@ import tracemalloc
 import numpy as np
 import trimesh
 
+from plantvr.io.ply import write_ply
 from plantvr.vine.isosurface import extract_isosurface
-from plantvr.vine.ply import write_ply
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
 
 

@@ -21,11 +21,11 @@ import scipy.sparse as sp
 import trimesh
 from scipy.sparse import csgraph
 
+from plantvr.documents.labels import Segmentation
+from plantvr.documents.labels_bundle import load_bundle, save_bundle
 from plantvr.vine import fill as F
-from plantvr.vine.bundle import load_bundle, save_bundle
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.labelstats import face_labels, label_table
-from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.slices import _plane_cut_numpy, plane_segments
 from plantvr.vine.synth import synth_flowerhead, tile_mesh, vertex_labels_from_volume
 

@@ -4,9 +4,9 @@
 The widget holds a generic colour table as synced traits (``colors`` hex strings, ``hidden`` flags,
 ``selected`` index). A click selects a slice; a shift-click (the trackpad press) toggles that colour's
 visibility; a colour picker edits the selected colour. :meth:`ColorWheel.link` binds it to a
-segmentation by duck typing: any object with ``colors.rgba`` ``(N, 3|4)``, ``colors.visible`` ``(N,)``,
-``set_color(label, rgb)``, ``set_visible(label, visible)`` and ``observe(callback)`` (as
-:class:`plantvr.vine.segmentation.Segmentation`), or any ``HasTraits`` with ``colors``/``hidden`` traits.
+segmentation by duck typing: any document with ``colors.rgba`` ``(N, 3|4)``, ``colors.visible`` ``(N,)``,
+``set_color(label, rgb)``, ``set_visible(label, visible)`` and a ``change`` trait (as
+:class:`plantvr.documents.labels.Segmentation`), or any ``HasTraits`` with ``colors``/``hidden`` traits.
 """
 from __future__ import annotations
 
@@ -136,18 +136,19 @@ class ColorWheel(anywidget.AnyWidget):
         if isinstance(target, traitlets.HasTraits) and {"colors", "hidden"} <= set(target.trait_names()):
             kind = "traits"
         elif hasattr(target, "colors") and hasattr(target.colors, "rgba") and hasattr(target, "set_color") \
-                and hasattr(target, "set_visible") and hasattr(target, "observe"):
+                and hasattr(target, "set_visible") and isinstance(target, traitlets.HasTraits) \
+                and target.has_trait("change"):
             kind = "segmentation"
         else:
-            raise ValueError("target must be a Segmentation-like object (colors.rgba, colors.visible, set_color, "
-                             "set_visible, observe) or a HasTraits with 'colors' and 'hidden' traits, "
+            raise ValueError("target must be a Segmentation-like document (colors.rgba, colors.visible, set_color, "
+                             "set_visible, a change trait) or a HasTraits with 'colors' and 'hidden' traits, "
                              f"got {type(target).__name__}")
         self.unlink()
         self.target, self._kind = target, kind
         if kind == "traits":
             target.observe(self._from_target, names=["colors", "hidden"])
         else:
-            target.observe(self._seg_changed)
+            target.observe(self._seg_changed, names="change")
         self._from_target(None)
 
     def unlink(self) -> None:
@@ -157,12 +158,12 @@ class ColorWheel(anywidget.AnyWidget):
             return
         if self._kind == "traits":
             t.unobserve(self._from_target, names=["colors", "hidden"])
-        elif hasattr(t, "unobserve"):
-            t.unobserve(self._seg_changed)
+        else:
+            t.unobserve(self._seg_changed, names="change")
         self.target = None
 
-    def _seg_changed(self, kind, ids=None) -> None:
-        if kind in ("colors", "visibility", "all"):
+    def _seg_changed(self, event) -> None:
+        if event["new"].kind in ("colors", "visibility", "all"):
             self._from_target(None)
 
     def _table(self) -> tuple[list[str], list[bool]]:

@@ -2,7 +2,8 @@
 colour table, in-place per-vertex colour updates, hidden colours dropped from the index buffer, optional
 shader-free depth cueing, saved-view application, offscreen screenshots.
 
-The view observes a :class:`plantvr.vine.Segmentation`; it never edits labels.
+The view observes a :class:`plantvr.documents.labels.Segmentation` (or its display proxy) through its
+``change`` trait; it never edits labels.
 """
 from __future__ import annotations
 
@@ -13,9 +14,9 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 import pyvista as pv
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.depthcue import coarse_hull, depth_cue_colors
 from plantvr.vine.proxy import DisplayProxy
-from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.views import SavedView, load_view
 
 __all__ = ["SegmentationView"]
@@ -67,13 +68,17 @@ class SegmentationView:
         self._hull = None
         self._brush = None
         self.updates = 0
-        src.observe(self._on_change)
+        src.observe(self._on_change, names="change")
+        self._observing = True
 
     # ------------------------------------------------------------------ model → view
     def _rgba_array(self) -> np.ndarray:
         return self.mesh.point_data["rgba"]
 
-    def _on_change(self, kind: str, ids) -> None:
+    def _on_change(self, event) -> None:
+        kind, ids = event["new"].kind, event["new"].ids
+        if kind not in ("labels", "colors", "visibility", "all") or (ids is not None and ids.size == 0):
+            return                                         # saved views, or a stroke's end: nothing to draw
         if kind == "labels" and ids is not None and not self.depth_cue:
             rgba = self.src.colors.rgba[self.src.labels[ids]]
             self._base_rgba[ids] = rgba
@@ -112,7 +117,7 @@ class SegmentationView:
         touches VTK; the render side calls :meth:`poll` (``screenshot`` does) and takes the latest completed
         labels (spec §4.3).
         """
-        self.src.unobserve(self._on_change)
+        self._unobserve()
         self._buffer = buffer
         self._buffer_version = -1
 
@@ -215,5 +220,10 @@ class SegmentationView:
 
     def close(self) -> None:
         """Stop observing and close the plotter."""
-        self.src.unobserve(self._on_change)
+        self._unobserve()
         self.plotter.close()
+
+    def _unobserve(self) -> None:
+        if self._observing:
+            self.src.unobserve(self._on_change, names="change")
+            self._observing = False

@@ -2,7 +2,7 @@
 (spec 000_vine §1.5 step 3, §6; issue 15).
 
 The numeric cut comes from :func:`plantvr.vine.slices.plane_segments`; this module only draws it. Slices
-follow the segmentation: after a paint, fill or split the cut lines are recoloured.
+follow the segmentation (its ``change`` trait): after a paint, fill or split the cut lines are recoloured.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 import pyvista as pv
 
 from plantvr._validation import check_array, check_int, check_range
-from plantvr.vine.segmentation import Segmentation
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.slices import _check_axis, plane_segments, slice_contours
 
 __all__ = ["VolumeSlices", "cut_polydata"]
@@ -89,11 +89,13 @@ class VolumeSlices:
         self.actors: dict[tuple[str, int], object] = {}
         for k, i in sorted(idx.items()):
             self.set_index(k, i)
+        self._observing = seg is not None
         if seg is not None:
-            seg.observe(self._on_change)
+            seg.observe(self._on_change, names="change")
 
-    def _on_change(self, kind: str, ids) -> None:
-        if kind in ("labels", "colors", "all"):
+    def _on_change(self, event) -> None:
+        ids = event["new"].ids
+        if event["new"].kind in ("labels", "colors", "all") and (ids is None or ids.size):
             for k in list(self.indices):
                 self._draw_cut(k)
 
@@ -141,5 +143,6 @@ class VolumeSlices:
         for a in self.actors.values():
             self.plotter.remove_actor(a, render=False)
         self.actors.clear()
-        if self.seg is not None:
-            self.seg.unobserve(self._on_change)
+        if self._observing:
+            self.seg.unobserve(self._on_change, names="change")
+            self._observing = False

@@ -46,8 +46,8 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_range
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.proxy import DisplayProxy
-from plantvr.vine.segmentation import Segmentation
 
 __all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry",
            "wheel_svg"]
@@ -401,20 +401,20 @@ class VineReviewApp:
         old = getattr(self, "view", None)
         plotter = None
         if old is not None:
-            old.src.unobserve(old._on_change)
+            old._unobserve()
             old.plotter.remove_actor(old.actor)
             plotter = old.plotter
             self.proxy.close()
         old_lod = getattr(self, "lod_view", None)
         if old_lod is not None:
-            old_lod.src.unobserve(old_lod._on_change)
+            old_lod._unobserve()
             old_lod.plotter.remove_actor(old_lod.actor)
             self.lod.close()
         self.seg = seg
         self.proxy = proxy if proxy is not None else DisplayProxy(seg, target_faces=self.target_faces)
         self.view = SegmentationView(seg, proxy=self.proxy, plotter=plotter, window_size=self.window_size,
                                      background=(0.08, 0.08, 0.1))
-        self.proxy.observe(self._on_proxy_change)
+        self.proxy.observe(self._on_proxy_change, names="change")
         self.lod = self.lod_view = None
         self._lod_pending = []
         if self.mode == "local" and self.interactive_faces is not None \
@@ -424,23 +424,24 @@ class VineReviewApp:
             self.lod = self.proxy.coarser(self.interactive_faces)     # not a second pass over the full mesh
             self.lod_view = SegmentationView(seg, proxy=self.lod, plotter=self.view.plotter,
                                              background=(0.08, 0.08, 0.1))
-            self.lod.observe(self._on_lod_change)
+            self.lod.observe(self._on_lod_change, names="change")
         self.view.plotter.reset_camera()
         self.view.plotter.camera.elevation = -35
 
-    def _on_lod_change(self, kind, ids) -> None:
-        if kind == "labels" and ids is not None:
-            self._lod_pending.append(np.asarray(ids))
-        else:
-            self._full = True
+    def _on_lod_change(self, event) -> None:
+        self._note(event["new"], self._lod_pending)
 
-    def _on_proxy_change(self, kind, ids) -> None:
-        if kind == "labels" and ids is not None:
-            self._pending.append(np.asarray(ids))
-        else:
+    def _on_proxy_change(self, event) -> None:
+        self._note(event["new"], self._pending)
+        self.state.can_undo = self.seg.history.can_undo
+        self.state.can_redo = self.seg.history.can_redo
+
+    def _note(self, change, pending: list) -> None:
+        """Queue a proxy change: its vertex ids for a colour delta, or a scene re-synchronisation."""
+        if change.kind == "labels" and change.ids is not None:
+            pending.append(np.asarray(change.ids))
+        elif change.kind in ("colors", "visibility", "all", "labels"):
             self._full = True
-        self.state.can_undo = bool(self.seg.history.undo_stack)
-        self.state.can_redo = bool(self.seg.history.redo_stack)
 
     def colour_delta(self, *, lod: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """The proxy vertices changed since the last push and their colours as drawn (consumes them).
@@ -489,8 +490,8 @@ class VineReviewApp:
         self.state.hidden = [int(k) for k in np.nonzero(~self.seg.colors.visible)[0]]
         self._render_wheel()
         self.state.painted = int(np.count_nonzero(self.seg.labels))
-        self.state.can_undo = bool(self.seg.history.undo_stack)
-        self.state.can_redo = bool(self.seg.history.redo_stack)
+        self.state.can_undo = self.seg.history.can_undo
+        self.state.can_redo = self.seg.history.can_redo
 
     def _push(self) -> None:
         """Send what changed to the browser.
@@ -876,7 +877,7 @@ class VineReviewApp:
         self.proxy.close()
         if self.lod is not None:
             self.lod.close()
-            self.lod_view.src.unobserve(self.lod_view._on_change)
+            self.lod_view._unobserve()
         self.view.close()
 
 
@@ -901,7 +902,7 @@ def main_segment(argv: list[str] | None = None) -> int:
     """
     import argparse
 
-    from plantvr.vine.app import open_source, paint_demo
+    from plantvr.documents.labels_app import open_source, paint_demo
     ap = argparse.ArgumentParser(prog="plantvr segment", description=main_segment.__doc__.split("\n")[0])
     ap.add_argument("source", help="volume file (.tif/.npy/.npz/.nrrd), mesh file (.ply/.obj/...), or synth[:N]")
     ap.add_argument("--level", type=float, default=None, help="iso-value (default: Otsu / the synthetic one)")

@@ -1,8 +1,8 @@
 """Triple-buffered label publication and the painting worker thread (spec 000_vine §4.2–4.3, checklist items
 18–19; thesis §5.7.1–5.7.2).
 
-The worker owns ``Segmentation.labels``; after each change it publishes the changed entries into a
-:class:`TripleBuffer`. The writer always fills the oldest buffer not being read and the reader always takes
+The worker owns ``Segmentation.labels``; after each change (the document's ``change`` trait) the changed
+entries are published into a :class:`TripleBuffer`. The writer always fills the oldest buffer not being read and the reader always takes
 the latest completed one, so neither waits for the other beyond an index swap under a short lock. A buffer
 that is one or two versions stale is caught up by replaying the sparse deltas it missed (the "catch-up
 step" the spec adds), or by one full copy when the deltas are gone.
@@ -93,10 +93,11 @@ class TripleBuffer:
 
 
 class PaintWorker:
-    """Run painting, undo and redo of a :class:`~plantvr.vine.Segmentation` on a worker thread.
+    """Run painting, undo and redo of a :class:`~plantvr.documents.labels.Segmentation` on a worker thread.
 
-    Commands are queued (``paint``, ``begin_stroke``, ``end_stroke``, ``undo``, ``redo``, ``set_visible``) and
-    validated by the segmentation when they run; errors are collected in ``errors``. Changes are published
+    Commands are queued by name with their keyword arguments, as the document's command log holds them
+    (``paint``, ``begin_stroke``, ``end_stroke``, ``undo``, ``redo``, ``set_visible``, ...), and validated by
+    the segmentation when they run; errors are collected in ``errors``. Changes are published
     into ``buffer`` (a :class:`TripleBuffer`), which the render thread reads.
 
     Parameters
@@ -113,19 +114,22 @@ class PaintWorker:
         self.errors: list[Exception] = []
         self._q: queue.Queue = queue.Queue()
         self._thread = threading.Thread(target=self._run, name="vine-paint-worker", daemon=True)
-        seg.observe(self._on_change)
+        seg.observe(self._on_change, names="change")
         self._thread.start()
 
-    def _on_change(self, kind, ids):
-        if kind == "labels" and ids is not None:
-            self.buffer.publish(ids, self.seg.labels[ids])
-        elif kind == "all":
+    def _on_change(self, event):
+        c = event["new"]
+        if c.kind == "labels" and c.ids is not None:
+            if c.ids.size:
+                self.buffer.publish(c.ids, self.seg.labels[c.ids])
+        elif c.kind == "all":
             self.buffer.publish(None, self.seg.labels)
 
-    def submit(self, op: str, *args) -> None:
-        """Queue a command, e.g. ``submit("paint", center, radius, label)``."""
+    def submit(self, op: str, *args, **kwargs) -> None:
+        """Queue a command, e.g. ``submit("paint", center, radius, label)`` or, from a command log,
+        ``submit(event.command, **event.kwargs)``."""
         check_choice("op", op, self._OPS)
-        self._q.put((op, args))
+        self._q.put((op, args, kwargs))
 
     def join(self) -> None:
         """Wait until every queued command has run."""
@@ -135,7 +139,7 @@ class PaintWorker:
         """Finish queued work and stop the thread."""
         self._q.put(None)
         self._thread.join()
-        self.seg.unobserve(self._on_change)
+        self.seg.unobserve(self._on_change, names="change")
 
     def _run(self):
         while True:
@@ -143,8 +147,8 @@ class PaintWorker:
             try:
                 if item is None:
                     return
-                op, args = item
-                getattr(self.seg, op)(*args)
+                op, args, kwargs = item
+                getattr(self.seg, op)(*args, **kwargs)
             except Exception as exc:  # noqa: BLE001 - reported to the caller through .errors
                 self.errors.append(exc)
             finally:

@@ -2,7 +2,9 @@
 (issue 14; spec 000_vine §4.4, §6 "level of detail ... with colour indices carried per vertex").
 
 The proxy is what a browser or a CPU renderer draws; painting, hiding and undo always act on the full-resolution
-labels of the :class:`~plantvr.vine.Segmentation`. Each full-resolution vertex belongs to exactly one proxy
+labels of the labels document (:class:`plantvr.documents.labels.Segmentation`). The proxy observes the
+document's ``change`` trait and publishes its own ``change`` the same way, with proxy vertex ids, so a view
+observes a proxy exactly as it observes the document: ``proxy.observe(fn, names="change")``. Each full-resolution vertex belongs to exactly one proxy
 vertex (``owner``); the members of a proxy vertex are stored once as a CSR list (``members``, ``starts``), so
 the memory is 8 bytes per full-resolution vertex. A proxy vertex's label is the most frequent label among its
 visible members (among all members when none is visible; ties go to the smaller label). After a paint or an
@@ -22,16 +24,16 @@ mapping use int32 ids throughout. Measured at 36 M faces on 2 cores (``benchmark
 """
 from __future__ import annotations
 
+import dataclasses
 import time
-from collections.abc import Callable
 
 import numba
 import numpy as np
 from scipy.spatial import cKDTree
+from traitlets import Any, HasTraits
 
 from plantvr._sorting import counting_sort
 from plantvr._validation import check_choice, check_int, check_range
-from plantvr.vine.segmentation import Segmentation
 
 __all__ = ["DisplayProxy", "decimate_with_owner", "merge_coincident", "proxy_labels"]
 
@@ -413,13 +415,14 @@ def _vertex_normals(v: np.ndarray, f: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------- the proxy
-class DisplayProxy:
+class DisplayProxy(HasTraits):
     """A decimated, label-following copy of a segmentation's mesh for display (issue 14).
 
     Parameters
     ----------
     seg : Segmentation
-        The full-resolution segmentation (its labels stay the only truth).
+        The full-resolution labels document (its labels stay the only truth); anything with ``vertices``,
+        ``faces``, ``normals``, ``labels``, ``colors`` and a ``change`` trait.
     target_faces : int
         Triangle budget of the proxy, in [4, 2**31 - 1]; a mesh already within it is used as is (identity map).
     method : {"collapse", "nearest"}
@@ -431,7 +434,8 @@ class DisplayProxy:
         Most faces one fast-simplification call sees (bigger meshes are decimated in two stages, see
         :func:`decimate_with_owner`), in [1000, 2**31 - 1]. Bounds the build's peak memory.
     observe : bool
-        Follow the segmentation's changes (paint, undo, hide, colours) automatically.
+        Follow the segmentation's changes (paint, undo, hide, colours) automatically, republishing each as
+        this proxy's :attr:`change`.
     base : DisplayProxy or None
         Decimate this proxy's display mesh of the same ``seg`` instead of the full-resolution mesh and compose
         the owner maps (a coarser level of detail without decimating the full mesh again); see :meth:`coarser`.
@@ -449,13 +453,19 @@ class DisplayProxy:
         Proxy labels (see module docstring).
     timings : dict
         Seconds spent in each build step.
+    change : plantvr.document.Change
+        The latest change of the proxy: the document's change, with ``ids`` the proxy vertices whose label
+        changed for ``"labels"`` (observe ``names="change"``).
     """
 
-    def __init__(self, seg: Segmentation, *, target_faces: int = 1_500_000, method: str = "collapse",
+    change = Any(None, allow_none=True, help="The latest Change, in proxy vertex ids (observe names='change').")
+
+    def __init__(self, seg, *, target_faces: int = 1_500_000, method: str = "collapse",
                  agg: float = 7.0, chunk_faces: int = 6_000_000, observe: bool = True,
                  base: "DisplayProxy | None" = None):
-        if not isinstance(seg, Segmentation):
-            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+        if not all(hasattr(seg, k) for k in ("vertices", "faces", "labels", "colors", "n_vertices")) \
+                or not isinstance(seg, HasTraits) or not seg.has_trait("change"):
+            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")
         if base is not None and (not isinstance(base, DisplayProxy) or base.seg is not seg):
             raise ValueError("base must be a DisplayProxy of the same segmentation")
         target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
@@ -464,8 +474,8 @@ class DisplayProxy:
         chunk_faces = check_int("chunk_faces", chunk_faces, 1000, 2 ** 31 - 1)
         self.seg = seg
         self.colors = seg.colors                              # shared table: recolouring edits it once
+        super().__init__()
         self.timings: dict[str, float] = {}
-        self._observers: list[Callable] = []
         t0 = time.perf_counter()
         src_v, src_f = (seg.vertices, seg.faces) if base is None else (base.vertices, base.faces)
         if len(src_f) <= target_faces:
@@ -507,7 +517,7 @@ class DisplayProxy:
         self.timings["total"] = time.perf_counter() - t0
         self._observing = False
         if observe:
-            seg.observe(self._on_change)
+            seg.observe(self._on_change, names="change")
             self._observing = True
 
     def coarser(self, target_faces: int, **kwargs) -> "DisplayProxy":
@@ -590,29 +600,20 @@ class DisplayProxy:
         """(P, 4) uint8 RGBA through the shared colour table."""
         return self.colors.rgba[self.labels]
 
-    # ------------------------------------------------------------------ observers (same contract as Segmentation)
-    def observe(self, callback: Callable[[str, np.ndarray | None], None]) -> None:
-        """Call ``callback(kind, proxy_ids)`` after each proxy change (kinds as :meth:`Segmentation.observe`)."""
-        self._observers.append(callback)
-
-    def unobserve(self, callback) -> None:
-        """Stop notifying ``callback``."""
-        self._observers = [c for c in self._observers if c is not callback]
-
-    def _on_change(self, kind: str, ids) -> None:
-        if kind == "labels" and ids is not None:
-            changed = self.update(ids)
+    # ------------------------------------------------------------------ following the document
+    def _on_change(self, event) -> None:
+        c = event["new"]
+        if c.kind == "labels" and c.ids is not None:
+            changed = self.update(c.ids)
             if changed.size:
-                for cb in list(self._observers):
-                    cb("labels", changed)
+                self.change = dataclasses.replace(c, ids=changed)
             return
-        if kind in ("visibility", "all"):
+        if c.kind in ("visibility", "all"):
             self.recompute()
-        for cb in list(self._observers):
-            cb(kind, None)
+        self.change = dataclasses.replace(c, ids=None)
 
     def close(self) -> None:
         """Stop following the segmentation."""
         if self._observing:
-            self.seg.unobserve(self._on_change)
+            self.seg.unobserve(self._on_change, names="change")
             self._observing = False

@@ -53,7 +53,7 @@ def test_wheel_linked_to_traitlets_stand_in():
 
 
 def _segmentation():
-    from plantvr.vine.segmentation import Segmentation
+    from plantvr.documents.labels import Segmentation
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
     f = np.array([[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]])
     return Segmentation(v, f)

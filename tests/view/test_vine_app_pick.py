@@ -7,8 +7,8 @@ import pytest
 
 pytest.importorskip("trame_vtk")
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.index import ball_query_brute
-from plantvr.vine.segmentation import Segmentation
 
 
 @pytest.fixture(scope="module")

@@ -3,8 +3,8 @@ commands without a browser."""
 import numpy as np
 import pytest
 
-from plantvr.vine.app import open_source, paint_demo
-from plantvr.vine.segmentation import Segmentation
+from plantvr.documents.labels import Segmentation
+from plantvr.documents.labels_app import open_source, paint_demo
 from plantvr.vine.volume import save_volume
 
 

@@ -18,8 +18,8 @@ pytestmark = [pytest.mark.browser,
 playwright_api = pytest.importorskip("playwright.sync_api")
 pytest.importorskip("trame_vtk")
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.index import ball_query_brute
-from plantvr.vine.segmentation import Segmentation
 
 
 def _img(page):

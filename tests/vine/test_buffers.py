@@ -5,8 +5,8 @@ import time
 import numpy as np
 import pytest
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.buffers import PaintWorker, TripleBuffer
-from plantvr.vine.segmentation import Segmentation
 
 
 def test_tw_v6_reader_never_sees_a_buffer_being_written():

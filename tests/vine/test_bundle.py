@@ -5,8 +5,8 @@ import zipfile
 import numpy as np
 import pytest
 
-from plantvr.vine import bundle as B
-from plantvr.vine.segmentation import Segmentation
+from plantvr.documents import labels_bundle as B
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.synth import synth_flowerhead
 from plantvr.vine.views import SavedView
 
@@ -43,7 +43,7 @@ def _same_state(a, b):
             np.testing.assert_array_equal(ea.indices, eb.indices)
             np.testing.assert_array_equal(ea.old, eb.old)
             np.testing.assert_array_equal(ea.new, eb.new)
-    assert a.event_log == b.event_log
+    assert a.log.events == b.log.events
     assert a.preserve == b.preserve
 
 
@@ -94,16 +94,16 @@ def test_truncated_or_corrupt_bundle_restores_nothing(tmp_path, small, seg):
     target = Segmentation.from_volume(small.volume, small.level, slab=16)
     target.paint(target.vertices[3], 5.0, 9)
     before = (target.labels.copy(), target.colors.rgba.copy(), len(target.history.undo_stack),
-              list(target.event_log))
+              list(target.log))
     seen = []
-    target.observe(lambda kind, ids: seen.append(kind))
+    target.observe(lambda ch: seen.append(ch["new"].kind), names="change")
     for name, data, match in _corruptions(raw):
         p = tmp_path / f"{name}.zip"
         p.write_bytes(data)
         with pytest.raises(ValueError, match=match):
             B.restore_bundle(target, p)
         assert np.array_equal(target.labels, before[0]) and np.array_equal(target.colors.rgba, before[1])
-        assert len(target.history.undo_stack) == before[2] and target.event_log == before[3]
+        assert len(target.history.undo_stack) == before[2] and list(target.log) == before[3]
     assert not seen
     B.restore_bundle(target, tmp_path / "a.zip")
     _same_state(seg, target)

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from plantvr._fileio import digest_arrays
-from plantvr.vine import bundle as B
-from plantvr.vine.app import open_source
+from plantvr.documents import labels_bundle as B
+from plantvr.documents.labels import Segmentation
+from plantvr.documents.labels_app import open_source
 from plantvr.vine.isosurface import extract_isosurface
-from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume
 
@@ -41,7 +41,7 @@ def _seg(surf):
 
 
 def _state(seg):
-    return digest_arrays(seg._state_arrays(include_mesh=True)), len(seg.event_log), seg.version
+    return digest_arrays(seg._state_arrays(include_mesh=True)), len(seg.log), seg.version
 
 
 def _npy(a) -> bytes:
@@ -174,7 +174,7 @@ def test_corrupt_session_files_are_refused_and_change_nothing(surf, tmp_path, la
     target.paint(target.vertices[9], 2.0, 7)
     before = _state(target)
     seen = []
-    target.observe(lambda k, i: seen.append(k))
+    target.observe(lambda ch: seen.append(ch["new"].kind), names="change")
     n = 0
     for name, path, match in _session_cases(good, tmp_path, labels_only=labels_only):
         if not labels_only:
@@ -223,7 +223,7 @@ def test_corrupt_bundles_are_refused_and_change_nothing(surf, tmp_path):
     target = _seg(surf)
     before = _state(target)
     seen = []
-    target.observe(lambda k, i: seen.append(k))
+    target.observe(lambda ch: seen.append(ch["new"].kind), names="change")
     with zipfile.ZipFile(good) as z:
         man = json.loads(z.read("manifest.json"))
     cases = [("empty", b""), ("truncated", raw[: len(raw) // 2]), ("tail cut", raw[:-5]), ("text", b"hello")]
@@ -254,7 +254,7 @@ def test_corrupt_bundles_are_refused_and_change_nothing(surf, tmp_path):
             "descr": "|u1", "fortran_order": False, "shape": (4096, 4096, 4096)})}), "bundle"),
         ("no checksum", _rezip(good, tmp_path / "nc.zip", comment=b""), "checksum"),
     ]
-    for field, value in (("format", 2), ("include_mesh", "yes"), ("slab", -1), ("level", "x"),
+    for field, value in (("format", 1), ("include_mesh", "yes"), ("slab", -1), ("level", "x"),
                          ("spacing", [1, 1]), ("event_log", {"a": 1}), ("preserve", "all"), ("mesh", [1])):
         m = dict(man, **{field: value})
         files.append((f"manifest {field}", _forge(good, tmp_path / f"m_{field}.zip", m), field))

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from scipy.sparse import csgraph
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine import fill as F
 from plantvr.vine.isosurface import extract_isosurface
-from plantvr.vine.segmentation import Segmentation
 
 
 @pytest.fixture(scope="module")
@@ -182,7 +182,7 @@ def test_geodesic_fill_limits_region(seg, truth):
 
 def test_fill_rejects_and_changes_nothing(seg):
     before = _state(seg)
-    log = len(seg.event_log)
+    log = len(seg.log)
     for args, match in [((-1, 2), "vertex must be an integer"), ((seg.n_vertices, 2), "vertex must be"),
                         ((0, 99), "label must be an integer"), ((0, 2, -1.0), "radius must be in"),
                         ((0, 2, 1e12), "radius must be in")]:
@@ -196,7 +196,7 @@ def test_fill_rejects_and_changes_nothing(seg):
         seg.fill(v3, 2)
     seg.show(3)
     assert _same(before, _state(seg))
-    assert len(seg.event_log) == log + 2              # only the hide/show events
+    assert len(seg.log) == log + 2              # only the hide/show events
 
 
 def test_split_label_into_components(seg, truth):
@@ -258,7 +258,7 @@ def test_fill_split_merge_replay(seg, surface, truth):
     seg.fill(300, 1, 2.5)
     seg.paint(surface.vertices[50], 4.0, 3, True)
     other = Segmentation(surface.vertices, surface.faces, labels=truth)
-    other.replay(seg.event_log)
+    other.replay(seg.log)
     np.testing.assert_array_equal(other.labels, seg.labels)
     np.testing.assert_array_equal(other.colors.rgba, seg.colors.rgba)
 
@@ -328,7 +328,7 @@ def test_preserve_rejects(surface):
                        (2.5, "preserve must be False, True or a collection")]:
         with pytest.raises(ValueError, match=match):
             seg.paint(surface.vertices[0], 5.0, 2, preserve=bad)
-    assert not np.any(seg.labels) and not seg.event_log
+    assert not np.any(seg.labels) and not seg.log.events
 
 
 @pytest.fixture(scope="module")

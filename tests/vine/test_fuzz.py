@@ -7,11 +7,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from plantvr._fileio import digest_arrays
+from plantvr.commandlog import CommandLog, Event
+from plantvr.documents.labels import Segmentation
+from plantvr.io.ply import write_ply
 from plantvr.vine import colors as C
 from plantvr.vine import depthcue, fill, index, isosurface, labelstats, proxy, slices, synth, views, volume
 from plantvr.vine.isosurface import extract_isosurface
-from plantvr.vine.ply import write_ply
-from plantvr.vine.segmentation import Segmentation
 
 SET = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -38,7 +39,20 @@ def _seg(surf):
 
 
 def _state(seg):
-    return digest_arrays(seg._state_arrays(include_mesh=False)), len(seg.event_log), seg._stroke is None
+    return digest_arrays(seg._state_arrays(include_mesh=False)), len(seg.log), seg._stroke is None
+
+
+#: Argument names of the positional event tuples EVENTS draws.
+_ARGS = {"paint": ("center", "radius", "label"), "set_color": ("label", "rgb"), "set_visible": ("label", "visible"),
+         "fill": ("vertex", "label", "radius"), "merge_labels": ("keep", "other")}
+
+
+def _as_log(events) -> CommandLog:
+    """The drawn events as an unchecked command log; a drawn non-event becomes one whose kwargs are no dict."""
+    log = CommandLog()
+    log.events = [Event(e[0], dict(zip(_ARGS.get(e[0], ()), e[1:]))) if isinstance(e, tuple) and e
+                  else Event("paint", e) for e in events]
+    return log
 
 
 def _sane(seg, tmp_path):
@@ -181,12 +195,13 @@ EVENTS = st.lists(st.one_of(
 def test_fuzz_replay_is_all_or_nothing(fuzz, surf, tmp_path, events):
     s = _seg(surf)
     s.paint(s.vertices[0], 2.0, 3)
-    r = _call(fuzz, s, "Segmentation.replay", s.replay, events, param="event")
+    log = _as_log(events)
+    r = _call(fuzz, s, "Segmentation.replay", s.replay, log, param="event")
     if not isinstance(r, Exception):                  # accepted: the same as applying the events one by one
         t = _seg(surf)
         t.paint(t.vertices[0], 2.0, 3)
-        for op, *args in events:
-            getattr(t, op)(*args)
+        for ev in log:
+            getattr(t, ev.command)(**ev.kwargs)
         assert _state(t) == _state(s)
     _sane(s, tmp_path)
 
@@ -256,7 +271,7 @@ def test_fuzz_volumes(fuzz, vol, x):
 @SET
 @given(x=SCALARS, src=st.sampled_from(["synth:x", "synth:0", "synth:5000", "", "nope.npy", "synth:16:2", 7, None]))
 def test_fuzz_open_source_and_demo(fuzz, surf, x, src):
-    from plantvr.vine.app import open_source, paint_demo
+    from plantvr.documents.labels_app import open_source, paint_demo
     fuzz.call("open_source", open_source, src, param=("source", "size"))
     fuzz.call("open_source", open_source, "synth", size=x, param="size")
     fuzz.call("open_source", open_source, "synth:16", level=x, param="level")

@@ -3,7 +3,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from plantvr.vine.segmentation import Segmentation
+from plantvr.documents.labels import Segmentation
 
 
 @pytest.fixture
@@ -98,7 +98,7 @@ def test_undo_all_and_redo_all_hypothesis(surface, ops):
 
 
 def test_radix_sort_kernel_equals_numpy_twin():
-    from plantvr.vine.history import _first_of_runs, _radix_sort_pairs, _sort_pairs_numpy
+    from plantvr.vine.stamps import _first_of_runs, _radix_sort_pairs, _sort_pairs_numpy
     rng = np.random.default_rng(7)
     for n_bits in (5, 17, 31):
         idx = rng.integers(0, 2 ** n_bits, 5000).astype(np.int64)

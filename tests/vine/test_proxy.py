@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.index import ball_query_brute
 from plantvr.vine.proxy import (
     DisplayProxy,
@@ -16,7 +17,6 @@ from plantvr.vine.proxy import (
     merge_coincident,
     proxy_labels,
 )
-from plantvr.vine.segmentation import Segmentation
 
 
 @pytest.fixture
@@ -108,7 +108,8 @@ def test_small_mesh_is_its_own_proxy(seg):
 def test_delta_update_equals_recompute_over_paint_undo_redo(seg, proxy):
     rng = np.random.default_rng(3)
     seen = []
-    proxy.observe(lambda kind, ids: seen.append((kind, None if ids is None else ids.copy())))
+    proxy.observe(lambda ch: seen.append((ch["new"].kind, None if ch["new"].ids is None else ch["new"].ids.copy())),
+                  names="change")
     for k in range(12):
         before = proxy.labels.copy()
         c = seg.vertices[rng.integers(seg.n_vertices)]

@@ -11,8 +11,8 @@ import pytest
 
 pytest.importorskip("trame_vtk")
 
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.isosurface import extract_isosurface
-from plantvr.vine.segmentation import Segmentation
 
 
 def _sphere(n=24):

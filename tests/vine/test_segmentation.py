@@ -2,8 +2,9 @@ import numpy as np
 import pytest
 import trimesh
 
+from plantvr.commandlog import CommandLog
+from plantvr.documents.labels import Segmentation
 from plantvr.vine.index import ball_query_brute
-from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.views import quat_from_axis_angle, quat_rotate, save_view, world_to_model
 
 
@@ -75,7 +76,7 @@ def test_recolouring_edits_only_the_table(seg):
     seg.paint(seg.vertices[0].astype(float), 6.0, 2)
     labels = seg.labels.copy()
     seen = []
-    seg.observe(lambda kind, ids: seen.append(kind))
+    seg.observe(lambda ch: seen.append(ch["new"].kind), names="change")
     seg.set_color(2, (1, 2, 3))
     assert np.array_equal(seg.labels, labels) and seen == ["colors"]
     assert np.all(seg.vertex_colors()[labels == 2, :3] == (1, 2, 3))
@@ -191,17 +192,20 @@ def test_event_log_replay_gives_identical_labels(surface):
     with pytest.raises(ValueError, match="center"):
         a.paint([0, 0], 1, 1)                      # rejected commands are not logged
     b = Segmentation(surface.vertices, surface.faces)
-    b.replay(a.event_log)
+    b.replay(a.log)
     assert np.array_equal(a.labels, b.labels) and np.array_equal(a.colors.rgba, b.colors.rgba)
     c = Segmentation(surface.vertices, surface.faces)           # same replay through the worker thread
     w = PaintWorker(c)
-    for op, *args in a.event_log:
-        w.submit(op, *args)
+    for ev in a.log:
+        w.submit(ev.command, **ev.kwargs)
     w.join()
     w.close()
     assert not w.errors and np.array_equal(c.labels, a.labels)
-    with pytest.raises(ValueError, match="event must start"):
-        b.replay([("paint", (0, 0, 0), 1.0, 1), ("format_disk",)])
+    bad = CommandLog()
+    bad.record("paint", center=(0, 0, 0), radius=1.0, label=1)
+    bad.record("format_disk")
+    with pytest.raises(ValueError, match="event 1 .format_disk.*command must be one of"):
+        b.replay(bad)
 
 
 def test_autosave_loses_at_most_the_open_operation(surface, tmp_path):

@@ -78,8 +78,8 @@ def test_view_slices_follow_labels(tmp_path, head, surface, truth):
     import os
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     pv = pytest.importorskip("pyvista")
+    from plantvr.documents.labels import Segmentation
     from plantvr.view.slices import VolumeSlices
-    from plantvr.vine.segmentation import Segmentation
     seg = Segmentation(surface.vertices, surface.faces, labels=truth)
     p = pv.Plotter(off_screen=True, window_size=(400, 400))
     p.set_background("#404050")

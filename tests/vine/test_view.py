@@ -4,8 +4,8 @@ import pytest
 
 pv = pytest.importorskip("pyvista")
 
+from plantvr.documents.labels import Segmentation
 from plantvr.view.segmentation import SegmentationView
-from plantvr.vine.segmentation import Segmentation
 from plantvr.vine.views import save_view
 
 

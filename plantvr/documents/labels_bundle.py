@@ -1,9 +1,10 @@
-"""Session bundles: one zip file with the whole segmentation session (spec 000_vine §2.7 persistence,
+"""Session bundles: one zip file with the whole ViNE labels document (spec 000_vine §2.7 persistence,
 checklist item 24; issue 15).
 
 A bundle holds the mesh (or the SHA-256 of its source volume plus the iso-value and meshing options, so the
 mesh is rebuilt from the scan), labels, colour table, visibility, saved views, undo/redo history, the
-brush mode and the event log, optionally the volume itself (small scans) or a path to it.
+brush mode and the command log (:class:`~plantvr.commandlog.CommandLog` text), optionally the volume itself
+(small scans) or a path to it.
 
 Layout: ``manifest.json`` (sorted keys) and one ``.npy`` member per array, written in a fixed order with a
 fixed time stamp, so saving the same state twice gives the same bytes, on any machine. The zip comment
@@ -23,11 +24,15 @@ import numpy as np
 
 from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_bytes, npy_headers, read_zip, zip_directory
 from plantvr._validation import check_array, check_int, check_range
+from plantvr.commandlog import CommandLog
+from plantvr.documents.labels import _STATE_NAMES, Segmentation
 from plantvr.vine._filecheck import check_elements
+from plantvr.vine.isosurface import extract_isosurface
+from plantvr.vine.volume import _check_declared, _check_volume
 
 __all__ = ["Bundle", "load_bundle", "restore_bundle", "save_bundle", "volume_sha256"]
 
-BUNDLE_FORMAT = 1
+BUNDLE_FORMAT = 2   # 2: the event log is CommandLog text (issue 21)
 _MAGIC = "plantvr-vine-bundle"
 _STAMP = (1980, 1, 1, 0, 0, 0)
 _STORED = ("arrays/vertices.npy", "arrays/normals.npy")
@@ -52,7 +57,7 @@ class Bundle:
     Attributes
     ----------
     segmentation : Segmentation
-        The restored session (event log included).
+        The restored session (command log included).
     level : float or None
         Iso-value the mesh was extracted at.
     volume : ndarray or None
@@ -64,29 +69,13 @@ class Bundle:
         Free-form JSON metadata saved with the bundle.
     """
 
-    segmentation: object
+    segmentation: Segmentation
     level: float | None = None
     volume: np.ndarray | None = None
     volume_sha256: str | None = None
     volume_path: str | None = None
     spacing: tuple = (1.0, 1.0, 1.0)
     meta: dict = field(default_factory=dict)
-
-
-def _to_json(x):
-    if isinstance(x, (tuple, list)):
-        return [_to_json(y) for y in x]
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (np.floating,)):
-        return float(x)
-    if isinstance(x, (np.bool_,)):
-        return bool(x)
-    return x
-
-
-def _from_json(x):
-    return tuple(_from_json(y) for y in x) if isinstance(x, list) else x
 
 
 def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = None, level: float | None = None,
@@ -123,8 +112,6 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
     str
         SHA-256 (hex) of the bundle's contents (also its zip comment).
     """
-    from plantvr.vine.segmentation import Segmentation
-    from plantvr.vine.volume import _check_volume
     if not isinstance(seg, Segmentation):
         raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
     if seg._stroke is not None:
@@ -143,9 +130,9 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
         raise ValueError("embed_volume=True needs volume")
     try:
         meta_json = json.loads(json.dumps(meta or {}, sort_keys=True))
-        events = json.loads(json.dumps(_to_json(seg.event_log)))
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"meta and the event log must be JSON-serialisable: {exc}") from None
+        raise ValueError(f"meta must be JSON-serialisable: {exc}") from None
+    events = seg.log.to_text()
     arrays = seg._state_arrays(include_mesh=include_mesh)
     if embed_volume:
         arrays["volume"] = np.ascontiguousarray(volume)
@@ -186,8 +173,6 @@ def _digest(members) -> str:
 
 
 def _read(path) -> tuple[dict, dict]:
-    from plantvr.vine.segmentation import _STATE_NAMES, Segmentation
-    from plantvr.vine.volume import _check_declared
     p = os.fspath(path)
     if not os.path.isfile(p):
         raise ValueError(f"bundle {p!r} does not exist")
@@ -264,9 +249,8 @@ def _check_manifest(man: dict, p: str) -> None:
     pres = man.get("preserve", False)
     if not (isinstance(pres, bool) or (isinstance(pres, list) and all(isinstance(x, int) for x in pres))):
         bad("preserve", "true, false or a list of labels")
-    events = man.get("event_log", [])
-    if not (isinstance(events, list) and all(isinstance(e, list) and e and isinstance(e[0], str) for e in events)):
-        bad("event_log", "a list of [op, *args] lists")
+    if not isinstance(man.get("event_log"), str):
+        bad("event_log", "command log text")
     if not isinstance(man.get("meta", {}), dict):
         bad("meta", "an object")
 
@@ -293,8 +277,6 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
         Truncated, tampered or foreign file, wrong volume, or a mesh that does not rebuild identically; the
         message says which.
     """
-    from plantvr.vine.segmentation import Segmentation
-    from plantvr.vine.volume import _check_volume
     p = os.fspath(path)
     man, arrays = _read(p)
     want = man.get("volume_sha256")
@@ -315,7 +297,6 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
         if volume is None:
             raise ValueError(f"bundle {p!r} holds no mesh and no volume; pass volume= (the scan with sha256 "
                              f"{str(want)[:16]}…) to rebuild the mesh")
-        from plantvr.vine.isosurface import extract_isosurface
         s = extract_isosurface(volume, man["level"], slab=int(man["slab"]), spacing=tuple(man["spacing"]))
         base = Segmentation(s.vertices, s.faces, normals=s.normals)
         if [base.n_vertices, len(base.faces), base.mesh_fingerprint()] != man["mesh"]:
@@ -329,24 +310,27 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
         raise ValueError(f"bundle {p!r}: mesh does not match the manifest's fingerprint")
     pres = man.get("preserve", False)
     seg.preserve = seg.check_preserve(pres if isinstance(pres, bool) else tuple(pres))
-    events = man.get("event_log", [])
-    seg.event_log = [_from_json(e) for e in events]
+    try:
+        log = CommandLog.from_text(man["event_log"], where=f"bundle {p!r}", commands=Segmentation.COMMANDS,
+                                   document=Segmentation.KIND)
+    except ValueError as exc:
+        raise ValueError(f"bundle {p!r}: manifest field 'event_log' is not a ViNE command log: {exc}") from None
+    seg.log.events = log.events
     return Bundle(seg, level=man.get("level"), volume=volume, volume_sha256=want,
                   volume_path=man.get("volume_path"), spacing=tuple(man.get("spacing", (1.0, 1.0, 1.0))),
                   meta=man.get("meta", {}))
 
 
 def restore_bundle(seg, path: str | os.PathLike, *, volume: np.ndarray | None = None) -> Bundle:
-    """Replace ``seg``'s state with a bundle's (observers stay and get one ``"all"`` notice).
+    """Replace ``seg``'s state with a bundle's (observers stay and get one ``"all"`` change).
 
     On any error ``seg`` is left unchanged.
     """
-    from plantvr.vine.segmentation import Segmentation
     if not isinstance(seg, Segmentation):
         raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
     b = load_bundle(path, volume=volume, index=seg.index_kind)
     pres = b.segmentation.preserve
-    seg._adopt(b.segmentation, event_log=True)
+    seg._adopt(b.segmentation, log=True, command="restore_bundle")
     seg.preserve = pres
     b.segmentation = seg
     return b

@@ -1,29 +1,39 @@
-"""The ViNE segmentation session: mesh + per-vertex labels + colour table + history + views (spec 000_vine
-§1.6, §2.4–2.7; checklist items 13–17, 24, 26).
+"""The ViNE labels document: mesh + per-vertex labels + colour table + history + views (spec 000_vine §1.6,
+§2.4–2.7; checklist items 13–17, 24, 26; issue 21).
 
 ``Segmentation.paint(center, radius, label)`` is the one command every input (code, mouse, headset replay)
-ends in. It validates everything before writing, records only changed entries for undo, and notifies
-observers with the changed vertex ids so views update colours in place.
+ends in. It validates everything before writing, records only changed entries for undo (one
+:class:`~plantvr.history.ArrayEdit` per operation in the document's :class:`~plantvr.history.History`), logs
+itself in the document's :class:`~plantvr.commandlog.CommandLog` and publishes a
+:class:`~plantvr.document.Change` with the changed vertex ids, so views update colours in place::
+
+    seg.observe(lambda ch: print(ch["new"].kind, ch["new"].ids), names="change")
+
+Change kinds: ``"labels"`` (ids: the vertices whose label changed; an empty array when a stroke ends),
+``"colors"``, ``"visibility"``, ``"views"`` and ``"all"`` (ids None).
 """
 from __future__ import annotations
 
 import colorsys
 import contextlib
-import itertools
 import os
 import zlib
-from collections import deque
-from collections.abc import Callable
+from itertools import pairwise
+from pathlib import Path
 
 import numpy as np
 
 from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_npz, write_atomic
 from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
+from plantvr.commandlog import CommandLog
+from plantvr.document import Document
+from plantvr.history import ArrayEdit
+from plantvr.io.ply import write_ply
+from plantvr.types import TriMesh
 from plantvr.vine._filecheck import check_elements
 from plantvr.vine.colors import ColorTable
-from plantvr.vine.history import History, LabelEdit, merge_stamps
 from plantvr.vine.index import GridIndex, KDTreeIndex, bounds
-from plantvr.vine.ply import write_ply
+from plantvr.vine.stamps import merge_stamps
 from plantvr.vine.views import SavedView
 
 __all__ = ["Segmentation"]
@@ -41,6 +51,11 @@ _STATE_NAMES = ("format", "vertices", "faces", "normals", "labels", "rgba", "vis
                 "undo_old", "undo_new", "undo_off", "redo_idx", "redo_old", "redo_new", "redo_off",
                 "history_limits", "mesh")
 
+#: Attributes of the mesh (and what is built from it once), shared by a replay's scratch copy.
+_MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_index", "_graph")
+#: Attributes of the session state a restore, a bundle or a replay takes over.
+_SESSION_ATTRS = ("labels", "colors", "history", "views", "_stroke")
+
 
 def _distinct_color(k: int) -> tuple[int, int, int]:
     """A saturated colour for the k-th table entry (golden-ratio hue steps, so neighbours differ)."""
@@ -49,8 +64,8 @@ def _distinct_color(k: int) -> tuple[int, int, int]:
     return round(255 * r), round(255 * g), round(255 * b)
 
 
-class Segmentation:
-    """Per-vertex colour-label segmentation of a triangle mesh.
+class Segmentation(Document):
+    """Per-vertex colour-label segmentation of a triangle mesh (the ViNE document, kind ``"vine"``).
 
     Parameters
     ----------
@@ -74,8 +89,14 @@ class Segmentation:
     labels : (V,) uint8 ndarray
         One byte per vertex into ``colors`` (spec §2.4.2).
     version : int
-        Bumped by every change of labels, colours or visibility.
+        Bumped by every change of labels, colours, visibility or views.
+    log : CommandLog
+        Every command applied, replayable by name (:meth:`replay`).
     """
+
+    KIND = "vine"
+    COMMANDS = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
+                "set_color", "add_color", "fill", "split_label", "merge_labels")
 
     def __init__(self, vertices, faces, *, labels=None, colors: ColorTable | None = None, normals=None,
                  index: str = "grid", max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20):
@@ -102,23 +123,17 @@ class Segmentation:
         if not isinstance(index, str):
             raise ValueError(f"index must be one of ['grid', 'kdtree'], got {index!r:.80}")
         index = check_choice("index", index, ("grid", "kdtree"))
-        history = History(max_items=max_undo, max_bytes=max_undo_bytes)
+        super().__init__(max_undo=max_undo, max_undo_bytes=max_undo_bytes)
         self.vertices = v
         self.faces = np.ascontiguousarray(f.astype(np.uint32, copy=False))
         self.normals = normals
         self.labels = lab
         self.colors = colors
-        self.history = history
         self.views: list[SavedView] = []
-        self.version = 0
         self.index_kind = index
         self._index = None
-        self._stroke: list | None = None
-        self._observers: list[Callable] = []
-        self.event_log: list[tuple] = []          # replayable commands: (op, *args), plain Python values
-        self.autosave_path: str | None = None
+        self._stroke: list[ArrayEdit] | None = None   # the open stroke's stamps (also staged in the history)
         self._preserve: bool | tuple[int, ...] = False  # default brush mode of paint(); see paint()
-        self._hold = 0                            # > 0: autosave deferred (replay saves once at its end)
         self._graph = None
         lo, hi = bounds(v)
         ext = hi - lo
@@ -156,32 +171,30 @@ class Segmentation:
         """Number of vertices."""
         return int(self.vertices.shape[0])
 
-    # ------------------------------------------------------------------ observers
-    def observe(self, callback: Callable[[str, np.ndarray | None], None]) -> None:
-        """Call ``callback(kind, ids)`` after each change; kind in {"labels", "colors", "visibility", "all"}."""
-        self._observers.append(callback)
+    # ------------------------------------------------------------------ document
+    def state_bytes(self) -> bytes:
+        """Labels, colour table, visibility and saved views as bytes (replay and undo tests compare them)."""
+        views = np.array([v.to_array() for v in self.views], np.float64).reshape(-1, 13)
+        parts = (np.array([self.n_vertices, len(self.colors), len(views)], np.int64), self.labels,
+                 self.colors.rgba, self.colors.visible.astype(np.uint8), views)
+        return b"".join(np.ascontiguousarray(a).tobytes() for a in parts)
 
-    def unobserve(self, callback) -> None:
-        """Stop notifying ``callback``."""
-        self._observers = [c for c in self._observers if c is not callback]
+    def scene(self) -> dict:
+        """The surface a view draws: visible triangles with per-vertex colours through the colour table."""
+        mesh = TriMesh(self.vertices, self.visible_faces())
+        mesh.colors = self.vertex_colors()
+        return {"surface": mesh}
 
-    def _changed(self, kind: str | None = None, ids: np.ndarray | None = None) -> None:
-        """The one path every state change takes: bump :attr:`version`, notify observers (when ``kind`` is
-        given) and autosave (outside strokes), so no command can change state without being saved."""
-        self.version += 1
-        if kind is not None:
-            for cb in list(self._observers):
-                cb(kind, ids)
-        self._after_operation()
-
-    _notify = _changed
+    def before_undo(self) -> None:
+        if self._stroke is not None:
+            self.end_stroke()                       # spec §2.5 [INFERRED]: finish the operation first
 
     # ------------------------------------------------------------------ painting
-    def _check_paint(self, center, radius, label):
+    def _check_paint(self, center, radius, label, preserve=None):
         c = check_point("center", center)
         r = check_range("radius", radius, 0.0, self.max_radius)
         label = self._check_target("label", label)
-        return c, r, label
+        return c, r, label, self.check_preserve(preserve)
 
     def _check_target(self, name: str, label) -> int:
         label = self.colors.check_label(name, label)
@@ -253,20 +266,22 @@ class Segmentation:
         ----------
         .. [1] Thesis Eqs. 5.15–5.16, §5.4.3 (brush), §5.5 (undo), §5.6 (hidden colours unpaintable).
         """
-        c, r, label = self._check_paint(center, radius, label)
-        pres = self.check_preserve(preserve)
-        self.event_log.append(("paint", tuple(float(x) for x in c), r, label)
-                              + (() if pres is False else (pres,)))
-        idx, old = self.index.paint(c, r, self.labels, self._paint_lut(pres), label)
-        if self._stroke is not None:
-            if idx.size:
-                self._stroke.append((idx, old))
-        else:
-            edit = merge_stamps([idx], [old], self.labels)
-            if edit is not None:
-                self.history.push(edit)
+        c, r, label, pres = self._check_paint(center, radius, label, preserve)
+        with self._lock:
+            self.log.record("paint", center=[float(x) for x in c], radius=r, label=label,
+                            **({} if pres is False else {"preserve": pres if pres is True else list(pres)}))
+            idx, old = self.index.paint(c, r, self.labels, self._paint_lut(pres), label)
+            if self._stroke is not None:
+                if idx.size:
+                    stamp = ArrayEdit(idx, old, np.full(idx.size, label, np.uint8))
+                    self.history.push(stamp)                  # into the stroke's stage
+                    self._stroke.append(stamp)
+            else:
+                edit = merge_stamps([idx], [old], self.labels)
+                if edit is not None:
+                    self.history.push(edit)
         if idx.size:
-            self._notify("labels", idx)
+            self.changed("labels", idx, command="paint")
         return int(idx.size)
 
     def paint_stroke(self, centers, radius: float, label: int,
@@ -298,62 +313,60 @@ class Segmentation:
         else:
             self.end_stroke()
 
-    def begin_stroke(self) -> None:
-        """Start a painting operation (redo is cleared when it ends with a change)."""
+    def _check_begin_stroke(self) -> None:
         if self._stroke is not None:
             raise ValueError("a stroke is already open; end_stroke() it first")
-        self.event_log.append(("begin_stroke",))
-        self._stroke = []
 
-    def end_stroke(self) -> LabelEdit | None:
-        """Commit the open stroke as one undo item; returns it (None if nothing changed)."""
+    def begin_stroke(self) -> None:
+        """Start a painting operation (redo is cleared when it ends with a change)."""
+        self._check_begin_stroke()
+        with self._lock:
+            self.log.record("begin_stroke")
+            self.history.stage()
+            self._stroke = []
+
+    def _check_end_stroke(self) -> None:
         if self._stroke is None:
             raise ValueError("no stroke is open; call begin_stroke() first")
-        parts, self._stroke = self._stroke, None
-        self.event_log.append(("end_stroke",))
-        edit = merge_stamps([p[0] for p in parts], [p[1] for p in parts], self.labels)
-        if edit is not None:
-            self.history.push(edit)
-        elif parts:
-            self.history.redo_stack.clear()       # it wrote labels (and wrote them back): redo is stale
-        if parts:
-            self._changed()
+
+    def end_stroke(self) -> ArrayEdit | None:
+        """Commit the open stroke as one undo item; returns it (None if nothing changed).
+
+        The stage's stamps are folded into one record per changed vertex (:func:`~plantvr.vine.stamps.
+        merge_stamps`): the stage is rolled back and the fold applied, which leaves the same labels.
+        """
+        self._check_end_stroke()
+        with self._lock:
+            stamps, self._stroke = self._stroke, None
+            self.log.record("end_stroke")
+            edit = merge_stamps([s.indices for s in stamps], [s.old for s in stamps], self.labels)
+            self.history.abort(self)
+            if edit is not None:
+                edit.redo(self)
+                self.history.push(edit)
+            elif stamps:
+                self.history.redo_stack.clear()       # it wrote labels (and wrote them back): redo is stale
+        if stamps:
+            self.changed("labels", np.zeros(0, np.int64), command="end_stroke")
         return edit
+
+    def _check_abort_stroke(self) -> None:
+        return None
 
     def abort_stroke(self) -> None:
         """Revert the open stroke's stamps (latest first) and record nothing."""
         if self._stroke is None:
             return
-        parts, self._stroke = self._stroke, None
-        self.event_log.append(("abort_stroke",))
-        for idx, old in reversed(parts):
-            self.labels[idx] = old
-        if parts:
-            self._notify("labels", np.concatenate([p[0] for p in parts]))
-
-    def undo(self) -> LabelEdit | None:
-        """Undo the last painting operation; returns it, or None when there is nothing to undo."""
-        if self._stroke is not None:
-            self.end_stroke()                       # spec §2.5 [INFERRED]: finish the operation first
-        self.event_log.append(("undo",))
-        e = self.history.undo(self.labels)
-        if e is not None:
-            self._notify("labels", e.indices)
-        return e
-
-    def redo(self) -> LabelEdit | None:
-        """Redo the last undone operation; returns it, or None."""
-        if self._stroke is not None:
-            self.end_stroke()
-        self.event_log.append(("redo",))
-        e = self.history.redo(self.labels)
-        if e is not None:
-            self._notify("labels", e.indices)
-        return e
+        with self._lock:
+            self._stroke = None
+            self.log.record("abort_stroke")
+            change = self.history.abort(self)
+        if change is not None:
+            self.changed(*change, command="abort_stroke")
 
     # ------------------------------------------------------------------ fill, split, merge (issue 15)
-    def _commit(self, idx: np.ndarray, new) -> LabelEdit | None:
-        """Write ``labels[idx] = new`` as one undo item (outside strokes) and notify."""
+    def _commit(self, idx: np.ndarray, new, command: str) -> ArrayEdit | None:
+        """Write ``labels[idx] = new`` as one undo item (outside strokes) and publish the change."""
         if self._stroke is not None:
             raise ValueError("a stroke is open; end_stroke() before fill, split or merge")
         idx = np.asarray(idx, np.int64)
@@ -365,11 +378,23 @@ class Segmentation:
         itype = np.int32 if self.n_vertices < 2 ** 31 else np.int64
         order = np.argsort(idx, kind="stable")
         idx, new = idx[order], np.ascontiguousarray(new[order])
-        edit = LabelEdit(idx.astype(itype), self.labels[idx].copy(), new.copy())
+        edit = ArrayEdit(idx.astype(itype), self.labels[idx].copy(), new.copy())
         self.labels[idx] = new
         self.history.push(edit)
-        self._notify("labels", idx)
+        self.changed("labels", idx, command=command)
         return edit
+
+    def _check_fill(self, vertex, label, radius=None) -> tuple[int, int, float | None]:
+        vertex = check_int("vertex", vertex, 0, self.n_vertices - 1)
+        label = self._check_target("label", label)
+        if radius is not None:
+            radius = check_range("radius", radius, 0.0, self.max_radius)
+        cur = int(self.labels[vertex])
+        if not self.colors.visible[cur]:
+            raise ValueError(f"vertex {vertex} has hidden label {cur}; show it before filling")
+        if self._stroke is not None:
+            raise ValueError("a stroke is open; end_stroke() before fill")
+        return vertex, label, radius
 
     def fill(self, vertex: int, label: int, radius: float | None = None) -> int:
         """Flood-fill from a picked vertex over mesh connectivity with ``label`` (one undo step).
@@ -396,20 +421,13 @@ class Segmentation:
         .. [1] Spec 000_vine §6 "connectivity-aware brush (geodesic flood fill)"; issue 15.
         """
         from plantvr.vine.fill import flood_region
-        vertex = check_int("vertex", vertex, 0, self.n_vertices - 1)
-        label = self._check_target("label", label)
-        if radius is not None:
-            radius = check_range("radius", radius, 0.0, self.max_radius)
-        cur = int(self.labels[vertex])
-        if not self.colors.visible[cur]:
-            raise ValueError(f"vertex {vertex} has hidden label {cur}; show it before filling")
-        if self._stroke is not None:
-            raise ValueError("a stroke is open; end_stroke() before fill")
-        self.event_log.append(("fill", vertex, label, radius))
-        if cur == label:
-            return 0
-        ids = flood_region(self.graph, self.labels, vertex, radius=radius)
-        e = self._commit(ids, label)
+        vertex, label, radius = self._check_fill(vertex, label, radius)
+        with self._lock:
+            self.log.record("fill", vertex=vertex, label=label, radius=radius)
+            if int(self.labels[vertex]) == label:
+                return 0
+            ids = flood_region(self.graph, self.labels, vertex, radius=radius)
+            e = self._commit(ids, label, "fill")
         return 0 if e is None else len(e)
 
     def label_components(self, label: int) -> tuple[np.ndarray, int]:
@@ -417,6 +435,13 @@ class Segmentation:
         from plantvr.vine.fill import label_components
         label = self.colors.check_label("label", label)
         return label_components(self.graph, self.labels, label=label)
+
+    def _check_split_label(self, label, min_vertices=1) -> tuple[int, int]:
+        label = self._check_target("label", label)
+        min_vertices = check_int("min_vertices", min_vertices, 1, self.n_vertices)
+        if self._stroke is not None:
+            raise ValueError("a stroke is open; end_stroke() before split_label")
+        return label, min_vertices
 
     def split_label(self, label: int, min_vertices: int = 1) -> list[int]:
         """Give each connected component of ``label`` its own new colour (one undo step).
@@ -437,10 +462,7 @@ class Segmentation:
         list of int
             The labels now held by the split parts, ``label`` first (largest part).
         """
-        label = self._check_target("label", label)
-        min_vertices = check_int("min_vertices", min_vertices, 1, self.n_vertices)
-        if self._stroke is not None:
-            raise ValueError("a stroke is open; end_stroke() before split_label")
+        label, min_vertices = self._check_split_label(label, min_vertices)
         comp, n = self.label_components(label)
         sizes = np.bincount(comp[comp >= 0], minlength=n)
         order = np.argsort(-sizes, kind="stable")               # largest first, ties by smallest vertex id
@@ -448,104 +470,127 @@ class Segmentation:
         if len(self.colors) + len(movers) > 256:
             raise ValueError(f"label {label} has {len(movers) + 1} parts of >= {min_vertices} vertices, but the "
                              f"colour table has room for {256 - len(self.colors)} more colours; raise min_vertices")
-        self.event_log.append(("split_label", label, min_vertices))
-        if not movers:
-            return [label]
-        new_labels = []
-        self._hold += 1                           # one autosave for the new colours and the relabelling
-        try:
-            for _ in movers:
-                k = self.colors.add_color(_distinct_color(len(self.colors)))
-                new_labels.append(k)
-            self._notify("colors", None)
-            lut = np.full(n, -1, np.int64)
-            lut[movers] = new_labels
-            ids = np.flatnonzero((comp >= 0) & (lut[np.maximum(comp, 0)] >= 0))
-            self._commit(ids, lut[comp[ids]].astype(np.uint8))
-        finally:
-            self._hold -= 1
-        self._after_operation()
+        with self._lock:
+            self.log.record("split_label", label=label, min_vertices=min_vertices)
+            if not movers:
+                return [label]
+            with self.held():                     # one autosave for the new colours and the relabelling
+                new_labels = [self.colors.add_color(_distinct_color(len(self.colors))) for _ in movers]
+                self.changed("colors", command="split_label")
+                lut = np.full(n, -1, np.int64)
+                lut[movers] = new_labels
+                ids = np.flatnonzero((comp >= 0) & (lut[np.maximum(comp, 0)] >= 0))
+                self._commit(ids, lut[comp[ids]].astype(np.uint8), "split_label")
         return [label, *new_labels]
 
-    def merge_labels(self, keep: int, other: int) -> int:
-        """Relabel every vertex of ``other`` as ``keep`` (one undo step); returns the number changed."""
+    def _check_merge_labels(self, keep, other) -> tuple[int, int]:
         keep = self._check_target("keep", keep)
         other = self._check_target("other", other)
         if keep == other:
             raise ValueError(f"other must differ from keep, got keep={keep}, other={other}")
         if self._stroke is not None:
             raise ValueError("a stroke is open; end_stroke() before merge_labels")
-        self.event_log.append(("merge_labels", keep, other))
-        e = self._commit(np.flatnonzero(self.labels == other), keep)
+        return keep, other
+
+    def merge_labels(self, keep: int, other: int) -> int:
+        """Relabel every vertex of ``other`` as ``keep`` (one undo step); returns the number changed."""
+        keep, other = self._check_merge_labels(keep, other)
+        with self._lock:
+            self.log.record("merge_labels", keep=keep, other=other)
+            e = self._commit(np.flatnonzero(self.labels == other), keep, "merge_labels")
         return 0 if e is None else len(e)
 
-    _REPLAYABLE = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
-                   "set_color", "add_color", "fill", "split_label", "merge_labels")
+    # ------------------------------------------------------------------ replay
+    def replay(self, log: CommandLog) -> None:
+        """Apply a recorded command log (``seg.log`` of another session on the same mesh, or
+        :meth:`CommandLog.load <plantvr.commandlog.CommandLog.load>` of one) by command name.
 
-    def replay(self, events) -> None:
-        """Apply a recorded event log (``seg.event_log`` of another session on the same mesh).
-
-        The same replay gives identical label arrays (spec §2.0, checklist item 4). Every event is checked
-        first: the whole log is applied to a scratch copy of this session, and only when every event succeeded
-        does this session take the result (observers get one ``"all"`` notice, autosave writes once). An
-        unknown operation or a bad argument anywhere raises ``ValueError`` naming the event, and this session
-        is left unchanged.
+        The same replay gives identical label arrays (spec §2.0, checklist item 4). It is all or nothing: the
+        whole log is applied to a scratch copy of this session, each event checked at its door against the
+        copy's state just before it runs, and only when every event succeeded does this session take the
+        result (observers get one ``"all"`` change, autosave writes once). An unknown command or a bad
+        argument anywhere raises ``ValueError`` naming the event, and this session is left unchanged.
         """
-        if isinstance(events, (str, bytes)) or not hasattr(events, "__iter__"):
-            raise ValueError(f"events must be a list of (op, *args) tuples, got {type(events).__name__}")
-        checked = []
-        for i, e in enumerate(events):
-            if isinstance(e, (str, bytes)) or not isinstance(e, (tuple, list)) or not e \
-                    or not isinstance(e[0], str) or e[0] not in self._REPLAYABLE:
-                raise ValueError(f"event must start with one of {list(self._REPLAYABLE)}, got events[{i}] = {e!r}")
-            checked.append(tuple(e))
-        if not checked:
+        if not isinstance(log, CommandLog):
+            raise ValueError(f"log must be a CommandLog, got {type(log).__name__}")  # noqa: TRY004
+        log.check()
+        if not log.events:
             return
         scratch = self._scratch()
-        for i, (op, *args) in enumerate(checked):
+        for i, ev in enumerate(log.events):
             try:
-                getattr(scratch, op)(*args)
+                scratch.check_command(ev.command, ev.kwargs)
+                getattr(scratch, ev.command)(**ev.kwargs)
             except (ValueError, TypeError) as exc:
-                raise ValueError(f"events[{i}] {checked[i]!r} cannot be applied: {exc}") from None
-        self._adopt(scratch, same_mesh=True, event_log=True)
+                raise ValueError(f"event {i} ({ev.command}) cannot be applied: {exc}"[:500]) from None
+        self._adopt(scratch, same_mesh=True, log=True, command="replay")
 
     def _scratch(self) -> Segmentation:
         """A copy sharing the mesh, index and graph, with its own labels, colours, history, views and log (no
         observers, no autosave): commands on it leave this session untouched."""
-        c = object.__new__(type(self))
-        c.__dict__.update(self.__dict__)
+        c = type(self).__new__(type(self))
+        Document.__init__(c, max_undo=self.history.max_items, max_undo_bytes=self.history.max_bytes)
+        for k in _MESH_ATTRS:
+            setattr(c, k, getattr(self, k))
         c.labels = self.labels.copy()
         c.colors = self.colors.copy()
-        c.history = History(max_items=self.history.max_items, max_bytes=self.history.max_bytes)
-        c.history.undo_stack = deque(self.history.undo_stack)
-        c.history.redo_stack = deque(self.history.redo_stack)
+        c.history = self.history.copy()
         c.views = list(self.views)
-        c.event_log = list(self.event_log)
         c._stroke = None if self._stroke is None else list(self._stroke)
-        c._observers = []
-        c.autosave_path = None
-        c._hold = 0
+        c._preserve = self._preserve
+        c.log.events = list(self.log.events)
         return c
 
+    def _adopt(self, other: Segmentation, *, same_mesh: bool = False, log: bool = False,
+               command: str = "restore") -> None:
+        """Take over ``other``'s session state (and its mesh unless ``same_mesh``; its log with ``log``);
+        observers, autosave and the brush mode stay. One ``"all"`` change."""
+        with self._lock:
+            for k in _SESSION_ATTRS + (() if same_mesh else _MESH_ATTRS):
+                setattr(self, k, getattr(other, k))
+            if log:
+                self.log.events = other.log.events
+        self.changed("all", command=command)
+
     # ------------------------------------------------------------------ colours and visibility
+    def _check_set_color(self, label, rgb) -> tuple[int, np.ndarray]:
+        return self.colors.check_label("label", label), self.colors.check_rgb("rgb", rgb)
+
     def set_color(self, label: int, rgb) -> None:
         """Recolour ``label`` in the table; labels are untouched."""
-        self.colors.set_color(label, rgb)
-        self.event_log.append(("set_color", int(label), tuple(int(x) for x in self.colors.rgba[label])))
-        self._notify("colors", None)
+        label, _ = self._check_set_color(label, rgb)
+        with self._lock:
+            self.colors.set_color(label, rgb)
+            self.log.record("set_color", label=label, rgb=[int(x) for x in self.colors.rgba[label]])
+        self.changed("colors", command="set_color")
+
+    def _check_add_color(self, rgb) -> np.ndarray:
+        if len(self.colors) >= 256:
+            raise ValueError("colour table is full (256 entries, one uint8 per vertex)")
+        return self.colors.check_rgb("rgb", rgb)
 
     def add_color(self, rgb) -> int:
         """Append a colour to the table; returns its label."""
-        k = self.colors.add_color(rgb)
-        self.event_log.append(("add_color", tuple(int(x) for x in self.colors.rgba[k])))
-        self._notify("colors", None)
+        self._check_add_color(rgb)
+        with self._lock:
+            k = self.colors.add_color(rgb)
+            self.log.record("add_color", rgb=[int(x) for x in self.colors.rgba[k]])
+        self.changed("colors", command="add_color")
         return k
+
+    def _check_set_visible(self, label, visible) -> tuple[int, bool]:
+        label = self.colors.check_label("label", label)
+        if not isinstance(visible, (bool, np.bool_)):
+            raise ValueError(f"visible must be True or False, got {visible!r}")  # noqa: TRY004
+        return label, bool(visible)
 
     def set_visible(self, label: int, visible: bool) -> None:
         """Show or hide every vertex of a colour; hidden vertices are not rendered and cannot be painted."""
-        self.colors.set_visible(label, visible)
-        self.event_log.append(("set_visible", int(label), bool(visible)))
-        self._notify("visibility", None)
+        label, visible = self._check_set_visible(label, visible)
+        with self._lock:
+            self.colors.set_visible(label, visible)
+            self.log.record("set_visible", label=label, visible=visible)
+        self.changed("visibility", command="set_visible")
 
     def hide(self, label: int) -> None:
         """Hide a colour."""
@@ -580,8 +625,9 @@ class Segmentation:
         """Store a saved view; returns its number."""
         if not isinstance(view, SavedView):
             raise ValueError(f"view must be a SavedView, got {type(view).__name__}")  # noqa: TRY004
-        self.views.append(view)
-        self._changed()
+        with self._lock:
+            self.views.append(view)
+        self.changed("views", command="add_view")
         return len(self.views) - 1
 
     # ------------------------------------------------------------------ persistence
@@ -616,19 +662,21 @@ class Segmentation:
             d["mesh"] = np.array([self.n_vertices, len(self.faces), self.mesh_fingerprint()], np.int64)
         return d
 
-    def save(self, path: str | os.PathLike, *, compress: bool = False, include_mesh: bool = True) -> None:
+    def save(self, path: str | os.PathLike, *, compress: bool = False, include_mesh: bool = True) -> Path:
         """Save mesh, labels, colour table, visibility, views and undo/redo history to one ``.npz`` file.
 
         Written atomically (:func:`plantvr._fileio.atomic_write`: a temporary file beside ``path``, fsync,
         rename), so a save that fails half way leaves the previous file as it was and no temporary file.
         With ``include_mesh=False`` only the segmentation state is written (about 1 byte per vertex plus the
         history), tied to this mesh by a fingerprint; :meth:`restore` it onto a segmentation of the same mesh.
+        Returns the path written.
         """
         if self._stroke is not None:
             raise ValueError("a stroke is open; end_stroke() before saving")
         arrays = self._state_arrays(include_mesh)
         with atomic_write(path) as fh:
             (np.savez_compressed if compress else np.savez)(fh, **arrays)
+        return Path(os.fspath(path))
 
     @staticmethod
     def _element_bounds(n_vertices: int | None) -> dict[str, int]:
@@ -749,8 +797,8 @@ class Segmentation:
         itype = np.int32 if len(d["vertices"]) < 2 ** 31 else np.int64
         for side, stack in (("undo", seg.history.undo_stack), ("redo", seg.history.redo_stack)):
             idx, old, new, off = (d[f"{side}_{k}"] for k in ("idx", "old", "new", "off"))
-            for a, b in itertools.pairwise(off):
-                stack.append(LabelEdit(idx[a:b].astype(itype), old[a:b].copy(), new[a:b].copy()))
+            for a, b in pairwise(off):
+                stack.append(ArrayEdit(idx[a:b].astype(itype), old[a:b].copy(), new[a:b].copy()))
         seg.views = views
         return seg
 
@@ -761,25 +809,26 @@ class Segmentation:
         other = self._from_state(d, index=self.index_kind)
         self._adopt(other, same_mesh=same_mesh)
 
-    def _adopt(self, other: Segmentation, *, same_mesh: bool = False, event_log: bool = False) -> None:
-        """Take over ``other``'s state (observers, autosave path and brush mode stay; one "all" notice)."""
-        keep = {"_observers", "autosave_path", "_preserve", "_hold"} | ({"_index", "_graph"} if same_mesh else set())
-        if not event_log:
-            keep.add("event_log")
-        self.__dict__.update({k: v for k, v in other.__dict__.items() if k not in keep})
-        self._notify("all", None)
-
-    def enable_autosave(self, path: str | os.PathLike | None) -> None:
+    def enable_autosave(self, path: str | os.PathLike | None) -> Path | None:
         """After every completed operation, save the labels-only state to ``path`` (None turns it off).
 
-        A crash then loses at most the operation in progress; reload with :meth:`restore`.
+        Saves at once (unless a stroke is open). A crash then loses at most the operation in progress; reload
+        with :meth:`restore`. A failed autosave raises from the command that triggered it.
         """
-        self.autosave_path = None if path is None else os.fspath(path)
-        self._after_operation()
+        if path is None:
+            return super().enable_autosave(None)
+        self._autosave_path = Path(os.fspath(path))
+        self._autosave()
+        return self._autosave_path
 
-    def _after_operation(self) -> None:
-        if self.autosave_path is not None and self._stroke is None and not self._hold:
-            self.save(self.autosave_path, include_mesh=False)
+    def _autosave(self) -> None:
+        # the labels-only state (about 1 byte per vertex plus the history), written once no stroke is open
+        if self._autosave_path is None or self._stroke is not None:
+            return
+        if self._hold:
+            self._dirty = True
+            return
+        self.save(self._autosave_path, include_mesh=False)
 
     # ------------------------------------------------------------------ export
     def export_ply(self, path: str | os.PathLike, *, visible_only: bool = False, with_labels: bool = True) -> None:

@@ -1,8 +1,9 @@
 """The headless half of ``plantvr segment`` (spec 000_vine §1.5, checklist items 1–3, 24, 27; issue 14): open a
-volume, a mesh or a synthetic flower head as a :class:`~plantvr.vine.Segmentation`, and paint a scripted demo.
+volume, a mesh or a synthetic flower head as a :class:`~plantvr.documents.labels.Segmentation`, and paint a
+scripted demo.
 
 The browser half (the trame review page and ``main_segment``) lives in :mod:`plantvr.view.vine_app`, because
-numeric cores never import UI code (import-linter contract).
+documents never import UI code (import-linter layers contract).
 """
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from plantvr._validation import check_int, check_range
-from plantvr.vine.segmentation import Segmentation
+from plantvr.documents.labels import Segmentation
 
 __all__ = ["Source", "open_source", "paint_demo"]
 
