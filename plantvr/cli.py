@@ -25,7 +25,7 @@ def demo(out: Path, steps: int, seed: int, *, install: bool = True) -> dict:
     from tqdm import tqdm
 
     from . import Model
-    from .export import export_model, tree_trimesh
+    from .io.tree import export_model, tree_geometry
     from .growth.scenarios import demo_session, run
 
     try:
@@ -37,7 +37,7 @@ def demo(out: Path, steps: int, seed: int, *, install: bool = True) -> dict:
     t0 = time.perf_counter()
     stats = run(model, demo_session(), steps, tqdm(range(steps), desc="growing", unit="step"))
     grow_s = time.perf_counter() - t0
-    mesh = tree_trimesh(model, leaves=True)
+    parts = [m for m in tree_geometry(model.snapshot, model.params) if m is not None]
     export_model(model, out / "tree.ply")
     export_model(model, out / "tree.glb")
     model.save(out / "tree.tree")
@@ -48,7 +48,7 @@ def demo(out: Path, steps: int, seed: int, *, install: bool = True) -> dict:
     ms = [s.ms for s in stats]
     print(f"{model.n_internodes} internodes after {steps} steps; {1e3 * grow_s / max(steps, 1):.2f} ms/step "
           f"(median growth step {sorted(ms)[len(ms) // 2]:.2f} ms, max {max(ms):.2f} ms)")
-    print(f"mesh: {len(mesh.vertices)} vertices, {len(mesh.faces)} faces")
+    print(f"mesh: {sum(m.n_vertices for m in parts)} vertices, {sum(m.n_faces for m in parts)} faces")
     for name in ("tree.ply", "tree.glb", "tree.tree", "tree.png"):
         print(f"wrote {out / name}")
     return {"internodes": model.n_internodes, "ms_per_step": 1e3 * grow_s / max(steps, 1)}
@@ -140,8 +140,81 @@ def lab(notebooks: Path) -> int:
     return subprocess.call([sys.executable, "-m", "jupyter", "lab", str(notebooks)])
 
 
+def export_main(argv: list[str] | None = None) -> int:
+    """``plantvr export TREE_FILE --format usd|glb|ply|obj [--lod N] [-o OUT] [--no-leaves] [--unskinned]``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments after ``export``; default ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        0 on success, 2 when the tree file or an option is rejected (the reason is printed to stderr).
+    """
+    from . import Model
+    from .io.tree import BILLBOARD_LOD, EXPORT_FORMATS, SUFFIX_FORMAT, export_model_as
+
+    ap = argparse.ArgumentParser(prog="plantvr export",
+                                 description="Write a saved tree (.tree or .npz) as USD, glTF (.glb), PLY or OBJ.")
+    ap.add_argument("tree_file", metavar="TREE_FILE", help="a tree saved by Model.save (.tree or .npz)")
+    ap.add_argument("--format", choices=tuple(EXPORT_FORMATS), default=None,
+                    help="output format (default: from the suffix of -o, else glb)")
+    ap.add_argument("--lod", type=int, default=0,
+                    help="LOD level 0 (full) to 3 (coarsest), 4 = billboard (glb/obj); default 0")
+    ap.add_argument("-o", "--output", default=None, help="output file (default: TREE_FILE with the format's suffix)")
+    ap.add_argument("--no-leaves", action="store_true", help="branches only")
+    ap.add_argument("--unskinned", action="store_true", help="glb without skeleton and growth animation")
+    args = ap.parse_args(sys.argv[1:] if argv is None else argv)
+
+    def fail(msg: str) -> int:                # one line, no traceback (cli.main prints the same way)
+        print(f"plantvr export: error: {msg}".replace("\n", " "), file=sys.stderr)
+        return 2
+
+    src = Path(args.tree_file)
+    if args.output is not None:
+        out = Path(args.output)
+        fmt = SUFFIX_FORMAT.get(out.suffix.lower())
+        if args.format is not None and fmt != args.format:
+            if fmt is None:
+                out = out.with_suffix(EXPORT_FORMATS[args.format])
+            else:
+                return fail(f"--format {args.format} does not match the output suffix {out.suffix!r}")
+    else:
+        out = src.with_suffix(EXPORT_FORMATS[args.format or "glb"])
+    try:
+        if SUFFIX_FORMAT.get(out.suffix.lower()) is None:
+            raise ValueError(f"-o {str(out)!r}: the output suffix must be one of {sorted(SUFFIX_FORMAT)}")
+        if not 0 <= args.lod <= BILLBOARD_LOD:
+            raise ValueError(f"lod must be an integer in [0, {BILLBOARD_LOD}], got {args.lod}")
+        if args.lod == BILLBOARD_LOD and out.suffix.lower() not in (".glb", ".obj"):
+            raise ValueError(f"lod {BILLBOARD_LOD} (the billboard) is written as .glb or .obj, got {out.suffix!r}")
+        folder = out.parent if str(out.parent) else Path(".")
+        if not folder.is_dir():
+            raise ValueError(f"-o {str(out)!r}: the folder {str(folder)!r} does not exist")
+        if not os.access(folder, os.W_OK):
+            raise ValueError(f"-o {str(out)!r}: the folder {str(folder)!r} is not writable")
+        if not src.is_file():
+            raise ValueError(f"TREE_FILE {str(src)!r} does not exist")
+        model = Model.load(src)
+        t0 = time.perf_counter()
+        if args.lod == BILLBOARD_LOD:
+            from .view.billboard import export_billboard
+            path = export_billboard(model.snapshot, model.params, out)
+        else:
+            path = export_model_as(model, out, lod=args.lod, leaves=not args.no_leaves, skinned=not args.unskinned)
+    except ValueError as exc:
+        return fail(str(exc))
+    except OSError as exc:                     # disk full, permission denied while writing
+        return fail(f"{exc.strerror or exc}{f': {exc.filename}' if exc.filename else ''}")
+    print(f"wrote {path} ({model.snapshot.n_internodes} internodes, LOD {args.lod}, "
+          f"{time.perf_counter() - t0:.2f} s)")
+    return 0
+
+
 _DELEGATED = {  # sub-commands whose own parsers live beside their code
-    "export": ("plantvr.export", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
+    "export": ("plantvr.cli", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
     "segment": ("plantvr.view.vine_app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
 }
 

@@ -28,7 +28,6 @@ from plantvr._validation import MAX_COORD, check_array, check_choice, check_int,
 from plantvr.commandlog import CommandLog
 from plantvr.document import Document
 from plantvr.history import ArrayEdit
-from plantvr.io.ply import write_ply
 from plantvr.types import TriMesh
 from plantvr.vine._filecheck import check_elements
 from plantvr.vine.colors import ColorTable
@@ -830,48 +829,11 @@ class Segmentation(Document):
             return
         self.save(self._autosave_path, include_mesh=False)
 
-    # ------------------------------------------------------------------ export
-    def export_ply(self, path: str | os.PathLike, *, visible_only: bool = False, with_labels: bool = True) -> None:
-        """Write a binary PLY with per-vertex RGBA colours (and a ``label`` property)."""
-        faces = self.visible_faces() if visible_only else self.faces
-        write_ply(path, self.vertices, faces, colors=self.vertex_colors(),
-                  labels=self.labels if with_labels else None)
-
-    def export_gltf(self, path: str | os.PathLike, *, visible_only: bool = False) -> None:
-        """Write a binary glTF (``.glb``) with per-vertex colours through trimesh (vertex order kept)."""
-        import trimesh
-        p = os.fspath(path)
-        if not p.lower().endswith((".glb", ".gltf")):
-            raise ValueError(f"path must end in .glb or .gltf, got {p!r}")
-        faces = self.visible_faces() if visible_only else self.faces
-        m = trimesh.Trimesh(self.vertices, faces, vertex_colors=self.vertex_colors(), process=False)
-        data = m.export(file_type=p.rsplit(".", 1)[1].lower())
-        if isinstance(data, dict):                # .gltf: the JSON plus its buffer files, each written atomically
-            data[os.path.basename(p)] = data.pop("model.gltf")
-            folder = os.path.dirname(p)
-            for name in sorted(data, key=lambda n: n == os.path.basename(p)):   # the .gltf last
-                write_atomic(os.path.join(folder, name), data[name])
-        else:
-            write_atomic(p, data)
-
     def label_table(self, names: dict | None = None):
         """Per-label statistics (pandas DataFrame): see :func:`plantvr.vine.labelstats.label_table`."""
         from plantvr.vine.labelstats import label_table
         return label_table(self.vertices, self.faces, self.labels, colors=self.colors, names=names,
                            graph=self.graph)
-
-    def export_label_table(self, path: str | os.PathLike, names: dict | None = None) -> None:
-        """Write :meth:`label_table` as CSV."""
-        table = self.label_table(names)
-        with atomic_write(path, "w") as fh:
-            table.to_csv(fh, index=False)
-
-    def export_label_meshes(self, directory: str | os.PathLike, *, fmt: str = "ply", which=None,
-                            prefix: str = "label") -> dict[int, str]:
-        """One mesh file per label: see :func:`plantvr.vine.labelstats.export_label_meshes`."""
-        from plantvr.vine.labelstats import export_label_meshes
-        return export_label_meshes(directory, self.vertices, self.faces, self.labels, fmt=fmt,
-                                   colors=self.colors, which=which, prefix=prefix)
 
     def smoothed_colors(self, iterations: int = 1) -> np.ndarray:
         """Laplacian vertex-colour smoothing: ``c_v ← mean({c_v} ∪ {c_u : u ∈ N(v)})`` (spec §2.7).

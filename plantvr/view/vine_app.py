@@ -47,6 +47,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_range
 from plantvr.documents.labels import Segmentation
+from plantvr.io import labels as io_labels
 from plantvr.vine.proxy import DisplayProxy
 
 __all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry",
@@ -953,7 +954,7 @@ def _segment(a, open_source, paint_demo) -> int:
         except OSError as exc:
             raise ValueError(f"--out {str(out)!r} cannot be created: {exc.strerror or exc}") from None
         n = paint_demo(seg, truth=src.truth, stamps=a.stamps)
-        seg.export_ply(out / "segment.ply")
+        io_labels.export_ply(seg, out / "segment.ply")
         seg.save(out / "segment_session.npz", include_mesh=False)
         proxy = DisplayProxy(seg, target_faces=a.faces)
         view = SegmentationView(seg, proxy=proxy, window_size=(800, 600), background=(0.08, 0.08, 0.1))

@@ -6,6 +6,7 @@ import pytest
 from plantvr.documents.labels import Segmentation
 from plantvr.documents.labels_app import open_source, paint_demo
 from plantvr.vine.volume import save_volume
+from plantvr.io import labels as io_labels
 
 
 def test_open_synth_and_paint_demo_follows_ground_truth():
@@ -23,7 +24,7 @@ def test_open_volume_and_mesh_files(tmp_path, head):
     save_volume(tmp_path / "v.npy", head.volume)
     src = open_source(tmp_path / "v.npy", level=head.level)
     assert src.level == head.level and src.seg.n_vertices > 1000
-    src.seg.export_ply(tmp_path / "m.ply")
+    io_labels.export_ply(src.seg, tmp_path / "m.ply")
     m = open_source(tmp_path / "m.ply")
     assert np.array_equal(m.seg.vertices, src.seg.vertices) and np.array_equal(m.seg.faces, src.seg.faces)
     with pytest.raises(ValueError, match="source must be"):

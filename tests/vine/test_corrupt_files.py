@@ -17,6 +17,7 @@ from plantvr.documents.labels_app import open_source
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume
+from plantvr.io import labels as io_labels
 
 BOMB = 256 * 2 ** 20          # inflated size of the bombs below (a few hundred kB on disk)
 
@@ -331,7 +332,7 @@ def test_corrupt_volumes_are_refused(tmp_path, monkeypatch):
 def test_corrupt_meshes_are_refused(tmp_path):
     s = extract_isosurface(_ball(), 100.0)
     seg = Segmentation(s.vertices, s.faces)
-    seg.export_ply(tmp_path / "m.ply")
+    io_labels.export_ply(seg, tmp_path / "m.ply")
     raw = (tmp_path / "m.ply").read_bytes()
     (tmp_path / "t.ply").write_bytes(raw[: len(raw) // 2])
     (tmp_path / "h.ply").write_bytes(raw[:200])

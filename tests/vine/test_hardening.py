@@ -14,6 +14,7 @@ from plantvr.documents.labels import Segmentation
 from plantvr.vine.isosurface import extract_isosurface
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume
+from plantvr.io import labels as io_labels
 
 
 def _blobs(n=20):
@@ -81,7 +82,7 @@ SETUP = {  # state a command needs first, set up without autosave
 }
 # public members that change no saved state (queries, exports, loaders, observers); `preserve` is a brush
 # setting of the live session (saved in bundles, not in the labels-only autosave file)
-READ_ONLY = {"check_preserve", "export_gltf", "export_label_meshes", "export_label_table", "export_ply",
+READ_ONLY = {"check_preserve",
              "from_volume", "graph", "index", "label_components", "label_table", "load", "mesh_fingerprint",
              "n_vertices", "observe", "unobserve", "save", "smoothed_colors", "vertex_colors", "vertex_visible",
              "visible_faces", "preserve"}
@@ -139,10 +140,7 @@ def test_read_only_members_change_no_state(name, mesh, tmp_path):
     s = _painted(_seg(mesh))
     before = _state(s), list(s.log)
     calls = {
-        "check_preserve": lambda: s.check_preserve((1, 2)), "export_gltf": lambda: s.export_gltf(tmp_path / "a.glb"),
-        "export_label_meshes": lambda: s.export_label_meshes(tmp_path),
-        "export_label_table": lambda: s.export_label_table(tmp_path / "t.csv"),
-        "export_ply": lambda: s.export_ply(tmp_path / "a.ply"), "label_components": lambda: s.label_components(2),
+        "check_preserve": lambda: s.check_preserve((1, 2)), "label_components": lambda: s.label_components(2),
         "label_table": lambda: s.label_table(), "mesh_fingerprint": s.mesh_fingerprint,
         "observe": lambda: s.observe(print, names="change"),
         "unobserve": lambda: s.unobserve(print, names="change"),
@@ -176,9 +174,9 @@ def _writers(s, tmp_path):
         "session.npz": lambda p: s.save(p),
         "labels.npz": lambda p: s.save(p, include_mesh=False, compress=True),
         "b.vine.zip": lambda p: B.save_bundle(p, s),
-        "m.ply": lambda p: s.export_ply(p),
-        "m.glb": lambda p: s.export_gltf(p),
-        "t.csv": lambda p: s.export_label_table(p),
+        "m.ply": lambda p: io_labels.export_ply(s, p),
+        "m.glb": lambda p: io_labels.export_gltf(s, p),
+        "t.csv": lambda p: io_labels.export_label_table(s, p),
         "v.npy": lambda p: save_volume(p, vol),
         "v.npz": lambda p: save_volume(p, vol),
         "v.tif": lambda p: save_volume(p, vol),
@@ -218,7 +216,7 @@ def test_failed_save_keeps_the_old_file_and_leaves_nothing(fail, mesh, tmp_path,
             else:                                           # the writer dies after writing part of the file
                 import plantvr._fileio as F
                 m.setattr(F, "atomic_write", _half_way(F.atomic_write))
-                for mod in ("documents.labels", "documents.labels_bundle", "io.ply", "vine.volume"):
+                for mod in ("documents.labels", "documents.labels_bundle", "io.ply", "io.gltf", "io.labels", "vine.volume"):
                     m.setattr(f"plantvr.{mod}.atomic_write", F.atomic_write)
             with pytest.raises(OSError):
                 write(p)

@@ -70,9 +70,3 @@ def test_grid_rejects_bad_input():
         GRID.query([0, 0], 1)
     with pytest.raises(ValueError, match="too many cells"):
         GridIndex(PTS, cell_size=1e-6)
-
-
-def test_bounds_kernel_equals_numpy():
-    from plantvr.vine.index import bounds
-    lo, hi = bounds(PTS)
-    assert np.array_equal(lo, PTS.min(0).astype(np.float64)) and np.array_equal(hi, PTS.max(0).astype(np.float64))

@@ -3,7 +3,9 @@ import pytest
 import trimesh
 from skimage.measure import marching_cubes
 
-from plantvr.vine.isosurface import extract_isosurface, signed_volume
+from plantvr.adapters.vtk_isosurface import extract_isosurface, flying_edges_slab
+from plantvr.vine import isosurface as core
+from plantvr.vine.isosurface import signed_volume
 from plantvr.vine.volume import downsample2
 
 
@@ -182,3 +184,25 @@ def test_synth_vessels_is_deterministic_and_meshes_like_skimage():
         synth_vessels(32, depth=0)
     with pytest.raises(ValueError, match="shape"):
         synth_vessels((32, 32))
+
+
+def test_core_meshes_without_vtk_and_takes_the_adapter_as_its_mesher():
+    """Issue 21: the core isosurface imports no VTK; flying edges comes in as a slab-mesher callable."""
+    import subprocess
+    import sys
+    code = ("import sys; import plantvr.vine.isosurface as m; "
+            "print(any(k == 'vtkmodules' or k.startswith('vtkmodules.') for k in sys.modules))")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() \
+        == "False"
+    vol, _ = _ball(32, 10.0)
+    sk = core.extract_isosurface(vol, 127.5, slab=8)                       # the core's default: scikit-image
+    ref = extract_isosurface(vol, 127.5, slab=8, method="skimage")
+    assert np.array_equal(sk.vertices, ref.vertices) and np.array_equal(sk.faces, ref.faces)
+    fe = core.extract_isosurface(vol, 127.5, slab=8, method=flying_edges_slab)
+    ad = extract_isosurface(vol, 127.5, slab=8)                             # the adapter's default
+    assert np.array_equal(fe.vertices, ad.vertices) and np.array_equal(fe.faces, ad.faces)
+    assert np.array_equal(fe.normals, ad.normals)
+    with pytest.raises(ValueError, match="method"):
+        core.extract_isosurface(vol, 127.5, method="flying_edges")
+    with pytest.raises(ValueError, match="method"):
+        extract_isosurface(vol, 127.5, method="marching")

@@ -6,6 +6,7 @@ from plantvr.commandlog import CommandLog
 from plantvr.documents.labels import Segmentation
 from plantvr.vine.index import ball_query_brute
 from plantvr.vine.views import quat_from_axis_angle, quat_rotate, save_view, world_to_model
+from plantvr.io import labels as io_labels
 
 
 @pytest.fixture
@@ -132,13 +133,13 @@ def test_corrupt_session_raises_and_leaves_object_unchanged(seg, tmp_path, damag
 def test_tw_v11_ply_round_trip_with_trimesh_oracle(seg, tmp_path):
     seg.paint(seg.vertices[7].astype(float), 8.0, 3)
     p = tmp_path / "seg.ply"
-    seg.export_ply(p)
+    io_labels.export_ply(seg, p)
     m = trimesh.load(p, process=False)
     assert np.array_equal(np.asarray(m.vertices, np.float32), seg.vertices)
     assert np.array_equal(m.faces, seg.faces.astype(np.int64))
     assert np.array_equal(m.visual.vertex_colors, seg.vertex_colors())
     seg.hide(3)
-    seg.export_ply(tmp_path / "vis.ply", visible_only=True)
+    io_labels.export_ply(seg, tmp_path / "vis.ply", visible_only=True)
     m2 = trimesh.load(tmp_path / "vis.ply", process=False)
     assert len(m2.faces) == len(seg.visible_faces())
 
@@ -235,10 +236,10 @@ def test_autosave_loses_at_most_the_open_operation(surface, tmp_path):
 
 def test_gltf_export_round_trip(seg, tmp_path):
     seg.paint(seg.vertices[3].astype(float), 6.0, 4)
-    seg.export_gltf(tmp_path / "seg.glb")
+    io_labels.export_gltf(seg, tmp_path / "seg.glb")
     scene = trimesh.load(tmp_path / "seg.glb", process=False)
     m = next(iter(scene.geometry.values())) if hasattr(scene, "geometry") else scene
     assert len(m.vertices) == seg.n_vertices and len(m.faces) == len(seg.faces)
     assert np.array_equal(np.asarray(m.visual.vertex_colors), seg.vertex_colors())
     with pytest.raises(ValueError, match="glb"):
-        seg.export_gltf(tmp_path / "seg.obj")
+        io_labels.export_gltf(seg, tmp_path / "seg.obj")
