@@ -16,14 +16,16 @@ fate
     Floret fate by the cone test (Eqs. 6.1–6.2, ERRATUM A.4) and distance thresholds.
 floret
     Floret editor core: clamped B-spline petals, n-fold corolla, fusion and welding, intrinsic key-pose
-    blending, Eq. 2.1 repolygonization, OBJ sequence I/O.
+    blending, Eq. 2.1 repolygonization, OBJ sequence I/O; the ``FLORET`` parameter table (the state of
+    :class:`plantvr.documents.inflorescence.InflorescenceDocument`).
 pbd
     Position-based dynamics: distance and signed dihedral bending constraints (numba + numpy twins).
 ccd
     Continuous collision detection: spatial-hash broad phase, coplanarity cubics, root finding,
     vertex-triangle and edge-edge collision constraints, static intersection check.
 composer
-    Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations.
+    Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations; its settings are the
+    ``SOLVER`` parameter table.
 models
     The seven example models of §6.2: sunflower-like (34 rays), Gaillardia-like (21 rays), dahlia (300 broad,
     rolled, scale-like florets on a ball), Dyssodia (1 + 5 heads, Fig. 6.4b), yarrow (corymb of heads, Fig. 6.4a), Orlaya (two-level

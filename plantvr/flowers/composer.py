@@ -9,43 +9,61 @@ retries so every step ends collision-free.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
 from plantvr.flowers import ccd, pbd
+from plantvr.params import Param, ParamTable
 
-__all__ = ["Canopy", "FloretType", "SolverParams", "grow", "step"]
+__all__ = ["SOLVER", "Canopy", "FloretType", "SolverParams", "grow", "step"]
+
+
+def _row(name, kind, default, ref, doc, **kw) -> Param:
+    return Param(name=name, kind=kind, default=default, window="solver", ref=ref, doc=doc, **kw)
+
+
+#: The Algorithm 1 settings, declared once; defaults are the App. C.1 example file values (spec 002 §3.7).
+SOLVER = ParamTable("solver", (
+    _row("solver_iterations", int, 50, "§3.5 Alg. 1", "Internal-constraint (stretch, bend) iterations per step.",
+         range=(0, 100_000)),
+    _row("collision_iterations", int, 10, "§3.5 Alg. 1", "Collision-constraint iterations per detect pass.",
+         range=(0, 100_000)),
+    _row("max_collision_retries", int, 20, "§3.5 Alg. 1", "Detect passes before the roll-back fallback.",
+         range=(0, 100_000)),
+    _row("k_stretch", float, 0.99, "§3.3", "Stiffness of the distance constraints.", range=(0.0, 1.0)),
+    _row("k_bend", float, 0.99, "§3.3", "Stiffness of the signed dihedral bending constraints.", range=(0.0, 1.0)),
+    _row("k_collision", float, 1.0, "§3.4", "Stiffness of the collision constraints.", range=(0.0, 1.0)),
+    _row("spacing", float, 0.005, "§3.4", "Collision thickness h (also the spatial-hash cell).", range=(0.0, 1e6)),
+    _row("method", str, "gauss-seidel", "§3.3 (V26)", "Internal-constraint solver.",
+         choices=("gauss-seidel", "jacobi")),
+    _row("omega", float, 1.0, "§3.3 (V26)", "Over-relaxation of the Jacobi solver.", range=(0.0, 2.0),
+         low_open=True, high_open=True),
+), {"solver": ("Solver (Algorithm 1)", "#777777")})
+_DEFAULT = SOLVER.defaults()
 
 
 @dataclass(frozen=True)
 class SolverParams:
-    """Algorithm 1 settings; defaults are the App. C.1 example file values (spec 002 §3.7).
+    """Algorithm 1 settings, the rows of :data:`SOLVER` (defaults and ranges come from the table).
 
     ``method`` picks the internal-constraint solver: ``"gauss-seidel"`` (the thesis) or ``"jacobi"``
     (order-independent, averaged per vertex, over-relaxed by ``omega`` in (0, 2); V26).
     """
 
-    solver_iterations: int = 50
-    collision_iterations: int = 10
-    max_collision_retries: int = 20
-    k_stretch: float = 0.99
-    k_bend: float = 0.99
-    k_collision: float = 1.0
-    spacing: float = 0.005
-    method: str = "gauss-seidel"
-    omega: float = 1.0
+    solver_iterations: int = _DEFAULT["solver_iterations"]
+    collision_iterations: int = _DEFAULT["collision_iterations"]
+    max_collision_retries: int = _DEFAULT["max_collision_retries"]
+    k_stretch: float = _DEFAULT["k_stretch"]
+    k_bend: float = _DEFAULT["k_bend"]
+    k_collision: float = _DEFAULT["k_collision"]
+    spacing: float = _DEFAULT["spacing"]
+    method: str = _DEFAULT["method"]
+    omega: float = _DEFAULT["omega"]
 
     def __post_init__(self):
-        check_int("solver_iterations", self.solver_iterations, 0, 100_000)
-        check_int("collision_iterations", self.collision_iterations, 0, 100_000)
-        check_int("max_collision_retries", self.max_collision_retries, 0, 100_000)
-        for name in ("k_stretch", "k_bend", "k_collision"):
-            check_range(name, getattr(self, name), 0.0, 1.0)
-        check_range("spacing", self.spacing, 0.0, 1e6)
-        check_choice("method", self.method, ("gauss-seidel", "jacobi"))
-        check_range("omega", self.omega, 0.0, 2.0, low_open=True, high_open=True)
+        SOLVER.validate(asdict(self))
 
 
 @dataclass

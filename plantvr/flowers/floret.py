@@ -21,8 +21,14 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from plantvr._fileio import write_atomic
 from plantvr._validation import MAX_COORD, check_array, check_int, check_range
+from plantvr.params import Param, ParamTable
+from plantvr.types import TriMesh
 
 __all__ = [
+    "FLORET",
+    "GROWTH_KINDS",
+    "POSE_KEYS",
+    "POSE_NAMES",
     "Corolla",
     "FloretMesh",
     "blend_nets",
@@ -38,6 +44,66 @@ __all__ = [
     "roll_margins",
     "write_obj_sequence",
 ]
+
+#: Names of the three key poses; with two poses the middle one is not used.
+POSE_NAMES = ("bud", "middle", "open")
+#: Petal settings that differ between key poses (the topology settings are shared, spec 002 §2.2).
+POSE_KEYS = ("length", "width", "opening_deg", "curl_deg", "roll_deg")
+#: Time-warp growth functions: :func:`growth_function`'s two, and t**warp as knots ("power").
+GROWTH_KINDS = ("linear", "sinusoidal", "power")
+
+_WINDOWS = {"petal": ("Petal", "#e8a33d"), "corolla": ("Corolla", "#c0392b"), "poses": ("Key poses", "#8e44ad"),
+            "growth": ("Growth", "#2e6fd0"), "mesh": ("Mesh", "#777777")}
+
+
+def _row(name, kind, default, window, ref, doc, **kw) -> Param:
+    return Param(name=name, kind=kind, default=default, window=window, ref=ref, doc=doc, **kw)
+
+
+# one row per pose setting; each key pose gets a copy named "<pose>_<key>" (bud_length, ..., open_roll_deg)
+_POSE_ROWS = {
+    "length": {"kind": float, "unit": "", "range": (0.01, 5.0), "step": 0.01, "doc": "petal length"},
+    "width": {"kind": float, "unit": "", "range": (0.01, 3.0), "step": 0.01, "doc": "petal width"},
+    "opening_deg": {"kind": float, "unit": "deg", "range": (-90.0, 150.0), "step": 1.0,
+                    "doc": "opening angle from the axis"},
+    "curl_deg": {"kind": float, "unit": "deg", "range": (-180.0, 180.0), "step": 1.0, "doc": "curl along the petal"},
+    "roll_deg": {"kind": float, "unit": "deg", "range": (0.0, 175.0), "step": 1.0, "doc": "roll of the margins"},
+}
+_POSE_DEFAULTS = ({"length": 0.35, "width": 0.07, "opening_deg": 6.0, "curl_deg": 0.0, "roll_deg": 0.0},
+                  {"length": 0.6, "width": 0.25, "opening_deg": 25.0, "curl_deg": 10.0, "roll_deg": 0.0},
+                  {"length": 0.8, "width": 0.42, "opening_deg": 55.0, "curl_deg": 25.0, "roll_deg": 0.0})
+
+#: The floret editor's settings, declared once (spec 002 §2.1-§2.4): petal net, corolla, the three key poses,
+#: development and polygonization, and the growth time a view shows.
+FLORET = ParamTable("floret", (
+    _row("nu", int, 5, "petal", "§2.1", "control points across a petal", range=(3, 15), step=1),
+    _row("nv", int, 6, "petal", "§2.1", "control points along a petal (control rows)", range=(3, 15), step=1),
+    _row("base_radius", float, 0.06, "petal", "§2.1", "distance of the petal base from the floret axis",
+         range=(0.0, 0.5), step=0.005),
+    _row("base_width", float, 0.3, "petal", "§2.1", "petal width at the base, as a fraction of its width",
+         range=(0.0, 1.0), step=0.01),
+    _row("n_fold", int, 5, "corolla", "§2.1", "petals replicated about the floret axis", range=(1, 12), step=1),
+    _row("fused_rows", int, 3, "corolla", "§2.1", "control rows fused with the neighbouring petals",
+         range=(0, 15), step=1),
+    _row("weld", bool, True, "corolla", "§2.3", "weld coincident vertices (fused seams, shared base points)",
+         range=(0, 1)),
+    _row("weld_tol", float, 1e-9, "corolla", "§2.3", "welding distance, as a fraction of the floret size",
+         range=(0.0, 0.05), step=1e-4),
+    _row("n_poses", int, 2, "poses", "§2.2", "key poses: 2 (bud, open) or 3 (bud, middle, open)", range=(2, 3),
+         step=1),
+    *(_row(f"{pose}_{key}", window="poses", ref="§2.2", default=_POSE_DEFAULTS[i][key],
+           **{**_POSE_ROWS[key], "doc": f"{pose} pose: {_POSE_ROWS[key]['doc']}"})
+      for i, pose in enumerate(POSE_NAMES) for key in POSE_KEYS),
+    _row("growth", str, "sinusoidal", "growth", "§2.2", "time-warp growth function", choices=GROWTH_KINDS),
+    _row("warp", float, 2.0, "growth", "§2.2", "exponent of the 'power' growth function t**warp",
+         range=(0.2, 5.0), step=0.05),
+    _row("n_frames", int, 8, "growth", "§2.4", "frames of the animation", range=(2, 60), step=1),
+    _row("time", float, 1.0, "growth", "§2.4", "growth time shown by views", range=(0.0, 1.0), step=0.01),
+    _row("lam", float, 0.2, "mesh", "§2.3 Eq. 2.1", "lambda of Eq. 2.1: spacing between sample rows",
+         range=(0.02, 1.0), step=0.005),
+    _row("eta", float, 5.0, "mesh", "§2.3 Eq. 2.1", "eta: samples per row (rounded up to odd)", range=(1.0, 31.0),
+         step=1.0),
+), _WINDOWS)
 
 #: Most frames of one OBJ sequence and largest OBJ / weight file a reader accepts (bytes).
 MAX_OBJ_FRAMES = 100_000
@@ -373,13 +439,25 @@ class Corolla:
         return fuse_rows(self.petal, self.n_fold, self.fused_rows) if self.fused_rows else self.petal
 
 
-@dataclass
-class FloretMesh:
-    """A floret animation: one face array, K frames of vertices, the attachment vertices (spec 002 §2.4)."""
+@dataclass(eq=False)
+class FloretMesh(TriMesh):
+    """A floret animation: one face array, K frames of vertices, the attachment vertices (spec 002 §2.4).
 
-    faces: np.ndarray        # (F, 3) int64
+    As a :class:`~plantvr.types.TriMesh` its ``vertices`` are the open floret, the last frame.
+    """
+
     frames: np.ndarray       # (K, V, 3) float64
     fixed: np.ndarray        # (A,) int64 attachment vertices (base row)
+
+    def frame_at(self, t: float) -> np.ndarray:
+        """(V, 3) float64 vertices at growth time ``t`` in [0, 1] (0 the first frame, 1 the last), linear
+        between frames."""
+        t = check_range("t", t, 0.0, 1.0)
+        K = self.frames.shape[0]
+        x = t * (K - 1)
+        i = min(int(np.floor(x)), K - 2) if K > 1 else 0
+        f = x - i if K > 1 else 0.0
+        return (1.0 - f) * self.frames[i] + f * self.frames[min(i + 1, K - 1)]
 
 
 def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.ndarray = "linear",
@@ -440,7 +518,7 @@ def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.n
     frames = np.stack([f[keep] for f in frames_raw])
     base = np.flatnonzero(np.isin(np.arange(len(X)), np.flatnonzero(np.tile(uv[:, 1] == 0, n))))
     fixed = np.unique(new_id[base])
-    return FloretMesh(faces=faces.astype(np.int64), frames=frames, fixed=fixed.astype(np.int64))
+    return FloretMesh(vertices=frames[-1], faces=faces.astype(np.int64), frames=frames, fixed=fixed.astype(np.int64))
 
 
 def write_obj_sequence(folder: str, faces: np.ndarray, frames: np.ndarray, *, prefix: str = "frame",

@@ -1,4 +1,5 @@
-"""Implicit crown envelopes, point distributions and the command language (spec 003_implicit_sca; C-1 to C-22).
+"""Implicit crown envelopes, point distributions and the command language's parser (spec 003_implicit_sca; C-1 to
+C-22). The state the language builds is :class:`plantvr.documents.crown.CrownDocument`.
 
 Numeric core: numpy in, numpy out; no UI imports. Space colonization itself lives in ``plantvr.growth.colonize``;
 :func:`grow_in_crown` feeds it the crown's attraction points.
@@ -7,7 +8,7 @@ from .band import FieldCache, sample_band
 from .blobtree import (Blend, CircleSkeleton, Difference, Difference2, Intersection, Node, PointSkeleton,
                        PolylineSkeleton, Primitive, SegmentSkeleton, TransformNode, Union, polyline, segment, sphere,
                        torus)
-from .commands import CommandError, CommandSession, parse_script
+from .commands import CommandError, parse_script
 from .crown import default_roots, grow_in_crown, pipe_radii
 from .fields import ISO, blinn, wyvill, wyvill_derivative
 from .mesh_sampling import face_cdf, sample_mesh_near
@@ -20,7 +21,7 @@ from .variational import Variational
 from .warps import Warp, bend, taper, twist
 
 __all__ = [
-    "Blend", "Circle2D", "CircleSkeleton", "CommandError", "CommandSession", "Difference", "Difference2",
+    "Blend", "Circle2D", "CircleSkeleton", "CommandError", "Difference", "Difference2",
     "FieldCache", "ISO", "Intersection", "LaneKernel", "Node", "PointSet", "PointSkeleton", "Polygon2D",
     "PolylineSkeleton", "Primitive", "Revolution", "SegmentSkeleton", "Skin", "SkinPath", "TransformNode", "Union",
     "Variational", "Warp", "bend", "blinn", "cluster_kernel", "custom_kernel", "default_roots", "densify", "face_cdf", "field_pdf",

@@ -1,13 +1,14 @@
-"""Notebook panel for the implicit-crown command language (spec 003_implicit_sca §5.1, §2.8; C-13, issue 10).
+"""Notebook panel for the implicit-crown command language: a view of a
+:class:`~plantvr.documents.crown.CrownDocument` (spec 003_implicit_sca §5.1, §2.8; C-13; issues 10 and 21).
 
-A text area takes a script in the thesis command language; **Run** sends it to a
-:class:`plantvr.implicit.CommandSession` (all or nothing: a rejected script leaves the session unchanged) and the
-error line names the line number and the offending token, with the line marked in a listing. The preview is a
-matplotlib picture of the chosen envelope (polygonized), the sampled points coloured by their source tag and the
-trees grown so far. The scene, points and growth controls (spec 003 §5.2) do not call the numeric code themselves:
-each button writes one line of the same command language and runs it through :meth:`ImplicitPanel.run`, so every
-widget action lands in the session history and replays from the saved script. The panel keeps no state of its own
-besides the session it drives.
+A text area takes a script in the thesis command language; **Run** sends it to the document (all or nothing: a
+rejected script leaves the document unchanged) and the error line names the line number and the offending token,
+with the line marked in a listing. The preview is a matplotlib picture of the chosen envelope (polygonized), the
+sampled points coloured by their source tag and the trees grown so far. The scene, points and growth controls
+(spec 003 §5.2) do not call the numeric code themselves: each button writes one line of the same command language
+and runs it through :meth:`ImplicitPanel.run`, so every widget action lands in the document's command log, and the
+saved log replays into an identical document. The panel follows every document change (an undo too) and keeps no
+state of its own besides the document it shows.
 """
 from __future__ import annotations
 
@@ -21,7 +22,9 @@ import numpy as np
 import traitlets
 
 from .._validation import check_int
-from ..implicit import CommandError, CommandSession, polygonize
+from ..commandlog import CommandLog
+from ..documents.crown import TAG_COLORS, CrownDocument
+from ..implicit import CommandError, polygonize
 from ..implicit.commands import DISTRIBUTIONS
 
 __all__ = ["BOOLEAN_OPS", "ImplicitPanel", "preview_png"]
@@ -30,7 +33,6 @@ __all__ = ["BOOLEAN_OPS", "ImplicitPanel", "preview_png"]
 BOOLEAN_OPS = {"Union": "union", "Difference": "diff", "Difference 2": "diff2", "Intersection": "inter",
                "Blend": "blend"}
 
-_TAG_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2")
 _PREVIEW_ERROR = "<div class='preview-error' style='color:#b00020'>"
 _EXAMPLE = """sphere crown 20 0 14 0
 scale crown 1 1.25 1
@@ -41,13 +43,13 @@ grow step=0.6 kill=1.2
 """
 
 
-def preview_png(session: CommandSession, surface: str | None = None, *, resolution: int = 40,
+def preview_png(doc: CrownDocument, surface: str | None = None, *, resolution: int = 40,
                 max_points: int = 3000, size: float = 5.0, elev: float = 15.0, azim: float = -60.0) -> bytes:
-    """A PNG of a session: envelope mesh, attraction points by source tag, grown trees (y up).
+    """A PNG of a crown document: envelope mesh, attraction points by source tag, grown trees (y up).
 
     Parameters
     ----------
-    session : CommandSession
+    doc : CrownDocument
     surface : str, optional
         Envelope to draw; default none (points and trees only).
     resolution : int
@@ -80,7 +82,7 @@ def preview_png(session: CommandSession, surface: str | None = None, *, resoluti
     size = check_range("size", size, 1.0, 20.0)
     verts = faces = None
     if surface is not None:
-        verts, faces = polygonize(session.surface(surface), resolution=resolution)
+        verts, faces = polygonize(doc.surface(surface), resolution=resolution)
     fig = Figure(figsize=(size, size), dpi=80)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(projection="3d")
@@ -90,16 +92,16 @@ def preview_png(session: CommandSession, surface: str | None = None, *, resoluti
         ax.plot_trisurf(verts[:, 0], verts[:, 2], verts[:, 1], triangles=faces, color="#7fb069", alpha=0.25,
                         linewidth=0)
         every.append(verts)
-    pts, tags = session.points.points, session.points.tags
+    pts, tags = doc.points.points, doc.points.tags
     if len(pts) and max_points:
         sel = np.linspace(0, len(pts) - 1, min(max_points, len(pts))).astype(np.int64)
         for t in np.unique(tags[sel]):
             s = sel[tags[sel] == t]
-            name = session.points.sources[t] if t < len(session.points.sources) else str(t)
-            ax.scatter(pts[s, 0], pts[s, 2], pts[s, 1], s=2, color=_TAG_COLORS[t % len(_TAG_COLORS)], label=name)
+            name = doc.points.sources[t] if t < len(doc.points.sources) else str(t)
+            ax.scatter(pts[s, 0], pts[s, 2], pts[s, 1], s=2, color=TAG_COLORS[t % len(TAG_COLORS)], label=name)
         ax.legend(loc="upper left", fontsize=7, markerscale=4)
         every.append(pts)
-    for tree in session.trees:
+    for tree in doc.trees:
         nodes, parent = np.asarray(tree.nodes), np.asarray(tree.parent)
         kids = np.flatnonzero(parent >= 0)
         seg = np.stack([nodes[parent[kids]], nodes[kids]], axis=1)[:, :, [0, 2, 1]]
@@ -121,12 +123,12 @@ def preview_png(session: CommandSession, surface: str | None = None, *, resoluti
 
 
 class ImplicitPanel(W.VBox):
-    """Script box, Run button, error line and preview over a :class:`~plantvr.implicit.CommandSession`.
+    """Script box, Run button, error line and preview: a view of a :class:`~plantvr.documents.crown.CrownDocument`.
 
     Parameters
     ----------
-    session : CommandSession, optional
-        The session to drive; default a new one (``seed=0``, files relative to the working directory).
+    doc : CrownDocument, optional
+        The document to show and drive; default a new one (``seed=0``, files relative to the working directory).
     script : str, optional
         Initial text of the script box; default a small example crown.
     resolution : int
@@ -144,13 +146,13 @@ class ImplicitPanel(W.VBox):
     error_line = traitlets.Int(0)
     error_token = traitlets.Unicode("")
 
-    def __init__(self, session: CommandSession | None = None, *, script: str | None = None, resolution: int = 40,
+    def __init__(self, doc: CrownDocument | None = None, *, script: str | None = None, resolution: int = 40,
                  max_points: int = 3000):
-        if session is not None and not isinstance(session, CommandSession):
-            raise ValueError(f"session must be a CommandSession, got {type(session).__name__}")
+        if doc is not None and not isinstance(doc, CrownDocument):
+            raise ValueError(f"doc must be a CrownDocument, got {type(doc).__name__}")
         if script is not None and not isinstance(script, str):
             raise ValueError(f"script must be a str, got {type(script).__name__}")
-        self.session = session if session is not None else CommandSession()
+        self.doc: CrownDocument | None = None
         self.resolution = check_int("resolution", resolution, 8, 160)
         self.max_points = check_int("max_points", max_points, 0, 10**6)
         self.script = W.Textarea(value=_EXAMPLE if script is None else script,
@@ -158,11 +160,12 @@ class ImplicitPanel(W.VBox):
                                  layout=W.Layout(width="100%", height="180px"))
         self.run_button = W.Button(description="Run", button_style="success", icon="play",
                                    tooltip="Run the script (all lines, or none if a line is rejected)")
-        self.clear_button = W.Button(description="Clear box", tooltip="Empty the script box (the session stays)")
+        self.clear_button = W.Button(description="Clear box", tooltip="Empty the script box (the document stays)")
         self.surface = W.Dropdown(description="Envelope", options=[], layout=W.Layout(width="260px"))
-        self.path = W.Text(value="session.txt", description="Script file", layout=W.Layout(width="320px"))
-        self.save_button = W.Button(description="Save", tooltip="Write the commands run so far")
-        self.load_button = W.Button(description="Replay", tooltip="Run a saved script in a new session")
+        self.path = W.Text(value="crown.log", description="File", layout=W.Layout(width="320px"))
+        self.save_button = W.Button(description="Save log", tooltip="Write the document's command log")
+        self.load_button = W.Button(description="Replay", tooltip="Replay a saved command log into a new document")
+        self.file_button = W.Button(description="Run script", tooltip="Run a script file (thesis command language)")
         self.error = W.HTML(value="")
         self.status = W.HTML(value="")
         self.history = W.Textarea(value="", disabled=True, layout=W.Layout(width="100%", height="100px"))
@@ -171,17 +174,29 @@ class ImplicitPanel(W.VBox):
         self.clear_button.on_click(lambda _: setattr(self.script, "value", ""))
         self.save_button.on_click(lambda _: self._save_clicked())
         self.load_button.on_click(lambda _: self.replay())
+        self.file_button.on_click(lambda _: self.run_file())
         self._syncing = False
         self.surface.observe(lambda ch: None if self._syncing else self.refresh(), names="value")
         self._build_controls()
         left = W.VBox([W.HTML("<b>Commands</b> (thesis language; <code>#</code> comments)"), self.script,
                        W.HBox([self.run_button, self.clear_button]), self.error, self.status,
-                       W.HBox([self.path, self.save_button, self.load_button]),
-                       W.HTML("<b>Session history</b>"), self.history],
+                       W.HBox([self.path, self.save_button, self.load_button, self.file_button]),
+                       W.HTML("<b>Commands run</b> (undone with the document)"), self.history],
                       layout=W.Layout(width="55%"))
         right = W.VBox([self.surface, self.preview, self.controls])
         super().__init__([W.HBox([left, right])])
-        self._sync()
+        self._attach(doc if doc is not None else CrownDocument())
+
+    def _attach(self, doc: CrownDocument) -> None:
+        """Show ``doc`` (and follow its changes) instead of the current document."""
+        if self.doc is not None:
+            self.doc.unobserve(self._on_change, names="change")
+        self.doc = doc
+        doc.observe(self._on_change, names="change")
+        self._sync(select_last=True)
+
+    def _on_change(self, change) -> None:
+        self._sync(select_last=True)
 
     def _build_controls(self) -> None:
         lay = W.Layout(width="150px")
@@ -306,36 +321,52 @@ class ImplicitPanel(W.VBox):
 
     # -- commands -------------------------------------------------------------------------------------------------
     def run(self, text: str | None = None) -> bool:
-        """Run ``text`` (default the script box) in the session; show the result or the rejected line.
+        """Run ``text`` (default the script box) in the document; show the result or the rejected line.
 
         Returns
         -------
         bool
-            True when every line ran; False when the script was rejected (the session is unchanged).
+            True when every line ran; False when the script was rejected (the document is unchanged).
         """
         text = self.script.value if text is None else text
+        self.error_line, self.error_token, self.error.value = 0, "", ""
         try:
-            self.session.run(text)
+            self.doc.run(text)                         # the document's change redraws the panel
         except CommandError as exc:
             self._show_error(text, exc.lineno, exc.token, str(exc))
             return False
         except ValueError as exc:                      # e.g. text that is not a string
             self._show_error(text, 0, "", str(exc))
             return False
-        self.error_line, self.error_token = 0, ""
-        self.error.value = ""
-        self._sync(select_last=True)
+        return True
+
+    def run_file(self, path=None) -> bool:
+        """Run the script file at ``path`` (default the path box) in the document, like :meth:`run`."""
+        path = Path(self.path.value if path is None else path)
+        self.error_line, self.error_token, self.error.value = 0, "", ""
+        try:
+            self.doc.run_file(path)
+        except CommandError as exc:
+            try:
+                text = path.read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError):
+                text = ""
+            self._show_error(text, exc.lineno, exc.token, str(exc))
+            return False
+        except ValueError as exc:
+            self._show_error("", 0, "", str(exc))
+            return False
         return True
 
     def save(self, path=None) -> Path:
-        """Write the session's commands to ``path`` (default the path box)."""
+        """Write the document's command log to ``path`` (default the path box)."""
         path = Path(self.path.value if path is None else path)
         try:
-            self.session.save_script(path)            # atomic: a failed save leaves the old file as it was
+            self.doc.log.save(path)                   # atomic: a failed save leaves the old file as it was
         except (OSError, ValueError) as exc:
             self._show_error("", 0, "", f"cannot save {path}: {exc}")
-            raise ValueError(f"cannot save the script to {str(path)!r}: {exc}") from None
-        self.status.value = f"saved {len(self.session.history)} commands to {html.escape(str(path))}"
+            raise ValueError(f"cannot save the command log to {str(path)!r}: {exc}") from None
+        self.status.value = f"saved {len(self.doc.log)} commands to {html.escape(str(path))}"
         return path
 
     def _save_clicked(self) -> None:
@@ -345,26 +376,24 @@ class ImplicitPanel(W.VBox):
             pass
 
     def replay(self, path=None) -> bool:
-        """Replace the session by a new one that replays the script file at ``path`` (default the path box).
+        """Show a new document that replays the command log at ``path`` (default the path box); it has this
+        document's seed and radius, and file names resolve against the log's folder.
 
-        On a rejected or missing file the current session stays and the error is shown.
+        On a rejected or missing file the current document stays and the error is shown.
         """
         path = Path(self.path.value if path is None else path)
         try:
-            new = CommandSession.replay(path, seed=self.session.seed, default_radius=self.session.default_radius)
+            log = CommandLog.load(path, CrownDocument.COMMANDS, document=CrownDocument.KIND)
+            new = CrownDocument(base_dir=path.parent, seed=self.doc.seed, default_radius=self.doc.default_radius)
+            new.replay(log)
         except CommandError as exc:
-            try:
-                text = path.read_text(encoding="utf-8") if path.is_file() else ""
-            except (OSError, UnicodeDecodeError):
-                text = ""
-            self._show_error(text, exc.lineno, exc.token, str(exc))
+            self._show_error("", exc.lineno, exc.token, str(exc))
             return False
         except ValueError as exc:
             self._show_error("", 0, "", str(exc))
             return False
-        self.session = new
         self.error_line, self.error_token, self.error.value = 0, "", ""
-        self._sync(select_last=True)
+        self._attach(new)
         return True
 
     # -- display --------------------------------------------------------------------------------------------------
@@ -386,11 +415,11 @@ class ImplicitPanel(W.VBox):
                 mark = "&#9654;" if k == lineno else "&nbsp;"
                 rows.append(f"{mark} {k:>3}: {line}")
             listing = "<pre style='margin:2px 0'>" + "\n".join(rows) + "</pre>"
-        self.error.value = (f"<div style='color:#b00020'><b>Rejected</b> (session unchanged): "
+        self.error.value = (f"<div style='color:#b00020'><b>Rejected</b> (document unchanged): "
                             f"{html.escape(message)}{listing}</div>")
 
     def _sync(self, select_last: bool = False) -> None:
-        s = self.session
+        s = self.doc
         names = list(s.surfaces)
         current = self.surface.value
         self._syncing = True                           # one redraw below, not one per trait change
@@ -405,7 +434,7 @@ class ImplicitPanel(W.VBox):
                     dd.value = keep if keep in names else names[k if len(names) >= -k else -1]
         finally:
             self._syncing = False
-        self.history.value = "\n".join(s.history)
+        self.history.value = "\n".join(s.lines)
         self.status.value = (f"{len(s.surfaces)} surfaces, {len(s.points)} points "
                              f"({', '.join(s.points.sources) or 'none'}), {len(s.trees)} trees")
         self.refresh()
@@ -413,11 +442,11 @@ class ImplicitPanel(W.VBox):
     def refresh(self) -> None:
         """Redraw the preview (envelope, points, trees); an empty envelope is reported, not raised."""
         try:
-            png = preview_png(self.session, self.surface.value or None, resolution=self.resolution,
+            png = preview_png(self.doc, self.surface.value or None, resolution=self.resolution,
                               max_points=self.max_points)
             if self.error.value.startswith(_PREVIEW_ERROR):       # a stale preview message goes
                 self.error.value = ""
         except ValueError as exc:
             self.error.value = f"{_PREVIEW_ERROR}Preview: {html.escape(str(exc))}</div>"
-            png = preview_png(self.session, None, resolution=self.resolution, max_points=self.max_points)
+            png = preview_png(self.doc, None, resolution=self.resolution, max_points=self.max_points)
         self.preview.value = png

@@ -1,8 +1,11 @@
-"""V28, V31 and command errors: the thesis command language, scripts saved and replayed (spec 003 §5.1)."""
+"""V28, V31 and command errors: the thesis command language run in a crown document, sessions logged and replayed
+(spec 003 §5.1)."""
 import numpy as np
 import pytest
 
-from plantvr.implicit import CommandError, CommandSession, Difference, load_point_set, parse_script
+from plantvr.commandlog import CommandLog
+from plantvr.documents.crown import CrownDocument
+from plantvr.implicit import CommandError, Difference, load_point_set, parse_script
 
 SCRIPT1 = "sphere s1\nline s2\ndiff s1 s2 s3\n"
 SCRIPT2 = "sphere s\nscale s 50 80 50\npoint_set_gen s poisson poisson.props\nsave_point_set points.txt\n"
@@ -12,7 +15,7 @@ SCRIPT3 = "point_set_thin crown secondary 80\n"
 @pytest.fixture
 def session(tmp_path):
     (tmp_path / "poisson.props").write_text("min_distance = 3\nnum_points = 400\ngrid = 32\n")
-    return CommandSession(base_dir=tmp_path, seed=1)
+    return CrownDocument(base_dir=tmp_path, seed=1)
 
 
 def test_v28_thesis_scripts_run_verbatim(session, tmp_path):
@@ -35,13 +38,24 @@ def test_v28_thesis_scripts_run_verbatim(session, tmp_path):
     assert n_crown_before - n_crown_after == int(np.floor(0.8 * n_in))
 
 
-def test_v31_script_replay_is_identical(session, tmp_path):
+def test_v31_session_replay_is_identical(session, tmp_path):
     session.run(SCRIPT1 + SCRIPT2 + "sphere sec 40\npoint_set_densify sec 50 min_distance=2\n")
-    session.save_script(tmp_path / "script.txt")
-    again = CommandSession.replay(tmp_path / "script.txt", seed=1)
+    session.log.save(tmp_path / "session.log")
+    log = CommandLog.load(tmp_path / "session.log", CrownDocument.COMMANDS, document="crown")
+    again = CrownDocument(base_dir=tmp_path, seed=1)
+    again.replay(log)
     assert again.points.points.tobytes() == session.points.points.tobytes()
-    other = CommandSession.replay(tmp_path / "script.txt", seed=2)
+    other = CrownDocument(base_dir=tmp_path, seed=2)
+    other.replay(log)
     assert not np.array_equal(other.points.points, session.points.points)
+
+
+def test_v31_script_files_run_as_input(session, tmp_path):
+    (tmp_path / "script.cmd").write_text(SCRIPT1 + SCRIPT2)
+    session.run_file(tmp_path / "script.cmd")
+    again = CrownDocument(base_dir=tmp_path, seed=1).run(SCRIPT1 + SCRIPT2)
+    assert again.state_bytes() == session.state_bytes()
+    assert [e.kwargs["text"] for e in session.log] == [SCRIPT1 + SCRIPT2]
 
 
 def test_all_modeling_commands(session):
@@ -91,7 +105,7 @@ def test_errors_name_line_and_token_and_leave_state(session):
     before = dict(session.surfaces)
     with pytest.raises(CommandError, match=r"line 2: token 'x': expected a number"):
         session.run("sphere b\nscale b 1 x 2")
-    assert session.surfaces == before and session.history == ["sphere a"]
+    assert session.surfaces == before and session.lines == ["sphere a"]
     with pytest.raises(CommandError, match=r"line 1: token 'sphre': unknown command"):
         session.run("sphre q")
     with pytest.raises(CommandError, match=r"line 1: token 'zz': no surface"):

@@ -10,6 +10,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from plantvr import implicit as im
+from plantvr.commandlog import CommandLog
+from plantvr.documents.crown import CrownDocument
 from plantvr.implicit import warps as wp
 from plantvr.implicit._lane_kernels import PDF_CAP
 
@@ -311,21 +313,22 @@ def test_failed_saves_keep_the_old_file(tmp_path, monkeypatch):
         im.save_point_set(path, ps, header={"x": "two\nlines"})
     with pytest.raises(ValueError, match="num_points"):
         im.write_props(tmp_path / "a.props", {"num_points": "5\nseed = 3"})
-    s = im.CommandSession()
+    s = CrownDocument()
     s.run("sphere s 4\n")
-    s.save_script(tmp_path / "s.cmd")
-    old_script = (tmp_path / "s.cmd").read_bytes()
+    s.log.save(tmp_path / "s.log")
+    old_log = (tmp_path / "s.log").read_bytes()
+    s.run("sphere t 2\n")
 
     def boom(*a, **k):
         raise OSError("disk full")
 
     monkeypatch.setattr(os, "fsync", boom)
     for fn in (lambda: im.save_point_set(path, im.PointSet.from_points(np.zeros((9, 3)), "b")),
-               lambda: s.save_script(tmp_path / "s.cmd")):
+               lambda: s.log.save(tmp_path / "s.log")):
         with pytest.raises(OSError):
             fn()
     monkeypatch.undo()
-    assert path.read_bytes() == old and (tmp_path / "s.cmd").read_bytes() == old_script
+    assert path.read_bytes() == old and (tmp_path / "s.log").read_bytes() == old_log
     assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]
 
 
@@ -393,41 +396,42 @@ TOKENS = ["sphere", "line", "torus", "scale", "translate", "rotate", "twist", "t
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.lists(st.sampled_from(TOKENS), min_size=1, max_size=6), min_size=1, max_size=4))
 def test_fuzz_command_scripts(fuzz, lines):
-    s = im.CommandSession(seed=1)
+    s = CrownDocument(seed=1)
     s.run("sphere s 4\nsphere t 2 1 0 0\n")
-    before = (s.script_text(), dict(s.surfaces), s.points.points.tobytes(), len(s.trees))
+    before = (s.state_bytes(), len(s.log), len(s.history.undo_stack))
     text = "\n".join(" ".join(line) for line in lines)
-    out = fuzz.call("CommandSession.run", s.run, text)
+    out = fuzz.call("CrownDocument.run", s.run, text)
     if isinstance(out, Exception):
         assert isinstance(out, im.CommandError)
-        assert (s.script_text(), dict(s.surfaces), s.points.points.tobytes(), len(s.trees)) == before
+        assert (s.state_bytes(), len(s.log), len(s.history.undo_stack)) == before
     for name, node in s.surfaces.items():
         _sane_field(node)
 
 
 def test_rejected_script_writes_no_file_and_leaves_session(tmp_path):
-    s = im.CommandSession(base_dir=tmp_path, seed=2)
+    s = CrownDocument(base_dir=tmp_path, seed=2)
     s.run("sphere s 6\npoint_set_gen s uniform num_points=30\nsave_point_set a.txt\n")
     old = (tmp_path / "a.txt").read_bytes()
-    state = (s.script_text(), s.points.points.tobytes(), sorted(s.surfaces))
+    state = (s.state_bytes(), s.log.to_text())
     with pytest.raises(im.CommandError, match="line 4"):
         s.run("point_set_clear\nsave_point_set a.txt\nsave_point_set b.txt\nscale s 0 1 1\n")
     assert (tmp_path / "a.txt").read_bytes() == old and not (tmp_path / "b.txt").exists()
-    assert (s.script_text(), s.points.points.tobytes(), sorted(s.surfaces)) == state
+    assert (s.state_bytes(), s.log.to_text()) == state
     # a script that saves then loads the same file sees what it saved
     s.run("point_set_gen s uniform num_points=5\nsave_point_set c.txt\npoint_set_clear\nload_point_set c.txt\n")
     assert len(s.points) == 35 and (tmp_path / "c.txt").is_file()
 
 
-def test_replayed_script_reproduces_the_session_and_resaves_identically(tmp_path):
-    s = im.CommandSession(base_dir=tmp_path, seed=5)
+def test_replayed_log_reproduces_the_session_and_resaves_identically(tmp_path):
+    s = CrownDocument(base_dir=tmp_path, seed=5)
     s.run("sphere s 8 0 4 0\nscale s 1 1.5 1\npoint_set_gen s poisson num_points=80 min_distance=0.8 grid=24\n"
           "sphere sec 3 0 4 0\npoint_set_thin s sec 50\nseed 3\npoint_set_gen sec uniform num_points=10\n")
-    s.save_script(tmp_path / "a.cmd")
-    again = im.CommandSession.replay(tmp_path / "a.cmd", seed=5)
+    s.log.save(tmp_path / "a.log")
+    again = CrownDocument(base_dir=tmp_path, seed=5)
+    again.replay(CommandLog.load(tmp_path / "a.log", CrownDocument.COMMANDS, document="crown"))
     assert again.points.points.tobytes() == s.points.points.tobytes() and again.points.sources == s.points.sources
-    again.save_script(tmp_path / "b.cmd")
-    assert (tmp_path / "a.cmd").read_bytes() == (tmp_path / "b.cmd").read_bytes()
+    assert again.state_bytes() == s.state_bytes()
+    assert [(e.command, e.kwargs) for e in again.log] == [(e.command, e.kwargs) for e in s.log]
 
 
 @pytest.mark.parametrize("data", [b"\xff\xfe\xfa garbage", b"sphere s 4\x00\n", b"sphere s 4\nbogus 1\n",
@@ -435,14 +439,16 @@ def test_replayed_script_reproduces_the_session_and_resaves_identically(tmp_path
 def test_corrupt_scripts_are_rejected(tmp_path, data):
     p = tmp_path / "s.cmd"
     p.write_bytes(data)
+    s = CrownDocument(base_dir=tmp_path)
     with pytest.raises(ValueError):
-        im.CommandSession.replay(p)
+        s.run_file(p)
+    assert s.surfaces == {} and len(s.log) == 0
 
 
 def test_corrupt_mesh_is_a_command_error(tmp_path):
     (tmp_path / "m.obj").write_bytes(b"v 0 0 0\nv 1 0 0\nf 1 2 9\n")
     (tmp_path / "n.obj").write_bytes(b"\x00\x01garbage")
-    s = im.CommandSession(base_dir=tmp_path)
+    s = CrownDocument(base_dir=tmp_path)
     for f in ("m.obj", "n.obj"):
         with pytest.raises(im.CommandError):
             s.run(f"load_mesh m {f}\n")
@@ -451,5 +457,5 @@ def test_corrupt_mesh_is_a_command_error(tmp_path):
 
 def test_session_constructor_checks(fuzz):
     for bad in BAD:
-        fuzz.call("CommandSession", im.CommandSession, default_radius=bad, param="default_radius")
-        fuzz.call("CommandSession", im.CommandSession, seed=bad, param="seed")
+        fuzz.call("CrownDocument", CrownDocument, default_radius=bad, param="default_radius")
+        fuzz.call("CrownDocument", CrownDocument, seed=bad, param="seed")

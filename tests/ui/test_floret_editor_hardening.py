@@ -1,6 +1,6 @@
-"""Issue 20 for the floret editor: every setting, command and export path checks its input at the door with a
-ValueError naming it (never a bare TraitError or an error from inside pyvista/numpy), a rejected command
-leaves the editor unchanged, and the OBJ export is atomic."""
+"""Issue 20 for the floret editor and its inflorescence document: every setting, command and export path checks
+its input at the door with a ValueError naming it (never a bare TraitError or an error from inside pyvista/numpy),
+a rejected command leaves the document unchanged, and the OBJ export is atomic."""
 from __future__ import annotations
 
 import os
@@ -10,12 +10,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from plantvr.flowers.floret import read_obj_sequence
-from plantvr.ui.floret_editor import _RANGES, POSE_KEYS, PRESETS, FloretEditor, frame_at, preview_png
+from plantvr.documents.inflorescence import PRESETS
+from plantvr.flowers.floret import FLORET, POSE_KEYS, read_obj_sequence
+from plantvr.ui.floret_editor import FloretEditor, preview_png
 
 BAD = [np.nan, np.inf, -np.inf, 1e300, 1e19, 10**12, -5, 0, 1e-20, 0.5, "x", None, [], True, {"a": 1}]
 FUZZ = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-TRAITS = sorted(set(_RANGES) | {"weld", "growth", "pose_index", "poses", "message", "version"})
+TRAITS = FLORET.names
 
 
 @pytest.fixture(scope="module")
@@ -26,18 +27,17 @@ def editor():
 
 
 def _state(ed) -> tuple:
-    traits = {k: getattr(ed, k) for k in TRAITS}
-    fm = ed.floret
-    return (repr(traits), fm.frames.tobytes(), fm.faces.tobytes(), fm.fixed.tobytes())
+    return (ed.doc.state_bytes(), ed.pose_index)
 
 
 def test_wrong_types_raise_value_errors_naming_the_setting(editor):
     """``editor.nu = "x"`` raised traitlets' TraitError; ``weld = "no"`` and ``poses = None`` too."""
     before = _state(editor)
-    for name, value in (("nu", "x"), ("nu", 1.5), ("weld", "no"), ("poses", None), ("growth", 3),
-                        ("length", None), ("message", 5), ("pose_index", "open")):
+    for name, value in (("nu", "x"), ("nu", 1.5), ("weld", "no"), ("growth", 3), ("open_length", None)):
         with pytest.raises(ValueError, match=name):
-            setattr(editor, name, value)
+            setattr(editor.doc, name, value)
+    with pytest.raises(ValueError, match="pose_index"):
+        editor.pose_index = "open"
     assert _state(editor) == before
 
 
@@ -45,15 +45,17 @@ def test_wrong_types_raise_value_errors_naming_the_setting(editor):
 @given(st.sampled_from(TRAITS), st.sampled_from(BAD))
 def test_fuzz_every_setting(fuzz, editor, name, bad):
     before = _state(editor)
-    out = fuzz.call(f"FloretEditor.{name}", setattr, editor, name, bad, param=name)
+    out = fuzz.call(f"InflorescenceDocument.{name}", setattr, editor.doc, name, bad, param=name)
     if isinstance(out, Exception):
         assert _state(editor) == before
     else:                                        # accepted: the floret is still a valid mesh
-        fm = editor.floret
+        fm = editor.doc.floret
         assert len(fm.faces) and np.all(np.isfinite(fm.frames)) and fm.faces.max() < fm.frames.shape[1]
-        editor.load_preset("disc floret")        # back to a known state for the next example
-        if name in ("message", "version"):
-            editor.message = ""
+        editor.doc.load_preset("disc floret")    # back to a known state for the next example
+        editor.doc.time = 1.0
+    out = fuzz.call("FloretEditor.pose_index", setattr, editor, "pose_index", bad, param="pose_index")
+    if not isinstance(out, Exception):
+        editor.pose_index = 2
 
 
 @FUZZ
@@ -61,16 +63,17 @@ def test_fuzz_every_setting(fuzz, editor, name, bad):
        st.sampled_from(BAD))
 def test_fuzz_commands(fuzz, editor, index, key, value):
     before = _state(editor)
-    out = fuzz.call("FloretEditor.set_pose", editor.set_pose, index, **{key: value}, param=("index", key, "pose"))
+    out = fuzz.call("InflorescenceDocument.set_pose", editor.doc.set_pose, index, **{key: value},
+                    param=("index", key, "pose"))
     if isinstance(out, Exception):
         assert _state(editor) == before
     else:
-        editor.load_preset("disc floret")
+        editor.doc.load_preset("disc floret")
     before = _state(editor)
-    assert isinstance(fuzz.call("FloretEditor.load_preset", editor.load_preset, value, param="name"), Exception)
+    assert isinstance(fuzz.call("InflorescenceDocument.load_preset", editor.doc.load_preset, value,
+                                param="preset"), Exception)
     assert _state(editor) == before
-    fuzz.call("frame_at", frame_at, editor.floret, value, param="t")
-    fuzz.call("frame_at", frame_at, value, 0.5, param="floret")
+    fuzz.call("FloretMesh.frame_at", editor.doc.floret.frame_at, value, param="t")
 
 
 @settings(FUZZ, max_examples=12)
@@ -79,22 +82,22 @@ def test_fuzz_preview(fuzz, editor, which, bad):
     kw = {which: bad}
     t = kw.pop("t", 0.5)
     kw.setdefault("size", (64, 64))
-    out = fuzz.call("preview_png", preview_png, editor.floret, t, param=which, **kw)
+    out = fuzz.call("preview_png", preview_png, editor.doc.floret, t, param=which, **kw)
     if not isinstance(out, Exception):
         assert out[:4] == b"\x89PNG"
 
 
 def test_presets_all_build(editor):
     for name in PRESETS:
-        editor.load_preset(name)
-        assert editor.message == "" and len(editor.floret.faces)
-    editor.load_preset("disc floret")
+        editor.doc.load_preset(name)
+        assert editor.doc.message == "" and len(editor.doc.floret.faces)
+    editor.doc.load_preset("disc floret")
 
 
 def test_export_is_atomic_and_bad_folders_are_reported(editor, tmp_path, monkeypatch):
     paths = editor.export_obj(tmp_path / "obj")
     faces, frames, fixed = read_obj_sequence(str(tmp_path / "obj"))
-    assert len(paths) == frames.shape[0] and np.array_equal(faces, editor.floret.faces)
+    assert len(paths) == frames.shape[0] and np.array_equal(faces, editor.doc.floret.faces)
     old = {p: open(p, "rb").read() for p in paths}
     with pytest.raises(ValueError, match="prefix"):
         editor.export_obj(tmp_path / "obj", prefix="../x")
@@ -106,7 +109,7 @@ def test_export_is_atomic_and_bad_folders_are_reported(editor, tmp_path, monkeyp
     def boom(*a, **k):
         raise OSError("disk full")
 
-    editor.nu = 7                                     # a different floret: the save would change the files
+    editor.doc.nu = 7                                 # a different floret: the save would change the files
     monkeypatch.setattr(os, "fsync", boom)
     with pytest.raises(OSError):
         editor.export_obj(tmp_path / "obj")
@@ -124,7 +127,7 @@ def test_export_is_atomic_and_bad_folders_are_reported(editor, tmp_path, monkeyp
     editor.folder.value = str(tmp_path / "ok")
     editor._export_clicked()
     assert "wrote" in editor.export_status.value
-    editor.load_preset("disc floret")
+    editor.doc.load_preset("disc floret")
 
 
 def test_slider_values_from_the_browser_stay_in_range(editor):
@@ -132,7 +135,11 @@ def test_slider_values_from_the_browser_stay_in_range(editor):
     trait, so the editor never holds a value outside its range."""
     s = editor.controls["nu"]
     s.value = 15
-    assert editor.nu == 15
-    for name, (_, lo, hi, _) in _RANGES.items():
-        assert lo <= getattr(editor, name) <= hi
-    editor.load_preset("disc floret")
+    assert editor.doc.nu == 15
+    for p in FLORET:
+        if p.range is not None and p.kind is not bool:
+            assert p.range[0] <= getattr(editor.doc, p.name) <= p.range[1]
+    for k in POSE_KEYS:                                 # the pose sliders have the table's ranges
+        lo, hi = FLORET[f"open_{k}"].range
+        assert (editor.controls[k].min, editor.controls[k].max) == (lo, hi)
+    editor.doc.load_preset("disc floret")
