@@ -45,7 +45,7 @@ def test_bad_parameter_names_range_and_leaves_model_unchanged(name, value, match
 
 def test_bad_command_input_is_rejected_before_any_change(grown_model):
     m = grown_model
-    v, n_events = m.version, len(m.events)
+    v, n_events = m.version, len(m.log)
     with pytest.raises(ValueError, match=r"center must have shape \(3,\)"):
         m.paint([0, 1])
     with pytest.raises(ValueError, match="center must contain only finite values"):
@@ -56,7 +56,7 @@ def test_bad_command_input_is_rejected_before_any_change(grown_model):
         m.paint([0, 1, 0], radius=0)
     with pytest.raises(ValueError, match=r"steps must be an integer"):
         m.step(-1)
-    assert m.version == v and len(m.events) == n_events
+    assert m.version == v and len(m.log) == n_events
 
 
 def test_set_influence_normalises():
@@ -181,20 +181,20 @@ def test_event_log_replays_identically(tmp_path):
     a = plantvr.Model(seed=3)
     run(a, demo_session(), 20)
     a.prune([0, 6, 0], 1.0)
-    a.events.save(tmp_path / "log.jsonl")
+    a.log.save(tmp_path / "log.jsonl")
     b = plantvr.Model(seed=3)
-    type(a.events).load(tmp_path / "log.jsonl").replay(b)
+    type(a.log).load(tmp_path / "log.jsonl").replay(b)
     assert np.array_equal(a.snapshot.pos, b.snapshot.pos)
 
 
 def test_prune_mode_is_a_logged_command():
     m = plantvr.Model()
     m.set_prune_mode(True)
-    assert m.prune_mode and m.events.events[-1].command == "set_prune_mode"
+    assert m.prune_mode and m.log.events[-1].command == "set_prune_mode"
     with pytest.raises(ValueError, match="on must be True or False"):
         m.set_prune_mode("yes")
     other = plantvr.Model()
-    m.events.replay(other)
+    m.log.replay(other)
     assert other.prune_mode
 
 

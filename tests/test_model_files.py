@@ -391,9 +391,9 @@ def test_event_log_round_trip_truncations_flips_and_versions(tmp_path):
     a.step(3)
     a.set_params(apical_dominance=0.6)
     a.prune([0, 2, 0], 0.5)
-    path = a.events.save(tmp_path / "log.jsonl")
+    path = a.log.save(tmp_path / "log.jsonl")
     log = EventLog.load(path)
-    assert [(e.command, e.kwargs) for e in log.events] == [(e.command, e.kwargs) for e in a.events.events]
+    assert [(e.command, e.kwargs) for e in log.events] == [(e.command, e.kwargs) for e in a.log.events]
     good = path.read_bytes()
     bad = tmp_path / "bad.jsonl"
     for cut in range(0, len(good) - 1, 5):
@@ -429,4 +429,4 @@ def test_replay_checks_every_event_before_issuing_any(tmp_path):
     log.events[2] = type(log.events[2])("paint", {"centre": [0, 1, 0]})
     with pytest.raises(ValueError, match="paint arguments do not fit"):
         log.replay(m)
-    assert _state(m, tmp_path) == before and len(m.events) == 0
+    assert _state(m, tmp_path) == before and len(m.log) == 0

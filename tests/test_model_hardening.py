@@ -39,7 +39,7 @@ def base():
 
 def _fresh(base):
     m = plantvr.Model(seed=0)
-    base.events.replay(m)
+    base.log.replay(m)
     return m
 
 
@@ -55,12 +55,12 @@ def _still_sane(m, tmp_path):
 @pytest.mark.parametrize("n_darts", [0, -5, 10**12, 1.5, "x", [3]])
 def test_paint_stroke_n_darts_is_checked(tmp_path, base, n_darts):
     m = _fresh(base)
-    before, n_ev = _state(m, tmp_path), len(m.events)
+    before, n_ev = _state(m, tmp_path), len(m.log)
     with pytest.raises(ValueError, match="n_darts"):
         m.paint_stroke([[0, 3, 0], [0, 4, 0]], radius=1.0, n_darts=n_darts)
     with pytest.raises(ValueError, match="n_darts"):
         m.paint([0, 3, 0], 1.0, n_darts)
-    assert _state(m, tmp_path) == before and len(m.events) == n_ev
+    assert _state(m, tmp_path) == before and len(m.log) == n_ev
 
 
 @pytest.mark.parametrize("seed", [-1, 1.5, "a", True, 2**64, [1], np.random.default_rng(0)])
@@ -71,7 +71,7 @@ def test_model_seed_is_checked(seed):
 
 def test_every_command_rejects_bad_input_unchanged(tmp_path, base):
     m = _fresh(base)
-    before, n_ev = _state(m, tmp_path), len(m.events)
+    before, n_ev = _state(m, tmp_path), len(m.log)
     bad = [
         (m.set_prune_mode, ("yes",), {}, "on must be True or False"), (m.set_prune_mode, (1,), {}, "on must be"),
         (m.set_prune_mode, (None,), {}, "on must be"), (m.reset, (), {"seed": -1}, "seed"),
@@ -94,7 +94,7 @@ def test_every_command_rejects_bad_input_unchanged(tmp_path, base):
     for name, value in [("view_radius", -1), ("shadow_depth", 2.5), ("branching", "spiral"), ("base_length", np.inf)]:
         with pytest.raises(ValueError, match=name):
             setattr(m, name, value)
-    assert _state(m, tmp_path) == before and len(m.events) == n_ev and m.autosave_path is None
+    assert _state(m, tmp_path) == before and len(m.log) == n_ev and m.autosave_path is None
 
 
 def test_set_influence_does_not_overflow():
@@ -126,12 +126,12 @@ def test_replay_after_edits_during_background_growth_is_identical(tmp_path):
         a.prune([0, 3 + k, 0], 0.4)
         time.sleep(0.02)
     a.wait()
-    cmds = [e.command for e in a.events.events]
+    cmds = [e.command for e in a.log.events]
     first_paint = cmds.index("paint")
     assert "step" in cmds[first_paint:] and "step" in cmds[:first_paint]  # edits landed between growth steps
-    assert sum(e.kwargs["steps"] for e in a.events.events if e.command == "step") == a.steps_done == 40
-    assert len(a.events) < 40  # consecutive steps merged
-    path = a.events.save(tmp_path / "log.jsonl")
+    assert sum(e.kwargs["steps"] for e in a.log.events if e.command == "step") == a.steps_done == 40
+    assert len(a.log) < 40  # consecutive steps merged
+    path = a.log.save(tmp_path / "log.jsonl")
     b = plantvr.Model(seed=1)
     EventLog.load(path).replay(b)
     assert _state(b, tmp_path) == _state(a, tmp_path)
@@ -144,9 +144,9 @@ def test_direct_trait_sets_are_logged_and_replayed(tmp_path):
     a.apical_dominance = 0.7  # a slider sets the trait itself
     a.set_params(view_radius=3.0, tip_radius=0.03)
     a.step(3)
-    assert [e.command for e in a.events.events].count("set_params") == 2
+    assert [e.command for e in a.log.events].count("set_params") == 2
     b = plantvr.Model(seed=2)
-    a.events.replay(b)
+    a.log.replay(b)
     assert _state(b, tmp_path) == _state(a, tmp_path)
 
 
@@ -251,7 +251,7 @@ def test_fuzz_event_log_replay(fuzz, tmp_path_factory, cmd, kwargs):
     log.events.append(Event(cmd, kwargs))
     r = fuzz.call("EventLog.replay", log.replay, m)
     if isinstance(r, Exception):
-        assert _state(m, tmp) == before and len(m.events) == 0
+        assert _state(m, tmp) == before and len(m.log) == 0
     else:
         _still_sane(m, tmp)
     r = fuzz.call("EventLog.save", log.save, tmp / "l.jsonl")
@@ -270,7 +270,7 @@ def test_fuzz_readers(fuzz, tmp_path_factory, base, data, suffix, cut, flips):
     before = _state(m, tmp)
     path = tmp / f"f{suffix}"
     if suffix == ".jsonl":
-        good = base.events.save(path).read_bytes()
+        good = base.log.save(path).read_bytes()
     else:
         good = base.save(path).read_bytes()
     raw = bytearray(good[:cut] + data if data else good[:cut])

@@ -1,94 +1,93 @@
-"""The one kernel-resident model shared by widgets, the 3D view and the VR bridge (spec 000_treewand §4.12).
+"""The Tree Wand document: the one kernel-resident model shared by widgets, the 3D view and the headset
+(spec 000_treewand §4.12; DESIGN "Documents").
 
-Parameters are traits generated from :mod:`plantvr.params`; commands validate, then edit the
-:class:`~plantvr.growth.engine.GrowthEngine` under a lock; after every change an immutable
-:class:`Snapshot` is published. A background growth worker never sets a trait itself: it hands the
-snapshot to the kernel's event loop (STYLE §9), and views observe ``version``.
+A :class:`Model` is a :class:`~plantvr.document.Document`: its parameters are traits generated from
+:data:`plantvr.params.TREEWAND`; every command validates its arguments, then edits the
+:class:`~plantvr.growth.engine.GrowthEngine` under the document's lock, records itself in ``model.log`` and
+ends in :meth:`~plantvr.document.Document.changed`, which publishes an immutable :class:`Snapshot` (a
+background growth worker never sets a trait itself, STYLE §9). Paint, strokes, markers, prune, growth steps
+and reset are undoable: each is one whole-engine-state atom of ``model.history``. The headset attaches from
+outside (``plantvr.vr.attach(model)``).
 """
 from __future__ import annotations
 
-import asyncio
-import inspect
+import dataclasses
 import json
 import os
 import threading
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Callable
 
 import numpy as np
-from traitlets import Bool, Dict, Float, HasTraits, Int, TraitType
+from traitlets import Bool, Dict, Float, Int
 
 from .._fileio import write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
-from ..commandlog import CommandLog, Event
+from ..document import Document
 from ..growth.engine import GrowthEngine, StepStats
 from ..growth.treefile import MAX_TREE_BYTES, state_from_npz, state_to_bytes, tree_from_text, tree_to_text
-from ..params import PARAMS, Param, validate
+from ..params import TREEWAND
+from ..types import Points, TreeArrays
 
 __all__ = ["Model", "Snapshot"]
-
-REPLAYABLE = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence", "set_prune_mode",
-              "reset")
-
-
-class ParamTrait(TraitType):
-    """A trait whose default, type and range come from one :class:`~plantvr.params.Param`."""
-
-    def __init__(self, param: Param):
-        super().__init__(default_value=param.default, help=param.doc)
-        self.param = param
-        self.tag(param=param, window=param.window)
-
-    def validate(self, obj, value):
-        return self.param.check(value)
-
-
-_Params = type("_Params", (HasTraits,), {p.name: ParamTrait(p) for p in PARAMS})
 
 
 @dataclass(frozen=True)
 class Snapshot:
-    """Read-only picture of the model after one change: live nodes compacted, parents remapped."""
+    """Read-only picture of the model after one change: the live tree as :class:`~plantvr.types.TreeArrays`
+    (compacted, parents and main children remapped), markers, buds and the last step's statistics."""
 
     version: int
     step: int
-    pos: np.ndarray       # (N, 3) node positions; node 0 is the base point
-    parent: np.ndarray    # (N,) int64, -1 for the base point
-    radius: np.ndarray    # (N,) pipe-model radius of the internode ending at each node
-    order: np.ndarray     # (N,) branch order
+    tree: TreeArrays
     markers: np.ndarray   # (M, 3)
     stats: StepStats | None
-    main_child: np.ndarray  # (N,) int64 snapshot index of each node's main (slot 0) child, -1 if none
     buds: dict[str, np.ndarray]  # "pos", "dir", "radius", "up" of every bud slot (leaves grow there)
+
+    @property
+    def pos(self) -> np.ndarray:
+        """(N, 3) node positions; node 0 is the base point."""
+        return self.tree.pos
+
+    @property
+    def parent(self) -> np.ndarray:
+        """(N,) int64 parent node, -1 for the base point."""
+        return self.tree.parent
+
+    @property
+    def radius(self) -> np.ndarray:
+        """(N,) pipe-model radius of the internode ending at each node."""
+        return self.tree.radius
+
+    @property
+    def order(self) -> np.ndarray:
+        """(N,) int64 branch order."""
+        return self.tree.order
+
+    @property
+    def main_child(self) -> np.ndarray:
+        """(N,) int64 snapshot index of each node's main (slot 0) child, -1 if none."""
+        return self.tree.main_child
 
     @property
     def n_internodes(self) -> int:
         """Number of internodes (nodes except the base point)."""
-        return max(len(self.pos) - 1, 0)
+        return max(len(self.tree) - 1, 0)
 
     @classmethod
     def from_tree(cls, tree, *, buds: dict[str, np.ndarray] | None = None, markers: np.ndarray | None = None,
                   version: int = 0, step: int = 0, stats: StepStats | None = None) -> "Snapshot":
         """Snapshot of a tree (a :class:`~plantvr.growth.tree.Tree` or a dict of its arrays): live nodes
-        compacted, parents and main children remapped. ``buds`` defaults to every bud slot with its node's
-        heading as direction."""
-        get = tree.__getitem__ if isinstance(tree, dict) else lambda k: getattr(tree, k)
-        alive, child = get("alive"), get("child")
-        live = np.flatnonzero(alive)
-        remap = np.full(len(alive), -1, np.int64)
-        remap[live] = np.arange(len(live))
-        par, main = get("parent")[live], child[live, 0]
-        par = np.where(par >= 0, remap[np.maximum(par, 0)], -1)
-        main = np.where(main >= 0, remap[np.maximum(main, 0)], -1)
+        compacted, parents and main children remapped (:meth:`TreeArrays.from_tree`). ``buds`` defaults to every
+        bud slot with its node's heading as direction."""
+        tree = SimpleNamespace(**tree) if isinstance(tree, dict) else tree
         if buds is None:
-            node, _ = np.nonzero((child == -1) & alive[:, None])
-            buds = {"pos": get("pos")[node], "dir": get("head")[node], "radius": get("radius")[node],
-                    "up": get("lat")[node]}
-        return cls(version, step, _frozen(get("pos")[live]), _frozen(par), _frozen(get("radius")[live]),
-                   _frozen(get("order")[live]), _frozen(np.zeros((0, 3)) if markers is None else markers), stats,
-                   _frozen(main), {k: _frozen(v) for k, v in buds.items()})
+            node, _ = np.nonzero((tree.child == -1) & tree.alive[:, None])
+            buds = {"pos": tree.pos[node], "dir": tree.head[node], "radius": tree.radius[node], "up": tree.lat[node]}
+        return cls(version, step, TreeArrays.from_tree(tree), _frozen(np.zeros((0, 3)) if markers is None else markers),
+                   stats, {k: _frozen(v) for k, v in buds.items()})
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:
@@ -97,15 +96,19 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
-class Model(_Params):
+class Model(Document):
     """Tree Wand model: growth parameters, tree, markers, light grid, brush and saved views.
 
     Parameters
     ----------
     seed : int, optional
         Seed of the random generator (marker darts); same seed + same commands = same tree.
+    max_undo : int
+        Undo depth, in [1, 10000].
+    max_undo_bytes : int
+        Byte budget of the undo and redo records (each holds the engine state before and after).
     **params
-        Initial parameter values (see :data:`plantvr.params.PARAMS`).
+        Initial parameter values (see :data:`plantvr.params.TREEWAND`).
 
     Examples
     --------
@@ -115,11 +118,16 @@ class Model(_Params):
     >>> _ = m.step(5)
     >>> m.n_internodes > 1
     True
+    >>> _ = m.undo()
+    >>> m.steps_done
+    0
     """
 
-    COMMANDS = REPLAYABLE
+    KIND = "treewand"
+    COMMANDS = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence",
+                "set_prune_mode", "reset", "undo", "redo")
+    PARAMS = TREEWAND
 
-    version = Int(0, help="Bumped after every change; views observe it.")
     n_internodes = Int(1, help="Live internodes in the latest snapshot.")
     n_markers = Int(0, help="Live markers in the latest snapshot.")
     step_ms = Float(0.0, help="Duration of the last growth step, ms.")
@@ -128,53 +136,22 @@ class Model(_Params):
     prune_mode = Bool(False, help="Brush prunes (red) instead of painting markers (green) (§4.4).")
     saved_views = Dict(help="Named camera views: name -> (position, focal point, view up).")
 
-    def __init__(self, seed: int | None = None, **params: Any):
+    def __init__(self, seed: int | None = None, *, max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20,
+                 **params: Any):
         seed = None if seed is None else check_int("seed", seed, 0, 2**63 - 1)
-        checked = validate(params)
-        super().__init__(**checked)
+        super().__init__(max_undo=max_undo, max_undo_bytes=max_undo_bytes, **params)
         self.seed = seed
-        self.events = CommandLog(REPLAYABLE, document="treewand")
-        self._lock = threading.RLock()
-        self._batch: int | None = None   # thread setting traits in set_params: the observer applies, logs nothing
-        self._restoring = False          # restore() sets the traits of an engine it built itself
-        self._autosave_path: Path | None = None
-        self.autosave_error: str | None = None
         self._engine = GrowthEngine(self.params, rng=seed)
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()
-        self._loop = _kernel_loop()
-        self._pending: Snapshot | None = None
-        self.snapshot: Snapshot = self._make_snapshot(None)
-        self.observe(self._on_param, names=[p.name for p in PARAMS])
+        self._snap_seq = 0
+        self.snapshot = self.latest = self.make_snapshot()
 
     # -- parameters ---------------------------------------------------------------------------------
-    @property
-    def params(self) -> dict[str, Any]:
-        """Current parameter values, ``{name: value}``."""
-        return {p.name: getattr(self, p.name) for p in PARAMS}
-
-    def set_params(self, **params: Any) -> None:
-        """Set several parameters at once; all are checked before any is set. Logged as one command."""
-        checked = self._check_set_params(**params)
-        with self._lock:
-            self._batch = threading.get_ident()
-            try:
-                with self.hold_trait_notifications():
-                    for k, v in checked.items():
-                        setattr(self, k, v)
-            finally:
-                self._batch = None
-            self.events.record("set_params", **checked)
-        self._autosave()
-
     def set_influence(self, H: float, T: float, E: float) -> None:
         """Set the influence-triangle weights (Eq. 9.5), normalised to H + T + E = 1 (§4.9)."""
         w = self._check_set_influence(H, T, E)
         self.set_params(w_heading=float(w[0]), w_tropism=float(w[1]), w_env=float(w[2]))
-
-    @staticmethod
-    def _check_set_params(**params: Any) -> dict[str, Any]:
-        return validate(params)
 
     @staticmethod
     def _check_set_influence(H: float, T: float, E: float) -> np.ndarray:
@@ -193,21 +170,15 @@ class Model(_Params):
         """(H, T, E) weights of Eq. 9.5."""
         return (self.w_heading, self.w_tropism, self.w_env)
 
-    def _on_param(self, change) -> None:
-        if self._restoring:
-            return  # restore() built its engine with these values already
-        with self._lock:
-            if change["name"] == "branching":
-                self._engine.params = self.params
-                self._engine.reset()
-            else:
-                self._engine.set_params({change["name"]: change["new"]})
-            direct = self._batch != threading.get_ident()
-            if direct:  # a trait set directly (a slider): logged like set_params, so replay sees it
-                self.events.record("set_params", **{change["name"]: change["new"]})
-        self._publish()
-        if direct:
-            self._autosave()
+    def apply_param(self, name: str, value: Any) -> None:
+        """The engine follows a parameter; a new branching mode starts a new tree, which the undo history
+        (trees of the other mode) cannot go back across."""
+        if name == "branching":
+            self._engine.params = self.params
+            self._engine.reset()
+            self.history.clear()
+        else:
+            self._engine.set_params({name: value})
 
     # -- commands -----------------------------------------------------------------------------------
     # Every command checks its arguments with its ``_check_<command>`` (the same checks replay runs on a whole
@@ -215,28 +186,28 @@ class Model(_Params):
     def paint(self, center, radius: float | None = None, n_darts: int | None = None) -> int:
         """Paint markers by Poisson darts in a sphere (§2.2, §4.3); returns how many were added."""
         center, radius, n_darts = self._check_paint(center, radius, n_darts)
-        with self._lock:
+        with self._lock, self.undoable("markers"):
             n = self._engine.paint(center, radius, n_darts)
-            self.events.record("paint", center=center, radius=radius, n_darts=n_darts)
-        self._commit()
+            self.log.record("paint", center=center, radius=radius, n_darts=n_darts)
+        self.changed("markers", command="paint")
         return n
 
     def paint_stroke(self, points, radius: float | None = None, n_darts: int | None = None) -> int:
-        """Paint at every point of a stroke (one undo/event unit); returns the markers added."""
+        """Paint at every point of a stroke (one undo item and one logged command); returns the markers added."""
         pts, radius, n_darts = self._check_paint_stroke(points, radius, n_darts)
-        with self._lock:
+        with self._lock, self.undoable("markers"):
             n = sum(self._engine.paint(p, radius, n_darts) for p in pts)
-            self.events.record("paint_stroke", points=pts, radius=radius, n_darts=n_darts)
-        self._commit()
+            self.log.record("paint_stroke", points=pts, radius=radius, n_darts=n_darts)
+        self.changed("markers", command="paint_stroke")
         return n
 
     def add_markers(self, points) -> None:
         """Add a marker cloud as it is (imported or scripted), bypassing the darts."""
         pts = self._check_add_markers(points)
-        with self._lock:
+        with self._lock, self.undoable("markers"):
             self._engine.add_markers(pts)
-            self.events.record("add_markers", points=pts)
-        self._commit()
+            self.log.record("add_markers", points=pts)
+        self.changed("markers", command="add_markers")
 
     def prune_preview(self, center, radius: float) -> np.ndarray:
         """Snapshot-node indices the same :meth:`prune` would remove (§4.4 partial trigger, TW-V17b)."""
@@ -249,76 +220,63 @@ class Model(_Params):
     def prune(self, center, radius: float) -> int:
         """Remove internodes whose midpoint is in the brush, with their subtrees (§4.4)."""
         center, radius = self._check_prune(center, radius)
-        with self._lock:
+        with self._lock, self.undoable("tree"):
             n = self._engine.prune(center, radius)
-            self.events.record("prune", center=center, radius=radius)
-        self._commit()
+            self.log.record("prune", center=center, radius=radius)
+        self.changed("tree", command="prune")
         return n
 
     def set_prune_mode(self, on: bool) -> None:
         """Switch the brush between growing (green) and pruning (red) (§4.4, menu item 4); logged."""
         on = self._check_set_prune_mode(on)
         with self._lock:
-            self.events.record("set_prune_mode", on=on)
+            self.log.record("set_prune_mode", on=on)
         self.prune_mode = on  # a brush setting, not engine state: its observers run outside the lock
 
     def reset(self, seed: int | None = None) -> None:
-        """Start a new tree: remove every internode, leaving the base (§4.5 item 7).
+        """Start a new tree: remove every internode, leaving the base (§4.5 item 7); undoable.
 
         With ``seed``, the random generator restarts too, so the same commands grow the same tree again.
         """
         seed = self._check_reset(seed)
-        with self._lock:
+        with self._lock, self.undoable("tree"):
             if seed is not None:
                 self.seed = seed
                 self._engine.rng = np.random.default_rng(seed)
             self._engine.reset()
-            self.events.record("reset", seed=seed)
-        self._commit()
+            self.log.record("reset", seed=seed)
+        self.changed("tree", command="reset")
 
     def step(self, steps: int = 1) -> list[StepStats]:
-        """Run ``steps`` growth steps synchronously (deterministic for a seed); logged as one ``step`` entry
-        unless another thread's command lands between two of the steps."""
+        """Run ``steps`` growth steps synchronously (deterministic for a seed): one undo item, logged as one
+        ``step`` entry; a snapshot is published after every step."""
         steps = self._check_step(steps)
-        if steps == 0:
-            with self._lock:
-                self.events.record("step", steps=0)
-            return []
         out: list[StepStats] = []
         entry = None
-        try:
-            for _ in range(steps):
-                with self._lock:
-                    out.append(self._engine.step())
-                    entry = self._log_step(entry)
-                self._publish()
-        finally:
-            self._autosave()
+        with self._lock:
+            if steps == 0:
+                self.log.record("step", steps=0)
+                return out
+            try:
+                with self.undoable("tree"):
+                    for _ in range(steps):
+                        out.append(self._engine.step())
+                        entry = self.log.extend("step", entry, "steps")
+                        self.changed("tree", command="step", save=False)
+            finally:
+                self._autosave()
         return out
 
-    def _log_step(self, entry: Event | None) -> Event:
-        """Log one applied growth step (under the lock): added to ``entry`` while it is the newest event."""
-        ev = self.events.events
-        if entry is not None and ev and ev[-1] is entry:
-            entry.kwargs["steps"] += 1
-            return entry
-        return self.events.record("step", steps=1)
+    def _grow_step(self, entry):
+        """One growth step of :meth:`grow`, one undo item, logged as applied (a command made meanwhile on
+        another thread lands between the steps); returns its stats and the log entry steps merge into."""
+        with self._lock:
+            with self.undoable("tree"):
+                st = self._engine.step()
+            entry = self.log.extend("step", entry, "steps")
+        return st, entry
 
     # -- door checks (shared by the commands and by replay) -------------------------------------------------
-    def check_command(self, command: str, kwargs: dict[str, Any]) -> None:
-        """Raise ``ValueError`` unless ``getattr(self, command)(**kwargs)`` passes the door checks (nothing is
-        changed); :meth:`CommandLog.replay <plantvr.commandlog.CommandLog.replay>` checks a whole log this way first."""
-        if command not in REPLAYABLE:
-            raise ValueError(f"command must be one of {list(REPLAYABLE)}, got {command!r}"[:300])
-        if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):
-            raise ValueError(f"kwargs of {command} must be a dict with str keys, got {kwargs!r}"[:300])
-        check = getattr(self, f"_check_{command}")
-        try:
-            inspect.signature(check).bind(**kwargs)
-        except TypeError as exc:
-            raise ValueError(f"{command} arguments do not fit: {exc}") from None
-        check(**kwargs)
-
     def _check_brush(self, center: np.ndarray, radius: float | None, n_darts: int | None):
         radius = self.brush_radius if radius is None else check_range("radius", radius, 0.0, 1e6, low_open=True)
         if n_darts is not None:
@@ -372,7 +330,8 @@ class Model(_Params):
     # -- background growth --------------------------------------------------------------------------
     def grow(self, steps: int, *, background: bool = False, progress: bool = False,
              on_step: Callable[[StepStats], None] | None = None) -> threading.Thread | list[StepStats]:
-        """Grow ``steps`` steps; with ``background=True`` on a worker thread (returned), else synchronously."""
+        """Grow ``steps`` steps, one undo item each; with ``background=True`` on a worker thread (returned), else
+        synchronously."""
         steps = self._check_step(steps)
         for name, v in (("background", background), ("progress", progress)):
             if not isinstance(v, (bool, np.bool_)):
@@ -384,12 +343,11 @@ class Model(_Params):
             entry = None
             try:
                 for _ in _progress(range(steps), progress):
-                    with self._lock:
-                        stats.append(self._engine.step())
-                        entry = self._log_step(entry)
-                    self._publish()
+                    st, entry = self._grow_step(entry)
+                    stats.append(st)
+                    self.changed("tree", command="step", save=False)
                     if on_step:
-                        on_step(stats[-1])
+                        on_step(st)
             finally:
                 if stats:
                     self._autosave()
@@ -405,10 +363,8 @@ class Model(_Params):
                 for _ in _progress(range(steps), progress):
                     if self._stop.is_set():
                         break
-                    with self._lock:  # logged as applied: a paint made meanwhile lands between the steps
-                        st = self._engine.step()
-                        entry = self._log_step(entry)
-                    self._commit()
+                    st, entry = self._grow_step(entry)
+                    self.changed("tree", command="step")
                     if on_step:
                         on_step(st)
             finally:
@@ -430,72 +386,53 @@ class Model(_Params):
         if self._worker is not None:
             self._worker.join(timeout)
         self.growing = bool(self._worker and self._worker.is_alive())
-        self._apply(self._make_snapshot(self._last_stats()))
+        self.flush()
 
-    # -- snapshots ----------------------------------------------------------------------------------
-    def _last_stats(self) -> StepStats | None:
-        h = self._engine.history
-        return h[-1] if h else None
-
-    def _make_snapshot(self, stats: StepStats | None) -> Snapshot:
+    # -- snapshots and state ------------------------------------------------------------------------
+    def make_snapshot(self) -> Snapshot:
+        """The engine's live tree, markers and buds as a :class:`Snapshot` (versions count snapshots)."""
         with self._lock:
-            t = self._engine.tree
-            b = self._engine.buds()
+            e = self._engine
+            t, b = e.tree, e.buds()
             buds = {"pos": b.pos, "dir": b.dir, "radius": t.radius[b.node], "up": t.lat[b.node]}
-            self._seq = getattr(self, "_seq", 0) + 1
-            return Snapshot.from_tree(t, buds=buds, markers=self._engine.markers, version=self._seq,
-                                      step=self._engine.step_count, stats=stats)
+            self._snap_seq += 1
+            return Snapshot.from_tree(t, buds=buds, markers=e.markers, version=self._snap_seq,
+                                      step=e.step_count, stats=e.history[-1] if e.history else None)
 
-    def _commit(self) -> None:
-        """After a state-changing command: publish the snapshot, then autosave."""
-        self._publish()
-        self._autosave()
+    def on_snapshot(self, snap: Snapshot) -> None:
+        self.n_internodes = snap.n_internodes
+        self.n_markers = len(snap.markers)
+        self.steps_done = snap.step
+        if snap.stats is not None:
+            self.step_ms = snap.stats.ms
 
-    def _publish(self) -> None:
-        """Hand the newest snapshot to the kernel thread; snapshots a slow observer has not taken yet are
-        replaced, never queued (views render the latest complete snapshot, DESIGN)."""
-        snap = self._make_snapshot(self._last_stats())
+    def scene(self) -> dict[str, Any]:
+        """``{"tree": TreeArrays, "markers": Points}`` of the newest snapshot."""
+        snap = self.latest
+        return {"tree": snap.tree, "markers": Points(snap.markers)}
+
+    def get_state(self) -> dict[str, Any]:
+        """The seed and the engine's whole state (:meth:`GrowthEngine.get_state`), for undo atoms."""
         with self._lock:
-            scheduled, self._pending = self._pending is not None, snap
-        if not scheduled:
-            self._call_in_kernel(self._apply_pending)
+            return {"seed": self.seed, "engine": self._engine.get_state()}
 
-    def _apply_pending(self) -> None:
+    def set_state(self, state: dict[str, Any]) -> None:
         with self._lock:
-            snap, self._pending = self._pending, None
-        if snap is not None:
-            self._apply(snap)
+            self.seed = state["seed"]
+            self._engine.set_state(state["engine"])
 
-    def _call_in_kernel(self, fn: Callable[[], None]) -> None:
-        loop = self._loop
-        if threading.current_thread() is threading.main_thread() or loop is None or not loop.is_running():
-            fn()
-        else:
-            loop.call_soon_threadsafe(fn)
-
-    def _apply(self, snap: Snapshot) -> None:
-        if snap.version < self.snapshot.version:
-            return  # a newer snapshot was applied already
-        self.snapshot = snap
-        with self.hold_trait_notifications():
-            self.n_internodes = snap.n_internodes
-            self.n_markers = len(snap.markers)
-            self.steps_done = snap.step
-            if snap.stats is not None:
-                self.step_ms = snap.stats.ms
-            self.version = snap.version
+    def state_bytes(self) -> bytes:
+        """Parameters, seed and engine state as deterministic bytes (step timings left out)."""
+        out: list[bytes] = []
+        with self._lock:
+            _serialise({"params": self.params, **self.get_state()}, out)
+        return b"".join(out)
 
     # -- persistence --------------------------------------------------------------------------------
     @property
-    def history(self) -> list[StepStats]:
+    def step_stats(self) -> list[StepStats]:
         """Statistics of every growth step since the tree was started."""
         return list(self._engine.history)
-
-    @property
-    def vr(self):
-        """Headset mode for this model: ``model.vr.start()`` / ``model.vr.stop()`` (OpenVR bridge thread)."""
-        from ..vr import attach  # noqa: PLC0415  (UI layer, imported on first use)
-        return attach(self)
 
     @property
     def tree(self):
@@ -516,44 +453,6 @@ class Model(_Params):
                     "rng_state": np.array(_json_rng(e.rng)), "new_nodes": np.asarray(e._new_nodes, np.int64)}))
         return path
 
-    # -- autosave -------------------------------------------------------------------------------------------
-    def enable_autosave(self, path: str | Path | None) -> Path | None:
-        """Save to ``path`` (``.tree`` or ``.npz``) now and after every state-changing command (paint, stroke,
-        markers, prune, step and each background growth step, parameters, reset, restore); ``None`` turns it off.
-
-        Each save is atomic. A failed autosave does not stop the command: it warns and sets
-        :attr:`autosave_error` (cleared by the next successful one).
-        """
-        if path is None:
-            self._autosave_path = None
-            return None
-        path = _check_path(path)
-        self.save(path)  # fails here, not later, for a folder that does not exist
-        self._autosave_path = path
-        self.autosave_error = None
-        return path
-
-    def disable_autosave(self) -> None:
-        """Stop autosaving."""
-        self._autosave_path = None
-
-    @property
-    def autosave_path(self) -> Path | None:
-        """Where the model autosaves, or ``None``."""
-        return self._autosave_path
-
-    def _autosave(self) -> None:
-        path = self._autosave_path
-        if path is None:
-            return
-        try:
-            self.save(path)
-        except (OSError, ValueError) as exc:
-            self.autosave_error = f"autosave to {str(path)!r} failed: {exc}"
-            warnings.warn(self.autosave_error, RuntimeWarning, stacklevel=3)
-        else:
-            self.autosave_error = None
-
     # -- loading --------------------------------------------------------------------------------------------
     @classmethod
     def load(cls, path: str | Path, seed: int | None = None) -> "Model":
@@ -563,7 +462,8 @@ class Model(_Params):
         return m
 
     def restore(self, path: str | Path) -> None:
-        """Replace this model's tree and parameters with a saved file's; on any error nothing changes.
+        """Replace this model's tree and parameters with a saved file's (the undo history is cleared); on any
+        error nothing changes.
 
         Every file is checked in full first (format version, checksum, size caps, every array: see
         :mod:`plantvr.growth.treefile`); a bad one raises ``ValueError`` naming the file and the problem.
@@ -609,7 +509,8 @@ class Model(_Params):
             finally:
                 self._restoring = False
             self._engine = engine
-        self._commit()
+            self.history.clear()
+        self.changed("all")
 
 
 #: Tree fields :meth:`GrowthEngine.rebuild_light` recomputes; an ``.npz`` restores its saved values when they
@@ -640,19 +541,24 @@ def _unjson_rng(s: str) -> dict:
     return state
 
 
-def _kernel_loop() -> asyncio.AbstractEventLoop | None:
-    try:
-        return asyncio.get_running_loop()
-    except RuntimeError:
-        pass
-    try:  # ipykernel: the cell runs on the thread of a running loop
-        from IPython import get_ipython  # noqa: PLC0415
-        if get_ipython() is not None:
-            loop = asyncio.get_event_loop_policy().get_event_loop()
-            return loop if loop.is_running() else None
-    except Exception:  # no IPython / no loop: apply snapshots directly
-        return None
-    return None
+def _serialise(x: Any, out: list[bytes]) -> None:
+    """Append deterministic bytes of ``x`` (dicts by sorted key, arrays with dtype and shape) to ``out``."""
+    if isinstance(x, dict):
+        out.append(b"{%d" % len(x))
+        for k in sorted(x):
+            out.append(repr(k).encode())
+            _serialise(x[k], out)
+    elif isinstance(x, (list, tuple)):
+        out.append(b"[%d" % len(x))
+        for v in x:
+            _serialise(v, out)
+    elif isinstance(x, np.ndarray):
+        out.append(f"<{x.dtype.str}{x.shape}>".encode())
+        out.append(np.ascontiguousarray(x).tobytes())
+    elif isinstance(x, StepStats):  # a step's duration is not state
+        _serialise({f.name: getattr(x, f.name) for f in dataclasses.fields(x) if f.name != "ms"}, out)
+    else:
+        out.append(repr(x).encode())
 
 
 def _progress(it, show: bool):

@@ -30,6 +30,9 @@ __all__ = ["GrowthEngine", "StepStats"]
 MIN_LENGTH = float(np.finfo(np.float64).tiny)
 #: Smallest cell of the occupation grids: below it a grid over ±REACH would clip every marker into one cell.
 _MIN_CELL = REACH * 2.0 ** -40
+#: Parameters the shadow grid is built from: a change rebuilds it.
+_SHADOW_KEYS = ("shadow_intensity", "shadow_falloff", "shadow_depth", "base_length", "fine_cells",
+                "shadow_loop_inclusive")
 
 
 @dataclass(frozen=True)
@@ -102,8 +105,11 @@ class GrowthEngine:
         params = check_params(params, partial=True)
         old = self.params
         self.params = {**old, **params}
-        if any(old[k] != self.params[k] for k in ("shadow_intensity", "shadow_falloff", "shadow_depth",
-                                                   "base_length", "fine_cells", "shadow_loop_inclusive")):
+        self._follow(old)
+
+    def _follow(self, old: dict[str, Any]) -> None:
+        """Make light, vigor and radius follow :attr:`params` after they were computed with ``old``."""
+        if any(old[k] != self.params[k] for k in _SHADOW_KEYS):
             self.rebuild_light()
         else:
             self.update_light()
@@ -261,24 +267,55 @@ class GrowthEngine:
         keep = self.marker_age < self.params["marker_lifetime"]
         self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
 
-    # -- pickling (dask tasks): the shadow grid's numba dict is rebuilt from the tree -----------------
+    # -- whole state (undo atoms) and pickling (dask tasks) -------------------------------------------
+    def get_state(self, *, grid: bool = True) -> dict[str, Any]:
+        """Copies of everything :meth:`step` and the commands change: the tree arrays, markers, step count and
+        statistics, the random generator's state, the nodes whose shadows are pending, the parameters the
+        derived values were computed with and (``grid``) the shadow grid, so :meth:`set_state` restores the
+        engine exactly; without the grid it is rebuilt from the tree (sums in another order)."""
+        state = {"params": dict(self.params), "tree": self.tree.arrays(), "nslots": self.tree.nslots,
+                 "markers": self.markers.copy(), "marker_age": self.marker_age.copy(), "step_count": self.step_count,
+                 "history": tuple(self.history), "rng": self.rng.bit_generator.state,
+                 "new_nodes": np.array(self._new_nodes, np.int64)}
+        if grid:
+            g = self.grid
+            state["grid"] = {"cell": float(g.cell[0]), "fine": g.F, "blocks": g.blocks[: g.nblocks].copy(),
+                             "keys": np.array(list(g.keys.items()), np.int64).reshape(-1, 2)}
+        return state
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`get_state` returned (the current :attr:`params` stay: light, vigor and radius are
+        recomputed when the state's were computed with other values)."""
+        arrays = state["tree"]
+        n = len(arrays["pos"])
+        tree = Tree(state["nslots"], max(n, 1))
+        for k, v in arrays.items():
+            tree._data[k][:n] = v
+        tree.n = n
+        self.tree = tree
+        self.markers, self.marker_age = state["markers"].copy(), state["marker_age"].copy()
+        self.step_count, self.history = state["step_count"], list(state["history"])
+        self.rng.bit_generator.state = state["rng"]
+        self._new_nodes = state["new_nodes"].copy()
+        g = state.get("grid")
+        if g is None:
+            self.rebuild_light()
+            return
+        self.grid = ShadowGrid(g["cell"], g["fine"])
+        for key, block in g["keys"]:
+            self.grid.keys[key] = block
+        if len(g["blocks"]):
+            self.grid.blocks, self.grid.nblocks = g["blocks"].copy(), len(g["blocks"])
+        if state["params"] != self.params:
+            self._follow(state["params"])
+
     def __getstate__(self) -> dict:
-        return {"params": self.params, "tree": self.tree.arrays(), "nslots": self.tree.nslots,
-                "markers": self.markers, "marker_age": self.marker_age, "step_count": self.step_count,
-                "history": self.history, "rng": self.rng.bit_generator.state, "new": self._new_nodes}
+        return self.get_state(grid=False)
 
     def __setstate__(self, state: dict) -> None:
         self.params = state["params"]
         self.rng = np.random.default_rng()
-        self.rng.bit_generator.state = state["rng"]
-        tree = Tree(state["nslots"], max(len(state["tree"]["pos"]), 1))
-        for k, v in state["tree"].items():
-            tree._data[k][: len(v)] = v
-        tree.n = len(state["tree"]["pos"])
-        self.tree = tree
-        self.markers, self.marker_age = state["markers"], state["marker_age"]
-        self.step_count, self.history, self._new_nodes = state["step_count"], state["history"], state["new"]
-        self.rebuild_light()
+        self.set_state(state)
 
     def _occupy(self) -> None:
         """Remove markers within the occupation radius of a node (§2.3): new nodes vs all markers,

@@ -1,10 +1,12 @@
-"""Parameter windows generated from the model's trait metadata (spec 000_treewand §4.6–§4.8, §4.11).
+"""Parameter windows generated from a document's parameter table (spec 000_treewand §4.6–§4.8, §4.11).
 
-Each trait of :class:`plantvr.Model` tagged with ``param`` becomes one control in the window named by
-``param.window``: a slider for numbers (range and step from the table, doc as tooltip), an icon
-selector with a yellow highlight for texture choices, a dropdown for other choices, a checkbox for
-flags. Nothing here restates a parameter: adding a row to :mod:`plantvr.params` adds its control.
-The influence weights of the Tree form window are edited by the :class:`InfluenceTriangle`.
+:class:`ParameterPanels` works for any :class:`~plantvr.document.Document` with a ``PARAMS`` table
+(:class:`~plantvr.params.ParamTable`): each row becomes one control in the window named by ``param.window``
+(windows, titles and colours from ``PARAMS.windows``): a slider for numbers (range and step from the table,
+doc as tooltip), an icon selector with a yellow highlight for texture choices, a dropdown for other choices, a
+checkbox for flags. Nothing here restates a parameter: adding a row to a table adds its control. The
+Tree Wand influence weights (``w_heading``, ``w_tropism``, ``w_env``) are edited by the
+:class:`InfluenceTriangle`, shown when a document has all three.
 """
 from __future__ import annotations
 
@@ -15,38 +17,37 @@ from typing import Any
 import ipywidgets as W
 import traitlets
 
-from ..params import WINDOWS, Param
+from ..params import Param, ParamTable
 from .icons import icon_png
-from .presets import load_preset, save_preset
 from .triangle import InfluenceTriangle
 
 __all__ = ["param_traits", "make_control", "IconSelector", "ParameterPanels", "HIGHLIGHT"]
 
 #: Yellow highlight of the selected icon (§4.8).
 HIGHLIGHT = "#f5d142"
-#: Parameters edited by the influence triangle (the names model.set_influence writes).
+#: Parameters edited by the influence triangle (the names ``Model.set_influence`` writes).
 INFLUENCE = ("w_heading", "w_tropism", "w_env")
 _TEXT_LIMIT = 2000  # integer ranges wider than this get a typed box instead of a slider
 
 
-def param_traits(model, window: str | None = None) -> list[Param]:
-    """The :class:`~plantvr.params.Param` of every trait of ``model`` tagged ``param``, in table order.
+def _table(doc) -> ParamTable:
+    table = getattr(type(doc), "PARAMS", None)
+    if not isinstance(table, ParamTable):
+        raise ValueError(f"doc must be a document with a parameter table (PARAMS), got {type(doc).__name__}")
+    return table
+
+
+def param_traits(doc, window: str | None = None) -> list[Param]:
+    """The :class:`~plantvr.params.Param` rows of ``doc``'s table (each one of its traits), in table order.
 
     Parameters
     ----------
-    model : HasTraits
-        Usually a :class:`plantvr.Model`.
+    doc : Document
+        Any document with a ``PARAMS`` table (a :class:`plantvr.Model`, ...).
     window : str, optional
         Keep only parameters of this window.
     """
-    out = []
-    for name in model.trait_names():  # traits are collected by name; the table order is restored below
-        p = model.trait_metadata(name, "param")
-        if p is not None and (window is None or p.window == window):
-            out.append(p)
-    from ..params import PARAMS  # noqa: PLC0415  (order only)
-    rank = {p.name: i for i, p in enumerate(PARAMS)}
-    return sorted(out, key=lambda p: rank.get(p.name, len(rank)))
+    return [p for p in _table(doc) if window is None or p.window == window]
 
 
 def _label(p: Param) -> str:
@@ -148,15 +149,17 @@ def make_control(p: Param, value: Any) -> W.Widget:
 
 
 class ParameterPanels(W.VBox):
-    """The Tree form / Appearance / Light windows (and optionally Settings) bound to one model.
+    """The parameter windows of one document (Tree Wand: Tree form / Appearance / Light, optionally Settings).
 
     Parameters
     ----------
-    model : plantvr.Model
+    doc : Document
+        Any document with a ``PARAMS`` table; the panels keep no values of their own.
     include_hidden : bool
-        Also build the Settings window of parameters that appear in no thesis window.
+        Also build the ``"hidden"`` window (parameters that appear in no thesis window).
     triangle : InfluenceTriangle, optional
-        Influence triangle to show in the Tree form window (one is made if omitted).
+        Influence triangle to show in the window of the influence weights, when ``doc`` has them (one is made
+        if omitted).
 
     Attributes
     ----------
@@ -168,32 +171,34 @@ class ParameterPanels(W.VBox):
         The last rejected value or preset error, in red.
     """
 
-    def __init__(self, model, *, include_hidden: bool = False, triangle: InfluenceTriangle | None = None):
-        self.model = model
+    def __init__(self, doc, *, include_hidden: bool = False, triangle: InfluenceTriangle | None = None):
+        table = _table(doc)
+        self.doc = doc
         self.controls: dict[str, W.Widget] = {}
         self.windows: dict[str, W.VBox] = {}
         self._busy: set[str] = set()
         self.message = W.HTML("")
-        self.triangle = triangle if triangle is not None else InfluenceTriangle(model)
-        keys = [k for k in WINDOWS if k != "hidden" or include_hidden]
+        influence = all(n in table for n in INFLUENCE)
+        self.triangle = (triangle if triangle is not None else InfluenceTriangle(doc)) if influence else None
+        keys = [k for k in table.windows if (k != "hidden" or include_hidden) and param_traits(doc, k)]
         for key in keys:
-            title, colour = WINDOWS[key]
+            title, colour = table.windows[key]
             rows: list[W.Widget] = [W.HTML(f"<div style='background:{colour};color:white;padding:3px 8px;"
                                            f"font-weight:bold'>{title}</div>")]
-            for p in param_traits(model, key):
-                if p.name in INFLUENCE:
+            for p in param_traits(doc, key):
+                if influence and p.name in INFLUENCE:
                     continue
-                ctl = make_control(p, getattr(model, p.name))
+                ctl = make_control(p, getattr(doc, p.name))
                 ctl.observe(lambda ch, n=p.name: self._push(n, ch["new"]), names=["value"])
                 self.controls[p.name] = ctl
                 rows.append(ctl)
-            if key == "form" and any(p.name in INFLUENCE for p in param_traits(model, key)):
+            if influence and table[INFLUENCE[0]].window == key:
                 rows.insert(1, W.VBox([W.Label("Influence triangle (H, T, E)"), self.triangle]))
             self.windows[key] = W.VBox(rows, layout=W.Layout(border=f"2px solid {colour}", padding="0 0 4px 0"))
-        model.observe(self._pull, names=list(self.controls))
+        doc.observe(self._pull, names=list(self.controls))
         tabs = W.Tab(children=[self.windows[k] for k in keys])
         for i, k in enumerate(keys):
-            tabs.set_title(i, WINDOWS[k][0])
+            tabs.set_title(i, table.windows[k][0])
         self.tabs = tabs
         self.preset_path = W.Text(value="preset.json", description="Preset", layout=W.Layout(width="320px"))
         save, load = W.Button(description="Save preset", icon="save"), W.Button(description="Load preset",
@@ -207,15 +212,15 @@ class ParameterPanels(W.VBox):
         if name in self._busy:
             return
         try:
-            self.model.set_params(**{name: value})
+            self.doc.set_params(**{name: value})
             self.message.value = ""
         except ValueError as exc:
             self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
-            self._pull({"name": name})  # show the model's (unchanged) value again
+            self._pull({"name": name})  # show the document's (unchanged) value again
 
     def _pull(self, change) -> None:
         name = change["name"]
-        ctl, value = self.controls[name], getattr(self.model, name)
+        ctl, value = self.controls[name], getattr(self.doc, name)
         self._busy.add(name)
         try:
             if isinstance(ctl, W.FloatSlider):
@@ -234,7 +239,7 @@ class ParameterPanels(W.VBox):
     def save(self, path: str | Path) -> Path | None:
         """Save all parameters as a JSON preset; errors are shown in :attr:`message` and re-raised."""
         try:
-            out = save_preset(self.model, path)
+            out = self.doc.save_preset(path)
         except ValueError as exc:
             self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
             raise
@@ -242,16 +247,19 @@ class ParameterPanels(W.VBox):
         return out
 
     def load(self, path: str | Path) -> None:
-        """Load a JSON preset into the model (nothing changes if any value is bad)."""
+        """Load a JSON preset into the document (nothing changes if any value is bad)."""
         try:
-            load_preset(self.model, path)
+            self.doc.load_preset(path)
         except ValueError as exc:
             self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
             raise
         self.message.value = f"loaded {Path(path)!s}"
 
     def close(self) -> None:
-        """Stop observing the model and close every control."""
-        self.model.unobserve(self._pull, names=list(self.controls))
-        self.triangle.close()
+        """Stop observing the document and close every control."""
+        doc = getattr(self, "doc", None)  # None when the constructor refused its arguments
+        if doc is not None:
+            doc.unobserve(self._pull, names=list(self.controls))
+        if getattr(self, "triangle", None) is not None:
+            self.triangle.close()
         super().close()

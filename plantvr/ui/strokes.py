@@ -1,18 +1,18 @@
 """Replayable stroke files of the thesis scenarios, Figs. 12.1–12.7, and a dropdown to load them (spec 000_treewand
 §6.1, §6.2; checklist item 32; TW-V23).
 
-A stroke file (``plantvr/ui/scenarios/<name>.json``) holds the parameters the thesis states for a figure
-and the list of model commands of its wand session (``paint`` stamps, ``step`` and ``set_params``), as
-``{"plantvr_scenario": 1, "name", "figure", "title", "notes", "seed", "params", "events": [...]}``.
-The files are recorded from the session functions of :mod:`plantvr.growth.scenarios` by
-:func:`record_scenario` (a test checks they have not drifted). :func:`replay_scenario` re-seeds the model,
-sets the parameters over the defaults and issues every command, so a replay is deterministic and ends in
-the same tree as ``Model(seed, **params)`` fed the same commands; :class:`ScenarioPicker` is the dropdown.
+A stroke file (``plantvr/ui/scenarios/<name>.jsonl``) is a Tree Wand command log
+(:class:`~plantvr.commandlog.CommandLog`, the one log format): a session from a fresh model that sets the
+parameters the thesis states for a figure (``set_params``), starts the tree with the scenario's seed
+(``reset``), then issues the commands of its wand session (``paint`` stamps, ``step``, ``set_params``). The
+files are recorded from the session functions of :mod:`plantvr.growth.scenarios` by :func:`record_scenario`
+(a test checks they have not drifted); the figure, title and notes of each come from :data:`SCENARIOS`.
+:func:`replay_scenario` puts the model's parameters back to the defaults and issues every command, so a replay
+is deterministic and ends in the same tree as ``Model(seed, **params)`` fed the same commands;
+:class:`ScenarioPicker` is the dropdown.
 """
 from __future__ import annotations
 
-import json
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,17 +20,18 @@ from typing import Any
 
 import ipywidgets as W
 
-from .._validation import check_choice, check_int, check_point, check_range
+from .._validation import check_choice, check_int
+from ..commandlog import CommandLog, Event
+from ..documents.treewand import Model
 from ..growth import scenarios as S
 from ..params import defaults, validate
-from .presets import _json_path, _read_json, _write_text
 
 __all__ = ["SCENARIOS", "SCENARIO_DIR", "Scenario", "ScenarioPicker", "list_scenarios", "load_scenario",
            "read_scenario", "record_scenario", "replay_scenario", "save_scenario"]
 
 SCENARIO_DIR = Path(__file__).resolve().parent / "scenarios"
-_FORMAT = 1
-_COMMANDS = ("paint", "step", "set_params")
+#: File suffix of stroke files.
+SUFFIX = ".jsonl"
 
 
 @dataclass(frozen=True)
@@ -98,11 +99,11 @@ class Scenario:
     ----------
     name, figure, title, notes : str
     seed : int
-        Seed of the model the commands are replayed on.
+        Seed the session's ``reset`` starts the tree with.
     params : dict
         Parameters set over the defaults before the first command (checked against the table).
     events : tuple of (str, dict)
-        ``(command, kwargs)`` pairs, commands among ``paint``, ``step``, ``set_params``.
+        ``(command, kwargs)`` pairs of the session after its ``set_params`` and ``reset`` header.
     """
 
     name: str
@@ -116,28 +117,38 @@ class Scenario:
     @property
     def label(self) -> str:
         """Dropdown text, e.g. ``"Fig. 12.3 · Columnar tree"``."""
-        return f"Fig. {self.figure} · {self.title}"
+        return f"Fig. {self.figure} · {self.title}" if self.figure else self.title
 
     @property
     def n_steps(self) -> int:
         """Growth steps the session takes."""
         return sum(int(kw.get("steps", 1)) for c, kw in self.events if c == "step")
 
+    @property
+    def log(self) -> CommandLog:
+        """The whole session as a Tree Wand command log: ``set_params(**params)``, ``reset(seed)``, the events.
+        Times are 0 (a recorded session is not timed), so a file's bytes depend on its commands only."""
+        log = CommandLog(Model.COMMANDS, document=Model.KIND)
+        log.events = [Event(cmd, dict(kw), 0.0)
+                      for cmd, kw in (("set_params", self.params), ("reset", {"seed": self.seed}), *self.events)]
+        log.check()
+        return log
+
 
 class _Recorder:
-    """Stands in for a model: records the session's paint stamps and steps as commands."""
+    """Stands in for a model: records the session's paint stamps and steps into a command log."""
 
     def __init__(self) -> None:
-        self.events: list[tuple[str, dict[str, Any]]] = []
+        self.log = CommandLog(Model.COMMANDS, document=Model.KIND)
 
     def paint(self, center, radius, n_darts=None) -> None:
         kw = {"center": [round(float(v), 6) for v in center], "radius": round(float(radius), 6)}
         if n_darts is not None:
             kw["n_darts"] = int(n_darts)
-        self.events.append(("paint", kw))
+        self.log.record("paint", **kw)
 
     def step(self) -> None:
-        self.events.append(("step", {"steps": 1}))
+        self.log.record("step", steps=1)
 
 
 def record_scenario(name: str, *, seed: int = 0) -> Scenario:
@@ -148,7 +159,7 @@ def record_scenario(name: str, *, seed: int = 0) -> Scenario:
     name : str
         A key of :data:`SCENARIOS`.
     seed : int
-        Seed stored in the file.
+        Seed of the session's ``reset``.
 
     Returns
     -------
@@ -159,118 +170,92 @@ def record_scenario(name: str, *, seed: int = 0) -> Scenario:
     session, rec = spec.session(), _Recorder()
     for s in range(spec.steps):
         if s in spec.param_changes:
-            rec.events.append(("set_params", dict(spec.param_changes[s])))
+            rec.log.record("set_params", **spec.param_changes[s])
         session(rec, s)
         rec.step()
-    return Scenario(name, spec.figure, spec.title, spec.notes, check_int("seed", seed, 0, 2**32 - 1),
-                    validate(spec.params), tuple(rec.events))
+    return Scenario(name, spec.figure, spec.title, spec.notes, check_int("seed", seed, 0, 2**63 - 1),
+                    validate(spec.params), tuple((e.command, e.kwargs) for e in rec.log))
+
+
+def _check_suffix(path: str | Path) -> Path:
+    path = Path(path)
+    if path.suffix != SUFFIX:
+        raise ValueError(f"scenario path must end in {SUFFIX}, got {path.suffix!r}")
+    return path
 
 
 def save_scenario(scenario: Scenario, path: str | Path) -> Path:
-    """Write a stroke file (JSON, one event per line).
+    """Write a stroke file (the session's command log, atomically).
 
     Parameters
     ----------
     scenario : Scenario
     path : str or Path
-        Destination ending in ``.json``.
+        Destination ending in ``.jsonl``.
 
     Returns
     -------
     Path
     """
-    path = _json_path(path, "scenario")
-    head = {"plantvr_scenario": _FORMAT, "name": scenario.name, "figure": scenario.figure, "title": scenario.title,
-            "notes": scenario.notes, "seed": scenario.seed, "params": scenario.params}
-    body = ",\n".join("  " + json.dumps({"command": c, "kwargs": kw}) for c, kw in scenario.events)
-    text = json.dumps(head, indent=1)[:-2] + ',\n "events": [\n' + body + "\n ]\n}\n"
-    return _write_text(path, text, "scenario")
-
-
-def _check_event(i: int, ev: Any) -> tuple[str, dict[str, Any]]:
-    where = f"event {i}"
-    if not isinstance(ev, dict) or not isinstance(ev.get("kwargs"), dict):
-        raise ValueError(f"{where} must be {{'command': ..., 'kwargs': {{...}}}}, got {ev!r:.80}")
-    cmd, kw = check_choice(f"{where} command", ev.get("command"), _COMMANDS), ev["kwargs"]
-    if cmd == "paint":
-        extra = set(kw) - {"center", "radius", "n_darts"}
-        if extra or "center" not in kw:
-            raise ValueError(f"{where}: paint takes center, radius, n_darts, got {sorted(kw)}")
-        check_point(f"{where} center", kw["center"])
-        if kw.get("radius") is not None:
-            check_range(f"{where} radius", kw["radius"], 0.0, 1e6, low_open=True)
-        if kw.get("n_darts") is not None:
-            check_int(f"{where} n_darts", kw["n_darts"], 1, 10_000_000)
-    elif cmd == "step":
-        if set(kw) - {"steps"}:
-            raise ValueError(f"{where}: step takes steps, got {sorted(kw)}")
-        check_int(f"{where} steps", kw.get("steps", 1), 0, 10_000_000)
-    else:
-        kw = validate(kw)
-    return cmd, dict(kw)
+    return scenario.log.save(_check_suffix(path))
 
 
 def read_scenario(path: str | Path) -> Scenario:
-    """Read and check a stroke file; every event is checked before anything is returned.
+    """Read and check a stroke file; every command goes through the model's door checks before anything is
+    returned.
 
     Raises
     ------
     ValueError
-        Missing, unreadable or not a PlantVR scenario, or any bad parameter or event (the message names it).
+        Missing, unreadable, damaged or not a Tree Wand log, a session that does not start with ``set_params``
+        and ``reset(seed)``, or any bad parameter or command (the message names it).
     """
-    path = Path(path)
-    data = _read_json(path, "scenario")
-    keys = ("name", "figure", "title", "notes", "seed", "params", "events")
-    if (not isinstance(data, dict) or data.get("plantvr_scenario") != _FORMAT or any(k not in data for k in keys)
-            or not isinstance(data["params"], dict) or not isinstance(data["events"], list)):
-        raise ValueError(f"scenario {path!s} is not a PlantVR scenario (expected {{'plantvr_scenario': {_FORMAT}, "
-                         f"{', '.join(repr(k) for k in keys)}}})")
+    path = _check_suffix(path)
     try:
-        params = validate(data["params"])
-        events = tuple(_check_event(i, ev) for i, ev in enumerate(data["events"]))
-        seed = check_int("seed", data["seed"], 0, 2**32 - 1)
+        log = CommandLog.load(path, Model.COMMANDS, document=Model.KIND)
     except ValueError as exc:
         raise ValueError(f"scenario {path!s}: {exc}") from None
-    return Scenario(str(data["name"]), str(data["figure"]), str(data["title"]), str(data["notes"]), seed, params,
-                    events)
+    ev = log.events
+    if len(ev) < 2 or ev[0].command != "set_params" or ev[1].command != "reset" or ev[1].kwargs.get("seed") is None:
+        raise ValueError(f"scenario {path!s} must start with set_params(...) and reset(seed=...), got "
+                         f"{[e.command for e in ev[:2]]}")
+    try:
+        log.check(Model())
+    except ValueError as exc:
+        raise ValueError(f"scenario {path!s}: {exc}") from None
+    spec = SCENARIOS.get(path.stem)
+    figure, title, notes = (spec.figure, spec.title, spec.notes) if spec is not None else ("", path.stem, "")
+    return Scenario(path.stem, figure, title, notes, ev[1].kwargs["seed"], validate(ev[0].kwargs),
+                    tuple((e.command, e.kwargs) for e in ev[2:]))
 
 
 def list_scenarios(folder: str | Path | None = None) -> list[Scenario]:
     """Every stroke file in ``folder`` (default: the shipped :data:`SCENARIO_DIR`), sorted by name."""
     folder = SCENARIO_DIR if folder is None else Path(folder)
-    return [read_scenario(p) for p in sorted(folder.glob("*.json"))]
+    return [read_scenario(p) for p in sorted(folder.glob(f"*{SUFFIX}"))]
 
 
 def load_scenario(name: str) -> Scenario:
     """The shipped stroke file ``name`` (e.g. ``"fig12_3"``)."""
-    names = sorted(p.stem for p in SCENARIO_DIR.glob("*.json"))
-    return read_scenario(SCENARIO_DIR / f"{check_choice('name', name, tuple(names))}.json")
-
-
-def _reseed(model, seed: int, params: dict[str, Any]) -> None:
-    """Put ``model`` in the state of a fresh ``Model(seed, **params)`` (tree, markers, RNG), via its
-    lossless ``restore`` (the model has no public re-seed command)."""
-    from ..documents.treewand import Model
-    fresh = Model(seed=seed, **params)
-    with tempfile.TemporaryDirectory() as d:
-        path = fresh.save(Path(d) / "start.npz")
-        model.restore(path)
+    names = sorted(p.stem for p in SCENARIO_DIR.glob(f"*{SUFFIX}"))
+    return read_scenario(SCENARIO_DIR / f"{check_choice('name', name, tuple(names))}{SUFFIX}")
 
 
 def replay_scenario(model, scenario: Scenario | str, *, steps: int | None = None,
                     on_event: Callable[[int, int], None] | None = None) -> Scenario:
-    """Replay a scenario into ``model``: re-seed, set its parameters over the defaults, issue its commands.
+    """Replay a scenario into ``model``: parameters back to the defaults, then the session's commands
+    (its parameters, the seeded ``reset``, the strokes and steps).
 
     Parameters
     ----------
     model : plantvr.Model
-        Receives every command (they are logged in ``model.events``).
+        Receives every command (they are logged in ``model.log`` and undoable).
     scenario : Scenario or str
         A scenario or the name of a shipped stroke file.
     steps : int, optional
         Stop after this many growth steps (default: the whole session).
     on_event : callable, optional
-        ``on_event(done, total)`` after each command (progress).
+        ``on_event(done, total)`` after each command of :attr:`Scenario.events` (progress).
 
     Returns
     -------
@@ -282,23 +267,23 @@ def replay_scenario(model, scenario: Scenario | str, *, steps: int | None = None
         raise ValueError(f"scenario must be a Scenario or a name, got {type(scenario).__name__}")
     limit = sc.n_steps if steps is None else check_int("steps", steps, 0, sc.n_steps)
     model.stop()
-    _reseed(model, sc.seed, {**defaults(), **sc.params})
-    done = 0
-    for i, (cmd, kw) in enumerate(sc.events):
-        if done >= limit:
-            break
-        if cmd == "set_params":
-            model.set_params(**kw)
-        else:
+    with model.held():
+        model.set_params(**defaults())
+        model.set_params(**sc.params)
+        model.reset(seed=sc.seed)
+        done = 0
+        for i, (cmd, kw) in enumerate(sc.events):
+            if done >= limit:
+                break
             getattr(model, cmd)(**kw)
             done += int(kw.get("steps", 1)) if cmd == "step" else 0
-        if on_event is not None:
-            on_event(i + 1, len(sc.events))
+            if on_event is not None:
+                on_event(i + 1, len(sc.events))
     return sc
 
 
 class ScenarioPicker(W.VBox):
-    """Dropdown of the shipped thesis scenarios; *Replay* re-seeds the model and replays the chosen one.
+    """Dropdown of the shipped thesis scenarios; *Replay* replays the chosen one into the model (seeded).
 
     Parameters
     ----------
@@ -317,7 +302,7 @@ class ScenarioPicker(W.VBox):
         self.model = model
         self.scenarios = {s.name: s for s in list_scenarios(folder)}
         if not self.scenarios:
-            raise ValueError(f"no scenario files (*.json) in {folder or SCENARIO_DIR!s}")
+            raise ValueError(f"no scenario files (*{SUFFIX}) in {folder or SCENARIO_DIR!s}")
         self.dropdown = W.Dropdown(options=[(s.label, n) for n, s in self.scenarios.items()],
                                    description="Scenario", layout=W.Layout(width="420px"))
         self.button = W.Button(description="Replay", icon="play", button_style="success")
@@ -365,7 +350,7 @@ def _write_all(folder: str | Path | None = None) -> list[Path]:
     """Re-record every scenario of :data:`SCENARIOS` into ``folder`` (maintainers: after editing a session)."""
     folder = SCENARIO_DIR if folder is None else Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    return [save_scenario(record_scenario(n), folder / f"{n}.json") for n in SCENARIOS]
+    return [save_scenario(record_scenario(n), folder / f"{n}{SUFFIX}") for n in SCENARIOS]
 
 
 if __name__ == "__main__":  # python -m plantvr.ui.strokes

@@ -52,7 +52,7 @@ def tree_metrics(model) -> dict[str, float]:
     width = float(0.5 * (np.ptp(pos[:, 0]) + np.ptp(pos[:, 2]))) if len(pos) else 0.0
     n = max(len(pos) - 1, 1)
     trunk = pos[order == 0, 1]
-    hist = model.history
+    hist = model.step_stats
     return {"internodes": int(s.n_internodes), "markers": len(s.markers), "height": height,
             "crown_width": width, "crown_ratio": width / height if height > 0 else 0.0,
             "lateral_share": float(np.sum(order >= 1) / n),

@@ -5,8 +5,9 @@ import ipywidgets as W
 import pytest
 
 import plantvr
-from plantvr.params import PARAM_BY_NAME, PARAMS, WINDOWS
-from plantvr.ui import IconSelector, ParameterPanels, load_preset, param_traits, read_preset, save_preset
+from plantvr.document import Document
+from plantvr.params import PARAM_BY_NAME, PARAMS, TREEWAND, WINDOWS, Param, ParamTable
+from plantvr.ui import IconSelector, ParameterPanels, param_traits
 from plantvr.ui.panels import HIGHLIGHT, INFLUENCE
 
 
@@ -95,31 +96,31 @@ def test_icon_selector_yellow_highlight(model):
 
 def test_presets_round_trip(model, tmp_path):
     model.set_params(apical_dominance=0.62, leaf_texture=PARAM_BY_NAME["leaf_texture"].choices[-1], shadow_depth=9)
-    path = save_preset(model, tmp_path / "oak.json")
+    path = model.save_preset(tmp_path / "oak.json")
     other = plantvr.Model(seed=1)
-    load_preset(other, path)
+    other.load_preset(path)
     assert other.params == model.params
 
 
 def test_preset_errors_are_clear_and_leave_model_unchanged(model, tmp_path):
     before = model.params
     with pytest.raises(ValueError, match="does not exist"):
-        load_preset(model, tmp_path / "missing.json")
+        model.load_preset(tmp_path / "missing.json")
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
     with pytest.raises(ValueError, match="is not valid JSON"):
-        load_preset(model, bad)
+        model.load_preset(bad)
     bad.write_text(json.dumps({"params": {}}))
     with pytest.raises(ValueError, match="is not a PlantVR preset"):
-        load_preset(model, bad)
+        model.load_preset(bad)
     bad.write_text(json.dumps({"plantvr_preset": 1, "params": {"apical_dominance": 0.3, "view_radius": -1}}))
     with pytest.raises(ValueError, match=r"bad.json: view_radius must be in \(0.0, 100.0\]"):
-        load_preset(model, bad)
+        model.load_preset(bad)
     bad.write_text(json.dumps({"plantvr_preset": 1, "params": {"nope": 1}}))
     with pytest.raises(ValueError, match="unknown parameter 'nope'"):
-        read_preset(bad)
+        TREEWAND.read_preset(bad)
     with pytest.raises(ValueError, match="preset path must end in .json"):
-        save_preset(model, tmp_path / "x.txt")
+        model.save_preset(tmp_path / "x.txt")
     assert model.params == before
 
 
@@ -134,3 +135,36 @@ def test_panel_preset_buttons_report_errors(model, tmp_path):
     panels.preset_path.value = str(tmp_path / "none.json")
     panels.children[1].children[2].click()
     assert "does not exist" in panels.message.value
+
+
+class _Lamp(Document):
+    """A document with a table of its own and no influence weights."""
+
+    KIND = "lamp"
+    COMMANDS = ("set_params",)
+    PARAMS = ParamTable("lamp", (
+        Param("power", float, 2.0, "Power.", "-", "light", unit="W", range=(0.0, 10.0)),
+        Param("shade", str, "round", "Shade.", "-", "look", choices=("round", "square")),
+        Param("glow", bool, False, "Glow.", "-", "look", range=(0, 1)),
+        Param("secret", int, 3, "Not in a window.", "-", "hidden", range=(0, 9)),
+    ), {"light": ("Light", "#2e6fd0"), "look": ("Look", "#c0392b"), "hidden": ("Settings", "#777777")})
+
+
+def test_panels_are_generated_for_any_document(tmp_path):
+    lamp = _Lamp()
+    panels = ParameterPanels(lamp)
+    assert set(panels.windows) == {"light", "look"} and set(panels.controls) == {"power", "shade", "glow"}
+    assert panels.triangle is None and [panels.tabs.get_title(i) for i in range(2)] == ["Light", "Look"]
+    assert isinstance(panels.controls["power"], W.FloatSlider) and panels.controls["power"].max == 10.0
+    panels.controls["power"].value = 4.0
+    assert lamp.power == 4.0 and lamp.log.events[-1].command == "set_params"
+    lamp.shade = "square"
+    assert panels.controls["shade"].value == "square"
+    panels.save(tmp_path / "lamp.json")
+    lamp.power = 1.0
+    panels.load(tmp_path / "lamp.json")
+    assert lamp.power == 4.0 and panels.controls["power"].value == 4.0
+    assert "secret" in ParameterPanels(lamp, include_hidden=True).controls
+    panels.close()
+    with pytest.raises(ValueError, match="doc must be a document with a parameter table"):
+        ParameterPanels(object())

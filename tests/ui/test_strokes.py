@@ -1,10 +1,11 @@
 """Stroke files of the thesis scenarios (Figs. 12.1–12.7) and the scenario dropdown (checklist item 32, TW-V23)."""
-import json
+import dataclasses
 
 import numpy as np
 import pytest
 
 import plantvr
+from plantvr.commandlog import CommandLog
 from plantvr.params import defaults
 from plantvr.ui.strokes import (
     SCENARIO_DIR,
@@ -65,7 +66,7 @@ def test_replay_is_deterministic_and_equals_a_fresh_model():
     assert a.steps_done == sc.n_steps == 40 and a.n_internodes > 50
     assert a.tropism_angle == defaults()["tropism_angle"]  # the old setting does not leak in
     # the model's own event log holds the scenario's commands
-    logged = [(e.command, e.kwargs) for e in a.events.events if e.command in ("paint", "step")]
+    logged = [(e.command, e.kwargs) for e in a.log.events if e.command in ("paint", "step")]
     assert len(logged) >= len(sc.events)
 
 
@@ -111,38 +112,57 @@ def test_picker_replays_selected_scenario_into_model():
 
 def test_round_trip_and_bad_files(tmp_path):
     sc = record_scenario("fig12_4", seed=3)
-    p = save_scenario(sc, tmp_path / "s.json")
+    p = save_scenario(sc, tmp_path / "fig12_4.jsonl")
     assert read_scenario(p) == sc
-    with pytest.raises(ValueError, match="must end in .json"):
+    mine = read_scenario(save_scenario(sc, tmp_path / "mine.jsonl"))  # a name SCENARIOS does not describe
+    assert (mine.name, mine.label, mine.events) == ("mine", "mine", sc.events)
+    assert CommandLog.load(p, plantvr.Model.COMMANDS, document="treewand").events[1].kwargs == {"seed": 3}
+    with pytest.raises(ValueError, match="must end in .jsonl"):
         save_scenario(sc, tmp_path / "s.txt")
-    with pytest.raises(ValueError, match="does not exist"):
-        read_scenario(tmp_path / "nope.json")
-    (tmp_path / "bad.json").write_text("{not json")
-    with pytest.raises(ValueError, match="not valid JSON"):
-        read_scenario(tmp_path / "bad.json")
-    (tmp_path / "other.json").write_text(json.dumps({"plantvr_preset": 1, "params": {}}))
-    with pytest.raises(ValueError, match="not a PlantVR scenario"):
-        read_scenario(tmp_path / "other.json")
-    data = json.loads(p.read_text())
-    data["events"][2]["kwargs"]["radius"] = -1
-    (tmp_path / "neg.json").write_text(json.dumps(data))
-    with pytest.raises(ValueError, match=r"event 2 radius must be in"):
-        read_scenario(tmp_path / "neg.json")
-    data = json.loads(p.read_text())
-    data["events"][0] = {"command": "explode", "kwargs": {}}
-    (tmp_path / "cmd.json").write_text(json.dumps(data))
-    with pytest.raises(ValueError, match="event 0 command must be one of"):
-        read_scenario(tmp_path / "cmd.json")
-    data = json.loads(p.read_text())
-    data["params"]["view_angle"] = 999
-    (tmp_path / "par.json").write_text(json.dumps(data))
+    with pytest.raises(ValueError, match="No such file"):
+        read_scenario(tmp_path / "nope.jsonl")
+    (tmp_path / "bad.jsonl").write_text("{not json")
+    with pytest.raises(ValueError, match="no trailer line"):
+        read_scenario(tmp_path / "bad.jsonl")
+    (tmp_path / "edited.jsonl").write_text(p.read_text().replace('"radius": 3.5', '"radius": 3.6', 1))
+    with pytest.raises(ValueError, match="checksum mismatch"):
+        read_scenario(tmp_path / "edited.jsonl")
+
+    def write(name, events):
+        log = CommandLog(plantvr.Model.COMMANDS, document="treewand")
+        for cmd, kw in events:
+            log.record(cmd, **kw)
+        return log.save(tmp_path / name)
+
+    head = list(sc.log)[:2]
+    events = [(e.command, e.kwargs) for e in head] + list(sc.events)
+    with pytest.raises(ValueError, match="must start with set_params"):
+        read_scenario(write("nohead.jsonl", events[2:]))
+    neg = [*events[:2], ("paint", {**events[2][1], "radius": -1}), *events[3:]]
+    with pytest.raises(ValueError, match=r"event 2 \(paint\): radius must be in"):
+        read_scenario(write("neg.jsonl", neg))
     with pytest.raises(ValueError, match="view_angle"):
-        read_scenario(tmp_path / "par.json")
+        read_scenario(write("par.jsonl", [("set_params", {"view_angle": 999}), *events[1:]]))
+    (tmp_path / "other.jsonl").write_text(CommandLog(document="toy").to_text())
+    with pytest.raises(ValueError, match="records a 'toy' session"):
+        read_scenario(tmp_path / "other.jsonl")
     with pytest.raises(ValueError, match="name must be one of"):
         load_scenario("fig12_99")
     with pytest.raises(ValueError, match="steps must be an integer in"):
         replay_scenario(plantvr.Model(seed=0), sc, steps=10_000)
 
 
+def test_a_stroke_file_is_a_model_session():
+    """Replaying a stroke file's log into a fresh model is what replay_scenario does (one log format)."""
+    sc = load_scenario("fig12_7_vigor")
+    a, b = plantvr.Model(seed=5), plantvr.Model()
+    replay_scenario(a, sc, steps=6)
+    short = dataclasses.replace(sc, events=sc.events[:[c for c, _ in sc.events].index("step") + 1])
+    b.replay(short.log)
+    replay_scenario(a, short)
+    assert a.state_bytes() == b.state_bytes()
+
+
 def test_files_live_in_the_package():
-    assert SCENARIO_DIR.parent.name == "ui" and len(list(SCENARIO_DIR.glob("*.json"))) == len(SCENARIOS)
+    assert SCENARIO_DIR.parent.name == "ui" and len(list(SCENARIO_DIR.glob("*.jsonl"))) == len(SCENARIOS)
+    assert not list(SCENARIO_DIR.glob("*.json"))
