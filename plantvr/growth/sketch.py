@@ -37,19 +37,20 @@ from .._validation import (
     MAX_COORD,
     MAX_COUNT,
     check_array,
-    check_choice,
     check_int,
     check_point,
     check_points,
     check_range,
 )
-from ..params import PARAM_BY_NAME, check_params
+from ..params import PARAM_BY_NAME, TREEWAND, WINDOWS, Param, ParamTable, check_params
 from .bending import BendResult, bend_path, pipe_widths
 from .directions import _rotate, bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, _Buds, sum_per_bud
 from .tree import BUD, NO_SLOT
 
 __all__ = [
+    "SKETCH_ROWS",
+    "TREESKETCH",
     "SketchEngine",
     "autonomous_points",
     "barycentric",
@@ -59,6 +60,7 @@ __all__ = [
     "gravimorphism",
     "set_point_tropism",
     "shoot_lengths",
+    "split_values",
 ]
 
 _Y = np.array([0.0, 1.0, 0.0])
@@ -75,6 +77,48 @@ except ImportError:  # pragma: no cover - an older shadow grid without stated bo
 ELLIPSE_RANGE = (1e-6, 1e6)
 #: Most neighbour sites a crown region may list (the region test is a (points x sites) distance table).
 MAX_SITES = 10_000
+
+
+def _row(name, kind, default, ref, doc, **kw) -> Param:
+    return Param(name=name, kind=kind, default=default, window="sketch", ref=ref, doc=doc, **kw)
+
+
+#: The TreeSketch rows of :data:`TREESKETCH` (spec 004 §1.4, §2.3, §2.5): the scalar :class:`SketchEngine` options
+#: (the gravimorphism ellipse as its three numbers) and the stroke brush of :class:`~plantvr.growth.sketch_tools.
+#: StrokeEmitter`. The engine's option checks and the architecture panel read their ranges from here.
+SKETCH_ROWS: tuple[Param, ...] = (
+    _row("n_max", int, 3, "§1.4.4 Eq. 4.3", "Maximum shoot length: internodes per step of the most vigorous bud.",
+         symbol="n_max", range=(1, 1000)),
+    _row("deflection", float, 0.0, "§1.4.7", "Deflection angle of the continuing heading, away from the lateral bud.",
+         symbol="δ", unit="deg", range=(0.0, 90.0)),
+    _row("trunk_up", bool, False, "§1.4.5 Fig. 4.19", "Tropism straight up on the main axis.", range=(0, 1)),
+    _row("stroke_tropism", bool, False, "§2.7", "Tropism follows the stroke direction of a bud's selecting points.",
+         range=(0, 1)),
+    _row("mode", str, "directed", "§1.4.1", "Marker policy: user points kept until consumed, or generated per step.",
+         choices=("directed", "autonomous")),
+    _row("point_density", int, 4, "§1.4.1", "K of autonomous growth: up to 1 + K points per bud and step.",
+         symbol="K", range=(0, 1000)),
+    _row("ellipse_sv", float, 1.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: semi-axis along V (up).",
+         symbol="s_v", range=ELLIPSE_RANGE),
+    _row("ellipse_sp", float, 1.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: semi-axis along P (side).",
+         symbol="s_p", range=ELLIPSE_RANGE),
+    _row("ellipse_ev", float, 0.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: offset of its centre along V.",
+         symbol="e_v", range=(-ELLIPSE_RANGE[1], ELLIPSE_RANGE[1])),
+    _row("shed_threshold", float, 0.0, "§1.4.8", "Shedding threshold Th of the normalised rule (0: never shed).",
+         symbol="Th", range=(0.0, 1e12)),
+    _row("stroke_rate", float, 20.0, "§2.5", "Brush: points per unit volume per second of brushing.",
+         range=(0.0, 1e9), low_open=True),
+    _row("stroke_spacing", float, 0.5, "§2.5", "Sketch (brush radius 0): distance between points on the stroke.",
+         unit="m", range=(1e-9, MAX_COORD)),
+)
+_ROW = {p.name: p for p in SKETCH_ROWS}
+#: The TreeSketch parameter table: every Tree Wand row, then :data:`SKETCH_ROWS`.
+TREESKETCH = ParamTable("treesketch", [*TREEWAND.params, *SKETCH_ROWS],
+                        {**WINDOWS, "sketch": ("TreeSketch", "#8e44ad")})
+#: SketchEngine options that are rows of :data:`TREESKETCH` (``ellipse`` is the three ``ellipse_*`` rows).
+TABLE_OPTIONS = ("n_max", "deflection", "trunk_up", "stroke_tropism", "mode", "point_density", "ellipse",
+                 "shed_threshold")
+_ELLIPSE_ROWS = ("ellipse_sv", "ellipse_sp", "ellipse_ev")
 
 
 def _check_bool(name: str, value: Any) -> bool:
@@ -112,6 +156,18 @@ def check_grid_reach(params: dict[str, Any], pos: np.ndarray, *, name: str = "ba
                              f"{reach / params['base_length']:.0f} cells), got {params['base_length']!r}")
         raise ValueError(f"{name} must lie within {reach:.6g} of the origin (|y| within {3 * reach:.6g}) for the "
                          f"shadow grid of base_length {params['base_length']!r}, got {ext:.6g}")
+
+
+def split_values(values: dict[str, Any], ellipse=(1.0, 1.0, 0.0)) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:data:`TREESKETCH` values, checked and split into engine parameters (the Tree Wand rows) and
+    :class:`SketchEngine` options; the ``ellipse_*`` rows become ``ellipse`` when any is given (the others
+    taken from ``ellipse``); the stroke rows belong to neither and are dropped."""
+    values = TREESKETCH.validate(values)
+    params = {k: v for k, v in values.items() if k in TREEWAND}
+    opts = {k: v for k, v in values.items() if k in TABLE_OPTIONS}
+    if any(k in values for k in _ELLIPSE_ROWS):
+        opts["ellipse"] = tuple(values.get(k, e) for k, e in zip(_ELLIPSE_ROWS, ellipse))
+    return params, opts
 
 
 def barycentric(alpha: float, beta: float, gamma: float) -> tuple[float, float, float]:
@@ -403,14 +459,13 @@ class SketchEngine(GrowthEngine):
 
     @classmethod
     def _option_checks(cls) -> dict[str, Any]:
-        return {"n_max": lambda v: check_int("n_max", v, 1, 1000),
+        return {"n_max": _ROW["n_max"].check,
                 "trunk_up": lambda v: _check_bool("trunk_up", v),
-                "deflection": lambda v: check_range("deflection", v, 0.0, 90.0),
-                "mode": lambda v: check_choice("mode", v if isinstance(v, str) else repr(v)[:80],
-                                               ("directed", "autonomous")),
-                "point_density": lambda v: check_int("point_density", v, 0, 1000),
+                "deflection": _ROW["deflection"].check,
+                "mode": lambda v: _ROW["mode"].check(v if isinstance(v, str) else repr(v)[:80]),
+                "point_density": _ROW["point_density"].check,
                 "ellipse": cls._check_ellipse,
-                "shed_threshold": lambda v: check_range("shed_threshold", v, 0.0, 1e12),
+                "shed_threshold": _ROW["shed_threshold"].check,
                 "stroke_tropism": lambda v: _check_bool("stroke_tropism", v),
                 "bud_lifetime": cls._check_life, "region": cls._check_region,
                 "depth": cls._check_depth, "asymmetry": cls._check_asym}
@@ -556,10 +611,7 @@ class SketchEngine(GrowthEngine):
     def _check_ellipse(ellipse) -> tuple[float, float, float]:
         if isinstance(ellipse, (str, bytes)) or not hasattr(ellipse, "__len__") or len(ellipse) != 3:
             raise ValueError(f"ellipse must be (s_v, s_p, e_v), got {ellipse!r}")
-        lo, hi = ELLIPSE_RANGE
-        return (check_range("ellipse s_v", ellipse[0], lo, hi),
-                check_range("ellipse s_p", ellipse[1], lo, hi),
-                check_range("ellipse e_v", ellipse[2], -hi, hi))
+        return tuple(check_range(f"ellipse {_ROW[k].symbol}", v, *_ROW[k].range) for k, v in zip(_ELLIPSE_ROWS, ellipse))
 
     def set_options(self, **opts: Any) -> None:
         """Change TreeSketch options (the keywords of the constructor except ``rng``); all checked first."""
@@ -572,23 +624,35 @@ class SketchEngine(GrowthEngine):
         """Generator for (seed, iteration, purpose): 1 = autonomous points, 2 = tropism planes."""
         return np.random.default_rng([self.seed, self.step_count, purpose])
 
-    # -- pickling: the TreeSketch state rides along with the engine's -------------------------------
-    def __getstate__(self) -> dict:
-        state = super().__getstate__()
-        state["sketch_state"] = {"sketch": dict(self.sketch), "seed": self.seed, "selected": self.selected,
-                                 "width_constraints": dict(self.width_constraints),
-                                 "stroke_dirs": dict(self._stroke_dirs),
-                                 "bud_override": {k: v.copy() for k, v in self.bud_override.items()}}
-        return state
+    # -- state: the TreeSketch fields ride along with the engine's (whole-state undo and pickling) -----
+    def _sketch_state(self) -> dict:
+        return {"sketch": {k: (dict(v) if isinstance(v, dict) else v) for k, v in self.sketch.items()},
+                "seed": self.seed, "selected": self.selected, "width_constraints": dict(self.width_constraints),
+                "stroke_dirs": {k: v.copy() for k, v in self._stroke_dirs.items()},
+                "bud_override": {k: v.copy() for k, v in self.bud_override.items()}}
 
-    def __setstate__(self, state: dict) -> None:
-        s = state["sketch_state"]
+    def _set_sketch_state(self, s: dict) -> None:
         self.sketch, self.seed, self.selected = dict(s["sketch"]), s["seed"], s["selected"]
         self.width_constraints = dict(s["width_constraints"])
-        self._stroke_dirs = dict(s["stroke_dirs"])
+        self._stroke_dirs = {k: v.copy() for k, v in s["stroke_dirs"].items()}
         self.bud_override = {k: v.copy() for k, v in s.get("bud_override", {}).items()}
         self.width_info = None
-        super().__setstate__(state)
+
+    def get_state(self, *, grid: bool = True) -> dict[str, Any]:
+        """:meth:`GrowthEngine.get_state` with the TreeSketch fields (``"sketch_state"``: options, seed,
+        selection, width constraints, stroke directions, bud overrides), all copies; pickling uses it too."""
+        return {**super().get_state(grid=grid), "sketch_state": self._sketch_state()}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore what :meth:`get_state` returned (the TreeSketch fields first: light and widths depend on them)."""
+        self._set_sketch_state(state["sketch_state"])
+        super().set_state(state)
+
+    def table_values(self) -> dict[str, Any]:
+        """The engine's parameters and table options as :data:`TREESKETCH` values (stroke rows excluded)."""
+        sv, sp, ev = self.sketch["ellipse"]
+        opts = {k: self.sketch[k] for k in TABLE_OPTIONS if k != "ellipse"}
+        return {**self.params, **opts, "ellipse_sv": sv, "ellipse_sp": sp, "ellipse_ev": ev}
 
     # -- light: gravimorphism (Eqs. 4.6-4.7) and widths (§2.10) ---------------------------------------
     def _vigor(self) -> None:

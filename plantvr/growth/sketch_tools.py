@@ -1,30 +1,25 @@
-"""TreeSketch tools driven from code (spec 004_treesketch §2.4–2.8, §2.11; V15, V17).
+"""TreeSketch tools driven from code (spec 004_treesketch §2.5–2.8, §2.11; V15).
 
 * :class:`StrokeEmitter`: a brush that emits attraction points continuously while it moves, with a radius
   that may change mid-stroke; at radius 0 the brush becomes a sketch and emits points on the stroke itself
   (§2.5). Every point remembers the stroke direction for sketch-based tropism (§2.7).
-* :class:`Timeline`: grow / ungrow at an adjustable speed through per-step snapshots of the engine state
-  (the engine pickles), plus per-operation undo / redo (§2.4, V17). Snapshots are budgeted in bytes.
 * :func:`lasso_volume`: a closed 2D lasso in a view plane inflated to a point-filled 3D volume: chordal axis
   by the medial axis of the silhouette, Teddy-like circular cross-sections, rejection sampling (§2.6, V15).
 * :func:`nearest_node`, :func:`select_branch`, :func:`prune_nearest`: picking for selective growth (§2.8) and
   pruning at the nearest branching point (§2.11).
 * :class:`TreeLibrary` and :data:`PRESETS`: a folder of saved trees (``.tree`` text + a JSON of the TreeSketch
-  state) and of growth presets (JSON of parameters and options) (Fig. E.8).
+  state) and of growth presets (the one preset format, :data:`~plantvr.growth.sketch.TREESKETCH` values) (Fig. E.8).
 
-The tools act on a :class:`~plantvr.growth.sketch.SketchEngine`; they are numeric (no UI imports), so a view,
+Grow / ungrow with per-operation undo (§2.4, V17) is the history of the TreeSketch document
+(:class:`plantvr.documents.treesketch.SketchDocument`). The tools act on a :class:`~plantvr.growth.sketch.SketchEngine`; they are numeric (no UI imports), so a view,
 a widget or a line of code can drive them alike.
 """
 from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
-import pickle
 import re
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,11 +31,10 @@ from .._fileio import atomic_write, write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
-from ..params import check_params
-from .sketch import SketchEngine
+from .sketch import TREESKETCH, SketchEngine, split_values
 from .treefile import tree_from_text, tree_to_text
 
-__all__ = ["PRESETS", "LassoVolume", "StrokeEmitter", "Timeline", "TreeLibrary", "lasso_volume", "nearest_node",
+__all__ = ["PRESETS", "LassoVolume", "StrokeEmitter", "TreeLibrary", "lasso_volume", "nearest_node",
            "prune_nearest", "select_branch"]
 
 
@@ -74,8 +68,8 @@ class StrokeEmitter:
         if not isinstance(engine, SketchEngine):
             raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
         self.engine = engine
-        self.rate = check_range("rate", rate, 0.0, 1e9, low_open=True)
-        self.spacing = check_range("spacing", spacing, 1e-9, MAX_COORD)
+        self.rate = check_range("rate", rate, *TREESKETCH["stroke_rate"].range, low_open=True)
+        self.spacing = check_range("spacing", spacing, *TREESKETCH["stroke_spacing"].range)
         self.rng = np.random.default_rng(rng)
         self._c: np.ndarray | None = None
         self._carry = 0.0
@@ -130,132 +124,6 @@ class StrokeEmitter:
     def end(self) -> None:
         """Finish the stroke."""
         self._c = None
-
-
-# -- grow / ungrow and per-operation undo (§2.4, V17) ---------------------------------------------------------
-class Timeline:
-    """Grow and ungrow ``engine`` continuously, with per-operation undo (spec 004 §2.4, V17).
-
-    ``frames`` holds the engine state after every growth step of the current timeline (pickled bytes); ungrow
-    restores an earlier frame, grow replays a later one when no edit happened since (so grow N, ungrow to k,
-    regrow to N gives identical arrays), otherwise it steps the engine. :meth:`operation` brackets an edit (a
-    stroke, a prune, a width change...) as one undo item; :meth:`undo` / :meth:`redo` swap whole states.
-    Frames and undo items are dropped oldest first once they exceed ``max_bytes``.
-    """
-
-    def __init__(self, engine: SketchEngine, *, max_bytes: int = 256 * 2 ** 20):
-        if not isinstance(engine, SketchEngine):
-            raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
-        self.engine = engine
-        self.max_bytes = check_int("max_bytes", max_bytes, 1, 2 ** 62)
-        self.frames: list[bytes] = [self._dump()]
-        self.cursor = 0
-        self._undo: list[bytes] = []
-        self._redo: list[bytes] = []
-        self._carry = 0.0
-        self._depth = 0
-
-    def _dump(self) -> bytes:
-        return pickle.dumps(self.engine.__getstate__(), protocol=5)
-
-    def _load(self, blob: bytes) -> None:
-        self.engine.__setstate__(pickle.loads(blob))
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by frames and undo / redo items."""
-        return sum(map(len, self.frames)) + sum(map(len, self._undo)) + sum(map(len, self._redo))
-
-    def _trim(self) -> None:
-        while self.nbytes > self.max_bytes and (self._undo or self.cursor > 0):
-            if self._undo:
-                self._undo.pop(0)
-            else:
-                self.frames.pop(0)
-                self.cursor -= 1
-
-    # -- growth -------------------------------------------------------------------------------------
-    def grow(self, steps: int = 1) -> int:
-        """Advance ``steps`` growth steps (replaying frames when possible); returns the steps made."""
-        steps = check_int("steps", steps, 0, 10 ** 6)
-        for _ in range(steps):
-            if self.cursor + 1 < len(self.frames):
-                self.cursor += 1
-                self._load(self.frames[self.cursor])
-            else:
-                self.engine.step()
-                self.frames.append(self._dump())
-                self.cursor += 1
-                self._trim()
-        return steps
-
-    def ungrow(self, steps: int = 1) -> int:
-        """Go back ``steps`` growth steps (not before the oldest frame kept); returns the steps undone."""
-        steps = check_int("steps", steps, 0, 10 ** 6)
-        k = min(steps, self.cursor)
-        if k:
-            self.cursor -= k
-            self._load(self.frames[self.cursor])
-        return k
-
-    def advance(self, speed: float, seconds: float) -> int:
-        """Grow (speed > 0) or ungrow (speed < 0) at ``speed`` steps per second for ``seconds``; fractional
-        steps carry over between calls, as with the spring-loaded Grow slider. Returns the signed steps made."""
-        speed = check_range("speed", speed, -1e6, 1e6)
-        seconds = check_range("seconds", seconds, 0.0, 1e6)
-        carry = 0.0 if speed * self._carry < 0 else self._carry  # the slider changed direction: drop the fraction
-        carry += speed * seconds
-        k = math.floor(abs(carry)) * (1 if carry >= 0 else -1)
-        if abs(k) > 10 ** 6:
-            raise ValueError(f"speed * seconds must ask for at most {10 ** 6} steps, got {speed!r} * {seconds!r}")
-        self._carry = carry - k
-        return self.grow(k) if k >= 0 else -self.ungrow(-k)
-
-    # -- edits --------------------------------------------------------------------------------------
-    @contextmanager
-    def operation(self) -> Iterator[SketchEngine]:
-        """Bracket an edit of the engine as one undo item; the timeline then continues from the edited state.
-
-        Growth inside the bracket (:meth:`grow`) belongs to the same item (growing while brushing).
-        """
-        if self._depth == 0:
-            before = self._dump()
-            del self.frames[self.cursor + 1:]
-        self._depth += 1
-        try:
-            yield self.engine
-        except BaseException:
-            self._depth -= 1
-            if self._depth == 0:
-                self._load(before)
-            raise
-        self._depth -= 1
-        if self._depth == 0:
-            self._undo.append(before)
-            self._redo.clear()
-            del self.frames[self.cursor + 1:]
-            self.frames[self.cursor] = self._dump()
-            self._trim()
-
-    def undo(self) -> bool:
-        """Revert the last operation; returns False when there is nothing to undo."""
-        if not self._undo:
-            return False
-        self._redo.append(self._dump())
-        self._restart(self._undo.pop())
-        return True
-
-    def redo(self) -> bool:
-        """Re-apply the last undone operation; returns False when there is nothing to redo."""
-        if not self._redo:
-            return False
-        self._undo.append(self._dump())
-        self._restart(self._redo.pop())
-        return True
-
-    def _restart(self, blob: bytes) -> None:
-        self._load(blob)
-        self.frames, self.cursor = [blob], 0
 
 
 # -- lasso inflation (§2.6, V15) ------------------------------------------------------------------------------
@@ -364,7 +232,7 @@ def lasso_volume(polygon, *, origin=(0.0, 0.0, 0.0), u=(1.0, 0.0, 0.0), v=(0.0, 
     mask[rr, cc] = True
     if not mask.any():
         raise ValueError("polygon is smaller than one pixel; pass a smaller pixel")
-    axis, dist = medial_axis(mask, return_distance=True)
+    axis, dist = medial_axis(mask, return_distance=True, rng=0)  # its tie-breaking is random: fixed, so a lasso replays
     D = dist * pixel
     _, (ir, ic) = distance_transform_edt(~axis, return_indices=True)
     R = D[ir, ic]
@@ -441,17 +309,13 @@ def _reorder(tree, rank: np.ndarray):
 
 # -- tree library and presets (Fig. E.8) -----------------------------------------------------------------------
 PRESETS: dict[str, dict[str, Any]] = {
-    # [INFERRED] starting points after the thesis's figures; the parameter values are not thesis numbers
-    "excurrent_conifer": {"params": {"apical_dominance": 0.62, "tropism_angle": 100.0, "w_heading": 0.4,
-                                     "w_tropism": 0.2, "w_env": 0.4, "branch_angle": 70.0},
-                          "options": {"trunk_up": True, "n_max": 3}},                       # Fig. 4.19
-    "weeping": {"params": {"tropism_angle": 160.0, "w_heading": 0.35, "w_tropism": 0.3, "w_env": 0.35},
-                "options": {"n_max": 6}},                                                  # Fig. 4.18, n_max = 6
-    "broad_decurrent": {"params": {"apical_dominance": 0.46, "tropism_angle": 90.0, "w_heading": 0.3,
-                                   "w_tropism": 0.3, "w_env": 0.4},
-                        "options": {"ellipse": [0.7, 1.4, 0.0]}},                          # Figs. 4.13, 4.22C
-    "gnarled": {"params": {"w_heading": 0.2, "w_tropism": 0.1, "w_env": 0.7},
-                "options": {"deflection": 30.0, "n_max": 2}},                              # Fig. 4.24, δ = 30°
+    # [INFERRED] starting points after the thesis's figures (TREESKETCH values); the values are not thesis numbers
+    "excurrent_conifer": {"apical_dominance": 0.62, "tropism_angle": 100.0, "w_heading": 0.4, "w_tropism": 0.2,
+                          "w_env": 0.4, "branch_angle": 70.0, "trunk_up": True, "n_max": 3},        # Fig. 4.19
+    "weeping": {"tropism_angle": 160.0, "w_heading": 0.35, "w_tropism": 0.3, "w_env": 0.35, "n_max": 6},  # Fig. 4.18
+    "broad_decurrent": {"apical_dominance": 0.46, "tropism_angle": 90.0, "w_heading": 0.3, "w_tropism": 0.3,
+                        "w_env": 0.4, "ellipse_sv": 0.7, "ellipse_sp": 1.4, "ellipse_ev": 0.0},  # Figs. 4.13, 4.22C
+    "gnarled": {"w_heading": 0.2, "w_tropism": 0.1, "w_env": 0.7, "deflection": 30.0, "n_max": 2},  # Fig. 4.24
 }
 
 _NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}$")
@@ -495,12 +359,9 @@ def _parse_json(text: str, what: str) -> Any:
         raise ValueError(f"cannot read {what}: not valid JSON ({str(exc)[:200]})") from None
 
 
-def _open_meta(text: str, what: str, *, hand_written: bool = False) -> dict:
-    """Parse a library JSON file and check its format and (format 2) checksum. ``hand_written`` accepts a file
-    without a ``format`` (a preset typed by hand), which is then checked value by value only."""
+def _open_meta(text: str, what: str) -> dict:
+    """Parse a library JSON file and check its format and (format 2) checksum."""
     meta = _parse_json(text, what)
-    if hand_written and isinstance(meta, dict) and "format" not in meta:
-        return meta
     if not isinstance(meta, dict) or meta.get("format") not in (_LIB_FORMAT, *_OLD_FORMATS):
         fmt = meta.get("format") if isinstance(meta, dict) else None
         raise ValueError(f"{what} is not a TreeSketch library file (format {_LIB_FORMAT!r}), got format {fmt!r}")
@@ -542,8 +403,8 @@ class TreeLibrary:
     ``<name>.json`` (TreeSketch options, seed, step count, generator state, attraction points with their
     stroke directions, width constraints, selection and node birth steps). :meth:`load` rebuilds an engine that
     continues exactly as the saved one (node indices are renumbered in depth-first order; radius, light and
-    vigor are recomputed). A preset is ``<name>.preset.json`` with ``{"params": ..., "options": ...}``; the
-    built-in :data:`PRESETS` are always available.
+    vigor are recomputed). A preset is ``<name>.preset.json`` in the one preset format of the parameter tables
+    (:data:`~plantvr.growth.sketch.TREESKETCH` values); the built-in :data:`PRESETS` are always available.
 
     Files are JSON and text only (nothing is unpickled). Every save is atomic (:mod:`plantvr._fileio`): a failed
     save leaves the previous files as they were. Format 2 (written since issue 20) seals each JSON file with a
@@ -703,42 +564,35 @@ class TreeLibrary:
         e.rebuild_light()
         return e
 
-    # -- presets ------------------------------------------------------------------------------------
+    # -- presets: the one preset format of the parameter tables --------------------------------------
     def save_preset(self, name: str, engine: SketchEngine, *, keys: list[str] | None = None) -> Path:
-        """Save ``engine``'s growth parameters (all, or ``keys``) and TreeSketch options as preset ``name``
-        (atomically, sealed with a checksum)."""
+        """Save ``engine``'s growth parameters and TreeSketch options (all, or the :data:`~plantvr.growth.sketch.
+        TREESKETCH` names ``keys``) as preset ``name``, atomically, in the one preset format
+        (:meth:`plantvr.params.ParamTable.preset_text`)."""
         name = self._name(name)
         if not isinstance(engine, SketchEngine):
             raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
+        values = engine.table_values()
         if keys is not None:
             if isinstance(keys, str) or not all(isinstance(k, str) for k in keys):
                 raise ValueError(f"keys must be a list of parameter names, got {keys!r}")
-            unknown = sorted(set(keys) - set(engine.params))
+            unknown = sorted(set(keys) - set(values))
             if unknown:
                 raise ValueError(f"keys must be parameter names, got unknown {unknown[:5]}")
-        params = engine.params if keys is None else {k: engine.params[k] for k in keys}
+            values = {k: values[k] for k in keys}
         path = self.folder / f"{name}.preset.json"
-        write_atomic(path, _sealed({"format": _LIB_FORMAT, "params": params, "options": engine.sketch}))
+        write_atomic(path, TREESKETCH.preset_text(values))
         return path
 
     def preset(self, name: str) -> dict[str, Any]:
-        """The preset ``name`` as ``{"params": {...}, "options": {...}}`` (a saved one shadows a built-in); a saved
-        preset is checked (format, checksum, every parameter and option) when read."""
+        """The preset ``name`` as checked :data:`~plantvr.growth.sketch.TREESKETCH` values ``{name: value}`` (a saved
+        one shadows a built-in); a saved preset is read with :meth:`plantvr.params.ParamTable.read_preset`."""
         name = self._name(name)
         path = self.folder / f"{name}.preset.json"
         if path.exists():
-            what = f"preset {name!r}"
-            data = _open_meta(_read_text(path, what), what, hand_written=True)
-            try:
-                if not isinstance(data.get("params"), dict) or not isinstance(data.get("options"), dict):
-                    raise ValueError("params and options must be dicts")
-                check_params(data["params"], partial=True)
-                SketchEngine._check_options(data["options"])
-            except ValueError as exc:
-                raise ValueError(f"preset {name!r} is corrupt: {exc}") from None
-            return {"params": dict(data["params"]), "options": dict(data["options"])}
+            return TREESKETCH.read_preset(path)
         if name in PRESETS:
-            return {k: dict(v) for k, v in PRESETS[name].items()}
+            return dict(PRESETS[name])
         raise ValueError(f"unknown preset {name!r}; available: {self.presets()}")
 
     def apply_preset(self, name: str, engine: SketchEngine) -> None:
@@ -746,9 +600,8 @@ class TreeLibrary:
         engine's option checks and this tree) before anything is set."""
         if not isinstance(engine, SketchEngine):
             raise TypeError(f"engine must be a SketchEngine, got {type(engine).__name__}")
-        pre = self.preset(name)
-        params = check_params(pre["params"], partial=True)
-        opts = engine._check_options(pre["options"])
+        params, opts = split_values(self.preset(name), engine.sketch["ellipse"])
+        opts = engine._check_options(opts)
         engine.checked_params(params)  # raises before the engine is touched
         engine.set_options(**opts)
         engine.set_params(params)

@@ -10,6 +10,7 @@ from hypothesis import HealthCheck, given
 from hypothesis import settings as _settings
 from hypothesis import strategies as st
 
+from plantvr.documents.treesketch import SketchDocument
 from plantvr.growth.bending import bend_path, pipe_widths, rotation_matrix, solve_exponent, stiffness
 from plantvr.growth.sketch import (
     SketchEngine,
@@ -22,8 +23,9 @@ from plantvr.growth.sketch import (
     set_point_tropism,
     shoot_lengths,
 )
-from plantvr.growth.sketch_tools import StrokeEmitter, Timeline, TreeLibrary, lasso_volume, nearest_node
+from plantvr.growth.sketch_tools import StrokeEmitter, TreeLibrary, lasso_volume, nearest_node
 from plantvr.params import PARAMS, defaults
+
 
 def settings(**kw):
     return _settings(suppress_health_check=[HealthCheck.function_scoped_fixture], **kw)
@@ -325,22 +327,22 @@ def test_stroke_emitter_refuses_a_point_flood():
 
 
 @settings(max_examples=40, deadline=None)
-@given(cmd=st.sampled_from(["grow", "ungrow", "advance.speed", "advance.seconds", "max_bytes"]),
+@given(cmd=st.sampled_from(["grow", "ungrow", "advance.speed", "advance.seconds", "max_undo_bytes"]),
        value=st.sampled_from([v for v in BAD if not (isinstance(v, (int, float)) and 1 < abs(v) < 1e6)] + [10 ** 7]))
 def test_fuzz_timeline(fuzz, cmd, value):
-    e = _grown(1)
-    if cmd == "max_bytes":
-        fuzz.call("Timeline", Timeline, e, max_bytes=value, param="max_bytes")
+    if cmd == "max_undo_bytes":
+        fuzz.call("SketchDocument", SketchDocument, seed=3, max_undo_bytes=value, param="max_bytes")
         return
-    tl = Timeline(e)
-    tl.grow(1)
-    carry, cursor, before = tl._carry, tl.cursor, _state(e)
-    fn = {"grow": lambda: tl.grow(value), "ungrow": lambda: tl.ungrow(value),
-          "advance.speed": lambda: tl.advance(value, 1.0), "advance.seconds": lambda: tl.advance(2.0, value)}[cmd]
-    r = fuzz.call(f"Timeline.{cmd.split('.')[0]}", fn, param=("steps", "speed", "seconds"))
+    doc = SketchDocument(seed=3)
+    doc.paint([0.0, 4.0, 0.0], 2.5, 200)
+    doc.grow(1)
+    carry, items, before = doc._carry, len(doc.history.undo_stack), doc.state_bytes()
+    fn = {"grow": lambda: doc.grow(value), "ungrow": lambda: doc.ungrow(value),
+          "advance.speed": lambda: doc.advance(value, 1.0), "advance.seconds": lambda: doc.advance(2.0, value)}[cmd]
+    r = fuzz.call(f"SketchDocument.{cmd.split('.')[0]}", fn, param=("steps", "speed", "seconds"))
     if isinstance(r, Exception):
-        assert (tl._carry, tl.cursor, _state(e)) == (carry, cursor, before)
-    tl.grow(1)
+        assert (doc._carry, len(doc.history.undo_stack), doc.state_bytes()) == (carry, items, before)
+    doc.grow(1)
 
 
 @settings(max_examples=40, deadline=None)
@@ -562,14 +564,14 @@ def test_corrupt_presets_are_refused_and_change_nothing(fuzz, tmp_path, data):
     assert _state(e) == before
 
 
-def test_sealed_preset_bit_flips_are_refused(tmp_path):
+def test_damaged_presets_are_refused(tmp_path):
+    """Presets are the one preset format (no seal of their own): damage that leaves no valid preset is refused."""
     lib = TreeLibrary(tmp_path)
     lib.save_preset("p", _engine())
     data = (tmp_path / "p.preset.json").read_bytes()
-    for k in range(0, len(data), max(len(data) // 25, 1)):
-        bad = bytearray(data)
-        bad[k] ^= 0x04
-        (tmp_path / "p.preset.json").write_bytes(bytes(bad))
+    for bad in (data[: len(data) // 2], data.replace(b'"treesketch"', b'"treewand"'),
+                data.replace(b'"n_max": 3', b'"n_max": 0'), data.replace(b"plantvr_preset", b"plantvr_prezet")):
+        (tmp_path / "p.preset.json").write_bytes(bad)
         with pytest.raises(ValueError):
             lib.preset("p")
 

@@ -1,4 +1,6 @@
-"""TreeSketch tools from code: strokes, grow/ungrow/undo, lasso, selection, pruning (spec 004 §2.4–2.8; V15, V17)."""
+"""TreeSketch tools from code: strokes, lasso, selection, pruning, library (spec 004 §2.5–2.8; V15). Grow / ungrow /
+undo (§2.4, V17) is the document's history: tests/documents/test_treesketch.py."""
+import json
 import math
 
 import numpy as np
@@ -8,9 +10,7 @@ from skimage.measure import points_in_poly
 from plantvr.growth.sketch import SketchEngine
 from plantvr.growth.sketch_tools import (
     StrokeEmitter,
-    Timeline,
     lasso_volume,
-    nearest_node,
     prune_nearest,
     select_branch,
 )
@@ -19,11 +19,6 @@ from plantvr.params import defaults
 
 def _engine(**kw):
     return SketchEngine({**defaults(), **kw.pop("params", {})}, rng=kw.pop("rng", 7), **kw)
-
-
-def _arrays_equal(a, b):
-    ta, tb = a.tree.arrays(), b.tree.arrays()
-    return ta.keys() == tb.keys() and all(ta[k].tobytes() == tb[k].tobytes() for k in ta)
 
 
 def test_ts_stroke_brush_and_sketch_points():
@@ -63,62 +58,6 @@ def test_ts_sketch_grows_along_the_stroke():
     t = e.tree
     tip = t.pos[t.alive][np.argmax(t.pos[t.alive][:, 0])]
     assert tip[0] > 2.0 and tip[1] > 6.0
-
-
-def test_ts_v17_grow_ungrow_regrow_identical():
-    e = _engine(mode="autonomous")
-    tl = Timeline(e)
-    tl.grow(6)
-    ref = e.tree.arrays()
-    tl.ungrow(4)
-    assert e.step_count == 2
-    tl.grow(4)
-    assert all(ref[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
-    # recomputing from a restored frame (no replay) also gives the same arrays: the state round-trips exactly
-    tl.ungrow(3)
-    del tl.frames[tl.cursor + 1:]
-    tl.grow(3)
-    assert all(ref[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
-
-
-def test_ts_v17_advance_speed_and_operation_undo():
-    e = _engine(mode="autonomous")
-    tl = Timeline(e)
-    assert tl.advance(4.0, 0.6) == 2 and tl.advance(4.0, 0.2) == 1  # 2.4 → 2, then 0.4 + 0.8 → 1 (carry)
-    assert e.step_count == 3
-    assert tl.advance(-10.0, 0.2) == -2 and e.step_count == 1
-    tl.grow(2)
-    before = e.tree.arrays()
-    n_markers = len(e.markers)
-    with tl.operation():  # a stroke with growth while brushing: one undo item
-        e.set_options(mode="directed")
-        s = StrokeEmitter(e, rate=30.0, rng=2)
-        s.begin([0.0, 5.0, 0.0])
-        s.move([3.0, 6.0, 0.0], 1.5, dt=1.0)
-        s.end()
-        tl.grow(2)
-    after = e.tree.arrays()
-    assert e.tree.n > len(before["pos"])
-    assert tl.undo()
-    assert all(before[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
-    assert len(e.markers) == n_markers and e.sketch["mode"] == "autonomous"
-    assert tl.redo()
-    assert all(after[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())
-    assert tl.undo() and not tl.undo()  # one item: the stroke
-    with pytest.raises(RuntimeError), tl.operation():
-        e.prune_at(nearest_node(e, [0, 3, 0]))
-        raise RuntimeError("abort")
-    assert all(before[k].tobytes() == v.tobytes() for k, v in e.tree.arrays().items())  # aborted op rolled back
-
-
-def test_ts_timeline_byte_budget():
-    e = _engine(mode="autonomous")
-    tl = Timeline(e, max_bytes=1_000_000)
-    tl.grow(12)
-    assert tl.nbytes <= 1_000_000 or len(tl.frames) == 1
-    assert 1 < len(tl.frames) < 13 and tl.cursor == len(tl.frames) - 1
-    kept = len(tl.frames)
-    assert tl.ungrow(100) == kept - 1 and e.step_count == 12 - (kept - 1)  # not before the oldest frame kept
 
 
 def _blob(k=40):
@@ -237,11 +176,12 @@ def test_ts_presets_apply_and_roundtrip(tmp_path):
     e = _engine()
     lib.apply_preset("weeping", e)
     assert e.sketch["n_max"] == 6 and e.params["tropism_angle"] == 160.0
-    lib.save_preset("mine", e, keys=["tropism_angle", "apical_dominance"])
+    lib.save_preset("mine", e, keys=["tropism_angle", "apical_dominance", "n_max"])
     g = _engine()
     lib.apply_preset("mine", g)
     assert g.params["tropism_angle"] == 160.0 and g.sketch["n_max"] == 6
-    (tmp_path / "bad.preset.json").write_text('{"params": {"tropism_angle": 999}, "options": {}}')
+    assert json.loads((tmp_path / "mine.preset.json").read_text())["table"] == "treesketch"  # the one preset format
+    (tmp_path / "bad.preset.json").write_text('{"plantvr_preset": 1, "params": {"tropism_angle": 999}}')
     before = (dict(g.params), dict(g.sketch))
     with pytest.raises(ValueError, match="tropism_angle"):
         lib.apply_preset("bad", g)

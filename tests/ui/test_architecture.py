@@ -1,5 +1,5 @@
-"""TreeSketch architecture panel: state bound to a SketchEngine or a Model, widget trait round trips, validation
-naming the parameter, and the front ends driven in headless Chromium (spec 004 §2.3, §1.4.6, V5, V6)."""
+"""TreeSketch architecture panel: widgets and panel as views of a SketchDocument, widget trait round trips,
+validation naming the parameter, and the front ends driven in headless Chromium (spec 004 §2.3, §1.4.6, V5, V6)."""
 import json
 import math
 import time
@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import plantvr
 from plantvr._browser import CHROMIUM, launch_chromium
-from plantvr.growth.sketch import SketchEngine, gravimorphism
+from plantvr.documents.treesketch import SketchDocument
+from plantvr.growth.sketch import gravimorphism
 from plantvr.params import defaults
 from plantvr.ui import InfluenceTriangle
 from plantvr.ui.architecture import (
@@ -18,7 +18,6 @@ from plantvr.ui.architecture import (
     SKETCH_OPTIONS,
     AngleWidget,
     ArchitecturePanel,
-    ArchitectureState,
     GravimorphismEllipse,
     SchematicTree,
     ellipse_rays,
@@ -29,36 +28,34 @@ from ._jupyter import jupyter_lab, notebook_page, printed, run_cell, screenshot_
 
 
 @pytest.fixture
-def engine():
-    return SketchEngine({**defaults(), "activation_threshold": 0.0}, rng=0)
+def doc():
+    return SketchDocument(seed=0, activation_threshold=0.0)
 
 
-def _snapshot(e):
-    return dict(e.params), dict(e.sketch)
+def _snapshot(d):
+    return dict(d.engine.params), dict(d.engine.sketch), d.params
 
 
-# ---- the state ------------------------------------------------------------------------------------------------------
-def test_state_reads_and_commands_a_sketch_engine(engine):
-    s = ArchitectureState(engine)
-    assert s.params == {k: engine.params[k] for k in ARCH_PARAMS}
-    assert s.options == {k: (tuple(engine.sketch[k]) if k == "ellipse" else engine.sketch[k]) for k in SKETCH_OPTIONS}
-    v = s.version
-    s.set(branch_angle=65.0, phyllotaxis_angle=180.0, base_length=0.5, apical_dominance=0.6, light_exponent=2.0,
-          tropism_angle=100.0, n_max=5, deflection=25.0, ellipse=(0.8, 1.3, 0.2), shed_threshold=0.1,
-          trunk_up=True, stroke_tropism=True)
+# ---- the document is the panel's model ---------------------------------------------------------------------------
+def test_document_commands_the_engine(doc):
+    engine = doc.engine
+    v = doc.version
+    doc.set_params(branch_angle=65.0, phyllotaxis_angle=180.0, base_length=0.5, apical_dominance=0.6,
+                   light_exponent=2.0, tropism_angle=100.0, n_max=5, deflection=25.0, ellipse_sv=0.8, ellipse_sp=1.3,
+                   ellipse_ev=0.2, shed_threshold=0.1, trunk_up=True, stroke_tropism=True)
     assert engine.params["branch_angle"] == 65.0 and engine.params["tropism_angle"] == 100.0
     assert engine.params["base_length"] == 0.5 and engine.params["light_exponent"] == 2.0
     assert engine.sketch["n_max"] == 5 and engine.sketch["deflection"] == 25.0
     assert engine.sketch["ellipse"] == (0.8, 1.3, 0.2) and engine.sketch["trunk_up"] is True
     assert engine.sketch["stroke_tropism"] is True and engine.sketch["shed_threshold"] == 0.1
-    assert s.version > v and s.ellipse == (0.8, 1.3, 0.2)
-    s.set_influence(2.0, 1.0, 1.0)                                   # V5: normalised to the triangle
-    assert s.influence == pytest.approx((0.5, 0.25, 0.25))
+    assert doc.version > v and doc.ellipse == (0.8, 1.3, 0.2)
+    assert set(ARCH_PARAMS + SKETCH_OPTIONS) <= set(doc.params)
+    doc.set_influence(2.0, 1.0, 1.0)                                 # V5: normalised to the triangle
+    assert doc.influence == pytest.approx((0.5, 0.25, 0.25))
     assert (engine.params["w_heading"], engine.params["w_tropism"], engine.params["w_env"]) == pytest.approx(
         (0.5, 0.25, 0.25))
-    engine.set_options(n_max=2)                                       # changed behind the panel's back
-    s.refresh()
-    assert s.n_max == 2
+    doc.n_max = 2                                                     # a trait set directly: checked, applied, logged
+    assert engine.sketch["n_max"] == 2 and doc.log.events[-1].kwargs == {"n_max": 2}
 
 
 @pytest.mark.parametrize("values, match", [
@@ -67,43 +64,24 @@ def test_state_reads_and_commands_a_sketch_engine(engine):
     ({"apical_dominance": 1.5}, "apical_dominance must be in"),
     ({"deflection": 95.0}, r"deflection must be in \[0.0, 90.0\], got 95"),
     ({"n_max": 0}, "n_max must be"),
-    ({"ellipse": (0.0, 1.0, 0.0)}, "ellipse s_v"),
-    ({"ellipse": (1.0, 1.0)}, "ellipse must be"),
+    ({"ellipse_sv": 0.0}, "ellipse_sv"),
+    ({"ellipse_ev": "x"}, "ellipse_ev"),
     ({"shed_threshold": -1.0}, "shed_threshold"),
     ({"trunk_up": "yes"}, "trunk_up must be True or False"),
-    ({"leaf_size": 1.0}, "unknown architecture parameter 'leaf_size'"),
+    ({"bogus": 1.0}, "unknown parameter 'bogus'"),
     ({"branch_angle": 30.0, "deflection": 200.0}, "deflection"),  # one bad value: nothing is written
 ])
-def test_state_rejects_bad_values_and_changes_nothing(engine, values, match):
-    s = ArchitectureState(engine)
-    before, traits, version = _snapshot(engine), (s.params, s.options), s.version
+def test_document_rejects_bad_values_and_changes_nothing(doc, values, match):
+    before, version = _snapshot(doc), doc.version
     with pytest.raises(ValueError, match=match):
-        s.set(**values)
-    assert _snapshot(engine) == before
-    assert (s.params, s.options, s.version) == (traits[0], traits[1], version)
+        doc.set_params(**values)
+    assert _snapshot(doc) == before and doc.version == version
 
 
-def test_state_rejects_zero_influence(engine):
-    s = ArchitectureState(engine)
+def test_document_rejects_zero_influence(doc):
     with pytest.raises(ValueError, match="must not all be zero"):
-        s.set(w_heading=0.0, w_tropism=0.0, w_env=0.0)
-    assert s.influence == pytest.approx((0.4, 0.1, 0.5))
-
-
-def test_state_bound_to_a_model_follows_it():
-    m = plantvr.Model(seed=0)
-    s = ArchitectureState(m)
-    s.set(branch_angle=30.0, deflection=12.0)
-    assert m.branch_angle == 30.0 and s.options["deflection"] == 12.0  # options stay on the state
-    m.set_params(tropism_angle=90.0)                                   # the model changed: the state follows
-    assert s.tropism_angle == 90.0
-    e = SketchEngine(defaults(), rng=1, n_max=4)
-    s.bind(e)                                                           # e.g. a tree loaded from the library
-    assert s.n_max == 4 and s.engine is e
-    m.set_params(tropism_angle=45.0)
-    assert s.tropism_angle == e.params["tropism_angle"] == 0.0         # unbound from the model
-    with pytest.raises(TypeError, match="SketchEngine or a plantvr.Model"):
-        s.bind(object())
+        doc.set_params(w_heading=0.0, w_tropism=0.0, w_env=0.0)
+    assert doc.influence == pytest.approx((0.4, 0.1, 0.5))
 
 
 # ---- numeric helpers ---------------------------------------------------------------------------------------------
@@ -147,8 +125,8 @@ def test_schematic_tree_is_planar_deterministic_and_follows_parameters():
 
 
 # ---- widget trait round trips (what the browser writes) -----------------------------------------------------------
-def test_widgets_round_trip_and_snap_back(engine):
-    s = ArchitectureState(engine)
+def test_widgets_round_trip_and_snap_back(doc):
+    s, engine = doc, doc.engine
     tree, ell = SchematicTree(s, iterations=6), GravimorphismEllipse(s)
     ang = AngleWidget(s)
     tro = AngleWidget(s, [{"name": "tropism_angle", "label": "θ", "lo": 0, "hi": 180, "side": 1, "color": "#00f"}])
@@ -166,30 +144,31 @@ def test_widgets_round_trip_and_snap_back(engine):
     assert ell.b.max() == 1.0
     # engine -> widgets (through the state)
     rows = tree.rows.copy()
-    s.set(branch_angle=30.0, ellipse=(1.0, 1.0, 0.0))
+    s.set_params(branch_angle=30.0, ellipse_sv=1.0, ellipse_sp=1.0, ellipse_ev=0.0)
     assert ang.angles[0] == 30.0 and ell.ellipse == [1.0, 1.0, 0.0] and not np.array_equal(tree.rows, rows)
     np.testing.assert_allclose(ell.rays, 1.0)
     # rejected values: the error names the parameter, the widget snaps back, the engine is unchanged
-    before = _snapshot(engine)
+    before = _snapshot(doc)
     ang.set_angle("deflection", 120.0)
     assert "deflection must be in [0.0, 90.0]" in ang.error and ang.angles == [30.0, 15.0]
     ell.ellipse = [-1.0, 1.0, 0.0]
-    assert "ellipse s_v" in ell.error and ell.ellipse == [1.0, 1.0, 0.0]
+    assert "ellipse_sv" in ell.error and ell.ellipse == [1.0, 1.0, 0.0]
     tree.tropism_angle = 200.0
     assert "tropism_angle must be in" in tree.error and tree.tropism_angle == 120.0
-    assert _snapshot(engine) == before
+    assert _snapshot(doc) == before
     ang.set_angle("deflection", 10.0)
     assert ang.error == ""
     with pytest.raises(ValueError, match="angle spec name"):
         AngleWidget(s, [{"name": "leaf_size"}])
-    with pytest.raises(TypeError, match="ArchitectureState"):
+    with pytest.raises(TypeError, match="SketchDocument"):
         SchematicTree(engine)
     for w in (tree, ell, ang, tro):
         w.close()
 
 
-def test_panel_reuses_the_influence_triangle_and_sliders(engine):
-    panel = ArchitecturePanel(engine, schematic_iterations=6)
+def test_panel_reuses_the_influence_triangle_and_sliders(doc):
+    engine = doc.engine
+    panel = ArchitecturePanel(doc, schematic_iterations=6)
     assert isinstance(panel.triangle, InfluenceTriangle)
     panel.triangle.weights = [0.2, 0.3, 0.5]                           # a drag on the triangle
     assert (engine.params["w_heading"], engine.params["w_tropism"], engine.params["w_env"]) == pytest.approx(
@@ -200,11 +179,14 @@ def test_panel_reuses_the_influence_triangle_and_sliders(engine):
     assert engine.sketch["n_max"] == 6 and engine.params["apical_dominance"] == 0.6 and engine.sketch["trunk_up"]
     panel.controls["shed_threshold"].value = 0.3
     assert engine.sketch["shed_threshold"] == 0.3
-    panel.state.set(light_exponent=2.5, n_max=2)                        # state -> controls
+    doc.set_params(light_exponent=2.5, n_max=2)                         # document -> controls
     assert panel.controls["light_exponent"].value == 2.5 and panel.controls["n_max"].value == 2
-    other = SketchEngine(defaults(), rng=3, deflection=30.0)
+    other = SketchDocument(seed=3, deflection=30.0)
     panel.bind(other)
-    assert panel.branching.angles[1] == 30.0 and panel.engine is other
+    assert panel.branching.angles[1] == 30.0 and panel.doc is other and panel.engine is other.engine
+    panel.controls["n_max"].value = 4                                  # the controls now command the other document
+    assert other.n_max == 4 and doc.n_max == 2
+    assert panel.triangle.model is other
 
 
 # ---- browser: the three front ends in headless Chromium --------------------------------------------------------------
@@ -264,8 +246,9 @@ def _sync(page, wid, widget, *names):
 def test_architecture_widgets_in_chromium(tmp_path):
     playwright_api = pytest.importorskip("playwright.sync_api")
     shots = screenshot_dir(tmp_path)
-    engine = SketchEngine({**defaults(), "activation_threshold": 0.0}, rng=0, ellipse=(0.8, 1.3, 0.3))
-    panel = ArchitecturePanel(engine, schematic_iterations=10)
+    doc = SketchDocument(seed=0, activation_threshold=0.0, ellipse_sv=0.8, ellipse_sp=1.3, ellipse_ev=0.3)
+    engine = doc.engine
+    panel = ArchitecturePanel(doc, schematic_iterations=10)
     ws = {"schematic": panel.schematic, "ellipse": panel.ellipse, "branching": panel.branching,
           "tropism": panel.tropism, "triangle": panel.triangle}
     with playwright_api.sync_playwright() as p:
@@ -351,12 +334,12 @@ def test_architecture_widgets_in_chromium(tmp_path):
 
 # ---- the composed panel in a real JupyterLab (live kernel, anywidget comms) -------------------------------------------
 LAB_CELLS = [
-    ("from plantvr.growth.sketch import SketchEngine\nfrom plantvr.params import defaults\n"
+    ("from plantvr.documents.treesketch import SketchDocument\n"
      "from plantvr.ui import ArchitecturePanel\n"
-     "engine = SketchEngine({**defaults(), 'activation_threshold': 0.0}, rng=0, ellipse=(0.8, 1.3, 0.3))\n"
-     "panel = ArchitecturePanel(engine, schematic_iterations=10)\npanel"),
-    "print('PSI', f\"{engine.params['branch_angle']:.3f}\", 'THETA', f\"{engine.params['tropism_angle']:.3f}\")",
-    "panel.state.set(deflection=30.0, n_max=5)  # kernel -> browser",
+     "doc = SketchDocument(seed=0, activation_threshold=0.0, ellipse_sv=0.8, ellipse_sp=1.3, ellipse_ev=0.3)\n"
+     "panel = ArchitecturePanel(doc, schematic_iterations=10)\npanel"),
+    "print('PSI', f\"{doc.branch_angle:.3f}\", 'THETA', f\"{doc.tropism_angle:.3f}\")",
+    "doc.set_params(deflection=30.0, n_max=5)  # kernel -> browser",
 ]
 
 
@@ -401,24 +384,23 @@ def test_architecture_panel_in_jupyterlab(tmp_path):
 
 # -- issue 20: every edit checked at the door, a rejected edit changes nothing ---------------------------------------
 @pytest.mark.parametrize("name,value", [("w_heading", float("nan")), ("tropism_angle", 1e300), ("n_max", 10 ** 12),
-                                        ("ellipse", (1.0, "x", 0.0)), ("ellipse", (1e-300, 1.0, 0.0)),
-                                        ("trunk_up", "no"), ("base_length", 1e-20), ("deflection", None),
+                                        ("ellipse_sp", "x"), ("ellipse_sv", 1e-300), ("trunk_up", "no"),
+                                        ("base_length", 1e-20), ("deflection", None),
                                         ("shed_threshold", float("inf")), ("bogus", 1)])
-def test_fuzz_architecture_state_set(fuzz, name, value):
-    e = SketchEngine(defaults(), rng=0)
-    e.add_markers([[0.0, 2.0, 0.0]])
-    e.step()
-    s = ArchitectureState(e)
-    before = (dict(e.params), dict(e.sketch), s.params, s.options)
-    assert isinstance(fuzz.call("ArchitectureState.set", s.set, **{name: value},
-                                param=(name, "ellipse", "architecture")), ValueError)
-    assert (dict(e.params), dict(e.sketch), s.params, s.options) == before
+def test_fuzz_document_set_params(fuzz, name, value):
+    d = SketchDocument(seed=0)
+    d.add_markers([[0.0, 2.0, 0.0]])
+    d.grow(1)
+    before = (_snapshot(d), d.state_bytes())
+    assert isinstance(fuzz.call("SketchDocument.set_params", d.set_params, **{name: value}, param=name),
+                      ValueError)
+    assert (_snapshot(d), d.state_bytes()) == before
 
 
 def test_set_influence_with_huge_weights_is_normalised():
-    s = ArchitectureState(SketchEngine(defaults(), rng=0))
-    s.set_influence(1e308, 1e308, 1e308)
-    assert s.influence == pytest.approx((1 / 3, 1 / 3, 1 / 3))
+    d = SketchDocument(seed=0)
+    d.set_influence(1e308, 1e308, 1e308)
+    assert d.influence == pytest.approx((1 / 3, 1 / 3, 1 / 3))
 
 
 def test_fuzz_schematic_and_angles(fuzz):
@@ -426,6 +408,6 @@ def test_fuzz_schematic_and_angles(fuzz):
                       "point_density"), ({"iterations": 10 ** 9}, "iterations")):
         assert isinstance(fuzz.call("schematic_tree", schematic_tree, {}, {}, **kw, param=param), ValueError)
     assert isinstance(fuzz.call("schematic_tree", schematic_tree, "p", {}, param="params"), ValueError)
-    w = AngleWidget(ArchitectureState(SketchEngine(defaults(), rng=0)))
+    w = AngleWidget(SketchDocument(seed=0))
     assert isinstance(fuzz.call("AngleWidget.set_angle", w.set_angle, "branch_angle", "x", param="branch_angle"),
                       ValueError)
