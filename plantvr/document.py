@@ -311,8 +311,16 @@ class Document(HasTraits, metaclass=_DocumentMeta):
 
     # -- autosave ---------------------------------------------------------------------------------------
     def save(self, path) -> Path:
-        """Write the document to ``path`` atomically."""
-        raise NotImplementedError
+        """Write the document to ``path`` atomically. By default the session's command log (JSON lines), which
+        :meth:`from_log` replays into the same state; documents with a file format of their own override this."""
+        return self.log.save(path)
+
+    @classmethod
+    def from_log(cls, path, **init: Any) -> "Document":
+        """A new document (``cls(**init)``) with the session saved at ``path`` replayed into it."""
+        doc = cls(**init)
+        doc.replay(CommandLog.load(path, cls.COMMANDS, document=cls.KIND))
+        return doc
 
     def enable_autosave(self, path) -> Path | None:
         """Save to ``path`` now and after every state-changing command; ``None`` turns it off.
@@ -323,7 +331,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         if path is None:
             self._autosave_path = None
             return None
-        path = self.save(path)  # fails here, not later, for a folder that does not exist
+        self.save(path)  # fails here, not later, for a folder that does not exist
         self._autosave_path = Path(path)
         self.autosave_error = None
         return self._autosave_path

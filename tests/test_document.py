@@ -54,10 +54,6 @@ class Toy(Document):
     def state_bytes(self):
         return self.labels.tobytes() + np.float64(self.total).tobytes() + repr(self.params).encode()
 
-    def save(self, path):
-        from plantvr._fileio import write_atomic
-        return write_atomic(path, self.state_bytes())
-
 
 def _session(d):
     d.paint(3, 5)
@@ -163,15 +159,17 @@ def test_params_are_generated_from_the_table_and_checked(tmp_path):
     assert "| `gain` |" in TOY.reference()
 
 
-def test_autosave_after_each_command_and_once_per_replay(tmp_path):
+def test_autosave_writes_the_session_after_each_command_and_it_reopens(tmp_path, monkeypatch):
     d = Toy()
-    d.enable_autosave(tmp_path / "a.bin")
-    d.paint(2, 3)
-    assert (tmp_path / "a.bin").read_bytes() == d.state_bytes()
+    d.enable_autosave(tmp_path / "a.jsonl")
+    _session(d)
+    assert Toy.from_log(tmp_path / "a.jsonl").state_bytes() == d.state_bytes()
+    saves = []
+    monkeypatch.setattr(Toy, "save", lambda self, path: saves.append(path))
     e = Toy()
-    e.enable_autosave(tmp_path / "b.bin")
+    e.enable_autosave(tmp_path / "b.jsonl")
     e.replay(d.log)
-    assert (tmp_path / "b.bin").read_bytes() == e.state_bytes()
+    assert len(saves) == 2  # once when enabled, once at the end of the replay
 
 
 def test_trimesh_type_matches_trimesh_library():

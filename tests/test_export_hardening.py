@@ -11,8 +11,9 @@ from hypothesis import strategies as st
 
 from plantvr import Model
 from plantvr.cli import main as cli_main
+from plantvr.commandlog import CommandLog
 from plantvr.growth.scenarios import demo_session, run
-from plantvr.ui.presets import load_preset, read_preset, save_preset
+from plantvr.params import TREEWAND
 from plantvr.ui.strokes import read_scenario, record_scenario, save_scenario
 from plantvr.vr.controls import ControllerState, InputFrame, load_recording, save_recording
 
@@ -83,11 +84,11 @@ def test_cli_export_byte_identical_and_failed_export_keeps_old(saved, tmp_path, 
 # -- presets -------------------------------------------------------------------------------------------------
 def test_preset_round_trip_atomic_and_corrupt(tmp_path):
     m = Model(seed=0)
-    p = save_preset(m, tmp_path / "p.json")
+    p = m.save_preset(tmp_path / "p.json")
     first = p.read_bytes()
     m2 = Model(seed=0)
-    load_preset(m2, p)
-    assert save_preset(m2, tmp_path / "q.json").read_bytes() == first
+    m2.load_preset(p)
+    assert m2.save_preset(tmp_path / "q.json").read_bytes() == first
     good = json.loads(first)
     bad_docs = {
         "truncated": first[: len(first) // 2],
@@ -104,12 +105,12 @@ def test_preset_round_trip_atomic_and_corrupt(tmp_path):
     for what, data in bad_docs.items():
         (tmp_path / "bad.json").write_bytes(data)
         with pytest.raises(ValueError, match="preset"):
-            load_preset(m2, tmp_path / "bad.json")
+            m2.load_preset(tmp_path / "bad.json")
         assert json.dumps({k: getattr(m2, k) for k in good["params"]}, sort_keys=True) == state, what
     with pytest.raises(ValueError, match="preset"):
-        read_preset(tmp_path / "missing.json")
+        TREEWAND.read_preset(tmp_path / "missing.json")
     with pytest.raises(ValueError, match="does not exist"):
-        save_preset(m, tmp_path / "nowhere" / "p.json")
+        m.save_preset(tmp_path / "nowhere" / "p.json")
     assert p.read_bytes() == first
 
 
@@ -128,30 +129,37 @@ def test_panel_load_rejects_corrupt_preset(tmp_path):
 # -- stroke files ----------------------------------------------------------------------------------------------
 def test_scenario_round_trip_and_corrupt(tmp_path):
     sc = record_scenario("fig12_3")
-    p = save_scenario(sc, tmp_path / "s.json")
+    p = save_scenario(sc, tmp_path / "s.jsonl")
     first = p.read_bytes()
-    assert save_scenario(read_scenario(p), tmp_path / "t.json").read_bytes() == first
-    d = json.loads(first)
-    paint = next(i for i, e in enumerate(d["events"]) if e["command"] == "paint")
+    assert save_scenario(read_scenario(p), tmp_path / "t.jsonl").read_bytes() == first
+    lines = first.decode().splitlines()
+    paint = next(i for i, ln in enumerate(lines) if '"paint"' in ln)
+
+    def log(*events):
+        out = CommandLog(Model.COMMANDS, document="treewand")
+        for cmd, kw in events:
+            out.record(cmd, **kw)
+        return out.to_text().encode()
+
+    head = (("set_params", sc.params), ("reset", {"seed": 0}))
     bads = {
         "truncated": first[:-40],
-        "version": json.dumps({**d, "plantvr_scenario": 2}).encode(),
-        "seed": json.dumps({**d, "seed": -1}).encode(),
-        "center": json.dumps({**d, "events": d["events"][:paint] + [
-            {"command": "paint", "kwargs": {"center": [1e300, 0, 0]}}]}).encode(),
-        "darts": json.dumps({**d, "events": [{"command": "paint", "kwargs": {"center": [0, 1, 0],
-                                                                           "n_darts": 10**12}}]}).encode(),
-        "steps": json.dumps({**d, "events": [{"command": "step", "kwargs": {"steps": "many"}}]}).encode(),
-        "command": json.dumps({**d, "events": [{"command": "rm", "kwargs": {}}]}).encode(),
-        "events": json.dumps({**d, "events": {"a": 1}}).encode(),
-        "nan": first.replace(b'"seed": 0', b'"seed": NaN'),
+        "edited": first.replace(b'"seed": 0', b'"seed": 1'),
+        "version": first.replace(b'"plantvr_events": 1', b'"plantvr_events": 2'),
+        "seed": log(head[0], ("reset", {"seed": -1})),
+        "center": log(*head, ("paint", {"center": [1e300, 0, 0]})),
+        "darts": log(*head, ("paint", {"center": [0, 1, 0], "n_darts": 10**12})),
+        "steps": log(*head, ("step", {"steps": "many"})),
+        "header": log(("step", {"steps": 1})),
+        "other": log(*head).replace(b'"treewand"', b'"labels"'),
+        "nan": first.replace(lines[paint].encode(), lines[paint].replace("2.0", "NaN", 1).encode()),
     }
     for what, data in bads.items():
-        (tmp_path / "bad.json").write_bytes(data)
+        (tmp_path / "bad.jsonl").write_bytes(data)
         with pytest.raises(ValueError, match="scenario"):
-            read_scenario(tmp_path / "bad.json")
+            read_scenario(tmp_path / "bad.jsonl")
     with pytest.raises(ValueError, match="does not exist"):
-        save_scenario(sc, tmp_path / "nowhere" / "s.json")
+        save_scenario(sc, tmp_path / "nowhere" / "s.jsonl")
 
 
 # -- headset recordings -----------------------------------------------------------------------------------------

@@ -1,21 +1,20 @@
 """Notebook widgets and panels over the shared model (spec 000_treewand §4.3–§4.9, §4.11; 000_vine §2.4.1, §2.6).
 
-Every widget observes and commands a :class:`plantvr.Model` (or a segmentation); none keeps its own copy
-of the state. Front-end sources are in the top-level ``widgets/`` folder (``plantvr/_widgets`` in the wheel).
+Every widget is a view of a document (:mod:`plantvr.documents`): it observes the document's traits and change
+events and issues its commands; none keeps its own copy of the state. Front-end sources are in the top-level ``widgets/`` folder (``plantvr/_widgets`` in the wheel).
 """
-from .architecture import AngleWidget, ArchitecturePanel, ArchitectureState, GravimorphismEllipse, SchematicTree
+from .architecture import AngleWidget, ArchitecturePanel, GravimorphismEllipse, SchematicTree
 from .growth import GrowthControl, GrowthPlot
 from .library import LibraryPanel, apply_preset_values, preset_from_tree, tree_svg
 from .panels import IconSelector, ParameterPanels, make_control, param_traits
-from .presets import load_preset, read_preset, save_preset
 from .strokes import ScenarioPicker, list_scenarios, load_scenario, replay_scenario
 from .triangle import (InfluenceTriangle, barycentric, clamp_to_triangle, point_from_weights,
                        sub_triangle_areas)
 from .wheel import ColorWheel, slice_at
 
 __all__ = ["ColorWheel", "GrowthControl", "GrowthPlot", "IconSelector", "InfluenceTriangle", "ParameterPanels",
-           "barycentric", "clamp_to_triangle", "load_preset", "make_control", "param_traits",
-           "point_from_weights", "read_preset", "save_preset", "slice_at", "sub_triangle_areas", "explorer",
+           "barycentric", "clamp_to_triangle", "make_control", "param_traits",
+           "point_from_weights", "slice_at", "sub_triangle_areas", "explorer",
            "ScenarioPicker", "list_scenarios", "load_scenario", "replay_scenario"]
 
 
@@ -28,7 +27,7 @@ def explorer(model, *, view=None):
     return W.HBox([panels, W.VBox(right)])
 
 
-__all__ += ["AngleWidget", "ArchitecturePanel", "ArchitectureState", "GravimorphismEllipse", "LibraryPanel",
+__all__ += ["AngleWidget", "ArchitecturePanel", "GravimorphismEllipse", "LibraryPanel",
             "SchematicTree", "apply_preset_values", "preset_from_tree", "tree_svg"]
 
 from .floret_editor import FloretEditor  # issue 9: spec 002 floret editor
