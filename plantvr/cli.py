@@ -1,4 +1,4 @@
-"""Command line: ``plantvr demo | lab | info | test | export | segment``."""
+"""Command line: ``plantvr demo | lab | info | params | test | export | segment``."""
 from __future__ import annotations
 
 import argparse
@@ -213,6 +213,21 @@ def export_main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def parameter_reference(kind: str | None = None) -> str:
+    """The parameter reference page: every document's table (name, symbol, default, range, unit, thesis
+    reference, meaning) as Markdown, generated from the tables themselves; ``kind`` picks one document."""
+    from . import documents
+    from .document import Document
+
+    docs = [c for c in (getattr(documents, n) for n in documents.__all__)
+            if isinstance(c, type) and issubclass(c, Document) and c.PARAMS is not None]
+    kinds = sorted(c.KIND for c in docs)
+    if kind is not None and kind not in kinds:
+        raise ValueError(f"kind must be one of {kinds}, got {kind!r}")
+    pages = [f"# {c.KIND} ({c.__name__})\n\n{c.PARAMS.reference()}" for c in docs if kind in (None, c.KIND)]
+    return "\n\n".join(pages)
+
+
 _DELEGATED = {  # sub-commands whose own parsers live beside their code
     "export": ("plantvr.cli", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
     "segment": ("plantvr.view.vine_app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
@@ -266,6 +281,8 @@ def _main(argv: list[str]) -> int:
     la = sub.add_parser("lab", help="open JupyterLab on the notebooks")
     la.add_argument("notebooks", nargs="?", type=Path, default=ROOT / "notebooks")
     sub.add_parser("info", help="versions and optional features")
+    pa = sub.add_parser("params", help="the parameter reference of every document (Markdown), or of one kind")
+    pa.add_argument("kind", nargs="?", default=None, help="a document kind, e.g. treewand, treesketch")
     t = sub.add_parser("test", help="install test prerequisites and run the test suite")
     t.add_argument("--no-install", action="store_true", help="never run apt-get (only say what is missing)")
     t.add_argument("--no-boundscheck", action="store_true", help="skip the NUMBA_BOUNDSCHECK=1 pass")
@@ -278,6 +295,9 @@ def _main(argv: list[str]) -> int:
         return lab(a.notebooks)
     if a.cmd == "info":
         info()
+        return 0
+    if a.cmd == "params":
+        print(parameter_reference(a.kind))
         return 0
     return test(a.pytest_args, install=not a.no_install, boundscheck=not a.no_boundscheck)
 

@@ -31,3 +31,20 @@ def test_export_subcommand_round_trip(tmp_path):
 def test_segment_subcommand_headless(tmp_path):
     assert main(["segment", "synth", "--out", str(tmp_path), "--stamps", "3"]) == 0
     assert trimesh.load(tmp_path / "segment.ply", process=False).faces.shape[0] > 100
+
+
+def test_params_reference_lists_every_row_of_every_document_table(capsys):
+    from plantvr import documents
+    from plantvr.cli import main
+    from plantvr.document import Document
+
+    assert main(["params"]) == 0
+    page = capsys.readouterr().out
+    tables = [c.PARAMS for c in (getattr(documents, n) for n in documents.__all__)
+              if isinstance(c, type) and issubclass(c, Document) and c.PARAMS is not None]
+    assert len(tables) >= 3
+    for table in tables:
+        assert f"## {table.name} parameters" in page
+        for p in table:
+            assert f"| `{p.name}` |" in page
+    assert main(["params", "nope"]) == 2
