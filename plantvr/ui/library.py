@@ -7,15 +7,17 @@ Storage is :class:`plantvr.growth.sketch_tools.TreeLibrary` (``<name>.tree`` + `
 * a thumbnail per saved tree (``<name>.thumb.svg``, the skeleton seen from the front) so trees "can be viewed";
 * :func:`preset_from_tree`: the parameters of a *saved tree* loaded as a growth or rendering preset ("The
   parameters of saved trees can also be loaded, acting as growth or rendering presets");
-* :func:`apply_preset_values`: a preset applied to a SketchEngine, a Model or an :class:`ArchitectureState`,
-  everything checked before anything is written;
-* :class:`LibraryPanel`: list, view, save, reload (the loaded engine is bound to the architecture panel only after
-  it loaded completely, so a failed load leaves the current tree and panel unchanged), delete, presets.
+* :func:`apply_preset_values`: a preset (:data:`~plantvr.growth.sketch.TREESKETCH` values) applied to a
+  :class:`~plantvr.documents.treesketch.SketchDocument` or a Tree Wand :class:`~plantvr.Model`, everything checked
+  before anything is written;
+* :class:`LibraryPanel`: a view of a SketchDocument: list, view, save, reload (:meth:`SketchDocument.restore`, which
+  checks the entry in full first, so a failed load leaves the current tree unchanged; the architecture panel
+  follows the document's change events), delete, presets.
 """
 from __future__ import annotations
 
 import html
-from collections.abc import Callable
+import re
 from pathlib import Path
 from typing import Any
 
@@ -23,12 +25,13 @@ import ipywidgets as W
 import numpy as np
 
 from .._fileio import write_atomic
-from ..growth.sketch import SketchEngine
-from ..growth.sketch_tools import TreeLibrary
-from ..growth.treefile import tree_from_text
+from .._validation import check_array, check_choice, check_int, check_points
+from ..documents.treesketch import SketchDocument
 from ..documents.treewand import Model
-from ..params import PARAM_BY_NAME, validate
-from .architecture import ArchitectureState
+from ..growth.sketch import TREESKETCH, SketchEngine
+from ..growth.sketch_tools import TreeLibrary
+from ..params import TREEWAND
+from .architecture import ArchitecturePanel
 
 __all__ = ["LibraryPanel", "apply_preset_values", "preset_from_tree", "tree_svg"]
 
@@ -55,10 +58,6 @@ def tree_svg(pos, parent, *, alive=None, radius=None, size: int = 160) -> str:
     str
         A standalone ``<svg>`` element.
     """
-    from .._validation import check_int, check_points
-
-    from .._validation import check_array
-
     pos = check_points("pos", pos)
     n = len(pos)
     parent = check_array("parent", parent, shape=(n,), dtype=np.int64)
@@ -100,8 +99,6 @@ _MAX_THUMB_BYTES = 4 << 20
 def _read_thumbnail(path: Path) -> str:
     """A saved thumbnail's SVG, shown only if it is what :func:`tree_svg` writes (bounded; no scripts, links or
     event handlers, since the text goes into the page's HTML)."""
-    import re
-
     try:
         if path.stat().st_size > _MAX_THUMB_BYTES:
             return "<i>thumbnail too large</i>"
@@ -115,16 +112,17 @@ def _read_thumbnail(path: Path) -> str:
     return text
 
 
-def _select(params: dict[str, Any], kind: str) -> dict[str, Any]:
-    """Growth = every parameter outside the Appearance window; rendering = the Appearance window."""
+def _select(values: dict[str, Any], kind: str) -> dict[str, Any]:
+    """Growth = every row outside the Appearance window (the TreeSketch rows included); rendering = the Appearance
+    window."""
     if kind == "all":
-        return dict(params)
+        return dict(values)
     rendering = kind == "rendering"
-    return {k: v for k, v in params.items() if (PARAM_BY_NAME[k].window == "appearance") == rendering}
+    return {k: v for k, v in values.items() if (TREESKETCH[k].window == "appearance") == rendering}
 
 
 def preset_from_tree(library: TreeLibrary, name: str, *, kind: str = "growth") -> dict[str, Any]:
-    """The parameters of the saved tree ``name`` as a preset ``{"params": ..., "options": ...}``.
+    """The parameters of the saved tree ``name`` as a preset: :data:`~plantvr.growth.sketch.TREESKETCH` values.
 
     Parameters
     ----------
@@ -132,93 +130,68 @@ def preset_from_tree(library: TreeLibrary, name: str, *, kind: str = "growth") -
     name : str
         A saved tree.
     kind : {"growth", "rendering", "all"}
-        Growth presets carry the growth parameters and the TreeSketch options; rendering presets carry the
+        Growth presets carry the growth parameters and the TreeSketch rows; rendering presets carry the
         Appearance-window parameters only.
 
     Returns
     -------
     dict
-        Checked values (raises ``ValueError`` for a missing or corrupt entry).
+        Checked values ``{name: value}`` (the entry is loaded in full, so a missing or corrupt one raises
+        ``ValueError``).
     """
-    from .._validation import check_choice
-
     kind = check_choice("kind", kind, _KINDS)
-    text, meta = library.read_entry(name)
-    _, params = tree_from_text(text)
-    params.pop("branching", None)  # the node topology of that tree, not a parameter to carry to another
-    opts = dict(meta.get("options", {})) if isinstance(meta, dict) else {}
-    for k in ("region", "depth", "asymmetry"):  # where the tree stood, not how it grows
-        opts.pop(k, None)
-    out = {"params": _select(validate(params), kind), "options": opts if kind != "rendering" else {}}
-    return out
+    values = library.load(name).table_values()
+    values.pop("branching")  # the node topology of that tree, not a parameter to carry to another
+    return _select(values, kind)
 
 
-def apply_preset_values(target, preset: dict[str, Any]) -> None:
-    """Apply ``{"params": ..., "options": ...}`` to a SketchEngine, a Model or an :class:`ArchitectureState`.
+def apply_preset_values(target: SketchDocument | Model, preset: dict[str, Any]) -> None:
+    """Apply a preset of :data:`~plantvr.growth.sketch.TREESKETCH` values ``{name: value}`` to a
+    :class:`SketchDocument` (``doc.set_params``) or a Tree Wand :class:`~plantvr.Model`, which takes the Tree Wand
+    rows only (``model.set_params``).
 
-    Everything is checked first (the table, then the engine's own option checks on a probe), so a rejected preset
-    changes nothing. A Model takes the parameters only (it has no TreeSketch options).
+    Everything is checked first (the table, then the target's own checks), so a rejected preset changes nothing.
     """
-    if not isinstance(preset, dict) or not isinstance(preset.get("params", {}), dict) \
-            or not isinstance(preset.get("options", {}), dict):
-        raise ValueError(f"preset must be {{'params': {{...}}, 'options': {{...}}}}, got {preset!r}")  # noqa: TRY004
-    params = validate(dict(preset.get("params", {})))
-    opts = dict(preset.get("options", {}))
-    if "ellipse" in opts:
-        opts["ellipse"] = tuple(opts["ellipse"])
-    state = target if isinstance(target, ArchitectureState) else None
-    engine = state.engine if state is not None else target if isinstance(target, SketchEngine) else None
-    model = state.target if state is not None and state.engine is None else target if isinstance(target, Model) \
-        else None
-    if engine is None and model is None:
-        raise TypeError(f"target must be a SketchEngine, a Model or an ArchitectureState, got {type(target).__name__}")
-    if engine is not None:  # everything is checked before the engine is touched
-        opts = engine._check_options(opts)
-        engine.checked_params(params)
-    if engine is not None:
-        if opts:
-            engine.set_options(**opts)
-        if params:
-            engine.set_params(params)
-    else:
-        model.set_params(**params)
-    if state is not None:
-        state.refresh()
+    if not isinstance(target, (SketchDocument, Model)):
+        raise TypeError(f"target must be a SketchDocument or a Model, got {type(target).__name__}")
+    if not isinstance(preset, dict):
+        raise ValueError(  # noqa: TRY004 - a bad value at the door, like every preset error
+            f"preset must be a dict of TREESKETCH values {{name: value}}, got {type(preset).__name__}")
+    values = TREESKETCH.validate(preset)
+    if isinstance(target, Model):
+        values = {k: v for k, v in values.items() if k in TREEWAND}
+    target.set_params(**values)
 
 
 class LibraryPanel(W.VBox):
-    """The tree library page (Fig. E.8): saved trees with thumbnails, save / reload / delete, presets.
+    """The tree library page (Fig. E.8): saved trees with thumbnails, save / reload / delete, presets; a view of a
+    :class:`SketchDocument`.
 
     Parameters
     ----------
     folder : str or Path
         The library folder (created if missing).
-    target : ArchitectureState or ArchitecturePanel or SketchEngine
-        The current tree. With a state (or panel), a reloaded tree is bound to it, so the architecture widgets
-        follow; with a bare engine, ``on_load`` receives the new engine.
-    on_load : callable, optional
-        Called with the reloaded :class:`SketchEngine` after a successful load.
+    target : ArchitecturePanel or SketchDocument
+        The current tree: the document, or the architecture panel whose document (:attr:`ArchitecturePanel.doc`,
+        followed when the panel is bound to another) the library reads and commands. A reloaded tree replaces the
+        document's tree; the panel's widgets follow the document's ``change`` events.
 
     Attributes
     ----------
     library : TreeLibrary
+    doc : SketchDocument
+        The current tree's document.
     engine : SketchEngine
-        The current tree.
+        Its engine.
     message : ipywidgets.HTML
         The result of the last command (errors in red).
     """
 
-    def __init__(self, folder: str | Path, target, *, on_load: Callable[[SketchEngine], None] | None = None):
-        state = getattr(target, "state", target)
-        self.state = state if isinstance(state, ArchitectureState) else None
-        if self.state is None and not isinstance(target, SketchEngine):
-            raise TypeError(f"target must be an ArchitectureState, ArchitecturePanel or SketchEngine, "
-                            f"got {type(target).__name__}")
-        if self.state is not None and self.state.engine is None:
-            raise TypeError("the library saves SketchEngine trees; bind the architecture state to a SketchEngine")
-        self._engine = target if self.state is None else None
+    def __init__(self, folder: str | Path, target: ArchitecturePanel | SketchDocument):
+        if not isinstance(target, (ArchitecturePanel, SketchDocument)):
+            raise TypeError(f"target must be an ArchitecturePanel or a SketchDocument, got {type(target).__name__}")
+        self._target = target
         self.library = TreeLibrary(folder)
-        self.on_load = on_load
         self.trees = W.Select(options=self.library.trees(), rows=6, description="Trees")
         self.thumb = W.HTML("")
         self.name = W.Text(value="", placeholder="name", description="Name")
@@ -251,9 +224,15 @@ class LibraryPanel(W.VBox):
 
     # -- plumbing ----------------------------------------------------------------------------------------------
     @property
+    def doc(self) -> SketchDocument:
+        """The current tree's document (the architecture panel's, when the library views a panel)."""
+        t = self._target
+        return t.doc if isinstance(t, ArchitecturePanel) else t
+
+    @property
     def engine(self) -> SketchEngine:
         """The current tree's engine."""
-        return self.state.engine if self.state is not None else self._engine
+        return self.doc.engine
 
     def _guard(self, fn) -> None:
         try:
@@ -299,19 +278,14 @@ class LibraryPanel(W.VBox):
         return path
 
     def load(self, name: str | None) -> SketchEngine:
-        """Reload the saved tree ``name`` and make it the current tree; on any error nothing changes."""
+        """Reload the saved tree ``name`` into the document (:meth:`SketchDocument.restore`: the entry is checked in
+        full first, so on any error nothing changes); returns the document's new engine."""
         if not name:
             raise ValueError("select a saved tree to reload")
-        try:
-            e = self.library.load(name)
-        except (KeyError, TypeError, IndexError) as exc:  # a malformed entry that slipped past the format checks
-            raise ValueError(f"library tree {name!r} is corrupt: {exc!r}") from None
-        if self.state is not None:
-            self.state.bind(e)
-        else:
-            self._engine = e
-        if self.on_load is not None:
-            self.on_load(e)
+        name = self.library._name(name)
+        doc = self.doc
+        doc.restore(self.library.folder / f"{name}.tree")
+        e = doc.engine
         self._ok(f"reloaded {name!r} ({e.tree.n_internodes} internodes, step {e.step_count})")
         return e
 
@@ -329,15 +303,14 @@ class LibraryPanel(W.VBox):
 
     def apply_preset(self, name: str) -> None:
         """Apply a built-in or saved preset to the current tree (checked first)."""
-        apply_preset_values(self.state if self.state is not None else self.engine, self.library.preset(name))
+        self.doc.set_params(**self.library.preset(name))
         self._ok(f"applied preset {name!r}")
 
     def use_tree_parameters(self, name: str | None, *, kind: str = "growth") -> None:
         """Load the parameters of the saved tree ``name`` as a growth or rendering preset."""
         if not name:
             raise ValueError("select a saved tree whose parameters to use")
-        apply_preset_values(self.state if self.state is not None else self.engine,
-                            preset_from_tree(self.library, name, kind=kind))
+        apply_preset_values(self.doc, preset_from_tree(self.library, name, kind=kind))
         self._ok(f"applied the {kind} parameters of {name!r}")
 
     def save_preset(self, name: str) -> Path:
