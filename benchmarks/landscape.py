@@ -226,6 +226,40 @@ def uniformity_figure(seeds: int = 5) -> dict:
     return {"uniformity": m.tolist()}
 
 
+def document_figures(n: int, common: dict) -> dict:
+    """A forest through :class:`~plantvr.documents.forest.ForestDocument` (commands, log, undo atoms): ``grow``
+    beside the core's ``grow_forest`` with the same settings (baseline, identical trees), then one
+    ``regrow_tree`` and an undo/redo pair."""
+    from plantvr.documents.forest import ForestDocument
+
+    t = time.perf_counter()
+    core = grow_forest(n, client="sync", compete=False, **common)
+    core_s = time.perf_counter() - t
+
+    (width, depth) = common["size"]
+    doc = ForestDocument(n_trees=n, width=width, depth=depth, min_dist=common["min_dist"], geometry=True,
+                         regions=common["regions"], rounds=common["rounds"], steps_per_round=common["steps_per_round"],
+                         n_darts=common["n_darts"], seed=common["seed"], compete=False)
+    t = time.perf_counter()
+    doc.grow()
+    grow_s = time.perf_counter() - t
+    same = all(a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
+               for a, b in zip(doc.forest.trees, core.trees))
+    t = time.perf_counter()
+    doc.regrow_tree(0, params={"branch_angle": 30.0})
+    regrow_s = time.perf_counter() - t
+    t = time.perf_counter()
+    doc.undo()
+    doc.redo()
+    undo_ms = (time.perf_counter() - t) * 1e3
+    res = {"grow_s": grow_s, "core_s": core_s, "identical": same, "regrow_s": regrow_s, "undo_redo_ms": undo_ms,
+           "history_bytes": doc.history.nbytes}
+    print(f"forest document, {n} trees (compete=False): grow {grow_s:6.2f} s | core grow_forest {core_s:6.2f} s "
+          f"(baseline) | identical: {same} | regrow one tree {regrow_s:6.2f} s | undo + redo {undo_ms:6.2f} ms | "
+          f"history {doc.history.nbytes / 2 ** 20:.1f} MiB")
+    return res
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="reduced size for CI (< 30 s)")
@@ -279,6 +313,8 @@ def main(argv: list[str] | None = None) -> dict:
             out["rows"].append(row)
             print(f"{len(f.trees):4d} trees, {f.n_internodes:7d} internodes: serial {ts:7.2f} s (baseline) | "
                   f"dask {args.workers} procs {td:7.2f} s | speed-up {ts / td:4.2f}x | identical: {same}")
+            if n == sizes[0] and not args.sketch:
+                out["document"] = document_figures(n, common)
     finally:
         client.close()
         cluster.close()

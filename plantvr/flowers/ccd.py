@@ -1,6 +1,6 @@
 """Continuous collision detection and collision constraints (spec 002 §3.3.4–3.3.5, §3.6; C11–C13).
 
-Broad phase: a uniform grid (sorted-key spatial hash) over padded swept AABBs, queried with a stamp
+Broad phase: the time-stamped spatial hash of :mod:`plantvr.grid` over padded swept AABBs, queried with a stamp
 array per query (the analogue of the thesis's time stamps). Narrow phase: Provot's coplanarity cubic
 (Eqs. 4.2–4.5, B.2 vector form per ERRATUM A.6), coefficient culling, hybrid Newton/bisection root
 finding on brackets from the critical points, barycentric (B.7) and segment-distance (B.8–B.11)
@@ -15,10 +15,10 @@ import numba
 import numpy as np
 
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_index, check_int, check_range
+from plantvr.grid import SpatialHash, box_cell_range, cell_key, hash_cell
 
 __all__ = [
     "CollisionDetector",
-    "SpatialHash",
     "broad_phase",
     "count_static_intersections",
     "cubic_coefficients",
@@ -30,41 +30,8 @@ __all__ = [
 ]
 
 # ---------------------------------------------------------------------------------------------------------
-# Broad phase: a uniform grid stored in a time-stamped spatial hash (Teschner et al. 2003, thesis [43])
-#
-# Cells are hashed into a power-of-two bucket table; a bucket whose stamp differs from the hash's current
-# stamp is empty, so clearing the grid for a new step is O(1) (the thesis's voxel time stamps). Entries are
-# singly linked lists in flat arrays, so elements whose swept boxes changed during the collision retries are
-# simply inserted again (stale entries are harmless: every candidate passes the exact swept-box test).
-
-_KEY_OFF = 1 << 20
-
-
-@numba.njit(cache=True, nogil=True)
-def _ci(v, inv):
-    c = np.floor(v * inv)
-    if c < -_KEY_OFF:
-        return -_KEY_OFF
-    if c > _KEY_OFF - 1:
-        return _KEY_OFF - 1
-    return int(c)
-
-
-@numba.njit(cache=True, nogil=True)
-def _bucket(ix, iy, iz, mask):
-    return ((ix * 73856093) ^ (iy * 19349663) ^ (iz * 83492791)) & mask
-
-
-@numba.njit(cache=True, nogil=True)
-def _cellkey(ix, iy, iz):
-    return (ix + _KEY_OFF) | ((iy + _KEY_OFF) << 21) | ((iz + _KEY_OFF) << 42)
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _cell_range(lo, hi, e, inv):
-    """Grid cells ``(x0, x1, y0, y1, z0, z1)`` (inclusive) covered by box ``e`` of ``lo``/``hi``."""
-    return (_ci(lo[e, 0], inv), _ci(hi[e, 0], inv), _ci(lo[e, 1], inv), _ci(hi[e, 1], inv),
-            _ci(lo[e, 2], inv), _ci(hi[e, 2], inv))
+# Broad phase: padded swept boxes in the time-stamped spatial hash of plantvr.grid (Teschner et al. 2003,
+# thesis [43]); a query reports each (query, target) pair once and tests the swept boxes exactly.
 
 
 @numba.njit(cache=True, nogil=True)
@@ -88,41 +55,6 @@ def _swept_boxes_kernel(x0, x1, elems, ids, pad, lo, hi):
 
 
 @numba.njit(cache=True, nogil=True)
-def _count_cells(lo, hi, ids, inv):
-    tot = 0.0
-    for k in range(ids.size):
-        e = ids[k]
-        n = 1.0
-        for a in range(3):
-            if not (np.isfinite(lo[e, a]) and np.isfinite(hi[e, a])):
-                return np.inf
-            n *= _ci(hi[e, a], inv) - _ci(lo[e, a], inv) + 1
-        tot += n
-    return tot
-
-
-@numba.njit(cache=True, nogil=True)
-def _hash_insert(lo, hi, ids, inv, head, stamp, cur, nxt, elem, key, n):
-    mask = head.size - 1
-    for k in range(ids.size):
-        e = ids[k]
-        x0, x1, y0, y1, z0, z1 = _cell_range(lo, hi, e, inv)
-        for iz in range(z0, z1 + 1):
-            for iy in range(y0, y1 + 1):
-                for ix in range(x0, x1 + 1):
-                    h = _bucket(ix, iy, iz, mask)
-                    if stamp[h] != cur:
-                        stamp[h] = cur
-                        head[h] = -1
-                    elem[n] = e
-                    key[n] = _cellkey(ix, iy, iz)
-                    nxt[n] = head[h]
-                    head[h] = n
-                    n += 1
-    return n
-
-
-@numba.njit(cache=True, nogil=True)
 def _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, inv, head, stamp, cur, nxt, elem, key,
                 seen, token, out, m, swap):
     """Append (query, target) pairs whose padded swept boxes overlap; skip pairs sharing a vertex.
@@ -135,14 +67,14 @@ def _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, inv, head, stam
     for k in range(qids.size):
         q = qids[k]
         token += 1
-        x0, x1, y0, y1, z0, z1 = _cell_range(qlo, qhi, q, inv)
+        x0, x1, y0, y1, z0, z1 = box_cell_range(qlo, qhi, q, inv)
         for iz in range(z0, z1 + 1):
             for iy in range(y0, y1 + 1):
                 for ix in range(x0, x1 + 1):
-                    h = _bucket(ix, iy, iz, mask)
+                    h = hash_cell(ix, iy, iz, mask)
                     if stamp[h] != cur:
                         continue
-                    ck = _cellkey(ix, iy, iz)
+                    ck = cell_key(ix, iy, iz)
                     j = head[h]
                     while j >= 0:
                         if key[j] == ck:
@@ -177,59 +109,12 @@ def _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, inv, head, stam
     return out, m, token
 
 
-class SpatialHash:
-    """Uniform grid of one element set in a time-stamped spatial hash, reused across passes and steps.
-
-    Parameters
-    ----------
-    n_elements : int
-        Number of elements that can be stored (element ids are in ``[0, n_elements)``).
-    """
-
-    def __init__(self, n_elements: int):
-        self.seen = np.zeros(max(int(n_elements), 1), np.int64)
-        self.token = 0
-        self.head = np.full(1 << 10, -1, np.int64)
-        self.stamp = np.zeros(1 << 10, np.int64)
-        self.cur = 0
-        self.nxt = np.empty(0, np.int64)
-        self.elem = np.empty(0, np.int64)
-        self.key = np.empty(0, np.int64)
-        self.n = 0
-        self.inv = 1.0
-
-    def clear(self, cell: float, expected: int) -> None:
-        """Empty the grid (O(1) through the stamp) and set the cell size."""
-        self.cur += 1
-        self.n = 0
-        self.inv = 1.0 / cell
-        size = 1 << max(10, int(np.ceil(np.log2(max(2 * expected, 1)))))
-        if size > self.head.size:
-            self.head = np.full(size, -1, np.int64)
-            self.stamp = np.zeros(size, np.int64)
-
-    def insert(self, lo: np.ndarray, hi: np.ndarray, ids: np.ndarray) -> None:
-        """Insert elements ``ids`` into every cell their boxes ``lo[ids], hi[ids]`` overlap."""
-        cnt = _count_cells(lo, hi, ids, self.inv)
-        if not cnt < 2e8:
-            raise ValueError(f"swept boxes cover {cnt} grid cells (non-finite or exploded positions?); "
-                             f"use a larger cell size or smaller steps")
-        need = self.n + int(cnt)
-        if need > self.elem.size:
-            cap = max(need, int(1.5 * self.elem.size))
-            for name in ("nxt", "elem", "key"):
-                a = np.empty(cap, np.int64)
-                a[:self.n] = getattr(self, name)[:self.n]
-                setattr(self, name, a)
-        self.n = _hash_insert(lo, hi, ids, self.inv, self.head, self.stamp, self.cur, self.nxt, self.elem,
-                              self.key, self.n)
-
-    def query(self, qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, out, m, *, swap=False):
-        """Append candidate pairs of queries ``qids`` against the stored elements to ``out[:m]``."""
-        out, m, self.token = _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, self.inv, self.head,
-                                         self.stamp, self.cur, self.nxt, self.elem, self.key, self.seen,
-                                         self.token, out, m, swap)
-        return out, m
+def _query(grid: SpatialHash, qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, out, m, *, swap=False):
+    """Append candidate pairs of queries ``qids`` against the elements stored in ``grid`` to ``out[:m]``."""
+    out, m, grid.token = _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, grid.inv, grid.head,
+                                     grid.stamp, grid.cur, grid.nxt, grid.elem, grid.key, grid.seen,
+                                     grid.token, out, m, swap)
+    return out, m
 
 
 def broad_phase(x0: np.ndarray, x1: np.ndarray, query: np.ndarray, target: np.ndarray, *,
@@ -274,7 +159,7 @@ def broad_phase(x0: np.ndarray, x1: np.ndarray, query: np.ndarray, target: np.nd
     grid.clear(cell, 2 * target.shape[0])
     grid.insert(tlo, thi, tid)
     tmode = np.full(target.shape[0], 1 if same_set else 0, np.int8)
-    out, m = grid.query(qid, qlo, qhi, query, tlo, thi, target, tmode, np.empty((1024, 2), np.int64), 0)
+    out, m = _query(grid, qid, qlo, qhi, query, tlo, thi, target, tmode, np.empty((1024, 2), np.int64), 0)
     return out[:m].copy()
 
 
@@ -652,11 +537,11 @@ class CollisionDetector:
         self.edge_hash.clear(cell, 4 * len(alle))
         self.edge_hash.insert(self.elo, self.ehi, alle)
         self._vhash_ok = False
-        buf, m = self.tri_hash.query(allv, self.vlo, self.vhi, self.verts, self.tlo, self.thi, self.faces,
-                                     self.mode0_t, self._buf, 0)
+        buf, m = _query(self.tri_hash, allv, self.vlo, self.vhi, self.verts, self.tlo, self.thi, self.faces,
+                        self.mode0_t, self._buf, 0)
         vt = buf[:m].copy()
-        buf, m = self.edge_hash.query(alle, self.elo, self.ehi, self.edges, self.elo, self.ehi, self.edges,
-                                      self.mode1_e, buf, 0)
+        buf, m = _query(self.edge_hash, alle, self.elo, self.ehi, self.edges, self.elo, self.ehi, self.edges,
+                        self.mode1_e, buf, 0)
         ee = buf[:m].copy()
         self._buf = buf
         if timings is not None:
@@ -692,17 +577,17 @@ class CollisionDetector:
         else:
             self.vert_hash.insert(self.vlo, self.vhi, moved)
         # VT: moved vertices against all triangles, then touched triangles against unmoved vertices
-        buf, m = self.tri_hash.query(moved, self.vlo, self.vhi, self.verts, self.tlo, self.thi, self.faces,
-                                     self.mode0_t, self._buf, 0)
+        buf, m = _query(self.tri_hash, moved, self.vlo, self.vhi, self.verts, self.tlo, self.thi, self.faces,
+                        self.mode0_t, self._buf, 0)
         vmode = moved_mask.astype(np.int8) * 2
-        buf, m = self.vert_hash.query(tris, self.tlo, self.thi, self.faces, self.vlo, self.vhi, self.verts,
-                                      vmode, buf, m, swap=True)
+        buf, m = _query(self.vert_hash, tris, self.tlo, self.thi, self.faces, self.vlo, self.vhi, self.verts,
+                        vmode, buf, m, swap=True)
         vt = buf[:m].copy()
         # EE: touched edges against all edges; pairs of two touched edges once
         emode = np.zeros(len(self.edges), np.int8)
         emode[eds] = 1
-        buf, m = self.edge_hash.query(eds, self.elo, self.ehi, self.edges, self.elo, self.ehi, self.edges,
-                                      emode, buf, 0)
+        buf, m = _query(self.edge_hash, eds, self.elo, self.ehi, self.edges, self.elo, self.ehi, self.edges,
+                        emode, buf, 0)
         ee = buf[:m].copy()
         self._buf = buf
         if timings is not None:

@@ -2,7 +2,8 @@
 
 Data layout shared by every mode
 --------------------------------
-Markers live in a *uniform grid* built once: they are sorted by cell, so cell ``c`` holds the
+Markers live in a *uniform grid* built once (the dense layout of :mod:`plantvr.grid`): they are sorted by cell,
+so cell ``c`` holds the
 sorted slots ``[cell_start[c], cell_start[c] + cell_live[c])``.  Killing a marker swaps it with the
 last live marker of its cell and shrinks ``cell_live[c]``, so scans only ever touch live markers.
 Per-marker state (in sorted order) is ``orig`` (int32, input row), ``owner`` (int32, nearest node or
@@ -21,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from plantvr._sorting import counting_sort
+from plantvr.grid import ball_cells, bounds, cell_buffers, sort_by_cell
 
 #: Quantisation of unit vectors: 2**38 units per 1.0 (resolution 3.6e-12; sums exact up to 2**25 markers/node).
 QSCALE = float(2.0 ** 38)
@@ -48,7 +49,7 @@ def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max
     h = float(radius) / cells_per_radius
     if m == 0 or not (math.isfinite(h) and radius > 0):
         raise ValueError(f"build_grid needs M >= 1 points and radius in (0, inf), got M = {m}, radius = {radius!r}")
-    lo, hi = _bounds(points)
+    lo, hi = bounds(points)
     origin, extent = lo, hi - lo
     if not np.all(np.isfinite(extent)):
         raise ValueError("build_grid needs finite points (no NaN or inf)")
@@ -69,32 +70,10 @@ def build_grid(points: np.ndarray, radius: float, cells_per_radius: int = 3, max
 
 
 @numba.njit(cache=True, nogil=True)
-def _bounds(points):
-    lo = points[0].copy()
-    hi = points[0].copy()
-    for i in range(1, points.shape[0]):
-        for a in range(3):
-            x = points[i, a]
-            if x < lo[a]:
-                lo[a] = x
-            elif x > hi[a]:
-                hi[a] = x
-    return lo, hi
-
-
-@numba.njit(cache=True, nogil=True)
 def _sort_into_cells(points, origin, h, dims):
     """Points sorted stably by grid cell (== ``points[np.argsort(cell, kind="stable")]``), in two O(m) passes."""
     m = points.shape[0]
-    cell = np.empty(m, np.int64)
-    for i in range(m):
-        c = 0
-        for a in range(3):
-            k = int(math.floor((points[i, a] - origin[a]) / h))
-            k = min(max(k, 0), dims[a] - 1)
-            c = c * dims[a] + k
-        cell[i] = c
-    order, cell_start = counting_sort(cell, dims[0] * dims[1] * dims[2], np.int64)
+    order, cell_start = sort_by_cell(points, origin, h, dims, np.int64)
     pos_s = np.empty((m, 3), np.float64)
     orig = np.empty(m, np.int32)
     for t in range(m):
@@ -103,76 +82,6 @@ def _sort_into_cells(points, origin, h, dims):
         for a in range(3):
             pos_s[t, a] = points[i, a]
     return pos_s, orig, cell_start
-
-
-@numba.njit(cache=True, nogil=True)
-def _cell_range(x, origin, h, dims, reach, axis):
-    """Inclusive range of grid cells along ``axis`` within ``reach`` cells of coordinate ``x``."""
-    f = (x - origin[axis]) / h
-    n = dims[axis]
-    if not f >= -reach - 1.0:  # also NaN: no cell, and no float -> int conversion of it
-        return 1, 0
-    if f > n + reach + 1.0:
-        return 1, 0
-    c = int(math.floor(f))
-    lo = c - reach
-    hi = c + reach
-    if lo < 0:
-        lo = 0
-    if hi > n - 1:
-        hi = n - 1
-    return lo, hi
-
-
-@numba.njit(cache=True, nogil=True)
-def _box_gap2(x, y, z, origin, h, i, j, k):
-    """Squared distance from (x, y, z) to the box of cell (i, j, k)."""
-    g = 0.0
-    lo = origin[0] + i * h
-    if x < lo:
-        g += (lo - x) * (lo - x)
-    elif x > lo + h:
-        g += (x - lo - h) * (x - lo - h)
-    lo = origin[1] + j * h
-    if y < lo:
-        g += (lo - y) * (lo - y)
-    elif y > lo + h:
-        g += (y - lo - h) * (y - lo - h)
-    lo = origin[2] + k * h
-    if z < lo:
-        g += (lo - z) * (lo - z)
-    elif z > lo + h:
-        g += (z - lo - h) * (z - lo - h)
-    return g
-
-
-@numba.njit(cache=True, nogil=True)
-def _ball_cells(x, y, z, r2, origin, h, dims, reach, cells, gaps):
-    """Cells within ``reach`` of (x, y, z) whose box is within ``sqrt(r2)`` of it.
-
-    Writes their ids to ``cells`` and squared box distances to ``gaps`` (both of length ≥ (2·reach + 1)³)
-    and returns how many; every scan of the grid starts here.
-    """
-    ilo, ihi = _cell_range(x, origin, h, dims, reach, 0)
-    jlo, jhi = _cell_range(y, origin, h, dims, reach, 1)
-    klo, khi = _cell_range(z, origin, h, dims, reach, 2)
-    n = 0
-    for ci in range(ilo, ihi + 1):
-        for cj in range(jlo, jhi + 1):
-            for ck in range(klo, khi + 1):
-                g = _box_gap2(x, y, z, origin, h, ci, cj, ck)
-                if g <= r2:
-                    cells[n] = (ci * dims[1] + cj) * dims[2] + ck
-                    gaps[n] = g
-                    n += 1
-    return n
-
-
-@numba.njit(cache=True, nogil=True)
-def _cell_buffers(reach):
-    """Scratch arrays for :func:`_ball_cells`."""
-    k = (2 * reach + 1) ** 3
-    return np.empty(k, np.int64), np.empty(k, np.float64)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -227,12 +136,12 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
     Returns ``(killed, n_dirty)``.
     """
     killed = 0
-    cells, gaps = _cell_buffers(reach)
+    cells, gaps = cell_buffers(reach)
     for j in range(n_old, n_new):
         px = nodes[j, 0]
         py = nodes[j, 1]
         pz = nodes[j, 2]
-        for q in range(_ball_cells(px, py, pz, di2, origin, h, dims, reach, cells, gaps)):
+        for q in range(ball_cells(px, py, pz, di2, origin, h, dims, reach, cells, gaps)):
             c = cells[q]
             start = cell_start[c]
             end = start + cell_live[c]
@@ -456,7 +365,7 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
     sin_half = math.sqrt(max(0.0, 1.0 - cos_half * cos_half))
     rc = 0.5 * math.sqrt(3.0) * h  # radius of a cell's bounding sphere
     cand = np.empty(1024, np.int64)
-    cells, gaps = _cell_buffers(reach)
+    cells, gaps = cell_buffers(reach)
     changed = 0
     for b in range(bud_pos.shape[0]):
         px = bud_pos[b, 0]
@@ -467,7 +376,7 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
         bz = bud_dir[b, 2]
         ln = bud_len[b]
         bid = bud_ids[b]
-        for q in range(_ball_cells(px, py, pz, vr2m, origin, h, dims, reach, cells, gaps)):
+        for q in range(ball_cells(px, py, pz, vr2m, origin, h, dims, reach, cells, gaps)):
             c = cells[q]
             start = cell_start[c]
             end = start + cell_live[c]
@@ -535,10 +444,10 @@ def treewand_release_kernel(old_pos, ids, origin, h, dims, reach, cell_start, ce
     Released sorted slots are appended to ``affected``; returns the new count.
     """
     vr2m = view_radius * view_radius * 1.0000001
-    cells, gaps = _cell_buffers(reach)
+    cells, gaps = cell_buffers(reach)
     for b in range(ids.shape[0]):
         bid = ids[b]
-        for q in range(_ball_cells(old_pos[b, 0], old_pos[b, 1], old_pos[b, 2], vr2m, origin, h, dims, reach,
+        for q in range(ball_cells(old_pos[b, 0], old_pos[b, 1], old_pos[b, 2], vr2m, origin, h, dims, reach,
                                    cells, gaps)):
             c = cells[q]
             for s in range(cell_start[c], cell_start[c] + cell_live[c]):
@@ -559,13 +468,13 @@ def treewand_reassign_kernel(slots, pos_s, orig, owner, best, owner_in, bud_pos,
     Buds outside the grid are clamped into its border cells, so every cell within reach is scanned (no gap test).
     """
     vr2 = view_radius * view_radius
-    cells, gaps = _cell_buffers(reach)
+    cells, gaps = cell_buffers(reach)
     for t in range(slots.shape[0]):
         s = slots[t]
         mx = pos_s[s, 0]
         my = pos_s[s, 1]
         mz = pos_s[s, 2]
-        for q in range(_ball_cells(mx, my, mz, np.inf, origin, h, dims, reach, cells, gaps)):
+        for q in range(ball_cells(mx, my, mz, np.inf, origin, h, dims, reach, cells, gaps)):
             c = cells[q]
             for u in range(bud_cell_start[c], bud_cell_start[c + 1]):
                 b = bud_order[u]
@@ -592,12 +501,12 @@ def treewand_reassign_kernel(slots, pos_s, orig, owner, best, owner_in, bud_pos,
 def kill_within_kernel(points, r2, origin, h, dims, reach, cell_start, cell_live, pos_s, orig, owner, best, owner_in):
     """Swap-remove live markers with squared distance < ``r2`` to any of ``points``; returns the count."""
     killed = 0
-    cells, gaps = _cell_buffers(reach)
+    cells, gaps = cell_buffers(reach)
     for j in range(points.shape[0]):
         px = points[j, 0]
         py = points[j, 1]
         pz = points[j, 2]
-        for q in range(_ball_cells(px, py, pz, r2, origin, h, dims, reach, cells, gaps)):
+        for q in range(ball_cells(px, py, pz, r2, origin, h, dims, reach, cells, gaps)):
             c = cells[q]
             start = cell_start[c]
             end = start + cell_live[c]

@@ -57,8 +57,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._sorting import counting_sort
 from plantvr._validation import check_array, check_int, check_points, check_range
+from plantvr.grid import sort_by_cell
 from plantvr.growth import _colonize_kernels as K
 from plantvr.growth.spatial import REACH
 
@@ -589,10 +589,7 @@ class TreeWandAssigner:
                                               self._best_s, self._owner_in, self.view_radius, affected, 0)
             self._offer(bud_pos, bud_dir, bud_len, changed[alive[changed]])
             if n_aff:
-                ijk = np.floor((bud_pos[ids_all] - self.origin) / self.h)
-                ijk = np.clip(ijk, 0, self.dims - 1).astype(np.int64)
-                cell = (ijk[:, 0] * self.dims[1] + ijk[:, 1]) * self.dims[2] + ijk[:, 2]
-                order, start = counting_sort(cell, len(self.cell_live), np.int64)
+                order, start = sort_by_cell(bud_pos[ids_all], self.origin, self.h, self.dims, np.int64)
                 K.treewand_reassign_kernel(affected[:n_aff], self.pos_s, self.orig, self._owner_s, self._best_s,
                                            self._owner_in, bud_pos, bud_dir, bud_len, ids_all[order], start,
                                            self.origin, self.h, self.dims, self.reach, self.view_radius,

@@ -28,10 +28,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_range
 from ..growth.engine import GrowthEngine
-from ..growth.sketch import SketchEngine, _check_bool, check_params
-from ..params import defaults
+from ..growth.sketch import SketchEngine, _check_bool
+from ..params import Param, ParamTable, check_params, defaults
+from ..types import TreeArrays
 from .asymmetry import cell_geometry, neighbour_asymmetry
 from .crowns import (
     CrownVoxels,
@@ -43,9 +44,10 @@ from .crowns import (
     tree_region,
 )
 from .placement import poisson_disc
-from .terrain import heightfield, pair, sample_height
+from .terrain import check_field, heightfield, pair, sample_height
 
 __all__ = [
+    "FOREST",
     "Forest",
     "crown_regions",
     "engine_from_state",
@@ -58,19 +60,51 @@ __all__ = [
     "regrow_tree",
     "round_task",
     "summary_task",
+    "terrain_mesh",
     "tree_mesh_task",
     "warm_up",
 ]
 
 
-@dataclass
+def _row(name, kind, default, doc, ref, **kw) -> Param:
+    return Param(name=name, kind=kind, default=default, doc=doc, ref=ref, window="forest", **kw)
+
+
+#: The forest's settings (:func:`grow_forest` keywords; the forest document's parameters).
+FOREST = ParamTable("forest", (
+    _row("n_trees", int, 10, "Requested trees; fewer when the plot cannot hold them at min_dist.", "§3.6",
+         range=(1, 100_000)),
+    _row("width", float, 60.0, "Plot extent along x.", "§3.6", unit="m", range=(0.0, MAX_COORD), low_open=True),
+    _row("depth", float, 60.0, "Plot extent along z.", "§3.6", unit="m", range=(0.0, MAX_COORD), low_open=True),
+    _row("min_dist", float, 8.0, "Poisson-disc distance between tree bases.", "§3.6", unit="m",
+         range=(0.0, np.inf), low_open=True),
+    _row("rounds", int, 4, "Growth rounds (markers claimed by neighbours are removed between rounds).", "§3.5",
+         range=(0, 10_000)),
+    _row("steps_per_round", int, 5, "Growth steps of every tree per round.", "§3.5", range=(1, 10_000)),
+    _row("crown_height", float, 7.0, "Height of the painted crown centre above the base.", "§3.5", unit="m",
+         range=(0.0, 1e6)),
+    _row("crown_radius", float, 5.0, "Radius of the painted crown.", "§3.5", unit="m", range=(0.0, 1e6),
+         low_open=True),
+    _row("n_darts", int, 300, "Poisson-dart candidates painted per crown.", "§3.5", range=(0, 10_000_000)),
+    _row("terrain_amplitude", float, 3.0, "Height range of the seeded terrain.", "§3.2", unit="m",
+         range=(0.0, 1e6)),
+    _row("seed", int, 0, "Seed of the terrain, the placement and every tree.", "§3.6", range=(0, 2 ** 63 - 1)),
+    _row("compete", bool, True, "Remove markers claimed by neighbours between rounds.", "§3.5", range=(0, 1)),
+    _row("regions", str, "voronoi", "Crown space: weighted Voronoi cells or layered voxels.", "§3.5",
+         choices=("voronoi", "voxels")),
+    _row("geometry", bool, False, "Also build every tree's branch mesh.", "§3.10", range=(0, 1)),
+), {"forest": ("Forest", "#4f7a28")})
+
+
+@dataclass(eq=False)
 class Forest:
     """Grown forest: ``bases`` (N, 3) world base points (y up), ``trees`` one dict of tree arrays per tree in
     world coordinates (``pos`` shifted by the base), ``heights`` the terrain, ``timings`` seconds per round (one
     entry for the whole growth when autonomous TreeSketch trees run all their rounds in one task),
     ``meshes`` the branch meshes (world coordinates) when grown with ``geometry=True``, ``voxels`` the crown-space
     claims of ``regions="voxels"``, ``seeds`` every tree's initial engine state and ``config`` the growth settings
-    (both for :meth:`regrow`)."""
+    (both for :meth:`regrow`). :class:`plantvr.documents.forest.ForestDocument` holds one as its state; the glTF
+writer of :mod:`plantvr.io` writes one."""
 
     bases: np.ndarray
     trees: list[dict[str, np.ndarray]]
@@ -92,13 +126,22 @@ class Forest:
         """:func:`regrow_tree` of this forest."""
         return regrow_tree(self, tree, params=params, sketch=sketch)
 
-    def export(self, path, *, instancing: bool = True, terrain: bool = True, leaves: bool = False,
-               params: dict[str, Any] | None = None):
-        """Write the landscape as one binary glTF scene (:func:`plantvr.landscape.gltf.export_forest`)."""
-        from .gltf import export_forest
 
-        _check_bool("instancing", instancing), _check_bool("terrain", terrain), _check_bool("leaves", leaves)
-        return export_forest(path, self, instancing=instancing, terrain=terrain, leaves=leaves, params=params)
+def terrain_mesh(heights: np.ndarray, size: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Height field (ny, nx) over [0, size[0]] x [0, size[1]] (x columns, z rows, y up) as a triangle mesh
+    (vertices (ny nx, 3), faces (2 (ny-1)(nx-1), 3), normals up); the grid nodes are those of
+    :func:`~plantvr.landscape.terrain.sample_height`."""
+    h = check_field("heights", heights)
+    ny, nx = h.shape
+    if ny < 2 or nx < 2:
+        raise ValueError(f"heights must be at least 2 x 2, got {h.shape}")
+    W, D = pair("size", size)
+    X, Z = np.meshgrid(np.linspace(0.0, W, nx), np.linspace(0.0, D, ny))
+    v = np.column_stack([X.ravel(), h.ravel(), Z.ravel()])
+    idx = np.arange(ny * nx).reshape(ny, nx)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel()
+    f = np.concatenate([np.column_stack([a, b, c]), np.column_stack([c, b, d])])
+    return v, f
 
 
 def engine_state(e: GrowthEngine) -> dict[str, Any]:
@@ -225,16 +268,26 @@ def _compete(states: list[dict], bases: np.ndarray, radius: float) -> None:
             s["markers"], s["marker_age"] = s["markers"][~d], s["marker_age"][~d]
 
 
-def _check_tree_arrays(name: str, t: dict) -> dict[str, np.ndarray]:
-    """Copies of a tree's arrays (pos, parent, alive, radius, child, ...), checked: shapes, finite bounded
-    positions and radii, parent and child indices inside the tree."""
-    pos = check_array(f"{name} pos", t["pos"], shape=(None, 3), max_abs=MAX_COORD)
-    n = len(pos)
+def _hero_tree(name: str, t: Any) -> dict[str, np.ndarray]:
+    """A hero tree as engine arrays (``pos``, ``parent``, ``radius``, ``order``, ``alive``, ``child``, copies): a
+    :class:`~plantvr.types.TreeArrays` (every node live, ``child[:, 0]`` its main child), or a dict of a grown
+    tree's arrays, checked through :meth:`TreeArrays.from_arrays` (shapes, finite bounded positions and radii,
+    parents before children) plus its ``alive`` and ``child`` arrays."""
+    if isinstance(t, TreeArrays):
+        n = len(t)
+        if n > MAX_COUNT:
+            raise ValueError(f"{name} must have at most {MAX_COUNT} nodes, got {n}")
+        return {"pos": t.pos.copy(), "parent": t.parent.copy(), "radius": t.radius.copy(), "order": t.order.copy(),
+                "alive": np.ones(n, bool), "child": t.main_child[:, None].copy()}
+    if not isinstance(t, dict) or not {"pos", "parent", "alive", "radius", "child"} <= set(t):
+        raise ValueError(f"{name} must be a TreeArrays or hold the arrays pos, parent, alive, radius, child")
+    n = len(np.asarray(t["pos"]))
     if n > MAX_COUNT:
         raise ValueError(f"{name} must have at most {MAX_COUNT} nodes, got {n}")
-    parent = np.asarray(t["parent"])
-    if parent.shape != (n,) or parent.dtype.kind not in "iu" or (n and (parent.min() < -1 or parent.max() >= n)):
-        raise ValueError(f"{name} parent must be ({n},) indices in [-1, {n - 1}]")
+    try:
+        ta = TreeArrays.from_arrays(t["pos"], t["parent"], t["radius"], t.get("order"))
+    except ValueError as exc:
+        raise ValueError(f"{name}: {exc}") from None
     child = np.asarray(t["child"])
     if child.ndim != 2 or len(child) != n or child.dtype.kind not in "iu" or (child.size and child.max() >= n) \
             or (child.size and child.min() < -2):
@@ -242,9 +295,8 @@ def _check_tree_arrays(name: str, t: dict) -> dict[str, np.ndarray]:
     alive = np.asarray(t["alive"])
     if alive.shape != (n,) or alive.dtype != bool:
         raise ValueError(f"{name} alive must be a ({n},) bool array")
-    radius = check_array(f"{name} radius", t["radius"], shape=(n,), max_abs=MAX_COORD)
     out = {key: np.asarray(v).copy() for key, v in t.items()}
-    out.update(pos=pos.copy(), radius=radius.copy())
+    out.update(pos=ta.pos.copy(), radius=ta.radius.copy())
     return out
 
 
@@ -383,9 +435,9 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     scales : (N,) float64 array, optional
         Per-tree scales S_i (> 0) instead of ``scale_range`` (e.g. the distribution's ``scale``).
     heroes : list of dict, optional
-        Hero trees (spec §3.4.3, §3.5), ``{"tree": tree arrays with the base at the origin (a grown tree's
-        ``pos``, ``parent``, ``alive``, ``radius``, ``child``), "position": (x, z)}``: placed as they are, not grown
-        and not regrown; with ``regions="voxels"`` they claim every voxel their internodes pass through before
+        Hero trees (spec §3.4.3, §3.5), ``{"tree": a TreeArrays, or a grown tree's arrays (``pos``, ``parent``,
+        ``alive``, ``radius``, ``child``), with the base at the origin, "position": (x, z)}``: placed as they are,
+        not grown and not regrown; with ``regions="voxels"`` they claim every voxel their internodes pass through before
         the other trees' regions are cut out. They come after the grown trees in ``Forest.trees``.
 
     Returns
@@ -395,28 +447,25 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     """
     import time
 
-    n_trees = check_int("n_trees", n_trees, 1, 100_000)
-    seed = check_int("seed", seed, 0, 2 ** 63 - 1)
-    terrain_amplitude = check_range("terrain_amplitude", terrain_amplitude, 0.0, 1e6)
+    n_trees, seed, terrain_amplitude = (FOREST["n_trees"].check(n_trees), FOREST["seed"].check(seed),
+                                        FOREST["terrain_amplitude"].check(terrain_amplitude))
     compete, geometry, lean, processes = (_check_bool("compete", compete), _check_bool("geometry", geometry),
                                           _check_bool("lean", lean), _check_bool("processes", processes))
     if params is not None and not isinstance(params, dict):
         raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
     if not (client is None or (isinstance(client, str) and client == "sync") or hasattr(client, "submit")):
         raise ValueError(f"client must be None, 'sync' or a dask Client, got {client!r}")
-    rounds = check_int("rounds", rounds, 0, 10_000)
-    steps_per_round = check_int("steps_per_round", steps_per_round, 1, 10_000)
-    min_dist = check_range("min_dist", min_dist, 0.0, np.inf, low_open=True)
-    crown_height = check_range("crown_height", crown_height, 0.0, 1e6)
-    crown_radius = check_range("crown_radius", crown_radius, 0.0, 1e6, low_open=True)
-    n_darts = check_int("n_darts", n_darts, 0, 10_000_000)
+    rounds, steps_per_round = FOREST["rounds"].check(rounds), FOREST["steps_per_round"].check(steps_per_round)
+    min_dist = FOREST["min_dist"].check(min_dist)
+    crown_height, crown_radius = FOREST["crown_height"].check(crown_height), FOREST["crown_radius"].check(crown_radius)
+    n_darts = FOREST["n_darts"].check(n_darts)
     n_workers = check_int("n_workers", n_workers, 1, 1024)
     if tasks_per_round is not None:
         tasks_per_round = check_int("tasks_per_round", tasks_per_round, 1, 1_000_000)
     if n_trees * n_darts > MAX_COUNT:
         raise ValueError(f"n_trees * n_darts must be at most {MAX_COUNT}, got {n_trees} * {n_darts}")
     size = pair("size", size)
-    regions = check_choice("regions", regions, ("voronoi", "voxels"))
+    regions = FOREST["regions"].check(regions)
     if isinstance(voxel_shape, (str, bytes)) or not hasattr(voxel_shape, "__len__") or len(voxel_shape) != 3:
         raise ValueError(f"voxel_shape must be (layers, ny, nx), got {voxel_shape!r}")
     voxel_shape = (check_int("voxel_shape[0]", voxel_shape[0], 1, 4096),
@@ -457,10 +506,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     for k, h in enumerate(heroes or []):
         if not isinstance(h, dict) or set(h) != {"tree", "position"}:
             raise ValueError(f"heroes[{k}] must be a dict with keys tree, position, got {h!r}")
-        t = h["tree"]
-        if not isinstance(t, dict) or not {"pos", "parent", "alive", "radius", "child"} <= set(t):
-            raise ValueError(f"heroes[{k}] tree must hold the arrays pos, parent, alive, radius, child")
-        t = _check_tree_arrays(f"heroes[{k}] tree", t)
+        t = _hero_tree(f"heroes[{k}] tree", h["tree"])
         q = check_array(f"heroes[{k}] position", h["position"], shape=(2,), max_abs=MAX_COORD)
         if not t["alive"].any():
             raise ValueError(f"heroes[{k}] tree has no live node")

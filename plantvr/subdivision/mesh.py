@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantvr._validation import MAX_COUNT, check_choice, check_int, check_range
+from plantvr.types import TriMesh
 
 from ._checks import MAX_JOINT_POINTS
 from .graph import BranchGraph, Joints, joint_pairs, simplify
@@ -68,9 +69,10 @@ def _radius_factor(S: int) -> float:
     return float(np.hypot(V5[mid, 0], V5[mid, 2]).mean())
 
 
-@dataclass(frozen=True)
-class ControlMesh:
-    """The Yggdrasil control mesh and the bookkeeping the tests and views need.
+@dataclass(eq=False)
+class ControlMesh(TriMesh):
+    """The Yggdrasil control mesh and the bookkeeping the tests and views need: a
+    :class:`~plantvr.types.TriMesh` (cached normals, edges, bounds, ``to_trimesh`` keeping vertex ids).
 
     Attributes
     ----------
@@ -106,12 +108,6 @@ class ControlMesh:
     joint_faces: np.ndarray
     n_boundary_loops: int
     capped: bool
-
-    def to_trimesh(self):
-        """Return a ``trimesh.Trimesh`` (``process=False``: vertex ids are kept)."""
-        import trimesh
-
-        return trimesh.Trimesh(self.vertices, self.faces, process=False)
 
 
 def _frames(g: BranchGraph) -> tuple[np.ndarray, np.ndarray]:

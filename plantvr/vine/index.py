@@ -1,6 +1,7 @@
 """Spatial indices for the ViNE sphere brush (spec 000_vine §2.4.3–2.4.4, checklist items 14–15).
 
-``GridIndex`` is a uniform grid built once by a counting sort (numba, O(V)); a ball query visits only the
+``GridIndex`` is the dense uniform grid of :mod:`plantvr.grid`, built once by a counting sort (numba, O(V)); a
+ball query visits only the
 cells that overlap the sphere's bounding box, so its cost grows with the brush, not the mesh. Its memory is
 one int32 vertex order (4 B/vertex) plus one int32 start per cell (about 1 B/vertex by default).
 ``KDTreeIndex`` (scipy ``cKDTree``) and :func:`ball_query_brute` are the oracles; the benchmark
@@ -13,8 +14,8 @@ import numba
 import numpy as np
 from scipy.spatial import cKDTree
 
-from plantvr._sorting import counting_sort
 from plantvr._validation import MAX_COORD, check_array, check_point, check_range
+from plantvr.grid import ball_candidates, ball_query, bounds, row_spans, sort_by_cell
 
 __all__ = ["GridIndex", "KDTreeIndex", "ball_query_brute"]
 
@@ -46,99 +47,10 @@ def ball_query_brute(points: np.ndarray, center, radius: float) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True)
-def _bounds(points):  # pragma: no cover - numba kernel, twin: points.min(0), points.max(0)
-    lo = np.empty(3, np.float64)
-    hi = np.empty(3, np.float64)
-    for a in range(3):
-        lo[a] = np.inf
-        hi[a] = -np.inf
-    for v in range(points.shape[0]):
-        for a in range(3):
-            x = np.float64(points[v, a])
-            lo[a] = min(lo[a], x)
-            hi[a] = max(hi[a], x)
-    return lo, hi
-
-
-def bounds(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) float64 corners of the bounding box of (V, 3) points, in one pass (numpy's axis-0 min/max
-    over an (N, 3) array is ~10x slower)."""
-    return _bounds(points)
-
-
-@numba.njit(cache=True, nogil=True)
-def _cell_ids(points, origin, inv_h, dims):  # pragma: no cover - numba kernel
-    n = points.shape[0]
-    out = np.empty(n, np.int64)
-    for v in range(n):
-        i = int((points[v, 0] - origin[0]) * inv_h)
-        j = int((points[v, 1] - origin[1]) * inv_h)
-        k = int((points[v, 2] - origin[2]) * inv_h)
-        i = min(max(i, 0), dims[0] - 1)
-        j = min(max(j, 0), dims[1] - 1)
-        k = min(max(k, 0), dims[2] - 1)
-        out[v] = (i * dims[1] + j) * dims[2] + k
-    return out
-
-
-@numba.njit(cache=True, nogil=True)
-def _row_spans(starts, origin, inv_h, dims, c, r):  # pragma: no cover - numba kernel
-    """The cells a ball query visits, as (rows, 2) [start, end) spans of the vertex order: one per (i, j) grid
-    row, whose cells k in [lo, hi] are contiguous in the order. No rows if the ball's box misses the grid."""
-    lo = np.empty(3, np.int64)
-    hi = np.empty(3, np.int64)
-    for a in range(3):
-        lo[a] = max(int(np.floor((c[a] - r - origin[a]) * inv_h)), 0)
-        hi[a] = min(int(np.floor((c[a] + r - origin[a]) * inv_h)), dims[a] - 1)
-    if hi[0] < lo[0] or hi[1] < lo[1] or hi[2] < lo[2]:
-        return np.empty((0, 2), np.int64)
-    spans = np.empty(((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1), 2), np.int64)
-    q = 0
-    for i in range(lo[0], hi[0] + 1):
-        for j in range(lo[1], hi[1] + 1):
-            base = (i * dims[1] + j) * dims[2]
-            spans[q, 0] = starts[base + lo[2]]
-            spans[q, 1] = starts[base + hi[2] + 1]
-            q += 1
-    return spans
-
-
-@numba.njit(cache=True, nogil=True)
-def _dist2(points, v, c):  # pragma: no cover - numba kernel
-    """Squared distance of vertex v to c, in float64 on float32 positions (Eq. 5.16)."""
-    dx = np.float64(points[v, 0]) - c[0]
-    dy = np.float64(points[v, 1]) - c[1]
-    dz = np.float64(points[v, 2]) - c[2]
-    return dx * dx + dy * dy + dz * dz
-
-
-@numba.njit(cache=True, nogil=True)
-def _grid_query(points, order, starts, origin, inv_h, dims, c, r, out):  # pragma: no cover
-    """Write ids of points within r of c into out; return the count (may exceed len(out))."""
-    spans = _row_spans(starts, origin, inv_h, dims, c, r)
-    r2 = r * r
-    cnt = 0
-    for q in range(spans.shape[0]):
-        for v in order[spans[q, 0]:spans[q, 1]]:
-            if _dist2(points, v, c) <= r2:
-                if cnt < out.shape[0]:
-                    out[cnt] = v
-                cnt += 1
-    return cnt
-
-
-@numba.njit(cache=True, nogil=True)
-def _grid_candidates(starts, origin, inv_h, dims, c, r):  # pragma: no cover
-    """Upper bound on hits: the number of points in the cells the query visits."""
-    spans = _row_spans(starts, origin, inv_h, dims, c, r)
-    return (spans[:, 1] - spans[:, 0]).sum()
-
-
-@numba.njit(cache=True, nogil=True)
-def _grid_paint(points, order, starts, origin, inv_h, dims, c, r, labels, paintable, label,
+def _grid_paint(points, order, starts, origin, h, dims, c, r, labels, paintable, label,
                 out_idx, out_old):  # pragma: no cover - numba kernel, twin: _paint_numpy
     """Fused brush stamp: query, skip hidden and same-label vertices, record old values, write."""
-    spans = _row_spans(starts, origin, inv_h, dims, c, r)
+    spans = row_spans(starts, origin, h, dims, c, r)
     r2 = r * r
     cnt = 0
     for q in range(spans.shape[0]):
@@ -146,7 +58,10 @@ def _grid_paint(points, order, starts, origin, inv_h, dims, c, r, labels, painta
             old = labels[v]
             if old == label or not paintable[old]:
                 continue
-            if _dist2(points, v, c) <= r2:
+            dx = np.float64(points[v, 0]) - c[0]
+            dy = np.float64(points[v, 1]) - c[1]
+            dz = np.float64(points[v, 2]) - c[2]
+            if dx * dx + dy * dy + dz * dz <= r2:  # Eq. 5.16 in float64 on float32 positions
                 out_idx[cnt] = v
                 out_old[cnt] = old
                 labels[v] = label
@@ -187,7 +102,7 @@ class GridIndex:
         if pts.shape[0] >= 2 ** 31 - 1:
             raise ValueError(f"points must have fewer than 2**31 rows, got {pts.shape[0]}")
         cells_per_vertex = check_range("cells_per_vertex", cells_per_vertex, 0.0, 8.0, low_open=True)
-        lo, hi = _bounds(pts)
+        lo, hi = bounds(pts)
         ext = np.maximum(hi - lo, 1e-9)
         if cell_size is None:
             target = max(cells_per_vertex * len(pts), 1.0)
@@ -200,10 +115,8 @@ class GridIndex:
         self.points = pts
         self.origin = lo
         self.cell_size = float(cell_size)
-        self.inv_h = 1.0 / float(cell_size)
         self.dims = dims
-        cell = _cell_ids(pts, lo, self.inv_h, dims)
-        self.order, self.starts = counting_sort(cell, int(np.prod(dims)), np.int32)
+        self.order, self.starts = sort_by_cell(pts, lo, self.cell_size, dims, np.int32)
         self._buf = np.empty(1024, np.int64)
 
     @property
@@ -215,19 +128,19 @@ class GridIndex:
         """Ids of vertices with ``(C-V)·(C-V) <= R²`` (unsorted, (K,) int64)."""
         c = check_point("center", center)
         r = check_range("radius", radius, 0.0, np.inf, high_open=True)
-        n = _grid_candidates(self.starts, self.origin, self.inv_h, self.dims, c, r)
+        n = ball_candidates(self.starts, self.origin, self.cell_size, self.dims, c, r)
         if n > len(self._buf):
             self._buf = np.empty(max(n, 2 * len(self._buf)), np.int64)
-        k = _grid_query(self.points, self.order, self.starts, self.origin, self.inv_h, self.dims, c, r, self._buf)
+        k = ball_query(self.points, self.order, self.starts, self.origin, self.cell_size, self.dims, c, r, self._buf)
         return self._buf[:k].copy()
 
     def paint(self, center: np.ndarray, radius: float, labels: np.ndarray, paintable: np.ndarray,
               label: int) -> tuple[np.ndarray, np.ndarray]:
         """Fused brush stamp (inputs already validated): write ``label``, return (ids, old labels)."""
-        n = _grid_candidates(self.starts, self.origin, self.inv_h, self.dims, center, radius)
+        n = ball_candidates(self.starts, self.origin, self.cell_size, self.dims, center, radius)
         idx = np.empty(n, np.int64)
         old = np.empty(n, np.uint8)
-        k = _grid_paint(self.points, self.order, self.starts, self.origin, self.inv_h, self.dims,
+        k = _grid_paint(self.points, self.order, self.starts, self.origin, self.cell_size, self.dims,
                         center, float(radius), labels, paintable, np.uint8(label), idx, old)
         return idx[:k], old[:k]
 

@@ -1,5 +1,5 @@
-"""Slab-wise isosurface (VTK flying edges or scikit-image marching cubes) with seam merging and outward winding
-(spec 000_vine §1.5, checklist item 2; issue 14).
+"""Slab-wise isosurface (scikit-image marching cubes, or any slab mesher such as VTK flying edges) with seam
+merging and outward winding (spec 000_vine §1.5, checklist item 2; issue 14).
 
 The volume is meshed in slabs along axis 0 that share one voxel plane, so memory stays bounded by one slab
 and its mesh: flying edges keeps ~1 byte of edge cases per voxel of its input and scikit-image converts its
@@ -7,9 +7,10 @@ input to float32, which for a whole 1624x1624x710 uint8 volume would be 1.9 and 
 slabs on a shared plane are computed from the same voxel values by the same interpolation, so they coincide
 exactly and are merged by exact coordinate matching.
 
-Flying edges (``vtkmodules.vtkFiltersCore.vtkFlyingEdges3D``, a numeric VTK filter; no rendering module is
-imported) is the default: ~8x faster than scikit-image on the same slabs, with the same vertices (same linear
-interpolation on the same voxel edges; Lewiner adds a few cell-centre vertices in ambiguous cells) and the same
+The core meshes slabs with scikit-image and takes any other slab mesher as ``method`` (a callable): VTK flying
+edges lives outside the cores, in :mod:`plantvr.adapters.vtk_isosurface`, whose ``extract_isosurface`` is this
+function with flying edges as its default (the cores import no VTK, issue 21). Flying edges is ~8x faster than
+scikit-image on the same slabs, with the same vertices (same linear interpolation on the same voxel edges; Lewiner adds a few cell-centre vertices in ambiguous cells) and the same
 triangles up to the case table. scikit-image stays as the oracle in the tests. VTK releases the GIL, so the next
 slabs are meshed in threads while one is merged; VTK's output is fixed in place (axis order, winding) and written
 straight into outputs that grow by ``realloc``, so the only full-size copy is the result itself. Measured at
@@ -18,6 +19,7 @@ straight into outputs that grow by ``realloc``, so the only full-size copy is th
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,40 +79,6 @@ def _slab_skimage(raw: np.ndarray, level: float, s: int, step: int):
     return v, f, n
 
 
-def _slab_flying_edges(raw: np.ndarray, level: float, s: int, step: int):
-    """VTK flying edges of one slab: (vertices, faces wound outward, normals) or None."""
-    from vtkmodules.util import numpy_support
-    from vtkmodules.vtkCommonDataModel import vtkImageData
-    from vtkmodules.vtkFiltersCore import vtkFlyingEdges3D
-
-    block = np.ascontiguousarray(raw[::step, ::step, ::step] if step > 1 else raw)
-    img = vtkImageData()
-    img.SetDimensions(block.shape[2], block.shape[1], block.shape[0])   # VTK x is our (fastest) axis 2
-    img.SetSpacing(step, step, step)
-    img.SetOrigin(0.0, 0.0, float(s))                    # global coordinates computed by VTK in double
-    img.GetPointData().SetScalars(numpy_support.numpy_to_vtk(block.ravel(), deep=False))
-    fe = vtkFlyingEdges3D()
-    fe.SetInputData(img)
-    fe.SetValue(0, level)
-    fe.ComputeNormalsOn()
-    fe.ComputeGradientsOff()
-    fe.ComputeScalarsOff()
-    fe.Update()
-    out = fe.GetOutput()
-    if out.GetNumberOfPoints() == 0 or out.GetNumberOfCells() == 0:
-        return None
-    # zero-copy views of VTK's arrays (they keep them alive), fixed in place: (z, y, x) -> (x, y, z), and the
-    # axis reversal mirrors VTK's outward winding, so swap two corners of each triangle (spec's [0, 2, 1])
-    v = numpy_support.vtk_to_numpy(out.GetPoints().GetData())
-    n = numpy_support.vtk_to_numpy(out.GetPointData().GetNormals())
-    f = numpy_support.vtk_to_numpy(out.GetPolys().GetConnectivityArray()).reshape(-1, 3)
-    _swap_columns(v, 0, 2)
-    _swap_columns(n, 0, 2)
-    _swap_columns(f, 1, 2)
-    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return v, (f if keep.all() else f[keep]), n
-
-
 def _swap_columns(a: np.ndarray, i: int, j: int) -> None:
     """Swap two columns of a C-contiguous (N, 3) array in place, in blocks (no full-size temporary)."""
     for lo in range(0, len(a), 1 << 20):
@@ -122,8 +90,8 @@ def _swap_columns(a: np.ndarray, i: int, j: int) -> None:
 
 def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 16, step_size: int = 1,
                        spacing: tuple[float, float, float] = (1.0, 1.0, 1.0),
-                       method: str = "flying_edges", workers: int = 2) -> Surface:
-    """Extract the isosurface of a uint8/uint16 volume slab by slab (flying edges or Lewiner marching cubes).
+                       method: str | Callable = "skimage", workers: int = 2) -> Surface:
+    """Extract the isosurface of a uint8/uint16 volume slab by slab (Lewiner marching cubes or ``method``).
 
     Parameters
     ----------
@@ -142,9 +110,11 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 16, step
         of it so seams stay aligned.
     spacing : tuple of 3 float
         Voxel size, each in (0, 1e6].
-    method : {"flying_edges", "skimage"}
-        ``flying_edges``: VTK ``vtkFlyingEdges3D`` per slab (default, fastest). ``skimage``:
-        ``skimage.measure.marching_cubes`` (Lewiner) per slab.
+    method : "skimage" or callable
+        ``skimage``: ``skimage.measure.marching_cubes`` (Lewiner) per slab. A callable
+        ``method(raw, level, s, step) -> (vertices, faces, normals) | None`` meshes slab ``raw`` (planes ``s``,
+        ``s + 1``, ... of the volume) with global, outward-wound output, as
+        :func:`plantvr.adapters.vtk_isosurface.flying_edges_slab` (VTK flying edges, the fastest) does.
     workers : int
         Slabs meshed at once in threads, in [1, 64] (VTK releases the GIL; the seams are still merged in
         order, so the result does not depend on it). Peak memory grows by one slab and its mesh per worker.
@@ -168,9 +138,10 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 16, step
     if len(tuple(spacing)) != 3:
         raise ValueError(f"spacing must be 3 numbers, got {spacing!r}")
     spacing = tuple(check_range("spacing", s, 0.0, 1e6, low_open=True) for s in spacing)
-    method = check_choice("method", method, ("flying_edges", "skimage"))
+    mesher = method if callable(method) else _slab_skimage
+    if not callable(method):
+        check_choice("method", method, ("skimage",))
     workers = check_int("workers", workers, 1, 64)
-    mesher = _slab_flying_edges if method == "flying_edges" else _slab_skimage
     slab = max(step_size, (slab // step_size) * step_size)
     nx = volume.shape[0]
     last = ((nx - 1) // step_size) * step_size           # last plane the mesher reaches

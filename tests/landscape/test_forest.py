@@ -1,11 +1,15 @@
 """Landscape: terrain, Poisson-disc placement, forests grown on dask (spec 004 §3; issue 11 determinism checks)."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
+from plantvr.io.landscape import export_forest
 from plantvr.landscape import grow_forest, heightfield, poisson_disc, sample_height
 from plantvr.landscape.forest import _compete, engine_from_state, engine_state, grow_tree_task
 from plantvr.params import defaults
+from plantvr.types import TreeArrays
 
 SMALL = {"size": (30.0, 30.0), "min_dist": 7.0, "rounds": 2, "steps_per_round": 3, "n_darts": 120, "seed": 7}
 
@@ -272,7 +276,16 @@ def test_ts_v22_hero_tree_claims_its_voxels_in_the_forest(tmp_path):
     assert len(own) > 10 and np.all(own == n)
     with pytest.raises(ValueError, match="hero"):
         f.regrow(n)
-    s = trimesh.load(f.export(tmp_path / "h.glb"), force="scene")
+    s = trimesh.load(export_forest(tmp_path / "h.glb", f), force="scene")
     assert len(s.graph.nodes_geometry) == n + 2
     with pytest.raises(ValueError, match="heroes"):
         grow_forest(2, client="sync", heroes=[{"tree": hero}])
+    # a hero given as the shared tree type: every node live, main children as the first child slot
+    ta = TreeArrays.from_tree(SimpleNamespace(**hero))
+    g = grow_forest(5, client="sync", geometry=True, heroes=[{"tree": ta, "position": (15.0, 15.0)}], **VOX)
+    np.testing.assert_array_equal(g.voxels.owner, f.voxels.owner)
+    np.testing.assert_allclose(g.trees[n]["pos"], ta.pos + hb)
+    assert len(g.meshes[n][1]) > 0
+    with pytest.raises(ValueError, match=r"heroes\[0\] tree: parent"):
+        grow_forest(2, client="sync", heroes=[{"tree": {**hero, "parent": hero["parent"][::-1].copy()},
+                                               "position": (1.0, 1.0)}])

@@ -148,3 +148,18 @@ def test_crowded_grown_tree_stays_manifold_with_warning(seed):
     with pytest.warns(UserWarning, match="too short"):
         with pytest.raises(ValueError, match="overlap on the joint sphere"):
             build_control_mesh(g, overlap="raise")
+
+
+def test_control_mesh_is_the_shared_trimesh():
+    """Issue 21: ControlMesh is a plantvr.types.TriMesh; its cached derived data agree with trimesh."""
+    from plantvr.types import TriMesh
+
+    cm = build_control_mesh(star_graph(4), compensate_radius=False, cap=True)
+    assert isinstance(cm, TriMesh)
+    tm = cm.to_trimesh()
+    assert np.array_equal(tm.vertices, cm.vertices) and np.array_equal(tm.faces, cm.faces)  # ids kept
+    assert cm.is_watertight == tm.is_watertight and cm.is_watertight
+    np.testing.assert_allclose(cm.area, tm.area)
+    np.testing.assert_allclose(cm.face_normals, tm.face_normals, atol=1e-12)
+    ref = np.sort(tm.edges_unique, axis=1)
+    assert np.array_equal(cm.edges, ref[np.lexsort(ref.T[::-1])])

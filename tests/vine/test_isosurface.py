@@ -192,8 +192,8 @@ def test_core_meshes_without_vtk_and_takes_the_adapter_as_its_mesher():
     import sys
     code = ("import sys; import plantvr.vine.isosurface as m; "
             "print(any(k == 'vtkmodules' or k.startswith('vtkmodules.') for k in sys.modules))")
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() \
-        == "False"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"
     vol, _ = _ball(32, 10.0)
     sk = core.extract_isosurface(vol, 127.5, slab=8)                       # the core's default: scikit-image
     ref = extract_isosurface(vol, 127.5, slab=8, method="skimage")
