@@ -17,7 +17,7 @@ from _common import best_time, radius_for
 from scipy.spatial import cKDTree
 
 from plantvr.documents.labels import Segmentation
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
 
 

@@ -21,7 +21,7 @@ import time
 import numpy as np
 from _common import cpu_seconds, current_rss_gib, in_forked_child, peak_rss_gib
 
-from plantvr.vine.isosurface import _slab_flying_edges, extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface, flying_edges_slab
 from plantvr.vine.synth import synth_vessels
 
 _GIB = 2 ** 30
@@ -30,7 +30,7 @@ _GIB = 2 ** 30
 def _whole_flying_edges(vol: np.ndarray, level: float):
     """Baseline: one flying-edges pass over the whole volume (the core's slab kernel with one slab), output as
     zero-copy views of VTK's arrays."""
-    return _slab_flying_edges(vol, level, 0, 1)
+    return flying_edges_slab(vol, level, 0, 1)
 
 
 def _whole_skimage(vol: np.ndarray, level: float):

@@ -15,7 +15,7 @@ import numpy as np
 import trimesh
 
 from plantvr.io.ply import write_ply
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
 
 

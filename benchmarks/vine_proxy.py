@@ -19,7 +19,7 @@ import numpy as np
 from _common import current_rss_gib, in_forked_child, peak_rss_gib, radius_for
 
 from plantvr.documents.labels import Segmentation
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.proxy import DisplayProxy, _proxy_labels_numpy
 from plantvr.vine.synth import synth_flowerhead, tile_mesh
 

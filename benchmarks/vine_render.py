@@ -94,7 +94,7 @@ import numpy as np
 
 from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.documents.labels import Segmentation
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.synth import synth_flowerhead
 
 #: One stroke, driven in the page: ctrl-pointer events on the canvas at 60 Hz, frames counted meanwhile.

@@ -24,7 +24,7 @@ from scipy.sparse import csgraph
 from plantvr.documents.labels import Segmentation
 from plantvr.documents.labels_bundle import load_bundle, save_bundle
 from plantvr.vine import fill as F
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.labelstats import face_labels, label_table
 from plantvr.vine.slices import _plane_cut_numpy, plane_segments
 from plantvr.vine.synth import synth_flowerhead, tile_mesh, vertex_labels_from_volume

@@ -173,7 +173,7 @@ def vine_segmentation(n_faces: int, head: int = 256, seed: int = 0):
     ground-truth component labels of every vertex; returns ``(Segmentation, head_faces)``."""
     from plantvr.documents.labels import Segmentation
     from plantvr.vine.colors import ColorTable
-    from plantvr.vine.isosurface import extract_isosurface
+    from plantvr.adapters.vtk_isosurface import extract_isosurface
     from plantvr.vine.synth import synth_flowerhead, tile_mesh, vertex_labels_from_volume
     fh = synth_flowerhead(head, rng=seed)
     s = extract_isosurface(fh.volume, fh.level)

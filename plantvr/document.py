@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import inspect
 import threading
 import warnings
@@ -37,7 +38,7 @@ from .commandlog import CommandLog
 from .history import History, StateAtom, _merge
 from .params import ParamTable, ParamTrait
 
-__all__ = ["Change", "Document", "kernel_loop"]
+__all__ = ["Change", "Document", "kernel_loop", "serialise"]
 
 
 @dataclass(frozen=True)
@@ -378,6 +379,35 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         :class:`~plantvr.types.TriMesh` (with optional per-vertex ``colors``), :class:`~plantvr.types.Points`
         or :class:`~plantvr.types.Instances` values; :class:`plantvr.View` picks one actor layer per type."""
         return {}
+
+
+def serialise(x: Any, *, skip: frozenset[str] = frozenset()) -> bytes:
+    """Deterministic bytes of a nested state (dicts by sorted key, lists, arrays with dtype and shape,
+    dataclasses by field; field or key names in ``skip`` — timings, say — left out): what
+    :meth:`Document.state_bytes` returns, so replay and undo tests compare whole states."""
+    out: list[bytes] = []
+    _serialise(x, out, skip)
+    return b"".join(out)
+
+
+def _serialise(x: Any, out: list[bytes], skip: frozenset[str]) -> None:
+    if dataclasses.is_dataclass(x) and not isinstance(x, type):
+        x = {f.name: getattr(x, f.name) for f in dataclasses.fields(x)}
+    if isinstance(x, dict):
+        keys = sorted((k for k in x if k not in skip), key=repr)
+        out.append(b"{%d" % len(keys))
+        for k in keys:
+            out.append(repr(k).encode())
+            _serialise(x[k], out, skip)
+    elif isinstance(x, (list, tuple)):
+        out.append(b"[%d" % len(x))
+        for v in x:
+            _serialise(v, out, skip)
+    elif isinstance(x, np.ndarray):
+        out.append(f"<{x.dtype.str}{x.shape}>".encode())
+        out.append(np.ascontiguousarray(x).tobytes())
+    else:
+        out.append(repr(x).encode())
 
 
 def _same(a: Any, b: Any) -> bool:

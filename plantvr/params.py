@@ -16,7 +16,6 @@ working; the kernels clip, cap or coarsen instead (tests/growth/test_hardening.p
 from __future__ import annotations
 
 import json
-import math
 import os
 from dataclasses import dataclass, field
 from functools import cached_property

@@ -10,7 +10,6 @@ edges, bounds, area, watertightness) computed once and cached, as in trimesh. Ev
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import Any
 
 import numpy as np

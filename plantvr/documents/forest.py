@@ -19,12 +19,11 @@ from typing import Any
 import numpy as np
 
 from .._validation import check_int
-from ..document import Document
+from ..document import Document, serialise
 from ..growth.sketch import SketchEngine
 from ..landscape.forest import FOREST, Forest, grow_forest, regrow_tree, terrain_mesh
 from ..params import check_params
 from ..types import TreeArrays, TriMesh
-from .treewand import _serialise
 
 __all__ = ["ForestDocument"]
 
@@ -145,14 +144,12 @@ class ForestDocument(Document):
     def state_bytes(self) -> bytes:
         """Parameters and the forest (terrain, bases, trees, meshes, voxels, seed states, growth settings) as
         deterministic bytes; round timings are not state."""
-        out: list[bytes] = []
         with self._lock:
             f = self.forest
             body = None if f is None else {
                 "bases": f.bases, "trees": f.trees, "heights": f.heights, "size": f.size, "meshes": f.meshes,
                 "voxels": None if f.voxels is None else vars(f.voxels), "seeds": f.seeds, "config": f.config}
-            _serialise({"params": self.params, "forest": body}, out)
-        return b"".join(out)
+            return serialise({"params": self.params, "forest": body})
 
     def make_snapshot(self) -> Forest | None:
         """The forest itself: commands replace it, never change it, so render threads read it as it is."""

@@ -12,7 +12,6 @@ floret stays the last valid one, so :attr:`InflorescenceDocument.floret` is alwa
 """
 from __future__ import annotations
 
-import json
 import os
 import threading
 from typing import Any
@@ -20,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import check_int
-from ..document import Document
+from ..document import Document, serialise
 from ..flowers.composer import FloretType
 from ..flowers.floret import FLORET, POSE_KEYS, POSE_NAMES, Corolla, FloretMesh, build_floret, petal_net
 from ..history import StateAtom
@@ -217,8 +216,8 @@ class InflorescenceDocument(Document):
 
     def state_bytes(self) -> bytes:
         fm = self.floret
-        head = json.dumps({"params": self.params, "message": self.message}, sort_keys=True).encode()
-        return b"\0".join([head, fm.faces.tobytes(), fm.frames.tobytes(), fm.fixed.tobytes()])
+        return serialise({"params": self.params, "message": self.message, "faces": fm.faces, "frames": fm.frames,
+                          "fixed": fm.fixed})
 
     def scene(self) -> dict[str, Any]:
         """The floret at the growth time :attr:`time`, as a :class:`~plantvr.types.TriMesh`."""

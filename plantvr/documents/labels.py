@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_npz, write_atomic
+from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_npz
 from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
 from plantvr.commandlog import CommandLog
 from plantvr.document import Document
@@ -31,7 +31,8 @@ from plantvr.history import ArrayEdit
 from plantvr.types import TriMesh
 from plantvr.vine._filecheck import check_elements
 from plantvr.vine.colors import ColorTable
-from plantvr.vine.index import GridIndex, KDTreeIndex, bounds
+from plantvr.grid import bounds
+from plantvr.vine.index import GridIndex, KDTreeIndex
 from plantvr.vine.stamps import merge_stamps
 from plantvr.vine.views import SavedView
 
@@ -143,7 +144,7 @@ class Segmentation(Document):
     def from_volume(cls, volume: np.ndarray, level: float, *, downsample: bool = False, slab: int = 64,
                     **kwargs) -> Segmentation:
         """Mesh a uint8/uint16 volume at ``level`` (slab-wise marching cubes) and start a segmentation."""
-        from plantvr.vine.isosurface import extract_isosurface
+        from plantvr.adapters.vtk_isosurface import extract_isosurface
         from plantvr.vine.volume import downsample2
         if downsample:
             volume = downsample2(volume)

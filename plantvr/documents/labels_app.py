@@ -62,7 +62,7 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
     -------
     Source
     """
-    from plantvr.vine.isosurface import extract_isosurface
+    from plantvr.adapters.vtk_isosurface import extract_isosurface
     from plantvr.vine.volume import downsample2, load_volume, suggest_level
     if not isinstance(source, (str, os.PathLike)):
         raise ValueError(f"source must be 'synth', 'synth:N' or a volume/mesh path, got {type(source).__name__}")

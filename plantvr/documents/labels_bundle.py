@@ -27,7 +27,7 @@ from plantvr._validation import check_array, check_int, check_range
 from plantvr.commandlog import CommandLog
 from plantvr.documents.labels import _STATE_NAMES, Segmentation
 from plantvr.vine._filecheck import check_elements
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.volume import _check_declared, _check_volume
 
 __all__ = ["Bundle", "load_bundle", "restore_bundle", "save_bundle", "volume_sha256"]

@@ -23,7 +23,6 @@ item was recorded with, as the engine state it restores was grown with them.
 """
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass
@@ -35,7 +34,7 @@ import traitlets
 from traitlets import Bool, Int
 
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_range
-from ..document import Document
+from ..document import Document, serialise
 from ..growth.sketch import TREESKETCH, SketchEngine, barycentric, split_values
 from ..growth.sketch_tools import LassoVolume, StrokeEmitter, TreeLibrary, lasso_volume, nearest_node
 from ..history import StateAtom
@@ -489,7 +488,7 @@ class SketchDocument(Document):
                 "strokes": self._strokes}
         arrays = [s["tree"][k] for k in sorted(s["tree"])] + [s["markers"], s["marker_age"], s["new_nodes"],
                                                               self._samples]
-        return json.dumps(head, sort_keys=True).encode() + b"".join(np.ascontiguousarray(a).tobytes() for a in arrays)
+        return serialise({**head, "arrays": arrays})
 
     # -- views --------------------------------------------------------------------------------------------------
     def scene(self) -> dict[str, Any]:

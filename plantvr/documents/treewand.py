@@ -11,7 +11,6 @@ outside (``plantvr.vr.attach(model)``).
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import threading
@@ -25,7 +24,7 @@ from traitlets import Bool, Dict, Float, Int
 
 from .._fileio import write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
-from ..document import Document
+from ..document import Document, serialise
 from ..growth.engine import GrowthEngine, StepStats
 from ..growth.treefile import MAX_TREE_BYTES, state_from_npz, state_to_bytes, tree_from_text, tree_to_text
 from ..params import TREEWAND
@@ -423,10 +422,8 @@ class Model(Document):
 
     def state_bytes(self) -> bytes:
         """Parameters, seed and engine state as deterministic bytes (step timings left out)."""
-        out: list[bytes] = []
         with self._lock:
-            _serialise({"params": self.params, **self.get_state()}, out)
-        return b"".join(out)
+            return serialise({"params": self.params, **self.get_state()}, skip=frozenset({"ms"}))
 
     # -- persistence --------------------------------------------------------------------------------
     @property
@@ -539,26 +536,6 @@ def _unjson_rng(s: str) -> dict:
     if not isinstance(state, dict):
         raise ValueError(f"expected a JSON object, got {type(state).__name__}")
     return state
-
-
-def _serialise(x: Any, out: list[bytes]) -> None:
-    """Append deterministic bytes of ``x`` (dicts by sorted key, arrays with dtype and shape) to ``out``."""
-    if isinstance(x, dict):
-        out.append(b"{%d" % len(x))
-        for k in sorted(x):
-            out.append(repr(k).encode())
-            _serialise(x[k], out)
-    elif isinstance(x, (list, tuple)):
-        out.append(b"[%d" % len(x))
-        for v in x:
-            _serialise(v, out)
-    elif isinstance(x, np.ndarray):
-        out.append(f"<{x.dtype.str}{x.shape}>".encode())
-        out.append(np.ascontiguousarray(x).tobytes())
-    elif isinstance(x, StepStats):  # a step's duration is not state
-        _serialise({f.name: getattr(x, f.name) for f in dataclasses.fields(x) if f.name != "ms"}, out)
-    else:
-        out.append(repr(x).encode())
 
 
 def _progress(it, show: bool):

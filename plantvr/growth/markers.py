@@ -12,7 +12,9 @@ import numpy as np
 
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
 
-from .spatial import REACH, _bucket, _cell
+from plantvr.grid import HASH_LIMIT, cell_coord, hash_cell
+
+from .spatial import REACH
 
 __all__ = ["uniform_in_ball", "poisson_darts", "poisson_darts_numpy"]
 
@@ -92,6 +94,7 @@ def _poisson_darts(center, radius, n_darts, existing, rejection, rng) -> np.ndar
 def _darts_kernel(cand, near, center, r2, h, mask, keep):
     """Sequential dart test over a hashed grid (cell ``h`` >= twice the rejection radius, indexed relative to
     ``center``) of the accepted points; sets ``keep`` for the candidates kept."""
+    inv = 1.0 / h
     cap = near.shape[0] + cand.shape[0]
     head = np.full(mask + 1, -1, np.int64)
     nxt = np.empty(cap, np.int64)
@@ -101,13 +104,15 @@ def _darts_kernel(cand, near, center, r2, h, mask, keep):
         src = near if i < near.shape[0] else cand
         k = i if i < near.shape[0] else i - near.shape[0]
         x, y, z = src[k, 0], src[k, 1], src[k, 2]
-        cx, cy, cz = _cell(x - center[0], h), _cell(y - center[1], h), _cell(z - center[2], h)
+        cx = cell_coord(x - center[0], inv, -HASH_LIMIT, HASH_LIMIT)
+        cy = cell_coord(y - center[1], inv, -HASH_LIMIT, HASH_LIMIT)
+        cz = cell_coord(z - center[2], inv, -HASH_LIMIT, HASH_LIMIT)
         if i >= near.shape[0]:
             hit = False
             for ix in range(cx - 1, cx + 2):
                 for iy in range(cy - 1, cy + 2):
                     for iz in range(cz - 1, cz + 2):
-                        j = head[_bucket(ix, iy, iz, mask)]
+                        j = head[hash_cell(ix, iy, iz, mask)]
                         while j >= 0:
                             ex = pts[j, 0] - x
                             ey = pts[j, 1] - y
@@ -128,7 +133,7 @@ def _darts_kernel(cand, near, center, r2, h, mask, keep):
         pts[n, 0] = x
         pts[n, 1] = y
         pts[n, 2] = z
-        b = _bucket(cx, cy, cz, mask)
+        b = hash_cell(cx, cy, cz, mask)
         nxt[n] = head[b]
         head[b] = n
         n += 1

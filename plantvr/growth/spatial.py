@@ -10,24 +10,16 @@ has points scans the points directly (same exact test, same result).
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 
 from plantvr._validation import MAX_COORD, check_points, check_range
-from plantvr.grid import HASH_LIMIT, cell_coord, mark_within, sort_by_bucket
-from plantvr.grid import hash_cell as _bucket  # noqa: F401  (BRIDGE for growth/markers.py, see _cell)
+from plantvr.grid import mark_within, sort_by_bucket
 
 __all__ = ["PointGrid", "build_grid", "within_any", "within_any_numpy", "REACH"]
 
 #: Coordinate bound of the growth cores' point inputs (markers, nodes): twice MAX_COORD, since markers are
 #: painted up to a brush radius beyond a centre inside MAX_COORD and nodes overshoot a marker by one internode.
 REACH = 2.0 * MAX_COORD
-
-
-@numba.njit(cache=True, nogil=True, inline="always")
-def _cell(x, h):  # BRIDGE: growth/markers.py (not in this change) still imports _bucket/_cell from here; the
-    # merge switches it to plantvr.grid.cell_coord / hash_cell and deletes this function and the import above
-    return cell_coord(x, 1.0 / h, -HASH_LIMIT, HASH_LIMIT)
 
 
 class PointGrid:

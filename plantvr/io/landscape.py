@@ -16,36 +16,19 @@ import numpy as np
 
 from plantvr._validation import MAX_COORD, check_array
 from plantvr.landscape.distribution import Distribution
-from plantvr.landscape.forest import Forest, tree_mesh_task
-from plantvr.landscape.terrain import check_field, pair, sample_height
+from plantvr.landscape.forest import Forest, terrain_mesh, tree_mesh_task
+from plantvr.landscape.terrain import sample_height
 from plantvr.params import defaults, validate
 
 from .gltf import MAX_GLB_COORD, _check_mesh, write_glb
 from .tree import leaf_mesh
 
 __all__ = ["BARK_RGBA", "LEAF_RGBA", "TERRAIN_RGBA", "export_distribution", "export_forest", "export_landscape",
-           "terrain_mesh"]
+]
 
 BARK_RGBA = (0.38, 0.26, 0.16, 1.0)
 TERRAIN_RGBA = (0.55, 0.53, 0.33, 1.0)
 LEAF_RGBA = (0.27, 0.55, 0.18, 1.0)
-
-
-def terrain_mesh(heights: np.ndarray, size: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Height field (ny, nx) over [0, size[0]] x [0, size[1]] (x columns, z rows, y up) as a triangle mesh
-    (vertices (ny nx, 3), faces (2 (ny-1)(nx-1), 3), normals up); the grid nodes are those of
-    :func:`~plantvr.landscape.terrain.sample_height`."""
-    h = check_field("heights", heights)
-    ny, nx = h.shape
-    if ny < 2 or nx < 2:
-        raise ValueError(f"heights must be at least 2 x 2, got {h.shape}")
-    W, D = pair("size", size)
-    X, Z = np.meshgrid(np.linspace(0.0, W, nx), np.linspace(0.0, D, ny))
-    v = np.column_stack([X.ravel(), h.ravel(), Z.ravel()])
-    idx = np.arange(ny * nx).reshape(ny, nx)
-    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel()
-    f = np.concatenate([np.column_stack([a, b, c]), np.column_stack([c, b, d])])
-    return v, f
 
 
 def _mesh_key(v: np.ndarray, f: np.ndarray) -> bytes:

@@ -9,7 +9,7 @@ from plantvr.commandlog import CommandLog
 from plantvr.document import Change
 from plantvr.documents.labels import Segmentation
 from plantvr.history import ArrayEdit
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.views import SavedView
 

@@ -6,7 +6,8 @@ import pytest
 import trimesh
 
 from plantvr.io.gltf import write_glb
-from plantvr.io.landscape import export_distribution, export_forest, export_landscape, terrain_mesh
+from plantvr.io.landscape import export_distribution, export_forest, export_landscape
+from plantvr.landscape import terrain_mesh
 from plantvr.landscape import grow_forest
 from plantvr.landscape.distribution import Species, distribute
 

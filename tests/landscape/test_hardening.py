@@ -19,7 +19,6 @@ from plantvr.landscape import (
     crown_regions,
     crown_voxels,
     distribute,
-    export_landscape,
     grow_forest,
     heightfield,
     inhibitory_kernel,
@@ -36,7 +35,8 @@ from plantvr.landscape import (
     terrain_mesh,
 )
 from plantvr.landscape.crowns import tree_region
-from plantvr.landscape.gltf import write_glb
+from plantvr.io.gltf import write_glb
+from plantvr.io.landscape import export_landscape
 
 
 def settings(**kw):

@@ -13,7 +13,7 @@ from plantvr.vine.index import ball_query_brute
 
 @pytest.fixture(scope="module")
 def surface():
-    from plantvr.vine.isosurface import extract_isosurface
+    from plantvr.adapters.vtk_isosurface import extract_isosurface
     from plantvr.vine.synth import synth_flowerhead
     head = synth_flowerhead(64, rng=1)
     return extract_isosurface(head.volume, head.level, slab=16)

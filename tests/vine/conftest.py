@@ -1,7 +1,7 @@
 """Shared fixtures for the ViNE tests: one small synthetic flower head, meshed once per session."""
 import pytest
 
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.synth import synth_flowerhead, vertex_labels_from_volume
 
 

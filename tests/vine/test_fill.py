@@ -8,7 +8,7 @@ from scipy.sparse import csgraph
 
 from plantvr.documents.labels import Segmentation
 from plantvr.vine import fill as F
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,7 @@ from plantvr.documents.labels import Segmentation
 from plantvr.io.ply import write_ply
 from plantvr.vine import colors as C
 from plantvr.vine import depthcue, fill, index, isosurface, labelstats, proxy, slices, synth, views, volume
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 
 SET = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 

@@ -11,7 +11,7 @@ from plantvr._fileio import digest_arrays
 from plantvr.commandlog import CommandLog, Event
 from plantvr.documents import labels_bundle as B
 from plantvr.documents.labels import Segmentation
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume
 from plantvr.io import labels as io_labels

@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("trame_vtk")
 
 from plantvr.documents.labels import Segmentation
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 
 
 def _sphere(n=24):

@@ -6,7 +6,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from plantvr.documents.labels import Segmentation
-from plantvr.vine.isosurface import extract_isosurface
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.synth import COMPONENTS, synth_flowerhead, vertex_labels_from_volume
 
 L = {name: i for i, name in enumerate(COMPONENTS)}
