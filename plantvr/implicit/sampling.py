@@ -515,9 +515,7 @@ def field_pdf(node: Node, *, shape=(64, 64, 64), bbox=None, mode: str = "inside"
     if mode == "callable" and not callable(func):
         raise ValueError(f"func must be callable for mode='callable', got {type(func).__name__}")
     if cache is not None:
-        from .band import FieldCache
-
-        if not isinstance(cache, FieldCache):
+        if not callable(getattr(cache, "classify", None)):  # a band.FieldCache (band imports this module)
             raise ValueError(f"cache must be a FieldCache, got {type(cache).__name__}")
         if mode != "band":
             raise ValueError(f"cache is only used with mode='band', got mode={mode!r}")

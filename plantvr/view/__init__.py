@@ -1,12 +1,21 @@
-"""3D view of the shared model with pyvista (offscreen, desktop or JupyterLab through trame) (spec 000_treewand §4.12).
+"""One 3D view of any document with pyvista: offscreen, desktop, or JupyterLab through trame (spec 000_treewand
+§4.12; issue 21).
 
-One actor per kind of content: branches, markers, brush, prune preview. The view only reads
-:attr:`plantvr.Model.snapshot` and redraws when ``model.version`` changes; it owns no model state.
+:class:`View` draws a document's ``scene()`` (``{name: content}``) with one actor layer per entry, of the class
+:mod:`plantvr.view.layers` picks for the content's type (tree arrays, triangle meshes, points, instances). It
+observes ``doc.observe(..., names="change")`` and, on every :class:`~plantvr.document.Change`, redraws only the
+layers whose content changed; it owns no document state. A view of a plain ``{name: content}`` mapping (a
+mesh being edited in a notebook) is updated with :meth:`View.update`. Options fold in what were separate
+views: ``lod`` for a forest (each tree at the level of detail of its camera distance, billboards beyond) and
+``panels`` for linked side-by-side panels (a control mesh beside its subdivided surface, :func:`side_by_side`).
 """
 from __future__ import annotations
 
+import io
 import os
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
@@ -15,135 +24,288 @@ import pyvista as pv  # noqa: E402
 
 from .._fileio import write_png  # noqa: E402
 from .._validation import check_point, check_range, check_size  # noqa: E402
-from ..documents.treewand import Model, Snapshot  # noqa: E402
-from ..params import PARAMS  # noqa: E402
-from ..export import IncrementalTreeGeometry  # noqa: E402
+from ..types import TreeArrays  # noqa: E402
+from .billboard import lod_by_distance  # noqa: E402
+from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
 
-__all__ = ["View", "branch_mesh"]
+__all__ = ["LOD", "View", "side_by_side"]
 
-BARK = "#8b5a2b"
 GROW, PRUNE = "#2ecc40", "#e03030"
-LEAF = "#4f8a2f"
-
-
-def _poly(vertices: np.ndarray, faces: np.ndarray, normals: np.ndarray | None = None) -> pv.PolyData:
-    poly = pv.PolyData(np.asarray(vertices, float), np.column_stack([np.full(len(faces), 3), faces]).ravel())
-    if normals is not None:
-        poly.point_data["Normals"] = normals
-    return poly
-
-
-def branch_mesh(snap: Snapshot, params: dict | None = None, *, leaves: bool = False,
-                sides: int | None = None) -> tuple[pv.PolyData, pv.PolyData]:
-    """Generalized-cylinder branches and leaves of a snapshot as pyvista meshes (spec 000_treewand §3).
-
-    ``sides`` fixes the ring subdivisions of every branch (e.g. a cheap headset mesh); by default
-    they follow the radius LOD (6 at the tip radius to 32 at 50×).
-    """
-    from ..export import tree_geometry  # noqa: PLC0415
-    params = params or {p.name: p.default for p in PARAMS}
-    if snap.n_internodes == 0:
-        return pv.PolyData(), pv.PolyData()
-    b, leaf = tree_geometry(snap, params, leaves=leaves, lod=(sides, sides) if sides else (6, 32))
-    return _poly(b.vertices, b.faces, b.normals), (_poly(leaf.vertices, leaf.faces) if leaf is not None
-                                                   else pv.PolyData())
+CONTROL = "#d9c7a7"
+EDGE = "#3b2a1a"
 
 
 class View:
-    """A pyvista plotter showing ``model``: branches, markers and the brush.
+    """A pyvista plotter showing a document (or a ``{name: content}`` scene), one actor layer per scene entry.
 
     Parameters
     ----------
-    model : plantvr.Model
-        The shared model to observe.
+    doc : Document or mapping
+        A document (anything with ``scene()`` and traitlets ``observe``: ``plantvr.Model``, the TreeSketch, ViNE,
+        crown, inflorescence and forest documents), observed for changes; or a static ``{name: content}``
+        mapping, changed with :meth:`update`.
     off_screen : bool, optional
         Render without a window (default: True when no display is available).
     window_size : (int, int)
-        Pixels.
+        Pixels of the whole window.
+    show_markers : bool
+        Show the scene entry ``"markers"``.
+    show_leaves : bool
+        Draw leaves on trees that come with bud slots (when the parameters give ``leaf_size`` > 0).
+    ground : bool, optional
+        A ground disc at y = 0; default on for a single-panel view whose scene has a tree, no surface (a terrain)
+        and no ``lod``.
+    lod : bool or LOD, optional
+        Draw every tree at the level of detail of its camera distance (forests; True: default :class:`LOD`).
+    panels : sequence of sequence of str, optional
+        Scene names drawn in each of several side-by-side panels with linked cameras (names not listed go to the
+        first panel).
+    titles : sequence of str, optional
+        One caption per panel.
+    styles : mapping, optional
+        ``{name: add_mesh options}`` over each layer's defaults (e.g. ``{"control": {"show_edges": True}}``; a
+        ``texture`` may be an image array).
+    params : dict, optional
+        Appearance parameters of trees in a static scene (a document's own ``params`` are used otherwise).
     """
 
-    def __init__(self, model: Model, *, off_screen: bool | None = None, window_size=(900, 700),
-                 show_markers: bool = True, show_leaves: bool = True):
-        if not isinstance(model, Model):
-            raise TypeError(f"model must be a plantvr.Model, got {type(model).__name__}")
+    def __init__(self, doc, *, off_screen: bool | None = None, window_size=(900, 700), show_markers: bool = True,
+                 show_leaves: bool = True, ground: bool | None = None, lod: bool | LOD | None = None,
+                 panels: Sequence[Sequence[str]] | None = None, titles: Sequence[str] | None = None,
+                 styles: Mapping[str, dict] | None = None, params: dict | None = None):
+        is_doc = callable(getattr(doc, "scene", None)) and callable(getattr(doc, "observe", None))
+        if not is_doc and not isinstance(doc, Mapping):
+            raise TypeError(f"doc must be a document (with scene()) or a {{name: content}} mapping, "
+                            f"got {type(doc).__name__}")
         window_size = _check_window_size(window_size)
+        for name, v in (("show_markers", show_markers), ("show_leaves", show_leaves)):
+            _check_bool(name, v)
+        if ground is not None:
+            _check_bool("ground", ground)
+        lod = LOD() if lod is True else (None if lod is None or lod is False else lod)
+        if lod is not None and not isinstance(lod, LOD):
+            raise ValueError(f"lod must be True, False, None or a plantvr.view.LOD, got {type(lod).__name__}")
+        panels = _check_panels(panels)
+        if titles is not None and (isinstance(titles, str) or len(titles) != max(len(panels), 1)
+                                   or not all(isinstance(t, str) for t in titles)):
+            raise ValueError(f"titles must be one str per panel ({max(len(panels), 1)}), got {titles!r}")
+        styles = dict(styles or {})
+        if not all(isinstance(k, str) and isinstance(v, Mapping) for k, v in styles.items()):
+            raise ValueError("styles must map scene names to dicts of add_mesh options")
+        if params is not None and not isinstance(params, Mapping):
+            raise ValueError(f"params must be a dict, got {type(params).__name__}")
+        scene = doc.scene() if is_doc else dict(doc)
+        classes = _check_scene(scene, lod, arrays=not is_doc)
         if off_screen is None:
             off_screen = not os.environ.get("DISPLAY")
-        self.model = model
-        self.plotter = pv.Plotter(off_screen=off_screen, window_size=window_size)
-        self.plotter.set_background("#f4f1ea", top="#cfe3f5")
-        self._branches = pv.PolyData()
-        self._leaves = pv.PolyData()
+        self.doc = doc if is_doc else None
+        self.lod, self.panels, self.styles = lod, panels, styles
         self.show_leaves = show_leaves
-        self.show_markers = show_markers
-        self._marker_actor = None
-        self._geometry = IncrementalTreeGeometry(leaves=show_leaves)
-        self._markers = pv.PolyData()
-        self._drawn = -1
+        self.hidden: set[str] = set() if show_markers else {"markers"}
+        self.layers: dict[str, Layer] = {}
+        self.drawn_version = -1
+        self.switches = 0
+        self._params = dict(params or {})
+        self._scene: dict[str, Any] = {} if is_doc else dict(scene)
+        shape = (1, len(panels)) if len(panels) > 1 else (1, 1)
+        self.plotter = pv.Plotter(shape=shape, off_screen=off_screen, window_size=list(window_size),
+                                  border=False)
+        for col in range(shape[1]):
+            self.plotter.subplot(0, col)
+            self.plotter.set_background("#f4f1ea", top="#cfe3f5")
+            if titles is not None:
+                self.plotter.add_text(titles[col], font_size=11, color="#333333", name=f"title{col}")
+        if shape[1] > 1:
+            self.plotter.link_views()
+        self.plotter.subplot(0, 0)
+        if ground is None:
+            kinds = set(classes.values())
+            ground = lod is None and shape[1] == 1 and TreeLayer in kinds and not kinds & {MeshLayer, InstancesLayer}
+        if ground:
+            disc = pv.Disc(inner=0, outer=8, normal=(0, 1, 0), c_res=48)
+            self.plotter.add_mesh(disc, color="#9cb37a", name="ground", pickable=False)
         self.brush_center = np.zeros(3)
-        self.brush_radius = model.brush_radius
+        self.brush_radius = float(getattr(doc, "brush_radius", 1.0))
         self._brush = pv.Sphere(radius=1.0, theta_resolution=24, phi_resolution=16)
-        ground = pv.Disc(inner=0, outer=8, normal=(0, 1, 0), c_res=48)
-        self.plotter.add_mesh(ground, color="#9cb37a", name="ground", pickable=False)
         self._brush_actor = self.plotter.add_mesh(self._brush, color=GROW, opacity=0.25, name="brush",
                                                   pickable=False)
         self._brush_actor.SetVisibility(False)
-        model.observe(self._on_change, names=["version"])
-        model.observe(self._on_mode, names=["prune_mode"])
-        self.update()
+        self._camera_tag = None
+        if self.doc is not None:
+            self.doc.observe(self._on_change, names="change")
+            if self.doc.has_trait("prune_mode"):
+                self.doc.observe(self._on_mode, names="prune_mode")
+                self._set_brush_colour(self.doc.prune_mode)
+        self._apply(scene)
         self.frame()
+        if lod is not None:
+            self._camera_tag = self.plotter.camera.AddObserver("ModifiedEvent", lambda *_: self.update_lod())
 
-    def frame(self) -> None:
-        """Point the camera at the whole tree (and markers) from a three-quarter view."""
-        snap = self.model.snapshot
-        pts = np.concatenate([snap.pos, snap.markers]) if len(snap.markers) else snap.pos
-        lo, hi = pts.min(0), pts.max(0)
-        c, size = 0.5 * (lo + hi), max(float(np.max(hi - lo)), 2.0)
-        self.plotter.camera_position = [tuple(c + size * np.array([1.3, 0.45, 1.3])), tuple(c), (0, 1, 0)]
-
+    # -- scene -> layers ----------------------------------------------------------------------------------
     def _on_change(self, change) -> None:
         self.update()
+        new = change["new"]
+        if new is not None:
+            self.drawn_version = int(new.version)
+
+    def update(self, scene: Mapping[str, Any] | None = None) -> list[str]:
+        """Redraw the layers whose content changed; returns their names.
+
+        A document view reads ``doc.scene()`` (``scene`` must be None). A static view merges ``scene`` into what
+        it shows (an entry set to None is removed); every entry is checked before anything is drawn.
+        """
+        if self.doc is not None:
+            if scene is not None:
+                raise ValueError("scene must be None for a document view: it draws doc.scene(); change the "
+                                 "document instead")
+            return self._apply(self.doc.scene())
+        if scene is None:
+            scene = {}
+        if not isinstance(scene, Mapping):
+            raise ValueError(f"scene must be a {{name: content}} mapping, got {type(scene).__name__}")
+        merged = {**self._scene, **scene}
+        merged = {k: v for k, v in merged.items() if v is not None}
+        _check_scene(merged, self.lod, arrays=True)
+        self._scene = merged
+        return self._apply(merged)
+
+    def _apply(self, scene: Mapping[str, Any]) -> list[str]:
+        classes = _check_scene(scene, self.lod)
+        redrawn = []
+        for name in [n for n in self.layers if n not in scene]:
+            self.layers.pop(name).remove()
+            redrawn.append(name)
+        params = self.params
+        for name, content in scene.items():
+            self._subplot(name)
+            layer = self.layers.get(name)
+            if layer is None or type(layer) is not classes[name]:
+                if layer is not None:
+                    layer.remove()
+                layer = classes[name](self.plotter, name, self.styles.get(name), leaves=self.show_leaves,
+                                      lod=self.lod)
+                layer.visible = name not in self.hidden
+                self.layers[name] = layer
+            if layer.update(content, params=params, buds=self._buds(content)):
+                redrawn.append(name)
+        self.plotter.subplot(0, 0)
+        if self.lod is not None and redrawn:
+            self.update_lod()
+        if redrawn:
+            self.plotter.render()
+        return redrawn
+
+    def _subplot(self, name: str) -> None:
+        if len(self.panels) > 1:
+            col = next((i for i, names in enumerate(self.panels) if name in names), 0)
+            self.plotter.subplot(0, col)
+
+    def _buds(self, content) -> dict | None:
+        """Bud slots of a document's tree: the snapshot the tree arrays came from carries them (Tree Wand)."""
+        if isinstance(content, TreeArrays):
+            for snap in (getattr(self.doc, "latest", None), getattr(self.doc, "snapshot", None)):
+                if getattr(snap, "tree", None) is content:
+                    return getattr(snap, "buds", None)
+        return None
+
+    @property
+    def params(self) -> dict[str, Any]:
+        """Appearance parameters the tree layers use: the document's, else the view's ``params``."""
+        return dict(getattr(self.doc, "params", None) or self._params)
+
+    @property
+    def tree(self):
+        """The tree of the first tree layer (what the brush prunes), or None."""
+        return next((lay.tree for lay in self.layers.values() if isinstance(lay, TreeLayer)), None)
+
+    def pickable_actors(self) -> list:
+        """Main actors of the tree and surface layers (what a brush picks on)."""
+        return [lay.actor for lay in self.layers.values()
+                if isinstance(lay, (TreeLayer, MeshLayer)) and lay.actor is not None]
+
+    def set_visible(self, name: str, visible: bool) -> None:
+        """Show or hide the layer of scene entry ``name`` (kept across updates)."""
+        _check_bool("visible", visible)
+        if visible:
+            self.hidden.discard(name)
+        else:
+            self.hidden.add(name)
+        if name in self.layers:
+            self.layers[name].set_visible(visible)
+            self.plotter.render()
+
+    @property
+    def show_markers(self) -> bool:
+        """Whether the ``"markers"`` entry is shown."""
+        return "markers" not in self.hidden
+
+    @show_markers.setter
+    def show_markers(self, visible: bool) -> None:
+        self.set_visible("markers", visible)
+
+    # -- forest level of detail -----------------------------------------------------------------------------
+    def _lod_layers(self) -> list[LodTreeLayer]:
+        return [lay for lay in self.layers.values() if isinstance(lay, LodTreeLayer)]
+
+    def target_levels(self) -> np.ndarray:
+        """LOD level :func:`~plantvr.view.billboard.lod_by_distance` picks for each tree for the current camera."""
+        trees = self._lod_layers()
+        if not trees:
+            return np.zeros(0, np.int64)
+        cam = self.plotter.camera
+        d = np.linalg.norm(np.array([t.center for t in trees]) - np.asarray(cam.position, float), axis=1)
+        return lod_by_distance(np.array([t.height for t in trees]), np.maximum(d, 1e-9),
+                               fov_deg=float(cam.view_angle), viewport_px=int(self.plotter.window_size[1]),
+                               thresholds=self.lod.thresholds)
+
+    def update_lod(self) -> int:
+        """Switch each tree to the level of its camera distance; returns the number of trees switched (called on
+        every camera change of a view with ``lod``)."""
+        changed = sum(t.set_level(int(lv)) for t, lv in zip(self._lod_layers(), self.target_levels()))
+        self.switches += changed
+        return changed
+
+    @property
+    def levels(self) -> np.ndarray:
+        """(T,) int64 current level of each tree of a ``lod`` view (``BILLBOARD_LEVEL`` for the billboard)."""
+        return np.array([t.level for t in self._lod_layers()], np.int64)
+
+    @property
+    def centers(self) -> np.ndarray:
+        """(T, 3) centre of each tree's bounding box in a ``lod`` view (the point its distance is measured to)."""
+        return np.array([t.center for t in self._lod_layers()]).reshape(-1, 3)
+
+    @property
+    def triangles(self) -> int:
+        """Triangles of the tree actors now visible in a ``lod`` view."""
+        return int(sum(t.triangles for t in self._lod_layers()))
+
+    # -- camera, brush, output ------------------------------------------------------------------------------
+    def frame(self) -> None:
+        """Point the camera at the whole scene from a three-quarter view (a tree scene keeps at least 2 m in
+        view; other scenes are fitted to their bounds)."""
+        pts = [lay.points() for lay in self.layers.values()]
+        pts = [p for p in pts if len(p)]
+        if not pts:
+            return
+        pts = np.concatenate(pts)
+        lo, hi = pts.min(0), pts.max(0)
+        c = 0.5 * (lo + hi)
+        self.plotter.subplot(0, 0)
+        if any(isinstance(lay, TreeLayer) for lay in self.layers.values()):
+            size = max(float(np.max(hi - lo)), 2.0)
+            self.plotter.camera_position = [tuple(c + size * np.array([1.3, 0.45, 1.3])), tuple(c), (0, 1, 0)]
+        else:
+            size = max(float(np.max(hi - lo)), 1e-6)
+            self.plotter.camera_position = [tuple(c + size * np.array([1.0, 0.3, 1.0])), tuple(c), (0, 1, 0)]
+            self.plotter.reset_camera()          # keep the direction, fit the bounds
 
     def _on_mode(self, change) -> None:
-        self._brush_actor.GetProperty().SetColor(pv.Color(PRUNE if change["new"] else GROW).float_rgb)
+        self._set_brush_colour(change["new"])
         self.plotter.render()
 
-    def update(self) -> None:
-        """Redraw from the latest snapshot if it changed (actors are updated in place, not re-added)."""
-        snap = self.model.snapshot
-        if snap.version == self._drawn:
-            return
-        self._drawn = snap.version
-        mesh, leaves = self._meshes(snap)
-        for target, new, kw in ((self._branches, mesh, dict(color=BARK, name="branches")),
-                                (self._leaves, leaves, dict(color=LEAF, name="leaves"))):
-            first = target.n_points == 0
-            if new.n_points:
-                target.copy_from(new)
-                if first:
-                    self.plotter.add_mesh(target, smooth_shading=True, **kw)
-        if len(snap.markers):
-            first = self._markers.n_points == 0
-            self._markers.copy_from(pv.PolyData(np.asarray(snap.markers, float)))
-            if first:
-                self._marker_actor = self.plotter.add_mesh(
-                    self._markers, color="#f5d142", point_size=4, render_points_as_spheres=True, name="markers",
-                    pickable=False)
-        if self._marker_actor is not None:
-            self._marker_actor.SetVisibility(bool(len(snap.markers)) and self.show_markers)
-        self.plotter.render()
-
-    def _meshes(self, snap: Snapshot) -> tuple[pv.PolyData, pv.PolyData]:
-        """Branch and leaf meshes of ``snap``, re-meshing only the segments and buds that changed."""
-        if snap.n_internodes == 0:
-            self._geometry = IncrementalTreeGeometry(leaves=self.show_leaves)
-            return pv.PolyData(), pv.PolyData()
-        g = self._geometry
-        g.update(snap, self.model.params)
-        b = g.branches
-        leaves = g.leaf_mesh
-        lv = _poly(leaves.vertices, leaves.faces) if leaves is not None and len(leaves.faces) else pv.PolyData()
-        return _poly(b.vertices, b.faces, b.normals), lv
+    def _set_brush_colour(self, prune: bool) -> None:
+        self._brush_actor.GetProperty().SetColor(pv.Color(PRUNE if prune else GROW).float_rgb)
 
     def set_brush(self, center, radius: float | None = None, visible: bool = True) -> None:
         """Place the brush sphere (green to grow, red to prune)."""
@@ -161,28 +323,95 @@ class View:
         self.plotter.render()
 
     def screenshot(self, path: str | Path | None = None, *, window_size=None) -> np.ndarray:
-        """Render offscreen and return the image (and write a PNG atomically when ``path`` is given)."""
+        """Render offscreen (at ``window_size`` for a full-resolution still) and return the (H, W, 3) uint8
+        image; also write a PNG atomically when ``path`` is given."""
         if window_size is not None:
             window_size = _check_window_size(window_size)
         if path is not None and Path(path).suffix.lower() != ".png":
             raise ValueError(f"path must end in .png, got {str(path)!r}")
-        self.update()
+        if self.doc is not None:
+            self.update()
+        self.plotter.render()  # else a camera moved since the last render is not in the picture
         img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
         if path is not None:
             write_png(path, img)
         return img
+
+    def png(self) -> bytes:
+        """The current picture as PNG bytes (for an ``ipywidgets.Image``)."""
+        from PIL import Image  # noqa: PLC0415
+
+        buf = io.BytesIO()
+        Image.fromarray(self.screenshot()).save(buf, format="PNG")
+        return buf.getvalue()
 
     def show(self, jupyter_backend: str = "trame", **kwargs):
         """Show in JupyterLab (trame: ``"trame"`` remote-rendered, ``"client"``, ``"server"``) or a window."""
         return self.plotter.show(jupyter_backend=jupyter_backend, auto_close=False, **kwargs)
 
     def close(self) -> None:
-        """Stop observing the model and free the render window."""
-        self.model.unobserve(self._on_change, names=["version"])
-        self.model.unobserve(self._on_mode, names=["prune_mode"])
+        """Stop observing the document and free the render window."""
+        if self.doc is not None:
+            self.doc.unobserve(self._on_change, names="change")
+            if self.doc.has_trait("prune_mode"):
+                self.doc.unobserve(self._on_mode, names="prune_mode")
+        if self._camera_tag is not None:
+            self.plotter.camera.RemoveObserver(self._camera_tag)
+            self._camera_tag = None
         self.plotter.close()
 
+
+def side_by_side(control, surface, *, off_screen: bool | None = None, window_size=(1000, 500),
+                 titles=("control mesh", "Loop subdivision")) -> View:
+    """A control mesh (left, with edges) and its subdivided surface (right) in two linked panels (spec
+    001_subdivision C16): a static :class:`View` of ``{"control": control, "surface": surface}``; change either
+    with ``view.update({"surface": mesh})``.
+
+    Parameters
+    ----------
+    control, surface : TriMesh or trimesh.Trimesh or ControlMesh, optional
+        The meshes (None: nothing yet).
+    off_screen, window_size
+        As in :class:`View`.
+    titles : (str, str)
+        Panel captions.
+    """
+    scene = {k: m for k, m in (("control", control), ("surface", surface)) if m is not None}
+    return View(scene, off_screen=off_screen, window_size=window_size, panels=(("control",), ("surface",)),
+                titles=titles, styles={"control": {"color": CONTROL, "show_edges": True, "edge_color": EDGE,
+                                                   "line_width": 1.0, "smooth_shading": False, "specular": 0.0}})
 
 
 def _check_window_size(window_size) -> tuple[int, int]:
     return check_size("window_size", window_size, 16, 16384)
+
+
+def _check_bool(name: str, v) -> None:
+    if not isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False, got {v!r}")
+
+
+def _check_panels(panels) -> tuple[tuple[str, ...], ...]:
+    if panels is None:
+        return ()
+    if isinstance(panels, str) or not isinstance(panels, Sequence) or not 1 <= len(panels) <= 8 or not all(
+            isinstance(p, Sequence) and not isinstance(p, str) and all(isinstance(n, str) for n in p)
+            for p in panels):
+        raise ValueError(f"panels must be 1 to 8 sequences of scene names, got {panels!r}"[:300])
+    return tuple(tuple(p) for p in panels)
+
+
+def _check_scene(scene, lod, *, arrays: bool = False) -> dict[str, type[Layer]]:
+    """The layer class of every entry of ``scene``; with ``arrays``, the content's arrays are checked too (a
+    static scene given by a caller), so a bad entry is refused before anything is drawn."""
+    if not isinstance(scene, Mapping) or not all(isinstance(k, str) for k in scene):
+        raise ValueError(f"scene must be a {{name: content}} mapping with str names, got {type(scene).__name__}")
+    out = {}
+    for name, content in scene.items():
+        try:
+            out[name] = layer_class(content, lod=lod)
+            if arrays:
+                check_content(content)
+        except ValueError as exc:
+            raise ValueError(f"scene[{name!r}]: {exc}") from None
+    return out

@@ -18,8 +18,8 @@ import numpy as np
 
 from .._validation import check_int, check_range
 
-__all__ = ["BILLBOARD_LEVEL", "LOD_SCREEN_PX", "Billboard", "lod_by_distance", "make_billboard", "mask_iou",
-           "render_views", "silhouette_iou", "silhouette_masks", "view_frames"]
+__all__ = ["BILLBOARD_LEVEL", "LOD_SCREEN_PX", "Billboard", "export_billboard", "lod_by_distance", "make_billboard",
+           "mask_iou", "render_views", "silhouette_iou", "silhouette_masks", "view_frames"]
 
 LOD_SCREEN_PX = (384.0, 192.0, 96.0, 48.0)
 """Screen heights (pixels) down to which LOD levels 0, 1, 2, 3 are used; below the last, the billboard."""
@@ -105,6 +105,8 @@ def render_views(meshes, *, views: int = 2, resolution: int = 256, center=None, 
     """
     import pyvista as pv
 
+    from .polydata import to_polydata
+
     meshes, colors = _parts(meshes, colors)
     resolution = check_int("resolution", resolution, 16, 4096)
     margin = check_range("margin", margin, 1.0, 2.0)
@@ -116,9 +118,8 @@ def render_views(meshes, *, views: int = 2, resolution: int = 256, center=None, 
     try:
         for m, c in zip(meshes, colors):
             if len(m.faces):
-                f = np.asarray(m.faces, np.int64)
-                poly = pv.PolyData(np.asarray(m.vertices, float), np.column_stack([np.full(len(f), 3), f]).ravel())
-                pl.add_mesh(poly, color=c, smooth_shading=False, ambient=0.35, diffuse=0.7, specular=0.0)
+                pl.add_mesh(to_polydata((m.vertices, m.faces)), color=c, smooth_shading=False, ambient=0.35,
+                            diffuse=0.7, specular=0.0)
         pl.enable_parallel_projection()
         dist = 20.0 * half
         out = np.empty((len(toward), resolution, resolution, 4), np.uint8)
@@ -250,6 +251,38 @@ def make_billboard(meshes, *, views: int = 2, resolution: int = 256, colors=None
         faces.append(np.array([[0, 1, 2], [0, 2, 3]]) + 4 * k)
     return Billboard(atlas, np.concatenate(verts), np.concatenate(faces).astype(np.int64), np.concatenate(uvs),
                      center, float(half))
+
+
+def export_billboard(tree, params: dict, path, *, leaves: bool = True, resolution: int = 256) -> Path:
+    """Write the billboard impostor of a tree (``plantvr export --lod 4``): rendered offscreen from LOD level 1
+    with its leaves, as .glb (atlas embedded) or .obj (with .mtl and PNG beside it).
+
+    Parameters
+    ----------
+    tree : Snapshot
+        Tree arrays and ``buds`` (see :func:`plantvr.io.tree.tree_geometry`).
+    params : dict
+        Appearance parameters.
+    path : str or pathlib.Path
+        Output file, .glb or .obj.
+    leaves : bool
+        Render the leaves too.
+    resolution : int
+        Pixels of each atlas tile's side.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    from ..io.tree import tree_geometry
+
+    path = Path(path)
+    if path.suffix.lower() not in (".glb", ".obj"):
+        raise ValueError(f"path suffix must be '.glb' or '.obj' for the billboard, got {path.suffix!r}")
+    if len(tree.pos) < 2:
+        raise ValueError("the tree is empty (no internodes): grow it before exporting")
+    branches, leaf = tree_geometry(tree, params, leaves=leaves, level=1)
+    return make_billboard([branches, leaf], views=2, resolution=resolution).export(path)
 
 
 def silhouette_masks(meshes, *, views: int = 2, resolution: int = 256, center=None,

@@ -1,15 +1,19 @@
-"""Brush painting and pruning in the pyvista view, all through model commands (spec 000_treewand §4.3, §4.4;
+"""Brush painting and pruning in the pyvista view, all through document commands (spec 000_treewand §4.3, §4.4;
 checklist items 23, 24; TW-V17b, TW-V22).
 
-:class:`BrushInteractor` turns pointer input into ``model.paint`` / ``model.prune_preview`` /
-``model.prune`` calls. The pointer is a picked point on the branches or, in free space, a point on the
-mouse ray at a chosen depth. The same class serves three input sources:
+:class:`BrushInteractor` turns pointer input into ``doc.paint_stroke`` / ``doc.prune_preview`` /
+``doc.prune`` calls on the document of a :class:`plantvr.View` (the Tree Wand model, or any document with
+those commands and ``brush_radius`` / ``prune_mode`` traits). The pointer is a picked point on the branches or,
+in free space, a point on the mouse ray at a chosen depth. The same class serves three input sources:
 
 * VTK mouse events (:meth:`BrushInteractor.attach`): move = hover, left press/drag = paint or prune,
   wheel = radius gesture, ``p`` toggles prune mode, ``m`` shows/hides markers;
 * direct calls with world points (tests, scripted strokes);
 * a desktop controller emulator (:meth:`BrushInteractor.handle`) fed with the headset's input events
-  (pose + analogue trigger + thumb angle), whose log replays identically.
+  (pose + analogue trigger + thumb angle).
+
+The interactor keeps no record of its own: every command it issues lands in the document's
+:class:`~plantvr.commandlog.CommandLog` (``doc.log``), which replays the session (``doc.replay``).
 
 In a browser (JupyterLab or a trame app) the view is server-rendered: trame's remote view sends the
 mouse to the server, where ``vtkWebApplication.HandleInteractionEvent`` replays it on the plotter's
@@ -19,7 +23,7 @@ desktop window, picking included; wheel events arrive as ``MouseWheelForward/Bac
 moves without a button, so the brush and the prune preview follow the mouse). pyvista's default
 ``plotter.show(jupyter_backend="trame")`` view sends only drags: painting and pruning work, hover does not.
 
-The interactor owns no model state: the radius is ``model.brush_radius`` and the mode ``model.prune_mode``.
+The interactor owns no document state: the radius is ``doc.brush_radius`` and the mode ``doc.prune_mode``.
 """
 from __future__ import annotations
 
@@ -31,7 +35,6 @@ import pyvista as pv
 import vtk
 
 from .._validation import check_point, check_range
-from ..params import PARAM_BY_NAME
 from . import PRUNE, View
 
 __all__ = ["FULL_TRIGGER", "PREVIEW_TRIGGER", "BrushInteractor", "trame_app"]
@@ -46,7 +49,7 @@ class BrushInteractor:
     Parameters
     ----------
     view : plantvr.view.View
-        The view to draw the brush and prune preview in; its model receives every command.
+        The view to draw the brush and prune preview in; its document receives every command.
     depth : float, optional
         Distance from the camera of the free-space brush when nothing is picked (default: distance to the
         focal point).
@@ -55,13 +58,14 @@ class BrushInteractor:
     """
 
     def __init__(self, view: View, *, depth: float | None = None, spacing: float = 0.5):
+        if not isinstance(view, View) or view.doc is None:
+            raise ValueError(f"view must be a plantvr.View of a document, got {type(view).__name__}")
         self.view = view
-        self.model = view.model
+        self.doc = view.doc
         self.depth = None if depth is None else check_range("depth", depth, 0.0, 1e6, low_open=True)
         self.spacing = check_range("spacing", spacing, 0.0, 100.0)
         self.center: np.ndarray | None = None
         self.preview = np.zeros(0, np.int64)
-        self.log: list[dict[str, Any]] = []
         self._pressed = False
         self._last_stamp: np.ndarray | None = None
         self._preview_mesh = pv.PolyData()
@@ -70,7 +74,7 @@ class BrushInteractor:
         self._saved_style = None
         self._picker = vtk.vtkCellPicker()
         self._picker.SetTolerance(0.002)
-        self.model.observe(self._on_mode, names=["prune_mode"])
+        self.doc.observe(self._on_mode, names=["prune_mode"])
 
     # -- pointer -> world ---------------------------------------------------------------------------
     def world_point(self, x: float, y: float) -> np.ndarray:
@@ -87,10 +91,11 @@ class BrushInteractor:
         """
         x, y = check_range("x", x, -1e6, 1e6), check_range("y", y, -1e6, 1e6)
         ren = self.view.plotter.renderer
-        actor = self.view.plotter.actors.get("branches")
-        if actor is not None and actor.GetVisibility():
+        actors = [a for a in self.view.pickable_actors() if a.GetVisibility()]
+        if actors:
             self._picker.InitializePickList()
-            self._picker.AddPickList(actor)
+            for actor in actors:
+                self._picker.AddPickList(actor)
             self._picker.PickFromListOn()
             if self._picker.Pick(float(x), float(y), 0.0, ren):
                 return np.array(self._picker.GetPickPosition(), float)
@@ -121,26 +126,27 @@ class BrushInteractor:
     # -- commands ------------------------------------------------------------------------------------
     @property
     def radius(self) -> float:
-        """The brush radius (``model.brush_radius``)."""
-        return float(self.model.brush_radius)
+        """The brush radius (``doc.brush_radius``)."""
+        return float(self.doc.brush_radius)
 
     def hover(self, point) -> None:
         """Move the brush to ``point``; in prune mode, colour the subtrees that would go red (partial trigger)."""
         self.center = check_point("point", point)
         self.view.set_brush(self.center, self.radius, visible=True)
-        if self.model.prune_mode:
-            self._show_preview(self.model.prune_preview(self.center, self.radius))
+        if self.doc.prune_mode:
+            self._show_preview(self.doc.prune_preview(self.center, self.radius))
 
     def press(self, point) -> int:
-        """Full trigger / left press at ``point``: paint (grow mode) or prune (prune mode); returns the count."""
+        """Full trigger / left press at ``point``: paint a stamp (a one-point ``paint_stroke``, grow mode) or prune
+        (prune mode); returns the count."""
         self.hover(point)
         self._pressed = True
-        if self.model.prune_mode:
-            n = self.model.prune(self.center, self.radius)
-            self._show_preview(self.model.prune_preview(self.center, self.radius))
+        if self.doc.prune_mode:
+            n = self.doc.prune(self.center, self.radius)
+            self._show_preview(self.doc.prune_preview(self.center, self.radius))
             return n
         self._last_stamp = self.center
-        return self.model.paint(self.center, self.radius)
+        return self.doc.paint_stroke([self.center], self.radius)
 
     def drag(self, point) -> int:
         """Pointer moved with the trigger held: paint a stamp every ``spacing`` radii (grow) or prune (prune)."""
@@ -148,15 +154,15 @@ class BrushInteractor:
             self.hover(point)
             return 0
         self.hover(point)
-        if self.model.prune_mode:
-            n = self.model.prune(self.center, self.radius)
+        if self.doc.prune_mode:
+            n = self.doc.prune(self.center, self.radius)
             if n:
-                self._show_preview(self.model.prune_preview(self.center, self.radius))
+                self._show_preview(self.doc.prune_preview(self.center, self.radius))
             return n
         if self._last_stamp is not None and np.linalg.norm(self.center - self._last_stamp) < self.spacing * self.radius:
             return 0
         self._last_stamp = self.center
-        return self.model.paint(self.center, self.radius)
+        return self.doc.paint_stroke([self.center], self.radius)
 
     def release(self) -> None:
         """Trigger released: stop painting (the brush stays where it is)."""
@@ -175,9 +181,9 @@ class BrushInteractor:
         Returns the new radius (spec §4.3 [INFERRED] continuous form; TW-V22: one clockwise circle doubles).
         """
         dphi = check_range("dphi", dphi, -1e6, 1e6)
-        lo, hi = PARAM_BY_NAME["brush_radius"].range
+        lo, hi = type(self.doc).PARAMS["brush_radius"].range
         r = float(np.clip(self.radius * 2.0 ** (dphi / (2 * math.pi)), lo, hi))
-        self.model.brush_radius = r
+        self.doc.brush_radius = r
         if self.center is not None:
             self.hover(self.center)
         return r
@@ -188,28 +194,27 @@ class BrushInteractor:
 
     def toggle_prune(self) -> bool:
         """Switch the brush between grow (green) and prune (red); returns the new prune mode."""
-        self.model.set_prune_mode(not self.model.prune_mode)
-        return self.model.prune_mode
+        self.doc.set_prune_mode(not self.doc.prune_mode)
+        return self.doc.prune_mode
 
     def set_markers_visible(self, visible: bool) -> None:
         """Show or hide the marker cloud."""
         if not isinstance(visible, (bool, np.bool_)):
             raise ValueError(f"visible must be True or False, got {visible!r}")
-        actor = self.view.plotter.actors.get("markers")
-        if actor is not None:
-            actor.SetVisibility(bool(visible))
-            self.view.plotter.render()
+        self.view.set_visible("markers", bool(visible))
 
     def _on_mode(self, change) -> None:
         if not change["new"]:
             self._show_preview(np.zeros(0, np.int64))
         elif self.center is not None:
-            self._show_preview(self.model.prune_preview(self.center, self.radius))
+            self._show_preview(self.doc.prune_preview(self.center, self.radius))
 
     def _show_preview(self, idx: np.ndarray) -> None:
-        """Draw the internodes ending at snapshot nodes ``idx`` as red tubes slightly thicker than the bark."""
+        """Draw the internodes ending at tree nodes ``idx`` as red tubes slightly thicker than the bark."""
         self.preview = np.asarray(idx, np.int64)
-        snap = self.model.snapshot
+        snap = self.view.tree
+        if snap is None:
+            return
         idx = self.preview[(self.preview < len(snap.parent))]
         idx = idx[snap.parent[idx] >= 0] if len(idx) else idx
         plotter = self.view.plotter
@@ -231,29 +236,16 @@ class BrushInteractor:
         self._preview_actor.SetVisibility(True)
         plotter.render()
 
-    # -- controller emulator / event log ---------------------------------------------------------------
+    # -- controller emulator ----------------------------------------------------------------------------
     def handle(self, event: dict[str, Any]) -> None:
-        """Apply one headset-style input event and append it to :attr:`log`.
+        """Apply one headset-style input event (checked first, see :meth:`check_event`); the commands it
+        issues are logged by the document.
 
         Events: ``{"type": "pose", "pos": [x, y, z], "trigger": t}`` (analogue trigger in [0, 1]: below
         0.1 hidden, below 0.99 preview, else act), ``{"type": "thumb", "dphi": a}`` (radians, clockwise
         positive), ``{"type": "toggle_prune"}``, ``{"type": "markers", "visible": b}``.
         """
         self._apply(self.check_event(event))
-
-    def replay(self, events) -> None:
-        """Apply a list of input events (e.g. another interactor's :attr:`log`) in order; every event is
-        checked before the first is applied, so a bad one changes nothing."""
-        if isinstance(events, (str, bytes, dict)) or not hasattr(events, "__iter__"):
-            raise ValueError(f"events must be a list of event dicts, got {type(events).__name__}")
-        checked = []
-        for i, ev in enumerate(events):
-            try:
-                checked.append(self.check_event(ev))
-            except ValueError as exc:
-                raise ValueError(f"events[{i}]: {exc}") from None
-        for ev in checked:
-            self._apply(ev)
 
     @staticmethod
     def check_event(event: dict[str, Any]) -> dict[str, Any]:
@@ -298,7 +290,6 @@ class BrushInteractor:
             self.toggle_prune()
         else:
             self.set_markers_visible(event["visible"])
-        self.log.append(event)
 
     # -- VTK mouse binding -----------------------------------------------------------------------------
     def attach(self) -> None:
@@ -328,8 +319,7 @@ class BrushInteractor:
             if key == "p":
                 self.toggle_prune()
             elif key == "m":
-                actor = self.view.plotter.actors.get("markers")
-                self.set_markers_visible(actor is not None and not actor.GetVisibility())
+                self.set_markers_visible(not self.view.show_markers)
 
         for name, cb in (("MouseMoveEvent", on_move), ("LeftButtonPressEvent", lambda o, e: self.press(pos())),
                          ("LeftButtonReleaseEvent", lambda o, e: self.release()),
@@ -348,9 +338,9 @@ class BrushInteractor:
             self._saved_style = None
 
     def close(self) -> None:
-        """Detach and stop observing the model."""
+        """Detach and stop observing the document."""
         self.detach()
-        self.model.unobserve(self._on_mode, names=["prune_mode"])
+        self.doc.unobserve(self._on_mode, names=["prune_mode"])
 
 
 def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: int = 480):
@@ -363,7 +353,7 @@ def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: 
     Parameters
     ----------
     brush : BrushInteractor
-        Brush over the view to show; its model receives every command.
+        Brush over the view to show; its document receives every command.
     server : trame server, optional
         Default: a new one named after the view.
     width, height : int
@@ -373,7 +363,8 @@ def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: 
     -------
     (server, layout)
         The trame server and its ``DivLayout``; ``server.state`` has ``n_markers``, ``n_internodes``,
-        ``n_paint`` and ``brush_radius``, kept in sync with the model.
+        ``n_paint`` (paint and prune commands logged since the page was made) and ``brush_radius``, kept in sync
+        with the document.
 
     Raises
     ------
@@ -391,20 +382,21 @@ def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: 
         raise ValueError(f"brush must be a BrushInteractor, got {type(brush).__name__}")
     width = int(check_range("width", width, 16, 8192))
     height = int(check_range("height", height, 16, 8192))
-    model = brush.model
+    doc = brush.doc
+    start = len(doc.log)  # brush commands are counted from here
     server = server or get_server(f"plantvr_brush_{id(brush.view):x}", client_type="vue3")
     state = server.state
 
     def sync(change=None) -> None:
-        state.n_markers = int(model.n_markers)
-        state.n_internodes = int(model.n_internodes)
-        state.n_paint = sum(1 for e in model.events.events if e.command in ("paint", "prune"))
-        state.brush_radius = round(float(model.brush_radius), 3)
+        state.n_markers = int(doc.n_markers)
+        state.n_internodes = int(doc.n_internodes)
+        state.n_paint = sum(1 for e in doc.log.events[start:] if e.command in ("paint", "paint_stroke", "prune"))
+        state.brush_radius = round(float(doc.brush_radius), 3)
         state.flush()
 
     with state:
         sync()
-    model.observe(sync, names=["version", "brush_radius"])
+    doc.observe(sync, names=["version", "brush_radius"])
     brush.attach()
     with DivLayout(server) as layout:
         html.Div("markers {{ n_markers }} · internodes {{ n_internodes }} · brush commands {{ n_paint }} · "

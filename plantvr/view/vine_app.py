@@ -22,7 +22,7 @@ there with ``vtkCellPicker``) for comparison.
 
 Controls: the colour wheel (§2.4.1 [T §5.4.1], §2.6 [T §5.6]: one slice per colour-table entry, the selected
 slice raised and outlined, hidden colours drawn with radial lines; a click selects the slice under the mouse by
-the rule of :func:`plantvr.ui.wheel.slice_at`, a shift-click hides or shows it), brush radius, undo/redo,
+the rule of :func:`plantvr.vine.colors.slice_at`, a shift-click hides or shows it), brush radius, undo/redo,
 hide/show of the selected colour, and, when started from a volume, an iso-value slider over the volume's
 histogram that re-extracts the surface. The wheel is an SVG built here (:func:`wheel_svg`) and re-sent when the
 selection, a colour or a visibility changes.
@@ -47,6 +47,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_range
 from plantvr.documents.labels import Segmentation
+from plantvr.vine.colors import DEAD_ZONE, slice_at
 from plantvr.io import labels as io_labels
 from plantvr.vine.proxy import DisplayProxy
 
@@ -94,7 +95,7 @@ def wheel_svg(rgba, visible, selected: int, *, radius: float = WHEEL_RADIUS) -> 
     """The colour wheel as an SVG string (spec 000_vine §2.4.1, §2.6; Fig. 5.9, 5.11).
 
     Slice ``k`` spans angles ``[k, k + 1) * 2π / K`` counter-clockwise from +x (y up), the rule of
-    :func:`plantvr.ui.wheel.slice_at`. The selected slice is drawn last, raised by ``radius / 6`` and outlined;
+    :func:`plantvr.vine.colors.slice_at`. The selected slice is drawn last, raised by ``radius / 6`` and outlined;
     a hidden colour keeps its slice, crossed by five contrasting radial lines. Each slice is a ``<g>`` with
     ``data-index``, class ``wheel-slice`` and, where they apply, ``selected`` and ``hidden``.
 
@@ -128,7 +129,6 @@ def wheel_svg(rgba, visible, selected: int, *, radius: float = WHEEL_RADIUS) -> 
     vis = check_array("visible", visible, shape=(n,), dtype=bool)
     selected = check_int("selected", selected, 0, n - 1)
     radius = check_range("radius", radius, 8.0, 1000.0)
-    from plantvr.ui.wheel import DEAD_ZONE
     lift, cen = wheel_geometry(radius)
     da = 2 * np.pi / n
 
@@ -704,11 +704,10 @@ class VineReviewApp:
     def wheel_click(self, x: float, y: float, shift: bool = False) -> int | None:
         """A click on the wheel at ``(x, y)`` CSS px from its top-left corner (the page sends it).
 
-        The slice is :func:`plantvr.ui.wheel.slice_at` of the position in wheel units (y up); inside the dead
+        The slice is :func:`plantvr.vine.colors.slice_at` of the position in wheel units (y up); inside the dead
         zone the selected label is kept. A plain click selects the slice, a shift-click hides or shows it.
         Clicks outside the (raised) wheel do nothing and return ``None``; otherwise the slice is returned.
         """
-        from plantvr.ui.wheel import slice_at
         x = check_range("x", x, -1e6, 1e6)
         y = check_range("y", y, -1e6, 1e6)
         lift, cen = wheel_geometry(WHEEL_RADIUS)

@@ -4,11 +4,13 @@ Labels are one uint8 per vertex indexing this table; recolouring edits only the 
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from plantvr._validation import check_array, check_int
+from plantvr._validation import check_array, check_int, check_range
 
-__all__ = ["DEFAULT_PALETTE", "ColorTable"]
+__all__ = ["DEAD_ZONE", "DEFAULT_PALETTE", "ColorTable", "slice_at"]
 
 #: 12 wheel colours plus index 0 = unpainted grey (spec §2.4.1 [INFERRED] 12 slices + unpainted).
 DEFAULT_PALETTE = np.array([
@@ -115,3 +117,38 @@ class ColorTable:
         t.visible = self.visible.copy()
         t.version = self.version
         return t
+
+
+#: Thumb radius (wheel units) below which the slice is ambiguous and the last one is kept (§2.4.1 [INFERRED]).
+DEAD_ZONE = 0.15
+
+
+def slice_at(x: float, y: float, n_slices: int, last: int = 0) -> int:
+    """Slice under a thumb/mouse position on the unit wheel (y up, counter-clockwise from +x).
+
+    ``k = floor((atan2(y, x) mod 2π) / (2π / K))``; within :data:`DEAD_ZONE` of the centre ``last`` is kept.
+
+    Parameters
+    ----------
+    x, y : float
+        Position in wheel units (radius 1).
+    n_slices : int
+        K, the number of slices (colour-table entries), >= 1.
+    last : int
+        Slice returned in the dead zone.
+
+    Returns
+    -------
+    int
+        Slice index in [0, K).
+
+    References
+    ----------
+    .. [1] spec 000_vine §2.4.1 (slice index [INFERRED]).
+    """
+    x, y = check_range("x", x, -math.inf, math.inf), check_range("y", y, -math.inf, math.inf)
+    n_slices = check_int("n_slices", n_slices, 1, 256)
+    last = check_int("last", last, 0, n_slices - 1)
+    if math.hypot(x, y) < DEAD_ZONE:
+        return last
+    return min(int((math.atan2(y, x) % (2 * math.pi)) / (2 * math.pi / n_slices)), n_slices - 1)

@@ -24,6 +24,7 @@ import numpy as np
 
 from .._validation import check_array, check_int, check_range
 from ..params import TREEWAND
+from ..vine.colors import slice_at
 from ..vine.views import SavedView, load_view, save_view
 from .math3d import quat_conj, quat_from_axis_angle, quat_from_matrix, quat_mul, quat_to_matrix
 
@@ -62,7 +63,6 @@ TIP_OFFSET = 0.05       # m from the controller origin along its -z (pointing) a
 WINDOW_DISTANCE = 1.0   # m, §4.6
 WINDOW_SIZE = (0.6, 0.4)  # m (width, height) of a parameter window [INFERRED]
 RADIUS_RANGE = TREEWAND["brush_radius"].range
-WHEEL_DEAD_ZONE = 0.15  # thumb radius below which the colour wheel keeps the last label (000_vine §2.4.1 [INFERRED])
 STAMP_SPACING = 0.1     # a stroke adds a stamp once the tip moved this fraction of the radius [INFERRED]
 
 #: The 7 menu functions, counter-clockwise from the green icon (§4.5).
@@ -425,9 +425,9 @@ def wheel_label(pad: tuple[float, float], n_labels: int, last: int = 0) -> int:
     """Label under the thumb on the left-pad colour wheel.
 
     ``k = floor((atan2(y, x) mod 2π) / (2π / K))`` with K = ``n_labels`` slices counter-clockwise from +x
-    (slice k is colour-table entry k, 0 = unpainted); within :data:`WHEEL_DEAD_ZONE` of the centre the
-    ``last`` label is kept. The same rule as :func:`plantvr.ui.wheel.slice_at` (which lives in a widget
-    module that imports anywidget, so the headset thread keeps this pure copy; a test asserts they agree).
+    (slice k is colour-table entry k, 0 = unpainted); within :data:`plantvr.vine.colors.DEAD_ZONE` of the centre the
+    ``last`` label is kept: :func:`plantvr.vine.colors.slice_at` of the thumb position, the rule the desktop
+    wheel uses.
 
     Parameters
     ----------
@@ -448,12 +448,7 @@ def wheel_label(pad: tuple[float, float], n_labels: int, last: int = 0) -> int:
     .. [1] Spec 000_vine §2.4.1 (slice index [INFERRED]); thesis §5.4.1, Fig. 5.9.
     """
     n_labels = check_int("n_labels", n_labels, 1, 256)
-    last = check_int("last", last, 0, n_labels - 1)
-    x = check_range("pad x", pad[0], -math.inf, math.inf)
-    y = check_range("pad y", pad[1], -math.inf, math.inf)
-    if math.hypot(x, y) < WHEEL_DEAD_ZONE:
-        return last
-    return min(int((math.atan2(y, x) % (2 * math.pi)) / (2 * math.pi / n_labels)), n_labels - 1)
+    return slice_at(pad[0], pad[1], n_labels, check_int("last", last, 0, n_labels - 1))
 
 
 # -- control maps: which gesture issues which document command ------------------------------------------

@@ -1,4 +1,5 @@
-"""Brush painting and pruning in the pyvista view, driven headlessly (simulated picks and VTK events)."""
+"""Brush painting and pruning in the pyvista view, driven headlessly (simulated picks and VTK events); every
+command lands in the document's log."""
 import math
 
 import numpy as np
@@ -49,17 +50,17 @@ def test_paint_drag_goes_through_model_commands():
     m = plantvr.Model(seed=0)
     v = View(m, window_size=(200, 150))
     b = BrushInteractor(v, spacing=0.5)
-    n_ev = len(m.events)
+    n_ev = len(m.log)
     b.press([0, 3, 0])
     for y in np.linspace(3, 6, 31):
         b.drag([0, y, 0])
     b.release()
-    stamps = [e for e in m.events.events[n_ev:] if e.command == "paint"]
+    stamps = [e for e in m.log.events[n_ev:] if e.command == "paint_stroke"]
     assert 6 <= len(stamps) <= 8  # 3 m at one stamp per 0.5 m radius spacing (+ the press)
     assert m.n_markers > 0 and m.n_markers == len(m.snapshot.markers)
     assert np.all(np.abs(m.snapshot.markers[:, 0]) <= m.brush_radius + 1e-9)
     b.drag([0, 9, 0])  # not pressed: hover only, no paint
-    assert len([e for e in m.events.events[n_ev:] if e.command == "paint"]) == len(stamps)
+    assert len([e for e in m.log.events[n_ev:] if e.command == "paint_stroke"]) == len(stamps)
     np.testing.assert_allclose(v.brush_center, [0, 9, 0])
     v.close()
 
@@ -113,65 +114,60 @@ def test_vtk_mouse_events_drive_the_brush(grown):
     b = BrushInteractor(v)
     b.attach()
     iren = v.plotter.iren.interactor
-    n_ev, r0 = len(m.events), m.brush_radius
+    n_ev, r0 = len(m.log), m.brush_radius
     iren.SetEventInformation(150, 120, 0, 0)
     iren.InvokeEvent("MouseMoveEvent")
-    assert b.center is not None and len(m.events) == n_ev  # hover only
+    assert b.center is not None and len(m.log) == n_ev  # hover only
     iren.InvokeEvent("LeftButtonPressEvent")
     iren.SetEventInformation(190, 140, 0, 0)
     iren.InvokeEvent("MouseMoveEvent")
     iren.InvokeEvent("LeftButtonReleaseEvent")
-    assert [e.command for e in m.events.events[n_ev:]][:1] == ["paint"]
+    assert [e.command for e in m.log.events[n_ev:]][:1] == ["paint_stroke"]
     iren.InvokeEvent("MouseWheelForwardEvent")
     assert m.brush_radius == pytest.approx(r0 * 2 ** (1 / 8))
     iren.SetKeySym("m")
     iren.InvokeEvent("KeyPressEvent")
-    assert not v.plotter.actors["markers"].GetVisibility()
+    assert not v.plotter.actors["markers"].GetVisibility() and not v.show_markers
     b.set_markers_visible(True)
     b.detach()
     m.brush_radius = r0
     b.close()
 
 
-def test_controller_emulator_log_replays_identically():
-    def session(events=None):
-        m = plantvr.Model(seed=3)
-        v = View(m, window_size=(200, 150))
-        b = BrushInteractor(v)
-        if events is None:
-            b.handle({"type": "thumb", "dphi": math.pi})
-            for i, y in enumerate(np.linspace(2, 7, 12)):
-                b.handle({"type": "pose", "pos": [0.0, y, 0.0], "trigger": 1.0 if i else 0.5})
-            b.handle({"type": "pose", "pos": [0.0, 7.0, 0.0], "trigger": 0.0})
-            m.step(5)
-            b.handle({"type": "toggle_prune"})
-            b.handle({"type": "pose", "pos": m.snapshot.pos[3].tolist(), "trigger": 1.0})
-        else:
-            b.replay(events)
-            m.step(5)
-            b.replay([])
-        out = (b.log, m)
-        v.close()
-        return out
+def test_controller_emulator_session_replays_from_the_document_log():
+    """The emulator's events become document commands; the document's log replays the session identically,
+    also after a round trip through its text form."""
+    from plantvr.commandlog import CommandLog
 
-    log, m1 = session()
-    _, m2 = session(log[:-2])
-    # replay the prune part after the same growth
-    v = View(m2, window_size=(200, 150))
-    b2 = BrushInteractor(v)
-    b2.replay(log[-2:])
+    m = plantvr.Model(seed=3)
+    v = View(m, window_size=(200, 150))
+    b = BrushInteractor(v)
+    b.handle({"type": "thumb", "dphi": math.pi})
+    for i, y in enumerate(np.linspace(2, 7, 12)):
+        b.handle({"type": "pose", "pos": [0.0, y, 0.0], "trigger": 1.0 if i else 0.5})
+    b.handle({"type": "pose", "pos": [0.0, 7.0, 0.0], "trigger": 0.0})
+    m.step(5)
+    b.handle({"type": "toggle_prune"})
+    b.handle({"type": "pose", "pos": m.snapshot.pos[3].tolist(), "trigger": 1.0})
+    b.close()
     v.close()
-    np.testing.assert_array_equal(m1.snapshot.pos, m2.snapshot.pos)
-    np.testing.assert_array_equal(m1.snapshot.markers, m2.snapshot.markers)
+    commands = [e.command for e in m.log.events]
+    assert {"paint_stroke", "set_params", "step", "set_prune_mode", "prune"} <= set(commands)
+    for log in (m.log, CommandLog.from_text(m.log.to_text(), commands=m.COMMANDS, document=m.KIND)):
+        fresh = plantvr.Model(seed=3)
+        fresh.replay(log)
+        np.testing.assert_array_equal(fresh.snapshot.pos, m.snapshot.pos)
+        np.testing.assert_array_equal(fresh.snapshot.markers, m.snapshot.markers)
+        assert fresh.state_bytes() == m.state_bytes()
     with pytest.raises(ValueError, match="event type must be one of"):
-        b2.handle({"type": "jump"})
+        b.handle({"type": "jump"})
     with pytest.raises(ValueError, match=r"trigger must be in \[0.0, 1.0\]"):
-        b2.handle({"type": "pose", "pos": [0, 0, 0], "trigger": 2})
+        b.handle({"type": "pose", "pos": [0, 0, 0], "trigger": 2})
 
 
 def test_input_events_are_checked_at_the_door(fuzz):
-    """Browser/headset events with missing fields, NaN, or non-bool flags are clear errors; a replay that
-    holds one bad event changes nothing (issue 20)."""
+    """Browser/headset events with missing fields, NaN, or non-bool flags are clear errors that change nothing
+    (issue 20)."""
     m = plantvr.Model(seed=0)
     v = plantvr.View(m, off_screen=True, window_size=(64, 64))
     b = BrushInteractor(v)
@@ -187,11 +183,9 @@ def test_input_events_are_checked_at_the_door(fuzz):
                               ValueError)
         assert isinstance(fuzz.call("BrushInteractor.set_markers_visible", b.set_markers_visible, "no",
                                     param="visible"), ValueError)
-        good = {"type": "pose", "pos": [0.0, 3.0, 0.0], "trigger": 1.0}
-        exc = fuzz.call("BrushInteractor.replay", b.replay, [good, {"type": "thumb", "dphi": "x"}], param="dphi")
-        assert isinstance(exc, ValueError) and "events[1]" in str(exc)
-        assert m.n_markers == 0 and b.log == [] and m.events.events == []
-        assert isinstance(fuzz.call("BrushInteractor.replay", b.replay, "pose", param="events"), ValueError)
+        assert m.n_markers == 0 and m.log.events == []
+        with pytest.raises(ValueError, match="view must be a plantvr.View of a document"):
+            BrushInteractor(View({}, window_size=(32, 32)))
     finally:
         b.close()
         v.close()

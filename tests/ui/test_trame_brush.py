@@ -2,7 +2,7 @@
 
 First through trame-vtk's own server-side mouse handler (the code a remote view's websocket calls), then
 end to end: a trame page from :func:`plantvr.view.interaction.trame_app` in a subprocess, dragged in
-headless Chromium; the page's status line (synced from the model) shows the paint commands.
+headless Chromium; the page's status line (synced from the document) shows the paint commands.
 """
 import sys
 import textwrap
@@ -56,19 +56,19 @@ def test_trame_server_events_drive_the_brush(grown):
     b.attach()
     h = _handler(v.plotter.render_window)
     cam = tuple(v.plotter.camera.position)
-    n_ev = len(m.events)
+    n_ev = len(m.log)
     _mouse(h, "move", 0.5, 0.7)  # hover (remote view with enable_picking)
     assert b.center is not None and v._brush_actor.GetVisibility()
     hover = b.center.copy()
     # the hover point is the brush's world point under that normalised pixel
     w, hgt = v.plotter.render_window.GetSize()
     np.testing.assert_allclose(hover, b.world_point(np.floor(0.5 * w + 0.5), np.floor(0.7 * hgt + 0.5)), atol=1e-6)
-    assert not [e for e in m.events.events[n_ev:] if e.command == "paint"]
+    assert not [e for e in m.log.events[n_ev:] if e.command == "paint_stroke"]
     _mouse(h, "down", 0.5, 0.7, left=True)
     for y in np.linspace(0.7, 0.98, 15):
         _mouse(h, "move", 0.5, y, left=True)
     _mouse(h, "up", 0.5, 0.98)
-    stamps = [e for e in m.events.events[n_ev:] if e.command == "paint"]
+    stamps = [e for e in m.log.events[n_ev:] if e.command == "paint_stroke"]
     assert len(stamps) >= 2 and not b._pressed
     assert tuple(v.plotter.camera.position) == cam  # the camera did not rotate while painting
     # the wheel (trame's zoom RPC) is the radius gesture: one notch forward = x 2^(1/8)

@@ -85,5 +85,5 @@ def test_wheel_cannot_resize_table_and_reports():
 
 
 def test_wheel_link_rejects_unknown_objects():
-    with pytest.raises(ValueError, match="target must be a Segmentation-like object"):
+    with pytest.raises(ValueError, match="target must be a Segmentation-like document"):
         ColorWheel(colors=["#000000"], target=object())

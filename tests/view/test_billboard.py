@@ -9,6 +9,7 @@ from plantvr.growth.scenarios import demo_session, run
 from plantvr.view.billboard import (
     BILLBOARD_LEVEL,
     LOD_SCREEN_PX,
+    export_billboard,
     lod_by_distance,
     make_billboard,
     mask_iou,
@@ -28,7 +29,7 @@ def grown():
 
 @pytest.fixture(scope="module")
 def tree(grown):
-    from plantvr.export import tree_geometry
+    from plantvr.io.tree import tree_geometry
     s, p = grown
     chain = lod_chain(s.pos, s.parent, s.radius, main_child=s.main_child, tip_radius=p["tip_radius"])
     _, leaves = tree_geometry(s, p)
@@ -87,6 +88,21 @@ def test_billboard_atlas_matches_the_tree(tree, tmp_path):
     back = trimesh.load(glb, force="mesh", process=False)
     assert len(back.faces) == 4
     assert back.visual.material.baseColorTexture.size == (256, 128)
+
+
+def test_export_billboard_writes_the_lod1_impostor(grown, tmp_path):
+    """``plantvr export --lod 4``: the tree at LOD 1 with its leaves, rendered into crossed textured quads."""
+    s, p = grown
+    glb = export_billboard(s, p, tmp_path / "tree.glb", resolution=64)
+    back = trimesh.load(glb, force="mesh", process=False)
+    assert len(back.faces) == 4 and back.visual.material.baseColorTexture.size == (128, 64)
+    with pytest.raises(ValueError, match="'.glb' or '.obj'"):
+        export_billboard(s, p, tmp_path / "tree.ply")
+    from types import SimpleNamespace
+    empty = SimpleNamespace(pos=np.zeros((1, 3)))      # the base point only
+    with pytest.raises(ValueError, match="the tree is empty"):
+        export_billboard(empty, p, tmp_path / "empty.glb")
+    assert sorted(x.name for x in tmp_path.iterdir()) == ["tree.glb"]
 
 
 @pytest.fixture(scope="module")

@@ -1,39 +1,61 @@
-"""Forest, subdivision and slice views check their options at the door; screenshots are atomic (issue 20)."""
+"""The view checks its options and scene content at the door; screenshots are atomic (issue 20, issue 21)."""
 import math
 
 import numpy as np
 import pytest
 import pyvista as pv
 
-from plantvr.view.forest import ForestView
+from plantvr.types import Points, TreeArrays, TriMesh
+from plantvr.view import LOD, View, side_by_side
 from plantvr.view.slices import VolumeSlices
-from plantvr.view.subdivision import SubdivisionView
 
-TREE = (np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]]), np.array([-1, 0, 1]), np.array([0.1, 0.08, 0.05]))
+TREE = TreeArrays.from_arrays(np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]]), np.array([-1, 0, 1]),
+                              np.array([0.1, 0.08, 0.05]))
 
 
 @pytest.mark.parametrize("kw, param", [({"levels": 0}, "levels"), ({"levels": 99}, "levels"),
                                        ({"billboard_px": 10**9}, "billboard_px"),
                                        ({"thresholds": [math.nan]}, "thresholds"),
                                        ({"thresholds": [-5.0]}, "thresholds"), ({"thresholds": []}, "thresholds"),
-                                       ({"window_size": (0, 0)}, "window_size")])
-def test_forest_view_options(fuzz, kw, param):
-    assert isinstance(fuzz.call("ForestView", ForestView, [TREE], param=param, **kw), ValueError)
+                                       ({"billboard": 1}, "billboard")])
+def test_forest_lod_options(fuzz, kw, param):
+    assert isinstance(fuzz.call("LOD", LOD, param=param, **kw), ValueError)
 
 
-@pytest.mark.parametrize("trees", [[], "trees", {"pos": 1}, None])
-def test_forest_view_trees(fuzz, trees):
-    assert isinstance(fuzz.call("ForestView", ForestView, trees, param="trees"), ValueError)
+@pytest.mark.parametrize("kw, param", [({"window_size": (0, 0)}, "window_size"),
+                                       ({"window_size": (1, 1)}, "window_size"),
+                                       ({"window_size": (10**6, 10)}, "window_size"),
+                                       ({"window_size": "big"}, "window_size"),
+                                       ({"window_size": (100,)}, "window_size"),
+                                       ({"lod": "far"}, "lod"), ({"panels": "control"}, "panels"),
+                                       ({"panels": [[1]]}, "panels"), ({"titles": ["a", "b"]}, "titles"),
+                                       ({"styles": {"tree": 3}}, "styles"), ({"show_leaves": "no"}, "show_leaves"),
+                                       ({"ground": 1}, "ground"), ({"params": [1]}, "params")])
+def test_view_options(fuzz, kw, param):
+    assert isinstance(fuzz.call("View", View, {"tree": TREE}, param=param, **kw), ValueError)
 
 
-@pytest.mark.parametrize("size", [(1, 1), (10**6, 10), "big", (100,)])
-def test_subdivision_view_window(fuzz, size):
-    assert isinstance(fuzz.call("SubdivisionView", SubdivisionView, window_size=size, param="window_size"),
-                      ValueError)
+@pytest.mark.parametrize("scene, param", [({"tree": "trees"}, "scene['tree']"), ({"m": {"pos": 1}}, "scene['m']"),
+                                          ({1: TREE}, "str names"), ([TREE], "doc must be")])
+def test_view_scene_content(fuzz, scene, param):
+    assert isinstance(fuzz.call("View", View, scene, param=param), (ValueError, TypeError))
 
 
-def test_subdivision_screenshot_is_atomic(tmp_path, monkeypatch):
-    v = SubdivisionView(window_size=(64, 32))
+def test_static_update_checks_everything_first():
+    v = View({"tree": TREE}, window_size=(64, 64))
+    try:
+        with pytest.raises(ValueError, match=r"scene\['bad'\]"):
+            v.update({"pts": Points(np.zeros((2, 3))), "bad": 3})
+        assert list(v.layers) == ["tree"]                      # nothing was drawn
+        with pytest.raises(ValueError, match="faces must index vertices"):
+            v.update({"m": TriMesh(np.zeros((3, 3)), np.array([[0, 1, 5]]))})
+        assert v.update({"tree": None}) == ["tree"] and not v.layers
+    finally:
+        v.close()
+
+
+def test_screenshot_is_atomic(tmp_path, monkeypatch):
+    v = side_by_side(None, None, window_size=(64, 32))
     try:
         p = tmp_path / "s.png"
         v.screenshot(p)

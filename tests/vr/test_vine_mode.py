@@ -60,7 +60,7 @@ def pad_at(angle_deg: float, r: float = 0.8) -> tuple[float, float]:
 
 # -- pure control map ---------------------------------------------------------------------------------------
 def test_wheel_label_is_the_slice_rule_of_the_desktop_wheel():
-    from plantvr.ui.wheel import slice_at
+    from plantvr.vine.colors import slice_at
     rng = np.random.default_rng(0)
     for x, y in rng.uniform(-1, 1, (300, 2)):
         for k in (1, 5, 13):

@@ -1,0 +1,100 @@
+"""Triangle meshes as ``pyvista.PolyData``: the one mesh → VTK conversion of the view layer (issue 21).
+
+Every actor layer of :class:`plantvr.View`, the billboard renderer and the LOD forest layer turn their meshes into
+``PolyData`` here. A mesh is a :class:`plantvr.types.TriMesh` (or anything with ``vertices`` and ``faces``,
+e.g. ``trimesh.Trimesh`` or a ``(vertices, faces)`` pair); its optional attributes are carried over:
+``normals`` (V, 3) as point normals, ``colors`` (V, 3|4) uint8 as the ``"colors"`` RGB(A) point array, and
+``uv`` as texture coordinates, per vertex (V, 2) or per face corner (F, 3, 2): then the corners are split into
+their own points, for display only (spec 001_subdivision §1.6: "vertices split at UV seams for display only").
+"""
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+import pyvista as pv  # noqa: E402
+
+from .._validation import MAX_COORD, check_array  # noqa: E402
+
+__all__ = ["checker_texture", "mesh_arrays", "texture", "to_polydata"]
+
+
+def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
+    """Checked ``(vertices (V, 3) float64, faces (F, 3) int64)`` of a mesh or a ``(vertices, faces)`` pair."""
+    if isinstance(mesh, (tuple, list)) and len(mesh) == 2:
+        V, F = mesh
+    elif hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        V, F = mesh.vertices, mesh.faces
+    else:
+        raise ValueError(f"mesh must have vertices and faces or be a (vertices, faces) pair, "
+                         f"got {type(mesh).__name__}")
+    V = check_array("vertices", V, shape=(None, 3), max_abs=MAX_COORD)
+    F = check_array("faces", F, shape=(None, 3), dtype=np.int64)
+    if F.size and (F.min() < 0 or F.max() >= len(V)):
+        raise ValueError(f"faces must index vertices in [0, {len(V) - 1}], got range [{F.min()}, {F.max()}]")
+    return np.asarray(V, np.float64), F
+
+
+def to_polydata(mesh) -> pv.PolyData:
+    """A triangle mesh as ``pyvista.PolyData`` (vertex order kept, one triangle cell per face).
+
+    Parameters
+    ----------
+    mesh : TriMesh or trimesh.Trimesh or tuple of ndarray
+        Anything with ``vertices`` (V, 3) and ``faces`` (F, 3), or a ``(vertices, faces)`` pair; optional
+        ``normals`` (V, 3), ``colors`` (V, 3|4) uint8 and ``uv`` (V, 2) or (F, 3, 2) attributes are kept.
+
+    Returns
+    -------
+    pyvista.PolyData
+        ``V`` points (``3 F`` when ``uv`` is per corner), ``F`` triangles.
+
+    Raises
+    ------
+    ValueError
+        If the vertices, faces or attributes are malformed.
+    """
+    V, F = mesh_arrays(mesh)
+    n_v = len(V)
+    attrs = {} if isinstance(mesh, (tuple, list)) else {k: getattr(mesh, k, None) for k in ("normals", "colors", "uv")}
+    uv, point_of = attrs.get("uv"), None
+    if uv is not None and np.ndim(uv) == 3:  # per corner: one point per face corner
+        uv = check_array("uv", uv, shape=(len(F), 3, 2)).reshape(-1, 2)
+        point_of = F.ravel()
+        V, F = V[point_of], np.arange(3 * len(F), dtype=np.int64).reshape(-1, 3)
+    elif uv is not None:
+        uv = check_array("uv", uv, shape=(n_v, 2))
+    poly = pv.PolyData(V, np.column_stack([np.full(len(F), 3, np.int64), F]).ravel())
+    if attrs.get("normals") is not None:
+        n = check_array("normals", attrs["normals"], shape=(n_v, 3))
+        poly.point_data["Normals"] = n if point_of is None else n[point_of]
+    if attrs.get("colors") is not None:
+        c = np.asarray(attrs["colors"])
+        if c.ndim != 2 or c.shape[1] not in (3, 4) or len(c) != n_v or c.dtype != np.uint8:
+            raise ValueError(f"colors must be a ({n_v}, 3|4) uint8 array, got {c.dtype} {c.shape}")
+        poly.point_data["colors"] = c if point_of is None else c[point_of]
+    if uv is not None:
+        poly.active_texture_coordinates = np.asarray(uv)
+    return poly
+
+
+def texture(image) -> pv.Texture:
+    """A ``pyvista.Texture`` from an (H, W, 3|4) uint8 image whose first row is the top (PIL/numpy order), or
+    a texture as it is."""
+    if isinstance(image, pv.Texture):
+        return image
+    img = np.asarray(image)
+    if img.ndim != 3 or img.shape[2] not in (3, 4) or img.dtype != np.uint8:
+        raise ValueError(f"texture must be an (H, W, 3|4) uint8 image, got {img.dtype} {img.shape}")
+    return pv.Texture(np.ascontiguousarray(img[::-1]))
+
+
+def checker_texture(n: int = 8, size: int = 256) -> pv.Texture:
+    """A repeating ``n`` x ``n`` checkerboard (with a stripe along v, like bark) for looking at UV maps."""
+    y, x = np.mgrid[0:size, 0:size] * n // size
+    img = np.where((x + y) % 2 == 0, 205, 120).astype(np.uint8)
+    img[:, : size // (4 * n)] = 40                        # a dark stripe marks u = 0 (the seam)
+    rgb = np.stack([img, (img * 0.8).astype(np.uint8), (img * 0.55).astype(np.uint8)], axis=-1)
+    return pv.Texture(rgb)
