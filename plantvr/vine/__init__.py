@@ -10,9 +10,9 @@ from plantvr.vine.depthcue import coarse_hull, depth_cue_colors, depth_factor, h
 from plantvr.vine.fill import MeshGraph, flood_region, label_components, mesh_graph
 from plantvr.vine.index import GridIndex, KDTreeIndex, ball_query_brute
 from plantvr.vine.isosurface import Surface, extract_isosurface, signed_volume
-from plantvr.vine.labelstats import label_mesh, label_table, plot_label_areas
+from plantvr.vine.labelstats import label_mesh, label_table
 from plantvr.vine.proxy import DisplayProxy, decimate_with_owner
-from plantvr.vine.slices import plane_segments, slice_contours, slice_figure
+from plantvr.vine.slices import plane_segments, slice_contours
 from plantvr.vine.stamps import merge_stamps
 from plantvr.vine.synth import (
     COMPONENTS,
@@ -55,12 +55,10 @@ __all__ = [
     "merge_stamps",
     "mesh_graph",
     "plane_segments",
-    "plot_label_areas",
     "save_view",
     "save_volume",
     "signed_volume",
     "slice_contours",
-    "slice_figure",
     "suggest_level",
     "synth_flowerhead",
     "synth_vessels",

@@ -14,7 +14,7 @@ import numpy as np
 from plantvr._validation import check_int
 from plantvr.vine.fill import _check_mesh_arrays, _components_numba, mesh_graph
 
-__all__ = ["face_labels", "label_mesh", "label_table", "plot_label_areas"]
+__all__ = ["face_labels", "label_mesh", "label_table"]
 
 
 def _check_mesh(vertices, faces, labels):
@@ -178,39 +178,3 @@ def label_table(vertices: np.ndarray, faces: np.ndarray, labels: np.ndarray, *, 
         rgba = colors.rgba[present]
         df["r"], df["g"], df["b"] = rgba[:, 0], rgba[:, 1], rgba[:, 2]
     return df
-
-
-def plot_label_areas(table, *, ax=None, skip_zero: bool = True):
-    """Bar chart of label surface areas, bars in the label colours (needs ``r, g, b`` columns for colour).
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        From :func:`label_table`.
-    ax : matplotlib Axes, optional
-    skip_zero : bool
-        Leave out label 0 (unpainted).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    if ax is None:
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(6, 3.2), dpi=100)
-    else:
-        fig = ax.figure
-    t = table[table["label"] != 0] if skip_zero else table
-    if {"r", "g", "b"} <= set(t.columns):
-        col = np.stack([t["r"], t["g"], t["b"]], axis=1) / 255.0
-    else:
-        col = None
-    names = [f"{k}" + (f" {n}" if "name" in t.columns and n else "")
-             for k, n in zip(t["label"], t["name"] if "name" in t.columns else [""] * len(t))]
-    ax.bar(np.arange(len(t)), t["area"], color=col, edgecolor="black", linewidth=0.6)
-    ax.set_xticks(np.arange(len(t)), names, rotation=45 if len(t) > 8 else 0, ha="right" if len(t) > 8 else "center")
-    ax.set_xlabel("label")
-    ax.set_ylabel("surface area (model units²)")
-    ax.set_title("Surface area per label")
-    fig.tight_layout()
-    return fig

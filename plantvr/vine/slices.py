@@ -3,7 +3,7 @@ preview with the contour", §6; issue 15).
 
 :func:`plane_segments` cuts the mesh with an axis-aligned plane and returns the cut as line segments whose
 two halves carry the labels of the nearer mesh vertices, so the label colours can be drawn over the scan.
-:func:`slice_figure` draws a volume slice (matplotlib), the isosurface contour at the iso-level
+:func:`plantvr.view.plots.slice_figure` draws a volume slice (matplotlib), the isosurface contour at the iso-level
 (``skimage.measure.find_contours``, the oracle for the cut: marching cubes and marching squares interpolate
 the same grid edges) and the coloured cut.
 """
@@ -14,7 +14,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_int, check_range
 
-__all__ = ["plane_segments", "slice_contours", "slice_figure"]
+__all__ = ["plane_segments", "slice_contours"]
 
 _AXES = "xyz"
 
@@ -195,86 +195,3 @@ def slice_contours(volume: np.ndarray, level: float, axis: int | str, index: int
         p[:, other[1]] = c[:, 1] * sp[other[1]]
         out.append(p)
     return out
-
-
-def slice_figure(volume: np.ndarray, axis: int | str, index: int, *, level: float | None = None,
-                 vertices=None, faces=None, labels=None, colors=None, spacing=(1.0, 1.0, 1.0), ax=None,
-                 linewidth: float = 2.0, title: str | None = None):
-    """Draw one orthogonal volume slice with the iso-contour and the labelled surface cut (matplotlib).
-
-    Parameters
-    ----------
-    volume : (X, Y, Z) ndarray
-        The raw scan.
-    axis : {0, 1, 2, "x", "y", "z"}
-    index : int
-        Slice index along ``axis``, in [0, shape[axis] - 1].
-    level : float, optional
-        Iso-value; draws the contour as a thin dashed white line.
-    vertices, faces, labels : ndarray, optional
-        The labelled surface (model units = voxel index × ``spacing``); its cut is drawn in label colours.
-    colors : ColorTable, optional
-        Colours for ``labels`` (default palette).
-    spacing : (3,) float
-        Voxel size.
-    ax : matplotlib Axes, optional
-    linewidth : float
-        Width of the coloured cut, in points, in (0, 20].
-    title : str, optional
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The slice with ``origin="lower"``: the second remaining axis runs right, the first runs up, both in
-        model units.
-    """
-    from matplotlib.collections import LineCollection
-
-    from plantvr.vine.colors import ColorTable
-    vol = np.asarray(volume)
-    if vol.ndim != 3:
-        raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
-    a = _check_axis(axis)
-    index = check_int("index", index, 0, vol.shape[a] - 1)
-    sp = check_array("spacing", spacing, shape=(3,))
-    linewidth = check_range("linewidth", linewidth, 0.0, 20.0, low_open=True)
-    if (vertices is None) != (faces is None):
-        raise ValueError("vertices and faces must be given together")
-    colors = ColorTable() if colors is None else colors
-    other = [k for k in range(3) if k != a]
-    segs = None
-    if vertices is not None:
-        res = plane_segments(vertices, faces, a, index * sp[a], labels=labels)
-        segs, seg_lab = res if labels is not None else (res, None)
-    contours = [] if level is None else slice_contours(vol, level, a, index, spacing=sp)
-    if ax is None:
-        import matplotlib.pyplot as plt
-        fig, ax = plt.subplots(figsize=(5, 5), dpi=100)
-    else:
-        fig = ax.figure
-    img = np.take(vol, index, axis=a)
-    # row = first remaining axis, column = second: extent in model units
-    ext = (-0.5 * sp[other[1]], (img.shape[1] - 0.5) * sp[other[1]],
-           -0.5 * sp[other[0]], (img.shape[0] - 0.5) * sp[other[0]])
-    ax.imshow(img, cmap="gray", origin="lower", extent=ext, interpolation="nearest")
-    if segs is not None and len(segs):
-        p0, p1 = segs[:, 0][:, other[::-1]], segs[:, 1][:, other[::-1]]
-        mid = 0.5 * (p0 + p1)
-        if seg_lab is None:
-            lines = np.stack([p0, p1], axis=1)
-            lc = LineCollection(lines, colors="magenta", linewidths=linewidth)
-        else:
-            lines = np.concatenate([np.stack([p0, mid], axis=1), np.stack([mid, p1], axis=1)])
-            lab = np.concatenate([seg_lab[:, 0], seg_lab[:, 1]])
-            lc = LineCollection(lines, colors=colors.rgba[lab] / 255.0, linewidths=linewidth)
-        ax.add_collection(lc)
-    for c in contours:
-        q = c[:, other[::-1]]
-        ax.plot(q[:, 0], q[:, 1], color="white", lw=0.7, ls=(0, (3, 2)))
-    ax.set_xlim(ext[0], ext[1])
-    ax.set_ylim(ext[2], ext[3])
-    ax.set_xlabel(f"{_AXES[other[1]]}")
-    ax.set_ylabel(f"{_AXES[other[0]]}")
-    ax.set_title(title if title is not None else f"{_AXES[a]} = {index}")
-    fig.tight_layout()
-    return fig

@@ -9,6 +9,7 @@ from scipy.sparse import csgraph
 
 from plantvr.documents.labels import Segmentation
 from plantvr.io import labels as IO
+from plantvr.view.plots import plot_label_areas
 from plantvr.vine import labelstats as L
 from plantvr.vine.colors import ColorTable
 from plantvr.vine.fill import mesh_graph
@@ -70,7 +71,7 @@ def test_csv_round_trip_and_chart(tmp_path, table):
     table.to_csv(p, index=False)
     back = pd.read_csv(p, keep_default_na=False)
     np.testing.assert_allclose(back["area"], table["area"])
-    fig = L.plot_label_areas(table)
+    fig = plot_label_areas(table)
     ax = fig.axes[0]
     bars = ax.patches
     assert len(bars) == len(table) - 1                  # label 0 left out

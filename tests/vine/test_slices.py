@@ -4,6 +4,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from plantvr.vine import slices as S
+from plantvr.view.plots import slice_figure
 from plantvr.vine.colors import ColorTable
 
 
@@ -45,7 +46,7 @@ def test_end_labels_from_nearer_vertex():
 
 
 def test_slice_figure_colours(tmp_path, head, surface, truth):
-    fig = S.slice_figure(head.volume, 2, 32, level=head.level, vertices=surface.vertices, faces=surface.faces,
+    fig = slice_figure(head.volume, 2, 32, level=head.level, vertices=surface.vertices, faces=surface.faces,
                          labels=truth)
     ax = fig.axes[0]
     lc = ax.collections[0]
@@ -63,7 +64,7 @@ def test_slice_figure_colours(tmp_path, head, surface, truth):
 def test_slice_figure_rejects(head, kwargs, match):
     args = {"axis": 0, "index": 3} | kwargs
     with pytest.raises(ValueError, match=match):
-        S.slice_figure(head.volume, args.pop("axis"), args.pop("index"), **args)
+        slice_figure(head.volume, args.pop("axis"), args.pop("index"), **args)
 
 
 def test_plane_segments_rejects(surface):
