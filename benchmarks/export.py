@@ -5,7 +5,7 @@ For a random tree with pipe-model radii and a leaf at every tip, prints the time
 .ply, trimesh's binary PLY writer) and trimesh's own glb export of the same concatenated mesh. The issue's target:
 USD and glb of a 22,000-internode tree with leaves <= 2 s each. ``--quick`` runs 3,000 internodes (< 30 s).
 ``--lod-iou`` renders each LOD level's silhouette IoU (with leaves) against level 0 at the nearest distance
-``lod_by_distance`` uses it; ``--forest`` times ForestView (LOD by camera distance) on a grown forest, with the
+``lod_by_distance`` uses it; ``--forest`` times the View's LOD trees (LOD by camera distance) on a grown forest, with the
 triangles of every tree at level 0 as baseline.
 """
 from __future__ import annotations
@@ -19,12 +19,11 @@ import numpy as np
 from _common import best_of
 
 from plantvr.geometry import build_branch_mesh
-from plantvr.geometry.export import export_tree
-from plantvr.geometry.gltf_skin import export_skinned_glb
 from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import lod_chain
 from plantvr.geometry.synthetic import random_tree
-from plantvr.geometry.usd import export_usd
+from plantvr.io.tree import export_skinned_glb, export_tree
+from plantvr.io.usd import export_usd
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -35,7 +34,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--lod-iou", action="store_true",
                     help="also render each LOD level's silhouette IoU (with leaves) at the nearest distance it is used")
     ap.add_argument("--forest", action="store_true",
-                    help="also time ForestView (LOD by distance) on a small grown forest: build, update, triangles")
+                    help="also time the View's LOD trees (LOD by distance) on a small grown forest: build, update, triangles")
     args = ap.parse_args(argv)
     n = args.internodes or (3_000 if args.quick else 22_000)
     repeat = 1 if args.quick else 3
@@ -98,7 +97,7 @@ def main(argv: list[str] | None = None) -> dict:
         print("LOD silhouette IoU with leaves at 384 / 192 / 96 px (target >= 0.9):",
               [round(x, 3) for x in res["lod_iou"]])
     if "forest_trees" in res:
-        print(f"ForestView, {res['forest_trees']} trees: build {res['forest_build_s']:.2f} s, update per camera move "
+        print(f"View with LOD trees, {res['forest_trees']} trees: build {res['forest_build_s']:.2f} s, update per camera move "
               f"{1e3 * res['forest_update_s']:.2f} ms; triangles near / mid / far {res['forest_tris']} "
               f"(all at level 0: {res['forest_tris_full']})")
     print(f"LOD triangles: {res['lod_triangles']}; target USD and glb <= 2 s at 22,000 internodes: "
@@ -107,15 +106,21 @@ def main(argv: list[str] | None = None) -> dict:
 
 
 def _forest(quick: bool) -> dict:
-    """ForestView on a grown forest: build time, time of one update() after a camera move, visible triangles."""
+    """The View with LOD trees on a grown forest: build time, time of one update() after a camera move, visible triangles."""
+    from types import SimpleNamespace
+
     from plantvr.landscape import grow_forest
-    from plantvr.view.forest import ForestView
+    from plantvr.types import TreeArrays
+    from plantvr.view import LOD, View
 
     n = 6 if quick else 30
     f = grow_forest(n, size=(40.0 * np.sqrt(n), 40.0 * np.sqrt(n)), min_dist=10.0, rounds=2, steps_per_round=5,
                     client="sync", seed=2)
     t = time.perf_counter()
-    v = ForestView(f.trees, window_size=(1280, 720), billboard_px=128, observe=False)
+    v = View({f"t{k}": TreeArrays.from_tree(SimpleNamespace(**t)) for k, t in enumerate(f.trees)},
+             window_size=(1280, 720), lod=LOD(billboard_px=128))
+    v.plotter.camera.RemoveObserver(v._camera_tag)  # time update_lod() by hand, not on every camera change
+    v._camera_tag = None
     build = time.perf_counter() - t
     c = v.centers.mean(0)
     tris, times = [], []
@@ -123,11 +128,11 @@ def _forest(quick: bool) -> dict:
         v.plotter.camera_position = [tuple(c + np.array([0.0, 2.0, -back - np.ptp(v.centers[:, 2]) / 2])),
                                      tuple(c), (0, 1, 0)]
         t = time.perf_counter()
-        v.update()
+        v.update_lod()
         times.append(time.perf_counter() - t)
         tris.append(v.triangles)
-    full = int(sum(t[0] for t in v.tris))
-    v.plotter.close()
+    full = int(sum(layer.tris[0] for layer in v.layers.values()))
+    v.close()
     return {"forest_trees": len(f.trees), "forest_build_s": build, "forest_update_s": float(np.mean(times)),
             "forest_tris": tris, "forest_tris_full": full}
 
