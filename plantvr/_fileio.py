@@ -171,25 +171,34 @@ def read_npz(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MA
             name = info.filename
             if not name.endswith(".npy"):
                 raise _zip_error(what, path, f"member {name!r} is not a .npy array")
-            try:
-                with z.open(info) as fh:
-                    shape, fortran, dtype = _read_header(fh, path, what, name)
-                    n = int(np.prod(shape, dtype=object)) * dtype.itemsize
-                    if n != info.file_size - fh.tell():
-                        raise _zip_error(what, path, f"array {name[:-4]!r} declares {n} bytes of data but its "
-                                         f"member holds {info.file_size - fh.tell()}")
-                    data = bytearray(n)
-                    if fh.readinto(memoryview(data)) != n:
-                        raise _zip_error(what, path, f"array {name[:-4]!r} is truncated")
-            except ValueError as exc:
-                if str(exc).startswith("cannot read"):
-                    raise
-                raise _zip_error(what, path, f"array {name[:-4]!r} is unreadable ({exc})") from None
-            except _READ_ERRORS as exc:
-                raise _zip_error(what, path, f"corrupt member {name!r} ({exc})") from None
+            bad, corrupt = f"array {name[:-4]!r} is unreadable", f"corrupt member {name!r}"
+            with _member_errors(what, path, bad, corrupt), z.open(info) as fh:
+                shape, fortran, dtype = _read_header(fh, path, what, name)
+                n = int(np.prod(shape, dtype=object)) * dtype.itemsize
+                if n != info.file_size - fh.tell():
+                    raise _zip_error(what, path, f"array {name[:-4]!r} declares {n} bytes of data but its "
+                                     f"member holds {info.file_size - fh.tell()}")
+                data = bytearray(n)
+                if fh.readinto(memoryview(data)) != n:
+                    raise _zip_error(what, path, f"array {name[:-4]!r} is truncated")
             arr = np.frombuffer(data, dtype=dtype)
             out[name[:-4]] = arr.reshape(shape, order="F" if fortran else "C")
     return out
+
+
+@contextlib.contextmanager
+def _member_errors(what: str, path, bad: str, corrupt: str) -> Iterator[None]:
+    """Turn what reading one zip member raises into a clear ``ValueError``: ``bad (why)`` for a damaged
+    header or array, ``corrupt (why)`` for damaged zip data; this module's own ``cannot read ...`` errors
+    pass as they are."""
+    try:
+        yield
+    except ValueError as exc:
+        if str(exc).startswith("cannot read"):
+            raise
+        raise _zip_error(what, path, f"{bad} ({exc})") from None
+    except _READ_ERRORS as exc:
+        raise _zip_error(what, path, f"{corrupt} ({exc})") from None
 
 
 def _read_header(fh, path, what: str, name: str) -> tuple[tuple, bool, np.dtype]:
@@ -219,15 +228,9 @@ def npy_headers(path: str | os.PathLike, *, what: str = "file", prefix: str = ""
             name = info.filename
             if not (name.startswith(prefix) and name.endswith(".npy")):
                 continue
-            try:
-                with z.open(info) as fh:
-                    shape, _fortran, dtype = _read_header(fh, path, what, name)
-            except ValueError as exc:
-                if str(exc).startswith("cannot read"):
-                    raise
-                raise _zip_error(what, path, f"array {name[:-4]!r} has an unreadable header ({exc})") from None
-            except _READ_ERRORS as exc:
-                raise _zip_error(what, path, f"array {name[:-4]!r} has an unreadable header ({exc})") from None
+            bad = f"array {name[:-4]!r} has an unreadable header"
+            with _member_errors(what, path, bad, bad), z.open(info) as fh:
+                shape, _fortran, dtype = _read_header(fh, path, what, name)
             out[name[len(prefix):-4]] = (shape, dtype)
     return out
 

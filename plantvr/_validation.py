@@ -18,6 +18,8 @@ __all__ = [
     "check_array",
     "check_size",
     "check_index",
+    "check_tree_arrays",
+    "check_values",
     "MAX_COORD",
     "MAX_COUNT",
 ]
@@ -151,6 +153,40 @@ def check_points(name: str, value: Any, *, min_rows: int = 0, max_abs: float = M
 def check_point(name: str, value: Any, *, max_abs: float = MAX_COORD) -> np.ndarray:
     """Return ``value`` as a finite ``(3,)`` float64 array with coordinates inside ``±max_abs``."""
     return check_array(name, value, shape=(3,), max_abs=max_abs)
+
+
+def check_values(name: str, value: Any, *, finite: bool = True) -> np.ndarray:
+    """Return ``value`` (a number or an array of any shape) as a float64 array, finite unless ``finite=False``."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{name} must be a number or an array of numbers, got {type(value).__name__}") from None
+    if finite and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    return arr
+
+
+def check_tree_arrays(pos: Any, parent: Any, radius: Any, *, max_radius: float | None = MAX_COORD
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the node arrays of a tree rooted at node 0, checked, as ``(pos, parent, radius)``.
+
+    ``pos`` (N, 3) float64 finite inside ``±MAX_COORD`` with ``2 <= N <= MAX_COUNT``; ``parent`` (N,) int64
+    with ``parent[0] = -1`` and ``0 <= parent[i] < i`` for ``i > 0`` (forward-ordered, so no cycles);
+    ``radius`` (N,) finite float64, inside ``±max_radius`` (None: unbounded; the caller checks its range).
+    """
+    pos = check_points("pos", pos, min_rows=2)
+    n = len(pos)
+    if n > MAX_COUNT:
+        raise ValueError(f"pos must have at most {MAX_COUNT} rows (nodes), got {n}")
+    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
+    radius = check_array("radius", radius, shape=(n,), max_abs=max_radius)
+    if parent[0] != -1:
+        raise ValueError(f"parent[0] must be -1 (node 0 is the root), got {parent[0]}")
+    bad = np.flatnonzero((parent[1:] < 0) | (parent[1:] >= np.arange(1, n))) + 1
+    if bad.size:
+        raise ValueError(f"parent must satisfy 0 <= parent[i] < i for i > 0 (a forward-ordered tree without "
+                         f"cycles), got parent[{bad[0]}] = {parent[bad[0]]}")
+    return pos, parent, radius
 
 
 def _interval(low, high, low_open, high_open) -> str:

@@ -266,6 +266,17 @@ def sort_by_bucket_numpy(points: np.ndarray, h: float) -> tuple[np.ndarray, np.n
     return order, start, nb - 1
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _mark_near(points, i, queries, q, r2, out):  # pragma: no cover - numba kernel (inlined)
+    """Set ``out[i]`` if point ``i`` lies within squared distance ``r2`` of query ``q``."""
+    if not out[i]:
+        dx = points[i, 0] - queries[q, 0]
+        dy = points[i, 1] - queries[q, 1]
+        dz = points[i, 2] - queries[q, 2]
+        if dx * dx + dy * dy + dz * dz <= r2:
+            out[i] = True
+
+
 @numba.njit(cache=True, nogil=True)
 def mark_within(points, order, start, mask, h, queries, r, out):  # pragma: no cover - twin: growth.spatial.within_any_numpy
     """Set ``out[i]`` for every point ``i`` with squared distance ``<= r²`` to a query point (hashed layout of
@@ -278,13 +289,7 @@ def mark_within(points, order, start, mask, h, queries, r, out):  # pragma: no c
     for q in range(queries.shape[0]):
         if brute:
             for i in range(points.shape[0]):
-                if out[i]:
-                    continue
-                dx = points[i, 0] - queries[q, 0]
-                dy = points[i, 1] - queries[q, 1]
-                dz = points[i, 2] - queries[q, 2]
-                if dx * dx + dy * dy + dz * dz <= r2:
-                    out[i] = True
+                _mark_near(points, i, queries, q, r2, out)
             continue
         cx = cell_coord(queries[q, 0], inv, -HASH_LIMIT, HASH_LIMIT)
         cy = cell_coord(queries[q, 1], inv, -HASH_LIMIT, HASH_LIMIT)
@@ -294,14 +299,7 @@ def mark_within(points, order, start, mask, h, queries, r, out):  # pragma: no c
                 for iz in range(cz - reach, cz + reach + 1):
                     b = hash_cell(ix, iy, iz, mask)
                     for k in range(start[b], start[b + 1]):
-                        i = order[k]
-                        if out[i]:
-                            continue
-                        dx = points[i, 0] - queries[q, 0]
-                        dy = points[i, 1] - queries[q, 1]
-                        dz = points[i, 2] - queries[q, 2]
-                        if dx * dx + dy * dy + dz * dz <= r2:
-                            out[i] = True
+                        _mark_near(points, order[k], queries, q, r2, out)
 
 
 # ----------------------------------------------------------------------------------------------------------------

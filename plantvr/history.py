@@ -215,21 +215,23 @@ class History:
 
     def undo(self, doc):
         """Take back the top item on ``doc``; returns ``(item, change)`` or None if there is nothing to undo."""
-        if not self.undo_stack:
-            return None
-        item = self.undo_stack.pop()
-        change = item.undo(doc)
-        self.redo_stack.append(item)
-        return item, change
+        return self._move(doc, self.undo_stack, self.redo_stack, "undo")
 
     def redo(self, doc):
         """Apply the top redo item on ``doc`` again; returns ``(item, change)`` or None."""
-        if not self.redo_stack:
+        done = self._move(doc, self.redo_stack, self.undo_stack, "redo")
+        if done is not None:
+            self._trim()
+        return done
+
+    @staticmethod
+    def _move(doc, src: deque, dst: deque, how: str):
+        """Pop the top item of ``src``, apply its ``undo`` or ``redo`` (``how``) on ``doc``, push it on ``dst``."""
+        if not src:
             return None
-        item = self.redo_stack.pop()
-        change = item.redo(doc)
-        self.undo_stack.append(item)
-        self._trim()
+        item = src.pop()
+        change = getattr(item, how)(doc)
+        dst.append(item)
         return item, change
 
     def clear(self) -> None:

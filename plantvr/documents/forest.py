@@ -20,12 +20,28 @@ import numpy as np
 
 from .._validation import check_int
 from ..document import Document, serialise
-from ..growth.sketch import SketchEngine
-from ..landscape.forest import FOREST, Forest, grow_forest, regrow_tree, terrain_mesh
+from ..landscape.forest import (
+    FOREST,
+    Forest,
+    check_client,
+    check_sketch,
+    grow_forest,
+    regrow_tree,
+    terrain_mesh,
+)
 from ..params import check_params
 from ..types import TreeArrays, TriMesh
 
 __all__ = ["ForestDocument"]
+
+
+def _check_overrides(params: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A checked copy of Tree Wand growth-parameter overrides (None stays None)."""
+    if params is None:
+        return None
+    if not isinstance(params, dict):
+        raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
+    return dict(check_params(params, partial=True))
 
 
 class ForestDocument(Document):
@@ -55,8 +71,7 @@ class ForestDocument(Document):
 
     def __init__(self, *, client: Any = "sync", max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20,
                  **params: Any):
-        if not (client is None or (isinstance(client, str) and client == "sync") or hasattr(client, "submit")):
-            raise ValueError(f"client must be None, 'sync' or a dask Client, got {client!r}")
+        client = check_client(client)
         super().__init__(max_undo=max_undo, max_undo_bytes=max_undo_bytes, **params)
         self.client = client
         self.forest: Forest | None = None
@@ -64,22 +79,7 @@ class ForestDocument(Document):
     # -- commands ---------------------------------------------------------------------------------------
     def _check_grow(self, params: dict[str, Any] | None = None, sketch: dict[str, Any] | None = None
                     ) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
-        if params is not None:
-            if not isinstance(params, dict):
-                raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
-            params = dict(check_params(params, partial=True))
-        if sketch is not None:
-            if not isinstance(sketch, dict):
-                raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
-            bad = sorted(set(sketch) & {"region", "asymmetry", "rng", "voxel_region"})
-            if bad:
-                raise ValueError(f"sketch must not set {bad} (grow_forest sets each tree's own)")
-            try:
-                SketchEngine._check_options({"mode": "autonomous", **sketch})
-            except ValueError as exc:
-                raise ValueError(f"sketch: {exc}") from None
-            sketch = dict(sketch)
-        return params, sketch
+        return _check_overrides(params), check_sketch(sketch)
 
     def grow(self, params: dict[str, Any] | None = None, sketch: dict[str, Any] | None = None) -> Forest:
         """Grow the whole forest from the current settings (:func:`~plantvr.landscape.grow_forest`); undoable.
@@ -102,10 +102,7 @@ class ForestDocument(Document):
     def _check_regrow_tree(self, tree: int, params: dict[str, Any] | None = None,
                            sketch: dict[str, Any] | None = None) -> tuple[int, dict | None, dict | None]:
         tree = check_int("tree", tree, 0, int(FOREST["n_trees"].range[1]) - 1)
-        if params is not None:
-            if not isinstance(params, dict):
-                raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
-            params = dict(check_params(params, partial=True))
+        params = _check_overrides(params)
         if sketch is not None and not isinstance(sketch, dict):
             raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {type(sketch).__name__}")
         return tree, params, None if sketch is None else dict(sketch)

@@ -19,7 +19,6 @@ from scipy.interpolate import BSpline
 from scipy.spatial import Delaunay, QhullError, cKDTree
 from scipy.spatial.transform import Rotation, Slerp
 
-from plantvr._fileio import write_atomic
 from plantvr._validation import MAX_COORD, check_array, check_int, check_range
 from plantvr.params import Param, ParamTable
 from plantvr.types import TriMesh
@@ -42,7 +41,6 @@ __all__ = [
     "polygonize_uv",
     "read_obj_sequence",
     "roll_margins",
-    "write_obj_sequence",
 ]
 
 #: Names of the three key poses; with two poses the middle one is not used.
@@ -519,47 +517,6 @@ def build_floret(poses: list[Corolla], *, n_frames: int = 10, growth: str | np.n
     base = np.flatnonzero(np.isin(np.arange(len(X)), np.flatnonzero(np.tile(uv[:, 1] == 0, n))))
     fixed = np.unique(new_id[base])
     return FloretMesh(vertices=frames[-1], faces=faces.astype(np.int64), frames=frames, fixed=fixed.astype(np.int64))
-
-
-def write_obj_sequence(folder: str, faces: np.ndarray, frames: np.ndarray, *, prefix: str = "frame",
-                       fixed: np.ndarray | None = None) -> list[str]:
-    """Write frames as ``<prefix>_<k>.obj`` (same faces) and an optional ``weight.txt`` (spec 002 §2.4, V8).
-
-    Everything is checked and formatted before a file is touched; each file is written atomically, and frames
-    of an earlier, longer sequence with the same prefix are removed (they would be read back as part of it).
-    """
-    faces = check_array("faces", faces, shape=(None, 3), dtype=np.int64)
-    frames = check_array("frames", frames, shape=(None, None, 3), max_abs=MAX_COORD)
-    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z0-9_.-]*[A-Za-z_.-]|", prefix):
-        raise ValueError(f"prefix must be letters, digits, '_', '-', '.' and not end in a digit, got {prefix!r}")
-    if len(frames) > MAX_OBJ_FRAMES:
-        raise ValueError(f"frames must hold at most {MAX_OBJ_FRAMES} frames, got {len(frames)}")
-    n_v = frames.shape[1]
-    if faces.size and (faces.min() < 0 or faces.max() >= n_v):
-        raise ValueError(f"faces must index the {n_v} vertices of a frame, got range [{faces.min()}, {faces.max()}]")
-    if fixed is not None:
-        fixed = check_array("fixed", fixed, shape=(None,), dtype=np.int64)
-        if fixed.size and (fixed.min() < 0 or fixed.max() >= n_v):
-            raise ValueError(f"fixed must index the {n_v} vertices of a frame, got range "
-                             f"[{fixed.min()}, {fixed.max()}]")
-    try:
-        os.makedirs(folder, exist_ok=True)
-    except (OSError, TypeError) as exc:
-        raise ValueError(f"cannot create folder {folder!r}: {exc}") from None
-    paths = []
-    fl = "\n".join(f"f {a} {b} {c}" for a, b, c in faces + 1)
-    for k, X in enumerate(frames):
-        path = os.path.join(folder, f"{prefix}_{k:04d}.obj")
-        write_atomic(path, "\n".join(f"v {x!r} {y!r} {z!r}" for x, y, z in X.tolist()) + "\n" + fl + "\n")
-        paths.append(path)
-    pat = re.compile(re.escape(prefix) + r"_?(\d+)\.obj$")
-    keep = {os.path.basename(p) for p in paths}
-    for f in os.listdir(folder):
-        if pat.fullmatch(f) and f not in keep and os.path.isfile(os.path.join(folder, f)):
-            os.unlink(os.path.join(folder, f))
-    if fixed is not None:
-        write_atomic(os.path.join(folder, "weight.txt"), "".join(f"{int(i)}\n" for i in fixed))
-    return paths
 
 
 def read_obj_sequence(folder: str, *, prefix: str = "frame") -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:

@@ -13,9 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plantvr._validation import (
-    MAX_COORD, MAX_COUNT, check_array, check_index, check_int, check_points, check_range,
-)
+from plantvr._validation import check_array, check_index, check_int, check_range, check_tree_arrays
 from plantvr.types import TriMesh
 
 from . import _kernels as K
@@ -203,14 +201,8 @@ class Segments:
 
 
 def _check_tree(pos, parent, radius, alive, main_child):
-    pos = check_points("pos", pos, min_rows=2)
+    pos, parent, radius = check_tree_arrays(pos, parent, radius)
     n = len(pos)
-    if n > MAX_COUNT:
-        raise ValueError(f"pos must have at most {MAX_COUNT} rows (nodes), got {n}")
-    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
-    radius = check_array("radius", radius, shape=(n,), dtype=np.float64, max_abs=MAX_COORD)
-    if parent[0] != -1 or np.any(parent[1:] < 0) or np.any(parent[1:] >= np.arange(1, n)):
-        raise ValueError("parent must be -1 for node 0 and satisfy 0 <= parent[i] < i for i > 0")
     if np.any(radius[1:] <= 0):
         raise ValueError(f"radius must be > 0 for every internode, got min {radius[1:].min()!r}")
     if alive is None:

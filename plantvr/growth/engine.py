@@ -73,6 +73,14 @@ def sum_per_bud(owner: np.ndarray, values: np.ndarray, n_buds: int) -> np.ndarra
     return np.stack([np.bincount(owner, values[:, k], n_buds) for k in range(3)], 1)
 
 
+def marker_counts(owner: np.ndarray, n_buds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(hit, count, chosen)`` of a marker assignment ``owner`` (M,) in [-1, n_buds): the markers that have a
+    bud (bool), the markers of each bud (n_buds,) and the buds with at least one (the buds that grow, §2.4)."""
+    hit = owner >= 0
+    count = np.bincount(owner[hit], minlength=n_buds)
+    return hit, count, np.flatnonzero(count > 0)
+
+
 class GrowthEngine:
     """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict."""
 
@@ -363,9 +371,7 @@ class GrowthEngine:
     def _grow(self, buds: _Buds, owner: np.ndarray) -> int:
         """GROWINTERNODES: buds with ≥ 1 marker add one internode along Eq. 9.5 (§2.4)."""
         p, t = self.params, self.tree
-        hit = owner >= 0
-        count = np.bincount(owner[hit], minlength=len(buds.node))
-        grow = np.flatnonzero(count > 0)
+        hit, count, grow = marker_counts(owner, len(buds.node))
         if not len(grow):
             return 0
         sums = sum_per_bud(owner[hit], self.markers[hit], len(buds.node))

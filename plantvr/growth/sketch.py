@@ -41,11 +41,12 @@ from .._validation import (
     check_point,
     check_points,
     check_range,
+    check_values,
 )
 from ..params import PARAM_BY_NAME, TREEWAND, WINDOWS, Param, ParamTable, check_params
 from .bending import BendResult, bend_path, pipe_widths
 from .directions import _rotate, bud_headings, normalize, transport_lateral
-from .engine import GrowthEngine, _Buds, sum_per_bud
+from .engine import GrowthEngine, _Buds, marker_counts, sum_per_bud
 from .tree import BUD, NO_SLOT
 
 __all__ = [
@@ -318,12 +319,7 @@ def ellipse_distance(chi: np.ndarray, *, s_v: float, s_p: float, e_v: float) -> 
     s_v = check_range("s_v", s_v, lo, hi)
     s_p = check_range("s_p", s_p, lo, hi)
     e_v = check_range("e_v", e_v, -hi, hi)
-    try:
-        chi = np.asarray(chi, float)
-    except (TypeError, ValueError):
-        raise ValueError(f"chi must be an array of angles, got {type(chi).__name__}") from None
-    if not np.all(np.isfinite(chi)):
-        raise ValueError("chi must contain only finite values (no NaN or inf)")
+    chi = check_values("chi", chi)
     c, s = np.cos(chi), np.sin(chi)
     A = c * c / s_v ** 2 + s * s / s_p ** 2
     B = -2.0 * e_v * c / s_v ** 2
@@ -928,9 +924,7 @@ class SketchEngine(GrowthEngine):
     # -- growth: Eq. 4.3 shoots, Eq. 4.5 per internode ------------------------------------------------
     def _grow(self, buds: _Buds, owner: np.ndarray) -> int:
         p, t = self.params, self.tree
-        hit = owner >= 0
-        count = np.bincount(owner[hit], minlength=len(buds.node))
-        enabled = np.flatnonzero(count > 0)
+        hit, _count, enabled = marker_counts(owner, len(buds.node))
         if not len(enabled):
             self._new_nodes = np.zeros(0, np.int64)
             return 0

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from plantvr._validation import check_range
+from plantvr._validation import check_range, check_values
 
 __all__ = ["WYVILL_A", "WYVILL_B", "WYVILL_C", "ISO", "wyvill", "wyvill_from_sq", "wyvill_derivative", "blinn"]
 
@@ -15,17 +15,6 @@ WYVILL_A = -4.0 / 9.0
 WYVILL_B = 17.0 / 9.0
 WYVILL_C = -22.0 / 9.0
 ISO = 0.5
-
-
-def _distances(name: str, r, *, finite: bool = True) -> np.ndarray:
-    """``r`` as a finite float64 array of any shape (a clear ValueError naming ``name`` otherwise)."""
-    try:
-        a = np.asarray(r, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number or an array of numbers, got {type(r).__name__}") from None
-    if finite and not np.all(np.isfinite(a)):
-        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
-    return a
 
 
 def wyvill_from_sq(t: np.ndarray) -> np.ndarray:
@@ -45,7 +34,7 @@ def wyvill_from_sq(t: np.ndarray) -> np.ndarray:
     ----------
     .. [1] Kochhar 2010, §3.2 (Wyvill et al. soft objects); spec 003 §2.3, ERRATUM A.4 (exact coefficients).
     """
-    t = _distances("t", t, finite=False)          # NaN rows (no preimage) give 0
+    t = check_values("t", t, finite=False)          # NaN rows (no preimage) give 0
     f = ((WYVILL_A * t + WYVILL_B) * t + WYVILL_C) * t + 1.0
     return np.where(t < 1.0, f, 0.0)
 
@@ -75,7 +64,7 @@ def wyvill(r: np.ndarray, radius: float = 1.0) -> np.ndarray:
     0.5
     """
     radius = check_range("radius", radius, 1e-100, 1e100)
-    r = _distances("r", r)
+    r = check_values("r", r)
     with np.errstate(over="ignore"):
         return wyvill_from_sq(np.minimum((r / radius) ** 2, 2.0))
 
@@ -100,7 +89,7 @@ def wyvill_derivative(r: np.ndarray, radius: float = 1.0) -> np.ndarray:
     .. [1] Kochhar 2010, §3.2 (constraint f'(R) = 0).
     """
     radius = check_range("radius", radius, 1e-100, 1e100)
-    r = _distances("r", r)
+    r = check_values("r", r)
     with np.errstate(over="ignore"):
         t = np.minimum((r / radius) ** 2, 2.0)
     dfdt = (3.0 * WYVILL_A * t + 2.0 * WYVILL_B) * t + WYVILL_C
@@ -130,6 +119,6 @@ def blinn(r: np.ndarray, *, a: float = 1.0, b: float = 1.0) -> np.ndarray:
     """
     a = check_range("a", a, 0.0, np.inf, low_open=True)
     b = check_range("b", b, 0.0, np.inf, low_open=True)
-    r = _distances("r", r)
+    r = check_values("r", r)
     with np.errstate(over="ignore", under="ignore"):
         return b * np.exp(-a * np.minimum(r**2, 1e300))

@@ -169,19 +169,20 @@ class Warp(Node):
 
     def forward(self, p):
         """Forward map w(p) (for bounding boxes and tests)."""
-        if self.kind == "twist":
-            return twist_forward(p, self.k)
-        if self.kind == "taper":
-            return taper_forward(p, self.k, self.z0)
-        return bend_forward(p, self.k, self.length)
+        return self._warp(p, twist_forward, taper_forward, bend_forward)
 
     def inverse(self, p):
         """Inverse map w^-1(p)."""
+        return self._warp(p, twist_inverse, taper_inverse, bend_inverse)
+
+    def _warp(self, p, twist, taper, bend):
+        """``p`` through the map of this warp's kind: ``twist(p, k)``, ``taper(p, k, z0)`` or
+        ``bend(p, k, length)``."""
         if self.kind == "twist":
-            return twist_inverse(p, self.k)
+            return twist(p, self.k)
         if self.kind == "taper":
-            return taper_inverse(p, self.k, self.z0)
-        return bend_inverse(p, self.k, self.length)
+            return taper(p, self.k, self.z0)
+        return bend(p, self.k, self.length)
 
     def _eval_inside(self, p, backend):
         q = self.inverse(p)

@@ -24,13 +24,12 @@ from typing import Any
 import numpy as np
 
 from plantvr._validation import (
-    MAX_COORD,
     check_array,
     check_choice,
     check_index,
     check_int,
-    check_points,
     check_range,
+    check_tree_arrays,
 )
 from plantvr.geometry.leaves import IncrementalLeafMesh, LeafMesh, build_leaves
 from plantvr.geometry.lod import axis_start, lod_chain
@@ -305,12 +304,8 @@ def tree_skeleton(pos, parent, radius, *, main_child=None, max_joints: int = 64)
     Skeleton
         Joints in increasing order of their start node, so parents come first.
     """
-    pos = check_points("pos", pos, min_rows=2)
+    pos, parent, radius = check_tree_arrays(pos, parent, radius)
     n = len(pos)
-    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
-    radius = check_array("radius", radius, shape=(n,), dtype=np.float64, max_abs=MAX_COORD)
-    if parent[0] != -1 or np.any(parent[1:] < 0) or np.any(parent[1:] >= np.arange(1, n)):
-        raise ValueError("parent must be -1 for node 0 and satisfy 0 <= parent[i] < i for i > 0")
     if main_child is not None:
         main_child = check_index("main_child", main_child, shape=(n,), low=-1, high=n - 1)
     max_joints = check_int("max_joints", max_joints, 1, 65535)

@@ -7,7 +7,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int, check_range
+from .._validation import (
+    MAX_COORD,
+    MAX_COUNT,
+    check_array,
+    check_choice,
+    check_int,
+    check_range,
+    check_values,
+)
 from .terrain import MAX_CELLS, check_field, pair
 
 __all__ = ["Distribution", "Species", "clustering_kernel", "distribute", "inhibitory_kernel", "ripley_k",
@@ -23,12 +31,7 @@ def _smooth(x: np.ndarray) -> np.ndarray:
 
 
 def _check_kernel(d, r, a, s):
-    try:
-        d = np.asarray(d, float)
-    except (TypeError, ValueError):
-        raise ValueError(f"d must be an array of distances, got {type(d).__name__}") from None
-    if not np.all(np.isfinite(d)):
-        raise ValueError("d must contain only finite distances (no NaN or inf)")
+    d = check_values("d", d)
     r = check_range("r", r, 0.0, MAX_COORD)
     a = check_range("a", a, r, 2 * MAX_COORD, low_open=True)
     if not (a - r) > 1e-12 * max(a, 1.0):

@@ -49,6 +49,8 @@ from .terrain import check_field, heightfield, pair, sample_height
 __all__ = [
     "FOREST",
     "Forest",
+    "check_client",
+    "check_sketch",
     "crown_regions",
     "engine_from_state",
     "engine_state",
@@ -386,6 +388,34 @@ def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketc
     return states, voxels
 
 
+def check_client(client: Any) -> Any:
+    """``client`` if it is None, ``"sync"`` or a dask ``Client`` (anything with ``submit``), else a ValueError."""
+    if not (client is None or (isinstance(client, str) and client == "sync") or hasattr(client, "submit")):
+        raise ValueError(f"client must be None, 'sync' or a dask Client, got {client!r}")
+    return client
+
+
+def check_sketch(sketch: dict[str, Any] | None) -> dict[str, Any] | None:
+    """A copy of the TreeSketch options of a forest (None stays None), every option checked.
+
+    Raises ``ValueError`` for a non-dict, for the options :func:`grow_forest` sets per tree (``region``,
+    ``asymmetry``, ``rng``, ``voxel_region``) and for any option :class:`~plantvr.growth.sketch.SketchEngine`
+    refuses (the message prefixed ``sketch:``).
+    """
+    if sketch is None:
+        return None
+    if not isinstance(sketch, dict):
+        raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
+    bad = sorted(set(sketch) & {"region", "asymmetry", "rng", "voxel_region"})
+    if bad:
+        raise ValueError(f"sketch must not set {bad} (grow_forest sets each tree's own)")
+    try:
+        SketchEngine._check_options({"mode": "autonomous", **sketch})
+    except ValueError as exc:
+        raise ValueError(f"sketch: {exc}") from None
+    return dict(sketch)
+
+
 def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), min_dist: float = 8.0,
                 rounds: int = 4, steps_per_round: int = 5, crown_height: float = 7.0, crown_radius: float = 5.0,
                 n_darts: int = 300, terrain_amplitude: float = 3.0, params: dict[str, Any] | None = None,
@@ -453,8 +483,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                                           _check_bool("lean", lean), _check_bool("processes", processes))
     if params is not None and not isinstance(params, dict):
         raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
-    if not (client is None or (isinstance(client, str) and client == "sync") or hasattr(client, "submit")):
-        raise ValueError(f"client must be None, 'sync' or a dask Client, got {client!r}")
+    client = check_client(client)
     rounds, steps_per_round = FOREST["rounds"].check(rounds), FOREST["steps_per_round"].check(steps_per_round)
     min_dist = FOREST["min_dist"].check(min_dist)
     crown_height, crown_radius = FOREST["crown_height"].check(crown_height), FOREST["crown_radius"].check(crown_radius)
@@ -475,16 +504,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     if s_hi < s_lo:
         raise ValueError(f"scale_range must be (low, high) with low <= high, got {scale_range!r}")
     p = check_params({**defaults(), **(params or {})})
-    if sketch is not None:
-        if not isinstance(sketch, dict):
-            raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
-        bad = sorted(set(sketch) & {"region", "asymmetry", "rng", "voxel_region"})
-        if bad:
-            raise ValueError(f"sketch must not set {bad} (grow_forest sets each tree's own)")
-        try:  # every option checked before anything is grown
-            SketchEngine._check_options({"mode": "autonomous", **sketch})
-        except ValueError as exc:
-            raise ValueError(f"sketch: {exc}") from None
+    sketch = check_sketch(sketch)  # every option checked before anything is grown
     if heroes is not None and not isinstance(heroes, (list, tuple)):
         raise ValueError(f"heroes must be a list of dicts or None, got {type(heroes).__name__}")
     rng = np.random.default_rng(seed)
@@ -500,8 +520,6 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         if np.any(xz < 0) or np.any(xz > size):
             raise ValueError(f"positions must lie in [0, {size[0]}] x [0, {size[1]}]")
     bases = np.column_stack([xz[:, 0], sample_height(hf, size, xz), xz[:, 1]])
-    if sketch is not None and not isinstance(sketch, dict):
-        raise ValueError(f"sketch must be a dict of SketchEngine options or None, got {sketch!r}")
     hero_in = []
     for k, h in enumerate(heroes or []):
         if not isinstance(h, dict) or set(h) != {"tree", "position"}:

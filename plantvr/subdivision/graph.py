@@ -11,8 +11,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_index, check_range
-
+from plantvr._validation import (
+    MAX_COORD,
+    MAX_COUNT,
+    check_array,
+    check_choice,
+    check_index,
+    check_range,
+    check_tree_arrays,
+)
 
 __all__ = ["BranchGraph", "graph_from_arrays", "joint_offsets", "pair_offset", "random_tree", "simplify"]
 
@@ -137,19 +144,7 @@ def graph_from_arrays(pos, parent, radius) -> BranchGraph:
         If shapes disagree, ``parent`` is not a forward-ordered tree (a cycle), a radius is not positive or
         an internode has zero length.
     """
-    pos = check_array("pos", pos, shape=(None, 3), min_rows=2, max_abs=MAX_COORD)
-    n = len(pos)
-    if n > MAX_COUNT:
-        raise ValueError(f"pos must have at most {MAX_COUNT} rows (nodes), got {n}")
-    parent = check_index("parent", parent, shape=(n,), low=-1, high=n - 1)
-    radius = check_array("radius", radius, shape=(n,))
-    if parent[0] != -1:
-        raise ValueError(f"parent[0] must be -1 (node 0 is the root), got {parent[0]}")
-    idx = np.arange(n)
-    bad = np.flatnonzero((parent[1:] < 0) | (parent[1:] >= idx[1:])) + 1
-    if bad.size:
-        raise ValueError(f"parent must satisfy 0 <= parent[i] < i for i > 0 (a forward-ordered tree without "
-                         f"cycles), got parent[{bad[0]}] = {parent[bad[0]]}")
+    pos, parent, radius = check_tree_arrays(pos, parent, radius, max_radius=None)
     bad = np.flatnonzero(~((radius >= MIN_RADIUS) & (radius <= MAX_COORD)))
     if bad.size:
         raise ValueError(f"radius must be > 0 (in [{MIN_RADIUS:g}, {MAX_COORD:g}]) at every node, got "

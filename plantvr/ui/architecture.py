@@ -35,7 +35,7 @@ from ..documents.treesketch import SketchDocument
 from ..growth.sketch import TREESKETCH, SketchEngine, ellipse_distance
 from ..params import defaults, validate
 from ._assets import asset
-from .panels import make_control
+from .panels import make_control, push_param, show_value
 from .triangle import InfluenceTriangle
 
 __all__ = ["ARCH_PARAMS", "SKETCH_OPTIONS", "AngleWidget", "ArchitecturePanel", "GravimorphismEllipse", "SchematicTree",
@@ -418,21 +418,14 @@ class ArchitecturePanel(W.VBox):
     def _from_control(self, name: str, value) -> None:
         if getattr(self, "_syncing", False):
             return
-        try:
-            self.doc.set_params(**{name: value})
-            self.message.value = ""
-        except ValueError as exc:
-            self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
+        if not push_param(self.doc, name, value, self.message):
             self._to_controls(None)
 
     def _to_controls(self, change) -> None:
         self._syncing = True
         try:
             for name, ctl in self.controls.items():
-                v = getattr(self.doc, name)
-                if isinstance(ctl, (W.FloatSlider, W.IntSlider)):
-                    ctl.min, ctl.max = min(ctl.min, v), max(ctl.max, v)
-                ctl.value = v
+                show_value(ctl, getattr(self.doc, name))
         finally:
             self._syncing = False
 

@@ -30,8 +30,8 @@ from ..flowers.floret import (
     POSE_NAMES,
     FloretMesh,
     growth_function,
-    write_obj_sequence,
 )
+from ..io.obj import write_obj_sequence
 
 __all__ = ["FloretEditor", "preview_png"]
 

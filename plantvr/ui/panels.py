@@ -21,7 +21,8 @@ from ..params import Param, ParamTable
 from .icons import icon_png
 from .triangle import InfluenceTriangle
 
-__all__ = ["param_traits", "make_control", "IconSelector", "ParameterPanels", "HIGHLIGHT"]
+__all__ = ["HIGHLIGHT", "IconSelector", "ParameterPanels", "make_control", "param_traits", "push_param",
+           "show_value"]
 
 #: Yellow highlight of the selected icon (§4.8).
 HIGHLIGHT = "#f5d142"
@@ -148,6 +149,26 @@ def make_control(p: Param, value: Any) -> W.Widget:
                          layout=W.Layout(width="420px"))
 
 
+def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
+    """``doc.set_params(name=value)``; a refusal is shown in red in ``message`` (cleared on success).
+
+    Returns whether the document took the value (on False the caller shows the unchanged value again)."""
+    try:
+        doc.set_params(**{name: value})
+    except ValueError as exc:
+        message.value = f"<span style='color:#c0392b'>{exc}</span>"
+        return False
+    message.value = ""
+    return True
+
+
+def show_value(ctl: W.Widget, value: Any) -> None:
+    """Show ``value`` in ``ctl``, widening a slider's range first so a valid value set from code shows as is."""
+    if isinstance(ctl, (W.FloatSlider, W.IntSlider)):
+        ctl.min, ctl.max = min(ctl.min, value), max(ctl.max, value)
+    ctl.value = value
+
+
 class ParameterPanels(W.VBox):
     """The parameter windows of one document (Tree Wand: Tree form / Appearance / Light, optionally Settings).
 
@@ -211,21 +232,14 @@ class ParameterPanels(W.VBox):
     def _push(self, name: str, value) -> None:
         if name in self._busy:
             return
-        try:
-            self.doc.set_params(**{name: value})
-            self.message.value = ""
-        except ValueError as exc:
-            self.message.value = f"<span style='color:#c0392b'>{exc}</span>"
+        if not push_param(self.doc, name, value, self.message):
             self._pull({"name": name})  # show the document's (unchanged) value again
 
     def _pull(self, change) -> None:
         name = change["name"]
-        ctl, value = self.controls[name], getattr(self.doc, name)
         self._busy.add(name)
         try:
-            if isinstance(ctl, W.FloatSlider):
-                ctl.min, ctl.max = min(ctl.min, value), max(ctl.max, value)
-            ctl.value = value
+            show_value(self.controls[name], getattr(self.doc, name))
         finally:
             self._busy.discard(name)
 

@@ -8,9 +8,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import LineCollection
 
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import check_range
 from plantvr.vine.colors import ColorTable
-from plantvr.vine.slices import _AXES, _check_axis, plane_segments, slice_contours
+from plantvr.vine.slices import _AXES, check_slice, plane_segments, slice_contours
 
 __all__ = ["plot_label_areas", "slice_figure"]
 
@@ -81,12 +81,7 @@ def slice_figure(volume: np.ndarray, axis: int | str, index: int, *, level: floa
         The slice with ``origin="lower"``: the second remaining axis runs right, the first runs up, both in
         model units.
     """
-    vol = np.asarray(volume)
-    if vol.ndim != 3:
-        raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
-    a = _check_axis(axis)
-    index = check_int("index", index, 0, vol.shape[a] - 1)
-    sp = check_array("spacing", spacing, shape=(3,))
+    vol, a, index, sp = check_slice(volume, axis, index, spacing)
     linewidth = check_range("linewidth", linewidth, 0.0, 20.0, low_open=True)
     if (vertices is None) != (faces is None):
         raise ValueError("vertices and faces must be given together")

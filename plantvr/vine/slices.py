@@ -14,7 +14,7 @@ import numpy as np
 
 from plantvr._validation import check_array, check_int, check_range
 
-__all__ = ["plane_segments", "slice_contours"]
+__all__ = ["check_slice", "plane_segments", "slice_contours"]
 
 _AXES = "xyz"
 
@@ -25,6 +25,17 @@ def _check_axis(axis) -> int:
             raise ValueError(f"axis must be 0, 1, 2 or one of 'x', 'y', 'z', got {axis!r}")
         return _AXES.index(axis)
     return check_int("axis", axis, 0, 2)
+
+
+def check_slice(volume, axis, index, spacing) -> tuple[np.ndarray, int, int, np.ndarray]:
+    """``(volume, axis, index, spacing)`` of one volume slice, checked: a 3-D volume, an axis 0-2 or
+    ``'x'``/``'y'``/``'z'``, an index inside that axis, a finite ``(3,)`` voxel spacing."""
+    vol = np.asarray(volume)
+    if vol.ndim != 3:
+        raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
+    ax = _check_axis(axis)
+    index = check_int("index", index, 0, vol.shape[ax] - 1)
+    return vol, ax, index, check_array("spacing", spacing, shape=(3,))
 
 
 def plane_segments(vertices: np.ndarray, faces: np.ndarray, axis: int | str, position: float, *,
@@ -178,12 +189,7 @@ def slice_contours(volume: np.ndarray, level: float, axis: int | str, index: int
     Returns a list of (N, 3) float64 polylines lying in the plane ``x[axis] == index * spacing[axis]``.
     """
     from skimage.measure import find_contours
-    vol = np.asarray(volume)
-    if vol.ndim != 3:
-        raise ValueError(f"volume must be 3-D, got shape {vol.shape}")
-    ax = _check_axis(axis)
-    index = check_int("index", index, 0, vol.shape[ax] - 1)
-    sp = check_array("spacing", spacing, shape=(3,))
+    vol, ax, index, sp = check_slice(volume, axis, index, spacing)
     level = check_range("level", level, -np.inf, np.inf, low_open=True, high_open=True)
     img = np.take(vol, index, axis=ax).astype(np.float32)
     other = [k for k in range(3) if k != ax]

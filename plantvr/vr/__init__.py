@@ -9,53 +9,8 @@ headset. ``openvr`` (pyopenvr, extra ``plantvr[vr]``) is imported only by ``star
 SteamVR, ``start()`` raises a ``RuntimeError`` that says what to install. :mod:`plantvr.vr.fake_openvr` stands
 in for it in tests.
 """
+from . import controls as _controls
 from .bridge import HISTOGRAM_EDGES_MS, Headset, attach, replay
-from .controls import (
-    CONTROL_MAPS,
-    GESTURES,
-    MENU_ITEMS,
-    BrushGesture,
-    Command,
-    ControllerState,
-    ControlMap,
-    Controls,
-    InputFrame,
-    OneGripTranslate,
-    SceneTransform,
-    control_map,
-    handlebar_step,
-    issue,
-    load_recording,
-    menu_item_at,
-    place_window,
-    save_recording,
-    smoothed_velocity,
-    wheel_label,
-)
+from .controls import *  # the control map, gestures and recordings: everything controls exports
 
-__all__ = [
-    "CONTROL_MAPS",
-    "GESTURES",
-    "HISTOGRAM_EDGES_MS",
-    "MENU_ITEMS",
-    "BrushGesture",
-    "Command",
-    "ControlMap",
-    "ControllerState",
-    "Controls",
-    "Headset",
-    "InputFrame",
-    "OneGripTranslate",
-    "SceneTransform",
-    "attach",
-    "control_map",
-    "handlebar_step",
-    "issue",
-    "load_recording",
-    "menu_item_at",
-    "place_window",
-    "replay",
-    "save_recording",
-    "smoothed_velocity",
-    "wheel_label",
-]
+__all__ = ["HISTOGRAM_EDGES_MS", "Headset", "attach", "replay"] + _controls.__all__

@@ -128,20 +128,21 @@ class CompositorError_RequestFailed(CompositorError):
     pass
 
 
-def _matrix34(a: np.ndarray) -> HmdMatrix34_t:
-    m = HmdMatrix34_t()
-    for i in range(3):
+def _matrix(cls, a: np.ndarray):
+    """``a``'s rows (3 or 4 by 4) as an OpenVR matrix struct ``cls``."""
+    m = cls()
+    for i in range(len(m.m)):
         for j in range(4):
             m.m[i][j] = float(a[i, j])
     return m
+
+
+def _matrix34(a: np.ndarray) -> HmdMatrix34_t:
+    return _matrix(HmdMatrix34_t, a)
 
 
 def _matrix44(a: np.ndarray) -> HmdMatrix44_t:
-    m = HmdMatrix44_t()
-    for i in range(4):
-        for j in range(4):
-            m.m[i][j] = float(a[i, j])
-    return m
+    return _matrix(HmdMatrix44_t, a)
 
 
 def pose_matrix(position=(0.0, 0.0, 0.0), yaw: float = 0.0, pitch: float = 0.0) -> np.ndarray:

@@ -19,8 +19,8 @@ from plantvr.flowers.floret import (
     polygonize_uv,
     read_obj_sequence,
     roll_margins,
-    write_obj_sequence,
 )
+from plantvr.io.obj import write_obj_sequence
 
 
 def test_v1_clamped_bspline_corners_and_scipy_oracle():

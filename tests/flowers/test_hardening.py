@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from plantvr.flowers import ccd, pbd, phyllotaxis as ph, scn
 from plantvr.flowers.dynamic import DynamicPhyllotaxis
-from plantvr.flowers.floret import read_obj_sequence, write_obj_sequence
+from plantvr.flowers.floret import read_obj_sequence
+from plantvr.io.obj import write_obj_sequence
 
 BAD = [np.nan, np.inf, -np.inf, 1e300, 1e19, 10**12, -5, 0, 1e-20, "x", None, [], True]
 BAD_INT = [np.nan, np.inf, 1e300, 10**12, -5, -1, 0.5, "3", None, 2**70]

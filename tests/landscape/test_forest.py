@@ -122,6 +122,27 @@ def test_forest_validation():
         grow_forest(2, steps_per_round=0, client="sync")
 
 
+def test_forest_option_checks_are_shared_with_the_document():
+    """grow_forest and ForestDocument check client and sketch options through the same helpers."""
+    from plantvr.documents.forest import ForestDocument
+    from plantvr.landscape.forest import check_client, check_sketch
+
+    sk = {"n_max": 3}
+    assert check_sketch(None) is None and check_sketch(sk) == sk and check_sketch(sk) is not sk
+    assert check_client(None) is None and check_client("sync") == "sync"
+    for bad, match in (([1], "sketch must be a dict"), ({"rng": 1}, r"sketch must not set \['rng'\]"),
+                       ({"n_max": -1}, "sketch: ")):
+        with pytest.raises(ValueError, match=match):
+            check_sketch(bad)
+        with pytest.raises(ValueError, match=match):
+            grow_forest(2, client="sync", sketch=bad)
+        with pytest.raises(ValueError, match=match):
+            ForestDocument().grow(sketch=bad)
+    for entry in (check_client, lambda c: grow_forest(2, client=c), lambda c: ForestDocument(client=c)):
+        with pytest.raises(ValueError, match="client must be None, 'sync' or a dask Client"):
+            entry("threads")
+
+
 def test_ts_v25_v26_sketch_forest_in_crown_space():
     """TreeSketch trees grow autonomously inside their weighted Voronoi cells below h_max; identical bytes with
     a synchronous run and 2 thread workers (each tree depends on its own state only)."""

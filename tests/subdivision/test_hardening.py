@@ -8,6 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from plantvr.io.obj import write_obj
 from plantvr.subdivision import (
     BranchGraph,
     build_control_mesh,
@@ -23,7 +24,6 @@ from plantvr.subdivision import (
     tree_mesh,
     tree_mesh_uv,
     vertex_normals,
-    write_obj,
 )
 from plantvr.subdivision.hull import joint_hulls
 from plantvr.subdivision.loop import boundary_loops, edge_table
@@ -258,7 +258,7 @@ def test_obj_failed_save_keeps_old_file(tmp_path, obj_mesh, monkeypatch):
     V, F, uv = obj_mesh
     p = write_obj(tmp_path / "a.obj", V, F, uv)
     old = p.read_bytes()
-    import plantvr.subdivision.uv as U
+    import plantvr.io.obj as U
 
     def boom(*a, **k):
         raise OSError(28, "No space left on device")

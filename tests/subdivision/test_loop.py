@@ -4,11 +4,11 @@ import pytest
 import trimesh
 from scipy.spatial import cKDTree
 
+from plantvr.io.mesh import export_mesh
 from plantvr.subdivision import (
     BranchGraph,
     build_control_mesh,
     cap_boundaries,
-    export_mesh,
     loop_weight,
     radius_factor,
     subdivide_loop,

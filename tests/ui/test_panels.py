@@ -8,7 +8,7 @@ import plantvr
 from plantvr.document import Document
 from plantvr.params import PARAM_BY_NAME, PARAMS, TREEWAND, WINDOWS, Param, ParamTable
 from plantvr.ui import IconSelector, ParameterPanels, param_traits
-from plantvr.ui.panels import HIGHLIGHT, INFLUENCE
+from plantvr.ui.panels import HIGHLIGHT, INFLUENCE, push_param, show_value
 
 
 @pytest.fixture
@@ -168,3 +168,16 @@ def test_panels_are_generated_for_any_document(tmp_path):
     panels.close()
     with pytest.raises(ValueError, match="doc must be a document with a parameter table"):
         ParameterPanels(object())
+
+
+def test_push_param_and_show_value_shared_by_the_panels(model):
+    msg = W.HTML("old")
+    assert push_param(model, "branch_angle", 40.0, msg) and msg.value == "" and model.branch_angle == 40.0
+    assert not push_param(model, "branch_angle", 1e9, msg) and "branch_angle" in msg.value
+    assert model.branch_angle == 40.0
+    s = W.IntSlider(value=2, min=0, max=5)
+    show_value(s, 9)
+    assert (s.min, s.max, s.value) == (0, 9, 9)
+    t = W.Text(value="a")
+    show_value(t, "b")
+    assert t.value == "b"

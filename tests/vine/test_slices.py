@@ -119,3 +119,18 @@ def test_cut_kernel_matches_numpy_twin(monkeypatch, surface, truth, axis, pos):
     np.testing.assert_array_equal(e3, e4)
     with pytest.raises(ValueError, match="vertices must contain only finite values"):
         S.plane_segments(np.full((3, 3), np.nan), np.array([[0, 1, 2]]), 0, 0.0)
+
+
+def test_check_slice_is_the_one_slice_check(head):
+    vol, ax, index, sp = S.check_slice(head.volume, "y", 3, (1, 2, 3))
+    assert vol.shape == head.volume.shape
+    assert (ax, index) == (1, 3) and sp.tolist() == [1.0, 2.0, 3.0]
+    for entry in (lambda *a: S.check_slice(*a, (1, 1, 1)),
+                  lambda v, a, i: S.slice_contours(v, 0.5, a, i),
+                  lambda v, a, i: slice_figure(v, a, i)):
+        with pytest.raises(ValueError, match="volume must be 3-D"):
+            entry(np.zeros((4, 4)), 0, 0)
+        with pytest.raises(ValueError, match="axis must be 0, 1, 2"):
+            entry(head.volume, "w", 0)
+        with pytest.raises(ValueError, match="index must be"):
+            entry(head.volume, 2, head.volume.shape[2])
