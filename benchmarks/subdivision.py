@@ -136,7 +136,8 @@ def main(argv: list[str] | None = None) -> dict:
     import tempfile
     from pathlib import Path
 
-    from plantvr.subdivision import control_uvs, subdivide_uvs, write_obj
+    from plantvr.io.obj import write_obj
+    from plantvr.subdivision import control_uvs, subdivide_uvs
 
     g = graph_from_arrays(*random_tree((300 if quick else 3000) + 1, rng=8))
     cm = build_control_mesh(g)

@@ -131,7 +131,7 @@ def test_drag_influence_triangle_sets_model_weights(browser, shots):
 
 
 def test_click_color_wheel_selects_and_hides(browser, shots):
-    from plantvr.vine.segmentation import Segmentation
+    from plantvr.documents.labels import Segmentation
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
     seg = Segmentation(v, np.array([[0, 1, 2]]))
     wheel = ColorWheel(target=seg)

@@ -105,8 +105,8 @@ def test_view_window_size(fuzz, model, size):
                                 param="window_size"), ValueError)
 
 
-def test_view_needs_a_model(fuzz):
-    assert isinstance(fuzz.call("View", plantvr.View, object(), param="model"), TypeError)
+def test_view_needs_a_document(fuzz):
+    assert isinstance(fuzz.call("View", plantvr.View, object(), param="doc"), TypeError)
 
 
 def test_screenshot_is_atomic_and_png_only(fuzz, view, tmp_path, monkeypatch):
