@@ -26,14 +26,15 @@ import numpy as np
 from skimage.measure import marching_cubes
 
 from plantvr._validation import check_choice, check_int, check_range
+from plantvr.types import TriMesh
 from plantvr.vine.volume import _check_volume
 
 __all__ = ["Surface", "extract_isosurface", "signed_volume"]
 
 
-@dataclass(frozen=True)
-class Surface:
-    """A triangle mesh from marching cubes.
+@dataclass(eq=False)
+class Surface(TriMesh):
+    """A triangle mesh from marching cubes (a :class:`plantvr.types.TriMesh` with its normals).
 
     Attributes
     ----------
@@ -45,8 +46,6 @@ class Surface:
         Unit outward vertex normals.
     """
 
-    vertices: np.ndarray
-    faces: np.ndarray
     normals: np.ndarray
 
 
