@@ -11,9 +11,10 @@ views: ``lod`` for a forest (each tree at the level of detail of its camera dist
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +25,7 @@ import pyvista as pv  # noqa: E402
 
 from .._fileio import write_png  # noqa: E402
 from .._validation import check_point, check_range, check_size  # noqa: E402
+from ..document import kernel_loop  # noqa: E402
 from ..types import TreeArrays  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
@@ -131,6 +133,10 @@ class View:
                                                   pickable=False)
         self._brush_actor.SetVisibility(False)
         self._camera_tag = None
+        self._held = 0
+        self._render_due = False
+        self._deferred = False
+        self.viewer = None            # the trame viewer of a live widget (:meth:`widget`), pushed after redraws
         if self.doc is not None:
             self.doc.observe(self._on_change, names="change")
             if self.doc.has_trait("prune_mode"):
@@ -143,10 +149,58 @@ class View:
 
     # -- scene -> layers ----------------------------------------------------------------------------------
     def _on_change(self, change) -> None:
-        self.update()
+        if self._held:
+            return
+        self._apply_deferred()
         new = change["new"]
         if new is not None:
             self.drawn_version = int(new.version)
+
+    @contextlib.contextmanager
+    def hold(self) -> Iterator[None]:
+        """Draw nothing for the document's changes inside the block (a burst of commands, e.g. a regrow), then
+        redraw once."""
+        self._held += 1
+        try:
+            yield
+        finally:
+            self._held -= 1
+            if not self._held and self.doc is not None:
+                self._apply_deferred()
+                self.drawn_version = int(self.doc.version)
+
+    def _apply_deferred(self) -> list[str]:
+        """Draw the document's scene, leaving the render to :meth:`_render_soon`."""
+        self._deferred = True
+        try:
+            redrawn = self._apply(self.doc.scene())
+        finally:
+            self._deferred = False
+        if redrawn:
+            self._render_soon()
+        return redrawn
+
+    def _render_soon(self) -> None:
+        """Render (and :meth:`push`) after a document change: at once in a script; in a kernel once after the
+        message being handled, so a burst of commands (brush stamps, growth steps) renders once."""
+        loop = kernel_loop()
+        if loop is None:
+            self._render_now()
+        elif not self._render_due:
+            self._render_due = True
+            loop.call_soon(self._render_now)
+
+    def _render_now(self) -> None:
+        self._render_due = False
+        if self.plotter.render_window is None:   # closed meanwhile
+            return
+        self.plotter.render()
+        self.push()
+
+    def push(self) -> None:
+        """Send the current picture to the browser of a live widget (:meth:`widget`); nothing without one."""
+        if self.viewer is not None:
+            self.viewer.update()
 
     def update(self, scene: Mapping[str, Any] | None = None) -> list[str]:
         """Redraw the layers whose content changed; returns their names.
@@ -191,7 +245,7 @@ class View:
         self.plotter.subplot(0, 0)
         if self.lod is not None and redrawn:
             self.update_lod()
-        if redrawn:
+        if redrawn and not self._deferred:
             self.plotter.render()
         return redrawn
 
@@ -320,7 +374,7 @@ class View:
         self._brush.copy_from(pv.Sphere(radius=self.brush_radius, center=self.brush_center,
                                         theta_resolution=24, phi_resolution=16))
         self._brush_actor.SetVisibility(visible)
-        self.plotter.render()
+        self._render_soon()
 
     def screenshot(self, path: str | Path | None = None, *, window_size=None) -> np.ndarray:
         """Render offscreen (at ``window_size`` for a full-resolution still) and return the (H, W, 3) uint8
@@ -345,6 +399,37 @@ class View:
         Image.fromarray(self.screenshot()).save(buf, format="PNG")
         return buf.getvalue()
 
+    def widget(self, *, width: int | None = None, height: int | None = None):
+        """The live view for JupyterLab: a trame view rendered on the kernel (``"server"`` mode, only images go to
+        the browser, so big meshes stay in the kernel), whose browser mouse events reach the plotter's VTK
+        interactor (a :class:`~plantvr.view.interaction.BrushInteractor` attached to it paints and prunes).
+
+        The picture follows the document: every redraw is pushed to the browser (:meth:`push`). Needs a
+        running kernel with a browser on the same machine (the view is served by a trame server on a local
+        port); headless, use :meth:`png` instead.
+
+        Returns
+        -------
+        anywidget.AnyWidget
+            The trame iframe widget (``trame_pyvista.jupyter.Widget``).
+
+        Raises
+        ------
+        ValueError
+            If ``trame-pyvista`` is not installed.
+        """
+        try:
+            from trame_pyvista.jupyter import show_trame  # noqa: PLC0415
+        except ImportError as exc:
+            raise ValueError(f"View.widget needs trame-pyvista ({exc}); pip install trame-pyvista") from None
+        w, h = self.plotter.window_size
+        width = int(check_range("width", w if width is None else width, 16, 16384))
+        height = int(check_range("height", h if height is None else height, 16, 16384))
+        widget = show_trame(self.plotter, mode="server", add_menu=False, width=f"{width}px",
+                            height=f"{height}px")
+        self.viewer = widget.viewer
+        return widget
+
     def show(self, jupyter_backend: str = "trame", **kwargs):
         """Show in JupyterLab (trame: ``"trame"`` remote-rendered, ``"client"``, ``"server"``) or a window."""
         return self.plotter.show(jupyter_backend=jupyter_backend, auto_close=False, **kwargs)
@@ -358,6 +443,7 @@ class View:
         if self._camera_tag is not None:
             self.plotter.camera.RemoveObserver(self._camera_tag)
             self._camera_tag = None
+        self.viewer = None
         self.plotter.close()
 
 

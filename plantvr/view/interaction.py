@@ -37,7 +37,7 @@ import vtk
 from .._validation import check_point, check_range
 from . import PRUNE, View
 
-__all__ = ["FULL_TRIGGER", "PREVIEW_TRIGGER", "BrushInteractor", "trame_app"]
+__all__ = ["FULL_TRIGGER", "PREVIEW_TRIGGER", "BrushInteractor", "LabelBrush", "trame_app"]
 
 #: Analogue trigger thresholds: above the first the brush shows (and prune previews), above the second it acts.
 PREVIEW_TRIGGER, FULL_TRIGGER = 0.1, 0.99
@@ -65,6 +65,7 @@ class BrushInteractor:
         self.depth = None if depth is None else check_range("depth", depth, 0.0, 1e6, low_open=True)
         self.spacing = check_range("spacing", spacing, 0.0, 100.0)
         self.center: np.ndarray | None = None
+        self.picked = False           # whether the last world_point hit a surface (not the free-space ray)
         self.preview = np.zeros(0, np.int64)
         self._pressed = False
         self._last_stamp: np.ndarray | None = None
@@ -98,7 +99,9 @@ class BrushInteractor:
                 self._picker.AddPickList(actor)
             self._picker.PickFromListOn()
             if self._picker.Pick(float(x), float(y), 0.0, ren):
+                self.picked = True
                 return np.array(self._picker.GetPickPosition(), float)
+        self.picked = False
         near, far = (self._display_to_world(ren, x, y, z) for z in (0.0, 1.0))
         cam = np.array(ren.GetActiveCamera().GetPosition(), float)
         d = far - near
@@ -341,6 +344,123 @@ class BrushInteractor:
         """Detach and stop observing the document."""
         self.detach()
         self.doc.unobserve(self._on_mode, names=["prune_mode"])
+
+
+class LabelBrush(BrushInteractor):
+    """Paint a label on the surface of a ViNE :class:`~plantvr.documents.labels.Segmentation` in its view.
+
+    The same pointer and mouse binding as :class:`BrushInteractor` (:meth:`attach`: left drag paints, the
+    wheel sizes the brush); a press opens a stroke (``doc.begin_stroke``), every stamp is ``doc.paint(center,
+    radius, label)`` on the picked surface point, the release closes it (``doc.end_stroke``), so one drag is
+    one undo item and every stamp is in ``doc.log``. The label and radius are brush settings, not document
+    state: :attr:`label` (a colour wheel's selection, linked by the workbench) and :attr:`radius`.
+
+    Parameters
+    ----------
+    view : plantvr.view.View
+        A view of a segmentation (a document with ``paint``, ``begin_stroke``, ``end_stroke``).
+    label : int
+        The label painted.
+    radius : float, optional
+        Brush radius in model units (default: 3 % of the mesh's bounding-box diagonal).
+    spacing : float
+        Minimum distance between stamps of one drag, in brush radii.
+
+    Attributes
+    ----------
+    error : str
+        The last refused stamp (a hidden label, say), "" when it painted.
+    """
+
+    def __init__(self, view: View, *, label: int = 1, radius: float | None = None, spacing: float = 0.25):
+        doc = getattr(view, "doc", None)
+        if not isinstance(view, View) or not all(callable(getattr(doc, n, None))
+                                                 for n in ("paint", "begin_stroke", "end_stroke")):
+            raise ValueError(f"view must be a plantvr.View of a segmentation, got {type(view).__name__}")
+        diag = float(np.linalg.norm(np.ptp(np.asarray(doc.vertices, float), axis=0)))
+        self.max_radius = float(doc.max_radius)
+        self._radius = 0.03 * max(diag, 1e-6) if radius is None else check_range("radius", radius, 0.0,
+                                                                                  self.max_radius, low_open=True)
+        self.label = doc.colors.check_label("label", label)
+        self.error = ""
+        super().__init__(view, spacing=spacing)
+
+    @property
+    def radius(self) -> float:
+        """The brush radius, model units."""
+        return self._radius
+
+    @radius.setter
+    def radius(self, value: float) -> None:
+        self._radius = check_range("radius", value, 0.0, self.max_radius, low_open=True)
+
+    def hover(self, point) -> None:
+        """Move the brush sphere to ``point``."""
+        self.center = check_point("point", point)
+        self.view.set_brush(self.center, self.radius, visible=True)
+
+    def _stamp(self) -> int:
+        try:
+            n = self.doc.paint(self.center, self.radius, self.label)
+        except ValueError as exc:  # a hidden or removed label: nothing painted, said in error
+            self.error = str(exc)
+            return 0
+        self.error = ""
+        self._last_stamp = self.center
+        return n
+
+    def press(self, point) -> int:
+        """Left press at ``point``: open a stroke and paint one stamp; returns the vertices changed."""
+        self.hover(point)
+        if not self._pressed:
+            self.doc.begin_stroke()
+        self._pressed = True
+        return 0 if self._take_miss() else self._stamp()
+
+    def world_point(self, x: float, y: float) -> np.ndarray:
+        """As :meth:`BrushInteractor.world_point`; a point off the surface is remembered, so the mouse paints
+        only on the mesh (points given directly always paint)."""
+        p = super().world_point(x, y)
+        self._miss = not self.picked
+        return p
+
+    def _take_miss(self) -> bool:
+        miss, self._miss = getattr(self, "_miss", False), False
+        return miss
+
+    def drag(self, point) -> int:
+        """Pointer moved: with the button held, a stamp every ``spacing`` radii on the picked surface."""
+        self.hover(point)
+        if self._take_miss() or not self._pressed:
+            return 0
+        if self._last_stamp is not None and np.linalg.norm(self.center - self._last_stamp) < self.spacing * self.radius:
+            return 0
+        return self._stamp()
+
+    def release(self) -> None:
+        """Button released: close the stroke (one undo item)."""
+        if self._pressed:
+            self.doc.end_stroke()
+        self._pressed = False
+        self._last_stamp = None
+
+    def thumb(self, dphi: float) -> float:
+        """Radius gesture: ``R <- R * 2^(dphi / 2 pi)``, clamped to (0, max_radius]; returns the new radius."""
+        dphi = check_range("dphi", dphi, -1e6, 1e6)
+        self._radius = float(np.clip(self._radius * 2.0 ** (dphi / (2 * math.pi)), 1e-9, self.max_radius))
+        if self.center is not None:
+            self.hover(self.center)
+        return self._radius
+
+    def toggle_prune(self) -> bool:
+        """A label brush has no prune mode (returns False)."""
+        return False
+
+    def _on_mode(self, change) -> None:
+        pass
+
+    def _show_preview(self, idx) -> None:
+        pass
 
 
 def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: int = 480):

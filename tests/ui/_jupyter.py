@@ -139,10 +139,11 @@ def notebook_page(url: str, name: str, n_cells: int, *, viewport: tuple[int, int
 
 
 def run_cell(page, index: int) -> None:
-    """Run cell ``index`` of the open notebook (the command JupyterLab's run button sends)."""
+    """Run cell ``index`` of the open notebook, and only it (the command JupyterLab's run button sends)."""
     page.evaluate("""async (i) => {
         const app = window.jupyterapp, nb = app.shell.currentWidget;
         nb.content.activeCellIndex = i;
+        nb.content.deselectAll();  // a shift-click in an output extends the selection: run this cell only
         await app.commands.execute('notebook:run-cell');
     }""", index)
 

@@ -32,7 +32,7 @@ CELLS = [
     ("from plantvr.ui import ParameterPanels\npanels = ParameterPanels(model)\n"
      "panels.controls['apical_dominance']"),
     "print('APICAL', f'{model.apical_dominance:.6f}', panels.controls['apical_dominance'].value)",
-    ("import numpy as np\nfrom plantvr.ui import ColorWheel\nfrom plantvr.vine.segmentation import Segmentation\n"
+    ("import numpy as np\nfrom plantvr.ui import ColorWheel\nfrom plantvr.documents.labels import Segmentation\n"
      "seg = Segmentation(np.eye(3, dtype=np.float32), np.array([[0, 1, 2]]))\nwheel = ColorWheel(target=seg)\nwheel"),
     "print('SELECTED', wheel.selected, len(wheel.colors))",
 ]
@@ -129,3 +129,169 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
         page.screenshot(path=str(shots / "jupyterlab_wheel.png"))
         assert sel == k
         assert not [e for e in errors if "plantvr" in e.lower() or "anywidget" in e.lower()], errors
+
+
+# -- the live workbench: trame view (server rendered) beside the generated panel -----------------------------
+WB_TREEWAND = [
+    ("import plantvr\nfrom plantvr.ui import workbench\nmodel = plantvr.Model(seed=0)\n"
+     "model.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)\nmodel.step(15)\n"
+     "wb = workbench(model, window_size=(460, 420))\nwb"),
+    ("print('TW', wb.live, model.n_internodes, model.n_markers, wb.regrows, model.steps_done,\n"
+     "      sum(e.command == 'paint_stroke' for e in model.log.events), f'{model.tropism_angle:.4f}')"),
+]
+WB_VINE = [
+    ("import numpy as np, trimesh\nfrom plantvr.documents.labels import Segmentation\nfrom plantvr.ui import workbench\n"
+     "ico = trimesh.creation.icosphere(subdivisions=4, radius=1.0)\n"
+     "seg = Segmentation(ico.vertices.astype(np.float32), ico.faces)\n"
+     "wb = workbench(seg, window_size=(460, 420))\nwb"),
+    ("print('VINE', wb.live, int((seg.labels > 0).sum()), wb.brush.label, wb.wheel.selected,\n"
+     "      np.unique(seg.labels).tolist(), bool(seg.colors.visible[4]))"),
+]
+
+
+@pytest.fixture
+def wb_lab(tmp_path):
+    with jupyter_lab(tmp_path, {"treewand.ipynb": WB_TREEWAND, "vine.ipynb": WB_VINE}) as url:
+        yield url
+
+
+def _pixels(loc) -> np.ndarray:
+    from io import BytesIO
+
+    from PIL import Image
+    return np.asarray(Image.open(BytesIO(loc.screenshot())).convert("RGB"), np.int16)
+
+
+def _live_view(page, cell: int):
+    """The trame iframe of the workbench in ``cell``, once its first picture is in."""
+    frame = page.locator(".jp-Cell").nth(cell).locator(".plantvr-view iframe")
+    frame.wait_for(state="visible", timeout=60_000)
+    frame.scroll_into_view_if_needed()
+    frame.content_frame.locator("img, canvas").first.wait_for(state="visible", timeout=30_000)
+    time.sleep(1.5)
+    return frame
+
+
+def _until_changed(loc, before: np.ndarray, timeout_s: float = 20.0) -> np.ndarray:
+    deadline = time.monotonic() + timeout_s
+    while True:
+        now = _pixels(loc)
+        if now.shape != before.shape or np.abs(now - before).max(axis=-1).mean() > 0 or time.monotonic() > deadline:
+            return now
+        time.sleep(0.3)
+
+
+def _drag(page, box, path, *, steps: int = 4) -> None:
+    (x0, y0), rest = path[0], path[1:]
+    page.mouse.move(box["x"] + x0 * box["width"], box["y"] + y0 * box["height"])
+    page.mouse.down()
+    for x, y in rest:
+        page.mouse.move(box["x"] + x * box["width"], box["y"] + y * box["height"], steps=steps)
+        time.sleep(0.05)
+    page.mouse.up()
+
+
+def _poll(page, cell: int, pattern: str, ok, timeout_s: float = 30.0):
+    deadline = time.monotonic() + timeout_s
+    while True:
+        run_cell(page, cell)
+        got = printed(page, cell, pattern)
+        if ok(got) or time.monotonic() > deadline:
+            return got
+        time.sleep(0.5)
+
+
+TW = r"TW (\w+) (\d+) (\d+) (\d+) (\d+) (\d+) ([\d.]+)"
+
+
+def test_workbench_treewand_slider_regrows_and_brush_paints_in_jupyterlab(wb_lab, shots):
+    with notebook_page(wb_lab, "treewand.ipynb", len(WB_TREEWAND), viewport=(1280, 900)) as (page, errors):
+        run_cell(page, 0)
+        frame = _live_view(page, 0)
+        run_cell(page, 1)
+        live, _, _, regrows, steps, strokes, trop = printed(page, 1, TW)
+        assert live == "True" and regrows == "0" and steps == "15" and strokes == "1"
+        before = _pixels(frame)
+        page.screenshot(path=str(shots / "workbench_treewand_before.png"))
+
+        # drag the first slider of the Tree form window (tropism angle): the tree regrows and is redrawn
+        handle = page.locator(".jp-Cell").nth(0).locator(".noUi-handle").first
+        handle.scroll_into_view_if_needed()
+        hb = handle.bounding_box()
+        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+        page.mouse.down()
+        page.mouse.move(hb["x"] + hb["width"] / 2 + 120, hb["y"] + hb["height"] / 2, steps=6)
+        page.mouse.up()
+        got = _poll(page, 1, TW, lambda g: g[3] == "1")
+        assert got[3] == "1" and got[4] == "15" and float(got[6]) > float(trop) + 5, got  # same step count
+        frame.scroll_into_view_if_needed()
+        after = _until_changed(frame, before)
+        page.screenshot(path=str(shots / "workbench_treewand_regrown.png"))
+        assert np.abs(after - before).max(axis=-1).mean() > 0.5, "the live view did not change"
+
+        # paint in the view: markers added by the brush's paint_stroke commands, the status line follows
+        status = page.locator(".jp-Cell").nth(0).locator(".plantvr-status")
+        assert "brush commands 0" in status.inner_text()
+        _drag(page, frame.bounding_box(), [(0.5, 0.35), (0.55, 0.25), (0.6, 0.15), (0.62, 0.08)])
+        page.wait_for_function("""() => { const s = document.querySelector('.plantvr-status');
+            return s && !/brush commands 0 /.test(s.innerText); }""", timeout=20_000)
+        got2 = _poll(page, 1, TW, lambda g: int(g[5]) > 1)
+        assert int(got2[5]) > 1 and int(got2[2]) > int(got[2]), (got, got2)
+        time.sleep(1.0)
+        painted = _pixels(frame)
+        page.screenshot(path=str(shots / "workbench_treewand_painted.png"))
+        text = status.inner_text()
+        assert f"markers {got2[2]}" in text, text
+        assert np.abs(painted - after).max(axis=-1).mean() > 0.05, "the markers did not appear in the view"
+        assert not [e for e in errors if "plantvr" in e.lower()], errors
+
+
+VINE = r"VINE (\w+) (\d+) (\d+) (\d+) (\[[\d, ]*\]) (\w+)"
+
+
+def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
+    with notebook_page(wb_lab, "vine.ipynb", len(WB_VINE), viewport=(1280, 900)) as (page, errors):
+        run_cell(page, 0)
+        frame = _live_view(page, 0)
+        run_cell(page, 1)
+        live, painted, label, selected, _, _ = printed(page, 1, VINE)
+        assert live == "True" and painted == "0" and label == selected == "1"
+        before = _pixels(frame)
+
+        # pick label 4 on the wheel: the brush follows, and the status line says so
+        wheel_svg = page.locator(".jp-Cell").nth(0).locator("svg.wheel-svg")
+        wheel_svg.scroll_into_view_if_needed()
+        n_colors = len(page.locator(".jp-Cell").nth(0).locator("svg.wheel-svg g.wheel-slice").all())
+        box = wheel_svg.bounding_box()
+        C, R, k = 110 + 14 + 18, 110, 4
+        a = (k + 0.5) * 2 * np.pi / n_colors
+        page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
+        status = page.locator(".jp-Cell").nth(0).locator(".plantvr-status")
+        page.wait_for_function("() => /label 4 /.test(document.querySelector('.plantvr-status').innerText)",
+                               timeout=20_000)
+
+        # paint across the sphere: the labels change in the kernel, the view and the status line follow
+        frame.scroll_into_view_if_needed()
+        _drag(page, frame.bounding_box(), [(0.35, 0.5), (0.45, 0.5), (0.55, 0.5), (0.65, 0.5)])
+        got = _poll(page, 1, VINE, lambda g: int(g[1]) > 0)
+        assert int(got[1]) > 0 and got[2] == "4" and got[4] == "[0, 4]", got
+        page.wait_for_function("() => !/painted vertices 0 /.test(document.querySelector('.plantvr-status')"
+                               ".innerText)", timeout=20_000)
+        after = _until_changed(frame, before)
+        page.screenshot(path=str(shots / "workbench_vine_painted.png"))
+        assert f"painted vertices {got[1]}" in status.inner_text()
+        assert np.abs(after - before).max(axis=-1).mean() > 0.05, "the painted label did not appear in the view"
+
+        # shift-click the same slice: label 4 is hidden in the document, and its triangles leave the live view
+        wheel_svg.scroll_into_view_if_needed()
+        box = wheel_svg.bounding_box()
+        page.keyboard.down("Shift")
+        page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
+        page.keyboard.up("Shift")
+        hidden = _poll(page, 1, VINE, lambda g: g[5] == "False")
+        assert hidden[5] == "False", hidden
+        frame.scroll_into_view_if_needed()
+        gone = _until_changed(frame, after)
+        page.screenshot(path=str(shots / "workbench_vine_hidden.png"))
+        assert np.abs(gone - after).max(axis=-1).mean() > 0.05, "hiding the label did not change the view"
+        assert not [e for e in errors if "plantvr" in e.lower()], errors

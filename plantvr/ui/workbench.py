@@ -1,0 +1,307 @@
+"""The live workbench: a document's 3D view beside its generated panel, in JupyterLab or headless (spec
+000_treewand §4.3, §4.4, §4.11; 000_vine §2.4, §2.6; issue 21, "The experience in JupyterLab").
+
+:func:`workbench` lays out, for any document, the view of :class:`plantvr.View` (left) and the document's
+controls (right): the :class:`~plantvr.ui.ParameterPanels` generated from its table (with the influence
+triangle for Tree Wand), a :class:`~plantvr.ui.GrowthControl` for a growth document, a
+:class:`~plantvr.ui.ColorWheel` for a ViNE :class:`~plantvr.documents.labels.Segmentation`, and a status line
+that follows the document. Every widget is a view of the document; the workbench keeps no state of its own.
+
+* **Live** (a JupyterLab kernel, see :func:`live_frontend`): the view is a trame view rendered on the kernel
+  (:meth:`plantvr.View.widget`); the browser's mouse reaches the plotter's VTK interactor, where the brush
+  (:class:`~plantvr.view.interaction.BrushInteractor` for Tree Wand: paint markers, prune in prune mode;
+  :class:`~plantvr.view.interaction.LabelBrush` for ViNE: paint the wheel's selected label) issues document
+  commands. A *Camera* toggle gives the mouse back to the camera.
+* **Headless** (nbval, scripts): the view is an ``ipywidgets.Image`` of an offscreen render, redrawn after
+  every change, so the same cell runs without a browser and returns the same layout.
+
+"Dragging a slider regrows": a Tree Wand parameter of the *Tree form* or *Light* window changed (a slider, the
+triangle, ``set_params``) grows the tree again from the session's own commands — :meth:`Workbench.regrow`:
+``reset`` with the model's seed, then the ``paint`` / ``paint_stroke`` / ``add_markers`` / ``step`` / ``prune``
+commands logged since the last reset, re-issued in order (same darts, same step count), as one undo item and
+one redraw. Inside a kernel the regrow runs once after the message that changed the parameters (several
+changes in one cell or one slider release regrow once); :meth:`Workbench.flush` runs a pending one now.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+
+import ipywidgets as W
+
+from .._validation import check_size
+from ..document import kernel_loop
+from ..history import History, StateAtom
+from .growth import GrowthControl
+from .panels import ParameterPanels
+from .wheel import ColorWheel
+
+__all__ = ["REGROW_COMMANDS", "REGROW_WINDOWS", "Workbench", "live_frontend", "workbench"]
+
+#: Tree Wand commands re-issued by a regrow (what grew the tree since the last reset).
+REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
+#: Parameter windows whose parameters change growth (the others only change the picture).
+REGROW_WINDOWS = ("form", "light")
+
+
+def live_frontend() -> bool:
+    """Whether a browser front end is attached to this kernel, so a live trame view can be shown.
+
+    ``$PLANTVR_LIVE`` = ``1`` / ``0`` decides when set. Otherwise live means: an IPython kernel that a Jupyter
+    server started for a notebook session (the server sets ``$JPY_SESSION_NAME``; nbval, nbclient and scripts
+    do not) and ``trame-pyvista`` is installed.
+    """
+    env = os.environ.get("PLANTVR_LIVE", "").strip()
+    if env in ("0", "1"):
+        return env == "1"
+    if not os.environ.get("JPY_SESSION_NAME"):
+        return False
+    try:
+        from IPython import get_ipython  # noqa: PLC0415
+    except ImportError:
+        return False
+    shell = get_ipython()
+    return (shell is not None and getattr(shell, "kernel", None) is not None
+            and importlib.util.find_spec("trame_pyvista") is not None)
+
+
+def workbench(doc, *, live: bool | None = None, window_size=(640, 520)) -> Workbench:
+    """The live view of ``doc`` beside its generated panel (see the module docstring).
+
+    Parameters
+    ----------
+    doc : Document
+        Any document (``plantvr.Model``, a ViNE ``Segmentation``, TreeSketch, crown, inflorescence, forest).
+    live : bool, optional
+        Show the trame view (True) or an offscreen image (False); default :func:`live_frontend`.
+    window_size : (int, int)
+        Pixels of the view.
+
+    Returns
+    -------
+    Workbench
+        An ``ipywidgets.HBox``; display it (the last expression of a cell).
+    """
+    return Workbench(doc, live=live, window_size=window_size)
+
+
+class Workbench(W.HBox):
+    """A document's view beside its panel (:func:`workbench`).
+
+    Attributes
+    ----------
+    doc : Document
+    view : plantvr.View
+        The document's view (offscreen plotter; in live mode served through trame).
+    screen : ipywidgets.Widget
+        The view in the layout: the trame widget (live) or an ``ipywidgets.Image`` (headless).
+    brush : BrushInteractor or LabelBrush or None
+        The brush over the view (Tree Wand: markers / prune; ViNE: the wheel's label); None for other documents.
+    panels : ParameterPanels or None
+        The generated parameter windows (None for a document without a table).
+    growth : GrowthControl or None
+        Play / pause / step / reset (Tree Wand).
+    wheel : ColorWheel or None
+        The colour wheel (ViNE); its selection is the label the brush paints.
+    status : ipywidgets.HTML
+        One line that follows the document (internodes / markers / brush commands, or painted vertices / label).
+    mode : ipywidgets.ToggleButtons
+        ``"Brush"`` (the mouse paints) or ``"Camera"`` (the mouse turns the camera), live mode only.
+    regrows : int
+        Regrows run so far.
+    """
+
+    def __init__(self, doc, *, live: bool | None = None, window_size=(640, 520)):
+        from ..documents.labels import Segmentation  # noqa: PLC0415
+        from ..documents.treewand import Model  # noqa: PLC0415
+        from ..view import View  # noqa: PLC0415
+        from ..view.interaction import BrushInteractor, LabelBrush  # noqa: PLC0415
+
+        if not (callable(getattr(doc, "scene", None)) and callable(getattr(doc, "observe", None))):
+            raise ValueError(f"doc must be a document (with scene() and observe), got {type(doc).__name__}")
+        if live is not None and not isinstance(live, bool):
+            raise ValueError(f"live must be True, False or None, got {live!r}")
+        window_size = check_size("window_size", window_size, 64, 4096)
+        live = live_frontend() if live is None else live
+        self.doc, self.live = doc, live
+        self.regrows = 0
+        self._reissued = 0            # brush commands a regrow issued again (not counted as new strokes)
+        self._pending = False
+        self._redraw = False          # a headless picture is due
+        self._start = len(doc.log)
+        self._closed = True           # until the layout is built
+        self.view = View(doc, off_screen=True, window_size=window_size)
+        self.treewand = isinstance(doc, Model)
+        self.labels = isinstance(doc, Segmentation)
+        self.panels = ParameterPanels(doc) if getattr(doc, "PARAMS", None) is not None else None
+        self.growth = GrowthControl(doc) if self.treewand else None
+        self.wheel = ColorWheel(target=doc) if self.labels else None
+        if self.treewand:
+            self.brush = BrushInteractor(self.view)
+        elif self.labels:
+            self.brush = LabelBrush(self.view, label=min(1, len(doc.colors) - 1))
+            self.wheel.selected = self.brush.label
+            self.wheel.observe(self._on_label, names="selected")
+        else:
+            self.brush = None
+        self.status = W.HTML("")
+        self.status.add_class("plantvr-status")
+        if live:
+            self.screen = self.view.widget(width=window_size[0], height=window_size[1])
+        else:
+            self.screen = W.Image(value=self.view.png(), format="png", width=window_size[0],
+                                  height=window_size[1])
+        self.screen.add_class("plantvr-view")
+        self.mode = W.ToggleButtons(options=["Brush", "Camera"], value="Brush" if self.brush else "Camera",
+                                    tooltips=["the mouse paints (left drag; wheel: radius)",
+                                              "the mouse turns the camera"],
+                                    style={"button_width": "72px"}, disabled=self.brush is None,
+                                    layout=W.Layout(width="auto"))
+        self.mode.observe(self._on_mode, names="value")
+        tools: list[W.Widget] = [self.mode]
+        if self.treewand:
+            self.prune = W.ToggleButton(value=bool(doc.prune_mode), description="Prune", icon="cut",
+                                        layout=W.Layout(width="80px"),
+                                        tooltip="the brush prunes (red) instead of painting markers (green)")
+            self.prune.observe(lambda ch: self.doc.set_prune_mode(bool(ch["new"])), names="value")
+            doc.observe(self._on_prune_mode, names="prune_mode")
+            tools.append(self.prune)
+        self.undo_button = W.Button(description="Undo", icon="undo", layout=W.Layout(width="76px"))
+        self.redo_button = W.Button(description="Redo", icon="repeat", layout=W.Layout(width="76px"))
+        self.undo_button.on_click(lambda _b: self.doc.undo() if self.doc.history.can_undo else None)
+        self.redo_button.on_click(lambda _b: self.doc.redo() if self.doc.history.can_redo else None)
+        tools += [self.undo_button, self.redo_button]
+        left = W.VBox([self.screen, W.HBox(tools, layout=W.Layout(flex_flow="row wrap")), self.status],
+                      layout=W.Layout(flex="0 0 auto", width=f"{window_size[0] + 8}px"))
+        right = [w for w in (self.panels, self.growth, self.wheel) if w is not None]
+        self._regrow_names = ({p.name for p in doc.PARAMS if p.window in REGROW_WINDOWS}
+                              if self.treewand else set())
+        if self._regrow_names:
+            doc.observe(self._on_param, names=sorted(self._regrow_names))
+        doc.observe(self._on_change, names="change")  # after the view's own observer: it has redrawn
+        if live and self.brush is not None:
+            self.brush.attach()
+        self._sync()
+        self._closed = False
+        super().__init__([left, W.VBox(right, layout=W.Layout(max_width="560px"))])
+
+    # -- document -> widgets -------------------------------------------------------------------------------
+    def _on_change(self, change) -> None:
+        if self.view._held:
+            return
+        if not self.live and not self._redraw:
+            loop = kernel_loop()          # in a kernel, one picture after the cell / message, not one per command
+            self._redraw = True
+            if loop is None:
+                self._draw()
+            else:
+                loop.call_soon(self._draw)
+        self._sync()
+
+    def _draw(self) -> None:
+        if self._redraw and not self._closed:
+            self._redraw = False
+            self.screen.value = self.view.png()
+
+    def _sync(self) -> None:
+        d = self.doc
+        if self.treewand:
+            n_cmd = sum(1 for e in d.log.events[self._start:]
+                        if e.command in ("paint", "paint_stroke", "prune")) - self._reissued
+            text = (f"internodes {d.n_internodes} · markers {d.n_markers} · steps {d.steps_done} · "
+                    f"brush commands {n_cmd} · regrows {self.regrows}")
+        elif self.labels:
+            text = (f"painted vertices {int((d.labels > 0).sum())} · label {self.brush.label} · "
+                    f"strokes {sum(1 for e in d.log.events if e.command == 'end_stroke')}")
+        else:
+            text = f"{type(d).__name__} · version {d.version}"
+        self.status.value = f"<span class='plantvr-status-text'>{text}</span>"
+
+    def _on_prune_mode(self, change) -> None:
+        self.prune.value = bool(change["new"])
+
+    def _on_label(self, change) -> None:
+        self.brush.label = int(change["new"])
+        self._sync()
+
+    def _on_mode(self, change) -> None:
+        if self.brush is None or not self.live:
+            return
+        if change["new"] == "Brush":
+            self.brush.attach()
+        else:
+            self.brush.detach()
+
+    # -- regrow (Tree Wand) --------------------------------------------------------------------------------
+    def _on_param(self, change) -> None:
+        if self._pending:
+            return
+        self._pending = True
+        loop = kernel_loop()
+        if loop is None:
+            self.flush()
+        else:
+            loop.call_soon(self.flush)
+
+    def flush(self) -> None:
+        """Run a pending regrow now (after parameters were set in a cell)."""
+        if self._pending:
+            self._pending = False
+            self.regrow()
+
+    def regrow(self) -> int:
+        """Grow the Tree Wand tree again with the current parameters from the session's own commands.
+
+        ``reset(seed=model.seed)``, then every ``paint`` / ``paint_stroke`` / ``add_markers`` / ``step`` /
+        ``prune`` logged since the last reset, re-issued in order (so the same darts and the same step count);
+        all logged, as one undo item; the document's observers are notified once, at the end (one ``change``,
+        one ``version``). Returns the number of commands re-issued.
+        """
+        if not self.treewand:
+            raise ValueError(f"regrow needs a Tree Wand model, got {type(self.doc).__name__}")
+        doc = self.doc
+        if doc.growing:
+            doc.stop()
+        events = doc.log.events
+        start = max((i for i, e in enumerate(events) if e.command == "reset"), default=-1) + 1
+        commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in REGROW_COMMANDS]
+        for name, kwargs in commands:
+            doc.check_command(name, kwargs)
+        before = doc.get_state()
+        history, doc.history = doc.history, History(max_items=1, max_bytes=0)  # the steps keep no atoms
+        try:
+            # one redraw: this view is held, and every other observer gets one merged notification at the end
+            with self.view.hold(), doc.held(), doc.hold_trait_notifications():
+                doc.reset(seed=doc.seed)
+                for name, kwargs in commands:
+                    getattr(doc, name)(**kwargs)
+                doc.history = history
+                history.push(StateAtom(before, doc.get_state(), "tree"))
+        finally:
+            doc.history = history
+        self.regrows += 1
+        self._reissued += sum(1 for name, _ in commands if name in ("paint", "paint_stroke", "prune"))
+        self._on_change(None)
+        return len(commands)
+
+    # -- lifetime ---------------------------------------------------------------------------------------------
+    def close(self) -> None:
+        """Stop following the document, detach the brush and close the view and the widgets."""
+        doc = getattr(self, "doc", None)
+        if doc is None or getattr(self, "_closed", True):  # refused by the constructor, or closed already
+            super().close()
+            return
+        self._closed = True
+        doc.unobserve(self._on_change, names="change")
+        if self._regrow_names:
+            doc.unobserve(self._on_param, names=sorted(self._regrow_names))
+        if self.treewand:
+            doc.unobserve(self._on_prune_mode, names="prune_mode")
+        if self.brush is not None:
+            self.brush.close()
+        if self.wheel is not None:
+            self.wheel.unlink()
+        if self.growth is not None:
+            self.growth.close()
+        self.view.close()
+        super().close()

@@ -1,0 +1,165 @@
+"""The workbench headless (no browser: nbval and scripts): the layout, the regrow, the brushes and the status line
+(issue 21, "The experience in JupyterLab"). The live trame path runs in tests/ui/test_jupyterlab.py."""
+import io
+
+import ipywidgets as W
+import numpy as np
+import pytest
+import trimesh
+from PIL import Image
+
+import plantvr
+from plantvr.documents.labels import Segmentation
+from plantvr.ui import ColorWheel, GrowthControl, ParameterPanels, Workbench, live_frontend, workbench
+from plantvr.view.interaction import BrushInteractor, LabelBrush
+
+
+def _grown(seed: int = 0) -> plantvr.Model:
+    m = plantvr.Model(seed=seed)
+    m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
+    m.step(6)
+    m.paint([1.5, 7.0, 0.0], radius=1.5)
+    m.step(6)
+    return m
+
+
+def _image(png: bytes) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), np.int16)
+
+
+@pytest.fixture
+def tw():
+    m = _grown()
+    wb = workbench(m, live=False, window_size=(240, 200))
+    yield m, wb
+    wb.close()
+
+
+def test_live_frontend_follows_the_environment(monkeypatch):
+    monkeypatch.delenv("JPY_SESSION_NAME", raising=False)
+    monkeypatch.delenv("PLANTVR_LIVE", raising=False)
+    assert live_frontend() is False                       # nbval / scripts: no Jupyter server session
+    monkeypatch.setenv("JPY_SESSION_NAME", "nb.ipynb")
+    assert live_frontend() is False                       # not inside a kernel
+    monkeypatch.setenv("PLANTVR_LIVE", "1")
+    assert live_frontend() is True
+    monkeypatch.setenv("PLANTVR_LIVE", "0")
+    assert live_frontend() is False
+
+
+def test_treewand_workbench_layout(tw):
+    m, wb = tw
+    assert isinstance(wb, (Workbench, W.HBox)) and not wb.live
+    assert isinstance(wb.screen, W.Image) and _image(wb.screen.value).shape == (200, 240, 3)
+    assert isinstance(wb.panels, ParameterPanels) and wb.panels.triangle is not None
+    assert isinstance(wb.growth, GrowthControl) and wb.wheel is None
+    assert isinstance(wb.brush, BrushInteractor) and wb.brush.doc is m
+    assert f"internodes {m.n_internodes} · markers {m.n_markers}" in wb.status.value
+
+
+def test_slider_regrows_from_the_sessions_commands(tw):
+    m, wb = tw
+    img0, steps = _image(wb.screen.value), m.steps_done
+    m.tropism_angle = 120.0                     # a Tree form slider: regrow (no kernel loop: at once)
+    assert wb.regrows == 1 and m.steps_done == steps
+    # the same as a fresh model grown by the same commands with the new parameter
+    ref = plantvr.Model(seed=0, tropism_angle=120.0)
+    ref.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
+    ref.step(6)
+    ref.paint([1.5, 7.0, 0.0], radius=1.5)
+    ref.step(6)
+    np.testing.assert_array_equal(m.snapshot.pos, ref.snapshot.pos)
+    assert m.state_bytes() == ref.state_bytes()
+    assert np.abs(_image(wb.screen.value) - img0).max(axis=-1).mean() > 0.5  # the picture followed
+    assert "regrows 1" in wb.status.value and "brush commands 0" in wb.status.value
+    # a second regrow re-issues what the first issued: the same commands, the same tree
+    m.tropism_angle = 120.0 + 1e-9
+    assert wb.regrows == 2 and m.steps_done == steps
+    # one undo takes the whole regrow back
+    m.tropism_angle = 10.0
+    grown = m.state_bytes()
+    m.undo()
+    assert m.state_bytes() != grown and m.steps_done == steps
+    # an appearance parameter only redraws
+    m.bark_rate = 3.0
+    assert wb.regrows == 3
+
+
+def test_treewand_brush_paints_and_prunes_through_commands(tw):
+    m, wb = tw
+    n_markers, n_log = m.n_markers, len(m.log)
+    b = wb.brush
+    b.press([0.0, 9.0, 0.0])
+    for y in (9.5, 10.0, 10.5, 11.0):
+        b.drag([0.0, y, 0.0])
+    b.release()
+    assert m.n_markers > n_markers
+    assert [e.command for e in m.log.events[n_log:]].count("paint_stroke") >= 2
+    assert f"markers {m.n_markers}" in wb.status.value and "brush commands 0" not in wb.status.value
+    wb.prune.value = True                          # the Prune toggle is the document's prune mode
+    assert m.prune_mode
+    n_int = m.n_internodes
+    snap = m.snapshot
+    b.press(snap.pos[len(snap.pos) // 2])
+    b.release()
+    assert m.n_internodes < n_int and f"internodes {m.n_internodes}" in wb.status.value
+    m.set_prune_mode(False)
+    assert wb.prune.value is False
+
+
+@pytest.fixture
+def vine():
+    ico = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    seg = Segmentation(ico.vertices.astype(np.float32), ico.faces)
+    wb = workbench(seg, live=False, window_size=(200, 200))
+    yield seg, wb
+    wb.close()
+
+
+def test_vine_workbench_paints_the_wheels_label(vine):
+    seg, wb = vine
+    assert isinstance(wb.wheel, ColorWheel) and isinstance(wb.brush, LabelBrush) and wb.panels is None
+    assert wb.growth is None and wb.brush.label == wb.wheel.selected == 1
+    img0 = _image(wb.screen.value)
+    wb.wheel.selected = 4
+    assert wb.brush.label == 4 and "label 4" in wb.status.value
+    b = wb.brush
+    b.radius = 0.3
+    b.press([0.0, 0.0, 1.0])
+    for x in (0.2, 0.4, 0.6):
+        b.drag([x, 0.0, np.sqrt(1 - x * x)])
+    b.release()
+    painted = int((seg.labels > 0).sum())
+    assert painted > 0 and set(np.unique(seg.labels)) == {0, 4}
+    assert [e.command for e in seg.log.events].count("end_stroke") == 1   # one drag = one stroke
+    assert f"painted vertices {painted}" in wb.status.value and "strokes 1" in wb.status.value
+    assert np.abs(_image(wb.screen.value) - img0).max(axis=-1).mean() > 0.05
+    seg.undo()                                       # the stroke is one undo item; the widgets follow
+    assert not seg.labels.any() and "painted vertices 0" in wb.status.value
+    seg.hide(4)                                      # a hidden label is not painted: said in brush.error
+    b.press([0.0, 0.0, 1.0])
+    b.release()
+    assert not seg.labels.any() and "4" in b.error
+
+
+def test_label_brush_radius_gesture_and_checks(vine):
+    _, wb = vine
+    b = wb.brush
+    r = b.radius
+    assert b.wheel(8) == pytest.approx(2 * r)
+    with pytest.raises(ValueError, match="radius"):
+        b.radius = -1.0
+    with pytest.raises(ValueError, match="label"):
+        LabelBrush(wb.view, label=99)
+
+
+def test_workbench_rejects_bad_input():
+    m = plantvr.Model(seed=0)
+    with pytest.raises(ValueError, match="doc must be a document"):
+        workbench(object())
+    with pytest.raises(ValueError, match="live must be"):
+        workbench(m, live="yes")
+    with pytest.raises(ValueError, match="window_size"):
+        workbench(m, live=False, window_size=(10, 10))
+    with pytest.raises(ValueError, match="view must be a plantvr.View of a segmentation"):
+        LabelBrush(plantvr.View(m, window_size=(64, 64)))
