@@ -904,7 +904,8 @@ def main_segment(argv: list[str] | None = None) -> int:
 
     from plantvr.documents.labels_app import open_source, paint_demo
     ap = argparse.ArgumentParser(prog="plantvr segment", description=main_segment.__doc__.split("\n")[0])
-    ap.add_argument("source", help="volume file (.tif/.npy/.npz/.nrrd), mesh file (.ply/.obj/...), or synth[:N]")
+    ap.add_argument("source", help="volume (.tif/.nrrd/.nii[.gz]/.mha/.mhd/.vti/.h5/.npy/.npz, a .zarr or "
+                                   "DICOM folder), mesh file (.ply/.obj/...), or synth[:N]")
     ap.add_argument("--level", type=float, default=None, help="iso-value (default: Otsu / the synthetic one)")
     ap.add_argument("--downsample", action="store_true", help="2x block-mean downsampling before meshing")
     ap.add_argument("--port", type=int, default=None, help="port of the review page (default: a free one)")
@@ -917,10 +918,48 @@ def main_segment(argv: list[str] | None = None) -> int:
     ap.add_argument("--stamps", type=int, default=24, help="demo brush stamps with --out")
     a = ap.parse_args(argv)
     try:
-        return _segment(a, open_source, paint_demo)
+        return _segment(a, _read_volumes(open_source), paint_demo)
     except ValueError as exc:                       # one line on stderr and exit code 2, never a traceback
         print(f"plantvr segment: error: {exc}".replace("\n", " "), file=sys.stderr)
         return 2
+
+
+def _read_volumes(open_source):
+    """``open_source`` with every volume SOURCE read through :func:`plantvr.io.volume.read_volume` (issue 22):
+    synthetic heads and mesh files go to ``open_source`` unchanged."""
+    from plantvr.documents.labels_app import _MESH_SUFFIXES, Source
+
+    def opener(source, *, level=None, downsample=False):
+        s = os.fspath(source) if isinstance(source, (str, os.PathLike)) else source
+        if (not isinstance(s, str) or s == "synth" or s.startswith("synth:") or not s.strip()
+                or not os.path.exists(s) or Path(s).suffix.lower() in _MESH_SUFFIXES):
+            return open_source(source, level=level, downsample=downsample)
+        from plantvr.adapters.vtk_isosurface import extract_isosurface
+        from plantvr.io.volume import read_volume
+        from plantvr.vine.volume import downsample2, suggest_level
+        vol = read_volume(s)
+        arr = np.asarray(vol.array)
+        unit = f" {vol.meta['unit']}" if vol.meta.get("unit") else ""
+        print(f"volume: {vol.format} {arr.dtype} {'x'.join(map(str, arr.shape))} (axes {vol.meta['axes']}), "
+              f"spacing {', '.join(f'{x:g}' for x in vol.spacing)}{unit}, origin "
+              f"{', '.join(f'{x:g}' for x in vol.origin)}; the surface is in voxel units")
+        if downsample:
+            arr = downsample2(arr)
+        lo, hi = float(arr.min()), float(arr.max())
+        if lo == hi:
+            raise ValueError(f"volume {s!r} is constant (every voxel is {lo:g}): it has no surface to extract")
+        if level is None:
+            if arr.dtype in (np.uint8, np.uint16):
+                lev = suggest_level(arr)
+            else:                                   # float/signed data: Otsu in the data's own units
+                from skimage.filters import threshold_otsu
+                lev = float(threshold_otsu(arr[::max(1, arr.shape[0] // 64)]))
+        else:
+            lev = check_range("level", level, lo, hi, low_open=True, high_open=True)
+        surf = extract_isosurface(arr, lev)
+        return Source(Segmentation(surf.vertices, surf.faces, normals=surf.normals), arr, lev, None)
+
+    return opener
 
 
 def _check_segment_args(a) -> None:

@@ -1,7 +1,8 @@
 """Volume input for ViNE (spec 000_vine §1.4–1.5, checklist item 1): TIFF stacks, .npy/.npz, 2x downsampling.
 
-Volumes stay uint8/uint16 (memory-mapped where the file allows it); no function here makes a float copy
-of the whole volume.
+Volumes stay uint8/uint16 in native byte order (memory-mapped where the file allows it; a big-endian file is
+read swapped); no function here makes a float copy of the whole volume. Every other format, float and signed
+data, spacing and origin: :func:`plantvr.io.volume.read_volume`.
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ MAX_VOLUME_BYTES = 16 * 2 ** 30
 def _check_declared(path, shape, dtype, *, mapped: bool = False) -> None:
     """Refuse a declared volume that is not (X, Y, Z) uint8/uint16 or too big to read, before allocating it."""
     dtype = np.dtype(dtype)
+    dtype = dtype.newbyteorder("=") if dtype.byteorder != "|" else dtype   # '>u2' is uint16 (read natively)
     shape = tuple(int(s) for s in shape)
     if len(shape) != 3:
         raise ValueError(f"volume in {str(path)!r} must be a 3-D array (X, Y, Z), got shape {shape}")
@@ -78,9 +80,23 @@ def _tiff_read(fn, *args, path, **kw):
         raise ValueError(f"could not read {str(path)!r} as TIFF: {type(exc).__name__}: {exc}") from None
 
 
+def _native(vol: np.ndarray, path) -> np.ndarray:
+    """``vol`` in native byte order: a big-endian memory map or ``.npy`` (ImageJ writes big-endian TIFF) is
+    read into memory swapped, under the :data:`MAX_VOLUME_BYTES` cap."""
+    if vol.dtype.isnative:
+        return vol
+    if vol.nbytes > MAX_VOLUME_BYTES:
+        raise ValueError(f"volume in {str(path)!r} is stored {vol.dtype.str} ({vol.nbytes} bytes): swapping it to "
+                         f"the native byte order needs more than the {MAX_VOLUME_BYTES} bytes load_volume reads "
+                         f"into memory")
+    return vol.astype(vol.dtype.newbyteorder("="))
+
+
 def _check_volume(name: str, vol) -> np.ndarray:
     if not isinstance(vol, np.ndarray):
         vol = np.asarray(vol)
+    if vol.dtype.kind == "u" and not vol.dtype.isnative:
+        vol = _native(vol, name)                  # '>u2' is uint16 in the other byte order, not another dtype
     if vol.ndim != 3:
         raise ValueError(f"{name} must be a 3-D array (X, Y, Z), got shape {vol.shape}")
     if vol.dtype not in _DTYPES:
@@ -147,6 +163,8 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
             if mmap:
                 try:
                     vol = tifffile.memmap(str(p), mode="r")
+                    if not vol.dtype.isnative:        # a map keeps the file's byte order: read it swapped
+                        raise ValueError("byte order")
                     _check_declared(p, vol.shape if vol.ndim != 2 else (1, *vol.shape), vol.dtype, mapped=True)
                 except ValueError:
                     vol = None
@@ -167,6 +185,7 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
                 vol = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
             except (ValueError, OSError, EOFError) as exc:
                 raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
+            vol = _native(vol, p)
         elif suffix == ".npz":
             try:
                 heads = npy_headers(p, what="volume file", max_members=1000)
@@ -182,6 +201,7 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
                 vol = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
             except ValueError as exc:
                 raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
+            vol = _native(vol, p)
         else:
             raise ValueError(f"path must end in .tif, .tiff, .npy or .npz (or be a folder), got {str(p)!r}")
     return _check_volume("volume", vol)

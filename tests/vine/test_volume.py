@@ -66,3 +66,33 @@ def test_suggest_level_separates_structure_from_background(head):
     assert 20 < lvl < 200
     inside = head.volume > lvl
     assert (inside & (head.labels > 0)).sum() / inside.sum() > 0.9
+
+
+@pytest.mark.parametrize("byteorder", ["<", ">"])
+@pytest.mark.parametrize("mmap", [True, False])
+def test_load_big_endian_imagej_stack_is_native_uint16(tmp_path, byteorder, mmap):
+    """Issue 22: an ImageJ light-sheet stack (uint16, big-endian) failed with 'uint8 or uint16, got >u2'."""
+    vol = np.random.default_rng(3).integers(0, 65535, (6, 7, 8)).astype(np.uint16)
+    p = tmp_path / "ij.tif"
+    tifffile.imwrite(p, vol, imagej=True, byteorder=byteorder, metadata={"spacing": 2.0, "axes": "ZYX"})
+    got = load_volume(p, mmap=mmap)
+    assert got.dtype == np.uint16 and got.dtype.isnative and np.array_equal(got, vol)
+    plain = tmp_path / "plain.tif"
+    tifffile.imwrite(plain, vol, byteorder=byteorder, photometric="minisblack")
+    assert np.array_equal(load_volume(plain, mmap=mmap), vol)
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".npz"])
+def test_load_big_endian_npy_npz(tmp_path, suffix):
+    vol = np.random.default_rng(4).integers(0, 65535, (4, 5, 6)).astype(">u2")
+    p = tmp_path / f"be{suffix}"
+    (np.save if suffix == ".npy" else lambda f, a: np.savez(f, volume=a))(p, vol)
+    got = load_volume(p)
+    assert got.dtype == np.uint16 and got.dtype.isnative and np.array_equal(got, vol)
+
+
+def test_cores_accept_big_endian_arrays():
+    vol = np.random.default_rng(5).integers(0, 200, (6, 6, 6)).astype(">u2")
+    counts, _ = histogram(vol, bins=16)
+    assert counts.sum() == vol.size
+    assert np.array_equal(downsample2(vol, method="max"), downsample2(vol.astype(np.uint16), method="max"))

@@ -1,0 +1,742 @@
+"""Volume readers on the field's own libraries (issue 22 "Volume readers"; spec 000_vine §1.4).
+
+:func:`read_volume` opens the image stacks researchers already have and returns a :class:`Volume`: the voxel
+array as stored (native byte order; float, signed and 8/16/32/64-bit integer data are returned as they are,
+never rescaled), the voxel spacing and origin in the file's physical units, in the array's own axis order,
+and the file's metadata.
+
+=================================  ==================  =================================================
+suffix                             library             spacing / origin from
+=================================  ==================  =================================================
+``.tif`` ``.tiff`` (or a folder    tifffile            ImageJ ``spacing`` + X/YResolution tags; OME
+of 2-D slices)                                         ``PhysicalSize{X,Y,Z}``; plain: resolution tags
+``.nrrd`` ``.nhdr``                pynrrd              ``space directions`` / ``spacings``, ``space origin``
+``.nii`` ``.nii.gz``               nibabel             the affine (zooms, translation)
+``.mha`` ``.mhd``                  SimpleITK           ``ElementSpacing``, ``Offset``, ``TransformMatrix``
+``.vti``                           VTK (via pyvista)   ``Spacing``, ``Origin``, ``Direction``
+``.h5`` ``.hdf5``                  h5py                the ``element_size_um`` attribute if present
+``.zarr`` (folder)                 zarr (+ dask)       OME-Zarr multiscales level 0: its ``scale`` and
+                                                       ``translation`` coordinate transformations
+a folder of DICOM slices           pydicom             ``PixelSpacing``, slice positions,
+                                                       ``ImagePositionPatient`` (sorted along the normal)
+``.npy`` ``.npz``                  numpy               (none: spacing 1, origin 0)
+=================================  ==================  =================================================
+
+Axis order is each library's own: (Z, Y, X) for TIFF, MetaImage, HDF5, Zarr and DICOM; (X, Y, Z) for NRRD,
+NIfTI and .vti. ``Volume.meta["axes"]`` names them. ``origin[k]`` is the position of voxel 0 along array
+axis ``k``'s direction, so ``index * spacing + origin`` is the physical coordinate along each axis; where the
+file's axes are rotated against its world frame, ``meta["direction"]`` (3, 3) holds the unit world direction
+of each array axis (rows), and ``world = direction.T @ (index * spacing + origin)``.
+
+This module reads only; it sits in the io layer (the numeric cores never import it).
+"""
+from __future__ import annotations
+
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from plantvr._validation import MAX_COUNT
+from plantvr.vine.volume import MAX_VOLUME_BYTES
+
+__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "read_volume"]
+
+#: File suffixes :func:`read_volume` reads (``.zarr`` is a folder; any other folder is a TIFF slice stack or a
+#: DICOM series).
+SUFFIXES = (".tif", ".tiff", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".mha", ".mhd", ".vti", ".h5", ".hdf5",
+            ".zarr", ".npy", ".npz")
+
+#: Largest voxel count a lazy (dask) read accepts; eager reads are capped at
+#: :data:`plantvr.vine.volume.MAX_VOLUME_BYTES` bytes, and every axis at :data:`plantvr._validation.MAX_COUNT`.
+MAX_LAZY_VOXELS = 2 ** 40
+
+_LAZY = ("Zarr", "TIFF")
+
+
+@dataclass(frozen=True, eq=False)
+class Volume:
+    """A 3-D image read from a file.
+
+    Attributes
+    ----------
+    array : (A0, A1, A2) ndarray or dask array
+        The voxels as stored (native byte order, no rescaling); a dask array when read with ``lazy=True``.
+    spacing : (3,) float64 ndarray
+        Voxel size along each array axis, in the file's physical units (``meta["unit"]`` where the file names
+        one), finite and > 0.
+    origin : (3,) float64 ndarray
+        Position of voxel 0 along each array axis, same units.
+    meta : dict
+        ``axes`` (e.g. ``"zyx"``), ``format``, and what the file declares (ImageJ/OME metadata, NRRD header,
+        NIfTI affine and scaling, DICOM rescale slope/intercept, ...).
+    source : str
+        The path read.
+    format : str
+        ``"TIFF"``, ``"NRRD"``, ``"NIfTI"``, ``"MetaImage"``, ``"VTI"``, ``"HDF5"``, ``"Zarr"``, ``"DICOM"``
+        or ``"NumPy"``.
+    """
+
+    array: Any
+    spacing: np.ndarray
+    origin: np.ndarray
+    meta: dict = field(default_factory=dict)
+    source: str = ""
+    format: str = ""
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return tuple(int(s) for s in self.array.shape)
+
+    @property
+    def dtype(self) -> np.dtype:
+        return np.dtype(self.array.dtype)
+
+    def to_physical(self, index: np.ndarray) -> np.ndarray:
+        """(N, 3) float voxel indices (array axis order, e.g. isosurface vertices) -> (N, 3) float64
+        physical coordinates along the same axes: ``index * spacing + origin``."""
+        return np.asarray(index, np.float64) * self.spacing + self.origin
+
+
+def read_volume(path: str | os.PathLike, *, dataset: str | None = None, lazy: bool = False) -> Volume:
+    """Read a 3-D image stack with its spacing, origin and metadata, dispatching on the suffix.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A file with one of :data:`SUFFIXES`, a ``.zarr`` folder, a folder of 2-D TIFF slices (sorted by
+        name) or a folder holding one DICOM series.
+    dataset : str, optional
+        The array inside a container: the HDF5 dataset path, the Zarr array path (default: OME-Zarr
+        multiscales level 0, else the only array), the ``.npz`` key, or the ``.vti`` point-data array name.
+        Default: the only (or active) array.
+    lazy : bool
+        Return a dask array instead of reading the voxels (Zarr and TIFF only), for volumes bigger than memory.
+
+    Returns
+    -------
+    Volume
+
+    Raises
+    ------
+    ValueError
+        A missing path or unknown suffix; a file the library cannot read; a volume that is not 3-D after
+        dropping singleton channel/time axes (the message names the axes), smaller than 2 voxels along an
+        axis, of a non-numeric dtype (RGB, complex), bigger than :data:`~plantvr.vine.volume.MAX_VOLUME_BYTES`
+        (eager) or :data:`MAX_LAZY_VOXELS` (lazy), or with a spacing that is not finite and > 0. Every size is
+        checked from the header before the voxels are read.
+
+    References
+    ----------
+    .. [1] Issue 22, "Volume readers": TIFF (ImageJ, OME, both byte orders), NRRD, NIfTI, MetaImage, .vti,
+       HDF5, Zarr/OME-Zarr (lazy), DICOM series.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path must be a file or folder path, got {type(path).__name__}")
+    if dataset is not None and not isinstance(dataset, str):
+        raise ValueError(f"dataset must be a string (an array path or name) or None, got {dataset!r}")
+    if not isinstance(lazy, (bool, np.bool_)):
+        raise ValueError(f"lazy must be True or False, got {lazy!r}")
+    p = Path(path)
+    if not p.exists():
+        raise ValueError(f"path does not exist: {str(p)!r}")
+    suffix = _suffix(p)
+    if p.is_dir() and suffix != ".zarr":
+        kind = "TIFF" if any(f.suffix.lower() in (".tif", ".tiff") for f in p.iterdir()) else "DICOM"
+    elif p.is_dir() or suffix == ".zarr":
+        kind = "Zarr"
+    else:
+        kind = _KINDS.get(suffix)
+        if kind is None:
+            raise ValueError(f"path must end in one of {', '.join(SUFFIXES)} (or be a folder of TIFF or DICOM "
+                             f"slices), got {str(p)!r}")
+    if lazy and kind not in _LAZY:
+        raise ValueError(f"lazy=True reads {' and '.join(_LAZY)} volumes only, got a {kind} file {str(p)!r}")
+    reader = _READERS[kind]
+    try:
+        array, spacing, origin, axes, meta = reader(p, dataset=dataset, lazy=bool(lazy))
+    except ValueError:
+        raise
+    except MemoryError:
+        raise ValueError(f"volume in {str(p)!r} does not fit in memory (read it with lazy=True: "
+                         f"{', '.join(_LAZY)})") from None
+    except Exception as exc:  # noqa: BLE001 - every library raises its own types on a corrupt file
+        raise ValueError(f"could not read {str(p)!r} as {kind}: {type(exc).__name__}: {exc}") from None
+    return _finish(p, kind, array, spacing, origin, axes, meta)
+
+
+# ---------------------------------------------------------------------------------------------- door checks
+
+
+def _suffix(p: Path) -> str:
+    name = p.name.lower()
+    return ".nii.gz" if name.endswith(".nii.gz") else p.suffix.lower()
+
+
+def _declared(path, shape, dtype, *, lazy: bool = False) -> None:
+    """Refuse a declared array of a non-numeric dtype or beyond the size caps, before reading it."""
+    dtype = np.dtype(dtype)
+    shape = tuple(int(s) for s in shape)
+    if dtype.kind not in "biuf" or dtype.fields is not None:
+        raise ValueError(f"volume in {str(path)!r} must hold one number per voxel (bool, integer or float), "
+                         f"got dtype {dtype}")
+    if any(s < 0 or s > MAX_COUNT for s in shape):
+        raise ValueError(f"volume in {str(path)!r} declares shape {shape}: every axis must be at most "
+                         f"{MAX_COUNT} voxels")
+    n = int(np.prod(shape, dtype=object))
+    if lazy and n > MAX_LAZY_VOXELS:
+        raise ValueError(f"volume in {str(path)!r} declares shape {shape} ({n} voxels), more than the "
+                         f"{MAX_LAZY_VOXELS} a lazy read accepts")
+    if not lazy and n * dtype.itemsize > MAX_VOLUME_BYTES:
+        raise ValueError(f"volume in {str(path)!r} declares shape {shape} ({n * dtype.itemsize} bytes), more "
+                         f"than the {MAX_VOLUME_BYTES} bytes read into memory (read Zarr/TIFF with lazy=True)")
+
+
+def _keep_axes(path, shape, axes: str) -> list[int]:
+    """Indices of the three axes kept after dropping singleton non-spatial axes (clear error otherwise).
+
+    ``axes`` holds one lower-case letter per axis; ``x``, ``y``, ``z`` are spatial, ``?`` unknown (dropped
+    only if it has one entry and more than three axes remain).
+    """
+    shape = tuple(int(s) for s in shape)
+    keep = list(range(len(shape)))
+    for i in range(len(shape)):                                    # named non-spatial singletons first
+        if len(keep) > 3 and shape[i] == 1 and axes[i] not in "xyz?":
+            keep.remove(i)
+    for i in range(len(shape)):                                    # then unnamed singletons, leading first
+        if len(keep) > 3 and shape[i] == 1 and i in keep and axes[i] not in "xyz":
+            keep.remove(i)
+    for i in range(len(shape)):
+        if len(keep) > 3 and shape[i] == 1 and i in keep:
+            keep.remove(i)
+    if len(keep) != 3:
+        named = "".join(axes).upper()
+        raise ValueError(f"volume in {str(path)!r} must be 3-D after dropping singleton channel/time axes: it "
+                         f"has axes {named} with shape {shape}"
+                         + (" (a 2-D image)" if len(keep) < 3 else
+                            f"; axes {''.join(axes[i] for i in keep).upper()} all have more than one entry "
+                            f"(pass one channel/time point)"))
+    return keep
+
+
+def _native(a):
+    """The array in native byte order (a copy only when the file's order differs)."""
+    dt = np.dtype(a.dtype)
+    if dt.isnative:
+        return a
+    return a.astype(dt.newbyteorder("="))
+
+
+def _finish(p: Path, kind: str, array, spacing, origin, axes: str, meta: dict) -> Volume:
+    shape = tuple(int(s) for s in array.shape)
+    if len(shape) != 3:          # readers already squeezed; this guards a reader that did not
+        raise ValueError(f"volume in {str(p)!r} must be 3-D, got shape {shape}")
+    if min(shape) < 2:
+        raise ValueError(f"volume in {str(p)!r} must be at least 2 voxels along every axis, got shape {shape} "
+                         f"(axes {axes.upper()})")
+    spacing = np.asarray(spacing, np.float64).reshape(3)
+    origin = np.asarray(origin, np.float64).reshape(3)
+    if not (np.all(np.isfinite(spacing)) and np.all(spacing > 0)):
+        raise ValueError(f"voxel spacing in {str(p)!r} must be finite and > 0 along every axis, got "
+                         f"{spacing.tolist()} (axes {axes.upper()})")
+    if not np.all(np.isfinite(origin)):
+        raise ValueError(f"origin in {str(p)!r} must be finite, got {origin.tolist()}")
+    array = _native(array)
+    if isinstance(array, np.ndarray) and not isinstance(array, np.memmap):
+        array = np.asarray(array)
+    meta = dict(meta, axes=axes, format=kind)
+    spacing.setflags(write=False)
+    origin.setflags(write=False)
+    return Volume(array, spacing, origin, meta, str(p), kind)
+
+
+def _frame(dirs, origin_world):
+    """Spacing, origin along each axis and unit directions from (3, 3) axis vectors (rows, world units)."""
+    d = np.asarray(dirs, np.float64).reshape(3, 3)
+    spacing = np.linalg.norm(d, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = d / spacing[:, None]
+    o = np.asarray(origin_world, np.float64).reshape(3)
+    return spacing, unit @ o, unit
+
+
+# ---------------------------------------------------------------------------------------------- TIFF
+
+
+def _tiff(p: Path, *, dataset, lazy):
+    import tifffile
+    if p.is_dir():
+        return _tiff_folder(p, lazy=lazy)
+    with tifffile.TiffFile(str(p)) as tf:
+        series = tf.series[0]
+        shape, dtype, axes_raw = tuple(series.shape), series.dtype, series.axes
+        size = os.path.getsize(p)
+        for page in tf.pages:                      # every strip/tile inside the file (else: truncated)
+            ends = [o + n for o, n in zip(page.dataoffsets, page.databytecounts)]
+            if ends and max(ends) > size:
+                raise ValueError(f"could not read {str(p)!r} as TIFF: page data ends at byte {max(ends)}, past "
+                                 f"the file's {size} (truncated)")
+        _declared(p, shape, dtype, lazy=lazy)
+        axes = _tiff_axes(axes_raw)
+        keep = _keep_axes(p, shape, axes)
+        meta: dict[str, Any] = {"tiff_axes": axes_raw, "byteorder": tf.byteorder}
+        sp = {"x": 1.0, "y": 1.0, "z": 1.0}
+        org = {"x": 0.0, "y": 0.0, "z": 0.0}
+        page0 = tf.pages[0]
+        for ax, tag in (("x", "XResolution"), ("y", "YResolution")):
+            t = page0.tags.get(tag)
+            if t is not None:
+                num, den = t.value
+                if num > 0 and den > 0:
+                    sp[ax] = den / num
+        if tf.is_imagej:
+            ij = dict(tf.imagej_metadata or {})
+            meta["imagej"] = ij
+            if "spacing" in ij:
+                sp["z"] = float(ij["spacing"])
+            if ij.get("unit"):
+                meta["unit"] = str(ij["unit"]).replace("\\u00B5", "µ")
+        elif tf.is_ome:
+            meta["ome"] = tf.ome_metadata
+            for el in ET.fromstring(tf.ome_metadata).iter():
+                if el.tag.endswith("}Pixels") or el.tag == "Pixels":
+                    for ax in "xyz":
+                        v = el.get(f"PhysicalSize{ax.upper()}")
+                        if v is not None:
+                            sp[ax] = float(v)
+                    unit = el.get("PhysicalSizeXUnit")
+                    meta["unit"] = unit if unit is not None else "µm"     # the OME schema's default
+                    break
+            for el in ET.fromstring(tf.ome_metadata).iter():
+                if el.tag.endswith("}Plane") or el.tag == "Plane":      # stage position of the first plane
+                    for ax in "xyz":
+                        v = el.get(f"Position{ax.upper()}")
+                        if v is not None:
+                            org[ax] = float(v)
+                    break
+        if lazy:
+            import dask.array as da
+            import zarr
+            store = series.aszarr(level=0) if series.levels else series.aszarr()
+            arr = da.from_zarr(zarr.open(store, mode="r"))
+        else:
+            arr = series.asarray()
+    sel = tuple(slice(None) if i in keep else 0 for i in range(len(shape)))
+    arr = arr[sel]
+    kept = "".join(axes[i] for i in keep)
+    kept = kept.replace("?", "z") if kept.count("?") == 1 and "z" not in kept else kept
+    spacing = [sp.get(a, 1.0) for a in kept]
+    origin = [org.get(a, 0.0) for a in kept]
+    return arr, spacing, origin, kept, meta
+
+
+def _tiff_axes(axes: str) -> str:
+    """tifffile's axis codes as x/y/z plus '?' (generic pages I/Q) and lower-case non-spatial letters."""
+    out = []
+    for a in axes.upper():
+        out.append({"X": "x", "Y": "y", "Z": "z", "I": "?", "Q": "?"}.get(a, a.lower() if a.lower() not in "xyz?"
+                                                                         else "c"))
+    return "".join(out)
+
+
+def _tiff_folder(p: Path, *, lazy):
+    import tifffile
+    files = sorted(f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff"))
+    shapes = []
+    for f in files:
+        with tifffile.TiffFile(str(f)) as tf:
+            shapes.append((tuple(tf.series[0].shape), np.dtype(tf.series[0].dtype)))
+    if len(set(shapes)) != 1 or len(shapes[0][0]) != 2:
+        raise ValueError(f"folder {str(p)!r}: every slice must be one 2-D image of the same shape and dtype, got "
+                         f"{sorted({(s, str(d)) for s, d in shapes})[:3]}")
+    _declared(p, (len(files), *shapes[0][0]), shapes[0][1], lazy=lazy)
+    if lazy:
+        import dask.array as da
+        import zarr
+        arr = da.from_zarr(zarr.open(tifffile.imread([str(f) for f in files], aszarr=True), mode="r"))
+    else:
+        arr = tifffile.imread([str(f) for f in files])
+    sp = [1.0, 1.0, 1.0]
+    with tifffile.TiffFile(str(files[0])) as tf:
+        for k, tag in ((2, "XResolution"), (1, "YResolution")):
+            t = tf.pages[0].tags.get(tag)
+            if t is not None and t.value[0] > 0 and t.value[1] > 0:
+                sp[k] = t.value[1] / t.value[0]
+    return arr, sp, [0.0, 0.0, 0.0], "zyx", {"slices": [f.name for f in files]}
+
+
+# ---------------------------------------------------------------------------------------------- NRRD
+
+
+def _nrrd(p: Path, *, dataset, lazy):
+    import nrrd
+    header = nrrd.read_header(str(p))
+    sizes = tuple(int(s) for s in header["sizes"])
+    dtype = nrrd.reader._determine_datatype(header)
+    _declared(p, sizes, dtype)
+    n = len(sizes)
+    dirs = header.get("space directions")
+    spatial = [True] * n
+    vecs = None
+    if dirs is not None:
+        rows = [None if r is None or (np.ndim(r) == 1 and np.all(np.isnan(np.asarray(r, float)))) else
+                np.asarray(r, np.float64) for r in dirs]
+        spatial = [r is not None for r in rows]
+        vecs = rows
+    kinds = header.get("kinds")
+    if kinds is not None and dirs is None:
+        spatial = [str(k).lower() in ("domain", "space") for k in kinds]
+    axes_lbl = "".join("?" if s else "c" for s in spatial)
+    keep = _keep_axes(p, sizes, axes_lbl)
+    data, header = nrrd.read(str(p), index_order="F")
+    arr = data[tuple(slice(None) if i in keep else 0 for i in range(n))]
+    if vecs is not None and all(vecs[i] is not None for i in keep) and len(vecs[keep[0]]) == 3:
+        o = header.get("space origin")
+        spacing, origin, unit = _frame([vecs[i] for i in keep], np.zeros(3) if o is None else o)
+        meta_dir = unit
+    else:
+        sps = header.get("spacings")
+        spacing = [1.0, 1.0, 1.0] if sps is None else [float(sps[i]) for i in keep]
+        spacing = [1.0 if np.isnan(s) else s for s in spacing]
+        origin, meta_dir = [0.0, 0.0, 0.0], np.eye(3)
+    hdr = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in header.items()}
+    meta = {"nrrd": hdr, "direction": meta_dir}
+    if header.get("space units"):
+        meta["unit"] = header["space units"][0]
+    return arr, spacing, origin, "xyz", meta
+
+
+# ---------------------------------------------------------------------------------------------- NIfTI
+
+
+def _nifti(p: Path, *, dataset, lazy):
+    import nibabel as nib
+    img = nib.load(str(p))
+    shape = tuple(int(s) for s in img.shape)
+    _declared(p, shape, img.get_data_dtype())
+    keep = _keep_axes(p, shape, "xyztc"[:len(shape)] + "c" * max(0, len(shape) - 5))
+    if keep != [0, 1, 2]:
+        raise ValueError(f"volume in {str(p)!r} must hold its 3 spatial axes first, got shape {shape}")
+    arr = np.asanyarray(img.dataobj.get_unscaled() if hasattr(img.dataobj, "get_unscaled") else img.dataobj)
+    arr = arr[(slice(None),) * 3 + (0,) * (arr.ndim - 3)]
+    aff = np.asarray(img.affine, np.float64)
+    spacing, origin, unit = _frame(aff[:3, :3].T, aff[:3, 3])
+    meta: dict[str, Any] = {"affine": aff, "direction": unit, "nifti_header": img.header}
+    slope, inter = getattr(img.dataobj, "slope", 1.0), getattr(img.dataobj, "inter", 0.0)
+    meta["scl_slope"], meta["scl_inter"] = float(slope), float(inter)   # physical = stored * slope + inter
+    try:
+        meta["unit"] = img.header.get_xyzt_units()[0]
+    except Exception:  # noqa: BLE001, S110 - NIfTI-1/2 only; other nibabel images have no units
+        pass
+    return arr, spacing, origin, "xyz", meta
+
+
+# ---------------------------------------------------------------------------------------------- MetaImage
+
+
+def _metaimage(p: Path, *, dataset, lazy):
+    import SimpleITK as sitk
+    r = sitk.ImageFileReader()
+    r.SetFileName(str(p))
+    r.ReadImageInformation()
+    size = tuple(int(s) for s in r.GetSize())[::-1]            # numpy order (..., z, y, x)
+    ncomp = r.GetNumberOfComponents()
+    dim = r.GetDimension()
+    pix = sitk.GetPixelIDValueAsString(r.GetPixelID())
+    dtype = _SITK_DTYPES.get(sitk.GetPixelIDValueAsString(r.GetPixelID()).replace("vector of ", ""))
+    if dtype is None or ncomp != 1 or "complex" in pix:
+        raise ValueError(f"volume in {str(p)!r} must hold one number per voxel, got pixel type {pix!r} with "
+                         f"{ncomp} components")
+    _declared(p, size, dtype)
+    keep = _keep_axes(p, size, "?" * dim)
+    if keep != list(range(dim - 3, dim)):
+        raise ValueError(f"volume in {str(p)!r} must hold x, y, z as its first three axes, got size {size[::-1]}")
+    img = r.Execute()
+    if dim > 3:
+        ext = sitk.ExtractImageFilter()
+        ext.SetSize(list(img.GetSize()[:3]) + [0] * (dim - 3))
+        img = ext.Execute(img)
+    arr = sitk.GetArrayFromImage(img)                           # (z, y, x)
+    sp = np.asarray(img.GetSpacing(), np.float64)
+    d = np.asarray(img.GetDirection(), np.float64).reshape(3, 3)   # columns: world direction of x, y, z
+    spacing, origin, unit = _frame((d * sp).T[::-1], img.GetOrigin())
+    meta = {"direction": unit, "itk_direction": d, "itk_origin": tuple(img.GetOrigin()),
+            "keys": {k: r.GetMetaData(k) for k in r.GetMetaDataKeys()}}
+    return arr, spacing, origin, "zyx", meta
+
+
+_SITK_DTYPES = {
+    "8-bit unsigned integer": np.uint8, "8-bit signed integer": np.int8,
+    "16-bit unsigned integer": np.uint16, "16-bit signed integer": np.int16,
+    "32-bit unsigned integer": np.uint32, "32-bit signed integer": np.int32,
+    "64-bit unsigned integer": np.uint64, "64-bit signed integer": np.int64,
+    "32-bit float": np.float32, "64-bit float": np.float64,
+}
+
+
+# ---------------------------------------------------------------------------------------------- VTI
+
+
+def _vti(p: Path, *, dataset, lazy):
+    import pyvista as pv
+    from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
+    from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+    r = vtkXMLImageDataReader()
+    if not r.CanReadFile(str(p)):
+        raise ValueError(f"could not read {str(p)!r} as VTI: not a VTK XML ImageData file")
+    r.SetFileName(str(p))
+    r.UpdateInformation()
+    e = r.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
+    dims = (e[1] - e[0] + 1, e[3] - e[2] + 1, e[5] - e[4] + 1)
+    _declared(p, dims, np.uint8)                       # the dtype is checked once the array is known
+    r.Update()
+    grid = pv.wrap(r.GetOutput())
+    names = list(grid.point_data.keys())
+    if dataset is None:
+        name = grid.point_data.active_scalars_name or (names[0] if len(names) == 1 else None)
+    else:
+        name = dataset
+    if name is None or name not in names:
+        raise ValueError(f"dataset must name one of the point-data arrays {names} in {str(p)!r}, got {dataset!r}")
+    flat = grid.point_data[name]
+    if flat.ndim != 1:
+        raise ValueError(f"array {name!r} in {str(p)!r} must hold one number per voxel, got {flat.shape[1]} "
+                         f"components")
+    _declared(p, dims, flat.dtype)
+    arr = np.asarray(flat).reshape(dims, order="F")        # (x, y, z), a view of the VTK array
+    d = np.asarray(grid.direction_matrix, np.float64).reshape(3, 3)    # columns: world direction of i, j, k
+    spacing, origin, unit = _frame((d * np.asarray(grid.spacing)).T, grid.origin)
+    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names}
+
+
+# ---------------------------------------------------------------------------------------------- HDF5
+
+
+def _hdf5(p: Path, *, dataset, lazy):
+    import h5py
+    with h5py.File(str(p), "r") as f:
+        found: list[str] = []
+        f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) and o.ndim >= 3 else None)
+        if dataset is None:
+            if len(found) != 1:
+                raise ValueError(f"dataset must name the volume inside {str(p)!r}: it holds the >= 3-D datasets "
+                                 f"{found}")
+            dataset = found[0]
+        obj = f.get(dataset)
+        if not isinstance(obj, h5py.Dataset):
+            raise ValueError(f"dataset must name a dataset inside {str(p)!r} (one of {found}), got {dataset!r}")
+        shape = tuple(int(s) for s in obj.shape)
+        _declared(p, shape, obj.dtype)
+        attrs = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in obj.attrs.items()}
+        labels = ["?"] * len(shape)
+        try:                                            # HDF5 dimension scales labels, if the writer set them
+            for i, dim in enumerate(obj.dims):
+                lab = (dim.label or "").lower()[:1]
+                if lab:
+                    labels[i] = lab if lab in "xyz" else "c"
+        except Exception:  # noqa: BLE001, S110 - dimension-scale support varies between writers
+            pass
+        keep = _keep_axes(p, shape, "".join(labels))
+        arr = obj[tuple(slice(None) if i in keep else 0 for i in range(len(shape)))]
+    spacing = [1.0, 1.0, 1.0]
+    esu = attrs.get("element_size_um")
+    if esu is not None:
+        esu = np.asarray(esu, np.float64).ravel()
+        if len(esu) == len(shape):
+            esu = esu[keep]
+        if len(esu) != 3:
+            raise ValueError(f"element_size_um of {dataset!r} in {str(p)!r} must hold one value per axis, got "
+                             f"{esu.tolist()}")
+        spacing = esu
+    meta = {"dataset": dataset, "attrs": attrs}
+    if esu is not None:
+        meta["unit"] = "µm"
+    kept = "".join(labels[i] for i in keep)
+    return arr, spacing, [0.0, 0.0, 0.0], kept if set(kept) == set("xyz") else "zyx", meta
+
+
+# ---------------------------------------------------------------------------------------------- Zarr
+
+
+def _zarr(p: Path, *, dataset, lazy):
+    import zarr
+    node = zarr.open(str(p), mode="r")
+    attrs = dict(node.attrs)
+    ms = (attrs.get("ome") or {}).get("multiscales") or attrs.get("multiscales")
+    scale = trans = None
+    axes_meta = None
+    if isinstance(node, zarr.Array):
+        arr_node, path = node, ""
+    else:
+        path = dataset
+        if path is None and ms:
+            m0 = ms[0]
+            ds0 = m0["datasets"][0]
+            path = ds0["path"]
+            axes_meta = m0.get("axes")
+            scale, trans = _ome_transforms(ds0.get("coordinateTransformations"))
+            s2, t2 = _ome_transforms(m0.get("coordinateTransformations"))
+            if s2 is not None:                          # the multiscale's own transforms apply after the level's
+                scale = s2 if scale is None else scale * s2
+                trans = None if trans is None else trans * s2
+            if t2 is not None:
+                trans = t2 if trans is None else trans + t2
+        if path is None:
+            arrays = [k for k, _ in node.arrays()]
+            if len(arrays) != 1:
+                raise ValueError(f"dataset must name the array inside {str(p)!r}: it holds {arrays} and no "
+                                 f"OME-Zarr multiscales")
+            path = arrays[0]
+        try:
+            arr_node = node[path]
+        except KeyError:
+            raise ValueError(f"dataset must name an array inside {str(p)!r}, got {path!r}") from None
+        if not isinstance(arr_node, zarr.Array):
+            raise ValueError(f"dataset must name an array inside {str(p)!r}, got the group {path!r}")
+        if dataset is not None and ms:                  # a chosen level of the multiscales: its own transforms
+            for ds in ms[0]["datasets"]:
+                if ds["path"] == dataset:
+                    axes_meta = ms[0].get("axes")
+                    scale, trans = _ome_transforms(ds.get("coordinateTransformations"))
+    shape = tuple(int(s) for s in arr_node.shape)
+    _declared(p, shape, arr_node.dtype, lazy=lazy)
+    n = len(shape)
+    if axes_meta:
+        names = [a["name"] if isinstance(a, dict) else str(a) for a in axes_meta]
+        types = [a.get("type", "") if isinstance(a, dict) else "" for a in axes_meta]
+        labels = "".join(nm.lower()[:1] if (t == "space" or nm.lower() in "xyz") and nm.lower()[:1] in "xyz"
+                         else "c" for nm, t in zip(names, types))
+    else:
+        labels = "?" * n
+    if len(labels) != n:
+        raise ValueError(f"OME-Zarr axes {labels.upper()} in {str(p)!r} do not match the array's shape {shape}")
+    keep = _keep_axes(p, shape, labels)
+    sel = tuple(slice(None) if i in keep else 0 for i in range(n))
+    if lazy:
+        import dask.array as da
+        arr = da.from_zarr(arr_node)[sel]
+    else:
+        arr = arr_node[sel]
+    spacing = [1.0, 1.0, 1.0] if scale is None else [float(np.asarray(scale)[i]) for i in keep]
+    origin = [0.0, 0.0, 0.0] if trans is None else [float(np.asarray(trans)[i]) for i in keep]
+    meta = {"dataset": path, "attrs": attrs}
+    if axes_meta:
+        units = {a.get("unit") for a in axes_meta if isinstance(a, dict) and a.get("type") == "space"} - {None}
+        if len(units) == 1:
+            meta["unit"] = units.pop()
+    kept = "".join(labels[i] for i in keep)
+    return arr, spacing, origin, kept if set(kept) == set("xyz") else "zyx", meta
+
+
+def _ome_transforms(cts):
+    scale = trans = None
+    for ct in cts or []:
+        if ct.get("type") == "scale" and "scale" in ct:
+            scale = np.asarray(ct["scale"], np.float64)
+        elif ct.get("type") == "translation" and "translation" in ct:
+            trans = np.asarray(ct["translation"], np.float64)
+    return scale, trans
+
+
+# ---------------------------------------------------------------------------------------------- DICOM
+
+
+def _dicom(p: Path, *, dataset, lazy):
+    import pydicom
+    from pydicom.errors import InvalidDicomError
+    heads = []
+    for f in sorted(p.iterdir()):
+        if not f.is_file():
+            continue
+        try:
+            ds = pydicom.dcmread(str(f), stop_before_pixels=True)
+        except (InvalidDicomError, OSError, EOFError):
+            continue
+        if "PixelData" in ds or hasattr(ds, "Rows"):
+            heads.append((f, ds))
+    if not heads:
+        raise ValueError(f"folder {str(p)!r} holds no TIFF or DICOM slices")
+    series = {str(getattr(ds, "SeriesInstanceUID", "")) for _, ds in heads}
+    if len(series) != 1:
+        raise ValueError(f"folder {str(p)!r} must hold one DICOM series, got {len(series)} (SeriesInstanceUID)")
+    if len(heads) < 2:
+        raise ValueError(f"folder {str(p)!r} holds one DICOM slice: a volume needs at least 2")
+    ds0 = heads[0][1]
+    rows, cols = int(ds0.Rows), int(ds0.Columns)
+    bits, signed = int(ds0.BitsAllocated), int(getattr(ds0, "PixelRepresentation", 0))
+    if int(getattr(ds0, "SamplesPerPixel", 1)) != 1 or bits not in (8, 16, 32):
+        raise ValueError(f"DICOM series in {str(p)!r} must hold one 8/16/32-bit sample per pixel, got "
+                         f"{getattr(ds0, 'SamplesPerPixel', 1)} samples of {bits} bits")
+    dtype = np.dtype(("i" if signed else "u") + str(bits // 8))
+    _declared(p, (len(heads), rows, cols), dtype)
+    iop = np.asarray(getattr(ds0, "ImageOrientationPatient", [1, 0, 0, 0, 1, 0]), np.float64)
+    row_dir, col_dir = iop[:3], iop[3:]
+    normal = np.cross(row_dir, col_dir)
+    pos = []
+    for f, ds in heads:
+        if (int(ds.Rows), int(ds.Columns)) != (rows, cols):
+            raise ValueError(f"DICOM slice {str(f)!r} is {ds.Rows}x{ds.Columns}, the series is {rows}x{cols}")
+        ipp = getattr(ds, "ImagePositionPatient", None)
+        if ipp is None:
+            raise ValueError(f"DICOM slice {str(f)!r} has no ImagePositionPatient: the slices cannot be ordered")
+        pos.append(np.asarray(ipp, np.float64))
+    pos = np.asarray(pos)
+    along = pos @ normal
+    order = np.argsort(along, kind="stable")
+    gaps = np.diff(along[order])
+    if np.any(gaps <= 0):
+        raise ValueError(f"DICOM series in {str(p)!r} has two slices at the same position along the normal")
+    dz = float(np.median(gaps))
+    if np.ptp(gaps) > 1e-3 * dz + 1e-6:
+        raise ValueError(f"DICOM series in {str(p)!r} has uneven slice gaps {sorted(set(np.round(gaps, 4)))[:5]}:"
+                         f" not one regular volume")
+    arr = np.empty((len(heads), rows, cols), dtype)
+    for k, i in enumerate(order):
+        arr[k] = pydicom.dcmread(str(heads[i][0])).pixel_array
+    ps = [float(v) for v in getattr(ds0, "PixelSpacing", [1.0, 1.0])]     # (row spacing, column spacing)
+    dirs = np.stack([normal * dz, col_dir * ps[0], row_dir * ps[1]])        # axis 0 slices, 1 rows, 2 columns
+    spacing, origin, unit = _frame(dirs, pos[order[0]])
+    meta = {"direction": unit, "image_position": pos[order[0]], "unit": "mm",
+            "rescale_slope": float(getattr(ds0, "RescaleSlope", 1.0)),
+            "rescale_intercept": float(getattr(ds0, "RescaleIntercept", 0.0)),
+            "modality": str(getattr(ds0, "Modality", "")), "files": [heads[i][0].name for i in order]}
+    return arr, spacing, origin, "zyx", meta
+
+
+# ---------------------------------------------------------------------------------------------- NumPy
+
+
+def _numpy(p: Path, *, dataset, lazy):
+    from plantvr._fileio import npy_headers, read_npz
+    if p.suffix.lower() == ".npy":
+        from plantvr.vine.volume import _npy_header
+        shape, dtype, offset = _npy_header(p)
+        _declared(p, shape, dtype)
+        n = int(np.prod(shape, dtype=object)) * np.dtype(dtype).itemsize
+        if n != p.stat().st_size - offset:
+            raise ValueError(f"could not read {str(p)!r} as .npy: its header declares {n} bytes of data but the "
+                             f"file holds {p.stat().st_size - offset} (truncated or corrupt)")
+        arr = np.load(p, allow_pickle=False)
+    else:
+        heads = npy_headers(p, what="volume file", max_members=1000)
+        names = list(heads)
+        key = dataset if dataset is not None else ("volume" if "volume" in names else
+                                                   (names[0] if len(names) == 1 else None))
+        if key is None or key not in names:
+            raise ValueError(f"dataset must name one of the arrays {names} in {str(p)!r}, got {dataset!r}")
+        shape, dtype = heads[key][0], heads[key][1]
+        _declared(p, shape, dtype)
+        arr = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
+    keep = _keep_axes(p, arr.shape, "?" * arr.ndim)
+    arr = arr[tuple(slice(None) if i in keep else 0 for i in range(arr.ndim))]
+    return arr, [1.0, 1.0, 1.0], [0.0, 0.0, 0.0], "zyx", {}
+
+
+_KINDS = {".tif": "TIFF", ".tiff": "TIFF", ".nrrd": "NRRD", ".nhdr": "NRRD", ".nii": "NIfTI", ".nii.gz": "NIfTI",
+          ".mha": "MetaImage", ".mhd": "MetaImage", ".vti": "VTI", ".h5": "HDF5", ".hdf5": "HDF5",
+          ".zarr": "Zarr", ".npy": "NumPy", ".npz": "NumPy"}
+_READERS = {"TIFF": _tiff, "NRRD": _nrrd, "NIfTI": _nifti, "MetaImage": _metaimage, "VTI": _vti, "HDF5": _hdf5,
+            "Zarr": _zarr, "DICOM": _dicom, "NumPy": _numpy}
