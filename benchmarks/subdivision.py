@@ -1,7 +1,7 @@
 """Benchmark Yggdrasil (spec 001_subdivision §5.4): control-mesh build vs branch count, Loop subdivision
 vs trimesh and VTK, all measured in the same run.
 
-    python benchmarks/subdivision.py            # full sizes (10k branches, ~1 M-face Loop level)
+    python benchmarks/subdivision.py            # full sizes (and a ~213k-face self-intersection check) (10k branches, ~1 M-face Loop level)
     python benchmarks/subdivision.py --quick    # CI sizes, < 30 s
 """
 from __future__ import annotations
@@ -151,6 +151,18 @@ def main(argv: list[str] | None = None) -> dict:
           f"({len(F2)} faces): ours {tw:.2f} s, trimesh export (no UVs) {tt:.2f} s")
     out["uv_obj"] = {"faces_control": len(cm.faces), "uv_s": tu, "faces_obj": len(F2), "obj_s": tw,
                      "trimesh_obj_s": tt}
+    # self-intersection check (spec V13; issue 22): uniform grid + numba kernel vs the k-d tree path
+    from plantvr.subdivision import self_intersections, tree_mesh
+
+    m = tree_mesh(graph_from_arrays(*random_tree((40 if quick else 431), rng=5)), levels=2)
+    V2, F2 = m.vertices, m.faces
+    self_intersections(V2[:300], np.arange(90).reshape(-1, 3))               # compile outside the clock
+    tg = best_time(lambda: self_intersections(V2, F2), repeat)
+    tk = best_time(lambda: self_intersections(V2, F2, method="kdtree"), 1)
+    same = bool(np.array_equal(self_intersections(V2, F2), self_intersections(V2, F2, method="kdtree")))
+    print(f"\nself-intersections of a level-2 tree ({len(F2)} faces): grid {tg:.2f} s, k-d tree baseline {tk:.2f} s "
+          f"({tk / tg:.0f}x), same pairs: {same}")
+    out["self_intersections"] = {"faces": len(F2), "grid_s": tg, "kdtree_s": tk, "same_pairs": same}
     return out
 
 

@@ -398,8 +398,15 @@ def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: floa
     L = cur.length
     cross = off_s + off_e > 0.9 * L
     if cross.any():
-        warnings.warn(f"{int(cross.sum())} leaf/root branch(es) too short for their joint offsets; offsets "
-                      f"scaled to 90 % of the branch length (spec §2.2 edge case)", stacklevel=2)
+        # name each branch and its joint: such a branch ends inside its joint's blend and may fold there (issue 22)
+        jb = np.full(len(cur), -1, np.int64)
+        jb[joints.member_branch[~joints.member_is_end]] = joints.member_joint[~joints.member_is_end]
+        short = np.flatnonzero(cross)
+        names = ", ".join(f"branch {b} at joint {jb[b]}" if jb[b] >= 0 else f"branch {b}" for b in short[:8])
+        warnings.warn(f"{len(short)} leaf/root branch(es) too short for their joint offsets ({names}"
+                      f"{', ...' if len(short) > 8 else ''}; branch ids of the simplified graph); offsets scaled "
+                      f"to 90 % of the branch length (spec §2.2 edge case), the surface may fold at these joints",
+                      stacklevel=2)
         s = np.where(cross, 0.9 * L / np.maximum(off_s + off_e, 1e-300), 1.0)
         off_s, off_e = off_s * s, off_e * s
     return cur, off_s, off_e, joints

@@ -30,6 +30,16 @@ MAX_TEXT = 10_000_000
 _ARITY = {"sb": (0,), "eb": (0,), "movrel3f": (3,), "rotrel3f": (4,), "cylinder": (3,)}
 
 
+def _glued_prefix(name: str) -> bool:
+    """Whether ``name`` is single-character ``F``/``f`` symbols glued to a known module name (``FF``, ``fFCylinder``),
+    so that ``name(...)`` reads as those symbols followed by the module."""
+    low = name.lower()
+    for key in (*_ARITY, "f"):
+        if len(low) > len(key) and low.endswith(key) and all(c in "Ff" for c in name[:len(name) - len(key)]):
+            return True
+    return False
+
+
 def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
     a = axis / np.linalg.norm(axis)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
@@ -137,6 +147,11 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         at = m.start(1) if m.group(1) else m.start(3)
         name, args, ch = m.group(1), m.group(2), m.group(3)
         i = m.end()
+        if name is not None and name.lower() not in _ARITY and name.lower() != "f" and _glued_prefix(name):
+            # a module name followed by "(" is read as that module: "FF(0.5)" is F, F(0.5); the leading
+            # single-character symbol is taken alone and the rest of the name is lexed again
+            ch, name = name[0], None
+            i = at + 1
         if name is not None:
             key = name.lower()
             vals: list[float] = []

@@ -312,7 +312,10 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     X = V[loops]                                                            # (M, S, 3)
     cl = X.mean(axis=1)
     size = np.diff(joints.joint_ptr)
-    C = np.add.reduceat(cl, joints.joint_ptr[:-1], axis=0) / size[:, None]
+    # the joint sphere is centred on the joint point itself, so each loop's direction d on it is its branch's
+    # own direction: the mean of the loop centres drifts towards the long members at a crowded joint (short
+    # leaves with small offsets) and squeezes the short members' caps together (issue 22) [INFERRED]
+    C = joints.joint_point.astype(np.float64)
     Rs = np.maximum.reduceat(off, joints.joint_ptr[:-1])
     rad = np.linalg.norm(X - cl[:, None], axis=2).max(axis=1)
     Rs = np.where(Rs > 1e-12, Rs, np.maximum.reduceat(rad, joints.joint_ptr[:-1]))
@@ -330,7 +333,7 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
     bad = ang <= np.arctan(rad[pa] / Rs[mj[pa]]) + np.arctan(rad[pb] / Rs[mj[pa]])
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        msg = (f"joint of branches {mb[pa[i]]} and {mb[pb[i]]}: their loops overlap on the joint sphere "
+        msg = (f"joint {mj[pa[i]]} of branches {mb[pa[i]]} and {mb[pb[i]]}: their loops overlap on the joint sphere "
                f"({np.degrees(ang[i]):.2f} deg apart; spec V7)")
         if overlap == "raise" or ang[bad].min() < 1e-4:
             raise ValueError(msg + "; the branches leave the joint too close in direction for their radii")

@@ -136,3 +136,17 @@ def test_random_turtle_strings_parse_or_name_position(text):
     else:
         with pytest.raises(ValueError, match=r"text: (unbalanced brackets|the string contains no branch)"):
             parse_lsystem(text, angle=30)
+
+
+def test_module_name_followed_by_paren_is_that_module():
+    # issue 22: "FF(0.5)" is F then F(0.5), as "F F(0.5)"; glued F/f before a named module split the same way
+    for glued, spaced in (("FF(0.5)", "F F(0.5)"), ("FFF(2,0.2)[+fF(1)]", "F F F(2,0.2)[+f F(1)]"),
+                          ("FCylinder(1,1,2)", "F Cylinder(1,1,2)"), ("Ff(0.5)F", "F f(0.5) F")):
+        a, b = parse_lsystem(glued), parse_lsystem(spaced)
+        np.testing.assert_array_equal(a.parent, b.parent)
+        np.testing.assert_allclose(a.end, b.end)
+        np.testing.assert_allclose(a.r0, b.r0)
+    assert len(parse_lsystem("FF(0.5)")) == 2
+    for bad in ("FFoo(1)", "FX(1)"):
+        with pytest.raises(ValueError, match=rf"unknown symbol '{bad[:-3]}' at position 0"):
+            parse_lsystem(bad)
