@@ -30,6 +30,9 @@ QSCALE = float(2.0 ** 38)
 CANCEL = 1e-9 * QSCALE
 #: Duplicate guard: a child closer than DUP_FRACTION * D to the candidate blocks it (spec 003 §1.4).
 DUP_FRACTION = 1e-3
+#: Canonical mode (Runions et al. 2007 as published): only an exactly zero sum (no direction) does not grow; a
+#: non-zero int64 sum has norm >= 1 quantum.
+CANONICAL_CANCEL = 1.0
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -177,8 +180,7 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
                     acc[j, 1] += qy
                     acc[j, 2] += qz
                     n_dirty = _mark(j, dirty_flag, dirty_list, n_dirty)
-                if best[s] > mx:
-                    mx = best[s]
+                mx = max(mx, best[s])
                 s += 1
             cell_live[c] = end - start
             cell_maxbest[c] = mx
@@ -187,12 +189,13 @@ def add_nodes_kernel(nodes, n_old, n_new, origin, h, dims, reach, cell_start, ce
 
 @numba.njit(cache=True, nogil=True)
 def grow_kernel(nodes, parent, first_child, next_sibling, n_children, n, acc, dirty_list, n_dirty, dirty_flag,
-                children_limit, step, dup2):
-    """One synchronous growth step over the dirty nodes (ascending index); returns the new node count.
+                children_limit, step, dup2, cancel=CANCEL):
+    """One synchronous growth step over the listed nodes (ascending index); returns the new node count.
 
-    Each node with a non-cancelling direction sum, fewer than ``children_limit`` children (-1 = no
-    limit) and no child within ``sqrt(dup2)`` of the candidate gets one child at
-    ``p + step * a / |a|`` (spec 003 §1.4 with its duplicate guard).
+    Each node with a direction sum of norm >= ``cancel`` (quantised units), fewer than ``children_limit``
+    children (-1 = no limit) and no child within ``sqrt(dup2)`` of the candidate gets one child at
+    ``p + step * a / |a|`` (spec 003 §1.4 with its guards). Canonical mode passes ``dup2 < 0`` (no duplicate
+    guard) and ``cancel = CANONICAL_CANCEL`` (only an exactly zero sum does not grow).
     """
     lst = np.sort(dirty_list[:n_dirty])
     for t in range(n_dirty):
@@ -204,12 +207,12 @@ def grow_kernel(nodes, parent, first_child, next_sibling, n_children, n, acc, di
         ay = np.float64(acc[v, 1])
         az = np.float64(acc[v, 2])
         nrm = math.sqrt(ax * ax + ay * ay + az * az)
-        if nrm < CANCEL:
+        if nrm < cancel:
             continue
         cx = nodes[v, 0] + step * (ax / nrm)
         cy = nodes[v, 1] + step * (ay / nrm)
         cz = nodes[v, 2] + step * (az / nrm)
-        c = first_child[v]
+        c = first_child[v] if dup2 > 0.0 else -1
         dup = False
         while c >= 0:
             ex = nodes[c, 0] - cx
@@ -289,7 +292,7 @@ def add_nodes_numpy(nodes, n_old, n_new, markers, alive, owner, best, acc, di2, 
     return killed, np.array(sorted(dirty), dtype=np.int64)
 
 
-def grow_numpy(nodes, parent, children, acc, candidates, children_limit, step, dup2):
+def grow_numpy(nodes, parent, children, acc, candidates, children_limit, step, dup2, cancel=CANCEL):
     """numpy twin of :func:`grow_kernel`; ``children`` is a list of child lists, extended in place.
 
     Returns the new node and parent arrays.
@@ -301,12 +304,12 @@ def grow_numpy(nodes, parent, children, acc, candidates, children_limit, step, d
             continue
         ax, ay, az = (float(a) for a in acc[v])
         nrm = math.sqrt(ax * ax + ay * ay + az * az)
-        if nrm < CANCEL:
+        if nrm < cancel:
             continue
         cand = np.array([nodes[v, 0] + step * (ax / nrm), nodes[v, 1] + step * (ay / nrm),
                          nodes[v, 2] + step * (az / nrm)])
         allpos = np.concatenate([nodes] + [np.asarray(new_nodes).reshape(-1, 3)])
-        if children[v]:
+        if children[v] and dup2 > 0:
             e = allpos[children[v]] - cand
             if np.any(e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1] + e[:, 2] * e[:, 2] < dup2):
                 continue

@@ -65,11 +65,11 @@ from plantvr.growth.spatial import REACH
 __all__ = [
     "ColonizationResult",
     "SpaceColonizer",
-    "space_colonization",
-    "space_colonization_reference",
+    "TreeWandAssigner",
     "assign_treewand",
     "assign_treewand_reference",
-    "TreeWandAssigner",
+    "space_colonization",
+    "space_colonization_reference",
 ]
 
 MAX_MARKERS = 2 ** 24  # int64 direction sums stay exact up to 2**25 markers per node
@@ -138,6 +138,12 @@ def _check_classic(markers, roots, influence_radius, kill_radius, step_size, max
     return markers, roots, di, dk, d, max_steps, limit, stall
 
 
+def _check_bool(name: str, value) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be a bool, got {type(value).__name__}")
+    return bool(value)
+
+
 def _state_bytes_per_marker(obj, names) -> float:
     """Bytes of per-marker and grid state (arrays ``names`` of ``obj``) per marker, positions excluded."""
     return sum(getattr(obj, n).nbytes for n in names) / max(len(obj.orig), 1)
@@ -163,20 +169,27 @@ class SpaceColonizer:
         D, in (0, inf); length of every new internode.
     children_limit : int or None
         At most this many children per node (None: unlimited).
+    canonical : bool
+        Runions et al. (2007) as published and as public implementations grow it: every node with attracting
+        markers grows every step (no duplicate guard, no cancel guard; only an exactly zero sum, which has no
+        direction, does not grow). Default False: the guarded mode (see :func:`space_colonization`).
 
     References
     ----------
     .. [1] Runions, Lane, Prusinkiewicz 2007, "Modeling trees with a space colonization algorithm";
-       spec 003_implicit_sca §1.3–1.4 (duplicate guard [INFERRED]); issue 13 step semantics.
+       spec 003_implicit_sca §1.3–1.4 (duplicate guard [INFERRED]); issue 13 step semantics; issue 22 canonical.
     """
 
     def __init__(self, markers, roots, *, influence_radius: float, kill_radius: float, step_size: float,
-                 children_limit: int | None = None, _cells_per_radius: int = 3):
+                 children_limit: int | None = None, canonical: bool = False, _cells_per_radius: int = 3):
         markers, roots, di, dk, d, _, limit, _ = _check_classic(
             markers, roots, influence_radius, kill_radius, step_size, 0, children_limit, None)
+        self.canonical = _check_bool("canonical", canonical)
         _cells_per_radius = check_int("_cells_per_radius", _cells_per_radius, 1, 8)
         self.di2, self.dk2, self.step_size, self.children_limit = di * di, dk * dk, d, limit
-        self.dup2 = (K.DUP_FRACTION * d) ** 2
+        self.dup2 = -1.0 if self.canonical else (K.DUP_FRACTION * d) ** 2
+        self.cancel = K.CANONICAL_CANCEL if self.canonical else K.CANCEL
+        self._active = np.zeros(0, np.int64)  # canonical mode: nodes with a non-zero pull
         (self.origin, self.h, self.dims, self.reach, self.pos_s, self.orig, self.cell_start,
          self.cell_live) = K.build_grid(markers, di, _cells_per_radius)
         self.cell_maxbest = np.full(len(self.cell_live), np.inf)
@@ -223,13 +236,20 @@ class SpaceColonizer:
         """Run one synchronous growth step; returns ``(nodes added, markers killed)``."""
         if self.n_live == 0:
             return 0, 0
-        need = self.n + self.n_dirty
+        need = self.n + self.n_dirty + len(self._active)
         if need > len(self._nodes):
             self._alloc(max(2 * len(self._nodes), need))
         n_old = self.n
+        lst, n_list = self._dirty_list, self.n_dirty
+        if self.canonical:  # every node with a pull grows again, not only those whose markers changed
+            dirty = self._dirty_list[: self.n_dirty]
+            self._dirty_flag[dirty] = 0
+            act = np.union1d(self._active, dirty)
+            self._active = lst = act[np.any(self._acc[act] != 0, axis=1)]
+            n_list = len(lst)
         self.n = K.grow_kernel(self._nodes, self._parent, self._first_child, self._next_sibling,
-                               self._n_children, self.n, self._acc, self._dirty_list, self.n_dirty,
-                               self._dirty_flag, self.children_limit, self.step_size, self.dup2)
+                               self._n_children, self.n, self._acc, lst, n_list,
+                               self._dirty_flag, self.children_limit, self.step_size, self.dup2, self.cancel)
         self.n_dirty = 0
         if self.n == n_old:
             return 0, 0
@@ -266,7 +286,7 @@ class SpaceColonizer:
 
 def space_colonization(markers, roots, *, influence_radius: float, kill_radius: float, step_size: float,
                        max_steps: int = 500, children_limit: int | None = None,
-                       stall_steps: int | None = None) -> ColonizationResult:
+                       stall_steps: int | None = None, canonical: bool = False) -> ColonizationResult:
     """Grow a tree by classic space colonization (Runions et al. 2007) with the incremental kernel.
 
     Parameters
@@ -287,22 +307,36 @@ def space_colonization(markers, roots, *, influence_radius: float, kill_radius: 
         Maximum children per node, >= 1 (None: unlimited).
     stall_steps : int or None
         Stop after this many consecutive steps without a kill (spec 003 stall guard; None: off).
+    canonical : bool
+        Grow as Runions et al. (2007) publish it and public implementations do: every node with attracting
+        markers adds a child every step, even when its markers did not change (the same child again, on top of
+        the previous one) and even when the pulls nearly cancel; only an exactly zero sum does not grow. Node
+        counts then equal a plain numpy + cKDTree implementation (tests/growth/test_canonical_sca.py).
 
     Returns
     -------
     ColonizationResult
         Nodes, parents, markers left and per-step timings.
 
+    Notes
+    -----
+    The guarded mode (``canonical=False``) stays the default: a node whose markers sit out of reach (a marker
+    pair pulling sideways, a marker behind the kill radius of nothing) grows the same child on top of the
+    previous one every step in canonical mode, so the tree piles coincident nodes and zero-length branches
+    (which every mesher has to drop) until ``max_steps``; the guards stop exactly that and change nothing
+    else (a node whose markers changed grows as in canonical mode).
+
     References
     ----------
-    .. [1] Runions et al. 2007; spec 003_implicit_sca §1.3–1.4 (guards [INFERRED]); issue 13.
+    .. [1] Runions et al. 2007; spec 003_implicit_sca §1.3–1.4 (guards [INFERRED]); issue 13; issue 22.
     """
     _check_classic(markers, roots, influence_radius, kill_radius, step_size, max_steps, children_limit,
                    stall_steps)
+    _check_bool("canonical", canonical)
     max_steps = int(max_steps)
     t0, c0 = time.perf_counter(), time.process_time()
     sc = SpaceColonizer(markers, roots, influence_radius=influence_radius, kill_radius=kill_radius,
-                        step_size=step_size, children_limit=children_limit)
+                        step_size=step_size, children_limit=children_limit, canonical=canonical)
     setup_ms, setup_cpu = (time.perf_counter() - t0) * 1e3, (time.process_time() - c0) * 1e3
     return _drive(sc.step, lambda: sc.n, lambda: sc.n_live, max_steps, stall_steps,
                   lambda: (sc.nodes, sc.parent, sc.markers_left), setup_ms, setup_cpu)
@@ -343,11 +377,13 @@ def _drive(step, n_nodes, n_live, max_steps, stall_steps, final, setup_ms, setup
 # classic mode, numpy + cKDTree reference (rebuild and requery every step)
 # ------------------------------------------------------------------------------------------------------------
 class _ReferenceColonizer:
-    def __init__(self, markers, roots, di, dk, d, limit, exact_ties):
+    def __init__(self, markers, roots, di, dk, d, limit, exact_ties, canonical=False):
         self.markers, self.di2, self.dk2, self.d, self.limit = markers, di * di, dk * dk, d, limit
         self.di = di
         self.k = 4 if exact_ties else 1
-        self.dup2 = (K.DUP_FRACTION * d) ** 2
+        self.canonical = canonical
+        self.dup2 = -1.0 if canonical else (K.DUP_FRACTION * d) ** 2
+        self.cancel = K.CANONICAL_CANCEL if canonical else K.CANCEL
         self.nodes = roots.copy()
         self.parent = np.full(len(roots), -1, np.int64)
         self.children = [[] for _ in range(len(roots))]
@@ -360,13 +396,18 @@ class _ReferenceColonizer:
         from scipy.spatial import cKDTree
 
         pts = self.markers[self.live]
-        n = len(self.nodes)
+        nodes, first = self.nodes, None
+        if self.canonical:  # coincident children: one point per position, standing for its lowest index
+            nodes, first = np.unique(self.nodes, axis=0, return_index=True)
+        n = len(nodes)
         k = min(self.k, n)
-        _, idx = cKDTree(self.nodes).query(pts, k=k, distance_upper_bound=self.di * (1 + 1e-9))
+        _, idx = cKDTree(nodes).query(pts, k=k, distance_upper_bound=self.di * (1 + 1e-9))
         idx = idx.reshape(len(pts), k)
         valid = idx < n
         safe = np.where(valid, idx, 0)
-        dd = pts[:, None, :] - self.nodes[safe]
+        dd = pts[:, None, :] - nodes[safe]
+        if first is not None:
+            safe = first[safe]
         d2 = dd[..., 0] * dd[..., 0] + dd[..., 1] * dd[..., 1] + dd[..., 2] * dd[..., 2]
         d2 = np.where(valid, d2, np.inf)
         if k > 1:  # exact squared distances, ties to the lowest node index
@@ -390,7 +431,7 @@ class _ReferenceColonizer:
         acc = np.zeros((n, 3), np.int64)
         np.add.at(acc, own, K.quantize_numpy(self.markers[self.live[sel]] - self.nodes[own]))
         self.nodes, self.parent = K.grow_numpy(self.nodes, self.parent, self.children, acc, np.unique(own),
-                                               self.limit, self.d, self.dup2)
+                                               self.limit, self.d, self.dup2, self.cancel)
         if len(self.nodes) == n:
             return 0, 0
         killed = self._assign()
@@ -399,12 +440,15 @@ class _ReferenceColonizer:
 
 def space_colonization_reference(markers, roots, *, influence_radius: float, kill_radius: float,
                                  step_size: float, max_steps: int = 500, children_limit: int | None = None,
-                                 stall_steps: int | None = None, exact_ties: bool = True) -> ColonizationResult:
+                                 stall_steps: int | None = None, exact_ties: bool = True,
+                                 canonical: bool = False) -> ColonizationResult:
     """Classic space colonization, rebuilding a ``cKDTree`` of all nodes and re-querying every live marker each step.
 
     Same parameters, semantics and result as :func:`space_colonization` (the oracle it is tested
     against).  ``exact_ties=True`` queries 4 neighbours so equidistant nodes resolve to the lowest
     index exactly; ``False`` queries 1 (the plain baseline timed by ``benchmarks/colonize.py``).
+    With ``canonical=True`` exact ties are frequent (coincident children), so they are resolved over the
+    coincident nodes, not over 4 neighbours.
 
     Returns
     -------
@@ -414,7 +458,8 @@ def space_colonization_reference(markers, roots, *, influence_radius: float, kil
     markers, roots, di, dk, d, max_steps, limit, _ = _check_classic(
         markers, roots, influence_radius, kill_radius, step_size, max_steps, children_limit, stall_steps)
     t0, c0 = time.perf_counter(), time.process_time()
-    rc = _ReferenceColonizer(markers, roots, di, dk, d, limit, exact_ties)
+    canonical = _check_bool("canonical", canonical)
+    rc = _ReferenceColonizer(markers, roots, di, dk, d, limit, exact_ties, canonical)
     setup_ms, setup_cpu = (time.perf_counter() - t0) * 1e3, (time.process_time() - c0) * 1e3
     return _drive(rc.step, lambda: len(rc.nodes), lambda: len(rc.live), max_steps, stall_steps,
                   lambda: (rc.nodes.copy(), rc.parent.copy(), markers[rc.live]), setup_ms, setup_cpu)

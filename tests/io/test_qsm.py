@@ -1,0 +1,224 @@
+"""QSM importers (issue 22 "Trees from scans"): TreeQSM .mat, SimpleForest and aRchi CSV into TreeArrays."""
+import csv
+
+import numpy as np
+import pytest
+import scipy.io
+
+from plantvr.io.qsm import (
+    cylinders_to_tree,
+    model_from_tree,
+    read_archi,
+    read_qsm,
+    read_simpleforest,
+    read_treeqsm,
+    to_growth_tree,
+)
+from plantvr.types import TreeArrays
+
+
+def qsm_like(seed=0, joint=8):
+    """A QSM-like cylinder list: a 6-cylinder stem, one joint with ``joint`` short branches at the end of stem
+    cylinder 3, and two branches starting part-way along stem cylinders (as TreeQSM writes them)."""
+    rng = np.random.default_rng(seed)
+    start, end, radius, parent, branch = [], [], [], [], []
+
+    def add(s, e, r, p, b):
+        start.append(np.asarray(s, float))
+        end.append(np.asarray(e, float))
+        radius.append(r)
+        parent.append(p)
+        branch.append(b)
+        return len(start) - 1
+
+    p = -1
+    for k in range(6):  # stem, z up, slightly wavy
+        s = np.array([0.0, 0.0, k * 1.0]) if p < 0 else end[p]
+        p = add(s, s + [rng.normal() * 0.02, rng.normal() * 0.02, 1.0], 0.2 - 0.02 * k, p, 1)
+    joint_at = 3
+    for j in range(joint):  # crowded joint: short leaf branches
+        a = 2 * np.pi * j / joint
+        d = np.array([np.cos(a), np.sin(a), 0.6])
+        s = end[joint_at]
+        c = add(s, s + 0.3 * d, 0.03, joint_at, 10 + j)
+        add(end[c], end[c] + 0.15 * d, 0.02, c, 10 + j)
+    for cyl, t in ((1, 0.4), (4, 0.7)):  # branches starting along the parent's axis
+        s = start[cyl] + t * (end[cyl] - start[cyl])
+        d = np.array([1.0, -0.5, 0.5])
+        add(s, s + 0.8 * d, 0.05, cyl, 100 + cyl)
+    return (np.array(start), np.array(end), np.array(radius), np.array(parent), np.array(branch))
+
+
+def _write_treeqsm(path, start, end, radius, parent, branch):
+    axis = end - start
+    length = np.linalg.norm(axis, axis=1)
+    ext = np.zeros(len(start))
+    for i, p in enumerate(parent):
+        if p >= 0 and branch[i] == branch[p]:
+            ext[p] = i + 1
+    cyl = {"radius": radius[:, None], "length": length[:, None], "start": start, "axis": axis / length[:, None],
+           "parent": (parent + 1)[:, None].astype(float), "extension": ext[:, None], "branch": branch[:, None]}
+    scipy.io.savemat(path, {"QSM": {"cylinder": cyl, "treedata": {"TotalVolume": 1.0}}})
+
+
+def _write_csv(path, header, rows):
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(rows)
+
+
+def _write_simpleforest(path, start, end, radius, parent, branch, base_id=7):
+    ids = np.arange(len(start)) + base_id
+    rows = [[ids[i], ids[parent[i]] if parent[i] >= 0 else -1, branch[i], *start[i], *end[i], radius[i], 0.5]
+            for i in range(len(start))]
+    _write_csv(path, ["ID", "parentID", "branchID", "startX", "startY", "startZ", "endX", "endY", "endZ", "radius",
+                      "growthVolume"], rows[::-1])  # rows in any order
+
+
+def _write_archi(path, start, end, radius, parent, branch):
+    ids = np.arange(len(start)) + 1
+    rows = [[ids[i], ids[parent[i]] if parent[i] >= 0 else 0, *start[i], *end[i], radius[i], branch[i]]
+            for i in range(len(start))]
+    _write_csv(path, ["cyl_ID", "parent_ID", "startX", "startY", "startZ", "endX", "endY", "endZ", "radius_cyl",
+                      "axis_ID"], rows)
+
+
+def _check_tree(tree, start, end, radius, parent, nmap):
+    assert isinstance(tree, TreeArrays)
+    assert tree.parent[0] == -1 and np.all(tree.parent[1:] < np.arange(1, len(tree)))
+    np.testing.assert_allclose(tree.pos[nmap.end_node], end, atol=1e-12)
+    np.testing.assert_allclose(tree.radius[nmap.end_node], radius)
+    np.testing.assert_allclose(tree.pos[0], start[0])
+    # two branches start part-way along their parent: two split nodes
+    assert len(tree) == len(start) + 1 + 2
+    np.testing.assert_allclose(nmap.offset, 0.0, atol=1e-12)
+    assert np.all(tree.order[nmap.end_node[:6]] == 0)  # the stem continues through the joint and the splits
+    assert np.all(tree.order[nmap.end_node[6:]] == 1)
+
+
+def test_cylinders_to_tree_and_every_format(tmp_path):
+    cyl = qsm_like()
+    ref, nmap = cylinders_to_tree(*cyl[:4], branch=cyl[4], return_map=True)
+    _check_tree(ref, *cyl[:4], nmap)
+    _write_treeqsm(tmp_path / "t.mat", *cyl)
+    _write_simpleforest(tmp_path / "sf.csv", *cyl)
+    _write_archi(tmp_path / "a.csv", *cyl)
+    for tree in (read_treeqsm(tmp_path / "t.mat"), read_simpleforest(tmp_path / "sf.csv"),
+                 read_archi(tmp_path / "a.csv"), read_qsm(tmp_path / "t.mat"), read_qsm(tmp_path / "sf.csv"),
+                 read_qsm(tmp_path / "a.csv")):
+        np.testing.assert_allclose(tree.pos, ref.pos, atol=1e-12)
+        np.testing.assert_array_equal(tree.parent, ref.parent)
+        np.testing.assert_allclose(tree.radius, ref.radius)
+        np.testing.assert_array_equal(tree.order, ref.order)
+
+
+def test_treeqsm_without_extension_uses_alignment(tmp_path):
+    start, end, radius, parent, _ = qsm_like(1)
+    axis = end - start
+    length = np.linalg.norm(axis, axis=1)
+    scipy.io.savemat(tmp_path / "q.mat", {"qsm": {"cylinder": {
+        "radius": radius, "length": length, "start": start, "axis": axis / length[:, None],
+        "parent": parent + 1.0}}})
+    tree, nmap = read_treeqsm(tmp_path / "q.mat", return_map=True)
+    assert np.all(tree.order[nmap.end_node[:6]] == 0)  # the vertical child continues the vertical stem
+
+
+def test_child_offset_projected_on_parent_axis():
+    start = np.array([[0, 0, 0], [0.1, 0, 0.5]], float)  # child starts on the parent's surface, half way up
+    end = np.array([[0, 0, 1], [1, 0, 1]], float)
+    tree, nmap = cylinders_to_tree(start, end, [0.1, 0.05], [-1, 0], return_map=True)
+    assert len(tree) == 4
+    np.testing.assert_allclose(tree.pos[nmap.start_node[1]], [0, 0, 0.5])
+    np.testing.assert_allclose(nmap.offset, [0, 0.1])
+
+
+@pytest.mark.parametrize("bad, match", [
+    (dict(parent=[-1, -1]), "exactly one root"),
+    (dict(parent=[-1, 5]), "parent\\[1\\]"),
+    (dict(radius=[0.1, 0.0]), "radius must be > 0"),
+    (dict(end=[[0, 0, 1], [0, 0, 1]], start=[[0, 0, 0], [0, 0, 1]]), "length > 0"),
+    (dict(start=[[0, 0, np.nan], [0, 0, 1]]), "start"),
+])
+def test_cylinders_checked_at_the_door(bad, match):
+    kw = dict(start=[[0, 0, 0], [0, 0, 1]], end=[[0, 0, 1], [0, 0, 2]], radius=[0.1, 0.1], parent=[-1, 0])
+    kw.update(bad)
+    with pytest.raises(ValueError, match=match):
+        cylinders_to_tree(kw["start"], kw["end"], kw["radius"], kw["parent"])
+
+
+def test_cycle_refused():
+    s = np.array([[0, 0, 0], [0, 0, 1], [0, 0, 2]], float)
+    with pytest.raises(ValueError, match="cycle"):
+        cylinders_to_tree(s, s + [0, 0, 1], [0.1] * 3, [-1, 2, 1])
+
+
+def test_bad_files(tmp_path):
+    _write_csv(tmp_path / "x.csv", ["a", "b"], [[1, 2]])
+    with pytest.raises(ValueError, match="missing column"):
+        read_simpleforest(tmp_path / "x.csv")
+    with pytest.raises(ValueError, match="does not exist"):
+        read_treeqsm(tmp_path / "nope.mat")
+    scipy.io.savemat(tmp_path / "e.mat", {"foo": np.zeros(3)})
+    with pytest.raises(ValueError, match="qsm.cylinder"):
+        read_treeqsm(tmp_path / "e.mat")
+    (tmp_path / "g.mat").write_bytes(b"not a mat file at all")
+    with pytest.raises(ValueError, match="cannot read"):
+        read_treeqsm(tmp_path / "g.mat")
+    cyl = qsm_like()
+    _write_archi(tmp_path / "a.csv", *cyl)
+    with open(tmp_path / "a.csv") as fh:
+        rows = list(csv.reader(fh))
+    rows[3][1] = "999"
+    _write_csv(tmp_path / "b.csv", rows[0], rows[1:])
+    with pytest.raises(ValueError, match="not a cylinder id"):
+        read_archi(tmp_path / "b.csv")
+    with pytest.raises(ValueError, match="format"):
+        read_qsm(tmp_path / "a.csv", format="lidar")
+
+
+def test_scanned_tree_meshes_yggdrasil_and_exports(tmp_path):
+    from plantvr.io.tree import export_tree, tree_geometry
+    from plantvr.params import TREEWAND
+    from plantvr.subdivision import graph_from_arrays
+
+    cyl = qsm_like(2, joint=10)
+    tree = cylinders_to_tree(*cyl[:4], branch=cyl[4])
+    branches, leaves = tree_geometry(tree, TREEWAND.defaults(), leaves=False)
+    assert leaves is None and len(branches.faces) > 0
+    out = export_tree(tmp_path / "scan.glb", branches)
+    assert out.stat().st_size > 0
+    g = graph_from_arrays(tree.pos, tree.parent, tree.radius)
+    assert len(g.start) == len(tree) - 1
+
+
+@pytest.mark.parametrize("nslots", [2, 3])
+def test_growth_tree_splits_crowded_joints(nslots):
+    cyl = qsm_like(3, joint=9)
+    tree = cylinders_to_tree(*cyl[:4], branch=cyl[4])
+    gt = to_growth_tree(tree, nslots=nslots)
+    gt.check()
+    # every original node survives (helpers added), z-up turned y-up, base at the origin
+    assert gt.n >= len(tree)
+    np.testing.assert_allclose(gt.pos[0], 0.0)
+    top = np.argmax(tree.pos[:, 2])
+    assert np.isclose(gt.pos[:, 1].max(), tree.pos[top, 2] - tree.pos[0, 2])
+    # the 10-child joint (stem + 9 leaf branches) needs ceil(9 / laterals per node) - 1 helpers; nothing else does
+    assert gt.n - len(tree) == -(-9 // (nslots - 1)) - 1
+
+
+def test_model_from_scanned_tree_prunes_and_grows():
+    cyl = qsm_like(4, joint=6)
+    tree = cylinders_to_tree(*cyl[:4], branch=cyl[4])
+    m = model_from_tree(tree, seed=0)
+    n0 = m.n_internodes
+    assert n0 >= len(tree) - 1
+    snap = m.latest
+    i = int(np.argmax(snap.pos[:, 1]))
+    top = 0.5 * (snap.pos[i] + snap.pos[snap.parent[i]])  # midpoint of the top internode
+    removed = m.prune(top, 0.3)
+    assert removed > 0 and m.n_internodes < n0
+    m.add_markers(top + np.random.default_rng(0).normal(scale=0.5, size=(200, 3)))
+    m.step(3)
+    assert m.n_internodes > n0 - removed
+    m.undo()
