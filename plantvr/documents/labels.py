@@ -9,12 +9,16 @@ itself in the document's :class:`~plantvr.commandlog.CommandLog` and publishes a
 
     seg.observe(lambda ch: print(ch["new"].kind, ch["new"].ids), names="change")
 
+Labels are uint8 (1 byte per vertex) while the colour table has at most 256 entries and uint16 once it needs
+more (``Segmentation(..., labels=<uint16 array>)``, a wide :class:`~plantvr.vine.colors.ColorTable`, or
+``add_color`` past 256 entries, which widens the labels once); a uint8 session behaves and saves exactly as
+before, a uint16 one saves as format 2 (issue 22).
+
 Change kinds: ``"labels"`` (ids: the vertices whose label changed; an empty array when a stroke ends),
 ``"colors"``, ``"visibility"``, ``"views"`` and ``"all"`` (ids None).
 """
 from __future__ import annotations
 
-import colorsys
 import contextlib
 import os
 import zlib
@@ -30,7 +34,7 @@ from plantvr.document import Document
 from plantvr.history import ArrayEdit
 from plantvr.types import TriMesh
 from plantvr.vine._filecheck import check_elements
-from plantvr.vine.colors import ColorTable
+from plantvr.vine.colors import MAX_COLORS, NARROW_COLORS, ColorTable, distinct_color
 from plantvr.grid import bounds
 from plantvr.vine.index import GridIndex, KDTreeIndex
 from plantvr.vine.stamps import merge_stamps
@@ -39,6 +43,9 @@ from plantvr.vine.views import SavedView
 __all__ = ["Segmentation"]
 
 _FORMAT = 1
+#: Session format of a segmentation with uint16 labels (labels and history values uint16, up to 65536 colours).
+_FORMAT_WIDE = 2
+_LABEL_DTYPES = {_FORMAT: np.dtype(np.uint8), _FORMAT_WIDE: np.dtype(np.uint16)}
 
 #: Cap on the inflated size of a session file :meth:`Segmentation.load` / :meth:`~Segmentation.restore` reads
 #: (bytes; a 36 M-face session with its mesh and a full undo history is about 1.5 GB).
@@ -57,11 +64,21 @@ _MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_ind
 _SESSION_ATTRS = ("labels", "colors", "history", "views", "_stroke")
 
 
-def _distinct_color(k: int) -> tuple[int, int, int]:
-    """A saturated colour for the k-th table entry (golden-ratio hue steps, so neighbours differ)."""
-    h = (0.11 + k * 0.618033988749895) % 1.0
-    r, g, b = colorsys.hsv_to_rgb(h, 0.55 + 0.35 * ((k * 7) % 3) / 2, 0.95 - 0.2 * (k % 2))
-    return round(255 * r), round(255 * g), round(255 * b)
+def _merge_wide(idx_parts: list, old_parts: list, labels: np.ndarray) -> ArrayEdit | None:
+    """:func:`~plantvr.vine.stamps.merge_stamps` for uint16 labels (its numpy twin: first label of each id)."""
+    if not idx_parts:
+        return None
+    idx = np.concatenate(idx_parts).astype(np.int64, copy=False)
+    if idx.size == 0:
+        return None
+    old = np.concatenate(old_parts).astype(labels.dtype, copy=False)
+    uidx, first = np.unique(idx, return_index=True)
+    uold, new = old[first], labels[uidx]
+    keep = uold != new
+    if not keep.any():
+        return None
+    itype = np.int32 if labels.size < 2 ** 31 else np.int64
+    return ArrayEdit(uidx[keep].astype(itype), uold[keep], new[keep])
 
 
 class Segmentation(Document):
@@ -73,9 +90,11 @@ class Segmentation(Document):
         Vertex positions (model space). Kept as float32; never reordered.
     faces : (F, 3) integer ndarray
         Triangles, ids < V.
-    labels : (V,) uint8 ndarray, optional
-        Initial labels (default all 0 = unpainted).
+    labels : (V,) uint8 or uint16 ndarray, optional
+        Initial labels (default all 0 = unpainted); uint16 labels make a wide (uint16) segmentation.
     colors : ColorTable, optional
+        Default: :data:`~plantvr.vine.colors.DEFAULT_PALETTE`, extended with distinct colours to cover the
+        largest label given. A table of more than 256 entries (or a wide one) makes the labels uint16.
     normals : (V, 3) float32 ndarray, optional
     index : {"grid", "kdtree"}
         Brush spatial index (``grid`` is the measured-faster default; ``kdtree`` is the scipy oracle).
@@ -86,8 +105,8 @@ class Segmentation(Document):
 
     Attributes
     ----------
-    labels : (V,) uint8 ndarray
-        One byte per vertex into ``colors`` (spec §2.4.2).
+    labels : (V,) uint8 or uint16 ndarray
+        One byte per vertex into ``colors`` (spec §2.4.2); two once the table holds more than 256 entries.
     version : int
         Bumped by every change of labels, colours, visibility or views.
     log : CommandLog
@@ -106,24 +125,30 @@ class Segmentation(Document):
             raise ValueError(f"faces must be an integer array of shape (F, 3), got {f.dtype} {f.shape}")
         if f.size and (int(f.min()) < 0 or int(f.max()) >= len(v)):
             raise ValueError(f"faces must index vertices in [0, {len(v) - 1}], got range [{f.min()}, {f.max()}]")
-        colors = ColorTable() if colors is None else colors
-        if not isinstance(colors, ColorTable):
-            raise ValueError(f"colors must be a ColorTable, got {type(colors).__name__}")  # noqa: TRY004
+        if colors is not None and not isinstance(colors, ColorTable):
+            raise ValueError(f"colors must be a ColorTable, got {type(colors).__name__}")
         if labels is None:
-            lab = np.zeros(len(v), np.uint8)
+            colors = ColorTable() if colors is None else colors
+            lab = np.zeros(len(v), colors.label_dtype)
         else:
             lab = np.asarray(labels)
-            if lab.dtype != np.uint8 or lab.shape != (len(v),):
-                raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {lab.dtype} {lab.shape}")
-            if lab.size and int(lab.max()) >= len(colors):
+            if lab.dtype not in (np.uint8, np.uint16) or lab.shape != (len(v),):
+                raise ValueError(f"labels must be uint8 or uint16 of shape ({len(v)},), got {lab.dtype} {lab.shape}")
+            top = int(lab.max()) if lab.size else 0
+            if colors is None:
+                colors = ColorTable.with_size(max(top + 1, len(ColorTable())))
+            if top >= len(colors):
                 raise ValueError(f"labels must be < {len(colors)} (colour table size), got max {lab.max()}")
-            lab = lab.copy()
+        wide = lab.dtype == np.uint16 or colors.wide
+        lab = lab.astype(np.uint16 if wide else np.uint8)   # a copy; uint8 labels widen for a wide table
         if normals is not None:
             normals = check_array("normals", normals, shape=(len(v), 3), dtype=np.float32)
         if not isinstance(index, str):
             raise ValueError(f"index must be one of ['grid', 'kdtree'], got {index!r:.80}")
         index = check_choice("index", index, ("grid", "kdtree"))
         super().__init__(max_undo=max_undo, max_undo_bytes=max_undo_bytes)
+        if wide:
+            colors.widen()
         self.vertices = v
         self.faces = np.ascontiguousarray(f.astype(np.uint32, copy=False))
         self.normals = normals
@@ -227,14 +252,41 @@ class Segmentation(Document):
                              f", got {preserve!r}") from None
         return tuple(sorted({self.colors.check_label("preserve", x) for x in items}))
 
+    @property
+    def _wide(self) -> bool:
+        """True when the labels are uint16 (the colour table may hold up to 65536 entries)."""
+        return self.labels.dtype == np.uint16
+
+    def _widen(self) -> None:
+        """Turn uint8 labels into uint16 ones, once (same values; the history's records stay valid)."""
+        if self._wide:
+            return
+        self.labels = self.labels.astype(np.uint16)
+        self.colors.widen()
+
+    def _merge(self, idx_parts: list, old_parts: list) -> ArrayEdit | None:
+        if self._wide:
+            return _merge_wide(idx_parts, old_parts, self.labels)
+        return merge_stamps(idx_parts, old_parts, self.labels)
+
+    def _index_paint(self, c, r, lut, label) -> tuple[np.ndarray, np.ndarray]:
+        if not self._wide:
+            return self.index.paint(c, r, self.labels, lut, label)
+        hits = self.index.query(c, r)              # uint16 labels: the query, then the same rule in numpy
+        old = self.labels[hits]
+        keep = (old != label) & lut[old]
+        idx, old = hits[keep], old[keep]
+        self.labels[idx] = label
+        return idx, old
+
     def _paint_lut(self, preserve) -> np.ndarray:
         lut = self.colors.paintable_lut()
         if preserve is True:
-            allowed = np.zeros(256, bool)
+            allowed = np.zeros(len(lut), bool)
             allowed[0] = True
             lut &= allowed
         elif preserve is not False:
-            allowed = np.zeros(256, bool)
+            allowed = np.zeros(len(lut), bool)
             allowed[list(preserve)] = True
             lut &= allowed
         return lut
@@ -270,14 +322,14 @@ class Segmentation(Document):
         with self._lock:
             self.log.record("paint", center=[float(x) for x in c], radius=r, label=label,
                             **({} if pres is False else {"preserve": pres if pres is True else list(pres)}))
-            idx, old = self.index.paint(c, r, self.labels, self._paint_lut(pres), label)
+            idx, old = self._index_paint(c, r, self._paint_lut(pres), label)
             if self._stroke is not None:
                 if idx.size:
-                    stamp = ArrayEdit(idx, old, np.full(idx.size, label, np.uint8))
+                    stamp = ArrayEdit(idx, old, np.full(idx.size, label, self.labels.dtype))
                     self.history.push(stamp)                  # into the stroke's stage
                     self._stroke.append(stamp)
             else:
-                edit = merge_stamps([idx], [old], self.labels)
+                edit = self._merge([idx], [old])
                 if edit is not None:
                     self.history.push(edit)
         if idx.size:
@@ -339,7 +391,7 @@ class Segmentation(Document):
         with self._lock:
             stamps, self._stroke = self._stroke, None
             self.log.record("end_stroke")
-            edit = merge_stamps([s.indices for s in stamps], [s.old for s in stamps], self.labels)
+            edit = self._merge([s.indices for s in stamps], [s.old for s in stamps])
             self.history.abort(self)
             if edit is not None:
                 edit.redo(self)
@@ -370,7 +422,7 @@ class Segmentation(Document):
         if self._stroke is not None:
             raise ValueError("a stroke is open; end_stroke() before fill, split or merge")
         idx = np.asarray(idx, np.int64)
-        new = np.broadcast_to(np.asarray(new, np.uint8), idx.shape)
+        new = np.broadcast_to(np.asarray(new, self.labels.dtype), idx.shape)
         changed = self.labels[idx] != new
         idx, new = idx[changed], new[changed]
         if idx.size == 0:
@@ -467,20 +519,22 @@ class Segmentation(Document):
         sizes = np.bincount(comp[comp >= 0], minlength=n)
         order = np.argsort(-sizes, kind="stable")               # largest first, ties by smallest vertex id
         movers = [int(c) for c in order[1:] if sizes[c] >= min_vertices]
-        if len(self.colors) + len(movers) > 256:
+        room = self.colors.capacity - len(self.colors)
+        if len(movers) > room:
             raise ValueError(f"label {label} has {len(movers) + 1} parts of >= {min_vertices} vertices, but the "
-                             f"colour table has room for {256 - len(self.colors)} more colours; raise min_vertices")
+                             f"colour table has room for {room} more colours; raise min_vertices"
+                             + ("" if self._wide else " or add_color() past 256 entries (uint16 labels)"))
         with self._lock:
             self.log.record("split_label", label=label, min_vertices=min_vertices)
             if not movers:
                 return [label]
             with self.held():                     # one autosave for the new colours and the relabelling
-                new_labels = [self.colors.add_color(_distinct_color(len(self.colors))) for _ in movers]
+                new_labels = [self.colors.add_color(distinct_color(len(self.colors))) for _ in movers]
                 self.changed("colors", command="split_label")
                 lut = np.full(n, -1, np.int64)
                 lut[movers] = new_labels
                 ids = np.flatnonzero((comp >= 0) & (lut[np.maximum(comp, 0)] >= 0))
-                self._commit(ids, lut[comp[ids]].astype(np.uint8), "split_label")
+                self._commit(ids, lut[comp[ids]].astype(self.labels.dtype), "split_label")
         return [label, *new_labels]
 
     def _check_merge_labels(self, keep, other) -> tuple[int, int]:
@@ -565,17 +619,24 @@ class Segmentation(Document):
         self.changed("colors", command="set_color")
 
     def _check_add_color(self, rgb) -> np.ndarray:
-        if len(self.colors) >= 256:
-            raise ValueError("colour table is full (256 entries, one uint8 per vertex)")
+        if len(self.colors) >= MAX_COLORS:
+            raise ValueError(f"colour table is full ({MAX_COLORS} entries, one uint16 per vertex)")
         return self.colors.check_rgb("rgb", rgb)
 
     def add_color(self, rgb) -> int:
-        """Append a colour to the table; returns its label."""
+        """Append a colour to the table; returns its label.
+
+        The 257th entry widens the labels to uint16 once (same values; observers get an ``"all"`` change, as
+        the labels array is a new one); the table then grows to 65536 entries.
+        """
         self._check_add_color(rgb)
+        widen = len(self.colors) >= self.colors.capacity
         with self._lock:
+            if widen:
+                self._widen()
             k = self.colors.add_color(rgb)
             self.log.record("add_color", rgb=[int(x) for x in self.colors.rgba[k]])
-        self.changed("colors", command="add_color")
+        self.changed("all" if widen else "colors", command="add_color")
         return k
 
     def _check_set_visible(self, label, visible) -> tuple[int, bool]:
@@ -644,11 +705,13 @@ class Segmentation(Document):
             edits = list(stack)
             offs = np.cumsum([0] + [len(e) for e in edits]).astype(np.int64)
             cat = (lambda xs, dt: np.concatenate(xs).astype(dt) if xs else np.zeros(0, dt))
-            return (cat([e.indices for e in edits], np.int64), cat([e.old for e in edits], np.uint8),
-                    cat([e.new for e in edits], np.uint8), offs)
+            return (cat([e.indices for e in edits], np.int64), cat([e.old for e in edits], dt),
+                    cat([e.new for e in edits], dt), offs)
+        dt = self.labels.dtype
+        fmt = _FORMAT_WIDE if self._wide else _FORMAT
         ui, uo, un, uoff = pack(self.history.undo_stack)
         ri, ro, rn, roff = pack(self.history.redo_stack)
-        d = dict(format=np.array([_FORMAT], np.int64), vertices=self.vertices, faces=self.faces,  # noqa: C408
+        d = dict(format=np.array([fmt], np.int64), vertices=self.vertices, faces=self.faces,  # noqa: C408
                  labels=self.labels, rgba=self.colors.rgba, visible=self.colors.visible,
                  views=np.array([v.to_array() for v in self.views], np.float64).reshape(-1, 13),
                  undo_idx=ui, undo_old=uo, undo_new=un, undo_off=uoff,
@@ -681,7 +744,7 @@ class Segmentation(Document):
     @staticmethod
     def _element_bounds(n_vertices: int | None) -> dict[str, int]:
         """Largest element count of each state array for a mesh of ``n_vertices`` (None: not known yet)."""
-        b = {"format": 1, "history_limits": 2, "mesh": 3, "rgba": 4 * 256, "visible": 256,
+        b = {"format": 1, "history_limits": 2, "mesh": 3, "rgba": 4 * MAX_COLORS, "visible": MAX_COLORS,
              "views": 13 * MAX_VIEWS, "undo_off": 10_001, "redo_off": 10_001}
         if n_vertices is not None:
             b.update(labels=n_vertices, normals=3 * n_vertices)
@@ -731,8 +794,10 @@ class Segmentation(Document):
         if missing:
             raise ValueError(f"{where} is missing arrays {missing}")
         fmt = d["format"]
-        if fmt.dtype.kind not in "iu" or fmt.tolist() != [_FORMAT]:
-            raise ValueError(f"{where}: format must be [{_FORMAT}], got {fmt.tolist()}")
+        if fmt.dtype.kind not in "iu" or fmt.shape != (1,) or int(fmt[0]) not in _LABEL_DTYPES:
+            raise ValueError(f"{where}: format must be [{_FORMAT}] or [{_FORMAT_WIDE}], got {fmt.tolist()}")
+        ldt = _LABEL_DTYPES[int(fmt[0])]
+        n_max = NARROW_COLORS if ldt == np.uint8 else MAX_COLORS
         v, lab, f = d["vertices"], d["labels"], d["faces"]
         if v.dtype != np.float32 or v.ndim != 2 or v.shape[1] != 3 or len(v) < 1:
             raise ValueError(f"{where}: vertices must be float32 (V, 3) with V >= 1, got {v.dtype} {v.shape}")
@@ -745,12 +810,14 @@ class Segmentation(Document):
         nrm = d.get("normals")
         if nrm is not None and (nrm.dtype != np.float32 or nrm.shape != v.shape or not np.all(np.isfinite(nrm))):
             raise ValueError(f"{where}: normals must be finite float32 {v.shape}, got {nrm.dtype} {nrm.shape}")
-        if lab.dtype != np.uint8 or lab.shape != (len(v),):
-            raise ValueError(f"{where}: labels must be uint8 ({len(v)},), got {lab.dtype} {lab.shape}")
+        if lab.dtype != ldt or lab.shape != (len(v),):
+            raise ValueError(f"{where}: labels must be {ldt.name} ({len(v)},) in format {int(fmt[0])}, got "
+                             f"{lab.dtype} {lab.shape}")
         rgba, vis = d["rgba"], d["visible"]
-        if rgba.dtype != np.uint8 or rgba.ndim != 2 or rgba.shape[1] != 4 or not 1 <= len(rgba) <= 256 \
+        if rgba.dtype != np.uint8 or rgba.ndim != 2 or rgba.shape[1] != 4 or not 1 <= len(rgba) <= n_max \
                 or vis.shape != (len(rgba),) or vis.dtype.kind not in "bui":
-            raise ValueError(f"{where}: colour table must be uint8 (N, 4), N in [1, 256], with N visibility flags")
+            raise ValueError(f"{where}: colour table must be uint8 (N, 4), N in [1, {n_max}], with N visibility "
+                             "flags")
         if lab.size and int(lab.max()) >= len(rgba):
             raise ValueError(f"{where}: labels must be < {len(rgba)} (colour table size), got max {lab.max()}")
         lim = d["history_limits"]
@@ -760,8 +827,8 @@ class Segmentation(Document):
                              f"[0, 2**62]], got {lim.tolist()}")
         for side in ("undo", "redo"):
             idx, old, new, off = (d[f"{side}_{k}"] for k in ("idx", "old", "new", "off"))
-            if idx.dtype.kind not in "iu" or off.dtype.kind not in "iu" or old.dtype != np.uint8 \
-                    or new.dtype != np.uint8 or idx.ndim != 1 or old.ndim != 1 or new.ndim != 1:
+            if idx.dtype.kind not in "iu" or off.dtype.kind not in "iu" or old.dtype != ldt \
+                    or new.dtype != ldt or idx.ndim != 1 or old.ndim != 1 or new.ndim != 1:
                 raise ValueError(f"{where}: {side} history arrays have the wrong dtypes or shapes")
             if not (len(idx) == len(old) == len(new)) or off.ndim != 1 or off.size < 1 or off[0] != 0 \
                     or off[-1] != len(idx) or np.any(np.diff(off) < 0) or off.size - 1 > 10000:
@@ -788,7 +855,7 @@ class Segmentation(Document):
 
     @classmethod
     def _from_state(cls, d: dict, *, index: str = "grid") -> Segmentation:
-        table = ColorTable(d["rgba"])
+        table = ColorTable(d["rgba"], wide=d["labels"].dtype == np.uint16)
         table.visible = d["visible"].astype(bool)
         lim = d["history_limits"]
         seg = cls(d["vertices"], d["faces"], labels=d["labels"], colors=table, normals=d.get("normals"),

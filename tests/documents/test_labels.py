@@ -11,6 +11,7 @@ from plantvr.documents.labels import Segmentation
 from plantvr.history import ArrayEdit
 from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.proxy import DisplayProxy
+from plantvr.vine.colors import ColorTable
 from plantvr.vine.views import SavedView
 
 
@@ -160,3 +161,112 @@ def test_changes_carry_kind_ids_and_command(mesh):
     proxy.close()
     scene = s.scene()
     assert list(scene) == ["surface"] and scene["surface"].colors.shape == (s.n_vertices, 4)
+
+
+# ---------------------------------------------------------------- uint16 labels (issue 22)
+def test_labels_are_uint8_by_default_and_save_as_format_1(mesh, tmp_path):
+    s = _seg(mesh)
+    _session(s)
+    assert s.labels.dtype == np.uint8 and not s.colors.wide
+    s.save(tmp_path / "a.npz")
+    with np.load(tmp_path / "a.npz") as z:
+        assert z["format"].tolist() == [1] and z["labels"].dtype == np.uint8 and z["undo_old"].dtype == np.uint8
+
+
+def test_uint16_session_matches_the_uint8_one(mesh, tmp_path):
+    """The same commands on uint16 labels give the same label values, undo, redo, save and load (format 2)."""
+    a, b = _seg(mesh), _seg(mesh, labels=np.zeros(len(mesh.vertices), np.uint16))
+    assert b.labels.dtype == np.uint16 and b.colors.wide and len(b.colors) == len(a.colors)
+    _session(a)
+    _session(b)
+    assert b.labels.dtype == np.uint16
+    np.testing.assert_array_equal(a.labels, b.labels)
+    for s in (a, b):
+        while s.history.undo_stack:
+            s.undo()
+    np.testing.assert_array_equal(a.labels, b.labels)
+    for s in (a, b):
+        while s.history.redo_stack:
+            s.redo()
+    np.testing.assert_array_equal(a.labels, b.labels)
+    b.save(tmp_path / "w.npz")
+    with np.load(tmp_path / "w.npz") as z:
+        assert z["format"].tolist() == [2] and z["labels"].dtype == np.uint16
+    back = Segmentation.load(tmp_path / "w.npz")
+    assert back.labels.dtype == np.uint16 and back.state_bytes() == b.state_bytes()
+    b.save(tmp_path / "l.npz", include_mesh=False)
+    c = _seg(mesh, labels=np.zeros(len(mesh.vertices), np.uint16))
+    c.restore(tmp_path / "l.npz")
+    assert c.state_bytes() == b.state_bytes()
+    c.undo()
+    back.undo()
+    np.testing.assert_array_equal(c.labels, back.labels)
+    d = _seg(mesh, labels=np.zeros(len(mesh.vertices), np.uint16))
+    d.replay(b.log)
+    assert d.state_bytes() == b.state_bytes()
+
+
+def test_918_labels_get_a_colour_table_and_paint(mesh):
+    lab = np.zeros(len(mesh.vertices), np.uint16)
+    lab[::7] = 918
+    s = _seg(mesh, labels=lab)
+    assert len(s.colors) == 919 and s.colors.capacity == 65536 and len(s.colors.paintable_lut()) == 65536
+    v = s.vertices[0]
+    assert s.paint(v, 3.0, 917) > 0 and np.any(s.labels == 917)
+    with s.stroke():
+        s.paint(v, 2.0, 900)
+        s.paint(v, 3.5, 901)
+    s.undo()
+    assert np.any(s.labels == 917) and not np.any(s.labels == 901)
+    with pytest.raises(ValueError, match="labels must be < 13"):
+        _seg(mesh, labels=lab, colors=ColorTable())
+    with pytest.raises(ValueError, match="uint8 or uint16"):
+        _seg(mesh, labels=lab.astype(np.int32))
+
+
+def test_add_color_past_256_widens_once(mesh, tmp_path):
+    s = _seg(mesh)
+    s.paint(s.vertices[0], 3.0, 2)
+    before = s.labels.copy()
+    seen = []
+    s.observe(lambda ch: seen.append(ch["new"].kind), names="change")
+    while len(s.colors) < 256:
+        s.add_color((1, 2, 3))
+    assert s.labels.dtype == np.uint8 and "all" not in seen
+    k = s.add_color((4, 5, 6))
+    assert k == 256 and s.labels.dtype == np.uint16 and seen[-1] == "all"
+    np.testing.assert_array_equal(s.labels, before)
+    assert s.paint(s.vertices[0], 5.0, 256) > 0
+    s.undo()
+    s.undo()                                           # the uint8-era paint undoes on the uint16 labels
+    assert not s.labels.any()
+    s.redo()
+    np.testing.assert_array_equal(s.labels, before)
+    s.add_color((7, 8, 9))
+    assert s.labels.dtype == np.uint16 and seen.count("all") == 1
+    s.save(tmp_path / "p.npz")
+    assert Segmentation.load(tmp_path / "p.npz").state_bytes() == s.state_bytes()
+    fresh = _seg(mesh)
+    fresh.replay(s.log)
+    assert fresh.labels.dtype == np.uint16 and fresh.state_bytes() == s.state_bytes()
+
+
+def test_session_format_must_match_the_label_dtype(mesh, tmp_path):
+    s = _seg(mesh, labels=np.zeros(len(mesh.vertices), np.uint16))
+    s.paint(s.vertices[0], 3.0, 2)
+    arrays = s._state_arrays()
+    bad = dict(arrays, format=np.array([1], np.int64))
+    np.savez(tmp_path / "b1.npz", **bad)
+    with pytest.raises(ValueError, match="labels must be uint8"):
+        Segmentation.load(tmp_path / "b1.npz")
+    bad = dict(arrays, labels=arrays["labels"].astype(np.uint8))
+    np.savez(tmp_path / "b2.npz", **bad)
+    with pytest.raises(ValueError, match="labels must be uint16"):
+        Segmentation.load(tmp_path / "b2.npz")
+    bad = dict(arrays, undo_old=arrays["undo_old"].astype(np.uint8))
+    np.savez(tmp_path / "b3.npz", **bad)
+    with pytest.raises(ValueError, match="history arrays have the wrong dtypes"):
+        Segmentation.load(tmp_path / "b3.npz")
+    np.savez(tmp_path / "b4.npz", **dict(arrays, format=np.array([3], np.int64)))
+    with pytest.raises(ValueError, match=r"format must be \[1\] or \[2\]"):
+        Segmentation.load(tmp_path / "b4.npz")

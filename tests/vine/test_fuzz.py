@@ -57,7 +57,7 @@ def _as_log(events) -> CommandLog:
 
 def _sane(seg, tmp_path):
     """The session still works after whatever was accepted: paint, undo, redo, save and load round trip."""
-    assert seg.labels.dtype == np.uint8 and int(seg.labels.max()) < len(seg.colors)
+    assert seg.labels.dtype in (np.uint8, np.uint16) and int(seg.labels.max()) < len(seg.colors)
     if seg._stroke is not None:
         seg.end_stroke()
     vis = np.flatnonzero(seg.colors.visible)
@@ -145,7 +145,7 @@ def test_fuzz_colors(fuzz, surf, tmp_path, label, rgb, vis):
     _sane(s, tmp_path)
 
 
-def test_full_colour_table_refuses_more_clearly(fuzz, surf, tmp_path):
+def test_full_colour_table_widens_to_uint16(fuzz, surf, tmp_path):
     s = _seg(surf)
     while len(s.colors) < 256:
         s.colors.add_color((1, 1, 1))
