@@ -64,23 +64,6 @@ _MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_ind
 _SESSION_ATTRS = ("labels", "colors", "history", "views", "_stroke")
 
 
-def _merge_wide(idx_parts: list, old_parts: list, labels: np.ndarray) -> ArrayEdit | None:
-    """:func:`~plantvr.vine.stamps.merge_stamps` for uint16 labels (its numpy twin: first label of each id)."""
-    if not idx_parts:
-        return None
-    idx = np.concatenate(idx_parts).astype(np.int64, copy=False)
-    if idx.size == 0:
-        return None
-    old = np.concatenate(old_parts).astype(labels.dtype, copy=False)
-    uidx, first = np.unique(idx, return_index=True)
-    uold, new = old[first], labels[uidx]
-    keep = uold != new
-    if not keep.any():
-        return None
-    itype = np.int32 if labels.size < 2 ** 31 else np.int64
-    return ArrayEdit(uidx[keep].astype(itype), uold[keep], new[keep])
-
-
 class Segmentation(Document):
     """Per-vertex colour-label segmentation of a triangle mesh (the ViNE document, kind ``"vine"``).
 
@@ -265,19 +248,7 @@ class Segmentation(Document):
         self.colors.widen()
 
     def _merge(self, idx_parts: list, old_parts: list) -> ArrayEdit | None:
-        if self._wide:
-            return _merge_wide(idx_parts, old_parts, self.labels)
         return merge_stamps(idx_parts, old_parts, self.labels)
-
-    def _index_paint(self, c, r, lut, label) -> tuple[np.ndarray, np.ndarray]:
-        if not self._wide:
-            return self.index.paint(c, r, self.labels, lut, label)
-        hits = self.index.query(c, r)              # uint16 labels: the query, then the same rule in numpy
-        old = self.labels[hits]
-        keep = (old != label) & lut[old]
-        idx, old = hits[keep], old[keep]
-        self.labels[idx] = label
-        return idx, old
 
     def _paint_lut(self, preserve) -> np.ndarray:
         lut = self.colors.paintable_lut()
@@ -322,7 +293,7 @@ class Segmentation(Document):
         with self._lock:
             self.log.record("paint", center=[float(x) for x in c], radius=r, label=label,
                             **({} if pres is False else {"preserve": pres if pres is True else list(pres)}))
-            idx, old = self._index_paint(c, r, self._paint_lut(pres), label)
+            idx, old = self.index.paint(c, r, self.labels, self._paint_lut(pres), label)
             if self._stroke is not None:
                 if idx.size:
                     stamp = ArrayEdit(idx, old, np.full(idx.size, label, self.labels.dtype))

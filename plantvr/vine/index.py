@@ -139,9 +139,9 @@ class GridIndex:
         """Fused brush stamp (inputs already validated): write ``label``, return (ids, old labels)."""
         n = ball_candidates(self.starts, self.origin, self.cell_size, self.dims, center, radius)
         idx = np.empty(n, np.int64)
-        old = np.empty(n, np.uint8)
+        old = np.empty(n, labels.dtype)
         k = _grid_paint(self.points, self.order, self.starts, self.origin, self.cell_size, self.dims,
-                        center, float(radius), labels, paintable, np.uint8(label), idx, old)
+                        center, float(radius), labels, paintable, labels.dtype.type(label), idx, old)
         return idx[:k], old[:k]
 
 

@@ -64,7 +64,7 @@ def merge_stamps(idx_parts: list, old_parts: list, labels: np.ndarray) -> ArrayE
     ----------
     idx_parts, old_parts : list of ndarray
         Per-stamp changed ids and their labels before that stamp, in stamp order.
-    labels : (V,) uint8 ndarray
+    labels : (V,) uint8 or uint16 ndarray
         Labels after the stroke (gives ``new``).
 
     Returns
@@ -85,7 +85,7 @@ def merge_stamps(idx_parts: list, old_parts: list, labels: np.ndarray) -> ArrayE
         return None
     itype = np.int32 if labels.size < 2 ** 31 else np.int64
     n_bits = max(int(labels.size - 1).bit_length(), 1)
-    uidx, uold = _radix_sort_pairs(idx.astype(np.int64, copy=False), old.astype(np.uint8, copy=False), n_bits)
+    uidx, uold = _radix_sort_pairs(idx.astype(np.int64, copy=False), old.astype(labels.dtype, copy=False), n_bits)
     k = _first_of_runs(uidx, uold)
     uidx, uold = uidx[:k], uold[:k]
     new = labels[uidx]
