@@ -73,10 +73,11 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
         props += [f"uchar {n}" for n in names]
     if labels is not None:
         labels = np.asarray(labels)
-        if labels.dtype != np.uint8 or labels.shape != (len(v),):
-            raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {labels.dtype} {labels.shape}")
-        fields.append(("label", "u1"))
-        props.append("uchar label")
+        if labels.dtype not in (np.uint8, np.uint16) or labels.shape != (len(v),):
+            raise ValueError(f"labels must be uint8 or uint16 of shape ({len(v)},), got {labels.dtype} {labels.shape}")
+        wide = labels.dtype == np.uint16
+        fields.append(("label", "<u2" if wide else "u1"))
+        props.append("ushort label" if wide else "uchar label")
     vdt = np.dtype(fields)
     fdt = np.dtype([("n", "u1"), ("v", "<i4", (3,))])
     header = ["ply", "format binary_little_endian 1.0", f"comment {comment}",

@@ -20,8 +20,8 @@ __all__ = ["face_labels", "label_mesh", "label_table"]
 def _check_mesh(vertices, faces, labels):
     v, f = _check_mesh_arrays(vertices, faces)
     lab = np.asarray(labels)
-    if lab.shape != (len(v),) or lab.dtype != np.uint8:
-        raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {lab.dtype} {lab.shape}")
+    if lab.shape != (len(v),) or lab.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"labels must be uint8 or uint16 of shape ({len(v)},), got {lab.dtype} {lab.shape}")
     return v, f, lab
 
 

@@ -81,8 +81,8 @@ def plane_segments(vertices: np.ndarray, faces: np.ndarray, axis: int | str, pos
     pos = check_range("position", position, -np.inf, np.inf, low_open=True, high_open=True)
     if labels is not None:
         labels = np.asarray(labels)
-        if labels.shape != (len(v),) or labels.dtype != np.uint8:
-            raise ValueError(f"labels must be uint8 of shape ({len(v)},), got {labels.dtype} {labels.shape}")
+        if labels.shape != (len(v),) or labels.dtype not in (np.uint8, np.uint16):
+            raise ValueError(f"labels must be uint8 or uint16 of shape ({len(v)},), got {labels.dtype} {labels.shape}")
     lab = np.zeros(1, np.uint8) if labels is None else labels
     segs, el = _plane_cut_numba(np.ascontiguousarray(v), np.ascontiguousarray(f), ax, pos, lab,
                                 labels is not None)

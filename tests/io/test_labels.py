@@ -64,3 +64,17 @@ def test_export_label_table(seg, tmp_path):
     t = pd.read_csv(tmp_path / "t.csv", keep_default_na=False)
     assert t["label"].tolist() == [0, 1, 2] and t["name"].tolist() == ["", "ray", ""]
     assert int(t["vertices"].sum()) == seg.n_vertices
+
+
+def test_uint16_labels_write_a_ushort_label_property(tmp_path):
+    import trimesh
+
+    from plantvr.io.ply import write_ply
+    m = trimesh.creation.icosphere(1)
+    labels = (np.arange(len(m.vertices)) * 97 % 918).astype(np.uint16)
+    p = tmp_path / "wide.ply"
+    write_ply(p, m.vertices.astype(np.float32), m.faces, labels=labels)
+    head = p.read_bytes().split(b"end_header")[0]
+    assert b"property ushort label" in head
+    back = trimesh.load(p, process=False)
+    np.testing.assert_array_equal(np.asarray(back.metadata["_ply_raw"]["vertex"]["data"]["label"]), labels)
