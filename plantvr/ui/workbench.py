@@ -4,8 +4,10 @@
 :func:`workbench` lays out, for any document, the view of :class:`plantvr.View` (left) and the document's
 controls (right): the :class:`~plantvr.ui.ParameterPanels` generated from its table (with the influence
 triangle for Tree Wand), a :class:`~plantvr.ui.GrowthControl` for a growth document, a
-:class:`~plantvr.ui.ColorWheel` for a ViNE :class:`~plantvr.documents.labels.Segmentation`, and a status line
-that follows the document. Every widget is a view of the document; the workbench keeps no state of its own.
+:class:`~plantvr.ui.ColorWheel` for a ViNE :class:`~plantvr.documents.labels.Segmentation`, the part's own
+panel where it has one (:data:`EDITORS`: the :class:`~plantvr.ui.FloretEditor` of an inflorescence, the
+:class:`~plantvr.ui.implicit_panel.ImplicitPanel` of an implicit crown, the
+:class:`~plantvr.ui.ArchitecturePanel` of a TreeSketch document), and a status line that follows the document. Every widget is a view of the document; the workbench keeps no state of its own.
 
 * **Live** (a JupyterLab kernel, see :func:`live_frontend`): the view is a trame view rendered on the kernel
   (:meth:`plantvr.View.widget`); the browser's mouse reaches the plotter's VTK interactor, where the brush
@@ -32,16 +34,21 @@ import ipywidgets as W
 from .._validation import check_size
 from ..document import kernel_loop
 from ..history import History, StateAtom
+from .architecture import ArchitecturePanel
+from .floret_editor import FloretEditor
 from .growth import GrowthControl
+from .implicit_panel import ImplicitPanel
 from .panels import ParameterPanels
 from .wheel import ColorWheel
 
-__all__ = ["REGROW_COMMANDS", "REGROW_WINDOWS", "Workbench", "live_frontend", "workbench"]
+__all__ = ["EDITORS", "REGROW_COMMANDS", "REGROW_WINDOWS", "Workbench", "live_frontend", "workbench"]
 
 #: Tree Wand commands re-issued by a regrow (what grew the tree since the last reset).
 REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
 #: Parameter windows whose parameters change growth (the others only change the picture).
 REGROW_WINDOWS = ("form", "light")
+#: The part's own panel by document kind (``doc.KIND``), shown under the generated panel.
+EDITORS = {"inflorescence": FloretEditor, "crown": ImplicitPanel, "treesketch": ArchitecturePanel}
 
 
 def live_frontend() -> bool:
@@ -103,6 +110,9 @@ class Workbench(W.HBox):
         Play / pause / step / reset (Tree Wand).
     wheel : ColorWheel or None
         The colour wheel (ViNE); its selection is the label the brush paints.
+    editor : FloretEditor or ImplicitPanel or ArchitecturePanel or None
+        The part's own panel (:data:`EDITORS`), a view of the same document; None for the other kinds. The
+        floret editor's preview image is left out (the view shows the floret).
     status : ipywidgets.HTML
         One line that follows the document (internodes / markers / brush commands, or painted vertices / label).
     mode : ipywidgets.ToggleButtons
@@ -131,11 +141,13 @@ class Workbench(W.HBox):
         self._start = len(doc.log)
         self._closed = True           # until the layout is built
         self.view = View(doc, off_screen=True, window_size=window_size)
+        self._framed = self._has_content()   # a document that starts empty is framed when content comes
         self.treewand = isinstance(doc, Model)
         self.labels = isinstance(doc, Segmentation)
         self.panels = ParameterPanels(doc) if getattr(doc, "PARAMS", None) is not None else None
         self.growth = GrowthControl(doc) if self.treewand else None
         self.wheel = ColorWheel(target=doc) if self.labels else None
+        self.editor = _editor(doc)
         if self.treewand:
             self.brush = BrushInteractor(self.view)
         elif self.labels:
@@ -173,7 +185,7 @@ class Workbench(W.HBox):
         tools += [self.undo_button, self.redo_button]
         left = W.VBox([self.screen, W.HBox(tools, layout=W.Layout(flex_flow="row wrap")), self.status],
                       layout=W.Layout(flex="0 0 auto", width=f"{window_size[0] + 8}px"))
-        right = [w for w in (self.panels, self.growth, self.wheel) if w is not None]
+        right = [w for w in (self.panels, self.growth, self.wheel, self.editor) if w is not None]
         self._regrow_names = ({p.name for p in doc.PARAMS if p.window in REGROW_WINDOWS}
                               if self.treewand else set())
         if self._regrow_names:
@@ -183,12 +195,20 @@ class Workbench(W.HBox):
             self.brush.attach()
         self._sync()
         self._closed = False
-        super().__init__([left, W.VBox(right, layout=W.Layout(max_width="560px"))])
+        super().__init__([left, W.VBox(right, layout=W.Layout(max_width="560px" if self.editor is None else "960px"))])
 
     # -- document -> widgets -------------------------------------------------------------------------------
+    def _has_content(self) -> bool:
+        return any(len(lay.points()) for lay in self.view.layers.values())
+
     def _on_change(self, change) -> None:
         if self.view._held:
             return
+        if not self._framed and self._has_content():
+            self._framed = True
+            self.view.frame()
+            if self.live:
+                self.view._render_soon()
         if not self.live and not self._redraw:
             loop = kernel_loop()          # in a kernel, one picture after the cell / message, not one per command
             self._redraw = True
@@ -214,7 +234,7 @@ class Workbench(W.HBox):
             text = (f"painted vertices {int((d.labels > 0).sum())} · label {self.brush.label} · "
                     f"strokes {sum(1 for e in d.log.events if e.command == 'end_stroke')}")
         else:
-            text = f"{type(d).__name__} · version {d.version}"
+            text = " · ".join([*_summary(d), f"version {d.version}"])
         self.status.value = f"<span class='plantvr-status-text'>{text}</span>"
 
     def _on_prune_mode(self, change) -> None:
@@ -303,5 +323,49 @@ class Workbench(W.HBox):
             self.wheel.unlink()
         if self.growth is not None:
             self.growth.close()
+        if self.editor is not None:
+            _close_editor(self.editor)
         self.view.close()
         super().close()
+
+
+# -- the part's own panel ------------------------------------------------------------------------------------
+def _editor(doc):
+    """The part's own panel of ``doc`` (:data:`EDITORS`), or None."""
+    cls = EDITORS.get(getattr(doc, "KIND", None))
+    if cls is None:
+        return None
+    if cls is FloretEditor:
+        editor = cls(doc, live_preview=False)
+        editor.preview.layout.display = "none"      # the workbench's view shows the floret
+        return editor
+    return cls(doc)
+
+
+def _close_editor(editor) -> None:
+    """Stop the panel following its document, then close its widgets."""
+    doc = editor.doc
+    if isinstance(editor, ImplicitPanel):
+        doc.unobserve(editor._on_change, names="change")
+    elif isinstance(editor, ArchitecturePanel):
+        doc.unobserve(editor._to_controls, names="change")
+        for w in (editor.schematic, editor.ellipse, editor.branching, editor.tropism, editor.triangle):
+            w.close()
+    editor.close()
+
+
+def _summary(doc) -> list[str]:
+    """Status items of a document without a brush: what it holds (by kind)."""
+    kind = getattr(doc, "KIND", None)
+    if kind == "treesketch":
+        return [f"internodes {doc.n_internodes}", f"points {doc.n_markers}"]
+    if kind == "inflorescence":
+        fm = doc.floret
+        return [f"floret {fm.frames.shape[1]} vertices", f"{len(fm.faces)} triangles", f"time {doc.time:.2f}"]
+    if kind == "crown":
+        return [f"surfaces {len(doc.surfaces)}", f"points {len(doc.points)}", f"trees {len(doc.trees)}"]
+    if kind == "forest":
+        f = doc.forest
+        return ["not grown" if f is None else f"trees {len(f.trees)}", *([] if f is None else
+                                                                        [f"internodes {f.n_internodes}"])]
+    return [type(doc).__name__]

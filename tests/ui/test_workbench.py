@@ -163,3 +163,76 @@ def test_workbench_rejects_bad_input():
         workbench(m, live=False, window_size=(10, 10))
     with pytest.raises(ValueError, match="view must be a plantvr.View of a segmentation"):
         LabelBrush(plantvr.View(m, window_size=(64, 64)))
+
+
+# -- the part's own panel beside the generated one (inflorescence, crown, TreeSketch) -------------------------
+def _observers(doc) -> int:
+    return sum(len(v) for v in doc._trait_notifiers.get("change", {}).values())
+
+
+def test_inflorescence_workbench_has_the_floret_editor():
+    from plantvr.documents.inflorescence import InflorescenceDocument
+    from plantvr.ui import FloretEditor
+
+    doc = InflorescenceDocument(preset="disc floret")
+    n_obs = _observers(doc)
+    wb = workbench(doc, live=False, window_size=(160, 160))
+    try:
+        assert isinstance(wb.editor, FloretEditor) and wb.editor.doc is doc
+        assert isinstance(wb.panels, ParameterPanels) and wb.brush is None and wb.growth is None
+        assert wb.editor in wb.children[1].children and wb.editor.preview.layout.display == "none"
+        assert f"{len(doc.floret.faces)} triangles" in wb.status.value
+        img0 = _image(wb.screen.value)
+        wb.editor.controls["n_fold"].value = 7          # the editor's slider: a document command
+        assert doc.n_fold == 7 and f"{len(doc.floret.faces)} triangles" in wb.status.value
+        assert np.abs(_image(wb.screen.value) - img0).max(axis=-1).mean() > 0.05   # the view followed
+        doc.undo()
+        assert wb.editor.controls["n_fold"].value == doc.n_fold != 7
+    finally:
+        wb.close()
+    assert wb.editor.doc is doc and _observers(doc) <= n_obs + 1  # the editor's own lambda stays (no close)
+
+
+def test_crown_workbench_has_the_implicit_panel():
+    from plantvr.documents.crown import CrownDocument
+    from plantvr.ui.implicit_panel import ImplicitPanel
+
+    doc = CrownDocument(seed=0)
+    n_obs = _observers(doc)
+    wb = workbench(doc, live=False, window_size=(160, 160))
+    assert isinstance(wb.editor, ImplicitPanel) and wb.panels is None and wb.editor.doc is doc
+    assert "surfaces 0" in wb.status.value
+    img0 = _image(wb.screen.value)
+    assert wb.editor.run("sphere crown 20 0 14 0\npoint_set_gen crown uniform num_points=200")  # the Run button
+    assert "surfaces 1 · points 200" in wb.status.value and "200 points" in wb.editor.status.value
+    assert np.abs(_image(wb.screen.value) - img0).max(axis=-1).mean() > 0.05
+    wb.close()
+    assert _observers(doc) == n_obs
+
+
+def test_treesketch_workbench_has_the_architecture_panel():
+    from plantvr.documents.treesketch import SketchDocument
+
+    doc = SketchDocument(seed=1)
+    n_obs = _observers(doc)
+    wb = workbench(doc, live=False, window_size=(160, 160))
+    assert isinstance(wb.editor, plantvr.ui.ArchitecturePanel) and isinstance(wb.panels, ParameterPanels)
+    doc.begin_stroke([0.0, 1.0, 0.0])
+    doc.move_stroke([0.0, 6.0, 0.0], radius=0.0)
+    doc.grow(4)
+    doc.end_stroke()
+    assert f"internodes {doc.n_internodes}" in wb.status.value and doc.n_internodes > 1
+    wb.editor.controls["apical_dominance"].value = 0.3     # the panel's slider: set_params
+    assert doc.apical_dominance == pytest.approx(0.3)
+    assert wb.panels.controls["apical_dominance"].value == pytest.approx(0.3)   # the generated panel followed
+    wb.close()
+    assert _observers(doc) == n_obs
+
+
+def test_forest_workbench_status():
+    from plantvr.documents.forest import ForestDocument
+
+    doc = ForestDocument(n_trees=2)
+    wb = workbench(doc, live=False, window_size=(96, 96))
+    assert wb.editor is None and "not grown" in wb.status.value
+    wb.close()
