@@ -23,6 +23,8 @@ and the switches (stroke tropism, trunk up).
 """
 from __future__ import annotations
 
+import contextlib
+
 import math
 from typing import Any
 
@@ -210,7 +212,8 @@ class _DocWidget(anywidget.AnyWidget):
         """Stop observing the document and close the comm."""
         doc = self.__dict__.get("doc")
         if doc is not None:
-            doc.unobserve(self._on_doc, names="change")
+            with contextlib.suppress(ValueError):  # closed twice: already detached
+                doc.unobserve(self._on_doc, names="change")
         super().close()
 
 
@@ -433,6 +436,14 @@ class ArchitecturePanel(W.VBox):
     def engine(self) -> SketchEngine:
         """The document's engine."""
         return self.doc.engine
+
+    def close(self) -> None:
+        """Stop following the document, then close the panel and its widgets."""
+        with contextlib.suppress(ValueError):  # closed twice: already detached
+            self.doc.unobserve(self._to_controls, names="change")
+        for w in (self.schematic, self.ellipse, self.branching, self.tropism, self.triangle):
+            w.close()
+        super().close()
 
     def bind(self, doc: SketchDocument) -> None:
         """Show and command another document (the widgets follow)."""

@@ -173,12 +173,21 @@ class FloretEditor(W.VBox):
         self._camera = None
         self._build_widgets()
         self.observe(lambda ch: self._show_pose(), names=["pose_index"])
-        self.doc.observe(lambda ch: self._refresh(), names="change")
+        self.doc.observe(self._on_doc, names="change")
         self._refresh()
 
     # ------------------------------------------------------------------ following the document
     def _pose_options(self):
         return [(POSE_NAMES[i], i) for i in ((0, 2) if self.doc.n_poses == 2 else (0, 1, 2))]
+
+    def _on_doc(self, change) -> None:
+        self._refresh()
+
+    def close(self) -> None:
+        """Stop following the document, then close the widgets."""
+        with contextlib.suppress(ValueError):  # closed twice: already detached
+            self.doc.unobserve(self._on_doc, names="change")
+        super().close()
 
     def _refresh(self) -> None:
         opts = self._pose_options()

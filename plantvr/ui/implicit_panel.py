@@ -198,6 +198,13 @@ class ImplicitPanel(W.VBox):
     def _on_change(self, change) -> None:
         self._sync(select_last=True)
 
+    def close(self) -> None:
+        """Stop following the document, then close the widgets."""
+        if self.doc is not None:
+            self.doc.unobserve(self._on_change, names="change")
+            self.doc = None
+        super().close()
+
     def _build_controls(self) -> None:
         lay = W.Layout(width="150px")
         # scene: transforms and Booleans on the selected surface

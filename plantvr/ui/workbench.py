@@ -324,7 +324,7 @@ class Workbench(W.HBox):
         if self.growth is not None:
             self.growth.close()
         if self.editor is not None:
-            _close_editor(self.editor)
+            self.editor.close()
         self.view.close()
         super().close()
 
@@ -340,18 +340,6 @@ def _editor(doc):
         editor.preview.layout.display = "none"      # the workbench's view shows the floret
         return editor
     return cls(doc)
-
-
-def _close_editor(editor) -> None:
-    """Stop the panel following its document, then close its widgets."""
-    doc = editor.doc
-    if isinstance(editor, ImplicitPanel):
-        doc.unobserve(editor._on_change, names="change")
-    elif isinstance(editor, ArchitecturePanel):
-        doc.unobserve(editor._to_controls, names="change")
-        for w in (editor.schematic, editor.ellipse, editor.branching, editor.tropism, editor.triangle):
-            w.close()
-    editor.close()
 
 
 def _summary(doc) -> list[str]:
