@@ -32,6 +32,7 @@ from typing import Any, Callable, ClassVar, Iterator
 
 import numpy as np
 from traitlets import Any as AnyTrait
+from traitlets import All as traitlets_all
 from traitlets import Bool, HasTraits, Int, MetaHasTraits
 
 from .commandlog import CommandLog
@@ -113,6 +114,12 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self.snapshot: Any = None         # newest snapshot applied on the kernel thread
         if self.PARAMS is not None:
             self.observe(self._on_param, names=self.PARAMS.names)
+
+    def unobserve(self, handler, names=traitlets_all, type: str = "change") -> None:
+        """As ``HasTraits.unobserve``, but a handler that is not (or no longer) registered is ignored, so a view
+        can stop following its document twice (a widget closed twice)."""
+        with contextlib.suppress(ValueError, KeyError):
+            super().unobserve(handler, names=names, type=type)
 
     # -- parameters -------------------------------------------------------------------------------------
     @property

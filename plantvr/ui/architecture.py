@@ -23,7 +23,6 @@ and the switches (stroke tropism, trunk up).
 """
 from __future__ import annotations
 
-import contextlib
 
 import math
 from typing import Any
@@ -212,8 +211,7 @@ class _DocWidget(anywidget.AnyWidget):
         """Stop observing the document and close the comm."""
         doc = self.__dict__.get("doc")
         if doc is not None:
-            with contextlib.suppress(ValueError):  # closed twice: already detached
-                doc.unobserve(self._on_doc, names="change")
+            doc.unobserve(self._on_doc, names="change")
         super().close()
 
 
@@ -439,8 +437,7 @@ class ArchitecturePanel(W.VBox):
 
     def close(self) -> None:
         """Stop following the document, then close the panel and its widgets."""
-        with contextlib.suppress(ValueError):  # closed twice: already detached
-            self.doc.unobserve(self._to_controls, names="change")
+        self.doc.unobserve(self._to_controls, names="change")
         for w in (self.schematic, self.ellipse, self.branching, self.tropism, self.triangle):
             w.close()
         super().close()

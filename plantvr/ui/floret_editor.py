@@ -185,8 +185,7 @@ class FloretEditor(W.VBox):
 
     def close(self) -> None:
         """Stop following the document, then close the widgets."""
-        with contextlib.suppress(ValueError):  # closed twice: already detached
-            self.doc.unobserve(self._on_doc, names="change")
+        self.doc.unobserve(self._on_doc, names="change")
         super().close()
 
     def _refresh(self) -> None:

@@ -11,6 +11,6 @@ in for it in tests.
 """
 from . import controls as _controls
 from .bridge import HISTOGRAM_EDGES_MS, Headset, attach, replay
-from .controls import *  # the control map, gestures and recordings: everything controls exports
+from .controls import *  # noqa: F403  (the control map, gestures and recordings: everything controls exports)
 
 __all__ = ["HISTOGRAM_EDGES_MS", "Headset", "attach", "replay"] + _controls.__all__
