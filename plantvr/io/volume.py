@@ -297,6 +297,9 @@ def _tiff(p: Path, *, dataset, lazy):
             meta["imagej"] = ij
             if "spacing" in ij:
                 sp["z"] = float(ij["spacing"])
+            for ax in "xyz":                         # ImageJ calibration: world = (pixel - xorigin) * pixelWidth
+                if f"{ax}origin" in ij:
+                    org[ax] = -float(ij[f"{ax}origin"]) * sp[ax]
             if ij.get("unit"):
                 meta["unit"] = str(ij["unit"]).replace("\\u00B5", "µ")
         elif tf.is_ome:

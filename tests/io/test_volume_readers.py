@@ -433,3 +433,20 @@ def test_segment_reads_big_endian_imagej_and_nrrd_sources(tmp_path, capsys):
     (tmp_path / "bad.nii").write_bytes(b"nope")
     assert main_segment([str(tmp_path / "bad.nii"), "--out", str(tmp_path)]) == 2
     assert "could not read" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("suffix", [".tif", ".nrrd", ".nii.gz"])
+def test_label_volumes_round_trip_array_spacing_and_origin(tmp_path, suffix):
+    """write_label_volume then read_volume: the same voxels at the same world positions (TIFF keeps ImageJ's z, y, x
+    axis order, so it comes back transposed with spacing and origin in that order)."""
+    pytest.importorskip("nrrd")
+    pytest.importorskip("nibabel")
+    from plantvr.io.label_volume import write_label_volume
+    vol = (np.arange(4 * 5 * 6).reshape(4, 5, 6) % 7).astype(np.uint16)
+    sp, org = np.array([0.5, 0.7, 1.5]), np.array([3.0, -2.0, 10.0])
+    write_label_volume(tmp_path / f"v{suffix}", vol, spacing=sp, origin=org)
+    v = read_volume(tmp_path / f"v{suffix}")
+    flip = suffix == ".tif"
+    np.testing.assert_array_equal(v.array, vol.transpose(2, 1, 0) if flip else vol)
+    np.testing.assert_allclose(v.spacing, sp[::-1] if flip else sp, rtol=1e-6)
+    np.testing.assert_allclose(v.origin, org[::-1] if flip else org, rtol=1e-6)
