@@ -21,8 +21,15 @@ __all__ = ["extract_isosurface", "flying_edges_slab"]
 
 def flying_edges_slab(raw: np.ndarray, level: float, s: int, step: int):
     """VTK flying edges of one slab (planes ``s``, ``s + step``, ... of the volume): (vertices, faces wound
-    outward, normals) in global coordinates, or None; the slab mesher of :func:`extract_isosurface`."""
+    outward, normals) in global coordinates, or None; the slab mesher of :func:`extract_isosurface`.
+
+    The slab goes to VTK in its own dtype (uint8/16/32, int8/16/32, float32/64: no float copy; VTK interpolates
+    in double), so float and signed data are meshed at the level in their own units (issue 22)."""
     block = np.ascontiguousarray(raw[::step, ::step, ::step] if step > 1 else raw)
+    if block.dtype == np.uint32:
+        # VTK 9 interpolates (level - s0) / (s1 - s0) in the scalar type: unsigned int wraps when s1 < s0
+        # (uint8/uint16 are promoted to int and do not); int64 holds uint32 exactly (this slab only)
+        block = block.astype(np.int64)
     img = vtkImageData()
     img.SetDimensions(block.shape[2], block.shape[1], block.shape[0])   # VTK x is our (fastest) axis 2
     img.SetSpacing(step, step, step)
@@ -55,7 +62,8 @@ def extract_isosurface(volume: np.ndarray, level: float, *, slab: int = 16, step
                        method: str = "flying_edges", workers: int = 2) -> Surface:
     """:func:`plantvr.vine.isosurface.extract_isosurface` with ``method`` in {"flying_edges", "skimage"}:
     ``flying_edges`` (default, fastest) meshes each slab with :func:`flying_edges_slab`, ``skimage`` with
-    ``skimage.measure.marching_cubes`` (Lewiner). Every other argument and the result are the core's."""
+    ``skimage.measure.marching_cubes`` (Lewiner). Every other argument (any volume dtype, the level in the
+    data's units) and the result are the core's."""
     method = check_choice("method", method, ("flying_edges", "skimage"))
     return _core.extract_isosurface(volume, level, slab=slab, step_size=step_size, spacing=spacing,
                                     method=flying_edges_slab if method == "flying_edges" else "skimage",

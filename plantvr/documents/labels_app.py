@@ -28,7 +28,7 @@ class Source:
     Attributes
     ----------
     seg : Segmentation
-    volume : (X, Y, Z) uint8/uint16 ndarray or None
+    volume : (X, Y, Z) ndarray or None
         The volume the surface came from (None for a mesh file).
     level : float or None
         Iso-value used.
@@ -52,7 +52,8 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
         ``"synth"`` or ``"synth:N"``; a volume (``.tif``, ``.tiff``, ``.npy``, ``.npz``, ``.nrrd``); or a mesh
         (``.ply``, ``.obj``, ``.stl``, ``.off``, ``.glb``, ``.gltf``; vertex order kept).
     level : float, optional
-        Iso-value (default: the synthetic head's own, or Otsu's threshold of the volume).
+        Iso-value in the volume's own units, strictly inside its data range (default: the synthetic head's own,
+        or Otsu's threshold of the volume). Volumes may be uint8/16/32, int8/16/32 or float32/64.
     size : int
         Synthetic head size when ``source == "synth"``, in [16, 1024].
     downsample : bool

@@ -89,8 +89,9 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
         Target file (``.vine.zip`` suggested).
     seg : Segmentation
         No stroke may be open.
-    volume : (X, Y, Z) uint8/uint16 ndarray, optional
-        The source scan; its SHA-256 is stored so :func:`load_bundle` can refuse another scan.
+    volume : (X, Y, Z) uint8/16/32, int8/16/32 or float32/64 ndarray, optional
+        The source scan; its SHA-256 (dtype included) is stored so :func:`load_bundle` can refuse another scan,
+        and an embedded volume keeps its dtype. ``level`` is in the volume's own units.
     level : float, optional
         Iso-value of the mesh (required with ``include_mesh=False``).
     include_mesh : bool

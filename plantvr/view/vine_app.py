@@ -59,6 +59,18 @@ _DELTA_JS = Path(__file__).with_name("vine_delta.js")
 _VIEW_REF = "vine_view"
 
 
+def _level_slider(volume: np.ndarray) -> dict:
+    """``min``, ``max`` and ``step`` of the iso-value slider, from the data's range in its own units (issue 22):
+    integer volumes step by 1 between ``min + 0.5`` and ``max - 0.5`` (no level equals a voxel value), float
+    volumes in 1000 steps strictly inside (min, max), so every position gives a surface."""
+    from plantvr.vine.volume import _data_range
+    volume, lo, hi = _data_range("volume", volume)
+    if volume.dtype.kind in "iu":
+        return {"min": lo + 0.5, "max": max(lo + 0.5, hi - 0.5), "step": 1}
+    step = (hi - lo) / 1000 if hi > lo else 1.0
+    return {"min": lo + step, "max": max(lo + step, hi - step), "step": step}
+
+
 def histogram_svg(volume: np.ndarray, level: float, *, bins: int = 64, width: int = 260, height: int = 48) -> str:
     """A small SVG bar chart of a volume's intensity histogram (log counts) with the iso-value as a red line."""
     from plantvr.vine.volume import histogram
@@ -301,8 +313,8 @@ class VineReviewApp:
         Proxy triangle budget when the proxy is built here, in [4, 2**31 - 1].
     mode : {"local", "remote"}
         ``local``: the browser renders the proxy (vtk.js). ``remote``: the server renders and streams images.
-    volume : (X, Y, Z) uint8/uint16 ndarray, optional
-        Source volume; enables the iso-value slider and histogram.
+    volume : (X, Y, Z) uint8/16/32, int8/16/32 or float32/64 ndarray, optional
+        Source volume; enables the iso-value slider (over the data's range, in its units) and histogram.
     level : float, optional
         Iso-value for ``volume`` (default: Otsu, :func:`plantvr.vine.volume.suggest_level`).
     radius : float, optional
@@ -818,8 +830,8 @@ class VineReviewApp:
                                  "painted {{ painted.toLocaleString() }}")
                         if self.volume is not None:
                             html.Div(v_html=("histogram",))
-                            v3.VSlider(v_model=("level",), min=1, max=float(np.iinfo(self.volume.dtype).max) - 1,
-                                       step=1, hide_details=True, density="compact", style="width: 260px",
+                            v3.VSlider(v_model=("level",), **_level_slider(self.volume),
+                                       hide_details=True, density="compact", style="width: 260px",
                                        label="iso", classes="vine-level", end=ctrl.apply_level)
         self.layout = layout
 
@@ -949,11 +961,7 @@ def _read_volumes(open_source):
         if lo == hi:
             raise ValueError(f"volume {s!r} is constant (every voxel is {lo:g}): it has no surface to extract")
         if level is None:
-            if arr.dtype in (np.uint8, np.uint16):
-                lev = suggest_level(arr)
-            else:                                   # float/signed data: Otsu in the data's own units
-                from skimage.filters import threshold_otsu
-                lev = float(threshold_otsu(arr[::max(1, arr.shape[0] // 64)]))
+            lev = suggest_level(arr)                 # Otsu in the data's own units, any volume dtype
         else:
             lev = check_range("level", level, lo, hi, low_open=True, high_open=True)
         surf = extract_isosurface(arr, lev)

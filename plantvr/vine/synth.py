@@ -330,12 +330,12 @@ def vertex_labels_from_volume(vertices: np.ndarray, volume: np.ndarray, labels: 
         raise ValueError(f"labels must be a uint8 array of the volume's shape {volume.shape}, got "
                          f"{getattr(labels, 'dtype', type(labels).__name__)} {getattr(labels, 'shape', '')}")
     base = np.floor(v).astype(np.int64)
-    best = np.full(len(v), -1, np.int64)
+    best = np.full(len(v), -np.inf)
     out = np.zeros(len(v), np.uint8)
     hi = np.array(volume.shape) - 1
     for corner in np.ndindex(2, 2, 2):
         c = np.clip(base + np.array(corner), 0, hi)
-        val = volume[c[:, 0], c[:, 1], c[:, 2]].astype(np.int64)
+        val = volume[c[:, 0], c[:, 1], c[:, 2]].astype(np.float64)     # any volume dtype, exact to 2**53
         lab = labels[c[:, 0], c[:, 1], c[:, 2]]
         take = (val > best) & (lab > 0)
         best[take] = val[take]

@@ -1,8 +1,10 @@
 """Volume input for ViNE (spec 000_vine §1.4–1.5, checklist item 1): TIFF stacks, .npy/.npz, 2x downsampling.
 
-Volumes stay uint8/uint16 in native byte order (memory-mapped where the file allows it; a big-endian file is
-read swapped); no function here makes a float copy of the whole volume. Every other format, float and signed
-data, spacing and origin: :func:`plantvr.io.volume.read_volume`.
+Volumes are uint8/16/32, int8/16/32 or float32/float64 (issue 22) in native byte order (memory-mapped where the
+file allows it; a big-endian file is read swapped); float volumes must be finite, checked slab by slab. No
+function here makes a float copy of the whole volume. uint8/uint16 keep their dtype-range histograms and
+levels; every other dtype is binned and checked over the data's own range, in the data's units. Every other
+format, spacing and origin: :func:`plantvr.io.volume.read_volume`.
 """
 from __future__ import annotations
 
@@ -16,7 +18,12 @@ from plantvr._validation import check_choice, check_int
 
 __all__ = ["MAX_VOLUME_BYTES", "downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]
 
-_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
+_DTYPES = tuple(np.dtype(t) for t in (np.uint8, np.uint16, np.uint32, np.int8, np.int16, np.int32,
+                                       np.float32, np.float64))
+_NARROW = (np.dtype(np.uint8), np.dtype(np.uint16))   # dtype-range histogram and level bounds (unchanged)
+_DTYPE_NAMES = "uint8, uint16, uint32, int8, int16, int32, float32 or float64"
+#: Bytes of one slab of the slab-wise passes over a volume (range, finiteness).
+_SLAB_BYTES = 2 ** 26
 
 #: Largest volume (bytes) :func:`load_volume` reads into memory: every size a file declares (``.npy``/``.npz``
 #: headers, TIFF pages) is checked against it before anything is allocated. Memory-mapped ``.npy`` files need
@@ -25,14 +32,14 @@ MAX_VOLUME_BYTES = 16 * 2 ** 30
 
 
 def _check_declared(path, shape, dtype, *, mapped: bool = False) -> None:
-    """Refuse a declared volume that is not (X, Y, Z) uint8/uint16 or too big to read, before allocating it."""
+    """Refuse a declared volume that is not (X, Y, Z) of a volume dtype or too big to read, before allocating it."""
     dtype = np.dtype(dtype)
     dtype = dtype.newbyteorder("=") if dtype.byteorder != "|" else dtype   # '>u2' is uint16 (read natively)
     shape = tuple(int(s) for s in shape)
     if len(shape) != 3:
         raise ValueError(f"volume in {str(path)!r} must be a 3-D array (X, Y, Z), got shape {shape}")
     if dtype not in _DTYPES:
-        raise ValueError(f"volume in {str(path)!r} must have dtype uint8 or uint16, got {dtype}")
+        raise ValueError(f"volume in {str(path)!r} must have dtype {_DTYPE_NAMES}, got {dtype}")
     n = int(np.prod(shape, dtype=object)) * dtype.itemsize
     if not mapped and n > MAX_VOLUME_BYTES:
         raise ValueError(f"volume in {str(path)!r} declares shape {shape} ({n} bytes), more than the "
@@ -93,21 +100,47 @@ def _native(vol: np.ndarray, path) -> np.ndarray:
 
 
 def _check_volume(name: str, vol) -> np.ndarray:
+    """``vol`` as a native-order (X, Y, Z) ndarray of a volume dtype; float volumes must be finite (checked slab
+    by slab, so a memory map is read once and never copied)."""
+    return _checked(name, vol)[0]
+
+
+def _checked(name: str, vol, *, want_range: bool = False):
+    """:func:`_check_volume` plus, for float volumes or when ``want_range``, the data's (min, max) as floats
+    (one slab-wise pass finds both and any non-finite value); ``(vol, None)`` otherwise."""
     if not isinstance(vol, np.ndarray):
         vol = np.asarray(vol)
-    if vol.dtype.kind == "u" and not vol.dtype.isnative:
+    if vol.dtype.kind in "uif" and not vol.dtype.isnative:
         vol = _native(vol, name)                  # '>u2' is uint16 in the other byte order, not another dtype
     if vol.ndim != 3:
         raise ValueError(f"{name} must be a 3-D array (X, Y, Z), got shape {vol.shape}")
     if vol.dtype not in _DTYPES:
-        raise ValueError(f"{name} must have dtype uint8 or uint16, got {vol.dtype}")
+        raise ValueError(f"{name} must have dtype {_DTYPE_NAMES}, got {vol.dtype}")
     if min(vol.shape) < 2:
         raise ValueError(f"{name} must be at least 2 voxels along every axis, got shape {vol.shape}")
-    return vol
+    if not (want_range or vol.dtype.kind == "f"):
+        return vol, None
+    step = max(1, _SLAB_BYTES // max(1, vol.shape[1] * vol.shape[2] * vol.dtype.itemsize))
+    lo, hi = np.inf, -np.inf
+    for i in range(0, vol.shape[0], step):
+        blk = np.asarray(vol[i:i + step])
+        a, b = float(blk.min()), float(blk.max())          # NaN and +-inf show in the extremes
+        if not (np.isfinite(a) and np.isfinite(b)):
+            bad = blk[~np.isfinite(blk)].ravel()[0]
+            raise ValueError(f"{name} must hold finite values only, got {bad} in planes [{i}, "
+                             f"{min(i + step, vol.shape[0])}) of axis 0")
+        lo, hi = min(lo, a), max(hi, b)
+    return vol, (lo, hi)
+
+
+def _data_range(name: str, vol) -> tuple[np.ndarray, float, float]:
+    """The checked volume and its data (min, max) in one slab-wise pass."""
+    vol, (lo, hi) = _checked(name, vol, want_range=True)
+    return vol, lo, hi
 
 
 def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool = True) -> np.ndarray:
-    """Load a 3-D image stack as a uint8 or uint16 array, memory-mapped where possible.
+    """Load a 3-D image stack (uint8/16/32, int8/16/32, float32/64), memory-mapped where possible.
 
     Parameters
     ----------
@@ -122,13 +155,15 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
     Raises
     ------
     ValueError
-        A missing, truncated or corrupt file, or one declaring a volume that is not 3-D uint8/uint16 or
-        larger than :data:`MAX_VOLUME_BYTES` (checked from the file's headers before anything is allocated).
+        A missing, truncated or corrupt file, or one declaring a volume that is not 3-D of one of those dtypes
+        or larger than :data:`MAX_VOLUME_BYTES` (checked from the file's headers before anything is allocated);
+        a float volume holding NaN or infinity.
 
     Returns
     -------
-    (X, Y, Z) uint8 or uint16 ndarray
-        Axis order as stored in the file (for TIFF stacks: page, row, column).
+    (X, Y, Z) ndarray
+        The file's dtype in native byte order; axis order as stored in the file (for TIFF stacks: page, row,
+        column).
 
     References
     ----------
@@ -239,10 +274,11 @@ def downsample2(volume: np.ndarray, *, method: str = "mean", slab: int = 32) -> 
 
     Parameters
     ----------
-    volume : (X, Y, Z) uint8 or uint16 ndarray
+    volume : (X, Y, Z) uint8/16/32, int8/16/32 or float32/64 ndarray
         May be a memory map; odd trailing planes are dropped.
     method : {"mean", "max"}
-        Block reduction. ``"mean"`` rounds half up.
+        Block reduction. ``"mean"`` rounds half up for integer volumes (exact integer sums) and is the float64
+        mean rounded to the dtype for float volumes.
     slab : int
         Output planes computed at a time (bounds the temporary memory), in [1, 4096].
 
@@ -259,16 +295,19 @@ def downsample2(volume: np.ndarray, *, method: str = "mean", slab: int = 32) -> 
     slab = check_int("slab", slab, 1, 4096)
     nx, ny, nz = (s // 2 for s in volume.shape)
     out = np.empty((nx, ny, nz), volume.dtype)
-    acc = np.uint32
+    kind = volume.dtype.kind
+    acc = np.uint32 if volume.dtype in _NARROW else (np.uint64 if kind == "u" else np.int64)
     for i in range(0, nx, slab):
         j = min(i + slab, nx)
         blk = np.asarray(volume[2 * i:2 * j, :2 * ny, :2 * nz])
         b = blk.reshape(j - i, 2, ny, 2, nz, 2)
         if method == "max":
             out[i:j] = b.max(axis=(1, 3, 5))
+        elif kind == "f":
+            out[i:j] = b.mean(axis=(1, 3, 5), dtype=np.float64)
         else:
             s = b.sum(axis=(1, 3, 5), dtype=acc)
-            out[i:j] = ((s + 4) // 8).astype(volume.dtype)
+            out[i:j] = ((s + 4) // 8).astype(volume.dtype)          # floor division: half up for negatives too
     return out
 
 
@@ -277,9 +316,11 @@ def histogram(volume: np.ndarray, *, bins: int = 256, slab: int = 64) -> tuple[n
 
     Parameters
     ----------
-    volume : (X, Y, Z) uint8 or uint16 ndarray
+    volume : (X, Y, Z) uint8/16/32, int8/16/32 or float32/64 ndarray
     bins : int
-        Number of bins over the dtype's range, in [2, 65536].
+        Number of bins, in [2, 65536]: over the dtype's range ``[0, max + 1)`` for uint8/uint16, over the data's
+        range in its own units for every other dtype (``[min, max + 1)`` for integers, ``[min, max]`` for
+        floats, as :func:`numpy.histogram`; ``[v - 0.5, v + 0.5]`` when every voxel is ``v``).
     slab : int
         Planes per pass, in [1, 4096].
 
@@ -291,9 +332,18 @@ def histogram(volume: np.ndarray, *, bins: int = 256, slab: int = 64) -> tuple[n
     volume = _check_volume("volume", volume)
     bins = check_int("bins", bins, 2, 65536)
     slab = check_int("slab", slab, 1, 4096)
+    counts = np.zeros(bins, np.int64)
+    if volume.dtype not in _NARROW:
+        volume, lo, hi = _data_range("volume", volume)
+        if volume.dtype.kind in "iu":
+            hi += 1.0
+        elif lo == hi:
+            lo, hi = lo - 0.5, hi + 0.5
+        for i in range(0, volume.shape[0], slab):          # uniform bins: numpy's fast path, same edges per slab
+            counts += np.histogram(np.asarray(volume[i:i + slab]), bins=bins, range=(lo, hi))[0]
+        return counts, np.histogram_bin_edges(np.zeros(1), bins=bins, range=(lo, hi))
     top = float(np.iinfo(volume.dtype).max) + 1
     edges = np.linspace(0.0, top, bins + 1)
-    counts = np.zeros(bins, np.int64)
     for i in range(0, volume.shape[0], slab):
         c = np.bincount(np.asarray(volume[i:i + slab]).ravel(), minlength=int(top))
         idx = np.minimum((np.arange(int(top)) * bins) // int(top), bins - 1)
@@ -302,22 +352,25 @@ def histogram(volume: np.ndarray, *, bins: int = 256, slab: int = 64) -> tuple[n
 
 
 def suggest_level(volume: np.ndarray, *, bins: int = 256) -> float:
-    """A starting iso-value for the slider: Otsu's threshold of the slab-wise histogram, off the integer grid.
+    """A starting iso-value for the slider: Otsu's threshold of the slab-wise histogram, in the data's units.
 
     Parameters
     ----------
-    volume : (X, Y, Z) uint8 or uint16 ndarray
+    volume : (X, Y, Z) uint8/16/32, int8/16/32 or float32/64 ndarray
     bins : int
-        Histogram bins, in [2, 65536].
+        Histogram bins, in [2, 65536] (see :func:`histogram`).
 
     Returns
     -------
     float
-        Otsu threshold + 0.5, so that no voxel value equals the level (exact slab seams).
+        Integer volumes: Otsu threshold rounded down + 0.5, so that no voxel value equals the level (exact slab
+        seams), kept strictly inside the data's range for dtypes other than uint8/uint16. Float volumes: the
+        Otsu threshold itself.
 
     References
     ----------
     .. [1] Spec 000_vine §1.5 step 1/3: the thesis chose the iso-value by hand; this only seeds the choice.
+    .. [2] Issue 22: float and signed volumes, the level in the data's own units.
     """
     from skimage.filters import threshold_otsu
     counts, edges = histogram(volume, bins=bins)
@@ -325,4 +378,11 @@ def suggest_level(volume: np.ndarray, *, bins: int = 256) -> float:
         raise ValueError("volume is constant (all voxels in one histogram bin): no iso-value separates it")
     centres = 0.5 * (edges[:-1] + edges[1:])
     t = float(threshold_otsu(hist=(counts, centres)))
-    return float(np.floor(t)) + 0.5
+    dtype = np.asarray(volume).dtype                         # histogram checked it (no copy of an ndarray)
+    if dtype.kind == "f":
+        return t
+    level = float(np.floor(t)) + 0.5
+    if dtype.newbyteorder("=") not in _NARROW:
+        lo, hi = edges[0], edges[-1] - 1.0                   # the data's integer range
+        level = min(max(level, lo + 0.5), hi - 0.5)
+    return level

@@ -134,7 +134,7 @@ def test_save_rejects_bad_input(tmp_path, small, seg):
     p = tmp_path / "a.zip"
     for kw, match in [({"include_mesh": False}, "include_mesh=False needs the volume and level"),
                       ({"embed_volume": True}, "embed_volume=True needs volume"),
-                      ({"volume": small.volume.astype(np.float32)}, "volume must have dtype"),
+                      ({"volume": small.volume.astype(np.float16)}, "volume must have dtype"),
                       ({"slab": 1}, "slab must be an integer in"), ({"level": float("nan")}, "level must be"),
                       ({"spacing": (1, 0, 1)}, "spacing must be positive"),
                       ({"meta": {"x": object()}}, "must be JSON-serialisable")]:

@@ -311,7 +311,7 @@ def test_corrupt_volumes_are_refused(tmp_path, monkeypatch):
     npy = (tmp_path / "v.npy").read_bytes()
     (tmp_path / "tb.npy").write_bytes(npy.replace(b"(12, 12, 12)", b"(99999, 99999, 9999)"))
     (tmp_path / "obj.npy").write_bytes(_pickled())
-    (tmp_path / "f8.npy").write_bytes(_npy(np.zeros((4, 4, 4))))
+    (tmp_path / "f8.npy").write_bytes(_npy(np.zeros((4, 4, 4), np.float16)))
     cases += [tmp_path / "tb.npy", tmp_path / "obj.npy", tmp_path / "f8.npy"]
     cases.append(_rezip(tmp_path / "v.npz", tmp_path / "bomb.npz", replace={"volume.npy": ("bomb", {
         "descr": "|u1", "fortran_order": False, "shape": (BOMB // 4096, 64, 64)})}))
