@@ -151,7 +151,8 @@ class Segmentation(Document):
     @classmethod
     def from_volume(cls, volume: np.ndarray, level: float, *, downsample: bool = False, slab: int = 64,
                     **kwargs) -> Segmentation:
-        """Mesh a uint8/16/32, int8/16/32 or float32/64 volume at ``level`` (in the data's units) (slab-wise marching cubes) and start a segmentation."""
+        """Mesh a uint8/16/32, int8/16/32 or float32/64 volume at ``level`` (in the data's units; slab-wise
+        marching cubes) and start a segmentation."""
         from plantvr.adapters.vtk_isosurface import extract_isosurface
         from plantvr.vine.volume import downsample2
         if downsample:
