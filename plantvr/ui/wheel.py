@@ -24,9 +24,10 @@ __all__ = ["slice_at", "hex_to_rgb", "rgb_to_hex", "ColorWheel"]
 def rgb_to_hex(rgb) -> str:
     """``(r, g, b)`` in [0, 255] → ``"#rrggbb"``."""
     try:
-        c = np.asarray(rgb, dtype=float).ravel()[:3]
+        c = np.asarray(rgb, dtype=float)
     except (TypeError, ValueError):
         c = np.zeros(0)
+    c = c[:3] if c.shape in ((3,), (4,)) else np.zeros(0)      # RGB or RGBA, nothing nested
     if c.shape != (3,) or not np.all((c >= 0) & (c <= 255)):  # NaN fails too
         raise ValueError(f"rgb must be 3 values in [0, 255], got {rgb!r}")
     return "#" + "".join(f"{int(round(v)):02x}" for v in c)
