@@ -40,7 +40,7 @@ from plantvr.vine.index import GridIndex, KDTreeIndex
 from plantvr.vine.stamps import merge_stamps
 from plantvr.vine.views import SavedView
 
-__all__ = ["Segmentation"]
+__all__ = ["Segmentation", "check_grid"]
 
 _FORMAT = 1
 #: Session format of a segmentation with uint16 labels (labels and history values uint16, up to 65536 colours).
@@ -58,10 +58,21 @@ _STATE_NAMES = ("format", "vertices", "faces", "normals", "labels", "rgba", "vis
                 "undo_old", "undo_new", "undo_off", "redo_idx", "redo_old", "redo_new", "redo_off",
                 "history_limits", "mesh")
 
-#: Attributes of the mesh (and what is built from it once), shared by a replay's scratch copy.
-_MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_index", "_graph")
+#: Attributes of the mesh (and what is built from it once, and the voxel grid it was meshed on), shared by a
+#: replay's scratch copy.
+_MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_index", "_graph", "spacing", "origin")
 #: Attributes of the session state a restore, a bundle or a replay takes over.
 _SESSION_ATTRS = ("labels", "colors", "history", "views", "_stroke")
+
+
+def check_grid(spacing, origin) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """Validate a voxel grid: ``spacing`` 3 numbers in (0, 1e6], ``origin`` 3 finite numbers within ±1e6;
+    returns them as tuples of float (the grid :meth:`Segmentation.from_volume` meshes on)."""
+    sp = check_array("spacing", spacing, shape=(3,))
+    if np.any(sp <= 0) or np.any(sp > 1e6):
+        raise ValueError(f"spacing must be positive, each in (0, 1e6], got {sp.tolist()}")
+    org = check_point("origin", origin, max_abs=MAX_COORD)
+    return tuple(float(x) for x in sp), tuple(float(x) + 0.0 for x in org)
 
 
 class Segmentation(Document):
@@ -90,6 +101,11 @@ class Segmentation(Document):
     ----------
     labels : (V,) uint8 or uint16 ndarray
         One byte per vertex into ``colors`` (spec §2.4.2); two once the table holds more than 256 entries.
+    spacing, origin : tuple of 3 float
+        The voxel grid the mesh was extracted on (:meth:`from_volume`): voxel size and the position of voxel 0
+        along each volume axis, in the volume's physical units, so ``vertex = index * spacing + origin``;
+        ``(1, 1, 1)`` and ``(0, 0, 0)`` (voxel units) for a mesh given directly. Re-meshing the volume (the
+        review app's iso slider, a bundle without its mesh) uses them, so the mesh stays in the same units.
     version : int
         Bumped by every change of labels, colours, visibility or views.
     log : CommandLog
@@ -143,22 +159,58 @@ class Segmentation(Document):
         self._stroke: list[ArrayEdit] | None = None   # the open stroke's stamps (also staged in the history)
         self._preserve: bool | tuple[int, ...] = False  # default brush mode of paint(); see paint()
         self._graph = None
+        self.spacing: tuple[float, float, float] = (1.0, 1.0, 1.0)
+        self.origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
         lo, hi = bounds(v)
         ext = hi - lo
         self.max_radius = float(np.linalg.norm(ext)) + 1.0
 
     # ------------------------------------------------------------------ construction
     @classmethod
-    def from_volume(cls, volume: np.ndarray, level: float, *, downsample: bool = False, slab: int = 64,
-                    **kwargs) -> Segmentation:
+    def from_volume(cls, volume: np.ndarray, level: float, *, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0),
+                    downsample: bool = False, slab: int = 64, **kwargs) -> Segmentation:
         """Mesh a uint8/16/32, int8/16/32 or float32/64 volume at ``level`` (in the data's units; slab-wise
-        marching cubes) and start a segmentation."""
+        marching cubes) and start a segmentation whose vertices are in the volume's physical units.
+
+        Parameters
+        ----------
+        volume : (X, Y, Z) ndarray
+            The scan, axes in array order (as :func:`plantvr.io.volume.read_volume` returns them).
+        level : float
+            Iso-value in the data's own units.
+        spacing : (3,) float
+            Voxel size along each array axis (e.g. ``Volume.spacing``), each in (0, 1e6].
+        origin : (3,) float
+            Position of voxel 0 along each array axis (``Volume.origin``), same units, within ±1e6.
+        downsample : bool
+            2x block-mean downsampling first; the grid then has twice the spacing and its voxel 0 (the mean of
+            voxels 0 and 1) lies half a voxel further, so the surface stays in the same place.
+        slab : int
+            Meshing slab (planes along axis 0).
+        **kwargs
+            As for :class:`Segmentation`.
+
+        Returns
+        -------
+        Segmentation
+            Vertices ``index * spacing + origin`` (float32); :attr:`spacing` and :attr:`origin` hold the grid
+            that was meshed (after downsampling), so brush radii and distances are in the same units.
+        """
         from plantvr.adapters.vtk_isosurface import extract_isosurface
         from plantvr.vine.volume import downsample2
+        sp, org = check_grid(spacing, origin)
+        if not isinstance(downsample, (bool, np.bool_)):
+            raise ValueError(f"downsample must be True or False, got {downsample!r}")  # noqa: TRY004
         if downsample:
             volume = downsample2(volume)
-        s = extract_isosurface(volume, level, slab=slab)
-        return cls(s.vertices, s.faces, normals=s.normals, **kwargs)
+            sp, org = tuple(2.0 * x for x in sp), tuple(o + 0.5 * x for o, x in zip(org, sp))
+        s = extract_isosurface(volume, level, slab=slab, spacing=sp)
+        v = s.vertices
+        if org != (0.0, 0.0, 0.0):
+            v += np.asarray(org, np.float32)                 # in place: the surface's own float32 array
+        seg = cls(v, s.faces, normals=s.normals, **kwargs)
+        seg.spacing, seg.origin = sp, org
+        return seg
 
     @property
     def index(self):

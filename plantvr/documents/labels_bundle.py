@@ -1,8 +1,8 @@
 """Session bundles: one zip file with the whole ViNE labels document (spec 000_vine §2.7 persistence,
 checklist item 24; issue 15).
 
-A bundle holds the mesh (or the SHA-256 of its source volume plus the iso-value and meshing options, so the
-mesh is rebuilt from the scan), labels, colour table, visibility, saved views, undo/redo history, the
+A bundle holds the mesh (or the SHA-256 of its source volume plus the iso-value and meshing options, voxel
+spacing and origin included, so the mesh is rebuilt from the scan in the same physical units), labels, colour table, visibility, saved views, undo/redo history, the
 brush mode and the command log (:class:`~plantvr.commandlog.CommandLog` text), optionally the volume itself
 (small scans) or a path to it.
 
@@ -23,11 +23,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_bytes, npy_headers, read_zip, zip_directory
-from plantvr._validation import check_array, check_int, check_range
+from plantvr._validation import check_int, check_range
 from plantvr.commandlog import CommandLog
-from plantvr.documents.labels import _STATE_NAMES, Segmentation
+from plantvr.documents.labels import _STATE_NAMES, Segmentation, check_grid
 from plantvr.vine._filecheck import check_elements
-from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.volume import _check_declared, _check_volume
 
 __all__ = ["Bundle", "load_bundle", "restore_bundle", "save_bundle", "volume_sha256"]
@@ -65,6 +64,10 @@ class Bundle:
     volume_sha256 : str or None
     volume_path : str or None
         Where the volume lived when the bundle was saved (a reference only).
+    spacing, origin : tuple of 3 float
+        The voxel grid the mesh was extracted on (physical units; ``(1, 1, 1)`` and ``(0, 0, 0)`` for bundles
+        saved before origins were recorded); also the segmentation's :attr:`~Segmentation.spacing` /
+        :attr:`~Segmentation.origin`.
     meta : dict
         Free-form JSON metadata saved with the bundle.
     """
@@ -75,12 +78,13 @@ class Bundle:
     volume_sha256: str | None = None
     volume_path: str | None = None
     spacing: tuple = (1.0, 1.0, 1.0)
+    origin: tuple = (0.0, 0.0, 0.0)
     meta: dict = field(default_factory=dict)
 
 
 def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = None, level: float | None = None,
                 include_mesh: bool = True, embed_volume: bool = False, volume_path: str | None = None,
-                slab: int = 64, spacing=(1.0, 1.0, 1.0), meta: dict | None = None) -> str:
+                slab: int = 64, spacing=None, origin=None, meta: dict | None = None) -> str:
     """Write a segmentation session to one bundle file (atomically: temporary file, then rename).
 
     Parameters
@@ -95,16 +99,19 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
     level : float, optional
         Iso-value of the mesh (required with ``include_mesh=False``).
     include_mesh : bool
-        Store the mesh; ``False`` stores only the volume hash, ``level``, ``slab`` and ``spacing`` and the
-        mesh is re-extracted on load (and checked against the stored fingerprint).
+        Store the mesh; ``False`` stores only the volume hash, ``level``, ``slab``, ``spacing`` and ``origin``
+        and the mesh is re-extracted on load in the same units (and checked against the stored fingerprint).
     embed_volume : bool
         Store the volume itself (deflated) so the bundle is self-contained.
     volume_path : str, optional
         Reference to where the volume lives.
     slab : int
         Meshing slab, in [2, 65536] (as in :func:`extract_isosurface`).
-    spacing : (3,) float
-        Voxel size used for meshing.
+    spacing : (3,) float, optional
+        Voxel size used for meshing, each in (0, 1e6] (default: the segmentation's :attr:`~Segmentation.spacing`,
+        ``(1, 1, 1)`` unless it came from :meth:`Segmentation.from_volume` with a spacing).
+    origin : (3,) float, optional
+        Position of voxel 0, within ±1e6 (default: the segmentation's :attr:`~Segmentation.origin`).
     meta : dict, optional
         JSON-serialisable metadata.
 
@@ -122,9 +129,8 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
     if level is not None:
         level = check_range("level", level, -np.inf, np.inf, low_open=True, high_open=True)
     slab = check_int("slab", slab, 2, 65536)
-    sp = check_array("spacing", spacing, shape=(3,))
-    if np.any(sp <= 0):
-        raise ValueError(f"spacing must be positive, got {sp.tolist()}")
+    sp, org = check_grid(seg.spacing if spacing is None else spacing,
+                                      seg.origin if origin is None else origin)
     if not include_mesh and (volume is None or level is None):
         raise ValueError("include_mesh=False needs the volume and level to rebuild the mesh on load")
     if embed_volume and volume is None:
@@ -140,7 +146,7 @@ def save_bundle(path: str | os.PathLike, seg, *, volume: np.ndarray | None = Non
     pres = seg.preserve
     manifest = {
         "magic": _MAGIC, "format": BUNDLE_FORMAT, "include_mesh": bool(include_mesh),
-        "level": level, "slab": slab, "spacing": sp.tolist(),
+        "level": level, "slab": slab, "spacing": list(sp), "origin": list(org),
         "volume_sha256": None if volume is None else volume_sha256(volume),
         "volume_shape": None if volume is None else list(volume.shape),
         "volume_dtype": None if volume is None else volume.dtype.str,
@@ -239,6 +245,9 @@ def _check_manifest(man: dict, p: str) -> None:
     sp = man.get("spacing", [1.0, 1.0, 1.0])
     if not (isinstance(sp, list) and len(sp) == 3 and all(_is_num(x) and 0 < x <= 1e6 for x in sp)):
         bad("spacing", "3 numbers in (0, 1e6]")
+    org = man.get("origin", [0.0, 0.0, 0.0])
+    if not (isinstance(org, list) and len(org) == 3 and all(_is_num(x) and abs(x) <= 1e6 for x in org)):
+        bad("origin", "3 numbers within ±1e6")
     sha = man.get("volume_sha256")
     if sha is not None and not (isinstance(sha, str) and len(sha) == 64):
         bad("volume_sha256", "a 64-digit hex string or null")
@@ -280,6 +289,7 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
     """
     p = os.fspath(path)
     man, arrays = _read(p)
+    grid = check_grid(man.get("spacing", (1.0, 1.0, 1.0)), man.get("origin", (0.0, 0.0, 0.0)))
     want = man.get("volume_sha256")
     if volume is not None:
         volume = _check_volume("volume", volume)
@@ -298,8 +308,8 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
         if volume is None:
             raise ValueError(f"bundle {p!r} holds no mesh and no volume; pass volume= (the scan with sha256 "
                              f"{str(want)[:16]}…) to rebuild the mesh")
-        s = extract_isosurface(volume, man["level"], slab=int(man["slab"]), spacing=tuple(man["spacing"]))
-        base = Segmentation(s.vertices, s.faces, normals=s.normals)
+        base = Segmentation.from_volume(volume, man["level"], slab=int(man["slab"]), spacing=grid[0],
+                                        origin=grid[1])
         if [base.n_vertices, len(base.faces), base.mesh_fingerprint()] != man["mesh"]:
             raise ValueError(f"bundle {p!r}: the mesh rebuilt from the volume differs from the saved one "
                              f"(vertices, faces, fingerprint) {man['mesh']}")
@@ -307,6 +317,7 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
     else:
         d = Segmentation._check_state(arrays, p)
     seg = Segmentation._from_state(d, index=index)
+    seg.spacing, seg.origin = grid
     if [seg.n_vertices, len(seg.faces), seg.mesh_fingerprint()] != man["mesh"]:
         raise ValueError(f"bundle {p!r}: mesh does not match the manifest's fingerprint")
     pres = man.get("preserve", False)
@@ -318,8 +329,7 @@ def load_bundle(path: str | os.PathLike, *, volume: np.ndarray | None = None, in
         raise ValueError(f"bundle {p!r}: manifest field 'event_log' is not a ViNE command log: {exc}") from None
     seg.log.events = log.events
     return Bundle(seg, level=man.get("level"), volume=volume, volume_sha256=want,
-                  volume_path=man.get("volume_path"), spacing=tuple(man.get("spacing", (1.0, 1.0, 1.0))),
-                  meta=man.get("meta", {}))
+                  volume_path=man.get("volume_path"), spacing=grid[0], origin=grid[1], meta=man.get("meta", {}))
 
 
 def restore_bundle(seg, path: str | os.PathLike, *, volume: np.ndarray | None = None) -> Bundle:

@@ -46,7 +46,7 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_range
-from plantvr.documents.labels import Segmentation
+from plantvr.documents.labels import Segmentation, check_grid
 from plantvr.vine.colors import DEAD_ZONE, slice_at
 from plantvr.io import labels as io_labels
 from plantvr.vine.proxy import DisplayProxy
@@ -317,8 +317,13 @@ class VineReviewApp:
         Source volume; enables the iso-value slider (over the data's range, in its units) and histogram.
     level : float, optional
         Iso-value for ``volume`` (default: Otsu, :func:`plantvr.vine.volume.suggest_level`).
+    spacing, origin : (3,) float, optional
+        The voxel grid of ``volume`` (voxel size and position of voxel 0 per array axis, physical units, as
+        :func:`plantvr.io.volume.read_volume` returns them): the surface, the brush radius and every distance
+        are then in those units, and the iso slider re-meshes on the same grid. Default: the segmentation's
+        own grid (:attr:`Segmentation.spacing`, :attr:`~Segmentation.origin`; voxel units for a plain mesh).
     radius : float, optional
-        Initial brush radius (default 2 % of the mesh diagonal).
+        Initial brush radius (default 2 % of the mesh diagonal), in the mesh's units.
     window_size : tuple of 2 int
         Server render-window size.
     colour_updates : {"delta", "array"}
@@ -352,21 +357,26 @@ class VineReviewApp:
     def __init__(self, seg: Segmentation | None = None, *, proxy: DisplayProxy | None = None,
                  target_faces: int = 1_500_000, mode: str = "local", volume: np.ndarray | None = None,
                  level: float | None = None, radius: float | None = None, window_size=(900, 700),
-                 colour_updates: str = "delta", interactive_faces: int | None = 20_000):
+                 colour_updates: str = "delta", interactive_faces: int | None = 20_000,
+                 spacing=None, origin=None):
         from trame.app import get_server
         mode = check_choice("mode", mode, ("local", "remote"))
         self.colour_updates = check_choice("colour_updates", colour_updates, ("delta", "array"))
         target_faces = check_int("target_faces", target_faces, 4, 2 ** 31 - 1)
         self.interactive_faces = (None if interactive_faces is None
                                   else check_int("interactive_faces", interactive_faces, 4, 2 ** 31 - 1))
+        if seg is not None and not isinstance(seg, Segmentation):
+            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")
+        sp0, org0 = ((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)) if seg is None else (seg.spacing, seg.origin)
+        grid = check_grid(sp0 if spacing is None else spacing, org0 if origin is None else origin)
         if seg is None:
             if volume is None:
                 raise ValueError("give a Segmentation (seg) or a volume to mesh")
             from plantvr.vine.volume import suggest_level
             level = suggest_level(volume) if level is None else level
-            seg = Segmentation.from_volume(volume, level)
-        if not isinstance(seg, Segmentation):
-            raise ValueError(f"seg must be a Segmentation, got {type(seg).__name__}")  # noqa: TRY004
+            seg = Segmentation.from_volume(volume, level, spacing=grid[0], origin=grid[1])
+        #: the voxel grid the iso slider re-meshes ``volume`` on (physical units)
+        self.spacing, self.origin = grid
         self.mode = mode
         self.volume = volume
         self.target_faces = target_faces
@@ -397,8 +407,10 @@ class VineReviewApp:
         self._set_segmentation(seg, proxy)
         diag = float(np.linalg.norm(np.ptp(seg.vertices, axis=0)))
         r0 = 0.02 * diag if radius is None else check_range("radius", radius, 0.0, seg.max_radius, low_open=True)
+        r_max = float(f"{0.25 * diag:.3g}")         # 3 significant digits: a millimetre scan in metres keeps a range
         self.state.update({
-            "label": 1, "radius": r0, "radius_max": round(0.25 * diag, 3), "hidden": [],
+            "label": 1, "radius": r0, "radius_max": r_max, "radius_step": min(0.01, float(f"{r_max / 1000:.1g}")),
+            "hidden": [],
             "painted": 0, "can_undo": False, "can_redo": False, "level": float(level or 0.0),
             "histogram": histogram_svg(volume, level) if volume is not None else "",
             "n_full": seg.n_vertices, "n_proxy": self.proxy.n_vertices,
@@ -749,7 +761,7 @@ class VineReviewApp:
         if self.volume is None:
             return
         level = float(self.state.level)
-        seg = Segmentation.from_volume(self.volume, level)
+        seg = Segmentation.from_volume(self.volume, level, spacing=self.spacing, origin=self.origin)
         self._set_segmentation(seg, None)
         self.state.histogram = histogram_svg(self.volume, level)
         self.state.n_full, self.state.n_proxy = seg.n_vertices, self.proxy.n_vertices
@@ -778,7 +790,7 @@ class VineReviewApp:
             layout.title.set_text("ViNE review")
             with layout.toolbar:
                 v3.VSpacer()
-                v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=0.01, label="radius",
+                v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=("radius_step",), label="radius",
                            hide_details=True, density="compact", style="max-width: 220px",
                            classes="vine-radius mx-2")
                 if self.mode == "local":
@@ -946,17 +958,18 @@ def _read_volumes(open_source):
         if (not isinstance(s, str) or s == "synth" or s.startswith("synth:") or not s.strip()
                 or not os.path.exists(s) or Path(s).suffix.lower() in _MESH_SUFFIXES):
             return open_source(source, level=level, downsample=downsample)
-        from plantvr.adapters.vtk_isosurface import extract_isosurface
         from plantvr.io.volume import read_volume
         from plantvr.vine.volume import downsample2, suggest_level
         vol = read_volume(s)
         arr = np.asarray(vol.array)
         unit = f" {vol.meta['unit']}" if vol.meta.get("unit") else ""
+        sp, org = check_grid(vol.spacing, vol.origin)
         print(f"volume: {vol.format} {arr.dtype} {'x'.join(map(str, arr.shape))} (axes {vol.meta['axes']}), "
-              f"spacing {', '.join(f'{x:g}' for x in vol.spacing)}{unit}, origin "
-              f"{', '.join(f'{x:g}' for x in vol.origin)}; the surface is in voxel units")
-        if downsample:
+              f"spacing {', '.join(f'{x:g}' for x in sp)}{unit}, origin "
+              f"{', '.join(f'{x:g}' for x in org)}; the surface, the brush and distances are in these units")
+        if downsample:                               # the coarse grid: twice the spacing, voxel 0 half a voxel on
             arr = downsample2(arr)
+            sp, org = tuple(2.0 * x for x in sp), tuple(o + 0.5 * x for o, x in zip(org, sp))
         lo, hi = float(arr.min()), float(arr.max())
         if lo == hi:
             raise ValueError(f"volume {s!r} is constant (every voxel is {lo:g}): it has no surface to extract")
@@ -964,8 +977,8 @@ def _read_volumes(open_source):
             lev = suggest_level(arr)                 # Otsu in the data's own units, any volume dtype
         else:
             lev = check_range("level", level, lo, hi, low_open=True, high_open=True)
-        surf = extract_isosurface(arr, lev)
-        return Source(Segmentation(surf.vertices, surf.faces, normals=surf.normals), arr, lev, None)
+        seg = Segmentation.from_volume(arr, lev, spacing=sp, origin=org, slab=16)
+        return Source(seg, arr, lev, None)
 
     return opener
 

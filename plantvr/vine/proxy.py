@@ -329,8 +329,9 @@ def _pull_far_members(vertices: np.ndarray, pts: np.ndarray, pf: np.ndarray, own
 # ---------------------------------------------------------------------------------------------- labels
 @numba.njit(cache=True, nogil=True)
 def _proxy_labels_kernel(members, starts, labels, visible, pids, out):  # pragma: no cover - twin below
-    counts = np.zeros(256, np.int64)
-    seen = np.empty(256, np.int64)
+    # one count per possible label: visible has 256 entries for uint8 labels, up to 65536 for uint16 ones
+    counts = np.zeros(visible.shape[0], np.int64)
+    seen = np.empty(visible.shape[0], np.int64)
     for t in range(pids.shape[0]):
         p = pids[t]
         k = 0
@@ -350,20 +351,22 @@ def _proxy_labels_kernel(members, starts, labels, visible, pids, out):  # pragma
             if (vis and not best_vis) or (vis == best_vis and (c > best_n or (c == best_n and lab < best))):
                 best, best_n, best_vis = lab, c, vis
             counts[lab] = 0
-        out[p] = np.uint8(max(best, 0))
+        out[p] = max(best, 0)
 
 
 def _proxy_labels_numpy(owner: np.ndarray, n_proxy: int, labels: np.ndarray, visible: np.ndarray) -> np.ndarray:
-    """Numpy twin: rank (visible, count, -label) per proxy vertex with one lexsort."""
-    key = owner.astype(np.int64) * 256 + labels
+    """Numpy twin: rank (visible, count, -label) per proxy vertex with one lexsort (uint8 or uint16 labels)."""
+    labels = np.asarray(labels)
+    base = 256 if labels.dtype == np.uint8 else 65536          # one key slot per possible label
+    key = owner.astype(np.int64) * base + labels
     uk, cnt = np.unique(key, return_counts=True)
-    p, lab = uk // 256, (uk % 256).astype(np.uint8)
-    vis = visible[lab].astype(np.int64)
+    p, lab = uk // base, (uk % base).astype(labels.dtype)
+    vis = _lut(visible, labels.dtype)[lab].astype(np.int64)
     order = np.lexsort((lab, -cnt, -vis, p))                  # per p: visible first, most frequent, smallest
     p_sorted = p[order]
     first = np.ones(len(order), bool)
     first[1:] = p_sorted[1:] != p_sorted[:-1]
-    out = np.zeros(n_proxy, np.uint8)
+    out = np.zeros(n_proxy, labels.dtype)
     out[p_sorted[first]] = lab[order][first]
     return out
 
@@ -377,29 +380,32 @@ def proxy_labels(owner: np.ndarray, n_proxy: int, labels: np.ndarray, visible: n
         Proxy vertex of every full-resolution vertex, in [0, n_proxy).
     n_proxy : int
         Number of proxy vertices.
-    labels : (V,) uint8 ndarray
-        Full-resolution labels.
-    visible : (256,) or (N,) bool ndarray
-        Visibility per label.
+    labels : (V,) uint8 or uint16 ndarray
+        Full-resolution labels (any other integer dtype is taken as uint8, as before).
+    visible : (N,) bool ndarray
+        Visibility per label (missing entries are hidden).
 
     Returns
     -------
-    (n_proxy,) uint8 ndarray
+    (n_proxy,) ndarray of the labels' dtype (uint8 or uint16)
         Most frequent visible member label (all members when none is visible; ties to the smaller label).
     """
     own = np.asarray(owner)
     n_proxy = check_int("n_proxy", n_proxy, 1, 2 ** 31 - 1)
     if own.shape != np.asarray(labels).shape:
         raise ValueError(f"owner and labels must have the same shape, got {own.shape} and {np.shape(labels)}")
+    lab = np.asarray(labels)
+    lab = lab if lab.dtype == np.uint16 else np.asarray(lab, np.uint8)
     members, starts = counting_sort(own, n_proxy, np.int32)
-    out = np.zeros(n_proxy, np.uint8)
-    _proxy_labels_kernel(members, starts, np.asarray(labels, np.uint8), _lut(visible), np.arange(n_proxy), out)
+    out = np.zeros(n_proxy, lab.dtype)
+    _proxy_labels_kernel(members, starts, lab, _lut(visible, lab.dtype), np.arange(n_proxy), out)
     return out
 
 
-def _lut(visible) -> np.ndarray:
-    lut = np.zeros(256, np.bool_)
+def _lut(visible, dtype=np.uint8) -> np.ndarray:
+    """Visibility padded to one entry per possible label of ``dtype`` (256 for uint8, 65536 for uint16)."""
     vis = np.asarray(visible, bool)
+    lut = np.zeros(max(256 if np.dtype(dtype) == np.uint8 else 65536, len(vis)), np.bool_)
     lut[:len(vis)] = vis
     return lut
 
@@ -449,8 +455,8 @@ class DisplayProxy(HasTraits):
         Proxy vertex of every full-resolution vertex.
     members, starts : (V,) int32 and (P + 1,) int32 ndarrays
         Members of proxy vertex ``p``: ``members[starts[p]:starts[p + 1]]``.
-    labels : (P,) uint8 ndarray
-        Proxy labels (see module docstring).
+    labels : (P,) uint8 or uint16 ndarray
+        Proxy labels (see module docstring), in the document's label dtype (uint16 past 256 colours).
     timings : dict
         Seconds spent in each build step.
     change : plantvr.document.Change
@@ -511,7 +517,7 @@ class DisplayProxy(HasTraits):
         del owner
         self.normals = seg.normals if self.vertices is seg.vertices and seg.normals is not None \
             else _vertex_normals(self.vertices, self.faces.astype(np.int64))
-        self.labels = np.zeros(len(self.vertices), np.uint8)
+        self.labels = np.zeros(len(self.vertices), seg.labels.dtype)
         self.recompute()
         self.timings["labels"] = time.perf_counter() - t3
         self.timings["total"] = time.perf_counter() - t0
@@ -547,16 +553,24 @@ class DisplayProxy(HasTraits):
 
     # ------------------------------------------------------------------ labels
     def recompute(self) -> None:
-        """Recompute every proxy label from the full-resolution labels (O(V))."""
-        _proxy_labels_kernel(self.members, self.starts, self.seg.labels, self.colors.paintable_lut(),
+        """Recompute every proxy label from the full-resolution labels (O(V)); proxy labels follow the
+        document's dtype (uint8, or uint16 once its labels widened)."""
+        lab = self.seg.labels
+        if self.labels.dtype != lab.dtype:
+            self.labels = np.zeros(self.n_vertices, lab.dtype)
+        _proxy_labels_kernel(self.members, self.starts, lab, self.colors.paintable_lut(),
                              np.arange(self.n_vertices), self.labels)
 
     def labels_from(self, labels: np.ndarray) -> np.ndarray:
-        """Proxy labels for another full-resolution label array (e.g. a triple-buffer snapshot)."""
+        """Proxy labels for another full-resolution label array (e.g. a triple-buffer snapshot), uint8 or
+        uint16 (the result has its dtype)."""
         lab = np.asarray(labels)
-        if lab.dtype != np.uint8 or lab.shape != (self.seg.n_vertices,):
-            raise ValueError(f"labels must be uint8 of shape ({self.seg.n_vertices},), got {lab.dtype} {lab.shape}")
-        out = np.empty(self.n_vertices, np.uint8)
+        if lab.dtype not in (np.uint8, np.uint16) or lab.shape != (self.seg.n_vertices,):
+            raise ValueError(f"labels must be uint8 or uint16 of shape ({self.seg.n_vertices},), got {lab.dtype} "
+                             f"{lab.shape}")
+        if lab.dtype == np.uint16 and not self.colors.wide:
+            raise ValueError("labels must be uint8 for a segmentation with uint8 labels, got uint16")
+        out = np.empty(self.n_vertices, lab.dtype)
         _proxy_labels_kernel(self.members, self.starts, lab, self.colors.paintable_lut(),
                              np.arange(self.n_vertices), out)
         return out
@@ -579,10 +593,12 @@ class DisplayProxy(HasTraits):
             return np.zeros(0, np.int64)
         if ids.dtype.kind not in "iu" or ids.ndim != 1:
             raise ValueError(f"ids must be a 1-D integer array, got {ids.dtype} {ids.shape}")
+        lab = self.seg.labels
+        if self.labels.dtype != lab.dtype:                    # the document widened to uint16 labels
+            self.labels = self.labels.astype(lab.dtype)
         pids = np.unique(self.owner[ids]).astype(np.int64)
         old = self.labels[pids]
-        _proxy_labels_kernel(self.members, self.starts, self.seg.labels, self.colors.paintable_lut(), pids,
-                             self.labels)
+        _proxy_labels_kernel(self.members, self.starts, lab, self.colors.paintable_lut(), pids, self.labels)
         return pids[self.labels[pids] != old]
 
     # ------------------------------------------------------------------ what a view draws

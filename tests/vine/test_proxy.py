@@ -234,3 +234,65 @@ def test_rejected_arguments(seg):
     with pytest.raises(ValueError, match="labels must be uint8"):
         px.labels_from(np.zeros(3, np.uint8))
     assert np.array_equal(px.labels_from(seg.labels), px.labels)
+
+
+# ---------------------------------------------------------------------------------------------- uint16 labels
+def test_uint16_kernel_equals_numpy_twin():
+    rng = np.random.default_rng(7)
+    owner = rng.integers(0, 300, 20_000)
+    labels = rng.integers(0, 1200, 20_000).astype(np.uint16)
+    labels[rng.random(20_000) < 0.5] = 917                    # real majorities to find
+    vis = rng.random(1200) < 0.7
+    got = proxy_labels(owner, 300, labels, vis)
+    assert got.dtype == np.uint16 and got.max() > 255
+    assert np.array_equal(got, _proxy_labels_numpy(owner, 300, labels, vis))
+    narrow = proxy_labels(owner, 300, (labels % 256).astype(np.uint8), vis[:256])
+    assert narrow.dtype == np.uint8                           # uint8 stays uint8
+
+
+def test_uint16_segmentation_through_the_proxy(surface):
+    """More than 256 colours: proxy labels are uint16, follow paint / undo / hide, and its colours are the
+    table's, through a decimated proxy and its view."""
+    pytest.importorskip("pyvista")
+    from plantvr.view.segmentation import SegmentationView
+    from plantvr.vine.colors import ColorTable
+    seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals, colors=ColorTable.with_size(1000))
+    assert seg.labels.dtype == np.uint16
+    proxy = DisplayProxy(seg, target_faces=len(seg.faces) // 8)
+    assert proxy.labels.dtype == np.uint16
+    view = SegmentationView(seg, proxy=proxy, window_size=(240, 180))
+    rng = np.random.default_rng(5)
+    for k in (300, 917, 5, 999, 256):
+        p = proxy.vertices[rng.integers(proxy.n_vertices)].astype(float)
+        n = view.paint_at(p, radius=6.0, label=k)
+        assert n > 0 and np.array_equal(proxy.labels, _recomputed(proxy, seg))
+        assert set(np.nonzero(seg.labels == k)[0]) <= set(ball_query_brute(seg.vertices, p, 6.0).tolist())
+    assert {300, 917, 999}.issubset(set(proxy.labels.tolist()))
+    assert np.array_equal(view.mesh.point_data["rgba"], proxy.vertex_colors())
+    assert np.array_equal(proxy.vertex_colors(), seg.colors.rgba[proxy.labels])
+    seg.hide(917)
+    assert not np.isin(proxy.labels[proxy.visible_faces()], [917]).any()
+    assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+    seg.undo()
+    assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+    assert np.array_equal(proxy.labels_from(seg.labels), proxy.labels)
+    lod = proxy.coarser(len(proxy.faces) // 4)
+    assert lod.labels.dtype == np.uint16 and np.array_equal(lod.labels, _recomputed(lod, seg))
+    view.close()
+    proxy.close()
+    lod.close()
+
+
+def test_proxy_follows_a_segmentation_that_widens(seg, proxy):
+    seg.paint(seg.vertices[3], 5.0, 4)
+    assert proxy.labels.dtype == np.uint8
+    while len(seg.colors) <= 300:
+        seg.add_color((10, 20, 30))                           # the 257th entry widens the labels once
+    assert seg.labels.dtype == np.uint16 and proxy.labels.dtype == np.uint16
+    assert np.array_equal(proxy.labels, _recomputed(proxy, seg))
+    seg.paint(seg.vertices[seg.n_vertices // 2].astype(float), 6.0, 300)
+    assert 300 in proxy.labels and np.array_equal(proxy.labels, _recomputed(proxy, seg))
+    assert np.array_equal(proxy.vertex_colors()[proxy.labels == 300], np.tile([10, 20, 30, 255], (
+        int((proxy.labels == 300).sum()), 1)))
+    with pytest.raises(ValueError, match="labels must be uint8 or uint16"):
+        proxy.labels_from(seg.labels.astype(np.int32))
