@@ -223,11 +223,12 @@ def distribute(n: int, species: list[Species], interactions: dict, *, size: tupl
         if not isinstance(key, tuple) or len(key) != 2 or not isinstance(val, (tuple, list)) or len(val) != 3:
             raise ValueError(f"interactions must map (i, j) to (kind, s, a), got {key!r}: {val!r}")
         (i, j), (kind, sval, a) = key, val
-        check_int("interaction species", i, 0, ns - 1)
-        check_int("interaction species", j, 0, ns - 1)
-        kind = check_choice("interaction kind", kind, ("cluster", "inhibit"))
-        sval = check_range("s", sval, 1.0 if kind == "inhibit" else 0.0, 1e12)  # ERRATUM E9
-        kern[(int(i), int(j))] = (kind, sval, check_range("a", a, 0.0, 2 * MAX_COORD, low_open=True))
+        at = f"interactions[{key!r}]"                      # every error names the parameter and the entry
+        check_int(f"{at} species", i, 0, ns - 1)
+        check_int(f"{at} species", j, 0, ns - 1)
+        kind = check_choice(f"{at} kind", kind, ("cluster", "inhibit"))
+        sval = check_range(f"{at} s", sval, 1.0 if kind == "inhibit" else 0.0, 1e12)  # ERRATUM E9
+        kern[(int(i), int(j))] = (kind, sval, check_range(f"{at} a", a, 0.0, 2 * MAX_COORD, low_open=True))
     ny, nx = pair("shape", shape, kind="int", low=1, high=8192)
     if ns * ny * nx > 2 * MAX_CELLS:
         raise ValueError(f"shape {shape!r} with {ns} species needs {ns * ny * nx} field cells, more than {2 * MAX_CELLS}")

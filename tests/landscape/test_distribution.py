@@ -93,8 +93,10 @@ def test_ts_v20_species_choice_scale_and_kernels():
     assert d_min > 0.2  # never inside another tree's occupied radius (S T_w / 2 = 0.2)
     with pytest.raises(ValueError, match="s must be in"):
         distribute(1, one, {(0, 0): ("inhibit", 0.5, 3.0)})
-    with pytest.raises(ValueError, match="interaction kind"):
+    with pytest.raises(ValueError, match=r"interactions\[\(0, 0\)\] kind"):
         distribute(1, one, {(0, 0): ("attract", 2.0, 3.0)})
+    with pytest.raises(ValueError, match=r"interactions\[\(0, 0\)\] kind"):   # found by the landscape fuzz
+        distribute(1, one, {(0, 0): (1.0, 2.0, 3.0)})
 
 
 def test_ts_terrain_brushes_water_and_exclusion_mask_placement():
