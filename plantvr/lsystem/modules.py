@@ -1,0 +1,103 @@
+"""A derived L-system string as arrays: module ids plus their parameters (CSR layout).
+
+One :class:`ModuleString` is what the engine derives and what the turtle interprets; a million modules are a
+few arrays, not a million Python objects.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+
+__all__ = ["ModuleString"]
+
+
+@dataclass(frozen=True, eq=False)
+class ModuleString:
+    """A string of parametric modules.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The symbol table: module id ``k`` is named ``names[k]``.
+    ids : (n,) int32 ndarray
+        Module ids in string order.
+    arg_ptr : (n + 1,) int64 ndarray
+        Module ``i`` has parameters ``args[arg_ptr[i]:arg_ptr[i + 1]]``.
+    args : (m,) float64 ndarray
+        All parameters, module after module.
+    """
+
+    names: tuple[str, ...]
+    ids: np.ndarray
+    arg_ptr: np.ndarray
+    args: np.ndarray
+
+    def __post_init__(self) -> None:
+        ids = np.asarray(self.ids)
+        ptr = np.asarray(self.arg_ptr)
+        args = np.asarray(self.args)
+        n = ids.shape[0] if ids.ndim == 1 else -1
+        if n < 0 or (ids.size and ids.dtype.kind not in "iu"):
+            raise ValueError(f"ids must be a 1-d integer array, got {ids.dtype} {ids.shape}")
+        if n and (ids.min() < 0 or ids.max() >= len(self.names)):
+            raise ValueError(f"ids must lie in [0, {len(self.names)}) (the symbol table), got "
+                             f"[{ids.min()}, {ids.max()}]")
+        if ptr.shape != (n + 1,) or (ptr.size and ptr.dtype.kind not in "iu"):
+            raise ValueError(f"arg_ptr must be an integer array of shape ({n + 1},), got {ptr.dtype} {ptr.shape}")
+        if args.ndim != 1:
+            raise ValueError(f"args must be a 1-d array, got shape {args.shape}")
+        if ptr[0] != 0 or ptr[-1] != args.shape[0] or np.any(np.diff(ptr) < 0):
+            raise ValueError(f"arg_ptr must rise from 0 to len(args) = {args.shape[0]}")
+        for name, value, dtype in (("ids", ids, np.int32), ("arg_ptr", ptr, np.int64), ("args", args, np.float64)):
+            value = np.ascontiguousarray(value, dtype)
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "names", tuple(str(s) for s in self.names))
+
+    @classmethod
+    def from_modules(cls, modules: Iterable[tuple[str, Sequence[float]] | str],
+                     names: Sequence[str] = ()) -> "ModuleString":
+        """Build from ``[("F", (1.0,)), "+", ("A", (2, 3)), ...]`` (a bare name has no parameters); ``names``
+        fixes the first entries of the symbol table."""
+        table = {s: i for i, s in enumerate(names)}
+        ids, counts, args = [], [], []
+        for m in modules:
+            name, vals = (m, ()) if isinstance(m, str) else m
+            ids.append(table.setdefault(name, len(table)))
+            counts.append(len(vals))
+            args.extend(float(v) for v in vals)
+        ptr = np.zeros(len(ids) + 1, np.int64)
+        np.cumsum(counts, out=ptr[1:])
+        return cls(tuple(table), np.array(ids, np.int32), ptr, np.array(args, np.float64))
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])
+
+    def module(self, i: int) -> tuple[str, tuple[float, ...]]:
+        """``(name, parameters)`` of module ``i``."""
+        a, b = self.arg_ptr[i], self.arg_ptr[i + 1]
+        return self.names[self.ids[i]], tuple(self.args[a:b].tolist())
+
+    def modules(self) -> list[tuple[str, tuple[float, ...]]]:
+        """Every module as ``(name, parameters)`` (a Python list: for tests and small strings)."""
+        return [self.module(i) for i in range(len(self))]
+
+    def count(self, name: str) -> int:
+        """How many modules are named ``name``."""
+        if name not in self.names:
+            return 0
+        return int(np.count_nonzero(self.ids == self.names.index(name)))
+
+    def __str__(self) -> str:
+        out = []
+        for name, vals in self.modules():
+            out.append(name + ("(" + ",".join(f"{v:g}" for v in vals) + ")" if vals else ""))
+        return "".join(out)
+
+    def __repr__(self) -> str:
+        text = str(self) if len(self) <= 40 else str(ModuleString(self.names, self.ids[:40],
+                                                                  self.arg_ptr[:41],
+                                                                  self.args[:self.arg_ptr[40]])) + "..."
+        return f"ModuleString({len(self)} modules: {text})"
