@@ -56,7 +56,7 @@ MAX_VIEWS = 1_000_000
 
 _STATE_NAMES = ("format", "vertices", "faces", "normals", "labels", "rgba", "visible", "views", "undo_idx",
                 "undo_old", "undo_new", "undo_off", "redo_idx", "redo_old", "redo_new", "redo_off",
-                "history_limits", "mesh")
+                "history_limits", "mesh", "grid")
 
 #: Attributes of the mesh (and what is built from it once, and the voxel grid it was meshed on), shared by a
 #: replay's scratch copy.
@@ -740,7 +740,8 @@ class Segmentation(Document):
                  views=np.array([v.to_array() for v in self.views], np.float64).reshape(-1, 13),
                  undo_idx=ui, undo_old=uo, undo_new=un, undo_off=uoff,
                  redo_idx=ri, redo_old=ro, redo_new=rn, redo_off=roff,
-                 history_limits=np.array([self.history.max_items, self.history.max_bytes], np.int64))
+                 history_limits=np.array([self.history.max_items, self.history.max_bytes], np.int64),
+                 grid=np.array([*self.spacing, *self.origin], np.float64))
         if self.normals is not None:
             d["normals"] = self.normals
         if not include_mesh:
@@ -768,7 +769,7 @@ class Segmentation(Document):
     @staticmethod
     def _element_bounds(n_vertices: int | None) -> dict[str, int]:
         """Largest element count of each state array for a mesh of ``n_vertices`` (None: not known yet)."""
-        b = {"format": 1, "history_limits": 2, "mesh": 3, "rgba": 4 * MAX_COLORS, "visible": MAX_COLORS,
+        b = {"format": 1, "history_limits": 2, "mesh": 3, "grid": 6, "rgba": 4 * MAX_COLORS, "visible": MAX_COLORS,
              "views": 13 * MAX_VIEWS, "undo_off": 10_001, "redo_off": 10_001}
         if n_vertices is not None:
             b.update(labels=n_vertices, normals=3 * n_vertices)
@@ -861,6 +862,15 @@ class Segmentation(Document):
                 raise ValueError(f"{where}: {side} history indexes vertices out of range")
             if (old.size and old.max() >= len(rgba)) or (new.size and new.max() >= len(rgba)):
                 raise ValueError(f"{where}: {side} history labels exceed the colour table")
+        grid = d.get("grid")  # voxel spacing and origin of the mesh (absent in files saved before they were kept)
+        if grid is not None:
+            if grid.dtype != np.float64 or grid.shape != (6,):
+                raise ValueError(f"{where}: grid must be float64 (6,) [spacing, origin], got {grid.dtype} "
+                                 f"{grid.shape}")
+            try:
+                check_grid(grid[:3], grid[3:])
+            except ValueError as exc:
+                raise ValueError(f"{where}: {exc}") from None
         views = d["views"]
         if views.dtype != np.float64 or views.ndim != 2 or views.shape[1] != 13:
             raise ValueError(f"{where}: views must be float64 (N, 13), got {views.dtype} {views.shape}")
@@ -891,6 +901,8 @@ class Segmentation(Document):
             for a, b in pairwise(off):
                 stack.append(ArrayEdit(idx[a:b].astype(itype), old[a:b].copy(), new[a:b].copy()))
         seg.views = views
+        if "grid" in d:
+            seg.spacing, seg.origin = check_grid(d["grid"][:3], d["grid"][3:])
         return seg
 
     def restore(self, path: str | os.PathLike) -> None:

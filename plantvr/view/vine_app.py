@@ -926,7 +926,8 @@ def main_segment(argv: list[str] | None = None) -> int:
     """
     import argparse
 
-    from plantvr.documents.labels_app import open_source, paint_demo
+    from plantvr.documents.labels_app import paint_demo
+    from plantvr.io.source import open_source
     ap = argparse.ArgumentParser(prog="plantvr segment", description=main_segment.__doc__.split("\n")[0])
     ap.add_argument("source", help="volume (.tif/.nrrd/.nii[.gz]/.mha/.mhd/.vti/.h5/.npy/.npz, a .zarr or "
                                    "DICOM folder), mesh file (.ply/.obj/...), or synth[:N]")
@@ -942,45 +943,10 @@ def main_segment(argv: list[str] | None = None) -> int:
     ap.add_argument("--stamps", type=int, default=24, help="demo brush stamps with --out")
     a = ap.parse_args(argv)
     try:
-        return _segment(a, _read_volumes(open_source), paint_demo)
+        return _segment(a, open_source, paint_demo)
     except ValueError as exc:                       # one line on stderr and exit code 2, never a traceback
         print(f"plantvr segment: error: {exc}".replace("\n", " "), file=sys.stderr)
         return 2
-
-
-def _read_volumes(open_source):
-    """``open_source`` with every volume SOURCE read through :func:`plantvr.io.volume.read_volume` (issue 22):
-    synthetic heads and mesh files go to ``open_source`` unchanged."""
-    from plantvr.documents.labels_app import _MESH_SUFFIXES, Source
-
-    def opener(source, *, level=None, downsample=False):
-        s = os.fspath(source) if isinstance(source, (str, os.PathLike)) else source
-        if (not isinstance(s, str) or s == "synth" or s.startswith("synth:") or not s.strip()
-                or not os.path.exists(s) or Path(s).suffix.lower() in _MESH_SUFFIXES):
-            return open_source(source, level=level, downsample=downsample)
-        from plantvr.io.volume import read_volume
-        from plantvr.vine.volume import downsample2, suggest_level
-        vol = read_volume(s)
-        arr = np.asarray(vol.array)
-        unit = f" {vol.meta['unit']}" if vol.meta.get("unit") else ""
-        sp, org = check_grid(vol.spacing, vol.origin)
-        print(f"volume: {vol.format} {arr.dtype} {'x'.join(map(str, arr.shape))} (axes {vol.meta['axes']}), "
-              f"spacing {', '.join(f'{x:g}' for x in sp)}{unit}, origin "
-              f"{', '.join(f'{x:g}' for x in org)}; the surface, the brush and distances are in these units")
-        if downsample:                               # the coarse grid: twice the spacing, voxel 0 half a voxel on
-            arr = downsample2(arr)
-            sp, org = tuple(2.0 * x for x in sp), tuple(o + 0.5 * x for o, x in zip(org, sp))
-        lo, hi = float(arr.min()), float(arr.max())
-        if lo == hi:
-            raise ValueError(f"volume {s!r} is constant (every voxel is {lo:g}): it has no surface to extract")
-        if level is None:
-            lev = suggest_level(arr)                 # Otsu in the data's own units, any volume dtype
-        else:
-            lev = check_range("level", level, lo, hi, low_open=True, high_open=True)
-        seg = Segmentation.from_volume(arr, lev, spacing=sp, origin=org, slab=16)
-        return Source(seg, arr, lev, None)
-
-    return opener
 
 
 def _check_segment_args(a) -> None:
@@ -1001,6 +967,8 @@ def _segment(a, open_source, paint_demo) -> int:
     _check_segment_args(a)
     src = open_source(a.source, level=a.level, downsample=a.downsample)
     seg = src.seg
+    if src.description:
+        print(src.description)
     print(f"surface: {seg.n_vertices:,} vertices, {len(seg.faces):,} faces"
           + (f" (iso-value {src.level:g})" if src.level is not None else ""))
     if a.out:

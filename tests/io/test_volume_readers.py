@@ -412,8 +412,8 @@ def test_segment_reads_big_endian_imagej_and_nrrd_sources(tmp_path, capsys):
     """Issue 22: ``plantvr segment`` refused a big-endian ImageJ stack (">u2") and every advertised .nrrd."""
     pytest.importorskip("trame")
     nrrd = pytest.importorskip("nrrd")
-    from plantvr.documents.labels_app import open_source
-    from plantvr.view.vine_app import _read_volumes, main_segment
+    from plantvr.io.source import open_source
+    from plantvr.view.vine_app import main_segment
     from plantvr.vine.synth import synth_flowerhead
     head = synth_flowerhead(32, rng=0)
     vol16 = head.volume.astype(np.uint16) * 200
@@ -421,12 +421,11 @@ def test_segment_reads_big_endian_imagej_and_nrrd_sources(tmp_path, capsys):
     ref = open_source(tmp_path / "ref.npy", level=head.level * 200)
     tifffile.imwrite(tmp_path / "ij.tif", vol16, imagej=True, byteorder=">", metadata={"axes": "ZYX"})
     nrrd.write(str(tmp_path / "v.nrrd"), vol16, {"endian": "big"}, index_order="F")
-    opener = _read_volumes(open_source)
     for name in ("ij.tif", "v.nrrd"):
-        src = opener(str(tmp_path / name), level=head.level * 200)
+        src = open_source(str(tmp_path / name), level=head.level * 200)
         assert src.volume.dtype == np.uint16 and np.array_equal(src.volume, vol16)
         assert np.array_equal(src.seg.vertices, ref.seg.vertices) and np.array_equal(src.seg.faces, ref.seg.faces)
-    assert "NRRD uint16 32x32x32" in capsys.readouterr().out
+    assert "NRRD uint16 32x32x32" in src.description
     assert main_segment([str(tmp_path / "ij.tif"), "--out", str(tmp_path / "out"), "--stamps", "3"]) == 0
     assert (tmp_path / "out" / "segment.ply").stat().st_size > 1000
     assert main_segment([str(tmp_path / "missing.nii"), "--out", str(tmp_path)]) == 2

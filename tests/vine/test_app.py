@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from plantvr.documents.labels import Segmentation
-from plantvr.documents.labels_app import open_source, paint_demo
+from plantvr.documents.labels_app import paint_demo
+from plantvr.io.source import open_source
 from plantvr.vine.volume import save_volume
 from plantvr.io import labels as io_labels
 

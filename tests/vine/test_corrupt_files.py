@@ -13,7 +13,7 @@ import pytest
 from plantvr._fileio import digest_arrays
 from plantvr.documents import labels_bundle as B
 from plantvr.documents.labels import Segmentation
-from plantvr.documents.labels_app import open_source
+from plantvr.io.source import open_source
 from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume

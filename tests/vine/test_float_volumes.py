@@ -238,7 +238,7 @@ def test_segmentation_from_volume_end_to_end(sdf, ct, kind):
 
 
 def test_open_source_reads_float_and_signed_files(tmp_path, sdf, ct):
-    from plantvr.documents.labels_app import open_source
+    from plantvr.io.source import open_source
     np.save(tmp_path / "sdf.npy", sdf)
     np.save(tmp_path / "ct.npy", ct)
     src = open_source(tmp_path / "sdf.npy", level=0.0)

@@ -271,7 +271,8 @@ def test_fuzz_volumes(fuzz, vol, x):
 @SET
 @given(x=SCALARS, src=st.sampled_from(["synth:x", "synth:0", "synth:5000", "", "nope.npy", "synth:16:2", 7, None]))
 def test_fuzz_open_source_and_demo(fuzz, surf, x, src):
-    from plantvr.documents.labels_app import open_source, paint_demo
+    from plantvr.documents.labels_app import paint_demo
+    from plantvr.io.source import open_source
     fuzz.call("open_source", open_source, src, param=("source", "size"))
     fuzz.call("open_source", open_source, "synth", size=x, param="size")
     fuzz.call("open_source", open_source, "synth:16", level=x, param="level")

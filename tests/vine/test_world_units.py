@@ -139,17 +139,16 @@ def test_older_bundle_without_origin_loads_as_before(tmp_path, box):
 
 def test_plantvr_segment_reads_spacing_and_origin(tmp_path, box):
     nrrd = pytest.importorskip("nrrd")
-    from plantvr.documents.labels_app import open_source
-    from plantvr.view.vine_app import _read_volumes
+    from plantvr.io.source import open_source
     nrrd.write(str(tmp_path / "b.nrrd"), box, {"space": "left-posterior-superior",
                                               "space directions": np.diag(SPACING),
                                               "space origin": np.array(ORIGIN)})
-    src = _read_volumes(open_source)(str(tmp_path / "b.nrrd"), level=100.0)
+    src = open_source(str(tmp_path / "b.nrrd"), level=100.0)
     want = Segmentation.from_volume(box, 100.0, spacing=SPACING, origin=ORIGIN)
     assert src.seg.spacing == SPACING and src.seg.origin == ORIGIN
     assert np.allclose(src.seg.vertices.min(0), want.vertices.min(0), atol=1e-5)
     assert np.allclose(src.seg.vertices.max(0), want.vertices.max(0), atol=1e-5)
-    ds = _read_volumes(open_source)(str(tmp_path / "b.nrrd"), level=100.0, downsample=True)
+    ds = open_source(str(tmp_path / "b.nrrd"), level=100.0, downsample=True)
     assert ds.seg.spacing == (1.0, 1.0, 4.0) and ds.volume.shape == (12, 10, 6)
     assert np.allclose(ds.seg.vertices.min(0), want.vertices.min(0), atol=1e-5)
 
@@ -175,3 +174,37 @@ def test_review_app_remeshes_on_the_same_grid(box):
         assert 0 < app.state.radius_step <= 0.01
     finally:
         app.view.close()
+
+
+def test_session_file_keeps_spacing_and_origin(box, tmp_path):
+    seg = Segmentation.from_volume(box, 100.0, spacing=SPACING, origin=ORIGIN)
+    seg.paint(seg.vertices[0], 2.0, 3)
+    back = Segmentation.load(seg.save(tmp_path / "s.npz"))
+    assert back.spacing == SPACING and back.origin == ORIGIN
+    assert np.array_equal(back.labels, seg.labels) and np.array_equal(back.vertices, seg.vertices)
+    other = Segmentation.from_volume(box, 100.0, spacing=SPACING, origin=ORIGIN)
+    other.restore(seg.save(tmp_path / "l.npz", include_mesh=False))
+    assert other.spacing == SPACING and np.array_equal(other.labels, seg.labels)
+
+
+@pytest.mark.parametrize("grid", [np.array([0.5, 0.5, -2.0, 0, 0, 0]), np.array([1.0, 1, 1, np.nan, 0, 0]),
+                                  np.zeros(5), np.ones(6, np.float32)])
+def test_crafted_grid_in_session_file_is_refused_and_changes_nothing(box, tmp_path, grid):
+    seg = Segmentation.from_volume(box, 100.0, spacing=SPACING, origin=ORIGIN)
+    d = dict(np.load(seg.save(tmp_path / "s.npz")))
+    d["grid"] = grid
+    np.savez(tmp_path / "bad.npz", **d)
+    before = seg.labels.copy()
+    with pytest.raises(ValueError, match="grid|spacing|origin"):
+        seg.restore(tmp_path / "bad.npz")
+    with pytest.raises(ValueError, match="grid|spacing|origin"):
+        Segmentation.load(tmp_path / "bad.npz")
+    assert seg.spacing == SPACING and np.array_equal(seg.labels, before)
+
+
+def test_session_file_without_grid_loads_in_voxel_units(box, tmp_path):
+    seg = Segmentation.from_volume(box, 100.0)
+    d = dict(np.load(seg.save(tmp_path / "s.npz")))
+    del d["grid"]
+    np.savez(tmp_path / "old.npz", **d)
+    assert Segmentation.load(tmp_path / "old.npz").spacing == (1.0, 1.0, 1.0)
