@@ -284,7 +284,8 @@ def read_treeqsm(path, *, index: int = 0, return_map: bool = False):
     Parameters
     ----------
     path : str or path-like
-        ``.mat`` file saved by TreeQSM (``save(..., 'QSM')``; MATLAB v5/v7 formats, read by ``scipy.io.loadmat``).
+        ``.mat`` file saved by TreeQSM (``save(..., 'QSM')``): MATLAB v5/v7 files are read by ``scipy.io.loadmat``,
+        v7.3 (HDF5) files by ``h5py``.
     index : int
         Which model of a QSM array (TreeQSM saves one per input parameter set), in [0, count).
     return_map : bool
@@ -306,31 +307,19 @@ def read_treeqsm(path, *, index: int = 0, return_map: bool = False):
 
     try:
         mat = scipy.io.loadmat(str(p), squeeze_me=True, struct_as_record=False)
-    except NotImplementedError:
-        raise ValueError(f"cannot read TreeQSM file {str(p)!r}: MATLAB v7.3 (HDF5) files are not read; save the "
-                         "QSM with save(..., '-v7')") from None
+    except NotImplementedError:                      # MATLAB v7.3: an HDF5 file behind a 512-byte header
+        fields = _treeqsm_v73(p, index)
     except (ValueError, TypeError, OSError, IndexError, KeyError, EOFError, scipy.io.matlab.MatReadError) as exc:
         raise ValueError(f"cannot read TreeQSM file {str(p)!r}: {exc or type(exc).__name__}"[:300]) from None
-    cyl = None
-    for key in ("QSM", "qsm", "Q", "OptQSM", "cylinder"):
-        if key in mat:
-            obj = mat[key]
-            if isinstance(obj, np.ndarray) and obj.dtype == object:
-                if index >= obj.size:
-                    raise ValueError(f"index must be in [0, {obj.size - 1}] for {str(p)!r}, got {index}")
-                obj = obj.flat[index]
-            cyl = obj if key == "cylinder" else getattr(obj, "cylinder", None)
-            break
-    if cyl is None:
-        raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (variables: "
-                         f"{sorted(k for k in mat if not k.startswith('__'))[:8]})")
+    else:
+        fields = _treeqsm_v7(p, mat, index)
 
     def field(name, required=True):
-        if not hasattr(cyl, name):
+        if name not in fields:
             if required:
                 raise ValueError(f"{str(p)!r}: qsm.cylinder has no field {name!r}")
             return None
-        return np.asarray(getattr(cyl, name))
+        return fields[name]
 
     start = np.atleast_2d(field("start").astype(np.float64))
     axis = np.atleast_2d(field("axis").astype(np.float64))
@@ -355,6 +344,70 @@ def read_treeqsm(path, *, index: int = 0, return_map: bool = False):
         return cylinders_to_tree(start, end, radius, parent, branch=br, extension=ext, return_map=return_map)
     except ValueError as exc:
         raise ValueError(f"{str(p)!r}: {exc}") from None
+
+
+_QSM_KEYS = ("QSM", "qsm", "Q", "OptQSM", "cylinder")
+_CYLINDER_FIELDS = ("start", "axis", "length", "radius", "parent", "extension", "branch")
+
+
+def _treeqsm_v7(p: Path, mat: dict, index: int) -> dict[str, np.ndarray]:
+    """The ``cylinder`` fields of a v5/v7 file read by ``scipy.io.loadmat``."""
+    cyl = None
+    for key in _QSM_KEYS:
+        if key in mat:
+            obj = mat[key]
+            if isinstance(obj, np.ndarray) and obj.dtype == object:
+                if index >= obj.size:
+                    raise ValueError(f"index must be in [0, {obj.size - 1}] for {str(p)!r}, got {index}")
+                obj = obj.flat[index]
+            cyl = obj if key == "cylinder" else getattr(obj, "cylinder", None)
+            break
+    if cyl is None:
+        raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (variables: "
+                         f"{sorted(k for k in mat if not k.startswith('__'))[:8]})")
+    return {name: np.asarray(getattr(cyl, name)) for name in _CYLINDER_FIELDS if hasattr(cyl, name)}
+
+
+def _treeqsm_v73(p: Path, index: int) -> dict[str, np.ndarray]:
+    """The ``cylinder`` fields of a MATLAB v7.3 (HDF5) file: a struct is a group, a struct array a group of
+    reference datasets, and every matrix is stored transposed (MATLAB is column-major)."""
+    try:
+        import h5py
+    except ImportError:
+        raise ValueError(f"cannot read TreeQSM file {str(p)!r}: MATLAB v7.3 files need h5py "
+                         "(pip install plantvr[formats])") from None
+    try:
+        with h5py.File(p, "r") as f:
+            key = next((k for k in _QSM_KEYS if k in f), None)
+            if key is None:
+                raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (variables: "
+                                 f"{sorted(k for k in f if not k.startswith('#'))[:8]})")
+            obj = f[key]
+            cyl = obj if key == "cylinder" else (obj.get("cylinder") if isinstance(obj, h5py.Group) else None)
+            if isinstance(cyl, h5py.Dataset) and cyl.dtype == h5py.ref_dtype:   # a QSM struct array
+                refs = cyl[()].ravel()
+                if index >= refs.size:
+                    raise ValueError(f"index must be in [0, {refs.size - 1}] for {str(p)!r}, got {index}")
+                cyl = f[refs[index]]
+            elif index != 0:
+                raise ValueError(f"index must be 0 for {str(p)!r} (one model), got {index}")
+            if not isinstance(cyl, h5py.Group):
+                raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct")
+            out = {}
+            for name in _CYLINDER_FIELDS:
+                ds = cyl.get(name)
+                if isinstance(ds, h5py.Dataset):
+                    if ds.size > 50_000_000 or ds.ndim > 2 or ds.dtype.kind not in "fiub":
+                        raise ValueError(f"{str(p)!r}: qsm.cylinder.{name} must be a numeric matrix of at most "
+                                         f"5e7 values, got {ds.dtype} {ds.shape}")
+                    a = np.asarray(ds[()]).T
+                    out[name] = a.ravel() if a.ndim == 2 and 1 in a.shape and name != "start" and name != "axis" \
+                        else a
+            return out
+    except ValueError:
+        raise
+    except (OSError, KeyError, TypeError, RuntimeError) as exc:
+        raise ValueError(f"cannot read TreeQSM file {str(p)!r}: {exc or type(exc).__name__}"[:300]) from None
 
 
 _SF_COLUMNS = {"id": ("id",), "parent": ("parentid", "parent_id", "parent"),

@@ -222,3 +222,79 @@ def test_model_from_scanned_tree_prunes_and_grows():
     m.step(3)
     assert m.n_internodes > n0 - removed
     m.undo()
+
+
+def _write_treeqsm_v73(path, models):
+    """A MATLAB v7.3 file as MATLAB writes it (h5py oracle of the layout): a 512-byte MATLAB header as the HDF5
+    user block, structs as groups tagged ``MATLAB_class``, matrices transposed, and a struct array as a group
+    whose fields are object-reference datasets into ``#refs#``."""
+    h5py = pytest.importorskip("h5py")
+    with h5py.File(path, "w", userblock_size=512) as f:
+        def put_cyl(group, start, end, radius, parent, branch):
+            group.attrs["MATLAB_class"] = np.bytes_("struct")
+            axis = end - start
+            length = np.linalg.norm(axis, axis=1)
+            ext = np.zeros(len(start))
+            for i, p in enumerate(parent):
+                if p >= 0 and branch[i] == branch[p]:
+                    ext[p] = i + 1
+            for name, a in (("radius", radius[:, None]), ("length", length[:, None]), ("start", start),
+                            ("axis", axis / length[:, None]), ("parent", (parent + 1)[:, None].astype(float)),
+                            ("extension", ext[:, None]), ("branch", branch[:, None].astype(float))):
+                ds = group.create_dataset(name, data=np.ascontiguousarray(a.T))   # column-major on disk
+                ds.attrs["MATLAB_class"] = np.bytes_("double")
+        q = f.create_group("QSM")
+        q.attrs["MATLAB_class"] = np.bytes_("struct")
+        if len(models) == 1:
+            put_cyl(q.create_group("cylinder"), *models[0])
+        else:
+            refs = f.create_group("#refs#")
+            rr = []
+            for k, m in enumerate(models):
+                g = refs.create_group(f"c{k}")
+                put_cyl(g, *m)
+                rr.append(g.ref)
+            q.create_dataset("cylinder", data=np.array(rr, dtype=h5py.ref_dtype)[:, None])
+    with open(path, "r+b") as fh:                    # MATLAB's text header in the user block
+        text = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Wed Dec  2 04:00:00 2026 HDF5 schema 1.00 ."
+        fh.write(text.ljust(116) + b"\0" * 8 + b"\x00\x02" + b"IM")   # subsystem offset, version 0x0200, endian
+
+
+def test_treeqsm_v73_hdf5_files(tmp_path):
+    """Issue 22: TreeQSM saves big models with save(..., '-v7.3'), which scipy.io.loadmat refuses."""
+    a, b = qsm_like(0), qsm_like(4, joint=6)
+    _write_treeqsm_v73(tmp_path / "one.mat", [a])
+    _write_treeqsm_v73(tmp_path / "two.mat", [a, b])
+    with pytest.raises(NotImplementedError):
+        scipy.io.loadmat(tmp_path / "one.mat")
+    for path, index, cyl in ((tmp_path / "one.mat", 0, a), (tmp_path / "two.mat", 0, a),
+                             (tmp_path / "two.mat", 1, b)):
+        ref = cylinders_to_tree(*cyl[:4], branch=cyl[4])
+        for tree in (read_treeqsm(path, index=index), read_qsm(path) if index == 0 else ref):
+            np.testing.assert_allclose(tree.pos, ref.pos, atol=1e-12)
+            np.testing.assert_array_equal(tree.parent, ref.parent)
+            np.testing.assert_array_equal(tree.order, ref.order)
+    with pytest.raises(ValueError, match=r"index must be in \[0, 1\]"):
+        read_treeqsm(tmp_path / "two.mat", index=2)
+    with pytest.raises(ValueError, match="index must be 0"):
+        read_treeqsm(tmp_path / "one.mat", index=1)
+
+
+def test_treeqsm_v73_crafted_files_are_refused(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    _write_treeqsm_v73(tmp_path / "q.mat", [qsm_like(0)])
+    with h5py.File(tmp_path / "q.mat", "r+") as f:
+        del f["QSM/cylinder/radius"]
+        f["QSM/cylinder"].create_dataset("radius", data=np.array([b"abc"]))
+    with pytest.raises(ValueError, match="radius"):
+        read_treeqsm(tmp_path / "q.mat")
+    with h5py.File(tmp_path / "q.mat", "r+") as f:
+        del f["QSM/cylinder"]
+    with pytest.raises(ValueError, match="qsm.cylinder"):
+        read_treeqsm(tmp_path / "q.mat")
+    _write_treeqsm_v73(tmp_path / "r.mat", [qsm_like(0)])
+    with h5py.File(tmp_path / "r.mat", "r+") as f:
+        del f["QSM/cylinder/start"]
+        f["QSM/cylinder"].create_dataset("start", data=np.zeros((2, 5)))
+    with pytest.raises(ValueError, match="start must have shape"):
+        read_treeqsm(tmp_path / "r.mat")
