@@ -417,7 +417,9 @@ _SF_COLUMNS = {"id": ("id",), "parent": ("parentid", "parent_id", "parent"),
 _ARCHI_COLUMNS = {"id": ("cyl_id",), "parent": ("parent_id",),
                   "sx": ("startx",), "sy": ("starty",), "sz": ("startz",),
                   "ex": ("endx",), "ey": ("endy",), "ez": ("endz",), "radius": ("radius_cyl", "radius"),
-                  "branch": ("axis_id",), "extension": ("extension_id",)}
+                  "branch": ("branch_id", "axis_id"), "extension": ("extension_id",)}
+# Column names as rTwig's standardize_qsm() maps them (SimpleForest: ID, parentID, branchID, startX..endZ, radius;
+# aRchi: cyl_ID, parent_ID, branch_ID, startX..endZ, radius_cyl); older aRchi exports name the branch axis_ID.
 
 
 def _read_table(p: Path) -> tuple[list[str], np.ndarray]:

@@ -81,7 +81,7 @@ def _write_archi(path, start, end, radius, parent, branch):
     rows = [[ids[i], ids[parent[i]] if parent[i] >= 0 else 0, *start[i], *end[i], radius[i], branch[i]]
             for i in range(len(start))]
     _write_csv(path, ["cyl_ID", "parent_ID", "startX", "startY", "startZ", "endX", "endY", "endZ", "radius_cyl",
-                      "axis_ID"], rows)
+                      "branch_ID"], rows)
 
 
 def _check_tree(tree, start, end, radius, parent, nmap):
