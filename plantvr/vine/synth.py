@@ -11,9 +11,10 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from plantvr._validation import MAX_COORD, check_array, check_int, check_range
+from plantvr._validation import MAX_COORD, check_array, check_int, check_points, check_range
 
-__all__ = ["COMPONENTS", "FlowerHead", "synth_flowerhead", "synth_vessels", "tile_mesh", "vertex_labels_from_volume"]
+__all__ = ["COMPONENTS", "FlowerHead", "synth_balls", "synth_flowerhead", "synth_vessels", "tile_mesh",
+           "vertex_labels_from_volume"]
 
 #: Component names by label index (0 = background / unpainted).
 COMPONENTS = ("background", "stem", "receptacle", "centrifugal", "centripetal", "floret_vein",
@@ -302,6 +303,23 @@ def synth_vessels(shape: int | tuple[int, int, int] = (256, 256, 128), *, n_tree
             np.clip(np.rint(sl, out=sl), 0, 255, out=sl)
             vol[i:i + 16] = sl
     return vol, 0.5 * contrast - 0.5
+
+
+def synth_balls(n: int = 16, centers=None, radius: float | None = None, *, value: int = 200) -> np.ndarray:
+    """An ``n``³ uint8 volume of solid balls (``value`` inside, 0 outside): the smallest closed test surfaces.
+
+    ``centers`` (k, 3) voxel coordinates default to the grid centre, ``radius`` (voxels) to ``n / 3``; a voxel is
+    inside when its distance to a centre is ``< radius``.
+    """
+    n = check_int("n", n, 2, 1024)
+    c = np.full((1, 3), (n - 1) / 2) if centers is None else check_points("centers", centers)
+    r = n / 3 if radius is None else check_range("radius", radius, 0.0, 1e6, low_open=True)
+    value = check_int("value", value, 1, 255)
+    g = np.mgrid[:n, :n, :n].astype(np.float32)
+    inside = np.zeros((n, n, n), bool)
+    for x in c:
+        inside |= np.sqrt(((g - x.astype(np.float32)[:, None, None, None]) ** 2).sum(0)) < r
+    return inside.astype(np.uint8) * np.uint8(value)
 
 
 def vertex_labels_from_volume(vertices: np.ndarray, volume: np.ndarray, labels: np.ndarray) -> np.ndarray:

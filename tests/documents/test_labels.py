@@ -5,22 +5,20 @@ get :class:`~plantvr.document.Change` events through ``observe(fn, names="change
 import numpy as np
 import pytest
 
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.commandlog import CommandLog
 from plantvr.document import Change
 from plantvr.documents.labels import Segmentation
 from plantvr.history import ArrayEdit
-from plantvr.adapters.vtk_isosurface import extract_isosurface
-from plantvr.vine.proxy import DisplayProxy
 from plantvr.vine.colors import ColorTable
+from plantvr.vine.proxy import DisplayProxy
+from plantvr.vine.synth import synth_balls
 from plantvr.vine.views import SavedView
 
 
 def _blobs(n=20):
     """Two separate balls: a mesh with two connected components."""
-    g = np.mgrid[:n, :n, :n].astype(np.float32)
-    a = np.sqrt(((g - np.array([5, 10, 10])[:, None, None, None]) ** 2).sum(0)) < 4
-    b = np.sqrt(((g - np.array([14, 10, 10])[:, None, None, None]) ** 2).sum(0)) < 4
-    return ((a | b) * 200).astype(np.uint8)
+    return synth_balls(n, [(5, 10, 10), (14, 10, 10)], 4)
 
 
 @pytest.fixture(scope="module")

@@ -49,13 +49,19 @@ def qsm_like(seed=0, joint=8):
     return (np.array(start), np.array(end), np.array(radius), np.array(parent), np.array(branch))
 
 
-def _write_treeqsm(path, start, end, radius, parent, branch):
+def _treeqsm_fields(start, end, parent, branch):
+    """TreeQSM's ``axis`` (unit), ``length`` and 1-based ``extension`` (0 = none) of a cylinder list."""
     axis = end - start
     length = np.linalg.norm(axis, axis=1)
     ext = np.zeros(len(start))
     for i, p in enumerate(parent):
         if p >= 0 and branch[i] == branch[p]:
             ext[p] = i + 1
+    return axis, length, ext
+
+
+def _write_treeqsm(path, start, end, radius, parent, branch):
+    axis, length, ext = _treeqsm_fields(start, end, parent, branch)
     cyl = {"radius": radius[:, None], "length": length[:, None], "start": start, "axis": axis / length[:, None],
            "parent": (parent + 1)[:, None].astype(float), "extension": ext[:, None], "branch": branch[:, None]}
     scipy.io.savemat(path, {"QSM": {"cylinder": cyl, "treedata": {"TotalVolume": 1.0}}})
@@ -232,12 +238,7 @@ def _write_treeqsm_v73(path, models):
     with h5py.File(path, "w", userblock_size=512) as f:
         def put_cyl(group, start, end, radius, parent, branch):
             group.attrs["MATLAB_class"] = np.bytes_("struct")
-            axis = end - start
-            length = np.linalg.norm(axis, axis=1)
-            ext = np.zeros(len(start))
-            for i, p in enumerate(parent):
-                if p >= 0 and branch[i] == branch[p]:
-                    ext[p] = i + 1
+            axis, length, ext = _treeqsm_fields(start, end, parent, branch)
             for name, a in (("radius", radius[:, None]), ("length", length[:, None]), ("start", start),
                             ("axis", axis / length[:, None]), ("parent", (parent + 1)[:, None].astype(float)),
                             ("extension", ext[:, None]), ("branch", branch[:, None].astype(float))):

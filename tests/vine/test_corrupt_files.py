@@ -11,25 +11,21 @@ import numpy as np
 import pytest
 
 from plantvr._fileio import digest_arrays
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.documents import labels_bundle as B
 from plantvr.documents.labels import Segmentation
+from plantvr.io import labels as io_labels
 from plantvr.io.source import open_source
-from plantvr.adapters.vtk_isosurface import extract_isosurface
+from plantvr.vine.synth import synth_balls
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume
-from plantvr.io import labels as io_labels
 
 BOMB = 256 * 2 ** 20          # inflated size of the bombs below (a few hundred kB on disk)
 
 
-def _ball(n=16):
-    g = np.mgrid[:n, :n, :n].astype(np.float32) - (n - 1) / 2
-    return ((np.sqrt((g ** 2).sum(0)) < n / 3) * 200).astype(np.uint8)
-
-
 @pytest.fixture(scope="module")
 def surf():
-    return extract_isosurface(_ball(), 100.0)
+    return extract_isosurface(synth_balls(), 100.0)
 
 
 def _seg(surf):
@@ -285,7 +281,7 @@ def _forge(good, dst, manifest):
 
 # ------------------------------------------------------------------ volumes and meshes
 def test_corrupt_volumes_are_refused(tmp_path, monkeypatch):
-    vol = _ball(12)
+    vol = synth_balls(12)
     for suffix in (".npy", ".npz", ".tif"):
         save_volume(tmp_path / f"v{suffix}", vol)
     cases = []
@@ -330,7 +326,7 @@ def test_corrupt_volumes_are_refused(tmp_path, monkeypatch):
 
 
 def test_corrupt_meshes_are_refused(tmp_path):
-    s = extract_isosurface(_ball(), 100.0)
+    s = extract_isosurface(synth_balls(), 100.0)
     seg = Segmentation(s.vertices, s.faces)
     io_labels.export_ply(seg, tmp_path / "m.ply")
     raw = (tmp_path / "m.ply").read_bytes()

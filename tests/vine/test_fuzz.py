@@ -7,12 +7,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from plantvr._fileio import digest_arrays
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.commandlog import CommandLog, Event
 from plantvr.documents.labels import Segmentation
 from plantvr.io.ply import write_ply
 from plantvr.vine import colors as C
 from plantvr.vine import depthcue, fill, index, isosurface, labelstats, proxy, slices, synth, views, volume
-from plantvr.adapters.vtk_isosurface import extract_isosurface
+from plantvr.vine.synth import synth_balls
 
 SET = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -24,14 +25,9 @@ POINTS = st.sampled_from([
     "abc", None, [], [0, 0, 0, 0], np.zeros(3, bool), np.array(["a", "b", "c"]), [10 ** 12, 0, 0], [5, 5, 5]])
 
 
-def _ball(n=16):
-    g = np.mgrid[:n, :n, :n].astype(np.float32) - (n - 1) / 2
-    return ((np.sqrt((g ** 2).sum(0)) < n / 3) * 200).astype(np.uint8)
-
-
 @pytest.fixture(scope="module")
 def surf():
-    return extract_isosurface(_ball(), 100.0)
+    return extract_isosurface(synth_balls(), 100.0)
 
 
 def _seg(surf):
@@ -249,20 +245,20 @@ def test_fuzz_constructor_and_readers_of_arrays(fuzz, tmp_path, a, b, x):
 
 VOLS = st.sampled_from([np.zeros((0, 4, 4), np.uint8), np.zeros((8, 8), np.uint8), np.zeros((4, 4, 4), np.float32),
                         np.zeros((1, 4, 4), np.uint8), "vol", None, np.full((6, 6, 6), 7, np.uint8),
-                        (_ball(8) > 0).astype(np.uint16) * 1000, np.zeros((4, 4, 4), bool)])
+                        (synth_balls(8) > 0).astype(np.uint16) * 1000, np.zeros((4, 4, 4), bool)])
 
 
 @SET
 @given(vol=VOLS, x=SCALARS)
 def test_fuzz_volumes(fuzz, vol, x):
     fuzz.call("downsample2", volume.downsample2, vol, param="volume")
-    fuzz.call("downsample2", volume.downsample2, _ball(8), slab=x, param="slab")
+    fuzz.call("downsample2", volume.downsample2, synth_balls(8), slab=x, param="slab")
     fuzz.call("histogram", volume.histogram, vol, param="volume")
-    fuzz.call("histogram", volume.histogram, _ball(8), bins=x, param="bins")
+    fuzz.call("histogram", volume.histogram, synth_balls(8), bins=x, param="bins")
     fuzz.call("suggest_level", volume.suggest_level, vol, param="volume")
     fuzz.call("extract_isosurface", isosurface.extract_isosurface, vol, 100.0, param=("volume", "level"))
-    fuzz.call("extract_isosurface", isosurface.extract_isosurface, _ball(8), x, param="level")
-    fuzz.call("Segmentation.from_volume", Segmentation.from_volume, _ball(8), x, param="level")
+    fuzz.call("extract_isosurface", isosurface.extract_isosurface, synth_balls(8), x, param="level")
+    fuzz.call("Segmentation.from_volume", Segmentation.from_volume, synth_balls(8), x, param="level")
     fuzz.call("synth_flowerhead", synth.synth_flowerhead, x, param="shape")
     fuzz.call("vertex_labels_from_volume", synth.vertex_labels_from_volume, np.zeros((2, 3)), vol,
               np.zeros((4, 4, 4), np.uint8), param=("volume", "labels", "vertices"))

@@ -8,21 +8,19 @@ import numpy as np
 import pytest
 
 from plantvr._fileio import digest_arrays
+from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.commandlog import CommandLog, Event
 from plantvr.documents import labels_bundle as B
 from plantvr.documents.labels import Segmentation
-from plantvr.adapters.vtk_isosurface import extract_isosurface
+from plantvr.io import labels as io_labels
+from plantvr.vine.synth import synth_balls
 from plantvr.vine.views import SavedView
 from plantvr.vine.volume import load_volume, save_volume
-from plantvr.io import labels as io_labels
 
 
 def _blobs(n=20):
     """Two separate balls: a mesh with two connected components."""
-    g = np.mgrid[:n, :n, :n].astype(np.float32)
-    a = np.sqrt(((g - np.array([5, 10, 10])[:, None, None, None]) ** 2).sum(0)) < 4
-    b = np.sqrt(((g - np.array([14, 10, 10])[:, None, None, None]) ** 2).sum(0)) < 4
-    return ((a | b) * 200).astype(np.uint8)
+    return synth_balls(n, [(5, 10, 10), (14, 10, 10)], 4)
 
 
 @pytest.fixture(scope="module")
