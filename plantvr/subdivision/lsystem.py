@@ -6,7 +6,14 @@ Two notations are accepted, also mixed in one string:
   (optional ``LST <version>`` header, several operations per line, empty lines ignored);
 * the classic bracketed turtle symbols ``[ ]`` (= ``SB()``/``EB()``), ``F`` / ``F(L)`` / ``F(L,r)`` (a
   cylinder followed by a move to its end), ``f`` / ``f(L)`` (move), ``+ -`` (turn about the local z axis),
-  ``& ^`` (pitch about local x), ``/ \\`` (roll about the local up axis y) and ``|`` (turn around).
+  ``& ^`` (pitch about local x), ``/ \\`` (roll about the local up axis y) and ``|`` (turn around); a turn
+  symbol takes its angle in degrees as L-Py does, ``+(30)``, else ``angle``.
+
+Angles are in degrees everywhere (issue 23), ``RotRel3f`` included; ``angle_unit="radians"`` reads the
+Yggdrasil report's LST sample, whose ``RotRel3f`` angles are radians (spec §1.4 [INFERRED] 5).
+
+This is the Yggdrasil turtle (up vector +Y, post-multiplied rotations, LST operations, gap snapping, character
+positions in errors); L-Py's PlantGL turtle (heading +Z) is :func:`plantvr.lsystem.turtle.turtle`.
 
 The turtle's up vector is +Y, moves are in the local frame and rotations post-multiply (spec §1.4
 [INFERRED] items 2–4).
@@ -24,7 +31,7 @@ from .graph import _EPS, MIN_RADIUS, BranchGraph
 
 __all__ = ["parse_lsystem"]
 
-_TOKEN = re.compile(r"\s*(?:([A-Za-z_]\w*)\s*\(([^()]*)\)|([\[\]Ff+\-&^/\\|]))")
+_TOKEN = re.compile(r"\s*(?:([A-Za-z_]\w*)\s*\(([^()]*)\)|([+\-&^/\\])\s*\(([^()]*)\)|([\[\]Ff+\-&^/\\|]))")
 #: Longest L-system string accepted (characters).
 MAX_TEXT = 10_000_000
 _ARITY = {"sb": (0,), "eb": (0,), "movrel3f": (3,), "rotrel3f": (4,), "cylinder": (3,)}
@@ -40,6 +47,22 @@ def _glued_prefix(name: str) -> bool:
     return False
 
 
+def _numbers(m: re.Match, args: str, at: int) -> list[float]:
+    """The comma-separated numbers of a token's ``(args)``: finite, within the coordinate bound."""
+    vals: list[float] = []
+    if args.strip():
+        try:
+            vals = [float(v) for v in args.split(",")]
+        except ValueError:
+            raise ValueError(f"text: bad numeric argument in {m.group(0).strip()!r} at position {at}") from None
+    if not all(np.isfinite(vals)):
+        raise ValueError(f"text: non-finite argument in {m.group(0).strip()!r} at position {at}")
+    if any(abs(v) > MAX_COORD for v in vals):
+        raise ValueError(f"text: argument in {m.group(0).strip()!r} at position {at} must lie in "
+                         f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
+    return vals
+
+
 def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
     a = axis / np.linalg.norm(axis)
     K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
@@ -47,7 +70,7 @@ def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
 
 
 def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: float = 0.1,
-                  angle_unit: str = "radians", strict: bool = False) -> BranchGraph:
+                  angle_unit: str = "degrees", strict: bool = False) -> BranchGraph:
     """Parse an LST or bracketed turtle string into a :class:`~plantvr.subdivision.graph.BranchGraph`.
 
     Parameters
@@ -55,13 +78,14 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
     text : str
         The L-system string (spec §1.4 LST operations and/or turtle symbols, see the module docstring).
     angle : float
-        Turn angle of the single-character turtle symbols, in degrees.
+        Turn angle of the single-character turtle symbols without an argument, in degrees.
     step : float
         Length of ``F``/``f`` without an argument.
     radius : float
         Radius of ``F`` without a radius argument.
-    angle_unit : {"radians", "degrees"}
-        Unit of ``RotRel3f`` angles (the report's sample uses radians, spec §1.4 [INFERRED] 5).
+    angle_unit : {"degrees", "radians"}
+        Unit of ``RotRel3f`` angles: degrees, as everywhere else (issue 23); ``"radians"`` for the report's LST
+        sample (spec §1.4 [INFERRED] 5).
     strict : bool
         If True a branch that does not start at its parent's end raises; otherwise its start is snapped to
         the parent's end (its tip stays put) with a warning (spec V1, ERRATUM A20).
@@ -91,7 +115,7 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         raise ValueError(f"text must be a str, got {type(text).__name__}")
     if len(text) > MAX_TEXT:
         raise ValueError(f"text must have at most {MAX_TEXT} characters, got {len(text)}")
-    angle_unit = check_choice("angle_unit", angle_unit, ("radians", "degrees"))
+    angle_unit = check_choice("angle_unit", angle_unit, ("degrees", "radians"))
     turn = np.deg2rad(check_range("angle", angle, -360.0, 360.0))
     step = check_range("step", step, _EPS, MAX_COORD, low_open=True)
     radius = check_range("radius", radius, MIN_RADIUS, MAX_COORD)
@@ -144,9 +168,17 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
             if j >= n:
                 break
             raise ValueError(f"text: unknown symbol {body[j:j + 12]!r} at position {j}")
-        at = m.start(1) if m.group(1) else m.start(3)
-        name, args, ch = m.group(1), m.group(2), m.group(3)
+        at = m.start(1) if m.group(1) else (m.start(3) if m.group(3) else m.start(5))
+        name, args, ch = m.group(1), m.group(2), m.group(3) or m.group(5)
         i = m.end()
+        turn_here = turn
+        if m.group(3):  # "+(30)": a turn symbol takes its angle in degrees, as L-Py
+            vals = _numbers(m, m.group(4), at)
+            if len(vals) > 1:
+                raise ValueError(f"text: {ch} takes 0-1 arguments (angle in degrees), got {len(vals)} at "
+                                 f"position {at}")
+            if vals:
+                turn_here = np.deg2rad(vals[0])
         if name is not None and name.lower() not in _ARITY and name.lower() != "f" and _glued_prefix(name):
             # a module name followed by "(" is read as that module: "FF(0.5)" is F, F(0.5); the leading
             # single-character symbol is taken alone and the rest of the name is lexed again
@@ -154,17 +186,7 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
             i = at + 1
         if name is not None:
             key = name.lower()
-            vals: list[float] = []
-            if args.strip():
-                try:
-                    vals = [float(v) for v in args.split(",")]
-                except ValueError:
-                    raise ValueError(f"text: bad numeric argument in {m.group(0).strip()!r} at position {at}") from None
-            if not all(np.isfinite(vals)):
-                raise ValueError(f"text: non-finite argument in {m.group(0).strip()!r} at position {at}")
-            if any(abs(v) > MAX_COORD for v in vals):
-                raise ValueError(f"text: argument in {m.group(0).strip()!r} at position {at} must lie in "
-                                 f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
+            vals = _numbers(m, args, at)
             if key in ("f",):
                 if len(vals) not in (0, 1, 2):
                     raise ValueError(f"text: {name} takes 0-2 arguments (length, radius), got {len(vals)} at "
@@ -207,11 +229,11 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
                 cylinder(radius, radius, step, at)
             p = p + R @ np.array([0.0, step, 0.0])
         elif ch in "+-":
-            R = R @ _axis_angle(np.array([0.0, 0.0, 1.0]), turn if ch == "+" else -turn)
+            R = R @ _axis_angle(np.array([0.0, 0.0, 1.0]), turn_here if ch == "+" else -turn_here)
         elif ch in "&^":
-            R = R @ _axis_angle(np.array([1.0, 0.0, 0.0]), turn if ch == "&" else -turn)
+            R = R @ _axis_angle(np.array([1.0, 0.0, 0.0]), turn_here if ch == "&" else -turn_here)
         elif ch in "/\\":
-            R = R @ _axis_angle(np.array([0.0, 1.0, 0.0]), turn if ch == "/" else -turn)
+            R = R @ _axis_angle(np.array([0.0, 1.0, 0.0]), turn_here if ch == "/" else -turn_here)
         elif ch == "|":
             R = R @ _axis_angle(np.array([0.0, 0.0, 1.0]), np.pi)
     if stack:

@@ -10,7 +10,7 @@ from ._helpers import SAMPLE_LST
 
 def test_v1_sample_lst_six_branches_depth_first():
     with pytest.warns(UserWarning, match="starts 5 away"):
-        g = parse_lsystem(SAMPLE_LST)
+        g = parse_lsystem(SAMPLE_LST, angle_unit="radians")
     assert len(g) == 6
     assert g.parent.tolist() == [-1, 0, 1, 0, 3, 0]            # depth-first order
     np.testing.assert_allclose(g.length[:5], [10, 5, 5, 5, 5])
@@ -23,7 +23,7 @@ def test_v1_sample_lst_six_branches_depth_first():
 
 def test_v1_strict_mode_reports_gap_position():
     with pytest.raises(ValueError, match=r"position 3\d\d starts 5"):
-        parse_lsystem(SAMPLE_LST, strict=True)
+        parse_lsystem(SAMPLE_LST, angle_unit="radians", strict=True)
 
 
 def test_v1_one_op_per_line_and_empty_lines_equal_many_per_line():
@@ -150,3 +150,20 @@ def test_module_name_followed_by_paren_is_that_module():
     for bad in ("FFoo(1)", "FX(1)"):
         with pytest.raises(ValueError, match=rf"unknown symbol '{bad[:-3]}' at position 0"):
             parse_lsystem(bad)
+
+
+def test_turn_symbols_take_degrees_and_rotrel3f_defaults_to_degrees():
+    # issue 23: "+(30)F" parses as L-Py (a turn symbol followed by (args) takes its angle in degrees) and
+    # RotRel3f is in degrees by default, like every other angle; the report's radians stay one option away
+    for with_arg, plain in (("F+(30)F", "F+F"), ("F[&(30)F]-(30)F", "F[&F]-F"), ("F/ (30)+(30)F", "F/+F")):
+        a, b = parse_lsystem(with_arg, angle=45), parse_lsystem(plain, angle=30)
+        np.testing.assert_allclose(a.end, b.end, atol=1e-12)
+    np.testing.assert_allclose(parse_lsystem("F+()F", angle=30).end, parse_lsystem("F+F", angle=30).end)
+    deg = parse_lsystem("RotRel3f(30, 0, 0, 1) Cylinder(1, 1, 1)")
+    rad = parse_lsystem(f"RotRel3f({np.pi / 6!r}, 0, 0, 1) Cylinder(1, 1, 1)", angle_unit="radians")
+    np.testing.assert_allclose(deg.end, rad.end, atol=1e-12)
+    np.testing.assert_allclose(deg.end[0], [-0.5, np.sqrt(3) / 2, 0], atol=1e-12)
+    with pytest.raises(ValueError, match=r"\+ takes 0-1 arguments \(angle in degrees\), got 2 at position 1"):
+        parse_lsystem("F+(30,2)F")
+    with pytest.raises(ValueError, match=r"non-finite argument in '-\(nan\)' at position 1"):
+        parse_lsystem("F-(nan)F")

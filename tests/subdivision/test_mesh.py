@@ -70,7 +70,7 @@ def _check_tree(cm, S=4):
 def test_v10_v12_sample_lst():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        g = parse_lsystem(SAMPLE_LST)
+        g = parse_lsystem(SAMPLE_LST, angle_unit="radians")
     cm = build_control_mesh(g, compensate_radius=False)
     _check_tree(cm)
     assert cm.n_boundary_loops == 1 + 3

@@ -22,7 +22,7 @@ from ._helpers import SAMPLE_LST, mesh_invariants, star_graph
 def _sample_graph():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                        # the extracted sample's start/end gap (V1)
-        return parse_lsystem(SAMPLE_LST)
+        return parse_lsystem(SAMPLE_LST, angle_unit="radians")
 
 
 def _loop_id(cm):

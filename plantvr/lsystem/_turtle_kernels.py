@@ -1,0 +1,451 @@
+"""The turtle's interpretation loop (issue 23, PlantGL ``Turtle``): a numba kernel over op codes and CSR parameters,
+and its readable pure-Python twin (the oracle of the kernel test).
+
+Both follow PlantGL's ``turtle.cpp`` step by step: the frame (heading H, left L, up U) starts at H = +Z,
+L = -Y, U = +X; ``+``/``-`` rotate H and L about U, ``&``/``^`` rotate H and U about L (``&`` pitches down),
+``/``/``\\`` rotate L and U about H (``/`` is PlantGL's ``rollL``), ``|`` is ``left(180)``; tropism bends the
+frame toward the tropism vector by ``elasticity`` times the angle between H and it before every ``F`` (length > 0)
+and every ``f`` (``Turtle::_tendTo``). Rotations are right-handed (``Matrix3::axisRotation``).
+
+Node model (:class:`~plantvr.types.TreeArrays`): every drawn ``F`` makes a node at its end whose parent is the
+turtle's current node; the first ``F`` (and the first after an ``f``) first makes a root node where it starts.
+A node's order is its axis's: the first ``F`` after a ``[`` raises the order by one; ``main_child`` is the child
+of the same order.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+# op codes (0: a module the turtle does not interpret)
+NOP, F, FMOVE, LEFT, RIGHT, UP, DOWN, ROLLL, ROLLR, TURN, ROLLVERT, ROLLHORIZ, PUSH, POP = range(14)
+INCW, DECW, SETW, INCC, DECC, SETC, CUT, TROPISM, ELASTICITY = range(14, 23)
+#: PlantGL's GEOM_EPSILON.
+EPS = 1e-6
+#: Warning slots of the kernel: a width below zero, a colour below zero, an elasticity outside [0, 1] (PlantGL
+#: warns and keeps the current value).
+IGNORED_WIDTH, IGNORED_COLOR, IGNORED_ELASTICITY = 0, 1, 2
+
+_NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, (pad 3)
+_NI = 4   # int state per stack frame: current node, order, branch pending, colour
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _rot(vx, vy, vz, kx, ky, kz, c, s):
+    """``v`` rotated about the unit axis ``k`` by the angle of cosine ``c``, sine ``s`` (Rodrigues)."""
+    d = (kx * vx + ky * vy + kz * vz) * (1.0 - c)
+    return (vx * c + (ky * vz - kz * vy) * s + kx * d,
+            vy * c + (kz * vx - kx * vz) * s + ky * d,
+            vz * c + (kx * vy - ky * vx) * s + kz * d)
+
+
+@numba.njit(cache=True, nogil=True)
+def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_depth, n_out):
+    """Interpret ``op[i]`` (module ``i``'s op code) with parameters ``args[ptr[i]:ptr[i+1]]``.
+
+    Returns ``(pos, parent, radius, order, main_child, color, module, n_nodes, ignored, ignored_at)``; the node
+    arrays have ``n_out`` rows of which the first ``n_nodes`` are used. ``ignored[k]`` counts the PlantGL
+    warnings of slot ``k``, ``ignored_at[k]`` is the first module index (-1 if none).
+    """
+    n = op.shape[0]
+    pos = np.zeros((n_out, 3))
+    parent = np.full(n_out, -1, np.int64)
+    radius = np.zeros(n_out)
+    order = np.zeros(n_out, np.int64)
+    main = np.full(n_out, -1, np.int64)
+    color = np.zeros(n_out, np.int64)
+    module = np.full(n_out, -1, np.int64)
+    fstack = np.zeros((max_depth + 1, _NF))
+    istack = np.zeros((max_depth + 1, _NI), np.int64)
+    ignored = np.zeros(3, np.int64)
+    ignored_at = np.full(3, -1, np.int64)
+    deg = math.pi / 180.0
+
+    px = py = pz = 0.0
+    hx, hy, hz = 0.0, 0.0, 1.0
+    lx, ly, lz = 0.0, -1.0, 0.0
+    ux, uy, uz = 1.0, 0.0, 0.0
+    w = width0
+    tx, ty, tz = trop0[0], trop0[1], trop0[2]
+    el = elast0
+    cur = -1          # -1: at the start (the base node is made on demand), -2: after an f (a new root)
+    base = -1
+    ordr = 0
+    pending = 0
+    col = 1
+    depth = 0
+    nn = 0
+    i = 0
+    while i < n:
+        o = op[i]
+        a0 = ptr[i]
+        na = ptr[i + 1] - a0
+        if o == NOP:
+            i += 1
+            continue
+        if o == F or o == FMOVE:
+            length = step
+            if na > 0:
+                length = args[a0]
+            top = -1.0
+            if o == F and na > 1:
+                top = args[a0 + 1]
+            flip = o == F and length < -EPS
+            if flip:          # PlantGL: turnAround(); F(-length, r); turnAround()
+                length = -length
+                hx, hy, hz = -hx, -hy, -hz
+                lx, ly, lz = -lx, -ly, -lz
+            if (o == F and length > 0.0 and el > EPS) or (o == FMOVE and el > EPS):
+                # Turtle::_tendTo(tropism, elasticity)
+                cx, cy, cz = hy * tz - hz * ty, hz * tx - hx * tz, hx * ty - hy * tx
+                sn = math.sqrt(cx * cx + cy * cy + cz * cz)
+                cs = hx * tx + hy * ty + hz * tz
+                kx, ky, kz, ang = ux, uy, uz, 0.0
+                if sn > EPS:
+                    kx, ky, kz = cx / sn, cy / sn, cz / sn
+                    ang = math.atan2(sn, cs) * el
+                elif cs < EPS:
+                    ang = math.pi * el
+                if ang != 0.0:
+                    c, s = math.cos(ang), math.sin(ang)
+                    hx, hy, hz = _rot(hx, hy, hz, kx, ky, kz, c, s)
+                    lx, ly, lz = _rot(lx, ly, lz, kx, ky, kz, c, s)
+                    ux, uy, uz = _rot(ux, uy, uz, kx, ky, kz, c, s)
+            if o == FMOVE:
+                px += hx * length
+                py += hy * length
+                pz += hz * length
+                cur = -2
+            elif length > EPS:
+                if cur < 0:
+                    if cur == -1 and base >= 0:
+                        cur = base
+                    else:         # the base node (order 0) or a root after an f (this axis's order)
+                        if pending and cur == -2:
+                            ordr += 1
+                            pending = 0
+                        pos[nn, 0], pos[nn, 1], pos[nn, 2] = px, py, pz
+                        radius[nn] = max(w, 0.0)
+                        order[nn] = ordr if cur == -2 else 0
+                        color[nn] = col
+                        module[nn] = i
+                        if cur == -1:
+                            base = nn
+                        cur = nn
+                        nn += 1
+                if pending:
+                    ordr += 1
+                    pending = 0
+                px += hx * length
+                py += hy * length
+                pz += hz * length
+                if top > -EPS:
+                    w = top
+                pos[nn, 0], pos[nn, 1], pos[nn, 2] = px, py, pz
+                parent[nn] = cur
+                radius[nn] = max(w, 0.0)
+                order[nn] = ordr
+                color[nn] = col
+                module[nn] = i
+                if order[cur] == ordr and main[cur] < 0:
+                    main[cur] = nn
+                cur = nn
+                nn += 1
+            elif length > 0.0 and top > -EPS:
+                w = top
+            if flip:
+                hx, hy, hz = -hx, -hy, -hz
+                lx, ly, lz = -lx, -ly, -lz
+        elif o <= ROLLR or o == TURN:
+            a = angle
+            if o == TURN:
+                a = 180.0
+            elif na > 0:
+                a = args[a0]
+            if o == RIGHT or o == UP or o == ROLLR:
+                a = -a
+            c, s = math.cos(a * deg), math.sin(a * deg)
+            if o == LEFT or o == RIGHT or o == TURN:      # about U: H, L
+                hx, hy, hz = _rot(hx, hy, hz, ux, uy, uz, c, s)
+                lx, ly, lz = _rot(lx, ly, lz, ux, uy, uz, c, s)
+            elif o == UP or o == DOWN:                    # about L: H, U
+                hx, hy, hz = _rot(hx, hy, hz, lx, ly, lz, c, s)
+                ux, uy, uz = _rot(ux, uy, uz, lx, ly, lz, c, s)
+            else:                                         # about H: L, U
+                lx, ly, lz = _rot(lx, ly, lz, hx, hy, hz, c, s)
+                ux, uy, uz = _rot(ux, uy, uz, hx, hy, hz, c, s)
+        elif o == ROLLVERT:
+            alpha = 1.0
+            if na > 0:
+                alpha = args[a0]
+            if alpha > 0.0:
+                # Turtle::rollToVert(top = +Z): L = top x H, U = H x L
+                nx, ny, nz = -hy, hx, 0.0
+                ln = math.sqrt(nx * nx + ny * ny)
+                if ln < EPS:
+                    nx, ny, nz = 0.0, -1.0, 0.0
+                else:
+                    nx, ny = nx / ln, ny / ln
+                if alpha < 1.0:   # a fraction of the roll from L to the horizontal left
+                    sn = (ly * nz - lz * ny) * hx + (lz * nx - lx * nz) * hy + (lx * ny - ly * nx) * hz
+                    cs = lx * nx + ly * ny + lz * nz
+                    ang = math.atan2(sn, cs) * alpha
+                    c, s = math.cos(ang), math.sin(ang)
+                    lx, ly, lz = _rot(lx, ly, lz, hx, hy, hz, c, s)
+                else:
+                    lx, ly, lz = nx, ny, nz
+                ux, uy, uz = hy * lz - hz * ly, hz * lx - hx * lz, hx * ly - hy * lx
+        elif o == ROLLHORIZ:
+            alpha = 1.0
+            if na > 0:
+                alpha = min(args[a0], 1.0)
+            if alpha > 0.0 and abs(hz) > EPS:
+                # Turtle::rollToHorizontal(top = +Z): H turned into the horizontal plane
+                gx, gy, gz = hx, hy, 0.0
+                gn = math.sqrt(gx * gx + gy * gy)
+                if gn < EPS:
+                    gx, gy = 1.0, 0.0
+                else:
+                    gx, gy = gx / gn, gy / gn
+                kx, ky, kz = hy * gz - hz * gy, hz * gx - hx * gz, hx * gy - hy * gx
+                kn = math.sqrt(kx * kx + ky * ky + kz * kz)
+                if kn > EPS:
+                    kx, ky, kz = kx / kn, ky / kn, kz / kn
+                    ang = math.atan2(kn, hx * gx + hy * gy + hz * gz) * alpha
+                    c, s = math.cos(ang), math.sin(ang)
+                    hx, hy, hz = _rot(hx, hy, hz, kx, ky, kz, c, s)
+                    lx, ly, lz = _rot(lx, ly, lz, kx, ky, kz, c, s)
+                    ux, uy, uz = _rot(ux, uy, uz, kx, ky, kz, c, s)
+        elif o == PUSH:
+            fs = fstack[depth]
+            fs[0], fs[1], fs[2], fs[3], fs[4], fs[5] = px, py, pz, hx, hy, hz
+            fs[6], fs[7], fs[8], fs[9], fs[10], fs[11] = lx, ly, lz, ux, uy, uz
+            fs[12], fs[13], fs[14], fs[15], fs[16] = w, tx, ty, tz, el
+            ist = istack[depth]
+            ist[0], ist[1], ist[2], ist[3] = cur, ordr, pending, col
+            depth += 1
+            pending = 1
+        elif o == POP:
+            depth -= 1
+            fs = fstack[depth]
+            px, py, pz, hx, hy, hz = fs[0], fs[1], fs[2], fs[3], fs[4], fs[5]
+            lx, ly, lz, ux, uy, uz = fs[6], fs[7], fs[8], fs[9], fs[10], fs[11]
+            w, tx, ty, tz, el = fs[12], fs[13], fs[14], fs[15], fs[16]
+            ist = istack[depth]
+            cur, ordr, pending, col = ist[0], ist[1], ist[2], ist[3]
+        elif o == INCW or o == DECW or o == SETW:
+            v = w + winc if o == INCW else w - winc
+            if na > 0:
+                v = args[a0]
+            if v > -EPS:
+                w = v
+            else:
+                ignored[IGNORED_WIDTH] += 1
+                if ignored_at[IGNORED_WIDTH] < 0:
+                    ignored_at[IGNORED_WIDTH] = i
+        elif o == INCC or o == DECC or o == SETC:
+            v = col + 1 if o == INCC else col - 1
+            if na > 0:
+                v = int(args[a0])
+            if v >= 0:
+                col = v
+            else:
+                ignored[IGNORED_COLOR] += 1
+                if ignored_at[IGNORED_COLOR] < 0:
+                    ignored_at[IGNORED_COLOR] = i
+        elif o == CUT:                                    # skip to the ']' closing this branch
+            d = 0
+            j = i + 1
+            while j < n:
+                if op[j] == PUSH:
+                    d += 1
+                elif op[j] == POP:
+                    if d == 0:
+                        break
+                    d -= 1
+                j += 1
+            i = j
+            continue
+        elif o == TROPISM:
+            vx, vy, vz = 0.0, 0.0, 1.0
+            if na > 0:
+                vx, vy, vz = args[a0], 0.0, 0.0
+            if na > 1:
+                vy = args[a0 + 1]
+            if na > 2:
+                vz = args[a0 + 2]
+            vn = math.sqrt(vx * vx + vy * vy + vz * vz)
+            tx, ty, tz = vx / vn, vy / vn, vz / vn
+        elif o == ELASTICITY:
+            v = 0.0
+            if na > 0:
+                v = args[a0]
+            if 0.0 <= v <= 1.0:
+                el = v
+            else:
+                ignored[IGNORED_ELASTICITY] += 1
+                if ignored_at[IGNORED_ELASTICITY] < 0:
+                    ignored_at[IGNORED_ELASTICITY] = i
+        i += 1
+    return pos, parent, radius, order, main, color, module, nn, ignored, ignored_at
+
+
+# -- the readable twin ------------------------------------------------------------------------------------------
+
+def _rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
+    """Right-handed rotation matrix about a unit axis (PlantGL ``Matrix3::axisRotation``)."""
+    a = np.radians(degrees)
+    k = np.asarray(axis, float)
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
+
+
+def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
+    """The twin of :func:`turtle_kernel`: the same interpretation with numpy vectors and a dict of states.
+
+    Returns ``(pos, parent, radius, order, main_child, color, module, ignored)`` (lists / arrays, used rows only).
+    """
+    st = {"p": np.zeros(3), "H": np.array([0.0, 0, 1]), "L": np.array([0.0, -1, 0]), "U": np.array([1.0, 0, 0]),
+          "w": float(width0), "T": np.asarray(trop0, float), "e": float(elast0), "cur": -1, "order": 0,
+          "pending": False, "color": 1}
+    stack = []
+    nodes = {k: [] for k in ("pos", "parent", "radius", "order", "color", "module")}
+    main: list[int] = []
+    base = [-1]
+    ignored = [0, 0, 0]
+
+    def frame_rotate(R):
+        st["H"], st["L"], st["U"] = R @ st["H"], R @ st["L"], R @ st["U"]
+
+    def tropism():
+        h, t = st["H"], st["T"]
+        cp = np.cross(h, t)
+        sn, cs = np.linalg.norm(cp), float(h @ t)
+        if sn > EPS:
+            frame_rotate(_rotation(cp / sn, np.degrees(np.arctan2(sn, cs) * st["e"])))
+        elif cs < EPS:
+            frame_rotate(_rotation(st["U"], 180.0 * st["e"]))
+
+    def add_node(p, par, i):
+        nodes["pos"].append(p.copy())
+        nodes["parent"].append(par)
+        nodes["radius"].append(max(st["w"], 0.0))
+        nodes["order"].append(st["order"])
+        nodes["color"].append(st["color"])
+        nodes["module"].append(i)
+        main.append(-1)
+        if par >= 0 and nodes["order"][par] == st["order"] and main[par] < 0:
+            main[par] = len(main) - 1
+        return len(main) - 1
+
+    def take_branch():
+        if st["pending"]:
+            st["order"] += 1
+            st["pending"] = False
+
+    i, n = 0, len(op)
+    while i < n:
+        o, vals = int(op[i]), [float(v) for v in args[ptr[i]:ptr[i + 1]]]
+        if o in (F, FMOVE):
+            length = vals[0] if vals else step
+            top = vals[1] if o == F and len(vals) > 1 else -1.0
+            flip = o == F and length < -EPS
+            if flip:
+                length = -length
+                frame_rotate(_rotation(st["U"], 180.0))
+            if st["e"] > EPS and (o == FMOVE or length > 0):
+                tropism()
+            if o == FMOVE:
+                st["p"] = st["p"] + st["H"] * length
+                st["cur"] = -2
+            elif length > EPS:
+                if st["cur"] == -1 and base[0] >= 0:
+                    st["cur"] = base[0]
+                elif st["cur"] == -2:                     # a new root after an f, on this axis
+                    take_branch()
+                    st["cur"] = add_node(st["p"], -1, i)
+                elif st["cur"] == -1:                     # the base node, order 0
+                    keep, st["order"] = st["order"], 0
+                    base[0] = st["cur"] = add_node(st["p"], -1, i)
+                    st["order"] = keep
+                take_branch()
+                st["p"] = st["p"] + st["H"] * length
+                if top > -EPS:
+                    st["w"] = top
+                st["cur"] = add_node(st["p"], st["cur"], i)
+            elif length > 0 and top > -EPS:
+                st["w"] = top
+            if flip:
+                frame_rotate(_rotation(st["U"], 180.0))
+        elif o in (LEFT, RIGHT, TURN):
+            a = 180.0 if o == TURN else (vals[0] if vals else angle)
+            R = _rotation(st["U"], -a if o == RIGHT else a)
+            st["H"], st["L"] = R @ st["H"], R @ st["L"]
+        elif o in (UP, DOWN):
+            a = vals[0] if vals else angle
+            R = _rotation(st["L"], -a if o == UP else a)
+            st["H"], st["U"] = R @ st["H"], R @ st["U"]
+        elif o in (ROLLL, ROLLR):
+            a = vals[0] if vals else angle
+            R = _rotation(st["H"], -a if o == ROLLR else a)
+            st["L"], st["U"] = R @ st["L"], R @ st["U"]
+        elif o == ROLLVERT:
+            alpha = vals[0] if vals else 1.0
+            if alpha > 0:
+                nl = np.cross([0.0, 0, 1], st["H"])
+                nl = np.array([0.0, -1, 0]) if np.linalg.norm(nl) < EPS else nl / np.linalg.norm(nl)
+                if alpha < 1:
+                    ang = np.arctan2(np.cross(st["L"], nl) @ st["H"], st["L"] @ nl) * alpha
+                    st["L"] = _rotation(st["H"], np.degrees(ang)) @ st["L"]
+                else:
+                    st["L"] = nl
+                st["U"] = np.cross(st["H"], st["L"])
+        elif o == ROLLHORIZ:
+            alpha = min(vals[0], 1.0) if vals else 1.0
+            h = st["H"]
+            if alpha > 0 and abs(h[2]) > EPS:
+                g = np.array([h[0], h[1], 0.0])
+                g = np.array([1.0, 0, 0]) if np.linalg.norm(g) < EPS else g / np.linalg.norm(g)
+                k = np.cross(h, g)
+                if np.linalg.norm(k) > EPS:
+                    ang = np.arctan2(np.linalg.norm(k), h @ g) * alpha
+                    frame_rotate(_rotation(k / np.linalg.norm(k), np.degrees(ang)))
+        elif o == PUSH:
+            stack.append({k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in st.items()})
+            st["pending"] = True
+        elif o == POP:
+            st = stack.pop()
+        elif o in (INCW, DECW, SETW):
+            v = vals[0] if vals else (st["w"] + winc if o == INCW else st["w"] - winc)
+            if v > -EPS:
+                st["w"] = v
+            else:
+                ignored[IGNORED_WIDTH] += 1
+        elif o in (INCC, DECC, SETC):
+            v = int(vals[0]) if vals else (st["color"] + 1 if o == INCC else st["color"] - 1)
+            if v >= 0:
+                st["color"] = v
+            else:
+                ignored[IGNORED_COLOR] += 1
+        elif o == CUT:
+            d, i = 0, i + 1
+            while i < n and not (op[i] == POP and d == 0):
+                d += int(op[i] == PUSH) - int(op[i] == POP)
+                i += 1
+            continue
+        elif o == TROPISM:
+            v = np.array([0.0, 0, 1]) if not vals else np.array((vals + [0.0, 0.0])[:3])
+            st["T"] = v / np.linalg.norm(v)
+        elif o == ELASTICITY:
+            v = vals[0] if vals else 0.0
+            if 0 <= v <= 1:
+                st["e"] = v
+            else:
+                ignored[IGNORED_ELASTICITY] += 1
+        i += 1
+    m = len(main)
+    return (np.array(nodes["pos"], float).reshape(m, 3), np.array(nodes["parent"], np.int64),
+            np.array(nodes["radius"], float), np.array(nodes["order"], np.int64), np.array(main, np.int64),
+            np.array(nodes["color"], np.int64), np.array(nodes["module"], np.int64), ignored)

@@ -1,0 +1,243 @@
+"""The L-Py / PlantGL turtle (issue 23 "Turtle interpretation"): a :class:`ModuleString` into the shared tree arrays.
+
+Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-Py draws them:
+
+* frame: heading H = +Z, left L = -Y, up U = +X; default angle 60 degrees, step 1, width 0.1, width
+  increment 1; angles in DEGREES everywhere;
+* ``+(a)``/``-(a)`` turn about U (``+`` turns H toward L), ``&(a)``/``^(a)`` pitch about L (``&`` down, toward
+  -U), ``/(a)``/``\\(a)`` roll about H (``/`` is PlantGL's ``rollL``), ``|`` turns 180 degrees about U;
+* ``$`` rolls about H so that L is horizontal (ABOP p. 57; PlantGL ``rollToVert``, L-Py's ``@v``; L-Py itself
+  reserves ``$`` for pattern matching, where it never reaches the turtle), ``@h`` turns H into the horizontal
+  plane (``rollToHorizontal``);
+* ``F(l, r)`` draws ``l`` (default step; negative: drawn backwards, as PlantGL) and sets the width to ``r``;
+  ``f(l)`` moves without drawing, and the next ``F`` starts a new root node there;
+* ``_(w)``/``!(w)`` set the width (without a parameter: plus/minus the width increment); ``;(c)``/``,(c)`` set the
+  colour index (without: plus/minus one), kept per node (:func:`turtle_nodes`), not in the tree arrays;
+* ``%`` cuts the rest of the branch, ``[ ]`` push and pop the whole state;
+* ``@Tp(x, y, z)`` sets the tropism direction (default +Z, normalised), ``@Ts(e)`` the elasticity; before every
+  ``F`` and ``f`` the frame turns toward the tropism by ``e`` times its angle to H (PlantGL ``_tendTo``).
+
+A width below zero, a colour below zero or an elasticity outside [0, 1] is ignored with one warning, as PlantGL
+does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
+:data:`LPY_UNSUPPORTED` are plain non-drawing modules and are skipped.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from plantvr._validation import MAX_COORD, check_array, check_int, check_range
+from plantvr.types import TreeArrays
+
+from . import _turtle_kernels as K
+from .modules import ModuleString
+
+__all__ = ["LPY_UNSUPPORTED", "TURTLE_MODULES", "TurtleNodes", "bush_string", "turtle", "turtle_nodes"]
+
+#: L-Py's defaults (PlantGL ``Turtle``): angle increment, step, width, width increment.
+DEFAULT_ANGLE, DEFAULT_STEP, DEFAULT_WIDTH, DEFAULT_WIDTH_INCREMENT = 60.0, 1.0, 0.1, 1.0
+
+# name -> (op code, accepted parameter counts); L-Py's long names are aliases of the symbols
+_TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
+    "F": (K.F, (0, 1, 2)), "f": (K.FMOVE, (0, 1)),
+    "+": (K.LEFT, (0, 1)), "Left": (K.LEFT, (0, 1)), "-": (K.RIGHT, (0, 1)), "Right": (K.RIGHT, (0, 1)),
+    "^": (K.UP, (0, 1)), "Up": (K.UP, (0, 1)), "&": (K.DOWN, (0, 1)), "Down": (K.DOWN, (0, 1)),
+    "/": (K.ROLLL, (0, 1)), "RollL": (K.ROLLL, (0, 1)), "\\": (K.ROLLR, (0, 1)), "RollR": (K.ROLLR, (0, 1)),
+    "|": (K.TURN, (0,)), "TurnAround": (K.TURN, (0,)),
+    "$": (K.ROLLVERT, (0,)), "@v": (K.ROLLVERT, (0, 1)), "RollToVert": (K.ROLLVERT, (0, 1)),
+    "@h": (K.ROLLHORIZ, (0, 1)), "RollToHorizontal": (K.ROLLHORIZ, (0, 1)),
+    "[": (K.PUSH, (0,)), "SB": (K.PUSH, (0,)), "]": (K.POP, (0,)), "EB": (K.POP, (0,)),
+    "_": (K.INCW, (0, 1)), "IncWidth": (K.INCW, (0, 1)), "!": (K.DECW, (0, 1)), "DecWidth": (K.DECW, (0, 1)),
+    "SetWidth": (K.SETW, (1,)),
+    ";": (K.INCC, (0, 1)), "IncColor": (K.INCC, (0, 1)), ",": (K.DECC, (0, 1)), "DecColor": (K.DECC, (0, 1)),
+    "SetColor": (K.SETC, (1,)),
+    "%": (K.CUT, (0,)), "Cut": (K.CUT, (0,)),
+    "@Tp": (K.TROPISM, (0, 1, 2, 3)), "Tropism": (K.TROPISM, (0, 1, 2, 3)),
+    "@Ts": (K.ELASTICITY, (0, 1)), "Elasticity": (K.ELASTICITY, (0, 1)),
+}
+
+#: Every module the turtle interprets -> its accepted parameter counts.
+TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
+
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (geometry other than the skeleton,
+#: absolute frames, scales, guides, textures, queries); the engine refuses them with their line.
+LPY_UNSUPPORTED: frozenset[str] = frozenset({
+    "@O", "Sphere", "@o", "Circle", "@B", "Box", "@b", "Quad", "@L", "Label", "~", "~l", "surface", "@g",
+    "PglShape", "Frame", "Arrow", "@Gc", "StartGC", "@Ge", "EndGC", "{", "BP", "}", "EP", ".", "PP", "@M",
+    "MoveTo", "MoveRel", "LineTo", "OLineTo", "LineRel", "OLineRel", "Pinpoint", "PinpointRel", "@R", "SetHead",
+    "EulerAngles", "iRollL", "iRollR", "@Dd", "DivScale", "@Di", "MultScale", "@D", "SetScale", "nF",
+    "SetContour", "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
+    "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
+    "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
+    "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
+    "EndScreenProjection", "?P", "GetPos", "?H", "GetHead", "?U", "GetUp", "?L", "GetLeft", "?R", "GetRight",
+    "?F", "GetFrame",
+})
+
+_WARN = {K.IGNORED_WIDTH: "a width below 0", K.IGNORED_COLOR: "a colour index below 0",
+         K.IGNORED_ELASTICITY: "an elasticity outside [0, 1]"}
+
+
+@dataclass(frozen=True, eq=False)
+class TurtleNodes:
+    """The turtle's drawing: the skeleton and what each node carries besides.
+
+    Attributes
+    ----------
+    tree : TreeArrays
+    color : (N,) int64 ndarray
+        Colour (material) index of each node, L-Py's ``;``/``,`` (1 by default).
+    module : (N,) int64 ndarray
+        Index in the string of the ``F`` that made each node.
+    """
+
+    tree: TreeArrays
+    color: np.ndarray
+    module: np.ndarray
+
+
+def _ops(string: ModuleString):
+    """Op code per module, after the door checks: arity, finite and bounded parameters, brackets, tropism."""
+    if not isinstance(string, ModuleString):
+        raise ValueError(f"string must be a ModuleString, got {type(string).__name__}")  # noqa: TRY004
+    names, ids, ptr, args = string.names, string.ids, string.arg_ptr, string.args
+    n = len(ids)
+    code = np.zeros(len(names), np.int8)
+    allowed = np.ones((len(names), 5), bool)
+    for k, name in enumerate(names):
+        if name in _TABLE:
+            code[k], counts = _TABLE[name]
+            allowed[k] = [c in counts for c in range(5)]
+    op = code[ids]
+    cnt = np.diff(ptr)
+    bad = np.flatnonzero(~allowed[ids, np.minimum(cnt, 4)])
+    if bad.size:
+        i = int(bad[0])
+        name = names[ids[i]]
+        raise ValueError(f"string: module {name} at index {i} takes {_counts(TURTLE_MODULES[name])} "
+                         f"parameter(s), got {int(cnt[i])}")
+    if args.size:
+        owner = np.repeat(np.arange(n), cnt)
+        vals = np.abs(args)
+        bad = np.flatnonzero((op[owner] != K.NOP) & ~(vals <= MAX_COORD))
+        if bad.size:
+            j = int(bad[0])
+            i = int(owner[j])
+            raise ValueError(f"string: module {names[ids[i]]} at index {i}: parameter {j - int(ptr[i])} = "
+                             f"{float(args[j])!r} must be finite and within [-{MAX_COORD:g}, {MAX_COORD:g}]")
+    step = (op == K.PUSH).astype(np.int64) - (op == K.POP)
+    depth = np.cumsum(step)
+    if n and depth.min() < 0:
+        i = int(np.flatnonzero(depth < 0)[0])
+        raise ValueError(f"string: unbalanced brackets, {names[ids[i]]} at index {i} has no matching '['")
+    for i in np.flatnonzero((op == K.TROPISM) & (cnt > 0)):
+        if not np.any(args[ptr[i]:ptr[i + 1]] != 0):
+            raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: the tropism direction must not "
+                             f"be zero")
+    return op, int(depth.max()) if n else 0, int(np.count_nonzero(op == K.F))
+
+
+def _counts(counts: tuple[int, ...]) -> str:
+    return " or ".join(str(c) for c in counts)
+
+
+def _options(angle, step, width, width_increment, tropism, elasticity):
+    angle = abs(check_range("angle", angle, -360.0, 360.0))           # PlantGL keeps |increment|
+    step = check_range("step", step, 0.0, MAX_COORD, low_open=True)
+    width = check_range("width", width, 0.0, MAX_COORD)
+    width_increment = check_range("width_increment", width_increment, 0.0, MAX_COORD)
+    trop = check_array("tropism", tropism, shape=(3,), max_abs=MAX_COORD)
+    norm = float(np.linalg.norm(trop))
+    if not norm > 0:
+        raise ValueError(f"tropism must be a non-zero 3-vector, got {trop.tolist()}")
+    elasticity = check_range("elasticity", elasticity, 0.0, 1.0)
+    return angle, step, width, width_increment, trop / norm, elasticity
+
+
+def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,
+                 width: float = DEFAULT_WIDTH, width_increment: float = DEFAULT_WIDTH_INCREMENT,
+                 tropism=(0.0, 0.0, 1.0), elasticity: float = 0.0) -> TurtleNodes:
+    """Interpret ``string`` with the L-Py turtle: the tree plus each node's colour and module (see :func:`turtle`)."""
+    opts = _options(angle, step, width, width_increment, tropism, elasticity)
+    op, depth, n_f = _ops(string)
+    pos, parent, radius, order, main, color, module, nn, ignored, at = K.turtle_kernel(
+        op, string.arg_ptr, string.args, *opts, depth, 2 * n_f)
+    for k, what in _WARN.items():
+        if ignored[k]:
+            i = int(at[k])
+            warnings.warn(f"string: {int(ignored[k])} module(s) set {what} and were ignored, as in PlantGL (first: "
+                          f"{string.names[string.ids[i]]} at index {i})", stacklevel=3)
+    tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
+    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy())
+
+
+def turtle(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,
+           width: float = DEFAULT_WIDTH, width_increment: float = DEFAULT_WIDTH_INCREMENT,
+           tropism=(0.0, 0.0, 1.0), elasticity: float = 0.0) -> TreeArrays:
+    """Draw the skeleton of an L-system string as L-Py's turtle does.
+
+    Parameters
+    ----------
+    string : ModuleString
+        The derived (and interpreted) string; modules outside :data:`TURTLE_MODULES` are skipped.
+    angle : float
+        Turn angle of ``+ - & ^ / \\`` without a parameter, in degrees (L-Py's default 60).
+    step : float
+        Length of ``F`` and ``f`` without a parameter.
+    width : float
+        Initial width (internode radius), L-Py's 0.1.
+    width_increment : float
+        Change of ``_`` and ``!`` without a parameter (PlantGL's 1).
+    tropism : (3,) float
+        Initial tropism direction (normalised; PlantGL's +Z); ``@Tp`` changes it.
+    elasticity : float
+        Initial elasticity in [0, 1] (0: no tropism); ``@Ts`` changes it.
+
+    Returns
+    -------
+    TreeArrays
+        One node per drawn ``F`` at its end, plus a root node where the first ``F`` (and the first after each
+        ``f``) starts; ``radius`` is the width at the node (an ``F(l, r)`` ends at ``r``), ``order`` counts the
+        ``[`` branchings from the main axis, ``main_child`` is the child continuing the axis.
+
+    Raises
+    ------
+    ValueError
+        For a wrong parameter count, a non-finite or out-of-range parameter (``|v| > 1e6``), a ``]`` without its
+        ``[``, a zero tropism direction (the message names the module and its index), or bad options. An
+        unclosed ``[`` is accepted, as in L-Py.
+
+    References
+    ----------
+    .. [1] PlantGL ``src/cpp/plantgl/algo/modelling/turtle.cpp`` (``F``, ``f``, ``left``, ``down``, ``rollL``,
+       ``rollToVert``, ``rollToHorizontal``, ``_tendTo``); L-Py ``predefinedmodules.cpp`` (symbols, aliases).
+    .. [2] Prusinkiewicz & Lindenmayer, The Algorithmic Beauty of Plants, §1.5 (turtle in 3-D, ``$``).
+
+    Examples
+    --------
+    >>> t = turtle(ModuleString.from_modules(["F", "[", ("+", (90.0,)), "F", "]", "F"]))
+    >>> t.parent.tolist(), t.order.tolist(), t.pos[2].round(6).tolist()
+    ([-1, 0, 1, 1], [0, 0, 1, 0], [0.0, -1.0, 1.0])
+    """
+    return turtle_nodes(string, angle=angle, step=step, width=width, width_increment=width_increment,
+                        tropism=tropism, elasticity=elasticity).tree
+
+
+def bush_string(n: int) -> ModuleString:
+    """A 3-D bush of exactly ``n`` non-parametric modules (a benchmark and test fixture).
+
+    ``F -> F[&+F]F[^-F]/F`` rewritten until the string has at least ``n`` modules, then its first ``n`` (a prefix
+    never closes a bracket it did not open; unclosed ``[`` are accepted, as in L-Py).
+    """
+    n = check_int("n", n, 1, 100_000_000)
+    s = "F"
+    while len(s) < n:
+        s = s.replace("F", "F[&+F]F[^-F]/F")
+    names = ("F", "[", "]", "&", "^", "+", "-", "/")
+    lut = np.zeros(256, np.int32)
+    for k, c in enumerate(names):
+        lut[ord(c)] = k
+    ids = lut[np.frombuffer(s[:n].encode("ascii"), np.uint8)]
+    return ModuleString(names, ids, np.zeros(n + 1, np.int64), np.zeros(0))
