@@ -1,0 +1,132 @@
+"""L-system derivation and interpretation speed (issue 23), in modules per second, beside straightforward Python
+baselines measured in the same run.
+
+(a) a non-parametric bush (ABOP 1.24d, ``X -> F[+X]F[-X]+X``, ``F -> FF``) grown to about 10^6 modules, against
+    ``"".join(rules.get(c, c) for c in s)`` string rewriting (goal >= 20x);
+(b) a parametric grammar with conditions (``tests/lsystem/grammars/parametric.lpy``) grown to about 10^5 modules,
+    against a Python loop over ``(name, params)`` tuples calling one function per rule (goal >= 5x);
+(c) the turtle interpretation of 10^6 modules into tree arrays (goal <= 1 s).
+
+Throughput = modules produced over all steps / best wall time of the whole derivation. CPU time
+(``time.process_time``) is printed beside the wall time. ``--quick`` uses smaller strings (< 30 s).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from plantvr.lsystem.engine import LSystem
+
+BUSH = "Axiom: X\nproduction:\nX --> F[+X]F[-X]+X\nF --> FF\nendlsystem\n"
+#: Branching depth of the parametric benchmark: deep enough that the string keeps growing.
+DEPTH = 40
+PARAM = Path(__file__).resolve().parent.parent / "tests" / "lsystem" / "grammars" / "parametric.lpy"
+
+
+def _timed(fn, repeat: int):
+    best_wall, best_cpu, out = float("inf"), float("inf"), None
+    for _ in range(repeat):
+        w, c = time.perf_counter(), time.process_time()
+        out = fn()
+        best_wall = min(best_wall, time.perf_counter() - w)
+        best_cpu = min(best_cpu, time.process_time() - c)
+    return best_wall, best_cpu, out
+
+
+def _steps_for(ls: LSystem, target: int) -> int:
+    s, n = ls.axiom, 0
+    while len(s) < target:
+        if n > 60:
+            raise RuntimeError("the benchmark grammar stopped growing")
+        s = ls.derive(1, string=s)
+        n += 1
+    return n
+
+
+def bush_baseline(n: int) -> int:
+    rules = {"X": "F[+X]F[-X]+X", "F": "FF"}
+    s, total = "X", 0
+    for _ in range(n):
+        s = "".join(rules.get(c, c) for c in s)
+        total += len(s)
+    return total
+
+
+def param_baseline(n: int, ratio: float = 0.8, depth: int = 6) -> int:
+    def rule_a(l, k):
+        if k > 0:
+            return [("I", (l,)), ("[", ()), ("+", (30,)), ("A", (l * ratio, k - 1)), ("]", ()), ("[", ()),
+                    ("-", (30,)), ("A", (l * ratio, k - 1)), ("]", ()), ("I", (l * 0.5,)), ("A", (l * 0.9, k - 1))]
+        return [("L", (l,))]
+
+    def rule_i(l):
+        return [("I", (l * 1.02,))]
+
+    def rule_l(l):
+        return [("L", (l * ratio,))] if l > 0.1 else None
+
+    rules = {("A", 2): rule_a, ("I", 1): rule_i, ("L", 1): rule_l}
+    s, total = [("A", (1.0, depth))], 0
+    for _ in range(n):
+        out = []
+        for name, params in s:
+            f = rules.get((name, len(params)))
+            res = f(*params) if f is not None else None
+            if res is None:
+                out.append((name, params))
+            else:
+                out.extend(res)
+        s = out
+        total += len(s)
+    return total
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="smaller strings (< 30 s)")
+    a = ap.parse_args(argv)
+    bush_n, param_n, turtle_n, rep = (10 ** 5, 10 ** 4, 10 ** 5, 2) if a.quick else (10 ** 6, 10 ** 5, 10 ** 6, 3)
+    res: dict = {}
+
+    bush = LSystem(BUSH)
+    steps = _steps_for(bush, bush_n)
+    bush.derive(1)                                            # compile the kernels
+    w, c, s = _timed(lambda: bush.derive(steps), rep)
+    total = sum(len(x) for x in list(bush.iterate(steps))[1:])
+    bw, bc, btotal = _timed(lambda: bush_baseline(steps), rep)
+    assert btotal == total
+    res["bush"] = dict(modules=len(s), steps=steps, wall_s=w, cpu_s=c, rate=total / w, baseline_rate=btotal / bw,
+                       baseline_wall_s=bw, baseline_cpu_s=bc, speedup=bw / w)
+    print(f"(a) bush to {len(s):,} modules in {steps} steps: {total / w:,.0f} modules/s (wall {w:.3f} s, "
+          f"cpu {c:.3f} s) vs Python string rewriting {btotal / bw:,.0f} modules/s (wall {bw:.3f} s, cpu {bc:.3f} s)"
+          f": {bw / w:.1f}x (goal >= 20x)")
+
+    par = LSystem.from_file(PARAM, depth=DEPTH)
+    steps = _steps_for(par, param_n)
+    w, c, s = _timed(lambda: par.derive(steps), rep)
+    total = sum(len(x) for x in list(par.iterate(steps))[1:])
+    bw, bc, btotal = _timed(lambda: param_baseline(steps, depth=DEPTH), rep)
+    assert btotal == total
+    res["parametric"] = dict(modules=len(s), steps=steps, wall_s=w, cpu_s=c, rate=total / w,
+                             baseline_rate=btotal / bw, baseline_wall_s=bw, baseline_cpu_s=bc, speedup=bw / w)
+    print(f"(b) parametric to {len(s):,} modules in {steps} steps: {total / w:,.0f} modules/s (wall {w:.3f} s, "
+          f"cpu {c:.3f} s) vs Python rule functions {btotal / bw:,.0f} modules/s (wall {bw:.3f} s, "
+          f"cpu {bc:.3f} s): {bw / w:.1f}x (goal >= 5x)")
+
+    try:
+        from plantvr.lsystem.turtle import bush_string, turtle
+    except ImportError:                                       # pragma: no cover - turtle built in parallel
+        print("(c) turtle not available")
+        return res
+    string = bush_string(turtle_n)
+    turtle(bush_string(1000))
+    w, c, t = _timed(lambda: turtle(string), rep)
+    res["turtle"] = dict(modules=len(string), nodes=len(t.parent), wall_s=w, cpu_s=c, rate=len(string) / w)
+    print(f"(c) turtle: {len(string):,} modules -> {len(t.parent):,} nodes in {w:.3f} s wall, {c:.3f} s cpu "
+          f"({len(string) / w:,.0f} modules/s; goal <= 1 s at 10^6)")
+    return res
+
+
+if __name__ == "__main__":
+    main()

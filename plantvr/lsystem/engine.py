@@ -1,0 +1,961 @@
+"""The L-system engine (issue 23): L-Py grammars derived into :class:`~plantvr.lsystem.modules.ModuleString` s.
+
+:class:`LSystem` reads ``.lpy`` text (:mod:`plantvr.lsystem.grammar`), runs its Python code in a namespace of its
+own (``math`` names, seeded ``random``/``uniform``/``gauss``..., ``extern(name=value)`` parameters,
+``forward()``/``backward()``/``getIterationNb()``/``Stop()``, ``Start``/``End``/``StartEach``/``EndEach``
+hooks without arguments, ``context().turtle.setAngleIncrement(a)`` as a turtle option) and derives strings in
+parallel as L-Py does: the first rule (file order) whose pattern matches and that produces replaces a module,
+others are copied; decomposition rules are applied after every step up to ``maximum depth``; homomorphism rules
+in :meth:`LSystem.interpret`.
+
+How a step runs, fastest first:
+
+* every rule constant (context-free, no condition, successor parameters free of pattern variables): one numba
+  count pass and one fill pass over the int ids (``_derive_kernels``);
+* otherwise modules are grouped by predecessor id; one-line rules (``-->`` or ``: cond -->``) whose condition and
+  successor parameters are arithmetic, comparisons, ``and/or/not``, ``a if c else b`` and ``math`` functions of
+  the pattern variables and numeric constants are evaluated vectorised on numpy parameter columns;
+* rules that cannot vectorise run per module in Python: block bodies (``produce`` inside Python code, hence all
+  stochastic rules), calls of grammar functions or ``random``, context-sensitive rules (``<``, ``>``, with
+  ``ignore:``/``consider:``, matched along the axial tree: a left context skips lateral branches, a right context
+  skips them unless the pattern opens one) and steps where a new-context rule (``<<``, ``>>``) needs the string
+  rewritten in order (forward, or backward after ``backward()``).
+
+Parameters are float64 (integral values reach Python rule code as ``int``); a parameter that is not a number
+raises :class:`LSystemError` naming the module and the rule's line. Angles are never converted (degrees, the
+turtle's unit).
+"""
+from __future__ import annotations
+
+import ast
+import builtins
+import inspect
+import math
+import random as _random
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from plantvr._validation import check_int
+from plantvr.types import TreeArrays
+
+from . import _derive_kernels as K
+from .grammar import Grammar, Rule, lstring_to_py, parse_grammar
+from .lexer import LSystemError, Token, lex
+from .modules import ModuleString
+
+__all__ = ["MAX_DERIVATION", "MAX_MODULES", "LSystem", "LSystemError"]
+
+#: Longest string (modules) a derivation may produce; checked from the count pass, before allocating.
+MAX_MODULES = 50_000_000
+#: Most parameters a derived string may hold.
+MAX_PARAMETERS = 200_000_000
+#: Most derivation steps one call may ask for.
+MAX_DERIVATION = 100_000
+
+_RANDOM_FUNCS = ("random", "uniform", "gauss", "normalvariate", "randint", "choice", "expovariate",
+                 "betavariate", "triangular", "lognormvariate", "shuffle", "sample", "randrange", "seed",
+                 "vonmisesvariate", "gammavariate", "paretovariate", "weibullvariate", "getrandbits")
+_NP_FUNCS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
+             "log10": np.log10, "floor": np.floor, "ceil": np.ceil, "fabs": np.abs, "abs": np.abs,
+             "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan, "atan2": np.arctan2, "radians": np.radians,
+             "degrees": np.degrees, "pow": np.power, "min": np.minimum, "max": np.maximum, "int": np.trunc,
+             "float": lambda a: a, "round": np.round, "hypot": np.hypot, "sinh": np.sinh, "cosh": np.cosh,
+             "tanh": np.tanh}
+_PURE = {name: getattr(math, name, None) for name in _NP_FUNCS} | {"abs": abs, "min": min, "max": max, "int": int,
+                                                                  "float": float, "round": round, "pow": pow}
+_OK_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.IfExp, ast.Constant, ast.Name,
+             ast.Load, ast.Call, ast.operator, ast.unaryop, ast.boolop, ast.cmpop)
+
+
+class _Stop(Exception):
+    pass
+
+
+class _ContextStub:
+    """``context()`` / ``execContext()`` of L-Py: records turtle options, accepts editor settings."""
+
+    def __init__(self, options: dict) -> None:
+        self.turtle = _TurtleStub(options)
+        self.options = _Ignore()
+        self.animation_timestep = 0.0
+
+    def __setitem__(self, key, value) -> None:
+        pass
+
+    def __getattr__(self, name):
+        raise LSystemError(f"context().{name} is not supported")
+
+
+class _Ignore:
+    def __getattr__(self, name):
+        return lambda *a, **k: None
+
+
+class _TurtleStub:
+    _MAP = {"setAngleIncrement": "angle", "setWidth": "width", "setDefaultStep": "step"}
+
+    def __init__(self, options: dict) -> None:
+        self._options = options
+
+    def __getattr__(self, name):
+        if name in self._MAP:
+            def setter(value, _key=self._MAP[name]):
+                self._options[_key] = float(value)
+            return setter
+        if name.startswith("setMaterial") or name.startswith("setColor"):
+            return lambda *a, **k: None
+        raise LSystemError(f"context().turtle.{name} is not supported")
+
+
+class _Reversed:
+    """Read-only view of a list in reverse order (the new string built backward)."""
+
+    def __init__(self, seq: list) -> None:
+        self.seq = seq
+
+    def __len__(self) -> int:
+        return len(self.seq)
+
+    def __getitem__(self, k: int):
+        return self.seq[len(self.seq) - 1 - k]
+
+
+class _Compiled:
+    """A rule ready to run: its function, pattern ids and optional vectorised or constant plans."""
+
+    def __init__(self, rule: Rule, func, sid: int) -> None:
+        self.rule = rule
+        self.func = func
+        self.sid = sid
+        self.arity = rule.pred.arity
+        self.contexts = bool(rule.left or rule.right)
+        self.newcontexts = bool(rule.newleft or rule.newright)
+        self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
+        self.const = None        # [(sid, (floats...)), ...]
+
+
+def _pyval(v: float):
+    return int(v) if v.is_integer() and abs(v) < 2 ** 53 else v
+
+
+class LSystem:
+    """An L-Py grammar, ready to derive.
+
+    Parameters
+    ----------
+    text : str
+        The ``.lpy`` grammar text.
+    seed : int, optional
+        Seed of the grammar's ``random``/``uniform``/``gauss``... (reseeded at each derivation, so a seeded
+        derivation is reproducible).
+    **externs : float
+        Values of the grammar's declared parameters (``extern(name=value)`` or the editor's scalars).
+
+    Raises
+    ------
+    LSystemError
+        A layout or Python error in the grammar, or an unsupported construct, with line and column.
+    ValueError
+        An unknown or non-numeric extern.
+
+    References
+    ----------
+    .. [1] Boudon et al. 2012, L-Py: an L-system simulation framework for modeling plant architecture
+       development based on a dynamic language, Front. Plant Sci. 3:76.
+    .. [2] Prusinkiewicz & Lindenmayer 1990, The Algorithmic Beauty of Plants (ABOP), ch. 1.
+
+    Examples
+    --------
+    >>> ls = LSystem("Axiom: F\\nderivation length: 2\\nproduction:\\nF --> F[+F]F\\nendlsystem")
+    >>> str(ls.derive())
+    'F[+F]F[+F[+F]F]F[+F]F'
+    """
+
+    def __init__(self, text: str, *, seed: int | None = None, filename: str = "<lpy>", **externs: float) -> None:
+        if not isinstance(text, str):
+            raise ValueError(f"text must be a str, got {type(text).__name__}")
+        if seed is not None:
+            seed = check_int("seed", seed, 0, 2 ** 63 - 1)
+        for k, v in externs.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or \
+                    not math.isfinite(float(v)):
+                raise ValueError(f"extern {k} must be a finite number, got {v!r}")
+        self._text = text
+        self._filename = filename
+        self._seed = seed
+        self._overrides = {k: float(v) if isinstance(v, (float, np.floating)) else int(v) for k, v in externs.items()}
+        self._g: Grammar = parse_grammar(text)
+        self._names: list[str] = ["[", "]"]
+        self._index: dict[str, int] = {"[": 0, "]": 1}
+        for name in self._g.first_use:
+            self._sid(name)
+        self._rng = _random.Random(seed)
+        self._turtle: dict[str, float] = {}
+        self._externs: dict[str, float] = {}
+        self._nbuf: list = []
+        self._direction = 1
+        self._iteration = 0
+        self._stopped = False
+        self._ns = self._namespace()
+        self._exec_python()
+        self._hooks = self._read_hooks()
+        self.derivation_length = self._eval_int(self._g.derivation_length, "derivation length", 1)
+        self._max_depth = {k: self._eval_int(self._g.max_depth.get(k), "maximum depth", 1)
+                           for k in ("decomposition", "homomorphism")}
+        self._ignored = self._ignore_set()
+        self._rules = {"production": [], "decomposition": [], "homomorphism": []}
+        for rule in self._g.rules:
+            self._rules[rule.kind].append(self._compile(rule))
+        self._tables: dict[str, Any] = {}
+        src, ln, col = self._g.axiom
+        self.axiom = self._to_string(self._eval_lstring(self._g.axiom_tokens, ln, "the axiom"), ln)
+
+    @classmethod
+    def from_file(cls, path: str | Path, *, seed: int | None = None, **externs: float) -> LSystem:
+        """Read a ``.lpy`` file (UTF-8); errors give the file's line and column."""
+        p = Path(path)
+        if not p.is_file():
+            raise ValueError(f"path {str(path)!r} is not a file")
+        return cls(p.read_text(encoding="utf-8"), seed=seed, filename=str(p), **externs)
+
+    # -- public --------------------------------------------------------------------------------------------------
+    @property
+    def externs(self) -> dict[str, float]:
+        """The grammar's declared parameters with their current values."""
+        return dict(self._externs)
+
+    @property
+    def turtle_options(self) -> dict[str, float]:
+        """Turtle keyword arguments the grammar sets (``context().turtle.setAngleIncrement(a)`` -> angle)."""
+        return dict(self._turtle)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The symbol table of the strings this L-system derives."""
+        return tuple(self._names)
+
+    def derive(self, n: int | None = None, *, string: ModuleString | None = None) -> ModuleString:
+        """The string after ``n`` steps (default: the derivation length) from the axiom or ``string``;
+        decomposition is applied after each step."""
+        out = None
+        for out in self.iterate(n, string=string):
+            pass
+        return out
+
+    def iterate(self, n: int | None = None, *, string: ModuleString | None = None) -> Iterator[ModuleString]:
+        """Yield the string after each step ``0..n`` (step 0 is the start string)."""
+        n = self.derivation_length if n is None else check_int("n", n, 0, MAX_DERIVATION)
+        s = self.axiom if string is None else self._adopt(string)
+        return self._run(n, s)
+
+    def interpret(self, string: ModuleString) -> ModuleString:
+        """The homomorphism (``interpretation:``) pass, up to its maximum depth."""
+        s = self._adopt(string)
+        for _ in range(self._max_depth["homomorphism"]):
+            s, changed = self._rewrite(s, "homomorphism")
+            if not changed:
+                break
+        return s
+
+    def tree(self, n: int | None = None, **turtle_options: Any) -> TreeArrays:
+        """``turtle(self.interpret(self.derive(n)), **options)``: the grammar's turtle options, overridden by
+        ``turtle_options``. A module that L-Py draws but the turtle does not raises LSystemError with its line."""
+        from .turtle import LPY_UNSUPPORTED, turtle
+        s = self.interpret(self.derive(n))
+        used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names)))
+        for k in used.tolist():
+            name = s.names[k]
+            if name in LPY_UNSUPPORTED:
+                line, col = self._g.first_use.get(name, (0, 0))
+                raise LSystemError(f"unsupported module {name} (L-Py draws it, PlantVR's turtle does not)", line, col)
+        return turtle(s, **{**self._turtle, **turtle_options})
+
+    def __repr__(self) -> str:
+        return (f"LSystem({len(self._g.rules)} rules, derivation length {self.derivation_length}, "
+                f"axiom {self.axiom!r})")
+
+    # -- namespace and Python code ---------------------------------------------------------------------------------
+    def _namespace(self) -> dict:
+        ns: dict[str, Any] = {"__builtins__": builtins, "__name__": "__lpy__"}
+        ns.update({k: getattr(math, k) for k in dir(math) if not k.startswith("_")})
+        for name in _RANDOM_FUNCS:
+            ns[name] = getattr(self._rng, name)
+        opts = self._turtle
+        ctx = _ContextStub(opts)
+        ns.update(
+            extern=self._extern, context=lambda: ctx, execContext=lambda: ctx,
+            forward=lambda: setattr(self, "_direction", 1), backward=lambda: setattr(self, "_direction", -1),
+            isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
+            Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
+            __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
+            nproduce=self._nbuf_add, useGroup=self._no_group, frameDisplay=lambda *a: None,
+        )
+        for k, v in self._g.scalars.items():
+            ns[k] = self._overrides.get(k, int(v) if float(v).is_integer() else v)
+            self._externs[k] = float(ns[k])
+        ns.update(self._overrides)
+        return ns
+
+    def _no_group(self, *a) -> None:
+        raise LSystemError("useGroup (rule groups) is not supported")
+
+    def _nbuf_add(self, mods) -> None:
+        self._nbuf.extend(mods)
+
+    def _extern(self, **kw) -> None:
+        for k, v in kw.items():
+            value = self._overrides.get(k, v)
+            self._ns[k] = value
+            try:
+                self._externs[k] = float(value)
+            except (TypeError, ValueError):
+                raise LSystemError(f"extern {k} must be a number, got {value!r}") from None
+
+    def _exec_python(self) -> None:
+        try:
+            code = compile(self._g.python, self._filename, "exec")
+        except SyntaxError as e:
+            raise LSystemError(f"Python syntax error: {e.msg}", e.lineno or 0, e.offset or 0) from None
+        try:
+            exec(code, self._ns)
+        except LSystemError as e:
+            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or e.line, 1) from None
+        except Exception as e:                                # the grammar's own code failed
+            raise LSystemError(f"{type(e).__name__}: {e}", self._tb_line(sys.exc_info()[2]), 1) from None
+        for name in _RANDOM_FUNCS:                            # ``from random import *`` stays seeded
+            if self._ns.get(name) is getattr(_random, name, None):
+                self._ns[name] = getattr(self._rng, name)
+        unknown = sorted(set(self._overrides) - set(self._externs))
+        if unknown:
+            raise ValueError(f"unknown extern {unknown[0]!r}: the grammar declares "
+                             f"{sorted(self._externs) or 'none'}")
+
+    def _tb_line(self, tb) -> int:
+        line = 0
+        while tb is not None:
+            if tb.tb_frame.f_code.co_filename == self._filename:
+                line = tb.tb_lineno
+            tb = tb.tb_next
+        return line
+
+    def _read_hooks(self) -> dict:
+        hooks = {}
+        for name in ("Start", "End", "StartEach", "EndEach"):
+            f = self._ns.get(name)
+            if callable(f):
+                try:
+                    nparams = len(inspect.signature(f).parameters)
+                except (TypeError, ValueError):
+                    nparams = 0
+                if nparams:
+                    line = getattr(getattr(f, "__code__", None), "co_firstlineno", 0)
+                    raise LSystemError(f"{name}() with arguments (the lstring) is not supported", line, 1)
+                hooks[name] = f
+        return hooks
+
+    def _eval_int(self, item, what: str, default: int) -> int:
+        if item is None:
+            return default
+        src, ln = item
+        try:
+            v = eval(compile(src, self._filename, "eval"), self._ns)
+        except Exception as e:
+            raise LSystemError(f"{what}: cannot evaluate {src!r} ({type(e).__name__}: {e})", ln, 1) from None
+        if isinstance(v, float) and v.is_integer():
+            v = int(v)
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v <= MAX_DERIVATION:
+            raise LSystemError(f"{what} must be an integer in [0, {MAX_DERIVATION}], got {v!r}", ln, 1)
+        return int(v)
+
+    def _ignore_set(self) -> tuple[frozenset, bool] | None:
+        g = self._g
+        if not (g.ignore or g.consider):
+            return None
+        src, ln, col = g.ignore or g.consider
+        names = frozenset(t.name for t in lex(src, g.declared, line=ln, col=col))
+        return names, bool(g.ignore)
+
+    def _is_ignored(self, sid: int) -> bool:
+        """Whether module id ``sid`` is skipped in context matching (``ignore:`` / not in ``consider:``)."""
+        if self._ignored is None or sid < 2:
+            return False
+        names, ignore = self._ignored
+        return (self._names[sid] in names) == ignore
+
+    # -- rules ---------------------------------------------------------------------------------------------------
+    def _sid(self, name: str) -> int:
+        k = self._index.get(name)
+        if k is None:
+            k = self._index[name] = len(self._names)
+            self._names.append(name)
+            self._tables.clear() if hasattr(self, "_tables") else None
+        return k
+
+    def _compile(self, rule: Rule) -> _Compiled:
+        first = rule.body[0][0] if rule.body else rule.line
+        lines = [""] * (first - 2) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
+        for ln, src in rule.body:
+            while len(lines) < ln - 1:
+                lines.append("")
+            lines.append("    " + src)
+        if not rule.body:
+            lines.append("    pass")
+        src = "\n".join(lines) + "\n"
+        try:
+            code = compile(src, self._filename, "exec")
+        except SyntaxError as e:
+            raise LSystemError(f"Python syntax error in rule {rule.header!r}: {e.msg}", e.lineno or rule.line,
+                               e.offset or 0) from None
+        local: dict = {}
+        exec(code, self._ns, local)
+        c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
+        if rule.successor is not None and not (c.contexts or c.newcontexts):
+            self._plan(c)
+        return c
+
+    def _plan(self, c: _Compiled) -> None:
+        """Vectorised and constant plans of a one-line context-free rule (None where it cannot)."""
+        params = c.rule.params
+        cond = None
+        if c.rule.condition is not None:
+            cond = self._vectorize(c.rule.condition, params)
+            if cond is None:
+                return
+        slots = []
+        const = c.rule.condition is None
+        cvals = []
+        for t in c.rule.successor:
+            if t.name == "*" and len(c.rule.successor) == 1 and t.args is None:
+                break
+            fns = []
+            vals = []
+            for a in t.args or ():
+                f = self._vectorize(a, params)
+                if f is None:
+                    return
+                fns.append(f)
+                if const and self._vectorize(a, []) is not None:
+                    try:
+                        vals.extend(self._floats(t.name, eval(a, self._ns), c.rule.line))
+                    except LSystemError:
+                        raise
+                    except Exception:
+                        const = False
+                else:
+                    const = False
+            slots.append((self._sid(t.name), fns))
+            cvals.append((self._sid(t.name), tuple(vals)))
+        c.vec = (cond, slots)
+        if const and all(len(v) == len(f) for (_, v), (_, f) in zip(cvals, slots)):
+            c.const = cvals
+
+    def _vectorize(self, src: str, params: list[str]):
+        """A numpy function of the parameter columns computing expression ``src``, or None if it cannot."""
+        try:
+            tree = ast.parse(src, mode="eval")
+        except SyntaxError:
+            return None
+        env: dict[str, Any] = {"__np": np, "__builtins__": {}}
+        funcs = {id(node.func) for node in ast.walk(tree) if isinstance(node, ast.Call)}
+        for node in ast.walk(tree):
+            if not isinstance(node, _OK_NODES):
+                return None
+            if isinstance(node, ast.Constant) and (isinstance(node.value, str) or node.value is None):
+                return None
+            if isinstance(node, ast.Call):
+                if not isinstance(node.func, ast.Name) or node.keywords or node.func.id in params:
+                    return None
+                f = node.func.id
+                if f not in _NP_FUNCS or self._ns.get(f, getattr(builtins, f, None)) is not _PURE.get(f):
+                    return None
+                env["__np_" + f] = _NP_FUNCS[f]
+            elif isinstance(node, ast.Name) and node.id not in params:
+                if id(node) in funcs:
+                    continue
+                v = self._ns.get(node.id)
+                if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                    return None
+                env[node.id] = float(v)
+        tree = _ToNumpy().visit(tree)
+        ast.fix_missing_locations(tree)
+        lam = ast.Expression(ast.Lambda(ast.arguments(posonlyargs=[], args=[ast.arg(p) for p in params],
+                                                      kwonlyargs=[], kw_defaults=[], defaults=[]), tree.body))
+        ast.fix_missing_locations(lam)
+        return eval(compile(lam, "<vectorised>", "eval"), env)
+
+    # -- strings -------------------------------------------------------------------------------------------------
+    def _floats(self, name: str, v, line: int) -> tuple[float, ...]:
+        if isinstance(v, (bool, np.bool_, int, float, np.integer, np.floating)):
+            return (float(v),)
+        if isinstance(v, (tuple, list, np.ndarray)):
+            out = []
+            for x in np.asarray(v, dtype=object).ravel().tolist():
+                out.extend(self._floats(name, x, line))
+            return tuple(out)
+        raise LSystemError(f"module {name}: parameter {v!r} is a {type(v).__name__}; module strings hold "
+                           f"numbers only", line, 1)
+
+    def _eval_lstring(self, toks: list[Token], line: int, what: str) -> list:
+        try:
+            return eval(compile(lstring_to_py(toks), self._filename, "eval"), self._ns)
+        except Exception as e:
+            raise LSystemError(f"{what}: {type(e).__name__}: {e}", line, toks[0].col if toks else 1) from None
+
+    def _to_string(self, mods: list, line: int) -> ModuleString:
+        ids, counts, args = [], [], []
+        for name, vals in mods:
+            ids.append(self._sid(name))
+            f = self._floats(name, vals, line) if vals != () else ()
+            counts.append(len(f))
+            args.extend(f)
+        ptr = np.zeros(len(ids) + 1, np.int64)
+        np.cumsum(counts, out=ptr[1:])
+        return ModuleString(tuple(self._names), np.array(ids, np.int32), ptr, np.array(args, np.float64))
+
+    def _adopt(self, s: ModuleString) -> ModuleString:
+        if not isinstance(s, ModuleString):
+            raise ValueError(f"string must be a ModuleString, got {type(s).__name__}")
+        if len(s.names) <= len(self._names) and tuple(self._names[:len(s.names)]) == s.names:
+            ids = s.ids
+        else:
+            remap = np.array([self._sid(nm) for nm in s.names], np.int32)
+            ids = remap[s.ids] if len(s) else s.ids
+        return ModuleString(tuple(self._names), ids, s.arg_ptr, s.args)
+
+    def _make(self, ids, ptr, args) -> ModuleString:
+        return ModuleString(tuple(self._names), ids, ptr, args)
+
+    # -- derivation ----------------------------------------------------------------------------------------------
+    def _run(self, n: int, s: ModuleString) -> Iterator[ModuleString]:
+        self._rng.seed(self._seed)
+        self._direction, self._iteration, self._stopped = 1, 0, False
+        self._hook("Start")
+        yield s
+        for it in range(n):
+            self._iteration = it
+            self._hook("StartEach")
+            if self._rules["production"]:
+                s, _ = self._rewrite(s, "production")
+            for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
+                s, changed = self._rewrite(s, "decomposition")
+                if not changed:
+                    break
+            self._hook("EndEach")
+            yield s
+            if self._stopped:
+                break
+        self._hook("End")
+
+    def _hook(self, name: str) -> None:
+        f = self._hooks.get(name)
+        if f is not None:
+            self._nbuf.clear()
+            try:
+                f()
+            except LSystemError:
+                raise
+            except Exception as e:
+                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}", self._tb_line(sys.exc_info()[2]),
+                                   1) from None
+
+    def _rewrite(self, s: ModuleString, kind: str) -> tuple[ModuleString, bool]:
+        rules = self._rules[kind]
+        if not rules or not len(s):
+            return s, False
+        if any(r.newcontexts for r in rules):
+            return self._sequential(s, rules)
+        table = self._constant_table(kind)
+        if table is not None:
+            rule_arity, sptr, sids, saptr, sargs = table
+            if rule_arity.shape[0] < len(self._names):
+                self._tables.clear()
+                return self._rewrite(s, kind)
+            n_out, m_out, hits = K.count_constant(s.ids, s.arg_ptr, rule_arity, sptr, saptr)
+            self._check_size(n_out, m_out)
+            out_ids = np.empty(n_out, np.int32)
+            out_ptr = np.empty(n_out + 1, np.int64)
+            out_args = np.empty(m_out, np.float64)
+            K.fill_constant(s.ids, s.arg_ptr, s.args, rule_arity, sptr, sids, saptr, sargs, out_ids, out_ptr,
+                            out_args)
+            return self._make(out_ids, out_ptr, out_args), hits > 0
+        return self._grouped(s, rules)
+
+    @staticmethod
+    def _check_size(n_out: int, m_out: int) -> None:
+        if n_out > MAX_MODULES:
+            raise LSystemError(f"the derived string would have {n_out:,} modules, more than MAX_MODULES = "
+                               f"{MAX_MODULES:,}; derive fewer steps")
+        if m_out > MAX_PARAMETERS:
+            raise LSystemError(f"the derived string would have {m_out:,} parameters, more than MAX_PARAMETERS = "
+                               f"{MAX_PARAMETERS:,}; derive fewer steps")
+
+    def _constant_table(self, kind: str):
+        key = ("const", kind, len(self._names))
+        if key in self._tables:
+            return self._tables[key]
+        rules = self._rules[kind]
+        table = None
+        sids = [r.sid for r in rules]
+        if all(r.const is not None for r in rules) and len(set(sids)) == len(sids):
+            S = len(self._names)
+            arity = np.full(S, -1, np.int64)
+            lens = np.zeros(S, np.int64)
+            succ = {}
+            for r in rules:
+                arity[r.sid] = r.arity
+                succ[r.sid] = r.const
+                lens[r.sid] = len(r.const)
+            sptr = np.zeros(S + 1, np.int64)
+            np.cumsum(lens, out=sptr[1:])
+            flat = [m for k in range(S) for m in succ.get(k, [])]
+            s_ids = np.array([m[0] for m in flat], np.int32)
+            saptr = np.zeros(len(flat) + 1, np.int64)
+            np.cumsum([len(m[1]) for m in flat], out=saptr[1:])
+            sargs = np.array([v for m in flat for v in m[1]], np.float64)
+            table = (arity, sptr, s_ids, saptr, sargs)
+        self._tables[key] = table
+        return table
+
+    def _call(self, c: _Compiled, vals: list) -> list | None:
+        self._nbuf.clear()
+        try:
+            res = c.func(*vals)
+        except LSystemError:
+            raise
+        except Exception as e:
+            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+            raise LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}", line, 1) from None
+        if res is None:
+            if not self._nbuf:
+                return None
+            res = list(self._nbuf)
+        elif self._nbuf:
+            res = list(self._nbuf) + list(res)
+        line = c.rule.line
+        return [(self._sid(name), self._floats(name, v, line) if v != () else ()) for name, v in res]
+
+    def _grouped(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:
+        ids, ptr, args = s.ids, s.arg_ptr, s.args
+        n = len(ids)
+        nargs = np.diff(ptr)
+        out_len = np.ones(n, np.int64)
+        assigned = np.zeros(n, bool)
+        vec_chunks: list = []
+        py_chunks: dict[int, list] = {}
+        partner = None
+        by_sym: dict[int, list[_Compiled]] = {}
+        for r in rules:
+            by_sym.setdefault(r.sid, []).append(r)
+        for sid, rlist in by_sym.items():
+            pos_all = np.flatnonzero(ids == sid)
+            for r in rlist:
+                pos = pos_all[(nargs[pos_all] == r.arity) & ~assigned[pos_all]]
+                if not pos.size:
+                    continue
+                if r.vec is not None and self._grouped_vec(r, pos, ptr, args, vec_chunks, assigned, out_len):
+                    continue
+                if r.contexts and partner is None:
+                    partner = K.match_brackets(ids, 0, 1)
+                for i in pos.tolist():
+                    vals = self._bind(r, i, ids, ptr, args, partner, None)
+                    if vals is None:
+                        continue
+                    res = self._call(r, vals)
+                    if res is not None:
+                        py_chunks[i] = res
+                        assigned[i] = True
+                        out_len[i] = len(res)
+        if not assigned.any():
+            return s, False
+        starts = np.zeros(n + 1, np.int64)
+        np.cumsum(out_len, out=starts[1:])
+        total = int(starts[-1])
+        if total > MAX_MODULES:
+            self._check_size(total, 0)
+        out_ids = np.empty(total, np.int32)
+        out_na = np.empty(total, np.int64)
+        keep = np.flatnonzero(~assigned)
+        out_ids[starts[keep]] = ids[keep]
+        out_na[starts[keep]] = nargs[keep]
+        for hit, slots, values in vec_chunks:
+            for j, (tsid, fns) in enumerate(slots):
+                out_ids[starts[hit] + j] = tsid
+                out_na[starts[hit] + j] = len(fns)
+        for i, res in py_chunks.items():
+            b = starts[i]
+            for j, (tsid, vals) in enumerate(res):
+                out_ids[b + j] = tsid
+                out_na[b + j] = len(vals)
+        out_ptr = np.zeros(total + 1, np.int64)
+        np.cumsum(out_na, out=out_ptr[1:])
+        self._check_size(total, int(out_ptr[-1]))
+        out_args = np.empty(int(out_ptr[-1]), np.float64)
+        # copied modules: their parameter ranges, moved
+        cnt = nargs[keep]
+        if cnt.sum():
+            L = int(cnt.sum())
+            offs = np.arange(L) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+            out_args[np.repeat(out_ptr[starts[keep]], cnt) + offs] = args[np.repeat(ptr[keep], cnt) + offs]
+        for hit, slots, values in vec_chunks:
+            for j, vals in enumerate(values):
+                base = out_ptr[starts[hit] + j]
+                for q, col in enumerate(vals):
+                    out_args[base + q] = col
+        for i, res in py_chunks.items():
+            b = starts[i]
+            for j, (tsid, vals) in enumerate(res):
+                a = out_ptr[b + j]
+                out_args[a:a + len(vals)] = vals
+        return self._make(out_ids, out_ptr, out_args), True
+
+    def _grouped_vec(self, r: _Compiled, pos, ptr, args, vec_chunks, assigned, out_len) -> bool:
+        cond, slots = r.vec
+        cols = [args[ptr[pos] + q] for q in range(r.arity)]
+        with np.errstate(all="ignore"):
+            if cond is not None:
+                mask = np.broadcast_to(np.asarray(cond(*cols), bool), pos.shape)
+                hit = pos[mask]
+                cols = [c[mask] for c in cols]
+            else:
+                hit = pos
+            if not hit.size:
+                return True
+            values = [[np.broadcast_to(np.asarray(f(*cols), np.float64), hit.shape) for f in fns]
+                      for _, fns in slots]
+        if not all(np.isfinite(v).all() for vals in values for v in vals):
+            return False                                      # let Python raise the rule's own error
+        vec_chunks.append((hit, slots, values))
+        assigned[hit] = True
+        out_len[hit] = len(slots)
+        return True
+
+    # -- context matching ----------------------------------------------------------------------------------------
+    def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest) -> list | None:
+        """Actual parameters of rule ``r`` at module ``i`` (None if a context does not match)."""
+        rule = r.rule
+        vals: list = []
+        if rule.left:
+            lv = self._left(rule.left, i - 1, _ArrSeq(ids, ptr, args), partner)
+            if lv is None:
+                return None
+            vals += lv
+        if rule.newleft:
+            if self._direction != 1:
+                return None
+            lv = self._left(rule.newleft, len(dest) - 1, _ListSeq(dest), None)
+            if lv is None:
+                return None
+            vals += lv
+        vals += [_pyval(v) for v in args[ptr[i]:ptr[i + 1]].tolist()]
+        if rule.newright:
+            if self._direction != -1:
+                return None
+            rv = self._right(rule.newright, 0, _ListSeq(_Reversed(dest)), None)
+            if rv is None:
+                return None
+            vals += rv
+        if rule.right:
+            rv = self._right(rule.right, i + 1, _ArrSeq(ids, ptr, args), partner)
+            if rv is None:
+                return None
+            vals += rv
+        return vals
+
+    def _pattern_sid(self, t: Token) -> int:
+        return self._sid(t.name)
+
+    def _left(self, pattern: list[Token], pos: int, seq, partner) -> list | None:
+        vals: list = []
+        for t in reversed(pattern):
+            while pos >= 0:
+                s = seq.sid(pos)
+                if s == 1:                                     # ']': skip the lateral branch
+                    if partner is not None:
+                        pos = int(partner[pos])
+                        if pos < 0:
+                            return None
+                    else:
+                        depth = 1
+                        while depth and pos > 0:
+                            pos -= 1
+                            depth += (seq.sid(pos) == 1) - (seq.sid(pos) == 0)
+                        if depth:
+                            return None
+                    pos -= 1
+                elif s == 0 or self._is_ignored(s):
+                    pos -= 1
+                else:
+                    break
+            if pos < 0 or seq.sid(pos) != self._pattern_sid(t) or seq.nargs(pos) != t.arity:
+                return None
+            vals[:0] = seq.args(pos)
+            pos -= 1
+        return vals
+
+    def _right(self, pattern: list[Token], pos: int, seq, partner) -> list | None:
+        vals: list = []
+        n = len(seq)
+        for t in pattern:
+            if t.name == "]":                                  # the rest of this branch is skipped
+                while pos < n and seq.sid(pos) != 1:
+                    pos = self._skip_branch(seq, pos, partner) if seq.sid(pos) == 0 else pos + 1
+                    if pos < 0:
+                        return None
+                if pos >= n:
+                    return None
+                pos += 1
+                continue
+            while pos < n:
+                s = seq.sid(pos)
+                if s == 0 and t.name != "[":
+                    pos = self._skip_branch(seq, pos, partner)
+                    if pos < 0:
+                        return None
+                elif s != 0 and s != 1 and self._is_ignored(s):
+                    pos += 1
+                else:
+                    break
+            if pos >= n or seq.sid(pos) != self._pattern_sid(t) or seq.nargs(pos) != t.arity:
+                return None
+            vals += seq.args(pos)
+            pos += 1
+        return vals
+
+    @staticmethod
+    def _skip_branch(seq, pos: int, partner) -> int:
+        """Index after the branch opened at ``pos`` (-1 if it never closes)."""
+        if partner is not None:
+            p = int(partner[pos])
+            return p + 1 if p >= 0 else -1
+        depth, n = 0, len(seq)
+        while pos < n:
+            s = seq.sid(pos)
+            depth += (s == 0) - (s == 1)
+            pos += 1
+            if depth == 0:
+                return pos
+        return -1
+
+    def _sequential(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:
+        """One step in string order (forward) or reverse order (backward): new contexts see the new string."""
+        ids, ptr, args = s.ids, s.arg_ptr, s.args
+        n = len(ids)
+        by_sym: dict[int, list[_Compiled]] = {}
+        for r in rules:
+            by_sym.setdefault(r.sid, []).append(r)
+        partner = K.match_brackets(ids, 0, 1) if any(r.contexts for r in rules) else None
+        dest: list = []
+        changed = False
+        order = range(n) if self._direction == 1 else range(n - 1, -1, -1)
+        nargs = np.diff(ptr)
+        idl = ids.tolist()
+        for i in order:
+            res = None
+            for r in by_sym.get(idl[i], ()):
+                if nargs[i] != r.arity:
+                    continue
+                vals = self._bind(r, i, ids, ptr, args, partner, dest)
+                if vals is None:
+                    continue
+                res = self._call(r, vals)
+                if res is not None:
+                    break
+            if res is None:
+                res = [(idl[i], tuple(args[ptr[i]:ptr[i + 1]].tolist()))]
+            else:
+                changed = True
+            dest.extend(res if self._direction == 1 else reversed(res))
+            if len(dest) > MAX_MODULES:
+                self._check_size(len(dest), 0)
+        if self._direction != 1:
+            dest.reverse()
+        out_ids = np.array([m[0] for m in dest], np.int32)
+        counts = [len(m[1]) for m in dest]
+        out_ptr = np.zeros(len(dest) + 1, np.int64)
+        np.cumsum(counts, out=out_ptr[1:])
+        out_args = np.array([v for m in dest for v in m[1]], np.float64)
+        return self._make(out_ids, out_ptr, out_args), changed
+
+
+class _ArrSeq:
+    """Module access on the arrays of the current string."""
+
+    def __init__(self, ids, ptr, args) -> None:
+        self.ids, self.ptr, self.a = ids, ptr, args
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def sid(self, k: int) -> int:
+        return int(self.ids[k])
+
+    def nargs(self, k: int) -> int:
+        return int(self.ptr[k + 1] - self.ptr[k])
+
+    def args(self, k: int) -> list:
+        return [_pyval(v) for v in self.a[self.ptr[k]:self.ptr[k + 1]].tolist()]
+
+
+class _ListSeq:
+    """Module access on the new string being built (a list of ``(sid, params)``)."""
+
+    def __init__(self, seq) -> None:
+        self.seq = seq
+
+    def __len__(self) -> int:
+        return len(self.seq)
+
+    def sid(self, k: int) -> int:
+        return self.seq[k][0]
+
+    def nargs(self, k: int) -> int:
+        return len(self.seq[k][1])
+
+    def args(self, k: int) -> list:
+        return [_pyval(float(v)) for v in self.seq[k][1]]
+
+
+class _ToNumpy(ast.NodeTransformer):
+    """``and/or/not``, comparison chains, ``a if c else b`` and math calls -> numpy, for parameter columns."""
+
+    @staticmethod
+    def _np(attr: str, args: list) -> ast.Call:
+        return ast.Call(ast.Attribute(ast.Name("__np", ast.Load()), attr, ast.Load()), args, [])
+
+    def visit_BoolOp(self, node):
+        self.generic_visit(node)
+        f = "logical_and" if isinstance(node.op, ast.And) else "logical_or"
+        out = node.values[0]
+        for v in node.values[1:]:
+            out = self._np(f, [out, v])
+        return out
+
+    def visit_UnaryOp(self, node):
+        self.generic_visit(node)
+        if isinstance(node.op, ast.Not):
+            return self._np("logical_not", [node.operand])
+        return node
+
+    def visit_Compare(self, node):
+        self.generic_visit(node)
+        parts, left = [], node.left
+        for op, right in zip(node.ops, node.comparators):
+            parts.append(ast.Compare(left, [op], [right]))
+            left = right
+        out = parts[0]
+        for p in parts[1:]:
+            out = self._np("logical_and", [out, p])
+        return out
+
+    def visit_IfExp(self, node):
+        self.generic_visit(node)
+        return self._np("where", [node.test, node.body, node.orelse])
+
+    def visit_Call(self, node):
+        self.generic_visit(node)
+        node.func = ast.Name("__np_" + node.func.id, ast.Load())
+        return node

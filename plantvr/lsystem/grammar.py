@@ -1,0 +1,408 @@
+"""The ``.lpy`` reader (issue 23): splits an L-Py file into its Python code and its L-system parts.
+
+Layout read, as L-Py's ``lpy_parser`` does: Python code (functions, constants, ``extern(...)``, ``module A, B``
+declarations, ``nproduce`` in functions) before and after the L-system; ``Axiom:``; ``derivation length:``;
+``ignore:`` / ``consider:``; sections ``production:``, ``decomposition:`` and ``homomorphism:`` /
+``interpretation:`` (``maximum depth:`` inside the last two); ``endlsystem``; the trailing
+``###### INITIALISATION ######`` block of L-Py's editor (only its ``scalars`` are read, as declared parameters).
+
+Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred --> successor`` or
+``pred -> successor``; ``pred : produce successor`` or ``pred :`` followed by an indented Python block with
+``produce`` / ``nproduce`` statements (a block that produces nothing has failed and the next rule is tried, as in
+L-Py); and the cpfg-style condition ``pred : condition --> successor``.
+
+Not supported (LSystemError naming the construct and its line): rule groups (``group N:``/``endgroup``),
+``-static->``, multi-module or wildcard (``*``) predecessors, brackets in left contexts, parameter constants in
+patterns, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
+"""
+from __future__ import annotations
+
+import ast
+import re
+from dataclasses import dataclass, field
+
+from .lexer import LSystemError, Token, find_top, lex, split_top
+
+__all__ = ["Grammar", "Rule", "lstring_to_py", "parse_grammar"]
+
+_INIT_TAG = "###### INITIALISATION ######"
+_SECTIONS = {"production": "production", "decomposition": "decomposition", "homomorphism": "homomorphism",
+             "interpretation": "homomorphism"}
+_HEADER = re.compile(r"^(Axiom|derivation length|production|decomposition|homomorphism|interpretation|"
+                     r"maximum depth|ignore|consider|endlsystem|endgroup|group\s+\S+)\s*(:?)(.*)$")
+_PRODUCE = re.compile(r"\b(nproduce|produce)\b")
+_QUERY = frozenset({"?P", "?H", "?U", "?L", "?R", "?F", "?I", "GetPos", "GetHead", "GetUp", "GetLeft",
+                    "GetRight", "GetFrame", "GetIterator", "GetModule"})
+_IDENT = re.compile(r"^[A-Za-z_]\w*$")
+
+
+@dataclass
+class Rule:
+    """One rule as written: its pattern parts (tokens), its body as Python source lines and where it is."""
+
+    kind: str                        # "production" | "decomposition" | "homomorphism"
+    pred: Token
+    left: list[Token]
+    right: list[Token]
+    newleft: list[Token]
+    newright: list[Token]
+    params: list[str]                # formal parameters, L-Py order: left, newleft, pred, newright, right
+    body: list[tuple[int, str]]      # (line, python source) — produce statements already translated
+    successor: list[Token] | None    # the one-line successor (``-->`` or ``: produce``), for fast paths
+    condition: str | None            # cpfg-style condition source, with ``successor``
+    line: int
+    col: int
+    header: str
+
+
+@dataclass
+class Grammar:
+    """An L-Py file split into its parts (see the module docstring)."""
+
+    python: str                                        # the Python code, line numbers kept
+    axiom: tuple[str, int, int] | None = None          # (l-string source, line, col)
+    derivation_length: tuple[str, int] | None = None   # (expression source, line)
+    max_depth: dict = field(default_factory=dict)      # kind -> (expression source, line)
+    ignore: tuple[str, int, int] | None = None         # (module list source, line, col)
+    consider: tuple[str, int, int] | None = None
+    declared: dict = field(default_factory=dict)       # module name -> line
+    rules: list[Rule] = field(default_factory=list)
+    scalars: dict = field(default_factory=dict)        # name -> value, from the editor's INITIALISATION block
+    first_use: dict = field(default_factory=dict)      # module name -> (line, col) of its first appearance
+    axiom_tokens: list = field(default_factory=list)
+
+
+def _strip_comment(s: str) -> str:
+    """``s`` up to its first ``#`` outside strings."""
+    j = 0
+    while j < len(s):
+        c = s[j]
+        if c in "\"'":
+            q = c
+            j += 1
+            while j < len(s) and s[j] != q:
+                j += 2 if s[j] == "\\" else 1
+            j += 1
+            continue
+        if c == "#":
+            return s[:j]
+        j += 1
+    return s
+
+
+def lstring_to_py(tokens: list[Token]) -> str:
+    """Python expression building the module list ``[(name, (args...)), ...]`` of an L-string."""
+    items = []
+    for t in tokens:
+        if t.name == "*" and len(tokens) == 1 and t.args is None:
+            return "[]"                                       # ``produce *``: the empty string
+        args = "".join(f"({a})," for a in (t.args or ()))
+        items.append(f"({t.name!r}, ({args}))")
+    return "[" + ", ".join(items) + "]"
+
+
+class _Reader:
+    def __init__(self, text: str) -> None:
+        self.text = text
+        self.known: set[str] = set(_turtle_names())
+        self.g = Grammar(python="")
+
+    # -- helpers -----------------------------------------------------------------------------------------------
+    def lex(self, s: str, line: int, col: int) -> list[Token]:
+        toks = lex(s, self.known, line=line, col=col)
+        for t in toks:
+            self.g.first_use.setdefault(t.name, (t.line, t.col))
+        return toks
+
+    def translate_produce(self, src: str, line: int, *, in_rule: bool) -> str:
+        """Replace ``produce X`` / ``nproduce X`` statements in one line of Python by their calls."""
+        out, pos = [], 0
+        code = _strip_comment(src)
+        for m in _PRODUCE.finditer(code):
+            if _in_string(code, m.start()):
+                continue
+            out.append(code[pos:m.start()])
+            rest = code[m.end():]
+            toks = self.lex(rest, line, m.end() + 1)
+            expr = lstring_to_py(toks)
+            if m.group(1) == "produce":
+                if not in_rule:
+                    raise LSystemError("'produce' outside a rule body (use 'nproduce' in functions)", line,
+                                       m.start() + 1)
+                out.append(f"return __lsys_produce__({expr})")
+            else:
+                out.append(f"__lsys_nproduce__({expr})")
+            pos = len(code)
+            break                                             # the L-string runs to the end of the line
+        out.append(code[pos:])
+        return "".join(out)
+
+    # -- the file ----------------------------------------------------------------------------------------------
+    def read(self) -> Grammar:
+        text = self.text.replace("\r\n", "\n").replace("\r", "\n")
+        if _INIT_TAG in text:
+            text, init = text.split(_INIT_TAG, 1)
+            self.read_scalars(init)
+        lines = text.split("\n")
+        self.pre_declare(lines)
+        py = [""] * len(lines)
+        mode = "python"
+        rule_lines: list[tuple[int, str]] = []
+
+        def flush() -> None:
+            if rule_lines:
+                self.rule(mode, list(rule_lines))
+                rule_lines.clear()
+
+        for k, raw in enumerate(lines):
+            ln = k + 1
+            s = raw.rstrip()
+            if mode == "python" or mode == "after":
+                m = _HEADER.match(s) if mode == "python" else None
+                if m and (m.group(2) or m.group(1).startswith(("endlsystem", "endgroup"))):
+                    mode = self.header(m, ln, raw) or mode
+                    continue
+                if s.startswith("module ") or s.startswith("module\t"):
+                    self.declare(s, ln)
+                    continue
+                if s.startswith("undeclare "):
+                    continue
+                py[k] = self.translate_produce(raw, ln, in_rule=False) if "nproduce" in raw else raw
+                continue
+            # inside the L-system
+            if not s.strip() or s.lstrip().startswith("#"):
+                continue
+            if raw[0] in " \t":
+                if not rule_lines:
+                    raise LSystemError("unexpected indent (no rule header above)", ln, 1)
+                rule_lines.append((ln, raw))
+                continue
+            m = _HEADER.match(s)
+            if m and (m.group(2) or m.group(1).startswith(("endlsystem", "endgroup", "group"))):
+                flush()
+                mode = self.header(m, ln, raw, section=mode) or mode
+                continue
+            if s.startswith("def ") or s.startswith("class "):
+                raise LSystemError("Python definitions inside the rule sections are not supported (move them "
+                                   "before 'Axiom:' or after 'endlsystem')", ln, 1)
+            flush()
+            rule_lines.append((ln, raw))
+        flush()
+        self.g.python = "\n".join(py)
+        if self.g.axiom is None:
+            raise LSystemError("no 'Axiom:' line", 1, 1)
+        return self.g
+
+    def read_scalars(self, init: str) -> None:
+        m = re.search(r"scalars\s*=\s*(\[.*?\])\s*\n", init, re.DOTALL)
+        if not m:
+            return
+        try:
+            vals = ast.literal_eval(m.group(1))
+        except (ValueError, SyntaxError):
+            return
+        for item in vals:
+            if isinstance(item, (tuple, list)) and len(item) >= 3 and isinstance(item[0], str):
+                if isinstance(item[2], (int, float)) and not isinstance(item[2], bool):
+                    self.g.scalars[item[0]] = float(item[2])
+
+    def pre_declare(self, lines: list[str]) -> None:
+        for k, raw in enumerate(lines):
+            if raw.startswith("module ") or raw.startswith("module\t"):
+                self.declare(raw.rstrip(), k + 1)
+
+    def declare(self, s: str, ln: int) -> None:
+        body = _strip_comment(s)[len("module"):]
+        body = body.split(":", 1)[0]                          # ``module A : scale = 1``
+        for part in split_top(body):
+            part = part.strip()
+            if not part:
+                continue
+            name = part.split("(", 1)[0].strip()
+            if "=" in name or not name:
+                raise LSystemError(f"module alias {part!r} is not supported", ln, s.find(part) + 1)
+            self.known.add(name)
+            self.g.declared.setdefault(name, ln)
+
+    def header(self, m: re.Match, ln: int, raw: str, section: str = "python") -> str | None:
+        key, rest = m.group(1), m.group(3)
+        col = raw.find(rest) + 1 if rest.strip() else len(raw) + 1
+        if key == "Axiom":
+            if not rest.strip():
+                raise LSystemError("'Axiom:' has no L-string", ln, col)
+            self.g.axiom = (rest, ln, raw.find(":") + 2)
+            self.g.axiom_tokens = self.lex(rest, ln, raw.find(":") + 2)
+            return None
+        if key == "derivation length":
+            if not rest.strip():
+                raise LSystemError("cannot find a value for 'derivation length'", ln, col)
+            self.g.derivation_length = (_strip_comment(rest).strip(), ln)
+            return None
+        if key in ("ignore", "consider"):
+            setattr(self.g, key, (_strip_comment(rest), ln, raw.find(":") + 2))
+            if self.g.ignore and self.g.consider:
+                raise LSystemError("'ignore:' and 'consider:' together (L-Py keeps only one)", ln, 1)
+            return None
+        if key == "maximum depth":
+            if section not in ("decomposition", "homomorphism"):
+                raise LSystemError("'maximum depth:' outside a decomposition or homomorphism section", ln, 1)
+            self.g.max_depth[section] = (_strip_comment(rest).strip(), ln)
+            return None
+        if key == "endlsystem":
+            return "after"
+        if key.startswith("group") or key == "endgroup":
+            raise LSystemError(f"rule groups ({key!r}) are not supported", ln, 1)
+        if rest.strip() and not rest.strip().startswith("#"):
+            raise LSystemError(f"unexpected text after '{key}:'", ln, col)
+        return _SECTIONS[key]
+
+    # -- rules -------------------------------------------------------------------------------------------------
+    def rule(self, kind: str, lines: list[tuple[int, str]]) -> None:
+        ln, first = lines[0]
+        head_at, delim = find_top(first, ("-static->", "-->", "->", ":"))
+        if head_at < 0:
+            raise LSystemError(f"rule without ':' or '-->': {first.strip()!r}", ln, 1)
+        if delim == "-static->":
+            raise LSystemError("static rules ('-static->') are not supported", ln, head_at + 1)
+        # a predecessor '-' before the arrow: '- --> +' is found at the arrow, '---> ' would be ambiguous
+        header = first[:head_at]
+        rest = first[head_at + len(delim):]
+        parts = self.parse_header(header, ln, kind)
+        pred, left, right, newleft, newright = parts
+        params: list[str] = []
+        for grp in (left, newleft, [pred], newright, right):
+            for t in grp:
+                for a in t.args or ():
+                    if a in params:
+                        raise LSystemError(f"parameter {a!r} defined twice in the rule header", ln, t.col)
+                    params.append(a)
+        body: list[tuple[int, str]] = []
+        successor = condition = None
+        if delim in ("-->", "->"):
+            if len(lines) > 1:
+                raise LSystemError(f"a '{delim}' rule has no indented body", lines[1][0], 1)
+            successor = self.lex(_strip_comment(rest), ln, head_at + len(delim) + 1)
+            body.append((ln, "return __lsys_produce__(" + lstring_to_py(successor) + ")"))
+        else:
+            inline = _strip_comment(rest)
+            at, arrow = find_top(inline, ("-->", "->"))
+            if at >= 0:                                       # cpfg condition: pred : cond --> successor
+                condition = inline[:at].strip()
+                if not condition:
+                    raise LSystemError("empty condition before the arrow", ln, head_at + 2)
+                if len(lines) > 1:
+                    raise LSystemError("a conditional '-->' rule has no indented body", lines[1][0], 1)
+                col = head_at + len(delim) + at + len(arrow) + 1
+                successor = self.lex(inline[at + len(arrow):], ln, col)
+                body.append((ln, f"if ({condition}): return __lsys_produce__({lstring_to_py(successor)})"))
+            else:
+                if inline.strip():
+                    stripped = inline.strip()
+                    if stripped.startswith("produce") and _PRODUCE.match(stripped) and len(lines) == 1:
+                        successor = self.lex(stripped[len("produce"):], ln, first.find("produce") + 8)
+                    body.append((ln, self.translate_produce(stripped, ln, in_rule=True)))
+                block = [(k, s) for k, s in lines[1:]]
+                if block:
+                    indent = min(len(s) - len(s.lstrip()) for _, s in block if s.strip())
+                    for k, s in block:
+                        body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
+        self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
+                                 ln, 1, header.strip()))
+
+    def parse_header(self, header: str, ln: int, kind: str):
+        # left < newleft << pred >> newright > right
+        s = header
+        pieces = {"left": "", "newleft": "", "newright": "", "right": ""}
+        cols = {}
+        rest, off = s, 0
+        i, op = find_top(rest, ("<<", "<"))
+        while i >= 0:
+            key = "newleft" if op == "<<" else "left"
+            if pieces[key] or (key == "left" and pieces["newleft"]):
+                raise LSystemError(f"ill-formed rule header {header.strip()!r}", ln, off + i + 1)
+            pieces[key], cols[key] = rest[:i], off + 1
+            off += i + len(op)
+            rest = rest[i + len(op):]
+            i, op = find_top(rest, ("<<", "<"))
+        i, op = find_top(rest, (">>", ">"))
+        pred_src, pred_col = rest, off + 1
+        if i >= 0:
+            pred_src = rest[:i]
+            tail, toff = rest[i + len(op):], off + i + len(op)
+            key = "newright" if op == ">>" else "right"
+            j, op2 = find_top(tail, (">",))
+            if key == "newright" and j >= 0:
+                pieces["newright"], cols["newright"] = tail[:j], toff + 1
+                pieces["right"], cols["right"] = tail[j + 1:], toff + j + 2
+            else:
+                if j >= 0:
+                    raise LSystemError(f"ill-formed rule header {header.strip()!r}", ln, toff + j + 1)
+                pieces[key], cols[key] = tail, toff + 1
+        pred_toks = self.lex(pred_src, ln, pred_col)
+        if not pred_toks:
+            raise LSystemError("rule without a predecessor", ln, pred_col)
+        if len(pred_toks) > 1:
+            raise LSystemError(f"multi-module predecessors ({pred_src.strip()!r}) are not supported; declare a "
+                               f"multi-letter module with 'module {pred_src.strip().split('(')[0]}'", ln,
+                               pred_toks[1].col)
+        out = {}
+        for key in pieces:
+            toks = self.lex(pieces[key], ln, cols.get(key, 1)) if pieces[key].strip() else []
+            out[key] = toks
+        if kind != "production" and (out["left"] or out["right"] or out["newleft"] or out["newright"]):
+            raise LSystemError(f"context-sensitive {kind} rules are not supported", ln, 1)
+        for key, toks in [("pred", pred_toks)] + list(out.items()):
+            for t in toks:
+                if t.name == "*":
+                    raise LSystemError("wildcard '*' patterns are not supported", ln, t.col)
+                if t.name in _QUERY:
+                    raise LSystemError(f"query module {t.name} in a pattern is not supported", ln, t.col)
+                if t.name in ("x", "or") and t.args is not None and key != "pred":
+                    raise LSystemError(f"repetition pattern {t.name}(...) is not supported", ln, t.col)
+                if key == "left" and t.name in "[]":
+                    raise LSystemError("brackets in a left context are not supported", ln, t.col)
+                if key == "pred" and t.name in ("[", "]"):
+                    raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
+                for a in t.args or ():
+                    if not _IDENT.match(a):
+                        raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name "
+                                           f"(value constraints are not supported)", ln, t.col)
+        return pred_toks[0], out["left"], out["right"], out["newleft"], out["newright"]
+
+
+def _in_string(code: str, at: int) -> bool:
+    q = None
+    j = 0
+    while j < at:
+        c = code[j]
+        if q:
+            if c == "\\":
+                j += 1
+            elif c == q:
+                q = None
+        elif c in "\"'":
+            q = c
+        j += 1
+    return q is not None
+
+
+def _turtle_names() -> frozenset:
+    """The turtle's module names (longest match in the lexer); empty until the turtle module exists."""
+    try:
+        from .turtle import LPY_UNSUPPORTED, TURTLE_MODULES
+    except ImportError:                                       # pragma: no cover - built in parallel (issue 23)
+        return frozenset()
+    return frozenset(TURTLE_MODULES) | frozenset(LPY_UNSUPPORTED)
+
+
+def parse_grammar(text: str) -> Grammar:
+    """Read ``.lpy`` text into a :class:`Grammar` (see the module docstring).
+
+    Raises
+    ------
+    LSystemError
+        For a layout error or an unsupported construct, naming it with line and column.
+    """
+    if not isinstance(text, str):
+        raise LSystemError(f"text must be a str, got {type(text).__name__}")
+    return _Reader(text).read()

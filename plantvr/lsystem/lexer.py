@@ -1,0 +1,198 @@
+"""L-string lexer (issue 23): module names and parameter expressions of L-Py strings (axiom, successors,
+predecessor patterns).
+
+A module name is the longest *known* name starting at the current character (declared with ``module``, a turtle
+or L-Py predefined module such as ``@Tp`` or ``SetColor``); otherwise it is that single character, so ``FF(0.5)``
+is ``F``, ``F(0.5)`` (issue 22) and ``+(30)F`` is ``+(30)``, ``F``. An unknown identifier directly followed by
+``(`` whose letters are not all known single-character modules is one module declared on the fly, as L-Py does
+(``Apex(1)`` is the module ``Apex``). Parameters are kept as Python expression source; the engine evaluates them
+in the grammar's namespace (angles stay in degrees: the engine never converts them).
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+__all__ = ["LPY_PREDEFINED", "LSystemError", "Token", "find_top", "lex", "split_top"]
+
+#: Module names L-Py predefines (helpcard), matched as whole names before single characters; the turtle adds its
+#: own (``TURTLE_MODULES``/``LPY_UNSUPPORTED``) at run time.
+LPY_PREDEFINED = frozenset({
+    "SB", "EB", "Pinpoint", "PinpointRel", "@R", "SetHead", "EulerAngles", "Left", "Right", "Up", "Down", "RollL",
+    "RollR", "iRollL", "iRollR", "TurnAround", "@v", "RollToVert", "LeftReflection", "UpReflection",
+    "HeadingReflection", "@M", "MoveTo", "MoveRel", "@2D", "StartScreenProjection", "@3D", "EndScreenProjection",
+    "@Dd", "DivScale", "@Di", "MultScale", "@D", "SetScale", "nF", "@Gc", "StartGC", "@Ge", "EndGC", "BP", "EP",
+    "PP", "LineTo", "OLineTo", "LineRel", "OLineRel", "@O", "Sphere", "@B", "Box", "@b", "Quad", "@o", "Circle",
+    "@L", "Label", "surface", "~l", "@g", "PglShape", "Frame", "SetContour", "SectionResolution", "SetGuide",
+    "EndGuide", "Sweep", "PositionOnGuide", "IncWidth", "DecWidth", "SetWidth", "IncColor", "DecColor", "SetColor",
+    "InterpolateColors", "@Ts", "Elasticity", "@Tp", "Tropism", "?P", "GetPos", "?H", "GetHead", "?U", "GetUp",
+    "?L", "GetLeft", "?R", "GetRight", "?F", "GetFrame", "TextureScale", "TextureUScale", "TextureVScale",
+    "TextureVCoeff", "TextureTranslation", "TextureRotation", "TextureTransformation", "MouseIns", "Cut", "new",
+    "newmodule", "=]", "?I", "GetIterator", "GetModule", "@Tr", "@Ms",
+})
+
+_SINGLE_TURTLE = frozenset("Ff+-&^/\\|$%[]_!;,~.{}")
+
+
+class LSystemError(ValueError):
+    """A grammar error (or a rule failing at run time) located in the grammar text.
+
+    Attributes
+    ----------
+    line, column : int
+        1-based position in the grammar text (0 where the position is unknown).
+    """
+
+    def __init__(self, message: str, line: int = 0, column: int = 0) -> None:
+        self.line = int(line)
+        self.column = int(column)
+        self.detail = message
+        super().__init__(f"line {self.line}, column {self.column}: {message}")
+
+
+@dataclass(frozen=True)
+class Token:
+    """One module of an L-string: its name, its parameter expressions (source text; None without parentheses)
+    and its 1-based line and column in the grammar."""
+
+    name: str
+    args: tuple[str, ...] | None
+    line: int
+    col: int
+
+    @property
+    def arity(self) -> int:
+        return 0 if self.args is None else len(self.args)
+
+
+def _skip_string(text: str, i: int, line: int, col0: int) -> int:
+    q = text[i]
+    j = i + 1
+    while j < len(text) and text[j] != q:
+        j += 2 if text[j] == "\\" else 1
+    if j >= len(text):
+        raise LSystemError(f"unterminated string {text[i:i + 12]!r}", line, col0 + i)
+    return j + 1
+
+
+def find_top(text: str, targets: Iterable[str], start: int = 0) -> tuple[int, str]:
+    """First index (and which target) of one of ``targets`` at nesting depth 0 outside strings; (-1, "") if none.
+    Longer targets are tried first at each position."""
+    order = sorted(targets, key=len, reverse=True)
+    depth = 0
+    i = start
+    while i < len(text):
+        c = text[i]
+        if c in "\"'":
+            i = _skip_string(text, i, 0, 0)
+            continue
+        if c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+        elif depth == 0:
+            for t in order:
+                if text.startswith(t, i):
+                    return i, t
+        i += 1
+    return -1, ""
+
+
+def split_top(text: str, sep: str = ",") -> list[str]:
+    """Split ``text`` at ``sep`` characters at nesting depth 0 outside strings."""
+    parts, depth, beg, i = [], 0, 0, 0
+    while i < len(text):
+        c = text[i]
+        if c in "\"'":
+            i = _skip_string(text, i, 0, 0)
+            continue
+        if c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+        elif c == sep and depth == 0:
+            parts.append(text[beg:i])
+            beg = i + 1
+        i += 1
+    parts.append(text[beg:])
+    return parts
+
+
+def _close_paren(text: str, i: int, line: int, col0: int, name: str) -> int:
+    """Index of the ``)`` matching the ``(`` at ``i``."""
+    depth = 0
+    j = i
+    while j < len(text):
+        c = text[j]
+        if c in "\"'":
+            j = _skip_string(text, j, line, col0)
+            continue
+        if c in "([{":
+            depth += 1
+        elif c in ")]}":
+            depth -= 1
+            if depth == 0:
+                if c != ")":
+                    break
+                return j
+        j += 1
+    raise LSystemError(f"unclosed '(' after module {name!r}", line, col0 + i)
+
+
+def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) -> list[Token]:
+    """Lex one line of L-string into :class:`Token` s.
+
+    Parameters
+    ----------
+    text : str
+        The L-string (one line; a ``#`` outside parentheses starts a comment).
+    known : iterable of str
+        Multi-character module names to match first (longest match wins).
+    line, col : int
+        Position of ``text[0]`` in the grammar, for tokens and error messages.
+
+    Raises
+    ------
+    LSystemError
+        For an unbalanced parenthesis or an unterminated string, with line and column.
+    """
+    if not isinstance(text, str):
+        raise LSystemError(f"an L-string must be a str, got {type(text).__name__}", line, col)
+    by_first: dict[str, list[str]] = {}
+    for name in set(known) | LPY_PREDEFINED:
+        if len(name) > 1:
+            by_first.setdefault(name[0], []).append(name)
+    for v in by_first.values():
+        v.sort(key=len, reverse=True)
+    singles = {k for k in known if len(k) == 1} | _SINGLE_TURTLE
+    out: list[Token] = []
+    i, n = 0, len(text)
+    while i < n:
+        c = text[i]
+        if c.isspace():
+            i += 1
+            continue
+        if c == "#":
+            break
+        if c == ")" or c == "(":
+            raise LSystemError(f"unexpected {c!r} (a parameter list must follow a module name)", line, col + i)
+        name = next((k for k in by_first.get(c, ()) if text.startswith(k, i)), c)
+        if name == c and (c.isalpha() or c == "_"):
+            j = i
+            while j < n and (text[j].isalnum() or text[j] == "_"):
+                j += 1
+            run = text[i:j]
+            if len(run) > 1 and j < n and text[j] == "(" and not all(ch in singles for ch in run):
+                name = run                                    # declared on the fly, as L-Py
+        j = i + len(name)
+        args = None
+        if j < n and text[j] == "(":
+            k = _close_paren(text, j, line, col, name)
+            inner = text[j + 1:k]
+            args = () if not inner.strip() else tuple(a.strip() for a in split_top(inner))
+            if any(not a for a in args):
+                raise LSystemError(f"empty parameter in {text[i:k + 1]!r}", line, col + j)
+            j = k + 1
+        out.append(Token(name, args, line, col + i))
+        i = j
+    return out

@@ -1,0 +1,208 @@
+"""Engine behaviour (issue 23): parametric rules with conditions, vectorised plans equal to Python, stochastic
+seeding, externs, decomposition, the module cap, numba kernels equal to their twins, and bad grammars."""
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from plantvr.lsystem import _derive_kernels as K
+from plantvr.lsystem.engine import MAX_MODULES, LSystem, LSystemError
+from plantvr.lsystem.modules import ModuleString
+
+HERE = Path(__file__).parent / "grammars"
+
+
+def python_only(ls: LSystem) -> LSystem:
+    for rules in ls._rules.values():
+        for r in rules:
+            r.vec = r.const = None
+    ls._tables.clear()
+    return ls
+
+
+def same(a: ModuleString, b: ModuleString) -> bool:
+    return (a.names == b.names and np.array_equal(a.ids, b.ids) and np.array_equal(a.arg_ptr, b.arg_ptr)
+            and np.array_equal(a.args, b.args))
+
+
+def test_parametric_conditions_vectorised_equal_python():
+    fast = LSystem.from_file(HERE / "parametric.lpy")
+    kinds = [(r.rule.header, r.vec is not None) for r in fast._rules["production"]]
+    assert kinds == [("A(l, n)", True), ("A(l, n)", True), ("I(l)", True), ("L(l)", False)]
+    slow = python_only(LSystem.from_file(HERE / "parametric.lpy"))
+    for n in range(8):
+        assert same(fast.derive(n), slow.derive(n))
+    s = fast.derive(2)
+    assert str(s).startswith("I(1.02)[+(30)I(0.8)[+(30)A(0.64,4)]")
+    assert fast.externs == {"ratio": 0.8, "depth": 6.0}
+    other = LSystem.from_file(HERE / "parametric.lpy", ratio=0.5, depth=2)
+    assert other.externs == {"ratio": 0.5, "depth": 2.0}
+    assert other.derive(4).count("A") == 0
+
+
+def test_constant_rules_use_kernel_and_keep_parameters():
+    text = "Axiom: F(2)X\nderivation length: 3\nproduction:\nX --> F[+(30)X]-(2)X\nF --> FF\nendlsystem\n"
+    ls = LSystem(text)
+    assert ls._constant_table("production") is not None
+    slow = python_only(LSystem(text))
+    for n in range(4):
+        assert same(ls.derive(n), slow.derive(n))
+    assert ls.derive(1).module(0) == ("F", (2.0,))           # F(2) does not match the pattern F
+
+
+def test_kernels_equal_twins():
+    rng = np.random.default_rng(0)
+    S = 6
+    for _ in range(20):
+        n = int(rng.integers(0, 60))
+        ids = rng.integers(0, S, n).astype(np.int32)
+        counts = rng.integers(0, 3, n)
+        ptr = np.zeros(n + 1, np.int64)
+        np.cumsum(counts, out=ptr[1:])
+        args = rng.normal(size=int(ptr[-1]))
+        arity = rng.integers(-1, 3, S).astype(np.int64)
+        lens = rng.integers(0, 4, S)
+        sptr = np.zeros(S + 1, np.int64)
+        np.cumsum(lens, out=sptr[1:])
+        sids = rng.integers(0, S, int(sptr[-1])).astype(np.int32)
+        sc = rng.integers(0, 3, int(sptr[-1]))
+        saptr = np.zeros(len(sids) + 1, np.int64)
+        np.cumsum(sc, out=saptr[1:])
+        sargs = rng.normal(size=int(saptr[-1]))
+        n_out, m_out, hits = K.count_constant(ids, ptr, arity, sptr, saptr)
+        assert (n_out, m_out, hits) == K.count_constant_py(ids, ptr, arity, sptr, saptr)
+        oi, op, oa = np.empty(n_out, np.int32), np.empty(n_out + 1, np.int64), np.empty(m_out)
+        K.fill_constant(ids, ptr, args, arity, sptr, sids, saptr, sargs, oi, op, oa)
+        ti, tp, ta = K.fill_constant_py(ids, ptr, args, arity, sptr, sids, saptr, sargs)
+        assert np.array_equal(oi, ti) and np.array_equal(op, tp) and np.array_equal(oa, ta)
+        b = rng.choice(np.array([0, 1, 2], np.int32), n)
+        assert np.array_equal(K.match_brackets(b, 0, 1), K.match_brackets_py(b, 0, 1))
+
+
+def test_stochastic_seeded_reproducible():
+    a = LSystem.from_file(HERE / "stochastic.lpy", seed=1).derive()
+    b = LSystem.from_file(HERE / "stochastic.lpy", seed=1).derive()
+    c = LSystem.from_file(HERE / "stochastic.lpy", seed=2).derive()
+    assert same(a, b) and not same(a, c)
+    ls = LSystem.from_file(HERE / "stochastic.lpy", seed=1)
+    assert same(ls.derive(), ls.derive())                    # reseeded at every derivation
+    text = "from random import *\nAxiom: A\nproduction:\nA :\n    produce B(uniform(0, 1))\nendlsystem\n"
+    x = LSystem(text, seed=5).derive(1).args[0]
+    assert x == LSystem(text, seed=5).derive(1).args[0] == random.Random(5).uniform(0, 1)
+
+
+def test_block_rules_nproduce_and_hooks():
+    text = """
+count = 0
+def StartEach():
+    global count
+    count += 1
+def side(n):
+    nproduce [+F]
+module Apex
+Axiom: Apex(3)
+derivation length: 5
+production:
+Apex(n) :
+    if n > 0:
+        side(n)
+        nproduce F
+        produce Apex(n - 1)
+    # produces nothing at n = 0: the rule fails and the module stays
+endlsystem
+"""
+    ls = LSystem(text)
+    s = ls.derive()
+    assert str(s) == "[+F]F[+F]F[+F]FApex(0)"
+    assert ls._ns["count"] == 5
+
+
+def test_decomposition_and_stop():
+    text = ("Axiom: A(3)\nderivation length: 4\nproduction:\nA(n) --> A(n+1)\ndecomposition:\n"
+            "maximum depth: 10\nA(n) :\n    if n > 1:\n        produce B A(n-1)\n")
+    s = LSystem(text).derive(1)
+    assert str(s) == "BBBA(1)"
+    text2 = "def EndEach():\n    if getIterationNb() == 1: Stop()\nAxiom: F\nderivation length: 9\n" \
+            "production:\nF --> FF\nendlsystem\n"
+    assert len(list(LSystem(text2).iterate())) == 3
+
+
+def test_module_cap_before_allocating():
+    text = "Axiom: F\nproduction:\nF --> " + "F" * 1000 + "\nendlsystem\n"
+    with pytest.raises(LSystemError, match="MAX_MODULES"):
+        LSystem(text).derive(3)
+    assert MAX_MODULES == 50_000_000
+    text = "Axiom: A(0)\nproduction:\nA(x) --> " + "A(x+1)" * 400 + "\nendlsystem\n"
+    with pytest.raises(LSystemError, match="MAX_MODULES"):
+        LSystem(text).derive(3)
+
+
+def test_lexer_names_and_degrees():
+    ls = LSystem("Axiom: FF(0.5)+(30)F@Tp(0,0,-1)Apex(2)X\nproduction:\nendlsystem\n")
+    assert ls.axiom.modules() == [("F", ()), ("F", (0.5,)), ("+", (30.0,)), ("F", ()), ("@Tp", (0.0, 0.0, -1.0)),
+                                  ("Apex", (2.0,)), ("X", ())]
+
+
+BAD = [
+    ("production:\nF --> F\n", 1, "no 'Axiom:'"),
+    ("Axiom: F\nproduction:\nF --> F(1\n", 3, "unclosed"),
+    ("Axiom: F\nproduction:\ngroup 1:\nF --> FF\n", 3, "rule groups"),
+    ("Axiom: AB\nproduction:\nA B --> C\n", 3, "multi-module predecessors"),
+    ("Axiom: F\nproduction:\nF :\n    if True\n        produce F\n", 4, "syntax error"),
+    ("Axiom: F(0)\nproduction:\nF(x) :\n    y = 1 / x\n    produce F(y)\n", 4, "ZeroDivisionError"),
+    ("Axiom: F\nderivation length: foo\nproduction:\n", 2, "NameError"),
+    ("Axiom: F\nproduction:\n    F --> F\n", 3, "unexpected indent"),
+    ("Axiom: F\nproduction:\n* --> F\n", 3, "wildcard"),
+    ("Axiom: F\nproduction:\nF(1) --> F\n", 3, "value constraints"),
+    ("Axiom: F\nproduction:\nF --> F\n?P(x) < F --> F\n", 4, "query module"),
+    ("Axiom: F\nx = 1 +\nproduction:\n", 2, "syntax error"),
+    ("Axiom: F(nope)\nproduction:\n", 1, "NameError"),
+    ("Axiom: F\nproduction:\nF --> F(\"a\")\n", 3, "is a str"),
+]
+
+
+@pytest.mark.parametrize("text, line, match", BAD)
+def test_bad_grammar_line_and_column(text, line, match):
+    with pytest.raises(LSystemError, match=match) as err:
+        LSystem(text).derive(1)
+    assert err.value.line == line and err.value.column >= 0
+    assert str(err.value).startswith(f"line {line}, column {err.value.column}: ")
+
+
+def test_unsupported_module_named_at_tree():
+    ls = LSystem("Axiom: F@O(1)\nproduction:\nendlsystem\n")
+    with pytest.raises(LSystemError, match=r"line 1, column 9: unsupported module @O"):
+        ls.tree()
+
+
+def test_fuzzed_grammars_fail_cleanly():
+    base = (HERE / "parametric.lpy").read_text()
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        k = int(rng.integers(0, len(base)))
+        text = base[:k] + base[k + 1:] if rng.random() < 0.5 else base[:k] + "([:>-"[rng.integers(5)] + base[k:]
+        try:
+            LSystem(text).derive(3)
+        except LSystemError as e:
+            assert e.line >= 0 and str(e).startswith("line ")
+        except ValueError as e:                              # an unknown extern after a mutated name
+            assert "extern" in str(e)
+
+
+def test_door_validation():
+    with pytest.raises(ValueError, match="text must be a str"):
+        LSystem(3)
+    with pytest.raises(ValueError, match="extern ratio must be a finite number"):
+        LSystem.from_file(HERE / "parametric.lpy", ratio=float("nan"))
+    with pytest.raises(ValueError, match="unknown extern 'ratoi'"):
+        LSystem.from_file(HERE / "parametric.lpy", ratoi=1)
+    ls = LSystem.from_file(HERE / "parametric.lpy")
+    with pytest.raises(ValueError, match="n must be an integer"):
+        ls.derive(-1)
+    with pytest.raises(ValueError, match="string must be a ModuleString"):
+        ls.derive(1, string="A(1,2)")
+    s = ls.derive(1, string=ModuleString.from_modules([("A", (1.0, 1.0)), "Q"]))
+    assert str(s).endswith("I(0.5)A(0.9,0)Q")
