@@ -9,6 +9,7 @@ document (KIND)                              what it holds                      
 :class:`CrownDocument` (crown)               implicit crown surfaces, point sets, grown trees  003_implicit_sca
 :class:`InflorescenceDocument` (inflor.)     floret settings, key poses, animation             002_inflorescences
 :class:`ForestDocument` (forest)             terrain, competing trees                          004_treesketch §5
+:class:`LSystemDocument` (lsystem)           L-Py grammar, derivation step, parameters, seed   issue 23
 ===========================================  ================================================  ==================
 """
 from __future__ import annotations
@@ -16,7 +17,9 @@ from __future__ import annotations
 from .crown import CrownDocument
 from .inflorescence import InflorescenceDocument
 from .labels import Segmentation
+from .lsystem import LSystemDocument
 from .treesketch import SketchDocument
 from .treewand import Model, Snapshot
 
-__all__ = ["CrownDocument", "InflorescenceDocument", "Model", "Segmentation", "SketchDocument", "Snapshot"]
+__all__ = ["CrownDocument", "InflorescenceDocument", "LSystemDocument", "Model", "Segmentation", "SketchDocument",
+           "Snapshot"]

@@ -35,3 +35,7 @@ __all__ += ["AngleWidget", "ArchitecturePanel", "GravimorphismEllipse", "Library
 from .floret_editor import FloretEditor  # issue 9: spec 002 floret editor
 
 __all__ += ["FloretEditor"]
+
+from .lsystem import LsystemPanel, LsystemWidget  # issue 23: L-system grammars
+
+__all__ += ["LsystemPanel", "LsystemWidget"]

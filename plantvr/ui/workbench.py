@@ -38,6 +38,7 @@ from .architecture import ArchitecturePanel
 from .floret_editor import FloretEditor
 from .growth import GrowthControl
 from .implicit_panel import ImplicitPanel
+from .lsystem_panel import LsystemPanel
 from .panels import ParameterPanels
 from .wheel import ColorWheel
 
@@ -48,7 +49,8 @@ REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
 #: Parameter windows whose parameters change growth (the others only change the picture).
 REGROW_WINDOWS = ("form", "light")
 #: The part's own panel by document kind (``doc.KIND``), shown under the generated panel.
-EDITORS = {"inflorescence": FloretEditor, "crown": ImplicitPanel, "treesketch": ArchitecturePanel}
+EDITORS = {"inflorescence": FloretEditor, "crown": ImplicitPanel, "treesketch": ArchitecturePanel,
+           "lsystem": LsystemPanel}
 
 
 def live_frontend() -> bool:
@@ -345,6 +347,9 @@ def _editor(doc):
 def _summary(doc) -> list[str]:
     """Status items of a document without a brush: what it holds (by kind)."""
     kind = getattr(doc, "KIND", None)
+    if kind == "lsystem":
+        return [f"step {doc.step} / {doc.derivation_length}", f"modules {doc.n_modules}",
+                f"segments {doc.tree.n_internodes}"]
     if kind == "treesketch":
         return [f"internodes {doc.n_internodes}", f"points {doc.n_markers}"]
     if kind == "inflorescence":

@@ -533,6 +533,7 @@ CONTROL_MAPS: Mapping[str, ControlMap] = MappingProxyType({m.kind: m for m in (
     ControlMap("treesketch", {"begin_stroke": "sketch_press", "move_stroke": "sketch_move",
                               "end_stroke": "sketch_release", "set_params": "thumb_circle", "grow": "right_click",
                               "undo": "left_menu", "redo": "right_menu"}),
+    ControlMap("lsystem", {"grow": "right_click", "undo": "left_menu", "redo": "right_menu"}),
 )})
 
 

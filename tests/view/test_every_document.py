@@ -6,7 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from plantvr.documents import (CrownDocument, InflorescenceDocument, Model, Segmentation, SketchDocument)
+from plantvr.documents import (CrownDocument, InflorescenceDocument, LSystemDocument, Model, Segmentation,
+                               SketchDocument)
 from plantvr.documents.forest import ForestDocument
 from plantvr.view import View
 
@@ -53,7 +54,13 @@ def _forest():
     return d, lambda: d.regrow_tree(0, params={"branch_angle": 30.0})
 
 
-KINDS = {"treewand": _treewand, "treesketch": _treesketch, "vine": _vine, "crown": _crown,
+def _lsystem():
+    d = LSystemDocument()
+    d.set_step(3)
+    return d, lambda: d.set_step(5)
+
+
+KINDS = {"lsystem": _lsystem, "treewand": _treewand, "treesketch": _treesketch, "vine": _vine, "crown": _crown,
          "inflorescence": _inflorescence, "forest": _forest}
 
 

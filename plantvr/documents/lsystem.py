@@ -1,0 +1,415 @@
+"""The L-system document: an L-Py grammar, its derivation step, its declared parameters and its seed, on the
+document base (issue 23; L-Py grammars in the notebook, interpreted into the shared tree).
+
+The state is four values: the grammar text (``.lpy``), the derivation step shown, the values of the grammar's
+declared parameters set by the user (``extern(name=value)`` in the grammar; the others keep the grammar's
+defaults) and the seed of stochastic productions. Commands change them (``reset``, ``set_grammar``,
+``set_step``, ``grow``, ``set_externs``, ``set_seed``, ``undo``, ``redo``); each is logged, so a session
+replays, and each is one undo step (a whole-state atom: four small values). A command is checked completely
+before anything changes: a grammar the engine refuses raises its
+:class:`~plantvr.lsystem.engine.LSystemError` (line and column) and the document stays as it was.
+
+The constructor logs the session's starting point as a ``reset`` command, so the saved command log
+(:meth:`Document.save`) is self-contained: :meth:`Document.from_log` replays it into a fresh document.
+
+Derivation is cached per (grammar, parameter values, seed): the strings of every step up to the largest one
+reached are kept, so dragging the step slider back costs nothing and forward derives only the new steps (from
+one running :meth:`~plantvr.lsystem.engine.LSystem.iterate`, so step ``n`` is the same string however it was
+reached, stochastic grammars included). A changed grammar, parameter or seed starts a new cache (the last few
+are kept, so undo is instant too). :meth:`LSystemDocument.scene` gives the interpreted tree
+(:class:`~plantvr.types.TreeArrays`, turtle of :mod:`plantvr.lsystem.turtle`) turned y-up as every PlantVR
+tree, so :class:`plantvr.View`, the headset (:func:`plantvr.vr.attach`) and the tree exporters take it.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._validation import check_int
+from ..document import Document, serialise
+from ..history import StateAtom
+from ..lsystem.engine import LSystem, LSystemError
+from ..lsystem.modules import ModuleString
+from ..lsystem.turtle import LPY_UNSUPPORTED, turtle
+from ..types import TreeArrays
+
+__all__ = ["DEFAULT_GRAMMAR", "MAX_STEP", "MAX_TEXT", "LSystemDocument", "y_up"]
+
+#: The grammar a new document starts from: ABOP fig. 1.24 d (bracketed, edge + node rewriting), its
+#: branching angle a declared parameter.
+DEFAULT_GRAMMAR = """\
+# ABOP fig. 1.24 d: X -> F[+X]F[-X]+X, F -> FF, delta = 20 degrees
+extern(angle=20.0)
+
+Axiom: X
+derivation length: 5
+production:
+X --> F[+(angle)X]F[-(angle)X]+(angle)X
+F --> FF
+endlsystem
+"""
+#: Largest derivation step a command accepts (the engine's module cap bounds the string itself).
+MAX_STEP = 1000
+#: Longest grammar text accepted, in characters.
+MAX_TEXT = 1_000_000
+#: Largest magnitude of a declared parameter's value.
+MAX_EXTERN = 1e12
+#: Derivation caches kept (the current one and the last few, for undo).
+_CACHES = 4
+
+
+def y_up(tree: TreeArrays) -> TreeArrays:
+    """``tree`` turned from L-Py's z-up frame (the turtle's heading starts along +z) to PlantVR's y-up frame
+    (a rotation of -90 degrees about x: ``(x, y, z) -> (x, z, -y)``); topology, radii and orders unchanged."""
+    p = tree.pos
+    pos = np.column_stack([p[:, 0], p[:, 2], -p[:, 1]])
+    pos.flags.writeable = False
+    return TreeArrays(pos, tree.parent, tree.radius, tree.order, tree.main_child)
+
+
+@dataclass(eq=False)
+class _Derivation:
+    """The strings of one (grammar, parameters, seed) up to the largest step reached, and their trees.
+
+    One running :meth:`LSystem.iterate` feeds the strings, so step ``n`` is the engine's ``derive(n)`` however
+    it was reached (its random generator is seeded once, at step 0). After the grammar calls ``Stop()`` the later
+    steps keep the last string, as L-Py's derivation does; a step that failed fails again, with the same error.
+    """
+
+    lsys: LSystem
+    steps: Iterator[ModuleString]
+    strings: list[ModuleString] = field(default_factory=list)
+    trees: dict[int, TreeArrays] = field(default_factory=dict)
+    stopped: bool = False
+    error: BaseException | None = None
+
+    def string(self, step: int) -> ModuleString:
+        while len(self.strings) <= step and not self.stopped:
+            if self.error is not None:
+                raise self.error
+            try:
+                nxt = next(self.steps)
+            except StopIteration:
+                self.stopped = True
+                break
+            except ValueError as exc:           # LSystemError: the same step fails the same way
+                self.error = exc
+                raise
+            self.strings.append(nxt)
+        return self.strings[min(step, len(self.strings) - 1)]
+
+    def tree(self, step: int) -> TreeArrays:
+        if step not in self.trees:
+            interpreted = self.lsys.interpret(self.string(step))
+            _check_drawable(self.lsys, interpreted)
+            self.trees[step] = turtle(interpreted, **self.lsys.turtle_options)
+        return self.trees[step]
+
+
+def _check_drawable(lsys: LSystem, string: ModuleString) -> None:
+    """Raise the engine's LSystemError for a module L-Py draws and the turtle does not (as ``LSystem.tree``)."""
+    if not len(string):
+        return
+    used = np.flatnonzero(np.bincount(string.ids, minlength=len(string.names)))
+    for k in used.tolist():
+        name = string.names[k]
+        if name in LPY_UNSUPPORTED:
+            first_use = getattr(getattr(lsys, "_g", None), "first_use", {}) or {}
+            line, col = first_use.get(name, (0, 0))
+            raise LSystemError(f"unsupported module {name} (L-Py draws it, PlantVR's turtle does not)", line, col)
+
+
+def _lsystem(text: str, externs: dict[str, float], seed: int) -> LSystem:
+    return LSystem(text, seed=seed, **externs)
+
+
+class LSystemDocument(Document):
+    """An L-Py grammar, its derivation step, its declared parameters and its seed (see the module docstring).
+
+    Parameters
+    ----------
+    text : str, optional
+        The grammar (``.lpy`` text); default :data:`DEFAULT_GRAMMAR`.
+    step : int, optional
+        Derivation step shown, in [0, :data:`MAX_STEP`]; default the grammar's ``derivation length``.
+    externs : dict, optional
+        Values of the grammar's declared parameters (``extern(name=value)``) other than its defaults.
+    seed : int
+        Seed of stochastic productions.
+    max_undo, max_undo_bytes : int
+        Undo depth and byte budget.
+
+    Attributes
+    ----------
+    text : str
+        The grammar.
+    step : int
+        The derivation step shown.
+    overrides : dict
+        Declared parameters the user set (``{name: value}``); :attr:`externs` holds every declared one.
+    seed : int
+        Seed of stochastic productions.
+
+    Raises
+    ------
+    LSystemError
+        When the grammar does not read or derive (line and column in the message).
+    """
+
+    KIND = "lsystem"
+    COMMANDS = ("reset", "set_grammar", "set_step", "grow", "set_externs", "set_seed", "undo", "redo")
+
+    def __init__(self, text: str | None = None, *, step: int | None = None, externs: dict | None = None,
+                 seed: int = 0, max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20):
+        super().__init__(max_undo=max_undo, max_undo_bytes=max_undo_bytes)
+        self._caches: OrderedDict[tuple, _Derivation] = OrderedDict()
+        self._cache_lock = threading.RLock()
+        self.text, self.step, self.overrides, self.seed = "", 0, {}, 0
+        self._tree: TreeArrays | None = None
+        self.reset(DEFAULT_GRAMMAR if text is None else text, step=step, externs=externs, seed=seed)
+
+    @classmethod
+    def from_file(cls, path, **kwargs: Any) -> LSystemDocument:
+        """A document of the ``.lpy`` file at ``path`` (``kwargs`` as the constructor's)."""
+        try:
+            path = Path(path)
+        except TypeError:
+            raise ValueError(f"path must be a path, got {type(path).__name__}") from None
+        if not path.is_file():
+            raise ValueError(f"path {str(path)!r} is not a file")
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ValueError(f"cannot read the grammar {str(path)!r}: {exc}") from None
+        return cls(text, **kwargs)
+
+    # -- derived values ----------------------------------------------------------------------------------
+    @property
+    def lsystem(self) -> LSystem:
+        """A new :class:`~plantvr.lsystem.engine.LSystem` of the current grammar, parameters and seed (the
+        document's own one feeds its derivation cache and is not shared)."""
+        return _lsystem(self.text, self.overrides, self.seed)
+
+    @property
+    def externs(self) -> dict[str, float]:
+        """Every declared parameter of the grammar with its current value (defaults where not set)."""
+        return dict(self._derivation(self.text, self.overrides, self.seed).lsys.externs)
+
+    @property
+    def defaults(self) -> dict[str, float]:
+        """The declared parameters' defaults, as written in the grammar."""
+        return dict(self._derivation(self.text, {}, self.seed).lsys.externs)
+
+    @property
+    def derivation_length(self) -> int:
+        """The grammar's ``derivation length``."""
+        return int(self._derivation(self.text, self.overrides, self.seed).lsys.derivation_length)
+
+    @property
+    def string(self) -> ModuleString:
+        """The derived string at the current step (before interpretation)."""
+        return self._derivation(self.text, self.overrides, self.seed).string(self.step)
+
+    @property
+    def tree(self) -> TreeArrays:
+        """The interpreted tree at the current step, in the turtle's (L-Py, z-up) frame."""
+        return self._tree
+
+    @property
+    def n_modules(self) -> int:
+        """Modules of the derived string at the current step."""
+        return len(self.string)
+
+    # -- the derivation cache ----------------------------------------------------------------------------
+    def _derivation(self, text: str, overrides: dict, seed: int) -> _Derivation:
+        key = (text, tuple(sorted(overrides.items())), seed)
+        with self._cache_lock:
+            d = self._caches.get(key)
+            if d is None:
+                lsys = _lsystem(text, overrides, seed)
+                d = _Derivation(lsys, iter(lsys.iterate(MAX_STEP)))
+                self._caches[key] = d
+                while len(self._caches) > _CACHES:
+                    self._caches.popitem(last=False)
+            self._caches.move_to_end(key)
+            return d
+
+    def _evaluate(self, text: str, step: int, overrides: dict, seed: int) -> TreeArrays:
+        """The tree of a candidate state, deriving what the cache lacks. A derivation that fails raises with the
+        current state untouched; it drops its cache unless it is the current one (an interrupt, or any error that
+        is not the grammar's, drops it always: its iterator is spent, the next use derives again)."""
+        key = (text, tuple(sorted(overrides.items())), seed)
+        try:
+            return self._derivation(text, overrides, seed).tree(step)
+        except BaseException as exc:
+            with self._cache_lock:
+                current = (self.text, tuple(sorted(self.overrides.items())), self.seed)
+                if key != current or not isinstance(exc, ValueError):
+                    self._caches.pop(key, None)
+            raise
+
+    # -- checks ------------------------------------------------------------------------------------------
+    @staticmethod
+    def _text(text: Any) -> str:
+        if not isinstance(text, str):
+            raise ValueError(f"text must be the grammar as a str, got {type(text).__name__}")
+        if len(text) > MAX_TEXT:
+            raise ValueError(f"text must be at most {MAX_TEXT} characters, got {len(text)}")
+        return text
+
+    @staticmethod
+    def _step(step: Any, name: str = "step") -> int:
+        return check_int(name, step, 0, MAX_STEP)
+
+    @staticmethod
+    def _seed(seed: Any) -> int:
+        return check_int("seed", seed, 0, 2 ** 63 - 1)
+
+    @staticmethod
+    def _numbers(values: Any) -> dict[str, float]:
+        """``values`` checked as ``{name: finite number}`` (the names are checked against a grammar later)."""
+        if values is None:
+            return {}
+        if not isinstance(values, dict) or not all(isinstance(k, str) for k in values):
+            raise ValueError(f"externs must be a dict of {{name: number}}, got {values!r:.200}")
+        out: dict[str, float] = {}
+        for name, value in values.items():
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise ValueError(f"externs[{name!r}] must be a number, got {value!r:.80}")
+            if not math.isfinite(float(value)) or abs(float(value)) > MAX_EXTERN:
+                raise ValueError(f"externs[{name!r}] must be finite and within +-{MAX_EXTERN:g}, got {value!r}")
+            out[name] = int(value) if isinstance(value, (int, np.integer)) else float(value)
+        return out
+
+    def _declared(self, text: str, seed: int, values: dict[str, float]) -> dict[str, float]:
+        """``values`` whose names ``text`` declares as parameters; reading ``text`` raises its LSystemError."""
+        declared = self._derivation(text, {}, seed).lsys.externs
+        for name in values:
+            if name not in declared:
+                raise ValueError(f"externs: {name!r} is not a declared parameter of the grammar; declared: "
+                                 f"{sorted(declared)}"[:300])
+        return values
+
+    # door checks: what holds whatever the state (a replay checks a whole log with them first) ---------------
+    def _check_reset(self, text: str, step: int | None = None, externs: dict | None = None,
+                     seed: int = 0) -> tuple:
+        text, seed = self._text(text), self._seed(seed)
+        overrides = self._declared(text, seed, self._numbers(externs))
+        step = self._derivation(text, overrides, seed).lsys.derivation_length if step is None else step
+        return text, self._step(step), overrides, seed
+
+    def _check_set_grammar(self, text: str, step: int | None = None) -> tuple[str, int | None]:
+        text = self._text(text)
+        self._derivation(text, {}, self.seed)       # LSystemError (line, column) for a grammar that does not read
+        return text, None if step is None else self._step(step)
+
+    def _check_set_step(self, step: int) -> int:
+        return self._step(step)
+
+    def _check_grow(self, steps: int = 1) -> int:
+        return check_int("steps", steps, -MAX_STEP, MAX_STEP)
+
+    def _check_set_externs(self, values: dict) -> dict[str, float]:
+        return self._numbers(values)
+
+    def _check_set_seed(self, seed: int) -> int:
+        return self._seed(seed)
+
+    # -- commands ----------------------------------------------------------------------------------------
+    def _apply(self, command: str, candidate: tuple, kwargs: dict, *, undoable: bool = True) -> None:
+        """Derive the candidate state (raising, with nothing changed, when it does not derive), then make it the
+        state: one undo atom (none when nothing changed), one log record, one change."""
+        text, step, overrides, seed = candidate
+        tree = self._evaluate(text, step, overrides, seed)
+        with self._lock:
+            before = self.get_state()
+            self.text, self.step, self.overrides, self.seed = text, step, dict(overrides), seed
+            self._tree = tree
+            after = self.get_state()
+            if undoable and before != after:
+                self.history.push(StateAtom(before, after, "lsystem"))
+            self.log.record(command, **kwargs)
+        self.changed("lsystem", command=command)
+
+    def reset(self, text: str, step: int | None = None, externs: dict | None = None, seed: int = 0) -> None:
+        """Start a new session from the grammar ``text`` (with ``externs`` over its defaults, at ``step``, default
+        its derivation length): the undo history is cleared. The constructor logs one, so a saved log replays
+        into any fresh document."""
+        candidate = self._check_reset(text, step, externs, seed)
+        text, step, overrides, seed = candidate
+        self._apply("reset", candidate, {"text": text, "step": step, "externs": overrides, "seed": seed},
+                    undoable=False)
+        self.history.clear()
+        self._sync_undo_traits()
+
+    def set_grammar(self, text: str, step: int | None = None) -> None:
+        """Replace the grammar. Parameters the user set and the new grammar still declares keep their values;
+        ``step`` defaults to the new grammar's derivation length.
+
+        Raises
+        ------
+        LSystemError
+            When the grammar does not read or derive to ``step`` (the document is unchanged).
+        """
+        text, step = self._check_set_grammar(text, step)
+        declared = self._derivation(text, {}, self.seed).lsys.externs
+        overrides = {k: v for k, v in self.overrides.items() if k in declared}
+        if step is None:
+            step = self._step(self._derivation(text, overrides, self.seed).lsys.derivation_length)
+        self._apply("set_grammar", (text, step, overrides, self.seed), {"text": text, "step": step})
+
+    def set_step(self, step: int) -> None:
+        """Show derivation step ``step`` (the slider): cached steps cost nothing, new ones are derived from the
+        last one reached."""
+        step = self._check_set_step(step)
+        self._apply("set_step", (self.text, step, dict(self.overrides), self.seed), {"step": step})
+
+    def grow(self, steps: int = 1) -> None:
+        """Go ``steps`` derivation steps on (back when negative, never below 0; the headset's pad click)."""
+        steps = self._check_grow(steps)
+        step = min(max(self.step + steps, 0), MAX_STEP)
+        self._apply("grow", (self.text, step, dict(self.overrides), self.seed), {"steps": steps})
+
+    def set_externs(self, values: dict) -> None:
+        """Set declared parameters of the grammar, ``{name: value}`` (all checked before any is set)."""
+        values = self._declared(self.text, self.seed, self._check_set_externs(values))
+        self._apply("set_externs", (self.text, self.step, {**self.overrides, **values}, self.seed),
+                    {"values": values})
+
+    def set_seed(self, seed: int) -> None:
+        """Seed the stochastic productions."""
+        seed = self._check_set_seed(seed)
+        self._apply("set_seed", (self.text, self.step, dict(self.overrides), seed), {"seed": seed})
+
+    # -- state -------------------------------------------------------------------------------------------
+    def get_state(self) -> dict[str, Any]:
+        return {"text": self.text, "step": self.step, "overrides": dict(self.overrides), "seed": self.seed}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        text, step, overrides, seed = state["text"], state["step"], dict(state["overrides"]), state["seed"]
+        self._tree = self._evaluate(text, step, overrides, seed)
+        self.text, self.step, self.overrides, self.seed = text, step, overrides, seed
+
+    def state_bytes(self) -> bytes:
+        """The grammar, step, parameters and seed with the derived string and the tree, as deterministic bytes."""
+        with self._lock:
+            s, t = self.string, self._tree
+            return serialise({"text": self.text, "step": self.step, "overrides": self.overrides, "seed": self.seed,
+                              "string": (list(s.names), s.ids, s.arg_ptr, s.args), "tree": t})
+
+    def make_snapshot(self) -> TreeArrays | None:
+        """The tree (immutable arrays: render threads read it as it is)."""
+        return self._tree
+
+    def scene(self) -> dict[str, Any]:
+        """``{"tree": TreeArrays}``: the interpreted tree at the current step, y-up (:func:`y_up`)."""
+        with self._lock:
+            tree = self._tree
+        return {} if tree is None else {"tree": y_up(tree)}
