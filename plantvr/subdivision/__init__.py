@@ -116,7 +116,8 @@ def tree_mesh(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bool 
 
     levels = check_int("levels", levels, 0, 6)
     g = as_graph(tree)
-    cm = build_control_mesh(g, sides=sides, compensate_radius=compensate_radius, cap=False, **control_kw)
+    cm = build_control_mesh(g, sides=sides, compensate_radius=compensate_radius, cap=False,
+                            **{"fold_level": max(1, min(levels, 4)), **control_kw})
     V, F = subdivide_loop(cm.vertices, cm.faces, levels, weight_rule=weight_rule, boundary_rule=boundary_rule)
     if cap:
         V, F = cap_boundaries(V, F)
@@ -149,7 +150,8 @@ def tree_mesh_uv(tree, *, levels: int = 3, sides: int = 4, compensate_radius: bo
 
     levels = check_int("levels", levels, 0, 6)
     g = as_graph(tree)
-    cm = build_control_mesh(g, sides=sides, compensate_radius=compensate_radius, cap=False, **control_kw)
+    cm = build_control_mesh(g, sides=sides, compensate_radius=compensate_radius, cap=False,
+                            **{"fold_level": max(1, min(levels, 4)), **control_kw})
     uv = subdivide_uvs(control_uvs(cm, wrap=wrap), levels)
     V, F = subdivide_loop(cm.vertices, cm.faces, levels, weight_rule=weight_rule, boundary_rule=boundary_rule)
     if cap:

@@ -369,6 +369,17 @@ def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: floa
     ----------
     .. [1] Pieterse, Yggdrasil report §4.1.4, Fig. 4.5.
     """
+    cur, off_s, off_e, joints, _ = _simplify(g, offset_mode=offset_mode, min_offset=min_offset,
+                                             max_offset_factor=max_offset_factor, offset_margin=offset_margin,
+                                             max_rounds=max_rounds, stacklevel=3)
+    return cur, off_s, off_e, joints
+
+
+def _simplify(g: BranchGraph, *, offset_mode: str, min_offset: float, max_offset_factor: float,
+              offset_margin: float, max_rounds: int = 10_000, stacklevel: int = 2
+              ) -> tuple[BranchGraph, np.ndarray, np.ndarray, Joints, np.ndarray]:
+    """:func:`simplify`, also returning the (B,) bool mask of the leaf/root branches whose offsets were scaled
+    to 90 % of their length (too short for their joint, spec §2.2 edge case)."""
     start, end, r0, r1, parent = g.start, g.end, g.r0, g.r1, g.parent
     for _ in range(max_rounds):
         cur = BranchGraph(start, end, r0, r1, parent)
@@ -405,11 +416,12 @@ def simplify(g: BranchGraph, *, offset_mode: str = "geometric", min_offset: floa
         names = ", ".join(f"branch {b} at joint {jb[b]}" if jb[b] >= 0 else f"branch {b}" for b in short[:8])
         warnings.warn(f"{len(short)} leaf/root branch(es) too short for their joint offsets ({names}"
                       f"{', ...' if len(short) > 8 else ''}; branch ids of the simplified graph); offsets scaled "
-                      f"to 90 % of the branch length (spec §2.2 edge case), the surface may fold at these joints",
-                      stacklevel=2)
+                      f"to 90 % of the branch length (spec §2.2 edge case); build_control_mesh gives each one whose tube "
+                      f"folds a stub (short_leaves), the surface may fold at these joints",
+                      stacklevel=stacklevel)
         s = np.where(cross, 0.9 * L / np.maximum(off_s + off_e, 1e-300), 1.0)
         off_s, off_e = off_s * s, off_e * s
-    return cur, off_s, off_e, joints
+    return cur, off_s, off_e, joints, cross
 
 
 def random_tree(n_nodes: int, *, rng: int | np.random.Generator | None = None, length: float = 1.0,

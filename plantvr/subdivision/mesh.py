@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plantvr._validation import MAX_COUNT, check_choice, check_int, check_range
+from plantvr._validation import MAX_COUNT, check_choice, check_index, check_int, check_range
 from plantvr.types import TriMesh
 
 from ._checks import MAX_JOINT_POINTS
-from .graph import BranchGraph, Joints, joint_pairs, simplify
+from .graph import BranchGraph, Joints, _simplify, joint_pairs
 from .hull import joint_hulls
 from .loop import cap_boundaries, subdivide_loop
 
@@ -167,7 +167,8 @@ def _rotation_to(n: np.ndarray, d: np.ndarray) -> np.ndarray:
 def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius: bool = True,
                        offset_mode: str = "geometric", min_offset: float = 0.5, offset_margin: float = 0.1,
                        max_offset_factor: float = 4.0, rounding: str = "round", cap: bool = False,
-                       overlap: str = "enlarge", hull: str = "incremental") -> ControlMesh:
+                       overlap: str = "enlarge", hull: str = "incremental", short_leaves="auto",
+                       fold_level: int = 3) -> ControlMesh:
     """Build the Yggdrasil control mesh of a branch graph (spec §2.1–§2.4, Alg. 4).
 
     Parameters
@@ -202,6 +203,21 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     hull : {"incremental", "qhull"}
         Joint hulls from the batched numba incremental kernel (default; the report's Alg. 3) or one
         ``scipy.spatial.ConvexHull`` (Qhull) per joint (spec C7 asks for both).
+    short_leaves : {"auto", "tube", "stub"} or sequence of int
+        How a leaf too short for its joint offsets (spec §2.2 edge case: its offset is scaled to 90 % of its
+        length) is meshed. ``"tube"``: one segment from its joint loop at 90 % of the length to the fixed tip
+        loop (the spec's rule). At a crowded joint (issue 22) the Loop smoothing pulls that joint loop through
+        the fixed tip, whose loop is only 0.1 L away, when the neighbours' loops lie further out along the
+        leaf's axis than its tip, and the surface folds. ``"stub"``: no tube (N = 0); the fixed tip loop is the
+        leaf's loop in the joint hull, so no loop can be pulled through it; but where the neighbours' loops lie
+        ahead of the tip plane the tip sits in a pit whose rim can fold over it. ``"auto"`` (default): tubes;
+        then the control mesh is subdivided ``fold_level`` times and every short leaf whose tube, tip cap or
+        joint faces self-intersect there gets the stub, and the better of the two is kept [INFERRED]. A
+        sequence gives the branch ids of the simplified graph (``ControlMesh.graph``) to build as stubs.
+        Joints without short leaves are identical in every mode.
+    fold_level : int
+        Subdivision level (1–4) of the fold test of ``short_leaves="auto"`` (default 3, the default of
+        :func:`~plantvr.subdivision.tree_mesh`); pass the level you will subdivide to.
 
     Returns
     -------
@@ -225,6 +241,10 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     check_choice("rounding", rounding, ("round", "floor", "ceil"))
     check_choice("overlap", overlap, ("enlarge", "raise"))
     check_choice("hull", hull, ("incremental", "qhull"))
+    fold_level = check_int("fold_level", fold_level, 1, 4)
+    mode = short_leaves if isinstance(short_leaves, str) else None
+    if mode is not None:
+        check_choice("short_leaves", short_leaves, ("auto", "tube", "stub"))
     if not isinstance(graph, BranchGraph):
         raise ValueError(f"graph must be a BranchGraph, got {type(graph).__name__}")
     graph.validate()
@@ -237,18 +257,49 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
                          f"branches may meet at one joint")
     f = radius_factor(S) if compensate_radius else 1.0
     scaled = BranchGraph(graph.start, graph.end, graph.r0 / f, graph.r1 / f, graph.parent)
-    g, off_s, off_e, joints = simplify(scaled, offset_mode=offset_mode, min_offset=min_offset,
-                                       max_offset_factor=max_offset_factor, offset_margin=offset_margin)
+    g, off_s, off_e, joints, short = _simplify(scaled, offset_mode=offset_mode, min_offset=min_offset,
+                                               max_offset_factor=max_offset_factor, offset_margin=offset_margin,
+                                               stacklevel=3)
     nb = len(g)
     big = int(np.diff(joints.joint_ptr).max(initial=0))
     if big * S > MAX_JOINT_POINTS:
         raise ValueError(f"graph: a joint has {big} branches; at sides={S} at most {MAX_JOINT_POINTS // S} "
                          f"branches may meet at one joint")
+    base = np.zeros(nb, bool)
+    base[joints.base_branches] = True
+    # leaves too short for their joint (offset scaled to 0.9 L) that start at a joint: tube or stub
+    short = short & g.is_leaf & ~base
+    stub = np.zeros(nb, bool)
+    if mode == "stub":
+        stub = short.copy()
+    elif mode is None:
+        ids = check_index("short_leaves", short_leaves, shape=(None,), low=0, high=nb - 1, table="branches")
+        bad = ids[~short[ids]]
+        if bad.size:
+            raise ValueError(f"short_leaves must name leaves too short for their joint offsets (branch ids of the "
+                             f"simplified graph), got branch {int(bad[0])}")
+        stub[ids] = True
+    parts = {"g": g, "off_s": off_s, "off_e": off_e, "joints": joints, "f": f, "S": S, "base": base,
+             "rounding": rounding, "overlap": overlap, "hull": hull}
+    built = _assemble(stub=stub, **parts)
+    if mode == "auto" and short.any():
+        stub, built = _unfold(built, short, fold_level, parts)
+    V, faces, N, first_loop, last_loop, hull_n, joint_n = built
+    n_open = int(base.sum() + g.is_leaf.sum())
+    if cap:
+        V, faces = cap_boundaries(V, faces)
+    return ControlMesh(V, faces, g, N, first_loop, last_loop, np.diff(joints.joint_ptr), hull_n, joint_n,
+                       n_open, bool(cap))
+
+
+def _assemble(*, g: BranchGraph, off_s, off_e, joints: Joints, f: float, S: int, base, rounding, overlap, hull,
+              stub):
+    """Tubes (Alg. 1) and joint hulls (Alg. 3) of a simplified graph; ``stub`` branches get N = 0 (their tip
+    loop is their joint loop). Returns (V, faces, N, first_loop, last_loop, hull_n, joint_n)."""
+    nb = len(g)
     L = g.length
     ax = g.axis
     leaf = g.is_leaf
-    base = np.zeros(nb, bool)
-    base[joints.base_branches] = True
     # trimmed ends and their radii (radii interpolated along the original length, spec §2.3 [INFERRED])
     ts, te = off_s / L, 1.0 - off_e / L
     rs = g.r0 + (g.r1 - g.r0) * ts
@@ -264,6 +315,7 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
                          f"than the {MAX_COUNT} allowed (branches far longer than their radius); thicken or "
                          f"shorten the branches")
     N = Nf.astype(np.int64)
+    N[stub] = 0                          # a stub's only loop is its (fixed) tip loop, at the branch end
     u, w = _frames(g)
     # --- tube vertices (all branches at once)
     rings = N + 1
@@ -271,9 +323,12 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     ring_ptr = np.zeros(nb + 1, np.int64)
     np.cumsum(rings, out=ring_ptr[1:])
     ring_i = np.arange(ring_ptr[-1]) - ring_ptr[ring_b]
-    t = ring_i / N[ring_b]
+    t = ring_i / np.maximum(N[ring_b], 1)
+    t[stub[ring_b]] = 1.0
     c = ps[ring_b] + t[:, None] * (pe - ps)[ring_b]
+    c[stub[ring_b]] = g.end[ring_b[stub[ring_b]]]
     r = rs[ring_b] + t * (re - rs)[ring_b]
+    r[stub[ring_b]] = g.r1[ring_b[stub[ring_b]]]
     r[ring_ptr[:-1][base]] *= f          # open loops (base, tips) stay fixed under subdivision:
     r[ring_ptr[1:][leaf] - 1] *= f       # they keep the requested radius
     th = 2.0 * np.pi * np.arange(S) / S
@@ -293,11 +348,106 @@ def build_control_mesh(graph: BranchGraph, *, sides: int = 4, compensate_radius:
     # --- joints (§2.4)
     jf, hull_n, joint_n = _joints(V, g, joints, off_s, off_e, first_loop, last_loop, overlap, hull)
     faces = np.vstack([tube_f, jf]).astype(np.int64)
-    n_open = int(base.sum() + leaf.sum())
-    if cap:
-        V, faces = cap_boundaries(V, faces)
-    return ControlMesh(V, faces, g, N, first_loop, last_loop, np.diff(joints.joint_ptr), hull_n, joint_n,
-                       n_open, bool(cap))
+    return V, faces, N, first_loop, last_loop, hull_n, joint_n
+
+
+def _fold_pairs(built, g: BranchGraph, joints: Joints, short, level: int) -> np.ndarray:
+    """Self-intersecting pairs at subdivision ``level`` near the short leaves, each named by the short leaf it
+    touches: (P,) int64 branch ids, one per (pair, leaf) incidence [INFERRED, issue 22].
+
+    Only faces that descend from the short leaves' joints are tested: the joint faces, the tubes of every
+    member and the fan caps of the short leaves' tips (added as :func:`tree_mesh` adds them)."""
+    from .loop import boundary_loops
+    from .selfintersect import self_intersections
+
+    V, F, N, first_loop, _, _, joint_n = built
+    S = first_loop.shape[1]
+    nb = len(g)
+    mb, mj = joints.member_branch, joints.member_joint
+    hot_j = np.zeros(joints.n_joints, bool)
+    hot_j[mj[short[mb]]] = True
+    hot_b = np.zeros(nb, bool)
+    hot_b[mb[hot_j[mj]]] = True
+    vert_b = np.repeat(np.arange(nb), (N + 1) * S)            # control vertex -> branch
+    ntube = 2 * S * int(N.sum())
+    face_b = np.full(len(F), -1, np.int64)                     # tube face -> branch
+    face_b[:ntube] = np.repeat(np.arange(nb), 2 * S * N)
+    face_j = np.full(len(F), -1, np.int64)                     # joint face -> joint
+    face_j[ntube:] = np.repeat(np.arange(joints.n_joints), joint_n)
+    hot = np.where(face_j >= 0, hot_j[np.maximum(face_j, 0)], hot_b[np.maximum(face_b, 0)])
+    V2, F2 = subdivide_loop(V, F, level)
+    k = 4 ** level
+    # fan caps of the short leaves' tip loops (their loop keeps the original even vertex ids < len(V))
+    be, lab = boundary_loops(F2, len(V2))
+    nl = int(lab.max(initial=-1)) + 1
+    loop_b = np.full(nl, -1, np.int64)
+    even = be[:, 0] < len(V)
+    loop_b[lab[even]] = vert_b[be[even, 0]]
+    keep = (loop_b[lab] >= 0) & short[np.maximum(loop_b[lab], 0)]
+    be, lab = be[keep], lab[keep]
+    cnt = np.maximum(np.bincount(lab, minlength=nl), 1)
+    cen = np.stack([np.bincount(lab, weights=V2[be[:, 0], c], minlength=nl) for c in range(3)], 1) / cnt[:, None]
+    caps = np.stack([be[:, 1], be[:, 0], len(V2) + lab], axis=1)
+    sel = np.flatnonzero(np.repeat(hot, k))
+    Fc = np.vstack([F2[sel], caps])
+    pairs = self_intersections(np.vstack([V2, cen]), Fc)
+    if len(pairs) == 0:
+        return np.zeros(0, np.int64)
+    # name each face by the short leaves it belongs to: tube / cap of the leaf, or a joint face on its loop
+    cf = np.r_[sel // k, np.full(len(caps), -1)]
+    cap_b = np.r_[np.full(len(sel), -1), loop_b[lab]]
+    out = []
+    for pr in pairs:
+        leaves = set()
+        for q in pr:
+            if cf[q] < 0:
+                leaves.add(int(cap_b[q]))
+            elif face_b[cf[q]] >= 0:
+                if short[face_b[cf[q]]]:
+                    leaves.add(int(face_b[cf[q]]))
+            else:
+                bs = vert_b[F[cf[q]]]
+                leaves.update(int(b) for b in bs[short[bs]])
+        if not leaves:                       # a fold between the other members of a short leaf's joint
+            for q in pr:
+                if cf[q] >= 0 and face_j[cf[q]] >= 0:
+                    jm = mb[joints.joint_ptr[face_j[cf[q]]]:joints.joint_ptr[face_j[cf[q]] + 1]]
+                    leaves.update(int(b) for b in jm[short[jm]])
+        out.extend(leaves)
+    return np.array(out, np.int64)
+
+
+def _unfold(built, short, level: int, parts: dict):
+    """``short_leaves="auto"``: stub the short leaves whose tubes fold at ``level``, keep the better variant
+    per leaf, and warn naming the leaves that still fold (issue 22) [INFERRED]."""
+    g, joints = parts["g"], parts["joints"]
+    nb = len(g)
+    hits = np.bincount(_fold_pairs(built, g, joints, short, level), minlength=nb)
+    if not hits.any():
+        return np.zeros(nb, bool), built
+    tube_hits = hits
+    stub = hits > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # the first build already warned about this graph
+        cand = _assemble(stub=stub, **parts)
+    stub_hits = np.bincount(_fold_pairs(cand, g, joints, short, level), minlength=nb)
+    # a stub that folds more than its tube goes back to the tube (pairs counted per leaf)
+    worse = stub & (stub_hits > tube_hits)
+    if worse.any():
+        stub &= ~worse
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            cand = _assemble(stub=stub, **parts)
+        stub_hits = np.bincount(_fold_pairs(cand, g, joints, short, level), minlength=nb)
+    if stub_hits.any():
+        jb = np.full(nb, -1, np.int64)
+        jb[joints.member_branch[~joints.member_is_end]] = joints.member_joint[~joints.member_is_end]
+        left = np.flatnonzero(stub_hits)
+        names = ", ".join(f"branch {b} at joint {jb[b]}" for b in left[:8])
+        warnings.warn(f"{len(left)} short leaf branch(es) still self-intersect at subdivision level {level} "
+                      f"({names}{', ...' if len(left) > 8 else ''}; branch ids of the simplified graph), with and "
+                      f"without their tube; the surface folds at these joints", stacklevel=3)
+    return stub, cand
 
 
 def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_loop, overlap, hull):
@@ -346,7 +496,7 @@ def _joints(V, g: BranchGraph, joints: Joints, off_s, off_e, first_loop, last_lo
         Rs = np.maximum(Rs, grow)
         warnings.warn(f"{len(np.unique(mj[pa[bad]]))} joint(s) had overlapping loop caps (first: {msg}); "
                       f"their hulls were built on an enlarged sphere; pass overlap='raise' to refuse",
-                      stacklevel=3)
+                      stacklevel=4)
     Q = _rotation_to(n, d)
     Y = C[mj][:, None] + Rs[mj][:, None, None] * d[:, None] + np.einsum("mij,msj->msi", Q, loc)
     P = C[mj][:, None] + Rs[mj][:, None, None] * (Y - C[mj][:, None]) / np.linalg.norm(
