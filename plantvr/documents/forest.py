@@ -49,7 +49,7 @@ class ForestDocument(Document):
 
     Parameters
     ----------
-    client : None, "sync" or a dask ``Client``
+    client : None, "sync", a scheduler address (``"tcp://host:port"``) or a dask ``Client``
         Where ``grow`` runs its tasks (:func:`~plantvr.landscape.grow_forest`); default ``"sync"`` (this thread).
         The result does not depend on it, so it is not part of the state or the log.
     max_undo, max_undo_bytes : int

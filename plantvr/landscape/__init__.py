@@ -1,4 +1,5 @@
-"""Landscapes (spec 004_treesketch §3): terrain height field, tree distribution, forests grown tree by tree on dask,
+"""Landscapes (spec 004_treesketch §3): terrain height field, tree distribution, forests grown tree by tree on dask
+(parameter-record tasks, :mod:`plantvr.scaleout`),
 crown-space competition on layered voxels (glTF export: :mod:`plantvr.io.landscape`)."""
 from .asymmetry import cell_geometry, landscape_tropism, neighbour_asymmetry
 from .crowns import (

@@ -15,10 +15,14 @@ With ``regions="voxels"`` the crown spaces come from the competition for crown s
 ``sketch=``) inside the voxels it claimed, and :func:`regrow_tree` regrows one tree from its seed state while every
 other tree is carried over unchanged (§3.8).
 
-Tasks ship a plain state (the engine's pickled state: tree arrays, markers, RNG state) and rebuild the engine on
-the worker, so the result depends only on the seed: a synchronous run, a 2-worker LocalCluster and a multi-machine cluster give the same
-bytes. ``client=None`` starts a LocalCluster (2 workers) and closes it afterwards; ``client="sync"`` (or dask
-missing) runs the same tasks in the calling thread.
+Tasks ship small parameter records (seed stream, base, painted crown or TreeSketch options, cropped crown space)
+and seed the engine on the worker; results come back as compact arrays (tree arrays, meshes with int32 faces on the
+wire), and tree states stay on their workers between competition rounds (only live nodes and markers come back).
+Trees are batched into a few tasks per worker, independent trees (``compete=False`` or autonomous TreeSketch) in
+one wave. The result depends only on the seed: a synchronous run, 1 or 2 worker processes and a remote cluster
+give the same bytes. ``client=None`` starts a LocalCluster (2 workers) and closes it afterwards; a scheduler address
+string connects to that scheduler for the call; ``client="sync"`` (or dask missing) runs the same tasks in the
+calling thread. ``Forest.stats`` holds the task timing (:class:`plantvr.scaleout.TaskStats`).
 """
 from __future__ import annotations
 
@@ -32,6 +36,8 @@ from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_ra
 from ..growth.engine import GrowthEngine
 from ..growth.sketch import SketchEngine, _check_bool
 from ..params import Param, ParamTable, check_params, defaults
+from ..scaleout import TaskStats, check_progress, chunks, connect, n_workers_of, timed, track
+from ..scaleout import check_client as _check_client
 from ..types import TreeArrays
 from .asymmetry import cell_geometry, neighbour_asymmetry
 from .crowns import (
@@ -51,16 +57,20 @@ __all__ = [
     "Forest",
     "check_client",
     "check_sketch",
+    "compete_finish_task",
+    "compete_round_task",
     "crown_regions",
     "engine_from_state",
     "engine_state",
     "finish_task",
+    "forest_task",
     "grow_finish_task",
     "grow_forest",
     "grow_tree_task",
     "grow_trees_task",
     "regrow_tree",
     "round_task",
+    "seed_task",
     "summary_task",
     "terrain_mesh",
     "tree_mesh_task",
@@ -105,7 +115,8 @@ class Forest:
     entry for the whole growth when autonomous TreeSketch trees run all their rounds in one task),
     ``meshes`` the branch meshes (world coordinates) when grown with ``geometry=True``, ``voxels`` the crown-space
     claims of ``regions="voxels"``, ``seeds`` every tree's initial engine state and ``config`` the growth settings
-    (both for :meth:`regrow`). :class:`plantvr.documents.forest.ForestDocument` holds one as its state; the glTF
+    (both for :meth:`regrow`), ``stats`` the task timing of the growth (:class:`plantvr.scaleout.TaskStats`
+    as a dict; not state). :class:`plantvr.documents.forest.ForestDocument` holds one as its state; the glTF
 writer of :mod:`plantvr.io` writes one."""
 
     bases: np.ndarray
@@ -117,6 +128,7 @@ writer of :mod:`plantvr.io` writes one."""
     voxels: CrownVoxels | None = None
     seeds: list[dict[str, Any]] | None = None
     config: dict[str, Any] | None = None
+    stats: dict[str, Any] | None = None
 
     @property
     def n_internodes(self) -> int:
@@ -246,18 +258,139 @@ def grow_finish_task(params: dict[str, Any], states: list[dict[str, Any]], round
     return finish_task(out, [None] * len(out), bases, geometry)
 
 
+#: Tasks per worker of a forest wave: a few per worker balance uneven trees at a small per-task overhead.
+_PER_WORKER = 6
+
+
+def _pack_mesh(m: tuple[np.ndarray, np.ndarray] | None) -> tuple | None:
+    """A mesh as it travels back from a task: faces as int32 when they fit (a third fewer bytes)."""
+    if m is None:
+        return None
+    v, f = m
+    if f.dtype == np.int64 and (not f.size or f.max() < 2 ** 31):
+        return v, f.astype(np.int32), "int64"
+    return v, f, f.dtype.str
+
+
+def _unpack_mesh(m: tuple | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """Inverse of :func:`_pack_mesh` (the same bytes as the task's mesh)."""
+    return None if m is None else (m[0], m[1].astype(m[2]))
+
+
+def _state(params: dict[str, Any], item: dict[str, Any]) -> dict[str, Any]:
+    """An engine state from a parameter record (seeded here) or a state as it is."""
+    return seed_task(params, item) if "spawn" in item else item
+
+
+def forest_task(params: dict[str, Any], items: list[dict[str, Any]], rounds: int, steps: int,
+                bases: np.ndarray, geometry: bool) -> list[tuple]:
+    """Independent trees, one batch: seed each from its record, grow every round (:func:`grow_tree_task`),
+    return (seed state, tree arrays in world coordinates, packed mesh or None) per tree."""
+    out = []
+    for item, b in zip(items, bases):
+        seed = _state(params, item)
+        st = seed
+        for _ in range(rounds):
+            st = grow_tree_task(params, st, steps)
+        (t, m), = finish_task([st], [None], b[None], geometry)
+        out.append((seed, t, _pack_mesh(m)))
+    return out
+
+
+def compete_round_task(params: dict[str, Any], prev: Any, drops: list, steps: int) -> tuple:
+    """One round of a competing batch: ``prev`` is the batch's parameter records (first round) or the previous
+    round's timed result; drop the claimed markers, grow; returns (states, summaries, seed states or None)."""
+    if isinstance(prev, list):
+        states = [seed_task(params, r) for r in prev]
+        seeds = states
+    else:
+        states, seeds = prev[0][0], None
+    states = round_task(params, states, drops, steps)
+    return states, summary_task(states), seeds
+
+
+def compete_finish_task(params: dict[str, Any], prev: Any, drops: list, bases: np.ndarray, geometry: bool
+                        ) -> list[tuple]:
+    """The last drops and the meshes of a competing batch: (seed state or None, world tree arrays, packed mesh)."""
+    if isinstance(prev, list):
+        states = seeds = [seed_task(params, r) for r in prev]
+    else:
+        states, seeds = prev[0][0], [None] * len(prev[0][0])
+    return [(sd, t, _pack_mesh(m)) for sd, (t, m) in zip(seeds, finish_task(states, drops, bases, geometry))]
+
+
+def _small(timed_round: tuple) -> tuple:
+    """What the caller needs of a timed :func:`compete_round_task` (summaries, seed states, seconds, CPU)."""
+    (_, summaries, seeds), wall, cpu = timed_round
+    return summaries, seeds, wall, cpu
+
+
+class _Waves:
+    """Submit timed tasks to a runner (``"sync"``: call now) and gather them with progress."""
+
+    def __init__(self, runner: Any, stats: TaskStats, progress: bool):
+        self.runner, self.stats, self.progress = runner, stats, progress
+
+    def submit(self, fn, *args):
+        if self.runner == "sync":
+            return timed(fn, *args)
+        return self.runner.submit(timed, fn, *args, pure=False)
+
+    def small(self, x):
+        return _small(x) if self.runner == "sync" else self.runner.submit(_small, x, pure=False)
+
+    def gather(self, xs: list, desc: str, *, timed_results: bool = True) -> list:
+        if self.runner != "sync":
+            track(xs, progress=self.progress, desc=desc)
+            xs = self.runner.gather(xs)
+        if timed_results:
+            self.stats.add(0.0, [(w, c) for _, w, c in xs])
+            return [r for r, _, _ in xs]
+        return xs
+
+
+def _competing(waves: _Waves, p, records, parts, bases, rounds, steps, geometry, radius) -> tuple[list, list]:
+    """Rounds with crown competition between them (a barrier per round); batches stay on their workers."""
+    import time
+
+    prev: list = [[records[i] for i in c] for c in parts]
+    drops: list = [None] * len(records)
+    seeds: list = [None] * len(records)
+    timings = []
+    for r in range(rounds):
+        t0 = time.perf_counter()
+        prev = [waves.submit(compete_round_task, p, b, [drops[i] for i in c], steps) for b, c in zip(prev, parts)]
+        small = waves.gather([waves.small(x) for x in prev], f"round {r + 1}/{rounds}", timed_results=False)
+        waves.stats.add(0.0, [(w, c) for *_, w, c in small])
+        summaries = [x for sm, *_ in small for x in sm]
+        if r == 0:
+            seeds = [x for _, sd, *_ in small for x in sd]
+        drops = _compete_masks(summaries, bases, radius)
+        timings.append(time.perf_counter() - t0)
+    got = waves.gather([waves.submit(compete_finish_task, p, b, [drops[i] for i in c], bases[c], geometry)
+                        for b, c in zip(prev, parts)], "meshes")
+    if rounds:
+        got = [[(sd, t, m) for sd, (_, t, m) in zip((seeds[i] for i in c), part)] for part, c in zip(got, parts)]
+    return got, timings
+
+
 def _compete_masks(summaries: list[tuple[np.ndarray, np.ndarray]], bases: np.ndarray, radius: float) -> list:
-    """Per tree, the mask of its markers within ``radius`` of a live node of another tree (None: none)."""
-    allp = np.concatenate([nodes + bases[i] for i, (nodes, _) in enumerate(summaries)])
-    lab = np.concatenate([np.full(len(nodes), i) for i, (nodes, _) in enumerate(summaries)])
+    """Per tree, the mask of its markers within ``radius`` of a live node of another tree (None: none).
+
+    Vectorised: a marker is claimed when the ball around it holds more nodes of all trees than of its own
+    tree (both counted by cKDTree ball queries on the same world coordinates)."""
+    nodes = [nd + bases[i] for i, (nd, _) in enumerate(summaries)]
+    allp = np.concatenate(nodes) if nodes else np.zeros((0, 3))
     kd = cKDTree(allp)
     drops = []
     for i, (_, m) in enumerate(summaries):
         if not len(m):
             drops.append(None)
             continue
-        hits = kd.query_ball_point(m + bases[i], radius)
-        d = np.array([bool(len(h)) and bool(np.any(lab[h] != i)) for h in hits])
+        q = m + bases[i]
+        total = kd.query_ball_point(q, radius, return_length=True)
+        own = cKDTree(nodes[i]).query_ball_point(q, radius, return_length=True) if len(nodes[i]) else 0
+        d = np.asarray(total > own)
         drops.append(d if d.any() else None)
     return drops
 
@@ -335,14 +468,15 @@ def _hero_segments(tree: dict[str, np.ndarray], base: np.ndarray) -> tuple[np.nd
     return tree["pos"][tree["parent"][idx]] + base, tree["pos"][idx] + base
 
 
-def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False,
-                 regions="voronoi", scales=None, voxel_shape=(20, 128, 128), heroes=()):
-    """Initial engine states (and the crown voxels in ``regions="voxels"`` mode). ``heroes``: (tree-local tree
+def _tree_records(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False,
+                  regions="voronoi", scales=None, voxel_shape=(20, 128, 128), heroes=()):
+    """Per tree, the small parameter record its task seeds the engine from (and the crown voxels in
+    ``regions="voxels"`` mode): ``spawn`` (forest seed, tree index), then ``paint`` (crown centre height,
+    radius, darts) or ``sketch`` options with the ``region`` (Voronoi cell) or ``h_max``, and ``vreg`` (the
+    tree's cropped voxels) with voxel regions. ``heroes``: (tree-local tree
     arrays, world base) of pre-designed trees that do not compete but claim the voxels their segments pass
     through (spec §3.5), before the grown trees' regions are cut out."""
-    ss = np.random.SeedSequence(seed).spawn(len(bases))
     S = np.ones(len(bases)) if scales is None else scales
-    states = []
     voronoi = voxels = None
     xz = bases[:, [0, 2]]
     if regions == "voxels":
@@ -368,31 +502,56 @@ def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketc
             C, B = C[:len(bases)], B[:len(bases)]
             V = neighbour_asymmetry(xz, S ** 2, 2.0 * crown_radius * S, centroids=C, bounding=B)
             sketch = [{**sketch, "asymmetry": v.tolist()} for v in V]
+    records = []
     for i in range(len(bases)):
-        vreg = None if voxels is None else {**tree_region(voxels, i), "base": bases[i].copy()}
+        rec: dict[str, Any] = {"spawn": (int(seed), i)}
+        if voxels is not None:
+            rec["vreg"] = {**tree_region(voxels, i), "base": bases[i].copy()}
         if sketch is None:
-            e = GrowthEngine(params, rng=np.random.default_rng(ss[i]))
-            e.paint(np.array([0.0, S[i] * crown_height, 0.0]), S[i] * crown_radius, n_darts)
-            if vreg is not None:  # painted markers are kept only inside the tree's voxels
-                keep = in_tree_region(vreg, e.markers, vreg["base"])
-                e.markers, e.marker_age = e.markers[keep], e.marker_age[keep]
+            rec["paint"] = (float(S[i] * crown_height), float(S[i] * crown_radius), int(n_darts))
         else:
-            opts = {"mode": "autonomous", **(sketch[i] if isinstance(sketch, list) else sketch)}
-            rs = int(ss[i].generate_state(1, np.uint64)[0] >> np.uint64(2))
-            if vreg is None:
-                e = SketchEngine(params, rng=rs, **opts, region=voronoi[i])
-            else:
-                reg = {"sites": [], "weights": [], "weight": 1.0, "h_max": float(voxels.h_max[i])}
-                e = VoxelSketchEngine(params, rng=rs, voxel_region=vreg, **opts, region=reg)
-        states.append(engine_state(e))
-    return states, voxels
+            rec["sketch"] = {"mode": "autonomous", **(sketch[i] if isinstance(sketch, list) else sketch)}
+            rec["region"] = None if voxels is not None else voronoi[i]
+            if voxels is not None:
+                rec["h_max"] = float(voxels.h_max[i])
+        records.append(rec)
+    return records, voxels
+
+
+def seed_task(params: dict[str, Any], rec: dict[str, Any]) -> dict[str, Any]:
+    """A tree's initial engine state from its parameter record (:func:`_tree_records`: seed stream, painted crown
+    or TreeSketch options, crown space); a pure function of its inputs, run on the workers."""
+    ss = np.random.SeedSequence(rec["spawn"][0], spawn_key=(rec["spawn"][1],))  # == SeedSequence(seed).spawn(n)[i]
+    vreg = rec.get("vreg")
+    if "paint" in rec:
+        h, r, n_darts = rec["paint"]
+        e = GrowthEngine(params, rng=np.random.default_rng(ss))
+        e.paint(np.array([0.0, h, 0.0]), r, n_darts)
+        if vreg is not None:  # painted markers are kept only inside the tree's voxels
+            keep = in_tree_region(vreg, e.markers, vreg["base"])
+            e.markers, e.marker_age = e.markers[keep], e.marker_age[keep]
+    else:
+        rs = int(ss.generate_state(1, np.uint64)[0] >> np.uint64(2))
+        if vreg is None:
+            e = SketchEngine(params, rng=rs, **rec["sketch"], region=rec["region"])
+        else:
+            reg = {"sites": [], "weights": [], "weight": 1.0, "h_max": rec["h_max"]}
+            e = VoxelSketchEngine(params, rng=rs, voxel_region=vreg, **rec["sketch"], region=reg)
+    return engine_state(e)
+
+
+def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketch=None, size=None, lean=False,
+                 regions="voronoi", scales=None, voxel_shape=(20, 128, 128), heroes=()):
+    """Initial engine states of :func:`_tree_records` (and the crown voxels in ``regions="voxels"`` mode)."""
+    records, voxels = _tree_records(params, bases, seed, crown_height, crown_radius, n_darts, sketch, size, lean,
+                                    regions, scales, voxel_shape, heroes)
+    return [seed_task(params, r) for r in records], voxels
 
 
 def check_client(client: Any) -> Any:
-    """``client`` if it is None, ``"sync"`` or a dask ``Client`` (anything with ``submit``), else a ValueError."""
-    if not (client is None or (isinstance(client, str) and client == "sync") or hasattr(client, "submit")):
-        raise ValueError(f"client must be None, 'sync' or a dask Client, got {client!r}")
-    return client
+    """``client`` if it is None, ``"sync"``, a scheduler address (``"tcp://host:port"``) or a dask ``Client``
+    (anything with ``submit``), else a ValueError (:func:`plantvr.scaleout.check_client`)."""
+    return _check_client(client)
 
 
 def check_sketch(sketch: dict[str, Any] | None) -> dict[str, Any] | None:
@@ -424,19 +583,23 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
                 sketch: dict[str, Any] | None = None, lean: bool = False, regions: str = "voronoi",
                 voxel_shape: tuple[int, int, int] = (20, 128, 128),
                 scale_range: tuple[float, float] = (1.0, 1.0), positions: np.ndarray | None = None,
-                scales: np.ndarray | None = None, heroes: list[dict[str, Any]] | None = None) -> Forest:
+                scales: np.ndarray | None = None, heroes: list[dict[str, Any]] | None = None,
+                progress: bool = False) -> Forest:
     """Place ``n_trees`` by Poisson disc on a seeded terrain and grow them as independent dask tasks.
 
     Parameters
     ----------
     n_trees : int
         Requested trees; fewer when the area cannot hold them at ``min_dist``.
-    client : None, "sync" or a dask ``Client``
+    client : None, "sync", a scheduler address or a dask ``Client``
         ``None`` starts ``LocalCluster(n_workers, processes=processes, threads_per_worker=1)`` and closes it
-        after; ``"sync"`` (also the fallback without dask) runs tasks in this thread; a client is used as is.
+        after; ``"sync"`` (also the fallback without dask) runs tasks in this thread; an address
+        (``"tcp://host:port"``) connects a client to that scheduler for this call; a client is used as is.
+        Tasks get parameter records (seed stream, base, crown) and return compact arrays; the timing of the
+        tasks is in ``Forest.stats``. Use process workers for a speed-up (thread workers share the GIL).
     tasks_per_round : int, optional
-        Trees are grown in this many batches per round (default: twice the client's workers); the result
-        does not depend on it.
+        Trees are grown in this many batches per round (default: 6 per worker); the result does not depend on
+        it.
     compete : bool
         Remove markers claimed by neighbours (within the occupation radius of their nodes) between rounds.
 
@@ -469,6 +632,8 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
         ``alive``, ``radius``, ``child``), with the base at the origin, "position": (x, z)}``: placed as they are,
         not grown and not regrown; with ``regions="voxels"`` they claim every voxel their internodes pass through before
         the other trees' regions are cut out. They come after the grown trees in ``Forest.trees``.
+    progress : bool
+        Show tasks completing: dask's progress bar in a notebook, tqdm in scripts.
 
     Returns
     -------
@@ -484,6 +649,7 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
     if params is not None and not isinstance(params, dict):
         raise ValueError(f"params must be a dict of growth parameters or None, got {type(params).__name__}")
     client = check_client(client)
+    progress = check_progress(progress)
     rounds, steps_per_round = FOREST["rounds"].check(rounds), FOREST["steps_per_round"].check(steps_per_round)
     min_dist = FOREST["min_dist"].check(min_dist)
     crown_height, crown_radius = FOREST["crown_height"].check(crown_height), FOREST["crown_radius"].check(crown_radius)
@@ -536,83 +702,38 @@ def grow_forest(n_trees: int = 10, *, size: tuple[float, float] = (60.0, 60.0), 
             raise ValueError(f"scales must be positive, got min {scales.min()!r}")
     elif (s_lo, s_hi) != (1.0, 1.0):
         scales = np.random.default_rng([seed, 0x5CA1E]).uniform(s_lo, s_hi, len(bases))
-    states, voxels = _seed_states(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean),
-                                  regions, scales, voxel_shape, hero_in)
-    seeds = list(states)
-
-    own, runner = None, client
-    if client is None:
-        try:
-            from dask.distributed import Client, LocalCluster
-            own = Client(LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=processes,
-                                      dashboard_address=None))
-            runner = own
-        except ImportError:
-            runner = "sync"
-    timings = []
-
-    n = len(states)
-    if runner == "sync":
-        chunks = [np.arange(n)]
-
-        def call(fn, *a):
-            return fn(*a)
-
-        def get(xs):
-            return list(xs)
-    else:
-        k = tasks_per_round or 2 * max(len(runner.scheduler_info()["workers"]), 1)
-        chunks = [c for c in np.array_split(np.arange(n), min(n, k)) if len(c)]
-
-        def call(fn, *a):
-            return runner.submit(fn, *a, pure=False)
-
-        def get(xs):
-            return runner.gather(list(xs))
-
-    # tree states stay where they were computed (futures); only node positions and markers come back per round
-    batches = [[states[i] for i in c] for c in chunks]
-    if runner != "sync":
-        batches = runner.scatter(batches)
-    drops: list = [None] * n
-    radius = p["occupation_radius"]
-    # autonomous TreeSketch trees clear their markers every step, so nothing passes between trees: each batch
-    # runs all its rounds in one task (the same per-round calls, no barrier), the same bytes with fewer transfers
-    fused = sketch is not None and sketch.get("mode", "autonomous") == "autonomous"
-    try:
+    records, voxels = _tree_records(p, bases, seed, crown_height, crown_radius, n_darts, sketch, size, bool(lean),
+                                    regions, scales, voxel_shape, hero_in)
+    n = len(records)
+    # autonomous TreeSketch trees clear their markers every step, and trees without competition share nothing,
+    # so each batch seeds, grows all its rounds and meshes in one task (the same per-round calls, no barrier)
+    fused = (sketch is not None and sketch.get("mode", "autonomous") == "autonomous") or not compete
+    with connect(client, n_workers=n_workers, processes=processes) as runner:
+        stats = TaskStats(n_workers_of(runner))
+        parts = chunks(n, stats.n_workers, per_worker=_PER_WORKER, tasks=tasks_per_round)
+        waves = _Waves(runner, stats, progress)
+        t_all = time.perf_counter()
         if fused:
-            t0 = time.perf_counter()
-            done = [x for part in get(call(grow_finish_task, p, b, rounds, steps_per_round, bases[c], geometry)
-                                      for b, c in zip(batches, chunks)) for x in part]
-            timings.append(time.perf_counter() - t0)
-        for _ in range(0 if fused else rounds):
-            t0 = time.perf_counter()
-            batches = [call(round_task, p, b, [drops[i] for i in c], steps_per_round) for b, c in zip(batches, chunks)]
-            if compete:
-                summaries = [x for part in get(call(summary_task, b) for b in batches) for x in part]
-                drops = _compete_masks(summaries, bases, radius)
-            else:
-                get(call(len, b) for b in batches)  # round barrier for the timings
-            timings.append(time.perf_counter() - t0)
-        if not fused:
-            done = [x for part in get(call(finish_task, b, [drops[i] for i in c], bases[c], geometry)
-                                      for b, c in zip(batches, chunks)) for x in part]
-        trees = [t for t, _ in done]
-        meshes = [m for _, m in done] if geometry else None
-        for t, hb in hero_in:  # hero trees as they are, in world coordinates
-            trees.append({**t, "pos": t["pos"] + hb})
-            if meshes is not None:
-                meshes.append(tree_mesh_task(trees[-1]))
-    finally:
-        if own is not None:
-            cluster = own.cluster
-            own.close()
-            cluster.close()
+            got = waves.gather([waves.submit(forest_task, p, [records[i] for i in c], rounds, steps_per_round,
+                                             bases[c], geometry) for c in parts], "trees")
+            timings = [time.perf_counter() - t_all]
+        else:
+            got, timings = _competing(waves, p, records, parts, bases, rounds, steps_per_round, geometry,
+                                      p["occupation_radius"])
+        stats.wall_s = time.perf_counter() - t_all
+    done = [x for part in got for x in part]
+    seeds = [sd for sd, _, _ in done]
+    trees = [t for _, t, _ in done]
+    meshes = [_unpack_mesh(m) for _, _, m in done] if geometry else None
+    for t, hb in hero_in:  # hero trees as they are, in world coordinates
+        trees.append({**t, "pos": t["pos"] + hb})
+        if meshes is not None:
+            meshes.append(tree_mesh_task(trees[-1]))
     config = {"params": p, "rounds": rounds, "steps_per_round": steps_per_round, "geometry": bool(geometry),
               "independent": sketch is not None or not compete, "scales": scales}
     if hero_in:
         bases = np.concatenate([bases, [hb for _, hb in hero_in]])
-    return Forest(bases, trees, hf, size, timings, meshes, voxels, seeds, config)
+    return Forest(bases, trees, hf, size, timings, meshes, voxels, seeds, config, stats.as_dict())
 
 
 def regrow_tree(forest: Forest, tree: int, *, params: dict[str, Any] | None = None,

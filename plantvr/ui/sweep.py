@@ -1,10 +1,13 @@
 """Parameter sweeps over a replayed scenario, with growth metrics and a grid of thumbnails (spec 000_treewand §4.11,
 §6.1; DESIGN: scale-out work is a set of independent tasks on a dask client).
 
-Each grid point is one task: a fresh model is re-seeded, the scenario's strokes are replayed with the grid
-point's parameters over the scenario's own, and the task returns its metrics and the lossless ``.npz`` state
-(bytes), so thumbnails are rendered afterwards in the calling process from exactly the grown trees. Tasks are
-deterministic: the same grid gives the same trees on a dask client or serially.
+Each grid point is one variant: a fresh model is re-seeded, the scenario's strokes are replayed with the grid
+point's parameters over the scenario's own, and the variant returns its metrics and the lossless ``.npz`` state
+(bytes), so thumbnails are rendered afterwards in the calling process from exactly the grown trees. On a dask
+client the points are batched into a few tasks per worker (:mod:`plantvr.scaleout`); a task's input is the
+scenario's name (or the small scenario record), the points' parameter dicts and the seed, never a model.
+Variants are deterministic: the same grid gives the same trees on any client (process workers for a speed-up:
+the replay is Python-heavy and thread workers share the GIL) or serially.
 """
 from __future__ import annotations
 
@@ -20,9 +23,10 @@ import numpy as np
 
 from .._validation import check_int, check_size
 from ..params import PARAM_BY_NAME, validate
+from ..scaleout import TaskStats, check_client, check_progress, chunks, connect, n_workers_of, run_tasks
 from .strokes import Scenario, load_scenario, replay_scenario
 
-__all__ = ["grow_variant", "sweep", "thumbnail", "thumbnail_grid", "tree_metrics"]
+__all__ = ["grow_variant", "sweep", "sweep_task", "thumbnail", "thumbnail_grid", "tree_metrics", "warm_up_sweep"]
 
 #: Most grid points one :func:`sweep` call may grow.
 MAX_POINTS = 100_000
@@ -95,7 +99,22 @@ def grow_variant(scenario: str | Scenario, params: dict[str, Any], *, seed: int 
     return out
 
 
-def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed: int | None = None):
+def sweep_task(scenario: str | Scenario, points: list[dict[str, Any]], seed: int | None) -> list[dict[str, Any]]:
+    """A batch of :func:`grow_variant` calls in one task (the scenario loaded once)."""
+    sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
+    return [grow_variant(sc, p, seed=seed) for p in points]
+
+
+def warm_up_sweep() -> float:
+    """Replay a small scenario once so this process has imported the model and loaded its compiled kernels;
+    seconds. Run it on every worker (``client.run(warm_up_sweep)``) before timing a sweep."""
+    t = time.perf_counter()
+    grow_variant("fig12_1", {})
+    return time.perf_counter() - t
+
+
+def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed: int | None = None,
+          progress: bool = False, tasks: int | None = None):
     """Grow ``scenario`` at every point of the product of ``grid``'s value lists.
 
     Parameters
@@ -104,19 +123,29 @@ def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed:
     grid : dict of str -> list
         Parameter name -> values, e.g. ``{"apical_dominance": [0.4, 0.6], "tropism_angle": [0, 90]}``;
         every value is checked against the parameter table before any task starts.
-    client : dask.distributed.Client, optional
-        Run the tasks on this client (one task per grid point); serially when None.
+    client : None, "sync", a scheduler address or a dask.distributed.Client
+        Where the variants grow: serially in this thread for None or ``"sync"``; on the client (or on a client
+        connected for this call to an address ``"tcp://host:port"``) in a few batches per worker.
     seed : int, optional
         Replay seed (default: the scenario's).
+    progress : bool
+        Show tasks completing: dask's progress bar in a notebook, tqdm in scripts.
+    tasks : int, optional
+        Number of batches on a client (default: 4 per worker); the table does not depend on it.
 
     Returns
     -------
     pandas.DataFrame
         One row per grid point in product order (last name varies fastest): its parameters, metrics,
-        ``seconds`` and ``state``.
+        ``seconds`` and ``state``; ``table.attrs["scaleout"]`` holds the task timing
+        (:class:`plantvr.scaleout.TaskStats` as a dict: time in tasks, wall, per-task overhead).
     """
     import pandas as pd
     seed = _seed(seed)
+    client = check_client(client)
+    progress = check_progress(progress)
+    if tasks is not None:
+        tasks = check_int("tasks", tasks, 1, MAX_POINTS)
     if not isinstance(grid, dict) or not grid:
         raise ValueError(f"grid must be a non-empty dict of parameter -> list of values, got {grid!r:.80}")
     for name, values in grid.items():
@@ -131,11 +160,18 @@ def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed:
     for p in points:
         validate(p)
     sc = load_scenario(scenario) if isinstance(scenario, str) else scenario
-    if client is None:
-        rows = [grow_variant(sc, p, seed=seed) for p in points]
-    else:
-        rows = client.gather(client.map(grow_variant, [sc] * len(points), points, seed=seed, pure=False))
-    return pd.DataFrame(rows)
+    ref = scenario if isinstance(scenario, str) else sc  # a shipped scenario travels by name
+    with connect("sync" if client is None else client) as runner:
+        stats = TaskStats(n_workers_of(runner))
+        if runner == "sync":
+            parts = [[i] for i in range(len(points))]
+        else:
+            parts = chunks(len(points), stats.n_workers, per_worker=4, tasks=tasks)
+        got = run_tasks(runner, sweep_task, [(ref, [points[i] for i in c], seed) for c in parts], stats=stats,
+                        progress=progress, desc="sweep")
+    table = pd.DataFrame([row for part in got for row in part])
+    table.attrs["scaleout"] = stats.as_dict()
+    return table
 
 
 def thumbnail(state: bytes, *, size: tuple[int, int] = (200, 200), leaves: bool = True) -> np.ndarray:

@@ -100,13 +100,37 @@ def test_forest_sync_equals_two_thread_workers():
     assert not np.array_equal(h.bases, f.bases)
 
 
+def test_forest_remote_scheduler_address_and_stats():
+    """The same call runs against a scheduler address (a client connected and closed for the call): the same
+    bytes as a synchronous run; task timing is reported and batching gives a few tasks per worker."""
+    distributed = pytest.importorskip("dask.distributed")
+    f = grow_forest(5, client="sync", geometry=True, **SMALL)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        g = grow_forest(5, client=cluster.scheduler_address, geometry=True, progress=True, **SMALL)
+        h = grow_forest(5, client=cluster.scheduler_address, compete=False, **SMALL)
+    _same(f, g)
+    assert all(a[0].tobytes() == b[0].tobytes() and a[1].tobytes() == b[1].tobytes() and a[1].dtype == np.int64
+               for a, b in zip(f.meshes, g.meshes))
+    assert all(a["markers"].tobytes() == b["markers"].tobytes() for a, b in zip(f.seeds, g.seeds))
+    s = g.stats
+    assert s["n_workers"] == 2 and s["n_tasks"] == 5 * (SMALL["rounds"] + 1)  # 5 trees: one batch each
+    assert 0.0 <= s["overhead"] <= 1.0 and s["body_s"] > 0 and f.stats["n_workers"] == 1
+    _same(grow_forest(5, client="sync", compete=False, **SMALL), h)
+    assert h.stats["n_tasks"] == 5  # independent trees: one wave, seeded, grown and meshed in the task
+
+
 @pytest.mark.slow  # ~20 s: two worker processes start, import and JIT-load the kernels
 def test_forest_dask_two_processes_same_bytes():
     distributed = pytest.importorskip("dask.distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None) as cluster, distributed.Client(cluster) as client:
         g = grow_forest(3, client=client, **SMALL)
-        gv = grow_forest(4, client=client, geometry=True, **VOX)  # voxel crown spaces travel with the states
+        gv = grow_forest(4, client=client, geometry=True, **VOX)  # voxel crown spaces travel with the records
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        g1 = grow_forest(3, client=client, **SMALL)
+    _same(g1, g)  # 1 vs 2 worker processes
     f = grow_forest(3, client="sync", **SMALL)
     _same(f, g)
     fv = grow_forest(4, client="sync", geometry=True, **VOX)
@@ -141,6 +165,10 @@ def test_forest_option_checks_are_shared_with_the_document():
     for entry in (check_client, lambda c: grow_forest(2, client=c), lambda c: ForestDocument(client=c)):
         with pytest.raises(ValueError, match="client must be None, 'sync' or a dask Client"):
             entry("threads")
+        with pytest.raises(ValueError, match="client must be"):
+            entry("tcp://")
+    with pytest.raises(ValueError, match="progress must be True or False"):
+        grow_forest(2, client="sync", progress="yes")
 
 
 def test_ts_v25_v26_sketch_forest_in_crown_space():

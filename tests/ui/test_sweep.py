@@ -60,3 +60,33 @@ def test_bad_grids_are_rejected_before_any_task():
         sweep("fig12_7_vigor", {})
     with pytest.raises(ValueError, match="npz bytes"):
         thumbnail(b"")
+
+
+def test_sweep_options_are_checked_before_any_task():
+    with pytest.raises(ValueError, match="client must be None, 'sync' or a dask Client"):
+        sweep("fig12_7_vigor", GRID, client="threads")
+    with pytest.raises(ValueError, match="progress must be True or False"):
+        sweep("fig12_7_vigor", GRID, progress="yes")
+    with pytest.raises(ValueError, match="tasks"):
+        sweep("fig12_7_vigor", GRID, tasks=0)
+
+
+@pytest.mark.slow  # ~20 s: worker processes start and import the model
+def test_sweep_one_and_two_worker_processes_and_an_address_give_the_same_bytes(table):
+    """Batched tasks on 1 and 2 worker processes, and through a scheduler address string: the same table."""
+    from plantvr.ui.sweep import warm_up_sweep
+    distributed = pytest.importorskip("dask.distributed")
+    got = []
+    for n in (1, 2):
+        with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                      dashboard_address=None) as cluster:
+            with distributed.Client(cluster) as client:
+                assert all(s > 0 for s in client.run(warm_up_sweep).values())
+                got.append(sweep("fig12_7_vigor", GRID, client=client, progress=True))
+            if n == 2:
+                got.append(sweep("fig12_7_vigor", GRID, client=cluster.scheduler_address, tasks=1))
+    for t in got:
+        assert list(t["state"]) == list(table["state"])
+        assert list(t["internodes"]) == list(table["internodes"])
+    assert got[1].attrs["scaleout"]["n_workers"] == 2 and got[1].attrs["scaleout"]["n_tasks"] == 2
+    assert got[2].attrs["scaleout"]["n_tasks"] == 1 and table.attrs["scaleout"]["n_workers"] == 1

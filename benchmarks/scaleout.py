@@ -1,0 +1,150 @@
+"""Scale-out on dask.distributed (issue 24): throughput of a LocalCluster with 2 worker processes against 1 worker
+(the baseline, measured in the same run) on a forest with geometry (meshes built on the workers) and a Tree Wand
+parameter sweep, with byte-identical results (SHA-256 of every result array) and the per-task overhead.
+
+Target: 2 workers >= 1.7x the throughput of 1 worker on 2 cores, overhead < 5 % of task time. Worker start-up
+(process start, imports, loading compiled numba kernels) is a warm-up task per worker, timed and printed apart
+from the throughput. The machine's parallel capacity (the same pure-Python loop in 1 and 2 processes) is printed
+first: a speed-up above it is impossible (on a loaded machine it is well below 2).
+
+Overhead = 1 - (seconds inside task bodies) / (workers x wall seconds of the waves): scheduling, (de)serialisation,
+transfers, the caller's competition between rounds and workers idle at barriers, all counted.
+
+    python benchmarks/scaleout.py            # 300 trees (competing and independent), 64-point sweep
+    python benchmarks/scaleout.py --quick    # 40 trees, 8 points (< 30 s)
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import time
+
+import numpy as np
+
+from plantvr.landscape import grow_forest
+from plantvr.landscape.forest import warm_up
+from plantvr.ui.sweep import sweep, warm_up_sweep
+
+
+def _burn(n: int) -> float:
+    t = time.perf_counter()
+    s = 0
+    for i in range(n):
+        s += i
+    return time.perf_counter() - t
+
+
+def cpu_capacity(n: int) -> float:
+    """Throughput of 2 processes over 1 on a pure-Python loop (2.0 on two free cores)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    one = _burn(n)
+    with ProcessPoolExecutor(2) as ex:
+        list(ex.map(_burn, [1000, 1000]))
+        t = time.perf_counter()
+        list(ex.map(_burn, [n, n]))
+        two = time.perf_counter() - t
+    return 2 * one / two
+
+
+def forest_hash(f) -> str:
+    h = hashlib.sha256()
+    for t in f.trees:
+        for k in sorted(t):
+            h.update(k.encode() + t[k].tobytes())
+    for v, fa in f.meshes or ():
+        h.update(v.tobytes() + fa.tobytes() + fa.dtype.str.encode())
+    return h.hexdigest()[:16]
+
+
+def sweep_hash(table) -> str:
+    h = hashlib.sha256()
+    for s in table["state"]:
+        h.update(s)
+    h.update(table.drop(columns=["state", "seconds", "ms_per_step"]).to_numpy().tobytes())
+    return h.hexdigest()[:16]
+
+
+def _warm() -> float:
+    return warm_up() + warm_up_sweep()
+
+
+def _worker_cpu(client) -> float:
+    return float(sum(client.run(time.process_time).values()))
+
+
+def run_on(n_workers: int, jobs: dict) -> dict:
+    """Start a LocalCluster of ``n_workers`` processes, warm every worker, run every job; timings per job."""
+    from dask.distributed import Client, LocalCluster
+
+    t0 = time.perf_counter()
+    out = {}
+    with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        client.wait_for_workers(n_workers)
+        out["start_s"] = time.perf_counter() - t0
+        t = time.perf_counter()
+        out["warm"] = client.run(_warm)
+        out["warm_s"] = time.perf_counter() - t
+        for name, job in jobs.items():
+            cpu, pc = _worker_cpu(client), time.process_time()
+            t = time.perf_counter()
+            res = job(client)
+            wall = time.perf_counter() - t
+            stats = res.stats if hasattr(res, "trees") else res.attrs["scaleout"]
+            out[name] = {"wall_s": wall, "worker_cpu_s": _worker_cpu(client) - cpu,
+                         "client_cpu_s": time.process_time() - pc, "stats": stats,
+                         "hash": forest_hash(res) if hasattr(res, "trees") else sweep_hash(res),
+                         "units": len(res.trees) if hasattr(res, "trees") else len(res)}
+    return out
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help="40 trees, 8 sweep points (< 30 s)")
+    ap.add_argument("--trees", type=int, help="forest size (default 300; 40 with --quick)")
+    ap.add_argument("--points", type=int, choices=(8, 16, 64), help="sweep points (default 64; 8 with --quick)")
+    args = ap.parse_args(argv)
+    n = args.trees or (40 if args.quick else 300)
+    n_points = args.points or (8 if args.quick else 64)
+    side = 9.0 * np.sqrt(n)
+    common = {"size": (side, side), "min_dist": 7.0, "geometry": True, "rounds": 2 if args.quick else 4,
+              "steps_per_round": 3 if args.quick else 5, "n_darts": 150 if args.quick else 300, "seed": 1}
+    values = {8: (2, 4), 16: (4, 4), 64: (8, 8)}[n_points]
+    grid = {"apical_dominance": list(np.round(np.linspace(0.3, 0.8, values[0]), 3)),
+            "tropism_angle": list(np.round(np.linspace(0.0, 90.0, values[1]), 1))}
+    jobs = {"forest (competing)": lambda c: grow_forest(n, client=c, **common)}
+    if not args.quick:
+        jobs["forest (independent)"] = lambda c: grow_forest(n, client=c, compete=False, **common)
+    jobs["sweep"] = lambda c: sweep("fig12_1", grid, client=c)
+
+    cap = cpu_capacity(1_000_000 if args.quick else 3_000_000)
+    print(f"parallel capacity of this machine (2 processes / 1, pure-Python loop): {cap:.2f}x")
+    runs = {w: run_on(w, jobs) for w in (1, 2)}
+    for w, r in runs.items():
+        warm = ", ".join(f"{v:.2f}" for v in r["warm"].values())
+        print(f"{w} worker(s): cluster start {r['start_s']:.2f} s, warm-up per worker (imports + kernels) "
+              f"{warm} s -- not in the throughput below")
+    out = {"capacity": cap, "runs": runs, "rows": {}}
+    for name in jobs:
+        one, two = runs[1][name], runs[2][name]
+        unit = "trees" if name.startswith("forest") else "points"
+        speed = one["wall_s"] / two["wall_s"]
+        same = one["hash"] == two["hash"]
+        s1, s2 = one["stats"], two["stats"]
+        out["rows"][name] = {"speedup": speed, "identical": same, "overhead_1": s1["overhead"],
+                             "overhead_2": s2["overhead"]}
+        print(f"{name}: {one['units']} {unit}, {s2['n_tasks']} tasks | 1 worker {one['wall_s']:6.2f} s "
+              f"({one['units'] / one['wall_s']:6.1f} {unit}/s, worker CPU {one['worker_cpu_s']:.2f} s) (baseline) | "
+              f"2 workers {two['wall_s']:6.2f} s ({two['units'] / two['wall_s']:6.1f} {unit}/s, worker CPU "
+              f"{two['worker_cpu_s']:.2f} s) | speed-up {speed:4.2f}x (target >= 1.7x) | identical: {same} "
+              f"({two['hash']})")
+        print(f"    per-task overhead: 1 worker {1e3 * s1['overhead_per_task_s']:.1f} ms/task = "
+              f"{100 * s1['overhead']:.1f} %, 2 workers {1e3 * s2['overhead_per_task_s']:.1f} ms/task of "
+              f"{1e3 * s2['task_s']:.0f} ms = {100 * s2['overhead']:.1f} % (target < 5 %); client CPU "
+              f"{two['client_cpu_s']:.2f} s")
+    return out
+
+
+if __name__ == "__main__":
+    main()
