@@ -1,4 +1,4 @@
-"""Command line: ``plantvr demo | lab | info | params | test | export | segment``."""
+"""Command line: ``plantvr demo | lab | info | params | test | export | segment | warmup``."""
 from __future__ import annotations
 
 import argparse
@@ -231,6 +231,7 @@ def parameter_reference(kind: str | None = None) -> str:
 _DELEGATED = {  # sub-commands whose own parsers live beside their code
     "export": ("plantvr.cli", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
     "segment": ("plantvr.view.vine_app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
+    "warmup": ("plantvr._warmup", "main", "compile and cache every numba kernel once (run at install)"),
 }
 
 
