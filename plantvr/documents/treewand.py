@@ -393,10 +393,17 @@ class Model(Document):
         with self._lock:
             e = self._engine
             t, b = e.tree, e.buds()
+            # the bud arrays are fresh gathers: frozen in place, not copied again; the markers are shared as a
+            # read-only view (the engine replaces its marker array on every change and never writes one in place),
+            # so publishing 200k markers costs nothing (issue 24)
             buds = {"pos": b.pos, "dir": b.dir, "radius": t.radius[b.node], "up": t.lat[b.node]}
+            for v in buds.values():
+                v.flags.writeable = False
+            markers = e.markers.view()
+            markers.flags.writeable = False
             self._snap_seq += 1
-            return Snapshot.from_tree(t, buds=buds, markers=e.markers, version=self._snap_seq,
-                                      step=e.step_count, stats=e.history[-1] if e.history else None)
+            return Snapshot(self._snap_seq, e.step_count, TreeArrays.from_tree(t), markers,
+                            e.history[-1] if e.history else None, buds)
 
     def on_snapshot(self, snap: Snapshot) -> None:
         self.n_internodes = snap.n_internodes

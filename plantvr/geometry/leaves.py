@@ -384,6 +384,32 @@ def _row_hash(rows: np.ndarray) -> np.ndarray:
     return h
 
 
+@numba.njit(cache=True, nogil=True)
+def _match_in_order(rows, old_rows, seq, match, window):
+    """Match bud rows to the previous update's rows in order (``seq``: their slots, in the previous row order).
+
+    Between growth steps the bud list keeps its order (buds are consumed, new nodes' buds come last), so one
+    forward walk with a short look-ahead (``window`` rows) matches nearly every row in O(L). Rows are equal when
+    their float64 bit patterns are (``rows``/``old_rows`` as uint64 views). ``match[j]`` gets the slot, or
+    stays -1 (the caller matches the rest by hash). Twin: the hash match of :meth:`IncrementalLeafMesh.update`.
+    """
+    n = seq.shape[0]
+    w = rows.shape[1]
+    i = 0
+    for j in range(rows.shape[0]):
+        hi = min(n, i + window)
+        for k in range(i, hi):
+            same = True
+            for c in range(w):
+                if old_rows[seq[k], c] != rows[j, c]:
+                    same = False
+                    break
+            if same:
+                match[j] = seq[k]
+                i = k + 1
+                break
+
+
 class IncrementalLeafMesh:
     """Leaf mesh kept up to date bud by bud (spec §3.4 with the incremental update of §3.5).
 
@@ -436,6 +462,7 @@ class IncrementalLeafMesh:
         self._F = np.zeros((0, 3), np.int64)
         self._rows, self._live, self._hash = np.zeros((0, 9)), np.zeros(0, bool), np.zeros(0, np.uint64)
         self._frames, self._order = np.zeros((0, 3, 3)), np.zeros(0, np.int64)
+        self._seq = np.zeros(0, np.int64)  # slots of the last update's leaves, in bud-row order
         self._grow_to(64)
 
     def _grow_to(self, slots: int) -> None:
@@ -512,19 +539,25 @@ class IncrementalLeafMesh:
         o = self.options
         sel = select_leaf_buds(bud_radius, radius_threshold=o["radius_threshold"], leaf_size=o["leaf_size"])
         rows = np.hstack([bud_pos[sel], bud_dir[sel], bud_up[sel]])
-        h = _row_hash(rows)
         n = self._n
-        live = np.flatnonzero(self._live[:n])
         match = np.full(len(sel), -1, np.int64)
-        if len(live) and len(sel):
+        seq = self._seq[self._live[self._seq]] if n else self._seq
+        if len(seq) and len(sel):  # in order first (O(L)), then by hash for what is left
+            _match_in_order(rows.view(np.uint64), self._rows.view(np.uint64), seq, match, 64)
+        left = np.flatnonzero(match < 0)
+        h_left = _row_hash(rows[left])
+        free_live = np.ones(n, bool)
+        free_live[match[match >= 0]] = False
+        live = np.flatnonzero(self._live[:n] & free_live)
+        if len(live) and len(left):
             lo = np.argsort(self._hash[live], kind="stable")
             lh = self._hash[live][lo]
-            j = np.minimum(np.searchsorted(lh, h), len(lh) - 1)
+            j = np.minimum(np.searchsorted(lh, h_left), len(lh) - 1)
             cand = live[lo[j]]
-            ok = (lh[j] == h) & np.all(self._rows[cand] == rows, axis=1)
-            match[ok] = cand[ok]
+            ok = (lh[j] == h_left) & np.all(self._rows[cand] == rows[left], axis=1)
+            match[left[ok]] = cand[ok]
             # a slot serves one bud: duplicates beyond the first become new leaves
-            m_idx = np.flatnonzero(match >= 0)
+            m_idx = left[ok]
             o = np.argsort(match[m_idx], kind="stable")
             ms = match[m_idx][o]
             match[m_idx[o][1:][ms[1:] == ms[:-1]]] = -1
@@ -544,10 +577,13 @@ class IncrementalLeafMesh:
             self._n = n + extra
         match[new] = take
         if len(new):
-            self._write(take, bud_pos[sel[new]], bud_dir[sel[new]], bud_up[sel[new]], rows[new], h[new])
+            h_new = np.zeros(len(sel), np.uint64)
+            h_new[left] = h_left
+            self._write(take, bud_pos[sel[new]], bud_dir[sel[new]], bud_up[sel[new]], rows[new], h_new[new])
         # bud rows shift between snapshots: refresh each live block's row index
         self._order[:self._n] = -1
         self._order[match] = sel
+        self._seq = match.copy()
         return dict(added=len(new), removed=len(gone),
                     slots=np.concatenate([take, gone]), relayout=self.buffer_version != v0)
 

@@ -22,7 +22,7 @@ import math
 import numba
 import numpy as np
 
-from plantvr.grid import ball_cells, bounds, cell_buffers, sort_by_cell
+from plantvr.grid import axis_range, ball_cells, bounds, box_gap2, cell_buffers, sort_by_cell
 
 #: Quantisation of unit vectors: 2**38 units per 1.0 (resolution 3.6e-12; sums exact up to 2**25 markers/node).
 QSCALE = float(2.0 ** 38)
@@ -416,6 +416,149 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
                     changed += 1
     return changed
 
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _offer_bud_slab(px, py, pz, bx, by, bz, ln, bid, i0, i1, origin, h, dims, reach, cell_start, cell_live, pos_s,
+                    orig, owner, best, owner_in, view_radius, cos_half, cand):
+    """One bud of :func:`treewand_assign_kernel`, restricted to the cells of grid slab ``i0 <= i < i1``."""
+    vr2m = view_radius * view_radius * 1.0000001
+    c2 = cos_half * cos_half * (1.0 - 1e-9)
+    wide = cos_half <= 0.0
+    sin_half = math.sqrt(max(0.0, 1.0 - cos_half * cos_half))
+    rc = 0.5 * math.sqrt(3.0) * h
+    ilo, ihi = axis_range(px, origin, h, dims, reach, 0)
+    ilo, ihi = max(ilo, i0), min(ihi, i1 - 1)
+    if ilo > ihi:
+        return cand
+    jlo, jhi = axis_range(py, origin, h, dims, reach, 1)
+    klo, khi = axis_range(pz, origin, h, dims, reach, 2)
+    for ci in range(ilo, ihi + 1):
+        for cj in range(jlo, jhi + 1):
+            for ck in range(klo, khi + 1):
+                if box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2m:
+                    continue
+                c = (ci * dims[1] + cj) * dims[2] + ck
+                start = cell_start[c]
+                end = start + cell_live[c]
+                if end == start or not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half,
+                                                     sin_half):
+                    continue
+                if end - start > cand.shape[0]:
+                    cand = np.empty(2 * (end - start), np.int64)
+                nc = 0
+                for s in range(start, end):  # branch-free candidate pass
+                    vx = pos_s[s, 0] - px
+                    vy = pos_s[s, 1] - py
+                    vz = pos_s[s, 2] - pz
+                    d2 = vx * vx + vy * vy + vz * vz
+                    dot = vx * bx + vy * by + vz * bz
+                    cand[nc] = s
+                    nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
+                for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
+                    s = cand[t]
+                    vx = pos_s[s, 0] - px
+                    vy = pos_s[s, 1] - py
+                    vz = pos_s[s, 2] - pz
+                    d = math.sqrt(vx * vx + vy * vy + vz * vz)
+                    if d > view_radius:
+                        continue
+                    if vx * bx + vy * by + vz * bz < d * cos_half:
+                        continue
+                    key = d / ln
+                    o = owner[s]
+                    if key < best[s] or (key == best[s] and o >= 0 and bid < o):
+                        best[s] = key
+                        owner[s] = bid
+                        owner_in[orig[s]] = bid
+    return cand
+
+
+@numba.njit(cache=True, nogil=True, parallel=True)
+def treewand_assign_parallel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, reach, cell_start, cell_live,
+                             pos_s, orig, owner, best, owner_in, view_radius, cos_half, n_slabs):
+    """:func:`treewand_assign_kernel` with the marker grid cut into ``n_slabs`` slabs along its first axis, one
+    ``prange`` task each: every marker slot belongs to one slab, so no two threads write the same marker, and the
+    result (smallest d/l, ties to the lower bud id) does not depend on the order the buds are offered in, so it
+    equals the serial kernel's bit for bit (tested). Each task runs every bud, restricted to its slab's cells."""
+    n_slabs = max(1, min(n_slabs, dims[0]))
+    for t in numba.prange(n_slabs):
+        i0 = (dims[0] * t) // n_slabs
+        i1 = (dims[0] * (t + 1)) // n_slabs
+        cand = np.empty(1024, np.int64)
+        for b in range(bud_pos.shape[0]):
+            cand = _offer_bud_slab(bud_pos[b, 0], bud_pos[b, 1], bud_pos[b, 2], bud_dir[b, 0], bud_dir[b, 1],
+                                   bud_dir[b, 2], bud_len[b], bud_ids[b], i0, i1, origin, h, dims, reach,
+                                   cell_start, cell_live, pos_s, orig, owner, best, owner_in, view_radius,
+                                   cos_half, cand)
+
+
+
+@numba.njit(cache=True, nogil=True)
+def keep_rows_kernel(keep, cell_start, cell_live, pos_s, orig):
+    """Drop the markers of input rows where ``keep`` is False from a grid, in place: each cell's live slots are
+    compacted (order kept) and ``orig`` renumbered to the rows of ``markers[keep]``. Returns the count kept.
+
+    One pass over the live slots and ``keep`` (no sort), so a grid follows the engine's marker array across steps
+    (occupation kills, expiry) instead of being rebuilt; twin: a fresh :func:`build_grid` of ``markers[keep]``
+    (the same live markers per cell; assignments equal, tested)."""
+    m = keep.shape[0]
+    remap = np.empty(m, np.int64)
+    k = 0
+    for i in range(m):
+        remap[i] = k
+        if keep[i]:
+            k += 1
+    for c in range(cell_live.shape[0]):
+        start = cell_start[c]
+        w = start
+        for s in range(start, start + cell_live[c]):
+            r = orig[s]
+            if keep[r]:
+                if w != s:
+                    pos_s[w, 0] = pos_s[s, 0]
+                    pos_s[w, 1] = pos_s[s, 1]
+                    pos_s[w, 2] = pos_s[s, 2]
+                orig[w] = remap[r]
+                w += 1
+        cell_live[c] = w - start
+    return k
+
+
+@numba.njit(cache=True, nogil=True)
+def rows_within_kernel(points, r, origin, h, dims, reach, cell_start, cell_live, pos_s, orig, out):
+    """Set ``out[row]`` for the live markers within distance ``r`` (<= ``reach`` cells) of any of ``points``, by
+    the squared-distance test of :func:`plantvr.grid.mark_within` (twin: ``within_any_numpy``)."""
+    r2 = r * r
+    cells, gaps = cell_buffers(reach)
+    for j in range(points.shape[0]):
+        px = points[j, 0]
+        py = points[j, 1]
+        pz = points[j, 2]
+        for q in range(ball_cells(px, py, pz, r2 * 1.0000001, origin, h, dims, reach, cells, gaps)):
+            c = cells[q]
+            for s in range(cell_start[c], cell_start[c] + cell_live[c]):
+                dx = pos_s[s, 0] - px
+                dy = pos_s[s, 1] - py
+                dz = pos_s[s, 2] - pz
+                if dx * dx + dy * dy + dz * dz <= r2:
+                    out[orig[s]] = True
+
+@numba.njit(cache=True, nogil=True)
+def owner_sums_kernel(owner, markers, n_buds):
+    """``(count (B,) int64, sums (B, 3))`` of the markers of each bud: the engine's ``np.bincount`` pair
+    (:func:`plantvr.growth.engine.marker_counts`, :func:`~plantvr.growth.engine.sum_per_bud`) in one pass,
+    adding in marker order as ``bincount`` does, so the sums are bit for bit the same (tested)."""
+    count = np.zeros(n_buds, np.int64)
+    sums = np.zeros((n_buds, 3))
+    for i in range(owner.shape[0]):
+        o = owner[i]
+        if o >= 0 and o < n_buds:
+            count[o] += 1
+            sums[o, 0] += markers[i, 0]
+            sums[o, 1] += markers[i, 1]
+            sums[o, 2] += markers[i, 2]
+    return count, sums
 
 def treewand_assign_numpy(markers, bud_pos, bud_dir, bud_len, view_radius, cos_half):
     """Brute-force O(b*m) twin of :func:`treewand_assign_kernel` (spec 000_treewand §2.3 pseudo-code).

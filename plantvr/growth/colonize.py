@@ -55,6 +55,7 @@ import math
 import time
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_int, check_points, check_range
@@ -487,7 +488,8 @@ def _check_cone(view_radius, view_angle):
     return vr, math.cos(va / 2.0)
 
 
-def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, view_angle: float) -> np.ndarray:
+def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, view_angle: float,
+                    parallel: bool = False) -> np.ndarray:
     """Assign each marker to its perceiving bud with the smallest d/l (spec 000_treewand §2.3, Eq. 9.4).
 
     Parameters
@@ -504,6 +506,8 @@ def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, v
         Perception radius, in (0, inf); d <= view_radius is perceived.
     view_angle : float
         Full apex angle of the perception cone, radians, in [0, 2π].
+    parallel : bool
+        Run the ``prange`` kernel (grid slabs on all numba threads); the same result bit for bit.
 
     Returns
     -------
@@ -517,10 +521,12 @@ def assign_treewand(markers, bud_pos, bud_dir, bud_len, *, view_radius: float, v
     markers = check_points("markers", markers, max_abs=REACH)
     bud_pos, _, _ = _check_buds(bud_pos, bud_dir, bud_len)
     vr, cos_half = _check_cone(view_radius, view_angle)
+    parallel = _check_bool("parallel", parallel)
     if len(markers) == 0 or len(bud_pos) == 0:
         return np.full(len(markers), -1, np.int64)
     # assign() normalises bud_dir itself: normalising twice would change last bits versus the reference
-    owner = TreeWandAssigner(markers, view_radius=vr, view_angle=view_angle).assign(bud_pos, bud_dir, bud_len)
+    owner = TreeWandAssigner(markers, view_radius=vr, view_angle=view_angle).assign(bud_pos, bud_dir, bud_len,
+                                                                                   parallel=parallel)
     return owner.astype(np.int64)
 
 
@@ -566,19 +572,47 @@ class TreeWandAssigner:
         """Allocate the incremental state (owner and best by sorted slot, owner by input row) on first use, so a
         stateless :meth:`assign` (the engine's path) never pays for it."""
         if self._owner_s is None:
-            self._owner_s = np.full(self.m, -1, np.int32)
+            self._owner_s = np.full(len(self.pos_s), -1, np.int32)  # by sorted slot (keep_rows leaves dead slots)
             self._owner_in = np.full(self.m, -1, np.int32)
-            self._best_s = np.full(self.m, np.inf)
+            self._best_s = np.full(len(self.pos_s), np.inf)
 
-    def assign(self, bud_pos, bud_dir, bud_len) -> np.ndarray:
-        """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int32 by input row (-1: none/dead)."""
+    def assign(self, bud_pos, bud_dir, bud_len, *, parallel: bool = False) -> np.ndarray:
+        """Eq. 9.4 assignment of the live markers to these buds; returns owner (M,) int32 by input row (-1: none/dead).
+
+        ``parallel`` runs :func:`~plantvr.growth._colonize_kernels.treewand_assign_parallel` (equal bit for bit).
+        """
         bud_pos, bud_dir, bud_len = _check_buds(bud_pos, bud_dir, bud_len)
+        parallel = _check_bool("parallel", parallel)
         owner_in = np.full(self.m, -1, np.int32)
-        K.treewand_assign_kernel(bud_pos, bud_dir, bud_len, np.arange(len(bud_pos), dtype=np.int64), self.origin,
-                                 self.h, self.dims, self.reach, self.cell_start, self.cell_live, self.pos_s,
-                                 self.orig, np.full(self.m, -1, np.int32), np.full(self.m, np.inf), owner_in,
-                                 self.view_radius, self.cos_half)
+        args = (bud_pos, bud_dir, bud_len, np.arange(len(bud_pos), dtype=np.int64), self.origin, self.h, self.dims,
+                self.reach, self.cell_start, self.cell_live, self.pos_s, self.orig,
+                np.full(len(self.pos_s), -1, np.int32), np.full(len(self.pos_s), np.inf), owner_in, self.view_radius,
+                self.cos_half)
+        if parallel:
+            K.treewand_assign_parallel(*args, numba.get_num_threads())
+        else:
+            K.treewand_assign_kernel(*args)
         return owner_in
+
+    def keep_rows(self, keep) -> None:
+        """Follow ``markers[keep]``: drop the markers of the rows where ``keep`` (M,) bool is False and renumber the
+        rest (one pass, no re-sort); afterwards :meth:`assign` indexes the rows of ``markers[keep]``. Only for
+        the stateless :meth:`assign` (the incremental state of :meth:`update` is dropped)."""
+        keep = check_array("keep", keep, shape=(self.m,), dtype=bool)
+        self.m = int(K.keep_rows_kernel(keep, self.cell_start, self.cell_live, self.pos_s, self.orig))
+        self._owner_s = self._owner_in = self._best_s = None
+        self._prev_pos = None
+
+    def within(self, points, radius: float) -> np.ndarray:
+        """(M,) bool by input row: the live markers within ``radius`` (in [0, view_radius]) of any of ``points``
+        (the test of :func:`plantvr.growth.spatial.within_any`), from this grid (no new sort)."""
+        points = check_points("points", points, max_abs=REACH)
+        r = check_range("radius", radius, 0.0, self.view_radius)
+        out = np.zeros(self.m, bool)
+        if len(points):
+            K.rows_within_kernel(points, r, self.origin, self.h, self.dims, self.reach, self.cell_start,
+                                 self.cell_live, self.pos_s, self.orig, out)
+        return out
 
     def kill_within(self, points, radius: float) -> int:
         """Remove live markers closer than ``radius`` to any of ``points`` (occupation zones); returns the count.
@@ -628,7 +662,7 @@ class TreeWandAssigner:
             if changed.size and (changed[0] < 0 or changed[-1] >= nb):
                 raise ValueError(f"changed must hold bud ids in [0, {nb - 1}]")
             old = changed[changed < len(self._prev_pos)]
-            affected = np.empty(self.m, np.int64)
+            affected = np.empty(len(self.pos_s), np.int64)
             n_aff = K.treewand_release_kernel(self._prev_pos[old], old, self.origin, self.h, self.dims, self.reach,
                                               self.cell_start, self.cell_live, self.orig, self._owner_s,
                                               self._best_s, self._owner_in, self.view_radius, affected, 0)

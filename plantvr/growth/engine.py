@@ -15,7 +15,8 @@ import numpy as np
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
 from plantvr.params import check_params
 
-from .colonize import assign_treewand
+from ._colonize_kernels import owner_sums_kernel
+from .colonize import TreeWandAssigner, assign_treewand
 from .directions import bud_headings, growth_directions, normalize, transport_lateral, tropism_vectors
 from .lengths import internode_lengths
 from .markers import _poisson_darts
@@ -73,6 +74,33 @@ def sum_per_bud(owner: np.ndarray, values: np.ndarray, n_buds: int) -> np.ndarra
     return np.stack([np.bincount(owner, values[:, k], n_buds) for k in range(3)], 1)
 
 
+class _Phases:
+    """Wall and CPU milliseconds per named phase of one step (``with phases("assign"): ...``).
+
+    CPU is the calling thread's (``time.thread_time``), except for the phases in ``parallel`` (numba ``prange``
+    kernels), which take the process's (all threads; numba's idle workers may spin a little after a parallel
+    region, which is counted there too).
+    """
+
+    parallel = frozenset({"assign"})
+
+    def __init__(self):
+        self.ms: dict[str, tuple[float, float]] = {}
+        self._name = None
+
+    def __call__(self, name: str) -> "_Phases":
+        self._name = name
+        return self
+
+    def __enter__(self):
+        clock = time.process_time if self._name in self.parallel else time.thread_time
+        self._t = (time.perf_counter(), clock(), clock)
+
+    def __exit__(self, *exc):
+        w, c = self.ms.get(self._name, (0.0, 0.0))
+        self.ms[self._name] = (w + 1e3 * (time.perf_counter() - self._t[0]), c + 1e3 * (self._t[2]() - self._t[1]))
+
+
 def marker_counts(owner: np.ndarray, n_buds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(hit, count, chosen)`` of a marker assignment ``owner`` (M,) in [-1, n_buds): the markers that have a
     bud (bool), the markers of each bud (n_buds,) and the buds with at least one (the buds that grow, §2.4)."""
@@ -82,7 +110,15 @@ def marker_counts(owner: np.ndarray, n_buds: int) -> tuple[np.ndarray, np.ndarra
 
 
 class GrowthEngine:
-    """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict."""
+    """Tree, markers and light grid, advanced by :meth:`step` (Alg. 9.2). Parameters are a checked dict.
+
+    ``phase_ms`` holds the last step's ``{phase: (wall ms, CPU ms)}`` (:class:`_Phases`; benchmarks/interactive.py).
+    ``_fast = False`` runs the issue-23 code path (serial assignment, ``np.bincount`` sums, a marker copy every
+    step): the twin the fast path is tested and benchmarked against; both grow the same tree bit for bit.
+    ``markers`` is replaced by a new array on every change, never written in place (snapshots share it).
+    """
+
+    _fast = True
 
     def __init__(self, params: dict[str, Any], *, rng: int | np.random.Generator | None = None):
         params = check_params(params)
@@ -104,6 +140,9 @@ class GrowthEngine:
         self.marker_age = np.zeros(0, np.int64)
         self.step_count = 0
         self.history: list[StepStats] = []
+        self.phase_ms: dict[str, tuple[float, float]] = {}
+        self._asg = None  # marker grid kept across steps (fast path), valid while _asg_for is self.markers
+        self._asg_for = None
         self._new_nodes = np.arange(self.tree.n)
         self.rebuild_light()
 
@@ -155,13 +194,25 @@ class GrowthEngine:
         except ShadowGridFull:
             self.rebuild_light()
 
-    def update_light(self) -> None:
+    def update_light(self, phases: _Phases | None = None) -> None:
         """Recompute illumination L, then light, vigor and pipe radius over the whole tree (§2.5, §2.8)."""
+        ph = phases or _Phases()
         p, t = self.params, self.tree
-        s = self.grid._read_cells(self.grid.cells_of(t.pos))
-        t.L[:] = np.clip(1.0 - s, 0.0, 1.0)  # ambiguity A.20: L = clamp(1 - s, 0, 1)
-        self._vigor()
-        pipe_radius_kernel(t.child, t.alive, p["tip_radius"], p["radius_exp"], t.radius)
+        with ph("light"):
+            s = self.grid._read_cells(self.grid.cells_of(t.pos))
+            t.L[:] = np.clip(1.0 - s, 0.0, 1.0)  # ambiguity A.20: L = clamp(1 - s, 0, 1)
+        with ph("vigor"):
+            self._vigor()
+        with ph("radius"):
+            pipe_radius_kernel(t.child, t.alive, p["tip_radius"], p["radius_exp"], t.radius)
+
+    def _light_phases(self, ph: _Phases) -> None:
+        """:meth:`update_light` timed per phase; a variant's override (which takes no timer) is one phase."""
+        if type(self).update_light is GrowthEngine.update_light:
+            self.update_light(ph)
+        else:
+            with ph("light"):
+                self.update_light()
 
     def _vigor(self) -> None:
         p, t = self.params, self.tree
@@ -233,30 +284,64 @@ class GrowthEngine:
     def step(self) -> StepStats:
         """One TREEGROWTHSTEP (Alg. 9.2) and marker ageing (§2.2)."""
         t0 = time.perf_counter()
-        p = self.params
+        ph = _Phases()
         self._before_step()
-        self._occupy()
-        buds = self._active_buds()
+        with ph("occupy"):
+            self._occupy()
+        with ph("buds"):
+            buds = self._active_buds()
         grown = 0
         if len(buds.node) and len(self.markers):
-            owner = assign_treewand(self.markers, buds.pos, buds.dir, buds.length, view_radius=p["view_radius"],
-                                   view_angle=math.radians(p["view_angle"]))
-            grown = self._grow(buds, owner)
+            with ph("assign"):
+                owner = self._assign(buds)
+            with ph("growth"):
+                grown = self._grow(buds, owner)
         t = self.tree
-        t.shadow_cast[self._new_nodes] = True
-        self._cast(self._new_nodes)
-        self.update_light()
-        shed = self._remove(self.shed_mask())
+        with ph("shadow"):
+            t.shadow_cast[self._new_nodes] = True
+            self._cast(self._new_nodes)
+        self._light_phases(ph)
+        with ph("shed"):
+            shed = self._remove(self.shed_mask())
         if shed:
-            self.update_light()  # refresh after removals ([INFERRED], §2.10)
-        self._age_markers()
+            self._light_phases(ph)  # refresh after removals ([INFERRED], §2.10)
+        with ph("age"):
+            self._age_markers()
         self._after_step()
+        self.phase_ms = ph.ms
         self.step_count += 1
         t = self.tree
         stats = StepStats(self.step_count, 1e3 * (time.perf_counter() - t0), t.n_internodes, len(buds.node),
                           len(self.markers), grown, shed)
         self.history.append(stats)
         return stats
+
+    def _assign(self, buds: _Buds) -> np.ndarray:
+        """Eq. 9.4 owner (M,) of every marker among ``buds`` (-1: none). The fast path keeps the marker grid
+        across steps (:meth:`_keep_markers` follows kills and expiry; painting or a new marker array rebuilds
+        it) and runs the parallel kernel; both equal :func:`assign_treewand` bit for bit."""
+        p = self.params
+        kw = {"view_radius": p["view_radius"], "view_angle": math.radians(p["view_angle"])}
+        if not self._fast:
+            return assign_treewand(self.markers, buds.pos, buds.dir, buds.length, **kw)
+        a = getattr(self, "_asg", None)
+        if a is None or getattr(self, "_asg_for", None) is not self.markers or a.m != len(self.markers) or \
+                (a.view_radius, a.view_angle) != (kw["view_radius"], kw["view_angle"]):
+            a = TreeWandAssigner(self.markers, **kw)
+            a.view_angle = kw["view_angle"]
+            self._asg, self._asg_for = a, self.markers
+        return a.assign(buds.pos, buds.dir, buds.length, parallel=True)
+
+    def _keep_markers(self, keep: np.ndarray) -> None:
+        """``markers, marker_age = markers[keep], marker_age[keep]``; a kept marker grid follows (fast path)."""
+        a = getattr(self, "_asg", None)
+        follow = self._fast and a is not None and getattr(self, "_asg_for", None) is self.markers
+        self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
+        if follow:
+            a.keep_rows(keep)
+            self._asg_for = self.markers
+        else:
+            self._asg = self._asg_for = None
 
     def _before_step(self) -> None:
         """Hook run first in :meth:`step` (variants add their own points here)."""
@@ -273,7 +358,9 @@ class GrowthEngine:
         """Markers live ``marker_lifetime`` growth steps (§2.2); variants with persistent points override this."""
         self.marker_age += 1
         keep = self.marker_age < self.params["marker_lifetime"]
-        self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
+        if self._fast and (not len(keep) or keep.all()):  # nothing expires: no O(M) copy of the markers
+            return
+        self._keep_markers(keep)
 
     # -- whole state (undo atoms) and pickling (dask tasks) -------------------------------------------
     def get_state(self, *, grid: bool = True) -> dict[str, Any]:
@@ -339,11 +426,15 @@ class GrowthEngine:
         if len(fresh):
             dead[fresh] = _within_any_trusted(PointGrid._trusted(self.markers[fresh], h), live, r)
         new = new[t.alive[new]]
-        if len(new):
+        a = getattr(self, "_asg", None)
+        if len(new) and self._fast and a is not None and getattr(self, "_asg_for", None) is self.markers \
+                and r <= a.view_radius:  # the kept marker grid: no O(M) sort
+            dead |= a.within(t.pos[new], r)
+        elif len(new):
             dead |= _within_any_trusted(PointGrid._trusted(self.markers, max(h, self.params["view_radius"])),
                                         t.pos[new], r)
         if dead.any():
-            self.markers, self.marker_age = self.markers[~dead], self.marker_age[~dead]
+            self._keep_markers(~dead)
 
     def buds(self) -> _Buds:
         """Every bud slot of the live tree: node, slot, position and initial heading (Eqs. 9.1/9.2)."""
@@ -354,9 +445,36 @@ class GrowthEngine:
     def _bud_dirs(self, node: np.ndarray, slot: np.ndarray) -> np.ndarray:
         """Initial heading of the buds (node, slot) (Eqs. 9.1/9.2); variants override this hook."""
         p, t = self.params, self.tree
+        if self._fast and type(self)._bud_dirs is GrowthEngine._bud_dirs:  # variants may turn heads in place
+            return self._heading_table()[node, slot]
         return bud_headings(t.head[node], t.lat[node], slot, main_angle=math.radians(p["main_branch_angle"]),
                             lateral_angle=math.radians(p["branch_angle"]), opposite=t.nslots == 3,
                             opposite_main=p["opposite_main"])
+
+    def _heading_table(self) -> np.ndarray:
+        """(n, 3, 3) Eq. 9.1/9.2 heading of every slot of every row, kept across steps: a node's head and lateral
+        vectors never change after it is appended, so only new rows are computed (elementwise, so each row is the
+        same bit for bit as :func:`bud_headings` of all buds); a new tree, compaction or an angle change starts
+        over."""
+        p, t = self.params, self.tree
+        key = (p["main_branch_angle"], p["branch_angle"], p["opposite_main"], t.nslots, getattr(t, "epoch", 0))
+        c = getattr(self, "_htab", None)
+        if c is None or c[0] is not t or c[1] != key or c[3] > t.n:
+            c = (t, key, np.empty((max(t.n, 64), 3, 3)), 0)
+        _, _, table, rows = c
+        if rows < t.n:
+            if len(table) < t.n:
+                grown = np.empty((max(2 * len(table), t.n), 3, 3))
+                grown[:rows] = table[:rows]
+                table = grown
+            r = np.repeat(np.arange(rows, t.n), 3)
+            slot = np.tile(np.arange(3), t.n - rows)
+            table[rows:t.n] = bud_headings(t.head[r], t.lat[r], slot, main_angle=math.radians(p["main_branch_angle"]),
+                                           lateral_angle=math.radians(p["branch_angle"]), opposite=t.nslots == 3,
+                                           opposite_main=p["opposite_main"]).reshape(-1, 3, 3)
+            c = (t, key, table, t.n)
+        self._htab = c
+        return table[: t.n]
 
     def _active_buds(self) -> _Buds:
         p, t = self.params, self.tree
@@ -371,10 +489,14 @@ class GrowthEngine:
     def _grow(self, buds: _Buds, owner: np.ndarray) -> int:
         """GROWINTERNODES: buds with ≥ 1 marker add one internode along Eq. 9.5 (§2.4)."""
         p, t = self.params, self.tree
-        hit, count, grow = marker_counts(owner, len(buds.node))
+        if self._fast:  # one pass, the same sums bit for bit (tests/growth/test_interactive.py)
+            count, sums = owner_sums_kernel(owner, self.markers, len(buds.node))
+            grow = np.flatnonzero(count > 0)
+        else:
+            hit, count, grow = marker_counts(owner, len(buds.node))
+            sums = sum_per_bud(owner[hit], self.markers[hit], len(buds.node)) if len(grow) else None
         if not len(grow):
             return 0
-        sums = sum_per_bud(owner[hit], self.markers[hit], len(buds.node))
         b = buds.dir[grow]
         e = normalize(sums[grow] / count[grow, None] - buds.pos[grow], fallback=b)
         node, slot = buds.node[grow], buds.slot[grow]

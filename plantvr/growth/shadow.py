@@ -130,12 +130,25 @@ def cells_of_numpy(points: np.ndarray, cell: np.ndarray, limit: float) -> np.nda
 
 
 @numba.njit(cache=True, nogil=True)
+def _log2(F):
+    """log2(F) when F is a power of two, else -1."""
+    if F <= 0 or F & (F - 1):
+        return -1
+    s = 0
+    while (1 << s) < F:
+        s += 1
+    return s
+
+
+@numba.njit(cache=True, nogil=True)
 def _splat(keys, blocks, F, centres, offsets, values, sign):
     # the block ids a pyramid touches are looked up once per node, not once per cell
     lo0, lo1, lo2 = offsets[:, 0].min(), offsets[:, 1].min(), offsets[:, 2].min()
     hi0, hi1, hi2 = offsets[:, 0].max(), offsets[:, 1].max(), offsets[:, 2].max()
     span = max(hi0 - lo0, hi1 - lo1, hi2 - lo2) // F + 2
     ids = np.empty((span, span, span), np.int64)
+    shift = _log2(F)
+    mask = F - 1
     for n in range(centres.shape[0]):
         c0, c1, c2 = centres[n, 0], centres[n, 1], centres[n, 2]
         b0, b1, b2 = (c0 + lo0) // F, (c1 + lo1) // F, (c2 + lo2) // F
@@ -143,6 +156,14 @@ def _splat(keys, blocks, F, centres, offsets, values, sign):
             for j in range((c1 + hi1) // F - b1 + 1):
                 for k in range((c2 + hi2) // F - b2 + 1):
                     ids[i, j, k] = keys[coarse_key(b0 + i, b1 + j, b2 + k)]
+        if shift >= 0:  # F a power of two: arithmetic shift and mask are floor-div and floor-mod, same cells
+            for o in range(offsets.shape[0]):
+                x = c0 + offsets[o, 0]
+                y = c1 + offsets[o, 1]
+                z = c2 + offsets[o, 2]
+                b = ids[(x >> shift) - b0, (y >> shift) - b1, (z >> shift) - b2]
+                blocks[b, x & mask, y & mask, z & mask] += sign * values[o]
+            continue
         for o in range(offsets.shape[0]):
             x = c0 + offsets[o, 0]
             y = c1 + offsets[o, 1]
@@ -153,10 +174,18 @@ def _splat(keys, blocks, F, centres, offsets, values, sign):
 
 @numba.njit(cache=True, nogil=True)
 def _read(keys, blocks, F, cells, out):
+    shift = _log2(F)
+    mask = F - 1
     for c in range(cells.shape[0]):
-        key = coarse_key(cells[c, 0] // F, cells[c, 1] // F, cells[c, 2] // F)
+        x, y, z = cells[c, 0], cells[c, 1], cells[c, 2]
+        if shift >= 0:
+            key = coarse_key(x >> shift, y >> shift, z >> shift)
+            x, y, z = x & mask, y & mask, z & mask
+        else:
+            key = coarse_key(x // F, y // F, z // F)
+            x, y, z = x % F, y % F, z % F
         if key in keys:
-            out[c] = blocks[keys[key], cells[c, 0] % F, cells[c, 1] % F, cells[c, 2] % F]
+            out[c] = blocks[keys[key], x, y, z]
         else:
             out[c] = 0.0
 

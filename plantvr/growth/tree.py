@@ -42,6 +42,7 @@ class Tree:
             raise ValueError(f"nslots must be 2 (alternate) or 3 (opposite), got {nslots!r}")
         self.nslots = nslots
         self.n = 0
+        self.epoch = 0  # bumped when rows move (compact): caches keyed by row index start over
         self._data = {k: np.zeros((capacity, *shape), dtype) for k, (shape, dtype) in _FIELDS.items()}
 
     def __getattr__(self, name):
@@ -136,6 +137,7 @@ class Tree:
     def compact(self) -> np.ndarray:
         """Drop dead rows keeping index order (so parent < child still holds); return old→new map (-1 = dead)."""
         keep = np.flatnonzero(self.alive)
+        self.epoch = getattr(self, "epoch", 0) + 1
         remap = np.full(self.n, -1, np.int64)
         remap[keep] = np.arange(len(keep))
         for k, arr in self._data.items():
