@@ -399,7 +399,7 @@ def _build(seg: Segments, opts: dict, kernel: str = "numba") -> BranchMesh:
 def _evaluate(seg: Segments, cnt, v_off, f_off, opts: dict, kernel: str = "numba") -> BranchMesh:
     """Mesh every segment of ``seg`` with the ring counts ``cnt`` in the blocks ``v_off``/``f_off``."""
     V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
-    fn = K._eval_segments_numba if kernel == "numba" else K._eval_segments_numpy
+    fn = K.eval_segments if kernel == "numba" else K._eval_segments_numpy   # threads only for big trees
     fn(seg.records, cnt, opts["u_steps"], seg.nodes, seg.caps, np.arange(len(seg), dtype=np.int64), v_off,
        f_off, float(opts["bark_repeat"]), V, NRM, UV, NID, F)
     return BranchMesh(V, F, NRM, UV, NID, seg, cnt, v_off, f_off, dict(opts))
@@ -620,9 +620,9 @@ class IncrementalBranchMesh:
         self._v_used, self._f_used = int(v0[-1]), int(f0[-1])
         self._set_slots(seg, cnt, nv, nf, v0[:-1], vcap, f0[:-1], fcap)
         idx = np.arange(S, dtype=np.int64)
-        K._eval_segments_numba(seg.records, cnt, self.options["u_steps"], seg.nodes, seg.caps, idx, self._v0,
-                               self._f0, float(self.options["bark_repeat"]), self._V, self._NRM, self._UV,
-                               self._NID, self._F)
+        K.eval_segments(seg.records, cnt, self.options["u_steps"], seg.nodes, seg.caps, idx, self._v0,
+                        self._f0, float(self.options["bark_repeat"]), self._V, self._NRM, self._UV,
+                        self._NID, self._F)
         K._fill_slack_numba(self._v0[:S], nv, vcap, self._f0[:S], nf, fcap, self._V, self._NRM, self._UV,
                             self._NID, self._F)
 

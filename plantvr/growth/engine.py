@@ -20,7 +20,7 @@ from .colonize import TreeWandAssigner, assign_treewand
 from .directions import bud_headings, growth_directions, normalize, transport_lateral, tropism_vectors
 from .lengths import internode_lengths
 from .markers import _poisson_darts
-from .shadow import ShadowGrid, ShadowGridFull, shadow_lut
+from .shadow import ShadowGrid, ShadowGridFull, keys_from_array, keys_to_array, shadow_lut
 from .spatial import REACH, PointGrid, _within_any_trusted
 from .tree import BUD, Tree
 from .vigor import accumulate_light_kernel, distribute_vigor_kernel, pipe_radius_kernel, shed_mask_kernel
@@ -375,7 +375,7 @@ class GrowthEngine:
         if grid:
             g = self.grid
             state["grid"] = {"cell": float(g.cell[0]), "fine": g.F, "blocks": g.blocks[: g.nblocks].copy(),
-                             "keys": np.array(list(g.keys.items()), np.int64).reshape(-1, 2)}
+                             "keys": keys_to_array(g.keys)}
         return state
 
     def set_state(self, state: dict[str, Any]) -> None:
@@ -397,8 +397,7 @@ class GrowthEngine:
             self.rebuild_light()
             return
         self.grid = ShadowGrid(g["cell"], g["fine"])
-        for key, block in g["keys"]:
-            self.grid.keys[key] = block
+        keys_from_array(self.grid.keys, np.ascontiguousarray(g["keys"], np.int64).reshape(-1, 2))
         if len(g["blocks"]):
             self.grid.blocks, self.grid.nblocks = g["blocks"].copy(), len(g["blocks"])
         if state["params"] != self.params:

@@ -79,6 +79,37 @@ def shadow_lut(alpha: float, beta: float, q_max: int, inclusive: bool = False):
 
 
 @numba.njit(cache=True, nogil=True)
+def _new_keys():
+    """An empty block table (made in a cached kernel: typed-Dict methods called from Python compile anew in every
+    process and are never cached)."""
+    return Dict.empty(key_type=types.int64, value_type=types.int64)
+
+
+@numba.njit(cache=True, nogil=True)
+def _clear_keys(keys) -> None:
+    keys.clear()
+
+
+@numba.njit(cache=True, nogil=True)
+def keys_to_array(keys) -> np.ndarray:
+    """The block table as (K, 2) int64 ``[coarse key, block]`` rows, in the table's order."""
+    out = np.empty((len(keys), 2), np.int64)
+    n = 0
+    for k, v in keys.items():
+        out[n, 0] = k
+        out[n, 1] = v
+        n += 1
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def keys_from_array(keys, kv) -> None:
+    """Insert the (K, 2) rows of :func:`keys_to_array` into ``keys``, in order."""
+    for i in range(kv.shape[0]):
+        keys[kv[i, 0]] = kv[i, 1]
+
+
+@numba.njit(cache=True, nogil=True)
 def _ensure_blocks(keys, centres, lo, hi, F, nblocks, max_blocks):
     """Create the fine blocks overlapped by the box [centre + lo, centre + hi] of each centre (lazily, §2.7).
 
@@ -222,7 +253,7 @@ class ShadowGrid:
         self.max_blocks = check_int("max_cells", max_cells, self.F ** 3, 2 ** 40) // self.F ** 3
         self.cell = np.array([cell, 3.0 * cell, cell])  # d × 3d × d (§2.6)
         self.limit = (COARSE_LIMIT - 2) * self.F - MAX_OFFSET
-        self.keys = Dict.empty(key_type=types.int64, value_type=types.int64)
+        self.keys = _new_keys()
         self.blocks = np.zeros((min(8, self.max_blocks), self.F, self.F, self.F))
         self.nblocks = 0
 
@@ -285,6 +316,6 @@ class ShadowGrid:
 
     def clear(self) -> None:
         """Drop every block."""
-        self.keys.clear()
+        _clear_keys(self.keys)
         self.blocks[:] = 0.0
         self.nblocks = 0

@@ -218,3 +218,18 @@ def test_snapshot_shares_markers_read_only():
     assert not any(v.flags.writeable for v in s.buds.values())
     m.step(1)
     assert s.markers.shape[1] == 3  # an older snapshot keeps its markers
+
+
+def test_shadow_block_table_round_trips_through_arrays():
+    """The cached typed-Dict helpers (cold start, issue 24): rows out in table order, back in, same table."""
+    from plantvr.growth.shadow import ShadowGrid, keys_from_array, keys_to_array
+    g = ShadowGrid(0.5, 4)
+    g.add(g.cells_of(np.random.default_rng(0).uniform(-3, 3, (40, 3))), np.array([[0, 0, 0], [1, -1, 2]]),
+          np.array([1.0, 0.5]))
+    kv = keys_to_array(g.keys)
+    assert kv.shape == (len(g.keys), 2) and sorted(kv[:, 1].tolist()) == list(range(g.nblocks))
+    h = ShadowGrid(0.5, 4)
+    keys_from_array(h.keys, kv)
+    assert dict(h.keys) == dict(g.keys) and np.array_equal(keys_to_array(h.keys), kv)
+    g.clear()
+    assert len(g.keys) == 0 and g.nblocks == 0
