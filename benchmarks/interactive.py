@@ -1,11 +1,12 @@
 """The Tree Wand interactive loop at the thesis's largest scale (spec 000_treewand §6.4, §3.5; issue 24).
 
 One loop is what a user feels after a stroke: a growth step, the incremental re-mesh of the branches
-(``IncrementalBranchMesh.update``) and the leaves (``IncrementalLeafMesh.update``), and the snapshot
-publication (``Model.changed`` -> ``make_snapshot``). Each phase is timed over N consecutive loops (median;
+(``IncrementalBranchMesh.update``) and the leaves (``IncrementalLeafMesh.update``), the step's undo record
+(``Document.undoable``: one whole-state copy, shared with the next step) and the snapshot publication
+(``Model.changed`` -> ``make_snapshot``), as ``Model.step`` and ``Model.grow`` run them. Each phase is timed over N consecutive loops (median;
 wall and CPU: the step's process CPU, which counts numba's worker threads,
 the other phases' thread CPU) on a grown tree with 200,000 painted markers, beside
-the baseline run from the same start state in the same process: the issue-23 step (``GrowthEngine._fast =
+the baseline run from the same start state in the same process: the step before issue 24 (``GrowthEngine._fast =
 False``, the serial twin, which grows the same tree bit for bit; checked at the end) and a full rebuild of the
 meshes (``build_branch_mesh``, a fresh leaf mesh). The step's own phases (assignment, shadow, light, vigor,
 radius, ...) are printed against tree size. Targets: whole loop <= 33 ms at 22,000 internodes; step <= 40 ms at
@@ -97,12 +98,15 @@ def run_loops(engine, markers: np.ndarray, loops: int, *, fast: bool) -> dict:
     rec: dict[str, list] = {}
     p = m.params
     for _ in range(loops):
-        with m._lock, _Clock(serial=False) as c_step:
-            m._engine.step()
+        # what Model.step / grow do per step: the step, its undo record and the snapshot's publication
+        with m._lock, _Clock(serial=False) as c_cmd, m.undoable("tree"):
+            with _Clock(serial=False) as c_step:
+                m._engine.step()
+            with _Clock() as c_snap:
+                m.changed("tree", command="step", save=False)
         for k, v in m._engine.phase_ms.items():
             rec.setdefault(k, []).append(v)
-        with _Clock() as c_snap:
-            m.changed("tree", command="step", save=False)
+        undo = (c_cmd.wall - c_step.wall - c_snap.wall, c_cmd.cpu - c_step.cpu - c_snap.cpu)
         snap = m.latest
         with _Clock() as c_br:
             if fast:
@@ -119,8 +123,8 @@ def run_loops(engine, markers: np.ndarray, loops: int, *, fast: bool) -> dict:
                 fresh.update(b["pos"], b["dir"], b["radius"], b["up"])
         for k, c in (("step", c_step), ("snapshot", c_snap), ("branches", c_br), ("leaves", c_lv)):
             rec.setdefault(k, []).append((c.wall, c.cpu))
-        rec.setdefault("loop", []).append((c_step.wall + c_snap.wall + c_br.wall + c_lv.wall,
-                                           c_step.cpu + c_snap.cpu + c_br.cpu + c_lv.cpu))
+        rec.setdefault("undo", []).append(undo)
+        rec.setdefault("loop", []).append((c_cmd.wall + c_br.wall + c_lv.wall, c_cmd.cpu + c_br.cpu + c_lv.cpu))
     rec["_tree"] = m._engine.tree.arrays()
     rec["_internodes"] = m._engine.tree.n_internodes
     rec["_markers"] = len(m._engine.markers)
@@ -172,7 +176,7 @@ def main(argv: list[str] | None = None) -> dict:
               f"{new['_markers']} live markers); "
               f"same tree as the baseline: {same}")
         print(f"  {'phase':>10} {'ours wall/cpu':>16} {'baseline wall/cpu':>18}")
-        for k in STEP_PHASES + ("step", "snapshot", "branches", "leaves", "loop"):
+        for k in STEP_PHASES + ("step", "undo", "snapshot", "branches", "leaves", "loop"):
             (wn, cn), (wo, co) = _med(new, k), _med(old, k)
             row[k] = {"wall": wn, "cpu": cn, "base_wall": wo, "base_cpu": co}
             label = {"branches": "branches*", "leaves": "leaves*"}.get(k, k)

@@ -109,6 +109,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self.autosave_error: str | None = None
         self._loop = kernel_loop()
         self._seq = 0
+        self._after: tuple[int, Any] | None = None      # (version, state) after the last undoable block
         self._pending: tuple[Any, Change] | None = None
         self.latest: Any = None           # newest published snapshot, for render threads
         self.snapshot: Any = None         # newest snapshot applied on the kernel thread
@@ -240,12 +241,19 @@ class Document(HasTraits, metaclass=_DocumentMeta):
     @contextlib.contextmanager
     def undoable(self, kind: str = "all") -> Iterator[None]:
         """Record what the block does to the whole state as one :class:`~plantvr.history.StateAtom` (for
-        operations, like a growth step, whose delta is not practical to keep); nothing when it changed nothing."""
-        before = self.get_state()
+        operations, like a growth step, whose delta is not practical to keep); nothing when it changed nothing.
+
+        The state after a block is kept with the :attr:`version` it was taken at: a block that starts at that
+        same version (nothing changed since, e.g. the next growth step) takes it as its ``before`` instead of
+        copying the whole state again, so a run of steps costs one copy per step and consecutive atoms share it.
+        """
+        cached, self._after = self._after, None
+        before = cached[1] if cached is not None and cached[0] == self._seq else self.get_state()
         yield
         after = self.get_state()
         if not _same(before, after):
             self.history.push(StateAtom(before, after, kind))
+        self._after = (self._seq, after)
 
     def get_state(self) -> Any:
         """The whole state, for a :class:`~plantvr.history.StateAtom` (default: :meth:`state_bytes`)."""
@@ -417,6 +425,10 @@ def _serialise(x: Any, out: list[bytes], skip: frozenset[str]) -> None:
         out.append(repr(x).encode())
 
 
+def _bulky(x: Any) -> bool:
+    return isinstance(x, (np.ndarray, dict, list, tuple, bytes))
+
+
 def _same(a: Any, b: Any) -> bool:
     if isinstance(a, (bytes, bytearray)) or isinstance(b, (bytes, bytearray)):
         return a == b
@@ -424,8 +436,8 @@ def _same(a: Any, b: Any) -> bool:
         return a.shape == b.shape and a.dtype == b.dtype and bool(np.array_equal(a, b))
     if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
         return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
-    if isinstance(a, dict) and isinstance(b, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, dict) and isinstance(b, dict):       # scalars first: a step changes its counter
+        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in sorted(a, key=lambda k: _bulky(a[k])))
     return a is b or a == b
 
 

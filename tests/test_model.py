@@ -208,3 +208,27 @@ def test_reset_with_seed_regrows_identically():
     assert np.array_equal(m.snapshot.pos, first)
     with pytest.raises(ValueError, match=r"seed must be an integer"):
         m.reset(seed=-1)
+
+
+def test_consecutive_steps_share_one_state_copy_and_undo_exactly():
+    """Issue 24: a run of growth steps copies the whole state once per step (a step's ``before`` is the previous
+    step's ``after``); anything that changes the document in between makes the next step copy afresh."""
+    m = plantvr.Model(seed=3)
+    m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
+    start = m.state_bytes()
+    m.step(1)
+    one = m.state_bytes()
+    m.step(1)
+    m.grow(2)
+    paint, s1, s2, g1, g2 = m.history.undo_stack
+    assert s2.before is s1.after and g1.before is s2.after and g2.before is g1.after
+    assert s1.before is not paint.after                         # the stroke's change came after its block
+    for _ in range(3):
+        m.undo()
+    assert m.state_bytes() == one
+    m.undo()
+    assert m.state_bytes() == start
+    m.redo()
+    m.set_params(apical_dominance=0.7)                           # a change between two steps
+    m.step(1)
+    assert m.history.undo_stack[-1].before is not m.history.undo_stack[-2].after

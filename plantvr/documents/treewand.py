@@ -268,11 +268,13 @@ class Model(Document):
 
     def _grow_step(self, entry):
         """One growth step of :meth:`grow`, one undo item, logged as applied (a command made meanwhile on
-        another thread lands between the steps); returns its stats and the log entry steps merge into."""
+        another thread lands between the steps) and published; returns its stats and the log entry steps merge
+        into."""
         with self._lock:
             with self.undoable("tree"):
                 st = self._engine.step()
-            entry = self.log.extend("step", entry, "steps")
+                entry = self.log.extend("step", entry, "steps")
+                self.changed("tree", command="step", save=False)
         return st, entry
 
     # -- door checks (shared by the commands and by replay) -------------------------------------------------
@@ -344,7 +346,6 @@ class Model(Document):
                 for _ in _progress(range(steps), progress):
                     st, entry = self._grow_step(entry)
                     stats.append(st)
-                    self.changed("tree", command="step", save=False)
                     if on_step:
                         on_step(st)
             finally:
@@ -363,7 +364,7 @@ class Model(Document):
                     if self._stop.is_set():
                         break
                     st, entry = self._grow_step(entry)
-                    self.changed("tree", command="step")
+                    self._autosave()                 # outside the lock: commands are not held up by the write
                     if on_step:
                         on_step(st)
             finally:
