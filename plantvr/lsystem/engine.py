@@ -11,7 +11,9 @@ in :meth:`LSystem.interpret`.
 How a step runs, fastest first:
 
 * every rule constant (context-free, no condition, successor parameters free of pattern variables): one numba
-  count pass and one fill pass over the int ids (``_derive_kernels``);
+  count pass and one fill pass over the int ids (``_derive_kernels``); :meth:`LSystem.derive` without
+  decomposition or per-step hooks does all ``n`` steps at once, each expansion E(symbol, k) built once in place
+  and copied as a block wherever it recurs, so the cost is about one write of the final string;
 * otherwise modules are grouped by predecessor id; one-line rules (``-->`` or ``: cond -->``) whose condition and
   successor parameters are arithmetic, comparisons, ``and/or/not``, ``a if c else b`` and ``math`` functions of
   the pattern variables and numeric constants are evaluated vectorised on numpy parameter columns;
@@ -55,6 +57,10 @@ MAX_MODULES = 50_000_000
 MAX_PARAMETERS = 200_000_000
 #: Most derivation steps one call may ask for.
 MAX_DERIVATION = 100_000
+#: Largest (steps + 1) x symbols length table of the all-at-once derivation of constant rules (else step-wise).
+_EXPAND_CELLS = 4_000_000
+#: Saturation of that table's lengths (exact below, far above MAX_MODULES and MAX_PARAMETERS).
+_EXPAND_CAP = 2 ** 52
 
 _RANDOM_FUNCS = ("random", "uniform", "gauss", "normalvariate", "randint", "choice", "expovariate",
                  "betavariate", "triangular", "lognormvariate", "shuffle", "sample", "randrange", "seed",
@@ -240,9 +246,19 @@ class LSystem:
 
     def derive(self, n: int | None = None, *, string: ModuleString | None = None) -> ModuleString:
         """The string after ``n`` steps (default: the derivation length) from the axiom or ``string``;
-        decomposition is applied after each step."""
-        out = None
-        for out in self.iterate(n, string=string):
+        decomposition is applied after each step.
+
+        When every production is constant (context-free, no condition, one rule per symbol, successor parameters
+        free of pattern variables) and there is no decomposition and no Start/End/StartEach/EndEach hook, the
+        ``n`` steps are done at once (each module of the result written once, repeated blocks copied); the
+        result is the one the step-wise derivation (:meth:`iterate`) gives, array for array.
+        """
+        n = self.derivation_length if n is None else check_int("n", n, 0, MAX_DERIVATION)
+        s = self.axiom if string is None else self._adopt(string)
+        out = self._expand(n, s)
+        if out is not None:
+            return out
+        for out in self._run(n, s):
             pass
         return out
 
@@ -529,6 +545,10 @@ class LSystem:
     def _make(self, ids, ptr, args) -> ModuleString:
         return ModuleString(tuple(self._names), ids, ptr, args)
 
+    def _make_trusted(self, ids, ptr, args) -> ModuleString:
+        """A string from kernel output, valid by construction (ids from the symbol table, ptr rising)."""
+        return ModuleString._trusted(tuple(self._names), ids, ptr, args)
+
     # -- derivation ----------------------------------------------------------------------------------------------
     def _run(self, n: int, s: ModuleString) -> Iterator[ModuleString]:
         self._rng.seed(self._seed)
@@ -574,15 +594,51 @@ class LSystem:
             if rule_arity.shape[0] < len(self._names):
                 self._tables.clear()
                 return self._rewrite(s, kind)
-            n_out, m_out, hits = K.count_constant(s.ids, s.arg_ptr, rule_arity, sptr, saptr)
+            with_ptr = bool(s.args.shape[0] or sargs.shape[0])
+            n_out, m_out, hits = K.count_constant(s.ids, s.arg_ptr, rule_arity, sptr, saptr, with_ptr)
             self._check_size(n_out, m_out)
             out_ids = np.empty(n_out, np.int32)
-            out_ptr = np.empty(n_out + 1, np.int64)
+            out_ptr = np.empty(n_out + 1, np.int64) if with_ptr else np.zeros(n_out + 1, np.int64)
             out_args = np.empty(m_out, np.float64)
             K.fill_constant(s.ids, s.arg_ptr, s.args, rule_arity, sptr, sids, saptr, sargs, out_ids, out_ptr,
-                            out_args)
-            return self._make(out_ids, out_ptr, out_args), hits > 0
+                            out_args, with_ptr)
+            return self._make_trusted(out_ids, out_ptr, out_args), hits > 0
         return self._grouped(s, rules)
+
+    def _expand(self, n: int, s: ModuleString) -> ModuleString | None:
+        """The string after ``n`` steps of constant productions at once, or None where the step-wise
+        derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
+        if n < 1 or not len(s) or self._hooks or self._rules["decomposition"] or not self._rules["production"]:
+            return None
+        table = self._constant_table("production")
+        if table is None:
+            return None
+        rule_arity, sptr, sids, saptr, sargs = table
+        S = rule_arity.shape[0]
+        if (n + 1) * S > _EXPAND_CELLS:
+            return None
+        lm, la = K.expand_lengths(n, rule_arity, sptr, sids, saptr, _EXPAND_CAP)
+        nargs = np.diff(s.arg_ptr)
+        rw = rule_arity[s.ids] == nargs
+        c = np.bincount(s.ids[rw], minlength=S).astype(np.float64)
+        kept_m, kept_a = float(np.count_nonzero(~rw)), float(nargs[~rw].sum())
+        tot_m = lm[1:] @ c + kept_m                           # string length after each step 1..n
+        tot_a = la[1:] @ c + kept_a
+        over = np.flatnonzero((tot_m > MAX_MODULES) | (tot_a > MAX_PARAMETERS))
+        k = int(over[0]) + 1 if over.size else n              # the step the step-wise derivation stops at
+        ci = c.astype(np.int64).tolist()
+        n_out = int(kept_m) + sum(x * int(v) for x, v in zip(ci, lm[k].tolist()))
+        m_out = int(kept_a) + sum(x * int(v) for x, v in zip(ci, la[k].tolist()))
+        self._check_size(n_out, m_out)
+        with_ptr = m_out > 0
+        out_ids = np.empty(n_out, np.int32)
+        out_ptr = np.empty(n_out + 1, np.int64) if with_ptr else np.zeros(n_out + 1, np.int64)
+        out_args = np.empty(m_out, np.float64)
+        K.expand_constant(s.ids, s.arg_ptr, s.args, n, rule_arity, sptr, sids, saptr, sargs, lm, la, out_ids,
+                          out_ptr, out_args, with_ptr)
+        self._rng.seed(self._seed)                            # the state _run leaves
+        self._direction, self._iteration, self._stopped = 1, n - 1, False
+        return self._make_trusted(out_ids, out_ptr, out_args)
 
     @staticmethod
     def _check_size(n_out: int, m_out: int) -> None:

@@ -57,6 +57,19 @@ class ModuleString:
         object.__setattr__(self, "names", tuple(str(s) for s in self.names))
 
     @classmethod
+    def _trusted(cls, names: tuple[str, ...], ids: np.ndarray, arg_ptr: np.ndarray,
+                 args: np.ndarray) -> ModuleString:
+        """Wrap arrays the engine's kernels wrote, without the checks (private: the caller guarantees contiguous
+        int32 ``ids`` in ``[0, len(names))``, int64 ``arg_ptr`` rising from 0 to ``len(args)``, float64 ``args``,
+        ``names`` a tuple of str)."""
+        self = object.__new__(cls)
+        for name, value in (("ids", ids), ("arg_ptr", arg_ptr), ("args", args)):
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "names", names)
+        return self
+
+    @classmethod
     def from_modules(cls, modules: Iterable[tuple[str, Sequence[float]] | str],
                      names: Sequence[str] = ()) -> "ModuleString":
         """Build from ``[("F", (1.0,)), "+", ("A", (2, 3)), ...]`` (a bare name has no parameters); ``names``
