@@ -35,9 +35,8 @@ import numpy as np
 from .._validation import check_int
 from ..document import Document, serialise
 from ..history import StateAtom
-from ..lsystem.engine import LSystem, LSystemError
+from ..lsystem.engine import LSystem
 from ..lsystem.modules import ModuleString
-from ..lsystem.turtle import LPY_UNSUPPORTED, turtle
 from ..types import TreeArrays
 
 __all__ = ["DEFAULT_GRAMMAR", "MAX_STEP", "MAX_TEXT", "LSystemDocument", "y_up"]
@@ -107,23 +106,8 @@ class _Derivation:
 
     def tree(self, step: int) -> TreeArrays:
         if step not in self.trees:
-            interpreted = self.lsys.interpret(self.string(step))
-            _check_drawable(self.lsys, interpreted)
-            self.trees[step] = turtle(interpreted, **self.lsys.turtle_options)
+            self.trees[step] = self.lsys.draw(self.string(step))
         return self.trees[step]
-
-
-def _check_drawable(lsys: LSystem, string: ModuleString) -> None:
-    """Raise the engine's LSystemError for a module L-Py draws and the turtle does not (as ``LSystem.tree``)."""
-    if not len(string):
-        return
-    used = np.flatnonzero(np.bincount(string.ids, minlength=len(string.names)))
-    for k in used.tolist():
-        name = string.names[k]
-        if name in LPY_UNSUPPORTED:
-            first_use = getattr(getattr(lsys, "_g", None), "first_use", {}) or {}
-            line, col = first_use.get(name, (0, 0))
-            raise LSystemError(f"unsupported module {name} (L-Py draws it, PlantVR's turtle does not)", line, col)
 
 
 def _lsystem(text: str, externs: dict[str, float], seed: int) -> LSystem:

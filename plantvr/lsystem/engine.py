@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from plantvr._validation import check_int
+from plantvr._validation import check_choice, check_int
 from plantvr.types import TreeArrays
 
 from . import _derive_kernels as K
@@ -277,17 +277,33 @@ class LSystem:
                 break
         return s
 
-    def tree(self, n: int | None = None, **turtle_options: Any) -> TreeArrays:
-        """``turtle(self.interpret(self.derive(n)), **options)``: the grammar's turtle options, overridden by
-        ``turtle_options``. A module that L-Py draws but the turtle does not raises LSystemError with its line."""
+    def tree(self, n: int | None = None, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
+        """``self.draw(self.derive(n))``: the skeleton after ``n`` derivation steps (see :meth:`draw`)."""
+        return self.draw(self.derive(n), unsupported=unsupported, **turtle_options)
+
+    def draw(self, string: ModuleString, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
+        """``turtle(self.interpret(string), **options)``: the grammar's turtle options, overridden by
+        ``turtle_options``.
+
+        A module that L-Py draws but the turtle does not (:data:`~plantvr.lsystem.turtle.LPY_UNSUPPORTED`: a
+        sphere ``@O``, a leaf surface ``~l``, ...) raises LSystemError with the line it is first used on
+        (``unsupported="error"``), or is left out of the picture with one warning naming each such module
+        (``"warn"``); it never changes the skeleton, which the turtle's moves and turns alone make.
+        """
+        import warnings
+
         from .turtle import LPY_UNSUPPORTED, turtle
-        s = self.interpret(self.derive(n))
-        used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names)))
-        for k in used.tolist():
-            name = s.names[k]
-            if name in LPY_UNSUPPORTED:
-                line, col = self._g.first_use.get(name, (0, 0))
-                raise LSystemError(f"unsupported module {name} (L-Py draws it, PlantVR's turtle does not)", line, col)
+        unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
+        s = self.interpret(string)
+        used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
+        bad = [s.names[k] for k in used.tolist() if s.names[k] in LPY_UNSUPPORTED]
+        for name in bad[:1] if unsupported == "error" else ():
+            line, col = self._g.first_use.get(name, (0, 0))
+            raise LSystemError(f"unsupported module {name} (L-Py draws it, PlantVR's turtle does not; "
+                               "unsupported='warn' draws the skeleton without it)", line, col)
+        if bad:
+            where = ", ".join(f"{name} (line {self._g.first_use.get(name, (0, 0))[0]})" for name in bad)
+            warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=2)
         return turtle(s, **{**self._turtle, **turtle_options})
 
     def __repr__(self) -> str:

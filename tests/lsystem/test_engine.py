@@ -186,6 +186,23 @@ def test_unsupported_module_named_at_tree():
         ls.tree()
 
 
+def test_unsupported_modules_can_be_left_out_of_the_picture():
+    """A grammar in the style of L-Py's training models (stochastic block rules, a homomorphism with
+    ``f``/``;``/``@O`` flowers): its spheres are left out with a warning and never change the skeleton."""
+    text = (HERE / "continuous_growth.lpy").read_text()
+    ls = LSystem(text, seed=2)
+    with pytest.raises(LSystemError, match="unsupported module @O"):
+        ls.tree()
+    with pytest.warns(UserWarning, match=r"not drawn .*@O \(line \d+\)"):
+        tree = ls.tree(unsupported="warn")
+    bare = LSystem(text.replace(";(4)@O(FLOWER * WIDTH * k)", ""), seed=2)
+    ref = bare.tree()
+    assert np.array_equal(tree.pos, ref.pos) and np.array_equal(tree.parent, ref.parent)
+    assert tree.n_internodes == ls.derive().count("I") > 10
+    with pytest.raises(ValueError, match="unsupported"):
+        ls.tree(unsupported="skip")
+
+
 def test_fuzzed_grammars_fail_cleanly():
     base = (HERE / "parametric.lpy").read_text()
     rng = np.random.default_rng(3)

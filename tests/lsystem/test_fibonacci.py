@@ -34,5 +34,5 @@ def test_fibonacci_extern_and_steps():
 
 def test_fibonacci_label_is_not_a_number():
     ls = LSystem.from_file(HERE / "fibonacci.lpy")
-    with pytest.raises(LSystemError, match=r"line 31, .*module @L: parameter '6765' is a str"):
+    with pytest.raises(LSystemError, match=r"line 33, .*module @L: parameter '6765' is a str"):
         ls.interpret(ls.derive())
