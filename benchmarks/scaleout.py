@@ -8,7 +8,10 @@ from the throughput. The machine's parallel capacity (the same pure-Python loop 
 first: a speed-up above it is impossible (on a loaded machine it is well below 2).
 
 Overhead = 1 - (seconds inside task bodies) / (workers x wall seconds of the waves): scheduling, (de)serialisation,
-transfers, the caller's competition between rounds and workers idle at barriers, all counted.
+transfers, the caller's competition between rounds and workers idle at barriers, all counted. dask's task stream
+splits it: *dispatch* is the gaps between a worker's consecutive tasks while the run is going on (the scheduler
+and (de)serialisation: the per-task overhead proper), *barrier* the time no worker computes (the client between
+rounds, result transfer), *imbalance* a worker waiting for the others at the end of a wave.
 
     python benchmarks/scaleout.py            # 300 trees (competing and independent), 64-point sweep
     python benchmarks/scaleout.py --quick    # 40 trees, 8 points (< 30 s)
@@ -69,6 +72,40 @@ def _warm() -> float:
     return warm_up() + warm_up_sweep()
 
 
+def stream_split(records: list[dict]) -> dict[str, float]:
+    """Worker-seconds of a run's task stream (``client.get_task_stream()`` records): ``compute`` (the tasks'
+    compute intervals), ``dispatch`` (a worker's gaps between its consecutive tasks, where some worker is
+    computing throughout the gap), ``barrier`` (no worker computes: times the number of workers), ``imbalance``
+    (the rest of the span: a worker idle while another finishes its wave)."""
+    iv: dict[str, list] = {}
+    for r in records:
+        for ss in r.get("startstops", ()):
+            if ss["action"] == "compute":
+                iv.setdefault(r["worker"], []).append((ss["start"], ss["stop"]))
+    if not iv:
+        return {"compute": 0.0, "dispatch": 0.0, "barrier": 0.0, "imbalance": 0.0, "span": 0.0}
+    allv = sorted(x for v in iv.values() for x in v)
+    t0, t1 = allv[0][0], max(b for _, b in allv)
+    busy, cur = [], list(allv[0])                     # union of all compute intervals
+    for a, b in allv[1:]:
+        if a <= cur[1]:
+            cur[1] = max(cur[1], b)
+        else:
+            busy.append(tuple(cur))
+            cur = [a, b]
+    busy.append(tuple(cur))
+    covered = lambda a, b: any(x <= a and b <= y for x, y in busy)  # noqa: E731
+    workers = len(iv)
+    compute = sum(b - a for v in iv.values() for a, b in v)
+    dispatch = 0.0
+    for v in iv.values():
+        v.sort()
+        dispatch += sum(c - b for (_, b), (c, _) in zip(v, v[1:]) if c > b and covered(b, c))
+    barrier = ((t1 - t0) - sum(b - a for a, b in busy)) * workers
+    imbalance = max(0.0, workers * (t1 - t0) - compute - dispatch - barrier)
+    return {"compute": compute, "dispatch": dispatch, "barrier": barrier, "imbalance": imbalance, "span": t1 - t0}
+
+
 def _worker_cpu(client) -> float:
     return float(sum(client.run(time.process_time).values()))
 
@@ -88,14 +125,17 @@ def run_on(n_workers: int, jobs: dict) -> dict:
         out["warm_s"] = time.perf_counter() - t
         for name, job in jobs.items():
             cpu, pc = _worker_cpu(client), time.process_time()
+            from dask.distributed import get_task_stream
             t = time.perf_counter()
-            res = job(client)
+            with get_task_stream(client) as ts:
+                res = job(client)
             wall = time.perf_counter() - t
             stats = res.stats if hasattr(res, "trees") else res.attrs["scaleout"]
             out[name] = {"wall_s": wall, "worker_cpu_s": _worker_cpu(client) - cpu,
                          "client_cpu_s": time.process_time() - pc, "stats": stats,
                          "hash": forest_hash(res) if hasattr(res, "trees") else sweep_hash(res),
-                         "units": len(res.trees) if hasattr(res, "trees") else len(res)}
+                         "units": len(res.trees) if hasattr(res, "trees") else len(res),
+                         "stream": stream_split(ts.data)}
     return out
 
 
@@ -143,6 +183,13 @@ def main(argv: list[str] | None = None) -> dict:
               f"{100 * s1['overhead']:.1f} %, 2 workers {1e3 * s2['overhead_per_task_s']:.1f} ms/task of "
               f"{1e3 * s2['task_s']:.0f} ms = {100 * s2['overhead']:.1f} % (target < 5 %); client CPU "
               f"{two['client_cpu_s']:.2f} s")
+        st = two["stream"]
+        if st["compute"] > 0:
+            print(f"    task stream, 2 workers: compute {st['compute']:.2f} worker-s; dispatch (scheduler + "
+                  f"serialisation between a worker's tasks) {st['dispatch']:.3f} = "
+                  f"{100 * st['dispatch'] / st['compute']:.2f} % of task time (target < 5 %); barrier (no worker "
+                  f"computing) {st['barrier']:.2f}; imbalance at wave ends {st['imbalance']:.2f}")
+            out["rows"][name]["dispatch_2"] = st["dispatch"] / st["compute"]
     return out
 
 

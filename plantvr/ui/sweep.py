@@ -165,11 +165,16 @@ def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed:
         stats = TaskStats(n_workers_of(runner))
         if runner == "sync":
             parts = [[i] for i in range(len(points))]
-        else:
-            parts = chunks(len(points), stats.n_workers, per_worker=4, tasks=tasks)
+        else:   # every k-th point in a task: neighbouring points cost alike, so strides balance the workers
+            k = len(chunks(len(points), stats.n_workers, per_worker=8, tasks=tasks))
+            parts = [list(range(i, len(points), k)) for i in range(k)]
         got = run_tasks(runner, sweep_task, [(ref, [points[i] for i in c], seed) for c in parts], stats=stats,
                         progress=progress, desc="sweep")
-    table = pd.DataFrame([row for part in got for row in part])
+    rows: list = [None] * len(points)
+    for part, c in zip(got, parts):
+        for i, row in zip(c, part):
+            rows[i] = row
+    table = pd.DataFrame(rows)
     table.attrs["scaleout"] = stats.as_dict()
     return table
 
