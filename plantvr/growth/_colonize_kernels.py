@@ -349,6 +349,48 @@ def _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half, sin_
     cos_sum = cos_half * cd - sin_half * sd  # cos(θ + δ), valid while θ + δ ≤ π, i.e. for θ ≤ π/2
     return cos_half < 0.0 or vx * bx + vy * by + vz * bz >= dist * cos_sum - 1e-9 * dist
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _offer_cell(c, px, py, pz, bx, by, bz, ln, bid, origin, h, dims, cell_start, cell_live, pos_s, orig, owner,
+                best, owner_in, view_radius, cos_half, sin_half, vr2m, c2, wide, rc, cand):
+    """Offer one bud to the live markers of grid cell ``c``: a branch-free pass keeps the markers that may be in
+    the cone (no square roots), the exact test of the brute-force twin runs on those. Returns the (possibly
+    grown) candidate buffer and the number of markers whose owner changed."""
+    start = cell_start[c]
+    end = start + cell_live[c]
+    if end == start or not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half, sin_half):
+        return cand, 0
+    if end - start > cand.shape[0]:
+        cand = np.empty(2 * (end - start), np.int64)
+    nc = 0
+    for s in range(start, end):  # branch-free candidate pass
+        vx = pos_s[s, 0] - px
+        vy = pos_s[s, 1] - py
+        vz = pos_s[s, 2] - pz
+        d2 = vx * vx + vy * vy + vz * vz
+        dot = vx * bx + vy * by + vz * bz
+        cand[nc] = s
+        nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
+    changed = 0
+    for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
+        s = cand[t]
+        vx = pos_s[s, 0] - px
+        vy = pos_s[s, 1] - py
+        vz = pos_s[s, 2] - pz
+        d = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if d > view_radius:
+            continue
+        if vx * bx + vy * by + vz * bz < d * cos_half:
+            continue
+        key = d / ln
+        o = owner[s]
+        if key < best[s] or (key == best[s] and o >= 0 and bid < o):
+            best[s] = key
+            owner[s] = bid
+            owner_in[orig[s]] = bid
+            changed += 1
+    return cand, changed
+
+
 # ----------------------------------------------------------------------------------------------------------------
 @numba.njit(cache=True, nogil=True)
 def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, reach, cell_start, cell_live,
@@ -380,40 +422,10 @@ def treewand_assign_kernel(bud_pos, bud_dir, bud_len, bud_ids, origin, h, dims, 
         ln = bud_len[b]
         bid = bud_ids[b]
         for q in range(ball_cells(px, py, pz, vr2m, origin, h, dims, reach, cells, gaps)):
-            c = cells[q]
-            start = cell_start[c]
-            end = start + cell_live[c]
-            if end == start or not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half,
-                                                 sin_half):
-                continue
-            if end - start > cand.shape[0]:
-                cand = np.empty(2 * (end - start), np.int64)
-            nc = 0
-            for s in range(start, end):  # branch-free candidate pass
-                vx = pos_s[s, 0] - px
-                vy = pos_s[s, 1] - py
-                vz = pos_s[s, 2] - pz
-                d2 = vx * vx + vy * vy + vz * vz
-                dot = vx * bx + vy * by + vz * bz
-                cand[nc] = s
-                nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
-            for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
-                s = cand[t]
-                vx = pos_s[s, 0] - px
-                vy = pos_s[s, 1] - py
-                vz = pos_s[s, 2] - pz
-                d = math.sqrt(vx * vx + vy * vy + vz * vz)
-                if d > view_radius:
-                    continue
-                if vx * bx + vy * by + vz * bz < d * cos_half:
-                    continue
-                key = d / ln
-                o = owner[s]
-                if key < best[s] or (key == best[s] and o >= 0 and bid < o):
-                    best[s] = key
-                    owner[s] = bid
-                    owner_in[orig[s]] = bid
-                    changed += 1
+            cand, n = _offer_cell(cells[q], px, py, pz, bx, by, bz, ln, bid, origin, h, dims, cell_start,
+                                  cell_live, pos_s, orig, owner, best, owner_in, view_radius, cos_half, sin_half,
+                                  vr2m, c2, wide, rc, cand)
+            changed += n
     return changed
 
 
@@ -438,39 +450,9 @@ def _offer_bud_slab(px, py, pz, bx, by, bz, ln, bid, i0, i1, origin, h, dims, re
             for ck in range(klo, khi + 1):
                 if box_gap2(px, py, pz, origin, h, ci, cj, ck) > vr2m:
                     continue
-                c = (ci * dims[1] + cj) * dims[2] + ck
-                start = cell_start[c]
-                end = start + cell_live[c]
-                if end == start or not _cell_in_cone(px, py, pz, bx, by, bz, origin, h, dims, c, rc, cos_half,
-                                                     sin_half):
-                    continue
-                if end - start > cand.shape[0]:
-                    cand = np.empty(2 * (end - start), np.int64)
-                nc = 0
-                for s in range(start, end):  # branch-free candidate pass
-                    vx = pos_s[s, 0] - px
-                    vy = pos_s[s, 1] - py
-                    vz = pos_s[s, 2] - pz
-                    d2 = vx * vx + vy * vy + vz * vz
-                    dot = vx * bx + vy * by + vz * bz
-                    cand[nc] = s
-                    nc += (d2 <= vr2m) & (d2 != 0.0) & (wide | ((dot > 0.0) & (dot * dot >= d2 * c2)))
-                for t in range(nc):  # exact test, the same arithmetic as treewand_assign_numpy
-                    s = cand[t]
-                    vx = pos_s[s, 0] - px
-                    vy = pos_s[s, 1] - py
-                    vz = pos_s[s, 2] - pz
-                    d = math.sqrt(vx * vx + vy * vy + vz * vz)
-                    if d > view_radius:
-                        continue
-                    if vx * bx + vy * by + vz * bz < d * cos_half:
-                        continue
-                    key = d / ln
-                    o = owner[s]
-                    if key < best[s] or (key == best[s] and o >= 0 and bid < o):
-                        best[s] = key
-                        owner[s] = bid
-                        owner_in[orig[s]] = bid
+                cand, _ = _offer_cell((ci * dims[1] + cj) * dims[2] + ck, px, py, pz, bx, by, bz, ln, bid, origin,
+                                      h, dims, cell_start, cell_live, pos_s, orig, owner, best, owner_in,
+                                      view_radius, cos_half, sin_half, vr2m, c2, wide, rc, cand)
     return cand
 
 
