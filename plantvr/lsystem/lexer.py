@@ -10,7 +10,7 @@ in the grammar's namespace (angles stay in degrees: the engine never converts th
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
 __all__ = ["LPY_PREDEFINED", "LSystemError", "Token", "find_top", "lex", "split_top"]
@@ -75,10 +75,8 @@ def _skip_string(text: str, i: int, line: int, col0: int) -> int:
     return j + 1
 
 
-def find_top(text: str, targets: Iterable[str], start: int = 0) -> tuple[int, str]:
-    """First index (and which target) of one of ``targets`` at nesting depth 0 outside strings; (-1, "") if none.
-    Longer targets are tried first at each position."""
-    order = sorted(targets, key=len, reverse=True)
+def _top_level(text: str, start: int = 0) -> Iterator[int]:
+    """The indices from ``start`` on that lie at nesting depth 0 outside strings (brackets not included)."""
     depth = 0
     i = start
     while i < len(text):
@@ -91,29 +89,28 @@ def find_top(text: str, targets: Iterable[str], start: int = 0) -> tuple[int, st
         elif c in ")]}":
             depth -= 1
         elif depth == 0:
-            for t in order:
-                if text.startswith(t, i):
-                    return i, t
+            yield i
         i += 1
+
+
+def find_top(text: str, targets: Iterable[str], start: int = 0) -> tuple[int, str]:
+    """First index (and which target) of one of ``targets`` at nesting depth 0 outside strings; (-1, "") if none.
+    Longer targets are tried first at each position."""
+    order = sorted(targets, key=len, reverse=True)
+    for i in _top_level(text, start):
+        for t in order:
+            if text.startswith(t, i):
+                return i, t
     return -1, ""
 
 
 def split_top(text: str, sep: str = ",") -> list[str]:
     """Split ``text`` at ``sep`` characters at nesting depth 0 outside strings."""
-    parts, depth, beg, i = [], 0, 0, 0
-    while i < len(text):
-        c = text[i]
-        if c in "\"'":
-            i = _skip_string(text, i, 0, 0)
-            continue
-        if c in "([{":
-            depth += 1
-        elif c in ")]}":
-            depth -= 1
-        elif c == sep and depth == 0:
+    parts, beg = [], 0
+    for i in _top_level(text):
+        if text[i] == sep:
             parts.append(text[beg:i])
             beg = i + 1
-        i += 1
     parts.append(text[beg:])
     return parts
 
