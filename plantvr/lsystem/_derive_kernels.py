@@ -181,6 +181,16 @@ def expand_lengths(n, rule_arity, succ_ptr, succ_ids, succ_arg_ptr, cap):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _put_module(out_ids, out_ptr, out_args, pm, pa, sym, src_args, a0, na, with_ptr):
+    """Write module ``sym`` with parameters ``src_args[a0:a0 + na]`` at output module ``pm``, parameter ``pa``."""
+    if with_ptr:
+        out_ptr[pm] = pa
+    out_ids[pm] = sym
+    for q in range(na):
+        out_args[pa + q] = src_args[a0 + q]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _copy_block(out_ids, out_ptr, out_args, pm, pa, src_m, src_a, L, La, with_ptr):
     """Copy the block of ``L`` modules (``La`` parameters) at ``src_m``/``src_a`` to ``pm``/``pa`` (after it)."""
     d = out_ids[pm:pm + L]                                    # views: the loops vectorise
@@ -222,11 +232,7 @@ def expand_constant(ids, arg_ptr, args, n, rule_arity, succ_ptr, succ_ids, succ_
         a0 = arg_ptr[i]
         na = arg_ptr[i + 1] - a0
         if n < 1 or rule_arity[s] != na:                      # copied unchanged at every step
-            if with_ptr:
-                out_ptr[pm] = pa
-            out_ids[pm] = s
-            for q in range(na):
-                out_args[pa + q] = args[a0 + q]
+            _put_module(out_ids, out_ptr, out_args, pm, pa, s, args, a0, na, with_ptr)
             pm += 1
             pa += na
             continue
@@ -254,11 +260,7 @@ def expand_constant(ids, arg_ptr, args, n, rule_arity, succ_ptr, succ_ids, succ_
             b0 = succ_arg_ptr[j]
             nb = succ_arg_ptr[j + 1] - b0
             if k == 1 or rule_arity[t] != nb:                 # the slot's own module
-                if with_ptr:
-                    out_ptr[pm] = pa
-                out_ids[pm] = t
-                for q in range(nb):
-                    out_args[pa + q] = succ_args[b0 + q]
+                _put_module(out_ids, out_ptr, out_args, pm, pa, t, succ_args, b0, nb, with_ptr)
                 pm += 1
                 pa += nb
             elif first_m[k - 1, t] >= 0:                       # a copy of the block built before
