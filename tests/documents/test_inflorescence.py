@@ -9,6 +9,8 @@ from plantvr.documents.inflorescence import PRESETS, InflorescenceDocument
 from plantvr.flowers.floret import FLORET, build_floret
 from plantvr.types import TriMesh
 
+from ._history import undo_all_redo_all
+
 
 def _session(doc: InflorescenceDocument) -> None:
     doc.set_params(n_fold=6, growth="power", warp=1.5)
@@ -40,16 +42,7 @@ def test_undo_to_the_start_and_redo_to_the_end_are_bit_identical():
     doc = InflorescenceDocument(preset="ray floret")
     start = doc.state_bytes()
     _session(doc)
-    end = doc.state_bytes()
-    steps = 0
-    while doc.can_undo:
-        doc.undo()
-        steps += 1
-    assert doc.state_bytes() == start and steps == 8
-    while doc.can_redo:
-        doc.redo()
-    assert doc.state_bytes() == end
-    assert doc.history.nbytes <= doc.history.max_bytes
+    assert undo_all_redo_all(doc, start, doc.state_bytes()) == 8
 
 
 def test_set_params_is_one_rebuild_one_undo_step_and_bad_combinations_keep_the_floret():
