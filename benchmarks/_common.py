@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["best_of", "best_time", "cpu_seconds", "current_rss_gib", "in_forked_child", "peak_rss_gib",
+__all__ = ["best_of", "best_time", "cpu_capacity", "cpu_seconds", "current_rss_gib", "in_forked_child", "peak_rss_gib",
            "radius_for"]
 
 
@@ -87,3 +87,24 @@ def radius_for(index: Any, center, hits: int, steps: int = 40) -> float:
         else:
             hi = mid
     return hi
+
+
+def _burn(n: int) -> float:
+    t = time.perf_counter()
+    s = 0
+    for i in range(n):
+        s += i
+    return time.perf_counter() - t
+
+
+def cpu_capacity(n: int = 3_000_000) -> float:
+    """Throughput of 2 processes over 1 on a pure-Python loop (2.0 on two free cores)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    one = _burn(n)
+    with ProcessPoolExecutor(2) as ex:
+        _ = list(ex.map(_burn, [1000, 1000]))
+        t = time.perf_counter()
+        list(ex.map(_burn, [n, n]))
+        two = time.perf_counter() - t
+    return 2 * one / two

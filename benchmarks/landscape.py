@@ -21,7 +21,7 @@ import argparse
 import time
 
 import numpy as np
-from _common import best_time
+from _common import best_time, cpu_capacity
 
 from plantvr.landscape import grow_forest
 from plantvr.landscape.forest import warm_up
@@ -30,27 +30,6 @@ from plantvr.landscape.forest import warm_up
 def _same(f, g) -> bool:
     return len(f.trees) == len(g.trees) and all(
         a[k].tobytes() == b[k].tobytes() for a, b in zip(f.trees, g.trees) for k in a)
-
-
-def _burn(n: int) -> float:
-    t = time.perf_counter()
-    s = 0
-    for i in range(n):
-        s += i
-    return time.perf_counter() - t
-
-
-def cpu_capacity(n: int = 3_000_000) -> float:
-    """Throughput of 2 processes over 1 on a pure-Python loop (2.0 on two free cores)."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    one = _burn(n)
-    with ProcessPoolExecutor(2) as ex:
-        _ = list(ex.map(_burn, [1000, 1000]))
-        t = time.perf_counter()
-        list(ex.map(_burn, [n, n]))
-        two = time.perf_counter() - t
-    return 2 * one / two
 
 
 def sketch_figures(quick: bool) -> dict:

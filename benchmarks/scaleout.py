@@ -23,31 +23,11 @@ import hashlib
 import time
 
 import numpy as np
+from _common import cpu_capacity
 
 from plantvr.landscape import grow_forest
 from plantvr.landscape.forest import warm_up
 from plantvr.ui.sweep import sweep, warm_up_sweep
-
-
-def _burn(n: int) -> float:
-    t = time.perf_counter()
-    s = 0
-    for i in range(n):
-        s += i
-    return time.perf_counter() - t
-
-
-def cpu_capacity(n: int) -> float:
-    """Throughput of 2 processes over 1 on a pure-Python loop (2.0 on two free cores)."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    one = _burn(n)
-    with ProcessPoolExecutor(2) as ex:
-        list(ex.map(_burn, [1000, 1000]))
-        t = time.perf_counter()
-        list(ex.map(_burn, [n, n]))
-        two = time.perf_counter() - t
-    return 2 * one / two
 
 
 def forest_hash(f) -> str:
