@@ -18,6 +18,7 @@ import json
 import os
 import struct
 import tempfile
+import tokenize
 import zipfile
 import zlib
 from collections.abc import Collection, Iterator, Mapping
@@ -29,8 +30,10 @@ import numpy as np
 __all__ = ["MAX_JSON_BYTES", "MAX_READ_BYTES", "read_json", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
            "npy_bytes", "npy_headers", "zip_directory", "digest_arrays"]
 
-#: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream).
-_READ_ERRORS = (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error, struct.error)
+#: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream; ``SyntaxError``,
+#: ``tokenize.TokenError``: a damaged ``.npy`` header dict, which numpy parses as Python).
+_READ_ERRORS = (OSError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error, struct.error,
+                SyntaxError, tokenize.TokenError)
 
 #: Default cap on the inflated size of one zip/npz file PlantVR reads (bytes). Readers of formats whose
 #: files are bigger by design (a 36 M-face segmentation with its mesh) pass a larger ``max_bytes``.
@@ -207,7 +210,7 @@ def _read_header(fh, path, what: str, name: str) -> tuple[tuple, bool, np.dtype]
     read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
     try:
         shape, fortran, dtype = read(fh, max_header_size=10_000)
-    except SyntaxError as exc:  # a damaged header dict
+    except (SyntaxError, tokenize.TokenError) as exc:  # a damaged header dict (numpy parses it as Python)
         raise ValueError(f"header is not a .npy header ({exc})") from None
     if dtype.hasobject:
         raise _zip_error(what, path, f"array {name[:-4]!r} holds Python objects (refused)")

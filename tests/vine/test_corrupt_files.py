@@ -4,6 +4,7 @@ and out-of-range indices are refused with a clear ``ValueError``; the segmentati
 is refused from its headers, before anything is inflated (memory bounded)."""
 import io
 import json
+import re
 import tracemalloc
 import zipfile
 
@@ -209,6 +210,42 @@ def test_session_bit_flips_never_load_damaged_data(surf, tmp_path, labels_only):
         assert digest_arrays(target._state_arrays(include_mesh=False)) == \
             digest_arrays(seg._state_arrays(include_mesh=False)), f"flip at {pos} loaded damaged data"
     assert refused >= 30                              # the rest hit zip time stamps and attributes
+
+
+def test_every_bit_of_every_npy_header_is_checked(surf, tmp_path):
+    """A flipped bit in any ``.npy`` header of an uncompressed session (numpy parses the header dict as Python:
+    a damaged one raised SyntaxError or tokenize.TokenError past the door) is refused or changes nothing."""
+    seg = _seg(surf)
+    good = seg.save(tmp_path / "good.npz", include_mesh=False)
+    raw = good.read_bytes()
+    heads = [m.start() for m in re.finditer(re.escape(b"\x93NUMPY"), raw)]
+    assert len(heads) >= 10
+    refused = 0
+    for h in heads:
+        for pos in range(h + 8, h + 8 + 2 + 118, 3):         # the header length and dict of each member
+            flipped = bytearray(raw)
+            flipped[pos] ^= 1 << (pos % 8)
+            p = tmp_path / "f.npz"
+            p.write_bytes(bytes(flipped))
+            target = _seg(surf)
+            before = _state(target)
+            try:
+                target.restore(p)
+            except ValueError:
+                refused += 1
+                assert _state(target) == before
+                continue
+            assert digest_arrays(target._state_arrays(include_mesh=False)) == \
+                digest_arrays(seg._state_arrays(include_mesh=False)), f"flip at {pos} loaded damaged data"
+    assert refused > 0
+    # the header of a member bigger than zipfile's read block: no CRC check at its end catches the damage first
+    full = seg.save(tmp_path / "full.npz").read_bytes()
+    big = full.index(b"\x93NUMPY", full.index(b"vertices.npy"))
+    for a, b in ((b"{", b"N"), (b")", b" "), (b"}", b")"), (b"'", b"(")):   # unmatched or unclosed brackets
+        i = full.index(a, big + 10)
+        (tmp_path / "g.npz").write_bytes(full[:i] + b + full[i + 1:])
+        with pytest.raises(ValueError, match="header"):
+            Segmentation.load(tmp_path / "g.npz")
 
 
 # ------------------------------------------------------------------ bundles
