@@ -9,6 +9,7 @@ format, spacing and origin: :func:`plantvr.io.volume.read_volume`.
 from __future__ import annotations
 
 import os
+import tokenize
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,7 @@ def _npy_header(p: Path) -> tuple[tuple, np.dtype, int]:
                     else np.lib.format.read_array_header_2_0)
             shape, _fortran, dtype = read(fh, max_header_size=10_000)
             return shape, dtype, fh.tell()
-    except (OSError, EOFError, ValueError, SyntaxError) as exc:
+    except (OSError, EOFError, ValueError, SyntaxError, tokenize.TokenError) as exc:   # numpy tokenizes bad headers
         raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
 
 

@@ -376,3 +376,16 @@ def test_corrupt_meshes_are_refused(tmp_path):
         with pytest.raises(ValueError):
             open_source(tmp_path / name)
     assert open_source(tmp_path / "m.ply").seg.n_vertices == seg.n_vertices
+
+
+def test_a_damaged_npy_volume_header_is_refused(tmp_path):
+    from plantvr.io.volume import read_volume
+    from plantvr.vine.volume import load_volume
+    np.save(tmp_path / "v.npy", synth_balls(8))
+    raw = (tmp_path / "v.npy").read_bytes()
+    for a, b in ((b"{", b"N"), (b")", b" "), (b"}", b")")):
+        i = raw.index(a, 10)
+        (tmp_path / "bad.npy").write_bytes(raw[:i] + b + raw[i + 1:])
+        for reader in (load_volume, read_volume):
+            with pytest.raises(ValueError, match="as .npy"):
+                reader(tmp_path / "bad.npy")
