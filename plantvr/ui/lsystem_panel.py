@@ -64,12 +64,13 @@ class LsystemPanel(W.VBox):
         self.step_slider = W.IntSlider(value=doc.step, min=0, max=max(doc.derivation_length, doc.step, 1),
                                        description="Step", continuous_update=True,
                                        tooltip="derivation step (the grammar's derivation length at the right)",
-                                       style={"description_width": "150px"}, layout=W.Layout(width="420px"))
+                                       style={"description_width": "150px"},
+                                       layout=W.Layout(width="420px", max_width="100%"))
         self.step_slider.observe(self._on_step, names="value")
         self.controls: dict[str, W.Widget] = {}
         self.params_box = W.VBox([])
         self.grammar = W.Textarea(value=doc.text, description="", continuous_update=False,
-                                  layout=W.Layout(width="520px", height="220px"))
+                                  layout=W.Layout(width="520px", max_width="100%", height="220px"))
         self.grammar.add_class("plantvr-lpy")
         self.apply_button = W.Button(description="Apply", icon="check", tooltip="read and derive the grammar",
                                      layout=W.Layout(width="90px"))

@@ -146,7 +146,7 @@ def make_control(p: Param, value: Any) -> W.Widget:
     low, high = min(low, value), max(high, value)  # a valid value set from code is always shown as it is
     return W.FloatSlider(value=float(value), min=low, max=high, step=step, description=desc, tooltip=tip,
                          style=style, continuous_update=False, readout_format=".3g",
-                         layout=W.Layout(width="420px"))
+                         layout=W.Layout(width="420px", max_width="100%"))   # never wider than its column
 
 
 def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
