@@ -149,9 +149,17 @@ WB_VINE = [
 ]
 
 
+WB_LSYSTEM = [
+    ("from plantvr.documents import LSystemDocument\nfrom plantvr.ui import LsystemWidget\n"
+     "doc = LSystemDocument(step=2)\nwb = LsystemWidget(doc, window_size=(460, 420))\nwb"),
+    "print('LS', wb.live, doc.step, doc.n_modules, f\"{doc.externs['angle']:.3f}\", len(doc.log.events))",
+]
+
+
 @pytest.fixture
 def wb_lab(tmp_path):
-    with jupyter_lab(tmp_path, {"treewand.ipynb": WB_TREEWAND, "vine.ipynb": WB_VINE}) as url:
+    with jupyter_lab(tmp_path, {"treewand.ipynb": WB_TREEWAND, "vine.ipynb": WB_VINE,
+                                "lsystem.ipynb": WB_LSYSTEM}) as url:
         yield url
 
 
@@ -294,4 +302,35 @@ def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
         gone = _until_changed(frame, after)
         page.screenshot(path=str(shots / "workbench_vine_hidden.png"))
         assert np.abs(gone - after).max(axis=-1).mean() > 0.05, "hiding the label did not change the view"
+        assert not [e for e in errors if "plantvr" in e.lower()], errors
+
+
+LS = r"LS (\w+) (\d+) (\d+) ([\d.]+) (\d+)"
+
+
+def test_lsystem_widget_step_slider_derives_and_redraws_in_jupyterlab(wb_lab, shots):
+    """Issue 23: dragging the widget's derivation-step slider in the page issues set_step in the kernel, and the
+    live view shows the plant of the new step."""
+    with notebook_page(wb_lab, "lsystem.ipynb", len(WB_LSYSTEM), viewport=(1280, 900)) as (page, errors):
+        run_cell(page, 0)
+        frame = _live_view(page, 0)
+        run_cell(page, 1)
+        live, step, modules, _, _ = printed(page, 1, LS)
+        assert live == "True" and step == "2"
+        before = _pixels(frame)
+        page.screenshot(path=str(shots / "lsystem_widget_step2.png"))
+        slider = page.locator(".jp-Cell").nth(0).locator(".widget-hslider", has_text="Step")
+        handle = slider.locator(".noUi-handle").first
+        handle.scroll_into_view_if_needed()
+        hb = handle.bounding_box()
+        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
+        page.mouse.down()
+        page.mouse.move(hb["x"] + hb["width"] / 2 + 400, hb["y"] + hb["height"] / 2, steps=8)
+        page.mouse.up()
+        got = _poll(page, 1, LS, lambda g: g[1] == "5")
+        assert got[1] == "5" and int(got[2]) > int(modules), got
+        frame.scroll_into_view_if_needed()
+        after = _until_changed(frame, before)
+        page.screenshot(path=str(shots / "lsystem_widget_step5.png"))
+        assert np.abs(after - before).max(axis=-1).mean() > 0.5, "the live view did not change"
         assert not [e for e in errors if "plantvr" in e.lower()], errors
