@@ -75,22 +75,23 @@ def _skip_string(text: str, i: int, line: int, col0: int) -> int:
     return j + 1
 
 
-def _top_level(text: str, start: int = 0) -> Iterator[int]:
-    """The indices from ``start`` on that lie at nesting depth 0 outside strings (brackets not included)."""
+def _depths(text: str, start: int = 0, line: int = 0, col0: int = 0) -> Iterator[tuple[int, str, int]]:
+    """``(index, character, nesting depth after it)`` of every character from ``start`` on outside strings."""
     depth = 0
     i = start
     while i < len(text):
         c = text[i]
         if c in "\"'":
-            i = _skip_string(text, i, 0, 0)
+            i = _skip_string(text, i, line, col0)
             continue
-        if c in "([{":
-            depth += 1
-        elif c in ")]}":
-            depth -= 1
-        elif depth == 0:
-            yield i
+        depth += (c in "([{") - (c in ")]}")
+        yield i, c, depth
         i += 1
+
+
+def _top_level(text: str, start: int = 0) -> Iterator[int]:
+    """The indices from ``start`` on that lie at nesting depth 0 outside strings (brackets not included)."""
+    return (i for i, c, d in _depths(text, start) if d == 0 and c not in "([{)]}")
 
 
 def find_top(text: str, targets: Iterable[str], start: int = 0) -> tuple[int, str]:
@@ -117,22 +118,11 @@ def split_top(text: str, sep: str = ",") -> list[str]:
 
 def _close_paren(text: str, i: int, line: int, col0: int, name: str) -> int:
     """Index of the ``)`` matching the ``(`` at ``i``."""
-    depth = 0
-    j = i
-    while j < len(text):
-        c = text[j]
-        if c in "\"'":
-            j = _skip_string(text, j, line, col0)
-            continue
-        if c in "([{":
-            depth += 1
-        elif c in ")]}":
-            depth -= 1
-            if depth == 0:
-                if c != ")":
-                    break
+    for j, c, d in _depths(text, i, line, col0):
+        if d == 0:
+            if c == ")":
                 return j
-        j += 1
+            break
     raise LSystemError(f"unclosed '(' after module {name!r}", line, col0 + i)
 
 
