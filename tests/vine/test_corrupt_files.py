@@ -192,24 +192,27 @@ def test_session_bit_flips_never_load_damaged_data(surf, tmp_path, labels_only):
     seg.save(good, include_mesh=not labels_only, compress=True)
     raw = good.read_bytes()
     rng = np.random.default_rng(0)
-    refused = 0
-    for k, pos in enumerate(rng.choice(len(raw), 60, replace=False)):
-        flipped = bytearray(raw)
-        flipped[pos] ^= 1 << int(rng.integers(8))
-        p = tmp_path / f"f{k}.npz"
-        p.write_bytes(bytes(flipped))
-        target = _seg(surf)
-        before = _state(target)
-        try:
-            target.restore(p)
-        except ValueError:
-            refused += 1
-            assert _state(target) == before
-            continue
-        # accepted only where the flip hit bytes that carry no data (a time stamp, padding)
-        assert digest_arrays(target._state_arrays(include_mesh=False)) == \
-            digest_arrays(seg._state_arrays(include_mesh=False)), f"flip at {pos} loaded damaged data"
+    refused = sum(_flip_refused(surf, seg, raw, int(pos), 1 << int(rng.integers(8)), tmp_path / f"f{k}.npz")
+                  for k, pos in enumerate(rng.choice(len(raw), 60, replace=False)))
     assert refused >= 30                              # the rest hit zip time stamps and attributes
+
+
+def _flip_refused(surf, seg, raw: bytes, pos: int, bit: int, path) -> bool:
+    """Restore ``raw`` with ``bit`` flipped at ``pos`` onto a fresh segmentation: True when refused (and nothing
+    changed); accepted only where the flip hit bytes that carry no data (a time stamp, padding)."""
+    flipped = bytearray(raw)
+    flipped[pos] ^= bit
+    path.write_bytes(bytes(flipped))
+    target = _seg(surf)
+    before = _state(target)
+    try:
+        target.restore(path)
+    except ValueError:
+        assert _state(target) == before
+        return True
+    assert digest_arrays(target._state_arrays(include_mesh=False)) == \
+        digest_arrays(seg._state_arrays(include_mesh=False)), f"flip at {pos} loaded damaged data"
+    return False
 
 
 def test_every_bit_of_every_npy_header_is_checked(surf, tmp_path):
@@ -220,23 +223,8 @@ def test_every_bit_of_every_npy_header_is_checked(surf, tmp_path):
     raw = good.read_bytes()
     heads = [m.start() for m in re.finditer(re.escape(b"\x93NUMPY"), raw)]
     assert len(heads) >= 10
-    refused = 0
-    for h in heads:
-        for pos in range(h + 8, h + 8 + 2 + 118, 3):         # the header length and dict of each member
-            flipped = bytearray(raw)
-            flipped[pos] ^= 1 << (pos % 8)
-            p = tmp_path / "f.npz"
-            p.write_bytes(bytes(flipped))
-            target = _seg(surf)
-            before = _state(target)
-            try:
-                target.restore(p)
-            except ValueError:
-                refused += 1
-                assert _state(target) == before
-                continue
-            assert digest_arrays(target._state_arrays(include_mesh=False)) == \
-                digest_arrays(seg._state_arrays(include_mesh=False)), f"flip at {pos} loaded damaged data"
+    refused = sum(_flip_refused(surf, seg, raw, pos, 1 << (pos % 8), tmp_path / "f.npz")
+                  for h in heads for pos in range(h + 8, h + 8 + 2 + 118, 3))   # header length and dict
     assert refused > 0
     # the header of a member bigger than zipfile's read block: no CRC check at its end catches the damage first
     full = seg.save(tmp_path / "full.npz").read_bytes()
