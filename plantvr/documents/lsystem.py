@@ -22,6 +22,7 @@ tree, so :class:`plantvr.View`, the headset (:func:`plantvr.vr.attach`) and the 
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 from collections import OrderedDict
@@ -34,7 +35,6 @@ import numpy as np
 
 from .._validation import check_int
 from ..document import Document, serialise
-from ..history import StateAtom
 from ..lsystem.engine import LSystem
 from ..lsystem.modules import ModuleString
 from ..types import TreeArrays
@@ -312,13 +312,9 @@ class LSystemDocument(Document):
         state: one undo atom (none when nothing changed), one log record, one change."""
         text, step, overrides, seed = candidate
         tree = self._evaluate(text, step, overrides, seed)
-        with self._lock:
-            before = self.get_state()
+        with self._lock, self.undoable("lsystem") if undoable else contextlib.nullcontext():
             self.text, self.step, self.overrides, self.seed = text, step, dict(overrides), seed
             self._tree = tree
-            after = self.get_state()
-            if undoable and before != after:
-                self.history.push(StateAtom(before, after, "lsystem"))
             self.log.record(command, **kwargs)
         self.changed("lsystem", command=command)
 
