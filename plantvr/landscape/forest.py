@@ -36,8 +36,16 @@ from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_ra
 from ..growth.engine import GrowthEngine
 from ..growth.sketch import SketchEngine, _check_bool
 from ..params import Param, ParamTable, check_params, defaults
-from ..scaleout import TaskStats, check_progress, chunks, connect, n_workers_of, timed, track
-from ..scaleout import check_client as _check_client
+from ..scaleout import (  # check_client is re-exported: forest callers check their client here
+    TaskStats,
+    check_client,
+    check_progress,
+    chunks,
+    connect,
+    n_workers_of,
+    timed,
+    track,
+)
 from ..types import TreeArrays
 from .asymmetry import cell_geometry, neighbour_asymmetry
 from .crowns import (
@@ -546,12 +554,6 @@ def _seed_states(params, bases, seed, crown_height, crown_radius, n_darts, sketc
     records, voxels = _tree_records(params, bases, seed, crown_height, crown_radius, n_darts, sketch, size, lean,
                                     regions, scales, voxel_shape, heroes)
     return [seed_task(params, r) for r in records], voxels
-
-
-def check_client(client: Any) -> Any:
-    """``client`` if it is None, ``"sync"``, a scheduler address (``"tcp://host:port"``) or a dask ``Client``
-    (anything with ``submit``), else a ValueError (:func:`plantvr.scaleout.check_client`)."""
-    return _check_client(client)
 
 
 def check_sketch(sketch: dict[str, Any] | None) -> dict[str, Any] | None:
