@@ -430,6 +430,8 @@ def _bulky(x: Any) -> bool:
 
 
 def _same(a: Any, b: Any) -> bool:
+    if a is b:                                             # a shared (read-only) array: nothing to compare
+        return True
     if isinstance(a, (bytes, bytearray)) or isinstance(b, (bytes, bytearray)):
         return a == b
     if isinstance(a, np.ndarray) and isinstance(b, np.ndarray):

@@ -101,6 +101,16 @@ class _Phases:
         self.ms[self._name] = (w + 1e3 * (time.perf_counter() - self._t[0]), c + 1e3 * (self._t[2]() - self._t[1]))
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only view of ``a``: the marker array is replaced on every change and never written in place, so
+    states and snapshots share it instead of copying 200k markers per step (issue 24)."""
+    if not a.flags.writeable:
+        return a
+    v = a.view()
+    v.flags.writeable = False
+    return v
+
+
 def marker_counts(owner: np.ndarray, n_buds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(hit, count, chosen)`` of a marker assignment ``owner`` (M,) in [-1, n_buds): the markers that have a
     bud (bool), the markers of each bud (n_buds,) and the buds with at least one (the buds that grow, §2.4)."""
@@ -115,7 +125,8 @@ class GrowthEngine:
     ``phase_ms`` holds the last step's ``{phase: (wall ms, CPU ms)}`` (:class:`_Phases`; benchmarks/interactive.py).
     ``_fast = False`` runs the issue-23 code path (serial assignment, ``np.bincount`` sums, a marker copy every
     step): the twin the fast path is tested and benchmarked against; both grow the same tree bit for bit.
-    ``markers`` is replaced by a new array on every change, never written in place (snapshots share it).
+    ``markers`` is replaced by a new array on every change, never written in place (snapshots and states share
+    it).
     """
 
     _fast = True
@@ -244,7 +255,7 @@ class GrowthEngine:
         self._append_markers(points)
 
     def _append_markers(self, points: np.ndarray) -> None:
-        self.markers = np.concatenate([self.markers, points])
+        self.markers = _read_only(np.concatenate([self.markers, points]))
         self.marker_age = np.concatenate([self.marker_age, np.zeros(len(points), np.int64)])
 
     def prune_preview(self, center: np.ndarray, radius: float) -> np.ndarray:
@@ -336,7 +347,7 @@ class GrowthEngine:
         """``markers, marker_age = markers[keep], marker_age[keep]``; a kept marker grid follows (fast path)."""
         a = getattr(self, "_asg", None)
         follow = self._fast and a is not None and getattr(self, "_asg_for", None) is self.markers
-        self.markers, self.marker_age = self.markers[keep], self.marker_age[keep]
+        self.markers, self.marker_age = _read_only(self.markers[keep]), self.marker_age[keep]
         if follow:
             a.keep_rows(keep)
             self._asg_for = self.markers
@@ -369,7 +380,8 @@ class GrowthEngine:
         derived values were computed with and (``grid``) the shadow grid, so :meth:`set_state` restores the
         engine exactly; without the grid it is rebuilt from the tree (sums in another order)."""
         state = {"params": dict(self.params), "tree": self.tree.arrays(), "nslots": self.tree.nslots,
-                 "markers": self.markers.copy(), "marker_age": self.marker_age.copy(), "step_count": self.step_count,
+                 "markers": _read_only(self.markers), "marker_age": self.marker_age.copy(),
+                 "step_count": self.step_count,
                  "history": tuple(self.history), "rng": self.rng.bit_generator.state,
                  "new_nodes": np.array(self._new_nodes, np.int64)}
         if grid:
@@ -388,7 +400,7 @@ class GrowthEngine:
             tree._data[k][:n] = v
         tree.n = n
         self.tree = tree
-        self.markers, self.marker_age = state["markers"].copy(), state["marker_age"].copy()
+        self.markers, self.marker_age = _read_only(state["markers"]), state["marker_age"].copy()
         self.step_count, self.history = state["step_count"], list(state["history"])
         self.rng.bit_generator.state = state["rng"]
         self._new_nodes = state["new_nodes"].copy()
