@@ -228,10 +228,20 @@ def parameter_reference(kind: str | None = None) -> str:
     return "\n\n".join(pages)
 
 
-_DELEGATED = {  # sub-commands whose own parsers live beside their code
-    "export": ("plantvr.cli", "export_main", "export a saved tree: usd | glb | ply | obj, at an LOD level"),
-    "segment": ("plantvr.view.vine_app", "main_segment", "ViNE: isosurface a volume and review/paint it in the browser"),
-    "warmup": ("plantvr._warmup", "main", "compile and cache every numba kernel once (run at install)"),
+def _segment(argv: list[str]) -> int:
+    from .view.vine_app import main_segment  # noqa: PLC0415 (static, so the layer contract sees it)
+    return main_segment(argv)
+
+
+def _warmup(argv: list[str]) -> int:
+    from ._warmup import main as warmup_main  # noqa: PLC0415
+    return warmup_main(argv)
+
+
+_DELEGATED = {  # sub-commands whose own parsers live beside their code: (entry point, help)
+    "export": (export_main, "export a saved tree: usd | glb | ply | obj, at an LOD level"),
+    "segment": (_segment, "ViNE: isosurface a volume and review/paint it in the browser"),
+    "warmup": (_warmup, "compile and cache every numba kernel once (run at install)"),
 }
 
 
@@ -268,11 +278,11 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str]) -> int:
     if argv and argv[0] in _DELEGATED:
-        mod, fn, _ = _DELEGATED[argv[0]]
-        return int(getattr(importlib.import_module(mod), fn)(argv[1:]) or 0)
+        entry, _ = _DELEGATED[argv[0]]
+        return int(entry(argv[1:]) or 0)
     ap = argparse.ArgumentParser(prog="plantvr", description=__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
-    for name, (_, _, text) in _DELEGATED.items():
+    for name, (_, text) in _DELEGATED.items():
         sub.add_parser(name, help=f"{text} (plantvr {name} --help)")
     d = sub.add_parser("demo", help="grow a tree from built-in strokes; write tree.ply, tree.glb, tree.png")
     d.add_argument("--out", type=Path, default=Path("demo_out"))

@@ -15,11 +15,12 @@ document (KIND)                              what it holds                      
 from __future__ import annotations
 
 from .crown import CrownDocument
+from .forest import ForestDocument
 from .inflorescence import InflorescenceDocument
 from .labels import Segmentation
 from .lsystem import LSystemDocument
 from .treesketch import SketchDocument
 from .treewand import Model, Snapshot
 
-__all__ = ["CrownDocument", "InflorescenceDocument", "LSystemDocument", "Model", "Segmentation", "SketchDocument",
+__all__ = ["CrownDocument", "ForestDocument", "InflorescenceDocument", "LSystemDocument", "Model", "Segmentation", "SketchDocument",
            "Snapshot"]
