@@ -298,7 +298,7 @@ def main(argv: list[str] | None = None) -> dict:
     from plantvr.io.tree import branch_mesh
     from plantvr.params import TREEWAND
     from plantvr.vr.bridge import tube_mesh
-    from plantvr.vr.controls import SceneTransform
+    from plantvr.vr.gestures import SceneTransform
     appearance = TREEWAND.defaults()
     scene = SceneTransform(scale=0.25, translation=(0.0, 0.0, -0.6)).matrix
     results: dict = {"eye": (w, h), "frames": frames, "cases": []}

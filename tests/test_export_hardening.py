@@ -11,11 +11,11 @@ from hypothesis import strategies as st
 
 from plantvr import Model
 from plantvr.cli import main as cli_main
-from plantvr.commandlog import CommandLog
+from plantvr.commandlog import CommandLog, Event
 from plantvr.growth.scenarios import demo_session, run
 from plantvr.params import TREEWAND
 from plantvr.ui.strokes import read_scenario, record_scenario, save_scenario
-from plantvr.vr.controls import ControllerState, InputFrame, load_recording, save_recording
+from plantvr.vr.frames import ControllerState, InputFrame, load_recording, save_recording
 
 FUZZ = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
@@ -177,7 +177,7 @@ def test_recording_round_trip_atomic_and_corrupt(tmp_path):
     p = save_recording(_frames(), tmp_path / "r.jsonl")
     first = p.read_bytes()
     assert save_recording(load_recording(p), tmp_path / "s.jsonl").read_bytes() == first
-    line = json.loads(first.splitlines()[0])
+    line = json.loads(first.splitlines()[0])["kwargs"]      # the first frame event's frame
 
     def doc(**patch):
         d = json.loads(json.dumps(line))
@@ -187,7 +187,9 @@ def test_recording_round_trip_atomic_and_corrupt(tmp_path):
             for q in path:
                 tgt = tgt[q]
             tgt[last] = v
-        return (json.dumps(d) + "\n").encode()
+        log = CommandLog(("frame",), document="headset")    # a well-formed log holding a bad frame
+        log.events.append(Event("frame", d, 0.0))
+        return log.to_text().encode()
     bads = {
         "truncated": first[:-30],
         "binary": bytes(range(256)),
@@ -204,9 +206,10 @@ def test_recording_round_trip_atomic_and_corrupt(tmp_path):
     }
     for what, data in bads.items():
         (tmp_path / "bad.jsonl").write_bytes(data)
-        with pytest.raises(ValueError, match="recording"):
+        # damaged bytes fail the log's checksum trailer, crafted frames their door check, naming the file
+        with pytest.raises(ValueError, match="(recording|event log) .*bad.jsonl"):
             load_recording(tmp_path / "bad.jsonl")
-    with pytest.raises(ValueError, match="does not exist"):
+    with pytest.raises(ValueError, match="cannot read .*missing.jsonl"):
         load_recording(tmp_path / "missing.jsonl")
     with pytest.raises(ValueError, match="trigger"):
         save_recording([InputFrame(t=0.0, right=ControllerState(trigger=np.nan))], p)

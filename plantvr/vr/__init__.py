@@ -10,7 +10,12 @@ SteamVR, ``start()`` raises a ``RuntimeError`` that says what to install. :mod:`
 in for it in tests.
 """
 from . import controls as _controls
+from . import frames as _frames
+from . import gestures as _gestures
 from .bridge import HISTOGRAM_EDGES_MS, Headset, attach, replay
-from .controls import *  # noqa: F403  (the control map, gestures and recordings: everything controls exports)
+from .controls import *  # noqa: F403  (the control map)
+from .frames import *  # noqa: F403  (input frames and recordings)
+from .gestures import *  # noqa: F403  (gesture geometry)
 
-__all__ = ["HISTOGRAM_EDGES_MS", "Headset", "attach", "replay"] + _controls.__all__
+__all__ = ["HISTOGRAM_EDGES_MS", "Headset", "attach", "replay"] + _controls.__all__ + _frames.__all__ \
+    + _gestures.__all__

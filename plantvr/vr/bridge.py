@@ -41,7 +41,9 @@ from ..io.tree import branch_mesh, leaf_mesh
 from ..params import TREEWAND
 from ..types import Instances, Points, TreeArrays, TriMesh
 from ..vine.depthcue import coarse_hull, depth_cue_colors
-from .controls import Command, ControllerState, Controls, InputFrame, SceneTransform, issue
+from .controls import Command, Controls, issue
+from .frames import ControllerState, InputFrame
+from .gestures import SceneTransform
 from .math3d import hmd34_to_array, hmd44_to_array
 
 __all__ = ["HISTOGRAM_EDGES_MS", "HOME", "HOME_SIZE", "Headset", "attach", "replay"]
@@ -163,7 +165,7 @@ class Headset:
         With ``mesh="cylinders"``, also show the leaves of a document whose snapshot has ``buds`` (Tree Wand,
         §3.4; :func:`plantvr.io.tree.leaf_mesh`).
     record : bool
-        Keep every :class:`~plantvr.vr.controls.InputFrame` in :attr:`recording` (replay with :meth:`replay`).
+        Keep every :class:`~plantvr.vr.frames.InputFrame` in :attr:`recording` (replay with :meth:`replay`).
     readback : bool
         Copy both eye images to :attr:`last_images` every frame (tests, thumbnails; slow).
     near, far : float

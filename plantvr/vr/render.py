@@ -315,7 +315,7 @@ def wheel_mesh(rgba: np.ndarray, visible: np.ndarray, selected: int, thumb: tupl
                *, segments: int = 6):
     """Colour-wheel polydata on the unit disc (000_vine §2.4.1, Fig. 5.9; §2.6, Fig. 5.11).
 
-    Slice k (counter-clockwise from +x, as :func:`~plantvr.vr.controls.wheel_label`) has colour k;
+    Slice k (counter-clockwise from +x, as :func:`~plantvr.vr.gestures.wheel_label`) has colour k;
     the selected slice is extruded (+z), hidden colours are drawn darkened with a light radial line
     through the slice, and a small dark disc marks the thumb. Cell array ``rgb`` (uint8).
     """

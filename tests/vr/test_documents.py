@@ -10,7 +10,7 @@ from plantvr.documents.labels import Segmentation
 from plantvr.documents.treesketch import SketchDocument
 from plantvr.documents.treewand import Model
 from plantvr.types import Points, TriMesh
-from plantvr.vr.controls import CONTROL_MAPS, TIP_OFFSET, Command, Controls, control_map
+from plantvr.vr import CONTROL_MAPS, TIP_OFFSET, Command, Controls, control_map
 
 
 def make(kind: str, *, grown: bool = True):

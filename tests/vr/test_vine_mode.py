@@ -9,7 +9,7 @@ import trimesh
 
 from plantvr import vr
 from plantvr.documents.labels import Segmentation
-from plantvr.vr.controls import (
+from plantvr.vr import (
     CONTROL_MAPS,
     TIP_OFFSET,
     Command,
