@@ -27,7 +27,7 @@ from _common import cpu_capacity
 
 from plantvr.landscape import grow_forest
 from plantvr.landscape.forest import warm_up
-from plantvr.ui.sweep import sweep, warm_up_sweep
+from plantvr.documents.sweep import sweep, warm_up_sweep
 
 
 def forest_hash(f) -> str:

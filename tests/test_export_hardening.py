@@ -14,7 +14,7 @@ from plantvr.cli import main as cli_main
 from plantvr.commandlog import CommandLog, Event
 from plantvr.growth.scenarios import demo_session, run
 from plantvr.params import TREEWAND
-from plantvr.ui.strokes import read_scenario, record_scenario, save_scenario
+from plantvr.documents.scenarios import read_scenario, record_scenario, save_scenario
 from plantvr.vr.frames import ControllerState, InputFrame, load_recording, save_recording
 
 FUZZ = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -66,7 +66,7 @@ def run(target, session: Session, steps: int, progress: Iterable[int] | None = N
     return out
 
 
-# -- Figs. 12.2, 12.4–12.6 (added for the replayable stroke files of plantvr.ui.strokes) ----------------------
+# -- Figs. 12.2, 12.4–12.6 (added for the replayable stroke files of plantvr.documents.scenarios) ----------------------
 # Only the motions the thesis states are reproduced (spec 000_treewand §6.1); positions, radii and timings are
 # [INFERRED] to give the stated shape on the default 16-unit scene.
 

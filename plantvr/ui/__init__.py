@@ -7,7 +7,7 @@ from .architecture import AngleWidget, ArchitecturePanel, GravimorphismEllipse, 
 from .growth import GrowthControl, GrowthPlot
 from .library import LibraryPanel, apply_preset_values, preset_from_tree, tree_svg
 from .panels import IconSelector, ParameterPanels, make_control, param_traits
-from .strokes import ScenarioPicker, list_scenarios, load_scenario, replay_scenario
+from .strokes import ScenarioPicker
 from .triangle import (InfluenceTriangle, barycentric, clamp_to_triangle, point_from_weights,
                        sub_triangle_areas)
 from .wheel import ColorWheel, slice_at
@@ -16,7 +16,7 @@ from .workbench import Workbench, live_frontend, workbench
 __all__ = ["ColorWheel", "GrowthControl", "GrowthPlot", "IconSelector", "InfluenceTriangle", "ParameterPanels",
            "barycentric", "clamp_to_triangle", "make_control", "param_traits",
            "point_from_weights", "slice_at", "sub_triangle_areas", "explorer",
-           "ScenarioPicker", "list_scenarios", "load_scenario", "replay_scenario",
+           "ScenarioPicker",
            "Workbench", "live_frontend", "workbench"]
 
 

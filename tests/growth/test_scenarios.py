@@ -95,10 +95,10 @@ def _check_sweep(tree, slow):
 
 
 def test_tw_v23_c_shipped_fig12_1_stroke_files():
-    """The same claim on the replayed stroke files plantvr/ui/scenarios/fig12_1{,_slow}.json (tropism 90° for
+    """The same claim on the replayed stroke files plantvr/documents/scenario_files/fig12_1{,_slow}.jsonl (tropism 90° for
     orders >= 1, as stated for Fig. 12.1)."""
     from plantvr.documents.treewand import Model
-    from plantvr.ui.strokes import replay_scenario
+    from plantvr.documents.scenarios import replay_scenario
 
     low = {}
     for name in ("fig12_1", "fig12_1_slow"):

@@ -7,7 +7,8 @@ from hypothesis import strategies as st
 
 import plantvr
 from plantvr.ui import GrowthControl
-from plantvr.ui.sweep import MAX_POINTS, grow_variant, sweep, thumbnail, thumbnail_grid
+from plantvr.documents.sweep import MAX_POINTS, grow_variant, sweep
+from plantvr.view.thumbnails import thumbnail, thumbnail_grid
 
 BAD = [math.nan, math.inf, -1, 1e300, 10**12, -(10**19), "x", None, 0.5]
 fuzz_settings = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

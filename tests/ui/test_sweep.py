@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 import plantvr
-from plantvr.ui.strokes import load_scenario, replay_scenario
-from plantvr.ui.sweep import grow_variant, sweep, thumbnail, thumbnail_grid, tree_metrics
+from plantvr.documents.scenarios import load_scenario, replay_scenario
+from plantvr.documents.sweep import grow_variant, sweep, tree_metrics
+from plantvr.view.thumbnails import thumbnail, thumbnail_grid
 
 GRID = {"apical_dominance": [0.4, 0.7], "tropism_angle": [0.0]}
 
@@ -74,7 +75,7 @@ def test_sweep_options_are_checked_before_any_task():
 @pytest.mark.slow  # ~20 s: worker processes start and import the model
 def test_sweep_one_and_two_worker_processes_and_an_address_give_the_same_bytes(table):
     """Batched tasks on 1 and 2 worker processes, and through a scheduler address string: the same table."""
-    from plantvr.ui.sweep import warm_up_sweep
+    from plantvr.documents.sweep import warm_up_sweep
     distributed = pytest.importorskip("dask.distributed")
     got = []
     for n in (1, 2):

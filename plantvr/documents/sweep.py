@@ -1,9 +1,10 @@
-"""Parameter sweeps over a replayed scenario, with growth metrics and a grid of thumbnails (spec 000_treewand §4.11,
-§6.1; DESIGN: scale-out work is a set of independent tasks on a dask client).
+"""Parameter sweeps over a replayed scenario, with growth metrics (spec 000_treewand §4.11, §6.1; DESIGN: scale-out
+work is a set of independent tasks on a dask client, :mod:`plantvr.scaleout`).
 
 Each grid point is one variant: a fresh model is re-seeded, the scenario's strokes are replayed with the grid
 point's parameters over the scenario's own, and the variant returns its metrics and the lossless ``.npz`` state
-(bytes), so thumbnails are rendered afterwards in the calling process from exactly the grown trees. On a dask
+(bytes), so thumbnails (:mod:`plantvr.view.thumbnails`) are rendered afterwards in the calling process from
+exactly the grown trees. On a dask
 client the points are batched into a few tasks per worker (:mod:`plantvr.scaleout`); a task's input is the
 scenario's name (or the small scenario record), the points' parameter dicts and the seed, never a model.
 Variants are deterministic: the same grid gives the same trees on any client (process workers for a speed-up:
@@ -13,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import os
 import tempfile
 import time
 from pathlib import Path
@@ -21,12 +21,13 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import check_int, check_size
+from .._validation import check_int
 from ..params import PARAM_BY_NAME, validate
 from ..scaleout import TaskStats, check_client, check_progress, chunks, connect, n_workers_of, run_tasks
-from .strokes import Scenario, load_scenario, replay_scenario
+from .scenarios import Scenario, load_scenario, replay_scenario
+from .treewand import Model
 
-__all__ = ["grow_variant", "sweep", "sweep_task", "thumbnail", "thumbnail_grid", "tree_metrics", "warm_up_sweep"]
+__all__ = ["grow_variant", "sweep", "sweep_task", "tree_metrics", "warm_up_sweep"]
 
 #: Most grid points one :func:`sweep` call may grow.
 MAX_POINTS = 100_000
@@ -34,10 +35,6 @@ MAX_POINTS = 100_000
 
 def _seed(seed) -> int | None:
     return None if seed is None else check_int("seed", seed, 0, 2**63 - 1)
-
-
-def _size(size) -> tuple[int, int]:
-    return check_size("size", size, 16, 4096)
 
 
 def tree_metrics(model) -> dict[str, float]:
@@ -80,9 +77,8 @@ def grow_variant(scenario: str | Scenario, params: dict[str, Any], *, seed: int 
     -------
     dict
         The grid point's ``params``, :func:`tree_metrics`, ``seconds`` (wall time) and ``state`` (the
-        model's ``.npz`` bytes, for :func:`thumbnail`).
+        model's ``.npz`` bytes, for :func:`plantvr.view.thumbnails.thumbnail`).
     """
-    from ..documents.treewand import Model
     seed = _seed(seed)
     if not isinstance(params, dict):
         raise ValueError(f"params must be a dict of parameter -> value, got {type(params).__name__}")
@@ -177,86 +173,3 @@ def sweep(scenario: str | Scenario, grid: dict[str, list], *, client=None, seed:
     table = pd.DataFrame(rows)
     table.attrs["scaleout"] = stats.as_dict()
     return table
-
-
-def thumbnail(state: bytes, *, size: tuple[int, int] = (200, 200), leaves: bool = True) -> np.ndarray:
-    """Render one tree (the ``state`` bytes of :func:`grow_variant`) offscreen.
-
-    Returns
-    -------
-    (H, W, 3) uint8 ndarray
-    """
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    from ..documents.treewand import Model
-    from ..view import View
-    if not isinstance(state, (bytes, bytearray)) or not state:
-        raise ValueError("state must be the non-empty .npz bytes of grow_variant")
-    size = _size(size)
-    with tempfile.TemporaryDirectory() as d:
-        path = Path(d) / "tree.npz"
-        path.write_bytes(state)
-        model = Model.load(path)
-    view = View(model, off_screen=True, window_size=size, show_leaves=leaves)
-    try:
-        markers = view.plotter.actors.get("markers")
-        if markers is not None:  # the tree only
-            markers.SetVisibility(False)
-        view.frame()
-        return np.asarray(view.screenshot())[..., :3].copy()
-    finally:
-        view.close()
-
-
-def _caption_font():
-    """A TrueType font with Greek letters (DejaVu Sans, from the system or matplotlib) and whether it has them;
-    else Pillow's default bitmap font, with parameter names instead of symbols."""
-    from PIL import ImageFont
-    candidates = ["DejaVuSans.ttf"]
-    try:
-        import matplotlib
-        candidates.append(str(Path(matplotlib.get_data_path()) / "fonts" / "ttf" / "DejaVuSans.ttf"))
-    except ImportError:
-        pass
-    for c in candidates:
-        try:
-            return ImageFont.truetype(c, 12), True
-        except OSError:
-            continue
-    return ImageFont.load_default(), False
-
-
-def thumbnail_grid(table, rows: str, cols: str, *, size: tuple[int, int] = (200, 200),
-                   metric: str | None = "internodes") -> np.ndarray:
-    """Thumbnails of a :func:`sweep` table laid out with ``rows`` down and ``cols`` across, each captioned
-    with its two parameter values (and ``metric``).
-
-    Returns
-    -------
-    (H, W, 3) uint8 ndarray
-    """
-    from PIL import Image, ImageDraw
-    size = _size(size)
-    for name in (rows, cols) + ((metric,) if metric else ()):
-        if name not in table.columns:
-            raise ValueError(f"{name!r} must be a column of the sweep table, got {list(table.columns)}")
-    rv, cv = sorted(table[rows].unique()), sorted(table[cols].unique())
-    w, h = int(size[0]), int(size[1])
-    band = 34 if metric else 18  # white caption strip above each picture
-
-    font, greek = _caption_font()
-
-    def short(name: str) -> str:
-        p = PARAM_BY_NAME.get(name)
-        return p.symbol if greek and p is not None and p.symbol else name
-
-    out = np.full((len(rv) * (h + band), len(cv) * w, 3), 255, np.uint8)
-    for _, r in table.iterrows():
-        i, j = rv.index(r[rows]), cv.index(r[cols])
-        tile = Image.new("RGB", (w, h + band), "white")
-        tile.paste(Image.fromarray(thumbnail(r["state"], size=(w, h))), (0, band))
-        caption = f"{short(rows)} = {r[rows]:.3g}   {short(cols)} = {r[cols]:.3g}"
-        if metric:
-            caption += f"\n{metric} = {r[metric]:.3g}"
-        ImageDraw.Draw(tile).multiline_text((4, 2), caption, fill=(20, 20, 20), font=font)
-        out[i * (h + band):(i + 1) * (h + band), j * w:(j + 1) * w] = np.asarray(tile)
-    return out
