@@ -16,7 +16,7 @@ import numpy as np
 
 from ._validation import MAX_COORD, check_array
 
-__all__ = ["Instances", "Points", "TreeArrays", "TriMesh"]
+__all__ = ["BufferMesh", "Instances", "Points", "TreeArrays", "TriMesh"]
 
 
 def _frozen(a, dtype=None) -> np.ndarray:
@@ -250,6 +250,19 @@ class TriMesh:
             u, cu = np.unique(np.sort(d, axis=1), axis=0, return_counts=True)
             return bool(np.all(cu == 2))
         return self._cached("is_watertight", make)
+
+
+class BufferMesh(TriMesh):
+    """A :class:`TriMesh` whose ``vertices`` and ``faces`` are views of buffers that an incremental mesher
+    updates in place (the branch and leaf meshes kept across growth steps): derived data is computed on every
+    access instead of cached. A subclass provides ``vertices`` and ``faces`` as properties and calls
+    ``BufferMesh.__init__`` (no arguments) before filling its buffers."""
+
+    def __init__(self) -> None:
+        self._cache = {}
+
+    def _cached(self, key: str, make):
+        return make()
 
     def to_trimesh(self):
         """A ``trimesh.Trimesh`` (``process=False``) with this mesh's vertex normals."""

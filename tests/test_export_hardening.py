@@ -243,8 +243,8 @@ def test_billboard_atlas_and_export_atomic(tmp_path, monkeypatch):
     from plantvr.view.billboard import Billboard
     atlas = np.zeros((8, 16, 4), np.uint8)
     atlas[2:6, 3:12] = (10, 200, 30, 255)
-    bb = Billboard(atlas, np.array([[-1, 0, 0], [1, 0, 0], [1, 2, 0], [-1, 2, 0.0]]), np.array([[0, 1, 2], [0, 2, 3]]),
-                   np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]), np.zeros(3), 1.0)
+    bb = Billboard(np.array([[-1, 0, 0], [1, 0, 0], [1, 2, 0], [-1, 2, 0.0]]), np.array([[0, 1, 2], [0, 2, 3]]),
+                   atlas, np.array([[0, 0], [1, 0], [1, 1], [0, 1.0]]), np.zeros(3), 1.0)
     png = bb.save_atlas(tmp_path / "a.png")
     first = png.read_bytes()
     assert bb.save_atlas(tmp_path / "a.png").read_bytes() == first

@@ -14,7 +14,7 @@ import numba
 import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
-from plantvr.types import TriMesh
+from plantvr.types import BufferMesh, TriMesh
 
 from . import _kernels as K
 
@@ -410,7 +410,7 @@ def _match_in_order(rows, old_rows, seq, match, window):
                 break
 
 
-class IncrementalLeafMesh:
+class IncrementalLeafMesh(BufferMesh):
     """Leaf mesh kept up to date bud by bud (spec §3.4 with the incremental update of §3.5).
 
     Each leaf (blade + petiole) owns a fixed-size block of the buffers. A leaf's geometry depends only on its
@@ -437,6 +437,7 @@ class IncrementalLeafMesh:
                  petiole_length: float = 0.1, e_twist: float = 0.05, e_up: float = 0.05, e_right: float = 0.05,
                  iterations: int = 15, leaf_shape: str = "ovate", up=(0.0, 1.0, 0.0),
                  increment: str = "per_iteration", petiole_sides: int = 5):
+        super().__init__()
         self.options = dict(
             leaf_size=check_range("leaf_size", leaf_size, 0.0, np.inf),
             radius_threshold=check_range("radius_threshold", radius_threshold, 0.0, np.inf),

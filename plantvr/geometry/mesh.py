@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from plantvr._validation import check_array, check_index, check_int, check_range, check_tree_arrays
-from plantvr.types import TriMesh
+from plantvr.types import BufferMesh, TriMesh
 
 from . import _kernels as K
 from ._kernels import CAP_END, CAP_START
@@ -499,7 +499,7 @@ def _grow(a: np.ndarray, n: int, fill=None) -> np.ndarray:
     return out
 
 
-class IncrementalBranchMesh:
+class IncrementalBranchMesh(BufferMesh):
     """Branch mesh kept up to date segment by segment after growth steps (spec §3.5, checklist item 20).
 
     Every segment (one 20-float record, :class:`Segments`) owns a block of the vertex and face buffers with
@@ -544,6 +544,7 @@ class IncrementalBranchMesh:
                  rebuild_fraction: float = 0.5):
         pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
         opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive)
+        super().__init__()
         self.slack = check_range("slack", slack, 0.0, 4.0)
         self.max_waste = check_range("max_waste", max_waste, 0.0, 1.0, low_open=True)
         self.rebuild_fraction = check_range("rebuild_fraction", rebuild_fraction, 0.0, 1.0, low_open=True)

@@ -23,6 +23,7 @@ import numpy as np
 from plantvr._validation import check_choice, check_range
 from plantvr.geometry.leaves import LEAF_SHAPES, LeafMesh, _blade
 from plantvr.geometry.mesh import BranchMesh
+from plantvr.types import TriMesh
 
 from ._checks import check_tree_meshes
 
@@ -191,8 +192,10 @@ def _mesh(stage, path: str, m, material, *, double_sided: bool):
     return mesh
 
 
-@dataclass
-class _Part:
+@dataclass(eq=False)
+class _Part(TriMesh):
+    """One USD mesh prim's arrays (a leaf prototype, the petioles)."""
+
     vertices: np.ndarray
     faces: np.ndarray
     normals: np.ndarray

@@ -17,6 +17,7 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 import numpy as np
 
 from .._validation import check_int, check_range
+from ..types import TriMesh
 
 __all__ = ["BILLBOARD_LEVEL", "LOD_SCREEN_PX", "Billboard", "export_billboard", "lod_by_distance", "make_billboard",
            "mask_iou", "render_views", "silhouette_iou", "silhouette_masks", "view_frames"]
@@ -153,9 +154,9 @@ def _unblend(img: np.ndarray) -> None:
     img[..., :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
 
 
-@dataclass
-class Billboard:
-    """A cross-quad impostor: an RGBA atlas and vertical quads that show it.
+@dataclass(eq=False)
+class Billboard(TriMesh):
+    """A cross-quad impostor, a :class:`~plantvr.types.TriMesh` of vertical quads showing an RGBA atlas.
 
     Attributes
     ----------
@@ -170,9 +171,9 @@ class Billboard:
         Half side of each quad, in scene units.
     """
 
-    atlas: np.ndarray
     vertices: np.ndarray
     faces: np.ndarray
+    atlas: np.ndarray
     uv: np.ndarray
     center: np.ndarray
     half: float
@@ -249,7 +250,7 @@ def make_billboard(meshes, *, views: int = 2, resolution: int = 256, colors=None
         verts.append(center + half * (corners[:, :1] * right[k] + corners[:, 1:] * _UP))
         uvs.append(np.stack([(k + (corners[:, 0] + 1) / 2) / nv, (corners[:, 1] + 1) / 2], axis=1))
         faces.append(np.array([[0, 1, 2], [0, 2, 3]]) + 4 * k)
-    return Billboard(atlas, np.concatenate(verts), np.concatenate(faces).astype(np.int64), np.concatenate(uvs),
+    return Billboard(np.concatenate(verts), np.concatenate(faces).astype(np.int64), atlas, np.concatenate(uvs),
                      center, float(half))
 
 

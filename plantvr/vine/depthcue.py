@@ -15,16 +15,15 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from plantvr._validation import check_choice, check_int, check_point, check_points, check_range
+from plantvr.types import TriMesh
 
 __all__ = ["CoarseHull", "coarse_hull", "depth_cue_colors", "depth_factor", "hull_distances", "inside_hull"]
 
 
-@dataclass(frozen=True)
-class CoarseHull:
-    """Coarse convex hull: vertices (H, 3) float64 and outward triangles (T, 3) int64 into them."""
-
-    vertices: np.ndarray
-    triangles: np.ndarray
+@dataclass(eq=False)
+class CoarseHull(TriMesh):
+    """Coarse convex hull, a :class:`~plantvr.types.TriMesh`: vertices (H, 3) float64 and outward faces (T, 3)
+    int64 into them."""
 
 
 def coarse_hull(points: np.ndarray, *, n_vertices: int = 274, sample: int = 1_000_000,
@@ -79,7 +78,7 @@ def inside_hull(hull: CoarseHull, eye, *, rng: int | np.random.Generator | None 
     """
     E = check_point("eye", eye)
     rng = np.random.default_rng(rng)
-    V, T = hull.vertices, hull.triangles
+    V, T = hull.vertices, hull.faces
     A = V[T[:, 0]]
     e1, e2 = V[T[:, 1]] - A, V[T[:, 2]] - A
     s = E - A
@@ -188,7 +187,7 @@ def _hull_distances_kernel(V, T, E, inside):  # pragma: no cover - numba kernel,
 
 
 def _hull_distances_numpy(hull: CoarseHull, E: np.ndarray) -> tuple[float, float]:
-    V, T = hull.vertices, hull.triangles
+    V, T = hull.vertices, hull.faces
     d_f = float(np.linalg.norm(V - E, axis=1).max())
     if inside_hull(hull, E):
         return 0.0, d_f
@@ -197,7 +196,7 @@ def _hull_distances_numpy(hull: CoarseHull, E: np.ndarray) -> tuple[float, float
 
 
 def _inside_halfspace(hull: CoarseHull, E: np.ndarray) -> bool:
-    V, T = hull.vertices, hull.triangles
+    V, T = hull.vertices, hull.faces
     n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     return bool((np.einsum("ij,ij->i", n, E - V[T[:, 0]]) <= 0).all())
 
@@ -231,7 +230,7 @@ def _inside_fast(hull: CoarseHull, E: np.ndarray, rng) -> bool:
     for _ in range(16):
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
-        hits, grazed = _ray_hits(hull.vertices, hull.triangles, E, d)
+        hits, grazed = _ray_hits(hull.vertices, hull.faces, E, d)
         if not grazed:
             return hits == 1
     raise ValueError("inside_hull: every ray grazed an edge; the eye lies on the hull")
@@ -249,7 +248,7 @@ def hull_distances(hull: CoarseHull, eye) -> tuple[float, float]:
     """
     E = check_point("eye", eye)
     inside = _inside_fast(hull, E, np.random.default_rng(0))
-    d_c, d_f = _hull_distances_kernel(hull.vertices, hull.triangles, E, inside)
+    d_c, d_f = _hull_distances_kernel(hull.vertices, hull.faces, E, inside)
     return float(d_c), float(d_f)
 
 

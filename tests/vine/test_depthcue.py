@@ -26,14 +26,14 @@ def hull():
 def test_tw_v8_coarse_hull_has_274_vertices(hull):
     assert len(hull.vertices) == 274
     # outward orientation: all hull vertices are behind every face plane
-    V, T = hull.vertices, hull.triangles
+    V, T = hull.vertices, hull.faces
     n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     assert (np.einsum("ij,kj->ik", n, V) - np.einsum("ij,ij->i", n, V[T[:, 0]])[:, None]).max() < 1e-6
 
 
 def _halfspace_inside(hull, E):
-    V, T = hull.vertices, hull.triangles
+    V, T = hull.vertices, hull.faces
     n = np.cross(V[T[:, 1]] - V[T[:, 0]], V[T[:, 2]] - V[T[:, 0]])
     return bool((np.einsum("ij,ij->i", n, E - V[T[:, 0]]) <= 0).all())
 
@@ -46,7 +46,7 @@ def test_tw_v8_ray_parity_agrees_with_half_space(hull):
 
 def test_tw_v8_closest_point_matches_dense_sampling(hull):
     rng = np.random.default_rng(3)
-    V, T = hull.vertices, hull.triangles
+    V, T = hull.vertices, hull.faces
     E = np.array([150.0, 20.0, 60.0])
     d_c, d_f = hull_distances(hull, E)
     assert d_f == pytest.approx(np.linalg.norm(V - E, axis=1).max())
