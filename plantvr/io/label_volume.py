@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from plantvr._fileio import check_target
 from plantvr._validation import check_array
 
 __all__ = ["LABEL_VOLUME_SUFFIXES", "write_label_volume"]
@@ -105,9 +106,7 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=(
     if np.any(s <= 0) or np.any(s > 1e6):
         raise ValueError(f"spacing must be 3 values in (0, 1e6], got {s.tolist()}")
     o = check_array("origin", origin, shape=(3,), dtype=np.float64, max_abs=1e12)
-    folder = p.parent if str(p.parent) else Path(".")
-    if not folder.is_dir():
-        raise ValueError(f"cannot write {os.fspath(p)!r}: folder {os.fspath(folder)!r} does not exist")
+    folder = check_target(p)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=suffix, dir=folder)
     os.close(fd)
     try:

@@ -105,7 +105,11 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
             raise ValueError(f"could not read mesh {s!r}: {type(exc).__name__}: {exc}") from None
         if len(v) == 0 or len(f) == 0:
             raise ValueError(f"mesh {s!r} has no triangles")
-        return Source(Segmentation(v, f), None, None, None)
+        try:
+            seg = Segmentation(v, f)
+        except ValueError as exc:          # a damaged file: faces past the vertices, coordinates out of range
+            raise ValueError(f"mesh {s!r} is not a valid triangle mesh: {exc}") from None
+        return Source(seg, None, None, None)
     from plantvr.io.volume import read_volume
     vol = read_volume(p)
     arr = np.asarray(vol.array)

@@ -32,6 +32,8 @@ This module reads only; it sits in the io layer (the numeric cores never import 
 """
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -155,17 +157,48 @@ def read_volume(path: str | os.PathLike, *, dataset: str | None = None, lazy: bo
                              f"slices), got {str(p)!r}")
     if lazy and kind not in _LAZY:
         raise ValueError(f"lazy=True reads {' and '.join(_LAZY)} volumes only, got a {kind} file {str(p)!r}")
+    if dataset is not None and kind not in _DATASET_KINDS and suffix != ".npz":
+        raise ValueError(f"dataset names an array inside an HDF5, Zarr, .npz or .vti file; a {kind} file holds "
+                         f"one volume, so dataset={dataset!r} does not apply to {str(p)!r}")
     reader = _READERS[kind]
     try:
-        array, spacing, origin, axes, meta = reader(p, dataset=dataset, lazy=bool(lazy))
-    except ValueError:
-        raise
+        with _quiet_tifffile():
+            array, spacing, origin, axes, meta = reader(p, dataset=dataset, lazy=bool(lazy))
     except MemoryError:
         raise ValueError(f"volume in {str(p)!r} does not fit in memory (read it with lazy=True: "
                          f"{', '.join(_LAZY)})") from None
     except Exception as exc:  # noqa: BLE001 - every library raises its own types on a corrupt file
-        raise ValueError(f"could not read {str(p)!r} as {kind}: {type(exc).__name__}: {exc}") from None
+        raise _read_error(p, kind, exc) from None
     return _finish(p, kind, array, spacing, origin, axes, meta)
+
+
+#: Formats whose files hold several arrays, one picked by ``dataset`` (and ``.npz``).
+_DATASET_KINDS = ("HDF5", "Zarr", "VTI")
+
+
+def _read_error(p: Path, kind: str, exc: BaseException) -> ValueError:
+    """The error :func:`read_volume` raises for what a reader raised: this module's own door checks (a plain
+    ``ValueError`` naming the path) as they are; anything a library raised (``tifffile.TiffFileError``, a
+    ``ValueError`` subclass; pynrrd's ``NRRDError``; ``zlib.error``; ``KeyError``; ...) as one ``ValueError``
+    naming the file, the format and what the library said (cut to 300 characters)."""
+    if type(exc) is ValueError and str(p) in str(exc):
+        return exc
+    what = f"{type(exc).__name__}: {exc}"
+    if len(what) > 300:
+        what = what[:297] + "..."
+    return ValueError(f"could not read {str(p)!r} as {kind}: {what}")
+
+
+@contextlib.contextmanager
+def _quiet_tifffile():
+    """tifffile logs a warning for every damaged tag it skips; the caller gets one clear error instead."""
+    log = logging.getLogger("tifffile")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        log.setLevel(level)
 
 
 # ---------------------------------------------------------------------------------------------- door checks
@@ -350,8 +383,12 @@ def _tiff_folder(p: Path, *, lazy):
     files = sorted(f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff"))
     shapes = []
     for f in files:
-        with tifffile.TiffFile(str(f)) as tf:
-            shapes.append((tuple(tf.series[0].shape), np.dtype(tf.series[0].dtype)))
+        try:
+            with tifffile.TiffFile(str(f)) as tf:
+                shapes.append((tuple(tf.series[0].shape), np.dtype(tf.series[0].dtype)))
+        except Exception as exc:  # noqa: BLE001 - tifffile raises many types on a damaged slice
+            raise ValueError(f"folder {str(p)!r}: could not read the slice {str(f)!r} as TIFF: "
+                             f"{type(exc).__name__}: {str(exc)[:200]}") from None
     if len(set(shapes)) != 1 or len(shapes[0][0]) != 2:
         raise ValueError(f"folder {str(p)!r}: every slice must be one 2-D image of the same shape and dtype, got "
                          f"{sorted({(s, str(d)) for s, d in shapes})[:3]}")
@@ -381,6 +418,11 @@ def _nrrd(p: Path, *, dataset, lazy):
     dtype = nrrd.reader._determine_datatype(header)
     _declared(p, sizes, dtype)
     n = len(sizes)
+    need = int(np.prod(sizes, dtype=object)) * np.dtype(dtype).itemsize
+    if str(header.get("encoding", "raw")).lower() == "raw" and "data file" not in header \
+            and "datafile" not in header and p.stat().st_size < need:
+        raise ValueError(f"could not read {str(p)!r} as NRRD: its header declares {need} bytes of raw data but "
+                         f"the file holds {p.stat().st_size} bytes (truncated)")
     dirs = header.get("space directions")
     spatial = [True] * n
     vecs = None
@@ -487,15 +529,29 @@ def _vti(p: Path, *, dataset, lazy):
     import pyvista as pv
     from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
     from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+    from vtkmodules.vtkCommonCore import vtkObject
     r = vtkXMLImageDataReader()
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()          # VTK prints every parse error; the caller gets one ValueError
+    try:
+        return _vti_read(p, r, dataset, pv, vtkStreamingDemandDrivenPipeline)
+    finally:
+        vtkObject.SetGlobalWarningDisplay(shown)
+
+
+def _vti_read(p: Path, r, dataset, pv, vtkStreamingDemandDrivenPipeline):
     if not r.CanReadFile(str(p)):
         raise ValueError(f"could not read {str(p)!r} as VTI: not a VTK XML ImageData file")
     r.SetFileName(str(p))
     r.UpdateInformation()
+    if r.GetErrorCode():
+        raise ValueError(f"could not read {str(p)!r} as VTI: its XML header is damaged")
     e = r.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
     dims = (e[1] - e[0] + 1, e[3] - e[2] + 1, e[5] - e[4] + 1)
     _declared(p, dims, np.uint8)                       # the dtype is checked once the array is known
     r.Update()
+    if r.GetErrorCode() or r.GetOutput() is None:
+        raise ValueError(f"could not read {str(p)!r} as VTI: its data is damaged or truncated")
     grid = pv.wrap(r.GetOutput())
     names = list(grid.point_data.keys())
     if dataset is None:
