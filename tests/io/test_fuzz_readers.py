@@ -171,7 +171,8 @@ def sources(tmp_path_factory):
     out: dict[str, tuple[Path, Path | None]] = {}
     tifffile.imwrite(d / "plain.tif", a)
     tifffile.imwrite(d / "big.tif", a, byteorder=">")
-    tifffile.imwrite(d / "imagej.tif", a, imagej=True, resolution=(2.0, 2.0), metadata={"spacing": 3.0})
+    tifffile.imwrite(d / "imagej.tif", a, imagej=True, resolution=(2.0, 2.0),
+                     metadata={"spacing": 3.0, "axes": "ZYX"})
     tifffile.imwrite(d / "ome.ome.tif", a, ome=True, metadata={"axes": "ZYX", "PhysicalSizeX": 0.5})
     (d / "slices").mkdir()
     for k in range(a.shape[0]):
@@ -276,6 +277,12 @@ def test_read_volume_refuses_parameters_that_do_not_apply(sources):
     for name in ("NRRD raw", "NIfTI .nii", "MetaImage .mha", "HDF5", "NumPy .npy"):
         with pytest.raises(ValueError, match="lazy=True reads"):
             read_volume(sources[name][0], lazy=True)
+    for name, (src, _member) in sources.items():              # every source here is 3-D: no channel, no time
+        if "detached" in name or name == "MetaImage .mhd":
+            src = src / ("v.nhdr" if "NRRD" in name else "v.mhd")
+        for kw in ({"channel": 0}, {"time": 0}):
+            with pytest.raises(ValueError, match=f"{next(iter(kw))}=0 does not apply"):
+                read_volume(src, **kw)
 
 
 # --------------------------------------------------------------------------------------------- other readers
