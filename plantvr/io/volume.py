@@ -45,7 +45,7 @@ import numpy as np
 from plantvr._validation import MAX_COUNT
 from plantvr.vine.volume import MAX_VOLUME_BYTES, natural_key
 
-__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "read_volume"]
+__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "VolumeGeometry", "read_volume"]
 
 #: File suffixes :func:`read_volume` reads (``.zarr`` is a folder; any other folder is a TIFF slice stack or a
 #: DICOM series).
@@ -80,6 +80,9 @@ class Volume:
     format : str
         ``"TIFF"``, ``"NRRD"``, ``"NIfTI"``, ``"MetaImage"``, ``"VTI"``, ``"HDF5"``, ``"Zarr"``, ``"DICOM"``
         or ``"NumPy"``.
+    geometry : VolumeGeometry
+        Where every voxel is, in LPS world coordinates (shape, axis order, spacing, origin, direction): pass it
+        to :func:`plantvr.io.label_volume.write_label_volume` so that labels land on the same physical points.
     """
 
     array: Any
@@ -88,6 +91,12 @@ class Volume:
     meta: dict = field(default_factory=dict)
     source: str = ""
     format: str = ""
+    geometry: VolumeGeometry | None = None
+
+    def __post_init__(self):
+        if self.geometry is None:
+            object.__setattr__(self, "geometry", _geometry(self.array.shape, self.spacing, self.origin,
+                                                           self.meta))
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -101,6 +110,91 @@ class Volume:
         """(N, 3) float voxel indices (array axis order, e.g. isosurface vertices) -> (N, 3) float64
         physical coordinates along the same axes: ``index * spacing + origin``."""
         return np.asarray(index, np.float64) * self.spacing + self.origin
+
+
+@dataclass(frozen=True, eq=False)
+class VolumeGeometry:
+    """One volume's voxel-to-world mapping, carried unchanged from :func:`read_volume` to every label writer
+    (issue 32).
+
+    ``world = origin + (index * spacing) @ direction`` for an (N, 3) ``index`` in the array's own axis order:
+    row ``k`` of ``direction`` is the unit world direction of array axis ``k``. World coordinates are LPS
+    (ITK, DICOM, SimpleITK, 3D Slicer files): NIfTI's RAS and NRRD's RAS/LAS spaces are flipped to it on
+    reading and back on writing. Formats without a direction (TIFF, HDF5, Zarr, NumPy) map each array axis to the
+    world axis its letter names (a Z, Y, X TIFF: rows ``(0, 0, 1)``, ``(0, 1, 0)``, ``(1, 0, 0)``).
+
+    Attributes
+    ----------
+    shape : tuple of 3 int
+    spacing : (3,) float64 ndarray
+        Voxel size along each array axis (> 0).
+    origin : (3,) float64 ndarray
+        LPS world position of voxel (0, 0, 0)'s centre.
+    direction : (3, 3) float64 ndarray
+        Rows: LPS unit direction of each array axis.
+    axes : str
+        The array's axis letters (``"zyx"``, ``"xyz"``).
+    unit : str or None
+        The length unit the file names, if any.
+    """
+
+    shape: tuple
+    spacing: np.ndarray
+    origin: np.ndarray
+    direction: np.ndarray
+    axes: str = "xyz"
+    unit: str | None = None
+
+    @classmethod
+    def from_grid(cls, shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, axes: str = "xyz",
+                  unit: str | None = None) -> VolumeGeometry:
+        """Axis-aligned geometry: array axis ``k`` runs along the world axis ``axes[k]`` names; ``origin`` is the
+        position of voxel 0 along each array axis (the convention of ``Volume.origin`` and
+        :func:`plantvr.vine.label_volumes.labels_to_volume`)."""
+        d = _axis_permutation(axes)
+        s = np.asarray(spacing, np.float64).reshape(3)
+        o = np.asarray(origin, np.float64).reshape(3)
+        return cls(tuple(int(n) for n in shape), s, d.T @ o, d, axes, unit)
+
+    def index_to_world(self, index) -> np.ndarray:
+        """(N, 3) voxel indices (array axis order, fractional allowed) -> (N, 3) LPS world points."""
+        return self.origin + (np.asarray(index, np.float64) * self.spacing) @ self.direction
+
+    def world_to_index(self, world) -> np.ndarray:
+        """(N, 3) LPS world points -> (N, 3) fractional voxel indices in the array's axis order."""
+        rel = np.asarray(world, np.float64) - self.origin
+        return np.linalg.solve(self.direction.T, rel.T).T / self.spacing
+
+    @property
+    def affine(self) -> np.ndarray:
+        """(4, 4) LPS voxel-to-world affine (columns: ``direction[k] * spacing[k]``, then the origin)."""
+        a = np.eye(4)
+        a[:3, :3] = (self.direction * self.spacing[:, None]).T
+        a[:3, 3] = self.origin
+        return a
+
+
+def _axis_permutation(axes: str) -> np.ndarray:
+    """Rows: the unit world axis each array axis letter names (x, y, z); unnamed axes keep Z, Y, X order."""
+    letters = [a for a in axes.lower()]
+    if sorted(letters) != ["x", "y", "z"]:
+        letters = ["z", "y", "x"] if len(letters) == 3 else ["x", "y", "z"]
+    return np.stack([np.eye(3)["xyz".index(a)] for a in letters])
+
+
+def _geometry(shape, spacing, origin, meta: dict) -> VolumeGeometry:
+    """The LPS geometry of a volume read from a file (see :class:`VolumeGeometry`)."""
+    axes = str(meta.get("axes", "xyz"))
+    unit = meta.get("unit")
+    d = meta.get("direction")
+    if d is None:
+        return VolumeGeometry.from_grid(shape, spacing, origin, axes=axes, unit=unit)
+    d = np.asarray(d, np.float64).reshape(3, 3)
+    s = np.asarray(spacing, np.float64).reshape(3)
+    o = meta.get("world_origin")
+    o = d.T @ np.asarray(origin, np.float64) if o is None else np.asarray(o, np.float64).reshape(3)
+    flip = _TO_LPS.get(meta.get("world_frame", "LPS"), np.ones(3))
+    return VolumeGeometry(tuple(int(n) for n in shape), s, o * flip, d * flip, axes, unit)
 
 
 def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel: int | None = None,
@@ -369,6 +463,14 @@ def _finish(p: Path, kind: str, array, spacing, origin, axes: str, meta: dict) -
     return Volume(array, spacing, origin, meta, str(p), kind)
 
 
+#: NRRD ``space`` values and the frame their world coordinates are in (ITK reads RAS/LAS as LPS, flipped).
+_NRRD_FRAMES = {"right-anterior-superior": "RAS", "ras": "RAS", "left-anterior-superior": "LAS", "las": "LAS",
+                "left-posterior-superior": "LPS", "lps": "LPS"}
+
+#: World frame -> the diagonal flip taking its coordinates to LPS (ITK, DICOM, SimpleITK).
+_TO_LPS = {"RAS": np.array([-1.0, -1.0, 1.0]), "LAS": np.array([1.0, -1.0, 1.0]), "LPS": np.ones(3)}
+
+
 def _frame(dirs, origin_world):
     """Spacing, origin along each axis and unit directions from (3, 3) axis vectors (rows, world units)."""
     d = np.asarray(dirs, np.float64).reshape(3, 3)
@@ -524,15 +626,17 @@ def _nrrd(p: Path, *, dataset, lazy, pick):
     arr = data[_pick_index(p, sizes, axes_lbl, keep, pick)]
     if vecs is not None and all(vecs[i] is not None for i in keep) and len(vecs[keep[0]]) == 3:
         o = header.get("space origin")
-        spacing, origin, unit = _frame([vecs[i] for i in keep], np.zeros(3) if o is None else o)
-        meta_dir = unit
+        o = np.zeros(3) if o is None else np.asarray(o, np.float64)
+        spacing, origin, unit = _frame([vecs[i] for i in keep], o)
+        meta_dir, world0 = unit, o
     else:
         sps = header.get("spacings")
         spacing = [1.0, 1.0, 1.0] if sps is None else [float(sps[i]) for i in keep]
         spacing = [1.0 if np.isnan(s) else s for s in spacing]
-        origin, meta_dir = [0.0, 0.0, 0.0], np.eye(3)
+        origin, meta_dir, world0 = [0.0, 0.0, 0.0], np.eye(3), np.zeros(3)
     hdr = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in header.items()}
-    meta = {"nrrd": hdr, "direction": meta_dir}
+    meta = {"nrrd": hdr, "direction": meta_dir, "world_origin": world0,
+            "world_frame": _NRRD_FRAMES.get(str(header.get("space", "")).lower(), "LPS")}
     if header.get("space units"):
         meta["unit"] = header["space units"][0]
     return arr, spacing, origin, "xyz", meta
@@ -554,7 +658,8 @@ def _nifti(p: Path, *, dataset, lazy, pick):
     arr = np.asanyarray(raw)[_pick_index(p, shape, labels, keep, pick)]
     aff = np.asarray(img.affine, np.float64)
     spacing, origin, unit = _frame(aff[:3, :3].T, aff[:3, 3])
-    meta: dict[str, Any] = {"affine": aff, "direction": unit, "nifti_header": img.header}
+    meta: dict[str, Any] = {"affine": aff, "direction": unit, "nifti_header": img.header,
+                            "world_origin": aff[:3, 3], "world_frame": "RAS"}
     slope, inter = getattr(img.dataobj, "slope", 1.0), getattr(img.dataobj, "inter", 0.0)
     meta["scl_slope"], meta["scl_inter"] = float(slope), float(inter)   # physical = stored * slope + inter
     try:
@@ -599,6 +704,7 @@ def _metaimage(p: Path, *, dataset, lazy, pick):
     d = np.asarray(img.GetDirection(), np.float64).reshape(3, 3)   # columns: world direction of x, y, z
     spacing, origin, unit = _frame((d * sp).T[::-1], img.GetOrigin())
     meta = {"direction": unit, "itk_direction": d, "itk_origin": tuple(img.GetOrigin()),
+            "world_origin": np.asarray(img.GetOrigin(), np.float64),
             "keys": {k: r.GetMetaData(k) for k in r.GetMetaDataKeys()}}
     return arr, spacing, origin, "zyx", meta
 
@@ -658,7 +764,8 @@ def _vti_read(p: Path, r, dataset, pv, vtkStreamingDemandDrivenPipeline):
     arr = np.asarray(flat).reshape(dims, order="F")        # (x, y, z), a view of the VTK array
     d = np.asarray(grid.direction_matrix, np.float64).reshape(3, 3)    # columns: world direction of i, j, k
     spacing, origin, unit = _frame((d * np.asarray(grid.spacing)).T, grid.origin)
-    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names}
+    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names,
+                                         "world_origin": np.asarray(grid.origin, np.float64)}
 
 
 # ---------------------------------------------------------------------------------------------- HDF5
@@ -852,7 +959,7 @@ def _dicom(p: Path, *, dataset, lazy, pick, files=None):
     ps = [float(v) for v in getattr(ds0, "PixelSpacing", [1.0, 1.0])]     # (row spacing, column spacing)
     dirs = np.stack([normal * dz, col_dir * ps[0], row_dir * ps[1]])        # axis 0 slices, 1 rows, 2 columns
     spacing, origin, unit = _frame(dirs, pos[order[0]])
-    meta = {"direction": unit, "image_position": pos[order[0]], "unit": "mm",
+    meta = {"direction": unit, "image_position": pos[order[0]], "unit": "mm", "world_origin": pos[order[0]],
             "rescale_slope": float(getattr(ds0, "RescaleSlope", 1.0)),
             "rescale_intercept": float(getattr(ds0, "RescaleIntercept", 0.0)),
             "modality": str(getattr(ds0, "Modality", "")), "files": [heads[i][0].name for i in order]}
