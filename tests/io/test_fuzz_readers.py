@@ -244,7 +244,7 @@ def test_fuzz_read_volume(sources, tmp_path, name):
     assert not failures, "\n".join(failures)
 
 
-@pytest.mark.parametrize("suffix", [".tif", ".nrrd", ".nii.gz"])
+@pytest.mark.parametrize("suffix", [".tif", ".nrrd", ".seg.nrrd", ".nii.gz", ".mha"])
 def test_fuzz_label_volume_files(tmp_path, suffix):
     """Label files as write_label_volume writes them, read back by read_volume."""
     from plantvr.io.label_volume import write_label_volume

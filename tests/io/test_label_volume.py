@@ -18,7 +18,7 @@ import tifffile
 from plantvr.io.label_volume import write_label_volume
 from plantvr.io.volume import VolumeGeometry, read_volume
 
-OUT = (".nrrd", ".nii", ".nii.gz", ".mha", ".mhd", ".tif")
+OUT = (".nrrd", ".seg.nrrd", ".nii", ".nii.gz", ".mha", ".mhd", ".tif")
 
 
 def _rotation(ax, ay, az):
@@ -196,7 +196,7 @@ def test_labels_land_on_the_source_points_in_every_format(tmp_path):
             theirs = _read_labels(out)[2]
             np.testing.assert_allclose(ours[np.lexsort(np.round(ours, 4).T)],
                                        theirs[np.lexsort(np.round(theirs, 4).T)], atol=1e-6, err_msg=str(out))
-    assert len(worst) == 6 * 6 - 4                              # four rotated sources have no TIFF
+    assert len(worst) == 6 * 7 - 4                              # four rotated sources have no TIFF
     exact = [e for (n, sfx), e in worst.items() if "example4d" not in n and ".nii" not in sfx]
     print(f"\nlabel geometry: {len(worst)} source/format pairs, worst {max(worst.values()):.2g} voxel; "
           f"NRRD/MetaImage/TIFF outputs of exact sources {max(exact):.2g} voxel")
@@ -288,3 +288,31 @@ def test_open_source_carries_the_geometry_to_the_label_writer(tmp_path, downsamp
         _assert_same_points(index, lab, out)
     else:
         _assert_same_points(lambda w: index(w)[:, ::-1], lab, out)
+
+
+def test_slicer_seg_nrrd(tmp_path):
+    """3D Slicer's segmentation file: the grid in LPS plus the Segment<k>_* keys Slicer writes, read by pynrrd."""
+    import nrrd
+    from nibabel.testing import data_path
+    v = read_volume(os.path.join(data_path, "anatomical.nii"))
+    lab = np.zeros(v.shape, np.uint8)
+    lab[2:6, 3:9, 4:7] = 1
+    lab[10:12, 0:2, 20:25] = 4
+    out = write_label_volume(tmp_path / "l.seg.nrrd", lab, geometry=v, names={1: "stem", 4: "leaf 2"},
+                             colors={4: (255, 128, 0)})
+    data, h = nrrd.read(str(out))
+    assert np.array_equal(data, lab) and h["space"] == "left-posterior-superior"
+    assert h["Segmentation_MasterRepresentation"] == "Binary labelmap"
+    assert [h[f"Segment{k}_{key}"] for k in (0, 1) for key in ("ID", "Name", "LabelValue", "Layer")] == \
+        ["Segment_1", "stem", "1", "0", "Segment_4", "leaf 2", "4", "0"]
+    assert h["Segment0_Extent"] == "2 5 3 8 4 6" and h["Segment1_Extent"] == "10 11 0 1 20 24"
+    np.testing.assert_allclose([float(x) for x in h["Segment1_Color"].split()], [1.0, 128 / 255, 0.0], atol=1e-6)
+    _, index = _sitk_points(sitk.ReadImage(os.path.join(data_path, "anatomical.nii")))
+    _assert_same_points(index, lab, out)
+    with pytest.raises(ValueError, match="apply to .seg.nrrd only"):
+        write_label_volume(tmp_path / "l.nrrd", lab, names={1: "stem"})
+    with pytest.raises(ValueError, match=r"names labels \[2\] that are not in volume"):
+        write_label_volume(tmp_path / "m.seg.nrrd", lab, names={2: "x"})
+    with pytest.raises(ValueError, match=r"colors\[1\] must be 3 values"):
+        write_label_volume(tmp_path / "m.seg.nrrd", lab, colors={1: (1, 2)})
+    assert not (tmp_path / "m.seg.nrrd").exists() and not (tmp_path / "l.nrrd").exists()
