@@ -9,7 +9,8 @@ and the file's metadata.
 suffix                             library             spacing / origin from
 =================================  ==================  =================================================
 ``.tif`` ``.tiff`` (or a folder    tifffile            ImageJ ``spacing`` + X/YResolution tags; OME
-of 2-D slices)                                         ``PhysicalSize{X,Y,Z}``; plain: resolution tags
+of 2-D slices in natural order,                        ``PhysicalSize{X,Y,Z}``; plain: resolution tags
+or a list of slice files)
 ``.nrrd`` ``.nhdr``                pynrrd              ``space directions`` / ``spacings``, ``space origin``
 ``.nii`` ``.nii.gz``               nibabel             the affine (zooms, translation)
 ``.mha`` ``.mhd``                  SimpleITK           ``ElementSpacing``, ``Offset``, ``TransformMatrix``
@@ -27,6 +28,13 @@ NIfTI and .vti. ``Volume.meta["axes"]`` names them. ``origin[k]`` is the positio
 axis ``k``'s direction, so ``index * spacing + origin`` is the physical coordinate along each axis; where the
 file's axes are rotated against its world frame, ``meta["direction"]`` (3, 3) holds the unit world direction
 of each array axis (rows), and ``world = direction.T @ (index * spacing + origin)``.
+
+``Volume.geometry`` (:class:`VolumeGeometry`) is that mapping as one record in LPS world coordinates (NIfTI's RAS
+and NRRD's RAS/LAS flipped; SimpleITK's convention), carried unchanged to
+:func:`plantvr.io.label_volume.write_label_volume`, which puts labels on the source's own voxels in every label
+format (issue 32). ``channel=`` and ``time=`` pick one channel (or RGB sample) and one time point of 4-D/5-D and
+RGB volumes. Whatever a library raises on a damaged file comes out as one ``ValueError`` naming the file
+(issue 34), and a parameter that does not apply to the format is refused by name.
 
 This module reads only; it sits in the io layer (the numeric cores never import it).
 """
