@@ -89,7 +89,7 @@ def check_target(path: str | os.PathLike, *, name: str = "path") -> Path:
         Naming ``name``, the path and what is wrong.
     """
     if not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{name} must be a file path, got {type(path).__name__}")
+        raise ValueError(f"{name} must be a file path, got {type(path).__name__}")  # noqa: TRY004
     path = Path(path)
     if not path.name:
         raise ValueError(f"{name} must name a file, got {os.fspath(path)!r}")
@@ -113,7 +113,7 @@ def make_folder(folder: str | os.PathLike, *, name: str = "folder") -> Path:
         Naming ``name`` and the path: its parent folder does not exist, or it exists and is not a folder.
     """
     if not isinstance(folder, (str, os.PathLike)):
-        raise ValueError(f"{name} must be a folder path, got {type(folder).__name__}")
+        raise ValueError(f"{name} must be a folder path, got {type(folder).__name__}")  # noqa: TRY004
     folder = Path(folder)
     if folder.is_dir():
         return folder

@@ -203,7 +203,7 @@ def _check_geometry(geometry, shape):
     from plantvr.io.volume import Volume, VolumeGeometry
     g = geometry.geometry if isinstance(geometry, Volume) else geometry
     if not isinstance(g, VolumeGeometry):
-        raise ValueError(f"geometry must be a VolumeGeometry or a Volume (read_volume's), got "
+        raise ValueError(f"geometry must be a VolumeGeometry or a Volume (read_volume's), got "  # noqa: TRY004
                          f"{type(geometry).__name__}")
     if tuple(g.shape) != tuple(shape):
         raise ValueError(f"geometry is for a volume of shape {tuple(g.shape)}, but volume has shape {tuple(shape)} "

@@ -7,6 +7,7 @@ Tree Wand model as a marker set (:func:`points_as_markers`, i.e. ``Model.add_mar
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,9 @@ def _text_points(p: Path, columns) -> np.ndarray:
             skip = 1  # a header line
         if p.suffix.lower() == ".pts" and len(tokens) == 1:
             skip = 1  # Leica .pts: the point count first
-        a = np.loadtxt(p, delimiter=delim, skiprows=skip, usecols=columns, ndmin=2, comments=("#", "//"))
+        with warnings.catch_warnings():        # an empty file: refused below with the file named, not warned
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data", UserWarning)
+            a = np.loadtxt(p, delimiter=delim, skiprows=skip, usecols=columns, ndmin=2, comments=("#", "//"))
     except (OSError, UnicodeDecodeError, ValueError) as exc:
         raise ValueError(f"cannot read points from {str(p)!r}: {exc}"[:300]) from None
     return a

@@ -254,7 +254,7 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
         files = _file_list(path)
         path = files[0]
     elif not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"path must be a file or folder path (or a list of slice files), got "
+        raise ValueError(f"path must be a file or folder path (or a list of slice files), got "  # noqa: TRY004
                          f"{type(path).__name__}")
     pick = {"channel": channel, "time": time}
     for name, v in pick.items():
@@ -731,9 +731,9 @@ _SITK_DTYPES = {
 
 def _vti(p: Path, *, dataset, lazy, pick):
     import pyvista as pv
+    from vtkmodules.vtkCommonCore import vtkObject
     from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
     from vtkmodules.vtkIOXML import vtkXMLImageDataReader
-    from vtkmodules.vtkCommonCore import vtkObject
     r = vtkXMLImageDataReader()
     shown = vtkObject.GetGlobalWarningDisplay()
     vtkObject.GlobalWarningDisplayOff()          # VTK prints every parse error; the caller gets one ValueError

@@ -424,6 +424,10 @@ def _writers():
          lambda p: write_label_volume(p, lab, spacing=(0, 1, 1))),
         ("write_label_volume .nii.gz", ".nii.gz", lambda p: write_label_volume(p, lab),
          lambda p: write_label_volume(p, lab, origin=(np.inf, 0, 0))),
+        ("write_label_volume .mha", ".mha", lambda p: write_label_volume(p, lab),
+         lambda p: write_label_volume(p, lab, geometry=np.eye(4))),
+        ("write_label_volume .seg.nrrd", ".seg.nrrd", lambda p: write_label_volume(p, lab, names={2: "cell"}),
+         lambda p: write_label_volume(p, lab, names={3: "absent"})),
         ("save_volume .tif", ".tif", lambda p: save_volume(p, lab), lambda p: save_volume(p, lab[0])),
         ("save_volume .npz", ".npz", lambda p: save_volume(p, lab), lambda p: save_volume(p, lab.astype(bool))),
         ("write_ply", ".ply", lambda p: write_ply(p, v, f), lambda p: write_ply(p, bad_v, f)),
@@ -488,3 +492,36 @@ def test_folder_writers_create_one_level_only(tmp_path):
     with pytest.raises(ValueError, match="does not exist"):
         TreeLibrary(tmp_path / "no" / "lib")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lib", "seq"]
+
+
+def test_hypothesis_random_bytes_under_every_suffix(tmp_path_factory):
+    """Property: any bytes under any suffix read_volume, read_points or read_qsm take give a read or a ValueError/
+    OSError naming the file (hypothesis, on top of the seeded mutations above)."""
+    hypothesis = pytest.importorskip("hypothesis")
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    from plantvr.io.points import read_points
+    from plantvr.io.qsm import read_qsm
+    from plantvr.io.volume import read_volume
+    readers = [(sfx, read_volume) for sfx in (".tif", ".nrrd", ".nii", ".nii.gz", ".mha", ".vti", ".h5", ".npy",
+                                              ".npz")]
+    readers += [(sfx, read_points) for sfx in (".xyz", ".csv", ".ply", ".las")]
+    readers += [(sfx, read_qsm) for sfx in (".mat", ".csv")]
+    d = tmp_path_factory.mktemp("hyp")
+    failures: list[str] = []
+    magic = st.sampled_from([b"", b"II*\x00", b"MM\x00*", b"NRRD0004\n", b"\x93NUMPY", b"\x89HDF\r\n\x1a\n",
+                             b"ply\nformat binary_little_endian 1.0\n", b"LASF", b"ObjectType = Image\n",
+                             b"PK\x03\x04", b"\x1f\x8b", b"MATLAB 5.0 MAT-file"])
+
+    @settings(max_examples=120, deadline=None, derandomize=True, database=None,
+              suppress_health_check=list(HealthCheck))
+    @given(k=st.integers(0, len(readers) - 1), head=magic, body=st.binary(max_size=600))
+    def run(k, head, body):
+        sfx, read = readers[k]
+        p = d / f"h{sfx}"
+        p.write_bytes(head + body)
+        _classify(f"hypothesis {read.__name__}", p, read, failures, f"{sfx} {len(head + body)} bytes")
+
+    run()
+    assert not failures, "\n".join(failures[:20])
