@@ -416,7 +416,7 @@ class TreeLibrary:
     def __init__(self, folder: str | Path):
         if not isinstance(folder, (str, Path)):
             raise ValueError(f"folder must be a path, got {type(folder).__name__}")
-        self.folder = make_folder(folder, name="tree library folder")   # one level; its parent must exist
+        self.folder = Path(folder)             # created by the first save (one level), never by a load
 
     @staticmethod
     def _name(name: str) -> str:
@@ -461,6 +461,7 @@ class TreeLibrary:
             js = _sealed(meta)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"cannot save {name!r}: the engine state is not JSON-serialisable ({exc})") from None
+        make_folder(self.folder, name="tree library folder")   # one level; its parent must exist
         path = self.folder / f"{name}.tree"
         with atomic_write(self.folder / f"{name}.json", "w") as fj:
             fj.write(js)
@@ -576,6 +577,7 @@ class TreeLibrary:
             if unknown:
                 raise ValueError(f"keys must be parameter names, got unknown {unknown[:5]}")
             values = {k: values[k] for k in keys}
+        make_folder(self.folder, name="tree library folder")
         path = self.folder / f"{name}.preset.json"
         write_atomic(path, TREESKETCH.preset_text(values))
         return path

@@ -488,9 +488,14 @@ def test_folder_writers_create_one_level_only(tmp_path):
     assert len(write_obj_sequence(str(tmp_path / "seq"), faces, frames)) == 2
     with pytest.raises(ValueError, match="does not exist"):
         write_obj_sequence(str(tmp_path / "no" / "seq"), faces, frames)
-    TreeLibrary(tmp_path / "lib")
+    from plantvr.documents.treesketch import SketchDocument
+    doc = SketchDocument()
+    with pytest.raises(ValueError, match="cannot read library tree"):   # a failed load creates nothing
+        doc.restore(tmp_path / "lib" / "t.tree")
+    assert TreeLibrary(tmp_path / "lib").trees() == [] and not (tmp_path / "lib").exists()
+    TreeLibrary(tmp_path / "lib").save("t", doc._engine)          # the first save creates the library folder
     with pytest.raises(ValueError, match="does not exist"):
-        TreeLibrary(tmp_path / "no" / "lib")
+        TreeLibrary(tmp_path / "no" / "lib").save("t", doc._engine)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lib", "seq"]
 
 
