@@ -153,6 +153,13 @@ class VolumeGeometry:
     axes: str = "xyz"
     unit: str | None = None
 
+    def __post_init__(self):
+        object.__setattr__(self, "shape", tuple(int(n) for n in self.shape))
+        for name, shape in (("spacing", (3,)), ("origin", (3,)), ("direction", (3, 3))):
+            a = np.array(getattr(self, name), np.float64).reshape(shape)     # an own, read-only copy
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
     @classmethod
     def from_grid(cls, shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, axes: str = "xyz",
                   unit: str | None = None) -> VolumeGeometry:
