@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from .._fileio import atomic_write, write_atomic
+from .._fileio import atomic_write, make_folder, write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
@@ -416,11 +416,7 @@ class TreeLibrary:
     def __init__(self, folder: str | Path):
         if not isinstance(folder, (str, Path)):
             raise ValueError(f"folder must be a path, got {type(folder).__name__}")
-        self.folder = Path(folder)
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"cannot use folder {self.folder!s} as a tree library: {exc}") from None
+        self.folder = Path(folder)             # created by the first save (one level), never by a load
 
     @staticmethod
     def _name(name: str) -> str:
@@ -465,6 +461,7 @@ class TreeLibrary:
             js = _sealed(meta)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"cannot save {name!r}: the engine state is not JSON-serialisable ({exc})") from None
+        make_folder(self.folder, name="tree library folder")   # one level; its parent must exist
         path = self.folder / f"{name}.tree"
         with atomic_write(self.folder / f"{name}.json", "w") as fj:
             fj.write(js)
@@ -580,6 +577,7 @@ class TreeLibrary:
             if unknown:
                 raise ValueError(f"keys must be parameter names, got unknown {unknown[:5]}")
             values = {k: values[k] for k in keys}
+        make_folder(self.folder, name="tree library folder")
         path = self.folder / f"{name}.preset.json"
         write_atomic(path, TREESKETCH.preset_text(values))
         return path
