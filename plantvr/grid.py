@@ -25,12 +25,14 @@ import numpy as np
 
 from plantvr._sorting import counting_sort
 
-__all__ = ["HASH_LIMIT", "KEY_LIMIT", "SpatialHash", "axis_range", "ball_candidates", "ball_cells", "ball_query",
+__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "SpatialHash", "axis_range", "ball_candidates", "ball_cells", "ball_query",
            "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord", "cell_key", "dense_cell",
-           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "mark_within", "row_spans",
+           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "hash_coords", "mark_within", "row_spans",
            "sort_by_bucket", "sort_by_bucket_numpy", "sort_by_cell"]
 
 _P1, _P2, _P3 = 73856093, 19349663, 83492791
+#: Multipliers of the spatial hash (Teschner et al. 2003): cell (ix, iy, iz) -> (ix p1) XOR (iy p2) XOR (iz p3).
+HASH_PRIMES = (_P1, _P2, _P3)
 
 #: Largest |cell coordinate| of a hashed point grid (floats are exact integers up to 2**53).
 HASH_LIMIT = float(2 ** 52)
@@ -73,6 +75,14 @@ def cell_coord(x, inv, lo, hi):
 def hash_cell(ix, iy, iz, mask):
     """Bucket of cell (ix, iy, iz) in a table of ``mask + 1`` (a power of two) buckets."""
     return ((ix * _P1) ^ (iy * _P2) ^ (iz * _P3)) & mask
+
+
+def hash_coords(cells: np.ndarray) -> np.ndarray:
+    """numpy :func:`hash_cell` without the mask: (N,) int64 ``(ix p1) XOR (iy p2) XOR (iz p3)`` of (N, 3) int64
+    cell coordinates (int64 products wrap, as in the kernel)."""
+    with np.errstate(over="ignore"):
+        i = np.asarray(cells, np.int64) * np.asarray(HASH_PRIMES, np.int64)
+    return i[:, 0] ^ i[:, 1] ^ i[:, 2]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -259,8 +269,7 @@ def sort_by_bucket_numpy(points: np.ndarray, h: float) -> tuple[np.ndarray, np.n
     nb = 1 << max(4, int(2 * max(len(points), 1) - 1).bit_length())
     f = np.floor(np.asarray(points, np.float64) * (1.0 / h))
     c = np.where(f > HASH_LIMIT, HASH_LIMIT, np.where(f >= -HASH_LIMIT, f, -HASH_LIMIT)).astype(np.int64)
-    with np.errstate(over="ignore"):
-        b = ((c[:, 0] * _P1) ^ (c[:, 1] * _P2) ^ (c[:, 2] * _P3)) & (nb - 1)
+    b = hash_coords(c) & (nb - 1)
     order = np.argsort(b, kind="stable")
     start = np.concatenate([[0], np.cumsum(np.bincount(b, minlength=nb))])
     return order, start, nb - 1

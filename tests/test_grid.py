@@ -136,3 +136,11 @@ def test_counting_sort_is_the_stable_argsort():
     order, start = counting_sort(keys, 50, np.int64)
     assert np.array_equal(order, np.argsort(keys, kind="stable"))
     assert np.array_equal(np.diff(start), np.bincount(keys, minlength=50))
+
+
+def test_hash_coords_is_the_unmasked_hash_cell():
+    c = np.random.default_rng(5).integers(-2 ** 30, 2 ** 30, (500, 3))
+    got = G.hash_coords(c)
+    mask = (1 << 12) - 1
+    assert np.array_equal(got & mask, [G.hash_cell(int(x), int(y), int(z), mask) for x, y, z in c])
+    assert np.array_equal(got, (c[:, 0] * 73856093) ^ (c[:, 1] * 19349663) ^ (c[:, 2] * 83492791))
