@@ -7,7 +7,8 @@ One cell lattice of size ``h``, two layouts:
   (:func:`dense_cell_ids`, ``floor((x - origin) / h)`` clamped into the grid); items are sorted stably by cell
   with a counting sort and cell ``c`` holds ``order[start[c]:start[c + 1]]`` (:func:`sort_by_cell`). A query
   visits the cells of an axis range (:func:`axis_range`, :func:`ball_cells` with their box distances) or the
-  grid rows a ball's box spans (:func:`row_spans`, :func:`ball_query`);
+  grid rows a ball's box spans (:func:`row_spans`, :func:`ball_query`); boxes are entered in every cell they
+  touch (:func:`dense_box_ranges`, :func:`dense_box_entries`);
 - **hashed** (an unbounded or sparse domain): cell coordinates ``floor(x / h)`` clipped to a bound
   (:func:`cell_coord`) are hashed into a power-of-two bucket table with the primes of Teschner et al. (2003)
   (:func:`hash_cell`). Points are stored sorted by bucket (:func:`sort_by_bucket`, rebuilt whole in O(M), queried
@@ -25,10 +26,11 @@ import numpy as np
 
 from plantvr._sorting import counting_sort
 
-__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "SpatialHash", "axis_range", "ball_candidates", "ball_cells", "ball_query",
-           "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord", "cell_key", "dense_cell",
-           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "hash_coords", "mark_within", "row_spans",
-           "sort_by_bucket", "sort_by_bucket_numpy", "sort_by_cell"]
+__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "SpatialHash", "axis_range", "ball_candidates", "ball_cells",
+           "ball_query", "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord", "cell_key",
+           "dense_box_entries", "dense_box_ranges", "dense_cell", "dense_cell_ids", "dense_cell_ids_numpy",
+           "hash_cell", "hash_coords", "mark_within", "row_spans", "sort_by_bucket", "sort_by_bucket_numpy",
+           "sort_by_cell"]
 
 _P1, _P2, _P3 = 73856093, 19349663, 83492791
 #: Multipliers of the spatial hash (Teschner et al. 2003): cell (ix, iy, iz) -> (ix p1) XOR (iy p2) XOR (iz p3).
@@ -241,6 +243,43 @@ def ball_query(points, order, start, origin, h, dims, c, r, out):  # pragma: no 
                     out[cnt] = v
                 cnt += 1
     return cnt
+
+
+@numba.njit(cache=True, nogil=True)
+def dense_box_ranges(lo, hi, origin, inv, dims):  # pragma: no cover - numba kernel
+    """Inclusive cell ranges ``(c0, c1)`` (N, 3) int64 of the (N, 3) boxes ``lo``, ``hi`` in the dense layout
+    (``floor((x - origin) * inv)``, ``inv = 1 / h``, clamped into the grid) and the number of (box, cell) entries."""
+    n = lo.shape[0]
+    c0 = np.empty((n, 3), np.int64)
+    c1 = np.empty((n, 3), np.int64)
+    total = 0
+    for f in range(n):
+        m = 1
+        for a in range(3):
+            x = min(max(np.int64(np.floor((lo[f, a] - origin[a]) * inv)), 0), dims[a] - 1)
+            y = min(max(np.int64(np.floor((hi[f, a] - origin[a]) * inv)), 0), dims[a] - 1)
+            c0[f, a] = x
+            c1[f, a] = y
+            m *= y - x + 1
+        total += m
+    return c0, c1, total
+
+
+@numba.njit(cache=True, nogil=True)
+def dense_box_entries(c0, c1, dims, total):  # pragma: no cover - numba kernel
+    """(total,) int64 dense cell ids and box ids: one entry per box and cell of :func:`dense_box_ranges`, box by box,
+    cells in (i, j, k) order."""
+    keys = np.empty(total, np.int64)
+    ids = np.empty(total, np.int64)
+    at = 0
+    for f in range(c0.shape[0]):
+        for x in range(c0[f, 0], c1[f, 0] + 1):
+            for y in range(c0[f, 1], c1[f, 1] + 1):
+                for z in range(c0[f, 2], c1[f, 2] + 1):
+                    keys[at] = (x * dims[1] + y) * dims[2] + z
+                    ids[at] = f
+                    at += 1
+    return keys, ids
 
 
 # ----------------------------------------------------------------------------------------------------------------
