@@ -13,7 +13,8 @@ One cell lattice of size ``h``, two layouts:
   (:func:`cell_coord`) are hashed into a power-of-two bucket table with the primes of Teschner et al. (2003)
   (:func:`hash_cell`). Points are stored sorted by bucket (:func:`sort_by_bucket`, rebuilt whole in O(M), queried
   by :func:`mark_within`); boxes are stored in a time-stamped linked-list table that clears in O(1) and takes
-  inserts between queries (:class:`SpatialHash`). Collisions only add candidates: every hit is tested exactly.
+  inserts between queries (:class:`SpatialHash`); Python loops that add one point at a time keep item lists per
+  cell in a dict (:class:`CellLists`). Collisions only add candidates: every hit is tested exactly.
 
 Base module: numpy and numba only. Kernels have numpy twins (``*_numpy``; brute-force queries for the ball queries), checked in tests/test_grid.py.
 """
@@ -26,7 +27,7 @@ import numpy as np
 
 from plantvr._sorting import counting_sort
 
-__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "SpatialHash", "axis_range", "ball_candidates", "ball_cells",
+__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "CellLists", "SpatialHash", "axis_range", "ball_candidates", "ball_cells",
            "ball_query", "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord", "cell_key",
            "dense_box_entries", "dense_box_ranges", "dense_cell", "dense_cell_ids", "dense_cell_ids_numpy",
            "hash_cell", "hash_coords", "mark_within", "row_spans", "sort_by_bucket", "sort_by_bucket_numpy",
@@ -461,3 +462,41 @@ class SpatialHash:
                 out.setdefault(int(self.key[j]), []).append(int(self.elem[j]))
                 j = int(self.nxt[j])
         return {k: v[::-1] for k, v in out.items()}
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# hashed layout for Python loops: item lists per cell in a dict
+# ----------------------------------------------------------------------------------------------------------------
+class CellLists:
+    """Item ids per cell ``floor(x / h)`` (exact Python integers: any finite coordinate) in a dict, for Python
+    loops that add points one at a time and query between adds (particle walks).
+
+    Parameters
+    ----------
+    h : float
+        Cell size, > 0; a query sees every item within ``h`` of its point (and some farther ones).
+    """
+
+    def __init__(self, h: float):
+        self.h = h
+        self.cells: dict[tuple[int, int, int], list[int]] = {}
+
+    def cell(self, p) -> tuple[int, int, int]:
+        """Cell coordinates of point ``p`` (3,)."""
+        h = self.h
+        return int(np.floor(p[0] / h)), int(np.floor(p[1] / h)), int(np.floor(p[2] / h))
+
+    def add(self, i: int, p) -> None:
+        """Add item ``i`` at point ``p`` (3,)."""
+        self.cells.setdefault(self.cell(p), []).append(i)
+
+    def near(self, p) -> list[int]:
+        """Items of the 3 × 3 × 3 cells around ``p``'s cell: cells in (dx, dy, dz) order, items in insertion order."""
+        kx, ky, kz = self.cell(p)
+        get = self.cells.get
+        out: list[int] = []
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    out.extend(get((kx + dx, ky + dy, kz + dz), ()))
+        return out

@@ -166,3 +166,18 @@ def test_dense_box_ranges_and_entries_equal_numpy():
         wk.append((ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2])
         wi.append(np.full(len(ijk), f))
     assert np.array_equal(keys, np.concatenate(wk)) and np.array_equal(ids, np.concatenate(wi))
+
+
+def test_cell_lists_near_holds_every_item_within_h():
+    pts = _cloud(800, 7)
+    cl = G.CellLists(0.9)
+    for i, p in enumerate(pts):
+        cl.add(i, p)
+    for q in _cloud(50, 8):
+        near = cl.near(q)
+        assert len(near) == len(set(near))
+        within = np.flatnonzero(np.linalg.norm(pts - q, axis=1) <= 0.9)
+        assert set(within) <= set(near)
+        k = cl.cell(q)
+        assert near == [i for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                        for i in cl.cells.get((k[0] + dx, k[1] + dy, k[2] + dz), [])]
