@@ -27,11 +27,11 @@ import numpy as np
 
 from plantvr._sorting import counting_sort
 
-__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "CellLists", "SpatialHash", "axis_range", "ball_candidates", "ball_cells",
-           "ball_query", "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord", "cell_key",
-           "dense_box_entries", "dense_box_ranges", "dense_cell", "dense_cell_ids", "dense_cell_ids_numpy",
-           "hash_cell", "hash_coords", "mark_within", "row_spans", "sort_by_bucket", "sort_by_bucket_numpy",
-           "sort_by_cell"]
+__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "CellLists", "SpatialHash", "axis_range", "ball_candidates",
+           "ball_cells", "ball_query", "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord",
+           "cell_coords", "cell_coords_numpy", "cell_key", "dense_box_entries", "dense_box_ranges", "dense_cell",
+           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "hash_coords", "mark_within", "row_spans",
+           "sort_by_bucket", "sort_by_bucket_numpy", "sort_by_cell"]
 
 _P1, _P2, _P3 = 73856093, 19349663, 83492791
 #: Multipliers of the spatial hash (Teschner et al. 2003): cell (ix, iy, iz) -> (ix p1) XOR (iy p2) XOR (iz p3).
@@ -72,6 +72,26 @@ def cell_coord(x, inv, lo, hi):
     elif not f >= lo:
         f = lo
     return np.int64(f)
+
+
+@numba.njit(cache=True, nogil=True)
+def cell_coords(points, cell, limit, out):  # pragma: no cover - numba kernel, twin: cell_coords_numpy
+    """Write ``floor(points / cell)`` ((M, 3) float64 points, (3,) cell sizes, one per axis) clipped to ±``limit``
+    into (M, 3) int64 ``out``; NaN gives 0 (hashed layout of anisotropic cells: the shadow grid)."""
+    for n in range(points.shape[0]):
+        for a in range(3):
+            f = np.floor(points[n, a] / cell[a])  # a float: math.floor would give an int64 and overflow
+            if f > limit:
+                f = limit
+            elif not f >= -limit:
+                f = -limit if f < 0.0 else 0.0  # below the range, or NaN
+            out[n, a] = np.int64(f)
+
+
+def cell_coords_numpy(points: np.ndarray, cell: np.ndarray, limit: float) -> np.ndarray:
+    """numpy twin of :func:`cell_coords`: ``floor(points / cell)`` clipped to ±limit, NaN → 0, as int64."""
+    f = np.clip(np.floor(np.asarray(points, np.float64) / cell), -limit, limit)
+    return np.where(np.isnan(f), 0.0, f).astype(np.int64)
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
