@@ -7,12 +7,14 @@ One cell lattice of size ``h``, two layouts:
   (:func:`dense_cell_ids`, ``floor((x - origin) / h)`` clamped into the grid); items are sorted stably by cell
   with a counting sort and cell ``c`` holds ``order[start[c]:start[c + 1]]`` (:func:`sort_by_cell`). A query
   visits the cells of an axis range (:func:`axis_range`, :func:`ball_cells` with their box distances) or the
-  grid rows a ball's box spans (:func:`row_spans`, :func:`ball_query`);
+  grid rows a ball's box spans (:func:`row_spans`, :func:`ball_query`); boxes are entered in every cell they
+  touch (:func:`dense_box_ranges`, :func:`dense_box_entries`);
 - **hashed** (an unbounded or sparse domain): cell coordinates ``floor(x / h)`` clipped to a bound
   (:func:`cell_coord`) are hashed into a power-of-two bucket table with the primes of Teschner et al. (2003)
   (:func:`hash_cell`). Points are stored sorted by bucket (:func:`sort_by_bucket`, rebuilt whole in O(M), queried
   by :func:`mark_within`); boxes are stored in a time-stamped linked-list table that clears in O(1) and takes
-  inserts between queries (:class:`SpatialHash`). Collisions only add candidates: every hit is tested exactly.
+  inserts between queries (:class:`SpatialHash`); Python loops that add one point at a time keep item lists per
+  cell in a dict (:class:`CellLists`). Collisions only add candidates: every hit is tested exactly.
 
 Base module: numpy and numba only. Kernels have numpy twins (``*_numpy``; brute-force queries for the ball queries), checked in tests/test_grid.py.
 """
@@ -25,12 +27,15 @@ import numpy as np
 
 from plantvr._sorting import counting_sort
 
-__all__ = ["HASH_LIMIT", "KEY_LIMIT", "SpatialHash", "axis_range", "ball_candidates", "ball_cells", "ball_query",
-           "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord", "cell_key", "dense_cell",
-           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "mark_within", "row_spans",
+__all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "CellLists", "SpatialHash", "axis_range", "ball_candidates",
+           "ball_cells", "ball_query", "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord",
+           "cell_coords", "cell_coords_numpy", "cell_key", "dense_box_entries", "dense_box_ranges", "dense_cell",
+           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "hash_coords", "mark_within", "row_spans",
            "sort_by_bucket", "sort_by_bucket_numpy", "sort_by_cell"]
 
 _P1, _P2, _P3 = 73856093, 19349663, 83492791
+#: Multipliers of the spatial hash (Teschner et al. 2003): cell (ix, iy, iz) -> (ix p1) XOR (iy p2) XOR (iz p3).
+HASH_PRIMES = (_P1, _P2, _P3)
 
 #: Largest |cell coordinate| of a hashed point grid (floats are exact integers up to 2**53).
 HASH_LIMIT = float(2 ** 52)
@@ -69,10 +74,38 @@ def cell_coord(x, inv, lo, hi):
     return np.int64(f)
 
 
+@numba.njit(cache=True, nogil=True)
+def cell_coords(points, cell, limit, out):  # pragma: no cover - numba kernel, twin: cell_coords_numpy
+    """Write ``floor(points / cell)`` ((M, 3) float64 points, (3,) cell sizes, one per axis) clipped to ±``limit``
+    into (M, 3) int64 ``out``; NaN gives 0 (hashed layout of anisotropic cells: the shadow grid)."""
+    for n in range(points.shape[0]):
+        for a in range(3):
+            f = np.floor(points[n, a] / cell[a])  # a float: math.floor would give an int64 and overflow
+            if f > limit:
+                f = limit
+            elif not f >= -limit:
+                f = -limit if f < 0.0 else 0.0  # below the range, or NaN
+            out[n, a] = np.int64(f)
+
+
+def cell_coords_numpy(points: np.ndarray, cell: np.ndarray, limit: float) -> np.ndarray:
+    """numpy twin of :func:`cell_coords`: ``floor(points / cell)`` clipped to ±limit, NaN → 0, as int64."""
+    f = np.clip(np.floor(np.asarray(points, np.float64) / cell), -limit, limit)
+    return np.where(np.isnan(f), 0.0, f).astype(np.int64)
+
+
 @numba.njit(cache=True, nogil=True, inline="always")
 def hash_cell(ix, iy, iz, mask):
     """Bucket of cell (ix, iy, iz) in a table of ``mask + 1`` (a power of two) buckets."""
     return ((ix * _P1) ^ (iy * _P2) ^ (iz * _P3)) & mask
+
+
+def hash_coords(cells: np.ndarray) -> np.ndarray:
+    """numpy :func:`hash_cell` without the mask: (N,) int64 ``(ix p1) XOR (iy p2) XOR (iz p3)`` of (N, 3) int64
+    cell coordinates (int64 products wrap, as in the kernel)."""
+    with np.errstate(over="ignore"):
+        i = np.asarray(cells, np.int64) * np.asarray(HASH_PRIMES, np.int64)
+    return i[:, 0] ^ i[:, 1] ^ i[:, 2]
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -233,6 +266,43 @@ def ball_query(points, order, start, origin, h, dims, c, r, out):  # pragma: no 
     return cnt
 
 
+@numba.njit(cache=True, nogil=True)
+def dense_box_ranges(lo, hi, origin, inv, dims):  # pragma: no cover - numba kernel
+    """Inclusive cell ranges ``(c0, c1)`` (N, 3) int64 of the (N, 3) boxes ``lo``, ``hi`` in the dense layout
+    (``floor((x - origin) * inv)``, ``inv = 1 / h``, clamped into the grid) and the number of (box, cell) entries."""
+    n = lo.shape[0]
+    c0 = np.empty((n, 3), np.int64)
+    c1 = np.empty((n, 3), np.int64)
+    total = 0
+    for f in range(n):
+        m = 1
+        for a in range(3):
+            x = min(max(np.int64(np.floor((lo[f, a] - origin[a]) * inv)), 0), dims[a] - 1)
+            y = min(max(np.int64(np.floor((hi[f, a] - origin[a]) * inv)), 0), dims[a] - 1)
+            c0[f, a] = x
+            c1[f, a] = y
+            m *= y - x + 1
+        total += m
+    return c0, c1, total
+
+
+@numba.njit(cache=True, nogil=True)
+def dense_box_entries(c0, c1, dims, total):  # pragma: no cover - numba kernel
+    """(total,) int64 dense cell ids and box ids: one entry per box and cell of :func:`dense_box_ranges`, box by box,
+    cells in (i, j, k) order."""
+    keys = np.empty(total, np.int64)
+    ids = np.empty(total, np.int64)
+    at = 0
+    for f in range(c0.shape[0]):
+        for x in range(c0[f, 0], c1[f, 0] + 1):
+            for y in range(c0[f, 1], c1[f, 1] + 1):
+                for z in range(c0[f, 2], c1[f, 2] + 1):
+                    keys[at] = (x * dims[1] + y) * dims[2] + z
+                    ids[at] = f
+                    at += 1
+    return keys, ids
+
+
 # ----------------------------------------------------------------------------------------------------------------
 # hashed layout: points sorted by bucket
 # ----------------------------------------------------------------------------------------------------------------
@@ -259,8 +329,7 @@ def sort_by_bucket_numpy(points: np.ndarray, h: float) -> tuple[np.ndarray, np.n
     nb = 1 << max(4, int(2 * max(len(points), 1) - 1).bit_length())
     f = np.floor(np.asarray(points, np.float64) * (1.0 / h))
     c = np.where(f > HASH_LIMIT, HASH_LIMIT, np.where(f >= -HASH_LIMIT, f, -HASH_LIMIT)).astype(np.int64)
-    with np.errstate(over="ignore"):
-        b = ((c[:, 0] * _P1) ^ (c[:, 1] * _P2) ^ (c[:, 2] * _P3)) & (nb - 1)
+    b = hash_coords(c) & (nb - 1)
     order = np.argsort(b, kind="stable")
     start = np.concatenate([[0], np.cumsum(np.bincount(b, minlength=nb))])
     return order, start, nb - 1
@@ -413,3 +482,41 @@ class SpatialHash:
                 out.setdefault(int(self.key[j]), []).append(int(self.elem[j]))
                 j = int(self.nxt[j])
         return {k: v[::-1] for k, v in out.items()}
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# hashed layout for Python loops: item lists per cell in a dict
+# ----------------------------------------------------------------------------------------------------------------
+class CellLists:
+    """Item ids per cell ``floor(x / h)`` (exact Python integers: any finite coordinate) in a dict, for Python
+    loops that add points one at a time and query between adds (particle walks).
+
+    Parameters
+    ----------
+    h : float
+        Cell size, > 0; a query sees every item within ``h`` of its point (and some farther ones).
+    """
+
+    def __init__(self, h: float):
+        self.h = h
+        self.cells: dict[tuple[int, int, int], list[int]] = {}
+
+    def cell(self, p) -> tuple[int, int, int]:
+        """Cell coordinates of point ``p`` (3,)."""
+        h = self.h
+        return int(np.floor(p[0] / h)), int(np.floor(p[1] / h)), int(np.floor(p[2] / h))
+
+    def add(self, i: int, p) -> None:
+        """Add item ``i`` at point ``p`` (3,)."""
+        self.cells.setdefault(self.cell(p), []).append(i)
+
+    def near(self, p) -> list[int]:
+        """Items of the 3 × 3 × 3 cells around ``p``'s cell: cells in (dx, dy, dz) order, items in insertion order."""
+        kx, ky, kz = self.cell(p)
+        get = self.cells.get
+        out: list[int] = []
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for dz in (-1, 0, 1):
+                    out.extend(get((kx + dx, ky + dy, kz + dz), ()))
+        return out

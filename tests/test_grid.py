@@ -136,3 +136,48 @@ def test_counting_sort_is_the_stable_argsort():
     order, start = counting_sort(keys, 50, np.int64)
     assert np.array_equal(order, np.argsort(keys, kind="stable"))
     assert np.array_equal(np.diff(start), np.bincount(keys, minlength=50))
+
+
+def test_hash_coords_is_the_unmasked_hash_cell():
+    c = np.random.default_rng(5).integers(-2 ** 30, 2 ** 30, (500, 3))
+    got = G.hash_coords(c)
+    mask = (1 << 12) - 1
+    assert np.array_equal(got & mask, [G.hash_cell(int(x), int(y), int(z), mask) for x, y, z in c])
+    assert np.array_equal(got, (c[:, 0] * 73856093) ^ (c[:, 1] * 19349663) ^ (c[:, 2] * 83492791))
+
+
+def test_dense_box_ranges_and_entries_equal_numpy():
+    rng = np.random.default_rng(6)
+    lo = rng.uniform(-1, 1, (400, 3))
+    hi = lo + rng.uniform(0, 0.6, (400, 3))
+    origin, h = lo.min(0), 0.17
+    dims = (np.floor((hi.max(0) - origin) / h) + 1).astype(np.int64)
+    dims[2] = max(dims[2] - 2, 1)                                  # some boxes stick out: clamped into the grid
+    c0, c1, total = G.dense_box_ranges(lo, hi, origin, 1.0 / h, dims)
+    want0 = np.clip(np.floor((lo - origin) * (1.0 / h)), 0, dims - 1).astype(np.int64)
+    want1 = np.clip(np.floor((hi - origin) * (1.0 / h)), 0, dims - 1).astype(np.int64)
+    assert np.array_equal(c0, want0) and np.array_equal(c1, want1)
+    assert total == int(np.prod(want1 - want0 + 1, axis=1).sum())
+    keys, ids = G.dense_box_entries(c0, c1, dims, total)
+    wk, wi = [], []
+    for f in range(len(lo)):
+        ijk = np.stack(np.meshgrid(*[np.arange(want0[f, a], want1[f, a] + 1) for a in range(3)], indexing="ij"), -1)
+        ijk = ijk.reshape(-1, 3)
+        wk.append((ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2])
+        wi.append(np.full(len(ijk), f))
+    assert np.array_equal(keys, np.concatenate(wk)) and np.array_equal(ids, np.concatenate(wi))
+
+
+def test_cell_lists_near_holds_every_item_within_h():
+    pts = _cloud(800, 7)
+    cl = G.CellLists(0.9)
+    for i, p in enumerate(pts):
+        cl.add(i, p)
+    for q in _cloud(50, 8):
+        near = cl.near(q)
+        assert len(near) == len(set(near))
+        within = np.flatnonzero(np.linalg.norm(pts - q, axis=1) <= 0.9)
+        assert set(within) <= set(near)
+        k = cl.cell(q)
+        assert near == [i for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
+                        for i in cl.cells.get((k[0] + dx, k[1] + dy, k[2] + dz), [])]

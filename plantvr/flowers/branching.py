@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from plantvr._validation import MAX_COORD, check_array, check_int, check_point, check_range
+from plantvr.grid import CellLists
 
 __all__ = [
     "BranchTree",
@@ -118,32 +119,15 @@ def linear_wb(radius: float, w_max: float = 1.0) -> Callable[[float], float]:
     return lambda d: w_max * max(0.0, 1.0 - d / radius)
 
 
-class _Grid:
-    """Uniform grid of node ids (Teschner-style voxel lists) for the nearest-foreign-node query."""
-
-    def __init__(self, cell: float):
-        self.cell = cell
-        self.cells: dict[tuple[int, int, int], list[int]] = {}
-
-    def key(self, p):
-        return (int(np.floor(p[0] / self.cell)), int(np.floor(p[1] / self.cell)), int(np.floor(p[2] / self.cell)))
-
-    def add(self, i, p):
-        self.cells.setdefault(self.key(p), []).append(i)
-
-    def nearest_foreign(self, p, pos, bid, own, radius):
-        kx, ky, kz = self.key(p)
-        best, bd = -1, radius
-        for dx in (-1, 0, 1):
-            for dy in (-1, 0, 1):
-                for dz in (-1, 0, 1):
-                    for i in self.cells.get((kx + dx, ky + dy, kz + dz), ()):
-                        if bid[i] == own:                       # own tree ignored (Fig. 7.5a)
-                            continue
-                        d = float(np.sqrt(((pos[i] - p) ** 2).sum()))
-                        if d < bd:
-                            best, bd = i, d
-        return best, bd
+def _nearest_foreign(cells: CellLists, p, pos, bid, own, radius) -> tuple[int, float]:
+    """The nearest node of another tree within ``radius`` of ``p`` (Fig. 7.5a: the own tree is ignored) and its
+    distance; ``(-1, radius)`` if none. ``cells`` has cell size ``radius``, so its 27 cells hold every candidate."""
+    cand = [i for i in cells.near(p) if bid[i] != own]
+    if not cand:
+        return -1, radius
+    d = np.sqrt(((np.array([pos[i] for i in cand]) - p) ** 2).sum(axis=1))
+    k = int(np.argmin(d))                       # the first of equal minima, as a strict-< scan keeps
+    return (cand[k], float(d[k])) if d[k] < radius else (-1, radius)
 
 
 def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w_a: float = 1.0,
@@ -214,7 +198,7 @@ def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w
     parent = [-1]
     bid = [0]                                   # the base's ID_branch is 0
     members: dict[int, list[int]] = {0: [0]}
-    grid = _Grid(search_radius)
+    grid = CellLists(search_radius)
     grid.add(0, A0)
     tips = np.full(K, -1, np.int64)
     grafts = []
@@ -253,7 +237,7 @@ def rodkaew(florets: np.ndarray, base, *, emergence: np.ndarray | None = None, w
                 P[2] = False
                 continue
             A /= dA
-            N, d = grid.nearest_foreign(p, pos, bid, own, search_radius)
+            N, d = _nearest_foreign(grid, p, pos, bid, own, search_radius)
             wbv = _weight(wb, d) if N >= 0 else 0.0
             B = (pos[N] - p) / d if N >= 0 and d > 0 else np.zeros(3)
             Hn = (w_a * A + wbv * B + w_h * P[1]) / (w_a + wbv + w_h)          # Eq. 7.1

@@ -14,6 +14,8 @@ import math
 import numba
 import numpy as np
 
+from plantvr._threading import parallel_region
+
 REC_P0, REC_P1, REC_P2, REC_BX0, REC_BX1 = 0, 3, 6, 9, 12
 REC_W, REC_T0, REC_T1, REC_R0, REC_R2 = 15, 16, 17, 18, 19
 REC_SIZE = 20
@@ -563,6 +565,12 @@ PARALLEL_MIN_SEGMENTS = 4096
 busy machine a descheduled worker stalls the whole loop."""
 
 
+def copy_blocks(src_v0, dst_v0, nv, src_f0, dst_f0, nf, V0, N0, UV0, ID0, F0, V, NRM, UV, NID, F):
+    """:func:`_copy_blocks_numba` inside :func:`~plantvr._threading.parallel_region`."""
+    with parallel_region():
+        _copy_blocks_numba(src_v0, dst_v0, nv, src_f0, dst_f0, nf, V0, N0, UV0, ID0, F0, V, NRM, UV, NID, F)
+
+
 def eval_segments(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F,
                   full: bool = True):
     """Evaluate the segments ``seg_idx`` into the buffers; threads only when there is enough work.
@@ -573,9 +581,11 @@ def eval_segments(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, 
         _eval_segments_serial(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F,
                               full)
     elif full:
-        _eval_segments_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
+        with parallel_region():
+            _eval_segments_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
     else:
-        _eval_geometry_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
+        with parallel_region():
+            _eval_geometry_numba(rec, cnt, ksteps, nodes, caps, seg_idx, v_off, f_off, repeat, V, NRM, UV, NID, F)
 
 
 def _records_numpy(pos, parent, radius, eff, main, frame, tmid, axis, bezier_w, bark_rate):

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import grid
 from .._validation import check_array, check_int, check_points, check_range
 from .mesh import BranchMesh, _check_options, _check_tree, _evaluate, _offsets, ring_counts, tree_segments
 
@@ -34,8 +35,8 @@ __all__ = [
     "vigor_leaf_colors",
 ]
 
-#: Multipliers of the spatial hash (spec 004 §4.4 [INFERRED], Teschner et al. 2003).
-HASH_PRIMES = (73856093, 19349663, 83492791)
+#: Multipliers of the spatial hash (spec 004 §4.4 [INFERRED], Teschner et al. 2003): those of plantvr.grid.
+HASH_PRIMES = grid.HASH_PRIMES
 _Y = np.array([0.0, 1.0, 0.0])
 
 
@@ -194,8 +195,7 @@ def position_hash(pos, *, quant: float = 0.05, table_size: int = 4096) -> np.nda
     cell = np.floor(pos / quant)
     if cell.size and np.abs(cell).max() > 2 ** 30:
         raise ValueError(f"pos / quant must stay within +-2^30 cells, got {np.abs(cell).max():.3g}")
-    i = cell.astype(np.int64) * np.asarray(HASH_PRIMES, np.int64)
-    return (i[:, 0] ^ i[:, 1] ^ i[:, 2]) % table_size
+    return grid.hash_coords(cell.astype(np.int64)) % table_size
 
 
 def hash_random(pos, *, seed: int = 0, quant: float = 0.05, table_size: int = 4096) -> np.ndarray:

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from plantvr._threading import parallel_region
 from plantvr._validation import check_array, check_choice, check_int, check_points, check_range
 from plantvr.types import BufferMesh, TriMesh
 
@@ -166,7 +167,8 @@ def orient_leaves(h, r, u, *, e_twist: float = 0.05, e_up: float = 0.05, e_right
         return h, r, u
     if kernel == "numba":
         fn = _orient_numba if len(h) >= 2048 else _orient_serial
-        return fn(h, r, u, np.array([e["e_right"], e["e_up"], e["e_twist"]]), iterations, y, scale)
+        with parallel_region():
+            return fn(h, r, u, np.array([e["e_right"], e["e_up"], e["e_twist"]]), iterations, y, scale)
     for _ in range(iterations):
         for ax_name, tg_name, ek in (("u", "h", "e_right"), ("r", "u", "e_up"), ("h", "u", "e_twist")):
             if e[ek] == 0.0:
@@ -251,7 +253,8 @@ def _orient_serial(h, r, u, e, iterations, y, scale):
     prev = numba.get_num_threads()
     numba.set_num_threads(1)
     try:
-        return _orient_numba(h, r, u, e, iterations, y, scale)
+        with parallel_region():
+            return _orient_numba(h, r, u, e, iterations, y, scale)
     finally:
         numba.set_num_threads(prev)
 

@@ -447,7 +447,7 @@ def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
     V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
     keep = np.flatnonzero(same)
     jk = j[keep]
-    K._copy_blocks_numba(old.v_off[jk], v_off[keep], v_off[keep + 1] - v_off[keep], old.f_off[jk], f_off[keep],
+    K.copy_blocks(old.v_off[jk], v_off[keep], v_off[keep + 1] - v_off[keep], old.f_off[jk], f_off[keep],
                          f_off[keep + 1] - f_off[keep], old.vertices, old.normals, old.uv, old.node_id,
                          old.faces, V, NRM, UV, NID, F)
     K.eval_segments(seg.records, cnt, o["u_steps"], seg.nodes, seg.caps, changed, v_off, f_off, *args,
@@ -796,7 +796,7 @@ class IncrementalBranchMesh(BufferMesh):
         old = (self._V, self._NRM, self._UV, self._NID, self._F)
         src_v0, src_f0, nv, nf = self._v0[q], self._f0[q], self._nv[q], self._nf[q]
         self._alloc_buffers(int(v0[-1] * 1.1) + 64, int(f0[-1] * 1.1) + 64)
-        K._copy_blocks_numba(src_v0, v0[:-1], nv, src_f0, f0[:-1], nf, *old, self._V, self._NRM, self._UV,
+        K.copy_blocks(src_v0, v0[:-1], nv, src_f0, f0[:-1], nf, *old, self._V, self._NRM, self._UV,
                              self._NID, self._F)
         seg = Segments(records=self._rec[q], nodes=self._nodes[q], keys=self._key[q], axis=self._axis[q],
                        caps=self._caps[q])
@@ -813,6 +813,6 @@ class IncrementalBranchMesh(BufferMesh):
         v_off = np.concatenate([[0], np.cumsum(nv)]).astype(np.int64)
         f_off = np.concatenate([[0], np.cumsum(nf)]).astype(np.int64)
         V, NRM, UV, NID, F = _alloc(int(v_off[-1]), int(f_off[-1]))
-        K._copy_blocks_numba(self._v0[q], v_off[:-1], nv, self._f0[q], f_off[:-1], nf, self._V, self._NRM,
+        K.copy_blocks(self._v0[q], v_off[:-1], nv, self._f0[q], f_off[:-1], nf, self._V, self._NRM,
                              self._UV, self._NID, self._F, V, NRM, UV, NID, F)
         return BranchMesh(V, F, NRM, UV, NID, self.segments(), cnt.copy(), v_off, f_off, dict(self.options))

@@ -22,6 +22,7 @@ import math
 import numba
 import numpy as np
 
+from plantvr._threading import parallel_region  # noqa: F401 (sets numba's threading layer first)
 from plantvr.grid import axis_range, ball_cells, bounds, box_gap2, cell_buffers, sort_by_cell
 
 #: Quantisation of unit vectors: 2**38 units per 1.0 (resolution 3.6e-12; sums exact up to 2**25 markers/node).

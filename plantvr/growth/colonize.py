@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from plantvr._threading import parallel_region
 from plantvr._validation import check_array, check_int, check_points, check_range
 from plantvr.grid import sort_by_cell
 from plantvr.growth import _colonize_kernels as K
@@ -589,7 +590,8 @@ class TreeWandAssigner:
                 np.full(len(self.pos_s), -1, np.int32), np.full(len(self.pos_s), np.inf), owner_in, self.view_radius,
                 self.cos_half)
         if parallel:
-            K.treewand_assign_parallel(*args, numba.get_num_threads())
+            with parallel_region():
+                K.treewand_assign_parallel(*args, numba.get_num_threads())
         else:
             K.treewand_assign_kernel(*args)
         return owner_in

@@ -1,6 +1,7 @@
 """Distance-based shadow pyramids on a two-tier hashed sparse grid (spec 000_treewand §2.6–§2.7, Alg. 9.1).
 
-Cells are ``l_b × 3 l_b × l_b`` (§2.6). Fine grids of ``F³`` cells are created lazily under a coarse hash
+Cells are ``l_b × 3 l_b × l_b`` (§2.6), their coordinates those of plantvr.grid (:func:`plantvr.grid.cell_coords`,
+one cell size per axis). Fine grids of ``F³`` cells are created lazily under a coarse hash
 keyed by the corrected Szudzik pairing (Eqs. 9.11–9.14, ERRATUM A.7) of zig-zag mapped coarse indices.
 
 Bounds (issue 20): the nested pairing is quartic in the coarse index, so coarse indices are kept within
@@ -17,6 +18,7 @@ import numpy as np
 from numba import types
 from numba.typed import Dict
 
+from plantvr import grid
 from plantvr._validation import check_array, check_int, check_range
 
 __all__ = ["szudzik", "zigzag", "coarse_key", "shadow_lut", "ShadowGrid", "ShadowGridFull", "cells_of_numpy",
@@ -141,23 +143,9 @@ def _drop_blocks(keys, first):
         keys.pop(gone[t])
 
 
-@numba.njit(cache=True, nogil=True)
-def _cells_of(points, cell, limit, out):
-    """Fine-cell index of each point, clipped to ±limit; NaN gives 0 (twin: :func:`cells_of_numpy`)."""
-    for n in range(points.shape[0]):
-        for a in range(3):
-            f = np.floor(points[n, a] / cell[a])  # a float: math.floor would give an int64 and overflow
-            if f > limit:
-                f = limit
-            elif not f >= -limit:
-                f = -limit if f < 0.0 else 0.0  # below the range, or NaN
-            out[n, a] = np.int64(f)
-
-
-def cells_of_numpy(points: np.ndarray, cell: np.ndarray, limit: float) -> np.ndarray:
-    """numpy twin of :func:`_cells_of`: ``floor(points / cell)`` clipped to ±limit, NaN → 0, as int64."""
-    f = np.clip(np.floor(np.asarray(points, np.float64) / cell), -limit, limit)
-    return np.where(np.isnan(f), 0.0, f).astype(np.int64)
+# fine-cell coordinates: plantvr.grid's per-axis cell coordinates (twin: cells_of_numpy)
+_cells_of = grid.cell_coords
+cells_of_numpy = grid.cell_coords_numpy
 
 
 @numba.njit(cache=True, nogil=True)

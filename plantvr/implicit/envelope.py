@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from plantvr import grid
 from plantvr._validation import check_choice, check_int, check_points, check_range
 from plantvr.types import TriMesh
 
@@ -53,9 +54,15 @@ def implicit_envelope(points, *, radius: float | None = None, max_primitives: in
                                                                  high_open=True)
     cap = check_int("max_primitives", max_primitives, 1, MAX_PRIMITIVES)
     h = 0.5 * r
+    lo, hi = grid.bounds(pts)
     while True:
-        key = np.floor((pts - pts.min(axis=0)) / h).astype(np.int64)
-        _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+        # the occupied cells of the dense grid on the points' box, in cell-id order (= (i, j, k) order)
+        dims = np.floor((hi - lo) / h).astype(np.int64) + 1
+        if np.prod(dims.astype(np.float64)) < 2.0 ** 62:
+            _, inv, cnt = np.unique(grid.dense_cell_ids(pts, lo, h, dims), return_inverse=True, return_counts=True)
+        else:                                   # cell ids would overflow int64: unique (i, j, k) rows, same order
+            key = np.floor((pts - lo) / h).astype(np.int64)
+            _, inv, cnt = np.unique(key, axis=0, return_inverse=True, return_counts=True)
         if len(cnt) <= cap:
             break
         h *= 1.25

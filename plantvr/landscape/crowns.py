@@ -28,6 +28,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from .._threading import parallel_region
 from .._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
 from ..growth.sketch import SketchEngine
 from .terrain import pair
@@ -273,7 +274,8 @@ def propagate_layer(shape: tuple[int, int], bases: np.ndarray, areas: np.ndarray
     if engine == "python":
         return propagate_layer_python((ny, nx), bx, bz, r0c, rate, act)
     owner = np.full((1, ny, nx), -1, np.int32)
-    _propagate_layers(owner, bx, bz, r0c, rate, act[None])
+    with parallel_region():
+        _propagate_layers(owner, bx, bz, r0c, rate, act[None])
     return owner[0]
 
 
@@ -359,7 +361,8 @@ def crown_voxels(bases: np.ndarray, areas: np.ndarray, h_max: np.ndarray, *, siz
         sol = np.stack([propagate_layer_python((ny, nx), bx, bz, r0c, rate, active[k]) for k in first])
     else:
         sol = np.full((len(first), ny, nx), -1, np.int32)
-        _propagate_layers(sol, bx, bz, r0c, rate, np.ascontiguousarray(active[first]))
+        with parallel_region():
+            _propagate_layers(sol, bx, bz, r0c, rate, np.ascontiguousarray(active[first]))
     owner[:] = sol[inv]
     return CrownVoxels(owner, (W, D), dz, h.copy())
 

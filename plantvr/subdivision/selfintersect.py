@@ -1,8 +1,8 @@
 """Self-intersection test of a triangle mesh, adjacent pairs excluded (spec 001_subdivision §8.2 V13; issue 22).
 
-Broad phase (default ``method="grid"``): every face is binned into the cells of a uniform grid that its
-axis-aligned box touches (cell side about the mean face size, cells keyed by their integer coordinates and
-sorted); two faces are a candidate pair in the first cell their boxes share, so each pair is tested once.
+Broad phase (default ``method="grid"``): every face is binned into the cells of plantvr.grid's dense layout that
+its axis-aligned box touches (:func:`~plantvr.grid.dense_box_ranges`, :func:`~plantvr.grid.dense_box_entries`;
+cell side about the mean face size, entries sorted by cell id); two faces are a candidate pair in the first cell their boxes share, so each pair is tested once.
 Narrow phase: a pair intersects when an edge of one triangle crosses the interior of the other
 (Möller–Trumbore on segments). Both phases run in one numba kernel; :func:`_tri_tri_numpy` is the numpy twin
 of its triangle-pair test. The older path (``method="kdtree"``: a k-d tree over face centroids and bounding
@@ -17,6 +17,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from plantvr._validation import MAX_COUNT, check_choice, check_int, check_range
+from plantvr.grid import dense_box_entries, dense_box_ranges
 
 from ._checks import check_mesh
 
@@ -150,41 +151,6 @@ def _tri_tri(A, B, eps):  # pragma: no cover - compiled; twin: _tri_tri_numpy
 
 
 @numba.njit(cache=True, nogil=True)
-def _cell_ranges(lo, hi, gmin, inv, dims):  # pragma: no cover - compiled
-    """Per-face inclusive cell ranges (F, 3) of its box and the total number of (face, cell) entries."""
-    n = lo.shape[0]
-    c0 = np.empty((n, 3), np.int64)
-    c1 = np.empty((n, 3), np.int64)
-    total = 0
-    for f in range(n):
-        m = 1
-        for a in range(3):
-            x = min(max(np.int64(np.floor((lo[f, a] - gmin[a]) * inv)), 0), dims[a] - 1)
-            y = min(max(np.int64(np.floor((hi[f, a] - gmin[a]) * inv)), 0), dims[a] - 1)
-            c0[f, a] = x
-            c1[f, a] = y
-            m *= y - x + 1
-        total += m
-    return c0, c1, total
-
-
-@numba.njit(cache=True, nogil=True)
-def _cell_entries(c0, c1, dims, total):  # pragma: no cover - compiled
-    """(total,) cell keys and face ids: one entry per face and cell its box touches."""
-    keys = np.empty(total, np.int64)
-    ids = np.empty(total, np.int64)
-    at = 0
-    for f in range(c0.shape[0]):
-        for x in range(c0[f, 0], c1[f, 0] + 1):
-            for y in range(c0[f, 1], c1[f, 1] + 1):
-                for z in range(c0[f, 2], c1[f, 2] + 1):
-                    keys[at] = (x * dims[1] + y) * dims[2] + z
-                    ids[at] = f
-                    at += 1
-    return keys, ids
-
-
-@numba.njit(cache=True, nogil=True)
 def _grid_pairs(T, F, lo, hi, c0, keys, ids, dims, eps):  # pragma: no cover - compiled; oracle: kdtree path
     """Intersecting face pairs (i < j) among faces sharing a cell, each pair tested in its first shared cell."""
     cap = 1024
@@ -241,11 +207,11 @@ def _self_intersections_grid(V: np.ndarray, F: np.ndarray, eps: float) -> np.nda
     h = max(float((hi - lo).max(axis=1).mean()), span / (_MAX_DIM - 2), 1e-300)
     for _ in range(64):
         dims = (np.floor((gmax - gmin) / h).astype(np.int64) + 1).clip(1, _MAX_DIM)
-        c0, c1, total = _cell_ranges(lo, hi, gmin, 1.0 / h, dims)
+        c0, c1, total = dense_box_ranges(lo, hi, gmin, 1.0 / h, dims)
         if total <= 16 * len(F) + 4096:
             break
         h *= 2.0                                  # a few huge faces: coarser cells keep the entry count linear
-    keys, ids = _cell_entries(c0, c1, dims, total)
+    keys, ids = dense_box_entries(c0, c1, dims, total)
     order = np.argsort(keys, kind="stable")
     out = _grid_pairs(T, F, lo, hi, c0, keys[order], ids[order], dims, float(eps))
     if len(out) == 0:
