@@ -251,6 +251,12 @@ class TriMesh:
             return bool(np.all(cu == 2))
         return self._cached("is_watertight", make)
 
+    def to_trimesh(self):
+        """A ``trimesh.Trimesh`` (``process=False``) with this mesh's vertex normals."""
+        import trimesh  # noqa: PLC0415  (heavy, optional at this layer)
+        kw = {"vertex_normals": self.normals} if getattr(self, "normals", None) is not None else {}
+        return trimesh.Trimesh(self.vertices, self.faces, process=False, **kw)
+
 
 class BufferMesh(TriMesh):
     """A :class:`TriMesh` whose ``vertices`` and ``faces`` are views of buffers that an incremental mesher
@@ -263,12 +269,6 @@ class BufferMesh(TriMesh):
 
     def _cached(self, key: str, make):
         return make()
-
-    def to_trimesh(self):
-        """A ``trimesh.Trimesh`` (``process=False``) with this mesh's vertex normals."""
-        import trimesh  # noqa: PLC0415  (heavy, optional at this layer)
-        kw = {"vertex_normals": self.normals} if getattr(self, "normals", None) is not None else {}
-        return trimesh.Trimesh(self.vertices, self.faces, process=False, **kw)
 
 
 @dataclass(frozen=True, eq=False)
