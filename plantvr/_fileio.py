@@ -27,7 +27,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["MAX_JSON_BYTES", "MAX_READ_BYTES", "read_json", "atomic_write", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
+__all__ = ["MAX_JSON_BYTES", "MAX_READ_BYTES", "read_json", "atomic_write", "check_target", "make_folder", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
            "npy_bytes", "npy_headers", "zip_directory", "digest_arrays"]
 
 #: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream; ``SyntaxError``,
@@ -56,9 +56,7 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO[Any]]
     if mode not in ("wb", "w"):
         raise ValueError(f"mode must be 'wb' or 'w', got {mode!r}")
     path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ValueError(f"cannot write {os.fspath(path)!r}: folder {os.fspath(folder)!r} does not exist")
+    folder = check_target(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     try:
         with os.fdopen(fd, mode, **({"encoding": "utf-8", "newline": ""} if mode == "w" else {})) as fh:
@@ -80,6 +78,58 @@ def atomic_write(path: str | os.PathLike, mode: str = "wb") -> Iterator[IO[Any]]
             os.close(dfd)
 
 
+def check_target(path: str | os.PathLike, *, name: str = "path") -> Path:
+    """The one rule every PlantVR writer follows before it writes: the target's folder must already exist (no
+    writer creates folders, so a typo in a folder name is an error, not a new folder tree) and the target must
+    not be a folder. Returns the folder (``.`` for a bare file name).
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, the path and what is wrong.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"{name} must be a file path, got {type(path).__name__}")
+    path = Path(path)
+    if not path.name:
+        raise ValueError(f"{name} must name a file, got {os.fspath(path)!r}")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        what = "is not a folder" if folder.exists() else "does not exist"
+        raise ValueError(f"cannot write {os.fspath(path)!r}: folder {os.fspath(folder)!r} {what} (create it "
+                         f"first; {name} must be in an existing folder)")
+    if path.is_dir():
+        raise ValueError(f"cannot write {os.fspath(path)!r}: {name} is a folder, not a file")
+    return folder
+
+
+def make_folder(folder: str | os.PathLike, *, name: str = "folder") -> Path:
+    """The folder a multi-file writer (a frame sequence, a tree library) writes into: created if missing, one level
+    only, under :func:`check_target`'s rule (its own folder must already exist). Returns it as a ``Path``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` and the path: its parent folder does not exist, or it exists and is not a folder.
+    """
+    if not isinstance(folder, (str, os.PathLike)):
+        raise ValueError(f"{name} must be a folder path, got {type(folder).__name__}")
+    folder = Path(folder)
+    if folder.is_dir():
+        return folder
+    if folder.exists():
+        raise ValueError(f"{name} {os.fspath(folder)!r} exists and is not a folder")
+    parent = folder.parent if str(folder.parent) else Path(".")
+    if not parent.is_dir():
+        raise ValueError(f"cannot create {name} {os.fspath(folder)!r}: its folder {os.fspath(parent)!r} does not "
+                         f"exist (create it first; no writer creates folders above its own)")
+    try:
+        folder.mkdir(exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"cannot create {name} {os.fspath(folder)!r}: {exc.strerror or exc}") from None
+    return folder
+
+
 def write_atomic(path: str | os.PathLike, data: bytes | str) -> Path:
     """Write ``data`` (bytes, or text as UTF-8) to ``path`` atomically; returns the path."""
     with atomic_write(path, "w" if isinstance(data, str) else "wb") as fh:
@@ -88,9 +138,15 @@ def write_atomic(path: str | os.PathLike, data: bytes | str) -> Path:
 
 
 def write_npz(path: str | os.PathLike, arrays: Mapping[str, np.ndarray], *, compress: bool = True) -> Path:
-    """Write ``arrays`` as an ``.npz`` file atomically (no pickles); returns the path."""
+    """Write ``arrays`` as an ``.npz`` file atomically (no pickles: an object array is refused before anything is
+    written); returns the path."""
+    arrays = {k: np.asanyarray(v) for k, v in arrays.items()}
+    for k, v in arrays.items():
+        if v.dtype.hasobject:
+            raise ValueError(f"arrays[{k!r}] must be a numeric, bool or string array (no Python objects: .npz files "
+                             f"are read without pickles), got dtype {v.dtype}")
     with atomic_write(path) as fh:
-        (np.savez_compressed if compress else np.savez)(fh, **arrays)
+        (np.savez_compressed if compress else np.savez)(fh, allow_pickle=False, **arrays)
     return Path(path)
 
 

@@ -124,3 +124,22 @@ def test_read_npz_refuses_pickles_truncations_and_flips(tmp_path):
 def test_read_npz_names_a_missing_file(tmp_path):
     with pytest.raises(ValueError, match="tree file .*missing.npz"):
         read_npz(tmp_path / "missing.npz", what="tree file")
+
+
+def test_one_folder_rule_for_every_writer(tmp_path):
+    """No writer creates folders: a file's folder must exist; a multi-file writer creates its own folder, one level."""
+    from plantvr._fileio import check_target, make_folder
+    assert check_target(tmp_path / "a.txt") == tmp_path
+    with pytest.raises(ValueError, match=r"folder .*missing.* does not exist"):
+        check_target(tmp_path / "missing" / "a.txt")
+    with pytest.raises(ValueError, match="is a folder"):
+        check_target(tmp_path)
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(ValueError, match="is not a folder"):
+        check_target(tmp_path / "f" / "a.txt")
+    assert make_folder(tmp_path / "seq").is_dir()
+    with pytest.raises(ValueError, match="does not exist"):
+        make_folder(tmp_path / "no" / "seq")
+    with pytest.raises(ValueError, match="exists and is not a folder"):
+        make_folder(tmp_path / "f")
+    assert not (tmp_path / "missing").exists() and not (tmp_path / "no").exists()

@@ -33,6 +33,7 @@ import numpy as np
 import traitlets
 from traitlets import Bool, Int
 
+from .._fileio import check_target
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_range
 from ..document import Document, serialise
 from ..growth.sketch import TREESKETCH, SketchEngine, barycentric, split_values
@@ -512,6 +513,7 @@ class SketchDocument(Document):
         """Save the tree as the :class:`~plantvr.growth.sketch_tools.TreeLibrary` entry ``path`` (``<folder>/
         <name>.tree`` with its ``<name>.json``), atomically; returns the ``.tree`` path."""
         folder, name = _entry(path)
+        check_target(path)                 # its folder must exist, as for every saver (no folder is created)
         with self._lock:
             return TreeLibrary(folder).save(name, self._engine)
 

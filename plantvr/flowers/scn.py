@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import write_atomic
+from plantvr._fileio import make_folder, write_atomic
 from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_range
 
 __all__ = [
@@ -403,7 +403,7 @@ _NUMBERED = re.compile(r"^(.*?)(\d+)\.rba$")
 
 
 def write_rba_sequence(folder, frames: Sequence[RigidBodyFrame], *, prefix: str = "frame_") -> list[Path]:
-    """Write ``frames`` as ``<prefix>0000.rba``, ``<prefix>0001.rba``, ... into ``folder`` (created)."""
+    """Write ``frames`` as ``<prefix>0000.rba``, ``<prefix>0001.rba``, ... into ``folder`` (created, one level)."""
     frames = list(frames)
     for k, f in enumerate(frames):
         if not isinstance(f, RigidBodyFrame):
@@ -411,8 +411,7 @@ def write_rba_sequence(folder, frames: Sequence[RigidBodyFrame], *, prefix: str 
     if not re.fullmatch(r"[A-Za-z0-9_.-]*", prefix) or (prefix and prefix[-1].isdigit()):
         raise ValueError(f"prefix must be letters, digits, '_', '-', '.' and not end in a digit, "
                          f"got {prefix!r}")
-    folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    folder = make_folder(folder)             # one level; its parent must exist (plantvr._fileio's rule)
     width = max(4, len(str(max(len(frames) - 1, 0))))
     texts = [format_rba(f) for f in frames]                   # all formatted before any file is touched
     paths = [folder / f"{prefix}{k:0{width}d}.rba" for k in range(len(frames))]

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from .._fileio import atomic_write, write_atomic
+from .._fileio import atomic_write, make_folder, write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
@@ -416,11 +416,7 @@ class TreeLibrary:
     def __init__(self, folder: str | Path):
         if not isinstance(folder, (str, Path)):
             raise ValueError(f"folder must be a path, got {type(folder).__name__}")
-        self.folder = Path(folder)
-        try:
-            self.folder.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"cannot use folder {self.folder!s} as a tree library: {exc}") from None
+        self.folder = make_folder(folder, name="tree library folder")   # one level; its parent must exist
 
     @staticmethod
     def _name(name: str) -> str:

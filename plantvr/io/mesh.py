@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from plantvr._fileio import check_target
 from plantvr._validation import check_choice
 
 from .gltf import write_mesh
@@ -33,13 +34,14 @@ def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
     Raises
     ------
     ValueError
-        For an unknown format or an object without vertices and faces.
+        For an unknown format, an object without vertices and faces, or a folder that does not exist
+        (:func:`plantvr._fileio.check_target`: no writer creates folders).
     """
     path = Path(path)
     ft = check_choice("file_type", (file_type or path.suffix.lstrip(".")).lower(), ("ply", "obj", "gltf", "glb"))
     if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
         raise ValueError(f"mesh must be a TriMesh, trimesh.Trimesh or ControlMesh, got {type(mesh).__name__}")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_target(path)
     if ft == "ply":
         write_ply(path, mesh.vertices, mesh.faces, double=True, comment="PlantVR mesh")
     elif ft == "obj":

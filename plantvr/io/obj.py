@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import atomic_write, write_atomic, write_png
+from plantvr._fileio import atomic_write, check_target, make_folder, write_atomic, write_png
 from plantvr._validation import MAX_COORD, check_array
 from plantvr.subdivision._checks import check_mesh
 from plantvr.subdivision.uv import vertex_normals
@@ -143,10 +143,7 @@ def write_obj(path, vertices, faces, uv=None, *, normals=True, name: str = "yggd
             start += n
     else:
         blocks.append(_fmt_rows(fline, rows))
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"path: cannot create the folder of {os.fspath(path)!r} ({exc.strerror or exc})") from None
+    check_target(path)                        # the folder must exist (no writer creates folders)
     if mats:                                  # material and textures first, the .obj that names them last
         mtl = []
         for mname, _, img in mats:
@@ -172,7 +169,7 @@ def write_obj_sequence(folder: str, faces: np.ndarray, frames: np.ndarray, *, pr
     Parameters
     ----------
     folder : str
-        Created if missing.
+        Created if missing (one level: its own folder must exist).
     faces : (F, 3) int64 ndarray
     frames : (K, V, 3) float64 ndarray
     prefix : str
@@ -199,10 +196,7 @@ def write_obj_sequence(folder: str, faces: np.ndarray, frames: np.ndarray, *, pr
         if fixed.size and (fixed.min() < 0 or fixed.max() >= n_v):
             raise ValueError(f"fixed must index the {n_v} vertices of a frame, got range "
                              f"[{fixed.min()}, {fixed.max()}]")
-    try:
-        os.makedirs(folder, exist_ok=True)
-    except (OSError, TypeError) as exc:
-        raise ValueError(f"cannot create folder {folder!r}: {exc}") from None
+    folder = os.fspath(make_folder(folder))      # one level; its parent must exist (plantvr._fileio's rule)
     paths = []
     fl = _fmt_rows("f %d %d %d\n", faces + 1)
     for k, X in enumerate(frames):

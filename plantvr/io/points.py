@@ -41,7 +41,7 @@ def _text_points(p: Path, columns) -> np.ndarray:
     return a
 
 
-def read_points(path, *, columns=(0, 1, 2), max_points: int = MAX_POINTS) -> np.ndarray:
+def read_points(path, *, columns=None, max_points: int = MAX_POINTS) -> np.ndarray:
     """Read a point cloud's coordinates.
 
     Parameters
@@ -50,8 +50,9 @@ def read_points(path, *, columns=(0, 1, 2), max_points: int = MAX_POINTS) -> np.
         ``.xyz``/``.txt``/``.pts`` (whitespace columns; a header line is skipped), ``.csv`` (comma columns),
         ``.ply`` (vertices, read by trimesh; meshes give their vertices), ``.las``/``.laz`` (laspy; scaled and
         offset coordinates).
-    columns : 3 ints
-        Text formats: the x, y, z columns.
+    columns : 3 ints, optional
+        Text formats only: the x, y, z columns (default ``(0, 1, 2)``); refused for ``.ply``/``.las``/``.laz``,
+        whose coordinates are named fields.
     max_points : int
         Refuse files with more points, in [1, MAX_POINTS].
 
@@ -69,8 +70,11 @@ def read_points(path, *, columns=(0, 1, 2), max_points: int = MAX_POINTS) -> np.
     if not p.is_file():
         raise ValueError(f"point file {str(p)!r} does not exist")
     cap = check_int("max_points", max_points, 1, MAX_POINTS)
+    if columns is not None and suf in (".ply", ".las", ".laz"):
+        raise ValueError(f"columns picks the x, y, z columns of a text file; a {suf} file names its coordinates, "
+                         f"so columns={columns!r} does not apply to {str(p)!r}")
     try:
-        cols = tuple(int(c) for c in columns)
+        cols = (0, 1, 2) if columns is None else tuple(int(c) for c in columns)
     except (TypeError, ValueError):
         cols = ()
     if len(cols) != 3 or min(cols) < 0:

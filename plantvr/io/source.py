@@ -33,6 +33,10 @@ class Source:
         Ground-truth component label of every vertex (synthetic heads only).
     description : str
         One line on what was read (format, dtype, shape, axes, spacing, origin), empty for meshes and heads.
+    geometry : VolumeGeometry or None
+        Where each voxel of :attr:`volume` is (downsampled with it): pass it to
+        :func:`plantvr.io.label_volume.write_label_volume` so painted labels land on the scan's own voxels. None for
+        meshes and synthetic heads.
     """
 
     seg: Segmentation
@@ -40,6 +44,7 @@ class Source:
     level: float | None
     truth: np.ndarray | None
     description: str = ""
+    geometry: object = None
 
 
 def open_source(source: str | os.PathLike, *, level: float | None = None, size: int = 96,
@@ -105,7 +110,11 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
             raise ValueError(f"could not read mesh {s!r}: {type(exc).__name__}: {exc}") from None
         if len(v) == 0 or len(f) == 0:
             raise ValueError(f"mesh {s!r} has no triangles")
-        return Source(Segmentation(v, f), None, None, None)
+        try:
+            seg = Segmentation(v, f)
+        except ValueError as exc:          # a damaged file: faces past the vertices, coordinates out of range
+            raise ValueError(f"mesh {s!r} is not a valid triangle mesh: {exc}") from None
+        return Source(seg, None, None, None)
     from plantvr.io.volume import read_volume
     vol = read_volume(p)
     arr = np.asarray(vol.array)
@@ -114,13 +123,17 @@ def open_source(source: str | os.PathLike, *, level: float | None = None, size: 
     text = (f"volume: {vol.format} {arr.dtype} {'x'.join(map(str, arr.shape))} (axes {vol.meta.get('axes', '?')}), "
             f"spacing {', '.join(f'{x:g}' for x in sp)}{unit}, origin {', '.join(f'{x:g}' for x in org)}; "
             "the surface, the brush and distances are in these units")
+    geometry = vol.geometry
     if downsample:
         arr = downsample2(arr)
         sp, org = tuple(2.0 * x for x in sp), tuple(o + 0.5 * x for o, x in zip(org, sp))
+        g = geometry                                   # voxel 0 of the coarse grid: the centre of 2x2x2 fine ones
+        geometry = type(g)(tuple(arr.shape), 2.0 * g.spacing, g.origin + (0.5 * g.spacing) @ g.direction,
+                           g.direction, g.axes, g.unit)
     lo, hi = float(arr.min()), float(arr.max())
     if lo == hi:
         raise ValueError(f"volume {s!r} is constant (every voxel is {lo:g}): it has no surface to extract")
     lev = suggest_level(arr) if level is None else check_range("level", level, lo, hi, low_open=True,
                                                                 high_open=True)
     seg = Segmentation.from_volume(arr, lev, spacing=sp, origin=org, slab=slab)
-    return Source(seg, arr, lev, None, text)
+    return Source(seg, arr, lev, None, text, geometry)

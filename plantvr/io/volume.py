@@ -32,6 +32,8 @@ This module reads only; it sits in the io layer (the numeric cores never import 
 """
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -41,9 +43,9 @@ from typing import Any
 import numpy as np
 
 from plantvr._validation import MAX_COUNT
-from plantvr.vine.volume import MAX_VOLUME_BYTES
+from plantvr.vine.volume import MAX_VOLUME_BYTES, natural_key
 
-__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "read_volume"]
+__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "VolumeGeometry", "read_volume"]
 
 #: File suffixes :func:`read_volume` reads (``.zarr`` is a folder; any other folder is a TIFF slice stack or a
 #: DICOM series).
@@ -78,6 +80,9 @@ class Volume:
     format : str
         ``"TIFF"``, ``"NRRD"``, ``"NIfTI"``, ``"MetaImage"``, ``"VTI"``, ``"HDF5"``, ``"Zarr"``, ``"DICOM"``
         or ``"NumPy"``.
+    geometry : VolumeGeometry
+        Where every voxel is, in LPS world coordinates (shape, axis order, spacing, origin, direction): pass it
+        to :func:`plantvr.io.label_volume.write_label_volume` so that labels land on the same physical points.
     """
 
     array: Any
@@ -86,6 +91,12 @@ class Volume:
     meta: dict = field(default_factory=dict)
     source: str = ""
     format: str = ""
+    geometry: VolumeGeometry | None = None
+
+    def __post_init__(self):
+        if self.geometry is None:
+            object.__setattr__(self, "geometry", _geometry(self.array.shape, self.spacing, self.origin,
+                                                           self.meta))
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -101,20 +112,116 @@ class Volume:
         return np.asarray(index, np.float64) * self.spacing + self.origin
 
 
-def read_volume(path: str | os.PathLike, *, dataset: str | None = None, lazy: bool = False) -> Volume:
+@dataclass(frozen=True, eq=False)
+class VolumeGeometry:
+    """One volume's voxel-to-world mapping, carried unchanged from :func:`read_volume` to every label writer
+    (issue 32).
+
+    ``world = origin + (index * spacing) @ direction`` for an (N, 3) ``index`` in the array's own axis order:
+    row ``k`` of ``direction`` is the unit world direction of array axis ``k``. World coordinates are LPS
+    (ITK, DICOM, SimpleITK, 3D Slicer files): NIfTI's RAS and NRRD's RAS/LAS spaces are flipped to it on
+    reading and back on writing. Formats without a direction (TIFF, HDF5, Zarr, NumPy) map each array axis to the
+    world axis its letter names (a Z, Y, X TIFF: rows ``(0, 0, 1)``, ``(0, 1, 0)``, ``(1, 0, 0)``).
+
+    Attributes
+    ----------
+    shape : tuple of 3 int
+    spacing : (3,) float64 ndarray
+        Voxel size along each array axis (> 0).
+    origin : (3,) float64 ndarray
+        LPS world position of voxel (0, 0, 0)'s centre.
+    direction : (3, 3) float64 ndarray
+        Rows: LPS unit direction of each array axis.
+    axes : str
+        The array's axis letters (``"zyx"``, ``"xyz"``).
+    unit : str or None
+        The length unit the file names, if any.
+    """
+
+    shape: tuple
+    spacing: np.ndarray
+    origin: np.ndarray
+    direction: np.ndarray
+    axes: str = "xyz"
+    unit: str | None = None
+
+    @classmethod
+    def from_grid(cls, shape, spacing=(1.0, 1.0, 1.0), origin=(0.0, 0.0, 0.0), *, axes: str = "xyz",
+                  unit: str | None = None) -> VolumeGeometry:
+        """Axis-aligned geometry: array axis ``k`` runs along the world axis ``axes[k]`` names; ``origin`` is the
+        position of voxel 0 along each array axis (the convention of ``Volume.origin`` and
+        :func:`plantvr.vine.label_volumes.labels_to_volume`)."""
+        d = _axis_permutation(axes)
+        s = np.asarray(spacing, np.float64).reshape(3)
+        o = np.asarray(origin, np.float64).reshape(3)
+        return cls(tuple(int(n) for n in shape), s, d.T @ o, d, axes, unit)
+
+    def index_to_world(self, index) -> np.ndarray:
+        """(N, 3) voxel indices (array axis order, fractional allowed) -> (N, 3) LPS world points."""
+        return self.origin + (np.asarray(index, np.float64) * self.spacing) @ self.direction
+
+    def world_to_index(self, world) -> np.ndarray:
+        """(N, 3) LPS world points -> (N, 3) fractional voxel indices in the array's axis order."""
+        rel = np.asarray(world, np.float64) - self.origin
+        return np.linalg.solve(self.direction.T, rel.T).T / self.spacing
+
+    @property
+    def affine(self) -> np.ndarray:
+        """(4, 4) LPS voxel-to-world affine (columns: ``direction[k] * spacing[k]``, then the origin)."""
+        a = np.eye(4)
+        a[:3, :3] = (self.direction * self.spacing[:, None]).T
+        a[:3, 3] = self.origin
+        return a
+
+
+def _axis_permutation(axes: str) -> np.ndarray:
+    """Rows: the unit world axis each array axis letter names (x, y, z); unnamed axes keep Z, Y, X order."""
+    letters = [a for a in axes.lower()]
+    if sorted(letters) != ["x", "y", "z"]:
+        letters = ["z", "y", "x"] if len(letters) == 3 else ["x", "y", "z"]
+    return np.stack([np.eye(3)["xyz".index(a)] for a in letters])
+
+
+def _geometry(shape, spacing, origin, meta: dict) -> VolumeGeometry:
+    """The LPS geometry of a volume read from a file (see :class:`VolumeGeometry`)."""
+    axes = str(meta.get("axes", "xyz"))
+    unit = meta.get("unit")
+    d = meta.get("direction")
+    if d is None:
+        return VolumeGeometry.from_grid(shape, spacing, origin, axes=axes, unit=unit)
+    d = np.asarray(d, np.float64).reshape(3, 3)
+    s = np.asarray(spacing, np.float64).reshape(3)
+    o = meta.get("world_origin")
+    o = d.T @ np.asarray(origin, np.float64) if o is None else np.asarray(o, np.float64).reshape(3)
+    flip = _TO_LPS.get(meta.get("world_frame", "LPS"), np.ones(3))
+    return VolumeGeometry(tuple(int(n) for n in shape), s, o * flip, d * flip, axes, unit)
+
+
+def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel: int | None = None,
+                time: int | None = None) -> Volume:
     """Read a 3-D image stack with its spacing, origin and metadata, dispatching on the suffix.
 
     Parameters
     ----------
-    path : str or path-like
-        A file with one of :data:`SUFFIXES`, a ``.zarr`` folder, a folder of 2-D TIFF slices (sorted by
-        name) or a folder holding one DICOM series.
+    path : str, path-like, or a list of them
+        A file with one of :data:`SUFFIXES`, a ``.zarr`` folder, a folder of 2-D TIFF slices (stacked in natural
+        order: ``img_2.tif`` before ``img_10.tif``), a folder holding one DICOM series, or an explicit list of
+        2-D TIFF slice files (stacked in the order given) or DICOM files (ordered by slice position).
     dataset : str, optional
         The array inside a container: the HDF5 dataset path, the Zarr array path (default: OME-Zarr
         multiscales level 0, else the only array), the ``.npz`` key, or the ``.vti`` point-data array name.
         Default: the only (or active) array.
     lazy : bool
         Return a dask array instead of reading the voxels (Zarr and TIFF only), for volumes bigger than memory.
+    channel : int, optional
+        The channel (or RGB sample) to read from a multi-channel volume: an ImageJ/OME hyperstack's C axis, a
+        TIFF's samples (RGB), a NRRD non-spatial axis, MetaImage vector components, a NIfTI 5th axis, an
+        OME-Zarr channel axis, an HDF5 axis labelled ``c``; or an unlabelled 4th axis (HDF5, NumPy). Refused for a
+        file with no such axis.
+    time : int, optional
+        The time point to read from a 4-D volume: a T axis (ImageJ, OME, OME-Zarr), a NIfTI 4th axis, a 4-D
+        MetaImage's last axis, an HDF5 axis labelled ``t``; or an unlabelled 4th axis. Refused for a file with
+        no such axis.
 
     Returns
     -------
@@ -134,8 +241,18 @@ def read_volume(path: str | os.PathLike, *, dataset: str | None = None, lazy: bo
     .. [1] Issue 22, "Volume readers": TIFF (ImageJ, OME, both byte orders), NRRD, NIfTI, MetaImage, .vti,
        HDF5, Zarr/OME-Zarr (lazy), DICOM series.
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"path must be a file or folder path, got {type(path).__name__}")
+    files = None
+    if isinstance(path, (list, tuple)):
+        files = _file_list(path)
+        path = files[0]
+    elif not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path must be a file or folder path (or a list of slice files), got "
+                         f"{type(path).__name__}")
+    pick = {"channel": channel, "time": time}
+    for name, v in pick.items():
+        if v is not None and (isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) or v < 0):
+            raise ValueError(f"{name} must be an integer >= 0 (an index along the file's {name} axis) or None, "
+                             f"got {v!r}")
     if dataset is not None and not isinstance(dataset, str):
         raise ValueError(f"dataset must be a string (an array path or name) or None, got {dataset!r}")
     if not isinstance(lazy, (bool, np.bool_)):
@@ -144,7 +261,9 @@ def read_volume(path: str | os.PathLike, *, dataset: str | None = None, lazy: bo
     if not p.exists():
         raise ValueError(f"path does not exist: {str(p)!r}")
     suffix = _suffix(p)
-    if p.is_dir() and suffix != ".zarr":
+    if files is not None:
+        kind = "TIFF" if suffix in (".tif", ".tiff") else "DICOM"
+    elif p.is_dir() and suffix != ".zarr":
         kind = "TIFF" if any(f.suffix.lower() in (".tif", ".tiff") for f in p.iterdir()) else "DICOM"
     elif p.is_dir() or suffix == ".zarr":
         kind = "Zarr"
@@ -155,17 +274,54 @@ def read_volume(path: str | os.PathLike, *, dataset: str | None = None, lazy: bo
                              f"slices), got {str(p)!r}")
     if lazy and kind not in _LAZY:
         raise ValueError(f"lazy=True reads {' and '.join(_LAZY)} volumes only, got a {kind} file {str(p)!r}")
+    if dataset is not None and kind not in _DATASET_KINDS and suffix != ".npz":
+        raise ValueError(f"dataset names an array inside an HDF5, Zarr, .npz or .vti file; a {kind} file holds "
+                         f"one volume, so dataset={dataset!r} does not apply to {str(p)!r}")
+    stack = files is not None or (p.is_dir() and kind in ("TIFF", "DICOM"))
+    for name, v in pick.items():
+        if v is not None and (kind in ("VTI", "DICOM") or stack):
+            raise ValueError(f"{name}={v!r} does not apply to {str(p)!r}: a {kind} "
+                             f"{'slice stack' if stack else 'file'} holds one 3-D volume (no {name} axis)")
     reader = _READERS[kind]
+    kw = {"files": files} if kind in ("TIFF", "DICOM") else {}
     try:
-        array, spacing, origin, axes, meta = reader(p, dataset=dataset, lazy=bool(lazy))
-    except ValueError:
-        raise
+        with _quiet_tifffile():
+            array, spacing, origin, axes, meta = reader(p, dataset=dataset, lazy=bool(lazy), pick=pick, **kw)
     except MemoryError:
         raise ValueError(f"volume in {str(p)!r} does not fit in memory (read it with lazy=True: "
                          f"{', '.join(_LAZY)})") from None
     except Exception as exc:  # noqa: BLE001 - every library raises its own types on a corrupt file
-        raise ValueError(f"could not read {str(p)!r} as {kind}: {type(exc).__name__}: {exc}") from None
+        raise _read_error(p, kind, exc) from None
     return _finish(p, kind, array, spacing, origin, axes, meta)
+
+
+#: Formats whose files hold several arrays, one picked by ``dataset`` (and ``.npz``).
+_DATASET_KINDS = ("HDF5", "Zarr", "VTI")
+
+
+def _read_error(p: Path, kind: str, exc: BaseException) -> ValueError:
+    """The error :func:`read_volume` raises for what a reader raised: this module's own door checks (a plain
+    ``ValueError`` naming the path) as they are; anything a library raised (``tifffile.TiffFileError``, a
+    ``ValueError`` subclass; pynrrd's ``NRRDError``; ``zlib.error``; ``KeyError``; ...) as one ``ValueError``
+    naming the file, the format and what the library said (cut to 300 characters)."""
+    if type(exc) is ValueError and str(p) in str(exc):
+        return exc
+    what = f"{type(exc).__name__}: {exc}"
+    if len(what) > 300:
+        what = what[:297] + "..."
+    return ValueError(f"could not read {str(p)!r} as {kind}: {what}")
+
+
+@contextlib.contextmanager
+def _quiet_tifffile():
+    """tifffile logs a warning for every damaged tag it skips; the caller gets one clear error instead."""
+    log = logging.getLogger("tifffile")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        log.setLevel(level)
 
 
 # ---------------------------------------------------------------------------------------------- door checks
@@ -195,14 +351,68 @@ def _declared(path, shape, dtype, *, lazy: bool = False) -> None:
                          f"than the {MAX_VOLUME_BYTES} bytes read into memory (read Zarr/TIFF with lazy=True)")
 
 
-def _keep_axes(path, shape, axes: str) -> list[int]:
-    """Indices of the three axes kept after dropping singleton non-spatial axes (clear error otherwise).
+def _file_list(path) -> list[Path]:
+    """An explicit list of slice files: 2 or more existing files, all TIFF or all DICOM-like."""
+    if len(path) < 2:
+        raise ValueError(f"path must list at least 2 slice files, got {len(path)}")
+    files = []
+    for k, f in enumerate(path):
+        if not isinstance(f, (str, os.PathLike)):
+            raise ValueError(f"path[{k}] must be a file path, got {type(f).__name__}")
+        f = Path(f)
+        if not f.is_file():
+            raise ValueError(f"path[{k}] is not an existing file: {str(f)!r}")
+        files.append(f)
+    tif = [f.suffix.lower() in (".tif", ".tiff") for f in files]
+    if any(tif) and not all(tif):
+        raise ValueError(f"path must list TIFF slices only or DICOM files only, got {str(files[tif.index(False)])!r}"
+                         f" among TIFF files")
+    if not any(tif) and any(_suffix(f) in _KINDS for f in files):
+        bad = next(f for f in files if _suffix(f) in _KINDS)
+        raise ValueError(f"path must list 2-D TIFF slices or DICOM files, got {str(bad)!r} (read a single "
+                         f"volume file by its path)")
+    return files
 
-    ``axes`` holds one lower-case letter per axis; ``x``, ``y``, ``z`` are spatial, ``?`` unknown (dropped
-    only if it has one entry and more than three axes remain).
+
+def _pick_index(path, shape, axes: str, keep: list[int], pick: dict) -> tuple:
+    """The index tuple selecting the kept axes and the picked channel/time point (0 on dropped singletons)."""
+    return tuple(slice(None) if i in keep else pick.get(("at", i), 0) for i in range(len(shape)))
+
+
+def _keep_axes(path, shape, axes: str, pick: dict | None = None) -> list[int]:
+    """Indices of the three axes kept after dropping singleton non-spatial axes and the axes ``pick`` selects
+    (``{"channel": c, "time": t}``); clear error otherwise. The chosen index along each dropped axis is stored in
+    ``pick[("at", axis)]`` (see :func:`_pick_index`).
+
+    ``axes`` holds one lower-case letter per axis; ``x``, ``y``, ``z`` are spatial, ``t`` time, ``c``/``s``
+    channel (``s``: samples, e.g. RGB), ``?`` unknown (dropped only if it has one entry and more than three axes
+    remain, or picked by ``channel`` or ``time`` when it is the one extra axis).
     """
     shape = tuple(int(s) for s in shape)
+    pick = {} if pick is None else pick
     keep = list(range(len(shape)))
+    named = {"time": "t", "channel": "cs"}
+    for name, letters in named.items():
+        v = pick.get(name)
+        if v is None:
+            continue
+        cands = [i for i in keep if axes[i] in letters]
+        cands = [i for i in cands if shape[i] > 1] or cands
+        other = "channel" if name == "time" else "time"
+        if not cands and pick.get(other) is None:        # an unlabelled extra axis (NumPy, HDF5)
+            unknown = [i for i in keep if axes[i] == "?"]
+            n_spatial = 3 - sum(axes[i] in "xyz" for i in keep)
+            extra = unknown[:max(0, len(unknown) - n_spatial)]
+            cands = ([i for i in extra if shape[i] > 1] or extra)[:1]
+        if not cands:
+            raise ValueError(f"{name}={v!r} does not apply to {str(path)!r}: it has no {name} axis (axes "
+                             f"{''.join(axes).upper()}, shape {shape})")
+        i = cands[0]
+        if v >= shape[i]:
+            raise ValueError(f"{name} must be in [0, {shape[i] - 1}] for {str(path)!r} ({name} axis "
+                             f"{axes[i].upper()} has {shape[i]} entries), got {v}")
+        pick[("at", i)] = int(v)
+        keep.remove(i)
     for i in range(len(shape)):                                    # named non-spatial singletons first
         if len(keep) > 3 and shape[i] == 1 and axes[i] not in "xyz?":
             keep.remove(i)
@@ -218,7 +428,7 @@ def _keep_axes(path, shape, axes: str) -> list[int]:
                          f"has axes {named} with shape {shape}"
                          + (" (a 2-D image)" if len(keep) < 3 else
                             f"; axes {''.join(axes[i] for i in keep).upper()} all have more than one entry "
-                            f"(pass one channel/time point)"))
+                            f"(pick one with channel= or time=)"))
     return keep
 
 
@@ -253,6 +463,14 @@ def _finish(p: Path, kind: str, array, spacing, origin, axes: str, meta: dict) -
     return Volume(array, spacing, origin, meta, str(p), kind)
 
 
+#: NRRD ``space`` values and the frame their world coordinates are in (ITK reads RAS/LAS as LPS, flipped).
+_NRRD_FRAMES = {"right-anterior-superior": "RAS", "ras": "RAS", "left-anterior-superior": "LAS", "las": "LAS",
+                "left-posterior-superior": "LPS", "lps": "LPS"}
+
+#: World frame -> the diagonal flip taking its coordinates to LPS (ITK, DICOM, SimpleITK).
+_TO_LPS = {"RAS": np.array([-1.0, -1.0, 1.0]), "LAS": np.array([1.0, -1.0, 1.0]), "LPS": np.ones(3)}
+
+
 def _frame(dirs, origin_world):
     """Spacing, origin along each axis and unit directions from (3, 3) axis vectors (rows, world units)."""
     d = np.asarray(dirs, np.float64).reshape(3, 3)
@@ -266,10 +484,10 @@ def _frame(dirs, origin_world):
 # ---------------------------------------------------------------------------------------------- TIFF
 
 
-def _tiff(p: Path, *, dataset, lazy):
+def _tiff(p: Path, *, dataset, lazy, pick, files=None):
     import tifffile
-    if p.is_dir():
-        return _tiff_folder(p, lazy=lazy)
+    if p.is_dir() or files is not None:
+        return _tiff_folder(p, lazy=lazy, files=files)
     with tifffile.TiffFile(str(p)) as tf:
         series = tf.series[0]
         shape, dtype, axes_raw = tuple(series.shape), series.dtype, series.axes
@@ -281,7 +499,7 @@ def _tiff(p: Path, *, dataset, lazy):
                                  f"the file's {size} (truncated)")
         _declared(p, shape, dtype, lazy=lazy)
         axes = _tiff_axes(axes_raw)
-        keep = _keep_axes(p, shape, axes)
+        keep = _keep_axes(p, shape, axes, pick)
         meta: dict[str, Any] = {"tiff_axes": axes_raw, "byteorder": tf.byteorder}
         sp = {"x": 1.0, "y": 1.0, "z": 1.0}
         org = {"x": 0.0, "y": 0.0, "z": 0.0}
@@ -327,8 +545,7 @@ def _tiff(p: Path, *, dataset, lazy):
             arr = da.from_zarr(zarr.open(store, mode="r"))
         else:
             arr = series.asarray()
-    sel = tuple(slice(None) if i in keep else 0 for i in range(len(shape)))
-    arr = arr[sel]
+    arr = arr[_pick_index(p, shape, axes, keep, pick)]
     kept = "".join(axes[i] for i in keep)
     kept = kept.replace("?", "z") if kept.count("?") == 1 and "z" not in kept else kept
     spacing = [sp.get(a, 1.0) for a in kept]
@@ -345,13 +562,19 @@ def _tiff_axes(axes: str) -> str:
     return "".join(out)
 
 
-def _tiff_folder(p: Path, *, lazy):
+def _tiff_folder(p: Path, *, lazy, files=None):
     import tifffile
-    files = sorted(f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff"))
+    if files is None:                 # natural order: img_2.tif before img_10.tif (not the name order)
+        files = sorted((f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff")),
+                       key=lambda f: natural_key(f.name))
     shapes = []
     for f in files:
-        with tifffile.TiffFile(str(f)) as tf:
-            shapes.append((tuple(tf.series[0].shape), np.dtype(tf.series[0].dtype)))
+        try:
+            with tifffile.TiffFile(str(f)) as tf:
+                shapes.append((tuple(tf.series[0].shape), np.dtype(tf.series[0].dtype)))
+        except Exception as exc:  # noqa: BLE001 - tifffile raises many types on a damaged slice
+            raise ValueError(f"folder {str(p)!r}: could not read the slice {str(f)!r} as TIFF: "
+                             f"{type(exc).__name__}: {str(exc)[:200]}") from None
     if len(set(shapes)) != 1 or len(shapes[0][0]) != 2:
         raise ValueError(f"folder {str(p)!r}: every slice must be one 2-D image of the same shape and dtype, got "
                          f"{sorted({(s, str(d)) for s, d in shapes})[:3]}")
@@ -374,13 +597,18 @@ def _tiff_folder(p: Path, *, lazy):
 # ---------------------------------------------------------------------------------------------- NRRD
 
 
-def _nrrd(p: Path, *, dataset, lazy):
+def _nrrd(p: Path, *, dataset, lazy, pick):
     import nrrd
     header = nrrd.read_header(str(p))
     sizes = tuple(int(s) for s in header["sizes"])
     dtype = nrrd.reader._determine_datatype(header)
     _declared(p, sizes, dtype)
     n = len(sizes)
+    need = int(np.prod(sizes, dtype=object)) * np.dtype(dtype).itemsize
+    if str(header.get("encoding", "raw")).lower() == "raw" and "data file" not in header \
+            and "datafile" not in header and p.stat().st_size < need:
+        raise ValueError(f"could not read {str(p)!r} as NRRD: its header declares {need} bytes of raw data but "
+                         f"the file holds {p.stat().st_size} bytes (truncated)")
     dirs = header.get("space directions")
     spatial = [True] * n
     vecs = None
@@ -393,20 +621,22 @@ def _nrrd(p: Path, *, dataset, lazy):
     if kinds is not None and dirs is None:
         spatial = [str(k).lower() in ("domain", "space") for k in kinds]
     axes_lbl = "".join("?" if s else "c" for s in spatial)
-    keep = _keep_axes(p, sizes, axes_lbl)
+    keep = _keep_axes(p, sizes, axes_lbl, pick)
     data, header = nrrd.read(str(p), index_order="F")
-    arr = data[tuple(slice(None) if i in keep else 0 for i in range(n))]
+    arr = data[_pick_index(p, sizes, axes_lbl, keep, pick)]
     if vecs is not None and all(vecs[i] is not None for i in keep) and len(vecs[keep[0]]) == 3:
         o = header.get("space origin")
-        spacing, origin, unit = _frame([vecs[i] for i in keep], np.zeros(3) if o is None else o)
-        meta_dir = unit
+        o = np.zeros(3) if o is None else np.asarray(o, np.float64)
+        spacing, origin, unit = _frame([vecs[i] for i in keep], o)
+        meta_dir, world0 = unit, o
     else:
         sps = header.get("spacings")
         spacing = [1.0, 1.0, 1.0] if sps is None else [float(sps[i]) for i in keep]
         spacing = [1.0 if np.isnan(s) else s for s in spacing]
-        origin, meta_dir = [0.0, 0.0, 0.0], np.eye(3)
+        origin, meta_dir, world0 = [0.0, 0.0, 0.0], np.eye(3), np.zeros(3)
     hdr = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in header.items()}
-    meta = {"nrrd": hdr, "direction": meta_dir}
+    meta = {"nrrd": hdr, "direction": meta_dir, "world_origin": world0,
+            "world_frame": _NRRD_FRAMES.get(str(header.get("space", "")).lower(), "LPS")}
     if header.get("space units"):
         meta["unit"] = header["space units"][0]
     return arr, spacing, origin, "xyz", meta
@@ -415,19 +645,21 @@ def _nrrd(p: Path, *, dataset, lazy):
 # ---------------------------------------------------------------------------------------------- NIfTI
 
 
-def _nifti(p: Path, *, dataset, lazy):
+def _nifti(p: Path, *, dataset, lazy, pick):
     import nibabel as nib
     img = nib.load(str(p))
     shape = tuple(int(s) for s in img.shape)
     _declared(p, shape, img.get_data_dtype())
-    keep = _keep_axes(p, shape, "xyztc"[:len(shape)] + "c" * max(0, len(shape) - 5))
+    labels = "xyztc"[:len(shape)] + "c" * max(0, len(shape) - 5)
+    keep = _keep_axes(p, shape, labels, pick)
     if keep != [0, 1, 2]:
         raise ValueError(f"volume in {str(p)!r} must hold its 3 spatial axes first, got shape {shape}")
-    arr = np.asanyarray(img.dataobj.get_unscaled() if hasattr(img.dataobj, "get_unscaled") else img.dataobj)
-    arr = arr[(slice(None),) * 3 + (0,) * (arr.ndim - 3)]
+    raw = img.dataobj.get_unscaled() if hasattr(img.dataobj, "get_unscaled") else img.dataobj
+    arr = np.asanyarray(raw)[_pick_index(p, shape, labels, keep, pick)]
     aff = np.asarray(img.affine, np.float64)
     spacing, origin, unit = _frame(aff[:3, :3].T, aff[:3, 3])
-    meta: dict[str, Any] = {"affine": aff, "direction": unit, "nifti_header": img.header}
+    meta: dict[str, Any] = {"affine": aff, "direction": unit, "nifti_header": img.header,
+                            "world_origin": aff[:3, 3], "world_frame": "RAS"}
     slope, inter = getattr(img.dataobj, "slope", 1.0), getattr(img.dataobj, "inter", 0.0)
     meta["scl_slope"], meta["scl_inter"] = float(slope), float(inter)   # physical = stored * slope + inter
     try:
@@ -440,7 +672,7 @@ def _nifti(p: Path, *, dataset, lazy):
 # ---------------------------------------------------------------------------------------------- MetaImage
 
 
-def _metaimage(p: Path, *, dataset, lazy):
+def _metaimage(p: Path, *, dataset, lazy, pick):
     import SimpleITK as sitk
     r = sitk.ImageFileReader()
     r.SetFileName(str(p))
@@ -450,23 +682,29 @@ def _metaimage(p: Path, *, dataset, lazy):
     dim = r.GetDimension()
     pix = sitk.GetPixelIDValueAsString(r.GetPixelID())
     dtype = _SITK_DTYPES.get(sitk.GetPixelIDValueAsString(r.GetPixelID()).replace("vector of ", ""))
-    if dtype is None or ncomp != 1 or "complex" in pix:
+    if dtype is None or "complex" in pix or (ncomp != 1 and pick.get("channel") is None):
         raise ValueError(f"volume in {str(p)!r} must hold one number per voxel, got pixel type {pix!r} with "
-                         f"{ncomp} components")
-    _declared(p, size, dtype)
-    keep = _keep_axes(p, size, "?" * dim)
+                         f"{ncomp} components" + (" (pick one with channel=)" if ncomp > 1 and dtype else ""))
+    labels = "t" * (dim - 3) + "zyx" + ("c" if ncomp > 1 else "")     # numpy order; a 4-D image's 4th is time
+    full = size + ((ncomp,) if ncomp > 1 else ())
+    _declared(p, full, dtype)
+    keep = _keep_axes(p, full, labels, pick)
     if keep != list(range(dim - 3, dim)):
         raise ValueError(f"volume in {str(p)!r} must hold x, y, z as its first three axes, got size {size[::-1]}")
     img = r.Execute()
     if dim > 3:
         ext = sitk.ExtractImageFilter()
         ext.SetSize(list(img.GetSize()[:3]) + [0] * (dim - 3))
+        ext.SetIndex([0, 0, 0] + [pick.get(("at", dim - 4 - k), 0) for k in range(dim - 3)])
         img = ext.Execute(img)
+    if ncomp > 1:
+        img = sitk.VectorIndexSelectionCast(img, int(pick[("at", len(full) - 1)]))
     arr = sitk.GetArrayFromImage(img)                           # (z, y, x)
     sp = np.asarray(img.GetSpacing(), np.float64)
     d = np.asarray(img.GetDirection(), np.float64).reshape(3, 3)   # columns: world direction of x, y, z
     spacing, origin, unit = _frame((d * sp).T[::-1], img.GetOrigin())
     meta = {"direction": unit, "itk_direction": d, "itk_origin": tuple(img.GetOrigin()),
+            "world_origin": np.asarray(img.GetOrigin(), np.float64),
             "keys": {k: r.GetMetaData(k) for k in r.GetMetaDataKeys()}}
     return arr, spacing, origin, "zyx", meta
 
@@ -483,19 +721,33 @@ _SITK_DTYPES = {
 # ---------------------------------------------------------------------------------------------- VTI
 
 
-def _vti(p: Path, *, dataset, lazy):
+def _vti(p: Path, *, dataset, lazy, pick):
     import pyvista as pv
     from vtkmodules.vtkCommonExecutionModel import vtkStreamingDemandDrivenPipeline
     from vtkmodules.vtkIOXML import vtkXMLImageDataReader
+    from vtkmodules.vtkCommonCore import vtkObject
     r = vtkXMLImageDataReader()
+    shown = vtkObject.GetGlobalWarningDisplay()
+    vtkObject.GlobalWarningDisplayOff()          # VTK prints every parse error; the caller gets one ValueError
+    try:
+        return _vti_read(p, r, dataset, pv, vtkStreamingDemandDrivenPipeline)
+    finally:
+        vtkObject.SetGlobalWarningDisplay(shown)
+
+
+def _vti_read(p: Path, r, dataset, pv, vtkStreamingDemandDrivenPipeline):
     if not r.CanReadFile(str(p)):
         raise ValueError(f"could not read {str(p)!r} as VTI: not a VTK XML ImageData file")
     r.SetFileName(str(p))
     r.UpdateInformation()
+    if r.GetErrorCode():
+        raise ValueError(f"could not read {str(p)!r} as VTI: its XML header is damaged")
     e = r.GetOutputInformation(0).Get(vtkStreamingDemandDrivenPipeline.WHOLE_EXTENT())
     dims = (e[1] - e[0] + 1, e[3] - e[2] + 1, e[5] - e[4] + 1)
     _declared(p, dims, np.uint8)                       # the dtype is checked once the array is known
     r.Update()
+    if r.GetErrorCode() or r.GetOutput() is None:
+        raise ValueError(f"could not read {str(p)!r} as VTI: its data is damaged or truncated")
     grid = pv.wrap(r.GetOutput())
     names = list(grid.point_data.keys())
     if dataset is None:
@@ -512,13 +764,14 @@ def _vti(p: Path, *, dataset, lazy):
     arr = np.asarray(flat).reshape(dims, order="F")        # (x, y, z), a view of the VTK array
     d = np.asarray(grid.direction_matrix, np.float64).reshape(3, 3)    # columns: world direction of i, j, k
     spacing, origin, unit = _frame((d * np.asarray(grid.spacing)).T, grid.origin)
-    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names}
+    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names,
+                                         "world_origin": np.asarray(grid.origin, np.float64)}
 
 
 # ---------------------------------------------------------------------------------------------- HDF5
 
 
-def _hdf5(p: Path, *, dataset, lazy):
+def _hdf5(p: Path, *, dataset, lazy, pick):
     import h5py
     with h5py.File(str(p), "r") as f:
         found: list[str] = []
@@ -539,11 +792,11 @@ def _hdf5(p: Path, *, dataset, lazy):
             for i, dim in enumerate(obj.dims):
                 lab = (dim.label or "").lower()[:1]
                 if lab:
-                    labels[i] = lab if lab in "xyz" else "c"
+                    labels[i] = lab if lab in "xyzt" else "c"
         except Exception:  # noqa: BLE001, S110 - dimension-scale support varies between writers
             pass
-        keep = _keep_axes(p, shape, "".join(labels))
-        arr = obj[tuple(slice(None) if i in keep else 0 for i in range(len(shape)))]
+        keep = _keep_axes(p, shape, "".join(labels), pick)
+        arr = obj[_pick_index(p, shape, labels, keep, pick)]
     spacing = [1.0, 1.0, 1.0]
     esu = attrs.get("element_size_um")
     if esu is not None:
@@ -564,7 +817,7 @@ def _hdf5(p: Path, *, dataset, lazy):
 # ---------------------------------------------------------------------------------------------- Zarr
 
 
-def _zarr(p: Path, *, dataset, lazy):
+def _zarr(p: Path, *, dataset, lazy, pick):
     import zarr
     node = zarr.open(str(p), mode="r")
     attrs = dict(node.attrs)
@@ -611,13 +864,14 @@ def _zarr(p: Path, *, dataset, lazy):
         names = [a["name"] if isinstance(a, dict) else str(a) for a in axes_meta]
         types = [a.get("type", "") if isinstance(a, dict) else "" for a in axes_meta]
         labels = "".join(nm.lower()[:1] if (t == "space" or nm.lower() in "xyz") and nm.lower()[:1] in "xyz"
-                         else "c" for nm, t in zip(names, types))
+                         else "t" if t == "time" or (not t and nm.lower() == "t") else "c"
+                         for nm, t in zip(names, types))
     else:
         labels = "?" * n
     if len(labels) != n:
         raise ValueError(f"OME-Zarr axes {labels.upper()} in {str(p)!r} do not match the array's shape {shape}")
-    keep = _keep_axes(p, shape, labels)
-    sel = tuple(slice(None) if i in keep else 0 for i in range(n))
+    keep = _keep_axes(p, shape, labels, pick)
+    sel = _pick_index(p, shape, labels, keep, pick)
     if lazy:
         import dask.array as da
         arr = da.from_zarr(arr_node)[sel]
@@ -647,16 +901,19 @@ def _ome_transforms(cts):
 # ---------------------------------------------------------------------------------------------- DICOM
 
 
-def _dicom(p: Path, *, dataset, lazy):
+def _dicom(p: Path, *, dataset, lazy, pick, files=None):
     import pydicom
     from pydicom.errors import InvalidDicomError
     heads = []
-    for f in sorted(p.iterdir()):
+    for f in (sorted(p.iterdir(), key=lambda f: natural_key(f.name)) if files is None else files):
         if not f.is_file():
             continue
         try:
             ds = pydicom.dcmread(str(f), stop_before_pixels=True)
-        except (InvalidDicomError, OSError, EOFError):
+        except (InvalidDicomError, OSError, EOFError) as exc:
+            if files is not None:
+                raise ValueError(f"could not read {str(f)!r} as DICOM: {type(exc).__name__}: "
+                                 f"{str(exc)[:200]}") from None
             continue
         if "PixelData" in ds or hasattr(ds, "Rows"):
             heads.append((f, ds))
@@ -702,7 +959,7 @@ def _dicom(p: Path, *, dataset, lazy):
     ps = [float(v) for v in getattr(ds0, "PixelSpacing", [1.0, 1.0])]     # (row spacing, column spacing)
     dirs = np.stack([normal * dz, col_dir * ps[0], row_dir * ps[1]])        # axis 0 slices, 1 rows, 2 columns
     spacing, origin, unit = _frame(dirs, pos[order[0]])
-    meta = {"direction": unit, "image_position": pos[order[0]], "unit": "mm",
+    meta = {"direction": unit, "image_position": pos[order[0]], "unit": "mm", "world_origin": pos[order[0]],
             "rescale_slope": float(getattr(ds0, "RescaleSlope", 1.0)),
             "rescale_intercept": float(getattr(ds0, "RescaleIntercept", 0.0)),
             "modality": str(getattr(ds0, "Modality", "")), "files": [heads[i][0].name for i in order]}
@@ -712,7 +969,7 @@ def _dicom(p: Path, *, dataset, lazy):
 # ---------------------------------------------------------------------------------------------- NumPy
 
 
-def _numpy(p: Path, *, dataset, lazy):
+def _numpy(p: Path, *, dataset, lazy, pick):
     from plantvr._fileio import npy_headers, read_npz
     if p.suffix.lower() == ".npy":
         from plantvr.vine.volume import _npy_header
@@ -733,8 +990,8 @@ def _numpy(p: Path, *, dataset, lazy):
         shape, dtype = heads[key][0], heads[key][1]
         _declared(p, shape, dtype)
         arr = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
-    keep = _keep_axes(p, arr.shape, "?" * arr.ndim)
-    arr = arr[tuple(slice(None) if i in keep else 0 for i in range(arr.ndim))]
+    keep = _keep_axes(p, arr.shape, "?" * arr.ndim, pick)
+    arr = arr[_pick_index(p, arr.shape, "?" * arr.ndim, keep, pick)]
     return arr, [1.0, 1.0, 1.0], [0.0, 0.0, 0.0], "zyx", {}
 
 

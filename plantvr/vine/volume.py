@@ -9,6 +9,7 @@ format, spacing and origin: :func:`plantvr.io.volume.read_volume`.
 from __future__ import annotations
 
 import os
+import re
 import tokenize
 from pathlib import Path
 
@@ -30,6 +31,13 @@ _SLAB_BYTES = 2 ** 26
 #: headers, TIFF pages) is checked against it before anything is allocated. Memory-mapped ``.npy`` files need
 #: no memory, so they are only checked against the file's real length.
 MAX_VOLUME_BYTES = 16 * 2 ** 30
+
+
+def natural_key(name: str) -> tuple:
+    """Sort key of slice file names in natural order: ``img_2.tif`` before ``img_10.tif`` (runs of digits compare
+    as numbers, the rest case-insensitively; the name itself breaks ties)."""
+    parts = re.split(r"(\d+)", name)
+    return tuple((int(t), t) if k % 2 else (t.lower(), t) for k, t in enumerate(parts))
 
 
 def _check_declared(path, shape, dtype, *, mapped: bool = False) -> None:
@@ -146,7 +154,8 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
     Parameters
     ----------
     path : str or path-like
-        A multi-page ``.tif``/``.tiff`` file, a folder of 2-D TIFF slices (sorted by name), a ``.npy`` file
+        A multi-page ``.tif``/``.tiff`` file, a folder of 2-D TIFF slices (in natural order: ``img_2`` before
+        ``img_10``), a ``.npy`` file
         or a ``.npz`` file.
     key : str, optional
         Array name inside a ``.npz`` (default: ``"volume"`` if present, else the only array).
@@ -175,7 +184,8 @@ def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool =
         raise ValueError(f"path does not exist: {str(p)!r}")
     if p.is_dir():
         import tifffile
-        files = sorted([f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff")])
+        files = sorted([f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff")],
+                       key=lambda f: natural_key(f.name))
         if not files:
             raise ValueError(f"folder {str(p)!r} holds no .tif/.tiff slices")
         shapes = []

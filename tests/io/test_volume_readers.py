@@ -449,3 +449,75 @@ def test_label_volumes_round_trip_array_spacing_and_origin(tmp_path, suffix):
     np.testing.assert_array_equal(v.array, vol.transpose(2, 1, 0) if flip else vol)
     np.testing.assert_allclose(v.spacing, sp[::-1] if flip else sp, rtol=1e-6)
     np.testing.assert_allclose(v.origin, org[::-1] if flip else org, rtol=1e-6)
+
+
+# ------------------------------------------------------------------------------------------------ issue 32
+
+def test_tiff_folder_in_natural_order_and_explicit_file_list(tmp_path):
+    """img_0 ... img_19 stack as 0, 1, 2, ..., 10 (not name order 0, 1, 10, 11, ...); a list keeps its order."""
+    from plantvr.vine.volume import load_volume
+    a = _vol(np.uint16, (20, 5, 6))
+    for k in range(20):
+        tifffile.imwrite(tmp_path / f"img_{k}.tif", a[k])
+    v = read_volume(tmp_path)
+    assert np.array_equal(v.array, a) and v.meta["slices"][:3] == ["img_0.tif", "img_1.tif", "img_2.tif"]
+    assert np.array_equal(load_volume(tmp_path), a)
+    files = [tmp_path / f"img_{k}.tif" for k in (19, 3, 7)]
+    got = read_volume(files)
+    assert np.array_equal(got.array, a[[19, 3, 7]]) and got.source == str(files[0])
+    assert np.array_equal(read_volume([str(f) for f in files]).array, a[[19, 3, 7]])
+    with pytest.raises(ValueError, match="at least 2"):
+        read_volume(files[:1])
+    with pytest.raises(ValueError, match=r"path\[1\] is not an existing file"):
+        read_volume([files[0], tmp_path / "nope.tif"])
+    with pytest.raises(ValueError, match="TIFF slices only"):
+        read_volume([files[0], tmp_path / "x.dcm"] if (tmp_path / "x.dcm").write_bytes(b"x") else [])
+
+
+def test_dicom_file_list(tmp_path):
+    a = _vol(np.uint16, (5, 6, 7))
+    _dicom_series(tmp_path, a)
+    files = sorted(tmp_path.glob("*.dcm"))[::-1]
+    v = read_volume(files)
+    assert np.array_equal(v.array, a)                         # ordered by slice position, not by the list
+
+
+def test_channel_and_time(tmp_path):
+    h = _vol(np.uint16, (3, 4, 2, 6, 7))                       # TZCYX
+    p = tmp_path / "hyper.tif"
+    tifffile.imwrite(p, h, imagej=True, metadata={"axes": "TZCYX", "spacing": 3.0})
+    for t in range(3):
+        for c in range(2):
+            _check(read_volume(p, time=t, channel=c), h[t, :, c], (3.0, 1, 1), (0, 0, 0))
+    with pytest.raises(ValueError, match="pick one with channel= or time="):
+        read_volume(p, time=1)
+    with pytest.raises(ValueError, match=r"time must be in \[0, 2\]"):
+        read_volume(p, time=3, channel=0)
+    rgb = _vol(np.uint8, (4, 6, 7, 3))
+    tifffile.imwrite(tmp_path / "rgb.tif", rgb, photometric="rgb")
+    for c in range(3):
+        assert np.array_equal(read_volume(tmp_path / "rgb.tif", channel=c).array, rgb[..., c])
+    with pytest.raises(ValueError, match="time=0 does not apply"):
+        read_volume(tmp_path / "rgb.tif", time=0, channel=0)
+    import nibabel as nib
+    x4 = _vol(np.int16, (5, 6, 7, 3))
+    nib.save(nib.Nifti1Image(x4, np.eye(4)), tmp_path / "t.nii.gz")
+    assert np.array_equal(read_volume(tmp_path / "t.nii.gz", time=2).array, x4[..., 2])
+    import SimpleITK as sitk
+    vec = _vol(np.uint8, (4, 5, 6, 3))
+    sitk.WriteImage(sitk.GetImageFromArray(vec, isVector=True), str(tmp_path / "rgb.mha"))
+    assert np.array_equal(read_volume(tmp_path / "rgb.mha", channel=1).array, vec[..., 1])
+    m4 = _vol(np.int16, (3, 4, 5, 6))                          # (t, z, y, x)
+    sitk.WriteImage(sitk.GetImageFromArray(m4, isVector=False), str(tmp_path / "t4.mha"))
+    assert np.array_equal(read_volume(tmp_path / "t4.mha", time=2).array, m4[2])
+    np.save(tmp_path / "c.npy", vec.transpose(3, 0, 1, 2))
+    assert np.array_equal(read_volume(tmp_path / "c.npy", channel=2).array, vec[..., 2])
+    for bad in (-1, 1.5, True, "0"):
+        with pytest.raises(ValueError, match="channel must be an integer"):
+            read_volume(tmp_path / "c.npy", channel=bad)
+    three = tmp_path / "three.npy"
+    np.save(three, _vol(np.uint8))
+    with pytest.raises(ValueError, match="channel=0 does not apply"):
+        read_volume(three, channel=0)
+    with pytest.raises(ValueError, match="time=0 does not apply .* slice stack"):
+        read_volume([tmp_path / "hyper.tif", tmp_path / "rgb.tif"], time=0)
