@@ -12,8 +12,8 @@ snapshot with the same fields and its ``buds``) and the appearance parameters:
 
 Files: :func:`export_tree` (PLY, OBJ with its .mtl and textures, textured glTF), :func:`export_skinned_glb`,
 :func:`plantvr.io.usd.export_usd`, and :func:`snapshot_export` / :func:`export_model_as` that pick one by suffix
-and LOD level. Every file goes through the one writer of its format (:mod:`plantvr.io.ply`,
-:mod:`plantvr.io.obj`, :mod:`plantvr.io.gltf`, :mod:`plantvr.io.usd`).
+and LOD level. Every file goes through the writer registry (:mod:`plantvr.io.writers`: the one writer of each
+format, every file of a save atomic).
 """
 from __future__ import annotations
 

@@ -32,18 +32,20 @@ a :class:`plantvr.io.gltf.Gltf` document and saved through the same glTF writer.
 from __future__ import annotations
 
 import contextlib
+import importlib
 import os
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, Self
 
 import numpy as np
 
 from plantvr import _fileio
 from plantvr._fileio import check_target
 
-__all__ = ["FORMATS", "SUFFIXES", "WRITERS", "AtomicResolver", "Part", "Writer", "as_parts", "save", "writer_for"]
+__all__ = ["FORMATS", "SUFFIXES", "WRITERS", "AtomicResolver", "Part", "Writer", "as_parts", "check_image", "merged",
+           "save", "writer_for"]
 
 
 @dataclass(eq=False)
@@ -127,6 +129,7 @@ class AtomicResolver:
         self.main = main
         self.batch = batch
         self.names: list[str] = []
+        self._pending = 0                                            # side files in the open batch
         self._stack: contextlib.ExitStack | None = None
         self._main_stack: contextlib.ExitStack | None = None
 
@@ -136,7 +139,7 @@ class AtomicResolver:
         folder = check_target(path, name=name)
         return cls(folder, main=Path(path).name)
 
-    def __enter__(self) -> AtomicResolver:
+    def __enter__(self) -> Self:
         self._stack = contextlib.ExitStack()
         self._main_stack = contextlib.ExitStack()
         return self
@@ -170,10 +173,13 @@ class AtomicResolver:
         check_target(target)
         is_main = name == self.main
         stack = self._main_stack if is_main else self._stack
-        if not is_main and len(self.names) - (self.main in self.names) >= self.batch:
-            self._stack.close()                                      # commit this batch (very long sequences)
-            self._stack = contextlib.ExitStack()
+        if not is_main:
+            if self._pending >= self.batch:
+                self._stack.close()                                  # commit this batch (very long sequences)
+                self._stack = contextlib.ExitStack()
+                self._pending = 0
             stack = self._stack
+            self._pending += 1
         fh = stack.enter_context(_fileio.atomic_write(target, mode))    # looked up here: tests patch it
         self.names.append(name)
         yield fh
@@ -211,31 +217,34 @@ def check_image(name: str, image) -> np.ndarray:
 class Writer:
     """One row of :data:`WRITERS`: a format, its suffixes and its one emitter.
 
-    ``emit(resolver, name, parts, **options)`` writes the main file ``name`` (and its side files) into the
-    resolver's folder.
+    ``emitter`` names the emitter as ``"module:function"``, imported on first use: the emitter modules import
+    this one (for :class:`Part` and the resolver), so the table names them instead of importing them (the io
+    layer has no import cycles). ``emit(resolver, name, parts, **options)`` writes the main file ``name`` (and its
+    side files) into the resolver's folder.
     """
 
     format: str
     suffixes: tuple[str, ...]
-    emit: Callable[..., None]
+    emitter: str
     options: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def emit(self) -> Callable[..., None]:
+        """The emitter function."""
+        module, func = self.emitter.split(":")
+        return getattr(importlib.import_module(module), func)
 
     def write(self, resolver: AtomicResolver, name: str, parts, **options) -> None:
         self.emit(resolver, name, parts, **{**self.options, **options})
 
 
-from .gltf import emit_gltf  # noqa: E402  (the emitter modules import this one only inside functions)
-from .obj import emit_obj  # noqa: E402
-from .ply import emit_ply  # noqa: E402
-from .usd import emit_usd  # noqa: E402
-
 #: Format → :class:`Writer`: the one writer of each mesh format (as ``trimesh.exchange.export._mesh_exporters``).
 WRITERS: dict[str, Writer] = {
-    "ply": Writer("ply", (".ply",), emit_ply),
-    "obj": Writer("obj", (".obj",), emit_obj),
-    "gltf": Writer("gltf", (".gltf",), emit_gltf, {"binary": False}),
-    "glb": Writer("glb", (".glb",), emit_gltf, {"binary": True}),
-    "usd": Writer("usd", (".usd", ".usda", ".usdc"), emit_usd),
+    "ply": Writer("ply", (".ply",), "plantvr.io.ply:emit_ply"),
+    "obj": Writer("obj", (".obj",), "plantvr.io.obj:emit_obj"),
+    "gltf": Writer("gltf", (".gltf",), "plantvr.io.gltf:emit_gltf", {"binary": False}),
+    "glb": Writer("glb", (".glb",), "plantvr.io.gltf:emit_gltf", {"binary": True}),
+    "usd": Writer("usd", (".usd", ".usda", ".usdc"), "plantvr.io.usd:emit_usd"),
 }
 
 #: The formats, in table order.

@@ -131,7 +131,7 @@ def write_all(out: str | os.PathLike, *, usd: bool = True, billboards: bool = Tr
 def _tree_arrays():
     from plantvr.geometry.synthetic import random_tree
 
-    pos, parent, radius, mc = random_tree(40, seed=7)
+    pos, parent, radius, _ = random_tree(40, seed=7)
     return pos, parent, radius
 
 
