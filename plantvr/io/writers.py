@@ -125,7 +125,9 @@ class AtomicResolver:
     def __init__(self, folder: str | os.PathLike, *, main: str | None = None, batch: int = 256) -> None:
         self.folder = Path(folder)
         if not self.folder.is_dir():
-            check_target(self.folder / "_", name="folder")           # the one message for a missing folder
+            what = "is not a folder" if self.folder.exists() else "does not exist"
+            raise ValueError(f"cannot write into {os.fspath(self.folder)!r}: the folder {what} (create it first; "
+                             f"no writer creates folders)")
         self.main = main
         self.batch = batch
         self.names: list[str] = []
