@@ -3,8 +3,9 @@
 
 :class:`GltfBuffer` packs arrays into the one binary buffer and keeps the bufferView and accessor records that
 describe them. :class:`Gltf` builds the JSON document around it (meshes, materials with PNG textures, nodes,
-skins, animations) and writes ``.glb`` (one file) or ``.gltf`` (JSON plus ``<stem>.bin``), atomically through
-:mod:`plantvr._fileio`. numpy, json and struct only: no trimesh or pygltflib on the write path (they are the
+skins, animations); :func:`emit_gltf`, the ``glb`` and ``gltf`` rows of the writer registry
+(:data:`plantvr.io.writers.WRITERS`), writes it as ``.glb`` (one file) or ``.gltf`` (JSON plus ``<stem>.bin``)
+through the registry's atomic resolver; :func:`parts_document` builds the document of a list of parts. numpy, json and struct only: no trimesh or pygltflib on the write path (they are the
 readers the tests use as oracles). Instancing is by nodes sharing a mesh (:func:`write_glb`).
 
 Every writer calls it: tree meshes (:func:`plantvr.io.tree.export_tree`), the skinned tree
@@ -22,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from plantvr._fileio import atomic_write, write_atomic
+from plantvr._fileio import atomic_write  # noqa: F401  (kept importable: failure tests patch it here)
 from plantvr._validation import MAX_COUNT, check_array
 
 __all__ = [
@@ -32,6 +33,8 @@ __all__ = [
     "Gltf",
     "GltfBuffer",
     "check_glb_path",
+    "emit_gltf",
+    "parts_document",
     "write_glb",
     "write_mesh",
     "write_textured",
@@ -266,42 +269,85 @@ class Gltf:
                 + struct.pack("<I4s", len(blob), b"BIN\0") + blob)
 
     def write(self, path, *, binary: bool | None = None) -> Path:
-        """Write ``.glb`` (one file) or ``.gltf`` (JSON and ``<stem>.bin`` beside it, the JSON last), atomically;
-        ``binary`` None picks by the suffix."""
-        path = Path(path)
-        if binary is None:
-            if path.suffix.lower() not in (".glb", ".gltf"):
-                raise ValueError(f"path must end in .glb or .gltf, got {path.suffix!r}")
-            binary = path.suffix.lower() == ".glb"
-        folder = path.parent if str(path.parent) else Path(".")
-        if not folder.is_dir():
-            raise ValueError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
-        if binary:
-            with atomic_write(path) as fh:      # a failed write leaves any previous file intact
-                fh.write(self.glb())
-        else:
-            write_atomic(folder / f"{path.stem}.bin", self.buffer.blob())
-            write_atomic(path, json.dumps(self.document(uri=f"{path.stem}.bin"), separators=(",", ":")))
-        return path
+        """Write ``.glb`` (one file) or ``.gltf`` (JSON and ``<stem>.bin`` beside it, the JSON renamed last),
+        atomically, through the writer registry; ``binary`` None picks by the suffix."""
+        from .writers import save
+
+        return save(path, self, file_type=None if binary is None else ("glb" if binary else "gltf"),
+                    allowed=("gltf", "glb"))
+
+
+def emit_gltf(res, name: str, parts, *, binary: bool, generator: str = "PlantVR", **_other) -> None:
+    """The glTF emitter of the writer registry (rows ``glb`` and ``gltf``): a :class:`Gltf` document, or
+    ``parts`` (one glTF mesh and node per part, see :func:`parts_document`), as ``name`` in ``res``'s folder:
+    one ``.glb``, or the ``.gltf`` JSON and its buffer ``<stem>.bin``."""
+    g = parts if isinstance(parts, Gltf) else parts_document(parts, generator=generator)
+    if binary:
+        res.write(name, g.glb())
+    else:
+        stem = Path(name).stem
+        blob = g.buffer.blob()
+        res.write(f"{stem}.bin", blob)
+        res.write(name, json.dumps(g.document(uri=f"{stem}.bin"), separators=(",", ":")))
+
+
+def parts_document(parts, *, generator: str = "PlantVR") -> Gltf:
+    """The glTF document of a list of :class:`plantvr.io.writers.Part`: one mesh and one root node per part.
+
+    Each primitive has float32 POSITION, NORMAL and TEXCOORD_0 (``1 - v``: glTF's origin is the image's top
+    left) when the part has them, and COLOR_0 for vertex colours of an untextured part. A textured part gets a
+    material named after it with the image (PNG, embedded) as base colour texture; a part with vertex colours
+    and no material options gets none; any other part a material ``material.get("name", "material_<k>")``
+    (white unless ``rgba``). Material options: ``rgba``, ``metallic`` (0), ``roughness`` (0.9),
+    ``double_sided``, ``alpha_mode`` (``"OPAQUE"`` when textured), ``alpha_cutoff``.
+    """
+    from .writers import as_parts, check_image
+
+    parts = as_parts(parts)
+    checked = []
+    for k, p in enumerate(parts):                 # everything checked before the document is built
+        label = "mesh" if len(parts) == 1 else f"parts[{k}]"
+        v, f = _check_mesh(label, (p.vertices, p.faces))
+        img = None if p.image is None else check_image(f"{label} image", p.image)
+        colors = None
+        if p.colors is not None and img is None:
+            colors = np.asarray(p.colors)
+            if colors.dtype != np.uint8 or colors.shape not in ((len(v), 3), (len(v), 4)):
+                raise ValueError(f"colors must be uint8 of shape ({len(v)}, 3) or ({len(v)}, 4), "
+                                 f"got {colors.dtype} {colors.shape}")
+        nrm = None if p.normals is None else check_array(f"{label} normals" if len(parts) > 1 else "normals",
+                                                         p.normals, shape=(len(v), 3))
+        uv = None if p.uv is None else check_array(f"{label} uv", p.uv, shape=(len(v), 2), max_abs=MAX_GLB_COORD)
+        if not isinstance(p.material, dict):
+            raise ValueError(f"{label} material must be a dict, got {type(p.material).__name__}")
+        checked.append((v, f, img, colors, nrm, uv))
+    g = Gltf(generator)
+    roots = []
+    for k, (p, (v, f, img, colors, nrm, uv)) in enumerate(zip(parts, checked)):
+        o = p.material
+        mat = None
+        if img is not None or colors is None or o:
+            rgba = o.get("rgba", None if img is not None else (1.0, 1.0, 1.0, 1.0))
+            mat = g.add_material(o.get("name", p.name if img is not None else f"material_{k}"), rgba=rgba,
+                                 texture=img, metallic=o.get("metallic", 0.0), roughness=o.get("roughness", 0.9),
+                                 double_sided=o.get("double_sided", False),
+                                 alpha_mode=o.get("alpha_mode", "OPAQUE" if img is not None else None),
+                                 alpha_cutoff=o.get("alpha_cutoff"))
+        gl_uv = None if uv is None else np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])
+        mesh = g.add_mesh(p.name, [g.primitive(v, f, normals=nrm, uv=gl_uv, colors=colors, material=mat)])
+        roots.append(g.add_node(name=p.name, mesh=mesh))
+    g.add_scene(roots)
+    return g
 
 
 def write_mesh(path, vertices, faces, *, colors=None, normals=None, name: str = "mesh",
                binary: bool | None = None) -> Path:
     """One mesh, one node, as ``.glb`` or ``.gltf``: positions, optional (V, 3|4) uint8 vertex colours
     (COLOR_0) and normals; vertex order kept (label meshes, segmentations, subdivision surfaces)."""
-    v, f = _check_mesh("mesh", (vertices, faces))
-    if colors is not None:
-        colors = np.asarray(colors)
-        if colors.dtype != np.uint8 or colors.shape not in ((len(v), 3), (len(v), 4)):
-            raise ValueError(f"colors must be uint8 of shape ({len(v)}, 3) or ({len(v)}, 4), "
-                             f"got {colors.dtype} {colors.shape}")
-    if normals is not None:
-        normals = check_array("normals", normals, shape=(len(v), 3))
-    g = Gltf()
-    mat = None if colors is not None else g.add_material("material_0", rgba=(1.0, 1.0, 1.0, 1.0))
-    g.add_mesh(name, [g.primitive(v, f, normals=normals, colors=colors, material=mat)])
-    g.add_scene([g.add_node(name=name, mesh=0)])
-    return g.write(path, binary=binary)
+    from .writers import Part, save
+
+    return save(path, Part(name, vertices, faces, normals=normals, colors=colors),
+                file_type=None if binary is None else ("glb" if binary else "gltf"), allowed=("gltf", "glb"))
 
 
 def write_textured(path, parts: list[dict[str, Any]]) -> Path:
@@ -320,22 +366,13 @@ def write_textured(path, parts: list[dict[str, Any]]) -> Path:
     -------
     pathlib.Path
     """
+    from .writers import Part, save
+
     path = check_glb_path(path)
-    g = Gltf()
-    roots = []
-    for k, p in enumerate(parts):
-        v, f = _check_mesh(f"parts[{k}]", (p["vertices"], p["faces"]))
-        uv = check_array(f"parts[{k}] uv", p["uv"], shape=(len(v), 2), max_abs=MAX_GLB_COORD)
-        nrm = None if p.get("normals") is None else check_array(f"parts[{k}] normals", p["normals"],
-                                                                shape=(len(v), 3))
-        mat = g.add_material(p["name"], texture=p["image"], roughness=p.get("roughness", 0.9),
-                             double_sided=p.get("double_sided", False), alpha_mode=p.get("alpha_mode", "OPAQUE"),
-                             alpha_cutoff=p.get("alpha_cutoff"))
-        gl_uv = np.column_stack([uv[:, 0], 1.0 - uv[:, 1]])        # glTF: origin at the image's top left
-        mesh = g.add_mesh(p["name"], [g.primitive(v, f, normals=nrm, uv=gl_uv, material=mat)])
-        roots.append(g.add_node(name=p["name"], mesh=mesh))
-    g.add_scene(roots)
-    return g.write(path)
+    opts = ("roughness", "double_sided", "alpha_mode", "alpha_cutoff")
+    return save(path, [Part(p["name"], p["vertices"], p["faces"], normals=p.get("normals"), uv=p["uv"],
+                            image=p["image"], material={k: p[k] for k in opts if p.get(k) is not None})
+                       for p in parts], file_type="glb")
 
 
 def _check_mesh(name: str, mesh) -> tuple[np.ndarray, np.ndarray]:

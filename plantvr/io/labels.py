@@ -1,8 +1,8 @@
 """Segmentation and per-label mesh files: PLY, glTF, one mesh per label, the label table as CSV (spec 000_vine
 §2.7 export, §6 "named labels and per-label mesh export"; issue 15; issue 21).
 
-Every file goes through the one writer of its format (:func:`plantvr.io.ply.write_ply`,
-:func:`plantvr.io.obj.write_obj`, :func:`plantvr.io.gltf.write_mesh`), atomically.
+Every mesh file goes through the writer registry (:func:`plantvr.io.writers.save`: the one writer of each
+format), atomically.
 """
 from __future__ import annotations
 
@@ -14,9 +14,7 @@ from plantvr._fileio import atomic_write
 from plantvr._validation import check_choice, check_int
 from plantvr.vine.labelstats import _check_mesh, face_labels, label_mesh
 
-from .gltf import write_mesh
-from .obj import write_obj
-from .ply import write_ply
+from .writers import Part, save, writer_for
 
 __all__ = ["LABEL_FORMATS", "export_gltf", "export_label_meshes", "export_label_table", "export_ply",
            "write_label_meshes"]
@@ -38,17 +36,17 @@ def export_ply(seg, path: str | os.PathLike, *, visible_only: bool = False, with
         Add the ``label`` uchar property.
     """
     faces = seg.visible_faces() if visible_only else seg.faces
-    write_ply(path, seg.vertices, faces, colors=seg.vertex_colors(), labels=seg.labels if with_labels else None)
+    save(path, Part("segmentation", seg.vertices, faces, colors=seg.vertex_colors(),
+                    labels=seg.labels if with_labels else None), file_type="ply")
 
 
 def export_gltf(seg, path: str | os.PathLike, *, visible_only: bool = False) -> None:
     """Write a segmentation as glTF with per-vertex RGBA colours (COLOR_0), vertex order kept: ``.glb``, or
     ``.gltf`` with its buffer ``<stem>.bin`` beside it."""
     p = os.fspath(path)
-    if not p.lower().endswith((".glb", ".gltf")):
-        raise ValueError(f"path must end in .glb or .gltf, got {p!r}")
+    writer_for(p, allowed=("glb", "gltf"))
     faces = seg.visible_faces() if visible_only else seg.faces
-    write_mesh(p, seg.vertices, faces, colors=seg.vertex_colors())
+    save(p, Part("mesh", seg.vertices, faces, colors=seg.vertex_colors()), allowed=("glb", "gltf"))
 
 
 def export_label_table(seg, path: str | os.PathLike, names: dict | None = None) -> None:
@@ -103,12 +101,8 @@ def write_label_meshes(directory: str | os.PathLike, vertices: np.ndarray, faces
         sv, sf, ids = label_mesh(v, f, lab, int(k))
         path = os.path.join(d, f"{prefix}_{int(k):03d}.{fmt}")
         rgba = None if colors is None else np.repeat(colors.rgba[int(k)][None], len(sv), axis=0)
-        if fmt == "ply":
-            write_ply(path, sv, sf, colors=rgba, labels=lab[ids])
-        elif fmt == "obj":
-            write_obj(path, sv, sf, normals=False, name=f"{prefix}_{int(k):03d}", colors=rgba,
-                      comment="PlantVR label mesh")
-        else:
-            write_mesh(path, sv, sf, colors=rgba, name=f"{prefix}_{int(k):03d}")
+        # PLY carries the labels, OBJ and glTF the colours (each format's writer takes what it holds)
+        save(path, Part(f"{prefix}_{int(k):03d}", sv, sf, colors=rgba, labels=lab[ids]), file_type=fmt,
+             normals=False, per_format={"obj": {"comment": "PlantVR label mesh"}})
         out[int(k)] = path
     return out

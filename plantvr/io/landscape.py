@@ -4,7 +4,8 @@ A landscape is written as one ``.glb``: the terrain height field as a mesh, and 
 translation, rotation (about the vertical axis) and scale. Trees whose meshes are identical (the same
 species shape placed many times, [INFERRED] compared on their float32 bytes) share one glTF mesh that many
 nodes reference, so an instanced tree library costs one mesh per shape. Written by the one glTF writer,
-:func:`plantvr.io.gltf.write_glb`; read the file back with ``trimesh.load(path, force="scene")``.
+:func:`plantvr.io.gltf.write_glb`, through the writer registry (:mod:`plantvr.io.writers`); read the file back
+with ``trimesh.load(path, force="scene")``.
 """
 from __future__ import annotations
 

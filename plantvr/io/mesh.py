@@ -1,21 +1,19 @@
-"""Any triangle mesh to PLY, OBJ or glTF/GLB through the one writer of each format (spec 001_subdivision §2.7;
-issue 21)."""
+"""Any triangle mesh to PLY, OBJ or glTF/GLB through the writer registry (spec 001_subdivision §2.7; issue 21;
+issue 30)."""
 from __future__ import annotations
 
 from pathlib import Path
 
-from plantvr._fileio import check_target
-from plantvr._validation import check_choice
+from .writers import Part, save, writer_for
 
-from .gltf import write_mesh
-from .obj import write_obj
-from .ply import write_ply
+__all__ = ["MESH_FORMATS", "export_mesh"]
 
-__all__ = ["export_mesh"]
+MESH_FORMATS = ("ply", "obj", "gltf", "glb")
+"""Formats :func:`export_mesh` writes."""
 
 
 def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
-    """Write a mesh to PLY, OBJ or glTF/GLB, vertex order kept.
+    """Write a mesh to PLY, OBJ or glTF/GLB through the writer registry, vertex order kept.
 
     Parameters
     ----------
@@ -38,14 +36,8 @@ def export_mesh(mesh, path, *, file_type: str | None = None) -> Path:
         (:func:`plantvr._fileio.check_target`: no writer creates folders).
     """
     path = Path(path)
-    ft = check_choice("file_type", (file_type or path.suffix.lstrip(".")).lower(), ("ply", "obj", "gltf", "glb"))
+    fmt = writer_for(path, file_type, allowed=MESH_FORMATS).format
     if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
         raise ValueError(f"mesh must be a TriMesh, trimesh.Trimesh or ControlMesh, got {type(mesh).__name__}")
-    check_target(path)
-    if ft == "ply":
-        write_ply(path, mesh.vertices, mesh.faces, double=True, comment="PlantVR mesh")
-    elif ft == "obj":
-        write_obj(path, mesh.vertices, mesh.faces, normals=False, name="mesh", comment="PlantVR mesh")
-    else:
-        write_mesh(path, mesh.vertices, mesh.faces, binary=ft == "glb")
-    return path
+    return save(path, Part("mesh", mesh.vertices, mesh.faces), file_type=fmt, double=True, normals=False,
+                comment="PlantVR mesh")

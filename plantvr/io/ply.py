@@ -1,8 +1,10 @@
 """The one PLY writer: binary little-endian PLY through numpy structured arrays (spec 000_vine §2.7, item 24;
-spec 000_treewand §3; issue 21).
+spec 000_treewand §3; issue 21; issue 30).
 
 One ``tofile`` per element, so a 36 M-face mesh is written in about the time it takes to copy it. Every PLY
-PlantVR writes (segmentations, label meshes, tree meshes, subdivision surfaces) goes through :func:`write_ply`.
+PlantVR writes (segmentations, label meshes, tree meshes, subdivision surfaces) is emitted by :func:`emit_ply`,
+the ``ply`` row of the writer registry (:data:`plantvr.io.writers.WRITERS`); :func:`write_ply` is its
+array-taking front door.
 """
 from __future__ import annotations
 
@@ -10,16 +12,17 @@ import os
 
 import numpy as np
 
-from plantvr._fileio import atomic_write
+from plantvr._fileio import atomic_write  # noqa: F401  (kept importable: failure tests patch it here)
 from plantvr._validation import check_array, check_int
 
-__all__ = ["write_ply"]
+__all__ = ["emit_ply", "write_ply"]
 
 
 def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, *, colors: np.ndarray | None = None,
               labels: np.ndarray | None = None, normals: np.ndarray | None = None,
               double: bool = False, comment: str = "PlantVR ViNE segmentation", chunk: int = 1 << 20) -> None:
-    """Write a binary little-endian PLY mesh with optional vertex colours, labels and normals.
+    """Write a binary little-endian PLY mesh with optional vertex colours, labels and normals (through the
+    writer registry: :func:`plantvr.io.writers.save`, whatever the suffix).
 
     Parameters
     ----------
@@ -45,6 +48,24 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
     ----------
     .. [1] Spec 000_vine §2.7 step 1: PLY "with colours stored at the vertices" [T §6.4].
     """
+    from .writers import Part, save
+
+    save(path, Part("mesh", vertices, faces, normals=normals, colors=colors, labels=labels), file_type="ply",
+         double=double, comment=comment, chunk=chunk)
+
+
+def emit_ply(res, name: str, parts, *, double: bool = False, comment: str = "PlantVR ViNE segmentation",
+             chunk: int = 1 << 20, normals: bool = True, **_other) -> None:
+    """The PLY emitter of the writer registry: ``parts`` as one binary PLY ``name`` in ``res``'s folder.
+
+    Parts are concatenated; normals (unless ``normals`` is False), colours and labels are written when every
+    part has them. Everything is checked before a byte is written. Options as :func:`write_ply`.
+    """
+    from .writers import as_parts, merged
+
+    m = merged(as_parts(parts), "normals", "colors", "labels")
+    vertices, faces, colors, labels = m["vertices"], m["faces"], m["colors"], m["labels"]
+    normals = m["normals"] if normals else None
     v = check_array("vertices", vertices, shape=(None, 3), dtype=np.float64 if double else np.float32)
     chunk = check_int("chunk", chunk, 1, 2 ** 31)
     if not isinstance(comment, str) or not comment.isascii() or not comment.isprintable():
@@ -83,7 +104,7 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
     header = ["ply", "format binary_little_endian 1.0", f"comment {comment}",
               f"element vertex {len(v)}", *[f"property {p}" for p in props],
               f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
-    with atomic_write(path) as fh:                        # a failed write leaves the old file, no leftovers
+    with res.open(name) as fh:                            # a failed write leaves the old file, no leftovers
         fh.write(("\n".join(header) + "\n").encode("ascii"))
         for a in range(0, len(v), chunk):                 # chunked: peak memory ~ chunk rows, not the mesh
             b = min(a + chunk, len(v))

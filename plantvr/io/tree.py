@@ -12,8 +12,8 @@ snapshot with the same fields and its ``buds``) and the appearance parameters:
 
 Files: :func:`export_tree` (PLY, OBJ with its .mtl and textures, textured glTF), :func:`export_skinned_glb`,
 :func:`plantvr.io.usd.export_usd`, and :func:`snapshot_export` / :func:`export_model_as` that pick one by suffix
-and LOD level. Every file goes through the one writer of its format (:mod:`plantvr.io.ply`,
-:mod:`plantvr.io.obj`, :mod:`plantvr.io.gltf`, :mod:`plantvr.io.usd`).
+and LOD level. Every file goes through the writer registry (:mod:`plantvr.io.writers`: the one writer of each
+format, every file of a save atomic).
 """
 from __future__ import annotations
 
@@ -37,10 +37,9 @@ from plantvr.geometry.mesh import BranchMesh, IncrementalBranchMesh, build_branc
 from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES, bark_texture, leaf_texture
 
 from ._checks import check_tree_meshes
-from .gltf import Gltf, check_glb_path, write_textured
-from .obj import write_obj
-from .ply import write_ply
+from .gltf import Gltf, check_glb_path
 from .usd import export_usd
+from .writers import SUFFIXES, Part, save, writer_for
 
 __all__ = ["BILLBOARD_LOD", "EXPORT_FORMATS", "FORMATS", "SUFFIX_FORMAT", "IncrementalTreeGeometry", "Skeleton",
            "branch_mesh", "bud_nodes", "export_model", "export_model_as", "export_skinned_glb", "export_tree",
@@ -56,8 +55,8 @@ BILLBOARD_LOD = 4
 """``lod`` value that exports the billboard impostor instead of a mesh level (written by the view layer:
 :func:`plantvr.view.billboard.export_billboard`)."""
 
-SUFFIX_FORMAT = {".usd": "usd", ".usda": "usd", ".usdc": "usd", ".glb": "glb", ".ply": "ply", ".obj": "obj"}
-"""Output suffix → format of :func:`snapshot_export`."""
+SUFFIX_FORMAT = {s: f for s, f in SUFFIXES.items() if f in EXPORT_FORMATS}
+"""Output suffix → format of :func:`snapshot_export` (the writer registry's, :data:`plantvr.io.writers.SUFFIXES`)."""
 
 _BARK_RGB = (96, 66, 40)
 _LEAF_RGB = (70, 140, 45)
@@ -227,35 +226,19 @@ def export_tree(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, b
         The written file.
     """
     path = Path(path)
-    suffix = check_choice("path suffix", path.suffix.lower(), FORMATS)
+    check_choice("path suffix", path.suffix.lower(), FORMATS)
     check_tree_meshes(branches, leaves)
     check_choice("bark", bark, BARK_TEXTURES)
     check_choice("leaf", leaf, LEAF_TEXTURES)
-    parts = [branches] + ([leaves] if leaves is not None and len(leaves.faces) else [])
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ValueError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
-    if suffix == ".glb":
-        images = [bark_texture(bark), leaf_texture(leaf)]
-        write_textured(path, [{"name": name, "vertices": p.vertices, "faces": p.faces, "uv": p.uv,
-                               "normals": p.normals, "image": img, "double_sided": k == 1,
-                               "alpha_mode": "MASK" if k == 1 else "OPAQUE", "alpha_cutoff": 0.5 if k == 1 else None}
-                              for k, (name, p, img) in enumerate(zip(("bark", "leaves"), parts, images))])
-        return path
-    verts = np.concatenate([p.vertices for p in parts])
-    offs = np.cumsum([0] + [len(p.vertices) for p in parts])
-    faces = np.concatenate([p.faces + o for p, o in zip(parts, offs)])
-    normals = np.concatenate([p.normals for p in parts]).astype(np.float64)
-    if suffix == ".ply":
-        cols = np.concatenate([np.tile(np.array([*c, 255], np.uint8), (len(p.vertices), 1))
-                               for p, c in zip(parts, (_BARK_RGB, _LEAF_RGB))])
-        write_ply(path, verts, faces, normals=normals, colors=cols, double=True, comment="PlantVR tree")
-    else:
-        images = [("bark", bark_texture(bark)), ("leaves", leaf_texture(leaf))]
-        write_obj(path, verts, faces, np.concatenate([p.uv for p in parts]).astype(np.float64), normals=normals,
-                  name="tree", comment="PlantVR tree mesh",
-                  materials=[(n, len(p.faces), img) for (n, img), p in zip(images, parts)])
-    return path
+    meshes = [branches] + ([leaves] if leaves is not None and len(leaves.faces) else [])
+    looks = (("bark", bark_texture(bark), _BARK_RGB, {"alpha_mode": "OPAQUE"}),
+             ("leaves", leaf_texture(leaf), _LEAF_RGB, {"double_sided": True, "alpha_mode": "MASK", "alpha_cutoff": 0.5}))
+    parts = [Part(name, m.vertices, m.faces, normals=np.asarray(m.normals, np.float64),
+                  uv=np.asarray(m.uv, np.float64), colors=np.tile(np.array([*rgb, 255], np.uint8), (len(m.vertices), 1)),
+                  image=img, material=mat)
+             for m, (name, img, rgb, mat) in zip(meshes, looks)]
+    return save(path, parts, double=True, group="tree", per_format={"ply": {"comment": "PlantVR tree"},
+                                                                   "obj": {"comment": "PlantVR tree mesh"}})
 
 
 # -- skinned glTF ----------------------------------------------------------------------------------------------
@@ -463,9 +446,7 @@ def snapshot_export(snap, params: dict[str, Any], path: str | Path, *, lod: int 
     pathlib.Path
     """
     path = Path(path)
-    fmt = SUFFIX_FORMAT.get(path.suffix.lower())
-    if fmt is None:
-        check_choice("path suffix", path.suffix.lower(), tuple(SUFFIX_FORMAT))
+    fmt = writer_for(path, allowed=tuple(EXPORT_FORMATS)).format
     lod = check_int("lod", lod, 0, BILLBOARD_LOD)
     if lod == BILLBOARD_LOD:
         raise ValueError(f"lod {BILLBOARD_LOD} (the billboard) is rendered by the view: write it as .glb or .obj "
@@ -473,13 +454,27 @@ def snapshot_export(snap, params: dict[str, Any], path: str | Path, *, lod: int 
     if len(snap.pos) < 2:
         raise ValueError("the tree is empty (no internodes): grow it before exporting")
     branches, leaf, bud_node = _level_geometry(snap, params, lod, leaves)
-    bark, leaf_tex = params["bark_texture"], params["leaf_texture"]
-    if fmt == "usd":
-        return export_usd(path, branches, leaf, order=np.asarray(snap.order, np.int64), bark=bark, leaf=leaf_tex)
-    if fmt == "glb" and skinned:
-        return export_skinned_glb(path, branches, snap.pos, snap.parent, snap.radius, main_child=snap.main_child,
-                                  leaves=leaf, leaf_node=bud_node if leaf is not None else None)
-    return export_tree(path, branches, leaf, bark=bark, leaf=leaf_tex)
+    return _SNAPSHOT_EXPORTS[fmt, bool(skinned)](path, snap, params, branches, leaf, bud_node)
+
+
+def _usd_export(path, snap, params, branches, leaf, bud_node) -> Path:
+    return export_usd(path, branches, leaf, order=np.asarray(snap.order, np.int64), bark=params["bark_texture"],
+                      leaf=params["leaf_texture"])
+
+
+def _skinned_export(path, snap, params, branches, leaf, bud_node) -> Path:
+    return export_skinned_glb(path, branches, snap.pos, snap.parent, snap.radius, main_child=snap.main_child,
+                              leaves=leaf, leaf_node=bud_node if leaf is not None else None)
+
+
+def _mesh_export(path, snap, params, branches, leaf, bud_node) -> Path:
+    return export_tree(path, branches, leaf, bark=params["bark_texture"], leaf=params["leaf_texture"])
+
+
+#: What :func:`snapshot_export` writes for each (format of :data:`EXPORT_FORMATS`, ``skinned``); the file itself
+#: goes through the writer registry.
+_SNAPSHOT_EXPORTS = {**{(f, s): _mesh_export for f in ("ply", "obj", "glb") for s in (False, True)},
+                     ("glb", True): _skinned_export, ("usd", False): _usd_export, ("usd", True): _usd_export}
 
 
 def export_model(model, path: str | Path) -> Path:

@@ -1,4 +1,5 @@
-"""The one USD writer. USD export of a tree: mesh prims with UVs, normals, UsdPreviewSurface materials, branch-order subsets
+"""The one USD writer (:func:`emit_usd`, the ``usd`` row of the writer registry :data:`plantvr.io.writers.WRITERS`;
+issue 30). USD export of a tree: mesh prims with UVs, normals, UsdPreviewSurface materials, branch-order subsets
 (spec 000_treewand §3.3–§3.4; issue 16).
 
 Layout of the stage (Y up, metres)::
@@ -27,7 +28,7 @@ from plantvr.types import TriMesh
 
 from ._checks import check_tree_meshes
 
-__all__ = ["BARK_MATERIAL", "LEAF_MATERIAL", "LeafInstances", "export_usd", "leaf_instances"]
+__all__ = ["BARK_MATERIAL", "LEAF_MATERIAL", "LeafInstances", "emit_usd", "export_usd", "leaf_instances"]
 
 BARK_MATERIAL = "Bark"
 LEAF_MATERIAL = "Leaf"
@@ -265,10 +266,12 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     ----------
     .. [1] OpenUSD UsdGeomMesh, UsdGeomSubset and UsdPreviewSurface specifications.
     """
-    from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES
+    from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES, bark_texture, leaf_texture
+
+    from .writers import Part, save, writer_for
 
     path = Path(path)
-    check_choice("suffix", path.suffix.lower(), (".usd", ".usda", ".usdc"))
+    writer_for(path, allowed=("usd",))
     check_choice("bark", bark, BARK_TEXTURES)
     check_choice("leaf", leaf, LEAF_TEXTURES)
     meters_per_unit = check_range("meters_per_unit", meters_per_unit, 0.0, np.inf, low_open=True)
@@ -286,44 +289,63 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
         order = check_index("order", order, shape=(None,), low=0, high=2**31 - 1)
         if len(order) < nmax:
             raise ValueError(f"order must have at least {nmax} entries (one per node), got {len(order)}")
-    Gf, Sdf, Usd, UsdGeom, UsdShade, Vt = _pxr()
+    face_order = None
+    if order is not None and len(branches.faces):
+        face_order = order[branches.node_id[branches.faces[:, 0]]]
+    _pxr()                                                          # usd-core is there before anything is written
+    parts = [Part("bark", branches.vertices, branches.faces, normals=branches.normals, uv=branches.uv,
+                  image=bark_texture(bark) if textures else None)]
+    if leaves is not None:
+        parts.append(Part("leaf", leaves.vertices, leaves.faces, normals=leaves.normals, uv=leaves.uv,
+                          image=leaf_texture(leaf) if textures else None))
+    return save(path, parts, allowed=("usd",), instances=inst, face_order=face_order,
+                meters_per_unit=meters_per_unit)
 
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ValueError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
-    bark_tex = leaf_tex = None
-    if textures:
-        from plantvr._fileio import write_png
-        from plantvr.geometry.textures import bark_texture, leaf_texture
-        bark_tex = f"{path.stem}_bark.png"
-        write_png(folder / bark_tex, np.asarray(bark_texture(bark)))
-        if leaves is not None:
-            leaf_tex = f"{path.stem}_leaf.png"
-            write_png(folder / leaf_tex, np.asarray(leaf_texture(leaf)))
 
-    # the layer is saved to a temporary file of the same format in the same folder, then its bytes replace
-    # ``path`` atomically: a failed export leaves the previous file and no temporary file (issue 20)
+def emit_usd(res, name: str, parts, *, instances: LeafInstances | None = None, face_order=None,
+             meters_per_unit: float = 1.0, **_other) -> None:
+    """The USD emitter of the writer registry: a tree stage (layout in the module docstring) as ``name`` in
+    ``res``'s folder, its format by the suffix (.usda text, .usd/.usdc binary).
+
+    ``parts[0]`` is the branch mesh (``/Tree/Branches``), ``parts[1]`` if given the leaf mesh (``/Tree/Leaves``,
+    with ``/Tree/Petioles`` when ``instances`` are given); a part with an image reads it as the texture
+    ``<stem>_<part name>.png``, written beside the layer. ``face_order`` (one branch order per branch face) adds
+    the ``branchOrder`` GeomSubsets.
+    """
     import contextlib
     import os
     import tempfile
 
-    from plantvr._fileio import write_atomic
+    from .writers import as_parts
 
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=folder)
+    parts = as_parts(parts)
+    if len(parts) not in (1, 2):
+        raise ValueError(f"parts must be the branches and optionally the leaves, got {len(parts)} parts")
+    branches = parts[0]
+    leaves = parts[1] if len(parts) == 2 else None
+    stem, suffix = Path(name).stem, Path(name).suffix
+    tex = []
+    for p in parts:
+        tex.append(None if p.image is None else f"{stem}_{p.name}.png")
+        if p.image is not None:
+            res.write_png(tex[-1], np.asarray(p.image))
+    # pxr saves a layer to a file name of its format: a temporary file in the same folder, whose bytes are then
+    # written through the resolver (a failed export leaves the previous files and no temporary file; issue 20)
+    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=suffix, dir=res.folder)
     os.close(fd)
     os.unlink(tmp)
     try:
-        _write_stage(tmp, branches, leaves, inst, order, bark_tex, leaf_tex, meters_per_unit)
+        _write_stage(tmp, branches, leaves, instances, face_order, tex[0], tex[1] if leaves is not None else None,
+                     meters_per_unit)
         with open(tmp, "rb") as fh:
             data = fh.read()
-        write_atomic(path, data)
     finally:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
-    return path
+    res.write(name, data)
 
 
-def _write_stage(tmp: str, branches, leaves, inst, order, bark_tex, leaf_tex, meters_per_unit) -> None:
+def _write_stage(tmp: str, branches, leaves, inst, face_order, bark_tex, leaf_tex, meters_per_unit) -> None:
     Gf, Sdf, Usd, UsdGeom, UsdShade, Vt = _pxr()
     stage = Usd.Stage.CreateNew(tmp)
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
@@ -333,8 +355,7 @@ def _write_stage(tmp: str, branches, leaves, inst, order, bark_tex, leaf_tex, me
     UsdGeom.Scope.Define(stage, "/Tree/Looks")
     bark_mat = _material(stage, f"/Tree/Looks/{BARK_MATERIAL}", _BARK_RGB, texture=bark_tex, leaf=False)
     mesh = _mesh(stage, "/Tree/Branches", branches, bark_mat, double_sided=False)
-    if order is not None and len(branches.faces):
-        face_order = order[branches.node_id[branches.faces[:, 0]]]
+    if face_order is not None:
         for k in np.unique(face_order):
             idx = np.flatnonzero(face_order == k).astype(np.int32)
             UsdGeom.Subset.CreateGeomSubset(mesh, f"order_{int(k)}", UsdGeom.Tokens.face,

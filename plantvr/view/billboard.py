@@ -199,26 +199,32 @@ class Billboard(TriMesh):
         return write_png(Path(path), self.atlas)
 
     def export(self, path) -> Path:
-        """Write the billboard as .glb (atlas embedded) or .obj (with .mtl and PNG beside it)."""
-        import trimesh
+        """Write the billboard as .glb (atlas embedded) or .obj (with ``<stem>.mtl`` and ``<stem>_Billboard.png``
+        beside it), through the writer registry (:func:`plantvr.io.writers.save`): every file atomically."""
+        from ..io.writers import save
 
-        from .._fileio import write_atomic
+        return save(_check_suffix(path), self.part(), normals=False, comment="PlantVR billboard")
 
-        path = Path(path)
-        if path.suffix.lower() not in (".glb", ".obj"):
-            raise ValueError(f"path suffix must be '.glb' or '.obj', got {path.suffix!r}")
-        folder = path.parent if str(path.parent) else Path(".")
-        if not folder.is_dir():
-            raise ValueError(f"cannot write {str(path)!r}: folder {str(folder)!r} does not exist")
+    def part(self):
+        """The quads as one :class:`plantvr.io.writers.Part`: UVs, the atlas as texture, an alpha-masked,
+        double-sided, rough material."""
+        from ..io.writers import Part
 
-        class _Atomic(trimesh.resolvers.FilePathResolver):  # the .mtl and texture beside an .obj, atomically
-            def write(self, name, data):
-                write_atomic(self.absolute(name), data)
+        return Part("Billboard", self.vertices, self.faces, uv=self.uv, image=self.atlas,
+                    material={"alpha_mode": "MASK", "alpha_cutoff": 0.5, "double_sided": True, "metallic": 0.0,
+                              "roughness": 1.0})
 
-        data = trimesh.exchange.export.export_mesh(self.to_trimesh(), None, file_type=path.suffix.lower()[1:],
-                                                   resolver=_Atomic(str(path.absolute())))
-        write_atomic(path, data)
-        return path
+
+def _check_suffix(path) -> Path:
+    """``path`` as a Path; a ValueError unless the writer registry writes it as .glb or .obj."""
+    from ..io.writers import writer_for
+
+    try:
+        writer_for(path, allowed=("glb", "obj"))
+    except ValueError:
+        raise ValueError(f"path suffix must be '.glb' or '.obj' for the billboard, got "
+                         f"{Path(path).suffix!r}") from None
+    return Path(path)
 
 
 def make_billboard(meshes, *, views: int = 2, resolution: int = 256, colors=None,
@@ -277,9 +283,7 @@ def export_billboard(tree, params: dict, path, *, leaves: bool = True, resolutio
     """
     from ..io.tree import tree_geometry
 
-    path = Path(path)
-    if path.suffix.lower() not in (".glb", ".obj"):
-        raise ValueError(f"path suffix must be '.glb' or '.obj' for the billboard, got {path.suffix!r}")
+    path = _check_suffix(path)
     if len(tree.pos) < 2:
         raise ValueError("the tree is empty (no internodes): grow it before exporting")
     branches, leaf = tree_geometry(tree, params, leaves=leaves, level=1)
