@@ -26,6 +26,8 @@ import numpy as np
 from plantvr._fileio import atomic_write  # noqa: F401  (kept importable: failure tests patch it here)
 from plantvr._validation import MAX_COUNT, check_array
 
+from .parts import Part, as_parts, check_image, format_of, save_with
+
 __all__ = [
     "ARRAY_BUFFER",
     "ELEMENT_ARRAY_BUFFER",
@@ -271,10 +273,12 @@ class Gltf:
     def write(self, path, *, binary: bool | None = None) -> Path:
         """Write ``.glb`` (one file) or ``.gltf`` (JSON and ``<stem>.bin`` beside it, the JSON renamed last),
         atomically, through the writer registry; ``binary`` None picks by the suffix."""
-        from .writers import save
+        return save_with(emit_gltf, path, self, binary=_binary(path, binary))
 
-        return save(path, self, file_type=None if binary is None else ("glb" if binary else "gltf"),
-                    allowed=("gltf", "glb"))
+
+def _binary(path, binary: bool | None) -> bool:
+    """``binary`` as given, else by ``path``'s suffix: ``.glb`` one binary file, ``.gltf`` JSON and its ``.bin``."""
+    return format_of(path, {".gltf": "gltf", ".glb": "glb"}) == "glb" if binary is None else bool(binary)
 
 
 def emit_gltf(res, name: str, parts, *, binary: bool, generator: str = "PlantVR", **_other) -> None:
@@ -301,8 +305,6 @@ def parts_document(parts, *, generator: str = "PlantVR") -> Gltf:
     (white unless ``rgba``). Material options: ``rgba``, ``metallic`` (0), ``roughness`` (0.9),
     ``double_sided``, ``alpha_mode`` (``"OPAQUE"`` when textured), ``alpha_cutoff``.
     """
-    from .writers import as_parts, check_image
-
     parts = as_parts(parts)
     checked = []
     for k, p in enumerate(parts):                 # everything checked before the document is built
@@ -344,10 +346,8 @@ def write_mesh(path, vertices, faces, *, colors=None, normals=None, name: str = 
                binary: bool | None = None) -> Path:
     """One mesh, one node, as ``.glb`` or ``.gltf``: positions, optional (V, 3|4) uint8 vertex colours
     (COLOR_0) and normals; vertex order kept (label meshes, segmentations, subdivision surfaces)."""
-    from .writers import Part, save
-
-    return save(path, Part(name, vertices, faces, normals=normals, colors=colors),
-                file_type=None if binary is None else ("glb" if binary else "gltf"), allowed=("gltf", "glb"))
+    return save_with(emit_gltf, path, Part(name, vertices, faces, normals=normals, colors=colors),
+                     binary=_binary(path, binary))
 
 
 def write_textured(path, parts: list[dict[str, Any]]) -> Path:
@@ -366,13 +366,11 @@ def write_textured(path, parts: list[dict[str, Any]]) -> Path:
     -------
     pathlib.Path
     """
-    from .writers import Part, save
-
     path = check_glb_path(path)
     opts = ("roughness", "double_sided", "alpha_mode", "alpha_cutoff")
-    return save(path, [Part(p["name"], p["vertices"], p["faces"], normals=p.get("normals"), uv=p["uv"],
+    return save_with(emit_gltf, path, [Part(p["name"], p["vertices"], p["faces"], normals=p.get("normals"), uv=p["uv"],
                             image=p["image"], material={k: p[k] for k in opts if p.get(k) is not None})
-                       for p in parts], file_type="glb")
+                       for p in parts], binary=True)
 
 
 def _check_mesh(name: str, mesh) -> tuple[np.ndarray, np.ndarray]:

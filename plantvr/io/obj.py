@@ -20,6 +20,8 @@ from plantvr._validation import MAX_COORD, check_array
 from plantvr.subdivision._checks import check_mesh
 from plantvr.subdivision.uv import vertex_normals
 
+from .parts import AtomicResolver, Part, as_parts, check_image, merged, save_with
+
 __all__ = ["MAX_OBJ_FRAMES", "emit_obj", "write_obj", "write_obj_sequence"]
 
 #: Most frames of one OBJ sequence.
@@ -85,17 +87,15 @@ def write_obj(path, vertices, faces, uv=None, *, normals=True, name: str = "yggd
     ----------
     .. [1] Pieterse, Yggdrasil report §4.2.5 ("the indexing starts at one").
     """
-    from .writers import Part, save
-
     if normals is None:
         raise ValueError("normals must be True, False or a (V, 3) array, got None")
     given = not isinstance(normals, (bool, np.bool_))
     _check_name(name)
     if not isinstance(comment, str):
         raise ValueError(f"comment must be a str of one line, got {comment!r}")
-    return save(path, Part(name, vertices, faces, normals=normals if given else None, uv=uv, colors=colors),
-                file_type="obj", normals=True if given else bool(normals), group=name, comment=comment,
-                materials=materials)
+    part = Part(name, vertices, faces, normals=normals if given else None, uv=uv, colors=colors)
+    return save_with(emit_obj, path, part, normals=True if given else bool(normals), group=name, comment=comment,
+                     materials=materials)
 
 
 def emit_obj(res, name: str, parts, *, normals=True, group: str | bool | None = None,
@@ -125,8 +125,6 @@ def emit_obj(res, name: str, parts, *, normals=True, group: str | bool | None = 
     materials : list of (name, n_faces, image), optional
         Face ranges and their textures instead of one material per textured part (:func:`write_obj`).
     """
-    from .writers import as_parts, check_image, merged
-
     parts = as_parts(parts)
     m = merged(parts, "uv", "normals", "colors")
     V, F = check_mesh(m["vertices"], m["faces"])
@@ -252,14 +250,11 @@ def write_obj_sequence(folder: str, faces: np.ndarray, frames: np.ndarray, *, pr
         if fixed.size and (fixed.min() < 0 or fixed.max() >= n_v):
             raise ValueError(f"fixed must index the {n_v} vertices of a frame, got range "
                              f"[{fixed.min()}, {fixed.max()}]")
-    from .writers import AtomicResolver, Part, writer_for
-
     folder = os.fspath(make_folder(folder))      # one level; its parent must exist (plantvr._fileio's rule)
     names = [f"{prefix}_{k:04d}.obj" for k in range(len(frames))]
-    obj = writer_for(file_type="obj")
     with AtomicResolver(folder) as res:          # every frame (and weight.txt) replaces the old files together
         for nm, X in zip(names, frames):
-            obj.write(res, nm, [Part(nm, X, faces)], normals=False, group=False, comment=None, float_format="%r")
+            emit_obj(res, nm, [Part(nm, X, faces)], normals=False, group=False, comment=None, float_format="%r")
         if fixed is not None:
             res.write("weight.txt", "".join(f"{int(i)}\n" for i in fixed))
     paths = [os.path.join(folder, nm) for nm in names]

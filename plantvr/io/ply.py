@@ -15,6 +15,8 @@ import numpy as np
 from plantvr._fileio import atomic_write  # noqa: F401  (kept importable: failure tests patch it here)
 from plantvr._validation import check_array, check_int
 
+from .parts import Part, as_parts, merged, save_with
+
 __all__ = ["emit_ply", "write_ply"]
 
 
@@ -48,10 +50,8 @@ def write_ply(path: str | os.PathLike, vertices: np.ndarray, faces: np.ndarray, 
     ----------
     .. [1] Spec 000_vine §2.7 step 1: PLY "with colours stored at the vertices" [T §6.4].
     """
-    from .writers import Part, save
-
-    save(path, Part("mesh", vertices, faces, normals=normals, colors=colors, labels=labels), file_type="ply",
-         double=double, comment=comment, chunk=chunk)
+    save_with(emit_ply, path, Part("mesh", vertices, faces, normals=normals, colors=colors, labels=labels),
+              double=double, comment=comment, chunk=chunk)
 
 
 def emit_ply(res, name: str, parts, *, double: bool = False, comment: str = "PlantVR ViNE segmentation",
@@ -61,8 +61,6 @@ def emit_ply(res, name: str, parts, *, double: bool = False, comment: str = "Pla
     Parts are concatenated; normals (unless ``normals`` is False), colours and labels are written when every
     part has them. Everything is checked before a byte is written. Options as :func:`write_ply`.
     """
-    from .writers import as_parts, merged
-
     m = merged(as_parts(parts), "normals", "colors", "labels")
     vertices, faces, colors, labels = m["vertices"], m["faces"], m["colors"], m["labels"]
     normals = m["normals"] if normals else None

@@ -27,11 +27,14 @@ from plantvr.geometry.mesh import BranchMesh
 from plantvr.types import TriMesh
 
 from ._checks import check_tree_meshes
+from .parts import Part, as_parts, format_of, save_with
 
 __all__ = ["BARK_MATERIAL", "LEAF_MATERIAL", "LeafInstances", "emit_usd", "export_usd", "leaf_instances"]
 
 BARK_MATERIAL = "Bark"
 LEAF_MATERIAL = "Leaf"
+#: The USD suffixes (text, binary, either) and their format, the ``usd`` row of the writer registry.
+USD_SUFFIXES = {".usd": "usd", ".usda": "usd", ".usdc": "usd"}
 _BARK_RGB = (96 / 255, 66 / 255, 40 / 255)
 _LEAF_RGB = (70 / 255, 140 / 255, 45 / 255)
 
@@ -268,10 +271,8 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     """
     from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES, bark_texture, leaf_texture
 
-    from .writers import Part, save, writer_for
-
     path = Path(path)
-    writer_for(path, allowed=("usd",))
+    format_of(path, USD_SUFFIXES)
     check_choice("bark", bark, BARK_TEXTURES)
     check_choice("leaf", leaf, LEAF_TEXTURES)
     meters_per_unit = check_range("meters_per_unit", meters_per_unit, 0.0, np.inf, low_open=True)
@@ -298,7 +299,7 @@ def export_usd(path, branches: BranchMesh, leaves: LeafMesh | None = None, *, or
     if leaves is not None:
         parts.append(Part("leaf", leaves.vertices, leaves.faces, normals=leaves.normals, uv=leaves.uv,
                           image=leaf_texture(leaf) if textures else None))
-    return save(path, parts, allowed=("usd",), instances=inst, face_order=face_order,
+    return save_with(emit_usd, path, parts, instances=inst, face_order=face_order,
                 meters_per_unit=meters_per_unit)
 
 
@@ -315,8 +316,6 @@ def emit_usd(res, name: str, parts, *, instances: LeafInstances | None = None, f
     import contextlib
     import os
     import tempfile
-
-    from .writers import as_parts
 
     parts = as_parts(parts)
     if len(parts) not in (1, 2):

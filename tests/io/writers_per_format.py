@@ -5,7 +5,7 @@
 A function counts as a writer of a format when it puts bytes on disk (``atomic_write``, ``write_atomic``,
 ``write_png``, ``open(..., "w")``, a resolver's ``open``/``write``, or trimesh's exporters) and its own source
 produces that format (PLY header, OBJ records, glTF container/buffer, a USD stage; trimesh's exporter writes
-OBJ and glTF). The writer registry's resolver itself (``plantvr/io/writers.py``) writes no format.
+OBJ and glTF). The writer registry and its resolver (``plantvr/io/writers.py``, ``plantvr/io/parts.py``) write no format.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def sources(rev: str | None) -> dict[str, str]:
 def writers(rev: str | None = None) -> dict[str, list[str]]:
     out: dict[str, list[str]] = {f: [] for f in FORMATS}
     for path, text in sorted(sources(rev).items()):
-        if path == "plantvr/io/writers.py":
+        if path in ("plantvr/io/writers.py", "plantvr/io/parts.py"):
             continue
         for node in ast.walk(ast.parse(text)):
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
