@@ -10,6 +10,7 @@ in the grammar's namespace (angles stay in degrees: the engine never converts th
 """
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
@@ -126,7 +127,8 @@ def _close_paren(text: str, i: int, line: int, col0: int, name: str) -> int:
     raise LSystemError(f"unclosed '(' after module {name!r}", line, col0 + i)
 
 
-def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) -> list[Token]:
+def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
+        deadline: float | None = None) -> list[Token]:
     """Lex one line of L-string into :class:`Token` s.
 
     Parameters
@@ -137,11 +139,13 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
         Multi-character module names to match first (longest match wins).
     line, col : int
         Position of ``text[0]`` in the grammar, for tokens and error messages.
+    deadline : float, optional
+        ``time.monotonic()`` value after which lexing stops (a grammar's time budget).
 
     Raises
     ------
     LSystemError
-        For an unbalanced parenthesis or an unterminated string, with line and column.
+        For an unbalanced parenthesis, an unterminated string or the deadline passed, with line and column.
     """
     if not isinstance(text, str):
         raise LSystemError(f"an L-string must be a str, got {type(text).__name__}", line, col)
@@ -154,6 +158,7 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
     singles = {k for k in known if len(k) == 1} | _SINGLE_TURTLE
     out: list[Token] = []
     i, n = 0, len(text)
+    plain_until = 0                  # the letter run scanned last is no on-the-fly name up to here (linear time)
     while i < n:
         c = text[i]
         if c.isspace():
@@ -164,13 +169,15 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
         if c == ")" or c == "(":
             raise LSystemError(f"unexpected {c!r} (a parameter list must follow a module name)", line, col + i)
         name = next((k for k in by_first.get(c, ()) if text.startswith(k, i)), c)
-        if name == c and (c.isalpha() or c == "_"):
+        if name == c and (c.isalpha() or c == "_") and i >= plain_until:
             j = i
             while j < n and (text[j].isalnum() or text[j] == "_"):
                 j += 1
             run = text[i:j]
             if len(run) > 1 and j < n and text[j] == "(" and not all(ch in singles for ch in run):
                 name = run                                    # declared on the fly, as L-Py
+            else:
+                plain_until = j                               # no later start inside this run makes a name
         j = i + len(name)
         args = None
         if j < n and text[j] == "(":
@@ -182,4 +189,6 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
             j = k + 1
         out.append(Token(name, args, line, col + i))
         i = j
+        if deadline is not None and not len(out) & 4095 and time.monotonic() > deadline:
+            raise LSystemError(f"time budget exceeded reading a string of {n:,} characters", line, col + i)
     return out

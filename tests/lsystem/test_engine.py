@@ -29,16 +29,16 @@ def same(a: ModuleString, b: ModuleString) -> bool:
 
 
 def test_parametric_conditions_vectorised_equal_python():
-    fast = LSystem.from_file(HERE / "parametric.lpy")
+    fast = LSystem.from_file(HERE / "parametric.lpy", trusted=True)
     kinds = [(r.rule.header, r.vec is not None) for r in fast._rules["production"]]
     assert kinds == [("A(l, n)", True), ("A(l, n)", True), ("I(l)", True), ("L(l)", False)]
-    slow = python_only(LSystem.from_file(HERE / "parametric.lpy"))
+    slow = python_only(LSystem.from_file(HERE / "parametric.lpy", trusted=True))
     for n in range(8):
         assert same(fast.derive(n), slow.derive(n))
     s = fast.derive(2)
     assert str(s).startswith("I(1.02)[+(30)I(0.8)[+(30)A(0.64,4)]")
     assert fast.externs == {"ratio": 0.8, "depth": 6.0}
-    other = LSystem.from_file(HERE / "parametric.lpy", ratio=0.5, depth=2)
+    other = LSystem.from_file(HERE / "parametric.lpy", ratio=0.5, depth=2, trusted=True)
     assert other.externs == {"ratio": 0.5, "depth": 2.0}
     assert other.derive(4).count("A") == 0
 
@@ -91,15 +91,15 @@ def test_kernels_equal_twins():
 
 
 def test_stochastic_seeded_reproducible():
-    a = LSystem.from_file(HERE / "stochastic.lpy", seed=1).derive()
-    b = LSystem.from_file(HERE / "stochastic.lpy", seed=1).derive()
-    c = LSystem.from_file(HERE / "stochastic.lpy", seed=2).derive()
+    a = LSystem.from_file(HERE / "stochastic.lpy", seed=1, trusted=True).derive()
+    b = LSystem.from_file(HERE / "stochastic.lpy", seed=1, trusted=True).derive()
+    c = LSystem.from_file(HERE / "stochastic.lpy", seed=2, trusted=True).derive()
     assert same(a, b) and not same(a, c)
-    ls = LSystem.from_file(HERE / "stochastic.lpy", seed=1)
+    ls = LSystem.from_file(HERE / "stochastic.lpy", seed=1, trusted=True)
     assert same(ls.derive(), ls.derive())                    # reseeded at every derivation
     text = "from random import *\nAxiom: A\nproduction:\nA :\n    produce B(uniform(0, 1))\nendlsystem\n"
-    x = LSystem(text, seed=5).derive(1).args[0]
-    assert x == LSystem(text, seed=5).derive(1).args[0] == random.Random(5).uniform(0, 1)
+    x = LSystem(text, seed=5, trusted=True).derive(1).args[0]
+    assert x == LSystem(text, seed=5, trusted=True).derive(1).args[0] == random.Random(5).uniform(0, 1)
 
 
 def test_block_rules_nproduce_and_hooks():
@@ -122,7 +122,7 @@ Apex(n) :
     # produces nothing at n = 0: the rule fails and the module stays
 endlsystem
 """
-    ls = LSystem(text)
+    ls = LSystem(text, trusted=True)
     s = ls.derive()
     assert str(s) == "[+F]F[+F]F[+F]FApex(0)"
     assert ls._ns["count"] == 5
@@ -131,11 +131,11 @@ endlsystem
 def test_decomposition_and_stop():
     text = ("Axiom: A(3)\nderivation length: 4\nproduction:\nA(n) --> A(n+1)\ndecomposition:\n"
             "maximum depth: 10\nA(n) :\n    if n > 1:\n        produce B A(n-1)\n")
-    s = LSystem(text).derive(1)
+    s = LSystem(text, trusted=True).derive(1)
     assert str(s) == "BBBA(1)"
     text2 = "def EndEach():\n    if getIterationNb() == 1: Stop()\nAxiom: F\nderivation length: 9\n" \
             "production:\nF --> FF\nendlsystem\n"
-    assert len(list(LSystem(text2).iterate())) == 3
+    assert len(list(LSystem(text2, trusted=True).iterate())) == 3
 
 
 def test_module_cap_before_allocating():
@@ -175,7 +175,7 @@ BAD = [
 @pytest.mark.parametrize("text, line, match", BAD)
 def test_bad_grammar_line_and_column(text, line, match):
     with pytest.raises(LSystemError, match=match) as err:
-        LSystem(text).derive(1)
+        LSystem(text, trusted=True).derive(1)
     assert err.value.line == line and err.value.column >= 0
     assert str(err.value).startswith(f"line {line}, column {err.value.column}: ")
 
@@ -190,12 +190,12 @@ def test_unsupported_modules_can_be_left_out_of_the_picture():
     """A grammar in the style of L-Py's training models (stochastic block rules, a homomorphism with
     ``f``/``;``/``@O`` flowers): its spheres are left out with a warning and never change the skeleton."""
     text = (HERE / "continuous_growth.lpy").read_text()
-    ls = LSystem(text, seed=2)
+    ls = LSystem(text, seed=2, trusted=True)
     with pytest.raises(LSystemError, match="unsupported module @O"):
         ls.tree()
     with pytest.warns(UserWarning, match=r"not drawn .*@O \(line \d+\)"):
         tree = ls.tree(unsupported="warn")
-    bare = LSystem(text.replace(";(4)@O(FLOWER * WIDTH * k)", ""), seed=2)
+    bare = LSystem(text.replace(";(4)@O(FLOWER * WIDTH * k)", ""), seed=2, trusted=True)
     ref = bare.tree()
     assert np.array_equal(tree.pos, ref.pos) and np.array_equal(tree.parent, ref.parent)
     assert tree.n_internodes == ls.derive().count("I") > 10
@@ -210,7 +210,7 @@ def test_fuzzed_grammars_fail_cleanly():
         k = int(rng.integers(0, len(base)))
         text = base[:k] + base[k + 1:] if rng.random() < 0.5 else base[:k] + "([:>-"[rng.integers(5)] + base[k:]
         try:
-            LSystem(text).derive(3)
+            LSystem(text, trusted=True).derive(3)
         except LSystemError as e:
             assert e.line >= 0 and str(e).startswith("line ")
         except ValueError as e:                              # an unknown extern after a mutated name
@@ -221,10 +221,10 @@ def test_door_validation():
     with pytest.raises(ValueError, match="text must be a str"):
         LSystem(3)
     with pytest.raises(ValueError, match="extern ratio must be a finite number"):
-        LSystem.from_file(HERE / "parametric.lpy", ratio=float("nan"))
+        LSystem.from_file(HERE / "parametric.lpy", ratio=float("nan"), trusted=True)
     with pytest.raises(ValueError, match="unknown extern 'ratoi'"):
-        LSystem.from_file(HERE / "parametric.lpy", ratoi=1)
-    ls = LSystem.from_file(HERE / "parametric.lpy")
+        LSystem.from_file(HERE / "parametric.lpy", ratoi=1, trusted=True)
+    ls = LSystem.from_file(HERE / "parametric.lpy", trusted=True)
     with pytest.raises(ValueError, match="n must be an integer"):
         ls.derive(-1)
     with pytest.raises(ValueError, match="string must be a ModuleString"):

@@ -101,3 +101,19 @@ def test_extern_ranges_come_from_the_default():
     assert isinstance(w.doc, LSystemDocument) and w.doc.step == 5
     w.close()
     w.close()
+
+
+def test_the_trust_box_is_passed_to_set_grammar_and_follows_the_document(widget):
+    doc, w = widget
+    code = "def f(x):\n    return x * 2\nAxiom: F(f(1))\nderivation length: 1\nproduction:\nendlsystem\n"
+    panel = w.panel
+    assert isinstance(panel.trust_box, W.Checkbox) and panel.trust_box.value is False
+    assert "Trust this grammar (runs its Python code)" in panel.trust_box.description
+    before = doc.state_bytes()
+    w.grammar.value = code
+    assert w.apply() is False and doc.state_bytes() == before
+    assert "line 1, column 1" in panel.status.value and "trusted=True" in panel.status.value
+    panel.trust_box.value = True
+    assert w.apply() is True and doc.trusted and doc.log.events[-1].kwargs["trusted"] is True
+    doc.undo()                                                   # back to the untrusted grammar: the box follows
+    assert panel.trust_box.value is False and not doc.trusted
