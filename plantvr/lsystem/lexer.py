@@ -2,10 +2,10 @@
 predecessor patterns).
 
 A module name is the longest *known* name starting at the current character (declared with ``module``, a turtle
-or L-Py predefined module such as ``@Tp`` or ``SetColor``); otherwise it is that single character, so ``FF(0.5)``
-is ``F``, ``F(0.5)`` (issue 22) and ``+(30)F`` is ``+(30)``, ``F``. An unknown identifier directly followed by
-``(`` whose letters are not all known single-character modules is one module declared on the fly, as L-Py does
-(``Apex(1)`` is the module ``Apex``). Parameters are kept as Python expression source; the engine evaluates them
+or L-Py predefined module such as ``@Tp`` or ``SetColor``); otherwise it is that single character, as L-Py reads
+it (issue 33): ``FF(0.5)`` is ``F``, ``F(0.5)`` (issue 22), ``+(30)F`` is ``+(30)``, ``F``, ``IB(x)`` is ``I``,
+``B(x)`` and an undeclared ``Apex(1)`` is ``A``, ``p``, ``e``, ``x(1)`` (declare it: ``module Apex``).
+Parameters are kept as Python expression source; the engine evaluates them
 in the grammar's namespace (angles stay in degrees: the engine never converts them).
 """
 from __future__ import annotations
@@ -155,10 +155,8 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
             by_first.setdefault(name[0], []).append(name)
     for v in by_first.values():
         v.sort(key=len, reverse=True)
-    singles = {k for k in known if len(k) == 1} | _SINGLE_TURTLE
     out: list[Token] = []
     i, n = 0, len(text)
-    plain_until = 0                  # the letter run scanned last is no on-the-fly name up to here (linear time)
     while i < n:
         c = text[i]
         if c.isspace():
@@ -168,16 +166,8 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
             break
         if c == ")" or c == "(":
             raise LSystemError(f"unexpected {c!r} (a parameter list must follow a module name)", line, col + i)
-        name = next((k for k in by_first.get(c, ()) if text.startswith(k, i)), c)
-        if name == c and (c.isalpha() or c == "_") and i >= plain_until:
-            j = i
-            while j < n and (text[j].isalnum() or text[j] == "_"):
-                j += 1
-            run = text[i:j]
-            if len(run) > 1 and j < n and text[j] == "(" and not all(ch in singles for ch in run):
-                name = run                                    # declared on the fly, as L-Py
-            else:
-                plain_until = j                               # no later start inside this run makes a name
+        cands = by_first.get(c)
+        name = next((k for k in cands if text.startswith(k, i)), c) if cands else c
         j = i + len(name)
         args = None
         if j < n and text[j] == "(":

@@ -149,9 +149,18 @@ def test_module_cap_before_allocating():
 
 
 def test_lexer_names_and_degrees():
-    ls = LSystem("Axiom: FF(0.5)+(30)F@Tp(0,0,-1)Apex(2)X\nproduction:\nendlsystem\n")
+    ls = LSystem("module Apex\nAxiom: FF(0.5)+(30)F@Tp(0,0,-1)Apex(2)X\nproduction:\nendlsystem\n")
     assert ls.axiom.modules() == [("F", ()), ("F", (0.5,)), ("+", (30.0,)), ("F", ()), ("@Tp", (0.0, 0.0, -1.0)),
                                   ("Apex", (2.0,)), ("X", ())]
+
+
+def test_undeclared_names_are_read_one_character_at_a_time_as_lpy():
+    """L-Py reads the longest declared (or predefined) module name, else one character (issue 33)."""
+    ls = LSystem("Axiom: A(1)\nderivation length: 1\nproduction:\nA(x) --> IB(x)Apex(2)SetColor(3)\nendlsystem\n")
+    assert ls.derive().modules() == [("I", ()), ("B", (1.0,)), ("A", ()), ("p", ()), ("e", ()), ("x", (2.0,)),
+                                     ("SetColor", (3.0,))]
+    decl = LSystem("module IB, Ap\nAxiom: IB(1)Apex(2)\n")
+    assert decl.axiom.modules() == [("IB", (1.0,)), ("Ap", ()), ("e", ()), ("x", (2.0,))]
 
 
 BAD = [
