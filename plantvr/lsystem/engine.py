@@ -42,6 +42,7 @@ import builtins
 import inspect
 import math
 import random as _random
+import re
 import sys
 import time
 from collections.abc import Iterator
@@ -357,7 +358,7 @@ class LSystem:
 
         from .turtle import LPY_UNSUPPORTED, turtle
         unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
-        s = self.interpret(string)
+        s = self._first_params(self.interpret(string))
         used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
         bad = [s.names[k] for k in used.tolist() if s.names[k] in LPY_UNSUPPORTED]
         for name in bad[:1] if unsupported == "error" else ():
@@ -367,7 +368,32 @@ class LSystem:
         if bad:
             where = ", ".join(f"{name} (line {self._g.first_use.get(name, (0, 0))[0]})" for name in bad)
             warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=2)
-        return turtle(s, **{**self._turtle, **turtle_options})
+        try:
+            return turtle(s, **{**self._turtle, **turtle_options})
+        except ValueError as e:                               # a module the turtle refuses: its grammar line
+            m = re.search(r"module (\S+) at index", str(e))
+            line, col = self._g.first_use.get(m.group(1), (0, 0)) if m else (0, 0)
+            if not line:
+                raise
+            raise LSystemError(str(e), line, col) from None
+
+    @staticmethod
+    def _first_params(s: ModuleString) -> ModuleString:
+        """``s`` with each turtle module's extra parameters left out: L-Py's turtle reads the first ones
+        (``-(a, t)`` turns by ``a``, ``F(1, 2, 3)`` is ``F(1, 2)``)."""
+        from .turtle import TURTLE_MODULES
+        most = np.array([max(TURTLE_MODULES[nm]) if nm in TURTLE_MODULES else np.iinfo(np.int64).max
+                         for nm in s.names], np.int64)
+        cnt = np.diff(s.arg_ptr)
+        limit = most[s.ids] if len(s) else cnt
+        if not len(s) or not np.any(cnt > limit):
+            return s
+        keep = np.minimum(cnt, limit)
+        owner = np.repeat(np.arange(len(s)), cnt)
+        offs = np.arange(len(s.args)) - np.repeat(s.arg_ptr[:-1], cnt)
+        ptr = np.zeros(len(s) + 1, np.int64)
+        np.cumsum(keep, out=ptr[1:])
+        return ModuleString(s.names, s.ids, ptr, s.args[offs < keep[owner]])
 
     def __repr__(self) -> str:
         return (f"LSystem({len(self._g.rules)} rules, derivation length {self.derivation_length}, "

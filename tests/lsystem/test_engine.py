@@ -240,3 +240,18 @@ def test_door_validation():
         ls.derive(1, string="A(1,2)")
     s = ls.derive(1, string=ModuleString.from_modules([("A", (1.0, 1.0)), "Q"]))
     assert str(s).endswith("I(0.5)A(0.9,0)Q")
+
+
+def test_turtle_modules_read_their_first_parameters_as_lpy():
+    """Extra parameters of turtle modules are left out, as L-Py's turtle reads the first ones (issue 33)."""
+    for extra, plain in [("F(1,2,3)", "F(1,2)"), ("-(30, 2)F", "-(30)F"), ("+(40,1)F&(20,3)F", "+(40)F&(20)F"),
+                         ("_(0.3,2)F(1)", "_(0.3)F(1)"), ("@Tp(0,0,1,5)F", "@Tp(0,0,1)F")]:
+        a, b = LSystem(f"Axiom: {extra}\n").tree(), LSystem(f"Axiom: {plain}\n").tree()
+        assert np.array_equal(a.pos, b.pos) and np.array_equal(a.radius, b.radius), extra
+    ls = LSystem("Axiom: F\nproduction:\nF --> F[-(a, t)F]\nendlsystem\n".replace("a, t", "25, 0.5"))
+    plain = LSystem("Axiom: F\nproduction:\nF --> F[-(25)F]\nendlsystem\n")
+    assert np.array_equal(ls.tree(2).pos, plain.tree(2).pos)
+    assert str(ls.derive(1)) == "F[-(25,0.5)F]"                # the string keeps them
+    with pytest.raises(LSystemError, match=r"line 1, column 9: .*parameter 0 = inf") as err:
+        LSystem("Axiom: F-(1e999)\n").tree()
+    assert err.value.line == 1
