@@ -559,8 +559,10 @@ class LSystem:
         tree = self._parse(self._g.python, "exec", 1, 1, "the grammar's Python code")
         self._restrict(tree, 1, 1)
         code = self._compile_tree(tree, "exec", 1, 1, "the grammar's Python code")
+        self._reseed_globals()
         try:
-            exec(code, self._ns)
+            with self._seeded():
+                exec(code, self._ns)
         except LSystemError as e:
             raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or e.line or 1, 1) from None
         except _OverBudget:
@@ -844,11 +846,13 @@ class LSystem:
 
     def _steps(self, n: int, s: ModuleString) -> Iterator[ModuleString]:
         self._rng.seed(self._seed)
+        self._reseed_globals()
         self._direction, self._iteration, self._stopped = 1, 0, False
         if self._outer == 0:
             self._deadline = time.monotonic() + self.time_budget
         self._where = (self._g.rules[0].line if self._g.rules else 1, 1)
-        self._hook("Start")
+        with self._seeded():
+            self._hook("Start")
         yield s
         for it in range(n):
             self._iteration = it
@@ -856,18 +860,52 @@ class LSystem:
                 self._deadline = time.monotonic() + self.time_budget
             elif time.monotonic() > self._deadline:
                 raise self._over_budget()
-            self._hook("StartEach")
-            if self._rules["production"]:
-                s, _ = self._rewrite(s, "production")
-            for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
-                s, changed = self._rewrite(s, "decomposition")
-                if not changed:
-                    break
-            self._hook("EndEach")
+            with self._seeded():
+                self._hook("StartEach")
+                if self._rules["production"]:
+                    s, _ = self._rewrite(s, "production")
+                for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
+                    s, changed = self._rewrite(s, "decomposition")
+                    if not changed:
+                        break
+                self._hook("EndEach")
             yield s
             if self._stopped:
                 break
-        self._hook("End")
+        with self._seeded():
+            self._hook("End")
+
+    # -- seeding of the global generators a trusted grammar may use ------------------------------------------------
+    def _reseed_globals(self) -> None:
+        """The states ``random`` and ``numpy.random`` start a derivation from (trusted grammars with a seed)."""
+        if self.trusted and self._seed is not None:
+            self._gstate = (_random.Random(self._seed).getstate(),
+                            np.random.RandomState(self._seed % 2 ** 32).get_state())
+        else:
+            self._gstate = None
+
+    def _seeded(self):
+        """Context manager: the grammar's states of the global ``random`` and ``numpy.random`` generators swapped
+        in (``import random``, ``random.random()``, ``rd.randint`` of ``import random as rd``, ``numpy.random``),
+        and the caller's swapped back afterwards, so one ``seed=`` makes a derivation reproducible and leaves the
+        program's generators as they were."""
+        ls = self
+
+        class _S:
+            def __enter__(self):
+                self.saved = None
+                if ls._gstate is not None:
+                    self.saved = (_random.getstate(), np.random.get_state())
+                    _random.setstate(ls._gstate[0])
+                    np.random.set_state(ls._gstate[1])
+
+            def __exit__(self, *exc):
+                if self.saved is not None:
+                    ls._gstate = (_random.getstate(), np.random.get_state())
+                    _random.setstate(self.saved[0])
+                    np.random.set_state(self.saved[1])
+                return False
+        return _S()
 
     def _hook(self, name: str) -> None:
         f = self._hooks.get(name)

@@ -255,3 +255,43 @@ def test_turtle_modules_read_their_first_parameters_as_lpy():
     with pytest.raises(LSystemError, match=r"line 1, column 9: .*parameter 0 = inf") as err:
         LSystem("Axiom: F-(1e999)\n").tree()
     assert err.value.line == 1
+
+
+SEEDED = """\
+import random
+import random as rd
+import numpy
+from random import uniform
+Axiom: A(0)
+derivation length: 6
+production:
+A(k) :
+    a = random.random()
+    b = rd.randint(0, 1000)
+    c = float(numpy.random.random())
+    produce B(a, b, c, uniform(0, 1))A(k + 1)
+endlsystem
+"""
+
+
+def test_one_seed_drives_every_generator_a_trusted_grammar_uses():
+    """``seed=`` seeds ``random``, ``random.random``, ``rd.randint`` (``import random as rd``) and
+    ``numpy.random`` inside the grammar, during derivation only: the program's generators are left as they were
+    (issue 33)."""
+    random.seed(99)
+    np.random.seed(99)
+    outside = (random.getstate(), np.random.get_state()[1].copy())
+    a = LSystem(SEEDED, seed=4, trusted=True).derive()
+    steps = list(LSystem(SEEDED, seed=4, trusted=True).iterate())
+    b = LSystem(SEEDED, seed=4, trusted=True).derive()
+    c = LSystem(SEEDED, seed=5, trusted=True).derive()
+    assert same(a, b) and same(a, steps[-1]) and not same(a, c)
+    params = np.array([m[1] for m in a.modules() if m[0] == "B"])
+    assert len(params) == 6 and len(set(params[:, 0].tolist())) == 6 and len(set(params[:, 2].tolist())) == 6
+    assert random.getstate() == outside[0] and np.array_equal(np.random.get_state()[1], outside[1])
+    ls = LSystem(SEEDED, seed=4, trusted=True)
+    it = ls.iterate()
+    first = [next(it) for _ in range(3)]
+    random.random()                                           # the caller's draws between steps change nothing
+    np.random.random()
+    assert same(list(it)[-1], a) and same(first[2], steps[2])
