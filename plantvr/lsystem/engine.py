@@ -60,7 +60,7 @@ from .grammar import Grammar, Rule, lstring_to_py, parse_grammar
 from .lexer import LSystemError, Token, lex
 from .modules import ModuleString
 
-__all__ = ["MAX_DERIVATION", "MAX_MODULES", "LSystem", "LSystemError"]
+__all__ = ["MAX_DERIVATION", "MAX_MODULES", "TIME_BUDGET", "LSystem", "LSystemError", "read_lpy"]
 
 #: Longest string (modules) a derivation may produce; checked from the count pass, before allocating.
 MAX_MODULES = 50_000_000
@@ -93,6 +93,35 @@ _PURE = {name: getattr(math, name, None) for name in _NP_FUNCS} | {"abs": abs, "
                                                                   "float": float, "round": round, "pow": pow}
 _OK_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.IfExp, ast.Constant, ast.Name,
              ast.Load, ast.Call, ast.operator, ast.unaryop, ast.boolop, ast.cmpop)
+
+
+def read_lpy(path: str | Path) -> tuple[str, str]:
+    """The text of the ``.lpy`` file at ``path`` and its name.
+
+    Raises
+    ------
+    ValueError
+        ``path`` is not a file or cannot be read.
+    LSystemError
+        The file is not UTF-8 text (the message names the file; line and column of the first bad byte).
+    """
+    try:
+        p = Path(path)
+    except TypeError:
+        raise ValueError(f"path must be a path, got {type(path).__name__}") from None
+    if not p.is_file():
+        raise ValueError(f"path {str(path)!r} is not a file")
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise ValueError(f"cannot read the grammar {str(p)!r}: {e}") from None
+    try:
+        return raw.decode("utf-8"), str(p)
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise LSystemError(f"{str(p)!r} is not UTF-8 text (byte {raw[e.start]:#04x} at offset {e.start})",
+                           line, col) from None
 
 
 class _Stop(Exception):
@@ -240,6 +269,7 @@ class LSystem:
         self._overrides = {k: float(v) if isinstance(v, (float, np.floating)) else int(v) for k, v in externs.items()}
         self._g: Grammar = parse_grammar(text, deadline=self._deadline)
         self._lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+        self._where = (self._g.axiom[1], 1)
         self._names: list[str] = ["[", "]"]
         self._index: dict[str, int] = {"[": 0, "]": 1}
         for name in self._g.first_use:
@@ -271,21 +301,8 @@ class LSystem:
                   time_budget: float = TIME_BUDGET, max_modules: int | None = None, **externs: float) -> LSystem:
         """Read a ``.lpy`` file (UTF-8); errors give the file's line and column. ``trusted`` as the
         constructor's: a file's Python code runs only when the caller says so."""
-        try:
-            p = Path(path)
-        except TypeError:
-            raise ValueError(f"path must be a path, got {type(path).__name__}") from None
-        if not p.is_file():
-            raise ValueError(f"path {str(path)!r} is not a file")
-        raw = p.read_bytes()
-        try:
-            text = raw.decode("utf-8")
-        except UnicodeDecodeError as e:
-            line = raw[:e.start].count(b"\n") + 1
-            col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
-            raise LSystemError(f"{str(p)!r} is not UTF-8 text (byte {raw[e.start]:#04x} at offset {e.start})",
-                               line, col) from None
-        return cls(text, seed=seed, filename=str(p), trusted=trusted, time_budget=time_budget,
+        text, filename = read_lpy(path)
+        return cls(text, seed=seed, filename=filename, trusted=trusted, time_budget=time_budget,
                    max_modules=max_modules, **externs)
 
     # -- public --------------------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from plantvr.lsystem import _derive_kernels as K
+from plantvr.lsystem import engine as E
 from plantvr.lsystem.engine import MAX_MODULES, LSystem, LSystemError
 from plantvr.lsystem.modules import ModuleString
 
@@ -295,3 +296,23 @@ def test_one_seed_drives_every_generator_a_trusted_grammar_uses():
     random.random()                                           # the caller's draws between steps change nothing
     np.random.random()
     assert same(list(it)[-1], a) and same(first[2], steps[2])
+
+
+def test_every_error_has_a_line_and_column(tmp_path, monkeypatch):
+    """Issue 33: cap errors, context() and useGroup misuse, bad bytes: all located in the grammar."""
+    monkeypatch.setattr(E, "MAX_MODULES", 100)
+    cases = [("Axiom: F\nproduction:\nF --> FFF\nendlsystem\n", 5, 3),
+             ("Axiom: F\nproduction:\nB --> B\nF --> FFF\nendlsystem\n", 5, 4),
+             ("x = context().bogus\nAxiom: F\n", None, 1),
+             ("def StartEach():\n    useGroup(1)\nAxiom: F\nproduction:\nF --> F\nendlsystem\n", 2, 2),
+             ("Axiom: F\nderivation length: context().frame\n", None, 2),
+             ("Axiom: F\x00\n", None, 1)]
+    for text, n, line in cases:
+        with pytest.raises(LSystemError) as err:
+            ls = LSystem(text, trusted=True)
+            ls.derive(n) if n is not None else ls.derive()
+        assert err.value.line == line and err.value.column >= 1, (text, str(err.value))
+    p = tmp_path / "bad.lpy"
+    p.write_bytes(b"Axiom: F\xff\n")
+    with pytest.raises(LSystemError, match=r"line 1, column 9: '.*bad.lpy' is not UTF-8"):
+        LSystem.from_file(p)
