@@ -36,15 +36,14 @@ import threading
 from collections import OrderedDict
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .._validation import check_int, check_range
+from .._validation import check_choice, check_int, check_range
 from ..document import Document, serialise
 from ..lsystem.engine import MAX_MODULES as ENGINE_MAX_MODULES
-from ..lsystem.engine import TIME_BUDGET, LSystem, LSystemError
+from ..lsystem.engine import TIME_BUDGET, LSystem, LSystemError, read_lpy
 from ..lsystem.modules import ModuleString
 from ..types import TreeArrays
 
@@ -95,6 +94,7 @@ class _Derivation:
 
     lsys: LSystem
     steps: Iterator[ModuleString]
+    unsupported: str = "error"
     strings: list[ModuleString] = field(default_factory=list)
     trees: dict[int, TreeArrays] = field(default_factory=dict)
     stopped: bool = False
@@ -118,7 +118,7 @@ class _Derivation:
 
     def tree(self, step: int) -> TreeArrays:
         if step not in self.trees:
-            self.trees[step] = self.lsys.draw(self.string(step))
+            self.trees[step] = self.lsys.draw(self.string(step), unsupported=self.unsupported)
         return self.trees[step]
 
 
@@ -145,6 +145,10 @@ class LSystemDocument(Document):
         :class:`~plantvr.lsystem.engine.LSystem`).
     time_budget : float
         Seconds one command may spend deriving (the engine's ``time_budget``).
+    unsupported : {"error", "warn"}
+        A module L-Py draws but PlantVR's turtle does not (a sphere ``@O``...): refused with its line
+        (``"error"``), or left out of the tree with a warning (``"warn"``), as
+        :meth:`~plantvr.lsystem.engine.LSystem.draw`.
     max_modules : int
         Longest derived string (the engine's ``max_modules``; the document keeps the strings of every step
         reached, so its default, :data:`MAX_MODULES`, is below the engine's).
@@ -175,7 +179,9 @@ class LSystemDocument(Document):
 
     def __init__(self, text: str | None = None, *, step: int | None = None, externs: dict | None = None,
                  seed: int = 0, trusted: bool = False, time_budget: float = TIME_BUDGET,
-                 max_modules: int = MAX_MODULES, max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20):
+                 max_modules: int = MAX_MODULES, unsupported: str = "error", max_undo: int = 20,
+                 max_undo_bytes: int = 512 * 2 ** 20):
+        self._unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
         self._time_budget = check_range("time_budget", time_budget, 1e-3, 1e6)
         self._max_modules = check_int("max_modules", max_modules, 1, ENGINE_MAX_MODULES)
         super().__init__(max_undo=max_undo, max_undo_bytes=max_undo_bytes)
@@ -213,18 +219,10 @@ class LSystemDocument(Document):
 
     @classmethod
     def from_file(cls, path, **kwargs: Any) -> LSystemDocument:
-        """A document of the ``.lpy`` file at ``path`` (``kwargs`` as the constructor's: its Python code runs
-        only with ``trusted=True``)."""
-        try:
-            path = Path(path)
-        except TypeError:
-            raise ValueError(f"path must be a path, got {type(path).__name__}") from None
-        if not path.is_file():
-            raise ValueError(f"path {str(path)!r} is not a file")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ValueError(f"cannot read the grammar {str(path)!r}: {exc}") from None
+        """A document of the ``.lpy`` file at ``path`` (``kwargs`` as the constructor's: ``unsupported=`` as
+        :meth:`LSystem.from_file`'s drawing; its Python code runs only with ``trusted=True``). A file that is not
+        UTF-8 raises LSystemError naming it, with line and column."""
+        text, _ = read_lpy(path)
         return cls(text, **kwargs)
 
     # -- derived values ----------------------------------------------------------------------------------
@@ -272,7 +270,7 @@ class LSystemDocument(Document):
             d = self._caches.get(key)
             if d is None:
                 lsys = _lsystem(text, overrides, seed, trusted, self._time_budget, self._max_modules)
-                d = _Derivation(lsys, iter(lsys.iterate(MAX_STEP)))
+                d = _Derivation(lsys, iter(lsys.iterate(MAX_STEP)), self._unsupported)
                 self._caches[key] = d
                 while len(self._caches) > _CACHES:
                     self._caches.popitem(last=False)
