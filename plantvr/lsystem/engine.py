@@ -128,6 +128,53 @@ class _Stop(Exception):
     pass
 
 
+class _Budget:
+    """:meth:`LSystem._budget`."""
+
+    __slots__ = ("ls",)
+
+    def __init__(self, ls) -> None:
+        self.ls = ls
+
+    def __enter__(self) -> None:
+        ls = self.ls
+        if ls._outer == 0:
+            _warm_kernels()                                   # numba compiling is not the grammar's time
+            ls._deadline = time.monotonic() + ls.time_budget
+        ls._outer += 1
+
+    def __exit__(self, *exc) -> bool:
+        ls = self.ls
+        ls._outer -= 1
+        if ls._outer == 0:
+            ls._deadline = math.inf
+        return False
+
+
+class _Seeded:
+    """:meth:`LSystem._seeded`."""
+
+    __slots__ = ("ls", "saved")
+
+    def __init__(self, ls) -> None:
+        self.ls, self.saved = ls, None
+
+    def __enter__(self) -> None:
+        ls = self.ls
+        if ls._gstate is not None:
+            self.saved = (_random.getstate(), np.random.get_state())
+            _random.setstate(ls._gstate[0])
+            np.random.set_state(ls._gstate[1])
+
+    def __exit__(self, *exc) -> bool:
+        if self.saved is not None:
+            self.ls._gstate = (_random.getstate(), np.random.get_state())
+            _random.setstate(self.saved[0])
+            np.random.set_state(self.saved[1])
+            self.saved = None
+        return False
+
+
 class _OverBudget(BaseException):
     """The time budget ran out (a BaseException, so a grammar's ``except Exception`` does not swallow it)."""
 
@@ -458,23 +505,9 @@ class LSystem:
         return LSystemError(f"time budget of {self.time_budget:g} s exceeded{what} (step {self._iteration}); "
                             "pass time_budget= to allow more", line, col or 1)
 
-    def _budget(self):
+    def _budget(self) -> _Budget:
         """Context manager: one deadline (``time_budget`` from now) for everything inside, nested ones included."""
-        ls = self
-
-        class _B:
-            def __enter__(self):
-                if ls._outer == 0:
-                    _warm_kernels()                           # numba compiling is not the grammar's time
-                    ls._deadline = time.monotonic() + ls.time_budget
-                ls._outer += 1
-
-            def __exit__(self, *exc):
-                ls._outer -= 1
-                if ls._outer == 0:
-                    ls._deadline = math.inf
-                return False
-        return _B()
+        return _Budget(self)
 
     @property
     def max_modules(self) -> int:
@@ -862,7 +895,8 @@ class LSystem:
             yield out
 
     def _steps(self, n: int, s: ModuleString) -> Iterator[ModuleString]:
-        self._rng.seed(self._seed)
+        if self._seed is not None:                            # unseeded: the generator runs on (no urandom read)
+            self._rng.seed(self._seed)
         self._reseed_globals()
         self._direction, self._iteration, self._stopped = 1, 0, False
         if self._outer == 0:
@@ -901,28 +935,12 @@ class LSystem:
         else:
             self._gstate = None
 
-    def _seeded(self):
+    def _seeded(self) -> _Seeded:
         """Context manager: the grammar's states of the global ``random`` and ``numpy.random`` generators swapped
         in (``import random``, ``random.random()``, ``rd.randint`` of ``import random as rd``, ``numpy.random``),
         and the caller's swapped back afterwards, so one ``seed=`` makes a derivation reproducible and leaves the
         program's generators as they were."""
-        ls = self
-
-        class _S:
-            def __enter__(self):
-                self.saved = None
-                if ls._gstate is not None:
-                    self.saved = (_random.getstate(), np.random.get_state())
-                    _random.setstate(ls._gstate[0])
-                    np.random.set_state(ls._gstate[1])
-
-            def __exit__(self, *exc):
-                if self.saved is not None:
-                    ls._gstate = (_random.getstate(), np.random.get_state())
-                    _random.setstate(self.saved[0])
-                    np.random.set_state(self.saved[1])
-                return False
-        return _S()
+        return _Seeded(self)
 
     def _hook(self, name: str) -> None:
         f = self._hooks.get(name)
@@ -994,7 +1012,8 @@ class LSystem:
         out_args = np.empty(m_out, np.float64)
         K.expand_constant(s.ids, s.arg_ptr, s.args, n, rule_arity, sptr, sids, saptr, sargs, lm, la, out_ids,
                           out_ptr, out_args, with_ptr)
-        self._rng.seed(self._seed)                            # the state _run leaves
+        if self._seed is not None:                            # the state _run leaves
+            self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
 
@@ -1129,10 +1148,10 @@ class LSystem:
         keep = np.flatnonzero(~assigned)
         out_ids[starts[keep]] = ids[keep]
         out_na[starts[keep]] = nargs[keep]
-        for hit, slots, values in vec_chunks:
-            for j, (tsid, fns) in enumerate(slots):
-                out_ids[starts[hit] + j] = tsid
-                out_na[starts[hit] + j] = len(fns)
+        for hit, slots, values in vec_chunks:                # one fancy assignment per chunk, all slots at once
+            at = starts[hit][:, None] + np.arange(len(slots))
+            out_ids[at] = np.array([tsid for tsid, _ in slots], np.int32)
+            out_na[at] = np.array([len(fns) for _, fns in slots], np.int64)
         for i, res in py_chunks.items():
             b = starts[i]
             for j, (tsid, vals) in enumerate(res):
@@ -1149,10 +1168,11 @@ class LSystem:
             offs = np.arange(L) - np.repeat(np.cumsum(cnt) - cnt, cnt)
             out_args[np.repeat(out_ptr[starts[keep]], cnt) + offs] = args[np.repeat(ptr[keep], cnt) + offs]
         for hit, slots, values in vec_chunks:
-            for j, vals in enumerate(values):
-                base = out_ptr[starts[hit] + j]
-                for q, col in enumerate(vals):
-                    out_args[base + q] = col
+            cols = [(j, q, col) for j, vals in enumerate(values) for q, col in enumerate(vals)]
+            if cols:
+                first = out_ptr[starts[hit]]                  # where each hit's successor's parameters start
+                rel = np.array([int(out_ptr[starts[hit[0]] + j] - first[0]) + q for j, q, _ in cols], np.int64)
+                out_args[first[:, None] + rel] = np.stack([col for _, _, col in cols], axis=1)
         for i, res in py_chunks.items():
             b = starts[i]
             for j, (tsid, vals) in enumerate(res):
