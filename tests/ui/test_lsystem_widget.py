@@ -117,3 +117,14 @@ def test_the_trust_box_is_passed_to_set_grammar_and_follows_the_document(widget)
     assert w.apply() is True and doc.trusted and doc.log.events[-1].kwargs["trusted"] is True
     doc.undo()                                                   # back to the untrusted grammar: the box follows
     assert panel.trust_box.value is False and not doc.trusted
+
+
+def test_a_widget_of_a_grammar_str_takes_trusted():
+    code = "def f(x):\n    return x * 2\nAxiom: F(f(1))\n"
+    with pytest.raises(ValueError, match="trusted=True"):
+        LsystemWidget(code, live=False, window_size=(120, 100))
+    w = LsystemWidget(code, live=False, window_size=(120, 100), trusted=True)
+    try:
+        assert w.doc.trusted and w.trust_box.value is True
+    finally:
+        w.close()
