@@ -296,8 +296,10 @@ class LSystemDocument(Document):
     def _text(text: Any) -> str:
         if not isinstance(text, str):
             raise ValueError(f"text must be the grammar as a str, got {type(text).__name__}")
-        if len(text) > MAX_TEXT:
-            raise ValueError(f"text must be at most {MAX_TEXT} characters, got {len(text)}")
+        if len(text) > MAX_TEXT:                                # located, as the engine's errors
+            line = text.count("\n", 0, MAX_TEXT) + 1
+            col = MAX_TEXT - (text.rfind("\n", 0, MAX_TEXT) + 1) + 1
+            raise LSystemError(f"text must be at most {MAX_TEXT} characters, got {len(text)}", line, col)
         return text
 
     @staticmethod

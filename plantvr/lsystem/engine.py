@@ -689,20 +689,23 @@ class LSystem:
         return k
 
     def _compile(self, rule: Rule) -> _Compiled:
+        if time.monotonic() > self._deadline:
+            raise LSystemError(f"time budget of {self.time_budget:g} s exceeded reading the rules", rule.line, 1)
         first = rule.body[0][0] if rule.body else rule.line
-        lines = [""] * (first - 2) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
+        base = max(first - 2, 0)                              # the source starts at grammar line base + 1
+        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
         for ln, src in rule.body:
-            while len(lines) < ln - 1:
+            while len(lines) < ln - 1 - base:
                 lines.append("")
             lines.append("    " + src)
         if not rule.body:
             lines.append("    pass")
         src = "\n".join(lines) + "\n"
         what = f"rule {rule.header!r}"
-        tree = self._parse(src, "exec", 1, 1, what)
+        tree = self._parse(src, "exec", base + 1, 1, what)
         if not self.trusted:
             self._restrict_rule(rule, tree)
-        code = self._compile_tree(tree, "exec", rule.line, 1, what)
+        code = self._compile_tree(tree, "exec", rule.line, 1, what, shift=base)
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))

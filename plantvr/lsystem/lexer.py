@@ -10,6 +10,7 @@ in the grammar's namespace (angles stay in degrees: the engine never converts th
 """
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -127,6 +128,16 @@ def _close_paren(text: str, i: int, line: int, col0: int, name: str) -> int:
     raise LSystemError(f"unclosed '(' after module {name!r}", line, col0 + i)
 
 
+@functools.lru_cache(maxsize=64)
+def _by_first(known: frozenset) -> dict[str, tuple[str, ...]]:
+    """Multi-character names (``known`` and L-Py's predefined ones) by first character, longest first."""
+    by_first: dict[str, list[str]] = {}
+    for name in known | LPY_PREDEFINED:
+        if len(name) > 1:
+            by_first.setdefault(name[0], []).append(name)
+    return {k: tuple(sorted(v, key=len, reverse=True)) for k, v in by_first.items()}
+
+
 def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
         deadline: float | None = None) -> list[Token]:
     """Lex one line of L-string into :class:`Token` s.
@@ -149,12 +160,7 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
     """
     if not isinstance(text, str):
         raise LSystemError(f"an L-string must be a str, got {type(text).__name__}", line, col)
-    by_first: dict[str, list[str]] = {}
-    for name in set(known) | LPY_PREDEFINED:
-        if len(name) > 1:
-            by_first.setdefault(name[0], []).append(name)
-    for v in by_first.values():
-        v.sort(key=len, reverse=True)
+    by_first = _by_first(known if isinstance(known, frozenset) else frozenset(known))
     out: list[Token] = []
     i, n = 0, len(text)
     while i < n:

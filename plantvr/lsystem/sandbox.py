@@ -19,7 +19,8 @@ evaluator:
 Every grammar, trusted or not, is rewritten by :func:`guard`: ``a ** b``, ``a << b`` and ``a * b`` go through
 :func:`safe_pow`, :func:`safe_lshift` and :func:`safe_mul`, which refuse an integer result of more than
 :data:`MAX_INT_BITS` bits or a repeated sequence longer than :data:`MAX_SEQUENCE` *before computing it*
-(``9**9**9`` is refused at once, not computed), and every ``while``/``for`` body and comprehension of trusted
+(``9**9**9`` is refused at once, not computed; an untrusted grammar's ``+`` concatenates at most
+:data:`MAX_SEQUENCE` items and its ``sum`` adds numbers only), and every ``while``/``for`` body and comprehension of trusted
 code calls the L-system's budget tick, so a ``while True:`` loop stops at the time budget (signal-free, in any
 thread). What the guards cannot stop is a single call into C that does not return (``time.sleep(1e9)``,
 ``sum(itertools.count())``): trusting a grammar means trusting its code.
@@ -143,6 +144,20 @@ def safe_mul(a, b):
     return a * b
 
 
+def safe_add(a, b):
+    """``a + b`` of an untrusted grammar: concatenations of at most MAX_SEQUENCE items (``s = s + s`` does not
+    double a string until memory runs out)."""
+    if isinstance(a, _SEQ) and isinstance(b, _SEQ) and len(a) + len(b) > MAX_SEQUENCE:
+        raise SandboxError(f"a {type(a).__name__} of {len(a):,} + {len(b):,} items is longer than {MAX_SEQUENCE:,}")
+    return a + b
+
+
+def _safe_sum(iterable, start=0):
+    if not isinstance(start, (int, float, complex)) or isinstance(start, bool):
+        raise SandboxError("sum(..., start) of an untrusted grammar adds numbers only")
+    return sum(iterable, start)
+
+
 def safe_mod(a, b):
     """``a % b`` of an untrusted grammar: no ``%`` string formatting."""
     if isinstance(a, (str, bytes)):
@@ -182,7 +197,7 @@ def _safe_round(x, ndigits=None):
 
 #: The builtins of an untrusted grammar.
 SAFE_BUILTINS = {"abs": abs, "min": min, "max": max, "int": int, "float": float, "range": _safe_range,
-                 "len": len, "round": _safe_round, "bool": bool, "pow": safe_pow, "sum": sum,
+                 "len": len, "round": _safe_round, "bool": bool, "pow": safe_pow, "sum": _safe_sum,
                  "True": True, "False": False, "None": None}
 
 #: ``math`` names an untrusted grammar sees (functions of floats; the integer ones that can run long are left out).
@@ -272,6 +287,7 @@ def restrict(tree: ast.AST) -> None:
 
 # -- the guards, by rewriting -------------------------------------------------------------------------------------
 _BINOP_GUARD = {ast.Pow: "__lsys_pow__", ast.LShift: "__lsys_lshift__", ast.Mult: "__lsys_mul__"}
+_UNTRUSTED_GUARD = {ast.Mod: "__lsys_mod__", ast.Add: "__lsys_add__"}
 
 
 class _Guard(ast.NodeTransformer):
@@ -283,18 +299,20 @@ class _Guard(ast.NodeTransformer):
 
     def visit_BinOp(self, node):
         self.generic_visit(node)
-        fname = _BINOP_GUARD.get(type(node.op))
-        if fname is None and not self.trusted and isinstance(node.op, ast.Mod):
-            fname = "__lsys_mod__"
+        fname = self._guard_name(node.op)
         if fname is None:
             return node
         return self._call(fname, [node.left, node.right], node)
 
+    def _guard_name(self, op: ast.operator) -> str | None:
+        fname = _BINOP_GUARD.get(type(op))
+        if fname is None and not self.trusted:
+            fname = _UNTRUSTED_GUARD.get(type(op))
+        return fname
+
     def visit_AugAssign(self, node):
         self.generic_visit(node)
-        fname = _BINOP_GUARD.get(type(node.op))
-        if fname is None and not self.trusted and isinstance(node.op, ast.Mod):
-            fname = "__lsys_mod__"
+        fname = self._guard_name(node.op)
         if fname is None or not isinstance(node.target, ast.Name):
             return node
         load = ast.copy_location(ast.Name(node.target.id, ast.Load()), node.target)
@@ -340,5 +358,5 @@ def guard_names(tick: Callable[[], None]) -> dict:
             tick()
             yield x
     return {"__lsys_pow__": safe_pow, "__lsys_lshift__": safe_lshift, "__lsys_mul__": safe_mul,
-            "__lsys_mod__": safe_mod, "__lsys_getattr__": safe_getattr, "__lsys_tick__": tick,
+            "__lsys_mod__": safe_mod, "__lsys_add__": safe_add, "__lsys_getattr__": safe_getattr, "__lsys_tick__": tick,
             "__lsys_iter__": lsys_iter}

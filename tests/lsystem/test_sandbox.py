@@ -88,6 +88,9 @@ def test_huge_integers_refused_before_computing():
     refused("y = 1 << 10**9\nAxiom: F\n", 1, "too large")
     refused("y = 'ab' * 10**9\nAxiom: F\n", 1, "longer than")
     refused("y = max(range(10**12))\nAxiom: F\n", 1, "range of more than")
+    refused("y = sum([[1]] * 10**6, [])\nAxiom: F\n", 1, "adds numbers only")
+    refused("a = 'x' * 10**6\nb = a + a\nAxiom: F\n", 2, "longer than")
+    refused("a = (1,) * 10**6\na += a\nAxiom: F\n", 2, "longer than")
     refused("Axiom: F(1)\nproduction:\nF(x) --> F(x * 9**9**9)\nendlsystem\n", 3, "too large")
     refused("Axiom: F(1)\nproduction:\nF(x) : x ** 9**9**9 > 0 --> F\nendlsystem\n", 3, "too large")
     refused("Axiom: A\nproduction:\nA :\n    y = 10**10**10\n    produce A\nendlsystem\n", 4, "too large",
