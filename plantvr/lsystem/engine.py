@@ -609,7 +609,7 @@ class LSystem:
         tree = self._parse(self._g.python, "exec", 1, 1, "the grammar's Python code")
         self._restrict(tree, 1, 1)
         code = self._compile_tree(tree, "exec", 1, 1, "the grammar's Python code")
-        self._reseed_globals()
+        self._reseed_globals(force=True)
         try:
             with self._seeded():
                 exec(code, self._ns)
@@ -623,6 +623,8 @@ class LSystem:
         for name in _RANDOM_FUNCS if self.trusted else ():   # ``from random import *`` stays seeded
             if self._ns.get(name) is getattr(_random, name, None):
                 self._ns[name] = getattr(self._rng, name)
+        self._global_random = None
+        self._global_random = self._uses_global_random()      # after the code ran: what it imported
         unknown = sorted(set(self._overrides) - set(self._externs))
         if unknown:
             raise ValueError(f"unknown extern {unknown[0]!r}: the grammar declares "
@@ -930,9 +932,25 @@ class LSystem:
             self._hook("End")
 
     # -- seeding of the global generators a trusted grammar may use ------------------------------------------------
-    def _reseed_globals(self) -> None:
-        """The states ``random`` and ``numpy.random`` start a derivation from (trusted grammars with a seed)."""
-        if self.trusted and self._seed is not None:
+    def _uses_global_random(self) -> bool:
+        """Whether the grammar's namespace reaches the global ``random`` / ``numpy.random`` generators (the
+        modules, or functions bound to their shared instances), so that swapping their states is needed."""
+        if not self.trusted or self._seed is None:
+            return False
+        if getattr(self, "_global_random", None) is not None:
+            return self._global_random
+        shared = (_random._inst, np.random.mtrand._rand)
+        for v in list(self._ns.values()):
+            if v is _random or v is np or v is np.random or getattr(v, "__self__", None) in shared:
+                return True
+            if getattr(v, "__name__", None) in ("numpy", "numpy.random", "random") and inspect.ismodule(v):
+                return True
+        return False
+
+    def _reseed_globals(self, force: bool = False) -> None:
+        """The states ``random`` and ``numpy.random`` start a derivation from (trusted grammars with a seed that
+        reach them; ``force``: whenever trusted and seeded, for the grammar's own code before its imports ran)."""
+        if self._uses_global_random() or (force and self.trusted and self._seed is not None):
             self._gstate = (_random.Random(self._seed).getstate(),
                             np.random.RandomState(self._seed % 2 ** 32).get_state())
         else:

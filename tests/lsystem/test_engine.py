@@ -316,3 +316,13 @@ def test_every_error_has_a_line_and_column(tmp_path, monkeypatch):
     p.write_bytes(b"Axiom: F\xff\n")
     with pytest.raises(LSystemError, match=r"line 1, column 9: '.*bad.lpy' is not UTF-8"):
         LSystem.from_file(p)
+
+
+def test_top_level_code_draws_from_the_seeded_generators_too():
+    text = "import random\nimport numpy as np\nX = random.random()\nY = float(np.random.random())\nAxiom: F(X, Y)\n"
+    state = random.getstate()
+    a = LSystem(text, seed=8, trusted=True).axiom.args
+    assert np.array_equal(a, LSystem(text, seed=8, trusted=True).axiom.args)
+    assert a[0] == random.Random(8).random() and random.getstate() == state
+    plain = "Axiom: F\nproduction:\nF :\n    produce F\nendlsystem\n"
+    assert not LSystem(plain, seed=1, trusted=True)._global_random      # nothing to swap: no cost per step
