@@ -23,6 +23,14 @@ How a step runs, fastest first:
   skips them unless the pattern opens one) and steps where a new-context rule (``<<``, ``>>``) needs the string
   rewritten in order (forward, or backward after ``backward()``).
 
+Grammars are code (issue 34): an ``.lpy`` file's Python (imports, functions, statements, indented rule bodies)
+runs only with ``trusted=True``; by default one-line rules, conditions and expressions go through the
+restricted evaluator of :mod:`plantvr.lsystem.sandbox`, and code is refused with its line. Every grammar is
+guarded (huge integers refused before they are computed, loops of trusted code ticking the clock) and every
+derivation has a time budget (``time_budget=``) and a module cap (``max_modules=``), checked while a step is built
+(each rule call, each vectorised rule, each ``nproduce``), so a runaway grammar stops with LSystemError at its
+line.
+
 Parameters are float64 (integral values reach Python rule code as ``int``); a parameter that is not a number
 raises :class:`LSystemError` naming the module and the rule's line. Angles are never converted (degrees, the
 turtle's unit).
@@ -34,29 +42,35 @@ import builtins
 import inspect
 import math
 import random as _random
+import re
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from plantvr._validation import check_choice, check_int
+from plantvr._validation import check_choice, check_int, check_range
 from plantvr.types import TreeArrays
 
 from . import _derive_kernels as K
+from . import sandbox as SB
 from .grammar import Grammar, Rule, lstring_to_py, parse_grammar
 from .lexer import LSystemError, Token, lex
 from .modules import ModuleString
 
-__all__ = ["MAX_DERIVATION", "MAX_MODULES", "LSystem", "LSystemError"]
+__all__ = ["MAX_DERIVATION", "MAX_MODULES", "TIME_BUDGET", "LSystem", "LSystemError", "read_lpy"]
 
 #: Longest string (modules) a derivation may produce; checked from the count pass, before allocating.
 MAX_MODULES = 50_000_000
 #: Most parameters a derived string may hold.
 MAX_PARAMETERS = 200_000_000
-#: Most derivation steps one call may ask for.
+#: Most derivation steps one call may ask for (a grammar's ``derivation length`` included).
 MAX_DERIVATION = 100_000
+#: Default time budget of building an L-system and of one derivation (:meth:`LSystem.derive`, one step of
+#: :meth:`LSystem.iterate`), in seconds.
+TIME_BUDGET = 10.0
 #: Largest (steps + 1) x symbols length table of the all-at-once derivation of constant rules (else step-wise).
 _EXPAND_CELLS = 4_000_000
 #: Saturation of that table's lengths (exact below, far above MAX_MODULES and MAX_PARAMETERS).
@@ -65,6 +79,10 @@ _EXPAND_CAP = 2 ** 52
 _RANDOM_FUNCS = ("random", "uniform", "gauss", "normalvariate", "randint", "choice", "expovariate",
                  "betavariate", "triangular", "lognormvariate", "shuffle", "sample", "randrange", "seed",
                  "vonmisesvariate", "gammavariate", "paretovariate", "weibullvariate", "getrandbits")
+#: Those an untrusted grammar gets (the others can build large objects or reseed).
+_SAFE_RANDOM = ("random", "uniform", "gauss", "normalvariate", "randint", "choice", "expovariate", "betavariate",
+                "triangular", "lognormvariate", "randrange", "vonmisesvariate", "gammavariate", "paretovariate",
+                "weibullvariate")
 _NP_FUNCS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
              "log10": np.log10, "floor": np.floor, "ceil": np.ceil, "fabs": np.abs, "abs": np.abs,
              "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan, "atan2": np.arctan2, "radians": np.radians,
@@ -77,11 +95,91 @@ _OK_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, as
              ast.Load, ast.Call, ast.operator, ast.unaryop, ast.boolop, ast.cmpop)
 
 
+def read_lpy(path: str | Path) -> tuple[str, str]:
+    """The text of the ``.lpy`` file at ``path`` and its name.
+
+    Raises
+    ------
+    ValueError
+        ``path`` is not a file or cannot be read.
+    LSystemError
+        The file is not UTF-8 text (the message names the file; line and column of the first bad byte).
+    """
+    try:
+        p = Path(path)
+    except TypeError:
+        raise ValueError(f"path must be a path, got {type(path).__name__}") from None
+    if not p.is_file():
+        raise ValueError(f"path {str(path)!r} is not a file")
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise ValueError(f"cannot read the grammar {str(p)!r}: {e}") from None
+    try:
+        return raw.decode("utf-8"), str(p)
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise LSystemError(f"{str(p)!r} is not UTF-8 text (byte {raw[e.start]:#04x} at offset {e.start})",
+                           line, col) from None
+
+
 class _Stop(Exception):
     pass
 
 
-class _ContextStub:
+class _Budget:
+    """:meth:`LSystem._budget`."""
+
+    __slots__ = ("ls",)
+
+    def __init__(self, ls) -> None:
+        self.ls = ls
+
+    def __enter__(self) -> None:
+        ls = self.ls
+        if ls._outer == 0:
+            _warm_kernels()                                   # numba compiling is not the grammar's time
+            ls._deadline = time.monotonic() + ls.time_budget
+        ls._outer += 1
+
+    def __exit__(self, *exc) -> bool:
+        ls = self.ls
+        ls._outer -= 1
+        if ls._outer == 0:
+            ls._deadline = math.inf
+        return False
+
+
+class _Seeded:
+    """:meth:`LSystem._seeded`."""
+
+    __slots__ = ("ls", "saved")
+
+    def __init__(self, ls) -> None:
+        self.ls, self.saved = ls, None
+
+    def __enter__(self) -> None:
+        ls = self.ls
+        if ls._gstate is not None:
+            self.saved = (_random.getstate(), np.random.get_state())
+            _random.setstate(ls._gstate[0])
+            np.random.set_state(ls._gstate[1])
+
+    def __exit__(self, *exc) -> bool:
+        if self.saved is not None:
+            self.ls._gstate = (_random.getstate(), np.random.get_state())
+            _random.setstate(self.saved[0])
+            np.random.set_state(self.saved[1])
+            self.saved = None
+        return False
+
+
+class _OverBudget(BaseException):
+    """The time budget ran out (a BaseException, so a grammar's ``except Exception`` does not swallow it)."""
+
+
+class _ContextStub(SB.SafeAttrs):
     """``context()`` / ``execContext()`` of L-Py: records turtle options, accepts editor settings."""
 
     def __init__(self, options: dict) -> None:
@@ -96,12 +194,12 @@ class _ContextStub:
         raise LSystemError(f"context().{name} is not supported")
 
 
-class _Ignore:
+class _Ignore(SB.SafeAttrs):
     def __getattr__(self, name):
         return lambda *a, **k: None
 
 
-class _TurtleStub:
+class _TurtleStub(SB.SafeAttrs):
     _MAP = {"setAngleIncrement": "angle", "setWidth": "width", "setDefaultStep": "step"}
 
     def __init__(self, options: dict) -> None:
@@ -158,15 +256,26 @@ class LSystem:
     seed : int, optional
         Seed of the grammar's ``random``/``uniform``/``gauss``... (reseeded at each derivation, so a seeded
         derivation is reproducible).
+    trusted : bool
+        Whether the grammar's Python code may run (``import``, ``def``, statements, indented rule bodies), as
+        Jupyter trusts a notebook. Default False: the grammar goes through the restricted evaluator of
+        :mod:`plantvr.lsystem.sandbox` and a grammar that needs code is refused with its line and column.
+    time_budget : float
+        Seconds that building the L-system, and each derivation (:meth:`derive`; each step of :meth:`iterate`),
+        may take; checked while a step is built (each rule call, each produced chunk, each loop iteration of
+        trusted code), so a runaway grammar stops with LSystemError naming its line.
+    max_modules : int, optional
+        Longest string a derivation may build (default :data:`MAX_MODULES`), checked as each chunk is produced.
     **externs : float
         Values of the grammar's declared parameters (``extern(name=value)`` or the editor's scalars).
 
     Raises
     ------
     LSystemError
-        A layout or Python error in the grammar, or an unsupported construct, with line and column.
+        A layout or Python error in the grammar, an unsupported construct, code an untrusted grammar may not
+        run, or a budget exceeded, with line and column.
     ValueError
-        An unknown or non-numeric extern.
+        An unknown or non-numeric extern, or a bad option.
 
     References
     ----------
@@ -181,11 +290,22 @@ class LSystem:
     'F[+F]F[+F[+F]F]F[+F]F'
     """
 
-    def __init__(self, text: str, *, seed: int | None = None, filename: str = "<lpy>", **externs: float) -> None:
+    def __init__(self, text: str, *, seed: int | None = None, filename: str = "<lpy>", trusted: bool = False,
+                 time_budget: float = TIME_BUDGET, max_modules: int | None = None, **externs: float) -> None:
         if not isinstance(text, str):
             raise ValueError(f"text must be a str, got {type(text).__name__}")
         if seed is not None:
             seed = check_int("seed", seed, 0, 2 ** 63 - 1)
+        if not isinstance(trusted, (bool, np.bool_)):
+            raise ValueError(f"trusted must be True or False, got {trusted!r:.40}")
+        self.trusted = bool(trusted)
+        self.time_budget = check_range("time_budget", time_budget, 1e-3, 1e6)
+        self._max_modules = None if max_modules is None else check_int("max_modules", max_modules, 1, MAX_MODULES)
+        if not isinstance(filename, str):
+            raise ValueError(f"filename must be a str, got {type(filename).__name__}")
+        self._deadline = time.monotonic() + self.time_budget
+        self._outer = 0
+        self._where = (0, 0)                              # (line, column) the derivation is at, for budget errors
         for k, v in externs.items():
             if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or \
                     not math.isfinite(float(v)):
@@ -194,7 +314,9 @@ class LSystem:
         self._filename = filename
         self._seed = seed
         self._overrides = {k: float(v) if isinstance(v, (float, np.floating)) else int(v) for k, v in externs.items()}
-        self._g: Grammar = parse_grammar(text)
+        self._g: Grammar = parse_grammar(text, deadline=self._deadline)
+        self._lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+        self._where = (self._g.axiom[1], 1)
         self._names: list[str] = ["[", "]"]
         self._index: dict[str, int] = {"[": 0, "]": 1}
         for name in self._g.first_use:
@@ -219,14 +341,16 @@ class LSystem:
         self._tables: dict[str, Any] = {}
         src, ln, col = self._g.axiom
         self.axiom = self._to_string(self._eval_lstring(self._g.axiom_tokens, ln, "the axiom"), ln)
+        self._deadline = math.inf
 
     @classmethod
-    def from_file(cls, path: str | Path, *, seed: int | None = None, **externs: float) -> LSystem:
-        """Read a ``.lpy`` file (UTF-8); errors give the file's line and column."""
-        p = Path(path)
-        if not p.is_file():
-            raise ValueError(f"path {str(path)!r} is not a file")
-        return cls(p.read_text(encoding="utf-8"), seed=seed, filename=str(p), **externs)
+    def from_file(cls, path: str | Path, *, seed: int | None = None, trusted: bool = False,
+                  time_budget: float = TIME_BUDGET, max_modules: int | None = None, **externs: float) -> LSystem:
+        """Read a ``.lpy`` file (UTF-8); errors give the file's line and column. ``trusted`` as the
+        constructor's: a file's Python code runs only when the caller says so."""
+        text, filename = read_lpy(path)
+        return cls(text, seed=seed, filename=filename, trusted=trusted, time_budget=time_budget,
+                   max_modules=max_modules, **externs)
 
     # -- public --------------------------------------------------------------------------------------------------
     @property
@@ -255,11 +379,15 @@ class LSystem:
         """
         n = self.derivation_length if n is None else check_int("n", n, 0, MAX_DERIVATION)
         s = self.axiom if string is None else self._adopt(string)
-        out = self._expand(n, s)
-        if out is not None:
-            return out
-        for out in self._run(n, s):
-            pass
+        with self._budget():
+            try:
+                out = self._expand(n, s)
+                if out is not None:
+                    return out
+                for out in self._run(n, s):
+                    pass
+            except MemoryError:
+                raise LSystemError(f"out of memory deriving step {self._iteration}", *self._where) from None
         return out
 
     def iterate(self, n: int | None = None, *, string: ModuleString | None = None) -> Iterator[ModuleString]:
@@ -294,7 +422,7 @@ class LSystem:
 
         from .turtle import LPY_UNSUPPORTED, turtle
         unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
-        s = self.interpret(string)
+        s = self._first_params(self.interpret(string))
         used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
         bad = [s.names[k] for k in used.tolist() if s.names[k] in LPY_UNSUPPORTED]
         for name in bad[:1] if unsupported == "error" else ():
@@ -304,7 +432,32 @@ class LSystem:
         if bad:
             where = ", ".join(f"{name} (line {self._g.first_use.get(name, (0, 0))[0]})" for name in bad)
             warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=2)
-        return turtle(s, **{**self._turtle, **turtle_options})
+        try:
+            return turtle(s, **{**self._turtle, **turtle_options})
+        except ValueError as e:                               # a module the turtle refuses: its grammar line
+            m = re.search(r"module (\S+) at index", str(e))
+            line, col = self._g.first_use.get(m.group(1), (0, 0)) if m else (0, 0)
+            if not line:
+                raise
+            raise LSystemError(str(e), line, col) from None
+
+    @staticmethod
+    def _first_params(s: ModuleString) -> ModuleString:
+        """``s`` with each turtle module's extra parameters left out: L-Py's turtle reads the first ones
+        (``-(a, t)`` turns by ``a``, ``F(1, 2, 3)`` is ``F(1, 2)``)."""
+        from .turtle import TURTLE_MODULES
+        most = np.array([max(TURTLE_MODULES[nm]) if nm in TURTLE_MODULES else np.iinfo(np.int64).max
+                         for nm in s.names], np.int64)
+        cnt = np.diff(s.arg_ptr)
+        limit = most[s.ids] if len(s) else cnt
+        if not len(s) or not np.any(cnt > limit):
+            return s
+        keep = np.minimum(cnt, limit)
+        owner = np.repeat(np.arange(len(s)), cnt)
+        offs = np.arange(len(s.args)) - np.repeat(s.arg_ptr[:-1], cnt)
+        ptr = np.zeros(len(s) + 1, np.int64)
+        np.cumsum(keep, out=ptr[1:])
+        return ModuleString(s.names, s.ids, ptr, s.args[offs < keep[owner]])
 
     def __repr__(self) -> str:
         return (f"LSystem({len(self._g.rules)} rules, derivation length {self.derivation_length}, "
@@ -312,9 +465,15 @@ class LSystem:
 
     # -- namespace and Python code ---------------------------------------------------------------------------------
     def _namespace(self) -> dict:
-        ns: dict[str, Any] = {"__builtins__": builtins, "__name__": "__lpy__"}
-        ns.update({k: getattr(math, k) for k in dir(math) if not k.startswith("_")})
-        for name in _RANDOM_FUNCS:
+        if self.trusted:
+            ns: dict[str, Any] = {"__builtins__": builtins, "__name__": "__lpy__"}
+            ns.update({k: getattr(math, k) for k in dir(math) if not k.startswith("_")})
+            randoms = _RANDOM_FUNCS
+        else:
+            ns = {"__builtins__": dict(SB.SAFE_BUILTINS), "__name__": "__lpy__"}
+            ns.update(SB.math_names())
+            randoms = _SAFE_RANDOM
+        for name in randoms:
             ns[name] = getattr(self._rng, name)
         opts = self._turtle
         ctx = _ContextStub(opts)
@@ -326,17 +485,116 @@ class LSystem:
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
             nproduce=self._nbuf_add, useGroup=self._no_group, frameDisplay=lambda *a: None,
         )
+        ns.update(SB.guard_names(self._tick))
+        if self.trusted:                                      # as the builtins, refusing only huge integers
+            ns.update(pow=SB.safe_pow, round=SB._safe_round)
         for k, v in self._g.scalars.items():
             ns[k] = self._overrides.get(k, int(v) if float(v).is_integer() else v)
             self._externs[k] = float(ns[k])
         ns.update(self._overrides)
         return ns
 
+    # -- budgets -------------------------------------------------------------------------------------------------
+    def _tick(self) -> None:
+        """The time budget check of grammar loops and rule calls."""
+        if time.monotonic() > self._deadline:
+            raise _OverBudget()
+
+    def _over_budget(self, line: int = 0, col: int = 0, what: str = "") -> LSystemError:
+        line, col = (line, col) if line else self._where
+        return LSystemError(f"time budget of {self.time_budget:g} s exceeded{what} (step {self._iteration}); "
+                            "pass time_budget= to allow more", line, col or 1)
+
+    def _budget(self) -> _Budget:
+        """Context manager: one deadline (``time_budget`` from now) for everything inside, nested ones included."""
+        return _Budget(self)
+
+    @property
+    def max_modules(self) -> int:
+        """Longest string a derivation may build."""
+        return MAX_MODULES if self._max_modules is None else min(self._max_modules, MAX_MODULES)
+
+    # -- code ----------------------------------------------------------------------------------------------------
+    def _col(self, line: int, src: str, start: int = 1) -> int:
+        """1-based column of ``src`` in grammar line ``line`` at or after ``start`` (``start`` if not found)."""
+        if 1 <= line <= len(self._lines):
+            k = self._lines[line - 1].find(src.strip(), max(start - 1, 0))
+            if k >= 0:
+                return k + 1
+        return max(start, 1)
+
+    def _parse(self, src: str, mode: str, line: int, col: int, what: str) -> ast.AST:
+        """``ast.parse`` with errors as LSystemError at the grammar position (``src`` starts at ``line``/``col``)."""
+        try:
+            return ast.parse(src, filename=self._filename, mode=mode)
+        except SyntaxError as e:
+            ln = line + (e.lineno or 1) - 1
+            c = (col + (e.offset or 1) - 1) if (e.lineno or 1) == 1 else (e.offset or 1)
+            raise LSystemError(f"Python syntax error in {what}: {e.msg}", ln, c) from None
+        except (ValueError, RecursionError, MemoryError) as e:
+            raise LSystemError(f"{what} cannot be read: {type(e).__name__}: {str(e)[:80]}", line, col) from None
+
+    def _restrict(self, tree: ast.AST, line: int, col: int) -> None:
+        """The restricted evaluator's check of untrusted code (positions: ``tree`` starts at ``line``/``col``)."""
+        if self.trusted:
+            return
+        try:
+            SB.restrict(tree)
+        except SB.Refused as e:
+            ln = line + e.lineno - 1
+            raise LSystemError(str(e), ln, (col + e.col_offset) if e.lineno == 1 else e.col_offset + 1) from None
+        except RecursionError:
+            raise LSystemError("expression nested too deeply", line, col) from None
+
+    def _compile_tree(self, tree: ast.AST, mode: str, line: int, col: int, what: str, *, shift: int = 0):
+        try:
+            tree = SB.guard(tree, trusted=self.trusted)
+            if shift:
+                ast.increment_lineno(tree, shift)
+            return compile(tree, self._filename, mode)
+        except SyntaxError as e:
+            raise LSystemError(f"Python syntax error in {what}: {e.msg}", e.lineno or line, e.offset or col) \
+                from None
+        except (ValueError, RecursionError, MemoryError, OverflowError) as e:
+            raise LSystemError(f"{what} cannot be compiled: {type(e).__name__}: {str(e)[:80]}", line, col) \
+                from None
+
+    def _expr(self, src: str, line: int, col: int, what: str):
+        """Code of the expression ``src`` (at grammar ``line``/``col``): checked when untrusted, guarded always."""
+        tree = self._parse(src.strip(), "eval", line, col, what)
+        self._restrict(tree, line, col)
+        return self._compile_tree(tree, "eval", line, col, what, shift=line - 1)
+
+    def _run_code(self, code, line: int, what: str):
+        """``eval`` of ``code`` in the namespace, errors as LSystemError at the grammar line."""
+        try:
+            return eval(code, self._ns)
+        except LSystemError as e:
+            if e.line:
+                raise
+            raise LSystemError(e.detail, line, 1) from None
+        except _OverBudget:
+            raise self._over_budget(line, 1, f" in {what}") from None
+        except SB.SandboxError as e:
+            raise LSystemError(f"{what}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line, 1) from None
+        except Exception as e:
+            raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line,
+                               1) from None
+
     def _no_group(self, *a) -> None:
         raise LSystemError("useGroup (rule groups) is not supported")
 
     def _nbuf_add(self, mods) -> None:
         self._nbuf.extend(mods)
+        if len(self._nbuf) > self.max_modules:
+            n = len(self._nbuf)
+            self._nbuf.clear()
+            f = sys._getframe(1)
+            line = f.f_lineno if f.f_code.co_filename == self._filename else self._where[0]
+            raise LSystemError(f"nproduce built {n:,} modules, more than the module cap {self.max_modules:,}",
+                               line, 1)
+        if time.monotonic() > self._deadline:
+            raise _OverBudget()
 
     def _extern(self, **kw) -> None:
         for k, v in kw.items():
@@ -344,23 +602,29 @@ class LSystem:
             self._ns[k] = value
             try:
                 self._externs[k] = float(value)
-            except (TypeError, ValueError):
-                raise LSystemError(f"extern {k} must be a number, got {value!r}") from None
+            except (TypeError, ValueError, OverflowError):
+                raise LSystemError(f"extern {k} must be a number, got {value!r:.40}") from None
 
     def _exec_python(self) -> None:
+        tree = self._parse(self._g.python, "exec", 1, 1, "the grammar's Python code")
+        self._restrict(tree, 1, 1)
+        code = self._compile_tree(tree, "exec", 1, 1, "the grammar's Python code")
+        self._reseed_globals(force=True)
         try:
-            code = compile(self._g.python, self._filename, "exec")
-        except SyntaxError as e:
-            raise LSystemError(f"Python syntax error: {e.msg}", e.lineno or 0, e.offset or 0) from None
-        try:
-            exec(code, self._ns)
+            with self._seeded():
+                exec(code, self._ns)
         except LSystemError as e:
-            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or e.line, 1) from None
+            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or e.line or 1, 1) from None
+        except _OverBudget:
+            raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, " running the grammar's Python code") \
+                from None
         except Exception as e:                                # the grammar's own code failed
-            raise LSystemError(f"{type(e).__name__}: {e}", self._tb_line(sys.exc_info()[2]), 1) from None
-        for name in _RANDOM_FUNCS:                            # ``from random import *`` stays seeded
+            raise LSystemError(f"{type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]), 1) from None
+        for name in _RANDOM_FUNCS if self.trusted else ():   # ``from random import *`` stays seeded
             if self._ns.get(name) is getattr(_random, name, None):
                 self._ns[name] = getattr(self._rng, name)
+        self._global_random = None
+        self._global_random = self._uses_global_random()      # after the code ran: what it imported
         unknown = sorted(set(self._overrides) - set(self._externs))
         if unknown:
             raise ValueError(f"unknown extern {unknown[0]!r}: the grammar declares "
@@ -393,14 +657,13 @@ class LSystem:
         if item is None:
             return default
         src, ln = item
-        try:
-            v = eval(compile(src, self._filename, "eval"), self._ns)
-        except Exception as e:
-            raise LSystemError(f"{what}: cannot evaluate {src!r} ({type(e).__name__}: {e})", ln, 1) from None
+        col = self._col(ln, src)
+        v = self._run_code(self._expr(src, ln, col, f"'{what}'"), ln, f"'{what}'")
         if isinstance(v, float) and v.is_integer():
             v = int(v)
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 0 <= v <= MAX_DERIVATION:
-            raise LSystemError(f"{what} must be an integer in [0, {MAX_DERIVATION}], got {v!r}", ln, 1)
+            raise LSystemError(f"{what} must be an integer in [0, {MAX_DERIVATION}], got "
+                               f"{SB._short(v) if isinstance(v, int) else repr(v)[:40]}", ln, col)
         return int(v)
 
     def _ignore_set(self) -> tuple[frozenset, bool] | None:
@@ -428,26 +691,64 @@ class LSystem:
         return k
 
     def _compile(self, rule: Rule) -> _Compiled:
+        if time.monotonic() > self._deadline:
+            raise LSystemError(f"time budget of {self.time_budget:g} s exceeded reading the rules", rule.line, 1)
         first = rule.body[0][0] if rule.body else rule.line
-        lines = [""] * (first - 2) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
+        base = max(first - 2, 0)                              # the source starts at grammar line base + 1
+        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
         for ln, src in rule.body:
-            while len(lines) < ln - 1:
+            while len(lines) < ln - 1 - base:
                 lines.append("")
             lines.append("    " + src)
         if not rule.body:
             lines.append("    pass")
         src = "\n".join(lines) + "\n"
-        try:
-            code = compile(src, self._filename, "exec")
-        except SyntaxError as e:
-            raise LSystemError(f"Python syntax error in rule {rule.header!r}: {e.msg}", e.lineno or rule.line,
-                               e.offset or 0) from None
+        what = f"rule {rule.header!r}"
+        tree = self._parse(src, "exec", base + 1, 1, what)
+        if not self.trusted:
+            self._restrict_rule(rule, tree)
+        code = self._compile_tree(tree, "exec", rule.line, 1, what, shift=base)
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
         if rule.successor is not None and not (c.contexts or c.newcontexts):
             self._plan(c)
         return c
+
+    def _restrict_rule(self, rule: Rule, tree: ast.Module) -> None:
+        """An untrusted rule: one line (successor, condition), its expressions within the restricted evaluator."""
+        if rule.successor is None:
+            raise LSystemError(f"rule {rule.header!r} has a Python body: " + SB.TRUST_HINT, rule.line,
+                               self._col(rule.line, rule.header))
+        if rule.condition is not None:
+            col = self._col(rule.line, rule.condition, len(rule.header) + 1)
+            self._restrict(self._parse(rule.condition, "eval", rule.line, col, f"rule {rule.header!r}"),
+                           rule.line, col)
+        self._restrict_tokens(rule.successor, f"rule {rule.header!r}")
+        # the generated function itself: ``[if cond:] return __lsys_produce__([...])`` and nothing else
+        fn = tree.body[0]
+        body = list(fn.body)
+        while body:
+            st = body.pop(0)
+            if isinstance(st, ast.If) and not st.orelse:
+                self._restrict(ast.Expression(st.test), rule.line, 1)
+                body[:0] = st.body
+            elif isinstance(st, ast.Return) and st.value is not None:
+                self._restrict(ast.Expression(st.value), rule.line, 1)
+            else:
+                raise LSystemError(f"rule {rule.header!r} has a Python body: " + SB.TRUST_HINT, rule.line, 1)
+
+    def _restrict_tokens(self, toks: list[Token], what: str) -> None:
+        seen = set()
+        for t in toks if not self.trusted else ():
+            if not t.args or t.args in seen:
+                continue
+            seen.add(t.args)
+            start = t.col + len(t.name)
+            for a in t.args:
+                col = self._col(t.line, a, start)
+                start = col + len(a)
+                self._restrict(self._parse(a, "eval", t.line, col, what), t.line, col)
 
     def _plan(self, c: _Compiled) -> None:
         """Vectorised and constant plans of a one-line context-free rule (None where it cannot)."""
@@ -472,9 +773,12 @@ class LSystem:
                 fns.append(f)
                 if const and self._vectorize(a, []) is not None:
                     try:
-                        vals.extend(self._floats(t.name, eval(a, self._ns), c.rule.line))
+                        code = self._expr(a, t.line, t.col, f"rule {c.rule.header!r}")
+                        vals.extend(self._floats(t.name, eval(code, self._ns), c.rule.line))
                     except LSystemError:
                         raise
+                    except SB.SandboxError as e:
+                        raise LSystemError(f"rule {c.rule.header!r}: {e}", t.line, t.col) from None
                     except Exception:
                         const = False
                 else:
@@ -522,7 +826,11 @@ class LSystem:
     # -- strings -------------------------------------------------------------------------------------------------
     def _floats(self, name: str, v, line: int) -> tuple[float, ...]:
         if isinstance(v, (bool, np.bool_, int, float, np.integer, np.floating)):
-            return (float(v),)
+            try:
+                return (float(v),)
+            except OverflowError:
+                raise LSystemError(f"module {name}: parameter {SB._short(v)} is too large for a float", line,
+                                   1) from None
         if isinstance(v, (tuple, list, np.ndarray)):
             out = []
             for x in np.asarray(v, dtype=object).ravel().tolist():
@@ -532,10 +840,23 @@ class LSystem:
                            f"numbers only", line, 1)
 
     def _eval_lstring(self, toks: list[Token], line: int, what: str) -> list:
+        self._restrict_tokens(toks, what)
+        codes: dict[str, Any] = {}
+        for t in toks:
+            if t.args and t.args not in codes:
+                codes[t.args] = self._expr(lstring_to_py([Token("", t.args, t.line, t.col)]) + "[0][1]", t.line,
+                                           t.col, what)
         try:
-            return eval(compile(lstring_to_py(toks), self._filename, "eval"), self._ns)
+            if len(toks) == 1 and toks[0].name == "*" and toks[0].args is None:
+                return []
+            return [(t.name, eval(codes[t.args], self._ns) if t.args else ()) for t in toks]
+        except _OverBudget:
+            raise self._over_budget(line, 1, f" in {what}") from None
+        except SB.SandboxError as e:
+            raise LSystemError(f"{what}: {e}"[:400], line, toks[0].col if toks else 1) from None
         except Exception as e:
-            raise LSystemError(f"{what}: {type(e).__name__}: {e}", line, toks[0].col if toks else 1) from None
+            raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], line, toks[0].col if toks else 1) \
+                from None
 
     def _to_string(self, mods: list, line: int) -> ModuleString:
         ids, counts, args = [], [], []
@@ -567,24 +888,80 @@ class LSystem:
 
     # -- derivation ----------------------------------------------------------------------------------------------
     def _run(self, n: int, s: ModuleString) -> Iterator[ModuleString]:
-        self._rng.seed(self._seed)
+        """:meth:`_steps`, with running out of memory an LSystemError at the line being derived."""
+        steps = self._steps(n, s)
+        while True:
+            try:
+                out = next(steps)
+            except StopIteration:
+                return
+            except MemoryError:
+                raise LSystemError(f"out of memory deriving step {self._iteration}", *self._where) from None
+            yield out
+
+    def _steps(self, n: int, s: ModuleString) -> Iterator[ModuleString]:
+        if self._seed is not None:                            # unseeded: the generator runs on (no urandom read)
+            self._rng.seed(self._seed)
+        self._reseed_globals()
         self._direction, self._iteration, self._stopped = 1, 0, False
-        self._hook("Start")
+        if self._outer == 0:
+            self._deadline = time.monotonic() + self.time_budget
+        self._where = (self._g.rules[0].line if self._g.rules else 1, 1)
+        with self._seeded():
+            self._hook("Start")
         yield s
         for it in range(n):
             self._iteration = it
-            self._hook("StartEach")
-            if self._rules["production"]:
-                s, _ = self._rewrite(s, "production")
-            for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
-                s, changed = self._rewrite(s, "decomposition")
-                if not changed:
-                    break
-            self._hook("EndEach")
+            if self._outer == 0:
+                self._deadline = time.monotonic() + self.time_budget
+            elif time.monotonic() > self._deadline:
+                raise self._over_budget()
+            with self._seeded():
+                self._hook("StartEach")
+                if self._rules["production"]:
+                    s, _ = self._rewrite(s, "production")
+                for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
+                    s, changed = self._rewrite(s, "decomposition")
+                    if not changed:
+                        break
+                self._hook("EndEach")
             yield s
             if self._stopped:
                 break
-        self._hook("End")
+        with self._seeded():
+            self._hook("End")
+
+    # -- seeding of the global generators a trusted grammar may use ------------------------------------------------
+    def _uses_global_random(self) -> bool:
+        """Whether the grammar's namespace reaches the global ``random`` / ``numpy.random`` generators (the
+        modules, or functions bound to their shared instances), so that swapping their states is needed."""
+        if not self.trusted or self._seed is None:
+            return False
+        if getattr(self, "_global_random", None) is not None:
+            return self._global_random
+        shared = (_random._inst, np.random.mtrand._rand)
+        for v in list(self._ns.values()):
+            if v is _random or v is np or v is np.random or getattr(v, "__self__", None) in shared:
+                return True
+            if getattr(v, "__name__", None) in ("numpy", "numpy.random", "random") and inspect.ismodule(v):
+                return True
+        return False
+
+    def _reseed_globals(self, force: bool = False) -> None:
+        """The states ``random`` and ``numpy.random`` start a derivation from (trusted grammars with a seed that
+        reach them; ``force``: whenever trusted and seeded, for the grammar's own code before its imports ran)."""
+        if self._uses_global_random() or (force and self.trusted and self._seed is not None):
+            self._gstate = (_random.Random(self._seed).getstate(),
+                            np.random.RandomState(self._seed % 2 ** 32).get_state())
+        else:
+            self._gstate = None
+
+    def _seeded(self) -> _Seeded:
+        """Context manager: the grammar's states of the global ``random`` and ``numpy.random`` generators swapped
+        in (``import random``, ``random.random()``, ``rd.randint`` of ``import random as rd``, ``numpy.random``),
+        and the caller's swapped back afterwards, so one ``seed=`` makes a derivation reproducible and leaves the
+        program's generators as they were."""
+        return _Seeded(self)
 
     def _hook(self, name: str) -> None:
         f = self._hooks.get(name)
@@ -592,8 +969,12 @@ class LSystem:
             self._nbuf.clear()
             try:
                 f()
-            except LSystemError:
-                raise
+            except LSystemError as e:
+                if e.line:
+                    raise
+                raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or 1, 1) from None
+            except _OverBudget:
+                raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, f" in {name}()") from None
             except Exception as e:
                 raise LSystemError(f"{name}() raised {type(e).__name__}: {e}", self._tb_line(sys.exc_info()[2]),
                                    1) from None
@@ -640,7 +1021,7 @@ class LSystem:
         kept_m, kept_a = float(np.count_nonzero(~rw)), float(nargs[~rw].sum())
         tot_m = lm[1:] @ c + kept_m                           # string length after each step 1..n
         tot_a = la[1:] @ c + kept_a
-        over = np.flatnonzero((tot_m > MAX_MODULES) | (tot_a > MAX_PARAMETERS))
+        over = np.flatnonzero((tot_m > self.max_modules) | (tot_a > MAX_PARAMETERS))
         k = int(over[0]) + 1 if over.size else n              # the step the step-wise derivation stops at
         ci = c.astype(np.int64).tolist()
         n_out = int(kept_m) + sum(x * int(v) for x, v in zip(ci, lm[k].tolist()))
@@ -652,18 +1033,32 @@ class LSystem:
         out_args = np.empty(m_out, np.float64)
         K.expand_constant(s.ids, s.arg_ptr, s.args, n, rule_arity, sptr, sids, saptr, sargs, lm, la, out_ids,
                           out_ptr, out_args, with_ptr)
-        self._rng.seed(self._seed)                            # the state _run leaves
+        if self._seed is not None:                            # the state _run leaves
+            self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
 
-    @staticmethod
-    def _check_size(n_out: int, m_out: int) -> None:
-        if n_out > MAX_MODULES:
-            raise LSystemError(f"the derived string would have {n_out:,} modules, more than MAX_MODULES = "
-                               f"{MAX_MODULES:,}; derive fewer steps")
-        if m_out > MAX_PARAMETERS:
-            raise LSystemError(f"the derived string would have {m_out:,} parameters, more than MAX_PARAMETERS = "
-                               f"{MAX_PARAMETERS:,}; derive fewer steps")
+    def _check_size(self, n_out: int, m_out: int, line: int = 0) -> None:
+        """LSystemError (at ``line``, default the rule that grows the string most) for a string over the caps."""
+        cap = self.max_modules
+        if n_out <= cap and m_out <= MAX_PARAMETERS:
+            return
+        line = line or self._growth_line()
+        if n_out > cap:
+            name = "MAX_MODULES" if cap == MAX_MODULES else "max_modules"
+            raise LSystemError(f"the derived string would have {n_out:,} modules, more than {name} = "
+                               f"{cap:,}; derive fewer steps", line, 1)
+        raise LSystemError(f"the derived string would have {m_out:,} parameters, more than MAX_PARAMETERS = "
+                           f"{MAX_PARAMETERS:,}; derive fewer steps", line, 1)
+
+    def _growth_line(self) -> int:
+        """Line of the production rule with the longest successor (the one a too long string comes from)."""
+        best, line = -1, 0
+        for r in self._g.rules:
+            k = len(r.successor) if r.successor is not None else 2
+            if k > best:
+                best, line = k, r.line
+        return line or (self._g.axiom[1] if self._g.axiom else 1)
 
     def _constant_table(self, kind: str):
         key = ("const", kind, len(self._names))
@@ -694,13 +1089,24 @@ class LSystem:
 
     def _call(self, c: _Compiled, vals: list) -> list | None:
         self._nbuf.clear()
+        if time.monotonic() > self._deadline:
+            raise self._over_budget(c.rule.line, 1, f" in rule {c.rule.header!r}")
+        self._where = (c.rule.line, 1)
         try:
             res = c.func(*vals)
-        except LSystemError:
-            raise
+        except LSystemError as e:
+            if e.line:
+                raise
+            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or c.rule.line, 1) from None
+        except _OverBudget:
+            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+            raise self._over_budget(line, 1, f" in rule {c.rule.header!r}") from None
+        except SB.SandboxError as e:
+            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+            raise LSystemError(f"rule {c.rule.header!r}: {e}", line, 1) from None
         except Exception as e:
             line = self._tb_line(sys.exc_info()[2]) or c.rule.line
-            raise LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}", line, 1) from None
+            raise LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}"[:400], line, 1) from None
         if res is None:
             if not self._nbuf:
                 return None
@@ -719,6 +1125,7 @@ class LSystem:
         vec_chunks: list = []
         py_chunks: dict[int, list] = {}
         partner = None
+        grown, room = 0, self.max_modules - n                # modules added so far, and how many may be
         by_sym: dict[int, list[_Compiled]] = {}
         for r in rules:
             by_sym.setdefault(r.sid, []).append(r)
@@ -728,8 +1135,13 @@ class LSystem:
                 pos = pos_all[(nargs[pos_all] == r.arity) & ~assigned[pos_all]]
                 if not pos.size:
                     continue
-                if r.vec is not None and self._grouped_vec(r, pos, ptr, args, vec_chunks, assigned, out_len):
-                    continue
+                if r.vec is not None:
+                    added = self._grouped_vec(r, pos, ptr, args, vec_chunks, assigned, out_len, n + grown)
+                    if added is not None:
+                        grown += added
+                        if time.monotonic() > self._deadline:
+                            raise self._over_budget(r.rule.line, 1, f" in rule {r.rule.header!r}")
+                        continue
                 if r.contexts and partner is None:
                     partner = K.match_brackets(ids, 0, 1)
                 for i in pos.tolist():
@@ -741,22 +1153,26 @@ class LSystem:
                         py_chunks[i] = res
                         assigned[i] = True
                         out_len[i] = len(res)
+                        grown += len(res) - 1
+                        if grown > room:
+                            self._check_size(n + grown, 0, r.rule.line)
         if not assigned.any():
             return s, False
+        if time.monotonic() > self._deadline:
+            raise self._over_budget()
         starts = np.zeros(n + 1, np.int64)
         np.cumsum(out_len, out=starts[1:])
         total = int(starts[-1])
-        if total > MAX_MODULES:
-            self._check_size(total, 0)
+        self._check_size(total, 0)
         out_ids = np.empty(total, np.int32)
         out_na = np.empty(total, np.int64)
         keep = np.flatnonzero(~assigned)
         out_ids[starts[keep]] = ids[keep]
         out_na[starts[keep]] = nargs[keep]
-        for hit, slots, values in vec_chunks:
-            for j, (tsid, fns) in enumerate(slots):
-                out_ids[starts[hit] + j] = tsid
-                out_na[starts[hit] + j] = len(fns)
+        for hit, slots, values in vec_chunks:                # one fancy assignment per chunk, all slots at once
+            at = starts[hit][:, None] + np.arange(len(slots))
+            out_ids[at] = np.array([tsid for tsid, _ in slots], np.int32)
+            out_na[at] = np.array([len(fns) for _, fns in slots], np.int64)
         for i, res in py_chunks.items():
             b = starts[i]
             for j, (tsid, vals) in enumerate(res):
@@ -773,10 +1189,11 @@ class LSystem:
             offs = np.arange(L) - np.repeat(np.cumsum(cnt) - cnt, cnt)
             out_args[np.repeat(out_ptr[starts[keep]], cnt) + offs] = args[np.repeat(ptr[keep], cnt) + offs]
         for hit, slots, values in vec_chunks:
-            for j, vals in enumerate(values):
-                base = out_ptr[starts[hit] + j]
-                for q, col in enumerate(vals):
-                    out_args[base + q] = col
+            cols = [(j, q, col) for j, vals in enumerate(values) for q, col in enumerate(vals)]
+            if cols:
+                first = out_ptr[starts[hit]]                  # where each hit's successor's parameters start
+                rel = np.array([int(out_ptr[starts[hit[0]] + j] - first[0]) + q for j, q, _ in cols], np.int64)
+                out_args[first[:, None] + rel] = np.stack([col for _, _, col in cols], axis=1)
         for i, res in py_chunks.items():
             b = starts[i]
             for j, (tsid, vals) in enumerate(res):
@@ -784,26 +1201,36 @@ class LSystem:
                 out_args[a:a + len(vals)] = vals
         return self._make(out_ids, out_ptr, out_args), True
 
-    def _grouped_vec(self, r: _Compiled, pos, ptr, args, vec_chunks, assigned, out_len) -> bool:
+    def _grouped_vec(self, r: _Compiled, pos, ptr, args, vec_chunks, assigned, out_len, size: int) -> int | None:
+        """Rule ``r`` applied on parameter columns at modules ``pos``: the modules it adds (None: it cannot,
+        the per-module path runs it); ``size`` is the new string's length so far, checked against the cap before
+        the successors are computed."""
         cond, slots = r.vec
         cols = [args[ptr[pos] + q] for q in range(r.arity)]
-        with np.errstate(all="ignore"):
-            if cond is not None:
-                mask = np.broadcast_to(np.asarray(cond(*cols), bool), pos.shape)
-                hit = pos[mask]
-                cols = [c[mask] for c in cols]
-            else:
-                hit = pos
-            if not hit.size:
-                return True
-            values = [[np.broadcast_to(np.asarray(f(*cols), np.float64), hit.shape) for f in fns]
-                      for _, fns in slots]
+        try:
+            with np.errstate(all="ignore"):
+                if cond is not None:
+                    mask = np.broadcast_to(np.asarray(cond(*cols), bool), pos.shape)
+                    hit = pos[mask]
+                    cols = [c[mask] for c in cols]
+                else:
+                    hit = pos
+                if not hit.size:
+                    return 0
+                added = hit.size * (len(slots) - 1)
+                self._check_size(size + added, 0, r.rule.line)
+                values = [[np.broadcast_to(np.asarray(f(*cols), np.float64), hit.shape) for f in fns]
+                          for _, fns in slots]
+        except (ArithmeticError, ValueError, TypeError) as e:
+            if isinstance(e, LSystemError):
+                raise
+            return None                                       # let Python raise the rule's own error
         if not all(np.isfinite(v).all() for vals in values for v in vals):
-            return False                                      # let Python raise the rule's own error
+            return None                                       # let Python raise the rule's own error
         vec_chunks.append((hit, slots, values))
         assigned[hit] = True
         out_len[hit] = len(slots)
-        return True
+        return added
 
     # -- context matching ----------------------------------------------------------------------------------------
     def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest) -> list | None:
@@ -941,8 +1368,8 @@ class LSystem:
             else:
                 changed = True
             dest.extend(res if self._direction == 1 else reversed(res))
-            if len(dest) > MAX_MODULES:
-                self._check_size(len(dest), 0)
+            if len(dest) > self.max_modules:
+                self._check_size(len(dest), 0, self._where[0])
         if self._direction != 1:
             dest.reverse()
         out_ids = np.array([m[0] for m in dest], np.int32)
@@ -951,6 +1378,20 @@ class LSystem:
         np.cumsum(counts, out=out_ptr[1:])
         out_args = np.array([v for m in dest for v in m[1]], np.float64)
         return self._make(out_ids, out_ptr, out_args), changed
+
+
+_WARM: list = []
+
+
+def _warm_kernels() -> None:
+    """Compile (or load from numba's cache) the derivation kernels once per process, outside any time budget."""
+    if _WARM:
+        return
+    _WARM.append(True)
+    ls = LSystem("Axiom: F(1)X\nproduction:\nX --> F(1)[+X]X\nendlsystem\n", time_budget=1e6)
+    ls.derive(2)                                              # all at once
+    list(ls.iterate(2))                                       # step-wise
+    K.match_brackets(ls.axiom.ids, 0, 1)
 
 
 class _ArrSeq:
@@ -993,6 +1434,11 @@ class _ListSeq:
 
 class _ToNumpy(ast.NodeTransformer):
     """``and/or/not``, comparison chains, ``a if c else b`` and math calls -> numpy, for parameter columns."""
+
+    def visit_Constant(self, node):
+        if type(node.value) is int:                           # float arithmetic, as the columns: no big integers
+            return ast.copy_location(ast.Constant(float(node.value)), node)
+        return node
 
     @staticmethod
     def _np(attr: str, args: list) -> ast.Call:

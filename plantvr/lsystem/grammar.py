@@ -102,14 +102,15 @@ def lstring_to_py(tokens: list[Token]) -> str:
 
 
 class _Reader:
-    def __init__(self, text: str) -> None:
+    def __init__(self, text: str, deadline: float | None = None) -> None:
         self.text = text
+        self.deadline = deadline
         self.known: set[str] = set(_turtle_names())
         self.g = Grammar(python="")
 
     # -- helpers -----------------------------------------------------------------------------------------------
     def lex(self, s: str, line: int, col: int) -> list[Token]:
-        toks = lex(s, self.known, line=line, col=col)
+        toks = lex(s, self.known, line=line, col=col, deadline=self.deadline)
         for t in toks:
             self.g.first_use.setdefault(t.name, (t.line, t.col))
         return toks
@@ -395,14 +396,25 @@ def _turtle_names() -> frozenset:
     return frozenset(TURTLE_MODULES) | frozenset(LPY_UNSUPPORTED)
 
 
-def parse_grammar(text: str) -> Grammar:
-    """Read ``.lpy`` text into a :class:`Grammar` (see the module docstring).
+def parse_grammar(text: str, *, deadline: float | None = None) -> Grammar:
+    """Read ``.lpy`` text into a :class:`Grammar` (see the module docstring); ``deadline`` (``time.monotonic``
+    seconds) bounds the time spent lexing.
 
     Raises
     ------
     LSystemError
-        For a layout error or an unsupported construct, naming it with line and column.
+        For a layout error, an unsupported construct, a character Python cannot read (NUL, a lone surrogate) or
+        the deadline passed, naming it with line and column.
     """
     if not isinstance(text, str):
         raise LSystemError(f"text must be a str, got {type(text).__name__}")
-    return _Reader(text).read()
+    bad = _BAD_CHAR.search(text)
+    if bad is not None:
+        k = bad.start()
+        line = text.count("\n", 0, k) + 1
+        col = k - (text.rfind("\n", 0, k) + 1) + 1
+        raise LSystemError(f"character {text[k]!r} cannot be part of a grammar", line, col)
+    return _Reader(text, deadline).read()
+
+
+_BAD_CHAR = re.compile("[\x00\ud800-\udfff]")

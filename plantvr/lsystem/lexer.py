@@ -2,14 +2,16 @@
 predecessor patterns).
 
 A module name is the longest *known* name starting at the current character (declared with ``module``, a turtle
-or L-Py predefined module such as ``@Tp`` or ``SetColor``); otherwise it is that single character, so ``FF(0.5)``
-is ``F``, ``F(0.5)`` (issue 22) and ``+(30)F`` is ``+(30)``, ``F``. An unknown identifier directly followed by
-``(`` whose letters are not all known single-character modules is one module declared on the fly, as L-Py does
-(``Apex(1)`` is the module ``Apex``). Parameters are kept as Python expression source; the engine evaluates them
+or L-Py predefined module such as ``@Tp`` or ``SetColor``); otherwise it is that single character, as L-Py reads
+it (issue 33): ``FF(0.5)`` is ``F``, ``F(0.5)`` (issue 22), ``+(30)F`` is ``+(30)``, ``F``, ``IB(x)`` is ``I``,
+``B(x)`` and an undeclared ``Apex(1)`` is ``A``, ``p``, ``e``, ``x(1)`` (declare it: ``module Apex``).
+Parameters are kept as Python expression source; the engine evaluates them
 in the grammar's namespace (angles stay in degrees: the engine never converts them).
 """
 from __future__ import annotations
 
+import functools
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
@@ -126,7 +128,18 @@ def _close_paren(text: str, i: int, line: int, col0: int, name: str) -> int:
     raise LSystemError(f"unclosed '(' after module {name!r}", line, col0 + i)
 
 
-def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) -> list[Token]:
+@functools.lru_cache(maxsize=64)
+def _by_first(known: frozenset) -> dict[str, tuple[str, ...]]:
+    """Multi-character names (``known`` and L-Py's predefined ones) by first character, longest first."""
+    by_first: dict[str, list[str]] = {}
+    for name in known | LPY_PREDEFINED:
+        if len(name) > 1:
+            by_first.setdefault(name[0], []).append(name)
+    return {k: tuple(sorted(v, key=len, reverse=True)) for k, v in by_first.items()}
+
+
+def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
+        deadline: float | None = None) -> list[Token]:
     """Lex one line of L-string into :class:`Token` s.
 
     Parameters
@@ -137,21 +150,17 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
         Multi-character module names to match first (longest match wins).
     line, col : int
         Position of ``text[0]`` in the grammar, for tokens and error messages.
+    deadline : float, optional
+        ``time.monotonic()`` value after which lexing stops (a grammar's time budget).
 
     Raises
     ------
     LSystemError
-        For an unbalanced parenthesis or an unterminated string, with line and column.
+        For an unbalanced parenthesis, an unterminated string or the deadline passed, with line and column.
     """
     if not isinstance(text, str):
         raise LSystemError(f"an L-string must be a str, got {type(text).__name__}", line, col)
-    by_first: dict[str, list[str]] = {}
-    for name in set(known) | LPY_PREDEFINED:
-        if len(name) > 1:
-            by_first.setdefault(name[0], []).append(name)
-    for v in by_first.values():
-        v.sort(key=len, reverse=True)
-    singles = {k for k in known if len(k) == 1} | _SINGLE_TURTLE
+    by_first = _by_first(known if isinstance(known, frozenset) else frozenset(known))
     out: list[Token] = []
     i, n = 0, len(text)
     while i < n:
@@ -163,14 +172,8 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
             break
         if c == ")" or c == "(":
             raise LSystemError(f"unexpected {c!r} (a parameter list must follow a module name)", line, col + i)
-        name = next((k for k in by_first.get(c, ()) if text.startswith(k, i)), c)
-        if name == c and (c.isalpha() or c == "_"):
-            j = i
-            while j < n and (text[j].isalnum() or text[j] == "_"):
-                j += 1
-            run = text[i:j]
-            if len(run) > 1 and j < n and text[j] == "(" and not all(ch in singles for ch in run):
-                name = run                                    # declared on the fly, as L-Py
+        cands = by_first.get(c)
+        name = next((k for k in cands if text.startswith(k, i)), c) if cands else c
         j = i + len(name)
         args = None
         if j < n and text[j] == "(":
@@ -182,4 +185,6 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1) ->
             j = k + 1
         out.append(Token(name, args, line, col + i))
         i = j
+        if deadline is not None and not len(out) & 4095 and time.monotonic() > deadline:
+            raise LSystemError(f"time budget exceeded reading a string of {n:,} characters", line, col + i)
     return out

@@ -28,6 +28,9 @@ class LsystemWidget(Workbench):
     ----------
     doc : LSystemDocument or str
         The document, or a grammar (``.lpy`` text) to make one of.
+    trusted : bool
+        With a grammar str: whether its Python code may run (``LSystemDocument(..., trusted=)``; default False,
+        the restricted evaluator). The panel's "Trust this grammar" box sets it for each *Apply*.
     live : bool, optional
         Trame view (True) or offscreen image (False); default :func:`~plantvr.ui.workbench.live_frontend`.
     window_size : (int, int)
@@ -37,16 +40,17 @@ class LsystemWidget(Workbench):
     ----------
     panel : LsystemPanel
         Step slider, parameter editors, grammar and *Apply* (also :attr:`editor`).
-    step_slider, controls, grammar, apply_button
+    step_slider, controls, grammar, apply_button, trust_box
         The panel's controls.
 
     The camera is fitted again whenever the tree's size changes by more than a quarter (a derivation step
     doubles it), so the whole plant stays in the picture while the slider is dragged.
     """
 
-    def __init__(self, doc: LSystemDocument | str, *, live: bool | None = None, window_size=(640, 520)):
+    def __init__(self, doc: LSystemDocument | str, *, live: bool | None = None, window_size=(640, 520),
+                 trusted: bool = False):
         if isinstance(doc, str):
-            doc = LSystemDocument(doc)
+            doc = LSystemDocument(doc, trusted=trusted)
         if not isinstance(doc, LSystemDocument):
             raise ValueError(f"doc must be an LSystemDocument or a grammar str, got {type(doc).__name__}")
         self._fitted = None
@@ -54,6 +58,7 @@ class LsystemWidget(Workbench):
         self.panel = self.editor                              # the workbench's LsystemPanel (EDITORS)
         self.step_slider = self.panel.step_slider
         self.grammar, self.apply_button = self.panel.grammar, self.panel.apply_button
+        self.trust_box = self.panel.trust_box
         self._fitted = self._extent()
         self._fit()
         if not self.live:

@@ -49,6 +49,10 @@ class LsystemPanel(W.VBox):
         One editor per declared parameter (``doc.set_externs`` on release).
     grammar : ipywidgets.Textarea
         The grammar text; *Apply* issues ``doc.set_grammar``.
+    trust_box : ipywidgets.Checkbox
+        "Trust this grammar (runs its Python code)": *Apply* passes it as ``set_grammar(..., trusted=...)``
+        (issue 34: unticked, a grammar with Python code is refused with its line, as Jupyter does not run an
+        untrusted notebook's code); it shows the document's flag after every change.
     apply_button : ipywidgets.Button
     status : ipywidgets.HTML
         What the document holds, or the last refusal (an engine error with its line and column) in red.
@@ -72,6 +76,10 @@ class LsystemPanel(W.VBox):
         self.grammar = W.Textarea(value=doc.text, description="", continuous_update=False,
                                   layout=W.Layout(width="520px", max_width="100%", height="220px"))
         self.grammar.add_class("plantvr-lpy")
+        self.trust_box = W.Checkbox(value=bool(doc.trusted), description="Trust this grammar (runs its Python code)",
+                                    indent=False, layout=W.Layout(width="auto"),
+                                    tooltip="only for grammars you trust: their imports, functions and rule bodies "
+                                            "run as Python")
         self.apply_button = W.Button(description="Apply", icon="check", tooltip="read and derive the grammar",
                                      layout=W.Layout(width="90px"))
         self.apply_button.on_click(lambda _b: self.apply())
@@ -83,7 +91,7 @@ class LsystemPanel(W.VBox):
         title = W.HTML("<div style='background:#3a7a3a;color:white;padding:3px 8px;font-weight:bold'>"
                        "L-system</div>")
         super().__init__([title, self.step_slider, self.params_box, W.Label("Grammar (.lpy)"), self.grammar,
-                          W.HBox([self.apply_button]), self.status],
+                          W.HBox([self.apply_button, self.trust_box]), self.status],
                          layout=W.Layout(border="2px solid #3a7a3a", padding="0 0 4px 0"))
 
     # -- widgets -> document -----------------------------------------------------------------------------
@@ -100,7 +108,7 @@ class LsystemPanel(W.VBox):
     def apply(self) -> bool:
         """Issue ``set_grammar`` with the text area's grammar; returns whether the document took it (a refusal,
         with the engine's line and column, is shown in :attr:`status`)."""
-        return self._issue(self.doc.set_grammar, self.grammar.value)
+        return self._issue(self.doc.set_grammar, self.grammar.value, None, bool(self.trust_box.value))
 
     def _issue(self, command, *args) -> bool:
         try:
@@ -143,6 +151,8 @@ class LsystemPanel(W.VBox):
                     show_value(self.controls[name], value)
             if self.grammar.value != d.text and not self.error:
                 self.grammar.value = d.text
+            if not self.error and self.trust_box.value != d.trusted:
+                self.trust_box.value = bool(d.trusted)
         finally:
             self._busy = False
 

@@ -120,7 +120,7 @@ def test_the_derivation_is_cached_and_extended_step_by_step():
         doc.set_step(n)
         s, r = doc.string, ref.derive(n)
         assert np.array_equal(s.ids, r.ids) and np.array_equal(s.args, r.args) and s.names == r.names
-    cache = doc._derivation(doc.text, doc.overrides, doc.seed)
+    cache = doc._derivation(doc.text, doc.overrides, doc.seed, doc.trusted)
     assert len(cache.strings) == 7                              # steps 0..6 derived once, kept
     strings = list(cache.strings)
     doc.set_step(4)
@@ -128,11 +128,11 @@ def test_the_derivation_is_cached_and_extended_step_by_step():
     tree = turtle(ref.interpret(ref.derive(4)), **ref.turtle_options)
     assert np.array_equal(doc.tree.pos, tree.pos) and np.array_equal(doc.tree.parent, tree.parent)
     doc.set_externs({"r1": 0.5})                                # a new parameter value: a new derivation
-    assert doc._derivation(doc.text, doc.overrides, doc.seed) is not cache
+    assert doc._derivation(doc.text, doc.overrides, doc.seed, doc.trusted) is not cache
     assert np.array_equal(doc.string.args, LSystem(MONOPODIAL, r1=0.5).derive(4).args)
     assert doc.externs == {**LSystem(MONOPODIAL).externs, "r1": 0.5} and doc.defaults == LSystem(MONOPODIAL).externs
     doc.undo()                                                  # the old cache is still there
-    assert doc._derivation(doc.text, doc.overrides, doc.seed) is cache
+    assert doc._derivation(doc.text, doc.overrides, doc.seed, doc.trusted) is cache
 
 
 def test_parameters_survive_a_grammar_edit_that_still_declares_them():
@@ -186,12 +186,12 @@ endlsystem
 
 
 def test_seeded_stochastic_steps_are_the_engines_however_they_are_reached():
-    doc = LSystemDocument(STOCHASTIC, step=0, seed=11)
+    doc = LSystemDocument(STOCHASTIC, step=0, seed=11, trusted=True)
     for n in (2, 1, 3, 4):                        # dragged back and forth: each step is derive(n) of the seed
         doc.set_step(n)
-        assert np.array_equal(doc.string.ids, LSystem(STOCHASTIC, seed=11).derive(n).ids)
+        assert np.array_equal(doc.string.ids, LSystem(STOCHASTIC, seed=11, trusted=True).derive(n).ids)
     at4 = doc.state_bytes()
-    direct = LSystemDocument(STOCHASTIC, step=4, seed=11)
+    direct = LSystemDocument(STOCHASTIC, step=4, seed=11, trusted=True)
     assert direct.state_bytes() == doc.state_bytes() == at4
     doc.set_seed(12)
     assert doc.string.count("F") != direct.string.count("F") or not np.array_equal(doc.string.ids,
@@ -216,3 +216,86 @@ def test_a_step_that_does_not_derive_is_refused_and_changes_nothing():
     assert (doc.state_bytes(), doc.log.to_text()) == (before, log)
     doc.set_step(1)
     assert str(doc.string) == "A(2)B(0.5)"
+
+
+#: A grammar with Python code (a function and a rule body): it runs only trusted (issue 34).
+CODE = """\
+def side():
+    nproduce [+F]
+Axiom: A(2)
+derivation length: 3
+production:
+A(n) :
+    if n > 0:
+        side()
+        produce F A(n - 1)
+endlsystem
+"""
+
+
+def test_grammars_are_code_trusted_is_part_of_the_state_and_the_log(tmp_path):
+    doc = LSystemDocument(FIG_124B, step=2)
+    before, log = doc.state_bytes(), doc.log.to_text()
+    with pytest.raises(LSystemError, match=r"line 1, column 1: a function definition runs Python code.*trusted=True"):
+        doc.set_grammar(CODE)
+    for hostile in ("x = open('/etc/passwd')\nAxiom: F\n", "import os\nAxiom: F\n",
+                    "x = ().__class__.__subclasses__()\nAxiom: F\n", "Axiom: F\nderivation length: 9**9**9\n",
+                    "Axiom: A\nproduction:\nA :\n    while True: pass\n    produce A\nendlsystem\n"):
+        with pytest.raises(LSystemError) as err:
+            doc.set_grammar(hostile)
+        assert err.value.line >= 1
+    assert doc.state_bytes() == before and doc.log.to_text() == log and not doc.trusted
+    doc.set_grammar(CODE, trusted=True)
+    assert doc.trusted and str(doc.string) == "[+F]F[+F]FA(0)"
+    assert doc.log.events[-1].kwargs == {"text": CODE, "step": 3, "trusted": True}
+    doc.set_seed(3)                                           # later commands keep the grammar's trust
+    assert doc.trusted
+    doc.set_grammar(FIG_124B)                                 # each grammar is trusted on its own
+    assert not doc.trusted
+    doc.undo()
+    assert doc.trusted and str(doc.string) == "[+F]F[+F]FA(0)"
+    path = doc.save(tmp_path / "session.jsonl")
+    with pytest.raises(ValueError, match=r"event 1 \(set_grammar\): this log trusted its grammar.*trusted=True"):
+        LSystemDocument.from_log(path)
+    with pytest.raises(ValueError, match="this log trusted its grammar"):
+        LSystemDocument().replay(CommandLog.load(path, LSystemDocument.COMMANDS, document="lsystem"))
+    again = LSystemDocument.from_log(path, trusted=True)
+    assert again.state_bytes() == doc.state_bytes()
+
+
+def test_trusted_documents_from_the_constructor_and_files(tmp_path):
+    with pytest.raises(LSystemError, match="trusted=True"):
+        LSystemDocument(CODE)
+    doc = LSystemDocument(CODE, trusted=True)
+    assert doc.trusted and doc.log.events[0].kwargs["trusted"] is True
+    p = tmp_path / "code.lpy"
+    p.write_text(CODE)
+    with pytest.raises(LSystemError, match="trusted=True"):
+        LSystemDocument.from_file(p)
+    assert LSystemDocument.from_file(p, trusted=True).state_bytes() == doc.state_bytes()
+    with pytest.raises(ValueError, match="trusted must be True or False"):
+        doc.set_grammar(CODE, trusted="yes")
+    with pytest.raises(LSystemError, match="line 2, column 1: derivation length 5000 is more than"):
+        doc.set_grammar("Axiom: F\nderivation length: 5000\n")
+    slow = LSystemDocument(time_budget=0.5)
+    with pytest.raises(LSystemError, match="time budget of 0.5 s exceeded"):
+        slow.set_grammar("Axiom: A\nproduction:\nA :\n    while True: pass\n    produce A\nendlsystem\n",
+                         trusted=True)
+    assert not slow.trusted and slow.text == DEFAULT_GRAMMAR
+
+
+def test_from_file_takes_unsupported_and_names_a_file_that_is_not_utf8(tmp_path):
+    """Issue 33: ``LSystemDocument.from_file(..., unsupported=)`` as ``LSystem``'s; bad bytes name the file."""
+    p = tmp_path / "flower.lpy"
+    p.write_text("Axiom: F(1)@O(0.5)F(1)\n")
+    with pytest.raises(LSystemError, match="line 1, column 12: unsupported module @O"):
+        LSystemDocument.from_file(p)
+    with pytest.warns(UserWarning, match=r"not drawn .*@O \(line 1\)"):
+        doc = LSystemDocument.from_file(p, unsupported="warn")
+    assert doc.tree.n_internodes == LSystem("Axiom: F(1)F(1)\n").tree().n_internodes
+    with pytest.raises(ValueError, match="unsupported must be one of"):
+        LSystemDocument.from_file(p, unsupported="skip")
+    bad = tmp_path / "latin1.lpy"
+    bad.write_bytes("# café\nAxiom: F\n".encode("latin-1"))
+    with pytest.raises(LSystemError, match=r"line 1, column 6: '.*latin1.lpy' is not UTF-8 text"):
+        LSystemDocument.from_file(bad)

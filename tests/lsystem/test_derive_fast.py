@@ -17,6 +17,8 @@ HERE = Path(__file__).parent / "grammars"
 FIXTURES = sorted(p.stem for p in HERE.glob("*.lpy"))
 CONSTANT = {"abop_1_24a", "abop_1_24b", "abop_1_24c", "abop_1_24d", "abop_1_24e", "abop_1_24f", "abop_1_25",
             "abop_1_26", "koch_island", "sierpinski"}
+#: Fixtures with Python code (imports, functions, rule bodies): they run only trusted (issue 34).
+CODE = {"continuous_growth", "fibonacci", "parametric", "stochastic"}
 
 
 def same(a: ModuleString, b: ModuleString) -> bool:
@@ -30,7 +32,7 @@ def stepwise(ls: LSystem, n: int, string: ModuleString | None = None) -> ModuleS
 
 @pytest.mark.parametrize("name", FIXTURES)
 def test_fixture_all_at_once_equals_stepwise(name):
-    ls = LSystem.from_file(HERE / f"{name}.lpy", seed=1)
+    ls = LSystem.from_file(HERE / f"{name}.lpy", seed=1, trusted=name in CODE)
     assert (ls._expand(ls.derivation_length, ls.axiom) is not None) == (name in CONSTANT)
     for n in range(ls.derivation_length + 2):
         assert same(ls.derive(n), stepwise(ls, n)), n
@@ -132,7 +134,7 @@ def test_stepwise_paths_used_where_needed():
     decomp = "Axiom: A\nproduction:\nA --> AB\ndecomposition:\nB --> C\nendlsystem\n"
     cond = "Axiom: A(1)\nproduction:\nA(x) : x > 0 --> A(x-1)B\nendlsystem\n"
     for text in (hooks, decomp, cond):
-        ls = LSystem(text)
+        ls = LSystem(text, trusted=text is hooks)
         assert ls._expand(3, ls.axiom) is None
     ls = LSystem("Axiom: F\nproduction:\nF --> FF\nendlsystem\n")
     assert ls._expand(3, ls.axiom) is not None and str(ls.derive(3)) == "F" * 8

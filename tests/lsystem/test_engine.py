@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from plantvr.lsystem import _derive_kernels as K
+from plantvr.lsystem import engine as E
 from plantvr.lsystem.engine import MAX_MODULES, LSystem, LSystemError
 from plantvr.lsystem.modules import ModuleString
 
@@ -29,16 +30,16 @@ def same(a: ModuleString, b: ModuleString) -> bool:
 
 
 def test_parametric_conditions_vectorised_equal_python():
-    fast = LSystem.from_file(HERE / "parametric.lpy")
+    fast = LSystem.from_file(HERE / "parametric.lpy", trusted=True)
     kinds = [(r.rule.header, r.vec is not None) for r in fast._rules["production"]]
     assert kinds == [("A(l, n)", True), ("A(l, n)", True), ("I(l)", True), ("L(l)", False)]
-    slow = python_only(LSystem.from_file(HERE / "parametric.lpy"))
+    slow = python_only(LSystem.from_file(HERE / "parametric.lpy", trusted=True))
     for n in range(8):
         assert same(fast.derive(n), slow.derive(n))
     s = fast.derive(2)
     assert str(s).startswith("I(1.02)[+(30)I(0.8)[+(30)A(0.64,4)]")
     assert fast.externs == {"ratio": 0.8, "depth": 6.0}
-    other = LSystem.from_file(HERE / "parametric.lpy", ratio=0.5, depth=2)
+    other = LSystem.from_file(HERE / "parametric.lpy", ratio=0.5, depth=2, trusted=True)
     assert other.externs == {"ratio": 0.5, "depth": 2.0}
     assert other.derive(4).count("A") == 0
 
@@ -91,15 +92,15 @@ def test_kernels_equal_twins():
 
 
 def test_stochastic_seeded_reproducible():
-    a = LSystem.from_file(HERE / "stochastic.lpy", seed=1).derive()
-    b = LSystem.from_file(HERE / "stochastic.lpy", seed=1).derive()
-    c = LSystem.from_file(HERE / "stochastic.lpy", seed=2).derive()
+    a = LSystem.from_file(HERE / "stochastic.lpy", seed=1, trusted=True).derive()
+    b = LSystem.from_file(HERE / "stochastic.lpy", seed=1, trusted=True).derive()
+    c = LSystem.from_file(HERE / "stochastic.lpy", seed=2, trusted=True).derive()
     assert same(a, b) and not same(a, c)
-    ls = LSystem.from_file(HERE / "stochastic.lpy", seed=1)
+    ls = LSystem.from_file(HERE / "stochastic.lpy", seed=1, trusted=True)
     assert same(ls.derive(), ls.derive())                    # reseeded at every derivation
     text = "from random import *\nAxiom: A\nproduction:\nA :\n    produce B(uniform(0, 1))\nendlsystem\n"
-    x = LSystem(text, seed=5).derive(1).args[0]
-    assert x == LSystem(text, seed=5).derive(1).args[0] == random.Random(5).uniform(0, 1)
+    x = LSystem(text, seed=5, trusted=True).derive(1).args[0]
+    assert x == LSystem(text, seed=5, trusted=True).derive(1).args[0] == random.Random(5).uniform(0, 1)
 
 
 def test_block_rules_nproduce_and_hooks():
@@ -122,7 +123,7 @@ Apex(n) :
     # produces nothing at n = 0: the rule fails and the module stays
 endlsystem
 """
-    ls = LSystem(text)
+    ls = LSystem(text, trusted=True)
     s = ls.derive()
     assert str(s) == "[+F]F[+F]F[+F]FApex(0)"
     assert ls._ns["count"] == 5
@@ -131,11 +132,11 @@ endlsystem
 def test_decomposition_and_stop():
     text = ("Axiom: A(3)\nderivation length: 4\nproduction:\nA(n) --> A(n+1)\ndecomposition:\n"
             "maximum depth: 10\nA(n) :\n    if n > 1:\n        produce B A(n-1)\n")
-    s = LSystem(text).derive(1)
+    s = LSystem(text, trusted=True).derive(1)
     assert str(s) == "BBBA(1)"
     text2 = "def EndEach():\n    if getIterationNb() == 1: Stop()\nAxiom: F\nderivation length: 9\n" \
             "production:\nF --> FF\nendlsystem\n"
-    assert len(list(LSystem(text2).iterate())) == 3
+    assert len(list(LSystem(text2, trusted=True).iterate())) == 3
 
 
 def test_module_cap_before_allocating():
@@ -149,9 +150,18 @@ def test_module_cap_before_allocating():
 
 
 def test_lexer_names_and_degrees():
-    ls = LSystem("Axiom: FF(0.5)+(30)F@Tp(0,0,-1)Apex(2)X\nproduction:\nendlsystem\n")
+    ls = LSystem("module Apex\nAxiom: FF(0.5)+(30)F@Tp(0,0,-1)Apex(2)X\nproduction:\nendlsystem\n")
     assert ls.axiom.modules() == [("F", ()), ("F", (0.5,)), ("+", (30.0,)), ("F", ()), ("@Tp", (0.0, 0.0, -1.0)),
                                   ("Apex", (2.0,)), ("X", ())]
+
+
+def test_undeclared_names_are_read_one_character_at_a_time_as_lpy():
+    """L-Py reads the longest declared (or predefined) module name, else one character (issue 33)."""
+    ls = LSystem("Axiom: A(1)\nderivation length: 1\nproduction:\nA(x) --> IB(x)Apex(2)SetColor(3)\nendlsystem\n")
+    assert ls.derive().modules() == [("I", ()), ("B", (1.0,)), ("A", ()), ("p", ()), ("e", ()), ("x", (2.0,)),
+                                     ("SetColor", (3.0,))]
+    decl = LSystem("module IB, Ap\nAxiom: IB(1)Apex(2)\n")
+    assert decl.axiom.modules() == [("IB", (1.0,)), ("Ap", ()), ("e", ()), ("x", (2.0,))]
 
 
 BAD = [
@@ -175,7 +185,7 @@ BAD = [
 @pytest.mark.parametrize("text, line, match", BAD)
 def test_bad_grammar_line_and_column(text, line, match):
     with pytest.raises(LSystemError, match=match) as err:
-        LSystem(text).derive(1)
+        LSystem(text, trusted=True).derive(1)
     assert err.value.line == line and err.value.column >= 0
     assert str(err.value).startswith(f"line {line}, column {err.value.column}: ")
 
@@ -190,12 +200,12 @@ def test_unsupported_modules_can_be_left_out_of_the_picture():
     """A grammar in the style of L-Py's training models (stochastic block rules, a homomorphism with
     ``f``/``;``/``@O`` flowers): its spheres are left out with a warning and never change the skeleton."""
     text = (HERE / "continuous_growth.lpy").read_text()
-    ls = LSystem(text, seed=2)
+    ls = LSystem(text, seed=2, trusted=True)
     with pytest.raises(LSystemError, match="unsupported module @O"):
         ls.tree()
     with pytest.warns(UserWarning, match=r"not drawn .*@O \(line \d+\)"):
         tree = ls.tree(unsupported="warn")
-    bare = LSystem(text.replace(";(4)@O(FLOWER * WIDTH * k)", ""), seed=2)
+    bare = LSystem(text.replace(";(4)@O(FLOWER * WIDTH * k)", ""), seed=2, trusted=True)
     ref = bare.tree()
     assert np.array_equal(tree.pos, ref.pos) and np.array_equal(tree.parent, ref.parent)
     assert tree.n_internodes == ls.derive().count("I") > 10
@@ -210,7 +220,7 @@ def test_fuzzed_grammars_fail_cleanly():
         k = int(rng.integers(0, len(base)))
         text = base[:k] + base[k + 1:] if rng.random() < 0.5 else base[:k] + "([:>-"[rng.integers(5)] + base[k:]
         try:
-            LSystem(text).derive(3)
+            LSystem(text, trusted=True).derive(3)
         except LSystemError as e:
             assert e.line >= 0 and str(e).startswith("line ")
         except ValueError as e:                              # an unknown extern after a mutated name
@@ -221,13 +231,98 @@ def test_door_validation():
     with pytest.raises(ValueError, match="text must be a str"):
         LSystem(3)
     with pytest.raises(ValueError, match="extern ratio must be a finite number"):
-        LSystem.from_file(HERE / "parametric.lpy", ratio=float("nan"))
+        LSystem.from_file(HERE / "parametric.lpy", ratio=float("nan"), trusted=True)
     with pytest.raises(ValueError, match="unknown extern 'ratoi'"):
-        LSystem.from_file(HERE / "parametric.lpy", ratoi=1)
-    ls = LSystem.from_file(HERE / "parametric.lpy")
+        LSystem.from_file(HERE / "parametric.lpy", ratoi=1, trusted=True)
+    ls = LSystem.from_file(HERE / "parametric.lpy", trusted=True)
     with pytest.raises(ValueError, match="n must be an integer"):
         ls.derive(-1)
     with pytest.raises(ValueError, match="string must be a ModuleString"):
         ls.derive(1, string="A(1,2)")
     s = ls.derive(1, string=ModuleString.from_modules([("A", (1.0, 1.0)), "Q"]))
     assert str(s).endswith("I(0.5)A(0.9,0)Q")
+
+
+def test_turtle_modules_read_their_first_parameters_as_lpy():
+    """Extra parameters of turtle modules are left out, as L-Py's turtle reads the first ones (issue 33)."""
+    for extra, plain in [("F(1,2,3)", "F(1,2)"), ("-(30, 2)F", "-(30)F"), ("+(40,1)F&(20,3)F", "+(40)F&(20)F"),
+                         ("_(0.3,2)F(1)", "_(0.3)F(1)"), ("@Tp(0,0,1,5)F", "@Tp(0,0,1)F")]:
+        a, b = LSystem(f"Axiom: {extra}\n").tree(), LSystem(f"Axiom: {plain}\n").tree()
+        assert np.array_equal(a.pos, b.pos) and np.array_equal(a.radius, b.radius), extra
+    ls = LSystem("Axiom: F\nproduction:\nF --> F[-(a, t)F]\nendlsystem\n".replace("a, t", "25, 0.5"))
+    plain = LSystem("Axiom: F\nproduction:\nF --> F[-(25)F]\nendlsystem\n")
+    assert np.array_equal(ls.tree(2).pos, plain.tree(2).pos)
+    assert str(ls.derive(1)) == "F[-(25,0.5)F]"                # the string keeps them
+    with pytest.raises(LSystemError, match=r"line 1, column 9: .*parameter 0 = inf") as err:
+        LSystem("Axiom: F-(1e999)\n").tree()
+    assert err.value.line == 1
+
+
+SEEDED = """\
+import random
+import random as rd
+import numpy
+from random import uniform
+Axiom: A(0)
+derivation length: 6
+production:
+A(k) :
+    a = random.random()
+    b = rd.randint(0, 1000)
+    c = float(numpy.random.random())
+    produce B(a, b, c, uniform(0, 1))A(k + 1)
+endlsystem
+"""
+
+
+def test_one_seed_drives_every_generator_a_trusted_grammar_uses():
+    """``seed=`` seeds ``random``, ``random.random``, ``rd.randint`` (``import random as rd``) and
+    ``numpy.random`` inside the grammar, during derivation only: the program's generators are left as they were
+    (issue 33)."""
+    random.seed(99)
+    np.random.seed(99)
+    outside = (random.getstate(), np.random.get_state()[1].copy())
+    a = LSystem(SEEDED, seed=4, trusted=True).derive()
+    steps = list(LSystem(SEEDED, seed=4, trusted=True).iterate())
+    b = LSystem(SEEDED, seed=4, trusted=True).derive()
+    c = LSystem(SEEDED, seed=5, trusted=True).derive()
+    assert same(a, b) and same(a, steps[-1]) and not same(a, c)
+    params = np.array([m[1] for m in a.modules() if m[0] == "B"])
+    assert len(params) == 6 and len(set(params[:, 0].tolist())) == 6 and len(set(params[:, 2].tolist())) == 6
+    assert random.getstate() == outside[0] and np.array_equal(np.random.get_state()[1], outside[1])
+    ls = LSystem(SEEDED, seed=4, trusted=True)
+    it = ls.iterate()
+    first = [next(it) for _ in range(3)]
+    random.random()                                           # the caller's draws between steps change nothing
+    np.random.random()
+    assert same(list(it)[-1], a) and same(first[2], steps[2])
+
+
+def test_every_error_has_a_line_and_column(tmp_path, monkeypatch):
+    """Issue 33: cap errors, context() and useGroup misuse, bad bytes: all located in the grammar."""
+    monkeypatch.setattr(E, "MAX_MODULES", 100)
+    cases = [("Axiom: F\nproduction:\nF --> FFF\nendlsystem\n", 5, 3),
+             ("Axiom: F\nproduction:\nB --> B\nF --> FFF\nendlsystem\n", 5, 4),
+             ("x = context().bogus\nAxiom: F\n", None, 1),
+             ("def StartEach():\n    useGroup(1)\nAxiom: F\nproduction:\nF --> F\nendlsystem\n", 2, 2),
+             ("Axiom: F\nderivation length: context().frame\n", None, 2),
+             ("Axiom: F\x00\n", None, 1)]
+    for text, n, line in cases:
+        with pytest.raises(LSystemError) as err:
+            ls = LSystem(text, trusted=True)
+            ls.derive(n) if n is not None else ls.derive()
+        assert err.value.line == line and err.value.column >= 1, (text, str(err.value))
+    p = tmp_path / "bad.lpy"
+    p.write_bytes(b"Axiom: F\xff\n")
+    with pytest.raises(LSystemError, match=r"line 1, column 9: '.*bad.lpy' is not UTF-8"):
+        LSystem.from_file(p)
+
+
+def test_top_level_code_draws_from_the_seeded_generators_too():
+    text = "import random\nimport numpy as np\nX = random.random()\nY = float(np.random.random())\nAxiom: F(X, Y)\n"
+    state = random.getstate()
+    a = LSystem(text, seed=8, trusted=True).axiom.args
+    assert np.array_equal(a, LSystem(text, seed=8, trusted=True).axiom.args)
+    assert a[0] == random.Random(8).random() and random.getstate() == state
+    plain = "Axiom: F\nproduction:\nF :\n    produce F\nendlsystem\n"
+    assert not LSystem(plain, seed=1, trusted=True)._global_random      # nothing to swap: no cost per step

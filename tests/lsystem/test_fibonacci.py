@@ -13,7 +13,7 @@ HERE = Path(__file__).parent / "grammars"
 
 def test_backward():
     """Computation of the Fibonacci series using fast transfer in backward direction (L-Py's test_backward)."""
-    ls = LSystem.from_file(HERE / "fibonacci.lpy")
+    ls = LSystem.from_file(HERE / "fibonacci.lpy", trusted=True)
     a = ls.derive()
     assert a.module(2)[1][0] == 6765
     assert a.module(3)[1][0] == 4181
@@ -25,7 +25,7 @@ def test_backward():
 
 
 def test_fibonacci_extern_and_steps():
-    ls = LSystem.from_file(HERE / "fibonacci.lpy")
+    ls = LSystem.from_file(HERE / "fibonacci.lpy", trusted=True)
     steps = list(ls.iterate())
     assert len(steps) == 3 and str(steps[0]) == "+(90);(3)A(20)"
     assert steps[1].count("I") == 20 and steps[1].count("A") == 0      # decomposed, max depth 100
@@ -33,6 +33,6 @@ def test_fibonacci_extern_and_steps():
 
 
 def test_fibonacci_label_is_not_a_number():
-    ls = LSystem.from_file(HERE / "fibonacci.lpy")
+    ls = LSystem.from_file(HERE / "fibonacci.lpy", trusted=True)
     with pytest.raises(LSystemError, match=r"line 33, .*module @L: parameter '6765' is a str"):
         ls.interpret(ls.derive())

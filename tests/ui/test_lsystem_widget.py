@@ -101,3 +101,30 @@ def test_extern_ranges_come_from_the_default():
     assert isinstance(w.doc, LSystemDocument) and w.doc.step == 5
     w.close()
     w.close()
+
+
+def test_the_trust_box_is_passed_to_set_grammar_and_follows_the_document(widget):
+    doc, w = widget
+    code = "def f(x):\n    return x * 2\nAxiom: F(f(1))\nderivation length: 1\nproduction:\nendlsystem\n"
+    panel = w.panel
+    assert isinstance(panel.trust_box, W.Checkbox) and panel.trust_box.value is False
+    assert "Trust this grammar (runs its Python code)" in panel.trust_box.description
+    before = doc.state_bytes()
+    w.grammar.value = code
+    assert w.apply() is False and doc.state_bytes() == before
+    assert "line 1, column 1" in panel.status.value and "trusted=True" in panel.status.value
+    panel.trust_box.value = True
+    assert w.apply() is True and doc.trusted and doc.log.events[-1].kwargs["trusted"] is True
+    doc.undo()                                                   # back to the untrusted grammar: the box follows
+    assert panel.trust_box.value is False and not doc.trusted
+
+
+def test_a_widget_of_a_grammar_str_takes_trusted():
+    code = "def f(x):\n    return x * 2\nAxiom: F(f(1))\n"
+    with pytest.raises(ValueError, match="trusted=True"):
+        LsystemWidget(code, live=False, window_size=(120, 100))
+    w = LsystemWidget(code, live=False, window_size=(120, 100), trusted=True)
+    try:
+        assert w.doc.trusted and w.trust_box.value is True
+    finally:
+        w.close()
