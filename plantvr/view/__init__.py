@@ -30,7 +30,7 @@ from ..types import TreeArrays  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
 
-__all__ = ["LOD", "View", "side_by_side"]
+__all__ = ["LOD", "View", "launch_live_server", "side_by_side"]
 
 GROW, PRUNE = "#2ecc40", "#e03030"
 CONTROL = "#d9c7a7"
@@ -425,6 +425,7 @@ class View:
         w, h = self.plotter.window_size
         width = int(check_range("width", w if width is None else width, 16, 16384))
         height = int(check_range("height", h if height is None else height, 16, 16384))
+        launch_live_server()
         widget = show_trame(self.plotter, mode="server", add_menu=False, width=f"{width}px",
                             height=f"{height}px")
         self.viewer = widget.viewer
@@ -432,6 +433,8 @@ class View:
 
     def show(self, jupyter_backend: str = "trame", **kwargs):
         """Show in JupyterLab (trame: ``"trame"`` remote-rendered, ``"client"``, ``"server"``) or a window."""
+        if jupyter_backend in ("trame", "server", "client"):
+            launch_live_server()  # before pyvista's own launcher, which would enable the wasm download
         return self.plotter.show(jupyter_backend=jupyter_backend, auto_close=False, **kwargs)
 
     def close(self) -> None:
@@ -445,6 +448,48 @@ class View:
             self._camera_tag = None
         self.viewer = None
         self.plotter.close()
+
+
+@contextlib.contextmanager
+def _without_vtklocal() -> Iterator[None]:
+    """Make ``from trame.widgets import vtklocal`` raise ImportError inside the block (Python's import rule:
+    a ``None`` entry in ``sys.modules`` is a module that cannot be imported)."""
+    import sys  # noqa: PLC0415
+
+    import trame.widgets  # noqa: PLC0415
+
+    name, missing = "trame.widgets.vtklocal", object()
+    saved_mod = sys.modules.get(name, missing)
+    saved_attr = trame.widgets.__dict__.pop("vtklocal", missing)
+    sys.modules[name] = None
+    try:
+        yield
+    finally:
+        if saved_mod is missing:
+            sys.modules.pop(name, None)
+        else:
+            sys.modules[name] = saved_mod
+        if saved_attr is not missing:
+            trame.widgets.vtklocal = saved_attr
+
+
+def launch_live_server():
+    """Start (once) the trame server that serves live views, without anything that downloads at run time.
+
+    ``trame_pyvista``'s launcher enables ``trame-vtklocal`` when it is installed, and that module fetches the
+    VTK.wasm bundle from gitlab.kitware.com on first use (neither the ``vtk`` nor the ``trame-vtklocal`` wheel
+    ships it): offline, a ``ClientConnectorDNSError`` traceback lands in the cell. Live views are server
+    rendered (``mode="server"``: trame-vtk's remote view, whose client ships in the ``trame-vtk`` wheel), so
+    the server is launched as if ``trame-vtklocal`` were absent. Returns the running server.
+    """
+    from trame_pyvista.jupyter import elegantly_launch  # noqa: PLC0415
+    from trame_pyvista.widgets import get_server  # noqa: PLC0415
+
+    server = get_server(name=pv.global_theme.trame.jupyter_server_name)
+    if not server.running:
+        with _without_vtklocal():
+            elegantly_launch(server, wslink_backend="aiohttp")
+    return server
 
 
 def side_by_side(control, surface, *, off_screen: bool | None = None, window_size=(1000, 500),
