@@ -70,11 +70,26 @@ def _tooltip(p: Param) -> str:
 def _float_step(p: Param) -> float:
     if p.step:
         return float(p.step)
-    lo, hi = p.range
+    lo, hi = p.slider_span()
     step = (hi - lo) / 200
     if p.default:
         step = min(step, 10 ** math.floor(math.log10(abs(p.default))) / 10)
     return float(f"{step:.1g}")
+
+
+def _log_bounds(p: Param, value: float) -> tuple[float, float, float]:
+    """(min, max, step) exponents of a log slider of ``p`` showing ``value`` (base 10, ~200 steps)."""
+    lo, hi = (math.log10(v) for v in p.slider_span())
+    if value > 0:
+        lo, hi = _log_widen(lo, hi, value)
+    return lo, hi, float(f"{(hi - lo) / 200:.1g}")
+
+
+def _log_widen(lo: float, hi: float, value: float) -> tuple[float, float]:
+    """Exponent bounds widened to hold ``value`` (a hair beyond it: ``10 ** log10(v)`` may round below v, and
+    the slider would clamp the value)."""
+    e = math.log10(value)
+    return min(lo, e - 1e-9), max(hi, e + 1e-9)
 
 
 class IconSelector(W.HBox):
@@ -134,19 +149,28 @@ def make_control(p: Param, value: Any) -> W.Widget:
         return W.Dropdown(options=list(p.choices), value=value, description=desc, tooltip=tip, style=style)
     if p.kind is bool:
         return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style)
-    lo, hi = p.range
+    lo, hi = p.slider_span()
     if p.kind is int:
         if hi - lo > _TEXT_LIMIT:
             return W.IntText(value=int(value), description=desc, tooltip=tip, style=style)
+        lo, hi = min(int(lo), int(value)), max(int(hi), int(value))
         return W.IntSlider(value=int(value), min=int(lo), max=int(hi), step=1, description=desc, tooltip=tip,
-                           style=style, continuous_update=False)
+                           style=style, continuous_update=False, layout=_SLIDER_LAYOUT())
+    if p.log:
+        elo, ehi, estep = _log_bounds(p, float(value))
+        return W.FloatLogSlider(value=float(value), base=10, min=elo, max=ehi, step=estep, description=desc,
+                                tooltip=tip, style=style, continuous_update=False, readout_format=".3g",
+                                layout=_SLIDER_LAYOUT())
     step = _float_step(p)
-    low = lo + step if p.low_open else lo
-    high = hi - step if p.high_open else hi
+    low = lo + step if p.low_open and lo == p.range[0] else lo
+    high = hi - step if p.high_open and hi == p.range[1] else hi
     low, high = min(low, value), max(high, value)  # a valid value set from code is always shown as it is
     return W.FloatSlider(value=float(value), min=low, max=high, step=step, description=desc, tooltip=tip,
-                         style=style, continuous_update=False, readout_format=".3g",
-                         layout=W.Layout(width="420px", max_width="100%"))   # never wider than its column
+                         style=style, continuous_update=False, readout_format=".3g", layout=_SLIDER_LAYOUT())
+
+
+def _SLIDER_LAYOUT() -> W.Layout:
+    return W.Layout(width="420px", max_width="100%")   # never wider than its column
 
 
 def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
@@ -164,7 +188,10 @@ def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
 
 def show_value(ctl: W.Widget, value: Any) -> None:
     """Show ``value`` in ``ctl``, widening a slider's range first so a valid value set from code shows as is."""
-    if isinstance(ctl, (W.FloatSlider, W.IntSlider)):
+    if isinstance(ctl, W.FloatLogSlider):
+        if value > 0 and not 10 ** ctl.min <= value <= 10 ** ctl.max:
+            ctl.min, ctl.max = _log_widen(ctl.min, ctl.max, value)
+    elif isinstance(ctl, (W.FloatSlider, W.IntSlider)):
         ctl.min, ctl.max = min(ctl.min, value), max(ctl.max, value)
     ctl.value = value
 

@@ -42,12 +42,19 @@ from .lsystem_panel import LsystemPanel
 from .panels import ParameterPanels
 from .wheel import ColorWheel
 
-__all__ = ["EDITORS", "REGROW_COMMANDS", "REGROW_WINDOWS", "Workbench", "live_frontend", "workbench"]
+__all__ = ["EDITORS", "REGROW_BY_KIND", "REGROW_COMMANDS", "REGROW_WINDOWS", "SKETCH_REGROW_COMMANDS", "Workbench",
+           "live_frontend", "workbench"]
 
 #: Tree Wand commands re-issued by a regrow (what grew the tree since the last reset).
 REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
+#: TreeSketch commands re-issued by a regrow (the strokes, markers and growth since the last reset; edits that
+#: name nodes of the old tree, ``select`` / ``set_width`` / ``bend``, are not).
+SKETCH_REGROW_COMMANDS = ("begin_stroke", "move_stroke", "end_stroke", "paint", "add_markers", "lasso", "grow",
+                          "ungrow", "advance", "prune", "prune_at")
 #: Parameter windows whose parameters change growth (the others only change the picture).
 REGROW_WINDOWS = ("form", "light")
+#: By document kind: the windows whose parameters change growth (a forest: all of them).
+REGROW_BY_KIND = {"treewand": REGROW_WINDOWS, "treesketch": (*REGROW_WINDOWS, "sketch"), "forest": ("forest",)}
 #: The part's own panel by document kind (``doc.KIND``), shown under the generated panel.
 EDITORS = {"inflorescence": FloretEditor, "crown": ImplicitPanel, "treesketch": ArchitecturePanel,
            "lsystem": LsystemPanel}
@@ -139,6 +146,7 @@ class Workbench(W.HBox):
         self.regrows = 0
         self._reissued = 0            # brush commands a regrow issued again (not counted as new strokes)
         self._pending = False
+        self._refit = False           # the next change is a regrow's: refit the camera
         self._redraw = False          # a headless picture is due
         self._start = len(doc.log)
         self._closed = True           # until the layout is built
@@ -188,8 +196,9 @@ class Workbench(W.HBox):
         left = W.VBox([self.screen, W.HBox(tools, layout=W.Layout(flex_flow="row wrap")), self.status],
                       layout=W.Layout(flex="0 0 auto", width=f"{window_size[0] + 8}px"))
         right = [w for w in (self.panels, self.growth, self.wheel, self.editor) if w is not None]
-        self._regrow_names = ({p.name for p in doc.PARAMS if p.window in REGROW_WINDOWS}
-                              if self.treewand else set())
+        self._regrow_kind = getattr(doc, "KIND", None) if getattr(doc, "KIND", None) in REGROW_BY_KIND else None
+        windows = REGROW_BY_KIND.get(self._regrow_kind, ())
+        self._regrow_names = {p.name for p in doc.PARAMS if p.window in windows} if windows else set()
         if self._regrow_names:
             doc.observe(self._on_param, names=sorted(self._regrow_names))
         doc.observe(self._on_change, names="change")  # after the view's own observer: it has redrawn
@@ -211,6 +220,11 @@ class Workbench(W.HBox):
             self.view.frame()
             if self.live:
                 self.view._render_soon()
+        elif self._refit:                 # a regrow changed the size: fit it again, same direction
+            self.view.fit()
+            if self.live:
+                self.view._render_soon()
+        self._refit = False
         if not self.live and not self._redraw:
             loop = kernel_loop()          # in a kernel, one picture after the cell / message, not one per command
             self._redraw = True
@@ -272,21 +286,35 @@ class Workbench(W.HBox):
             self.regrow()
 
     def regrow(self) -> int:
-        """Grow the Tree Wand tree again with the current parameters from the session's own commands.
+        """Grow the document again with its current parameters; returns the number of commands re-issued.
 
-        ``reset(seed=model.seed)``, then every ``paint`` / ``paint_stroke`` / ``add_markers`` / ``step`` /
-        ``prune`` logged since the last reset, re-issued in order (so the same darts and the same step count);
-        all logged, as one undo item; the document's observers are notified once, at the end (one ``change``,
-        one ``version``). Returns the number of commands re-issued.
+        Tree Wand: ``reset(seed=model.seed)``, then every ``paint`` / ``paint_stroke`` / ``add_markers`` /
+        ``step`` / ``prune`` logged since the last reset, re-issued in order (so the same darts and the same step
+        count). TreeSketch: the same with :data:`SKETCH_REGROW_COMMANDS`. Both are logged, as one undo item, and
+        the document's observers are notified once, at the end (one ``change``, one ``version``). A forest: its
+        last ``grow`` again (same overrides and TreeSketch options), when it was grown. The camera is then fitted
+        to the new size (same direction).
         """
-        if not self.treewand:
-            raise ValueError(f"regrow needs a Tree Wand model, got {type(self.doc).__name__}")
+        if self._regrow_kind is None:
+            raise ValueError(f"regrow needs a Tree Wand, TreeSketch or forest document, got {type(self.doc).__name__}")
         doc = self.doc
-        if doc.growing:
+        if self._regrow_kind == "forest":
+            grows = [e for e in doc.log.events if e.command == "grow"]
+            if doc.forest is None or not grows:
+                return 0
+            self._refit = True
+            doc.grow(**dict(grows[-1].kwargs))
+            self.regrows += 1
+            self._sync()
+            return 1
+        if getattr(doc, "growing", False):
             doc.stop()
+        names = REGROW_COMMANDS if self.treewand else SKETCH_REGROW_COMMANDS
         events = doc.log.events
         start = max((i for i, e in enumerate(events) if e.command == "reset"), default=-1) + 1
-        commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in REGROW_COMMANDS]
+        commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in names]
+        if not self.treewand and getattr(doc, "stroking", False):
+            commands.append(("end_stroke", {}))       # a stroke left open is closed in the regrown tree
         for name, kwargs in commands:
             doc.check_command(name, kwargs)
         before = doc.get_state()
@@ -303,6 +331,7 @@ class Workbench(W.HBox):
             doc.history = history
         self.regrows += 1
         self._reissued += sum(1 for name, _ in commands if name in ("paint", "paint_stroke", "prune"))
+        self._refit = True
         self._on_change(None)
         return len(commands)
 

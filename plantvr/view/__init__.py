@@ -335,24 +335,37 @@ class View:
         return int(sum(t.triangles for t in self._lod_layers()))
 
     # -- camera, brush, output ------------------------------------------------------------------------------
-    def frame(self) -> None:
-        """Point the camera at the whole scene from a three-quarter view (a tree scene keeps at least 2 m in
-        view; other scenes are fitted to their bounds)."""
+    def _content_bounds(self) -> tuple[float, ...] | None:
+        """(xmin, xmax, ymin, ymax, zmin, zmax) of every layer's points (a tree scene at least 2 m wide)."""
         pts = [lay.points() for lay in self.layers.values()]
         pts = [p for p in pts if len(p)]
         if not pts:
-            return
+            return None
         pts = np.concatenate(pts)
         lo, hi = pts.min(0), pts.max(0)
         c = 0.5 * (lo + hi)
+        least = 2.0 if any(isinstance(lay, TreeLayer) for lay in self.layers.values()) else 1e-6
+        half = np.maximum(0.5 * (hi - lo), 0.5 * least)
+        lo, hi = c - half, c + half
+        return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
+
+    def frame(self) -> None:
+        """Point the camera at the whole scene from a three-quarter view, fitted to its content (a tree scene
+        keeps at least 2 m in view)."""
+        b = self._content_bounds()
+        if b is None:
+            return
+        c = np.array([b[0] + b[1], b[2] + b[3], b[4] + b[5]]) / 2
         self.plotter.subplot(0, 0)
-        if any(isinstance(lay, TreeLayer) for lay in self.layers.values()):
-            size = max(float(np.max(hi - lo)), 2.0)
-            self.plotter.camera_position = [tuple(c + size * np.array([1.3, 0.45, 1.3])), tuple(c), (0, 1, 0)]
-        else:
-            size = max(float(np.max(hi - lo)), 1e-6)
-            self.plotter.camera_position = [tuple(c + size * np.array([1.0, 0.3, 1.0])), tuple(c), (0, 1, 0)]
-            self.plotter.reset_camera()          # keep the direction, fit the bounds
+        self.plotter.camera_position = [tuple(c + np.array([1.0, 0.35, 1.0])), tuple(c), (0, 1, 0)]
+        self.plotter.reset_camera(bounds=b)      # the direction above, the whole content in view
+
+    def fit(self) -> None:
+        """Fit the camera to the content again, keeping its direction (after a regrow changed the size)."""
+        b = self._content_bounds()
+        if b is not None:
+            self.plotter.subplot(0, 0)
+            self.plotter.reset_camera(bounds=b)
 
     def _on_mode(self, change) -> None:
         self._set_brush_colour(change["new"])
