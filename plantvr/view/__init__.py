@@ -336,7 +336,8 @@ class View:
 
     # -- camera, brush, output ------------------------------------------------------------------------------
     def _content_bounds(self) -> tuple[float, ...] | None:
-        """(xmin, xmax, ymin, ymax, zmin, zmax) of every layer's points (a tree scene at least 2 m wide)."""
+        """(xmin, xmax, ymin, ymax, zmin, zmax) of every layer's points with a 15 % margin (a tree scene at least
+        2 m wide)."""
         pts = [lay.points() for lay in self.layers.values()]
         pts = [p for p in pts if len(p)]
         if not pts:
@@ -345,7 +346,7 @@ class View:
         lo, hi = pts.min(0), pts.max(0)
         c = 0.5 * (lo + hi)
         least = 2.0 if any(isinstance(lay, TreeLayer) for lay in self.layers.values()) else 1e-6
-        half = np.maximum(0.5 * (hi - lo), 0.5 * least)
+        half = np.maximum(0.5 * (hi - lo), 0.5 * least) * 1.15   # a margin: leaves reach past the nodes
         lo, hi = c - half, c + half
         return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
 

@@ -1,13 +1,16 @@
-"""The live workbench works with the network off (issue 31, "no run-time downloads").
+"""The live workbench works with the network off, and its sliders redraw the browser's picture (issue 31).
 
 ``plantvr.ui.workbench(doc, live=True)`` for every document kind is started with name resolution blocked for
 every host but this machine (what an offline laptop or CI container sees), its trame page is opened in headless
 Chromium with every non-loopback request refused, and each view's picture must arrive and show the document;
-nothing may try to download (``trame-vtklocal``'s VTK.wasm fetch), and no traceback may be printed.
+nothing may try to download (``trame-vtklocal``'s VTK.wasm fetch), and no traceback may be printed. Then one
+slider of each generated panel is moved on the server's event loop (as a comm message is handled in a kernel):
+the document changes (and regrows where it grows) and the picture in the browser changes.
 Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 """
 from __future__ import annotations
 
+import asyncio
 import io
 import socket
 import sys
@@ -55,6 +58,29 @@ def offline(monkeypatch):
     return refused
 
 
+#: kind -> (slider of the generated panel, value it is moved to)
+SLIDE = {"treewand": ("max_len_mult", 5.0), "treesketch": ("main_branch_angle", 40.0), "forest": ("width", 40.0),
+         "inflorescence": ("time", 0.3)}
+
+
+def _on_server_loop(fn) -> None:
+    """Run ``fn`` on the trame server's event loop and let the callbacks it schedules run (a kernel's turn)."""
+    from trame_pyvista.jupyter import _server_loop
+
+    async def turn():
+        fn()
+        for _ in range(10):
+            await asyncio.sleep(0.05)
+
+    asyncio.run_coroutine_threadsafe(turn(), _server_loop()).result(180)
+
+
+def _picture(img) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(img.screenshot())).convert("RGB"))
+
+
 def _content_fraction(img: np.ndarray) -> float:
     """Share of pixels unlike their row's median (the background is a vertical gradient)."""
     rgb = img[..., :3].astype(np.int16)
@@ -100,13 +126,30 @@ def test_live_workbench_of_every_kind_renders_with_the_network_off(offline, tmp_
                 img.wait_for(state="visible", timeout=30_000)
                 deadline, frac = time.monotonic() + 20, 0.0
                 while time.monotonic() < deadline:          # the first picture replaces an empty image
-                    pic = np.asarray(Image.open(io.BytesIO(img.screenshot())).convert("RGB"))
+                    pic = _picture(img)
                     frac = _content_fraction(pic)
                     if frac > 0.003:
                         break
                     time.sleep(0.3)
                 Image.fromarray(pic).save(shots / f"live_offline_{kind}.png")
                 assert frac > 0.003, f"{kind}: the live picture is blank ({frac:.4f} of pixels drawn)"
+                if kind in SLIDE:
+                    name, value = SLIDE[kind]
+                    before, regrows = wb.doc.state_bytes(), wb.regrows
+                    time.sleep(0.5)                         # the first picture is settled
+                    pic = _picture(img)
+                    _on_server_loop(lambda: setattr(wb.panels.controls[name], "value", value))
+                    assert getattr(wb.doc, name) == pytest.approx(value) and wb.doc.state_bytes() != before
+                    assert kind == "inflorescence" or wb.regrows == regrows + 1, f"{kind}: no regrow"
+                    deadline, moved = time.monotonic() + 20, 0.0
+                    while time.monotonic() < deadline:
+                        after = _picture(img)
+                        moved = float((np.abs(after.astype(int) - pic).max(axis=-1) > 8).mean())
+                        if moved > 0.005:
+                            break
+                        time.sleep(0.3)
+                    Image.fromarray(after).save(shots / f"live_offline_{kind}_{name}.png")
+                    assert moved > 0.005, f"{kind}: moving {name} did not change the browser's picture"
                 time.sleep(0.5)
                 page.close()
             assert not errors, errors
