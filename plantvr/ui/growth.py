@@ -128,11 +128,13 @@ class GrowthControl(W.VBox):
                              f"<b>{snap.n_internodes}</b> internodes · {len(snap.markers)} markers")
         if st is not None and st.step != self._last_step and snap.step > 0:
             self._last_step = st.step
-            k = self.max_points
+            # every step since the tree started (the model keeps them): steps grown before this control
+            # existed, several steps of one call and a regrow's steps are all plotted, not only the last
+            hist = self.model.step_stats[-self.max_points:]
             with self.plot.hold_sync():
-                self.plot.steps = (self.plot.steps + [int(st.step)])[-k:]
-                self.plot.ms = (self.plot.ms + [float(st.ms)])[-k:]
-                self.plot.internodes = (self.plot.internodes + [int(snap.n_internodes)])[-k:]
+                self.plot.steps = [int(h.step) for h in hist]
+                self.plot.ms = [float(h.ms) for h in hist]
+                self.plot.internodes = [int(h.internodes) for h in hist]
 
     def close(self) -> None:
         """Stop growth and observing the model."""
