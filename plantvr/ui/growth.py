@@ -60,11 +60,12 @@ class GrowthControl(W.VBox):
                                                          low_open=True),
                                        min=0.1, max=1000, step=1, description="steps/s",
                                        tooltip="Play pace (steps per second)", layout=W.Layout(width="160px"))
-        self.play_button = W.Button(description="Play", icon="play", button_style="success")
-        self.pause_button = W.Button(description="Pause", icon="pause")
-        self.step_button = W.Button(description="Step", icon="step-forward")
+        fit = {"layout": W.Layout(width="auto")}     # a button as wide as its label: never clipped
+        self.play_button = W.Button(description="Play", icon="play", button_style="success", **fit)
+        self.pause_button = W.Button(description="Pause", icon="pause", **fit)
+        self.step_button = W.Button(description="Step", icon="step-forward", **fit)
         self.reset_button = W.Button(description="Reset", icon="undo", button_style="warning",
-                                     tooltip="Start a new tree (keeps the base)")
+                                     tooltip="Start a new tree (keeps the base)", **fit)
         self.play_button.on_click(lambda _b: self.play())
         self.pause_button.on_click(lambda _b: self.pause())
         self.step_button.on_click(lambda _b: self.step())
@@ -78,7 +79,7 @@ class GrowthControl(W.VBox):
         self._on_version(None)
         self._on_growing(None)
         super().__init__([W.HBox([self.play_button, self.pause_button, self.step_button, self.reset_button,
-                                  self.rate]), self.status, self.plot])
+                                  self.rate], layout=W.Layout(flex_flow="row wrap")), self.status, self.plot])
 
     # -- commands -------------------------------------------------------------------------------------
     def play(self) -> None:

@@ -29,6 +29,7 @@ HIGHLIGHT = "#f5d142"
 #: Parameters edited by the influence triangle (the names ``Model.set_influence`` writes).
 INFLUENCE = ("w_heading", "w_tropism", "w_env")
 _TEXT_LIMIT = 2000  # integer ranges wider than this get a typed box instead of a slider
+_LABEL_WIDTH = "190px"  # the longest label, "Occupation radius (r_occ)", in JupyterLab's 13 px font
 
 
 def _table(doc) -> ParamTable:
@@ -119,7 +120,7 @@ class IconSelector(W.HBox):
             btn.on_click(lambda _b, n=name: setattr(self, "value", n))
             self.buttons[name], self.images[name] = btn, img
             items.append(W.VBox([img, btn], layout=W.Layout(align_items="center")))
-        label = W.Label(description, tooltip=tooltip, layout=W.Layout(width="150px"))
+        label = W.Label(description, tooltip=tooltip, layout=W.Layout(width=_LABEL_WIDTH))
         super().__init__([label, *items], tooltip=tooltip)
         self.observe(self._highlight, names=["value"])
         self.value = value
@@ -142,13 +143,13 @@ class IconSelector(W.HBox):
 def make_control(p: Param, value: Any) -> W.Widget:
     """One widget for parameter ``p`` showing ``value``: bounds, step and tooltip come from ``p``."""
     tip, desc = _tooltip(p), _label(p)
-    style = {"description_width": "150px"}
+    style = {"description_width": _LABEL_WIDTH}
     if p.choices:
         if p.name.endswith("_texture"):
             return IconSelector(p.choices, value, description=desc, tooltip=tip, param=p.name)
         return W.Dropdown(options=list(p.choices), value=value, description=desc, tooltip=tip, style=style)
     if p.kind is bool:
-        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style)
+        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style, layout=_SLIDER_LAYOUT())
     lo, hi = p.slider_span()
     if p.kind is int:
         if hi - lo > _TEXT_LIMIT:
@@ -170,7 +171,7 @@ def make_control(p: Param, value: Any) -> W.Widget:
 
 
 def _SLIDER_LAYOUT() -> W.Layout:
-    return W.Layout(width="420px", max_width="100%")   # never wider than its column
+    return W.Layout(width="470px", max_width="100%")   # never wider than its column
 
 
 def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
@@ -248,12 +249,13 @@ class ParameterPanels(W.VBox):
         for i, k in enumerate(keys):
             tabs.set_title(i, table.windows[k][0])
         self.tabs = tabs
-        self.preset_path = W.Text(value="preset.json", description="Preset", layout=W.Layout(width="320px"))
-        save, load = W.Button(description="Save preset", icon="save"), W.Button(description="Load preset",
-                                                                                  icon="folder-open")
+        self.preset_path = W.Text(value="preset.json", description="Preset", layout=W.Layout(width="260px"))
+        save = W.Button(description="Save preset", icon="save", layout=W.Layout(width="auto"))
+        load = W.Button(description="Load preset", icon="folder-open", layout=W.Layout(width="auto"))
         save.on_click(lambda _b: self._click(self.save))
         load.on_click(lambda _b: self._click(self.load))
-        super().__init__([tabs, W.HBox([self.preset_path, save, load]), self.message])
+        super().__init__([tabs, W.HBox([self.preset_path, save, load], layout=W.Layout(flex_flow="row wrap")),
+                          self.message])
 
     # -- synchronisation --------------------------------------------------------------------------------
     def _push(self, name: str, value) -> None:

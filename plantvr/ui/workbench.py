@@ -42,8 +42,8 @@ from .lsystem_panel import LsystemPanel
 from .panels import ParameterPanels
 from .wheel import ColorWheel
 
-__all__ = ["EDITORS", "REGROW_BY_KIND", "REGROW_COMMANDS", "REGROW_WINDOWS", "SKETCH_REGROW_COMMANDS", "Workbench",
-           "live_frontend", "workbench"]
+__all__ = ["EDITORS", "OWN_PANEL_ONLY", "REGROW_BY_KIND", "REGROW_COMMANDS", "REGROW_WINDOWS",
+           "SKETCH_REGROW_COMMANDS", "Workbench", "close_when_headless", "live_frontend", "workbench"]
 
 #: Tree Wand commands re-issued by a regrow (what grew the tree since the last reset).
 REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
@@ -58,6 +58,9 @@ REGROW_BY_KIND = {"treewand": REGROW_WINDOWS, "treesketch": (*REGROW_WINDOWS, "s
 #: The part's own panel by document kind (``doc.KIND``), shown under the generated panel.
 EDITORS = {"inflorescence": FloretEditor, "crown": ImplicitPanel, "treesketch": ArchitecturePanel,
            "lsystem": LsystemPanel}
+#: Kinds whose own panel edits every row of the table (the floret editor: settings, each key pose, growth): the
+#: generated panel is left out, so one part has one panel.
+OWN_PANEL_ONLY = ("inflorescence",)
 
 
 def live_frontend() -> bool:
@@ -79,6 +82,21 @@ def live_frontend() -> bool:
     shell = get_ipython()
     return (shell is not None and getattr(shell, "kernel", None) is not None
             and importlib.util.find_spec("trame_pyvista") is not None)
+
+
+def close_when_headless(*widgets) -> bool:
+    """Close ``widgets`` (workbenches, panels, any object with ``close()``) at the end of a notebook, but only
+    when no browser shows them: under nbval, nbclient or a script (:func:`live_frontend` False) they are closed
+    to free their render windows and observers; in JupyterLab they stay, so *Run All* leaves the live views
+    usable. Returns whether they were closed."""
+    bad = [type(w).__name__ for w in widgets if not callable(getattr(w, "close", None))]
+    if bad:
+        raise ValueError(f"close_when_headless takes objects with close(), got {bad[0]}")
+    if live_frontend():
+        return False
+    for w in widgets:
+        w.close()
+    return True
 
 
 def workbench(doc, *, live: bool | None = None, window_size=(640, 520)) -> Workbench:
@@ -114,7 +132,8 @@ class Workbench(W.HBox):
     brush : BrushInteractor or LabelBrush or None
         The brush over the view (Tree Wand: markers / prune; ViNE: the wheel's label); None for other documents.
     panels : ParameterPanels or None
-        The generated parameter windows (None for a document without a table).
+        The generated parameter windows (None for a document without a table, and for the kinds of
+        :data:`OWN_PANEL_ONLY`, whose own panel edits every parameter).
     growth : GrowthControl or None
         Play / pause / step / reset (Tree Wand).
     wheel : ColorWheel or None
@@ -154,7 +173,8 @@ class Workbench(W.HBox):
         self._framed = self._has_content()   # a document that starts empty is framed when content comes
         self.treewand = isinstance(doc, Model)
         self.labels = isinstance(doc, Segmentation)
-        self.panels = ParameterPanels(doc) if getattr(doc, "PARAMS", None) is not None else None
+        self.panels = (ParameterPanels(doc) if getattr(doc, "PARAMS", None) is not None
+                       and getattr(doc, "KIND", None) not in OWN_PANEL_ONLY else None)
         self.growth = GrowthControl(doc) if self.treewand else None
         self.wheel = ColorWheel(target=doc) if self.labels else None
         self.editor = _editor(doc)
@@ -206,7 +226,12 @@ class Workbench(W.HBox):
             self.brush.attach()
         self._sync()
         self._closed = False
-        super().__init__([left, W.VBox(right, layout=W.Layout(max_width="560px" if self.editor is None else "960px"))])
+        # the controls sit beside the view, or below it when the output is too narrow for both (JupyterLab
+        # with its side bar open at 1280 px): never squeezed until labels are clipped
+        column = W.Layout(max_width="680px" if self.editor is None else "960px", flex="1 1 0",
+                          min_width="480px" if self.editor is None else "400px")
+        super().__init__([left, W.VBox(right, layout=column)],
+                         layout=W.Layout(flex_flow="row wrap", align_items="flex-start"))
 
     # -- document -> widgets -------------------------------------------------------------------------------
     def _has_content(self) -> bool:
