@@ -138,7 +138,8 @@ def test_live_workbench_of_every_kind_renders_with_the_network_off(offline, tmp_
                     before, regrows = wb.doc.state_bytes(), wb.regrows
                     time.sleep(0.5)                         # the first picture is settled
                     pic = _picture(img)
-                    _on_server_loop(lambda: setattr(wb.panels.controls[name], "value", value))
+                    controls = (wb.panels or wb.editor).controls    # the floret editor is the floret's panel
+                    _on_server_loop(lambda: setattr(controls[name], "value", value))
                     assert getattr(wb.doc, name) == pytest.approx(value) and wb.doc.state_bytes() != before
                     assert kind == "inflorescence" or wb.regrows == regrows + 1, f"{kind}: no regrow"
                     deadline, moved = time.monotonic() + 20, 0.0
