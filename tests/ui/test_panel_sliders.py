@@ -170,3 +170,36 @@ def test_every_panel_slider_regrows_and_redraws(kind):
                 assert wb.view.drawn_version == doc.version
     finally:
         wb.close()
+
+
+def _outside(view, pts: np.ndarray) -> float:
+    """Share of ``pts`` the view's camera projects outside its picture."""
+    ren = view.plotter.renderer
+    w, h = view.plotter.window_size
+    out = 0
+    for p in pts:
+        ren.SetWorldPoint(*p, 1.0)
+        ren.WorldToDisplay()
+        x, y, _ = ren.GetDisplayPoint()
+        out += not (0 <= x <= w and 0 <= y <= h)
+    return out / max(len(pts), 1)
+
+
+def test_the_camera_is_refitted_after_a_regrow():
+    doc = _treewand()[0]
+    wb = workbench(doc, live=False, window_size=(200, 160))
+    try:
+        direction = np.subtract(*wb.view.plotter.camera_position[:2])
+        old = wb.view.plotter.camera_position
+        assert _outside(wb.view, doc.tree.pos[doc.tree.alive]) == 0
+        wb.panels.controls["max_len_mult"].value = 10.0          # internodes up to 10 base lengths: a taller tree
+        wb.flush()
+        pts = doc.tree.pos[doc.tree.alive]
+        assert wb.regrows == 1 and np.ptp(pts[:, 1]) > 0
+        assert _outside(wb.view, pts) == 0, "the regrown tree left the frame"
+        new = np.subtract(*wb.view.plotter.camera_position[:2])
+        assert np.allclose(new / np.linalg.norm(new), direction / np.linalg.norm(direction))   # same direction
+        wb.view.plotter.camera_position = old                      # the camera before: the tree went out of it
+        assert _outside(wb.view, pts) > 0
+    finally:
+        wb.close()
