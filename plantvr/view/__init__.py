@@ -336,7 +336,7 @@ class View:
 
     # -- camera, brush, output ------------------------------------------------------------------------------
     def _content_bounds(self) -> tuple[float, ...] | None:
-        """(xmin, xmax, ymin, ymax, zmin, zmax) of every layer's points with a 15 % margin (a tree scene at least
+        """(xmin, xmax, ymin, ymax, zmin, zmax) of every layer's points with an 8 % margin (a tree scene at least
         2 m wide)."""
         pts = [lay.points() for lay in self.layers.values()]
         pts = [p for p in pts if len(p)]
@@ -346,7 +346,7 @@ class View:
         lo, hi = pts.min(0), pts.max(0)
         c = 0.5 * (lo + hi)
         least = 2.0 if any(isinstance(lay, TreeLayer) for lay in self.layers.values()) else 1e-6
-        half = np.maximum(0.5 * (hi - lo), 0.5 * least) * 1.15   # a margin: leaves reach past the nodes
+        half = np.maximum(0.5 * (hi - lo), 0.5 * least) * 1.08   # a margin: leaves reach past the nodes
         lo, hi = c - half, c + half
         return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
 
@@ -354,19 +354,38 @@ class View:
         """Point the camera at the whole scene from a three-quarter view, fitted to its content (a tree scene
         keeps at least 2 m in view)."""
         b = self._content_bounds()
-        if b is None:
-            return
-        c = np.array([b[0] + b[1], b[2] + b[3], b[4] + b[5]]) / 2
-        self.plotter.subplot(0, 0)
-        self.plotter.camera_position = [tuple(c + np.array([1.0, 0.35, 1.0])), tuple(c), (0, 1, 0)]
-        self.plotter.reset_camera(bounds=b)      # the direction above, the whole content in view
+        if b is not None:
+            self._fit(b, np.array([1.0, 0.35, 1.0]))
 
     def fit(self) -> None:
         """Fit the camera to the content again, keeping its direction (after a regrow changed the size)."""
         b = self._content_bounds()
         if b is not None:
             self.plotter.subplot(0, 0)
-            self.plotter.reset_camera(bounds=b)
+            pos, focal, _up = self.plotter.camera_position
+            self._fit(b, np.subtract(pos, focal))
+
+    def _fit(self, bounds, direction) -> None:
+        """Put the camera on ``direction`` from the centre of ``bounds`` (y up), at the distance where every
+        corner of the box is inside the picture (perspective, this panel's aspect ratio)."""
+        self.plotter.subplot(0, 0)
+        lo, hi = np.array(bounds[0::2], float), np.array(bounds[1::2], float)
+        c = 0.5 * (lo + hi)
+        v = np.asarray(direction, float)
+        v = v / np.linalg.norm(v)
+        up = np.array([0.0, 1.0, 0.0])
+        if abs(v @ up) > 0.99:                      # looking straight down / up: z is up on the screen
+            up = np.array([0.0, 0.0, -1.0])
+        r = np.cross(up, v)
+        r /= np.linalg.norm(r)
+        u = np.cross(v, r)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - c
+        t = np.tan(np.radians(self.plotter.camera.view_angle) / 2)
+        aspect = max(float(self.plotter.renderer.GetTiledAspectRatio()), 1e-3)
+        need = corners @ v + np.maximum(np.abs(corners @ u) / t, np.abs(corners @ r) / (t * aspect))
+        d = max(float(need.max()) * 1.04, 1e-6)
+        self.plotter.camera_position = [tuple(c + d * v), tuple(c), tuple(u)]
+        self.plotter.reset_camera_clipping_range()
 
     def _on_mode(self, change) -> None:
         self._set_brush_colour(change["new"])
