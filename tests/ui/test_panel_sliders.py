@@ -58,7 +58,7 @@ def test_every_table_declares_finite_slider_safe_ranges(name):
 def test_a_table_with_an_unbounded_range_is_refused():
     from plantvr.params import Param
 
-    row = dict(name="d", kind=float, default=1.0, doc="d", ref="-", window="w")
+    row = {"name": "d", "kind": float, "default": 1.0, "doc": "d", "ref": "-", "window": "w"}
     with pytest.raises(ValueError, match="'d' of table 't' needs a finite range"):
         ParamTable("t", [Param(**row, range=(0.0, math.inf))])
     with pytest.raises(ValueError, match="slider span"):
@@ -203,3 +203,32 @@ def test_the_camera_is_refitted_after_a_regrow():
         assert _outside(wb.view, pts) > 0
     finally:
         wb.close()
+
+
+def _widgets(w):
+    """``w`` and every widget under it."""
+    yield w
+    for c in getattr(w, "children", ()):
+        yield from _widgets(c)
+
+
+def test_every_part_panel_has_finite_json_sliders(tmp_path):
+    """The parts' own panels beside the generated one (floret editor, TreeSketch architecture, implicit crown,
+    L-system externs) send finite, strict-JSON slider bounds too."""
+    from plantvr.documents import CrownDocument, LSystemDocument
+    from plantvr.ui.workbench import EDITORS
+
+    docs = {"inflorescence": InflorescenceDocument(), "treesketch": SketchDocument(),
+            "crown": CrownDocument(base_dir=tmp_path, seed=0), "lsystem": LSystemDocument()}
+    assert set(docs) == set(EDITORS)
+    for kind, doc in docs.items():
+        panel = EDITORS[kind](doc)
+        try:
+            sliders = [w for w in _widgets(panel) if isinstance(w, SLIDERS)]
+            assert sliders or kind == "crown", f"{kind}: no slider found"   # the crown panel types its values
+            for s in sliders:
+                assert all(math.isfinite(v) for v in (s.min, s.max, s.value, s.step)) and s.min < s.max, kind
+                json.dumps({k: v for k, v in s.get_state().items() if not isinstance(v, (bytes, memoryview))},
+                           allow_nan=False)
+        finally:
+            panel.close()
