@@ -12,6 +12,11 @@ Defaults marked [INFERRED] in the spec are the spec's suggested values unless no
 Every range was reviewed for issue 20: each value it accepts, extremes included (a denormal ``base_length`` or
 ``view_radius``, ``darts_per_paint = 10**6``, ``fine_cells = 64`` with ``shadow_depth = 32``), keeps growth
 working; the kernels clip, cap or coarsen instead (tests/growth/test_hardening.py), so no range was narrowed.
+
+Issue 31: every numeric row's range is finite (a table refuses ``inf`` when it is built), and where the accepted
+range is wider than a slider can show, the row declares the span its slider covers (``slider``) and, where that
+span covers decades, a logarithmic slider (``log``); values outside the span stay valid from code (the slider
+widens to show them). A panel's bounds therefore always serialise as strict JSON.
 """
 from __future__ import annotations
 
