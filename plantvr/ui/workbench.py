@@ -338,8 +338,14 @@ class Workbench(W.HBox):
         events = doc.log.events
         start = max((i for i, e in enumerate(events) if e.command == "reset"), default=-1) + 1
         commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in names]
-        if not self.treewand and getattr(doc, "stroking", False):
-            commands.append(("end_stroke", {}))       # a stroke left open is closed in the regrown tree
+        strokes = None
+        if not self.treewand:
+            # a TreeSketch stroke's points are seeded by the number of strokes finished before it: start the
+            # re-issued strokes from the count they had, so the same parameters give the same tree again
+            open_stroke = bool(getattr(doc, "stroking", False))
+            strokes = doc.get_state()["strokes"] - (sum(n == "begin_stroke" for n, _ in commands) - open_stroke)
+            if open_stroke:
+                commands.append(("end_stroke", {}))   # a stroke left open is closed in the regrown tree
         for name, kwargs in commands:
             doc.check_command(name, kwargs)
         before = doc.get_state()
@@ -348,6 +354,8 @@ class Workbench(W.HBox):
             # one redraw: this view is held, and every other observer gets one merged notification at the end
             with self.view.hold(), doc.held(), doc.hold_trait_notifications():
                 doc.reset(seed=doc.seed)
+                if strokes is not None:
+                    doc._strokes = max(int(strokes), 0)
                 for name, kwargs in commands:
                     getattr(doc, name)(**kwargs)
                 doc.history = history

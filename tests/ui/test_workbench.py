@@ -248,3 +248,28 @@ def test_close_when_headless_keeps_live_views(monkeypatch, tw):
     assert close_when_headless(wb) is True and wb._closed and wb.view.plotter.render_window is None
     with pytest.raises(ValueError, match="objects with close"):
         close_when_headless(3)
+
+
+def test_treesketch_slider_regrows_the_same_tree_for_the_same_parameters():
+    from plantvr.documents.treesketch import SketchDocument
+
+    doc = SketchDocument(activation_threshold=0.0)
+    doc.begin_stroke([0.0, 1.0, 0.0])
+    for y in np.linspace(1.0, 7.0, 12):
+        doc.move_stroke([0.3 * y, y, 0.0], 1.5)                 # a brush stroke: seeded random points
+    doc.end_stroke()
+    doc.grow(8)
+    wb = workbench(doc, live=False, window_size=(96, 96))
+    try:
+        first = doc.tree.arrays()
+        wb.panels.controls["branch_angle"].value = 30.0
+        wb.flush()
+        assert wb.regrows == 1
+        wb.panels.controls["branch_angle"].value = 45.0          # back: the same tree as before the first move
+        wb.flush()
+        again = doc.tree.arrays()
+        assert wb.regrows == 2 and all(np.array_equal(first[k], again[k]) for k in first)
+        doc.undo()                                               # one undo item per regrow
+        assert doc.branch_angle == 45.0
+    finally:
+        wb.close()
