@@ -2,8 +2,8 @@
 
 :class:`ParameterPanels` works for any :class:`~plantvr.document.Document` with a ``PARAMS`` table
 (:class:`~plantvr.params.ParamTable`): each row becomes one control in the window named by ``param.window``
-(windows, titles and colours from ``PARAMS.windows``): a slider for numbers (range and step from the table,
-doc as tooltip), an icon selector with a yellow highlight for texture choices, a dropdown for other choices, a
+(windows, titles and colours from ``PARAMS.windows``): a slider for numbers (the row's finite slider span and step,
+logarithmic where the row says so, doc as tooltip; a value set from code outside the span widens it), an icon selector with a yellow highlight for texture choices, a dropdown for other choices, a
 checkbox for flags. Nothing here restates a parameter: adding a row to a table adds its control. The
 Tree Wand influence weights (``w_heading``, ``w_tropism``, ``w_env``) are edited by the
 :class:`InfluenceTriangle`, shown when a document has all three.
@@ -149,28 +149,28 @@ def make_control(p: Param, value: Any) -> W.Widget:
             return IconSelector(p.choices, value, description=desc, tooltip=tip, param=p.name)
         return W.Dropdown(options=list(p.choices), value=value, description=desc, tooltip=tip, style=style)
     if p.kind is bool:
-        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style, layout=_SLIDER_LAYOUT())
+        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style, layout=_slider_layout())
     lo, hi = p.slider_span()
     if p.kind is int:
         if hi - lo > _TEXT_LIMIT:
             return W.IntText(value=int(value), description=desc, tooltip=tip, style=style)
         lo, hi = min(int(lo), int(value)), max(int(hi), int(value))
         return W.IntSlider(value=int(value), min=int(lo), max=int(hi), step=1, description=desc, tooltip=tip,
-                           style=style, continuous_update=False, layout=_SLIDER_LAYOUT())
+                           style=style, continuous_update=False, layout=_slider_layout())
     if p.log:
         elo, ehi, estep = _log_bounds(p, float(value))
         return W.FloatLogSlider(value=float(value), base=10, min=elo, max=ehi, step=estep, description=desc,
                                 tooltip=tip, style=style, continuous_update=False, readout_format=".3g",
-                                layout=_SLIDER_LAYOUT())
+                                layout=_slider_layout())
     step = _float_step(p)
     low = lo + step if p.low_open and lo == p.range[0] else lo
     high = hi - step if p.high_open and hi == p.range[1] else hi
     low, high = min(low, value), max(high, value)  # a valid value set from code is always shown as it is
     return W.FloatSlider(value=float(value), min=low, max=high, step=step, description=desc, tooltip=tip,
-                         style=style, continuous_update=False, readout_format=".3g", layout=_SLIDER_LAYOUT())
+                         style=style, continuous_update=False, readout_format=".3g", layout=_slider_layout())
 
 
-def _SLIDER_LAYOUT() -> W.Layout:
+def _slider_layout() -> W.Layout:
     return W.Layout(width="470px", max_width="100%")   # never wider than its column
 
 
