@@ -86,6 +86,10 @@ class Document(HasTraits, metaclass=_DocumentMeta):
     COMMANDS: ClassVar[tuple[str, ...]] = ()
     #: The document's parameter table (None: no parameters).
     PARAMS: ClassVar[ParamTable | None] = None
+    #: A parameter change (``set_params``, a trait set by a slider) is one undo item of the whole state
+    #: (:meth:`get_state` must then hold the parameters as its ``"params"`` entry, and :meth:`set_state` restore
+    #: them); False for a document that records its own parameter items.
+    PARAMS_UNDO: ClassVar[bool] = True
 
     version = Int(0, help="Bumped after every change; views observe it.")
     change = AnyTrait(None, allow_none=True, help="The latest Change (observe names='change').")
@@ -101,6 +105,9 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self.history = history
         self.log = CommandLog(self.COMMANDS, document=self.KIND)
         self._lock = threading.RLock()
+        self._pending_lock = threading.Lock()  # guards _pending only (a leaf lock: nothing is taken under it)
+        self._apply_lock = threading.Lock()    # one applier at a time: snapshot and version never go back
+        self._blocks = 0                  # > 0: inside history_block(): pushes join one staged item
         self._batch: int | None = None    # thread inside set_params: trait observers log nothing
         self._restoring = False           # a load sets traits of state it built itself
         self._hold = 0                    # > 0: autosave deferred (replay, batches)
@@ -110,7 +117,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self._loop = kernel_loop()
         self._seq = 0
         self._after: tuple[int, Any] | None = None      # (version, state) after the last undoable block
-        self._pending: tuple[Any, Change] | None = None
+        self._pending: tuple[Any, Change, tuple[bool, bool]] | None = None
         self.latest: Any = None           # newest published snapshot, for render threads
         self.snapshot: Any = None         # newest snapshot applied on the kernel thread
         if self.PARAMS is not None:
@@ -134,9 +141,10 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         return self.PARAMS.validate(params)
 
     def set_params(self, **params: Any) -> None:
-        """Set several parameters at once; all are checked before any is set. Logged as one command."""
+        """Set several parameters at once; all are checked before any is set. Logged as one command and one undo
+        item (restoring the parameters with whatever they changed)."""
         checked = self._check_set_params(**params)
-        with self._lock:
+        with self._lock, self._param_item():
             self._batch = threading.get_ident()
             try:
                 with self.hold_trait_notifications():
@@ -147,14 +155,28 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             self.log.record("set_params", **checked)
         self._autosave()
 
+    def _param_item(self, old: dict[str, Any] | None = None):
+        """The undo item of a parameter change (``old``: values the traits held before, when they are already
+        set); a no-op for a document whose parameter changes record themselves (``PARAMS_UNDO`` False)."""
+        if not self.PARAMS_UNDO:
+            return contextlib.nullcontext()
+        before = None
+        if old is not None:
+            before = self.get_state()
+            if isinstance(before, dict) and isinstance(before.get("params"), dict):
+                before = {**before, "params": {**before["params"], **old}}
+        return self.undoable("params", before=before)
+
     def _on_param(self, change) -> None:
         if self._restoring:
             return
+        direct = self._batch != threading.get_ident()
         with self._lock:
-            self.apply_param(change["name"], change["new"])
-            direct = self._batch != threading.get_ident()
-            if direct:  # a trait set directly (a slider): logged like set_params, so replay sees it
-                self.log.record("set_params", **{change["name"]: change["new"]})
+            # a trait set directly (a slider): one undo item, logged like set_params, so replay sees it
+            with self._param_item({change["name"]: change["old"]}) if direct else contextlib.nullcontext():
+                self.apply_param(change["name"], change["new"])
+                if direct:
+                    self.log.record("set_params", **{change["name"]: change["new"]})
         self.changed("params", command="set_params", save=direct)
 
     def apply_param(self, name: str, value: Any) -> None:
@@ -196,14 +218,71 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         check(**kwargs)
 
     def replay(self, log: CommandLog) -> None:
-        """Issue every command of ``log`` by name, in order; every event is checked first, so a bad one raises
-        ``ValueError`` before anything is issued. Autosave writes once, at the end."""
+        """Issue every command of ``log`` by name, in order, all or nothing.
+
+        Every event is checked at its door first (against the current state), so a bad one raises ``ValueError``
+        before anything is issued. A command whose validity depends on the state the earlier ones built (a crown
+        script naming a surface, a stroke move with no stroke open) can still fail while the log runs: then the
+        whole state (parameters, :meth:`get_state`, history, log) is rolled back to what it was before the
+        replay, observers get one ``"all"`` change, and the error is raised as ``ValueError`` naming the event.
+        Autosave writes once, at the end."""
         if not isinstance(log, CommandLog):
             raise ValueError(f"log must be a CommandLog, got {type(log).__name__}")
         log.check(self)
-        with self.held():
-            for ev in list(log.events):
-                getattr(self, ev.command)(**ev.kwargs)
+        events = list(log.events)
+        if not events:
+            return
+        with self._lock, self.held():
+            saved = self._checkpoint()
+            try:
+                for i, ev in enumerate(events):
+                    try:
+                        self.check_command(ev.command, ev.kwargs)
+                        getattr(self, ev.command)(**ev.kwargs)
+                    except (ValueError, TypeError, OverflowError, ZeroDivisionError) as exc:
+                        raise ValueError(f"event {i} ({ev.command}) cannot be applied: {exc}"[:500]) from exc
+            except BaseException:
+                self._rollback(saved)
+                raise
+
+    def _checkpoint(self) -> dict[str, Any]:
+        """Everything a replay may change: parameters, the whole state, history, log and
+        :meth:`transient_state` (restored by :meth:`_rollback`)."""
+        return {"params": self.params, "state": self.get_state(), "history": self.history.copy(),
+                "events": list(self.log.events), "transient": self.transient_state(), "after": self._after}
+
+    def _rollback(self, saved: dict[str, Any]) -> None:
+        with self._lock:
+            self.restore_params(saved["params"])
+            self.set_state(saved["state"])
+            self.set_transient_state(saved["transient"])
+            self.history = saved["history"]
+            self.log.events = saved["events"]
+            self._after = saved["after"]
+        self.changed("all", command="replay", save=False)
+
+    def transient_state(self) -> Any:
+        """Hook: state outside :meth:`get_state` that a command may change (an open stroke), for a replay's
+        rollback; restored by :meth:`set_transient_state`."""
+        return None
+
+    def set_transient_state(self, state: Any) -> None:
+        """Hook: restore what :meth:`transient_state` returned."""
+
+    def restore_params(self, values: dict[str, Any]) -> None:
+        """Set parameter traits to ``values`` without logging, applying or recording them (a restore of state
+        taken earlier; the numeric state is restored with it)."""
+        if not values:
+            return
+        with self._lock:
+            was, self._restoring = self._restoring, True
+            try:
+                with self.hold_trait_notifications():
+                    for k, v in values.items():
+                        if getattr(self, k) != v:
+                            self.set_trait(k, v)
+            finally:
+                self._restoring = was
 
     # -- history ----------------------------------------------------------------------------------------
     def _check_undo(self) -> None:
@@ -224,6 +303,8 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         with self._lock:
             self.before_undo()
             done = getattr(self.history, command)(self)
+            if done is not None:
+                self._after = None     # the state changed before its change is published: no cached "before"
             self.log.record(command)
         if done is None:
             self._sync_undo_traits()
@@ -239,16 +320,18 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
 
     @contextlib.contextmanager
-    def undoable(self, kind: str = "all") -> Iterator[None]:
+    def undoable(self, kind: str = "all", *, before: Any = None) -> Iterator[None]:
         """Record what the block does to the whole state as one :class:`~plantvr.history.StateAtom` (for
         operations, like a growth step, whose delta is not practical to keep); nothing when it changed nothing.
 
         The state after a block is kept with the :attr:`version` it was taken at: a block that starts at that
         same version (nothing changed since, e.g. the next growth step) takes it as its ``before`` instead of
         copying the whole state again, so a run of steps costs one copy per step and consecutive atoms share it.
+        ``before`` gives the state before the block instead (a change already made when the block opens).
         """
         cached, self._after = self._after, None
-        before = cached[1] if cached is not None and cached[0] == self._seq else self.get_state()
+        if before is None:
+            before = cached[1] if cached is not None and cached[0] == self._seq else self.get_state()
         yield
         after = self.get_state()
         if not _same(before, after):
@@ -280,39 +363,60 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         """The one path every state change takes: publish a snapshot, bump :attr:`version` and send the
         :class:`Change` on the kernel thread, and autosave (``save``), so no command changes state unseen or
         unsaved. Callable from any thread; changes a slow kernel has not applied yet are merged."""
-        snap = self.make_snapshot()
-        with self._lock:
+        with self._lock:        # the snapshot and the version come from the same state, in order
+            snap = self.make_snapshot()
             self._seq += 1
             change = Change(kind, None if ids is None else np.asarray(ids), self._seq, command)
             if snap is not None:
                 self.latest = snap
-            scheduled = self._pending is not None
-            if scheduled:
-                old_snap, old = self._pending
-                k, merged = _merge([(old.kind, old.ids), (kind, change.ids)])
-                change = Change(k, merged, self._seq, command)
-                snap = old_snap if snap is None else snap
-            self._pending = (snap, change)
+            undo = (self.history.can_undo, self.history.can_redo)
+            with self._pending_lock:
+                scheduled = self._pending is not None
+                if scheduled:
+                    old_snap, old, _ = self._pending
+                    k, merged = _merge([(old.kind, old.ids), (kind, change.ids)])
+                    change = Change(k, merged, self._seq, command)
+                    snap = old_snap if snap is None else snap
+                self._pending = (snap, change, undo)
         if not scheduled:
             self._call_in_kernel(self._apply_pending)
         if save:
             self._autosave()
 
     def _apply_pending(self) -> None:
-        with self._lock:
-            pending, self._pending = self._pending, None
-        if pending is None:
-            return
-        snap, change = pending
-        if change.version < self.version:
-            return
-        with self.hold_trait_notifications():
-            if snap is not None:
-                self.snapshot = snap
-                self.on_snapshot(snap)
-            self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
-            self.version = change.version
-        self.change = change
+        # One applier at a time (the kernel loop, or a worker thread in a script) drains the newest pending change,
+        # so snapshot and version are set together and never go back. A thread that finds another applying leaves
+        # its change to it (the applier looks again after letting go); nothing here waits on the document lock, so
+        # a command holding it can publish while an observer of the previous change runs.
+        while True:
+            if not self._apply_lock.acquire(blocking=False):
+                return
+            loop = self._loop
+            # in a script (no kernel loop) whatever thread made the change applies it: under the document lock,
+            # so its trait updates never interleave with a command's (traitlets objects are not thread-safe)
+            guard = self._lock if loop is None or not loop.is_running() else contextlib.nullcontext()
+            try:
+                while True:
+                    with self._pending_lock:
+                        pending, self._pending = self._pending, None
+                    if pending is None:
+                        break
+                    snap, change, undo = pending
+                    if change.version < self.version:
+                        continue
+                    with guard:
+                        with self.hold_trait_notifications():
+                            if snap is not None:
+                                self.snapshot = snap
+                                self.on_snapshot(snap)
+                            self.can_undo, self.can_redo = undo
+                            self.version = change.version
+                        self.change = change
+            finally:
+                self._apply_lock.release()
+            with self._pending_lock:
+                if self._pending is None:
+                    return
 
     def flush(self) -> None:
         """Apply a pending change now (after background work, or from a test)."""

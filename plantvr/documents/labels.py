@@ -591,6 +591,8 @@ class Segmentation(Document):
         """
         if not isinstance(log, CommandLog):
             raise ValueError(f"log must be a CommandLog, got {type(log).__name__}")  # noqa: TRY004
+        if log.document is not None and log.document != self.KIND:
+            raise ValueError(f"the log records a {log.document!r} session, not a {self.KIND!r} one"[:300])
         log.check()
         if not log.events:
             return

@@ -18,11 +18,12 @@ Undo and the timeline are the document's :class:`~plantvr.history.History`:
   regrow to N gives identical arrays, V17); an edit clears them, and growth continues from the edited state;
 - items are dropped oldest first beyond ``max_undo`` items or ``max_undo_bytes``.
 
-Parameter changes are not undo items (they change no tree by themselves), but an undo restores the parameters its
-item was recorded with, as the engine state it restores was grown with them.
+A parameter change (``set_params``, a trait set by a slider) is one undo item too, restoring the parameters (and
+what they changed); inside an open stroke it joins the stroke's item.
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from dataclasses import dataclass
@@ -152,7 +153,13 @@ class SketchDocument(Document):
             e.set_options(**opts)
         if params:
             e.set_params(params)
-        self.history.redo_stack.clear()  # the steps ahead were grown with other parameters
+
+    def _param_item(self, old=None):
+        """A parameter change is one undo item (it clears the steps ahead, grown with other parameters), except
+        inside an open stroke, whose item it joins."""
+        if self._emitter is not None:
+            return contextlib.nullcontext()
+        return super()._param_item(old)
 
     def set_influence(self, H: float, T: float, E: float) -> None:
         """Set (alpha, beta, gamma) normalised to sum 1 (Eq. 4.5, ERRATUM E7); the triangle widget calls this."""
