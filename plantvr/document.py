@@ -36,10 +36,12 @@ from traitlets import All as traitlets_all
 from traitlets import Bool, HasTraits, Int, MetaHasTraits
 
 from .commandlog import CommandLog
-from .history import History, StateAtom, _merge
+from .history import Group, History, StateAtom, _merge
 from .params import ParamTable, ParamTrait
 
-__all__ = ["Change", "Document", "kernel_loop", "serialise"]
+__all__ = ["Change", "Document", "MAX_BLOCK_DEPTH", "kernel_loop", "serialise"]
+#: Deepest nesting of ``block`` commands a log may hold.
+MAX_BLOCK_DEPTH = 8
 
 
 @dataclass(frozen=True)
@@ -58,6 +60,9 @@ class _DocumentMeta(MetaHasTraits):
     """Adds one :class:`~plantvr.params.ParamTrait` per row of a class's ``PARAMS`` table to the class."""
 
     def __new__(mcls, name, bases, namespace, **kw):
+        commands = namespace.get("COMMANDS")
+        if isinstance(commands, tuple) and "undo" in commands and "block" not in commands:
+            namespace["COMMANDS"] = (*commands, "block")     # a history block, logged as one command
         table = namespace.get("PARAMS")
         if isinstance(table, ParamTable):
             for p in table:
@@ -107,7 +112,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self._lock = threading.RLock()
         self._pending_lock = threading.Lock()  # guards _pending only (a leaf lock: nothing is taken under it)
         self._apply_lock = threading.Lock()    # one applier at a time: snapshot and version never go back
-        self._blocks = 0                  # > 0: inside history_block(): pushes join one staged item
+        self._blocks = 0                  # > 0: inside history_block() (the thread holding the lock)
         self._batch: int | None = None    # thread inside set_params: trait observers log nothing
         self._restoring = False           # a load sets traits of state it built itself
         self._hold = 0                    # > 0: autosave deferred (replay, batches)
@@ -208,6 +213,14 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             raise ValueError(f"command must be one of {list(self.COMMANDS)}, got {command!r}"[:300])
         if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):
             raise ValueError(f"kwargs of {command} must be a dict with str keys, got {kwargs!r}"[:300])
+        self._check_signature(command, kwargs)(**kwargs)
+
+    def _check_signature(self, command: str, kwargs: dict[str, Any]) -> Callable[..., Any]:
+        """The door check of ``command`` once its name and argument names fit (``ValueError`` otherwise)."""
+        if command not in self.COMMANDS:
+            raise ValueError(f"command must be one of {list(self.COMMANDS)}, got {command!r}"[:300])
+        if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):
+            raise ValueError(f"kwargs of {command} must be a dict with str keys, got {kwargs!r}"[:300])
         check = getattr(self, f"_check_{command}", None)
         if check is None:
             raise ValueError(f"{type(self).__name__}.{command} has no door check")  # a bug, not user input
@@ -215,7 +228,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             inspect.signature(check).bind(**kwargs)
         except TypeError as exc:
             raise ValueError(f"{command} arguments do not fit: {exc}") from None
-        check(**kwargs)
+        return check
 
     def replay(self, log: CommandLog) -> None:
         """Issue every command of ``log`` by name, in order, all or nothing.
@@ -299,7 +312,106 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         """Apply the last undone operation again; returns its atom, or None."""
         return self._travel("redo")
 
+    def _check_block(self, events, amend: bool = False, _depth: int = 0) -> list[tuple[str, dict]]:
+        if not isinstance(amend, (bool, np.bool_)):
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")
+        if _depth > MAX_BLOCK_DEPTH:
+            raise ValueError(f"events: history blocks nest at most {MAX_BLOCK_DEPTH} deep")
+        if not isinstance(events, (list, tuple)) or not events:
+            raise ValueError(f"events must be a non-empty list of [command, kwargs] pairs, got {events!r:.200}")
+        out = []
+        for i, ev in enumerate(events):
+            if (not isinstance(ev, (list, tuple)) or len(ev) != 2 or not isinstance(ev[0], str)
+                    or not isinstance(ev[1], dict)):
+                raise ValueError(f"events[{i}] must be a [command, kwargs] pair, got {ev!r:.200}")
+            command, kwargs = ev
+            if command in ("undo", "redo"):
+                raise ValueError(f"events[{i}]: a history block cannot hold {command}")
+            if command == "block":
+                if set(kwargs) - {"events", "amend"}:
+                    raise ValueError(f"events[{i}]: block takes events and amend, got {sorted(kwargs)}")
+                self._check_block(kwargs.get("events"), kwargs.get("amend", False), _depth + 1)
+            else:     # names and arguments here; each door check runs just before its command (it may depend on
+                try:  # the state the block's earlier commands build, e.g. a stroke they opened)
+                    self._check_signature(command, kwargs)
+                except ValueError as exc:
+                    raise ValueError(f"events[{i}] ({command}): {exc}"[:500]) from None
+            out.append((command, kwargs))
+        return out
+
+    def block(self, events, amend: bool = False) -> None:
+        """Apply ``events`` (``[[command, kwargs], ...]``, what a :meth:`history_block` logged) as one undo item,
+        all or nothing: a command that fails rolls back the ones before it."""
+        events = self._check_block(events, amend)
+        with self._lock:
+            saved = self._checkpoint()
+            try:
+                with self.history_block(amend=bool(amend)):
+                    for command, kwargs in events:
+                        self.check_command(command, kwargs)
+                        getattr(self, command)(**kwargs)
+            except BaseException:
+                self._rollback(saved)
+                raise
+
+    @contextlib.contextmanager
+    def history_block(self, *, amend: bool = False) -> Iterator[None]:
+        """Everything the commands inside do is ONE undo item and ONE logged ``block`` command, so undo takes back
+        exactly the block and never crosses into an earlier command (napari's ``block_history``).
+
+        The document lock is held for the block (background work waits), an open gesture (a stroke) is ended
+        before it and at its end, blocks nest (an inner one joins the outer), and undo or redo inside one is
+        refused. With ``amend=True`` the block joins the previous undo item instead (a regrow after the parameter
+        change that caused it: one undo restores both). A block that raises keeps what it did, as one item.
+        """
+        if not isinstance(amend, (bool, np.bool_)):
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")
+        with self._lock:
+            if self._blocks:
+                self._blocks += 1
+                try:
+                    yield
+                finally:
+                    self._blocks -= 1
+                return
+            self.before_undo()
+            start = len(self.log.events)
+            self.history.stage()
+            self._blocks = 1
+            try:
+                yield
+            finally:
+                self._blocks = 0
+                self.before_undo()
+                self.history.commit(self.fold_atoms, amend=bool(amend))
+                inner = self.log.events[start:]
+                if inner:
+                    del self.log.events[start:]
+                    self.log.record("block", events=[[e.command, e.kwargs] for e in inner],
+                                    **({"amend": True} if amend else {}))
+                self._after = None
+                self._sync_undo_traits()
+
+    def fold_atoms(self, atoms: tuple):
+        """Hook: the one history item a block's atoms make (default a :class:`~plantvr.history.Group`)."""
+        return Group(atoms)
+
+    @contextlib.contextmanager
+    def unrecorded(self) -> Iterator[None]:
+        """Commands inside change the state without undo items (they are still logged): for a caller that records
+        its own item for the whole (one :class:`~plantvr.history.StateAtom` of a regrow). The redo items stay;
+        push an item after the block (which clears them) when the state changed."""
+        with self._lock:
+            self.history.mute()
+            try:
+                yield
+            finally:
+                self.history.unmute()
+                self._after = None
+
     def _travel(self, command: str):
+        if self._blocks and self._lock._is_owned():
+            raise ValueError(f"{command} inside a history block: end the block first")
         with self._lock:
             self.before_undo()
             done = getattr(self.history, command)(self)

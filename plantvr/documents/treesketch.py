@@ -24,6 +24,7 @@ what they changed); inside an open stroke it joins the stroke's item.
 from __future__ import annotations
 
 import contextlib
+import copy
 import math
 import os
 from dataclasses import dataclass
@@ -229,6 +230,22 @@ class SketchDocument(Document):
         self.history.push(StateAtom(self._stroke_before, self.get_state(), "tree"))
         self._stroke_before = None
 
+    def transient_state(self) -> dict[str, Any]:
+        """The open stroke (its emitter, copied, and the state before it) and the Grow slider's carry, which a
+        replay that fails restores with the state."""
+        em = self._emitter
+        return {"emitter": None if em is None else copy.deepcopy(em, {id(self._engine): self._engine}),
+                "stroke_before": self._stroke_before, "carry": self._carry, "samples": self._samples.copy()}
+
+    def set_transient_state(self, state: dict[str, Any]) -> None:
+        em = state["emitter"]
+        self._emitter = None if em is None else copy.deepcopy(em, {id(self._engine): self._engine})
+        if self._emitter is not None:
+            self._emitter.engine = self._engine
+        self._stroke_before, self._carry = state["stroke_before"], state["carry"]
+        self._samples = state["samples"].copy()
+        self.stroking = self._emitter is not None
+
     def before_undo(self) -> None:
         """An open stroke is ended (it becomes an undo item) before undo or redo."""
         if self._emitter is not None:
@@ -307,7 +324,7 @@ class SketchDocument(Document):
         for _ in range(steps):
             if self._emitter is not None:  # growth while brushing belongs to the stroke's undo item
                 e.step()
-            elif h.redo_stack and isinstance(h.redo_stack[-1], _StepAtom):
+            elif isinstance(h.next_redo, _StepAtom):
                 h.redo(self)
                 before = None
             else:
@@ -336,7 +353,7 @@ class SketchDocument(Document):
         self.before_undo()
         h = self.history
         k = 0
-        while k < steps and h.undo_stack and isinstance(h.undo_stack[-1], _StepAtom):
+        while k < steps and isinstance(h.top, _StepAtom):
             h.undo(self)
             k += 1
         return k

@@ -303,6 +303,31 @@ LSYSTEM_KIND = Kind(
      "undo": NONE, "redo": NONE}, examples=16, commands=6)
 
 KINDS = [TREEWAND_KIND, TREESKETCH_KIND, LABELS_KIND, CROWN_KIND, INFLORESCENCE_KIND, FOREST_KIND, LSYSTEM_KIND]
+
+
+def _block(kind: Kind) -> st.SearchStrategy:
+    """``block`` kwargs: 1-3 of the kind's other commands (one undo item), or a malformed event list."""
+    inner = {c: s for c, s in kind.args.items() if c not in ("undo", "redo", "block")}
+
+    @st.composite
+    def build(draw):
+        if draw(st.integers(0, 4)) == 0:
+            bad = draw(st.sampled_from(("events", [], [["undo", {}]], [["no_such_command", {}]], [[1, 2]], [["x"]],
+                                        None, [["block", {"events": [["block", {"events": "x"}]]}]])))
+            return {"events": bad}, True
+        events, bad = [], False
+        for _ in range(draw(st.integers(1, 3))):
+            c = draw(st.sampled_from(sorted(inner)))
+            k, b = draw(inner[c])
+            events.append([c, k])
+            bad = bad or b or kind.extra_bad(c, k)
+        return {"events": events, "amend": draw(st.booleans())}, bad
+
+    return build()
+
+
+for _k in KINDS:
+    _k.args["block"] = _block(_k)
 COUNTS: dict[str, Counter] = {k.name: Counter() for k in KINDS}
 
 
@@ -467,3 +492,22 @@ def test_replay_is_all_or_nothing(kind: Kind):
         doc.replay(log)
     assert _mark(doc) == mark
     doc.redo()                                     # the history still works as before
+
+
+def test_a_failed_replay_restores_an_open_stroke():
+    """The rollback covers what is outside the whole state: an open TreeSketch stroke stays open, as it was."""
+    doc = _session(TREESKETCH_KIND)
+    doc.begin_stroke([0.0, 2.0, 0.0])
+    mark = _mark(doc)
+    log = CommandLog(SketchDocument.COMMANDS, document="treesketch")
+    log.record("move_stroke", point=[0.0, 3.0, 0.0], radius=0.0)
+    log.record("end_stroke")
+    log.record("move_stroke", point=[0.0, 4.0, 0.0], radius=0.0)      # no stroke open any more: fails late
+    with pytest.raises(ValueError, match="event 2"):
+        doc.replay(log)
+    assert _mark(doc) == mark and doc.stroking
+    doc.move_stroke([0.0, 5.0, 0.0], 0.0)
+    doc.end_stroke()
+    ref = TREESKETCH_KIND.make()
+    ref.replay(doc.log)
+    assert ref.state_bytes() == doc.state_bytes()
