@@ -4,14 +4,20 @@ A :class:`Document` is a traitlets object with
 
 - ``version`` and a ``change`` event (a :class:`Change`: what changed, as a kind and element ids) that views,
   widgets and the headset observe: ``doc.observe(fn, names="change")``;
-- one :class:`~plantvr.history.History` (byte-budgeted undo atoms, grouped, stage/commit/abort);
-- one :class:`~plantvr.commandlog.CommandLog`: every command is logged when it is applied, and
-  :meth:`Document.replay` re-issues a log by command name;
+- one :class:`~plantvr.history.History` (byte-budgeted undo atoms, grouped, stage/commit/abort); undo goes by
+  gesture: a parameter change is one item (restoring the parameter and what it changed), and
+  :meth:`Document.history_block` makes whatever is inside one item and one logged ``block`` command
+  (:meth:`Document.unrecorded` for a caller recording its own item); nothing outside this base and
+  :mod:`plantvr.history` touches the undo and redo stacks;
+- one :class:`~plantvr.commandlog.CommandLog`: every command is logged when it is applied (under the document
+  lock, so commands, undo and redo from any thread and background steps are logged in the order they applied),
+  and :meth:`Document.replay` re-issues a log by command name, all or nothing;
 - parameters: traits generated from the document's :class:`~plantvr.params.ParamTable` (``PARAMS``), set one
   at a time or with :meth:`Document.set_params` (logged as one command), saved and read as presets;
-- snapshots for renderers on other threads: :meth:`Document.changed` publishes ``make_snapshot()``; the kernel
-  thread applies the newest one (older ones are replaced, never queued) and a render thread reads
-  :attr:`Document.latest` without waiting;
+- snapshots for renderers on other threads: :meth:`Document.changed` makes ``make_snapshot()`` and the version
+  under the lock, as one change, and publishes it; one applier at a time (the kernel thread) applies the newest
+  one (older ones are replaced, never queued, and never applied after a newer one), and a render thread reads
+  :attr:`Document.latest` without waiting: versions never go back;
 - autosave after every state-changing command, atomic (:mod:`plantvr._fileio`).
 
 A subclass declares ``KIND``, ``COMMANDS`` (its replayable commands; each has a door check ``_check_<name>``
