@@ -40,7 +40,7 @@ def check_range(name: str, value: Any, low: float, high: float, *,
     ``low_open``/``high_open`` exclude the bound, e.g. ``(0, 1)`` for a falloff.
     """
     try:
-        if isinstance(value, (str, bytes, bool, np.bool_)):   # "1", b"1", True are not numbers here
+        if isinstance(value, (bytes, bool, np.bool_)):   # b"1" and True are not numbers (text is parsed)
             raise TypeError
         v = float(value)
     except (TypeError, ValueError, OverflowError):

@@ -45,7 +45,7 @@ from .commandlog import CommandLog
 from .history import Group, History, StateAtom, _merge
 from .params import ParamTable, ParamTrait
 
-__all__ = ["Change", "Document", "MAX_BLOCK_DEPTH", "kernel_loop", "serialise"]
+__all__ = ["MAX_BLOCK_DEPTH", "Change", "Document", "kernel_loop", "serialise"]
 #: Deepest nesting of ``block`` commands a log may hold.
 MAX_BLOCK_DEPTH = 8
 
@@ -142,6 +142,12 @@ class Document(HasTraits, metaclass=_DocumentMeta):
 
     # -- parameters -------------------------------------------------------------------------------------
     @property
+    def restoring(self) -> bool:
+        """True while the document sets traits of a state it restores (undo, redo, a load, a rolled-back replay):
+        an observer that reacts to a parameter change with a command of its own (a regrow) skips those."""
+        return self._restoring
+
+    @property
     def params(self) -> dict[str, Any]:
         """Current parameter values, ``{name: value}``."""
         return {} if self.PARAMS is None else {p.name: getattr(self, p.name) for p in self.PARAMS}
@@ -169,7 +175,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
     def _param_item(self, old: dict[str, Any] | None = None):
         """The undo item of a parameter change (``old``: values the traits held before, when they are already
         set); a no-op for a document whose parameter changes record themselves (``PARAMS_UNDO`` False)."""
-        if not self.PARAMS_UNDO:
+        if not self.PARAMS_UNDO or type(self).set_state is Document.set_state:   # no whole-state undo
             return contextlib.nullcontext()
         before = None
         if old is not None:
@@ -182,12 +188,12 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         if self._restoring:
             return
         direct = self._batch != threading.get_ident()
-        with self._lock:
-            # a trait set directly (a slider): one undo item, logged like set_params, so replay sees it
-            with self._param_item({change["name"]: change["old"]}) if direct else contextlib.nullcontext():
-                self.apply_param(change["name"], change["new"])
-                if direct:
-                    self.log.record("set_params", **{change["name"]: change["new"]})
+        # a trait set directly (a slider): one undo item, logged like set_params, so replay sees it (the item is
+        # opened once the lock is held)
+        with self._lock, self._param_item({change["name"]: change["old"]}) if direct else contextlib.nullcontext():
+            self.apply_param(change["name"], change["new"])
+            if direct:
+                self.log.record("set_params", **{change["name"]: change["new"]})
         self.changed("params", command="set_params", save=direct)
 
     def apply_param(self, name: str, value: Any) -> None:
@@ -320,7 +326,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
 
     def _check_block(self, events, amend: bool = False, _depth: int = 0) -> list[tuple[str, dict]]:
         if not isinstance(amend, (bool, np.bool_)):
-            raise ValueError(f"amend must be True or False, got {amend!r:.80}")
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")  # noqa: TRY004
         if _depth > MAX_BLOCK_DEPTH:
             raise ValueError(f"events: history blocks nest at most {MAX_BLOCK_DEPTH} deep")
         if not isinstance(events, (list, tuple)) or not events:
@@ -371,7 +377,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         change that caused it: one undo restores both). A block that raises keeps what it did, as one item.
         """
         if not isinstance(amend, (bool, np.bool_)):
-            raise ValueError(f"amend must be True or False, got {amend!r:.80}")
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")  # noqa: TRY004
         with self._lock:
             if self._blocks:
                 self._blocks += 1

@@ -223,6 +223,5 @@ def test_history_block_is_one_undo_item_and_one_logged_command():
     assert e.state_bytes() == d.state_bytes() and len(e.history) == len(d.history)
     with pytest.raises(ValueError, match="events"):
         d.block([["undo", {}]])
-    with pytest.raises(ValueError, match="amend"):
-        with d.history_block(amend="yes"):
-            pass
+    with pytest.raises(ValueError, match="amend"), d.history_block(amend="yes"):
+        pass

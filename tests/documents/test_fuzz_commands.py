@@ -19,8 +19,9 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import pytest
@@ -44,8 +45,9 @@ from plantvr.landscape.forest import FOREST
 from plantvr.params import TREEWAND
 
 NAN, INF = float("nan"), float("inf")
-#: Values that are bad for any required number.
-BAD_NUMBERS = (NAN, INF, -INF, "1", None, [1.0], {"x": 1}, b"1", 1e300 * 1e10)
+#: Values that are bad for any required number (text such as "1" is parsed as a number by ``check_range``: the
+#: command language, props files and CLI arguments rely on it; "nan" and "abc" are still refused).
+BAD_NUMBERS = (NAN, INF, -INF, "nan", "abc", None, [1.0], {"x": 1}, b"1", True, 1e300 * 1e10)
 
 
 def value(valid: st.SearchStrategy, bad: tuple = ()) -> st.SearchStrategy:
@@ -96,7 +98,7 @@ def params_of(table, safe: dict[str, st.SearchStrategy]) -> st.SearchStrategy:
         if p.kind is bool:
             return "yes"
         low, high = p.range
-        return [NAN, INF if math.isfinite(high) else NAN, "1", None, [1],
+        return [NAN, INF if math.isfinite(high) else NAN, "abc", None, [1],
                 (abs(high) + 1) * 10 if math.isfinite(high) else -abs(low) - 1 - abs(low)]
 
     names = sorted(table.names)
@@ -274,8 +276,8 @@ INFLORESCENCE_KIND = Kind("inflorescence", lambda: InflorescenceDocument(), [],
                           {"set_params": params_of(FLORET, _FL_SAFE), "undo": NONE, "redo": NONE},
                           examples=12, commands=6)
 
-_FOREST_INIT = dict(n_trees=2, width=16.0, depth=16.0, min_dist=3.0, rounds=1, steps_per_round=2, n_darts=30,
-                    compete=False, crown_height=3.0, crown_radius=2.0)
+_FOREST_INIT = {"n_trees": 2, "width": 16.0, "depth": 16.0, "min_dist": 3.0, "rounds": 1, "steps_per_round": 2,
+                "n_darts": 30, "compete": False, "crown_height": 3.0, "crown_radius": 2.0}
 _FO_SAFE = {"n_trees": st.integers(1, 3), "rounds": st.integers(0, 2), "steps_per_round": st.integers(1, 2),
             "n_darts": st.integers(0, 40), "seed": st.integers(0, 2 ** 63 - 1), "compete": st.booleans(),
             "terrain_amplitude": st.floats(0.0, 4.0), "regions": st.sampled_from(("voronoi", "voxels")),
@@ -394,10 +396,10 @@ def _crafted(text: str) -> list[tuple[str, str]]:
     body, trailer = "".join(lines[:-1]), json.loads(lines[-1])
     first = json.loads(lines[0]) if len(lines) > 1 else {"command": "undo", "kwargs": {}, "t": 0.0}
 
-    def signed(events: list[dict], document=trailer.get("document")) -> str:
+    kind = trailer.get("document")
+
+    def signed(events: list[dict], document=kind) -> str:
         b = "".join(json.dumps(e) + "\n" for e in events)
-        log = CommandLog(document=document)
-        log.events = []
         t = {"plantvr_events": 1, "count": len(events), "sha256": _sha(b, document)}
         if document is not None:
             t["document"] = document

@@ -63,8 +63,8 @@ def test_treesketch_parameter_change_is_its_own_item_not_the_sketch():
 
 
 def test_forest_slider_then_undo_keeps_the_forest():
-    kw = dict(n_trees=2, width=16.0, depth=16.0, min_dist=3.0, rounds=1, steps_per_round=2, n_darts=30,
-              compete=False, crown_height=3.0, crown_radius=2.0)
+    kw = {"n_trees": 2, "width": 16.0, "depth": 16.0, "min_dist": 3.0, "rounds": 1, "steps_per_round": 2,
+          "n_darts": 30, "compete": False, "crown_height": 3.0, "crown_radius": 2.0}
     doc = ForestDocument(**kw)
     doc.grow()
     grown = doc.state_bytes()
@@ -154,3 +154,25 @@ def test_unrecorded_commands_make_no_items_and_a_failed_block_rolls_back():
     assert (m.state_bytes(), len(m.log), len(m.history)) == before
     m.block([["step", {"steps": 1}], ["paint", {"center": [0, 5, 0], "radius": 1.0}]])
     assert len(m.history) == n + 1
+
+
+def test_treewand_workbench_slider_undo_restores_parameter_and_tree():
+    """The reported bug: after a slider regrow in the workbench, undo took the tree back and left the parameter
+    at its new value. Now one undo restores both, redo applies both again, and an undo regrows nothing."""
+    from plantvr.ui import workbench
+
+    m = Model(seed=0)
+    m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
+    m.step(6)
+    grown, n = m.state_bytes(), len(m.history)
+    wb = workbench(m, live=False, window_size=(160, 120))
+    try:
+        m.tropism_angle = 120.0                               # the slider: a regrow (no kernel loop: at once)
+        assert wb.regrows == 1 and len(m.history) == n + 1
+        regrown = m.state_bytes()
+        m.undo()
+        assert m.tropism_angle == 0.0 and m.state_bytes() == grown and wb.regrows == 1
+        m.redo()
+        assert m.tropism_angle == 120.0 and m.state_bytes() == regrown and wb.regrows == 1
+    finally:
+        wb.close()
