@@ -13,8 +13,12 @@ of 2-D slices in natural order,                        ``PhysicalSize{X,Y,Z}``; 
 or a list of slice files)
 ``.nrrd`` ``.nhdr``                pynrrd              ``space directions`` / ``spacings``, ``space origin``
 ``.nii`` ``.nii.gz``               nibabel             the affine (zooms, translation)
+``.mgh`` ``.mgz``                  nibabel             FreeSurfer MGH: the vox2ras affine
+``.mnc``                           nibabel             MINC 1 (netCDF) and MINC 2 (HDF5): the affine from
+                                                       each dimension's ``step``, ``start``, cosines
 ``.mha`` ``.mhd``                  SimpleITK           ``ElementSpacing``, ``Offset``, ``TransformMatrix``
-``.vti``                           VTK (via pyvista)   ``Spacing``, ``Origin``, ``Direction``
+``.vti``                           VTK (via pyvista)   ``Spacing``, ``Origin``, ``Direction``; a cell-data
+                                                       array lies on the cell centres (origin + half a voxel)
 ``.h5`` ``.hdf5``                  h5py                the ``element_size_um`` attribute if present
 ``.zarr`` (folder)                 zarr (+ dask)       OME-Zarr multiscales level 0: its ``scale`` and
                                                        ``translation`` coordinate transformations
@@ -24,7 +28,9 @@ a folder of DICOM slices           pydicom             ``PixelSpacing``, slice p
 =================================  ==================  =================================================
 
 Axis order is each library's own: (Z, Y, X) for TIFF, MetaImage, HDF5, Zarr and DICOM; (X, Y, Z) for NRRD,
-NIfTI and .vti. ``Volume.meta["axes"]`` names them. ``origin[k]`` is the position of voxel 0 along array
+NIfTI, MGH and .vti; MINC's as its dimensions are stored (usually Z, Y, X), named from the affine.
+Compressed TIFF (LZW, deflate with or without the horizontal predictor, ...) is decoded by imagecodecs. MINC
+voxels come scaled to their real values by nibabel (MINC scales each slice by its own image-min/max), as float. ``Volume.meta["axes"]`` names them. ``origin[k]`` is the position of voxel 0 along array
 axis ``k``'s direction, so ``index * spacing + origin`` is the physical coordinate along each axis; where the
 file's axes are rotated against its world frame, ``meta["direction"]`` (3, 3) holds the unit world direction
 of each array axis (rows), and ``world = direction.T @ (index * spacing + origin)``.
@@ -57,8 +63,8 @@ __all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "VolumeGeometry", "read_volu
 
 #: File suffixes :func:`read_volume` reads (``.zarr`` is a folder; any other folder is a TIFF slice stack or a
 #: DICOM series).
-SUFFIXES = (".tif", ".tiff", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".mha", ".mhd", ".vti", ".h5", ".hdf5",
-            ".zarr", ".npy", ".npz")
+SUFFIXES = (".tif", ".tiff", ".nrrd", ".nhdr", ".nii", ".nii.gz", ".mgh", ".mgz", ".mnc", ".mha", ".mhd",
+            ".vti", ".h5", ".hdf5", ".zarr", ".npy", ".npz")
 
 #: Largest voxel count a lazy (dask) read accepts; eager reads are capped at
 #: :data:`plantvr.vine.volume.MAX_VOLUME_BYTES` bytes, and every axis at :data:`plantvr._validation.MAX_COUNT`.
@@ -86,8 +92,8 @@ class Volume:
     source : str
         The path read.
     format : str
-        ``"TIFF"``, ``"NRRD"``, ``"NIfTI"``, ``"MetaImage"``, ``"VTI"``, ``"HDF5"``, ``"Zarr"``, ``"DICOM"``
-        or ``"NumPy"``.
+        ``"TIFF"``, ``"NRRD"``, ``"NIfTI"``, ``"MGH"``, ``"MINC"``, ``"MetaImage"``, ``"VTI"``, ``"HDF5"``,
+        ``"Zarr"``, ``"DICOM"`` or ``"NumPy"``.
     geometry : VolumeGeometry
         Where every voxel is, in LPS world coordinates (shape, axis order, spacing, origin, direction): pass it
         to :func:`plantvr.io.label_volume.write_label_volume` so that labels land on the same physical points.
@@ -224,8 +230,8 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
         2-D TIFF slice files (stacked in the order given) or DICOM files (ordered by slice position).
     dataset : str, optional
         The array inside a container: the HDF5 dataset path, the Zarr array path (default: OME-Zarr
-        multiscales level 0, else the only array), the ``.npz`` key, or the ``.vti`` point-data array name.
-        Default: the only (or active) array.
+        multiscales level 0, else the only array), the ``.npz`` key, or the ``.vti`` point- or cell-data array
+        name (a cell array's voxels are the cells, at their centres). Default: the only (or active) array.
     lazy : bool
         Return a dask array instead of reading the voxels (Zarr and TIFF only), for volumes bigger than memory.
     channel : int, optional
@@ -324,6 +330,8 @@ def _read_error(p: Path, kind: str, exc: BaseException) -> ValueError:
     what = f"{type(exc).__name__}: {exc}"
     if len(what) > 300:
         what = what[:297] + "..."
+    if "imagecodecs" in what:                     # tifffile decodes LZW, JPEG, ... with imagecodecs only
+        what += " (pip install imagecodecs)"
     return ValueError(f"could not read {str(p)!r} as {kind}: {what}")
 
 
@@ -661,27 +669,42 @@ def _nrrd(p: Path, *, dataset, lazy, pick):
 
 
 def _nifti(p: Path, *, dataset, lazy, pick):
+    """NIfTI, FreeSurfer MGH/MGZ and MINC 1/2, all through nibabel (whose affines are RAS+ world coordinates)."""
     import nibabel as nib
     img = nib.load(str(p))
     shape = tuple(int(s) for s in img.shape)
-    _declared(p, shape, img.get_data_dtype())
-    labels = "xyztc"[:len(shape)] + "c" * max(0, len(shape) - 5)
-    keep = _keep_axes(p, shape, labels, pick)
-    if keep != [0, 1, 2]:
-        raise ValueError(f"volume in {str(p)!r} must hold its 3 spatial axes first, got shape {shape}")
-    raw = img.dataobj.get_unscaled() if hasattr(img.dataobj, "get_unscaled") else img.dataobj
-    arr = np.asanyarray(raw)[_pick_index(p, shape, labels, keep, pick)]
+    kind = _KINDS[_suffix(p)]
+    minc = kind == "MINC"
+    _declared(p, shape, np.float64 if minc else img.get_data_dtype())     # nibabel scales MINC to float64
     aff = np.asarray(img.affine, np.float64)
     spacing, origin, unit = _frame(aff[:3, :3].T, aff[:3, 3])
-    meta: dict[str, Any] = {"affine": aff, "direction": unit, "nifti_header": img.header,
-                            "world_origin": aff[:3, 3], "world_frame": "RAS"}
-    slope, inter = getattr(img.dataobj, "slope", 1.0), getattr(img.dataobj, "inter", 0.0)
-    meta["scl_slope"], meta["scl_inter"] = float(slope), float(inter)   # physical = stored * slope + inter
+    if minc:          # MINC stores time (and vector dimensions) before the spatial ones: (t, z, y, x)
+        labels = "t" * (len(shape) - 3) + "???"
+    else:             # NIfTI: x, y, z, t, then components; MGH: x, y, z, frames
+        labels = "xyztc"[:len(shape)] + "c" * max(0, len(shape) - 5)
+    keep = _keep_axes(p, shape, labels, pick)
+    spatial = list(range(len(shape) - 3, len(shape))) if minc else [0, 1, 2]
+    if keep != spatial:
+        raise ValueError(f"volume in {str(p)!r} must hold its 3 spatial axes {'last' if minc else 'first'}, got "
+                         f"shape {shape}")
+    if minc:
+        arr = np.asarray(img.dataobj[_pick_index(p, shape, labels, keep, pick)])
+    else:
+        raw = img.dataobj.get_unscaled() if hasattr(img.dataobj, "get_unscaled") else img.dataobj
+        arr = np.asanyarray(raw)[_pick_index(p, shape, labels, keep, pick)]
+    meta: dict[str, Any] = {"affine": aff, "direction": unit, "world_origin": aff[:3, 3], "world_frame": "RAS",
+                            f"{kind.lower()}_header": img.header}
+    if not minc:
+        slope, inter = getattr(img.dataobj, "slope", 1.0), getattr(img.dataobj, "inter", 0.0)
+        meta["scl_slope"], meta["scl_inter"] = float(slope), float(inter)   # physical = stored * slope + inter
+    axes = "".join("xyz"[int(np.argmax(np.abs(r)))] for r in unit)     # the world axis each array axis runs along
+    if sorted(axes) != ["x", "y", "z"]:
+        axes = "zyx" if minc else "xyz"
     try:
         meta["unit"] = img.header.get_xyzt_units()[0]
-    except Exception:  # noqa: BLE001, S110 - NIfTI-1/2 only; other nibabel images have no units
-        pass
-    return arr, spacing, origin, "xyz", meta
+    except Exception:  # noqa: BLE001 - NIfTI-1/2 only; MGH and MINC are in millimetres
+        meta["unit"] = "mm"
+    return arr, spacing, origin, axes if minc else "xyz", meta
 
 
 # ---------------------------------------------------------------------------------------------- MetaImage
@@ -765,22 +788,35 @@ def _vti_read(p: Path, r, dataset, pv, vtkStreamingDemandDrivenPipeline):
         raise ValueError(f"could not read {str(p)!r} as VTI: its data is damaged or truncated")
     grid = pv.wrap(r.GetOutput())
     names = list(grid.point_data.keys())
-    if dataset is None:
+    cells = list(grid.cell_data.keys())
+    if dataset is None:       # the active point scalars, the only point array, else the only cell array
         name = grid.point_data.active_scalars_name or (names[0] if len(names) == 1 else None)
+        if name is None and not names and len(cells) == 1:
+            name = cells[0]
     else:
         name = dataset
-    if name is None or name not in names:
-        raise ValueError(f"dataset must name one of the point-data arrays {names} in {str(p)!r}, got {dataset!r}")
-    flat = grid.point_data[name]
+    if name is None or (name not in names and name not in cells):
+        raise ValueError(f"dataset must name one of the point-data arrays {names} or cell-data arrays {cells} in "
+                         f"{str(p)!r}, got {dataset!r}")
+    on_cells = name not in names
+    flat = grid.cell_data[name] if on_cells else grid.point_data[name]
     if flat.ndim != 1:
         raise ValueError(f"array {name!r} in {str(p)!r} must hold one number per voxel, got {flat.shape[1]} "
                          f"components")
-    _declared(p, dims, flat.dtype)
-    arr = np.asarray(flat).reshape(dims, order="F")        # (x, y, z), a view of the VTK array
     d = np.asarray(grid.direction_matrix, np.float64).reshape(3, 3)    # columns: world direction of i, j, k
-    spacing, origin, unit = _frame((d * np.asarray(grid.spacing)).T, grid.origin)
-    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names,
-                                         "world_origin": np.asarray(grid.origin, np.float64)}
+    step = np.asarray(grid.spacing, np.float64)
+    world0 = np.asarray(grid.origin, np.float64)
+    if on_cells:              # one voxel per cell, at the cell's centre: half a voxel along each axis
+        dims = tuple(max(n - 1, 1) for n in dims)
+        world0 = world0 + d @ (0.5 * step)
+    _declared(p, dims, flat.dtype)
+    if flat.size != int(np.prod(dims)):
+        raise ValueError(f"array {name!r} in {str(p)!r} holds {flat.size} values, its extent {dims} needs "
+                         f"{int(np.prod(dims))}")
+    arr = np.asarray(flat).reshape(dims, order="F")        # (x, y, z), a view of the VTK array
+    spacing, origin, unit = _frame((d * step).T, world0)
+    return arr, spacing, origin, "xyz", {"array": name, "direction": unit, "arrays": names, "cell_arrays": cells,
+                                         "on_cells": on_cells, "world_origin": world0}
 
 
 # ---------------------------------------------------------------------------------------------- HDF5
@@ -1011,7 +1047,8 @@ def _numpy(p: Path, *, dataset, lazy, pick):
 
 
 _KINDS = {".tif": "TIFF", ".tiff": "TIFF", ".nrrd": "NRRD", ".nhdr": "NRRD", ".nii": "NIfTI", ".nii.gz": "NIfTI",
+          ".mgh": "MGH", ".mgz": "MGH", ".mnc": "MINC",
           ".mha": "MetaImage", ".mhd": "MetaImage", ".vti": "VTI", ".h5": "HDF5", ".hdf5": "HDF5",
           ".zarr": "Zarr", ".npy": "NumPy", ".npz": "NumPy"}
-_READERS = {"TIFF": _tiff, "NRRD": _nrrd, "NIfTI": _nifti, "MetaImage": _metaimage, "VTI": _vti, "HDF5": _hdf5,
-            "Zarr": _zarr, "DICOM": _dicom, "NumPy": _numpy}
+_READERS = {"TIFF": _tiff, "NRRD": _nrrd, "NIfTI": _nifti, "MGH": _nifti, "MINC": _nifti, "MetaImage": _metaimage,
+            "VTI": _vti, "HDF5": _hdf5, "Zarr": _zarr, "DICOM": _dicom, "NumPy": _numpy}

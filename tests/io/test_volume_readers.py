@@ -521,3 +521,125 @@ def test_channel_and_time(tmp_path):
         read_volume(three, channel=0)
     with pytest.raises(ValueError, match="time=0 does not apply .* slice stack"):
         read_volume([tmp_path / "hyper.tif", tmp_path / "rgb.tif"], time=0)
+
+
+# ------------------------------------------------------------------------------------------------ issue 32: more readers
+
+
+def _lps_affine(ras_affine):
+    """nibabel's RAS+ affine in LPS (VolumeGeometry's frame)."""
+    return np.diag([-1.0, -1.0, 1.0, 1.0]) @ np.asarray(ras_affine, np.float64)
+
+
+@pytest.mark.parametrize("compression, predictor", [("lzw", False), ("lzw", True), ("zlib", True),
+                                                    ("zlib", False)])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+def test_tiff_lzw_and_deflate_with_predictor(tmp_path, compression, predictor, dtype):
+    pytest.importorskip("imagecodecs")
+    a = _vol(dtype)
+    p = tmp_path / "c.tif"
+    tifffile.imwrite(p, a, imagej=True, resolution=(2.0, 4.0), metadata={"spacing": 3.0, "axes": "ZYX"},
+                     compression=compression, predictor=predictor)
+    with tifffile.TiffFile(p) as tf:
+        assert tf.pages[0].compression.name == {"lzw": "LZW", "zlib": "ADOBE_DEFLATE"}[compression]
+        assert (tf.pages[0].predictor > 1) == predictor
+    _check(read_volume(p), a, (3.0, 0.25, 0.5), (0, 0, 0), fmt="TIFF")
+    lazy = read_volume(p, lazy=True)
+    assert np.array_equal(lazy.array.compute(), a)
+
+
+@pytest.mark.parametrize("suffix", [".mgh", ".mgz"])
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.int32, np.float32])
+def test_mgh_written_by_nibabel(tmp_path, suffix, dtype):
+    import nibabel as nib
+    a = _vol(dtype, (6, 7, 8))
+    aff = np.array([[-0.5, 0.0, 0.1, 10.0], [0.0, 0.0, 1.5, -4.0], [0.0, 0.8, 0.0, 2.5], [0, 0, 0, 1]])
+    p = tmp_path / f"v{suffix}"
+    nib.MGHImage(a, aff).to_filename(p)
+    v = read_volume(p)
+    img = nib.load(p)
+    assert v.format == "MGH" and v.meta["axes"] == "xyz" and v.shape == a.shape
+    assert np.array_equal(np.asarray(v.array), a) and v.array.dtype == a.dtype
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-6)
+    np.testing.assert_allclose(v.spacing, img.header.get_zooms()[:3], rtol=1e-6)
+    frames = np.stack([a, a + 1], axis=-1).astype(dtype)                        # x, y, z, frames
+    nib.MGHImage(frames, aff).to_filename(tmp_path / f"f{suffix}")
+    assert np.array_equal(read_volume(tmp_path / f"f{suffix}", time=1).array, a + 1)
+    with pytest.raises(ValueError, match="pick one with channel= or time="):
+        read_volume(tmp_path / f"f{suffix}")
+
+
+def test_freesurfer_test_mgz_from_nibabel():
+    import nibabel as nib
+    from nibabel.testing import data_path
+    p = Path(data_path) / "test.mgz"
+    img = nib.load(p)
+    v = read_volume(p, time=0) if len(img.shape) > 3 and img.shape[3] > 1 else read_volume(p)
+    assert v.format == "MGH" and v.shape == img.shape[:3]
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-5)
+    np.testing.assert_array_equal(np.asarray(v.array), np.asanyarray(img.dataobj)[..., 0] if img.ndim > 3
+                                  else np.asanyarray(img.dataobj))
+
+
+@pytest.mark.parametrize("name", ["tiny.mnc", "minc1_1_scale.mnc", "minc2_1_scale.mnc", "small.mnc",
+                                  "minc1-no-att.mnc", "minc2-no-att.mnc"])
+def test_minc_files_nibabel_ships(name):
+    """MINC 1 (netCDF) and MINC 2 (HDF5) test files from nibabel.testing: voxels and affine as nibabel gives them."""
+    import nibabel as nib
+    from nibabel.testing import data_path
+    p = Path(data_path) / name
+    img = nib.load(p)
+    v = read_volume(p)
+    assert v.format == "MINC" and v.shape == img.shape
+    np.testing.assert_allclose(np.asarray(v.array), np.asarray(img.dataobj), rtol=1e-12)
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-9)
+    np.testing.assert_allclose(v.spacing, np.abs(img.header.get_zooms()), rtol=1e-12)
+    assert v.meta["axes"] == "zyx"                       # MINC's usual zspace, yspace, xspace order
+    corner = v.geometry.index_to_world([[1, 2, 3]])[0]   # one voxel through both affines
+    np.testing.assert_allclose(corner * [-1, -1, 1], nib.affines.apply_affine(img.affine, [1, 2, 3]), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["minc1_4d.mnc", "minc2_4d.mnc"])
+def test_minc_4d_time(name):
+    import nibabel as nib
+    from nibabel.testing import data_path
+    p = Path(data_path) / name
+    img = nib.load(p)
+    with pytest.raises(ValueError, match="pick one with channel= or time="):
+        read_volume(p)
+    v = read_volume(p, time=1)
+    assert v.shape == img.shape[1:]
+    np.testing.assert_allclose(np.asarray(v.array), np.asarray(img.dataobj)[1], rtol=1e-12)
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-9)
+
+
+def test_vti_cell_data_lies_on_cell_centres(tmp_path):
+    """pyvista's uniform example holds point and cell data; a cell array's voxels are the cells, at their
+    centres (pyvista's cell_centers), rotated grids included."""
+    import pyvista as pv
+    from pyvista import examples
+    g = examples.load_uniform()
+    g.spacing = (0.5, 1.0, 2.0)
+    g.origin = (1.0, -2.0, 3.0)
+    g.direction_matrix = pv.Transform().rotate_z(30).rotate_x(10).matrix[:3, :3]
+    p = tmp_path / "u.vti"
+    g.save(p)
+    grid = pv.read(p)
+    v = read_volume(p, dataset="Spatial Cell Data")
+    assert v.meta["on_cells"] and v.shape == tuple(n - 1 for n in grid.dimensions)
+    assert np.array_equal(v.array.ravel(order="F"), np.asarray(grid.cell_data["Spatial Cell Data"]))
+    idx = np.stack(np.unravel_index(np.arange(np.prod(v.shape)), v.shape, order="F"), axis=1)
+    np.testing.assert_allclose(v.geometry.index_to_world(idx), grid.cell_centers().points, atol=1e-9)
+    np.testing.assert_allclose(v.spacing, grid.spacing)
+    pts = read_volume(p, dataset="Spatial Point Data")
+    assert not pts.meta["on_cells"] and pts.shape == grid.dimensions
+    pidx = np.stack(np.unravel_index(np.arange(grid.n_points), grid.dimensions, order="F"), axis=1)
+    np.testing.assert_allclose(pts.geometry.index_to_world(pidx), grid.points, atol=1e-9)
+    only = pv.ImageData(dimensions=(5, 6, 7), spacing=(0.2, 0.3, 0.4), origin=(1, 1, 1))
+    only.cell_data["c"] = np.arange(only.n_cells, dtype=np.int16)
+    only.save(tmp_path / "c.vti")
+    v = read_volume(tmp_path / "c.vti")                   # the only array is a cell array: read by default
+    assert v.shape == (4, 5, 6) and v.array.dtype == np.int16
+    np.testing.assert_allclose(v.origin, (1.1, 1.15, 1.2))
+    with pytest.raises(ValueError, match="cell-data arrays"):
+        read_volume(p, dataset="nope")
