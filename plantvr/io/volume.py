@@ -225,7 +225,8 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
     Parameters
     ----------
     path : str, path-like, or a list of them
-        A file with one of :data:`SUFFIXES`, a ``.zarr`` folder, a folder of 2-D TIFF slices (stacked in natural
+        A file with one of :data:`SUFFIXES`, a ``.zarr`` folder (or any Zarr group folder, e.g. OME-Zarr
+        ``labels/<name>``), a folder of 2-D TIFF slices (stacked in natural
         order: ``img_2.tif`` before ``img_10.tif``), a folder holding one DICOM series, or an explicit list of
         2-D TIFF slice files (stacked in the order given) or DICOM files (ordered by slice position).
     dataset : str, optional
@@ -284,7 +285,7 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
     suffix = _suffix(p)
     if files is not None:
         kind = "TIFF" if suffix in (".tif", ".tiff") else "DICOM"
-    elif p.is_dir() and suffix != ".zarr":
+    elif p.is_dir() and suffix != ".zarr" and not any((p / m).is_file() for m in _ZARR_MARKERS):
         kind = "TIFF" if any(f.suffix.lower() in (".tif", ".tiff") for f in p.iterdir()) else "DICOM"
     elif p.is_dir() or suffix == ".zarr":
         kind = "Zarr"
@@ -315,6 +316,9 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
         raise _read_error(p, kind, exc) from None
     return _finish(p, kind, array, spacing, origin, axes, meta)
 
+
+#: Files that make a folder a Zarr group or array (v2, v3), whatever its name (an OME-Zarr labels group).
+_ZARR_MARKERS = (".zgroup", ".zarray", ".zattrs", "zarr.json")
 
 #: Formats whose files hold several arrays, one picked by ``dataset`` (and ``.npz``).
 _DATASET_KINDS = ("HDF5", "Zarr", "VTI")
