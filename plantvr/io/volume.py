@@ -235,6 +235,7 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
         name (a cell array's voxels are the cells, at their centres). Default: the only (or active) array.
     lazy : bool
         Return a dask array instead of reading the voxels (Zarr and TIFF only), for volumes bigger than memory.
+        A chunk that cannot be decoded raises, when it is computed, a ``ValueError`` naming the file.
     channel : int, optional
         The channel (or RGB sample) to read from a multi-channel volume: an ImageJ/OME hyperstack's C axis, a
         TIFF's samples (RGB), a NRRD non-spatial axis, MetaImage vector components, a NIfTI 5th axis, an
@@ -349,6 +350,40 @@ def _quiet_tifffile():
         yield
     finally:
         log.setLevel(level)
+
+
+# ---------------------------------------------------------------------------------------------- lazy reads
+
+
+class _GuardedChunks:
+    """A Zarr array (or tifffile's Zarr view of a TIFF) whose reads raise the one :func:`read_volume` error: a
+    damaged chunk or strip of a lazy volume surfaces only when dask computes it, and then as a ``ValueError``
+    naming the file (issue 34's rule), not as whatever the codec raised."""
+
+    def __init__(self, path: Path, kind: str, arr):
+        self.path, self.kind, self.arr = path, kind, arr
+        self.shape, self.dtype, self.ndim = tuple(arr.shape), np.dtype(arr.dtype), len(arr.shape)
+
+    def __getitem__(self, key):
+        try:
+            with _quiet_tifffile():
+                return np.asarray(self.arr[key])
+        except MemoryError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - every codec and store raises its own types
+            raise _read_error(self.path, self.kind, exc) from None
+
+
+def _lazy(p: Path, kind: str, arr):
+    """A dask array over ``arr``'s own chunks whose chunk reads fail with a ``ValueError`` naming ``p``."""
+    import dask.array as da
+    from dask.base import tokenize
+    st = p.stat()
+    name = "read_volume-" + tokenize(os.fspath(p.resolve()), st.st_mtime_ns, st.st_size, getattr(arr, "path", ""),
+                                     tuple(arr.shape), str(arr.dtype))
+    chunks = getattr(arr, "chunks", None) or tuple(arr.shape)
+    return da.from_array(_GuardedChunks(p, kind, arr), chunks=chunks, name=name, asarray=False, fancy=False,
+                         meta=np.empty((0,) * len(arr.shape), arr.dtype))
 
 
 # ---------------------------------------------------------------------------------------------- door checks
@@ -566,10 +601,9 @@ def _tiff(p: Path, *, dataset, lazy, pick, files=None):
                             org[ax] = float(v)
                     break
         if lazy:
-            import dask.array as da
             import zarr
             store = series.aszarr(level=0) if series.levels else series.aszarr()
-            arr = da.from_zarr(zarr.open(store, mode="r"))
+            arr = _lazy(p, "TIFF", zarr.open(store, mode="r"))
         else:
             arr = series.asarray()
     arr = arr[_pick_index(p, shape, axes, keep, pick)]
@@ -607,9 +641,8 @@ def _tiff_folder(p: Path, *, lazy, files=None):
                          f"{sorted({(s, str(d)) for s, d in shapes})[:3]}")
     _declared(p, (len(files), *shapes[0][0]), shapes[0][1], lazy=lazy)
     if lazy:
-        import dask.array as da
         import zarr
-        arr = da.from_zarr(zarr.open(tifffile.imread([str(f) for f in files], aszarr=True), mode="r"))
+        arr = _lazy(p, "TIFF", zarr.open(tifffile.imread([str(f) for f in files], aszarr=True), mode="r"))
     else:
         arr = tifffile.imread([str(f) for f in files])
     sp = [1.0, 1.0, 1.0]
@@ -928,8 +961,7 @@ def _zarr(p: Path, *, dataset, lazy, pick):
     keep = _keep_axes(p, shape, labels, pick)
     sel = _pick_index(p, shape, labels, keep, pick)
     if lazy:
-        import dask.array as da
-        arr = da.from_zarr(arr_node)[sel]
+        arr = _lazy(p, "Zarr", arr_node)[sel]
     else:
         arr = arr_node[sel]
     spacing = [1.0, 1.0, 1.0] if scale is None else [float(np.asarray(scale)[i]) for i in keep]

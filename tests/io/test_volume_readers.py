@@ -643,3 +643,45 @@ def test_vti_cell_data_lies_on_cell_centres(tmp_path):
     np.testing.assert_allclose(v.origin, (1.1, 1.15, 1.2))
     with pytest.raises(ValueError, match="cell-data arrays"):
         read_volume(p, dataset="nope")
+
+
+def test_lazy_reads_raise_the_read_error_when_a_damaged_chunk_is_computed(tmp_path):
+    """Issue 32 item 4: lazy=True opens a file whose voxel data is damaged (only its header is read); computing the
+    damaged chunk raises a ValueError naming the file, not the codec's own error; healthy chunks still compute."""
+    pytest.importorskip("dask.array")
+    zarr = pytest.importorskip("zarr")
+    a = _vol(np.uint16, (6, 8, 10))
+    p = tmp_path / "v.zarr"
+    z = zarr.create_array(str(p), shape=a.shape, dtype=a.dtype, chunks=(3, 8, 10))
+    z[:] = a
+    chunk = p / "c" / "1" / "0" / "0"
+    chunk.write_bytes(chunk.read_bytes()[:-7])                 # a truncated zstd chunk
+    lz = read_volume(p, lazy=True)
+    assert np.array_equal(lz.array[:3].compute(), a[:3])
+    with pytest.raises(ValueError, match=r"could not read '.*v\.zarr' as Zarr"):
+        lz.array.compute()
+    pytest.importorskip("imagecodecs")
+    t = tmp_path / "c.tif"
+    tifffile.imwrite(t, a, compression="zlib", predictor=True)
+    with tifffile.TiffFile(t) as tf:
+        off, n = tf.pages[4].dataoffsets[0], tf.pages[4].databytecounts[0]
+    raw = bytearray(t.read_bytes())
+    raw[off:off + n] = b"\xff" * n                             # page 4's deflate stream is garbage
+    t.write_bytes(bytes(raw))
+    lt = read_volume(t, lazy=True)
+    assert np.array_equal(lt.array[:4].compute(), a[:4])
+    with pytest.raises(ValueError, match=r"could not read '.*c\.tif' as TIFF"):
+        lt.array.compute()
+    with pytest.raises(ValueError, match=r"c\.tif"):           # the eager read says the same
+        read_volume(t)
+    (tmp_path / "s").mkdir()
+    for k in range(a.shape[0]):
+        tifffile.imwrite(tmp_path / "s" / f"img_{k}.tif", a[k], compression="zlib")
+    raw = bytearray((tmp_path / "s" / "img_3.tif").read_bytes())
+    with tifffile.TiffFile(tmp_path / "s" / "img_3.tif") as tf:
+        off, n = tf.pages[0].dataoffsets[0], tf.pages[0].databytecounts[0]
+    raw[off:off + n] = b"\x00" * n
+    (tmp_path / "s" / "img_3.tif").write_bytes(bytes(raw))
+    ls = read_volume(tmp_path / "s", lazy=True)
+    with pytest.raises(ValueError, match=r"could not read '.*s' as TIFF"):
+        ls.array.compute()
