@@ -59,7 +59,7 @@ import numpy as np
 from plantvr._validation import MAX_COUNT
 from plantvr.vine.volume import MAX_VOLUME_BYTES, natural_key
 
-__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "VolumeGeometry", "read_volume"]
+__all__ = ["MAX_LAZY_VOXELS", "SUFFIXES", "Volume", "VolumeGeometry", "load_volume", "read_volume"]
 
 #: File suffixes :func:`read_volume` reads (``.zarr`` is a folder; any other folder is a TIFF slice stack or a
 #: DICOM series).
@@ -219,7 +219,7 @@ def _geometry(shape, spacing, origin, meta: dict) -> VolumeGeometry:
 
 
 def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel: int | None = None,
-                time: int | None = None) -> Volume:
+                time: int | None = None, mmap: bool = False) -> Volume:
     """Read a 3-D image stack with its spacing, origin and metadata, dispatching on the suffix.
 
     Parameters
@@ -236,6 +236,9 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
     lazy : bool
         Return a dask array instead of reading the voxels (Zarr and TIFF only), for volumes bigger than memory.
         A chunk that cannot be decoded raises, when it is computed, a ``ValueError`` naming the file.
+    mmap : bool
+        Memory-map a ``.npy`` file or an uncompressed, native-byte-order TIFF instead of reading it (a
+        ``numpy.memmap``; no size cap but the file's own length); other files are read as usual.
     channel : int, optional
         The channel (or RGB sample) to read from a multi-channel volume: an ImageJ/OME hyperstack's C axis, a
         TIFF's samples (RGB), a NRRD non-spatial axis, MetaImage vector components, a NIfTI 5th axis, an
@@ -280,6 +283,10 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
         raise ValueError(f"dataset must be a string (an array path or name) or None, got {dataset!r}")
     if not isinstance(lazy, (bool, np.bool_)):
         raise ValueError(f"lazy must be True or False, got {lazy!r}")
+    if not isinstance(mmap, (bool, np.bool_)):
+        raise ValueError(f"mmap must be True or False, got {mmap!r}")
+    if mmap and lazy:
+        raise ValueError("pass lazy=True (a dask array) or mmap=True (a memory map), not both")
     p = Path(path)
     if not p.exists():
         raise ValueError(f"path does not exist: {str(p)!r}")
@@ -307,6 +314,8 @@ def read_volume(path, *, dataset: str | None = None, lazy: bool = False, channel
                              f"{'slice stack' if stack else 'file'} holds one 3-D volume (no {name} axis)")
     reader = _READERS[kind]
     kw = {"files": files} if kind in ("TIFF", "DICOM") else {}
+    if kind in ("TIFF", "NumPy"):
+        kw["mmap"] = bool(mmap)
     try:
         with _quiet_tifffile():
             array, spacing, origin, axes, meta = reader(p, dataset=dataset, lazy=bool(lazy), pick=pick, **kw)
@@ -394,8 +403,9 @@ def _suffix(p: Path) -> str:
     return ".nii.gz" if name.endswith(".nii.gz") else p.suffix.lower()
 
 
-def _declared(path, shape, dtype, *, lazy: bool = False) -> None:
-    """Refuse a declared array of a non-numeric dtype or beyond the size caps, before reading it."""
+def _declared(path, shape, dtype, *, lazy: bool = False, mapped: bool = False) -> None:
+    """Refuse a declared array of a non-numeric dtype or beyond the size caps, before reading it (a memory map
+    needs no memory: ``mapped`` skips the byte cap)."""
     dtype = np.dtype(dtype)
     shape = tuple(int(s) for s in shape)
     if dtype.kind not in "biuf" or dtype.fields is not None:
@@ -408,7 +418,7 @@ def _declared(path, shape, dtype, *, lazy: bool = False) -> None:
     if lazy and n > MAX_LAZY_VOXELS:
         raise ValueError(f"volume in {str(path)!r} declares shape {shape} ({n} voxels), more than the "
                          f"{MAX_LAZY_VOXELS} a lazy read accepts")
-    if not lazy and n * dtype.itemsize > MAX_VOLUME_BYTES:
+    if not lazy and not mapped and n * dtype.itemsize > MAX_VOLUME_BYTES:
         raise ValueError(f"volume in {str(path)!r} declares shape {shape} ({n * dtype.itemsize} bytes), more "
                          f"than the {MAX_VOLUME_BYTES} bytes read into memory (read Zarr/TIFF with lazy=True)")
 
@@ -546,7 +556,7 @@ def _frame(dirs, origin_world):
 # ---------------------------------------------------------------------------------------------- TIFF
 
 
-def _tiff(p: Path, *, dataset, lazy, pick, files=None):
+def _tiff(p: Path, *, dataset, lazy, pick, files=None, mmap=False):
     import tifffile
     if p.is_dir() or files is not None:
         return _tiff_folder(p, lazy=lazy, files=files)
@@ -559,7 +569,9 @@ def _tiff(p: Path, *, dataset, lazy, pick, files=None):
             if ends and max(ends) > size:
                 raise ValueError(f"could not read {str(p)!r} as TIFF: page data ends at byte {max(ends)}, past "
                                  f"the file's {size} (truncated)")
-        _declared(p, shape, dtype, lazy=lazy)
+        mapped = bool(mmap) and series.dataoffset is not None and np.dtype(dtype).newbyteorder(
+            tf.byteorder).isnative                   # contiguous, uncompressed, native order: a memory map
+        _declared(p, shape, dtype, lazy=lazy, mapped=mapped)
         axes = _tiff_axes(axes_raw)
         keep = _keep_axes(p, shape, axes, pick)
         meta: dict[str, Any] = {"tiff_axes": axes_raw, "byteorder": tf.byteorder}
@@ -604,6 +616,8 @@ def _tiff(p: Path, *, dataset, lazy, pick, files=None):
             import zarr
             store = series.aszarr(level=0) if series.levels else series.aszarr()
             arr = _lazy(p, "TIFF", zarr.open(store, mode="r"))
+        elif mapped:
+            arr = tifffile.memmap(str(p), mode="r", series=0)
         else:
             arr = series.asarray()
     arr = arr[_pick_index(p, shape, axes, keep, pick)]
@@ -1056,19 +1070,22 @@ def _dicom(p: Path, *, dataset, lazy, pick, files=None):
 # ---------------------------------------------------------------------------------------------- NumPy
 
 
-def _numpy(p: Path, *, dataset, lazy, pick):
+def _numpy(p: Path, *, dataset, lazy, pick, mmap=False):
     from plantvr._fileio import npy_headers, read_npz
     if p.suffix.lower() == ".npy":
         from plantvr.vine.volume import _npy_header
         shape, dtype, offset = _npy_header(p)
-        _declared(p, shape, dtype)
+        _declared(p, shape, dtype, mapped=bool(mmap) and np.dtype(dtype).isnative)
         n = int(np.prod(shape, dtype=object)) * np.dtype(dtype).itemsize
         if n != p.stat().st_size - offset:
             raise ValueError(f"could not read {str(p)!r} as .npy: its header declares {n} bytes of data but the "
                              f"file holds {p.stat().st_size - offset} (truncated or corrupt)")
-        arr = np.load(p, allow_pickle=False)
+        arr = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
     else:
-        heads = npy_headers(p, what="volume file", max_members=1000)
+        try:
+            heads = npy_headers(p, what="volume file", max_members=1000)
+        except ValueError as exc:               # the archive itself: one wording with every other reader
+            raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
         names = list(heads)
         key = dataset if dataset is not None else ("volume" if "volume" in names else
                                                    (names[0] if len(names) == 1 else None))
@@ -1076,10 +1093,58 @@ def _numpy(p: Path, *, dataset, lazy, pick):
             raise ValueError(f"dataset must name one of the arrays {names} in {str(p)!r}, got {dataset!r}")
         shape, dtype = heads[key][0], heads[key][1]
         _declared(p, shape, dtype)
-        arr = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
+        try:
+            arr = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
+        except ValueError as exc:
+            raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
     keep = _keep_axes(p, arr.shape, "?" * arr.ndim, pick)
     arr = arr[_pick_index(p, arr.shape, "?" * arr.ndim, keep, pick)]
     return arr, [1.0, 1.0, 1.0], [0.0, 0.0, 0.0], "zyx", {}
+
+
+def load_volume(path, *, key: str | None = None, mmap: bool = True) -> np.ndarray:
+    """ViNE's volume input (spec 000_vine §1.4): :func:`read_volume`'s voxels of a TIFF stack (a multi-page file
+    or a folder of 2-D slices in natural order), ``.npy`` or ``.npz``, checked for the numeric cores.
+
+    A thin call into :func:`read_volume` (issue 30, "one reader per format"): the same errors, the same size
+    caps, checked from the headers before anything is allocated.
+
+    Parameters
+    ----------
+    path : str or path-like
+        ``.tif``/``.tiff``, a folder of 2-D TIFF slices, ``.npy`` or ``.npz``.
+    key : str, optional
+        Array name inside a ``.npz`` (default: ``"volume"`` if present, else the only array).
+    mmap : bool
+        Memory-map ``.npy`` files and uncompressed native-order TIFF files instead of reading them.
+
+    Returns
+    -------
+    (A0, A1, A2) ndarray
+        uint8/16/32, int8/16/32, float32 or float64, native byte order, axes as stored (a TIFF stack: page,
+        row, column); float volumes are finite.
+
+    Raises
+    ------
+    ValueError
+        Naming the file: as :func:`read_volume`, plus another suffix, another dtype or a non-finite float.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path must be a file or folder path, got {type(path).__name__}")  # noqa: TRY004
+    p = Path(path)
+    if p.exists() and not p.is_dir() and _suffix(p) not in (".tif", ".tiff", ".npy", ".npz"):
+        raise ValueError(f"path must end in .tif, .tiff, .npy or .npz (or be a folder of TIFF slices), got "
+                         f"{str(p)!r}")
+    if key is not None and _suffix(p) != ".npz":
+        raise ValueError(f"key names an array inside a .npz file, so key={key!r} does not apply to {str(p)!r}")
+    if not isinstance(mmap, (bool, np.bool_)):
+        raise ValueError(f"mmap must be True or False, got {mmap!r}")
+    vol = read_volume(p, dataset=key, mmap=bool(mmap) and not p.is_dir() and _suffix(p) != ".npz")
+    from plantvr.vine.volume import _check_volume
+    try:
+        return _check_volume("volume", vol.array)
+    except ValueError as exc:
+        raise ValueError(f"{exc} (in {str(p)!r})") from None
 
 
 _KINDS = {".tif": "TIFF", ".tiff": "TIFF", ".nrrd": "NRRD", ".nhdr": "NRRD", ".nii": "NIfTI", ".nii.gz": "NIfTI",

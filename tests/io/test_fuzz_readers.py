@@ -272,7 +272,8 @@ def test_fuzz_label_volume_files(tmp_path, suffix):
 
 @pytest.mark.parametrize("suffix", [".tif", ".npy", ".npz"])
 def test_fuzz_load_volume(tmp_path, suffix):
-    from plantvr.vine.volume import load_volume, save_volume
+    from plantvr.io.volume import load_volume
+    from plantvr.vine.volume import save_volume
     save_volume(tmp_path / f"v{suffix}", _vol(np.uint8))
     failures = _fuzz_file(f"load_volume {suffix}", tmp_path / f"v{suffix}", lambda p: load_volume(p, mmap=False),
                           tmp_path, seed=7 + len(suffix))

@@ -455,7 +455,7 @@ def test_label_volumes_round_trip_array_spacing_and_origin(tmp_path, suffix):
 
 def test_tiff_folder_in_natural_order_and_explicit_file_list(tmp_path):
     """img_0 ... img_19 stack as 0, 1, 2, ..., 10 (not name order 0, 1, 10, 11, ...); a list keeps its order."""
-    from plantvr.vine.volume import load_volume
+    from plantvr.io.volume import load_volume
     a = _vol(np.uint16, (20, 5, 6))
     for k in range(20):
         tifffile.imwrite(tmp_path / f"img_{k}.tif", a[k])
@@ -685,3 +685,26 @@ def test_lazy_reads_raise_the_read_error_when_a_damaged_chunk_is_computed(tmp_pa
     ls = read_volume(tmp_path / "s", lazy=True)
     with pytest.raises(ValueError, match=r"could not read '.*s' as TIFF"):
         ls.array.compute()
+
+
+def test_mmap_maps_npy_and_plain_tiff_and_load_volume_is_read_volume(tmp_path):
+    """Issue 30: one reader per format; load_volume (ViNE's input) is read_volume's voxels, memory-mapped where
+    the file allows it."""
+    from plantvr.io.volume import load_volume
+    a = _vol(np.uint16, (5, 6, 7))
+    np.save(tmp_path / "v.npy", a)
+    tifffile.imwrite(tmp_path / "v.tif", a, photometric="minisblack")
+    tifffile.imwrite(tmp_path / "z.tif", a, compression="zlib")
+    for name, mapped in (("v.npy", True), ("v.tif", True), ("z.tif", False)):
+        v = read_volume(tmp_path / name, mmap=True)
+        assert isinstance(v.array, np.memmap) == mapped and np.array_equal(v.array, a)
+        lv = load_volume(tmp_path / name)
+        assert isinstance(lv, np.memmap) == mapped and np.array_equal(lv, read_volume(tmp_path / name).array)
+    with pytest.raises(ValueError, match="not both"):
+        read_volume(tmp_path / "v.tif", mmap=True, lazy=True)
+    with pytest.raises(ValueError, match="key=.* does not apply"):
+        load_volume(tmp_path / "v.npy", key="volume")
+    nib = pytest.importorskip("nibabel")
+    nib.save(nib.Nifti1Image(a, np.eye(4)), tmp_path / "v.nii")
+    with pytest.raises(ValueError, match=r"must end in \.tif, \.tiff, \.npy or \.npz"):
+        load_volume(tmp_path / "v.nii")
