@@ -552,3 +552,47 @@ def test_hypothesis_random_bytes_under_every_suffix(tmp_path_factory):
 
     run()
     assert not failures, "\n".join(failures[:20])
+
+
+def _ome_image_v2(path: Path, a: np.ndarray) -> Path:
+    """A minimal NGFF 0.4 image (Zarr v2) written with zarr itself: one level, micrometre z, y, x axes."""
+    import zarr
+    g = zarr.open_group(str(path), mode="w", zarr_format=2)
+    g.create_array("0", shape=a.shape, dtype=a.dtype, chunks=(3, 4, 4))[...] = a
+    g.attrs.update({"multiscales": [{"version": "0.4", "name": "img", "axes": [
+        {"name": n, "type": "space", "unit": "micrometer"} for n in "zyx"], "datasets": [
+        {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [2.0, 0.5, 0.5]}]}]}]})
+    return path
+
+
+def test_fuzz_ome_zarr_labels(tmp_path, monkeypatch):
+    """OME-Zarr labels as write_label_volume writes them, read back by read_volume under damage (their metadata,
+    a chunk); a write that fails part-way leaves the previous labels and the image's label list as they were."""
+    pytest.importorskip("zarr")
+    from plantvr.io import label_volume as LV
+    from plantvr.io.volume import read_volume
+    a = _vol()
+    img = _ome_image_v2(tmp_path / "img.zarr", a)
+    lab = (a % 3).astype(np.uint8)
+    out = LV.write_label_volume(img, lab, name="cells")
+    failures = []
+    for k, member in enumerate((out / ".zattrs", out / "0" / "0.0.0")):
+        work = tmp_path / f"m{k}"
+        work.mkdir()
+        failures += _fuzz_file(f"OME-Zarr labels {member.name}", out, read_volume, work, seed=11 + k,
+                               member=member, flips=12)
+    assert not failures, "\n".join(failures)
+    before = {q.relative_to(img).as_posix(): q.read_bytes() for q in img.rglob("*") if q.is_file()}
+
+    def boom(*args, **kwargs):
+        raise OSError("disk full")
+    import zarr
+    monkeypatch.setattr(zarr.Group, "create_array", boom)
+    with pytest.raises(OSError, match="disk full"):
+        LV.write_label_volume(img, np.zeros_like(lab), name="cells")
+    with pytest.raises(OSError, match="disk full"):
+        LV.write_label_volume(img, np.zeros_like(lab), name="other")
+    monkeypatch.undo()
+    after = {q.relative_to(img).as_posix(): q.read_bytes() for q in img.rglob("*") if q.is_file()}
+    assert after == before                                     # no temporary folder, nothing changed
+    assert np.array_equal(read_volume(out).array, lab)
