@@ -25,6 +25,11 @@ suffix              library     grid
                                 data in the array's own axis order
 ``.mha, .mhd``      SimpleITK   ``TransformMatrix``/``Offset``/``ElementSpacing`` of the geometry, data in
                                 the array's own axis order (ITK axis 0 = the array's last)
+``.zarr``           zarr        OME-Zarr labels (NGFF image-label, 0.4 in a Zarr v2 image, 0.5 in a v3 one)
+                                written *into* the existing image ``path``: ``labels/<name>/`` holds one level
+                                per image level (nearest label at each level's voxel centres, the image's own
+                                ``coordinateTransformations``), ``image-label`` with ``colors``, ``properties``
+                                (names) and ``source.image = "../../"``, and ``labels/``' ``labels`` list
 ==================  ==========  ===============================================================================
 
 Without ``geometry``, ``spacing`` and ``origin`` describe an (X, Y, Z) array: voxel ``(i, j, k)`` is at
@@ -37,6 +42,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -48,7 +55,7 @@ from plantvr._validation import check_array
 __all__ = ["LABEL_VOLUME_SUFFIXES", "write_label_volume"]
 
 #: Suffixes :func:`write_label_volume` writes.
-LABEL_VOLUME_SUFFIXES = (".tif", ".tiff", ".nrrd", ".seg.nrrd", ".nii", ".nii.gz", ".mha", ".mhd")
+LABEL_VOLUME_SUFFIXES = (".tif", ".tiff", ".nrrd", ".seg.nrrd", ".nii", ".nii.gz", ".mha", ".mhd", ".zarr")
 
 #: LPS <-> RAS (NIfTI's world frame): x and y flip.
 _RAS = np.array([-1.0, -1.0, 1.0])
@@ -194,6 +201,137 @@ def _write_metaimage(tmp: str, vol: np.ndarray, g, unit: str | None, lps: bool) 
     sitk.WriteImage(img, tmp, True)
 
 
+# ------------------------------------------------------------------------------------- OME-Zarr labels (NGFF)
+
+#: Label group names OME-Zarr labels may take here (one path component).
+_LABEL_NAME = r"[A-Za-z0-9][A-Za-z0-9._-]{0,127}"
+
+
+def _ome_image(p: Path):
+    """The OME-Zarr image at ``p``: (zarr format, NGFF version, multiscales[0], spatial axis indices, its
+    level-0 geometry). Refuses a folder that is not one."""
+    import zarr
+
+    from plantvr.io.volume import VolumeGeometry, _ome_transforms
+    if not p.is_dir():
+        raise ValueError(f"path must be an existing OME-Zarr image folder (labels are written into it, beside the "
+                         f"image), got {os.fspath(p)!r}")
+    try:
+        root = zarr.open_group(str(p), mode="r")
+        attrs = dict(root.attrs)
+    except Exception as exc:  # noqa: BLE001 - zarr raises many types on a damaged store
+        raise ValueError(f"could not open {os.fspath(p)!r} as an OME-Zarr image: {type(exc).__name__}: "
+                         f"{str(exc)[:200]}") from None
+    fmt = int(root.metadata.zarr_format)
+    ome = attrs.get("ome") if fmt == 3 else attrs
+    ms = (ome or {}).get("multiscales")
+    if not isinstance(ms, list) or not ms or not isinstance(ms[0], dict) or not ms[0].get("datasets"):
+        raise ValueError(f"path must be an OME-Zarr image (a .zarr folder with NGFF 'multiscales'), "
+                         f"{os.fspath(p)!r} has none")
+    m0 = ms[0]
+    version = str((ome or {}).get("version") or m0.get("version") or ("0.5" if fmt == 3 else "0.4"))
+    axes = m0.get("axes") or []
+    spatial = [i for i, a in enumerate(axes) if isinstance(a, dict) and a.get("type") == "space"]
+    if len(spatial) != 3:
+        raise ValueError(f"OME-Zarr image {os.fspath(p)!r} must have 3 space axes for a label volume, got axes "
+                         f"{[a.get('name') if isinstance(a, dict) else a for a in axes]}")
+    levels = []
+    for ds in m0["datasets"]:
+        try:
+            arr = root[ds["path"]]
+        except Exception:  # noqa: BLE001 - a missing level is a damaged image
+            raise ValueError(f"OME-Zarr image {os.fspath(p)!r} names the level {ds.get('path')!r}, which it does "
+                             f"not hold") from None
+        scale, trans = _ome_transforms(ds.get("coordinateTransformations"))
+        n = len(arr.shape)
+        scale = np.ones(n) if scale is None else scale
+        trans = np.zeros(n) if trans is None else trans
+        levels.append((ds, tuple(int(arr.shape[i]) for i in spatial), scale[spatial], trans[spatial]))
+    s2, t2 = _ome_transforms(m0.get("coordinateTransformations"))     # the multiscale's own, after each level's
+    if s2 is not None or t2 is not None:
+        s2 = np.ones(len(axes)) if s2 is None else s2
+        t2 = np.zeros(len(axes)) if t2 is None else t2
+        levels = [(ds, sh, sc * s2[spatial], tr * s2[spatial] + t2[spatial]) for ds, sh, sc, tr in levels]
+    letters = "".join(str(axes[i].get("name", "?")).lower()[:1] for i in spatial)
+    units = {axes[i].get("unit") for i in spatial} - {None}
+    g0 = VolumeGeometry.from_grid(levels[0][1], levels[0][2], levels[0][3], axes=letters,
+                                  unit=units.pop() if len(units) == 1 else None)
+    return fmt, version, m0, spatial, levels, g0
+
+
+def _write_ome_zarr_labels(p: Path, vol: np.ndarray, geometry, name: str, segments: list[dict]) -> Path:
+    import zarr
+    fmt, version, m0, spatial, levels, g0 = _ome_image(p)
+    if vol.shape != g0.shape:
+        raise ValueError(f"volume has shape {vol.shape}, but the OME-Zarr image {os.fspath(p)!r} has level-0 space "
+                         f"axes of shape {g0.shape}: labels lie on the image's own voxels")
+    if geometry is not None:
+        g = _check_geometry(geometry, vol.shape)
+        if not (np.allclose(g.spacing, g0.spacing, rtol=1e-9) and np.allclose(g.direction, g0.direction)
+                and np.allclose(g.origin, g0.origin, rtol=1e-9, atol=1e-9 * float(np.max(g0.spacing)))):
+            raise ValueError(f"geometry (spacing {g.spacing.tolist()}, origin {g.origin.tolist()}) is not the "
+                             f"level-0 grid of the OME-Zarr image {os.fspath(p)!r} (spacing {g0.spacing.tolist()},"
+                             f" origin {g0.origin.tolist()}): OME-Zarr labels lie on their image's voxels")
+    axes = [dict(m0["axes"][i]) for i in spatial]
+    colors = [{"label-value": s["label"], "rgba": [int(round(255 * c)) for c in s["color"]] + [255]}
+              for s in segments]
+    props = [{"label-value": s["label"], "name": s["name"] or f"label {s['label']}"} for s in segments]
+    image_label = {"colors": colors, "properties": props, "source": {"image": "../../"}}
+    datasets = []
+    for ds, _shape, sc, tr in levels:
+        datasets.append({"path": str(ds["path"]),
+                         "coordinateTransformations": [{"type": "scale", "scale": [float(x) for x in sc]},
+                                                       {"type": "translation", "translation": [float(x) for x in tr]}]})
+    multiscales = [{"axes": axes, "datasets": datasets, "name": name}]
+    if fmt == 2:
+        image_label["version"] = version
+        multiscales[0]["version"] = version
+        attrs = {"image-label": image_label, "multiscales": multiscales}
+    else:
+        attrs = {"ome": {"version": version, "image-label": image_label, "multiscales": multiscales}}
+    labels_dir = p / "labels"
+    made = not labels_dir.exists()
+    tmp = None
+    try:
+        lab_group = zarr.open_group(str(labels_dir), mode="a", zarr_format=fmt)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=labels_dir))
+        grp = zarr.open_group(str(tmp), mode="w", zarr_format=fmt)
+        s0, t0 = levels[0][2], levels[0][3]
+        for ds, shape, sc, tr in levels:            # nearest level-0 label at each level voxel's centre
+            idx = [np.clip(np.rint((np.arange(shape[a]) * sc[a] + tr[a] - t0[a]) / s0[a]), 0, vol.shape[a] - 1)
+                   .astype(np.intp) for a in range(3)]
+            data = vol[np.ix_(*idx)]
+            arr = grp.create_array(str(ds["path"]), shape=data.shape, dtype=data.dtype,
+                                   chunks=tuple(min(n, 64) for n in data.shape),
+                                   **({"dimension_names": [a.get("name") for a in axes]} if fmt == 3 else {}))
+            arr[...] = data
+        grp.attrs.update(attrs)
+        final = labels_dir / name
+        old = None
+        if final.exists():
+            old = Path(tempfile.mkdtemp(prefix=f".{name}.old.", dir=labels_dir))
+            os.replace(final, old / name)
+        os.replace(tmp, final)
+        tmp = None
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+        ome_l = dict(lab_group.attrs)
+        if fmt == 3:
+            inner = dict(ome_l.get("ome") or {})
+            names = [n for n in inner.get("labels", []) if n != name] + [name]
+            lab_group.attrs.update({"ome": {**inner, "version": version, "labels": names}})
+        else:
+            names = [n for n in ome_l.get("labels", []) if n != name] + [name]
+            lab_group.attrs.update({"labels": names})
+    except BaseException:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        if made:
+            shutil.rmtree(labels_dir, ignore_errors=True)
+        raise
+    return labels_dir / name
+
+
 _WRITERS = {".tif": _write_tiff, ".tiff": _write_tiff, ".nrrd": _write_nrrd, ".seg.nrrd": _write_seg_nrrd,
             ".nii": _write_nifti,
             ".nii.gz": _write_nifti, ".mha": _write_metaimage, ".mhd": _write_metaimage}
@@ -220,14 +358,17 @@ def _check_geometry(geometry, shape):
 
 
 def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=None, origin=None,
-                       geometry=None, names: dict | None = None, colors: dict | None = None) -> Path:
+                       geometry=None, names: dict | None = None, colors: dict | None = None,
+                       name: str | None = None) -> Path:
     """Write a label volume in the format its suffix names (``.tif``, ``.nrrd``, ``.seg.nrrd``, ``.nii``,
-    ``.nii.gz``, ``.mha``, ``.mhd``), each voxel at its physical point.
+    ``.nii.gz``, ``.mha``, ``.mhd``; ``.zarr``: OME-Zarr labels inside that image), each voxel at its physical
+    point.
 
     Parameters
     ----------
     path : path-like
-        Target file; its folder must exist.
+        Target file; its folder must exist. For ``.zarr``: an existing OME-Zarr image, which gets the labels
+        group ``labels/<name>`` (the NGFF image-label layout napari and ome-zarr-py open as its labels).
     volume : (A0, A1, A2) uint8 or uint16 ndarray
         Labels (0 = background) on the source's grid, in its axis order (e.g. from
         :func:`plantvr.vine.label_volumes.labels_to_volume` with the source's shape, spacing and origin).
@@ -238,14 +379,17 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=N
     geometry : VolumeGeometry or Volume, optional
         The source's geometry (``read_volume(...).geometry``, or the Volume itself): shape, axis order,
         spacing, origin and direction. Refused together with ``spacing``/``origin``.
+        For ``.zarr``, optional: it must be the image's level-0 grid (the default).
     names, colors : dict, optional
-        ``.seg.nrrd`` only: segment name and RGB colour (in [0, 1], or [0, 255]) of each label present
-        (default ``Segment_<label>`` and Slicer's generic colours); refused for the other formats.
+        ``.seg.nrrd`` and ``.zarr`` only: segment name and RGB colour (in [0, 1], or [0, 255]) of each label
+        present (default ``Segment_<label>`` and Slicer's generic colours); refused for the other formats.
+    name : str, optional
+        ``.zarr`` only: the labels group's name (default ``"labels"``), letters, digits, ``.``, ``_``, ``-``.
 
     Returns
     -------
     Path
-        The path written.
+        The path written (for ``.zarr``, the labels group ``path/labels/<name>``).
 
     Raises
     ------
@@ -263,10 +407,21 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=N
                          + (f"{volume.dtype} {volume.shape}" if isinstance(volume, np.ndarray)
                             else type(volume).__name__))
     from plantvr.io.volume import VolumeGeometry
-    if suffix != ".seg.nrrd" and (names is not None or colors is not None):
-        raise ValueError(f"names and colors name 3D Slicer segments: they apply to .seg.nrrd only, not to "
-                         f"{os.fspath(p)!r}")
-    segments = _segments(volume, names, colors) if suffix == ".seg.nrrd" else None
+    if suffix not in (".seg.nrrd", ".zarr") and (names is not None or colors is not None):
+        raise ValueError(f"names and colors name segments: they apply to .seg.nrrd and OME-Zarr (.zarr) only, not "
+                         f"to {os.fspath(p)!r}")
+    if name is not None and suffix != ".zarr":
+        raise ValueError(f"name names an OME-Zarr labels group: it applies to .zarr only, not to {os.fspath(p)!r}")
+    segments = _segments(volume, names, colors) if suffix in (".seg.nrrd", ".zarr") else None
+    if suffix == ".zarr":
+        name = "labels" if name is None else name
+        if not isinstance(name, str) or not re.fullmatch(_LABEL_NAME, name):
+            raise ValueError(f"name must be 1-128 letters, digits, '.', '_' or '-' (not starting with '.', '_' or "
+                             f"'-'), got {name!r}")
+        if spacing is not None or origin is not None:
+            raise ValueError("spacing and origin do not apply to OME-Zarr labels: they lie on the image's level-0 "
+                             "grid (pass geometry=, or nothing)")
+        return _write_ome_zarr_labels(p, volume, geometry, name, segments)
     if geometry is not None:
         if spacing is not None or origin is not None:
             raise ValueError("pass either geometry (the source's) or spacing/origin, not both: geometry already "

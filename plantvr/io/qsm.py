@@ -10,8 +10,9 @@ same tree→mesh entry points (:func:`plantvr.io.tree.tree_geometry`), Yggdrasil
 =========================  ===================================================================================
 reader                     table
 =========================  ===================================================================================
-:func:`read_treeqsm`       TreeQSM ``.mat`` (``qsm.cylinder`` struct: ``start``, ``axis``, ``length``,
-                           ``radius``, ``parent`` 1-based with 0 for none, optional ``extension``, ``branch``)
+:func:`read_treeqsm`       TreeQSM ``.mat``: 2.1-2.4 ``qsm.cylinder`` struct (``start``, ``axis``, ``length``,
+                           ``radius``, ``parent`` 1-based with 0 for none, optional ``extension``, ``branch``);
+                           2.0 variables ``Sta``, ``Axe``, ``Len``, ``Rad``, ``CPar``, ``CExt``, ``BoC``
 :func:`read_simpleforest`  SimpleForest CSV (``ID``, ``parentID``, ``startX..Z``, ``endX..Z``, ``radius``,
                            optional ``branchID``)
 :func:`read_archi`         aRchi CSV (``cyl_ID``, ``parent_ID``, ``startX..Z``, ``endX..Z``, ``radius_cyl``,
@@ -19,14 +20,21 @@ reader                     table
 :func:`read_qsm`           any of them, by suffix (``.mat``) or by the CSV header
 =========================  ===================================================================================
 
-How cylinders become nodes (:func:`cylinders_to_tree`): the root cylinder's start is node 0; every cylinder's end
-is a node whose internode runs from the node its cylinder starts at. A child cylinder that starts part-way along
-its parent (TreeQSM branches start on the parent's axis, not at its end) splits the parent there: the child's
-start is projected on the parent's axis, a node is inserted at that point, and the child grows from it (the
-offset between the child's recorded start and its projection is reported by ``cylinders_to_tree(...,
-return_map=True)``). The continuing child of each cylinder (``extension``, the same branch id, else the child best
-aligned with it) is the node's main child, so branch orders follow the QSM's branches. Nodes are numbered
-breadth-first, so every parent precedes its children.
+How cylinders become nodes (:func:`cylinders_to_tree`): every cylinder keeps its geometry: its internodes run from
+its recorded start to its recorded end along its own axis, with its radius, so the tree's cylinder lengths and
+volumes are the file's (issue 32). Node 0 is the root cylinder's start. A child is attached to its parent at the
+point of the parent's axis nearest its start (TreeQSM branches start on the parent's surface, part-way along it,
+and consecutive cylinders of a branch leave millimetre gaps): at the parent's end node (an extension child, the
+continuing child of a branch starting anywhere in the parent's second half, or a start past the end), its start
+node, or a node inserted on the parent's axis there (splitting the parent into pieces that add up to its length).
+Where the child's recorded start is not that point, a **connector** joins them: a short internode from the attach
+node to the child's recorded start, with the child's radius (from the parent's axis to its surface a branch's
+connector lies inside the parent's wood). Connectors are not cylinders of the file: ``cylinders_to_tree(...,
+return_map=True)`` marks them (:attr:`QSMMap.connector`) and gives their lengths (:attr:`QSMMap.offset`); the
+tree's length and volume over the other internodes are the file's. The continuing child of each cylinder
+(``extension``, the same branch id, else the child best aligned with it) is the node's main child (through its
+connector), so branch orders follow the QSM's branches. Nodes are numbered breadth-first, so every parent precedes
+its children.
 """
 from __future__ import annotations
 
@@ -62,6 +70,9 @@ QSM_FORMATS = ("treeqsm", "simpleforest", "archi")
 MAX_CYLINDERS = 2_000_000
 #: A child starting within this fraction of its parent's length from the parent's end (or start) attaches there.
 ATTACH_TOL = 1e-3
+#: A child whose recorded start is farther than this fraction of its own length from its attach node gets a
+#: connector internode; a nearer one grows from the attach node (its length changes by at most this fraction).
+CONNECT_TOL = 1e-6
 
 
 @dataclass(frozen=True)
@@ -75,12 +86,20 @@ class QSMMap:
     start_node : (C,) int64 ndarray
         Node each cylinder grows from (its parent's end, a split node on the parent, or node 0).
     offset : (C,) float64 ndarray
-        Distance between each cylinder's recorded start and the node it grows from (0 for the root).
+        Distance between each cylinder's recorded start and the node it grows from (0 for the root): the length
+        of its connector.
+    base_node : (C,) int64 ndarray
+        Node at each cylinder's recorded start: the end of its connector, or ``start_node`` where it has none.
+    connector : (N,) bool ndarray
+        True where the internode ending at the node is a connector (not one of the file's cylinders): sum
+        lengths and volumes over ``~connector`` to get the file's totals.
     """
 
     end_node: np.ndarray
     start_node: np.ndarray
     offset: np.ndarray
+    base_node: np.ndarray
+    connector: np.ndarray
 
 
 # -- cylinders → tree ---------------------------------------------------------------------------------------------
@@ -183,49 +202,62 @@ def cylinders_to_tree(start, end, radius, parent, *, branch=None, extension=None
     pos = [start[root]]
     npar = [-1]
     nrad = [radius[root]]
-    start_node = np.zeros(c, np.int64)
+    conn = [False]
+    start_node = np.zeros(c, np.int64)       # the node on the parent each cylinder is attached to
+    base_node = np.zeros(c, np.int64)        # the node at each cylinder's recorded start
     end_node = np.zeros(c, np.int64)
     offset = np.zeros(c)
-    attach_pos = np.zeros((c, 3))
-    attach_pos[root] = start[root]
     for cy in order:
-        s_node = int(start_node[cy])
-        p0 = attach_pos[cy]
+        b = int(start_node[cy])
+        if cy != root and offset[cy] > CONNECT_TOL * length[cy]:    # a connector: attach point -> recorded start
+            pos.append(start[cy].copy())
+            npar.append(b)
+            nrad.append(radius[cy])
+            conn.append(True)
+            b = len(pos) - 1
+        base_node[cy] = b
+        p0 = pos[b]                          # the cylinder's own start (within CONNECT_TOL of its length)
         seg = end[cy] - p0
         seg_len = float(np.linalg.norm(seg))
         if not seg_len > 1e-12 * max(1.0, float(np.abs(p0).max())):
             raise ValueError(f"cylinder {cy} ends where it is attached to its parent (zero-length internode)")
-        kids = children[cy]  # where each child starts along this cylinder, as a fraction t of it
+        kids = children[cy]  # where each child starts along this cylinder's axis, as a fraction t of it
         ts = [round(float(np.dot(start[ch] - p0, seg)) / (seg_len * seg_len), 12) for ch in kids]
-        prev, split = s_node, {}
-        for t in sorted({t for t in ts if ATTACH_TOL < t < 1.0 - ATTACH_TOL}):
-            pos.append(p0 + t * seg)
+        nx = cont.get(cy, -1)      # the continuing child grows from the end (its branch goes on) unless it starts
+        if nx >= 0 and ts[kids.index(nx)] <= 0.5:                  # in the first half: a fork there
+            nx = -1
+        prev, split = b, {}
+        for t in sorted({t for ch, t in zip(kids, ts) if ATTACH_TOL < t < 1.0 - ATTACH_TOL and ch != nx}):
+            pos.append(p0 + t * seg)         # on the axis: the pieces add up to the cylinder's length
             npar.append(prev)
             nrad.append(radius[cy])
+            conn.append(False)
             prev = split[t] = len(pos) - 1
         pos.append(end[cy].copy())
         npar.append(prev)
         nrad.append(radius[cy])
+        conn.append(False)
         end_node[cy] = len(pos) - 1
         for ch, t in zip(kids, ts):
-            if t >= 1.0 - ATTACH_TOL:
-                node, at = int(end_node[cy]), end[cy]
+            if t >= 1.0 - ATTACH_TOL or ch == nx:
+                node = int(end_node[cy])
             elif t <= ATTACH_TOL:
-                node, at = s_node, p0
+                node = b
             else:
                 node = split[t]
-                at = pos[node]
             start_node[ch] = node
-            attach_pos[ch] = at
-            offset[ch] = float(np.linalg.norm(start[ch] - at))
+            offset[ch] = float(np.linalg.norm(start[ch] - pos[node]))
     pos = np.asarray(pos)
     npar = np.asarray(npar, np.int64)
-    # main children: along each cylinder's chain of nodes, and from its end node into its continuation
-    first = np.array([_chain_head(npar, int(start_node[cy]), int(end_node[cy])) for cy in range(c)], np.int64)
+    # main children: along each cylinder's chain of nodes (connector included), and from its end node into its
+    # continuation
+    first = np.array([_chain_head(npar, int(start_node[cy]), int(end_node[cy])) if cy != root else
+                      _chain_head(npar, 0, int(end_node[cy])) for cy in range(c)], np.int64)
     main = np.full(len(pos), -1, np.int64)
     for cy in order:
         v = int(end_node[cy])
-        while npar[v] != start_node[cy]:
+        stop = 0 if cy == root else int(start_node[cy])
+        while npar[v] != stop:
             main[npar[v]] = v
             v = int(npar[v])
     main[0] = first[root]
@@ -235,7 +267,7 @@ def cylinders_to_tree(start, end, radius, parent, *, branch=None, extension=None
             main[end_node[cy]] = first[nx]
     tree = TreeArrays.from_arrays(pos, npar, np.asarray(nrad), main_child=main)
     if return_map:
-        return tree, QSMMap(end_node, start_node, offset)
+        return tree, QSMMap(end_node, start_node, offset, base_node, np.asarray(conn, bool))
     return tree
 
 
@@ -279,7 +311,9 @@ def _check_path(path, suffixes: tuple[str, ...]) -> Path:
 
 
 def read_treeqsm(path, *, index: int = 0, return_map: bool = False):
-    """Read a TreeQSM ``.mat`` file (``QSM`` or ``qsm`` struct, or a bare ``cylinder`` struct).
+    """Read a TreeQSM ``.mat`` file: a 2.1-2.4 ``QSM`` or ``qsm`` struct (or a bare ``cylinder`` struct), or
+    the TreeQSM 2.0 layout, one variable per cylinder field (``Rad``, ``Len``, ``Sta``, ``Axe``, ``CPar``,
+    ``CExt``, ``BoC``).
 
     Parameters
     ----------
@@ -299,7 +333,8 @@ def read_treeqsm(path, *, index: int = 0, return_map: bool = False):
     References
     ----------
     .. [1] Raumonen et al. 2013, "Fast automatic precision tree models from terrestrial laser scanner data";
-       TreeQSM 2.4 ``cylinder`` fields.
+       TreeQSM 2.4 ``cylinder`` fields; TreeQSM 2.0 variable names as rTwig's ``import_treeqsm(version="2.0")``
+       maps them (``BoC[:, 0]`` the branch, 1-based ``CPar``/``CExt`` with 0 for none).
     """
     p = _check_path(path, (".mat",))
     index = check_int("index", index, 0, 10 ** 6)
@@ -362,10 +397,36 @@ def _treeqsm_v7(p: Path, mat: dict, index: int) -> dict[str, np.ndarray]:
                 obj = obj.flat[index]
             cyl = obj if key == "cylinder" else getattr(obj, "cylinder", None)
             break
+    if cyl is None and all(k in mat for k in _V20_REQUIRED):        # TreeQSM 2.0: one variable per field
+        if index != 0:
+            raise ValueError(f"index must be 0 for {str(p)!r} (a TreeQSM 2.0 file holds one model), got {index}")
+        return _v20_fields({k: np.asarray(mat[k]) for k in _V20_FIELDS if k in mat})
     if cyl is None:
-        raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (variables: "
+        raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (2.1-2.4) nor the TreeQSM 2.0 "
+                         f"variables {list(_V20_REQUIRED)} (variables: "
                          f"{sorted(k for k in mat if not k.startswith('__'))[:8]})")
     return {name: np.asarray(getattr(cyl, name)) for name in _CYLINDER_FIELDS if hasattr(cyl, name)}
+
+
+#: TreeQSM 2.0 saves each cylinder field as its own variable (``Rad``, ``Len``, ``Sta``, ``Axe``, ``CPar``,
+#: ``CExt``, and ``BoC``: branch, branch order and position in branch, one row per cylinder); 2.1 onwards put them
+#: in the ``qsm.cylinder`` struct as ``radius``, ``length``, ``start``, ``axis``, ``parent``, ``extension``,
+#: ``branch``.
+_V20_FIELDS = {"Rad": "radius", "Len": "length", "Sta": "start", "Axe": "axis", "CPar": "parent",
+               "CExt": "extension", "BoC": "branch"}
+_V20_REQUIRED = ("Rad", "Len", "Sta", "Axe", "CPar")
+
+
+def _v20_fields(raw: dict) -> dict[str, np.ndarray]:
+    out = {_V20_FIELDS[k]: v for k, v in raw.items()}
+    boc = out.get("branch")
+    if boc is not None:
+        boc = np.atleast_2d(boc)
+        if boc.ndim == 2 and boc.shape[1] >= 1 and boc.dtype.kind in "fiub":
+            out["branch"] = boc[:, 0]                    # BoC column 1: the branch each cylinder belongs to
+        else:
+            del out["branch"]
+    return out
 
 
 def _treeqsm_v73(p: Path, index: int) -> dict[str, np.ndarray]:
@@ -379,6 +440,21 @@ def _treeqsm_v73(p: Path, index: int) -> dict[str, np.ndarray]:
     try:
         with h5py.File(p, "r") as f:
             key = next((k for k in _QSM_KEYS if k in f), None)
+            if key is None and all(isinstance(f.get(k), h5py.Dataset) for k in _V20_REQUIRED):   # TreeQSM 2.0
+                if index != 0:
+                    raise ValueError(f"index must be 0 for {str(p)!r} (a TreeQSM 2.0 file holds one model), got "
+                                     f"{index}")
+                raw = {}
+                for k in _V20_FIELDS:
+                    ds = f.get(k)
+                    if isinstance(ds, h5py.Dataset):
+                        if ds.size > 50_000_000 or ds.ndim > 2 or ds.dtype.kind not in "fiub":
+                            raise ValueError(f"{str(p)!r}: {k} must be a numeric matrix of at most 5e7 values, got "
+                                             f"{ds.dtype} {ds.shape}")
+                        a = np.asarray(ds[()]).T
+                        raw[k] = a.ravel() if a.ndim == 2 and 1 in a.shape and k not in ("Sta", "Axe", "BoC") \
+                            else a
+                return _v20_fields(raw)
             if key is None:
                 raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (variables: "
                                  f"{sorted(k for k in f if not k.startswith('#'))[:8]})")

@@ -23,7 +23,7 @@ from plantvr.vine.synth import (
     vertex_labels_from_volume,
 )
 from plantvr.vine.views import SavedView, load_view, save_view, world_to_model
-from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume, suggest_level
+from plantvr.vine.volume import downsample2, histogram, save_volume, suggest_level
 
 __all__ = [
     "COMPONENTS",
@@ -51,7 +51,6 @@ __all__ = [
     "label_mesh",
     "label_table",
     "load_view",
-    "load_volume",
     "merge_stamps",
     "mesh_graph",
     "plane_segments",

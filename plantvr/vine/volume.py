@@ -1,10 +1,11 @@
-"""Volume input for ViNE (spec 000_vine §1.4–1.5, checklist item 1): TIFF stacks, .npy/.npz, 2x downsampling.
+"""Volume arrays for ViNE (spec 000_vine §1.4–1.5, checklist item 1): checks, writing, 2x downsampling, levels.
 
-Volumes are uint8/16/32, int8/16/32 or float32/float64 (issue 22) in native byte order (memory-mapped where the
-file allows it; a big-endian file is read swapped); float volumes must be finite, checked slab by slab. No
-function here makes a float copy of the whole volume. uint8/uint16 keep their dtype-range histograms and
-levels; every other dtype is binned and checked over the data's own range, in the data's units. Every other
-format, spacing and origin: :func:`plantvr.io.volume.read_volume`.
+Volumes are uint8/16/32, int8/16/32 or float32/float64 (issue 22) in native byte order; float volumes must be
+finite, checked slab by slab. No function here makes a float copy of the whole volume. uint8/uint16 keep their
+dtype-range histograms and levels; every other dtype is binned and checked over the data's own range, in the
+data's units. This numeric core reads no files: every format is read by :func:`plantvr.io.volume.read_volume`
+(ViNE's TIFF/.npy/.npz input: :func:`plantvr.io.volume.load_volume`, a thin call into it; issue 30, "one reader
+per format").
 """
 from __future__ import annotations
 
@@ -15,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import atomic_write, npy_headers, read_npz
+from plantvr._fileio import atomic_write
 from plantvr._validation import check_choice, check_int
 
-__all__ = ["MAX_VOLUME_BYTES", "downsample2", "histogram", "load_volume", "save_volume", "suggest_level"]
+__all__ = ["MAX_VOLUME_BYTES", "downsample2", "histogram", "save_volume", "suggest_level"]
 
 _DTYPES = tuple(np.dtype(t) for t in (np.uint8, np.uint16, np.uint32, np.int8, np.int16, np.int32,
                                        np.float32, np.float64))
@@ -27,8 +28,8 @@ _DTYPE_NAMES = "uint8, uint16, uint32, int8, int16, int32, float32 or float64"
 #: Bytes of one slab of the slab-wise passes over a volume (range, finiteness).
 _SLAB_BYTES = 2 ** 26
 
-#: Largest volume (bytes) :func:`load_volume` reads into memory: every size a file declares (``.npy``/``.npz``
-#: headers, TIFF pages) is checked against it before anything is allocated. Memory-mapped ``.npy`` files need
+#: Largest volume (bytes) :func:`plantvr.io.volume.read_volume` reads into memory: every size a file declares
+#: (``.npy``/``.npz`` headers, TIFF pages) is checked against it before anything is allocated. Memory maps need
 #: no memory, so they are only checked against the file's real length.
 MAX_VOLUME_BYTES = 16 * 2 ** 30
 
@@ -66,34 +67,6 @@ def _npy_header(p: Path) -> tuple[tuple, np.dtype, int]:
             return shape, dtype, fh.tell()
     except (OSError, EOFError, ValueError, SyntaxError, tokenize.TokenError) as exc:   # numpy tokenizes bad headers
         raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
-
-
-def _tiff_declared(path, *, mapped: bool) -> None:
-    """Check the page shapes a TIFF file declares (tifffile reads the IFDs only)."""
-    import tifffile
-    try:
-        size = os.path.getsize(path)
-        with tifffile.TiffFile(str(path)) as tf:
-            series = tf.series[0]
-            shape, dtype = tuple(series.shape), series.dtype
-            for page in tf.pages:                      # every strip/tile inside the file (else: truncated)
-                ends = [o + n for o, n in zip(page.dataoffsets, page.databytecounts)]
-                if not ends or max(ends) > size:
-                    raise ValueError(f"page data ends at byte {max(ends, default=0)}, past the file's {size}")
-    except Exception as exc:  # noqa: BLE001 - tifffile raises many types (struct, KeyError, TiffFileError) on bad files
-        raise ValueError(f"could not read {str(path)!r} as TIFF: {type(exc).__name__}: {exc}") from None
-    if len(shape) == 2:
-        shape = (1, *shape)
-    _check_declared(path, shape, dtype, mapped=mapped)
-
-
-def _tiff_read(fn, *args, path, **kw):
-    try:
-        return fn(*args, **kw)
-    except MemoryError:
-        raise ValueError(f"volume in {str(path)!r} does not fit in memory") from None
-    except Exception as exc:  # noqa: BLE001 - see _tiff_declared
-        raise ValueError(f"could not read {str(path)!r} as TIFF: {type(exc).__name__}: {exc}") from None
 
 
 def _native(vol: np.ndarray, path) -> np.ndarray:
@@ -146,111 +119,6 @@ def _data_range(name: str, vol) -> tuple[np.ndarray, float, float]:
     """The checked volume and its data (min, max) in one slab-wise pass."""
     vol, (lo, hi) = _checked(name, vol, want_range=True)
     return vol, lo, hi
-
-
-def load_volume(path: str | os.PathLike, *, key: str | None = None, mmap: bool = True) -> np.ndarray:
-    """Load a 3-D image stack (uint8/16/32, int8/16/32, float32/64), memory-mapped where possible.
-
-    Parameters
-    ----------
-    path : str or path-like
-        A multi-page ``.tif``/``.tiff`` file, a folder of 2-D TIFF slices (in natural order: ``img_2`` before
-        ``img_10``), a ``.npy`` file
-        or a ``.npz`` file.
-    key : str, optional
-        Array name inside a ``.npz`` (default: ``"volume"`` if present, else the only array).
-    mmap : bool
-        Memory-map ``.npy`` files and uncompressed TIFF files instead of reading them.
-
-    Raises
-    ------
-    ValueError
-        A missing, truncated or corrupt file, or one declaring a volume that is not 3-D of one of those dtypes
-        or larger than :data:`MAX_VOLUME_BYTES` (checked from the file's headers before anything is allocated);
-        a float volume holding NaN or infinity.
-
-    Returns
-    -------
-    (X, Y, Z) ndarray
-        The file's dtype in native byte order; axis order as stored in the file (for TIFF stacks: page, row,
-        column).
-
-    References
-    ----------
-    .. [1] Spec 000_vine §1.4: the file format is not stated; TIFF stack, .npy/.npz [INFERRED].
-    """
-    p = Path(path)
-    if not p.exists():
-        raise ValueError(f"path does not exist: {str(p)!r}")
-    if p.is_dir():
-        import tifffile
-        files = sorted([f for f in p.iterdir() if f.suffix.lower() in (".tif", ".tiff")],
-                       key=lambda f: natural_key(f.name))
-        if not files:
-            raise ValueError(f"folder {str(p)!r} holds no .tif/.tiff slices")
-        shapes = []
-        for f in files:
-            try:
-                with tifffile.TiffFile(str(f)) as tf:
-                    shapes.append((tuple(tf.series[0].shape), tf.series[0].dtype))
-            except Exception as exc:  # noqa: BLE001 - see _tiff_declared
-                raise ValueError(f"could not read slice {str(f)!r} as TIFF: {type(exc).__name__}: {exc}") from None
-        if len({sh for sh in shapes}) != 1 or len(shapes[0][0]) != 2:
-            raise ValueError(f"folder {str(p)!r}: every slice must be one 2-D image of the same shape and dtype, "
-                             f"got {sorted({(s, str(d)) for s, d in shapes})[:3]}")
-        _check_declared(p, (len(files), *shapes[0][0]), shapes[0][1])
-        vol = _tiff_read(tifffile.imread, [str(f) for f in files], path=p)
-    else:
-        suffix = p.suffix.lower()
-        if suffix in (".tif", ".tiff"):
-            import tifffile
-            vol = None
-            _tiff_declared(p, mapped=True)
-            if mmap:
-                try:
-                    vol = tifffile.memmap(str(p), mode="r")
-                    if not vol.dtype.isnative:        # a map keeps the file's byte order: read it swapped
-                        raise ValueError("byte order")
-                    _check_declared(p, vol.shape if vol.ndim != 2 else (1, *vol.shape), vol.dtype, mapped=True)
-                except ValueError:
-                    vol = None
-                except Exception:  # noqa: BLE001 - not memory-mappable (compressed, tiled, odd IFDs): read it
-                    vol = None
-            if vol is None:
-                _tiff_declared(p, mapped=False)           # read into memory: the size cap applies
-                vol = _tiff_read(tifffile.imread, str(p), path=p)
-        elif suffix == ".npy":
-            shape, dtype, offset = _npy_header(p)
-            _check_declared(p, shape, dtype, mapped=mmap)
-            n = int(np.prod(shape, dtype=object)) * dtype.itemsize
-            have = p.stat().st_size - offset
-            if n != have:
-                raise ValueError(f"could not read {str(p)!r} as .npy: its header declares {n} bytes of data "
-                                 f"but the file holds {have} (truncated or corrupt)")
-            try:
-                vol = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
-            except (ValueError, OSError, EOFError) as exc:
-                raise ValueError(f"could not read {str(p)!r} as .npy: {exc}") from None
-            vol = _native(vol, p)
-        elif suffix == ".npz":
-            try:
-                heads = npy_headers(p, what="volume file", max_members=1000)
-            except ValueError as exc:
-                raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
-            names = list(heads)
-            if key is None:
-                key = "volume" if "volume" in names else (names[0] if len(names) == 1 else None)
-            if key is None or key not in names:
-                raise ValueError(f"key must name one of the arrays {names} in {str(p)!r}, got {key!r}")
-            _check_declared(p, *heads[key])
-            try:
-                vol = read_npz(p, what="volume file", max_bytes=MAX_VOLUME_BYTES + 2 ** 26)[key]
-            except ValueError as exc:
-                raise ValueError(f"could not read {str(p)!r} as .npz: {str(exc).split(': ', 1)[-1]}") from None
-            vol = _native(vol, p)
-        else:
-            raise ValueError(f"path must end in .tif, .tiff, .npy or .npz (or be a folder), got {str(p)!r}")
-    return _check_volume("volume", vol)
 
 
 def save_volume(path: str | os.PathLike, volume: np.ndarray) -> None:

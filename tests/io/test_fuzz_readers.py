@@ -162,6 +162,7 @@ def sources(tmp_path_factory):
     import h5py
     import nibabel as nib
     import nrrd
+    import pyvista as pv
     import SimpleITK as sitk
     import tifffile
     import zarr
@@ -187,7 +188,6 @@ def sources(tmp_path_factory):
     sitk.WriteImage(sitk.GetImageFromArray(a), str(d / "v.mha"))
     (d / "mhd").mkdir()
     sitk.WriteImage(sitk.GetImageFromArray(a), str(d / "mhd" / "v.mhd"))
-    import pyvista as pv
     g = pv.ImageData(dimensions=a.shape)
     g.point_data["v"] = a.ravel(order="F")
     g.save(d / "v.vti")
@@ -199,6 +199,16 @@ def sources(tmp_path_factory):
     _dicom_series(d / "dicom", a)
     np.save(d / "v.npy", a)
     np.savez(d / "v.npz", volume=a)
+    tifffile.imwrite(d / "lzw.tif", a, compression="lzw", predictor=True)
+    tifffile.imwrite(d / "deflate.tif", a, compression="zlib", predictor=True)
+    nib.MGHImage(a.astype(np.int16), np.diag([0.5, 0.6, 0.7, 1.0])).to_filename(d / "v.mgh")
+    nib.MGHImage(a.astype(np.int16), np.diag([0.5, 0.6, 0.7, 1.0])).to_filename(d / "v.mgz")
+    from nibabel.testing import data_path
+    shutil.copy(Path(data_path) / "minc1_1_scale.mnc", d / "minc1.mnc")
+    shutil.copy(Path(data_path) / "small.mnc", d / "minc2.mnc")
+    cg = pv.ImageData(dimensions=np.add(a.shape, 1))
+    cg.cell_data["c"] = a.ravel(order="F")
+    cg.save(d / "cells.vti")
     out = {
         "TIFF plain": (d / "plain.tif", None), "TIFF big-endian": (d / "big.tif", None),
         "TIFF ImageJ": (d / "imagej.tif", None), "TIFF OME": (d / "ome.ome.tif", None),
@@ -213,6 +223,9 @@ def sources(tmp_path_factory):
         "Zarr chunk": (d / "v.zarr", d / "v.zarr" / "c" / "0" / "0" / "0"),
         "DICOM series": (d / "dicom", d / "dicom" / "IM0002.dcm"),
         "NumPy .npy": (d / "v.npy", None), "NumPy .npz": (d / "v.npz", None),
+        "TIFF LZW predictor": (d / "lzw.tif", None), "TIFF deflate predictor": (d / "deflate.tif", None),
+        "MGH .mgh": (d / "v.mgh", None), "MGH .mgz": (d / "v.mgz", None),
+        "MINC 1": (d / "minc1.mnc", None), "MINC 2": (d / "minc2.mnc", None), "VTI cell data": (d / "cells.vti", None),
     }
     return out
 
@@ -233,7 +246,9 @@ _OTHERS = ["TIFF plain", "NRRD raw", "NIfTI .nii", "MetaImage .mha", "HDF5", "Nu
 @pytest.mark.parametrize("name", ["TIFF plain", "TIFF big-endian", "TIFF ImageJ", "TIFF OME", "TIFF slice folder",
                                   "NRRD raw", "NRRD gzip", "NRRD detached header", "NRRD detached data",
                                   "NIfTI .nii", "NIfTI .nii.gz", "MetaImage .mha", "MetaImage .mhd", "VTI", "HDF5",
-                                  "Zarr metadata", "Zarr chunk", "DICOM series", "NumPy .npy", "NumPy .npz"])
+                                  "Zarr metadata", "Zarr chunk", "DICOM series", "NumPy .npy", "NumPy .npz",
+                                  "TIFF LZW predictor", "TIFF deflate predictor", "MGH .mgh", "MGH .mgz", "MINC 1",
+                                  "MINC 2", "VTI cell data"])
 def test_fuzz_read_volume(sources, tmp_path, name):
     from plantvr.io.volume import read_volume
     src, member = sources[name]
@@ -257,7 +272,8 @@ def test_fuzz_label_volume_files(tmp_path, suffix):
 
 @pytest.mark.parametrize("suffix", [".tif", ".npy", ".npz"])
 def test_fuzz_load_volume(tmp_path, suffix):
-    from plantvr.vine.volume import load_volume, save_volume
+    from plantvr.io.volume import load_volume
+    from plantvr.vine.volume import save_volume
     save_volume(tmp_path / f"v{suffix}", _vol(np.uint8))
     failures = _fuzz_file(f"load_volume {suffix}", tmp_path / f"v{suffix}", lambda p: load_volume(p, mmap=False),
                           tmp_path, seed=7 + len(suffix))
@@ -304,6 +320,7 @@ def others(tmp_path_factory):
     las = laspy.LasData(hdr)
     las.x, las.y, las.z = cloud.T
     las.write(str(d / "p.las"))
+    las.write(str(d / "p.laz"), laz_backend=laspy.LazBackend.Lazrs)
     box = trimesh.creation.icosphere(subdivisions=2)
     for ext in ("ply", "obj", "stl", "glb"):
         box.export(d / f"m.{ext}")
@@ -318,6 +335,9 @@ def others(tmp_path_factory):
     cyl = {"radius": radius[:, None], "length": length[:, None], "start": start, "axis": axis / length[:, None],
            "parent": (parent + 1)[:, None].astype(float), "extension": ext[:, None]}
     scipy.io.savemat(d / "q.mat", {"QSM": {"cylinder": cyl}})
+    boc = np.column_stack([[1, 1, 1, 1, 2], [0, 0, 0, 0, 1], [1, 2, 3, 4, 1]]).astype(float)
+    scipy.io.savemat(d / "q20.mat", {"Rad": cyl["radius"], "Len": cyl["length"], "Sta": start, "Axe": cyl["axis"],
+                                     "CPar": cyl["parent"], "CExt": cyl["extension"], "BoC": boc})
     ids = np.arange(5) + 1
     with open(d / "sf.csv", "w", newline="") as fh:
         w = csv.writer(fh)
@@ -358,8 +378,8 @@ def _sketch(p):
 
 
 @pytest.mark.parametrize("name, reader", [
-    ("p.xyz", _points), ("p.csv", _points), ("p.ply", _points), ("p.las", _points),
-    ("q.mat", _qsm), ("sf.csv", _qsm), ("archi.csv", _qsm),
+    ("p.xyz", _points), ("p.csv", _points), ("p.ply", _points), ("p.las", _points), ("p.laz", _points),
+    ("q.mat", _qsm), ("q20.mat", _qsm), ("sf.csv", _qsm), ("archi.csv", _qsm),
     ("m.ply", _mesh), ("m.obj", _mesh), ("m.stl", _mesh), ("m.glb", _mesh),
 ])
 def test_fuzz_other_readers(others, tmp_path, name, reader):
@@ -401,6 +421,8 @@ def test_read_points_refuses_columns_for_binary_formats(others):
 
 
 def _writers():
+    import trimesh
+
     from plantvr import Model
     from plantvr._fileio import write_atomic, write_npz
     from plantvr.documents.treesketch import SketchDocument
@@ -410,7 +432,6 @@ def _writers():
     from plantvr.io.obj import write_obj
     from plantvr.io.ply import write_ply
     from plantvr.vine.volume import save_volume
-    import trimesh
     lab = np.zeros((4, 5, 6), np.uint8)
     lab[1:3, 1:4, 2:5] = 2
     box = trimesh.creation.box()
@@ -509,15 +530,16 @@ def test_hypothesis_random_bytes_under_every_suffix(tmp_path_factory):
     from plantvr.io.points import read_points
     from plantvr.io.qsm import read_qsm
     from plantvr.io.volume import read_volume
-    readers = [(sfx, read_volume) for sfx in (".tif", ".nrrd", ".nii", ".nii.gz", ".mha", ".vti", ".h5", ".npy",
-                                              ".npz")]
-    readers += [(sfx, read_points) for sfx in (".xyz", ".csv", ".ply", ".las")]
+    readers = [(sfx, read_volume) for sfx in (".tif", ".nrrd", ".nii", ".nii.gz", ".mgh", ".mgz", ".mnc", ".mha",
+                                              ".vti", ".h5", ".npy", ".npz")]
+    readers += [(sfx, read_points) for sfx in (".xyz", ".csv", ".ply", ".las", ".laz")]
     readers += [(sfx, read_qsm) for sfx in (".mat", ".csv")]
     d = tmp_path_factory.mktemp("hyp")
     failures: list[str] = []
     magic = st.sampled_from([b"", b"II*\x00", b"MM\x00*", b"NRRD0004\n", b"\x93NUMPY", b"\x89HDF\r\n\x1a\n",
                              b"ply\nformat binary_little_endian 1.0\n", b"LASF", b"ObjectType = Image\n",
-                             b"PK\x03\x04", b"\x1f\x8b", b"MATLAB 5.0 MAT-file"])
+                             b"PK\x03\x04", b"\x1f\x8b", b"MATLAB 5.0 MAT-file", b"CDF\x01",
+                             b"\x00\x00\x00\x01"])
 
     @settings(max_examples=120, deadline=None, derandomize=True, database=None,
               suppress_health_check=list(HealthCheck))
@@ -530,3 +552,47 @@ def test_hypothesis_random_bytes_under_every_suffix(tmp_path_factory):
 
     run()
     assert not failures, "\n".join(failures[:20])
+
+
+def _ome_image_v2(path: Path, a: np.ndarray) -> Path:
+    """A minimal NGFF 0.4 image (Zarr v2) written with zarr itself: one level, micrometre z, y, x axes."""
+    import zarr
+    g = zarr.open_group(str(path), mode="w", zarr_format=2)
+    g.create_array("0", shape=a.shape, dtype=a.dtype, chunks=(3, 4, 4))[...] = a
+    g.attrs.update({"multiscales": [{"version": "0.4", "name": "img", "axes": [
+        {"name": n, "type": "space", "unit": "micrometer"} for n in "zyx"], "datasets": [
+        {"path": "0", "coordinateTransformations": [{"type": "scale", "scale": [2.0, 0.5, 0.5]}]}]}]})
+    return path
+
+
+def test_fuzz_ome_zarr_labels(tmp_path, monkeypatch):
+    """OME-Zarr labels as write_label_volume writes them, read back by read_volume under damage (their metadata,
+    a chunk); a write that fails part-way leaves the previous labels and the image's label list as they were."""
+    pytest.importorskip("zarr")
+    from plantvr.io import label_volume as LV
+    from plantvr.io.volume import read_volume
+    a = _vol()
+    img = _ome_image_v2(tmp_path / "img.zarr", a)
+    lab = (a % 3).astype(np.uint8)
+    out = LV.write_label_volume(img, lab, name="cells")
+    failures = []
+    for k, member in enumerate((out / ".zattrs", out / "0" / "0.0.0")):
+        work = tmp_path / f"m{k}"
+        work.mkdir()
+        failures += _fuzz_file(f"OME-Zarr labels {member.name}", out, read_volume, work, seed=11 + k,
+                               member=member, flips=12)
+    assert not failures, "\n".join(failures)
+    before = {q.relative_to(img).as_posix(): q.read_bytes() for q in img.rglob("*") if q.is_file()}
+
+    def boom(*args, **kwargs):
+        raise OSError("disk full")
+    import zarr
+    monkeypatch.setattr(zarr.Group, "create_array", boom)
+    with pytest.raises(OSError, match="disk full"):
+        LV.write_label_volume(img, np.zeros_like(lab), name="cells")
+    with pytest.raises(OSError, match="disk full"):
+        LV.write_label_volume(img, np.zeros_like(lab), name="other")
+    monkeypatch.undo()
+    after = {q.relative_to(img).as_posix(): q.read_bytes() for q in img.rglob("*") if q.is_file()}
+    assert after == before                                     # no temporary folder, nothing changed
+    assert np.array_equal(read_volume(out).array, lab)

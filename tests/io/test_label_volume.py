@@ -309,10 +309,138 @@ def test_slicer_seg_nrrd(tmp_path):
     np.testing.assert_allclose([float(x) for x in h["Segment1_Color"].split()], [1.0, 128 / 255, 0.0], atol=1e-6)
     _, index = _sitk_points(sitk.ReadImage(os.path.join(data_path, "anatomical.nii")))
     _assert_same_points(index, lab, out)
-    with pytest.raises(ValueError, match="apply to .seg.nrrd only"):
+    with pytest.raises(ValueError, match="apply to .seg.nrrd and OME-Zarr"):
         write_label_volume(tmp_path / "l.nrrd", lab, names={1: "stem"})
     with pytest.raises(ValueError, match=r"names labels \[2\] that are not in volume"):
         write_label_volume(tmp_path / "m.seg.nrrd", lab, names={2: "x"})
     with pytest.raises(ValueError, match=r"colors\[1\] must be 3 values"):
         write_label_volume(tmp_path / "m.seg.nrrd", lab, colors={1: (1, 2)})
     assert not (tmp_path / "m.seg.nrrd").exists() and not (tmp_path / "l.nrrd").exists()
+
+
+# ------------------------------------------------------------------------------------------------ OME-Zarr labels
+
+
+def _ome_zarr_image(path, a, *, zarr_format=2):
+    """An OME-Zarr image written by ome-zarr-py (NGFF 0.4 in Zarr v2, 0.5 in v3): 2 levels, micrometre axes,
+    scale (2, 0.5, 0.25) and a translation at level 0."""
+    zarr = pytest.importorskip("zarr")
+    writer = pytest.importorskip("ome_zarr.writer")
+    from ome_zarr.format import FormatV04, FormatV05
+    g = zarr.open_group(str(path), mode="w", zarr_format=zarr_format)
+    axes = [{"name": n, "type": "space", "unit": "micrometer"} for n in "zyx"]
+    writer.write_image(a, g, axes=axes, fmt=FormatV04() if zarr_format == 2 else FormatV05(),
+                       scale_factors=[{"z": 1, "y": 2, "x": 2}], scale={"z": 2.0, "y": 0.5, "x": 0.25})
+    attrs = dict(g.attrs)                     # the stage position: every level moved by (1, -2, 3) micrometres
+    ms = (attrs["ome"] if zarr_format == 3 else attrs)["multiscales"]
+    for ds in ms[0]["datasets"]:
+        ct = ds["coordinateTransformations"]
+        if len(ct) == 1:
+            ct.append({"type": "translation", "translation": [0.0, 0.0, 0.0]})
+        ct[1]["translation"] = [t + d for t, d in zip(ct[1]["translation"], (1.0, -2.0, 3.0))]
+    g.attrs.update(attrs)
+    return path
+
+
+def _check_ngff_label_metadata(label_attrs: dict, labels_attrs: dict, name: str, values, version: str):
+    """The NGFF image-label spec's rules (https://ngff.openmicroscopy.org/0.4/#label-md), checked by hand."""
+    ome = label_attrs.get("ome", label_attrs)
+    assert name in (labels_attrs.get("ome", labels_attrs))["labels"]
+    il = ome["image-label"]
+    if version == "0.4":
+        assert il["version"] == "0.4" and ome["multiscales"][0]["version"] == "0.4"
+    else:
+        assert ome["version"] == "0.5"
+    assert il["source"] == {"image": "../../"}
+    lv = [c["label-value"] for c in il["colors"]]
+    assert lv == sorted(set(lv)) and set(lv) == set(values)           # unique, one per label present
+    for c in il["colors"]:
+        assert isinstance(c["label-value"], int)
+        assert len(c["rgba"]) == 4 and all(isinstance(x, int) and 0 <= x <= 255 for x in c["rgba"])
+    assert {p["label-value"] for p in il["properties"]} <= set(lv)
+    ms = ome["multiscales"]
+    assert isinstance(ms, list) and len(ms) >= 1
+    axes = ms[0]["axes"]
+    assert 2 <= len(axes) <= 5 and sum(a["type"] == "space" for a in axes) in (2, 3)
+    for ds in ms[0]["datasets"]:
+        ct = ds["coordinateTransformations"]
+        assert ct[0]["type"] == "scale" and len(ct[0]["scale"]) == len(axes)
+        assert all(t["type"] == "translation" and len(t["translation"]) == len(axes) for t in ct[1:]) and len(ct) <= 2
+
+
+@pytest.mark.parametrize("zarr_format, version", [(2, "0.4"), (3, "0.5")])
+def test_ome_zarr_labels_beside_the_image(tmp_path, zarr_format, version):
+    zarr = pytest.importorskip("zarr")
+    rng = np.random.default_rng(4)
+    img = rng.integers(0, 1000, (6, 16, 20)).astype(np.uint16)
+    p = _ome_zarr_image(tmp_path / "img.zarr", img, zarr_format=zarr_format)
+    src = read_volume(p)
+    np.testing.assert_allclose(src.spacing, (2.0, 0.5, 0.25))
+    np.testing.assert_allclose(src.origin, (1.0, -2.0, 3.0))
+    lab = np.zeros(src.shape, np.uint8)
+    lab[1:4, 2:9, 3:15] = 1
+    lab[2:5, 10:14, 5:8] = 3
+    out = write_label_volume(p, lab, geometry=src.geometry, names={1: "stem", 3: "xylem"},
+                             colors={1: (255, 0, 0)}, name="cells")
+    assert out == p / "labels" / "cells"
+    root = zarr.open_group(str(p), mode="r")
+    _check_ngff_label_metadata(dict(root["labels/cells"].attrs), dict(root["labels"].attrs), "cells", {1, 3},
+                               version)
+    il = dict(root["labels/cells"].attrs)
+    il = il.get("ome", il)["image-label"]
+    assert il["colors"][0] == {"label-value": 1, "rgba": [255, 0, 0, 255]}
+    assert [pr["name"] for pr in il["properties"]] == ["stem", "xylem"]
+    back = read_volume(out)                           # level 0, on the image's grid
+    assert np.array_equal(back.array, lab)
+    for k in ("spacing", "origin", "direction"):
+        np.testing.assert_allclose(getattr(back.geometry, k), getattr(src.geometry, k), atol=1e-12)
+    low = read_volume(out, dataset=root["labels/cells"].attrs.get("ome", dict(root["labels/cells"].attrs))
+                      ["multiscales"][0]["datasets"][1]["path"])
+    assert low.shape == (6, 8, 10)
+    # each level-1 voxel holds the level-0 label nearest its centre
+    w = low.geometry.index_to_world(np.argwhere(np.ones(low.shape, bool)))
+    i0 = np.rint(src.geometry.world_to_index(w)).astype(int)
+    assert np.array_equal(low.array.ravel(), lab[tuple(i0.T)])
+    # ome-zarr-models validates the NGFF metadata (pydantic models of the spec's JSON schemas)
+    models = pytest.importorskip("ome_zarr_models")
+    group = models.open_ome_zarr(root["labels/cells"], version=version)
+    assert type(group).__name__ == "ImageLabel"
+    assert type(models.open_ome_zarr(root["labels"], version=version)).__name__ == "Labels"
+    # ome-zarr-py finds them as the image's labels
+    from ome_zarr.io import parse_url
+    from ome_zarr.reader import Label, Reader
+    nodes = list(Reader(parse_url(str(p)))())
+    lab_nodes = [n for n in nodes if any(isinstance(s, Label) for s in n.specs)]
+    assert len(lab_nodes) == 1
+    assert np.array_equal(np.asarray(lab_nodes[0].data[0]), lab)
+    assert lab_nodes[0].metadata["name"] == "cells"
+    # a second label volume joins the list; rewriting one replaces it
+    write_label_volume(p, (lab > 0).astype(np.uint8), name="mask")
+    write_label_volume(p, lab, name="cells")
+    lattrs = dict(zarr.open_group(str(p / "labels"), mode="r").attrs)
+    assert lattrs.get("ome", lattrs)["labels"] == ["mask", "cells"]
+    assert not [f for f in os.listdir(p / "labels") if f.startswith(".") and (p / "labels" / f).is_dir()]
+
+
+def test_ome_zarr_labels_refused_before_writing(tmp_path):
+    pytest.importorskip("zarr")
+    img = np.zeros((4, 8, 8), np.uint16)
+    p = _ome_zarr_image(tmp_path / "img.zarr", img)
+    before = sorted(os.listdir(p))
+    lab = np.zeros((4, 8, 8), np.uint8)
+    with pytest.raises(ValueError, match="level-0 space axes of shape"):
+        write_label_volume(p, np.zeros((4, 8, 9), np.uint8))
+    with pytest.raises(ValueError, match="not the level-0 grid"):
+        write_label_volume(p, lab, geometry=VolumeGeometry.from_grid((4, 8, 8), axes="zyx"))
+    with pytest.raises(ValueError, match="name must be"):
+        write_label_volume(p, lab, name="../x")
+    with pytest.raises(ValueError, match="spacing and origin do not apply"):
+        write_label_volume(p, lab, spacing=(1, 1, 1))
+    with pytest.raises(ValueError, match="existing OME-Zarr image folder"):
+        write_label_volume(tmp_path / "none.zarr", lab)
+    (tmp_path / "plain.zarr").mkdir()
+    with pytest.raises(ValueError, match="OME-Zarr image"):
+        write_label_volume(tmp_path / "plain.zarr", lab)
+    with pytest.raises(ValueError, match="applies to .zarr only"):
+        write_label_volume(tmp_path / "l.nrrd", lab, name="x")
+    assert sorted(os.listdir(p)) == before                             # no labels/ group left behind

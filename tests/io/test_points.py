@@ -68,3 +68,19 @@ def test_points_as_markers(tmp_path, cloud):
     assert points_as_markers(m, tmp_path / "crown.xyz") == 500
     assert m.latest.markers.shape[0] >= 500 or m.n_markers >= 500
     m.undo()
+
+
+def test_laz_written_by_laspy_with_lazrs(tmp_path, cloud):
+    laspy = pytest.importorskip("laspy")
+    pytest.importorskip("lazrs")
+    h = laspy.LasHeader(point_format=3, version="1.2")
+    h.scales = np.array([0.001, 0.001, 0.001])
+    h.offsets = cloud.min(axis=0)
+    las = laspy.LasData(h)
+    las.x, las.y, las.z = cloud[:, 0], cloud[:, 1], cloud[:, 2]
+    las.write(tmp_path / "s.laz", laz_backend=laspy.LazBackend.Lazrs)
+    back = laspy.read(tmp_path / "s.laz")
+    assert back.header.point_format.id == 3 and back.header.are_points_compressed
+    pts = read_points(tmp_path / "s.laz")
+    np.testing.assert_array_equal(pts, np.column_stack([back.x, back.y, back.z]))
+    np.testing.assert_allclose(pts, cloud, atol=6e-4)

@@ -130,13 +130,96 @@ def test_treeqsm_without_extension_uses_alignment(tmp_path):
     assert np.all(tree.order[nmap.end_node[:6]] == 0)  # the vertical child continues the vertical stem
 
 
-def test_child_offset_projected_on_parent_axis():
+def test_child_off_the_parent_axis_gets_a_connector():
     start = np.array([[0, 0, 0], [0.1, 0, 0.5]], float)  # child starts on the parent's surface, half way up
     end = np.array([[0, 0, 1], [1, 0, 1]], float)
     tree, nmap = cylinders_to_tree(start, end, [0.1, 0.05], [-1, 0], return_map=True)
-    assert len(tree) == 4
-    np.testing.assert_allclose(tree.pos[nmap.start_node[1]], [0, 0, 0.5])
+    assert len(tree) == 5                                # base, split, parent end, connector end, child end
+    np.testing.assert_allclose(tree.pos[nmap.start_node[1]], [0, 0, 0.5])     # attached on the parent's axis
+    np.testing.assert_allclose(tree.pos[nmap.base_node[1]], start[1])         # the child keeps its own start
     np.testing.assert_allclose(nmap.offset, [0, 0.1])
+    assert nmap.connector.tolist() == [False, False, False, True, False]
+    assert tree.parent[nmap.base_node[1]] == nmap.start_node[1]
+
+
+def _off_axis_qsm(seed=3):
+    """TreeQSM-like cylinders as TreeQSM writes them: consecutive cylinders of a branch leave gaps (or overlap),
+    branches start on the parent's surface part-way along it, some before the parent's start or past its end.
+    Returns start, axis, length, radius, parent (1-based, 0 none), extension (1-based), BranchOrder, branch."""
+    rng = np.random.default_rng(seed)
+    S, A, L, R, P, X, O, B = [], [], [], [], [], [], [], []
+
+    def chain(s, d, n, r, parent, order, branch):
+        prev = parent
+        for k in range(n):
+            d = d + rng.normal(0, 0.08, 3)
+            d /= np.linalg.norm(d)
+            length = rng.uniform(2.0, 5.0) * r
+            S.append(s), A.append(d), L.append(length), R.append(r), P.append(prev + 1), O.append(order)
+            B.append(branch)
+            X.append(0)
+            if prev >= 0 and k > 0:
+                X[prev] = len(S)
+            prev = len(S) - 1
+            e = s + d * length
+            s = e + rng.normal(0, 0.05 * r, 3)           # the next one starts off this one's end
+            r *= 0.93
+        return list(range(len(S) - n, len(S)))
+
+    stem = chain(np.zeros(3), np.array([0.0, 0.0, 1.0]), 12, 0.15, -1, 0, 1)
+    nb = 1
+    for k, cy in enumerate(stem[1:-2]):
+        s, d, length, r = S[cy], A[cy], L[cy], R[cy]
+        t = [0.3, 0.7, -0.1, 1.2][k % 4]                 # along the parent, before its start, past its end
+        side = np.cross(d, [np.cos(k), np.sin(k), 0.0])
+        side /= np.linalg.norm(side)
+        nb += 1
+        first = chain(s + t * length * d + r * side, side + 0.5 * d, 4, 0.3 * r, cy, 1, nb)[0]
+        if k % 3 == 0:                                   # a second-order branch on the first cylinder
+            nb += 1
+            chain(S[first] + 0.5 * L[first] * A[first] + R[first] * np.cross(A[first], [0, 0, 1.0]) /
+                  np.linalg.norm(np.cross(A[first], [0, 0, 1.0])), A[first] + [0, 0, 0.5], 2, 0.5 * R[first],
+                  first, 2, nb)
+    return (np.array(S), np.array(A), np.array(L), np.array(R), np.array(P, float), np.array(X, float),
+            np.array(O, float), np.array(B, float))
+
+
+def _totals(tree, nmap):
+    seg = np.linalg.norm(tree.pos[1:] - tree.pos[tree.parent[1:]], axis=1)
+    keep = ~nmap.connector[1:]
+    r = tree.radius[1:]
+    return seg[keep].sum(), (np.pi * r * r * seg)[keep].sum()
+
+
+@pytest.mark.parametrize("layout", ["2.4 qsm.cylinder", "2.0 variables"])
+def test_treeqsm_off_axis_starts_keep_every_cylinder(tmp_path, layout):
+    """Issue 32: every cylinder keeps its start, end and radius; total length and volume are the file's (the
+    projection on the parent's axis this replaces was +3.9 % / +2.1 % on rTwig's QSM.mat); joints are connectors,
+    and branch orders are TreeQSM's own BranchOrder."""
+    S, A, L, R, P, X, O, B = _off_axis_qsm()
+    c = len(S)
+    p = tmp_path / "q.mat"
+    if layout.startswith("2.4"):
+        scipy.io.savemat(p, {"OptQSM": {"cylinder": {
+            "radius": R[:, None], "length": L[:, None], "start": S, "axis": A, "parent": P[:, None],
+            "extension": X[:, None], "branch": B[:, None], "BranchOrder": O[:, None],
+            "PositionInBranch": np.ones((c, 1))}}})
+    else:
+        scipy.io.savemat(p, {"Rad": R, "Len": L, "Sta": S, "Axe": A, "CPar": P, "CExt": X,
+                             "BoC": np.column_stack([B, O, np.ones(c)])})
+    tree, nmap = read_treeqsm(p, return_map=True)
+    E = S + A * L[:, None]
+    np.testing.assert_allclose(tree.pos[nmap.base_node], S, atol=1e-12)
+    np.testing.assert_allclose(tree.pos[nmap.end_node], E, atol=1e-12)
+    assert np.all(tree.radius[nmap.end_node] == R)
+    length, volume = _totals(tree, nmap)
+    assert abs(length / L.sum() - 1) < 1e-9 and abs(volume / (np.pi * R * R * L).sum() - 1) < 1e-9
+    assert np.array_equal(tree.order[nmap.end_node], O.astype(int))
+    assert nmap.offset[1:].min() > 0 and nmap.connector.sum() == c - 1        # every start was off its parent
+    np.testing.assert_allclose(np.linalg.norm(tree.pos[nmap.base_node] - tree.pos[nmap.start_node], axis=1),
+                               nmap.offset, atol=1e-12)
+    seg = np.linalg.norm(tree.pos[1:] - tree.pos[tree.parent[1:]], axis=1)
+    np.testing.assert_allclose(seg[nmap.connector[1:]].sum(), nmap.offset.sum(), rtol=1e-12)
 
 
 @pytest.mark.parametrize("bad, match", [

@@ -455,7 +455,7 @@ def test_label_volumes_round_trip_array_spacing_and_origin(tmp_path, suffix):
 
 def test_tiff_folder_in_natural_order_and_explicit_file_list(tmp_path):
     """img_0 ... img_19 stack as 0, 1, 2, ..., 10 (not name order 0, 1, 10, 11, ...); a list keeps its order."""
-    from plantvr.vine.volume import load_volume
+    from plantvr.io.volume import load_volume
     a = _vol(np.uint16, (20, 5, 6))
     for k in range(20):
         tifffile.imwrite(tmp_path / f"img_{k}.tif", a[k])
@@ -521,3 +521,190 @@ def test_channel_and_time(tmp_path):
         read_volume(three, channel=0)
     with pytest.raises(ValueError, match="time=0 does not apply .* slice stack"):
         read_volume([tmp_path / "hyper.tif", tmp_path / "rgb.tif"], time=0)
+
+
+# ------------------------------------------------------------------------------------------------ issue 32: more readers
+
+
+def _lps_affine(ras_affine):
+    """nibabel's RAS+ affine in LPS (VolumeGeometry's frame)."""
+    return np.diag([-1.0, -1.0, 1.0, 1.0]) @ np.asarray(ras_affine, np.float64)
+
+
+@pytest.mark.parametrize("compression, predictor", [("lzw", False), ("lzw", True), ("zlib", True),
+                                                    ("zlib", False)])
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+def test_tiff_lzw_and_deflate_with_predictor(tmp_path, compression, predictor, dtype):
+    pytest.importorskip("imagecodecs")
+    a = _vol(dtype)
+    p = tmp_path / "c.tif"
+    tifffile.imwrite(p, a, imagej=True, resolution=(2.0, 4.0), metadata={"spacing": 3.0, "axes": "ZYX"},
+                     compression=compression, predictor=predictor)
+    with tifffile.TiffFile(p) as tf:
+        assert tf.pages[0].compression.name == {"lzw": "LZW", "zlib": "ADOBE_DEFLATE"}[compression]
+        assert (tf.pages[0].predictor > 1) == predictor
+    _check(read_volume(p), a, (3.0, 0.25, 0.5), (0, 0, 0), fmt="TIFF")
+    lazy = read_volume(p, lazy=True)
+    assert np.array_equal(lazy.array.compute(), a)
+
+
+@pytest.mark.parametrize("suffix", [".mgh", ".mgz"])
+@pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.int32, np.float32])
+def test_mgh_written_by_nibabel(tmp_path, suffix, dtype):
+    import nibabel as nib
+    a = _vol(dtype, (6, 7, 8))
+    aff = np.array([[-0.5, 0.0, 0.1, 10.0], [0.0, 0.0, 1.5, -4.0], [0.0, 0.8, 0.0, 2.5], [0, 0, 0, 1]])
+    p = tmp_path / f"v{suffix}"
+    nib.MGHImage(a, aff).to_filename(p)
+    v = read_volume(p)
+    img = nib.load(p)
+    assert v.format == "MGH" and v.meta["axes"] == "xyz" and v.shape == a.shape
+    assert np.array_equal(np.asarray(v.array), a) and v.array.dtype == a.dtype
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-6)
+    np.testing.assert_allclose(v.spacing, img.header.get_zooms()[:3], rtol=1e-6)
+    frames = np.stack([a, a + 1], axis=-1).astype(dtype)                        # x, y, z, frames
+    nib.MGHImage(frames, aff).to_filename(tmp_path / f"f{suffix}")
+    assert np.array_equal(read_volume(tmp_path / f"f{suffix}", time=1).array, a + 1)
+    with pytest.raises(ValueError, match="pick one with channel= or time="):
+        read_volume(tmp_path / f"f{suffix}")
+
+
+def test_freesurfer_test_mgz_from_nibabel():
+    import nibabel as nib
+    from nibabel.testing import data_path
+    p = Path(data_path) / "test.mgz"
+    img = nib.load(p)
+    v = read_volume(p, time=0) if len(img.shape) > 3 and img.shape[3] > 1 else read_volume(p)
+    assert v.format == "MGH" and v.shape == img.shape[:3]
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-5)
+    np.testing.assert_array_equal(np.asarray(v.array), np.asanyarray(img.dataobj)[..., 0] if img.ndim > 3
+                                  else np.asanyarray(img.dataobj))
+
+
+@pytest.mark.parametrize("name", ["tiny.mnc", "minc1_1_scale.mnc", "minc2_1_scale.mnc", "small.mnc",
+                                  "minc1-no-att.mnc", "minc2-no-att.mnc"])
+def test_minc_files_nibabel_ships(name):
+    """MINC 1 (netCDF) and MINC 2 (HDF5) test files from nibabel.testing: voxels and affine as nibabel gives them."""
+    import nibabel as nib
+    from nibabel.testing import data_path
+    p = Path(data_path) / name
+    img = nib.load(p)
+    v = read_volume(p)
+    assert v.format == "MINC" and v.shape == img.shape
+    np.testing.assert_allclose(np.asarray(v.array), np.asarray(img.dataobj), rtol=1e-12)
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-9)
+    np.testing.assert_allclose(v.spacing, np.abs(img.header.get_zooms()), rtol=1e-12)
+    assert v.meta["axes"] == "zyx"                       # MINC's usual zspace, yspace, xspace order
+    corner = v.geometry.index_to_world([[1, 2, 3]])[0]   # one voxel through both affines
+    np.testing.assert_allclose(corner * [-1, -1, 1], nib.affines.apply_affine(img.affine, [1, 2, 3]), atol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["minc1_4d.mnc", "minc2_4d.mnc"])
+def test_minc_4d_time(name):
+    import nibabel as nib
+    from nibabel.testing import data_path
+    p = Path(data_path) / name
+    img = nib.load(p)
+    with pytest.raises(ValueError, match="pick one with channel= or time="):
+        read_volume(p)
+    v = read_volume(p, time=1)
+    assert v.shape == img.shape[1:]
+    np.testing.assert_allclose(np.asarray(v.array), np.asarray(img.dataobj)[1], rtol=1e-12)
+    np.testing.assert_allclose(v.geometry.affine, _lps_affine(img.affine), atol=1e-9)
+
+
+def test_vti_cell_data_lies_on_cell_centres(tmp_path):
+    """pyvista's uniform example holds point and cell data; a cell array's voxels are the cells, at their
+    centres (pyvista's cell_centers), rotated grids included."""
+    import pyvista as pv
+    from pyvista import examples
+    g = examples.load_uniform()
+    g.spacing = (0.5, 1.0, 2.0)
+    g.origin = (1.0, -2.0, 3.0)
+    g.direction_matrix = pv.Transform().rotate_z(30).rotate_x(10).matrix[:3, :3]
+    p = tmp_path / "u.vti"
+    g.save(p)
+    grid = pv.read(p)
+    v = read_volume(p, dataset="Spatial Cell Data")
+    assert v.meta["on_cells"] and v.shape == tuple(n - 1 for n in grid.dimensions)
+    assert np.array_equal(v.array.ravel(order="F"), np.asarray(grid.cell_data["Spatial Cell Data"]))
+    idx = np.stack(np.unravel_index(np.arange(np.prod(v.shape)), v.shape, order="F"), axis=1)
+    np.testing.assert_allclose(v.geometry.index_to_world(idx), grid.cell_centers().points, atol=1e-9)
+    np.testing.assert_allclose(v.spacing, grid.spacing)
+    pts = read_volume(p, dataset="Spatial Point Data")
+    assert not pts.meta["on_cells"] and pts.shape == grid.dimensions
+    pidx = np.stack(np.unravel_index(np.arange(grid.n_points), grid.dimensions, order="F"), axis=1)
+    np.testing.assert_allclose(pts.geometry.index_to_world(pidx), grid.points, atol=1e-9)
+    only = pv.ImageData(dimensions=(5, 6, 7), spacing=(0.2, 0.3, 0.4), origin=(1, 1, 1))
+    only.cell_data["c"] = np.arange(only.n_cells, dtype=np.int16)
+    only.save(tmp_path / "c.vti")
+    v = read_volume(tmp_path / "c.vti")                   # the only array is a cell array: read by default
+    assert v.shape == (4, 5, 6) and v.array.dtype == np.int16
+    np.testing.assert_allclose(v.origin, (1.1, 1.15, 1.2))
+    with pytest.raises(ValueError, match="cell-data arrays"):
+        read_volume(p, dataset="nope")
+
+
+def test_lazy_reads_raise_the_read_error_when_a_damaged_chunk_is_computed(tmp_path):
+    """Issue 32 item 4: lazy=True opens a file whose voxel data is damaged (only its header is read); computing the
+    damaged chunk raises a ValueError naming the file, not the codec's own error; healthy chunks still compute."""
+    pytest.importorskip("dask.array")
+    zarr = pytest.importorskip("zarr")
+    a = _vol(np.uint16, (6, 8, 10))
+    p = tmp_path / "v.zarr"
+    z = zarr.create_array(str(p), shape=a.shape, dtype=a.dtype, chunks=(3, 8, 10))
+    z[:] = a
+    chunk = p / "c" / "1" / "0" / "0"
+    chunk.write_bytes(chunk.read_bytes()[:-7])                 # a truncated zstd chunk
+    lz = read_volume(p, lazy=True)
+    assert np.array_equal(lz.array[:3].compute(), a[:3])
+    with pytest.raises(ValueError, match=r"could not read '.*v\.zarr' as Zarr"):
+        lz.array.compute()
+    pytest.importorskip("imagecodecs")
+    t = tmp_path / "c.tif"
+    tifffile.imwrite(t, a, compression="zlib", predictor=True)
+    with tifffile.TiffFile(t) as tf:
+        off, n = tf.pages[4].dataoffsets[0], tf.pages[4].databytecounts[0]
+    raw = bytearray(t.read_bytes())
+    raw[off:off + n] = b"\xff" * n                             # page 4's deflate stream is garbage
+    t.write_bytes(bytes(raw))
+    lt = read_volume(t, lazy=True)
+    assert np.array_equal(lt.array[:4].compute(), a[:4])
+    with pytest.raises(ValueError, match=r"could not read '.*c\.tif' as TIFF"):
+        lt.array.compute()
+    with pytest.raises(ValueError, match=r"c\.tif"):           # the eager read says the same
+        read_volume(t)
+    (tmp_path / "s").mkdir()
+    for k in range(a.shape[0]):
+        tifffile.imwrite(tmp_path / "s" / f"img_{k}.tif", a[k], compression="zlib")
+    raw = bytearray((tmp_path / "s" / "img_3.tif").read_bytes())
+    with tifffile.TiffFile(tmp_path / "s" / "img_3.tif") as tf:
+        off, n = tf.pages[0].dataoffsets[0], tf.pages[0].databytecounts[0]
+    raw[off:off + n] = b"\x00" * n
+    (tmp_path / "s" / "img_3.tif").write_bytes(bytes(raw))
+    ls = read_volume(tmp_path / "s", lazy=True)
+    with pytest.raises(ValueError, match=r"could not read '.*s' as TIFF"):
+        ls.array.compute()
+
+
+def test_mmap_maps_npy_and_plain_tiff_and_load_volume_is_read_volume(tmp_path):
+    """Issue 30: one reader per format; load_volume (ViNE's input) is read_volume's voxels, memory-mapped where
+    the file allows it."""
+    from plantvr.io.volume import load_volume
+    a = _vol(np.uint16, (5, 6, 7))
+    np.save(tmp_path / "v.npy", a)
+    tifffile.imwrite(tmp_path / "v.tif", a, photometric="minisblack")
+    tifffile.imwrite(tmp_path / "z.tif", a, compression="zlib")
+    for name, mapped in (("v.npy", True), ("v.tif", True), ("z.tif", False)):
+        v = read_volume(tmp_path / name, mmap=True)
+        assert isinstance(v.array, np.memmap) == mapped and np.array_equal(v.array, a)
+        lv = load_volume(tmp_path / name)
+        assert isinstance(lv, np.memmap) == mapped and np.array_equal(lv, read_volume(tmp_path / name).array)
+    with pytest.raises(ValueError, match="not both"):
+        read_volume(tmp_path / "v.tif", mmap=True, lazy=True)
+    with pytest.raises(ValueError, match="key=.* does not apply"):
+        load_volume(tmp_path / "v.npy", key="volume")
+    nib = pytest.importorskip("nibabel")
+    nib.save(nib.Nifti1Image(a, np.eye(4)), tmp_path / "v.nii")
+    with pytest.raises(ValueError, match=r"must end in \.tif, \.tiff, \.npy or \.npz"):
+        load_volume(tmp_path / "v.nii")

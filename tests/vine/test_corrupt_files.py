@@ -19,7 +19,8 @@ from plantvr.io import labels as io_labels
 from plantvr.io.source import open_source
 from plantvr.vine.synth import synth_balls
 from plantvr.vine.views import SavedView
-from plantvr.vine.volume import load_volume, save_volume
+from plantvr.io.volume import load_volume
+from plantvr.vine.volume import save_volume
 
 BOMB = 256 * 2 ** 20          # inflated size of the bombs below (a few hundred kB on disk)
 
@@ -340,7 +341,7 @@ def test_corrupt_volumes_are_refused(tmp_path, monkeypatch):
         np.zeros((2, 2, 2), np.uint8)).replace(b"(2, 2, 2)", b"(20000, 20000, 20000)")}))
     (tmp_path / "junk.tif").write_bytes(b"II*\x00" + b"\xff" * 64)
     cases.append(tmp_path / "junk.tif")
-    import plantvr.vine.volume as V
+    import plantvr.io.volume as V
     assert V.MAX_VOLUME_BYTES >= 2 ** 30
     monkeypatch.setattr(V, "MAX_VOLUME_BYTES", BOMB // 4)          # the 256 MB zero volume is over this cap
     for p in cases:
@@ -367,8 +368,7 @@ def test_corrupt_meshes_are_refused(tmp_path):
 
 
 def test_a_damaged_npy_volume_header_is_refused(tmp_path):
-    from plantvr.io.volume import read_volume
-    from plantvr.vine.volume import load_volume
+    from plantvr.io.volume import load_volume, read_volume
     np.save(tmp_path / "v.npy", synth_balls(8))
     raw = (tmp_path / "v.npy").read_bytes()
     for a, b in ((b"{", b"N"), (b")", b" "), (b"}", b")")):

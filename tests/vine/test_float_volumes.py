@@ -12,7 +12,8 @@ from plantvr.adapters.vtk_isosurface import extract_isosurface
 from plantvr.documents import labels_bundle as B
 from plantvr.documents.labels import Segmentation
 from plantvr.vine import isosurface as core
-from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume, suggest_level
+from plantvr.io.volume import load_volume
+from plantvr.vine.volume import downsample2, histogram, save_volume, suggest_level
 
 CENTRE, RADIUS, N = np.array([23.37, 24.11, 22.83]), 15.3, 48
 METHODS = ["flying_edges", "skimage"]

@@ -15,7 +15,8 @@ from plantvr.documents.labels import Segmentation
 from plantvr.io import labels as io_labels
 from plantvr.vine.synth import synth_balls
 from plantvr.vine.views import SavedView
-from plantvr.vine.volume import load_volume, save_volume
+from plantvr.io.volume import load_volume
+from plantvr.vine.volume import save_volume
 
 
 def _blobs(n=20):
@@ -284,7 +285,7 @@ def test_replay_checks_every_event_before_applying_any(mesh):
 
 
 def test_volume_headers_are_checked_before_allocating(tmp_path, monkeypatch):
-    import plantvr.vine.volume as V
+    import plantvr.io.volume as V
     # .npy whose header declares 8 TB over a tiny file
     hdr = {"descr": "|u1", "fortran_order": False, "shape": (20000, 20000, 20000)}
     with open(tmp_path / "huge.npy", "wb") as fh:

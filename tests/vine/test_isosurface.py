@@ -160,7 +160,7 @@ def test_slab_meshing_never_holds_a_float_copy_of_the_volume(method):
 
 
 def test_memmapped_npy_is_meshed_slab_by_slab(tmp_path, head):
-    from plantvr.vine.volume import load_volume
+    from plantvr.io.volume import load_volume
     np.save(tmp_path / "v.npy", head.volume)
     mm = load_volume(tmp_path / "v.npy")
     assert isinstance(mm, np.memmap)

@@ -3,7 +3,8 @@ import pytest
 import tifffile
 from skimage.transform import downscale_local_mean
 
-from plantvr.vine.volume import downsample2, histogram, load_volume, save_volume
+from plantvr.io.volume import load_volume
+from plantvr.vine.volume import downsample2, histogram, save_volume
 
 
 @pytest.mark.parametrize("suffix", [".tif", ".npy", ".npz"])
