@@ -304,7 +304,7 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
         For a surface name missing from :data:`SURFACES`, or a bad resolution.
     """
     if not isinstance(shapes, TurtleShapes):
-        raise ValueError(f"shapes must be TurtleShapes, got {type(shapes).__name__}")
+        raise ValueError(f"shapes must be TurtleShapes, got {type(shapes).__name__}")  # noqa: TRY004
     slices, stacks = check_int("slices", slices, 3, 1024), check_int("stacks", stacks, 2, 1024)
     missing = sorted({s for s in shapes.surface if s and s not in SURFACES})
     if missing:
