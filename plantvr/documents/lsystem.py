@@ -87,6 +87,38 @@ def y_up(tree: TreeArrays) -> TreeArrays:
     return TreeArrays(pos, tree.parent, tree.radius, tree.order, tree.main_child)
 
 
+def _write_usd(path, parts: list[dict]):
+    """Meshes ``{"name", "vertices", "faces", "color" (RGBA, optional)}`` as one USD stage, y-up, one
+    ``UsdGeom.Mesh`` each under ``/lsystem`` with its ``displayColor`` (written whole, then moved into place)."""
+    import os
+    import tempfile
+
+    from ..io.usd import _pxr
+    _pxr()                                                    # RuntimeError naming usd-core when missing
+    from pxr import Gf, Usd, UsdGeom, Vt
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    root = UsdGeom.Xform.Define(stage, "/lsystem")
+    stage.SetDefaultPrim(root.GetPrim())
+    for p in parts:
+        f = np.asarray(p["faces"], np.int32)
+        m = UsdGeom.Mesh.Define(stage, "/lsystem/" + p["name"].replace(" ", "_"))
+        m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(p["vertices"], np.float32)))
+        m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(f), 3, np.int32)))
+        m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(f.ravel()))
+        m.CreateDoubleSidedAttr(bool(p.get("double_sided", False)))
+        m.CreateDisplayColorAttr([Gf.Vec3f(*(float(c) for c in p.get("color", (0.38, 0.26, 0.16))[:3]))])
+    fd, tmp = tempfile.mkstemp(suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        stage.GetRootLayer().Export(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
+
+
 def _mesh_y_up(mesh):
     """A turtle shape mesh turned y-up as :func:`y_up` (a rotation: winding kept), colours kept."""
     from ..lsystem.shapes import ShapeMesh
@@ -504,11 +536,12 @@ class LSystemDocument(Document):
         return {"tree": y_up(tree), **{f"shapes {k}": _mesh_y_up(m) for k, m in shapes.items()}}
 
     def export(self, path, *, branches: bool = True):
-        """Write the scene at the current step as binary glTF (``.glb``) or PLY (``.ply``), y-up.
+        """Write the scene at the current step as binary glTF (``.glb``), USD (``.usd``, ``.usda``, ``.usdc``)
+        or PLY (``.ply``), y-up.
 
-        glTF: one mesh per colour index (its material the L-Py colour) and, with ``branches``, the skeleton's
-        generalized-cylinder branch mesh (:func:`plantvr.io.tree.tree_geometry`, Tree Wand's appearance
-        defaults). PLY: the shapes merged, with per-vertex colours (no branches).
+        glTF and USD: one mesh per colour index (its material, or USD ``displayColor``, the L-Py colour) and, with
+        ``branches``, the skeleton's generalized-cylinder branch mesh (:func:`plantvr.io.tree.tree_geometry`,
+        Tree Wand's appearance defaults). PLY: the shapes merged, with per-vertex colours (no branches).
 
         Returns
         -------
@@ -520,8 +553,8 @@ class LSystemDocument(Document):
         from ..io.ply import write_ply
         path = pathlib.Path(path)
         kind = path.suffix.lower()
-        if kind not in (".glb", ".ply"):
-            raise ValueError(f"path must end in .glb or .ply, got {str(path)!r}")
+        if kind not in (".glb", ".ply", ".usd", ".usda", ".usdc"):
+            raise ValueError(f"path must end in .glb, .usd, .usda, .usdc or .ply, got {str(path)!r}")
         scene = self.scene()
         meshes = [m for k, m in scene.items() if k.startswith("shapes ")]
         if kind == ".ply":
@@ -544,5 +577,7 @@ class LSystemDocument(Document):
             parts.insert(0, {"name": "branches", "vertices": bm.vertices, "faces": bm.faces})
         if not parts:
             raise ValueError("the scene is empty: nothing to export")
+        if kind != ".glb":
+            return _write_usd(path, parts)
         return write_glb(path, parts, [{"mesh": i, "name": p["name"]} for i, p in enumerate(parts)],
                          generator="PlantVR L-system", scene_name="lsystem")

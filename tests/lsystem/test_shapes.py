@@ -1,5 +1,6 @@
 """Issue 33 "a scene, not only a skeleton": the turtle's spheres, discs, ``~l`` leaves, polygons and generalized
 cylinders against independent computations, the kernel twin, the document scene and the glTF / PLY export."""
+import itertools
 import warnings
 
 import numpy as np
@@ -67,7 +68,7 @@ def test_leaf_grammar_exact_counts_bounds_and_area():
 def prism_area(radii, heights, slices=16) -> float:
     """Lateral area of a stack of regular ``slices``-gon frustums (radii at the ring vertices)."""
     total, half = 0.0, np.pi / slices
-    for (r0, r1), h in zip(zip(radii[:-1], radii[1:]), heights):
+    for (r0, r1), h in zip(itertools.pairwise(radii), heights):
         a0, a1 = r0 * np.cos(half), r1 * np.cos(half)               # apothems
         e0, e1 = 2 * r0 * np.sin(half), 2 * r1 * np.sin(half)       # edges
         total += slices * 0.5 * (e0 + e1) * np.hypot(h, a1 - a0)
@@ -311,10 +312,39 @@ def test_document_scene_view_and_gltf_ply_export(tmp_path):
     ply = trimesh.load(doc.export(tmp_path / "leafy.ply"), process=False)
     assert (len(ply.vertices), len(ply.faces)) == (136, 176)
     assert (ply.visual.vertex_colors[80:, :3] == GREEN).all()
-    with pytest.raises(ValueError, match=r"path must end in .glb or .ply"):
+    pytest.importorskip("pxr")
+    from pxr import Usd, UsdGeom
+    stage = Usd.Stage.Open(str(doc.export(tmp_path / "leafy.usda")))
+    assert UsdGeom.GetStageUpAxis(stage) == "Y"
+    leaf_prim = UsdGeom.Mesh(stage.GetPrimAtPath("/lsystem/shapes_2"))
+    assert len(leaf_prim.GetPointsAttr().Get()) == 56 and len(leaf_prim.GetFaceVertexCountsAttr().Get()) == 48
+    np.testing.assert_allclose(leaf_prim.GetDisplayColorAttr().Get()[0], np.array(GREEN) / 255, atol=1e-6)
+    assert stage.GetPrimAtPath("/lsystem/branches").IsValid()
+    with pytest.raises(ValueError, match=r"path must end in .glb, .usd, .usda, .usdc or .ply"):
         doc.export(tmp_path / "leafy.obj")
     # a step without leaves yet, and undo: the scene follows the document
     doc.set_step(0)
     assert sorted(doc.scene()) == ["tree"]
     doc.undo()
     assert sorted(doc.scene()) == ["shapes 1", "shapes 2", "tree"]
+
+
+def test_view_draws_the_shapes_beside_the_tree():
+    import os
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    pytest.importorskip("pyvista")
+    import plantvr
+    from plantvr.documents.lsystem import LSystemDocument
+    doc = LSystemDocument(LEAFY_TUBES)
+    view = plantvr.View(doc, window_size=(160, 160))
+    try:
+        assert {"tree", "shapes 1", "shapes 2"} <= set(view.layers)
+        def greenish(img):
+            r, g, b = (img[..., k].astype(int) for k in range(3))
+            return int(((g - r > 40) & (g - b > 40)).sum())
+        leafy = greenish(view.screenshot())
+        doc.set_step(0)                                         # no leaves at step 0: their layer goes
+        assert "shapes 2" not in view.layers
+        assert leafy > 50 and greenish(view.screenshot()) == 0  # the leaves were on screen, in their colour
+    finally:
+        view.close()
