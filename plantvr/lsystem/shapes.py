@@ -276,7 +276,10 @@ def _place(frame: np.ndarray, size: np.ndarray, local: np.ndarray) -> np.ndarray
     """(S, V, 3) world vertices of a local template placed at each frame (x = U, y = -L, z = H), scaled."""
     pos, h, lft, up = frame[:, 0], frame[:, 1], frame[:, 2], frame[:, 3]
     axes = np.stack([up, -lft, h], 1)                      # (S, 3 local axes, 3)
-    return pos[:, None] + size[:, None, None] * np.einsum("vk,skd->svd", local, axes)
+    out = np.matmul(local[None], axes)                    # (S, V, 3)
+    out *= size[:, None, None]
+    out += pos[:, None]
+    return out
 
 
 def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
@@ -315,15 +318,16 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
         parts.setdefault(int(col), []).append((v, f))
 
     kind = shapes.kind
-    for kd, (tv, tf) in ((K.SH_SPHERE, sphere_mesh(slices, stacks)), (K.SH_CIRCLE, disc_mesh(slices))):
-        sel = np.flatnonzero(kind == kd)
-        if sel.size:
-            verts = _place(shapes.frame[sel], shapes.size[sel], tv)
-            for k, s in enumerate(sel):
-                add(shapes.color[s], verts[k], tf)
-    for s in np.flatnonzero(kind == K.SH_SURFACE):
-        tv, tf = SURFACES[shapes.surface[s]]
-        add(shapes.color[s], _place(shapes.frame[s:s + 1], shapes.size[s:s + 1], tv)[0], tf)
+    surf = np.array(shapes.surface, dtype=object) if len(shapes) else np.zeros(0, object)
+    placed = [(K.SH_SPHERE, "", sphere_mesh(slices, stacks)), (K.SH_CIRCLE, "", disc_mesh(slices))]
+    placed += [(K.SH_SURFACE, name, SURFACES[name]) for name in dict.fromkeys(shapes.surface) if name]
+    for kd, name, (tv, tf) in placed:                      # one block per kind, surface and colour
+        is_kind = (kind == kd) & (surf == name) if name else kind == kd
+        for col in np.unique(shapes.color[is_kind]):
+            sel = np.flatnonzero(is_kind & (shapes.color == col))
+            verts = _place(shapes.frame[sel], shapes.size[sel], tv).reshape(-1, 3)
+            faces = (tf[None] + (np.arange(len(sel)) * len(tv))[:, None, None]).reshape(-1, 3)
+            add(col, verts, faces)
     for s in np.flatnonzero((kind == K.SH_POLYGON) | (kind == K.SH_POLYGON_CONCAVE)):
         p = shapes.points[shapes.start[s]:shapes.start[s] + shapes.count[s]]
         if np.linalg.norm(p[0] - p[-1]) < K.EPS:
@@ -337,12 +341,11 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
             add(shapes.color[s], v, f)
     out: dict[int, ShapeMesh] = {}
     for col in sorted(parts):
-        vs, fs, off = [], [], 0
-        for v, f in parts[col]:
-            vs.append(v)
-            fs.append(f + off)
-            off += len(v)
-        v = np.vstack(vs)
-        out[col] = ShapeMesh(v, np.vstack(fs), colors=np.tile(material_rgb(col, materials), (len(v), 1)),
-                             material=col)
+        offs = np.cumsum([0] + [len(v) for v, _ in parts[col]])
+        v = parts[col][0][0] if len(parts[col]) == 1 else np.concatenate([v for v, _ in parts[col]])
+        f = parts[col][0][1] if len(parts[col]) == 1 else np.concatenate(
+            [f + o for (_, f), o in zip(parts[col], offs)])
+        colors = np.empty((len(v), 3), np.uint8)
+        colors[:] = material_rgb(col, materials)
+        out[col] = ShapeMesh(v, f, colors=colors, material=col)
     return out
