@@ -102,7 +102,7 @@ def _write_usd(path, parts: list[dict]):
     stage.SetDefaultPrim(root.GetPrim())
     for p in parts:
         f = np.asarray(p["faces"], np.int32)
-        m = UsdGeom.Mesh.Define(stage, "/lsystem/" + p["name"].replace(" ", "_"))
+        m = UsdGeom.Mesh.Define(stage, "/lsystem/" + p["name"].replace(" ", "_").replace("#", "rgb_"))
         m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(p["vertices"], np.float32)))
         m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(f), 3, np.int32)))
         m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(f.ravel()))
@@ -533,7 +533,8 @@ class LSystemDocument(Document):
             shapes = self.shapes
         if tree is None:
             return {}
-        return {"tree": y_up(tree), **{f"shapes {k}": _mesh_y_up(m) for k, m in shapes.items()}}
+        from ..lsystem.shapes import shape_name
+        return {"tree": y_up(tree), **{shape_name(k): _mesh_y_up(m) for k, m in shapes.items()}}
 
     def export(self, path, *, branches: bool = True):
         """Write the scene at the current step as binary glTF (``.glb``), USD (``.usd``, ``.usda``, ``.usdc``)
@@ -556,7 +557,8 @@ class LSystemDocument(Document):
         if kind not in (".glb", ".ply", ".usd", ".usda", ".usdc"):
             raise ValueError(f"path must end in .glb, .usd, .usda, .usdc or .ply, got {str(path)!r}")
         scene = self.scene()
-        meshes = [m for k, m in scene.items() if k.startswith("shapes ")]
+        shape_items = [(k, m) for k, m in scene.items() if k.startswith("shapes ")]
+        meshes = [m for _, m in shape_items]
         if kind == ".ply":
             if not meshes:
                 raise ValueError("the scene has no shapes to write as PLY (the skeleton needs .glb)")
@@ -567,8 +569,8 @@ class LSystemDocument(Document):
             write_ply(path, np.vstack([m.vertices for m in meshes]), np.vstack(fs),
                       colors=np.vstack([m.colors for m in meshes]), comment="PlantVR L-system shapes")
             return path
-        parts = [{"name": f"shapes {m.material}", "vertices": m.vertices, "faces": m.faces, "double_sided": True,
-                  "color": (*(m.colors[0] / 255.0), 1.0)} for m in meshes]
+        parts = [{"name": k, "vertices": m.vertices, "faces": m.faces, "double_sided": True,
+                  "color": (*(m.colors[0] / 255.0), 1.0)} for k, m in shape_items]
         tree = scene.get("tree")
         if branches and tree is not None and tree.n_internodes:
             from ..io.tree import tree_geometry

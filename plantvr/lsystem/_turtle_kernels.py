@@ -31,6 +31,9 @@ EPS = 1e-6
 #: Warning slots of the kernel: a width below zero, a colour below zero, an elasticity outside [0, 1] (PlantGL
 #: warns and keeps the current value).
 IGNORED_WIDTH, IGNORED_COLOR, IGNORED_ELASTICITY, IGNORED_SIZE = 0, 1, 2, 3
+#: ``SetColor(r, g, b[, a])`` (L-Py's custom appearance): colour code ``CUSTOM_COLOR + (r << 16 | g << 8 | b)``,
+#: each channel rounded and clipped to 0..255 (the alpha is not kept).
+CUSTOM_COLOR = 1 << 32
 
 _NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, (pad 3)
 _NI = 10  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
@@ -333,7 +336,13 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                     ignored_at[IGNORED_WIDTH] = i
         elif o == INCC or o == DECC or o == SETC:
             v = col + 1 if o == INCC else col - 1
-            if na > 0:
+            if o == SETC and na == 0:                     # L-Py: setColor(getColor())
+                v = col
+            elif na >= 3:
+                v = CUSTOM_COLOR
+                for c in range(3):
+                    v += min(max(int(round(args[a0 + c])), 0), 255) << (16 - 8 * c)  # noqa: RUF046 (numba)
+            elif na > 0:
                 v = int(args[a0])
             if v >= 0:
                 col = v
@@ -573,6 +582,11 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
                 ignored[IGNORED_WIDTH] += 1
         elif o in (INCC, DECC, SETC):
             v = int(vals[0]) if vals else (st["color"] + 1 if o == INCC else st["color"] - 1)
+            if o == SETC and not vals:
+                v = st["color"]
+            elif len(vals) >= 3:
+                r, g, b = (min(max(round(c), 0), 255) for c in vals[:3])
+                v = CUSTOM_COLOR + (r << 16) + (g << 8) + b
             if v >= 0:
                 st["color"] = v
             else:

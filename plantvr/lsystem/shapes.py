@@ -37,7 +37,7 @@ from . import _turtle_kernels as K
 from .turtle import _TABLE, TURTLE_MODULES, TurtleShapes
 
 __all__ = ["DEFAULT_MATERIALS", "SURFACES", "ShapeMesh", "disc_mesh", "leaf_surface", "material_rgb",
-           "polygon_faces", "register_surface", "shape_meshes", "sphere_mesh", "tube_mesh"]
+           "polygon_faces", "register_surface", "shape_meshes", "shape_name", "sphere_mesh", "tube_mesh"]
 
 #: PlantGL's default turtle materials (``PglTurtle::defaultValue``): name, ambient RGB, diffuse factor.
 DEFAULT_MATERIALS: tuple[tuple[str, tuple[int, int, int], float], ...] = (
@@ -53,8 +53,12 @@ DEFAULT_MATERIALS: tuple[tuple[str, tuple[int, int, int], float], ...] = (
 
 def material_rgb(index: int, materials=DEFAULT_MATERIALS) -> np.ndarray:
     """(3,) uint8 diffuse colour of material ``index``: ambient times diffuse, clipped to 255 (PlantGL's
-    ``Material::getDiffuseColor``); PlantGL's default grey past the table."""
+    ``Material::getDiffuseColor``); PlantGL's default grey past the table; the colour itself for a
+    ``SetColor(r, g, b)`` code (``K.CUSTOM_COLOR + (r << 16 | g << 8 | b)``)."""
     index = check_int("index", index, 0, 2 ** 62)
+    if index >= K.CUSTOM_COLOR:
+        code = index - K.CUSTOM_COLOR
+        return np.array([(code >> 16) & 255, (code >> 8) & 255, code & 255], np.uint8)
     _, ambient, diffuse = materials[index] if index < len(materials) else DEFAULT_MATERIALS[0]
     return np.clip(np.round(np.asarray(ambient, float) * diffuse), 0, 255).astype(np.uint8)
 
@@ -92,6 +96,12 @@ def register_surface(name: str, vertices, faces) -> None:
     SURFACES[name] = (np.asarray(mesh.vertices, float).copy(), mesh.faces.copy())
     _TABLE["~" + name] = (K.SURFACE, (0, 1))
     TURTLE_MODULES["~" + name] = (0, 1)
+
+
+def shape_name(index: int) -> str:
+    """The scene name of a material's shapes: ``"shapes 2"``, or ``"shapes #ff0000"`` for ``SetColor(255, 0, 0)``."""
+    index = int(index)
+    return f"shapes #{index - K.CUSTOM_COLOR:06x}" if index >= K.CUSTOM_COLOR else f"shapes {index}"
 
 
 @dataclass(eq=False)

@@ -53,7 +53,7 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
     "_": (K.INCW, (0, 1)), "IncWidth": (K.INCW, (0, 1)), "!": (K.DECW, (0, 1)), "DecWidth": (K.DECW, (0, 1)),
     "SetWidth": (K.SETW, (1,)),
     ";": (K.INCC, (0, 1)), "IncColor": (K.INCC, (0, 1)), ",": (K.DECC, (0, 1)), "DecColor": (K.DECC, (0, 1)),
-    "SetColor": (K.SETC, (1,)),
+    "SetColor": (K.SETC, (0, 1, 3, 4)),
     "%": (K.CUT, (0,)), "Cut": (K.CUT, (0,)),
     "@Tp": (K.TROPISM, (0, 1, 2, 3)), "Tropism": (K.TROPISM, (0, 1, 2, 3)),
     "@Ts": (K.ELASTICITY, (0, 1)), "Elasticity": (K.ELASTICITY, (0, 1)),
@@ -141,7 +141,8 @@ class TurtleNodes:
     ----------
     tree : TreeArrays
     color : (N,) int64 ndarray
-        Colour (material) index of each node, L-Py's ``;``/``,`` (1 by default).
+        Colour (material) index of each node, L-Py's ``;``/``,`` (1 by default); ``SetColor(r, g, b)`` gives
+        ``K.CUSTOM_COLOR + (r << 16 | g << 8 | b)``.
     module : (N,) int64 ndarray
         Index in the string of the ``F`` that made each node.
     shapes : TurtleShapes

@@ -16,6 +16,7 @@ from plantvr.lsystem.shapes import (
     polygon_faces,
     register_surface,
     shape_meshes,
+    shape_name,
     sphere_mesh,
     tube_mesh,
 )
@@ -193,6 +194,13 @@ def test_user_surface_registry(blade):
 def test_materials_and_ignored_sizes():
     assert tuple(material_rgb(0)) == (160, 160, 160) and tuple(material_rgb(99)) == (160, 160, 160)
     assert tuple(material_rgb(2)) == GREEN
+    # SetColor: an index, an (r, g, b[, a]) colour of its own (L-Py's custom appearance), nothing: unchanged
+    nodes = turtle_nodes(ModuleString.from_modules([
+        ("SetColor", (3.0,)), "@O", ("SetColor", (255.0, 128.4, -3.0, 90.0)), "@O", "SetColor", "@O"]))
+    assert nodes.shapes.color.tolist() == [3, K.CUSTOM_COLOR + 0xFF8000, K.CUSTOM_COLOR + 0xFF8000]
+    meshes = nodes.meshes()
+    assert [shape_name(k) for k in meshes] == ["shapes 3", "shapes #ff8000"]
+    assert (meshes[K.CUSTOM_COLOR + 0xFF8000].colors == (255, 128, 0)).all()
     with pytest.warns(UserWarning, match=r"2 module\(s\) set a radius or scale below 0 .*first: @O at index 1"):
         nodes = turtle_nodes(ModuleString.from_modules(["F", ("@O", (-1.0,)), ("~l", (-2.0,)), ("@O", (0.0,))]))
     assert len(nodes.shapes) == 0 and nodes.meshes() == {}
@@ -225,7 +233,7 @@ def test_engine_draws_the_flowers_it_used_to_refuse():
 def shape_string(rng: np.random.Generator, n: int) -> ModuleString:
     out, depth = [], 0
     kinds = ["F", "F", "f", "+", "-", "&", "/", "[", "]", "_", "!", ";", "%", "@Ts", "@O", "@o", "~l", "@Gc",
-             "@Ge", "{", "}", ".", "."]
+             "@Ge", "{", "}", ".", ".", "SetColor"]
     for _ in range(n):
         k = kinds[rng.integers(len(kinds))]
         if k == "]" and depth == 0:
@@ -235,6 +243,8 @@ def shape_string(rng: np.random.Generator, n: int) -> ModuleString:
         c = counts[rng.integers(len(counts))]
         if k in ("_", "!", ";", "@O", "@o", "~l"):
             vals = tuple(rng.uniform(-0.3, 2, c))
+        elif k == "SetColor":
+            vals = tuple(rng.uniform(-20, 300, c))
         elif k == "}":
             vals = tuple(rng.integers(0, 2, c).astype(float))
         elif k == "@Ts":
