@@ -17,8 +17,16 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
 * ``@Tp(x, y, z)`` sets the tropism direction (default +Z, normalised), ``@Ts(e)`` the elasticity; before every
   ``F`` and ``f`` the frame turns toward the tropism by ``e`` times its angle to H (PlantGL ``_tendTo``).
 
-A width below zero, a colour below zero or an elasticity outside [0, 1] is ignored with one warning, as PlantGL
-does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
+* shapes (issue 33; :class:`TurtleShapes`, meshed by :mod:`plantvr.lsystem.shapes`): ``@O(r)`` spheres and
+  ``@o(r)`` discs (radius default: the width), ``~l(s)`` and registered ``~name(s)`` surfaces, ``{ . }``
+  polygons (``.`` and each ``F`` add a point; ``}(1)`` asks for PlantGL's concave fill), ``@Gc ... @Ge``
+  generalized cylinders (``@Gc``, each ``F`` and ``.`` add a path point with the width, ``_``/``!`` reset the
+  last point's radius, a ``[`` branch starts its own tube at its parent's last point and draws it at ``]``, an
+  open one is drawn at the end of the string); each shape keeps its colour index (the one at ``{``/``@Gc`` for
+  paths). The skeleton is unchanged by them (an ``F`` inside ``@Gc`` still makes its node).
+
+A width below zero, a colour below zero, an elasticity outside [0, 1] or a negative sphere / disc radius or
+surface scale is ignored with one warning, as PlantGL does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
 :data:`LPY_UNSUPPORTED` are plain non-drawing modules and are skipped.
 """
 from __future__ import annotations
