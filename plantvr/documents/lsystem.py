@@ -25,8 +25,10 @@ reached are kept, so dragging the step slider back costs nothing and forward der
 one running :meth:`~plantvr.lsystem.engine.LSystem.iterate`, so step ``n`` is the same string however it was
 reached, stochastic grammars included). A changed grammar, parameter or seed starts a new cache (the last few
 are kept, so undo is instant too). :meth:`LSystemDocument.scene` gives the interpreted tree
-(:class:`~plantvr.types.TreeArrays`, turtle of :mod:`plantvr.lsystem.turtle`) turned y-up as every PlantVR
-tree, so :class:`plantvr.View`, the headset (:func:`plantvr.vr.attach`) and the tree exporters take it.
+(:class:`~plantvr.types.TreeArrays`, turtle of :mod:`plantvr.lsystem.turtle`) and the turtle's shapes (spheres,
+discs, ``~l`` leaves, polygons, generalized cylinders: one :class:`~plantvr.lsystem.shapes.ShapeMesh` per L-Py
+colour index, with per-vertex colours) turned y-up as every PlantVR tree, so :class:`plantvr.View`, the
+headset (:func:`plantvr.vr.attach`) and the exporters (:meth:`LSystemDocument.export`) take them.
 """
 from __future__ import annotations
 
@@ -45,7 +47,8 @@ from ..document import Document, serialise
 from ..lsystem.engine import MAX_MODULES as ENGINE_MAX_MODULES
 from ..lsystem.engine import TIME_BUDGET, LSystem, LSystemError, read_lpy
 from ..lsystem.modules import ModuleString
-from ..types import TreeArrays
+from ..lsystem.turtle import TurtleNodes
+from ..types import TreeArrays, TriMesh
 
 __all__ = ["DEFAULT_GRAMMAR", "MAX_MODULES", "MAX_STEP", "MAX_TEXT", "LSystemDocument", "y_up"]
 
@@ -83,6 +86,46 @@ def y_up(tree: TreeArrays) -> TreeArrays:
     return TreeArrays(pos, tree.parent, tree.radius, tree.order, tree.main_child)
 
 
+def _write_usd(path, parts: list[dict]):
+    """Meshes ``{"name", "vertices", "faces", "color" (RGBA, optional)}`` as one USD stage, y-up, one
+    ``UsdGeom.Mesh`` each under ``/lsystem`` with its ``displayColor`` (written whole, then moved into place)."""
+    import os
+    import tempfile
+
+    from ..io.usd import _pxr
+    _pxr()                                                    # RuntimeError naming usd-core when missing
+    from pxr import Gf, Usd, UsdGeom, Vt
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    root = UsdGeom.Xform.Define(stage, "/lsystem")
+    stage.SetDefaultPrim(root.GetPrim())
+    for p in parts:
+        f = np.asarray(p["faces"], np.int32)
+        m = UsdGeom.Mesh.Define(stage, "/lsystem/" + p["name"].replace(" ", "_").replace("#", "rgb_"))
+        m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(p["vertices"], np.float32)))
+        m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(f), 3, np.int32)))
+        m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(f.ravel()))
+        m.CreateDoubleSidedAttr(bool(p.get("double_sided", False)))
+        m.CreateDisplayColorAttr([Gf.Vec3f(*(float(c) for c in p.get("color", (0.38, 0.26, 0.16))[:3]))])
+    fd, tmp = tempfile.mkstemp(suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        stage.GetRootLayer().Export(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+    return path
+
+
+def _mesh_y_up(mesh):
+    """A turtle shape mesh turned y-up as :func:`y_up` (a rotation: winding kept), colours kept."""
+    from ..lsystem.shapes import ShapeMesh
+    v = mesh.vertices
+    return ShapeMesh(np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]), mesh.faces, colors=mesh.colors,
+                     material=mesh.material)
+
+
 @dataclass(eq=False)
 class _Derivation:
     """The strings of one (grammar, parameters, seed) up to the largest step reached, and their trees.
@@ -96,7 +139,7 @@ class _Derivation:
     steps: Iterator[ModuleString]
     unsupported: str = "error"
     strings: list[ModuleString] = field(default_factory=list)
-    trees: dict[int, TreeArrays] = field(default_factory=dict)
+    trees: dict[int, TurtleNodes] = field(default_factory=dict)
     stopped: bool = False
     error: BaseException | None = None
 
@@ -116,9 +159,10 @@ class _Derivation:
                 self.strings.append(nxt)
         return self.strings[min(step, len(self.strings) - 1)]
 
-    def tree(self, step: int) -> TreeArrays:
+    def tree(self, step: int) -> TurtleNodes:
+        """The turtle's drawing of step ``step``: the tree and its shapes."""
         if step not in self.trees:
-            self.trees[step] = self.lsys.draw(self.string(step), unsupported=self.unsupported)
+            self.trees[step] = self.lsys.draw(self.string(step), unsupported=self.unsupported, shapes=True)
         return self.trees[step]
 
 
@@ -189,6 +233,8 @@ class LSystemDocument(Document):
         self._cache_lock = threading.RLock()
         self.text, self.step, self.overrides, self.seed, self.trusted = "", 0, {}, 0, False
         self._tree: TreeArrays | None = None
+        self._nodes: TurtleNodes | None = None
+        self._meshes: tuple[TurtleNodes | None, dict] = (None, {})
         self.reset(DEFAULT_GRAMMAR if text is None else text, step=step, externs=externs, seed=seed,
                    trusted=trusted)
 
@@ -277,7 +323,7 @@ class LSystemDocument(Document):
             self._caches.move_to_end(key)
             return d
 
-    def _evaluate(self, text: str, step: int, overrides: dict, seed: int, trusted: bool) -> TreeArrays:
+    def _evaluate(self, text: str, step: int, overrides: dict, seed: int, trusted: bool) -> TurtleNodes:
         """The tree of a candidate state, deriving what the cache lacks. A derivation that fails raises with the
         current state untouched; it drops its cache unless it is the current one (an interrupt, or any error that
         is not the grammar's, drops it always: its iterator is spent, the next use derives again)."""
@@ -383,10 +429,10 @@ class LSystemDocument(Document):
         """Derive the candidate state (raising, with nothing changed, when it does not derive), then make it the
         state: one undo atom (none when nothing changed), one log record, one change."""
         text, step, overrides, seed, trusted = candidate
-        tree = self._evaluate(text, step, overrides, seed, trusted)
+        nodes = self._evaluate(text, step, overrides, seed, trusted)
         with self._lock, self.undoable("lsystem") if undoable else contextlib.nullcontext():
             self.text, self.step, self.overrides, self.seed, self.trusted = text, step, dict(overrides), seed, trusted
-            self._tree = tree
+            self._tree, self._nodes = nodes.tree, nodes
             self.log.record(command, **kwargs)
         self.changed("lsystem", command=command)
 
@@ -452,7 +498,8 @@ class LSystemDocument(Document):
     def set_state(self, state: dict[str, Any]) -> None:
         text, step, overrides, seed = state["text"], state["step"], dict(state["overrides"]), state["seed"]
         trusted = bool(state.get("trusted", False))
-        self._tree = self._evaluate(text, step, overrides, seed, trusted)
+        nodes = self._evaluate(text, step, overrides, seed, trusted)
+        self._tree, self._nodes = nodes.tree, nodes
         self.text, self.step, self.overrides, self.seed, self.trusted = text, step, overrides, seed, trusted
 
     def state_bytes(self) -> bytes:
@@ -466,8 +513,73 @@ class LSystemDocument(Document):
         """The tree (immutable arrays: render threads read it as it is)."""
         return self._tree
 
+    @property
+    def shapes(self) -> dict[int, TriMesh]:
+        """The turtle's shapes at the current step, one :class:`~plantvr.lsystem.shapes.ShapeMesh` per colour
+        index (L-Py's frame, z-up; :func:`~plantvr.lsystem.shapes.shape_meshes`), made once per step."""
+        with self._lock:
+            nodes, (made_for, meshes) = self._nodes, self._meshes
+            if nodes is not None and made_for is not nodes:
+                meshes = nodes.meshes()
+                self._meshes = (nodes, meshes)
+            return dict(meshes) if nodes is not None else {}
+
     def scene(self) -> dict[str, Any]:
-        """``{"tree": TreeArrays}``: the interpreted tree at the current step, y-up (:func:`y_up`)."""
+        """``{"tree": TreeArrays, "shapes 2": ShapeMesh, ...}``: the interpreted tree at the current step and the
+        turtle's shapes, one mesh per colour index (``shapes <index>``, per-vertex colours), all y-up
+        (:func:`y_up`)."""
         with self._lock:
             tree = self._tree
-        return {} if tree is None else {"tree": y_up(tree)}
+            shapes = self.shapes
+        if tree is None:
+            return {}
+        from ..lsystem.shapes import shape_name
+        return {"tree": y_up(tree), **{shape_name(k): _mesh_y_up(m) for k, m in shapes.items()}}
+
+    def export(self, path, *, branches: bool = True):
+        """Write the scene at the current step as binary glTF (``.glb``), USD (``.usd``, ``.usda``, ``.usdc``)
+        or PLY (``.ply``), y-up.
+
+        glTF and USD: one mesh per colour index (its material, or USD ``displayColor``, the L-Py colour) and, with
+        ``branches``, the skeleton's generalized-cylinder branch mesh (:func:`plantvr.io.tree.tree_geometry`,
+        Tree Wand's appearance defaults). PLY: the shapes merged, with per-vertex colours (no branches).
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        import pathlib
+
+        from ..io.gltf import write_glb
+        from ..io.ply import write_ply
+        path = pathlib.Path(path)
+        kind = path.suffix.lower()
+        if kind not in (".glb", ".ply", ".usd", ".usda", ".usdc"):
+            raise ValueError(f"path must end in .glb, .usd, .usda, .usdc or .ply, got {str(path)!r}")
+        scene = self.scene()
+        shape_items = [(k, m) for k, m in scene.items() if k.startswith("shapes ")]
+        meshes = [m for _, m in shape_items]
+        if kind == ".ply":
+            if not meshes:
+                raise ValueError("the scene has no shapes to write as PLY (the skeleton needs .glb)")
+            off, fs = 0, []
+            for m in meshes:
+                fs.append(m.faces + off)
+                off += m.n_vertices
+            write_ply(path, np.vstack([m.vertices for m in meshes]), np.vstack(fs),
+                      colors=np.vstack([m.colors for m in meshes]), comment="PlantVR L-system shapes")
+            return path
+        parts = [{"name": k, "vertices": m.vertices, "faces": m.faces, "double_sided": True,
+                  "color": (*(m.colors[0] / 255.0), 1.0)} for k, m in shape_items]
+        tree = scene.get("tree")
+        if branches and tree is not None and tree.n_internodes:
+            from ..io.tree import tree_geometry
+            from ..params import TREEWAND
+            bm, _ = tree_geometry(tree, TREEWAND.defaults(), leaves=False)
+            parts.insert(0, {"name": "branches", "vertices": bm.vertices, "faces": bm.faces})
+        if not parts:
+            raise ValueError("the scene is empty: nothing to export")
+        if kind != ".glb":
+            return _write_usd(path, parts)
+        return write_glb(path, parts, [{"mesh": i, "name": p["name"]} for i, p in enumerate(parts)],
+                         generator="PlantVR L-system", scene_name="lsystem")

@@ -22,14 +22,23 @@ import numpy as np
 # op codes (0: a module the turtle does not interpret)
 NOP, F, FMOVE, LEFT, RIGHT, UP, DOWN, ROLLL, ROLLR, TURN, ROLLVERT, ROLLHORIZ, PUSH, POP = range(14)
 INCW, DECW, SETW, INCC, DECC, SETC, CUT, TROPISM, ELASTICITY = range(14, 23)
+SPHERE, CIRCLE, SURFACE, GC_START, GC_END, POLY_START, POLY_END, POLY_POINT = range(23, 31)
+#: Shape kinds of the shape records (``sint[:, 0]``): ``@O`` sphere, ``@o`` disc, ``~name`` surface, ``{ }``
+#: polygon (fan, or ear clipping after ``}(1)``, PlantGL's concave test), ``@Gc``/``@Ge`` generalized cylinder.
+SH_SPHERE, SH_CIRCLE, SH_SURFACE, SH_POLYGON, SH_POLYGON_CONCAVE, SH_TUBE = range(1, 7)
 #: PlantGL's GEOM_EPSILON.
 EPS = 1e-6
 #: Warning slots of the kernel: a width below zero, a colour below zero, an elasticity outside [0, 1] (PlantGL
 #: warns and keeps the current value).
-IGNORED_WIDTH, IGNORED_COLOR, IGNORED_ELASTICITY = 0, 1, 2
+IGNORED_WIDTH, IGNORED_COLOR, IGNORED_ELASTICITY, IGNORED_SIZE = 0, 1, 2, 3
+#: ``SetColor(r, g, b[, a])`` (L-Py's custom appearance): colour code ``CUSTOM_COLOR + (r << 16 | g << 8 | b)``,
+#: each channel rounded and clipped to 0..255 (the alpha is not kept).
+CUSTOM_COLOR = 1 << 32
 
 _NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, (pad 3)
-_NI = 4   # int state per stack frame: current node, order, branch pending, colour
+_NI = 10  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
+#           GC colour, polygon on, polygon colour
+_NS = 13  # float columns of a shape record: position 3, H 3, L 3, U 3, size
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -42,12 +51,60 @@ def _rot(vx, vy, vz, kx, ky, kz, c, s):
 
 
 @numba.njit(cache=True, nogil=True)
-def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_depth, n_out):
+def _point(pool, prev, npool, tail, x, y, z, lx, ly, lz, r):
+    """Append a path point (position, left, radius) after ``tail`` in the point pool: its index."""
+    pool[npool, 0], pool[npool, 1], pool[npool, 2] = x, y, z
+    pool[npool, 3], pool[npool, 4], pool[npool, 5] = lx, ly, lz
+    pool[npool, 6] = r
+    prev[npool] = tail
+    return npool
+
+
+@numba.njit(cache=True, nogil=True)
+def _radius(pool, prev, npool, tail, r):
+    """PlantGL ``pushRadius``: the last point's radius set to ``r``, copy-on-write (a branch shares its first
+    point with its parent's path): the new tail's index."""
+    for k in range(6):
+        pool[npool, k] = pool[tail, k]
+    pool[npool, 6] = r
+    prev[npool] = prev[tail]
+    return npool
+
+
+@numba.njit(cache=True, nogil=True)
+def _record(sint, sflt, ns, kind, col, mod, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size):
+    """A placed shape (sphere, disc, surface): its kind, colour, module, frame and size in row ``ns``."""
+    sint[ns, 0], sint[ns, 1], sint[ns, 2], sint[ns, 3], sint[ns, 4] = kind, col, mod, 0, 0
+    r = sflt[ns]
+    r[0], r[1], r[2], r[3], r[4], r[5] = px, py, pz, hx, hy, hz
+    r[6], r[7], r[8], r[9], r[10], r[11] = lx, ly, lz, ux, uy, uz
+    r[12] = size
+    return ns + 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _record_path(sint, spts, ns, nsp, kind, col, mod, pool, prev, tail, cnt):
+    """A path shape (polygon, tube): its ``cnt`` points, walked back from ``tail``, copied to ``spts[nsp:]``."""
+    sint[ns, 0], sint[ns, 1], sint[ns, 2], sint[ns, 3], sint[ns, 4] = kind, col, mod, nsp, cnt
+    k = tail
+    for j in range(cnt - 1, -1, -1):
+        for c in range(7):
+            spts[nsp + j, c] = pool[k, c]
+        k = prev[k]
+    return ns + 1, nsp + cnt
+
+
+@numba.njit(cache=True, nogil=True)
+def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_depth, n_out, n_shapes=0,
+                  n_pool=0):
     """Interpret ``op[i]`` (module ``i``'s op code) with parameters ``args[ptr[i]:ptr[i+1]]``.
 
-    Returns ``(pos, parent, radius, order, main_child, color, module, n_nodes, ignored, ignored_at)``; the node
-    arrays have ``n_out`` rows of which the first ``n_nodes`` are used. ``ignored[k]`` counts the PlantGL
-    warnings of slot ``k``, ``ignored_at[k]`` is the first module index (-1 if none).
+    Returns ``(pos, parent, radius, order, main_child, color, module, n_nodes, ignored, ignored_at, sint, sflt,
+    spts, n_shapes, n_points)``; the node arrays have ``n_out`` rows of which the first ``n_nodes`` are used.
+    ``ignored[k]`` counts the PlantGL warnings of slot ``k``, ``ignored_at[k]`` is the first module index (-1 if
+    none). Shape ``s`` is ``sint[s] = (kind, colour, module, first point, point count)`` and ``sflt[s]`` =
+    (position, H, L, U, size); a polygon's or tube's points are ``spts[first:first + count]`` = (position, left,
+    radius). ``n_shapes`` and ``n_pool`` bound the shapes and path points (the caller counts the modules).
     """
     n = op.shape[0]
     pos = np.zeros((n_out, 3))
@@ -59,8 +116,20 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
     module = np.full(n_out, -1, np.int64)
     fstack = np.zeros((max_depth + 1, _NF))
     istack = np.zeros((max_depth + 1, _NI), np.int64)
-    ignored = np.zeros(3, np.int64)
-    ignored_at = np.full(3, -1, np.int64)
+    ignored = np.zeros(4, np.int64)
+    ignored_at = np.full(4, -1, np.int64)
+    sint = np.zeros((n_shapes, 5), np.int64)
+    sflt = np.zeros((n_shapes, _NS))
+    spts = np.zeros((n_pool + n_shapes, 7))
+    pool = np.zeros((n_pool, 7))
+    prev = np.full(n_pool, -1, np.int64)
+    ns = nsp = npool = 0
+    gc_on = gc_tail = gc_cnt = 0
+    gc_tail = -1
+    gc_col = 1
+    poly_on = poly_cnt = 0
+    poly_tail = -1
+    poly_col = 1
     deg = math.pi / 180.0
 
     px = py = pz = 0.0
@@ -153,8 +222,19 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                     main[cur] = nn
                 cur = nn
                 nn += 1
+                if gc_on:                                 # PlantGL pushPosition (then pushRadius of the top)
+                    gc_tail = _point(pool, prev, npool, gc_tail, px, py, pz, lx, ly, lz, max(w, 0.0))
+                    npool += 1
+                    gc_cnt += 1
+                if poly_on:
+                    poly_tail = _point(pool, prev, npool, poly_tail, px, py, pz, lx, ly, lz, max(w, 0.0))
+                    npool += 1
+                    poly_cnt += 1
             elif length > 0.0 and top > -EPS:
                 w = top
+                if gc_on and gc_cnt > 0:
+                    gc_tail = _radius(pool, prev, npool, gc_tail, w)
+                    npool += 1
             if flip:
                 hx, hy, hz = -hx, -hy, -hz
                 lx, ly, lz = -lx, -ly, -lz
@@ -225,9 +305,14 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             fs[12], fs[13], fs[14], fs[15], fs[16] = w, tx, ty, tz, el
             ist = istack[depth]
             ist[0], ist[1], ist[2], ist[3] = cur, ordr, pending, col
+            ist[4], ist[5], ist[6], ist[7], ist[8], ist[9] = gc_on, gc_tail, gc_cnt, gc_col, poly_on, poly_col
             depth += 1
             pending = 1
+            if gc_on and gc_cnt > 1:                      # PlantGL keepLastPoint: the branch's tube starts here
+                gc_cnt = 1
         elif o == POP:
+            if gc_on and gc_cnt > 1:                      # the branch's tube is drawn when it ends
+                ns, nsp = _record_path(sint, spts, ns, nsp, SH_TUBE, gc_col, i, pool, prev, gc_tail, gc_cnt)
             depth -= 1
             fs = fstack[depth]
             px, py, pz, hx, hy, hz = fs[0], fs[1], fs[2], fs[3], fs[4], fs[5]
@@ -235,19 +320,29 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             w, tx, ty, tz, el = fs[12], fs[13], fs[14], fs[15], fs[16]
             ist = istack[depth]
             cur, ordr, pending, col = ist[0], ist[1], ist[2], ist[3]
+            gc_on, gc_tail, gc_cnt, gc_col, poly_on, poly_col = ist[4], ist[5], ist[6], ist[7], ist[8], ist[9]
         elif o == INCW or o == DECW or o == SETW:
             v = w + winc if o == INCW else w - winc
             if na > 0:
                 v = args[a0]
             if v > -EPS:
                 w = v
+                if gc_on and gc_cnt > 0:
+                    gc_tail = _radius(pool, prev, npool, gc_tail, w)
+                    npool += 1
             else:
                 ignored[IGNORED_WIDTH] += 1
                 if ignored_at[IGNORED_WIDTH] < 0:
                     ignored_at[IGNORED_WIDTH] = i
         elif o == INCC or o == DECC or o == SETC:
             v = col + 1 if o == INCC else col - 1
-            if na > 0:
+            if o == SETC and na == 0:                     # L-Py: setColor(getColor())
+                v = col
+            elif na >= 3:
+                v = CUSTOM_COLOR
+                for c in range(3):
+                    v += min(max(int(round(args[a0 + c])), 0), 255) << (16 - 8 * c)  # noqa: RUF046 (numba)
+            elif na > 0:
                 v = int(args[a0])
             if v >= 0:
                 col = v
@@ -288,8 +383,46 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 ignored[IGNORED_ELASTICITY] += 1
                 if ignored_at[IGNORED_ELASTICITY] < 0:
                     ignored_at[IGNORED_ELASTICITY] = i
+        elif o == SPHERE or o == CIRCLE or o == SURFACE:
+            size = 1.0 if o == SURFACE else w              # a sphere's or disc's radius defaults to the width
+            if na > 0:
+                size = args[a0]
+            if size < -EPS:
+                ignored[IGNORED_SIZE] += 1
+                if ignored_at[IGNORED_SIZE] < 0:
+                    ignored_at[IGNORED_SIZE] = i
+            elif size > EPS:
+                kind = SH_SPHERE if o == SPHERE else (SH_CIRCLE if o == CIRCLE else SH_SURFACE)
+                ns = _record(sint, sflt, ns, kind, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
+        elif o == GC_START:                               # PlantGL startGC: a new path from here
+            gc_on, gc_cnt, gc_col = 1, 1, col
+            gc_tail = _point(pool, prev, npool, -1, px, py, pz, lx, ly, lz, max(w, 0.0))
+            npool += 1
+        elif o == GC_END:
+            if gc_on and gc_cnt > 1:
+                ns, nsp = _record_path(sint, spts, ns, nsp, SH_TUBE, gc_col, i, pool, prev, gc_tail, gc_cnt)
+            gc_on, gc_tail, gc_cnt = 0, -1, 0
+        elif o == POLY_START:
+            poly_on, poly_tail, poly_cnt, poly_col = 1, -1, 0, col
+        elif o == POLY_POINT:
+            if poly_on:
+                poly_tail = _point(pool, prev, npool, poly_tail, px, py, pz, lx, ly, lz, max(w, 0.0))
+                npool += 1
+                poly_cnt += 1
+            if gc_on:                                     # PlantGL's one point list: '.' adds a tube point too
+                gc_tail = _point(pool, prev, npool, gc_tail, px, py, pz, lx, ly, lz, max(w, 0.0))
+                npool += 1
+                gc_cnt += 1
+        elif o == POLY_END:
+            if poly_on and poly_cnt > 2:
+                kind = SH_POLYGON_CONCAVE if na > 0 and args[a0] != 0.0 else SH_POLYGON
+                ns, nsp = _record_path(sint, spts, ns, nsp, kind, poly_col, i, pool, prev, poly_tail, poly_cnt)
+            poly_on, poly_tail, poly_cnt = 0, -1, 0
         i += 1
-    return pos, parent, radius, order, main, color, module, nn, ignored, ignored_at
+    if gc_on and gc_cnt > 1:                              # PlantGL Turtle::stop()
+        ns, nsp = _record_path(sint, spts, ns, nsp, SH_TUBE, gc_col, -1, pool, prev, gc_tail, gc_cnt)
+    return (pos, parent, radius, order, main, color, module, nn, ignored, ignored_at, sint, sflt, spts, ns,
+            nsp)
 
 
 # -- the readable twin ------------------------------------------------------------------------------------------
@@ -305,16 +438,32 @@ def _rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
 def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
     """The twin of :func:`turtle_kernel`: the same interpretation with numpy vectors and a dict of states.
 
-    Returns ``(pos, parent, radius, order, main_child, color, module, ignored)`` (lists / arrays, used rows only).
+    Returns ``(pos, parent, radius, order, main_child, color, module, ignored, sint, sflt, spts)`` (used rows
+    only); a tube's path is a Python list per turtle state (a branch starts from its parent's last point), the
+    polygon's one list is shared by every state, as PlantGL's ``pointList``.
     """
     st = {"p": np.zeros(3), "H": np.array([0.0, 0, 1]), "L": np.array([0.0, -1, 0]), "U": np.array([1.0, 0, 0]),
           "w": float(width0), "T": np.asarray(trop0, float), "e": float(elast0), "cur": -1, "order": 0,
-          "pending": False, "color": 1}
+          "pending": False, "color": 1, "gc": None, "gc_color": 1, "poly": False, "poly_color": 1}
     stack = []
+    poly: list = []
+    shapes: list = []                               # (kind, colour, module, frame + size, points)
+
+    def point():
+        return [*st["p"], *st["L"], max(st["w"], 0.0)]
+
+    def record(kind, col, i, size=0.0, pts=()):
+        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size] if not pts else [0.0] * 13
+        shapes.append((kind, col, i, frame, [list(q) for q in pts]))
+
+    def set_width(v):
+        st["w"] = v
+        if st["gc"]:                                  # pushRadius
+            st["gc"][-1] = st["gc"][-1][:6] + [v]
     nodes = {k: [] for k in ("pos", "parent", "radius", "order", "color", "module")}
     main: list[int] = []
     base = [-1]
-    ignored = [0, 0, 0]
+    ignored = [0, 0, 0, 0]
 
     def frame_rotate(R):
         st["H"], st["L"], st["U"] = R @ st["H"], R @ st["L"], R @ st["U"]
@@ -375,8 +524,12 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
                 if top > -EPS:
                     st["w"] = top
                 st["cur"] = add_node(st["p"], st["cur"], i)
+                if st["gc"] is not None:
+                    st["gc"].append(point())
+                if st["poly"]:
+                    poly.append(point())
             elif length > 0 and top > -EPS:
-                st["w"] = top
+                set_width(top)
             if flip:
                 frame_rotate(_rotation(st["U"], 180.0))
         elif o in (LEFT, RIGHT, TURN):
@@ -413,18 +566,27 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
                     ang = np.arctan2(np.linalg.norm(k), h @ g) * alpha
                     frame_rotate(_rotation(k / np.linalg.norm(k), np.degrees(ang)))
         elif o == PUSH:
-            stack.append({k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in st.items()})
+            stack.append({k: (v.copy() if isinstance(v, (np.ndarray, list)) else v) for k, v in st.items()})
             st["pending"] = True
+            if st["gc"]:
+                st["gc"] = st["gc"][-1:]
         elif o == POP:
+            if st["gc"] is not None and len(st["gc"]) > 1:
+                record(SH_TUBE, st["gc_color"], i, pts=st["gc"])
             st = stack.pop()
         elif o in (INCW, DECW, SETW):
             v = vals[0] if vals else (st["w"] + winc if o == INCW else st["w"] - winc)
             if v > -EPS:
-                st["w"] = v
+                set_width(v)
             else:
                 ignored[IGNORED_WIDTH] += 1
         elif o in (INCC, DECC, SETC):
             v = int(vals[0]) if vals else (st["color"] + 1 if o == INCC else st["color"] - 1)
+            if o == SETC and not vals:
+                v = st["color"]
+            elif len(vals) >= 3:
+                r, g, b = (min(max(round(c), 0), 255) for c in vals[:3])
+                v = CUSTOM_COLOR + (r << 16) + (g << 8) + b
             if v >= 0:
                 st["color"] = v
             else:
@@ -444,8 +606,43 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
                 st["e"] = v
             else:
                 ignored[IGNORED_ELASTICITY] += 1
+        elif o in (SPHERE, CIRCLE, SURFACE):
+            size = vals[0] if vals else (1.0 if o == SURFACE else st["w"])
+            if size < -EPS:
+                ignored[IGNORED_SIZE] += 1
+            elif size > EPS:
+                record({SPHERE: SH_SPHERE, CIRCLE: SH_CIRCLE, SURFACE: SH_SURFACE}[o], st["color"], i, size)
+        elif o == GC_START:
+            st["gc"], st["gc_color"] = [point()], st["color"]
+        elif o == GC_END:
+            if st["gc"] is not None and len(st["gc"]) > 1:
+                record(SH_TUBE, st["gc_color"], i, pts=st["gc"])
+            st["gc"] = None
+        elif o == POLY_START:
+            st["poly"], st["poly_color"] = True, st["color"]
+            poly.clear()
+        elif o == POLY_POINT:
+            if st["poly"]:
+                poly.append(point())
+            if st["gc"] is not None:
+                st["gc"].append(point())
+        elif o == POLY_END:
+            if st["poly"] and len(poly) > 2:
+                record(SH_POLYGON_CONCAVE if vals and vals[0] != 0 else SH_POLYGON, st["poly_color"], i, pts=poly)
+            st["poly"] = False
+            poly.clear()
         i += 1
+    if st["gc"] is not None and len(st["gc"]) > 1:
+        record(SH_TUBE, st["gc_color"], -1, pts=st["gc"])
     m = len(main)
+    sint, sflt, spts, at = [], [], [], 0
+    for kind, col, mod, frame, pts in shapes:
+        sint.append([kind, col, mod, at if pts else 0, len(pts)])
+        sflt.append(frame)
+        spts.extend(pts)
+        at += len(pts)
     return (np.array(nodes["pos"], float).reshape(m, 3), np.array(nodes["parent"], np.int64),
             np.array(nodes["radius"], float), np.array(nodes["order"], np.int64), np.array(main, np.int64),
-            np.array(nodes["color"], np.int64), np.array(nodes["module"], np.int64), ignored)
+            np.array(nodes["color"], np.int64), np.array(nodes["module"], np.int64), ignored,
+            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 13),
+            np.array(spts, float).reshape(-1, 7))

@@ -409,18 +409,20 @@ class LSystem:
         """``self.draw(self.derive(n))``: the skeleton after ``n`` derivation steps (see :meth:`draw`)."""
         return self.draw(self.derive(n), unsupported=unsupported, **turtle_options)
 
-    def draw(self, string: ModuleString, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
+    def draw(self, string: ModuleString, *, unsupported: str = "error", shapes: bool = False,
+             **turtle_options: Any) -> TreeArrays:
         """``turtle(self.interpret(string), **options)``: the grammar's turtle options, overridden by
-        ``turtle_options``.
+        ``turtle_options``; ``shapes=True``: ``turtle_nodes(...)``, the tree with its spheres, surfaces, polygons
+        and tubes (:class:`~plantvr.lsystem.turtle.TurtleNodes`).
 
         A module that L-Py draws but the turtle does not (:data:`~plantvr.lsystem.turtle.LPY_UNSUPPORTED`: a
-        sphere ``@O``, a leaf surface ``~l``, ...) raises LSystemError with the line it is first used on
+        box ``@B``, a label ``@L``, ...) raises LSystemError with the line it is first used on
         (``unsupported="error"``), or is left out of the picture with one warning naming each such module
         (``"warn"``); it never changes the skeleton, which the turtle's moves and turns alone make.
         """
         import warnings
 
-        from .turtle import LPY_UNSUPPORTED, turtle
+        from .turtle import LPY_UNSUPPORTED, turtle, turtle_nodes
         unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
         s = self._first_params(self.interpret(string))
         used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
@@ -433,7 +435,7 @@ class LSystem:
             where = ", ".join(f"{name} (line {self._g.first_use.get(name, (0, 0))[0]})" for name in bad)
             warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=2)
         try:
-            return turtle(s, **{**self._turtle, **turtle_options})
+            return (turtle_nodes if shapes else turtle)(s, **{**self._turtle, **turtle_options})
         except ValueError as e:                               # a module the turtle refuses: its grammar line
             m = re.search(r"module (\S+) at index", str(e))
             line, col = self._g.first_use.get(m.group(1), (0, 0)) if m else (0, 0)
@@ -466,7 +468,8 @@ class LSystem:
     # -- namespace and Python code ---------------------------------------------------------------------------------
     def _namespace(self) -> dict:
         if self.trusted:
-            ns: dict[str, Any] = {"__builtins__": builtins, "__name__": "__lpy__"}
+            from .plantgl import grammar_builtins  # openalea.plantgl.all -> plantvr.lsystem.plantgl
+            ns: dict[str, Any] = {"__builtins__": grammar_builtins(), "__name__": "__lpy__"}
             ns.update({k: getattr(math, k) for k in dir(math) if not k.startswith("_")})
             randoms = _RANDOM_FUNCS
         else:

@@ -17,8 +17,16 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
 * ``@Tp(x, y, z)`` sets the tropism direction (default +Z, normalised), ``@Ts(e)`` the elasticity; before every
   ``F`` and ``f`` the frame turns toward the tropism by ``e`` times its angle to H (PlantGL ``_tendTo``).
 
-A width below zero, a colour below zero or an elasticity outside [0, 1] is ignored with one warning, as PlantGL
-does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
+* shapes (issue 33; :class:`TurtleShapes`, meshed by :mod:`plantvr.lsystem.shapes`): ``@O(r)`` spheres and
+  ``@o(r)`` discs (radius default: the width), ``~l(s)`` and registered ``~name(s)`` surfaces, ``{ . }``
+  polygons (``.`` and each ``F`` add a point; ``}(1)`` asks for PlantGL's concave fill), ``@Gc ... @Ge``
+  generalized cylinders (``@Gc``, each ``F`` and ``.`` add a path point with the width, ``_``/``!`` reset the
+  last point's radius, a ``[`` branch starts its own tube at its parent's last point and draws it at ``]``, an
+  open one is drawn at the end of the string); each shape keeps its colour index (the one at ``{``/``@Gc`` for
+  paths). The skeleton is unchanged by them (an ``F`` inside ``@Gc`` still makes its node).
+
+A width below zero, a colour below zero, an elasticity outside [0, 1] or a negative sphere / disc radius or
+surface scale is ignored with one warning, as PlantGL does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
 :data:`LPY_UNSUPPORTED` are plain non-drawing modules and are skipped.
 """
 from __future__ import annotations
@@ -34,7 +42,8 @@ from plantvr.types import TreeArrays
 from . import _turtle_kernels as K
 from .modules import ModuleString
 
-__all__ = ["LPY_UNSUPPORTED", "TURTLE_MODULES", "TurtleNodes", "bush_string", "turtle", "turtle_nodes"]
+__all__ = ["LPY_UNSUPPORTED", "TURTLE_MODULES", "TurtleNodes", "TurtleShapes", "bush_string", "turtle",
+           "turtle_nodes"]
 
 #: L-Py's defaults (PlantGL ``Turtle``): angle increment, step, width, width increment.
 DEFAULT_ANGLE, DEFAULT_STEP, DEFAULT_WIDTH, DEFAULT_WIDTH_INCREMENT = 60.0, 1.0, 0.1, 1.0
@@ -52,20 +61,27 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
     "_": (K.INCW, (0, 1)), "IncWidth": (K.INCW, (0, 1)), "!": (K.DECW, (0, 1)), "DecWidth": (K.DECW, (0, 1)),
     "SetWidth": (K.SETW, (1,)),
     ";": (K.INCC, (0, 1)), "IncColor": (K.INCC, (0, 1)), ",": (K.DECC, (0, 1)), "DecColor": (K.DECC, (0, 1)),
-    "SetColor": (K.SETC, (1,)),
+    "SetColor": (K.SETC, (0, 1, 3, 4)),
     "%": (K.CUT, (0,)), "Cut": (K.CUT, (0,)),
     "@Tp": (K.TROPISM, (0, 1, 2, 3)), "Tropism": (K.TROPISM, (0, 1, 2, 3)),
     "@Ts": (K.ELASTICITY, (0, 1)), "Elasticity": (K.ELASTICITY, (0, 1)),
+    "@O": (K.SPHERE, (0, 1)), "Sphere": (K.SPHERE, (0, 1)), "@o": (K.CIRCLE, (0, 1)), "Circle": (K.CIRCLE, (0, 1)),
+    "~l": (K.SURFACE, (0, 1)),
+    "@Gc": (K.GC_START, (0,)), "StartGC": (K.GC_START, (0,)), "@Ge": (K.GC_END, (0,)), "EndGC": (K.GC_END, (0,)),
+    "{": (K.POLY_START, (0,)), "BP": (K.POLY_START, (0,)), "}": (K.POLY_END, (0, 1)), "EP": (K.POLY_END, (0, 1)),
+    ".": (K.POLY_POINT, (0,)), "PP": (K.POLY_POINT, (0,)),
 }
 
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
-#: L-Py / PlantGL turtle modules that exist there but are not drawn here (geometry other than the skeleton,
-#: absolute frames, scales, guides, textures, queries); the engine refuses them with their line.
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (boxes, quads, labels, custom PlantGL
+#: geometry, ``surface('name')`` with a string, absolute frames, scales, guides, textures, queries); the engine
+#: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
+#: (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "@O", "Sphere", "@o", "Circle", "@B", "Box", "@b", "Quad", "@L", "Label", "~", "~l", "surface", "@g",
-    "PglShape", "Frame", "Arrow", "@Gc", "StartGC", "@Ge", "EndGC", "{", "BP", "}", "EP", ".", "PP", "@M",
+    "@B", "Box", "@b", "Quad", "@L", "Label", "~", "surface", "@g",
+    "PglShape", "Frame", "Arrow", "@M",
     "MoveTo", "MoveRel", "LineTo", "OLineTo", "LineRel", "OLineRel", "Pinpoint", "PinpointRel", "@R", "SetHead",
     "EulerAngles", "iRollL", "iRollR", "@Dd", "DivScale", "@Di", "MultScale", "@D", "SetScale", "nF",
     "SetContour", "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
@@ -77,25 +93,79 @@ LPY_UNSUPPORTED: frozenset[str] = frozenset({
 })
 
 _WARN = {K.IGNORED_WIDTH: "a width below 0", K.IGNORED_COLOR: "a colour index below 0",
-         K.IGNORED_ELASTICITY: "an elasticity outside [0, 1]"}
+         K.IGNORED_ELASTICITY: "an elasticity outside [0, 1]", K.IGNORED_SIZE: "a radius or scale below 0"}
+
+
+@dataclass(frozen=True, eq=False)
+class TurtleShapes:
+    """The shapes the turtle drew besides the skeleton, as records (meshed by
+    :func:`plantvr.lsystem.shapes.shape_meshes`).
+
+    Attributes
+    ----------
+    kind : (S,) int64 ndarray
+        ``K.SH_SPHERE`` (``@O``), ``K.SH_CIRCLE`` (``@o``), ``K.SH_SURFACE`` (``~name``), ``K.SH_POLYGON`` /
+        ``K.SH_POLYGON_CONCAVE`` (``{ . }``, ``}(1)``: concave test), ``K.SH_TUBE`` (``@Gc ... @Ge``).
+    color : (S,) int64 ndarray
+        Colour (material) index: the current one for placed shapes, the one at ``{`` / ``@Gc`` for paths
+        (PlantGL's ``getCurrentInitialMaterial``).
+    module : (S,) int64 ndarray
+        Index of the module that drew it (-1: a tube closed by the end of the string).
+    frame : (S, 4, 3) float64 ndarray
+        Position, heading H, left L and up U of a placed shape (zero for paths).
+    size : (S,) float64 ndarray
+        Radius of a sphere or disc, scale of a surface (0 for paths).
+    start, count : (S,) int64 ndarray
+        A path's points are ``points[start:start + count]``.
+    points, left : (P, 3) float64 ndarray
+        Path points and the turtle's left vector there.
+    radius : (P,) float64 ndarray
+        The width at each path point (a tube's radius).
+    surface : tuple of str
+        Surface name of each shape (``"l"`` for ``~l``; ``""`` for other kinds).
+    """
+
+    kind: np.ndarray
+    color: np.ndarray
+    module: np.ndarray
+    frame: np.ndarray
+    size: np.ndarray
+    start: np.ndarray
+    count: np.ndarray
+    points: np.ndarray
+    left: np.ndarray
+    radius: np.ndarray
+    surface: tuple = ()
+
+    def __len__(self) -> int:
+        return len(self.kind)
 
 
 @dataclass(frozen=True, eq=False)
 class TurtleNodes:
-    """The turtle's drawing: the skeleton and what each node carries besides.
+    """The turtle's drawing: the skeleton, what each node carries besides, and the shapes.
 
     Attributes
     ----------
     tree : TreeArrays
     color : (N,) int64 ndarray
-        Colour (material) index of each node, L-Py's ``;``/``,`` (1 by default).
+        Colour (material) index of each node, L-Py's ``;``/``,`` (1 by default); ``SetColor(r, g, b)`` gives
+        ``K.CUSTOM_COLOR + (r << 16 | g << 8 | b)``.
     module : (N,) int64 ndarray
         Index in the string of the ``F`` that made each node.
+    shapes : TurtleShapes
+        Spheres, discs, surfaces, polygons and generalized cylinders (none for a skeleton-only string).
     """
 
     tree: TreeArrays
     color: np.ndarray
     module: np.ndarray
+    shapes: TurtleShapes | None = None
+
+    def meshes(self, **kwargs):
+        """The shapes as one mesh per material (:func:`plantvr.lsystem.shapes.shape_meshes`)."""
+        from .shapes import shape_meshes
+        return shape_meshes(self.shapes, **kwargs)
 
 
 def _ops(string: ModuleString):
@@ -139,6 +209,19 @@ def _ops(string: ModuleString):
     return op, int(depth.max()) if n else 0, int(np.count_nonzero(op == K.F))
 
 
+def _capacities(op: np.ndarray) -> tuple[int, int]:
+    """Shape records and path points the kernel may make for these op codes (0, 0 without shapes)."""
+    cnt = np.bincount(op.astype(np.int64), minlength=K.POLY_POINT + 1)
+    paths = cnt[K.GC_START] + cnt[K.POLY_START]
+    n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END])
+    if not paths:
+        return n_shapes, 0
+    n_shapes += int(cnt[K.POP] + 1) if cnt[K.GC_START] else 0
+    n_pool = int(cnt[K.F] * 2 + cnt[K.POLY_POINT] * 2 + cnt[K.GC_START] + cnt[K.INCW] + cnt[K.DECW]
+                 + cnt[K.SETW] + 1)
+    return n_shapes, n_pool
+
+
 def _counts(counts: tuple[int, ...]) -> str:
     return " or ".join(str(c) for c in counts)
 
@@ -162,15 +245,25 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
     """Interpret ``string`` with the L-Py turtle: the tree plus each node's colour and module (see :func:`turtle`)."""
     opts = _options(angle, step, width, width_increment, tropism, elasticity)
     op, depth, n_f = _ops(string)
-    pos, parent, radius, order, main, color, module, nn, ignored, at = K.turtle_kernel(
-        op, string.arg_ptr, string.args, *opts, depth, 2 * n_f)
+    pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp = K.turtle_kernel(
+        op, string.arg_ptr, string.args, *opts, depth, 2 * n_f, *_capacities(op))
     for k, what in _WARN.items():
         if ignored[k]:
             i = int(at[k])
             warnings.warn(f"string: {int(ignored[k])} module(s) set {what} and were ignored, as in PlantGL (first: "
                           f"{string.names[string.ids[i]]} at index {i})", stacklevel=3)
     tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
-    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy())
+    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(),
+                       _shapes(string, sint[:ns], sflt[:ns], spts[:nsp]))
+
+
+def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray) -> TurtleShapes:
+    """The kernel's shape records as :class:`TurtleShapes` (surface names from the module names)."""
+    kind = sint[:, 0].copy()
+    surf = tuple(string.names[string.ids[m]][1:] if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
+    return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
+                        sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
+                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf)
 
 
 def turtle(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,

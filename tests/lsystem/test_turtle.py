@@ -237,7 +237,7 @@ def test_kernel_equals_python_twin_on_seeded_random_strings():
         op, depth, n_f = _ops(s)
         opts = _options(rng.uniform(5, 90), rng.uniform(0.5, 2), 0.1, rng.uniform(0, 1),
                         rng.normal(size=3) + 0.1, rng.uniform(0, 0.5) * (trial % 2))
-        pos, par, rad, order, main, color, module, nn, ignored, _ = K.turtle_kernel(
+        pos, par, rad, order, main, color, module, nn, ignored, *_ = K.turtle_kernel(
             op, s.arg_ptr, s.args, *opts, depth, 2 * n_f)
         twin = K.turtle_python(op, s.arg_ptr, s.args, *opts)
         for got, want in zip((pos, par, rad, order, main, color, module), twin[:7]):
@@ -271,7 +271,8 @@ def test_bad_options_and_plain_modules():
         turtle("F+F")
     # a huge parameter of a module the turtle does not draw is not the turtle's business
     assert len(turtle(ModuleString.from_modules([("A", (1e300, float("nan"))), "F"]))) == 2
-    assert not set(TURTLE_MODULES) & LPY_UNSUPPORTED and {"@O", "~l", "@g"} <= LPY_UNSUPPORTED
+    assert not set(TURTLE_MODULES) & LPY_UNSUPPORTED and {"@B", "~", "@g"} <= LPY_UNSUPPORTED
+    assert {"@O", "@o", "~l", "@Gc", "@Ge", "{", "}", "."} <= set(TURTLE_MODULES)
 
 
 def test_tree_feeds_the_mesher():

@@ -1,0 +1,419 @@
+"""A small ``openalea.plantgl.all`` for L-Py grammars (issue 33): the vectors, colours, materials, curves and
+functions the distribution's grammars use, in numpy.
+
+A TRUSTED grammar's ``import openalea.plantgl.all as pgl`` and ``from openalea.plantgl.all import *`` resolve
+here (:func:`grammar_builtins`, the builtins the engine gives a trusted grammar), whether or not PlantGL is
+installed: PlantVR's turtle draws numbers, so these objects evaluate to numbers. An untrusted grammar cannot
+import at all (the restricted evaluator).
+
+* :class:`Vector2`, :class:`Vector3`, :class:`Vector4`: mutable float vectors (``x``, ``y``, ``z``,
+  ``+ - * /``, ``normalize()`` in place, ``OX``/``OY``/``OZ``); lists underneath, so a module parameter written
+  ``@Tp(Vector3(0, 0, -1))`` is its three numbers. :func:`norm`, :func:`dot`, :func:`cross`,
+  :func:`direction` as PlantGL's.
+* :class:`Color3`, :class:`Color4` (0-255), :class:`Material` (``ambient``, ``diffuse`` factor, ...;
+  :meth:`Material.rgb` = ambient times diffuse, PlantGL's diffuse colour).
+* :class:`Point2Array`, :class:`Point3Array`, :class:`Point4Array`; :class:`NurbsCurve2D`,
+  :class:`NurbsCurve`, :class:`BezierCurve2D`, :class:`Polyline2D` with ``getPointAt(u)``;
+  :class:`QuantisedFunction` (a curve read as ``y = f(x)``, ``f(x)`` / ``getValue(x)``), what ``nF`` and the
+  editor's function panels hand a grammar.
+
+References
+----------
+.. [1] PlantGL ``src/cpp/plantgl/scenegraph/geometry/nurbscurve.cpp`` (``getPointAt``: de Boor on homogeneous
+   control points, clamped uniform knots by default), ``bezriercurve.cpp``, ``polyline.cpp``,
+   ``algo/base/quantisedfunction.cpp``; ``appearance/material.cpp`` (defaults: ambient (80, 80, 80),
+   diffuse 2).
+"""
+from __future__ import annotations
+
+import builtins
+import math
+import sys
+import types
+from typing import Any
+
+import numpy as np
+
+__all__ = ["BezierCurve2D", "Color3", "Color4", "Material", "NurbsCurve", "NurbsCurve2D", "Point2Array",
+           "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "Vector2", "Vector3", "Vector4",
+           "cross", "direction", "dot", "norm"]
+
+
+# -- vectors -------------------------------------------------------------------------------------------------
+class _Vector(list):
+    """A mutable float vector of fixed size (a list, so module parameters flatten it)."""
+
+    _N = 3
+
+    def __init__(self, *v) -> None:
+        if len(v) == 1 and hasattr(v[0], "__len__"):
+            v = tuple(v[0])
+        if len(v) > self._N:
+            raise ValueError(f"{type(self).__name__} takes at most {self._N} coordinates, got {len(v)}")
+        super().__init__([float(x) for x in v] + [0.0] * (self._N - len(v)))
+
+    def _get(k):
+        return property(lambda self: self[k], lambda self, val: self.__setitem__(k, float(val)))
+
+    x, y, z, w = _get(0), _get(1), _get(2), _get(3)
+    del _get
+
+    def __add__(self, o):
+        return type(self)(*(a + b for a, b in zip(self, o)))
+
+    __radd__ = __add__
+
+    def __sub__(self, o):
+        return type(self)(*(a - b for a, b in zip(self, o)))
+
+    def __rsub__(self, o):
+        return type(self)(*(b - a for a, b in zip(self, o)))
+
+    def __neg__(self):
+        return type(self)(*(-a for a in self))
+
+    def __mul__(self, s):
+        if isinstance(s, _Vector):                         # PlantGL: v * v is the dot product
+            return dot(self, s)
+        return type(self)(*(a * float(s) for a in self))
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, s):
+        return type(self)(*(a / float(s) for a in self))
+
+    def __iadd__(self, o):
+        self[:] = self + o
+        return self
+
+    def __isub__(self, o):
+        self[:] = self - o
+        return self
+
+    def __imul__(self, s):
+        self[:] = self * s
+        return self
+
+    def __abs__(self):
+        return norm(self)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(f'{a:g}' for a in self)})"
+
+    def __hash__(self):
+        return hash(tuple(self))
+
+    def normalize(self) -> float:
+        """Scale to unit length in place; the length before (PlantGL's ``normalize``)."""
+        n = norm(self)
+        if n > 0:
+            self[:] = [a / n for a in self]
+        return n
+
+    def normed(self):
+        """A unit copy."""
+        return direction(self)
+
+
+class Vector2(_Vector):
+    """PlantGL ``Vector2``."""
+
+    _N = 2
+
+
+class Vector3(_Vector):
+    """PlantGL ``Vector3`` (``Vector3.OX``, ``OY``, ``OZ``, ``ORIGIN``)."""
+
+    _N = 3
+
+
+class Vector4(_Vector):
+    """PlantGL ``Vector4``."""
+
+    _N = 4
+
+
+Vector3.OX, Vector3.OY, Vector3.OZ, Vector3.ORIGIN = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1), \
+    Vector3(0, 0, 0)
+
+
+def norm(v) -> float:
+    """Euclidean length."""
+    return float(math.sqrt(sum(float(a) * float(a) for a in v)))
+
+
+def dot(a, b) -> float:
+    """Dot product."""
+    return float(sum(float(x) * float(y) for x, y in zip(a, b)))
+
+
+def cross(a, b) -> Vector3:
+    """Cross product of two 3-vectors."""
+    return Vector3(*np.cross(np.asarray(a, float)[:3], np.asarray(b, float)[:3]))
+
+
+def direction(v):
+    """``v`` scaled to unit length (a zero vector stays zero)."""
+    n = norm(v)
+    out = (type(v) if isinstance(v, _Vector) else Vector3)(*v)
+    return out / n if n > 0 else out
+
+
+# -- colours and materials -----------------------------------------------------------------------------------
+class Color3(_Vector):
+    """PlantGL ``Color3``: red, green, blue in 0..255."""
+
+    _N = 3
+
+    def __init__(self, *v) -> None:
+        super().__init__(*v)
+        self[:] = [float(min(max(round(a), 0), 255)) for a in self]
+
+    red, green, blue = _Vector.x, _Vector.y, _Vector.z
+
+
+class Color4(Color3):
+    """PlantGL ``Color4``: red, green, blue, alpha in 0..255."""
+
+    _N = 4
+    alpha = _Vector.w
+
+
+class Material:
+    """PlantGL ``Material``: ``Material(name="", ambient=(80, 80, 80), diffuse=2, specular=(40, 40, 40),
+    emission=(0, 0, 0), shininess=1, transparency=0)``; ``Material(ambient, diffuse)`` too."""
+
+    def __init__(self, *args, **kw) -> None:
+        if args and not isinstance(args[0], str):
+            args = ("",) + args
+        keys = ("name", "ambient", "diffuse", "specular", "emission", "shininess", "transparency")
+        vals = {"name": "", "ambient": (80, 80, 80), "diffuse": 2.0, "specular": (40, 40, 40),
+                "emission": (0, 0, 0), "shininess": 1.0, "transparency": 0.0}
+        for k, v in zip(keys, args):
+            vals[k] = v
+        unknown = set(kw) - set(keys)
+        if unknown:
+            raise ValueError(f"Material: unknown argument(s) {sorted(unknown)}; known: {list(keys)}")
+        vals.update(kw)
+        self.name = str(vals["name"])
+        self.ambient, self.specular, self.emission = (Color3(vals[k]) for k in ("ambient", "specular", "emission"))
+        self.diffuse, self.shininess = float(vals["diffuse"]), float(vals["shininess"])
+        self.transparency = float(vals["transparency"])
+
+    def rgb(self) -> tuple[int, int, int]:
+        """The diffuse colour: ambient times the diffuse factor, clipped to 255."""
+        return tuple(int(min(max(round(a * self.diffuse), 0), 255)) for a in self.ambient)
+
+    def diffuseColor(self) -> Color3:
+        return Color3(*self.rgb())
+
+    def as_entry(self) -> tuple[str, tuple[int, int, int], float]:
+        """``(name, ambient, diffuse)``, an entry of :data:`plantvr.lsystem.shapes.DEFAULT_MATERIALS`."""
+        return self.name, tuple(int(a) for a in self.ambient), self.diffuse
+
+    def __repr__(self) -> str:
+        return f"Material({self.name!r}, ambient={tuple(int(a) for a in self.ambient)}, diffuse={self.diffuse:g})"
+
+
+# -- point arrays and curves ---------------------------------------------------------------------------------
+class _PointArray(list):
+    _V = Vector3
+
+    def __init__(self, points=()) -> None:
+        super().__init__(self._V(p) for p in points)
+
+
+class Point2Array(_PointArray):
+    """PlantGL ``Point2Array``."""
+
+    _V = Vector2
+
+
+class Point3Array(_PointArray):
+    """PlantGL ``Point3Array``."""
+
+    _V = Vector3
+
+
+class Point4Array(_PointArray):
+    """PlantGL ``Point4Array``."""
+
+    _V = Vector4
+
+
+def _clamped_knots(n: int, degree: int) -> np.ndarray:
+    """PlantGL's default knot vector: clamped, uniform on [0, 1] (``NurbsCurve::defaultKnotList``)."""
+    inner = np.linspace(0.0, 1.0, n - degree + 1)
+    return np.concatenate([np.zeros(degree), inner, np.ones(degree)])
+
+
+def _de_boor(ctrl: np.ndarray, knots: np.ndarray, degree: int, u: float) -> np.ndarray:
+    """The B-spline of homogeneous control points ``ctrl`` (n, d) at ``u`` (de Boor's algorithm)."""
+    n = len(ctrl)
+    u = min(max(float(u), knots[degree]), knots[n])
+    k = int(np.searchsorted(knots, u, side="right") - 1)
+    k = min(max(k, degree), n - 1)
+    d = [ctrl[j + k - degree].copy() for j in range(degree + 1)]
+    for r in range(1, degree + 1):
+        for j in range(degree, r - 1, -1):
+            i = j + k - degree
+            den = knots[i + degree - r + 1] - knots[i]
+            a = 0.0 if den == 0 else (u - knots[i]) / den
+            d[j] = (1 - a) * d[j - 1] + a * d[j]
+    return d[degree]
+
+
+class NurbsCurve2D:
+    """PlantGL ``NurbsCurve2D(ctrlPointList, knotList=None, degree=3)``: control points ``(x, y, w)``
+    (homogeneous weight ``w``, PlantGL's convention: the point is ``(x, y)``, weighted by ``w``)."""
+
+    _DIM = 2
+
+    def __init__(self, ctrlPointList, knotList=None, degree: int = 3, stride: int = 60, **kw) -> None:
+        pts = np.asarray([list(p) for p in ctrlPointList], float)
+        if pts.ndim != 2 or pts.shape[1] not in (self._DIM, self._DIM + 1) or len(pts) < 2:
+            raise ValueError(f"ctrlPointList must hold at least 2 points of {self._DIM} or {self._DIM + 1} "
+                             f"coordinates, got shape {pts.shape}")
+        if pts.shape[1] == self._DIM:
+            pts = np.column_stack([pts, np.ones(len(pts))])
+        self.ctrlPointList = pts
+        self.degree = int(min(max(int(degree), 1), len(pts) - 1))
+        self.knotList = (np.asarray(knotList, float) if knotList is not None
+                         else _clamped_knots(len(pts), self.degree))
+        if len(self.knotList) != len(pts) + self.degree + 1:
+            raise ValueError(f"knotList must hold {len(pts) + self.degree + 1} knots, got {len(self.knotList)}")
+        self.stride = int(stride)
+        self.name = str(kw.get("name", ""))
+
+    @property
+    def firstKnot(self) -> float:
+        return float(self.knotList[self.degree])
+
+    @property
+    def lastKnot(self) -> float:
+        return float(self.knotList[len(self.ctrlPointList)])
+
+    def getPointAt(self, u: float):
+        """The curve point at parameter ``u`` (clamped to the knot range)."""
+        w = self.ctrlPointList[:, -1:]
+        h = _de_boor(np.column_stack([self.ctrlPointList[:, :-1] * w, w]), self.knotList, self.degree, u)
+        p = h[:-1] / h[-1]
+        return (Vector2 if self._DIM == 2 else Vector3)(*p)
+
+    def samples(self, n: int = 200) -> np.ndarray:
+        """(n, dim) points at evenly spaced parameters."""
+        return np.array([self.getPointAt(u) for u in np.linspace(self.firstKnot, self.lastKnot, n)])
+
+
+class NurbsCurve(NurbsCurve2D):
+    """PlantGL ``NurbsCurve``: control points ``(x, y, z, w)``."""
+
+    _DIM = 3
+
+
+class BezierCurve2D(NurbsCurve2D):
+    """PlantGL ``BezierCurve2D(ctrlPointList)``: one Bezier segment of degree n - 1, parameter in [0, 1]."""
+
+    def __init__(self, ctrlPointList, stride: int = 60, **kw) -> None:
+        n = len(list(ctrlPointList))
+        super().__init__(ctrlPointList, np.r_[np.zeros(n), np.ones(n)], n - 1, stride, **kw)
+
+
+class Polyline2D:
+    """PlantGL ``Polyline2D(pointList)``: parameter ``u`` in [0, n - 1], linear between points."""
+
+    def __init__(self, pointList, **kw) -> None:
+        self.pointList = np.asarray([list(p)[:2] for p in pointList], float)
+        if len(self.pointList) < 2:
+            raise ValueError(f"pointList must hold at least 2 points, got {len(self.pointList)}")
+        self.name = str(kw.get("name", ""))
+
+    firstKnot = 0.0
+
+    @property
+    def lastKnot(self) -> float:
+        return float(len(self.pointList) - 1)
+
+    def getPointAt(self, u: float) -> Vector2:
+        u = min(max(float(u), 0.0), self.lastKnot)
+        k = min(int(u), len(self.pointList) - 2)
+        a = u - k
+        return Vector2(*((1 - a) * self.pointList[k] + a * self.pointList[k + 1]))
+
+    def samples(self, n: int = 200) -> np.ndarray:
+        return np.array([self.getPointAt(u) for u in np.linspace(0, self.lastKnot, n)])
+
+    @staticmethod
+    def Circle(radius: float = 1.0, slices: int = 8) -> Polyline2D:
+        a = np.linspace(0, 2 * np.pi, int(slices) + 1)
+        return Polyline2D(np.column_stack([radius * np.cos(a), radius * np.sin(a)]))
+
+
+class QuantisedFunction:
+    """PlantGL ``QuantisedFunction(curve, sampling=100)``: a 2-D curve read as ``y = f(x)`` (the editor's
+    function panels), sampled and linearly interpolated; ``f(x)``, ``getValue(x)``, ``firstx``, ``lastx``.
+
+    ``x`` outside [firstx, lastx] is clamped (PlantGL's ``clamped`` default)."""
+
+    def __init__(self, curve, sampling: int = 100, clamped: bool = True) -> None:
+        if not hasattr(curve, "getPointAt"):
+            raise ValueError(f"curve must be a PlantGL-like 2-D curve, got {type(curve).__name__}")
+        pts = curve.samples(max(int(sampling), 2) * 10)
+        order = np.argsort(pts[:, 0], kind="stable")
+        self._x, self._y = pts[order, 0], pts[order, 1]
+        self.sampling, self.clamped = int(sampling), bool(clamped)
+
+    @property
+    def firstx(self) -> float:
+        return float(self._x[0])
+
+    @property
+    def lastx(self) -> float:
+        return float(self._x[-1])
+
+    def __call__(self, x: float) -> float:
+        return float(np.interp(float(x), self._x, self._y))
+
+    getValue = __call__
+
+    def inverse(self) -> QuantisedFunction:
+        """``x = f^-1(y)`` (a monotonic function)."""
+        inv = QuantisedFunction.__new__(QuantisedFunction)
+        order = np.argsort(self._y, kind="stable")
+        inv._x, inv._y, inv.sampling, inv.clamped = self._y[order], self._x[order], self.sampling, self.clamped
+        return inv
+
+
+# -- the import hook -----------------------------------------------------------------------------------------
+_ALIASES = ("openalea.plantgl.all", "openalea.plantgl.math", "openalea.plantgl.scenegraph")
+
+
+def _shim_modules() -> dict[str, types.ModuleType]:
+    """``openalea``, ``openalea.plantgl`` and its ``all`` (this module) as module objects (not in sys.modules)."""
+    this = sys.modules[__name__]
+    top, pgl = types.ModuleType("openalea"), types.ModuleType("openalea.plantgl")
+    top.plantgl = pgl
+    mods = {"openalea": top, "openalea.plantgl": pgl}
+    for name in _ALIASES:
+        setattr(pgl, name.rsplit(".", 1)[1], this)
+        mods[name] = this
+    for k in __all__:
+        setattr(pgl, k, getattr(this, k))
+    return mods
+
+
+def grammar_import(name, globals=None, locals=None, fromlist=(), level=0):
+    """``__import__`` of a trusted grammar: ``openalea.plantgl[.all|.math]`` is this module, the rest Python's."""
+    if level == 0 and (name == "openalea" or name.startswith("openalea.plantgl")):
+        mods = _shim_modules()
+        if name not in mods:
+            raise ImportError(f"{name}: PlantVR's PlantGL namespace has {', '.join(_ALIASES)} only")
+        return mods[name] if fromlist else mods["openalea"]
+    return builtins.__import__(name, globals, locals, fromlist, level)
+
+
+def grammar_builtins() -> dict[str, Any]:
+    """The builtins of a trusted grammar: Python's, with :func:`grammar_import` as ``__import__``."""
+    out = dict(vars(builtins))
+    out["__import__"] = grammar_import
+    return out

@@ -1,0 +1,92 @@
+"""Issue 33: the small ``openalea.plantgl.all`` namespace of trusted grammars (vectors, materials, curves,
+quantised functions) against scipy and closed forms."""
+import numpy as np
+import pytest
+
+from plantvr.lsystem import plantgl as pgl
+from plantvr.lsystem.engine import LSystem, LSystemError
+from plantvr.lsystem.shapes import material_rgb
+
+
+def test_vectors_and_helpers():
+    v = pgl.Vector3(3, 0, 4)
+    assert pgl.norm(v) == 5 and v.normalize() == 5 and v == [0.6, 0.0, 0.8]
+    v.x = 1
+    assert v.x == 1.0 and (v + pgl.Vector3.OZ) == [1, 0, 1.8] and (2 * v).z == pytest.approx(1.6)
+    assert pgl.Vector3(1, 2, 3) * pgl.Vector3(1, 1, 1) == 6                   # PlantGL: * of vectors is dot
+    assert pgl.cross(pgl.Vector3.OX, pgl.Vector3.OY) == pgl.Vector3.OZ
+    assert pgl.direction(pgl.Vector3(0, 0, 2)) == [0, 0, 1] and pgl.Vector3((1, 2)) == [1, 2, 0]
+    with pytest.raises(ValueError, match="Vector3 takes at most 3 coordinates, got 4"):
+        pgl.Vector3(1, 2, 3, 4)
+
+
+def test_materials_match_the_turtle_table():
+    assert pgl.Material("Color_2", (30, 60, 10), 3).rgb() == tuple(material_rgb(2))
+    assert pgl.Material().rgb() == tuple(material_rgb(0))
+    m = pgl.Material("Color_7", ambient=(0, 0, 0), diffuse=40)
+    assert m.rgb() == (0, 0, 0) and m.as_entry() == ("Color_7", (0, 0, 0), 40.0)
+    assert pgl.Color3(300, -2, 7.4) == [255, 0, 7]
+    with pytest.raises(ValueError, match="unknown argument"):
+        pgl.Material(colour=(1, 2, 3))
+
+
+def test_nurbs_curve_against_scipy_bspline():
+    from scipy.interpolate import BSpline
+    ctrl = np.array([(-0.5, 0), (-0.2, 0.11), (0.12, 0.04), (0.47, -0.22), (0.6, 0.1)])
+    c = pgl.NurbsCurve2D(pgl.Point3Array([(x, y, 1) for x, y in ctrl]))
+    ref = BSpline(c.knotList, ctrl, 3)
+    for u in np.linspace(0, 1, 23):
+        np.testing.assert_allclose(c.getPointAt(u), ref(u), atol=1e-12)
+    assert c.getPointAt(0) == pytest.approx(ctrl[0]) and c.getPointAt(1) == pytest.approx(ctrl[-1])
+    # rational: the quarter circle (weights 1, sqrt(2)/2, 1) stays on the unit circle
+    w = np.sqrt(0.5)
+    arc = pgl.NurbsCurve2D([(1, 0, 1), (1, 1, w), (0, 1, 1)], degree=2)
+    pts = arc.samples(50)
+    np.testing.assert_allclose(np.linalg.norm(pts, axis=1), 1.0, atol=1e-12)
+    bez = pgl.BezierCurve2D([(0, 0, 1), (1, 2, 1), (2, 0, 1)])
+    assert bez.getPointAt(0.5) == pytest.approx([1.0, 1.0])                # (1-t)^2 p0 + 2t(1-t) p1 + t^2 p2
+    assert pgl.Polyline2D([(0, 0), (2, 2), (4, 0)]).getPointAt(1.5) == pytest.approx([3, 1])
+    with pytest.raises(ValueError, match="ctrlPointList must hold at least 2 points"):
+        pgl.NurbsCurve2D([(0, 0, 1)])
+
+
+def test_quantised_function_reads_a_curve_as_y_of_x():
+    line = pgl.NurbsCurve2D([(0, 1, 1), (0.5, 2, 1), (1, 3, 1)], degree=1)
+    f = pgl.QuantisedFunction(line)
+    assert (f.firstx, f.lastx) == (0.0, 1.0)
+    for x in (0.0, 0.1, 0.37, 0.8, 1.0):
+        assert f(x) == pytest.approx(1 + 2 * x) and f.getValue(x) == f(x)
+    assert f(-1) == pytest.approx(1.0) and f(7) == pytest.approx(3.0)        # clamped
+    assert f.inverse()(2.0) == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="curve must be"):
+        pgl.QuantisedFunction(3)
+
+
+GRAMMAR = """\
+import openalea.plantgl.all as pgl
+from openalea.plantgl.all import *
+from openalea.plantgl.all import Vector3 as V3
+import math
+width = pgl.QuantisedFunction(pgl.NurbsCurve2D(pgl.Point3Array([(0, 0.2, 1), (1, 0.0, 1)]), degree=1))
+down = V3(0, 0, -2)
+down.normalize()
+leaf = Material("Color_7", ambient=(0, 0, 0), diffuse=40)
+Axiom: A(0)
+derivation length: 2
+production:
+A(t) --> F(1, width(t / 2)) @Tp(down) A(t + 1)
+endlsystem
+"""
+
+
+def test_trusted_grammar_imports_resolve_here():
+    s = LSystem(GRAMMAR, trusted=True).derive()
+    mods = [(s.names[i], s.args[s.arg_ptr[k]:s.arg_ptr[k + 1]].round(9).tolist()) for k, i in enumerate(s.ids)]
+    assert mods == [("F", [1.0, 0.2]), ("@Tp", [0.0, 0.0, -1.0]), ("F", [1.0, 0.1]), ("@Tp", [0.0, 0.0, -1.0]),
+                    ("A", [2.0])]
+    with pytest.raises(LSystemError, match="import runs Python code"):
+        LSystem(GRAMMAR)
+    with pytest.raises(LSystemError, match=r"openalea.plantgl.gui: PlantVR's PlantGL namespace has"):
+        LSystem("import openalea.plantgl.gui\nAxiom: F\nendlsystem\n", trusted=True)
+    with pytest.raises(LSystemError, match="ModuleNotFoundError"):
+        LSystem("import no_such_module_here\nAxiom: F\nendlsystem\n", trusted=True)
