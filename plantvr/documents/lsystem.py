@@ -47,6 +47,7 @@ from ..document import Document, serialise
 from ..lsystem.engine import MAX_MODULES as ENGINE_MAX_MODULES
 from ..lsystem.engine import TIME_BUDGET, LSystem, LSystemError, read_lpy
 from ..lsystem.modules import ModuleString
+from ..lsystem.shapes import ShapeMesh, shape_meshes
 from ..lsystem.turtle import TurtleNodes
 from ..types import TreeArrays, TriMesh
 
@@ -86,41 +87,8 @@ def y_up(tree: TreeArrays) -> TreeArrays:
     return TreeArrays(pos, tree.parent, tree.radius, tree.order, tree.main_child)
 
 
-def _write_usd(path, parts: list[dict]):
-    """Meshes ``{"name", "vertices", "faces", "color" (RGBA, optional)}`` as one USD stage, y-up, one
-    ``UsdGeom.Mesh`` each under ``/lsystem`` with its ``displayColor`` (written whole, then moved into place)."""
-    import os
-    import tempfile
-
-    from ..io.usd import _pxr
-    _pxr()                                                    # RuntimeError naming usd-core when missing
-    from pxr import Gf, Usd, UsdGeom, Vt
-    stage = Usd.Stage.CreateInMemory()
-    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
-    root = UsdGeom.Xform.Define(stage, "/lsystem")
-    stage.SetDefaultPrim(root.GetPrim())
-    for p in parts:
-        f = np.asarray(p["faces"], np.int32)
-        m = UsdGeom.Mesh.Define(stage, "/lsystem/" + p["name"].replace(" ", "_").replace("#", "rgb_"))
-        m.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(np.asarray(p["vertices"], np.float32)))
-        m.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(f), 3, np.int32)))
-        m.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(f.ravel()))
-        m.CreateDoubleSidedAttr(bool(p.get("double_sided", False)))
-        m.CreateDisplayColorAttr([Gf.Vec3f(*(float(c) for c in p.get("color", (0.38, 0.26, 0.16))[:3]))])
-    fd, tmp = tempfile.mkstemp(suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        stage.GetRootLayer().Export(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-    return path
-
-
 def _mesh_y_up(mesh):
     """A turtle shape mesh turned y-up as :func:`y_up` (a rotation: winding kept), colours kept."""
-    from ..lsystem.shapes import ShapeMesh
     v = mesh.vertices
     return ShapeMesh(np.column_stack([v[:, 0], v[:, 2], -v[:, 1]]), mesh.faces, colors=mesh.colors,
                      material=mesh.material)
@@ -520,7 +488,7 @@ class LSystemDocument(Document):
         with self._lock:
             nodes, (made_for, meshes) = self._nodes, self._meshes
             if nodes is not None and made_for is not nodes:
-                meshes = nodes.meshes()
+                meshes = shape_meshes(nodes.shapes)
                 self._meshes = (nodes, meshes)
             return dict(meshes) if nodes is not None else {}
 
@@ -536,50 +504,3 @@ class LSystemDocument(Document):
         from ..lsystem.shapes import shape_name
         return {"tree": y_up(tree), **{shape_name(k): _mesh_y_up(m) for k, m in shapes.items()}}
 
-    def export(self, path, *, branches: bool = True):
-        """Write the scene at the current step as binary glTF (``.glb``), USD (``.usd``, ``.usda``, ``.usdc``)
-        or PLY (``.ply``), y-up.
-
-        glTF and USD: one mesh per colour index (its material, or USD ``displayColor``, the L-Py colour) and, with
-        ``branches``, the skeleton's generalized-cylinder branch mesh (:func:`plantvr.io.tree.tree_geometry`,
-        Tree Wand's appearance defaults). PLY: the shapes merged, with per-vertex colours (no branches).
-
-        Returns
-        -------
-        pathlib.Path
-        """
-        import pathlib
-
-        from ..io.gltf import write_glb
-        from ..io.ply import write_ply
-        path = pathlib.Path(path)
-        kind = path.suffix.lower()
-        if kind not in (".glb", ".ply", ".usd", ".usda", ".usdc"):
-            raise ValueError(f"path must end in .glb, .usd, .usda, .usdc or .ply, got {str(path)!r}")
-        scene = self.scene()
-        shape_items = [(k, m) for k, m in scene.items() if k.startswith("shapes ")]
-        meshes = [m for _, m in shape_items]
-        if kind == ".ply":
-            if not meshes:
-                raise ValueError("the scene has no shapes to write as PLY (the skeleton needs .glb)")
-            off, fs = 0, []
-            for m in meshes:
-                fs.append(m.faces + off)
-                off += m.n_vertices
-            write_ply(path, np.vstack([m.vertices for m in meshes]), np.vstack(fs),
-                      colors=np.vstack([m.colors for m in meshes]), comment="PlantVR L-system shapes")
-            return path
-        parts = [{"name": k, "vertices": m.vertices, "faces": m.faces, "double_sided": True,
-                  "color": (*(m.colors[0] / 255.0), 1.0)} for k, m in shape_items]
-        tree = scene.get("tree")
-        if branches and tree is not None and tree.n_internodes:
-            from ..io.tree import tree_geometry
-            from ..params import TREEWAND
-            bm, _ = tree_geometry(tree, TREEWAND.defaults(), leaves=False)
-            parts.insert(0, {"name": "branches", "vertices": bm.vertices, "faces": bm.faces})
-        if not parts:
-            raise ValueError("the scene is empty: nothing to export")
-        if kind != ".glb":
-            return _write_usd(path, parts)
-        return write_glb(path, parts, [{"mesh": i, "name": p["name"]} for i, p in enumerate(parts)],
-                         generator="PlantVR L-system", scene_name="lsystem")

@@ -1,4 +1,4 @@
-"""The io layer: one writer per format and every exporter (issue 21).
+"""The io layer: one writer per format, behind one registry, and every exporter (issues 21, 30).
 
 =================  ======================================================================================
 module             writes
@@ -13,6 +13,9 @@ module             writes
 ``io.landscape``   landscapes, forests and species libraries as one instanced glTF scene
 ``io.labels``      segmentations and per-label meshes, the label table
 ``io.mesh``        :func:`plantvr.io.mesh.export_mesh`: any triangle mesh by suffix
+``io.scene``       :func:`plantvr.io.scene.export_scene`: any document's scene (trees, coloured shapes)
+``io.writers``     the writer registry: format → its one emitter, :func:`~plantvr.io.writers.save`
+``io.parts``       what a save writes (:class:`~plantvr.io.parts.Part`) and the atomic resolver of its files
 =================  ======================================================================================
 
 The io layer sits above the documents and the numeric cores and below the views: nothing here imports

@@ -154,18 +154,14 @@ class TurtleNodes:
     module : (N,) int64 ndarray
         Index in the string of the ``F`` that made each node.
     shapes : TurtleShapes
-        Spheres, discs, surfaces, polygons and generalized cylinders (none for a skeleton-only string).
+        Spheres, discs, surfaces, polygons and generalized cylinders (none for a skeleton-only string); one
+        mesh per material: :func:`plantvr.lsystem.shapes.shape_meshes`.
     """
 
     tree: TreeArrays
     color: np.ndarray
     module: np.ndarray
     shapes: TurtleShapes | None = None
-
-    def meshes(self, **kwargs):
-        """The shapes as one mesh per material (:func:`plantvr.lsystem.shapes.shape_meshes`)."""
-        from .shapes import shape_meshes
-        return shape_meshes(self.shapes, **kwargs)
 
 
 def _ops(string: ModuleString):
