@@ -31,9 +31,12 @@ derivation has a time budget (``time_budget=``) and a module cap (``max_modules=
 (each rule call, each vectorised rule, each ``nproduce``), so a runaway grammar stops with LSystemError at its
 line.
 
-Parameters are float64 (integral values reach Python rule code as ``int``); a parameter that is not a number
-raises :class:`LSystemError` naming the module and the rule's line. Angles are never converted (degrees, the
-turtle's unit).
+Parameters are float64 (integral values reach Python rule code as ``int``); a parameter of any other Python
+value (str, tuple, list, None, bool: ``@L("text")``, issue 33, as L-Py's modules hold any object) is kept in the
+string's object side-table (:attr:`ModuleString.objects`), literals included in untrusted grammars; strings
+holding objects are derived per module in Python, numeric ones keep the numba and vectorised paths. A turtle
+module's numeric vectors and bools are read as numbers. Angles are never converted (degrees, the turtle's
+unit).
 """
 from __future__ import annotations
 
@@ -58,7 +61,7 @@ from . import _derive_kernels as K
 from . import sandbox as SB
 from .grammar import Grammar, Rule, lstring_to_py, parse_grammar
 from .lexer import LSystemError, Token, lex
-from .modules import ModuleString
+from .modules import _EMPTY, ModuleString, is_number
 
 __all__ = ["MAX_DERIVATION", "MAX_MODULES", "TIME_BUDGET", "LSystem", "LSystemError", "read_lpy"]
 
@@ -242,8 +245,29 @@ class _Compiled:
         self.const = None        # [(sid, (floats...)), ...]
 
 
-def _pyval(v: float):
-    return int(v) if v.is_integer() and abs(v) < 2 ** 53 else v
+def _pyval(v):
+    return int(v) if type(v) is float and v.is_integer() and abs(v) < 2 ** 53 else v
+
+
+def _module_vals(ptr, args, objs, i: int) -> list:
+    """Parameters of module ``i`` as rule code sees them: integral floats as int, objects from the side-table."""
+    a = int(ptr[i])
+    vals = args[a:ptr[i + 1]].tolist()
+    if objs:
+        return [objs.get(a + q, v) if v != v else _pyval(v) for q, v in enumerate(vals)]
+    return [_pyval(v) for v in vals]
+
+
+def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """``[(sid, values), ...]`` (values floats or objects) as ids, arg_ptr, args and the object side-table."""
+    ids = np.array([m[0] for m in mods], np.int32)
+    ptr = np.zeros(len(mods) + 1, np.int64)
+    np.cumsum([len(m[1]) for m in mods], out=ptr[1:])
+    flat = [v for m in mods for v in m[1]]
+    objs = {k: v for k, v in enumerate(flat) if type(v) is not float}
+    if objs:
+        flat = [math.nan if k in objs else v for k, v in enumerate(flat)]
+    return ids, ptr, np.array(flat, np.float64), objs
 
 
 class LSystem:
@@ -774,7 +798,7 @@ class LSystem:
                 if const and self._vectorize(a, []) is not None:
                     try:
                         code = self._expr(a, t.line, t.col, f"rule {c.rule.header!r}")
-                        vals.extend(self._floats(t.name, eval(code, self._ns), c.rule.line))
+                        vals.extend(self._params(t.name, (eval(code, self._ns),), c.rule.line))
                     except LSystemError:
                         raise
                     except SB.SandboxError as e:
@@ -800,7 +824,7 @@ class LSystem:
         for node in ast.walk(tree):
             if not isinstance(node, _OK_NODES):
                 return None
-            if isinstance(node, ast.Constant) and (isinstance(node.value, str) or node.value is None):
+            if isinstance(node, ast.Constant) and not is_number(node.value):
                 return None
             if isinstance(node, ast.Call):
                 if not isinstance(node.func, ast.Name) or node.keywords or node.func.id in params:
@@ -824,20 +848,26 @@ class LSystem:
         return eval(compile(lam, "<vectorised>", "eval"), env)
 
     # -- strings -------------------------------------------------------------------------------------------------
-    def _floats(self, name: str, v, line: int) -> tuple[float, ...]:
-        if isinstance(v, (bool, np.bool_, int, float, np.integer, np.floating)):
-            try:
-                return (float(v),)
-            except OverflowError:
-                raise LSystemError(f"module {name}: parameter {SB._short(v)} is too large for a float", line,
-                                   1) from None
-        if isinstance(v, (tuple, list, np.ndarray)):
-            out = []
-            for x in np.asarray(v, dtype=object).ravel().tolist():
-                out.extend(self._floats(name, x, line))
-            return tuple(out)
-        raise LSystemError(f"module {name}: parameter {v!r} is a {type(v).__name__}; module strings hold "
-                           f"numbers only", line, 1)
+    def _params(self, name: str, v, line: int) -> tuple:
+        """The parameters of a produced module ``name(*v)``: numbers as floats, any other Python value (str,
+        tuple, list, None, bool...) kept as it is, as L-Py's modules hold them (issue 33); a turtle module's
+        numeric vectors (``SetHead(Vector3(...))``) and booleans are read as numbers, as its turtle does."""
+        if not isinstance(v, (tuple, list)):
+            v = (v,)
+        out: list = []
+        turtle = name in _turtle_modules()
+        for x in v:
+            if is_number(x) or (turtle and isinstance(x, (bool, np.bool_))):
+                try:
+                    out.append(float(x))
+                except OverflowError:
+                    raise LSystemError(f"module {name}: parameter {SB._short(x)} is too large for a float", line,
+                                       1) from None
+            elif turtle and isinstance(x, (tuple, list, np.ndarray)):
+                out.extend(self._params(name, np.asarray(x, dtype=object).ravel().tolist(), line))
+            else:
+                out.append(x)
+        return tuple(out)
 
     def _eval_lstring(self, toks: list[Token], line: int, what: str) -> list:
         self._restrict_tokens(toks, what)
@@ -859,15 +889,8 @@ class LSystem:
                 from None
 
     def _to_string(self, mods: list, line: int) -> ModuleString:
-        ids, counts, args = [], [], []
-        for name, vals in mods:
-            ids.append(self._sid(name))
-            f = self._floats(name, vals, line) if vals != () else ()
-            counts.append(len(f))
-            args.extend(f)
-        ptr = np.zeros(len(ids) + 1, np.int64)
-        np.cumsum(counts, out=ptr[1:])
-        return ModuleString(tuple(self._names), np.array(ids, np.int32), ptr, np.array(args, np.float64))
+        packed = [(self._sid(name), self._params(name, vals, line) if vals != () else ()) for name, vals in mods]
+        return ModuleString(tuple(self._names), *_pack(packed))
 
     def _adopt(self, s: ModuleString) -> ModuleString:
         if not isinstance(s, ModuleString):
@@ -877,10 +900,10 @@ class LSystem:
         else:
             remap = np.array([self._sid(nm) for nm in s.names], np.int32)
             ids = remap[s.ids] if len(s) else s.ids
-        return ModuleString(tuple(self._names), ids, s.arg_ptr, s.args)
+        return ModuleString(tuple(self._names), ids, s.arg_ptr, s.args, s.objects)
 
-    def _make(self, ids, ptr, args) -> ModuleString:
-        return ModuleString(tuple(self._names), ids, ptr, args)
+    def _make(self, ids, ptr, args, objects=None) -> ModuleString:
+        return ModuleString(tuple(self._names), ids, ptr, args, objects or {})
 
     def _make_trusted(self, ids, ptr, args) -> ModuleString:
         """A string from kernel output, valid by construction (ids from the symbol table, ptr rising)."""
@@ -985,7 +1008,7 @@ class LSystem:
             return s, False
         if any(r.newcontexts for r in rules):
             return self._sequential(s, rules)
-        table = self._constant_table(kind)
+        table = None if s.objects else self._constant_table(kind)
         if table is not None:
             rule_arity, sptr, sids, saptr, sargs = table
             if rule_arity.shape[0] < len(self._names):
@@ -1005,7 +1028,8 @@ class LSystem:
     def _expand(self, n: int, s: ModuleString) -> ModuleString | None:
         """The string after ``n`` steps of constant productions at once, or None where the step-wise
         derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
-        if n < 1 or not len(s) or self._hooks or self._rules["decomposition"] or not self._rules["production"]:
+        if n < 1 or not len(s) or s.objects or self._hooks or self._rules["decomposition"] or \
+                not self._rules["production"]:
             return None
         table = self._constant_table("production")
         if table is None:
@@ -1114,12 +1138,16 @@ class LSystem:
         elif self._nbuf:
             res = list(self._nbuf) + list(res)
         line = c.rule.line
-        return [(self._sid(name), self._floats(name, v, line) if v != () else ()) for name, v in res]
+        return [(self._sid(name), self._params(name, v, line) if v != () else ()) for name, v in res]
 
     def _grouped(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:
-        ids, ptr, args = s.ids, s.arg_ptr, s.args
+        ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         n = len(ids)
         nargs = np.diff(ptr)
+        has_obj = None
+        if objs:                                              # modules holding objects: the per-module path
+            has_obj = np.zeros(n, bool)
+            has_obj[np.searchsorted(ptr, np.fromiter(objs, np.int64, len(objs)), "right") - 1] = True
         out_len = np.ones(n, np.int64)
         assigned = np.zeros(n, bool)
         vec_chunks: list = []
@@ -1135,7 +1163,7 @@ class LSystem:
                 pos = pos_all[(nargs[pos_all] == r.arity) & ~assigned[pos_all]]
                 if not pos.size:
                     continue
-                if r.vec is not None:
+                if r.vec is not None and (has_obj is None or not has_obj[pos].any()):
                     added = self._grouped_vec(r, pos, ptr, args, vec_chunks, assigned, out_len, n + grown)
                     if added is not None:
                         grown += added
@@ -1145,7 +1173,7 @@ class LSystem:
                 if r.contexts and partner is None:
                     partner = K.match_brackets(ids, 0, 1)
                 for i in pos.tolist():
-                    vals = self._bind(r, i, ids, ptr, args, partner, None)
+                    vals = self._bind(r, i, ids, ptr, args, partner, None, objs)
                     if vals is None:
                         continue
                     res = self._call(r, vals)
@@ -1194,12 +1222,25 @@ class LSystem:
                 first = out_ptr[starts[hit]]                  # where each hit's successor's parameters start
                 rel = np.array([int(out_ptr[starts[hit[0]] + j] - first[0]) + q for j, q, _ in cols], np.int64)
                 out_args[first[:, None] + rel] = np.stack([col for _, _, col in cols], axis=1)
+        out_objs: dict = {}
+        for k, v in objs.items():                             # copied modules' objects, moved
+            i = int(np.searchsorted(ptr, k, "right")) - 1
+            if not assigned[i]:
+                out_objs[int(out_ptr[starts[i]]) + k - int(ptr[i])] = v
         for i, res in py_chunks.items():
             b = starts[i]
             for j, (tsid, vals) in enumerate(res):
                 a = out_ptr[b + j]
-                out_args[a:a + len(vals)] = vals
-        return self._make(out_ids, out_ptr, out_args), True
+                if all(type(v) is float for v in vals):
+                    out_args[a:a + len(vals)] = vals
+                    continue
+                for q, v in enumerate(vals):
+                    if type(v) is float:
+                        out_args[a + q] = v
+                    else:
+                        out_args[a + q] = math.nan
+                        out_objs[int(a) + q] = v
+        return self._make(out_ids, out_ptr, out_args, out_objs), True
 
     def _grouped_vec(self, r: _Compiled, pos, ptr, args, vec_chunks, assigned, out_len, size: int) -> int | None:
         """Rule ``r`` applied on parameter columns at modules ``pos``: the modules it adds (None: it cannot,
@@ -1219,8 +1260,11 @@ class LSystem:
                     return 0
                 added = hit.size * (len(slots) - 1)
                 self._check_size(size + added, 0, r.rule.line)
-                values = [[np.broadcast_to(np.asarray(f(*cols), np.float64), hit.shape) for f in fns]
-                          for _, fns in slots]
+                raw = [[np.asarray(f(*cols)) for f in fns] for _, fns in slots]
+                if any(v.dtype == bool for vals in raw for v in vals):
+                    return None                               # a bool parameter stays a bool: Python path
+                values = [[np.broadcast_to(v.astype(np.float64, copy=False), hit.shape) for v in vals]
+                          for vals in raw]
         except (ArithmeticError, ValueError, TypeError) as e:
             if isinstance(e, LSystemError):
                 raise
@@ -1233,12 +1277,12 @@ class LSystem:
         return added
 
     # -- context matching ----------------------------------------------------------------------------------------
-    def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest) -> list | None:
+    def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest, objs=_EMPTY) -> list | None:
         """Actual parameters of rule ``r`` at module ``i`` (None if a context does not match)."""
         rule = r.rule
         vals: list = []
         if rule.left:
-            lv = self._left(rule.left, i - 1, _ArrSeq(ids, ptr, args), partner)
+            lv = self._left(rule.left, i - 1, _ArrSeq(ids, ptr, args, objs), partner)
             if lv is None:
                 return None
             vals += lv
@@ -1249,7 +1293,7 @@ class LSystem:
             if lv is None:
                 return None
             vals += lv
-        vals += [_pyval(v) for v in args[ptr[i]:ptr[i + 1]].tolist()]
+        vals += _module_vals(ptr, args, objs, i)
         if rule.newright:
             if self._direction != -1:
                 return None
@@ -1258,7 +1302,7 @@ class LSystem:
                 return None
             vals += rv
         if rule.right:
-            rv = self._right(rule.right, i + 1, _ArrSeq(ids, ptr, args), partner)
+            rv = self._right(rule.right, i + 1, _ArrSeq(ids, ptr, args, objs), partner)
             if rv is None:
                 return None
             vals += rv
@@ -1341,7 +1385,7 @@ class LSystem:
 
     def _sequential(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:
         """One step in string order (forward) or reverse order (backward): new contexts see the new string."""
-        ids, ptr, args = s.ids, s.arg_ptr, s.args
+        ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         n = len(ids)
         by_sym: dict[int, list[_Compiled]] = {}
         for r in rules:
@@ -1357,14 +1401,16 @@ class LSystem:
             for r in by_sym.get(idl[i], ()):
                 if nargs[i] != r.arity:
                     continue
-                vals = self._bind(r, i, ids, ptr, args, partner, dest)
+                vals = self._bind(r, i, ids, ptr, args, partner, dest, objs)
                 if vals is None:
                     continue
                 res = self._call(r, vals)
                 if res is not None:
                     break
             if res is None:
-                res = [(idl[i], tuple(args[ptr[i]:ptr[i + 1]].tolist()))]
+                res = [(idl[i], tuple(args[ptr[i]:ptr[i + 1]].tolist()) if not objs else
+                        tuple(objs.get(int(ptr[i]) + q, v) if v != v else v
+                              for q, v in enumerate(args[ptr[i]:ptr[i + 1]].tolist())))]
             else:
                 changed = True
             dest.extend(res if self._direction == 1 else reversed(res))
@@ -1372,15 +1418,21 @@ class LSystem:
                 self._check_size(len(dest), 0, self._where[0])
         if self._direction != 1:
             dest.reverse()
-        out_ids = np.array([m[0] for m in dest], np.int32)
-        counts = [len(m[1]) for m in dest]
-        out_ptr = np.zeros(len(dest) + 1, np.int64)
-        np.cumsum(counts, out=out_ptr[1:])
-        out_args = np.array([v for m in dest for v in m[1]], np.float64)
-        return self._make(out_ids, out_ptr, out_args), changed
+        return self._make(*_pack(dest)), changed
 
 
 _WARM: list = []
+
+
+def _turtle_modules() -> frozenset:
+    """The turtle's module names (their parameters are read as numbers)."""
+    if not _TURTLE:
+        from .turtle import TURTLE_MODULES
+        _TURTLE.append(frozenset(TURTLE_MODULES))
+    return _TURTLE[0]
+
+
+_TURTLE: list = []
 
 
 def _warm_kernels() -> None:
@@ -1397,8 +1449,8 @@ def _warm_kernels() -> None:
 class _ArrSeq:
     """Module access on the arrays of the current string."""
 
-    def __init__(self, ids, ptr, args) -> None:
-        self.ids, self.ptr, self.a = ids, ptr, args
+    def __init__(self, ids, ptr, args, objs=_EMPTY) -> None:
+        self.ids, self.ptr, self.a, self.objs = ids, ptr, args, objs
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -1410,7 +1462,7 @@ class _ArrSeq:
         return int(self.ptr[k + 1] - self.ptr[k])
 
     def args(self, k: int) -> list:
-        return [_pyval(v) for v in self.a[self.ptr[k]:self.ptr[k + 1]].tolist()]
+        return _module_vals(self.ptr, self.a, self.objs, k)
 
 
 class _ListSeq:
@@ -1429,7 +1481,7 @@ class _ListSeq:
         return len(self.seq[k][1])
 
     def args(self, k: int) -> list:
-        return [_pyval(float(v)) for v in self.seq[k][1]]
+        return [_pyval(v) for v in self.seq[k][1]]
 
 
 class _ToNumpy(ast.NodeTransformer):

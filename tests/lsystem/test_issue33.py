@@ -1,0 +1,76 @@
+"""Issue 33, L-Py constructs once refused: module parameters of any Python value, constants in pattern
+parameters, multi-module predecessors, rule groups and context-sensitive decomposition / homomorphism rules.
+
+Every expected string is written out by hand from L-Py's semantics for a small axiom (no derivation code shared
+with the engine)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from plantvr.lsystem.engine import LSystem, LSystemError
+from plantvr.lsystem.modules import ModuleString
+
+
+def mods(s: ModuleString) -> list:
+    return s.modules()
+
+
+# -- 1. parameters of any Python value ---------------------------------------------------------------------------
+OBJECTS = """\
+Axiom: A(1, "text") @L("label") B((1, 2), [3, 4], None, True)
+derivation length: 2
+production:
+A(n, s) --> A(n + 1, s + "!") C(s)
+B(t, l, z, b) --> B(t, l, z, not b)
+C(s) --> C(s * 2)
+endlsystem
+"""
+
+
+def test_object_parameters_untrusted_literals():
+    """Strings, tuples, lists, None and booleans stay Python values in the string and reach rules as such
+    (L-Py's modules hold any Python object: ``ParamModule`` arguments are ``boost::python::object`` s)."""
+    ls = LSystem(OBJECTS)                                     # untrusted: literals only
+    s1, s2 = ls.derive(1), ls.derive(2)
+    assert mods(s1) == [("A", (2.0, "text!")), ("C", ("text",)), ("@L", ("label",)),
+                        ("B", ((1, 2), [3, 4], None, False))]
+    assert mods(s2) == [("A", (3.0, "text!!")), ("C", ("text!",)), ("C", ("texttext",)), ("@L", ("label",)),
+                        ("B", ((1, 2), [3, 4], None, True))]
+    assert str(s1) == "A(2,'text!')C('text')@L('label')B((1, 2),[3, 4],None,False)"
+    assert np.isnan(s2.args[list(s2.objects)]).all() and s2.args[0] == 3.0
+
+
+def test_object_parameters_numeric_strings_stay_on_the_fast_path():
+    ls = LSystem("Axiom: A(1)\nproduction:\nA(x) --> A(x + 1)B\nendlsystem\n")
+    s = ls.derive(3)
+    assert not s.objects and str(s) == "A(4)BBB"
+
+
+def test_object_parameters_copied_and_matched_in_context():
+    """Modules holding objects are copied with their values; a context binds them."""
+    ls = LSystem('Axiom: X("a") Y(1) X(2)\nproduction:\nX(s) < Y(n) --> Y(s)\nendlsystem\n')
+    assert mods(ls.derive(1)) == [("X", ("a",)), ("Y", ("a",)), ("X", (2.0,))]
+    assert mods(ls.derive(2)) == [("X", ("a",)), ("Y", ("a",)), ("X", (2.0,))]
+
+
+def test_object_parameters_from_trusted_python():
+    ls = LSystem("def lab(i):\n    return {'n': i}\nAxiom: A(0)\nproduction:\nA(i) :\n    produce A(i + 1) "
+                 "B(lab(i))\nendlsystem\n", trusted=True)
+    assert mods(ls.derive(2)) == [("A", (2.0,)), ("B", ({"n": 1},)), ("B", ({"n": 0},))]
+
+
+def test_object_parameters_module_string_round_trip():
+    s = ModuleString.from_modules([("F", (1,)), ("@L", ("hi",)), ("A", (None, 2.5))])
+    assert s.modules() == [("F", (1.0,)), ("@L", ("hi",)), ("A", (None, 2.5))]
+    assert dict(s.objects) == {1: "hi", 2: None}
+    with pytest.raises(ValueError, match="NaN where objects"):
+        ModuleString(s.names, s.ids, s.arg_ptr, np.zeros(4), {1: "x"})
+    with pytest.raises(ValueError, match="objects keys"):
+        ModuleString(s.names, s.ids, s.arg_ptr, s.args, {9: "x"})
+
+
+def test_bool_comparison_parameter_stays_bool():
+    """``A(x > 1)`` holds a bool, vectorised or not."""
+    ls = LSystem("Axiom: A(0) A(2)\nproduction:\nA(x) --> B(x > 1)\nendlsystem\n")
+    assert mods(ls.derive(1)) == [("B", (False,)), ("B", (True,))]
