@@ -243,10 +243,27 @@ class _Compiled:
         self.newcontexts = bool(rule.newleft or rule.newright)
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
+        # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
+        self.consts = list(rule.consts)
+        n_all = len(rule.params) + len(self.consts)
+        cidx = {k for k, _ in self.consts}
+        self.keep = [k for k in range(n_all) if k not in cidx] if self.consts else None
+        # the predecessor's own constants (position in its parameter list -> value) and variables' positions
+        start = sum(t.arity for t in rule.left) + sum(t.arity for t in rule.newleft)
+        self.pred_consts = [(k - start, v) for k, v in self.consts if start <= k < start + self.arity]
+        self.pred_vars = [q for q in range(self.arity) if q + start not in cidx]
 
 
 def _pyval(v):
     return int(v) if type(v) is float and v.is_integer() and abs(v) < 2 ** 53 else v
+
+
+def _same(value, const) -> bool:
+    """Whether a module's parameter matches a pattern constant (``==``, without raising)."""
+    try:
+        return bool(type(value) is type(const) or (is_number(value) and is_number(const))) and value == const
+    except Exception:
+        return False
 
 
 def _module_vals(ptr, args, objs, i: int) -> list:
@@ -735,8 +752,10 @@ class LSystem:
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
-        if rule.successor is not None and not (c.contexts or c.newcontexts):
+        if rule.successor is not None and not (c.contexts or c.newcontexts) and \
+                all(is_number(v) for _, v in c.pred_consts):
             self._plan(c)
+            c.const = None if c.consts else c.const           # the constant tables match names, not values
         return c
 
     def _restrict_rule(self, rule: Rule, tree: ast.Module) -> None:
@@ -1161,6 +1180,11 @@ class LSystem:
             pos_all = np.flatnonzero(ids == sid)
             for r in rlist:
                 pos = pos_all[(nargs[pos_all] == r.arity) & ~assigned[pos_all]]
+                if pos.size and r.pred_consts and r.vec is not None:
+                    ok = np.ones(pos.size, bool)              # pattern constants, on the columns
+                    for q, v in r.pred_consts:
+                        ok &= args[ptr[pos] + q] == float(v)
+                    pos = pos[ok | (has_obj[pos] if has_obj is not None else False)]
                 if not pos.size:
                     continue
                 if r.vec is not None and (has_obj is None or not has_obj[pos].any()):
@@ -1247,7 +1271,7 @@ class LSystem:
         the per-module path runs it); ``size`` is the new string's length so far, checked against the cap before
         the successors are computed."""
         cond, slots = r.vec
-        cols = [args[ptr[pos] + q] for q in range(r.arity)]
+        cols = [args[ptr[pos] + q] for q in r.pred_vars]
         try:
             with np.errstate(all="ignore"):
                 if cond is not None:
@@ -1306,6 +1330,11 @@ class LSystem:
             if rv is None:
                 return None
             vals += rv
+        if r.keep is not None:                                # pattern constants: equal values only
+            for k, v in r.consts:
+                if not _same(vals[k], v):
+                    return None
+            vals = [vals[k] for k in r.keep]
         return vals
 
     def _pattern_sid(self, t: Token) -> int:

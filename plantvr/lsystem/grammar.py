@@ -11,9 +11,12 @@ Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred 
 ``produce`` / ``nproduce`` statements (a block that produces nothing has failed and the next rule is tried, as in
 L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
+A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
+matches when its parameter equals the constant, as L-Py's pattern matching compares non-variable arguments).
+
 Not supported (LSystemError naming the construct and its line): rule groups (``group N:``/``endgroup``),
-``-static->``, multi-module or wildcard (``*``) predecessors, brackets in left contexts, parameter constants in
-patterns, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
+``-static->``, multi-module or wildcard (``*``) predecessors, brackets in left contexts, expressions as pattern
+parameters, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
 """
 from __future__ import annotations
 
@@ -53,6 +56,9 @@ class Rule:
     line: int
     col: int
     header: str
+    #: Constants of the pattern's parameter lists, ``(index, value)`` with ``index`` counting every pattern
+    #: parameter in L-Py order (issue 33: ``M(0) --> ...`` matches only ``M`` modules whose parameter is 0).
+    consts: list = field(default_factory=list)
 
 
 @dataclass
@@ -271,12 +277,18 @@ class _Reader:
         parts = self.parse_header(header, ln, kind)
         pred, left, right, newleft, newright = parts
         params: list[str] = []
+        consts: list = []
+        k = 0
         for grp in (left, newleft, [pred], newright, right):
             for t in grp:
                 for a in t.args or ():
-                    if a in params:
+                    if not _IDENT.match(a) or a in ("None", "True", "False"):
+                        consts.append((k, ast.literal_eval(a)))
+                    elif a in params:
                         raise LSystemError(f"parameter {a!r} defined twice in the rule header", ln, t.col)
-                    params.append(a)
+                    else:
+                        params.append(a)
+                    k += 1
         body: list[tuple[int, str]] = []
         successor = condition = None
         if delim in ("-->", "->"):
@@ -308,7 +320,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip()))
+                                 ln, 1, header.strip(), consts))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right
@@ -365,10 +377,20 @@ class _Reader:
                 if key == "pred" and t.name in ("[", "]"):
                     raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
                 for a in t.args or ():
-                    if not _IDENT.match(a):
-                        raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name "
-                                           f"(value constraints are not supported)", ln, t.col)
+                    if not _IDENT.match(a) and not _is_literal(a):
+                        raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name or a "
+                                           f"constant (expressions as value constraints are not supported)", ln,
+                                           t.col)
         return pred_toks[0], out["left"], out["right"], out["newleft"], out["newright"]
+
+
+def _is_literal(src: str) -> bool:
+    """Whether pattern parameter ``src`` is a constant (a Python literal: number, str, tuple, None, bool)."""
+    try:
+        ast.literal_eval(src)
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        return False
+    return len(src) <= 200
 
 
 def _in_string(code: str, at: int) -> bool:

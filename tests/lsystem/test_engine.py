@@ -174,7 +174,7 @@ BAD = [
     ("Axiom: F\nderivation length: foo\nproduction:\n", 2, "NameError"),
     ("Axiom: F\nproduction:\n    F --> F\n", 3, "unexpected indent"),
     ("Axiom: F\nproduction:\n* --> F\n", 3, "wildcard"),
-    ("Axiom: F\nproduction:\nF(1) --> F\n", 3, "value constraints"),
+    ("Axiom: F\nproduction:\nF(x + 1) --> F\n", 3, "value constraints"),
     ("Axiom: F\nproduction:\nF --> F\n?P(x) < F --> F\n", 4, "query module"),
     ("Axiom: F\nx = 1 +\nproduction:\n", 2, "syntax error"),
     ("Axiom: F(nope)\nproduction:\n", 1, "NameError"),

@@ -74,3 +74,36 @@ def test_bool_comparison_parameter_stays_bool():
     """``A(x > 1)`` holds a bool, vectorised or not."""
     ls = LSystem("Axiom: A(0) A(2)\nproduction:\nA(x) --> B(x > 1)\nendlsystem\n")
     assert mods(ls.derive(1)) == [("B", (False,)), ("B", (True,))]
+
+
+# -- 2. constants in pattern parameters --------------------------------------------------------------------------
+def test_pattern_constants_match_only_their_value():
+    """L-Py compares a predecessor's non-variable arguments with the module's (``M(0)`` matches M(0) only);
+    the first rule that matches wins, so ``M(x)`` below takes the others."""
+    text = ("Axiom: M(0) M(1) M(2) A(1, 5) A(2, 5) L('a') L('b')\nproduction:\nM(0) --> X\nM(x) --> M(x - 1)\n"
+            "A(1, x) --> B(x)\nL('a') --> Y\nendlsystem\n")
+    for ls in (LSystem(text), LSystem(text, trusted=True)):
+        assert mods(ls.derive(1)) == [("X", ()), ("M", (0.0,)), ("M", (1.0,)), ("B", (5.0,)), ("A", (2.0, 5.0)),
+                                      ("Y", ()), ("L", ("b",))]
+        assert str(ls.derive(3)) == "XXXB(5)A(2,5)YL('b')"
+
+
+def test_pattern_constants_vectorised_equal_python():
+    """Many modules: the vectorised path (constants compared on the parameter column) gives Python's string."""
+    axiom = " ".join(f"M({k % 3})" for k in range(300))
+    text = f"Axiom: {axiom}\nproduction:\nM(1) --> N(2)\nM(x) --> M(x + 10)\nendlsystem\n"
+    ls = LSystem(text)
+    got = mods(ls.derive(1))
+    assert got == [("N", (2.0,)) if k % 3 == 1 else ("M", (k % 3 + 10.0,)) for k in range(300)]
+    assert ls._rules["production"][0].vec is not None and ls._rules["production"][0].const is None
+
+
+def test_pattern_constants_in_contexts():
+    ls = LSystem("Axiom: A(0) B A(1) B\nproduction:\nA(1) < B --> C\nB > A(1) --> D\nendlsystem\n")
+    assert str(ls.derive(1)) == "A(0)DA(1)C"
+
+
+def test_pattern_expression_still_refused():
+    with pytest.raises(LSystemError, match=r"line 3, column 1: .*'x \+ 1' of F must be a variable name or a "
+                                           r"constant"):
+        LSystem("Axiom: F\nproduction:\nF(x + 1) --> F\n")
