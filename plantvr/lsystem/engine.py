@@ -241,6 +241,7 @@ class _Compiled:
         self.arity = rule.pred.arity
         self.contexts = bool(rule.left or rule.right)
         self.newcontexts = bool(rule.newleft or rule.newright)
+        self.rest = list(rule.pred_rest)                     # multi-module predecessor: the modules after the first
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
         # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
@@ -752,7 +753,7 @@ class LSystem:
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
-        if rule.successor is not None and not (c.contexts or c.newcontexts) and \
+        if rule.successor is not None and not (c.contexts or c.newcontexts or c.rest) and \
                 all(is_number(v) for _, v in c.pred_consts):
             self._plan(c)
             c.const = None if c.consts else c.const           # the constant tables match names, not values
@@ -1025,7 +1026,7 @@ class LSystem:
         rules = self._rules[kind]
         if not rules or not len(s):
             return s, False
-        if any(r.newcontexts for r in rules):
+        if any(r.newcontexts or r.rest for r in rules):
             return self._sequential(s, rules)
         table = None if s.objects else self._constant_table(kind)
         if table is not None:
@@ -1318,6 +1319,11 @@ class LSystem:
                 return None
             vals += lv
         vals += _module_vals(ptr, args, objs, i)
+        for j, t in enumerate(r.rest, 1):                     # multi-module predecessor: consecutive modules
+            p = i + j
+            if p >= len(ids) or ids[p] != self._pattern_sid(t) or ptr[p + 1] - ptr[p] != t.arity:
+                return None
+            vals += _module_vals(ptr, args, objs, p)
         if rule.newright:
             if self._direction != -1:
                 return None
@@ -1326,7 +1332,7 @@ class LSystem:
                 return None
             vals += rv
         if rule.right:
-            rv = self._right(rule.right, i + 1, _ArrSeq(ids, ptr, args, objs), partner)
+            rv = self._right(rule.right, i + 1 + len(r.rest), _ArrSeq(ids, ptr, args, objs), partner)
             if rv is None:
                 return None
             vals += rv
@@ -1422,10 +1428,17 @@ class LSystem:
         partner = K.match_brackets(ids, 0, 1) if any(r.contexts for r in rules) else None
         dest: list = []
         changed = False
+        multi = [r for r in rules if r.rest]
+        if multi and self._direction != 1:
+            raise LSystemError("multi-module predecessors in a backward() step are not supported",
+                               multi[0].rule.line, multi[0].rule.pred.col)
         order = range(n) if self._direction == 1 else range(n - 1, -1, -1)
         nargs = np.diff(ptr)
         idl = ids.tolist()
+        skip = -1                                             # modules up to skip were matched by a predecessor
         for i in order:
+            if i <= skip:
+                continue
             res = None
             for r in by_sym.get(idl[i], ()):
                 if nargs[i] != r.arity:
@@ -1435,6 +1448,8 @@ class LSystem:
                     continue
                 res = self._call(r, vals)
                 if res is not None:
+                    if r.rest:
+                        skip = i + len(r.rest)
                     break
             if res is None:
                 res = [(idl[i], tuple(args[ptr[i]:ptr[i + 1]].tolist()) if not objs else

@@ -11,12 +11,16 @@ Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred 
 ``produce`` / ``nproduce`` statements (a block that produces nothing has failed and the next rule is tried, as in
 L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
+A predecessor may be several modules (``A B --> C``, ``A(x) B(y) --> ...``; issue 33): as L-Py's
+``LsysRule::match`` they match modules at consecutive positions, which the successor replaces all together, the
+right context being matched after the last; the string is then rewritten left to right.
+
 A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
 matches when its parameter equals the constant, as L-Py's pattern matching compares non-variable arguments).
 
 Not supported (LSystemError naming the construct and its line): rule groups (``group N:``/``endgroup``),
-``-static->``, multi-module or wildcard (``*``) predecessors, brackets in left contexts, expressions as pattern
-parameters, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
+``-static->``, wildcard (``*``) predecessors, brackets in multi-module predecessors and in left contexts,
+expressions as pattern parameters, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
 """
 from __future__ import annotations
 
@@ -59,6 +63,8 @@ class Rule:
     #: Constants of the pattern's parameter lists, ``(index, value)`` with ``index`` counting every pattern
     #: parameter in L-Py order (issue 33: ``M(0) --> ...`` matches only ``M`` modules whose parameter is 0).
     consts: list = field(default_factory=list)
+    #: The modules after the first of a multi-module predecessor (``A B --> C``: ``[B]``; issue 33).
+    pred_rest: list = field(default_factory=list)
 
 
 @dataclass
@@ -275,11 +281,12 @@ class _Reader:
         header = first[:head_at]
         rest = first[head_at + len(delim):]
         parts = self.parse_header(header, ln, kind)
-        pred, left, right, newleft, newright = parts
+        preds, left, right, newleft, newright = parts
+        pred = preds[0]
         params: list[str] = []
         consts: list = []
         k = 0
-        for grp in (left, newleft, [pred], newright, right):
+        for grp in (left, newleft, preds, newright, right):
             for t in grp:
                 for a in t.args or ():
                     if not _IDENT.match(a) or a in ("None", "True", "False"):
@@ -320,7 +327,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip(), consts))
+                                 ln, 1, header.strip(), consts, preds[1:]))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right
@@ -354,10 +361,6 @@ class _Reader:
         pred_toks = self.lex(pred_src, ln, pred_col)
         if not pred_toks:
             raise LSystemError("rule without a predecessor", ln, pred_col)
-        if len(pred_toks) > 1:
-            raise LSystemError(f"multi-module predecessors ({pred_src.strip()!r}) are not supported; declare a "
-                               f"multi-letter module with 'module {pred_src.strip().split('(')[0]}'", ln,
-                               pred_toks[1].col)
         out = {}
         for key in pieces:
             toks = self.lex(pieces[key], ln, cols.get(key, 1)) if pieces[key].strip() else []
@@ -375,13 +378,15 @@ class _Reader:
                 if key == "left" and t.name in "[]":
                     raise LSystemError("brackets in a left context are not supported", ln, t.col)
                 if key == "pred" and t.name in ("[", "]"):
-                    raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
+                    what = "a bracket cannot be a predecessor" if t is pred_toks[0] else \
+                        "brackets in a multi-module predecessor are not supported"
+                    raise LSystemError(what, ln, t.col)
                 for a in t.args or ():
                     if not _IDENT.match(a) and not _is_literal(a):
                         raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name or a "
                                            f"constant (expressions as value constraints are not supported)", ln,
                                            t.col)
-        return pred_toks[0], out["left"], out["right"], out["newleft"], out["newright"]
+        return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
 
 
 def _is_literal(src: str) -> bool:

@@ -107,3 +107,35 @@ def test_pattern_expression_still_refused():
     with pytest.raises(LSystemError, match=r"line 3, column 1: .*'x \+ 1' of F must be a variable name or a "
                                            r"constant"):
         LSystem("Axiom: F\nproduction:\nF(x + 1) --> F\n")
+
+
+# -- 3. multi-module predecessors --------------------------------------------------------------------------------
+def test_multi_module_predecessor_replaces_consecutive_modules():
+    """``A B --> C`` replaces an A immediately followed by a B (L-Py's ``LsysRule::match``: the predecessor's
+    modules at consecutive positions), scanning left to right: in ``ABB`` the first B goes with the A, the second
+    is rewritten by its own rule; ``AAB``: the first A has no B after it."""
+    ls = LSystem("Axiom: A B B A A B\nproduction:\nA B --> C\nB --> D\nendlsystem\n")
+    assert str(ls.derive(1)) == "CDAC"
+
+
+def test_multi_module_predecessor_parameters_and_contexts():
+    text = ("Axiom: X(0) A(1) B(2) A(3) [B(5)] Y\nproduction:\nA(x) B(y) --> S(x + y)\n"
+            "X(w) < A(x) B(y) > A(z) --> T(w, x, y, z)\nA(z) > Y --> U(z)\nendlsystem\n")
+    for ls in (LSystem(text), LSystem(text, trusted=True)):
+        # the first rule in file order takes A(1) B(2); A(3) sees Y past the lateral branch [B(5)]
+        assert str(ls.derive(1)) == "X(0)S(3)U(3)[B(5)]Y"
+    ls = LSystem("Axiom: X(0) A(1) B(2) A(3)\nproduction:\nX(w) < A(x) B(y) > A(z) --> T(w, x, y, z)\n"
+                 "endlsystem\n")
+    assert str(ls.derive(1)) == "X(0)T(0,1,2,3)A(3)"
+    ls = LSystem("Axiom: A(1) B(2) [F] A(7)\nproduction:\nA(x) B(y) > A(z) --> T(x, y, z)\nendlsystem\n")
+    assert str(ls.derive(1)) == "T(1,2,7)[F]A(7)"             # the right context skips the lateral branch
+
+
+def test_multi_module_predecessor_with_constants_and_objects():
+    ls = LSystem("Axiom: A(0) B A(1) B A('s') B\nproduction:\nA(1) B --> Z\nA(x) B --> W(x)\nendlsystem\n")
+    assert mods(ls.derive(1)) == [("W", (0.0,)), ("Z", ()), ("W", ("s",))]
+
+
+def test_multi_module_predecessor_brackets_refused():
+    with pytest.raises(LSystemError, match=r"line 3, column 3: brackets in a multi-module predecessor"):
+        LSystem("Axiom: A\nproduction:\nA [ B ] --> C\n")
