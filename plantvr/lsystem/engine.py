@@ -370,6 +370,8 @@ class LSystem:
         self._direction = 1
         self._iteration = 0
         self._stopped = False
+        self._next_group = 0                                  # useGroup(n): the group of the next steps
+        self._group = 0
         self._ns = self._namespace()
         self._exec_python()
         self._hooks = self._read_hooks()
@@ -377,10 +379,14 @@ class LSystem:
         self._max_depth = {k: self._eval_int(self._g.max_depth.get(k), "maximum depth", 1)
                            for k in ("decomposition", "homomorphism")}
         self._ignored = self._ignore_set()
-        self._rules = {"production": [], "decomposition": [], "homomorphism": []}
-        for rule in self._g.rules:
-            self._rules[rule.kind].append(self._compile(rule))
         self._tables: dict[str, Any] = {}
+        self._all_rules: list[_Compiled] = []
+        for rule in self._g.rules:
+            c = self._compile(rule)
+            c.group = self._eval_int(rule.group, "group", 0)
+            self._all_rules.append(c)
+        self._start_group = self._next_group                  # a top-level useGroup(n)
+        self._set_group(self._start_group)
         src, ln, col = self._g.axiom
         self.axiom = self._to_string(self._eval_lstring(self._g.axiom_tokens, ln, "the axiom"), ln)
         self._deadline = math.inf
@@ -525,7 +531,7 @@ class LSystem:
             isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
             Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
-            nproduce=self._nbuf_add, useGroup=self._no_group, frameDisplay=lambda *a: None,
+            nproduce=self._nbuf_add, useGroup=self._use_group, frameDisplay=lambda *a: None,
         )
         ns.update(SB.guard_names(self._tick))
         if self.trusted:                                      # as the builtins, refusing only huge integers
@@ -623,8 +629,20 @@ class LSystem:
             raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line,
                                1) from None
 
-    def _no_group(self, *a) -> None:
-        raise LSystemError("useGroup (rule groups) is not supported")
+    def _use_group(self, n) -> None:
+        """``useGroup(n)`` (L-Py): the steps after this one use the rules of group ``n``, then those of group 0."""
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or not 0 <= n <= MAX_DERIVATION:
+            raise LSystemError(f"useGroup needs an integer group in [0, {MAX_DERIVATION}], got {n!r:.40}")
+        self._next_group = int(n)
+
+    def _set_group(self, g: int) -> None:
+        """The active rules: group ``g``'s in file order, then group 0's (``Lsystem::__getRules`` of L-Py; a
+        group without rules leaves group 0's)."""
+        self._group = g
+        self._rules = {k: [c for c in self._all_rules if c.rule.kind == k and c.group == g] +
+                       ([c for c in self._all_rules if c.rule.kind == k and c.group == 0] if g else [])
+                       for k in ("production", "decomposition", "homomorphism")}
+        self._tables.clear()
 
     def _nbuf_add(self, mods) -> None:
         self._nbuf.extend(mods)
@@ -947,6 +965,7 @@ class LSystem:
             self._rng.seed(self._seed)
         self._reseed_globals()
         self._direction, self._iteration, self._stopped = 1, 0, False
+        self._reset_group()
         if self._outer == 0:
             self._deadline = time.monotonic() + self.time_budget
         self._where = (self._g.rules[0].line if self._g.rules else 1, 1)
@@ -961,6 +980,8 @@ class LSystem:
                 raise self._over_budget()
             with self._seeded():
                 self._hook("StartEach")
+                if self._next_group != self._group:           # L-Py reads the group after StartEach
+                    self._set_group(self._next_group)
                 if self._rules["production"]:
                     s, _ = self._rewrite(s, "production")
                 for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
@@ -1048,6 +1069,7 @@ class LSystem:
     def _expand(self, n: int, s: ModuleString) -> ModuleString | None:
         """The string after ``n`` steps of constant productions at once, or None where the step-wise
         derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
+        self._reset_group()
         if n < 1 or not len(s) or s.objects or self._hooks or self._rules["decomposition"] or \
                 not self._rules["production"]:
             return None
@@ -1081,6 +1103,12 @@ class LSystem:
             self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
+
+    def _reset_group(self) -> None:
+        """A derivation starts in the group the grammar's top-level code chose (0 without ``useGroup``)."""
+        self._next_group = self._start_group
+        if self._group != self._start_group:
+            self._set_group(self._start_group)
 
     def _check_size(self, n_out: int, m_out: int, line: int = 0) -> None:
         """LSystemError (at ``line``, default the rule that grows the string most) for a string over the caps."""

@@ -18,8 +18,10 @@ right context being matched after the last; the string is then rewritten left to
 A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
 matches when its parameter equals the constant, as L-Py's pattern matching compares non-variable arguments).
 
-Not supported (LSystemError naming the construct and its line): rule groups (``group N:``/``endgroup``),
-``-static->``, wildcard (``*``) predecessors, brackets in multi-module predecessors and in left contexts,
+Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` are in group N (an integer
+expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
+
+Not supported (LSystemError naming the construct and its line): ``-static->``, wildcard (``*``) predecessors, brackets in multi-module predecessors and in left contexts,
 expressions as pattern parameters, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
 """
 from __future__ import annotations
@@ -65,6 +67,8 @@ class Rule:
     consts: list = field(default_factory=list)
     #: The modules after the first of a multi-module predecessor (``A B --> C``: ``[B]``; issue 33).
     pred_rest: list = field(default_factory=list)
+    #: The rule group (``group N:`` ... ``endgroup``; issue 33): ``(expression source, line)``, None for group 0.
+    group: tuple | None = None
 
 
 @dataclass
@@ -119,6 +123,7 @@ class _Reader:
         self.deadline = deadline
         self.known: set[str] = set(_turtle_names())
         self.g = Grammar(python="")
+        self.group: tuple | None = None                      # the ``group N:`` the rules being read are in
 
     # -- helpers -----------------------------------------------------------------------------------------------
     def lex(self, s: str, line: int, col: int) -> list[Token]:
@@ -263,8 +268,15 @@ class _Reader:
             return None
         if key == "endlsystem":
             return "after"
-        if key.startswith("group") or key == "endgroup":
-            raise LSystemError(f"rule groups ({key!r}) are not supported", ln, 1)
+        if key == "endgroup":
+            self.group = None
+            return None
+        if key.startswith("group"):
+            src = key[len("group"):].rstrip(":").strip()
+            if not (m.group(2) or key.endswith(":")) or not src:
+                raise LSystemError("cannot find a value and ':' after 'group'", ln, 1)
+            self.group = (src, ln)
+            return None
         if rest.strip() and not rest.strip().startswith("#"):
             raise LSystemError(f"unexpected text after '{key}:'", ln, col)
         return _SECTIONS[key]
@@ -327,7 +339,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip(), consts, preds[1:]))
+                                 ln, 1, header.strip(), consts, preds[1:], self.group))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right

@@ -167,7 +167,7 @@ def test_undeclared_names_are_read_one_character_at_a_time_as_lpy():
 BAD = [
     ("production:\nF --> F\n", 1, "no 'Axiom:'"),
     ("Axiom: F\nproduction:\nF --> F(1\n", 3, "unclosed"),
-    ("Axiom: F\nproduction:\ngroup 1:\nF --> FF\n", 3, "rule groups"),
+    ("Axiom: F\nproduction:\ngroup -1:\nF --> FF\n", 3, "group must be an integer"),
     ("Axiom: AB\nproduction:\nA [ B ] --> C\n", 3, "brackets in a multi-module predecessor"),
     ("Axiom: F\nproduction:\nF :\n    if True\n        produce F\n", 4, "syntax error"),
     ("Axiom: F(0)\nproduction:\nF(x) :\n    y = 1 / x\n    produce F(y)\n", 4, "ZeroDivisionError"),
@@ -298,12 +298,12 @@ def test_one_seed_drives_every_generator_a_trusted_grammar_uses():
 
 
 def test_every_error_has_a_line_and_column(tmp_path, monkeypatch):
-    """Issue 33: cap errors, context() and useGroup misuse, bad bytes: all located in the grammar."""
+    """Issue 33: cap errors, context() and useGroup misuse (a negative group), bad bytes: all located in the grammar."""
     monkeypatch.setattr(E, "MAX_MODULES", 100)
     cases = [("Axiom: F\nproduction:\nF --> FFF\nendlsystem\n", 5, 3),
              ("Axiom: F\nproduction:\nB --> B\nF --> FFF\nendlsystem\n", 5, 4),
              ("x = context().bogus\nAxiom: F\n", None, 1),
-             ("def StartEach():\n    useGroup(1)\nAxiom: F\nproduction:\nF --> F\nendlsystem\n", 2, 2),
+             ("def StartEach():\n    useGroup(-1)\nAxiom: F\nproduction:\nF --> F\nendlsystem\n", 2, 2),
              ("Axiom: F\nderivation length: context().frame\n", None, 2),
              ("Axiom: F\x00\n", None, 1)]
     for text, n, line in cases:

@@ -139,3 +139,49 @@ def test_multi_module_predecessor_with_constants_and_objects():
 def test_multi_module_predecessor_brackets_refused():
     with pytest.raises(LSystemError, match=r"line 3, column 3: brackets in a multi-module predecessor"):
         LSystem("Axiom: A\nproduction:\nA [ B ] --> C\n")
+
+
+# -- 4. rule groups ----------------------------------------------------------------------------------------------
+GROUPS = """\
+def EndEach():
+    useGroup(1 if getIterationNb() % 2 == 0 else 2)
+Axiom: A
+derivation length: 4
+production:
+A --> A B
+group 1:
+B --> C
+A --> X A
+group 2:
+C --> D
+endgroup
+D --> E
+endlsystem
+"""
+
+
+def test_groups_switched_by_use_group_in_end_each():
+    """L-Py's ``Lsystem::__getRules``: the active group's rules (file order) come first, then group 0's; the
+    group is read at the start of each step, so ``useGroup`` in EndEach switches the next step's rules.
+    Step 1 (group 0): A -> AB.  Step 2 (group 1: B->C, A->XA, then A->AB, D->E): AB -> XAC.
+    Step 3 (group 2: C->D, then A->AB, D->E): XAC -> XABD.  Step 4 (group 1): XABD -> XXACE."""
+    ls = LSystem(GROUPS, trusted=True)
+    assert [str(s) for s in ls.iterate()] == ["A", "AB", "XAC", "XABD", "XXACE"]
+    assert str(ls.derive()) == "XXACE"                         # again: the derivation starts in group 0
+
+
+def test_groups_untrusted_top_level_use_group():
+    text = "useGroup(1)\nAxiom: A\nproduction:\nA --> B\ngroup 1:\nA --> C\nB --> D\nendgroup\nendlsystem\n"
+    ls = LSystem(text)
+    assert str(ls.derive(1)) == "C" and str(ls.derive(2)) == "C"
+    ls = LSystem(text.replace("useGroup(1)\n", ""))          # group 0 only: B has no rule there
+    assert str(ls.derive(2)) == "B"
+    ls = LSystem(text.replace("useGroup(1)", "useGroup(7)"))  # a group without rules: group 0's
+    assert str(ls.derive(1)) == "B"
+
+
+def test_groups_bad_values_refused():
+    with pytest.raises(LSystemError, match=r"line 3, .*group must be an integer in \[0"):
+        LSystem("Axiom: F\nproduction:\ngroup -1:\nF --> FF\n")
+    with pytest.raises(LSystemError, match=r"line 1, .*useGroup needs an integer group"):
+        LSystem("useGroup('a')\nAxiom: F\n")
