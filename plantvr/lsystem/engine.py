@@ -276,6 +276,15 @@ def _module_vals(ptr, args, objs, i: int) -> list:
     return [_pyval(v) for v in vals]
 
 
+def _raw_vals(ptr, args, objs, i: int) -> tuple:
+    """Parameters of module ``i`` as stored: floats, and objects from the side-table."""
+    a = int(ptr[i])
+    vals = args[a:ptr[i + 1]].tolist()
+    if objs:
+        return tuple(objs.get(a + q, v) if v != v else v for q, v in enumerate(vals))
+    return tuple(vals)
+
+
 def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """``[(sid, values), ...]`` (values floats or objects) as ids, arg_ptr, args and the object side-table."""
     ids = np.array([m[0] for m in mods], np.int32)
@@ -446,12 +455,64 @@ class LSystem:
 
     def interpret(self, string: ModuleString) -> ModuleString:
         """The homomorphism (``interpretation:``) pass, up to its maximum depth."""
-        s = self._adopt(string)
-        for _ in range(self._max_depth["homomorphism"]):
-            s, changed = self._rewrite(s, "homomorphism")
+        return self._decompose(self._adopt(string), "homomorphism")
+
+    def _decompose(self, s: ModuleString, kind: str) -> ModuleString:
+        """Decomposition or homomorphism up to its maximum depth: whole-string passes for context-free rules;
+        with contexts, L-Py's recursion (``Lsystem::__recursiveSteps``): each successor is decomposed on its own,
+        its contexts matched within it."""
+        depth = self._max_depth[kind]
+        if not self._rules[kind] or not depth:
+            return s
+        if any(r.contexts for r in self._rules[kind]):
+            try:
+                return self._recursive(s, kind, depth)[0]
+            except RecursionError:
+                raise LSystemError(f"{kind} nested too deeply (maximum depth {depth})", *self._where) from None
+        for _ in range(depth):
+            s, changed = self._rewrite(s, kind)
             if not changed:
                 break
         return s
+
+    def _recursive(self, s: ModuleString, kind: str, depth: int) -> tuple[ModuleString, bool]:
+        rules = self._rules[kind]
+        by_sym: dict[int, list[_Compiled]] = {}
+        for r in rules:
+            by_sym.setdefault(r.sid, []).append(r)
+        ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
+        partner = K.match_brackets(ids, 0, 1) if len(s) else None
+        nargs = np.diff(ptr)
+        idl = ids.tolist()
+        out: list = []
+        changed = False
+        i, n = 0, len(idl)
+        while i < n:
+            res, step = None, 1
+            for r in by_sym.get(idl[i], ()):
+                if nargs[i] != r.arity:
+                    continue
+                vals = self._bind(r, i, ids, ptr, args, partner, None, objs)
+                if vals is None:
+                    continue
+                res = self._call(r, vals)
+                if res is not None:
+                    step = 1 + len(r.rest)
+                    break
+            if res is None:
+                out.append((idl[i], _raw_vals(ptr, args, objs, i)))
+            else:
+                changed = True
+                if depth > 1 and res:
+                    sub, _ = self._recursive(self._make(*_pack(res)), kind, depth - 1)
+                    out.extend((int(sub.ids[k]), _raw_vals(sub.arg_ptr, sub.args, sub.objects, k))
+                               for k in range(len(sub)))
+                else:
+                    out.extend(res)
+                if len(out) > self.max_modules:
+                    self._check_size(len(out), 0, self._where[0])
+            i += step
+        return self._make(*_pack(out)), changed
 
     def tree(self, n: int | None = None, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
         """``self.draw(self.derive(n))``: the skeleton after ``n`` derivation steps (see :meth:`draw`)."""
@@ -984,10 +1045,7 @@ class LSystem:
                     self._set_group(self._next_group)
                 if self._rules["production"]:
                     s, _ = self._rewrite(s, "production")
-                for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
-                    s, changed = self._rewrite(s, "decomposition")
-                    if not changed:
-                        break
+                s = self._decompose(s, "decomposition")
                 self._hook("EndEach")
             yield s
             if self._stopped:
@@ -1480,9 +1538,7 @@ class LSystem:
                         skip = i + len(r.rest)
                     break
             if res is None:
-                res = [(idl[i], tuple(args[ptr[i]:ptr[i + 1]].tolist()) if not objs else
-                        tuple(objs.get(int(ptr[i]) + q, v) if v != v else v
-                              for q, v in enumerate(args[ptr[i]:ptr[i + 1]].tolist())))]
+                res = [(idl[i], _raw_vals(ptr, args, objs, i))]
             else:
                 changed = True
             dest.extend(res if self._direction == 1 else reversed(res))

@@ -18,6 +18,9 @@ right context being matched after the last; the string is then rewritten left to
 A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
 matches when its parameter equals the constant, as L-Py's pattern matching compares non-variable arguments).
 
+Decomposition and homomorphism rules may have contexts ``<`` / ``>`` (issue 33), matched as L-Py's
+``Lsystem::__recursiveSteps`` does: in the whole string at the first level, then within each successor.
+
 Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` are in group N (an integer
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
@@ -377,8 +380,9 @@ class _Reader:
         for key in pieces:
             toks = self.lex(pieces[key], ln, cols.get(key, 1)) if pieces[key].strip() else []
             out[key] = toks
-        if kind != "production" and (out["left"] or out["right"] or out["newleft"] or out["newright"]):
-            raise LSystemError(f"context-sensitive {kind} rules are not supported", ln, 1)
+        if kind != "production" and (out["newleft"] or out["newright"]):
+            raise LSystemError(f"new contexts ('<<', '>>') in {kind} rules are not supported", ln,
+                               (out["newleft"] or out["newright"])[0].col)
         for key, toks in [("pred", pred_toks)] + list(out.items()):
             for t in toks:
                 if t.name == "*":

@@ -185,3 +185,36 @@ def test_groups_bad_values_refused():
         LSystem("Axiom: F\nproduction:\ngroup -1:\nF --> FF\n")
     with pytest.raises(LSystemError, match=r"line 1, .*useGroup needs an integer group"):
         LSystem("useGroup('a')\nAxiom: F\n")
+
+
+# -- 5. context-sensitive decomposition and homomorphism ---------------------------------------------------------
+def test_context_sensitive_decomposition_recursive_as_lpy():
+    """L-Py's ``Lsystem::__recursiveSteps``: level 1 matches contexts in the whole string, each successor is then
+    decomposed on its own (its contexts within it), up to ``maximum depth``.
+    A B A C: B (left A) -> X Y, A (right C) -> W; level 2 in "X Y": X -> Z A; "W": nothing -> A Z A Y W C."""
+    text = ("Axiom: A B A C\nproduction:\ndecomposition:\nmaximum depth: {d}\nA < B --> X Y\nX --> Z A\n"
+            "A > C --> W\nendlsystem\n")
+    assert str(LSystem(text.format(d=1)).derive(1)) == "AXYWC"
+    assert str(LSystem(text.format(d=2)).derive(1)) == "AZAYWC"
+    # level 2 sees only the successor: Y's right context C lies outside "Y", so Y stays
+    ls = LSystem("Axiom: B C\nproduction:\ndecomposition:\nmaximum depth: 3\nB --> Y\nY > C --> V\n"
+                 "endlsystem\n")
+    assert str(ls.derive(1)) == "YC"
+    ls = LSystem("Axiom: B C\nproduction:\ndecomposition:\nmaximum depth: 3\nB --> Y C\nY > C --> V\n"
+                 "endlsystem\n")
+    assert str(ls.derive(1)) == "VCC"
+
+
+def test_context_sensitive_decomposition_after_production():
+    ls = LSystem("Axiom: A(1) B\nproduction:\nA(x) --> A(x + 1)\ndecomposition:\nA(x) < B --> C(x)\nendlsystem\n")
+    assert str(ls.derive(1)) == "A(2)C(2)" and str(ls.derive(2)) == "A(3)C(2)"
+
+
+def test_context_sensitive_homomorphism():
+    ls = LSystem("Axiom: A B B [A] B\nhomomorphism:\nA < B --> F(1)\nB > [A] --> F(2)\nendlsystem\n")
+    assert str(ls.interpret(ls.axiom)) == "AF(1)F(2)[A]B"
+
+
+def test_new_contexts_in_homomorphism_refused():
+    with pytest.raises(LSystemError, match=r"line 3, column 1: new contexts .* homomorphism rules"):
+        LSystem("Axiom: A\nhomomorphism:\nA << B --> F\nendlsystem\n")
