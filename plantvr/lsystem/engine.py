@@ -6,7 +6,10 @@ own (``math`` names, seeded ``random``/``uniform``/``gauss``..., ``extern(name=v
 hooks without arguments, ``context().turtle.setAngleIncrement(a)`` as a turtle option) and derives strings in
 parallel as L-Py does: the first rule (file order) whose pattern matches and that produces replaces a module,
 others are copied; decomposition rules are applied after every step up to ``maximum depth``; homomorphism rules
-in :meth:`LSystem.interpret`.
+in :meth:`LSystem.interpret`. Issue 33 adds L-Py's module parameters of any Python value (below), constants in
+pattern parameters, multi-module predecessors (rewritten left to right), rule groups (``group N:``,
+``useGroup(n)``: the active group's rules, then group 0's) and contexts in decomposition / homomorphism rules (L-Py's
+recursion: each successor decomposed on its own). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
 
 How a step runs, fastest first:
 

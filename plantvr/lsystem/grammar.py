@@ -24,8 +24,10 @@ Decomposition and homomorphism rules may have contexts ``<`` / ``>`` (issue 33),
 Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` are in group N (an integer
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
-Not supported (LSystemError naming the construct and its line): ``-static->``, wildcard (``*``) predecessors, brackets in multi-module predecessors and in left contexts,
-expressions as pattern parameters, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
+Not supported (LSystemError naming the construct with its line and column): ``-static->``, wildcard (``*``)
+predecessors, brackets in multi-module predecessors and in left contexts, expressions as pattern parameters,
+``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns, new contexts (``<<`` / ``>>``) in
+decomposition and homomorphism rules; at run time, multi-module predecessors in a ``backward()`` step.
 """
 from __future__ import annotations
 
