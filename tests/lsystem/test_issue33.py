@@ -225,3 +225,12 @@ def test_object_parameters_of_non_turtle_modules_do_not_change_the_skeleton():
         a = LSystem('Axiom: F(1) B("x", None) [+F(2) @L("t")] F(1)\n').tree(unsupported="warn")
     b = LSystem("Axiom: F(1) B [+F(2)] F(1)\n").tree()
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.parent, b.parent)
+
+
+def test_object_parameters_beside_constant_rules():
+    """A string holding objects leaves the numba tables (they copy floats only): the grouped path moves the
+    objects of copied modules, step-wise and all at once alike."""
+    ls = LSystem("Axiom: A B('x') A(2) C(None, 3)\nproduction:\nA --> A A\nA(x) --> D(x, 'y')\nendlsystem\n")
+    want = [("A", ()), ("A", ()), ("A", ()), ("A", ()), ("B", ("x",)), ("D", (2.0, "y")), ("C", (None, 3.0))]
+    assert mods(ls.derive(2)) == want
+    assert [mods(s) for s in ls.iterate(2)][-1] == want
