@@ -1511,34 +1511,32 @@ class LSystem:
         """One step in string order (forward) or reverse order (backward): new contexts see the new string."""
         ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         n = len(ids)
+        fwd = self._direction == 1
         by_sym: dict[int, list[_Compiled]] = {}
-        for r in rules:
-            by_sym.setdefault(r.sid, []).append(r)
+        for r in rules:                                       # backward: a predecessor is found by its last module
+            by_sym.setdefault(r.sid if fwd or not r.rest else self._pattern_sid(r.rest[-1]), []).append(r)
         partner = K.match_brackets(ids, 0, 1) if any(r.contexts for r in rules) else None
         dest: list = []
         changed = False
-        multi = [r for r in rules if r.rest]
-        if multi and self._direction != 1:
-            raise LSystemError("multi-module predecessors in a backward() step are not supported",
-                               multi[0].rule.line, multi[0].rule.pred.col)
-        order = range(n) if self._direction == 1 else range(n - 1, -1, -1)
+        order = range(n) if fwd else range(n - 1, -1, -1)
         nargs = np.diff(ptr)
         idl = ids.tolist()
-        skip = -1                                             # modules up to skip were matched by a predecessor
+        skip = -1 if fwd else n          # modules up to (forward) or from (backward) skip were matched already
         for i in order:
-            if i <= skip:
+            if (i <= skip) if fwd else (i >= skip):
                 continue
             res = None
             for r in by_sym.get(idl[i], ()):
-                if nargs[i] != r.arity:
+                at = i if fwd else i - len(r.rest)           # where the predecessor starts
+                if at < 0 or idl[at] != r.sid or nargs[at] != r.arity:
                     continue
-                vals = self._bind(r, i, ids, ptr, args, partner, dest, objs)
+                vals = self._bind(r, at, ids, ptr, args, partner, dest, objs)
                 if vals is None:
                     continue
                 res = self._call(r, vals)
                 if res is not None:
                     if r.rest:
-                        skip = i + len(r.rest)
+                        skip = i + len(r.rest) if fwd else at
                     break
             if res is None:
                 res = [(idl[i], _raw_vals(ptr, args, objs, i))]

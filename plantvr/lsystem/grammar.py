@@ -13,7 +13,8 @@ L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
 A predecessor may be several modules (``A B --> C``, ``A(x) B(y) --> ...``; issue 33): as L-Py's
 ``LsysRule::match`` they match modules at consecutive positions, which the successor replaces all together, the
-right context being matched after the last; the string is then rewritten left to right.
+right context being matched after the last; the string is then rewritten left to right (right to left after
+``backward()``, a predecessor then found by its last module, as L-Py's ``MatchingEngine::reverse_match``).
 
 A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
 matches when its parameter equals the constant, as L-Py's pattern matching compares non-variable arguments).
@@ -27,7 +28,7 @@ expression, at least 0) until ``endgroup`` or the next ``group``; the others are
 Not supported (LSystemError naming the construct with its line and column): ``-static->``, wildcard (``*``)
 predecessors, brackets in multi-module predecessors and in left contexts, expressions as pattern parameters,
 ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns, new contexts (``<<`` / ``>>``) in
-decomposition and homomorphism rules; at run time, multi-module predecessors in a ``backward()`` step.
+decomposition and homomorphism rules.
 """
 from __future__ import annotations
 

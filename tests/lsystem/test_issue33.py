@@ -234,3 +234,16 @@ def test_object_parameters_beside_constant_rules():
     want = [("A", ()), ("A", ()), ("A", ()), ("A", ()), ("B", ("x",)), ("D", (2.0, "y")), ("C", (None, 3.0))]
     assert mods(ls.derive(2)) == want
     assert [mods(s) for s in ls.iterate(2)][-1] == want
+
+
+def test_multi_module_predecessor_backward():
+    """After ``backward()`` the string is rewritten right to left and a predecessor ends at the module reached
+    (L-Py's ``reverse_match``): ``A A --> C`` on A A A gives C A forward, A C backward."""
+    rules = "production:\nA A --> C\nendlsystem\n"
+    assert str(LSystem("Axiom: A A A\n" + rules).derive(1)) == "CA"
+    ls = LSystem("def StartEach():\n    backward()\nAxiom: A A A\n" + rules, trusted=True)
+    assert str(ls.derive(1)) == "AC"
+    ls = LSystem("def StartEach():\n    backward()\nAxiom: X(1) A(2) B(3) A(4) B(5)\nproduction:\n"
+                 "X(w) < A(x) B(y) --> S(w + x + y)\nA(x) B(y) > A(z) --> T(x, y, z)\nA(x) B(y) --> U(x, y)\n"
+                 "endlsystem\n", trusted=True)
+    assert str(ls.derive(1)) == "X(1)S(6)U(4,5)"
