@@ -13,7 +13,8 @@ L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
 A predecessor may be several modules (``A B --> C``, ``A(x) B(y) --> ...``; issue 33): as L-Py's
 ``LsysRule::match`` they match modules at consecutive positions, which the successor replaces all together, the
-right context being matched after the last; the string is then rewritten left to right (right to left after
+right context being matched after the last (brackets in it are matched as modules, ``A [ B ] --> C``, and
+must balance); the string is then rewritten left to right (right to left after
 ``backward()``, a predecessor then found by its last module, as L-Py's ``MatchingEngine::reverse_match``).
 
 A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
@@ -26,7 +27,7 @@ Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` 
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
 Not supported (LSystemError naming the construct with its line and column): ``-static->``, wildcard (``*``)
-predecessors, brackets in multi-module predecessors and in left contexts, expressions as pattern parameters,
+predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
 ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns, new contexts (``<<`` / ``>>``) in
 decomposition and homomorphism rules.
 """
@@ -292,6 +293,9 @@ class _Reader:
         ln, first = lines[0]
         head_at, delim = find_top(first, ("-static->", "-->", "->", ":"))
         if head_at < 0:
+            code = _strip_comment(first)
+            if code.count("[") != code.count("]"):
+                raise LSystemError(f"unbalanced brackets in the rule {first.strip()!r}", ln, 1)
             raise LSystemError(f"rule without ':' or '-->': {first.strip()!r}", ln, 1)
         if delim == "-static->":
             raise LSystemError("static rules ('-static->') are not supported", ln, head_at + 1)
@@ -396,15 +400,20 @@ class _Reader:
                     raise LSystemError(f"repetition pattern {t.name}(...) is not supported", ln, t.col)
                 if key == "left" and t.name in "[]":
                     raise LSystemError("brackets in a left context are not supported", ln, t.col)
-                if key == "pred" and t.name in ("[", "]"):
-                    what = "a bracket cannot be a predecessor" if t is pred_toks[0] else \
-                        "brackets in a multi-module predecessor are not supported"
-                    raise LSystemError(what, ln, t.col)
+                if key == "pred" and t.name in ("[", "]") and t is pred_toks[0]:
+                    raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
                 for a in t.args or ():
                     if not _IDENT.match(a) and not _is_literal(a):
                         raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name or a "
                                            f"constant (expressions as value constraints are not supported)", ln,
                                            t.col)
+        depth = 0
+        for t in pred_toks:                                   # brackets inside a predecessor: balanced
+            depth += (t.name == "[") - (t.name == "]")
+            if depth < 0:
+                break
+        if depth:
+            raise LSystemError(f"unbalanced brackets in the predecessor {pred_src.strip()!r}", ln, pred_col)
         return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
 
 
