@@ -266,7 +266,7 @@ def _same(value, const) -> bool:
     """Whether a module's parameter matches a pattern constant (``==``, without raising)."""
     try:
         return bool(type(value) is type(const) or (is_number(value) and is_number(const))) and value == const
-    except Exception:
+    except (TypeError, ValueError, ArithmeticError):             # e.g. an array's ambiguous truth value
         return False
 
 
@@ -275,7 +275,7 @@ def _module_vals(ptr, args, objs, i: int) -> list:
     a = int(ptr[i])
     vals = args[a:ptr[i + 1]].tolist()
     if objs:
-        return [objs.get(a + q, v) if v != v else _pyval(v) for q, v in enumerate(vals)]
+        return [objs.get(a + q, v) if math.isnan(v) else _pyval(v) for q, v in enumerate(vals)]
     return [_pyval(v) for v in vals]
 
 
@@ -284,7 +284,7 @@ def _raw_vals(ptr, args, objs, i: int) -> tuple:
     a = int(ptr[i])
     vals = args[a:ptr[i + 1]].tolist()
     if objs:
-        return tuple(objs.get(a + q, v) if v != v else v for q, v in enumerate(vals))
+        return tuple(objs.get(a + q, v) if math.isnan(v) else v for q, v in enumerate(vals))
     return tuple(vals)
 
 

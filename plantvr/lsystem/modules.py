@@ -6,10 +6,10 @@ few arrays, not a million Python objects.
 from __future__ import annotations
 
 import math
-
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -124,7 +124,7 @@ class ModuleString:
         a, b = int(self.arg_ptr[i]), int(self.arg_ptr[i + 1])
         vals = self.args[a:b].tolist()
         if self.objects:
-            vals = [self.objects.get(a + q, v) if v != v else v for q, v in enumerate(vals)]
+            vals = [self.objects.get(a + q, v) if math.isnan(v) else v for q, v in enumerate(vals)]
         return self.names[self.ids[i]], tuple(vals)
 
     def modules(self) -> list[tuple[str, tuple[float, ...]]]:
