@@ -6,7 +6,10 @@ own (``math`` names, seeded ``random``/``uniform``/``gauss``..., ``extern(name=v
 hooks without arguments, ``context().turtle.setAngleIncrement(a)`` as a turtle option) and derives strings in
 parallel as L-Py does: the first rule (file order) whose pattern matches and that produces replaces a module,
 others are copied; decomposition rules are applied after every step up to ``maximum depth``; homomorphism rules
-in :meth:`LSystem.interpret`.
+in :meth:`LSystem.interpret`. Issue 33 adds L-Py's module parameters of any Python value (below), constants in
+pattern parameters, multi-module predecessors (rewritten left to right), rule groups (``group N:``,
+``useGroup(n)``: the active group's rules, then group 0's) and contexts in decomposition / homomorphism rules (L-Py's
+recursion: each successor decomposed on its own). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
 
 How a step runs, fastest first:
 
@@ -31,9 +34,12 @@ derivation has a time budget (``time_budget=``) and a module cap (``max_modules=
 (each rule call, each vectorised rule, each ``nproduce``), so a runaway grammar stops with LSystemError at its
 line.
 
-Parameters are float64 (integral values reach Python rule code as ``int``); a parameter that is not a number
-raises :class:`LSystemError` naming the module and the rule's line. Angles are never converted (degrees, the
-turtle's unit).
+Parameters are float64 (integral values reach Python rule code as ``int``); a parameter of any other Python
+value (str, tuple, list, None, bool: ``@L("text")``, issue 33, as L-Py's modules hold any object) is kept in the
+string's object side-table (:attr:`ModuleString.objects`), literals included in untrusted grammars; strings
+holding objects are derived per module in Python, numeric ones keep the numba and vectorised paths. A turtle
+module's numeric vectors and bools are read as numbers. Angles are never converted (degrees, the turtle's
+unit).
 """
 from __future__ import annotations
 
@@ -58,7 +64,7 @@ from . import _derive_kernels as K
 from . import sandbox as SB
 from .grammar import Grammar, Rule, lstring_to_py, parse_grammar
 from .lexer import LSystemError, Token, lex
-from .modules import ModuleString
+from .modules import _EMPTY, ModuleString, is_number
 
 __all__ = ["MAX_DERIVATION", "MAX_MODULES", "TIME_BUDGET", "LSystem", "LSystemError", "read_lpy"]
 
@@ -238,12 +244,60 @@ class _Compiled:
         self.arity = rule.pred.arity
         self.contexts = bool(rule.left or rule.right)
         self.newcontexts = bool(rule.newleft or rule.newright)
+        self.rest = list(rule.pred_rest)                     # multi-module predecessor: the modules after the first
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
+        # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
+        self.consts = list(rule.consts)
+        n_all = len(rule.params) + len(self.consts)
+        cidx = {k for k, _ in self.consts}
+        self.keep = [k for k in range(n_all) if k not in cidx] if self.consts else None
+        # the predecessor's own constants (position in its parameter list -> value) and variables' positions
+        start = sum(t.arity for t in rule.left) + sum(t.arity for t in rule.newleft)
+        self.pred_consts = [(k - start, v) for k, v in self.consts if start <= k < start + self.arity]
+        self.pred_vars = [q for q in range(self.arity) if q + start not in cidx]
 
 
-def _pyval(v: float):
-    return int(v) if v.is_integer() and abs(v) < 2 ** 53 else v
+def _pyval(v):
+    return int(v) if type(v) is float and v.is_integer() and abs(v) < 2 ** 53 else v
+
+
+def _same(value, const) -> bool:
+    """Whether a module's parameter matches a pattern constant (``==``, without raising)."""
+    try:
+        return bool(type(value) is type(const) or (is_number(value) and is_number(const))) and value == const
+    except (TypeError, ValueError, ArithmeticError):             # e.g. an array's ambiguous truth value
+        return False
+
+
+def _module_vals(ptr, args, objs, i: int) -> list:
+    """Parameters of module ``i`` as rule code sees them: integral floats as int, objects from the side-table."""
+    a = int(ptr[i])
+    vals = args[a:ptr[i + 1]].tolist()
+    if objs:
+        return [objs.get(a + q, v) if math.isnan(v) else _pyval(v) for q, v in enumerate(vals)]
+    return [_pyval(v) for v in vals]
+
+
+def _raw_vals(ptr, args, objs, i: int) -> tuple:
+    """Parameters of module ``i`` as stored: floats, and objects from the side-table."""
+    a = int(ptr[i])
+    vals = args[a:ptr[i + 1]].tolist()
+    if objs:
+        return tuple(objs.get(a + q, v) if math.isnan(v) else v for q, v in enumerate(vals))
+    return tuple(vals)
+
+
+def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+    """``[(sid, values), ...]`` (values floats or objects) as ids, arg_ptr, args and the object side-table."""
+    ids = np.array([m[0] for m in mods], np.int32)
+    ptr = np.zeros(len(mods) + 1, np.int64)
+    np.cumsum([len(m[1]) for m in mods], out=ptr[1:])
+    flat = [v for m in mods for v in m[1]]
+    objs = {k: v for k, v in enumerate(flat) if type(v) is not float}
+    if objs:
+        flat = [math.nan if k in objs else v for k, v in enumerate(flat)]
+    return ids, ptr, np.array(flat, np.float64), objs
 
 
 class LSystem:
@@ -328,6 +382,8 @@ class LSystem:
         self._direction = 1
         self._iteration = 0
         self._stopped = False
+        self._next_group = 0                                  # useGroup(n): the group of the next steps
+        self._group = 0
         self._ns = self._namespace()
         self._exec_python()
         self._hooks = self._read_hooks()
@@ -335,10 +391,14 @@ class LSystem:
         self._max_depth = {k: self._eval_int(self._g.max_depth.get(k), "maximum depth", 1)
                            for k in ("decomposition", "homomorphism")}
         self._ignored = self._ignore_set()
-        self._rules = {"production": [], "decomposition": [], "homomorphism": []}
-        for rule in self._g.rules:
-            self._rules[rule.kind].append(self._compile(rule))
         self._tables: dict[str, Any] = {}
+        self._all_rules: list[_Compiled] = []
+        for rule in self._g.rules:
+            c = self._compile(rule)
+            c.group = self._eval_int(rule.group, "group", 0)
+            self._all_rules.append(c)
+        self._start_group = self._next_group                  # a top-level useGroup(n)
+        self._set_group(self._start_group)
         src, ln, col = self._g.axiom
         self.axiom = self._to_string(self._eval_lstring(self._g.axiom_tokens, ln, "the axiom"), ln)
         self._deadline = math.inf
@@ -398,12 +458,64 @@ class LSystem:
 
     def interpret(self, string: ModuleString) -> ModuleString:
         """The homomorphism (``interpretation:``) pass, up to its maximum depth."""
-        s = self._adopt(string)
-        for _ in range(self._max_depth["homomorphism"]):
-            s, changed = self._rewrite(s, "homomorphism")
+        return self._decompose(self._adopt(string), "homomorphism")
+
+    def _decompose(self, s: ModuleString, kind: str) -> ModuleString:
+        """Decomposition or homomorphism up to its maximum depth: whole-string passes for context-free rules;
+        with contexts, L-Py's recursion (``Lsystem::__recursiveSteps``): each successor is decomposed on its own,
+        its contexts matched within it."""
+        depth = self._max_depth[kind]
+        if not self._rules[kind] or not depth:
+            return s
+        if any(r.contexts for r in self._rules[kind]):
+            try:
+                return self._recursive(s, kind, depth)[0]
+            except RecursionError:
+                raise LSystemError(f"{kind} nested too deeply (maximum depth {depth})", *self._where) from None
+        for _ in range(depth):
+            s, changed = self._rewrite(s, kind)
             if not changed:
                 break
         return s
+
+    def _recursive(self, s: ModuleString, kind: str, depth: int) -> tuple[ModuleString, bool]:
+        rules = self._rules[kind]
+        by_sym: dict[int, list[_Compiled]] = {}
+        for r in rules:
+            by_sym.setdefault(r.sid, []).append(r)
+        ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
+        partner = K.match_brackets(ids, 0, 1) if len(s) else None
+        nargs = np.diff(ptr)
+        idl = ids.tolist()
+        out: list = []
+        changed = False
+        i, n = 0, len(idl)
+        while i < n:
+            res, step = None, 1
+            for r in by_sym.get(idl[i], ()):
+                if nargs[i] != r.arity:
+                    continue
+                vals = self._bind(r, i, ids, ptr, args, partner, None, objs)
+                if vals is None:
+                    continue
+                res = self._call(r, vals)
+                if res is not None:
+                    step = 1 + len(r.rest)
+                    break
+            if res is None:
+                out.append((idl[i], _raw_vals(ptr, args, objs, i)))
+            else:
+                changed = True
+                if depth > 1 and res:
+                    sub, _ = self._recursive(self._make(*_pack(res)), kind, depth - 1)
+                    out.extend((int(sub.ids[k]), _raw_vals(sub.arg_ptr, sub.args, sub.objects, k))
+                               for k in range(len(sub)))
+                else:
+                    out.extend(res)
+                if len(out) > self.max_modules:
+                    self._check_size(len(out), 0, self._where[0])
+            i += step
+        return self._make(*_pack(out)), changed
 
     def tree(self, n: int | None = None, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
         """``self.draw(self.derive(n))``: the skeleton after ``n`` derivation steps (see :meth:`draw`)."""
@@ -486,7 +598,7 @@ class LSystem:
             isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
             Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
-            nproduce=self._nbuf_add, useGroup=self._no_group, frameDisplay=lambda *a: None,
+            nproduce=self._nbuf_add, useGroup=self._use_group, frameDisplay=lambda *a: None,
         )
         ns.update(SB.guard_names(self._tick))
         if self.trusted:                                      # as the builtins, refusing only huge integers
@@ -584,8 +696,20 @@ class LSystem:
             raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line,
                                1) from None
 
-    def _no_group(self, *a) -> None:
-        raise LSystemError("useGroup (rule groups) is not supported")
+    def _use_group(self, n) -> None:
+        """``useGroup(n)`` (L-Py): the steps after this one use the rules of group ``n``, then those of group 0."""
+        if isinstance(n, (bool, np.bool_)) or not isinstance(n, (int, np.integer)) or not 0 <= n <= MAX_DERIVATION:
+            raise LSystemError(f"useGroup needs an integer group in [0, {MAX_DERIVATION}], got {n!r:.40}")
+        self._next_group = int(n)
+
+    def _set_group(self, g: int) -> None:
+        """The active rules: group ``g``'s in file order, then group 0's (``Lsystem::__getRules`` of L-Py; a
+        group without rules leaves group 0's)."""
+        self._group = g
+        self._rules = {k: [c for c in self._all_rules if c.rule.kind == k and c.group == g] +
+                       ([c for c in self._all_rules if c.rule.kind == k and c.group == 0] if g else [])
+                       for k in ("production", "decomposition", "homomorphism")}
+        self._tables.clear()
 
     def _nbuf_add(self, mods) -> None:
         self._nbuf.extend(mods)
@@ -714,8 +838,10 @@ class LSystem:
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
-        if rule.successor is not None and not (c.contexts or c.newcontexts):
+        if rule.successor is not None and not (c.contexts or c.newcontexts or c.rest) and \
+                all(is_number(v) for _, v in c.pred_consts):
             self._plan(c)
+            c.const = None if c.consts else c.const           # the constant tables match names, not values
         return c
 
     def _restrict_rule(self, rule: Rule, tree: ast.Module) -> None:
@@ -777,7 +903,7 @@ class LSystem:
                 if const and self._vectorize(a, []) is not None:
                     try:
                         code = self._expr(a, t.line, t.col, f"rule {c.rule.header!r}")
-                        vals.extend(self._floats(t.name, eval(code, self._ns), c.rule.line))
+                        vals.extend(self._params(t.name, (eval(code, self._ns),), c.rule.line))
                     except LSystemError:
                         raise
                     except SB.SandboxError as e:
@@ -803,7 +929,7 @@ class LSystem:
         for node in ast.walk(tree):
             if not isinstance(node, _OK_NODES):
                 return None
-            if isinstance(node, ast.Constant) and (isinstance(node.value, str) or node.value is None):
+            if isinstance(node, ast.Constant) and not is_number(node.value):
                 return None
             if isinstance(node, ast.Call):
                 if not isinstance(node.func, ast.Name) or node.keywords or node.func.id in params:
@@ -827,20 +953,26 @@ class LSystem:
         return eval(compile(lam, "<vectorised>", "eval"), env)
 
     # -- strings -------------------------------------------------------------------------------------------------
-    def _floats(self, name: str, v, line: int) -> tuple[float, ...]:
-        if isinstance(v, (bool, np.bool_, int, float, np.integer, np.floating)):
-            try:
-                return (float(v),)
-            except OverflowError:
-                raise LSystemError(f"module {name}: parameter {SB._short(v)} is too large for a float", line,
-                                   1) from None
-        if isinstance(v, (tuple, list, np.ndarray)):
-            out = []
-            for x in np.asarray(v, dtype=object).ravel().tolist():
-                out.extend(self._floats(name, x, line))
-            return tuple(out)
-        raise LSystemError(f"module {name}: parameter {v!r} is a {type(v).__name__}; module strings hold "
-                           f"numbers only", line, 1)
+    def _params(self, name: str, v, line: int) -> tuple:
+        """The parameters of a produced module ``name(*v)``: numbers as floats, any other Python value (str,
+        tuple, list, None, bool...) kept as it is, as L-Py's modules hold them (issue 33); a turtle module's
+        numeric vectors (``SetHead(Vector3(...))``) and booleans are read as numbers, as its turtle does."""
+        if not isinstance(v, (tuple, list)):
+            v = (v,)
+        out: list = []
+        turtle = name in _turtle_modules()
+        for x in v:
+            if is_number(x) or (turtle and isinstance(x, (bool, np.bool_))):
+                try:
+                    out.append(float(x))
+                except OverflowError:
+                    raise LSystemError(f"module {name}: parameter {SB._short(x)} is too large for a float", line,
+                                       1) from None
+            elif turtle and isinstance(x, (tuple, list, np.ndarray)):
+                out.extend(self._params(name, np.asarray(x, dtype=object).ravel().tolist(), line))
+            else:
+                out.append(x)
+        return tuple(out)
 
     def _eval_lstring(self, toks: list[Token], line: int, what: str) -> list:
         self._restrict_tokens(toks, what)
@@ -862,15 +994,8 @@ class LSystem:
                 from None
 
     def _to_string(self, mods: list, line: int) -> ModuleString:
-        ids, counts, args = [], [], []
-        for name, vals in mods:
-            ids.append(self._sid(name))
-            f = self._floats(name, vals, line) if vals != () else ()
-            counts.append(len(f))
-            args.extend(f)
-        ptr = np.zeros(len(ids) + 1, np.int64)
-        np.cumsum(counts, out=ptr[1:])
-        return ModuleString(tuple(self._names), np.array(ids, np.int32), ptr, np.array(args, np.float64))
+        packed = [(self._sid(name), self._params(name, vals, line) if vals != () else ()) for name, vals in mods]
+        return ModuleString(tuple(self._names), *_pack(packed))
 
     def _adopt(self, s: ModuleString) -> ModuleString:
         if not isinstance(s, ModuleString):
@@ -880,10 +1005,10 @@ class LSystem:
         else:
             remap = np.array([self._sid(nm) for nm in s.names], np.int32)
             ids = remap[s.ids] if len(s) else s.ids
-        return ModuleString(tuple(self._names), ids, s.arg_ptr, s.args)
+        return ModuleString(tuple(self._names), ids, s.arg_ptr, s.args, s.objects)
 
-    def _make(self, ids, ptr, args) -> ModuleString:
-        return ModuleString(tuple(self._names), ids, ptr, args)
+    def _make(self, ids, ptr, args, objects=None) -> ModuleString:
+        return ModuleString(tuple(self._names), ids, ptr, args, objects or {})
 
     def _make_trusted(self, ids, ptr, args) -> ModuleString:
         """A string from kernel output, valid by construction (ids from the symbol table, ptr rising)."""
@@ -907,6 +1032,7 @@ class LSystem:
             self._rng.seed(self._seed)
         self._reseed_globals()
         self._direction, self._iteration, self._stopped = 1, 0, False
+        self._reset_group()
         if self._outer == 0:
             self._deadline = time.monotonic() + self.time_budget
         self._where = (self._g.rules[0].line if self._g.rules else 1, 1)
@@ -921,12 +1047,11 @@ class LSystem:
                 raise self._over_budget()
             with self._seeded():
                 self._hook("StartEach")
+                if self._next_group != self._group:           # L-Py reads the group after StartEach
+                    self._set_group(self._next_group)
                 if self._rules["production"]:
                     s, _ = self._rewrite(s, "production")
-                for _ in range(self._max_depth["decomposition"] if self._rules["decomposition"] else 0):
-                    s, changed = self._rewrite(s, "decomposition")
-                    if not changed:
-                        break
+                s = self._decompose(s, "decomposition")
                 self._hook("EndEach")
             yield s
             if self._stopped:
@@ -986,9 +1111,9 @@ class LSystem:
         rules = self._rules[kind]
         if not rules or not len(s):
             return s, False
-        if any(r.newcontexts for r in rules):
+        if any(r.newcontexts or r.rest for r in rules):
             return self._sequential(s, rules)
-        table = self._constant_table(kind)
+        table = None if s.objects else self._constant_table(kind)
         if table is not None:
             rule_arity, sptr, sids, saptr, sargs = table
             if rule_arity.shape[0] < len(self._names):
@@ -1008,7 +1133,9 @@ class LSystem:
     def _expand(self, n: int, s: ModuleString) -> ModuleString | None:
         """The string after ``n`` steps of constant productions at once, or None where the step-wise
         derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
-        if n < 1 or not len(s) or self._hooks or self._rules["decomposition"] or not self._rules["production"]:
+        self._reset_group()
+        if n < 1 or not len(s) or s.objects or self._hooks or self._rules["decomposition"] or \
+                not self._rules["production"]:
             return None
         table = self._constant_table("production")
         if table is None:
@@ -1040,6 +1167,12 @@ class LSystem:
             self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
+
+    def _reset_group(self) -> None:
+        """A derivation starts in the group the grammar's top-level code chose (0 without ``useGroup``)."""
+        self._next_group = self._start_group
+        if self._group != self._start_group:
+            self._set_group(self._start_group)
 
     def _check_size(self, n_out: int, m_out: int, line: int = 0) -> None:
         """LSystemError (at ``line``, default the rule that grows the string most) for a string over the caps."""
@@ -1117,12 +1250,16 @@ class LSystem:
         elif self._nbuf:
             res = list(self._nbuf) + list(res)
         line = c.rule.line
-        return [(self._sid(name), self._floats(name, v, line) if v != () else ()) for name, v in res]
+        return [(self._sid(name), self._params(name, v, line) if v != () else ()) for name, v in res]
 
     def _grouped(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:
-        ids, ptr, args = s.ids, s.arg_ptr, s.args
+        ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         n = len(ids)
         nargs = np.diff(ptr)
+        has_obj = None
+        if objs:                                              # modules holding objects: the per-module path
+            has_obj = np.zeros(n, bool)
+            has_obj[np.searchsorted(ptr, np.fromiter(objs, np.int64, len(objs)), "right") - 1] = True
         out_len = np.ones(n, np.int64)
         assigned = np.zeros(n, bool)
         vec_chunks: list = []
@@ -1136,9 +1273,14 @@ class LSystem:
             pos_all = np.flatnonzero(ids == sid)
             for r in rlist:
                 pos = pos_all[(nargs[pos_all] == r.arity) & ~assigned[pos_all]]
+                if pos.size and r.pred_consts and r.vec is not None:
+                    ok = np.ones(pos.size, bool)              # pattern constants, on the columns
+                    for q, v in r.pred_consts:
+                        ok &= args[ptr[pos] + q] == float(v)
+                    pos = pos[ok | (has_obj[pos] if has_obj is not None else False)]
                 if not pos.size:
                     continue
-                if r.vec is not None:
+                if r.vec is not None and (has_obj is None or not has_obj[pos].any()):
                     added = self._grouped_vec(r, pos, ptr, args, vec_chunks, assigned, out_len, n + grown)
                     if added is not None:
                         grown += added
@@ -1148,7 +1290,7 @@ class LSystem:
                 if r.contexts and partner is None:
                     partner = K.match_brackets(ids, 0, 1)
                 for i in pos.tolist():
-                    vals = self._bind(r, i, ids, ptr, args, partner, None)
+                    vals = self._bind(r, i, ids, ptr, args, partner, None, objs)
                     if vals is None:
                         continue
                     res = self._call(r, vals)
@@ -1197,19 +1339,32 @@ class LSystem:
                 first = out_ptr[starts[hit]]                  # where each hit's successor's parameters start
                 rel = np.array([int(out_ptr[starts[hit[0]] + j] - first[0]) + q for j, q, _ in cols], np.int64)
                 out_args[first[:, None] + rel] = np.stack([col for _, _, col in cols], axis=1)
+        out_objs: dict = {}
+        for k, v in objs.items():                             # copied modules' objects, moved
+            i = int(np.searchsorted(ptr, k, "right")) - 1
+            if not assigned[i]:
+                out_objs[int(out_ptr[starts[i]]) + k - int(ptr[i])] = v
         for i, res in py_chunks.items():
             b = starts[i]
             for j, (tsid, vals) in enumerate(res):
                 a = out_ptr[b + j]
-                out_args[a:a + len(vals)] = vals
-        return self._make(out_ids, out_ptr, out_args), True
+                if all(type(v) is float for v in vals):
+                    out_args[a:a + len(vals)] = vals
+                    continue
+                for q, v in enumerate(vals):
+                    if type(v) is float:
+                        out_args[a + q] = v
+                    else:
+                        out_args[a + q] = math.nan
+                        out_objs[int(a) + q] = v
+        return self._make(out_ids, out_ptr, out_args, out_objs), True
 
     def _grouped_vec(self, r: _Compiled, pos, ptr, args, vec_chunks, assigned, out_len, size: int) -> int | None:
         """Rule ``r`` applied on parameter columns at modules ``pos``: the modules it adds (None: it cannot,
         the per-module path runs it); ``size`` is the new string's length so far, checked against the cap before
         the successors are computed."""
         cond, slots = r.vec
-        cols = [args[ptr[pos] + q] for q in range(r.arity)]
+        cols = [args[ptr[pos] + q] for q in r.pred_vars]
         try:
             with np.errstate(all="ignore"):
                 if cond is not None:
@@ -1222,8 +1377,11 @@ class LSystem:
                     return 0
                 added = hit.size * (len(slots) - 1)
                 self._check_size(size + added, 0, r.rule.line)
-                values = [[np.broadcast_to(np.asarray(f(*cols), np.float64), hit.shape) for f in fns]
-                          for _, fns in slots]
+                raw = [[np.asarray(f(*cols)) for f in fns] for _, fns in slots]
+                if any(v.dtype == bool for vals in raw for v in vals):
+                    return None                               # a bool parameter stays a bool: Python path
+                values = [[np.broadcast_to(v.astype(np.float64, copy=False), hit.shape) for v in vals]
+                          for vals in raw]
         except (ArithmeticError, ValueError, TypeError) as e:
             if isinstance(e, LSystemError):
                 raise
@@ -1236,12 +1394,12 @@ class LSystem:
         return added
 
     # -- context matching ----------------------------------------------------------------------------------------
-    def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest) -> list | None:
+    def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest, objs=_EMPTY) -> list | None:
         """Actual parameters of rule ``r`` at module ``i`` (None if a context does not match)."""
         rule = r.rule
         vals: list = []
         if rule.left:
-            lv = self._left(rule.left, i - 1, _ArrSeq(ids, ptr, args), partner)
+            lv = self._left(rule.left, i - 1, _ArrSeq(ids, ptr, args, objs), partner)
             if lv is None:
                 return None
             vals += lv
@@ -1252,7 +1410,12 @@ class LSystem:
             if lv is None:
                 return None
             vals += lv
-        vals += [_pyval(v) for v in args[ptr[i]:ptr[i + 1]].tolist()]
+        vals += _module_vals(ptr, args, objs, i)
+        for j, t in enumerate(r.rest, 1):                     # multi-module predecessor: consecutive modules
+            p = i + j
+            if p >= len(ids) or ids[p] != self._pattern_sid(t) or ptr[p + 1] - ptr[p] != t.arity:
+                return None
+            vals += _module_vals(ptr, args, objs, p)
         if rule.newright:
             if self._direction != -1:
                 return None
@@ -1261,10 +1424,15 @@ class LSystem:
                 return None
             vals += rv
         if rule.right:
-            rv = self._right(rule.right, i + 1, _ArrSeq(ids, ptr, args), partner)
+            rv = self._right(rule.right, i + 1 + len(r.rest), _ArrSeq(ids, ptr, args, objs), partner)
             if rv is None:
                 return None
             vals += rv
+        if r.keep is not None:                                # pattern constants: equal values only
+            for k, v in r.consts:
+                if not _same(vals[k], v):
+                    return None
+            vals = [vals[k] for k in r.keep]
         return vals
 
     def _pattern_sid(self, t: Token) -> int:
@@ -1344,30 +1512,37 @@ class LSystem:
 
     def _sequential(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:
         """One step in string order (forward) or reverse order (backward): new contexts see the new string."""
-        ids, ptr, args = s.ids, s.arg_ptr, s.args
+        ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         n = len(ids)
+        fwd = self._direction == 1
         by_sym: dict[int, list[_Compiled]] = {}
-        for r in rules:
-            by_sym.setdefault(r.sid, []).append(r)
+        for r in rules:                                       # backward: a predecessor is found by its last module
+            by_sym.setdefault(r.sid if fwd or not r.rest else self._pattern_sid(r.rest[-1]), []).append(r)
         partner = K.match_brackets(ids, 0, 1) if any(r.contexts for r in rules) else None
         dest: list = []
         changed = False
-        order = range(n) if self._direction == 1 else range(n - 1, -1, -1)
+        order = range(n) if fwd else range(n - 1, -1, -1)
         nargs = np.diff(ptr)
         idl = ids.tolist()
+        skip = -1 if fwd else n          # modules up to (forward) or from (backward) skip were matched already
         for i in order:
+            if (i <= skip) if fwd else (i >= skip):
+                continue
             res = None
             for r in by_sym.get(idl[i], ()):
-                if nargs[i] != r.arity:
+                at = i if fwd else i - len(r.rest)           # where the predecessor starts
+                if at < 0 or idl[at] != r.sid or nargs[at] != r.arity:
                     continue
-                vals = self._bind(r, i, ids, ptr, args, partner, dest)
+                vals = self._bind(r, at, ids, ptr, args, partner, dest, objs)
                 if vals is None:
                     continue
                 res = self._call(r, vals)
                 if res is not None:
+                    if r.rest:
+                        skip = i + len(r.rest) if fwd else at
                     break
             if res is None:
-                res = [(idl[i], tuple(args[ptr[i]:ptr[i + 1]].tolist()))]
+                res = [(idl[i], _raw_vals(ptr, args, objs, i))]
             else:
                 changed = True
             dest.extend(res if self._direction == 1 else reversed(res))
@@ -1375,15 +1550,21 @@ class LSystem:
                 self._check_size(len(dest), 0, self._where[0])
         if self._direction != 1:
             dest.reverse()
-        out_ids = np.array([m[0] for m in dest], np.int32)
-        counts = [len(m[1]) for m in dest]
-        out_ptr = np.zeros(len(dest) + 1, np.int64)
-        np.cumsum(counts, out=out_ptr[1:])
-        out_args = np.array([v for m in dest for v in m[1]], np.float64)
-        return self._make(out_ids, out_ptr, out_args), changed
+        return self._make(*_pack(dest)), changed
 
 
 _WARM: list = []
+
+
+def _turtle_modules() -> frozenset:
+    """The turtle's module names (their parameters are read as numbers)."""
+    if not _TURTLE:
+        from .turtle import TURTLE_MODULES
+        _TURTLE.append(frozenset(TURTLE_MODULES))
+    return _TURTLE[0]
+
+
+_TURTLE: list = []
 
 
 def _warm_kernels() -> None:
@@ -1400,8 +1581,8 @@ def _warm_kernels() -> None:
 class _ArrSeq:
     """Module access on the arrays of the current string."""
 
-    def __init__(self, ids, ptr, args) -> None:
-        self.ids, self.ptr, self.a = ids, ptr, args
+    def __init__(self, ids, ptr, args, objs=_EMPTY) -> None:
+        self.ids, self.ptr, self.a, self.objs = ids, ptr, args, objs
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -1413,7 +1594,7 @@ class _ArrSeq:
         return int(self.ptr[k + 1] - self.ptr[k])
 
     def args(self, k: int) -> list:
-        return [_pyval(v) for v in self.a[self.ptr[k]:self.ptr[k + 1]].tolist()]
+        return _module_vals(self.ptr, self.a, self.objs, k)
 
 
 class _ListSeq:
@@ -1432,7 +1613,7 @@ class _ListSeq:
         return len(self.seq[k][1])
 
     def args(self, k: int) -> list:
-        return [_pyval(float(v)) for v in self.seq[k][1]]
+        return [_pyval(v) for v in self.seq[k][1]]
 
 
 class _ToNumpy(ast.NodeTransformer):

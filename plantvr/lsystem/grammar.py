@@ -11,9 +11,25 @@ Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred 
 ``produce`` / ``nproduce`` statements (a block that produces nothing has failed and the next rule is tried, as in
 L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
-Not supported (LSystemError naming the construct and its line): rule groups (``group N:``/``endgroup``),
-``-static->``, multi-module or wildcard (``*``) predecessors, brackets in left contexts, parameter constants in
-patterns, ``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns.
+A predecessor may be several modules (``A B --> C``, ``A(x) B(y) --> ...``; issue 33): as L-Py's
+``LsysRule::match`` they match modules at consecutive positions, which the successor replaces all together, the
+right context being matched after the last (brackets in it are matched as modules, ``A [ B ] --> C``, and
+must balance); the string is then rewritten left to right (right to left after
+``backward()``, a predecessor then found by its last module, as L-Py's ``MatchingEngine::reverse_match``).
+
+A pattern parameter is a variable name or a constant (``M(0) --> ...``, ``A(1, x)``, ``L("a")``: the module
+matches when its parameter equals the constant, as L-Py's pattern matching compares non-variable arguments).
+
+Decomposition and homomorphism rules may have contexts ``<`` / ``>`` (issue 33), matched as L-Py's
+``Lsystem::__recursiveSteps`` does: in the whole string at the first level, then within each successor.
+
+Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` are in group N (an integer
+expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
+
+Not supported (LSystemError naming the construct with its line and column): ``-static->``, wildcard (``*``)
+predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
+``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns, new contexts (``<<`` / ``>>``) in
+decomposition and homomorphism rules.
 """
 from __future__ import annotations
 
@@ -53,6 +69,13 @@ class Rule:
     line: int
     col: int
     header: str
+    #: Constants of the pattern's parameter lists, ``(index, value)`` with ``index`` counting every pattern
+    #: parameter in L-Py order (issue 33: ``M(0) --> ...`` matches only ``M`` modules whose parameter is 0).
+    consts: list = field(default_factory=list)
+    #: The modules after the first of a multi-module predecessor (``A B --> C``: ``[B]``; issue 33).
+    pred_rest: list = field(default_factory=list)
+    #: The rule group (``group N:`` ... ``endgroup``; issue 33): ``(expression source, line)``, None for group 0.
+    group: tuple | None = None
 
 
 @dataclass
@@ -107,6 +130,7 @@ class _Reader:
         self.deadline = deadline
         self.known: set[str] = set(_turtle_names())
         self.g = Grammar(python="")
+        self.group: tuple | None = None                      # the ``group N:`` the rules being read are in
 
     # -- helpers -----------------------------------------------------------------------------------------------
     def lex(self, s: str, line: int, col: int) -> list[Token]:
@@ -251,8 +275,15 @@ class _Reader:
             return None
         if key == "endlsystem":
             return "after"
-        if key.startswith("group") or key == "endgroup":
-            raise LSystemError(f"rule groups ({key!r}) are not supported", ln, 1)
+        if key == "endgroup":
+            self.group = None
+            return None
+        if key.startswith("group"):
+            src = key[len("group"):].rstrip(":").strip()
+            if not (m.group(2) or key.endswith(":")) or not src:
+                raise LSystemError("cannot find a value and ':' after 'group'", ln, 1)
+            self.group = (src, ln)
+            return None
         if rest.strip() and not rest.strip().startswith("#"):
             raise LSystemError(f"unexpected text after '{key}:'", ln, col)
         return _SECTIONS[key]
@@ -262,6 +293,9 @@ class _Reader:
         ln, first = lines[0]
         head_at, delim = find_top(first, ("-static->", "-->", "->", ":"))
         if head_at < 0:
+            code = _strip_comment(first)
+            if code.count("[") != code.count("]"):
+                raise LSystemError(f"unbalanced brackets in the rule {first.strip()!r}", ln, 1)
             raise LSystemError(f"rule without ':' or '-->': {first.strip()!r}", ln, 1)
         if delim == "-static->":
             raise LSystemError("static rules ('-static->') are not supported", ln, head_at + 1)
@@ -269,14 +303,21 @@ class _Reader:
         header = first[:head_at]
         rest = first[head_at + len(delim):]
         parts = self.parse_header(header, ln, kind)
-        pred, left, right, newleft, newright = parts
+        preds, left, right, newleft, newright = parts
+        pred = preds[0]
         params: list[str] = []
-        for grp in (left, newleft, [pred], newright, right):
+        consts: list = []
+        k = 0
+        for grp in (left, newleft, preds, newright, right):
             for t in grp:
                 for a in t.args or ():
-                    if a in params:
+                    if not _IDENT.match(a) or a in ("None", "True", "False"):
+                        consts.append((k, ast.literal_eval(a)))
+                    elif a in params:
                         raise LSystemError(f"parameter {a!r} defined twice in the rule header", ln, t.col)
-                    params.append(a)
+                    else:
+                        params.append(a)
+                    k += 1
         body: list[tuple[int, str]] = []
         successor = condition = None
         if delim in ("-->", "->"):
@@ -308,7 +349,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip()))
+                                 ln, 1, header.strip(), consts, preds[1:], self.group))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right
@@ -342,16 +383,13 @@ class _Reader:
         pred_toks = self.lex(pred_src, ln, pred_col)
         if not pred_toks:
             raise LSystemError("rule without a predecessor", ln, pred_col)
-        if len(pred_toks) > 1:
-            raise LSystemError(f"multi-module predecessors ({pred_src.strip()!r}) are not supported; declare a "
-                               f"multi-letter module with 'module {pred_src.strip().split('(')[0]}'", ln,
-                               pred_toks[1].col)
         out = {}
         for key in pieces:
             toks = self.lex(pieces[key], ln, cols.get(key, 1)) if pieces[key].strip() else []
             out[key] = toks
-        if kind != "production" and (out["left"] or out["right"] or out["newleft"] or out["newright"]):
-            raise LSystemError(f"context-sensitive {kind} rules are not supported", ln, 1)
+        if kind != "production" and (out["newleft"] or out["newright"]):
+            raise LSystemError(f"new contexts ('<<', '>>') in {kind} rules are not supported", ln,
+                               (out["newleft"] or out["newright"])[0].col)
         for key, toks in [("pred", pred_toks)] + list(out.items()):
             for t in toks:
                 if t.name == "*":
@@ -362,13 +400,30 @@ class _Reader:
                     raise LSystemError(f"repetition pattern {t.name}(...) is not supported", ln, t.col)
                 if key == "left" and t.name in "[]":
                     raise LSystemError("brackets in a left context are not supported", ln, t.col)
-                if key == "pred" and t.name in ("[", "]"):
+                if key == "pred" and t.name in ("[", "]") and t is pred_toks[0]:
                     raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
                 for a in t.args or ():
-                    if not _IDENT.match(a):
-                        raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name "
-                                           f"(value constraints are not supported)", ln, t.col)
-        return pred_toks[0], out["left"], out["right"], out["newleft"], out["newright"]
+                    if not _IDENT.match(a) and not _is_literal(a):
+                        raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name or a "
+                                           f"constant (expressions as value constraints are not supported)", ln,
+                                           t.col)
+        depth = 0
+        for t in pred_toks:                                   # brackets inside a predecessor: balanced
+            depth += (t.name == "[") - (t.name == "]")
+            if depth < 0:
+                break
+        if depth:
+            raise LSystemError(f"unbalanced brackets in the predecessor {pred_src.strip()!r}", ln, pred_col)
+        return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
+
+
+def _is_literal(src: str) -> bool:
+    """Whether pattern parameter ``src`` is a constant (a Python literal: number, str, tuple, None, bool)."""
+    try:
+        ast.literal_eval(src)
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+        return False
+    return len(src) <= 200
 
 
 def _in_string(code: str, at: int) -> bool:

@@ -5,12 +5,23 @@ few arrays, not a million Python objects.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Iterable, Sequence
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 
-__all__ = ["ModuleString"]
+__all__ = ["ModuleString", "is_number"]
+
+_EMPTY: Mapping[int, Any] = MappingProxyType({})
+
+
+def is_number(v) -> bool:
+    """Whether module parameter ``v`` is stored in the float64 ``args`` (int or float, numpy's included, not a
+    bool: L-Py keeps ``True`` a bool)."""
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
 @dataclass(frozen=True, eq=False)
@@ -26,13 +37,18 @@ class ModuleString:
     arg_ptr : (n + 1,) int64 ndarray
         Module ``i`` has parameters ``args[arg_ptr[i]:arg_ptr[i + 1]]``.
     args : (m,) float64 ndarray
-        All parameters, module after module.
+        All parameters, module after module; a parameter that is not a number (a str, tuple, list, None,
+        bool...) is NaN here and its value is in ``objects``.
+    objects : mapping int -> object
+        The side-table of non-number parameters (issue 33: L-Py modules hold any Python value), keyed by their
+        index in ``args``; empty for numeric strings, which the numba paths derive.
     """
 
     names: tuple[str, ...]
     ids: np.ndarray
     arg_ptr: np.ndarray
     args: np.ndarray
+    objects: Mapping[int, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         ids = np.asarray(self.ids)
@@ -55,6 +71,14 @@ class ModuleString:
             value.flags.writeable = False
             object.__setattr__(self, name, value)
         object.__setattr__(self, "names", tuple(str(s) for s in self.names))
+        objs = dict(self.objects) if self.objects else {}
+        m = self.args.shape[0]
+        for k in objs:
+            if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < m:
+                raise ValueError(f"objects keys must be parameter indices in [0, {m}), got {k!r:.40}")
+        if objs and not np.isnan(self.args[np.fromiter(objs, np.int64, len(objs))]).all():
+            raise ValueError("args must be NaN where objects holds the parameter")
+        object.__setattr__(self, "objects", MappingProxyType({int(k): v for k, v in objs.items()}))
 
     @classmethod
     def _trusted(cls, names: tuple[str, ...], ids: np.ndarray, arg_ptr: np.ndarray,
@@ -67,31 +91,41 @@ class ModuleString:
             value.flags.writeable = False
             object.__setattr__(self, name, value)
         object.__setattr__(self, "names", names)
+        object.__setattr__(self, "objects", _EMPTY)
         return self
 
     @classmethod
-    def from_modules(cls, modules: Iterable[tuple[str, Sequence[float]] | str],
+    def from_modules(cls, modules: Iterable[tuple[str, Sequence[Any]] | str],
                      names: Sequence[str] = ()) -> "ModuleString":
-        """Build from ``[("F", (1.0,)), "+", ("A", (2, 3)), ...]`` (a bare name has no parameters); ``names``
-        fixes the first entries of the symbol table."""
+        """Build from ``[("F", (1.0,)), "+", ("A", (2, 3)), ("@L", ("text",)), ...]`` (a bare name has no
+        parameters; a parameter that is not an int or float goes to ``objects``); ``names`` fixes the first
+        entries of the symbol table."""
         table = {s: i for i, s in enumerate(names)}
-        ids, counts, args = [], [], []
+        ids, counts, args, objs = [], [], [], {}
         for m in modules:
             name, vals = (m, ()) if isinstance(m, str) else m
             ids.append(table.setdefault(name, len(table)))
             counts.append(len(vals))
-            args.extend(float(v) for v in vals)
+            for v in vals:
+                if is_number(v):
+                    args.append(float(v))
+                else:
+                    objs[len(args)] = v
+                    args.append(math.nan)
         ptr = np.zeros(len(ids) + 1, np.int64)
         np.cumsum(counts, out=ptr[1:])
-        return cls(tuple(table), np.array(ids, np.int32), ptr, np.array(args, np.float64))
+        return cls(tuple(table), np.array(ids, np.int32), ptr, np.array(args, np.float64), objs)
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])
 
-    def module(self, i: int) -> tuple[str, tuple[float, ...]]:
-        """``(name, parameters)`` of module ``i``."""
-        a, b = self.arg_ptr[i], self.arg_ptr[i + 1]
-        return self.names[self.ids[i]], tuple(self.args[a:b].tolist())
+    def module(self, i: int) -> tuple[str, tuple]:
+        """``(name, parameters)`` of module ``i`` (floats, and the objects of non-number parameters)."""
+        a, b = int(self.arg_ptr[i]), int(self.arg_ptr[i + 1])
+        vals = self.args[a:b].tolist()
+        if self.objects:
+            vals = [self.objects.get(a + q, v) if math.isnan(v) else v for q, v in enumerate(vals)]
+        return self.names[self.ids[i]], tuple(vals)
 
     def modules(self) -> list[tuple[str, tuple[float, ...]]]:
         """Every module as ``(name, parameters)`` (a Python list: for tests and small strings)."""
@@ -106,11 +140,15 @@ class ModuleString:
     def __str__(self) -> str:
         out = []
         for name, vals in self.modules():
-            out.append(name + ("(" + ",".join(f"{v:g}" for v in vals) + ")" if vals else ""))
+            out.append(name + ("(" + ",".join(f"{v:g}" if type(v) is float else repr(v) for v in vals) + ")"
+                               if vals else ""))
         return "".join(out)
 
     def __repr__(self) -> str:
-        text = str(self) if len(self) <= 40 else str(ModuleString(self.names, self.ids[:40],
-                                                                  self.arg_ptr[:41],
-                                                                  self.args[:self.arg_ptr[40]])) + "..."
+        if len(self) <= 40:
+            text = str(self)
+        else:
+            m = int(self.arg_ptr[40])
+            text = str(ModuleString(self.names, self.ids[:40], self.arg_ptr[:41], self.args[:m],
+                                    {k: v for k, v in self.objects.items() if k < m})) + "..."
         return f"ModuleString({len(self)} modules: {text})"

@@ -4,9 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
-from plantvr.lsystem.engine import LSystem, LSystemError
+from plantvr.lsystem.engine import LSystem
 
 HERE = Path(__file__).parent / "grammars"
 
@@ -32,7 +30,12 @@ def test_fibonacci_extern_and_steps():
     assert ls.derive().module(2)[1][0] == 6765                          # derive again: same result
 
 
-def test_fibonacci_label_is_not_a_number():
+def test_fibonacci_label_keeps_its_text():
+    """``@L(str(i))`` holds the str (issue 33: module parameters of any Python value, as L-Py's)."""
     ls = LSystem.from_file(HERE / "fibonacci.lpy", trusted=True)
-    with pytest.raises(LSystemError, match=r"line 33, .*module @L: parameter '6765' is a str"):
-        ls.interpret(ls.derive())
+    h = ls.interpret(ls.derive())
+    labels = [m[1][0] for m in h.modules() if m[0] == "@L"]
+    fib = [1, 1]
+    while len(fib) < 20:
+        fib.append(fib[-1] + fib[-2])
+    assert labels == [str(v) for v in fib[::-1]]
