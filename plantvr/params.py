@@ -12,10 +12,16 @@ Defaults marked [INFERRED] in the spec are the spec's suggested values unless no
 Every range was reviewed for issue 20: each value it accepts, extremes included (a denormal ``base_length`` or
 ``view_radius``, ``darts_per_paint = 10**6``, ``fine_cells = 64`` with ``shadow_depth = 32``), keeps growth
 working; the kernels clip, cap or coarsen instead (tests/growth/test_hardening.py), so no range was narrowed.
+
+Issue 31: every numeric row's range is finite (a table refuses ``inf`` when it is built), and where the accepted
+range is wider than a slider can show, the row declares the span its slider covers (``slider``) and, where that
+span covers decades, a logarithmic slider (``log``); values outside the span stay valid from code (the slider
+widens to show them). A panel's bounds therefore always serialise as strict JSON.
 """
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -55,6 +61,16 @@ class Param:
     low_open: bool = False
     high_open: bool = False
     step: float | None = field(default=None, compare=False)
+    #: The span a slider covers when the accepted range is wider than a slider can show (values outside it are
+    #: still accepted from code; the slider widens to show them); default the range itself.
+    slider: tuple[float, float] | None = field(default=None, compare=False)
+    #: A logarithmic slider (for spans over decades; needs a positive low end).
+    log: bool = field(default=False, compare=False)
+
+    def slider_span(self) -> tuple[float, float]:
+        """The finite ``(low, high)`` of this parameter's slider: :attr:`slider`, else :attr:`range`."""
+        lo, hi = self.slider if self.slider is not None else self.range
+        return lo, hi
 
     def check(self, value: Any) -> Any:
         """Return ``value`` converted to this parameter's type, or raise ``ValueError`` naming it."""
@@ -102,6 +118,8 @@ class ParamTable:
         self.by_name: dict[str, Param] = {p.name: p for p in self.params}
         if len(self.by_name) != len(self.params):
             raise ValueError(f"parameter table {name!r} repeats a name")
+        for p in self.params:
+            _check_span(name, p)
         self.windows = dict(windows) if windows is not None else {p.window: (p.window.title(), "#777777")
                                                                   for p in self.params}
 
@@ -201,6 +219,21 @@ class ParamTable:
         return "\n".join(lines)
 
 
+def _check_span(table: str, p: Param) -> None:
+    """A numeric row's range and slider span are finite, and the span is a slider's (inside the range, low <
+    high, positive when logarithmic): a panel can send its bounds as JSON and a pixel of it means something."""
+    if p.choices or p.kind is bool:
+        return
+    where = f"parameter {p.name!r} of table {table!r}"
+    if p.range is None or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in p.range):
+        raise ValueError(f"{where} needs a finite range, got {p.range!r}")
+    lo, hi = p.slider_span()
+    if not (math.isfinite(lo) and math.isfinite(hi) and p.range[0] <= lo < hi <= p.range[1]):
+        raise ValueError(f"{where}: slider span {(lo, hi)!r} must be finite, increasing and inside {p.range!r}")
+    if p.log and (lo <= 0 or (p.range[0] <= 0 and not p.low_open)):
+        raise ValueError(f"{where}: a logarithmic slider needs positive values, got span {(lo, hi)!r} of {p.range!r}")
+
+
 def _interval(p: Param) -> str:
     if p.kind is bool or p.range is None:
         return "True, False"
@@ -252,9 +285,9 @@ PARAMS: tuple[Param, ...] = (
     # B.2 Appearance window
     _p("bark_texture", str, "furrowed", "appearance", "§3.3", "Bark texture.", choices=("furrowed", "birch")),
     _p("bark_rate", float, 1.0, "appearance", "§3.3", "How stretched vertically the bark texture is.",
-       symbol="ρ", range=(0.0, 100.0), low_open=True),
+       symbol="ρ", range=(0.0, 100.0), low_open=True, slider=(0.05, 50.0), log=True),
     _p("tip_radius", float, 0.02, "appearance", "§2.8", "Radius of the end internodes of each branch.",
-       symbol="r_tip", unit="m", range=(0.0, 10.0), low_open=True),
+       symbol="r_tip", unit="m", range=(0.0, 10.0), low_open=True, slider=(0.002, 1.0), log=True),
     _p("radius_exp", float, 2.5, "appearance", "§2.8 Eq. 9.15", "Pipe-model exponent n in r^n = Σ r_i^n.",
        symbol="n", range=(1.0, 4.0)),
     _p("leaf_texture", str, "ovate", "appearance", "§3.4", "Leaf texture and its geometry.",
@@ -270,20 +303,20 @@ PARAMS: tuple[Param, ...] = (
        range=(0.0, 1.0)),
     # B.3 Light window
     _p("shadow_intensity", float, 0.2, "light", "§2.6 Eq. 9.10", "α: intensity of a node's shadow.",
-       symbol="α_s", range=(0.0, 10.0), low_open=True),
+       symbol="α_s", range=(0.0, 10.0), low_open=True, slider=(0.01, 10.0), log=True),
     _p("shadow_falloff", float, 0.5, "light", "§2.6 Eq. 9.10", "β: how quickly the shadow falls off.",
        symbol="β", range=(0.0, 1.0), low_open=True, high_open=True),
     _p("shadow_depth", int, 6, "light", "§2.6 Alg. 9.1", "q_max: cells downward the shadow pyramid extends.",
        symbol="q_max", range=(1, 32)),
     _p("vigor_mult", float, 2.0, "light", "§2.5", "α: converts base light into vigor, v_base = α Q_base.",
-       symbol="α_v", range=(0.0, 100.0), low_open=True),
+       symbol="α_v", range=(0.0, 100.0), low_open=True, slider=(0.05, 100.0), log=True),
     _p("activation_threshold", float, 0.2, "light", "§2.5", "Vigor a bud needs to become active.",
-       range=(0.0, 100.0)),
+       range=(0.0, 100.0), slider=(0.0, 10.0)),
     _p("light_exponent", float, 1.0, "light", "§2.5 Eq. 9.8", "κ in Q = L^κ; 0 ignores light.",
        symbol="κ", range=(0.0, 10.0)),
     # Settings that appear in no window (spec §4.11, last table)
     _p("base_length", float, 1.0, "hidden", "§2.9", "Base internode length l_b (also the shadow cell size d).",
-       symbol="l_b", unit="m", range=(0.0, 100.0), low_open=True),
+       symbol="l_b", unit="m", range=(0.0, 100.0), low_open=True, slider=(0.05, 20.0), log=True),
     _p("length_mode", str, "vigor", "hidden", "§2.9", "Internode-length mode (vigor is the thesis default).",
        choices=("vigor", "order", "constant")),
     _p("branching", str, "alternate", "hidden", "§2.1", "Two-way (alternate) or three-way (opposite) nodes.",
@@ -296,13 +329,15 @@ PARAMS: tuple[Param, ...] = (
        range=(0, 100)),
     _p("shadow_loop_inclusive", bool, False, "hidden", "§2.6 (ERRATUM A.5)",
        "Run the shadow pyramid to q_max instead of the printed q_max − 1.", range=(0, 1)),
-    _p("marker_lifetime", int, 60, "hidden", "§2.2", "Growth steps a marker lives.", range=(1, 100_000)),
-    _p("darts_per_paint", int, 50, "hidden", "§2.2", "Poisson-dart candidates per paint call.", range=(1, 1_000_000)),
+    _p("marker_lifetime", int, 60, "hidden", "§2.2", "Growth steps a marker lives.", range=(1, 100_000),
+       slider=(1, 1000)),
+    _p("darts_per_paint", int, 50, "hidden", "§2.2", "Poisson-dart candidates per paint call.", range=(1, 1_000_000),
+       slider=(1, 2000)),
     _p("brush_radius", float, 1.0, "hidden", "§4.3", "Wand (brush) radius.", unit="m", range=(0.05, 20.0)),
     _p("fine_cells", int, 16, "hidden", "§2.7", "Fine cells per coarse-cell edge of the shadow grid.",
        range=(2, 64)),
     _p("bezier_weight", float, 3.0, "hidden", "§3.1 Eq. 10.1", "Weight w of the central Bézier control point.",
-       range=(0.0, 100.0), low_open=True),
+       range=(0.0, 100.0), low_open=True, slider=(0.05, 50.0), log=True),
     _p("leaf_iterations", int, 15, "hidden", "§3.4", "Leaf reorientation iterations.", range=(1, 100)),
 )
 

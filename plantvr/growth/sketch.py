@@ -100,17 +100,17 @@ SKETCH_ROWS: tuple[Param, ...] = (
     _row("point_density", int, 4, "§1.4.1", "K of autonomous growth: up to 1 + K points per bud and step.",
          symbol="K", range=(0, 1000)),
     _row("ellipse_sv", float, 1.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: semi-axis along V (up).",
-         symbol="s_v", range=ELLIPSE_RANGE),
+         symbol="s_v", range=ELLIPSE_RANGE, slider=(0.05, 20.0), log=True),
     _row("ellipse_sp", float, 1.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: semi-axis along P (side).",
-         symbol="s_p", range=ELLIPSE_RANGE),
+         symbol="s_p", range=ELLIPSE_RANGE, slider=(0.05, 20.0), log=True),
     _row("ellipse_ev", float, 0.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: offset of its centre along V.",
-         symbol="e_v", range=(-ELLIPSE_RANGE[1], ELLIPSE_RANGE[1])),
+         symbol="e_v", range=(-ELLIPSE_RANGE[1], ELLIPSE_RANGE[1]), slider=(-10.0, 10.0)),
     _row("shed_threshold", float, 0.0, "§1.4.8", "Shedding threshold Th of the normalised rule (0: never shed).",
-         symbol="Th", range=(0.0, 1e12)),
+         symbol="Th", range=(0.0, 1e12), slider=(0.0, 10.0)),
     _row("stroke_rate", float, 20.0, "§2.5", "Brush: points per unit volume per second of brushing.",
-         range=(0.0, 1e9), low_open=True),
+         range=(0.0, 1e9), low_open=True, slider=(0.1, 1000.0), log=True),
     _row("stroke_spacing", float, 0.5, "§2.5", "Sketch (brush radius 0): distance between points on the stroke.",
-         unit="m", range=(1e-9, MAX_COORD)),
+         unit="m", range=(1e-9, MAX_COORD), slider=(0.01, 10.0), log=True),
 )
 _ROW = {p.name: p for p in SKETCH_ROWS}
 #: The TreeSketch parameter table: every Tree Wand row, then :data:`SKETCH_ROWS`.

@@ -11,13 +11,13 @@ from .strokes import ScenarioPicker
 from .triangle import (InfluenceTriangle, barycentric, clamp_to_triangle, point_from_weights,
                        sub_triangle_areas)
 from .wheel import ColorWheel, slice_at
-from .workbench import Workbench, live_frontend, workbench
+from .workbench import Workbench, close_when_headless, live_frontend, workbench
 
 __all__ = ["ColorWheel", "GrowthControl", "GrowthPlot", "IconSelector", "InfluenceTriangle", "ParameterPanels",
            "barycentric", "clamp_to_triangle", "make_control", "param_traits",
            "point_from_weights", "slice_at", "sub_triangle_areas", "explorer",
            "ScenarioPicker",
-           "Workbench", "live_frontend", "workbench"]
+           "Workbench", "close_when_headless", "live_frontend", "workbench"]
 
 
 def explorer(model, *, view=None):

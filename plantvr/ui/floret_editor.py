@@ -325,11 +325,12 @@ class FloretEditor(W.VBox):
             W.VBox([self._slider("lam"), self._slider("eta")]),
             W.VBox([self.folder, self.export_button, self.export_status]),
         ])
-        for i, title in enumerate(("Petal", "Corolla", "Key poses", "Growth", "Mesh", "Export")):
+        for i, title in enumerate(("Petal", "Corolla", "Poses", "Growth", "Mesh", "Export")):
             tabs.set_title(i, title)
-        left = W.VBox([self.preset, tabs], layout=W.Layout(width="380px"))
-        right = W.VBox([self.preview, self._slider("time"), self.info, self.message_box])
-        self.children = [W.HBox([left, right])]
+        left = W.VBox([self.preset, tabs], layout=W.Layout(width="450px", flex="0 0 450px"))  # never squeezed
+        right = W.VBox([self.preview, self._slider("time"), self.info, self.message_box],
+                       layout=W.Layout(flex="0 1 auto", max_width="100%"))
+        self.children = [W.HBox([left, right], layout=W.Layout(flex_flow="row wrap"))]  # narrow: one column
 
     def _export_clicked(self) -> None:
         """The Export button: the folder comes from the browser's text field, so a bad one is reported in

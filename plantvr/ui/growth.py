@@ -60,11 +60,12 @@ class GrowthControl(W.VBox):
                                                          low_open=True),
                                        min=0.1, max=1000, step=1, description="steps/s",
                                        tooltip="Play pace (steps per second)", layout=W.Layout(width="160px"))
-        self.play_button = W.Button(description="Play", icon="play", button_style="success")
-        self.pause_button = W.Button(description="Pause", icon="pause")
-        self.step_button = W.Button(description="Step", icon="step-forward")
+        fit = {"layout": W.Layout(width="auto")}     # a button as wide as its label: never clipped
+        self.play_button = W.Button(description="Play", icon="play", button_style="success", **fit)
+        self.pause_button = W.Button(description="Pause", icon="pause", **fit)
+        self.step_button = W.Button(description="Step", icon="step-forward", **fit)
         self.reset_button = W.Button(description="Reset", icon="undo", button_style="warning",
-                                     tooltip="Start a new tree (keeps the base)")
+                                     tooltip="Start a new tree (keeps the base)", **fit)
         self.play_button.on_click(lambda _b: self.play())
         self.pause_button.on_click(lambda _b: self.pause())
         self.step_button.on_click(lambda _b: self.step())
@@ -78,7 +79,7 @@ class GrowthControl(W.VBox):
         self._on_version(None)
         self._on_growing(None)
         super().__init__([W.HBox([self.play_button, self.pause_button, self.step_button, self.reset_button,
-                                  self.rate]), self.status, self.plot])
+                                  self.rate], layout=W.Layout(flex_flow="row wrap")), self.status, self.plot])
 
     # -- commands -------------------------------------------------------------------------------------
     def play(self) -> None:
@@ -128,11 +129,13 @@ class GrowthControl(W.VBox):
                              f"<b>{snap.n_internodes}</b> internodes · {len(snap.markers)} markers")
         if st is not None and st.step != self._last_step and snap.step > 0:
             self._last_step = st.step
-            k = self.max_points
+            # every step since the tree started (the model keeps them): steps grown before this control
+            # existed, several steps of one call and a regrow's steps are all plotted, not only the last
+            hist = self.model.step_stats[-self.max_points:]
             with self.plot.hold_sync():
-                self.plot.steps = (self.plot.steps + [int(st.step)])[-k:]
-                self.plot.ms = (self.plot.ms + [float(st.ms)])[-k:]
-                self.plot.internodes = (self.plot.internodes + [int(snap.n_internodes)])[-k:]
+                self.plot.steps = [int(h.step) for h in hist]
+                self.plot.ms = [float(h.ms) for h in hist]
+                self.plot.internodes = [int(h.internodes) for h in hist]
 
     def close(self) -> None:
         """Stop growth and observing the model."""

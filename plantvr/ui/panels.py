@@ -2,8 +2,8 @@
 
 :class:`ParameterPanels` works for any :class:`~plantvr.document.Document` with a ``PARAMS`` table
 (:class:`~plantvr.params.ParamTable`): each row becomes one control in the window named by ``param.window``
-(windows, titles and colours from ``PARAMS.windows``): a slider for numbers (range and step from the table,
-doc as tooltip), an icon selector with a yellow highlight for texture choices, a dropdown for other choices, a
+(windows, titles and colours from ``PARAMS.windows``): a slider for numbers (the row's finite slider span and step,
+logarithmic where the row says so, doc as tooltip; a value set from code outside the span widens it), an icon selector with a yellow highlight for texture choices, a dropdown for other choices, a
 checkbox for flags. Nothing here restates a parameter: adding a row to a table adds its control. The
 Tree Wand influence weights (``w_heading``, ``w_tropism``, ``w_env``) are edited by the
 :class:`InfluenceTriangle`, shown when a document has all three.
@@ -29,6 +29,7 @@ HIGHLIGHT = "#f5d142"
 #: Parameters edited by the influence triangle (the names ``Model.set_influence`` writes).
 INFLUENCE = ("w_heading", "w_tropism", "w_env")
 _TEXT_LIMIT = 2000  # integer ranges wider than this get a typed box instead of a slider
+_LABEL_WIDTH = "190px"  # the longest label, "Occupation radius (r_occ)", in JupyterLab's 13 px font
 
 
 def _table(doc) -> ParamTable:
@@ -70,11 +71,26 @@ def _tooltip(p: Param) -> str:
 def _float_step(p: Param) -> float:
     if p.step:
         return float(p.step)
-    lo, hi = p.range
+    lo, hi = p.slider_span()
     step = (hi - lo) / 200
     if p.default:
         step = min(step, 10 ** math.floor(math.log10(abs(p.default))) / 10)
     return float(f"{step:.1g}")
+
+
+def _log_bounds(p: Param, value: float) -> tuple[float, float, float]:
+    """(min, max, step) exponents of a log slider of ``p`` showing ``value`` (base 10, ~200 steps)."""
+    lo, hi = (math.log10(v) for v in p.slider_span())
+    if value > 0:
+        lo, hi = _log_widen(lo, hi, value)
+    return lo, hi, float(f"{(hi - lo) / 200:.1g}")
+
+
+def _log_widen(lo: float, hi: float, value: float) -> tuple[float, float]:
+    """Exponent bounds widened to hold ``value`` (a hair beyond it: ``10 ** log10(v)`` may round below v, and
+    the slider would clamp the value)."""
+    e = math.log10(value)
+    return min(lo, e - 1e-9), max(hi, e + 1e-9)
 
 
 class IconSelector(W.HBox):
@@ -104,7 +120,7 @@ class IconSelector(W.HBox):
             btn.on_click(lambda _b, n=name: setattr(self, "value", n))
             self.buttons[name], self.images[name] = btn, img
             items.append(W.VBox([img, btn], layout=W.Layout(align_items="center")))
-        label = W.Label(description, tooltip=tooltip, layout=W.Layout(width="150px"))
+        label = W.Label(description, tooltip=tooltip, layout=W.Layout(width=_LABEL_WIDTH))
         super().__init__([label, *items], tooltip=tooltip)
         self.observe(self._highlight, names=["value"])
         self.value = value
@@ -127,26 +143,35 @@ class IconSelector(W.HBox):
 def make_control(p: Param, value: Any) -> W.Widget:
     """One widget for parameter ``p`` showing ``value``: bounds, step and tooltip come from ``p``."""
     tip, desc = _tooltip(p), _label(p)
-    style = {"description_width": "150px"}
+    style = {"description_width": _LABEL_WIDTH}
     if p.choices:
         if p.name.endswith("_texture"):
             return IconSelector(p.choices, value, description=desc, tooltip=tip, param=p.name)
         return W.Dropdown(options=list(p.choices), value=value, description=desc, tooltip=tip, style=style)
     if p.kind is bool:
-        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style)
-    lo, hi = p.range
+        return W.Checkbox(value=bool(value), description=desc, tooltip=tip, style=style, layout=_slider_layout())
+    lo, hi = p.slider_span()
     if p.kind is int:
         if hi - lo > _TEXT_LIMIT:
             return W.IntText(value=int(value), description=desc, tooltip=tip, style=style)
+        lo, hi = min(int(lo), int(value)), max(int(hi), int(value))
         return W.IntSlider(value=int(value), min=int(lo), max=int(hi), step=1, description=desc, tooltip=tip,
-                           style=style, continuous_update=False)
+                           style=style, continuous_update=False, layout=_slider_layout())
+    if p.log:
+        elo, ehi, estep = _log_bounds(p, float(value))
+        return W.FloatLogSlider(value=float(value), base=10, min=elo, max=ehi, step=estep, description=desc,
+                                tooltip=tip, style=style, continuous_update=False, readout_format=".3g",
+                                layout=_slider_layout())
     step = _float_step(p)
-    low = lo + step if p.low_open else lo
-    high = hi - step if p.high_open else hi
+    low = lo + step if p.low_open and lo == p.range[0] else lo
+    high = hi - step if p.high_open and hi == p.range[1] else hi
     low, high = min(low, value), max(high, value)  # a valid value set from code is always shown as it is
     return W.FloatSlider(value=float(value), min=low, max=high, step=step, description=desc, tooltip=tip,
-                         style=style, continuous_update=False, readout_format=".3g",
-                         layout=W.Layout(width="420px", max_width="100%"))   # never wider than its column
+                         style=style, continuous_update=False, readout_format=".3g", layout=_slider_layout())
+
+
+def _slider_layout() -> W.Layout:
+    return W.Layout(width="470px", max_width="100%")   # never wider than its column
 
 
 def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
@@ -164,7 +189,10 @@ def push_param(doc, name: str, value: Any, message: W.HTML) -> bool:
 
 def show_value(ctl: W.Widget, value: Any) -> None:
     """Show ``value`` in ``ctl``, widening a slider's range first so a valid value set from code shows as is."""
-    if isinstance(ctl, (W.FloatSlider, W.IntSlider)):
+    if isinstance(ctl, W.FloatLogSlider):
+        if value > 0 and not 10 ** ctl.min <= value <= 10 ** ctl.max:
+            ctl.min, ctl.max = _log_widen(ctl.min, ctl.max, value)
+    elif isinstance(ctl, (W.FloatSlider, W.IntSlider)):
         ctl.min, ctl.max = min(ctl.min, value), max(ctl.max, value)
     ctl.value = value
 
@@ -221,12 +249,13 @@ class ParameterPanels(W.VBox):
         for i, k in enumerate(keys):
             tabs.set_title(i, table.windows[k][0])
         self.tabs = tabs
-        self.preset_path = W.Text(value="preset.json", description="Preset", layout=W.Layout(width="320px"))
-        save, load = W.Button(description="Save preset", icon="save"), W.Button(description="Load preset",
-                                                                                  icon="folder-open")
+        self.preset_path = W.Text(value="preset.json", description="Preset", layout=W.Layout(width="260px"))
+        save = W.Button(description="Save preset", icon="save", layout=W.Layout(width="auto"))
+        load = W.Button(description="Load preset", icon="folder-open", layout=W.Layout(width="auto"))
         save.on_click(lambda _b: self._click(self.save))
         load.on_click(lambda _b: self._click(self.load))
-        super().__init__([tabs, W.HBox([self.preset_path, save, load]), self.message])
+        super().__init__([tabs, W.HBox([self.preset_path, save, load], layout=W.Layout(flex_flow="row wrap")),
+                          self.message])
 
     # -- synchronisation --------------------------------------------------------------------------------
     def _push(self, name: str, value) -> None:

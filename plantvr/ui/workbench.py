@@ -42,15 +42,25 @@ from .lsystem_panel import LsystemPanel
 from .panels import ParameterPanels
 from .wheel import ColorWheel
 
-__all__ = ["EDITORS", "REGROW_COMMANDS", "REGROW_WINDOWS", "Workbench", "live_frontend", "workbench"]
+__all__ = ["EDITORS", "OWN_PANEL_ONLY", "REGROW_BY_KIND", "REGROW_COMMANDS", "REGROW_WINDOWS",
+           "SKETCH_REGROW_COMMANDS", "Workbench", "close_when_headless", "live_frontend", "workbench"]
 
 #: Tree Wand commands re-issued by a regrow (what grew the tree since the last reset).
 REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
+#: TreeSketch commands re-issued by a regrow (the strokes, markers and growth since the last reset; edits that
+#: name nodes of the old tree, ``select`` / ``set_width`` / ``bend``, are not).
+SKETCH_REGROW_COMMANDS = ("begin_stroke", "move_stroke", "end_stroke", "paint", "add_markers", "lasso", "grow",
+                          "ungrow", "advance", "prune", "prune_at")
 #: Parameter windows whose parameters change growth (the others only change the picture).
 REGROW_WINDOWS = ("form", "light")
+#: By document kind: the windows whose parameters change growth (a forest: all of them).
+REGROW_BY_KIND = {"treewand": REGROW_WINDOWS, "treesketch": (*REGROW_WINDOWS, "sketch"), "forest": ("forest",)}
 #: The part's own panel by document kind (``doc.KIND``), shown under the generated panel.
 EDITORS = {"inflorescence": FloretEditor, "crown": ImplicitPanel, "treesketch": ArchitecturePanel,
            "lsystem": LsystemPanel}
+#: Kinds whose own panel edits every row of the table (the floret editor: settings, each key pose, growth): the
+#: generated panel is left out, so one part has one panel.
+OWN_PANEL_ONLY = ("inflorescence",)
 
 
 def live_frontend() -> bool:
@@ -72,6 +82,21 @@ def live_frontend() -> bool:
     shell = get_ipython()
     return (shell is not None and getattr(shell, "kernel", None) is not None
             and importlib.util.find_spec("trame_pyvista") is not None)
+
+
+def close_when_headless(*widgets) -> bool:
+    """Close ``widgets`` (workbenches, panels, any object with ``close()``) at the end of a notebook, but only
+    when no browser shows them: under nbval, nbclient or a script (:func:`live_frontend` False) they are closed
+    to free their render windows and observers; in JupyterLab they stay, so *Run All* leaves the live views
+    usable. Returns whether they were closed."""
+    bad = [type(w).__name__ for w in widgets if not callable(getattr(w, "close", None))]
+    if bad:
+        raise ValueError(f"close_when_headless takes objects with close(), got {bad[0]}")
+    if live_frontend():
+        return False
+    for w in widgets:
+        w.close()
+    return True
 
 
 def workbench(doc, *, live: bool | None = None, window_size=(640, 520)) -> Workbench:
@@ -107,7 +132,8 @@ class Workbench(W.HBox):
     brush : BrushInteractor or LabelBrush or None
         The brush over the view (Tree Wand: markers / prune; ViNE: the wheel's label); None for other documents.
     panels : ParameterPanels or None
-        The generated parameter windows (None for a document without a table).
+        The generated parameter windows (None for a document without a table, and for the kinds of
+        :data:`OWN_PANEL_ONLY`, whose own panel edits every parameter).
     growth : GrowthControl or None
         Play / pause / step / reset (Tree Wand).
     wheel : ColorWheel or None
@@ -139,6 +165,7 @@ class Workbench(W.HBox):
         self.regrows = 0
         self._reissued = 0            # brush commands a regrow issued again (not counted as new strokes)
         self._pending = False
+        self._refit = False           # the next change is a regrow's: refit the camera
         self._redraw = False          # a headless picture is due
         self._start = len(doc.log)
         self._closed = True           # until the layout is built
@@ -146,7 +173,8 @@ class Workbench(W.HBox):
         self._framed = self._has_content()   # a document that starts empty is framed when content comes
         self.treewand = isinstance(doc, Model)
         self.labels = isinstance(doc, Segmentation)
-        self.panels = ParameterPanels(doc) if getattr(doc, "PARAMS", None) is not None else None
+        self.panels = (ParameterPanels(doc) if getattr(doc, "PARAMS", None) is not None
+                       and getattr(doc, "KIND", None) not in OWN_PANEL_ONLY else None)
         self.growth = GrowthControl(doc) if self.treewand else None
         self.wheel = ColorWheel(target=doc) if self.labels else None
         self.editor = _editor(doc)
@@ -188,8 +216,9 @@ class Workbench(W.HBox):
         left = W.VBox([self.screen, W.HBox(tools, layout=W.Layout(flex_flow="row wrap")), self.status],
                       layout=W.Layout(flex="0 0 auto", width=f"{window_size[0] + 8}px"))
         right = [w for w in (self.panels, self.growth, self.wheel, self.editor) if w is not None]
-        self._regrow_names = ({p.name for p in doc.PARAMS if p.window in REGROW_WINDOWS}
-                              if self.treewand else set())
+        self._regrow_kind = getattr(doc, "KIND", None) if getattr(doc, "KIND", None) in REGROW_BY_KIND else None
+        windows = REGROW_BY_KIND.get(self._regrow_kind, ())
+        self._regrow_names = {p.name for p in doc.PARAMS if p.window in windows} if windows else set()
         if self._regrow_names:
             doc.observe(self._on_param, names=sorted(self._regrow_names))
         doc.observe(self._on_change, names="change")  # after the view's own observer: it has redrawn
@@ -197,7 +226,12 @@ class Workbench(W.HBox):
             self.brush.attach()
         self._sync()
         self._closed = False
-        super().__init__([left, W.VBox(right, layout=W.Layout(max_width="560px" if self.editor is None else "960px"))])
+        # the controls sit beside the view, or below it when the output is too narrow for both (JupyterLab
+        # with its side bar open at 1280 px): never squeezed until labels are clipped
+        column = W.Layout(max_width="680px" if self.editor is None else "960px", flex="1 1 0",
+                          min_width="480px" if self.editor is None else "400px")
+        super().__init__([left, W.VBox(right, layout=column)],
+                         layout=W.Layout(flex_flow="row wrap", align_items="flex-start"))
 
     # -- document -> widgets -------------------------------------------------------------------------------
     def _has_content(self) -> bool:
@@ -211,6 +245,11 @@ class Workbench(W.HBox):
             self.view.frame()
             if self.live:
                 self.view._render_soon()
+        elif self._refit:                 # a regrow changed the size: fit it again, same direction
+            self.view.fit()
+            if self.live:
+                self.view._render_soon()
+        self._refit = False
         if not self.live and not self._redraw:
             loop = kernel_loop()          # in a kernel, one picture after the cell / message, not one per command
             self._redraw = True
@@ -272,21 +311,41 @@ class Workbench(W.HBox):
             self.regrow()
 
     def regrow(self) -> int:
-        """Grow the Tree Wand tree again with the current parameters from the session's own commands.
+        """Grow the document again with its current parameters; returns the number of commands re-issued.
 
-        ``reset(seed=model.seed)``, then every ``paint`` / ``paint_stroke`` / ``add_markers`` / ``step`` /
-        ``prune`` logged since the last reset, re-issued in order (so the same darts and the same step count);
-        all logged, as one undo item; the document's observers are notified once, at the end (one ``change``,
-        one ``version``). Returns the number of commands re-issued.
+        Tree Wand: ``reset(seed=model.seed)``, then every ``paint`` / ``paint_stroke`` / ``add_markers`` /
+        ``step`` / ``prune`` logged since the last reset, re-issued in order (so the same darts and the same step
+        count). TreeSketch: the same with :data:`SKETCH_REGROW_COMMANDS`. Both are logged, as one undo item, and
+        the document's observers are notified once, at the end (one ``change``, one ``version``). A forest: its
+        last ``grow`` again (same overrides and TreeSketch options), when it was grown. The camera is then fitted
+        to the new size (same direction).
         """
-        if not self.treewand:
-            raise ValueError(f"regrow needs a Tree Wand model, got {type(self.doc).__name__}")
+        if self._regrow_kind is None:
+            raise ValueError(f"regrow needs a Tree Wand, TreeSketch or forest document, got {type(self.doc).__name__}")
         doc = self.doc
-        if doc.growing:
+        if self._regrow_kind == "forest":
+            grows = [e for e in doc.log.events if e.command == "grow"]
+            if doc.forest is None or not grows:
+                return 0
+            self._refit = True
+            doc.grow(**dict(grows[-1].kwargs))
+            self.regrows += 1
+            self._sync()
+            return 1
+        if getattr(doc, "growing", False):
             doc.stop()
+        names = REGROW_COMMANDS if self.treewand else SKETCH_REGROW_COMMANDS
         events = doc.log.events
         start = max((i for i, e in enumerate(events) if e.command == "reset"), default=-1) + 1
-        commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in REGROW_COMMANDS]
+        commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in names]
+        strokes = None
+        if not self.treewand:
+            # a TreeSketch stroke's points are seeded by the number of strokes finished before it: start the
+            # re-issued strokes from the count they had, so the same parameters give the same tree again
+            open_stroke = bool(getattr(doc, "stroking", False))
+            strokes = doc.get_state()["strokes"] - (sum(n == "begin_stroke" for n, _ in commands) - open_stroke)
+            if open_stroke:
+                commands.append(("end_stroke", {}))   # a stroke left open is closed in the regrown tree
         for name, kwargs in commands:
             doc.check_command(name, kwargs)
         before = doc.get_state()
@@ -295,6 +354,8 @@ class Workbench(W.HBox):
             # one redraw: this view is held, and every other observer gets one merged notification at the end
             with self.view.hold(), doc.held(), doc.hold_trait_notifications():
                 doc.reset(seed=doc.seed)
+                if strokes is not None:
+                    doc._strokes = max(int(strokes), 0)
                 for name, kwargs in commands:
                     getattr(doc, name)(**kwargs)
                 doc.history = history
@@ -303,6 +364,7 @@ class Workbench(W.HBox):
             doc.history = history
         self.regrows += 1
         self._reissued += sum(1 for name, _ in commands if name in ("paint", "paint_stroke", "prune"))
+        self._refit = True
         self._on_change(None)
         return len(commands)
 

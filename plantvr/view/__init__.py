@@ -30,7 +30,7 @@ from ..types import TreeArrays  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
 
-__all__ = ["LOD", "View", "side_by_side"]
+__all__ = ["LOD", "View", "launch_live_server", "side_by_side"]
 
 GROW, PRUNE = "#2ecc40", "#e03030"
 CONTROL = "#d9c7a7"
@@ -335,24 +335,57 @@ class View:
         return int(sum(t.triangles for t in self._lod_layers()))
 
     # -- camera, brush, output ------------------------------------------------------------------------------
-    def frame(self) -> None:
-        """Point the camera at the whole scene from a three-quarter view (a tree scene keeps at least 2 m in
-        view; other scenes are fitted to their bounds)."""
+    def _content_bounds(self) -> tuple[float, ...] | None:
+        """(xmin, xmax, ymin, ymax, zmin, zmax) of every layer's points with an 8 % margin (a tree scene at least
+        2 m wide)."""
         pts = [lay.points() for lay in self.layers.values()]
         pts = [p for p in pts if len(p)]
         if not pts:
-            return
+            return None
         pts = np.concatenate(pts)
         lo, hi = pts.min(0), pts.max(0)
         c = 0.5 * (lo + hi)
+        least = 2.0 if any(isinstance(lay, TreeLayer) for lay in self.layers.values()) else 1e-6
+        half = np.maximum(0.5 * (hi - lo), 0.5 * least) * 1.08   # a margin: leaves reach past the nodes
+        lo, hi = c - half, c + half
+        return (lo[0], hi[0], lo[1], hi[1], lo[2], hi[2])
+
+    def frame(self) -> None:
+        """Point the camera at the whole scene from a three-quarter view, fitted to its content (a tree scene
+        keeps at least 2 m in view)."""
+        b = self._content_bounds()
+        if b is not None:
+            self._fit(b, np.array([1.0, 0.35, 1.0]))
+
+    def fit(self) -> None:
+        """Fit the camera to the content again, keeping its direction (after a regrow changed the size)."""
+        b = self._content_bounds()
+        if b is not None:
+            self.plotter.subplot(0, 0)
+            pos, focal, _up = self.plotter.camera_position
+            self._fit(b, np.subtract(pos, focal))
+
+    def _fit(self, bounds, direction) -> None:
+        """Put the camera on ``direction`` from the centre of ``bounds`` (y up), at the distance where every
+        corner of the box is inside the picture (perspective, this panel's aspect ratio)."""
         self.plotter.subplot(0, 0)
-        if any(isinstance(lay, TreeLayer) for lay in self.layers.values()):
-            size = max(float(np.max(hi - lo)), 2.0)
-            self.plotter.camera_position = [tuple(c + size * np.array([1.3, 0.45, 1.3])), tuple(c), (0, 1, 0)]
-        else:
-            size = max(float(np.max(hi - lo)), 1e-6)
-            self.plotter.camera_position = [tuple(c + size * np.array([1.0, 0.3, 1.0])), tuple(c), (0, 1, 0)]
-            self.plotter.reset_camera()          # keep the direction, fit the bounds
+        lo, hi = np.array(bounds[0::2], float), np.array(bounds[1::2], float)
+        c = 0.5 * (lo + hi)
+        v = np.asarray(direction, float)
+        v = v / np.linalg.norm(v)
+        up = np.array([0.0, 1.0, 0.0])
+        if abs(v @ up) > 0.99:                      # looking straight down / up: z is up on the screen
+            up = np.array([0.0, 0.0, -1.0])
+        r = np.cross(up, v)
+        r /= np.linalg.norm(r)
+        u = np.cross(v, r)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - c
+        t = np.tan(np.radians(self.plotter.camera.view_angle) / 2)
+        aspect = max(float(self.plotter.renderer.GetTiledAspectRatio()), 1e-3)
+        need = corners @ v + np.maximum(np.abs(corners @ u) / t, np.abs(corners @ r) / (t * aspect))
+        d = max(float(need.max()) * 1.04, 1e-6)
+        self.plotter.camera_position = [tuple(c + d * v), tuple(c), tuple(u)]
+        self.plotter.reset_camera_clipping_range()
 
     def _on_mode(self, change) -> None:
         self._set_brush_colour(change["new"])
@@ -425,6 +458,7 @@ class View:
         w, h = self.plotter.window_size
         width = int(check_range("width", w if width is None else width, 16, 16384))
         height = int(check_range("height", h if height is None else height, 16, 16384))
+        launch_live_server()
         widget = show_trame(self.plotter, mode="server", add_menu=False, width=f"{width}px",
                             height=f"{height}px")
         self.viewer = widget.viewer
@@ -432,6 +466,8 @@ class View:
 
     def show(self, jupyter_backend: str = "trame", **kwargs):
         """Show in JupyterLab (trame: ``"trame"`` remote-rendered, ``"client"``, ``"server"``) or a window."""
+        if jupyter_backend in ("trame", "server", "client"):
+            launch_live_server()  # before pyvista's own launcher, which would enable the wasm download
         return self.plotter.show(jupyter_backend=jupyter_backend, auto_close=False, **kwargs)
 
     def close(self) -> None:
@@ -445,6 +481,48 @@ class View:
             self._camera_tag = None
         self.viewer = None
         self.plotter.close()
+
+
+@contextlib.contextmanager
+def _without_vtklocal() -> Iterator[None]:
+    """Make ``from trame.widgets import vtklocal`` raise ImportError inside the block (Python's import rule:
+    a ``None`` entry in ``sys.modules`` is a module that cannot be imported)."""
+    import sys  # noqa: PLC0415
+
+    import trame.widgets  # noqa: PLC0415
+
+    name, missing = "trame.widgets.vtklocal", object()
+    saved_mod = sys.modules.get(name, missing)
+    saved_attr = trame.widgets.__dict__.pop("vtklocal", missing)
+    sys.modules[name] = None
+    try:
+        yield
+    finally:
+        if saved_mod is missing:
+            sys.modules.pop(name, None)
+        else:
+            sys.modules[name] = saved_mod
+        if saved_attr is not missing:
+            trame.widgets.vtklocal = saved_attr
+
+
+def launch_live_server():
+    """Start (once) the trame server that serves live views, without anything that downloads at run time.
+
+    ``trame_pyvista``'s launcher enables ``trame-vtklocal`` when it is installed, and that module fetches the
+    VTK.wasm bundle from gitlab.kitware.com on first use (neither the ``vtk`` nor the ``trame-vtklocal`` wheel
+    ships it): offline, a ``ClientConnectorDNSError`` traceback lands in the cell. Live views are server
+    rendered (``mode="server"``: trame-vtk's remote view, whose client ships in the ``trame-vtk`` wheel), so
+    the server is launched as if ``trame-vtklocal`` were absent. Returns the running server.
+    """
+    from trame_pyvista.jupyter import elegantly_launch  # noqa: PLC0415
+    from trame_pyvista.widgets import get_server  # noqa: PLC0415
+
+    server = get_server(name=pv.global_theme.trame.jupyter_server_name)
+    if not server.running:
+        with _without_vtklocal():
+            elegantly_launch(server, wslink_backend="aiohttp")
+    return server
 
 
 def side_by_side(control, surface, *, off_screen: bool | None = None, window_size=(1000, 500),

@@ -30,6 +30,24 @@ _NOTEBOOK_READY = """(n) => { const w = window.jupyterapp && window.jupyterapp.s
       && w.sessionContext.session.kernel.connectionStatus === 'connected' && w.content.widgets.length === n); }"""
 
 
+#: ``sitecustomize`` of an offline process: resolving a host that is not loopback fails as it does without a
+#: network (``socket.gaierror``), and each refused host is appended to ``$PLANTVR_REFUSED_LOG`` when set.
+OFFLINE_SITE = """
+import os, socket
+_real = socket.getaddrinfo
+def _offline(host, *args, **kwargs):
+    h = host.decode() if isinstance(host, bytes) else str(host or "")
+    if h not in ("localhost", "", "::1", "0.0.0.0") and not h.startswith("127."):
+        log = os.environ.get("PLANTVR_REFUSED_LOG")
+        if log:
+            with open(log, "a") as f:
+                f.write(h + "\\n")
+        raise socket.gaierror(socket.EAI_NONAME, "Name or service not known (offline test)")
+    return _real(host, *args, **kwargs)
+socket.getaddrinfo = _offline
+"""
+
+
 def free_port() -> int:
     """A TCP port on 127.0.0.1 that is free now."""
     with socket.socket() as s:
@@ -84,9 +102,11 @@ def notebook(cells: list[str]) -> dict:
 
 
 @contextmanager
-def jupyter_lab(tmp_path: Path, notebooks: dict[str, list[str]], *, token: str = TOKEN) -> Iterator[str]:
+def jupyter_lab(tmp_path: Path, notebooks: dict[str, list[str]], *, token: str = TOKEN,
+                offline: bool = False) -> Iterator[str]:
     """A JupyterLab server on a free port serving ``tmp_path/root`` with ``notebooks`` (file name -> cells);
-    yields its base URL. Kernels import this checkout; no news or update pop-up covers the notebook."""
+    yields its base URL. Kernels import this checkout; no news or update pop-up covers the notebook.
+    ``offline``: the server and its kernels cannot resolve any host but loopback (:data:`OFFLINE_SITE`)."""
     root = tmp_path / "root"
     root.mkdir()
     for name, cells in notebooks.items():
@@ -99,6 +119,11 @@ def jupyter_lab(tmp_path: Path, notebooks: dict[str, list[str]], *, token: str =
     port = free_port()
     env = repo_env(JUPYTER_CONFIG_DIR=str(tmp_path / "cfg"), JUPYTER_RUNTIME_DIR=str(tmp_path / "rt"),
                    VTK_DEFAULT_OPENGL_WINDOW="vtkEGLRenderWindow")
+    if offline:
+        site = tmp_path / "offline_site"
+        site.mkdir()
+        (site / "sitecustomize.py").write_text(OFFLINE_SITE)
+        env["PYTHONPATH"] = os.pathsep.join([str(site), env["PYTHONPATH"]])
     cmd = [sys.executable, "-m", "jupyterlab", "--no-browser", f"--port={port}", "--ip=127.0.0.1",
            f"--IdentityProvider.token={token}", f"--ServerApp.root_dir={root}", "--ServerApp.port_retries=0",
            "--LabApp.expose_app_in_browser=True", f"--LabApp.user_settings_dir={user_settings}",

@@ -62,3 +62,13 @@ def test_play_respects_pace(model):
 def test_bad_rate_rejected(model):
     with pytest.raises(ValueError, match=r"steps_per_second must be in \(0, 1000\]"):
         GrowthControl(model, steps_per_second=0)
+
+
+def test_plot_shows_every_step_grown_before_and_in_one_call(model):
+    model.step(4)                                   # grown before the control existed
+    gc = GrowthControl(model)
+    assert gc.plot.steps == [1, 2, 3, 4]            # not an empty box
+    model.step(3)                                   # several steps in one call: one version change
+    assert gc.plot.steps == list(range(1, 8)) and len(gc.plot.ms) == len(gc.plot.internodes) == 7
+    assert gc.plot.internodes == [s.internodes for s in model.step_stats]
+    gc.close()

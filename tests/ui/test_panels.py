@@ -43,6 +43,8 @@ def test_slider_bounds_default_and_tooltip_from_table(model):
             lo, hi = p.range
             assert lo <= ctl.min and ctl.max <= hi
             assert not (p.low_open and ctl.min == lo) and not (p.high_open and ctl.max == hi)
+        elif isinstance(ctl, W.FloatLogSlider):
+            assert p.log and p.range[0] <= 10 ** ctl.min < 10 ** ctl.max <= p.range[1]
 
 
 def test_sync_both_ways(model):
@@ -67,16 +69,19 @@ def test_slider_can_never_set_out_of_range_value(model):
     assert 0 < model.shadow_falloff < 1 and s.value == s.min
 
 
-def test_typed_value_out_of_range_rejected_with_message(model):
-    panels = ParameterPanels(model, include_hidden=True)
-    box = panels.controls["marker_lifetime"]  # a wide integer range gets a typed box
+def test_typed_value_out_of_range_rejected_with_message():
+    from plantvr.documents.forest import ForestDocument
+
+    doc = ForestDocument(n_trees=2, seed=3)
+    panels = ParameterPanels(doc)
+    box = panels.controls["seed"]  # a wide integer range without a slider span gets a typed box
     assert isinstance(box, W.IntText)
     box.value = -5
-    assert model.marker_lifetime == 60
-    assert "marker_lifetime must be an integer in [1, 100000], got -5" in panels.message.value
-    assert box.value == 60  # the box shows the model's value again
+    assert doc.seed == 3
+    assert "seed must be an integer in [0, 9223372036854775807], got -5" in panels.message.value
+    assert box.value == 3  # the box shows the document's value again
     box.value = 70
-    assert model.marker_lifetime == 70 and panels.message.value == ""
+    assert doc.seed == 70 and panels.message.value == ""
 
 
 def test_icon_selector_yellow_highlight(model):

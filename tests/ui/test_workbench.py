@@ -179,7 +179,7 @@ def test_inflorescence_workbench_has_the_floret_editor():
     wb = workbench(doc, live=False, window_size=(160, 160))
     try:
         assert isinstance(wb.editor, FloretEditor) and wb.editor.doc is doc
-        assert isinstance(wb.panels, ParameterPanels) and wb.brush is None and wb.growth is None
+        assert wb.panels is None and wb.brush is None and wb.growth is None   # one panel for one floret
         assert wb.editor in wb.children[1].children and wb.editor.preview.layout.display == "none"
         assert f"{len(doc.floret.faces)} triangles" in wb.status.value
         img0 = _image(wb.screen.value)
@@ -236,3 +236,40 @@ def test_forest_workbench_status():
     wb = workbench(doc, live=False, window_size=(96, 96))
     assert wb.editor is None and "not grown" in wb.status.value
     wb.close()
+
+
+def test_close_when_headless_keeps_live_views(monkeypatch, tw):
+    from plantvr.ui import close_when_headless
+
+    _m, wb = tw
+    monkeypatch.setenv("PLANTVR_LIVE", "1")               # JupyterLab: Run All keeps the view
+    assert close_when_headless(wb) is False and not wb._closed
+    monkeypatch.setenv("PLANTVR_LIVE", "0")               # nbval / CI: closed, render window freed
+    assert close_when_headless(wb) is True and wb._closed and wb.view.plotter.render_window is None
+    with pytest.raises(ValueError, match="objects with close"):
+        close_when_headless(3)
+
+
+def test_treesketch_slider_regrows_the_same_tree_for_the_same_parameters():
+    from plantvr.documents.treesketch import SketchDocument
+
+    doc = SketchDocument(activation_threshold=0.0)
+    doc.begin_stroke([0.0, 1.0, 0.0])
+    for y in np.linspace(1.0, 7.0, 12):
+        doc.move_stroke([0.3 * y, y, 0.0], 1.5)                 # a brush stroke: seeded random points
+    doc.end_stroke()
+    doc.grow(8)
+    wb = workbench(doc, live=False, window_size=(96, 96))
+    try:
+        first = doc.tree.arrays()
+        wb.panels.controls["branch_angle"].value = 30.0
+        wb.flush()
+        assert wb.regrows == 1
+        wb.panels.controls["branch_angle"].value = 45.0          # back: the same tree as before the first move
+        wb.flush()
+        again = doc.tree.arrays()
+        assert wb.regrows == 2 and all(np.array_equal(first[k], again[k]) for k in first)
+        doc.undo()                                               # one undo item per regrow
+        assert doc.branch_angle == 45.0
+    finally:
+        wb.close()
