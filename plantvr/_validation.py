@@ -40,10 +40,12 @@ def check_range(name: str, value: Any, low: float, high: float, *,
     ``low_open``/``high_open`` exclude the bound, e.g. ``(0, 1)`` for a falloff.
     """
     try:
+        if isinstance(value, (bytes, bool, np.bool_)):   # b"1" and True are not numbers (text is parsed)
+            raise TypeError
         v = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ValueError(f"{name} must be a number in {_interval(low, high, low_open, high_open)}, "
-                         f"got {value!r}") from None
+                         f"got {value!r}"[:300]) from None
     ok = np.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
     if not ok:
         raise ValueError(f"{name} must be in {_interval(low, high, low_open, high_open)}, got {value!r}")

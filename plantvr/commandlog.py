@@ -92,6 +92,9 @@ class CommandLog:
         """
         names = self._names(doc)
         check = getattr(doc, "check_command", None)
+        kind = getattr(doc, "KIND", None)
+        if doc is not None and self.document is not None and kind is not None and self.document != kind:
+            raise ValueError(f"the log records a {self.document!r} session, not a {kind!r} one"[:300])
         for i, ev in enumerate(self.events):
             if not isinstance(ev, Event):
                 raise ValueError(f"event {i} must be an Event, got {type(ev).__name__}")

@@ -4,14 +4,20 @@ A :class:`Document` is a traitlets object with
 
 - ``version`` and a ``change`` event (a :class:`Change`: what changed, as a kind and element ids) that views,
   widgets and the headset observe: ``doc.observe(fn, names="change")``;
-- one :class:`~plantvr.history.History` (byte-budgeted undo atoms, grouped, stage/commit/abort);
-- one :class:`~plantvr.commandlog.CommandLog`: every command is logged when it is applied, and
-  :meth:`Document.replay` re-issues a log by command name;
+- one :class:`~plantvr.history.History` (byte-budgeted undo atoms, grouped, stage/commit/abort); undo goes by
+  gesture: a parameter change is one item (restoring the parameter and what it changed), and
+  :meth:`Document.history_block` makes whatever is inside one item and one logged ``block`` command
+  (:meth:`Document.unrecorded` for a caller recording its own item); nothing outside this base and
+  :mod:`plantvr.history` touches the undo and redo stacks;
+- one :class:`~plantvr.commandlog.CommandLog`: every command is logged when it is applied (under the document
+  lock, so commands, undo and redo from any thread and background steps are logged in the order they applied),
+  and :meth:`Document.replay` re-issues a log by command name, all or nothing;
 - parameters: traits generated from the document's :class:`~plantvr.params.ParamTable` (``PARAMS``), set one
   at a time or with :meth:`Document.set_params` (logged as one command), saved and read as presets;
-- snapshots for renderers on other threads: :meth:`Document.changed` publishes ``make_snapshot()``; the kernel
-  thread applies the newest one (older ones are replaced, never queued) and a render thread reads
-  :attr:`Document.latest` without waiting;
+- snapshots for renderers on other threads: :meth:`Document.changed` makes ``make_snapshot()`` and the version
+  under the lock, as one change, and publishes it; one applier at a time (the kernel thread) applies the newest
+  one (older ones are replaced, never queued, and never applied after a newer one), and a render thread reads
+  :attr:`Document.latest` without waiting: versions never go back;
 - autosave after every state-changing command, atomic (:mod:`plantvr._fileio`).
 
 A subclass declares ``KIND``, ``COMMANDS`` (its replayable commands; each has a door check ``_check_<name>``
@@ -36,10 +42,12 @@ from traitlets import All as traitlets_all
 from traitlets import Bool, HasTraits, Int, MetaHasTraits
 
 from .commandlog import CommandLog
-from .history import History, StateAtom, _merge
+from .history import Group, History, StateAtom, _merge
 from .params import ParamTable, ParamTrait
 
-__all__ = ["Change", "Document", "kernel_loop", "serialise"]
+__all__ = ["MAX_BLOCK_DEPTH", "Change", "Document", "kernel_loop", "serialise"]
+#: Deepest nesting of ``block`` commands a log may hold.
+MAX_BLOCK_DEPTH = 8
 
 
 @dataclass(frozen=True)
@@ -58,6 +66,9 @@ class _DocumentMeta(MetaHasTraits):
     """Adds one :class:`~plantvr.params.ParamTrait` per row of a class's ``PARAMS`` table to the class."""
 
     def __new__(mcls, name, bases, namespace, **kw):
+        commands = namespace.get("COMMANDS")
+        if isinstance(commands, tuple) and "undo" in commands and "block" not in commands:
+            namespace["COMMANDS"] = (*commands, "block")     # a history block, logged as one command
         table = namespace.get("PARAMS")
         if isinstance(table, ParamTable):
             for p in table:
@@ -86,6 +97,10 @@ class Document(HasTraits, metaclass=_DocumentMeta):
     COMMANDS: ClassVar[tuple[str, ...]] = ()
     #: The document's parameter table (None: no parameters).
     PARAMS: ClassVar[ParamTable | None] = None
+    #: A parameter change (``set_params``, a trait set by a slider) is one undo item of the whole state
+    #: (:meth:`get_state` must then hold the parameters as its ``"params"`` entry, and :meth:`set_state` restore
+    #: them); False for a document that records its own parameter items.
+    PARAMS_UNDO: ClassVar[bool] = True
 
     version = Int(0, help="Bumped after every change; views observe it.")
     change = AnyTrait(None, allow_none=True, help="The latest Change (observe names='change').")
@@ -101,6 +116,9 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self.history = history
         self.log = CommandLog(self.COMMANDS, document=self.KIND)
         self._lock = threading.RLock()
+        self._pending_lock = threading.Lock()  # guards _pending only (a leaf lock: nothing is taken under it)
+        self._apply_lock = threading.Lock()    # one applier at a time: snapshot and version never go back
+        self._blocks = 0                  # > 0: inside history_block() (the thread holding the lock)
         self._batch: int | None = None    # thread inside set_params: trait observers log nothing
         self._restoring = False           # a load sets traits of state it built itself
         self._hold = 0                    # > 0: autosave deferred (replay, batches)
@@ -110,7 +128,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self._loop = kernel_loop()
         self._seq = 0
         self._after: tuple[int, Any] | None = None      # (version, state) after the last undoable block
-        self._pending: tuple[Any, Change] | None = None
+        self._pending: tuple[Any, Change, tuple[bool, bool]] | None = None
         self.latest: Any = None           # newest published snapshot, for render threads
         self.snapshot: Any = None         # newest snapshot applied on the kernel thread
         if self.PARAMS is not None:
@@ -124,6 +142,12 @@ class Document(HasTraits, metaclass=_DocumentMeta):
 
     # -- parameters -------------------------------------------------------------------------------------
     @property
+    def restoring(self) -> bool:
+        """True while the document sets traits of a state it restores (undo, redo, a load, a rolled-back replay):
+        an observer that reacts to a parameter change with a command of its own (a regrow) skips those."""
+        return self._restoring
+
+    @property
     def params(self) -> dict[str, Any]:
         """Current parameter values, ``{name: value}``."""
         return {} if self.PARAMS is None else {p.name: getattr(self, p.name) for p in self.PARAMS}
@@ -134,9 +158,10 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         return self.PARAMS.validate(params)
 
     def set_params(self, **params: Any) -> None:
-        """Set several parameters at once; all are checked before any is set. Logged as one command."""
+        """Set several parameters at once; all are checked before any is set. Logged as one command and one undo
+        item (restoring the parameters with whatever they changed)."""
         checked = self._check_set_params(**params)
-        with self._lock:
+        with self._lock, self._param_item():
             self._batch = threading.get_ident()
             try:
                 with self.hold_trait_notifications():
@@ -147,13 +172,27 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             self.log.record("set_params", **checked)
         self._autosave()
 
+    def _param_item(self, old: dict[str, Any] | None = None):
+        """The undo item of a parameter change (``old``: values the traits held before, when they are already
+        set); a no-op for a document whose parameter changes record themselves (``PARAMS_UNDO`` False)."""
+        if not self.PARAMS_UNDO or type(self).set_state is Document.set_state:   # no whole-state undo
+            return contextlib.nullcontext()
+        before = None
+        if old is not None:
+            before = self.get_state()
+            if isinstance(before, dict) and isinstance(before.get("params"), dict):
+                before = {**before, "params": {**before["params"], **old}}
+        return self.undoable("params", before=before)
+
     def _on_param(self, change) -> None:
         if self._restoring:
             return
-        with self._lock:
+        direct = self._batch != threading.get_ident()
+        # a trait set directly (a slider): one undo item, logged like set_params, so replay sees it (the item is
+        # opened once the lock is held)
+        with self._lock, self._param_item({change["name"]: change["old"]}) if direct else contextlib.nullcontext():
             self.apply_param(change["name"], change["new"])
-            direct = self._batch != threading.get_ident()
-            if direct:  # a trait set directly (a slider): logged like set_params, so replay sees it
+            if direct:
                 self.log.record("set_params", **{change["name"]: change["new"]})
         self.changed("params", command="set_params", save=direct)
 
@@ -186,6 +225,14 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             raise ValueError(f"command must be one of {list(self.COMMANDS)}, got {command!r}"[:300])
         if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):
             raise ValueError(f"kwargs of {command} must be a dict with str keys, got {kwargs!r}"[:300])
+        self._check_signature(command, kwargs)(**kwargs)
+
+    def _check_signature(self, command: str, kwargs: dict[str, Any]) -> Callable[..., Any]:
+        """The door check of ``command`` once its name and argument names fit (``ValueError`` otherwise)."""
+        if command not in self.COMMANDS:
+            raise ValueError(f"command must be one of {list(self.COMMANDS)}, got {command!r}"[:300])
+        if not isinstance(kwargs, dict) or not all(isinstance(k, str) for k in kwargs):
+            raise ValueError(f"kwargs of {command} must be a dict with str keys, got {kwargs!r}"[:300])
         check = getattr(self, f"_check_{command}", None)
         if check is None:
             raise ValueError(f"{type(self).__name__}.{command} has no door check")  # a bug, not user input
@@ -193,17 +240,74 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             inspect.signature(check).bind(**kwargs)
         except TypeError as exc:
             raise ValueError(f"{command} arguments do not fit: {exc}") from None
-        check(**kwargs)
+        return check
 
     def replay(self, log: CommandLog) -> None:
-        """Issue every command of ``log`` by name, in order; every event is checked first, so a bad one raises
-        ``ValueError`` before anything is issued. Autosave writes once, at the end."""
+        """Issue every command of ``log`` by name, in order, all or nothing.
+
+        Every event is checked at its door first (against the current state), so a bad one raises ``ValueError``
+        before anything is issued. A command whose validity depends on the state the earlier ones built (a crown
+        script naming a surface, a stroke move with no stroke open) can still fail while the log runs: then the
+        whole state (parameters, :meth:`get_state`, history, log) is rolled back to what it was before the
+        replay, observers get one ``"all"`` change, and the error is raised as ``ValueError`` naming the event.
+        Autosave writes once, at the end."""
         if not isinstance(log, CommandLog):
             raise ValueError(f"log must be a CommandLog, got {type(log).__name__}")
         log.check(self)
-        with self.held():
-            for ev in list(log.events):
-                getattr(self, ev.command)(**ev.kwargs)
+        events = list(log.events)
+        if not events:
+            return
+        with self._lock, self.held():
+            saved = self._checkpoint()
+            try:
+                for i, ev in enumerate(events):
+                    try:
+                        self.check_command(ev.command, ev.kwargs)
+                        getattr(self, ev.command)(**ev.kwargs)
+                    except (ValueError, TypeError, OverflowError, ZeroDivisionError) as exc:
+                        raise ValueError(f"event {i} ({ev.command}) cannot be applied: {exc}"[:500]) from exc
+            except BaseException:
+                self._rollback(saved)
+                raise
+
+    def _checkpoint(self) -> dict[str, Any]:
+        """Everything a replay may change: parameters, the whole state, history, log and
+        :meth:`transient_state` (restored by :meth:`_rollback`)."""
+        return {"params": self.params, "state": self.get_state(), "history": self.history.copy(),
+                "events": list(self.log.events), "transient": self.transient_state(), "after": self._after}
+
+    def _rollback(self, saved: dict[str, Any]) -> None:
+        with self._lock:
+            self.restore_params(saved["params"])
+            self.set_state(saved["state"])
+            self.set_transient_state(saved["transient"])
+            self.history = saved["history"]
+            self.log.events = saved["events"]
+            self._after = saved["after"]
+        self.changed("all", command="replay", save=False)
+
+    def transient_state(self) -> Any:
+        """Hook: state outside :meth:`get_state` that a command may change (an open stroke), for a replay's
+        rollback; restored by :meth:`set_transient_state`."""
+        return None
+
+    def set_transient_state(self, state: Any) -> None:
+        """Hook: restore what :meth:`transient_state` returned."""
+
+    def restore_params(self, values: dict[str, Any]) -> None:
+        """Set parameter traits to ``values`` without logging, applying or recording them (a restore of state
+        taken earlier; the numeric state is restored with it)."""
+        if not values:
+            return
+        with self._lock:
+            was, self._restoring = self._restoring, True
+            try:
+                with self.hold_trait_notifications():
+                    for k, v in values.items():
+                        if getattr(self, k) != v:
+                            self.set_trait(k, v)
+            finally:
+                self._restoring = was
 
     # -- history ----------------------------------------------------------------------------------------
     def _check_undo(self) -> None:
@@ -220,10 +324,111 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         """Apply the last undone operation again; returns its atom, or None."""
         return self._travel("redo")
 
+    def _check_block(self, events, amend: bool = False, _depth: int = 0) -> list[tuple[str, dict]]:
+        if not isinstance(amend, (bool, np.bool_)):
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")  # noqa: TRY004
+        if _depth > MAX_BLOCK_DEPTH:
+            raise ValueError(f"events: history blocks nest at most {MAX_BLOCK_DEPTH} deep")
+        if not isinstance(events, (list, tuple)) or not events:
+            raise ValueError(f"events must be a non-empty list of [command, kwargs] pairs, got {events!r:.200}")
+        out = []
+        for i, ev in enumerate(events):
+            if (not isinstance(ev, (list, tuple)) or len(ev) != 2 or not isinstance(ev[0], str)
+                    or not isinstance(ev[1], dict)):
+                raise ValueError(f"events[{i}] must be a [command, kwargs] pair, got {ev!r:.200}")
+            command, kwargs = ev
+            if command in ("undo", "redo"):
+                raise ValueError(f"events[{i}]: a history block cannot hold {command}")
+            if command == "block":
+                if set(kwargs) - {"events", "amend"}:
+                    raise ValueError(f"events[{i}]: block takes events and amend, got {sorted(kwargs)}")
+                self._check_block(kwargs.get("events"), kwargs.get("amend", False), _depth + 1)
+            else:     # names and arguments here; each door check runs just before its command (it may depend on
+                try:  # the state the block's earlier commands build, e.g. a stroke they opened)
+                    self._check_signature(command, kwargs)
+                except ValueError as exc:
+                    raise ValueError(f"events[{i}] ({command}): {exc}"[:500]) from None
+            out.append((command, kwargs))
+        return out
+
+    def block(self, events, amend: bool = False) -> None:
+        """Apply ``events`` (``[[command, kwargs], ...]``, what a :meth:`history_block` logged) as one undo item,
+        all or nothing: a command that fails rolls back the ones before it."""
+        events = self._check_block(events, amend)
+        with self._lock:
+            saved = self._checkpoint()
+            try:
+                with self.history_block(amend=bool(amend)):
+                    for command, kwargs in events:
+                        self.check_command(command, kwargs)
+                        getattr(self, command)(**kwargs)
+            except BaseException:
+                self._rollback(saved)
+                raise
+
+    @contextlib.contextmanager
+    def history_block(self, *, amend: bool = False) -> Iterator[None]:
+        """Everything the commands inside do is ONE undo item and ONE logged ``block`` command, so undo takes back
+        exactly the block and never crosses into an earlier command (napari's ``block_history``).
+
+        The document lock is held for the block (background work waits), an open gesture (a stroke) is ended
+        before it and at its end, blocks nest (an inner one joins the outer), and undo or redo inside one is
+        refused. With ``amend=True`` the block joins the previous undo item instead (a regrow after the parameter
+        change that caused it: one undo restores both). A block that raises keeps what it did, as one item.
+        """
+        if not isinstance(amend, (bool, np.bool_)):
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")  # noqa: TRY004
+        with self._lock:
+            if self._blocks:
+                self._blocks += 1
+                try:
+                    yield
+                finally:
+                    self._blocks -= 1
+                return
+            self.before_undo()
+            start = len(self.log.events)
+            self.history.stage()
+            self._blocks = 1
+            try:
+                yield
+            finally:
+                self._blocks = 0
+                self.before_undo()
+                self.history.commit(self.fold_atoms, amend=bool(amend))
+                inner = self.log.events[start:]
+                if inner:
+                    del self.log.events[start:]
+                    self.log.record("block", events=[[e.command, e.kwargs] for e in inner],
+                                    **({"amend": True} if amend else {}))
+                self._after = None
+                self._sync_undo_traits()
+
+    def fold_atoms(self, atoms: tuple):
+        """Hook: the one history item a block's atoms make (default a :class:`~plantvr.history.Group`)."""
+        return Group(atoms)
+
+    @contextlib.contextmanager
+    def unrecorded(self) -> Iterator[None]:
+        """Commands inside change the state without undo items (they are still logged): for a caller that records
+        its own item for the whole (one :class:`~plantvr.history.StateAtom` of a regrow). The redo items stay;
+        push an item after the block (which clears them) when the state changed."""
+        with self._lock:
+            self.history.mute()
+            try:
+                yield
+            finally:
+                self.history.unmute()
+                self._after = None
+
     def _travel(self, command: str):
+        if self._blocks and self._lock._is_owned():
+            raise ValueError(f"{command} inside a history block: end the block first")
         with self._lock:
             self.before_undo()
             done = getattr(self.history, command)(self)
+            if done is not None:
+                self._after = None     # the state changed before its change is published: no cached "before"
             self.log.record(command)
         if done is None:
             self._sync_undo_traits()
@@ -239,16 +444,18 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
 
     @contextlib.contextmanager
-    def undoable(self, kind: str = "all") -> Iterator[None]:
+    def undoable(self, kind: str = "all", *, before: Any = None) -> Iterator[None]:
         """Record what the block does to the whole state as one :class:`~plantvr.history.StateAtom` (for
         operations, like a growth step, whose delta is not practical to keep); nothing when it changed nothing.
 
         The state after a block is kept with the :attr:`version` it was taken at: a block that starts at that
         same version (nothing changed since, e.g. the next growth step) takes it as its ``before`` instead of
         copying the whole state again, so a run of steps costs one copy per step and consecutive atoms share it.
+        ``before`` gives the state before the block instead (a change already made when the block opens).
         """
         cached, self._after = self._after, None
-        before = cached[1] if cached is not None and cached[0] == self._seq else self.get_state()
+        if before is None:
+            before = cached[1] if cached is not None and cached[0] == self._seq else self.get_state()
         yield
         after = self.get_state()
         if not _same(before, after):
@@ -280,39 +487,60 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         """The one path every state change takes: publish a snapshot, bump :attr:`version` and send the
         :class:`Change` on the kernel thread, and autosave (``save``), so no command changes state unseen or
         unsaved. Callable from any thread; changes a slow kernel has not applied yet are merged."""
-        snap = self.make_snapshot()
-        with self._lock:
+        with self._lock:        # the snapshot and the version come from the same state, in order
+            snap = self.make_snapshot()
             self._seq += 1
             change = Change(kind, None if ids is None else np.asarray(ids), self._seq, command)
             if snap is not None:
                 self.latest = snap
-            scheduled = self._pending is not None
-            if scheduled:
-                old_snap, old = self._pending
-                k, merged = _merge([(old.kind, old.ids), (kind, change.ids)])
-                change = Change(k, merged, self._seq, command)
-                snap = old_snap if snap is None else snap
-            self._pending = (snap, change)
+            undo = (self.history.can_undo, self.history.can_redo)
+            with self._pending_lock:
+                scheduled = self._pending is not None
+                if scheduled:
+                    old_snap, old, _ = self._pending
+                    k, merged = _merge([(old.kind, old.ids), (kind, change.ids)])
+                    change = Change(k, merged, self._seq, command)
+                    snap = old_snap if snap is None else snap
+                self._pending = (snap, change, undo)
         if not scheduled:
             self._call_in_kernel(self._apply_pending)
         if save:
             self._autosave()
 
     def _apply_pending(self) -> None:
-        with self._lock:
-            pending, self._pending = self._pending, None
-        if pending is None:
-            return
-        snap, change = pending
-        if change.version < self.version:
-            return
-        with self.hold_trait_notifications():
-            if snap is not None:
-                self.snapshot = snap
-                self.on_snapshot(snap)
-            self.can_undo, self.can_redo = self.history.can_undo, self.history.can_redo
-            self.version = change.version
-        self.change = change
+        # One applier at a time (the kernel loop, or a worker thread in a script) drains the newest pending change,
+        # so snapshot and version are set together and never go back. A thread that finds another applying leaves
+        # its change to it (the applier looks again after letting go); nothing here waits on the document lock, so
+        # a command holding it can publish while an observer of the previous change runs.
+        while True:
+            if not self._apply_lock.acquire(blocking=False):
+                return
+            loop = self._loop
+            # in a script (no kernel loop) whatever thread made the change applies it: under the document lock,
+            # so its trait updates never interleave with a command's (traitlets objects are not thread-safe)
+            guard = self._lock if loop is None or not loop.is_running() else contextlib.nullcontext()
+            try:
+                while True:
+                    with self._pending_lock:
+                        pending, self._pending = self._pending, None
+                    if pending is None:
+                        break
+                    snap, change, undo = pending
+                    if change.version < self.version:
+                        continue
+                    with guard:
+                        with self.hold_trait_notifications():
+                            if snap is not None:
+                                self.snapshot = snap
+                                self.on_snapshot(snap)
+                            self.can_undo, self.can_redo = undo
+                            self.version = change.version
+                        self.change = change
+            finally:
+                self._apply_lock.release()
+            with self._pending_lock:
+                if self._pending is None:
+                    return
 
     def flush(self) -> None:
         """Apply a pending change now (after background work, or from a test)."""

@@ -155,6 +155,8 @@ class History:
         self.undo_stack: deque = deque()
         self.redo_stack: deque = deque()
         self._staged: list | None = None
+        self._marks: list[int] = []          # where each open (nested) stage starts in _staged
+        self._muted = 0                      # > 0: pushes are dropped (Document.unrecorded)
 
     @property
     def nbytes(self) -> int:
@@ -175,9 +177,25 @@ class History:
         """True while a stage is open."""
         return self._staged is not None
 
+    def __len__(self) -> int:
+        """Items that :meth:`undo` can take back."""
+        return len(self.undo_stack)
+
+    @property
+    def top(self):
+        """The item :meth:`undo` would take back next (None when there is none)."""
+        return self.undo_stack[-1] if self.undo_stack else None
+
+    @property
+    def next_redo(self):
+        """The item :meth:`redo` would apply next (None when there is none)."""
+        return self.redo_stack[-1] if self.redo_stack else None
+
     def push(self, atom) -> None:
         """Record a finished operation (added to the open stage, if any); clears redo and drops the oldest
-        items over budget."""
+        items over budget. Dropped while muted."""
+        if self._muted:
+            return
         if self._staged is not None:
             self._staged.append(atom)
             return
@@ -185,32 +203,96 @@ class History:
         self.undo_stack.append(atom)
         self._trim()
 
+    def clear_redo(self) -> None:
+        """Drop the redo items (what they would apply again is stale)."""
+        self.redo_stack.clear()
+
     def _trim(self) -> None:
         while self.undo_stack and (len(self.undo_stack) > self.max_items or self.nbytes > self.max_bytes):
             self.undo_stack.popleft()
 
     def stage(self) -> None:
-        """Open a group: atoms pushed until :meth:`commit` become one item."""
-        if self._staged is not None:
-            raise ValueError("a stage is already open; commit() or abort() it first")
-        self._staged = []
+        """Open a group: atoms pushed until :meth:`commit` become one item. Stages nest: an inner stage's
+        atoms join the outer one when it is committed."""
+        if self._staged is None:
+            self._staged = []
+        self._marks.append(len(self._staged))
 
-    def commit(self) -> Group | Any | None:
-        """Push the open stage as one item (a single atom as itself); returns it, or None if it is empty."""
+    def mute(self) -> None:
+        """Drop pushes until :meth:`unmute` (nested: as many unmutes as mutes)."""
+        self._muted += 1
+
+    def unmute(self) -> None:
+        self._muted = max(self._muted - 1, 0)
+
+    @property
+    def undo_items(self) -> tuple:
+        """The undo items, oldest first (read them; change them only through this class)."""
+        return tuple(self.undo_stack)
+
+    @property
+    def redo_items(self) -> tuple:
+        """The redo items, the next one to redo last."""
+        return tuple(self.redo_stack)
+
+    def restore(self, undo_items, redo_items) -> None:
+        """Replace both stacks (a session loaded from a file); no stage stays open."""
+        self.undo_stack, self.redo_stack = deque(undo_items), deque(redo_items)
+        self._staged, self._marks = None, []
+        self._trim()
+
+    def commit(self, fold=None, *, amend: bool = False) -> Group | Any | None:
+        """Close the innermost open stage. The outermost pushes what was staged as one item (a single atom as
+        itself, several as a :class:`Group`, or what ``fold(atoms)`` makes of them) and returns it; an inner one
+        leaves its atoms in the outer stage and returns None. None too when nothing was staged."""
         if self._staged is None:
             raise ValueError("no stage is open; call stage() first")
+        self._marks.pop()
+        if self._marks:
+            return None
         atoms, self._staged = self._staged, None
         if not atoms:
             return None
-        item = atoms[0] if len(atoms) == 1 else Group(tuple(atoms))
-        self.push(item)
+        if amend:
+            return self.amend(atoms, fold)
+        item = atoms[0] if len(atoms) == 1 else (fold(tuple(atoms)) if fold is not None else Group(tuple(atoms)))
+        if item is not None:           # a fold that finds no net change records nothing
+            self.push(item)
+        return item
+
+    def amend(self, atoms, fold=None) -> Any | None:
+        """Add ``atoms`` to the top undo item (one item that undoes both, made by ``fold(atoms)`` when given, else
+        a :class:`Group`); pushes them as a new item when there is none. Returns the item."""
+        atoms = tuple(atoms)
+        if not atoms:
+            return None
+        if self._staged is not None:
+            self._staged.extend(atoms)
+            return None
+        join = fold if fold is not None else Group
+        if not self.undo_stack or self._muted:
+            item = atoms[0] if len(atoms) == 1 else join(atoms)
+            if item is not None:
+                self.push(item)
+            return item
+        top = self.undo_stack.pop()
+        item = join(((top.atoms if isinstance(top, Group) else (top,))) + atoms)
+        self.redo_stack.clear()
+        if item is None:
+            return None
+        self.undo_stack.append(item)
+        self._trim()
         return item
 
     def abort(self, doc) -> tuple[str, np.ndarray | None] | None:
-        """Undo what the open stage recorded (latest first) and drop it; returns the change, or None."""
+        """Undo what the innermost open stage recorded (latest first) and drop it; returns the change, or None."""
         if self._staged is None:
             return None
-        atoms, self._staged = self._staged, None
+        mark = self._marks.pop()
+        atoms = self._staged[mark:]
+        del self._staged[mark:]
+        if not self._marks:
+            self._staged = None
         return Group(tuple(atoms)).undo(doc) if atoms else None
 
     def undo(self, doc):
@@ -239,10 +321,12 @@ class History:
         self.undo_stack.clear()
         self.redo_stack.clear()
         self._staged = None
+        self._marks = []
 
     def copy(self) -> "History":
         """A history with the same items (atoms are immutable, so they are shared)."""
         h = History(max_items=self.max_items, max_bytes=self.max_bytes)
         h.undo_stack, h.redo_stack = deque(self.undo_stack), deque(self.redo_stack)
         h._staged = None if self._staged is None else list(self._staged)
+        h._marks, h._muted = list(self._marks), self._muted
         return h

@@ -46,10 +46,11 @@ class Toy(Document):
         self.changed("total", command="grow")
 
     def get_state(self):
-        return np.array([self.total])
+        return {"params": self.params, "total": np.array([self.total])}
 
     def set_state(self, state):
-        self.total = float(state[0])
+        self.restore_params(state["params"])
+        self.total = float(state["total"][0])
 
     def state_bytes(self):
         return self.labels.tobytes() + np.float64(self.total).tobytes() + repr(self.params).encode()
@@ -192,3 +193,35 @@ def test_tree_arrays_derive_orders_and_check_parents():
         TreeArrays.from_arrays([[0, 0, 0], [0, 1, 0]], [-1, 1])
     with pytest.raises(ValueError, match="pos"):
         TreeArrays.from_arrays([[0, 0, np.nan]], [-1])
+
+
+def test_history_block_is_one_undo_item_and_one_logged_command():
+    """Issue 31/30: napari-style block_history on the base; undo never crosses into the command before it."""
+    d = Toy()
+    d.paint(0, 1)
+    first = d.state_bytes()
+    with d.history_block():
+        d.paint(1, 2)
+        d.grow()
+        with d.history_block():
+            d.paint(2, 3)
+        with pytest.raises(ValueError, match="inside a history block"):
+            d.undo()
+    assert len(d.history) == 2 and [e.command for e in d.log] == ["paint", "block"]
+    block = d.state_bytes()
+    d.undo()
+    assert d.state_bytes() == first
+    d.redo()
+    assert d.state_bytes() == block
+    d.gain = 3.0                                  # a parameter change is one item ...
+    with d.history_block(amend=True):             # ... and what it caused joins it
+        d.grow()
+    d.undo()
+    assert d.gain == 1.0 and d.state_bytes() == block and d.log.events[-1].command == "undo"
+    e = Toy()
+    e.replay(d.log)
+    assert e.state_bytes() == d.state_bytes() and len(e.history) == len(d.history)
+    with pytest.raises(ValueError, match="events"):
+        d.block([["undo", {}]])
+    with pytest.raises(ValueError, match="amend"), d.history_block(amend="yes"):
+        pass

@@ -229,6 +229,8 @@ def test_consecutive_steps_share_one_state_copy_and_undo_exactly():
     m.undo()
     assert m.state_bytes() == start
     m.redo()
-    m.set_params(apical_dominance=0.7)                           # a change between two steps
+    m.set_params(apical_dominance=0.7)                           # a change between two steps: an item of its own
     m.step(1)
-    assert m.history.undo_stack[-1].before is not m.history.undo_stack[-2].after
+    par, step = m.history.undo_stack[-2], m.history.undo_stack[-1]
+    assert par.after["params"]["apical_dominance"] == 0.7 and step.before is par.after
+    assert par.before is not s1.after

@@ -128,8 +128,8 @@ def test_replay_after_edits_during_background_growth_is_identical(tmp_path):
     a.wait()
     cmds = [e.command for e in a.log.events]
     first_paint = cmds.index("paint")
-    assert "step" in cmds[first_paint:] and "step" in cmds[:first_paint]  # edits landed between growth steps
-    assert sum(e.kwargs["steps"] for e in a.log.events if e.command == "step") == a.steps_done == 40
+    assert "grow" in cmds[first_paint:] and "grow" in cmds[:first_paint]  # edits landed between growth steps
+    assert sum(e.kwargs["steps"] for e in a.log.events if e.command == "grow") == a.steps_done == 40
     assert len(a.log) < 40  # consecutive steps merged
     path = a.log.save(tmp_path / "log.jsonl")
     b = plantvr.Model(seed=1)

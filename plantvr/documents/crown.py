@@ -12,6 +12,7 @@ Thesis scripts on disk are input to :meth:`CrownDocument.run_file`.
 """
 from __future__ import annotations
 
+import io
 import pickle
 from pathlib import Path
 from typing import Any
@@ -47,6 +48,16 @@ __all__ = ["TAG_COLORS", "CrownDocument"]
 
 #: Colours of the point-set source tags (cycled), as #rrggbb.
 TAG_COLORS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf", "#8c564b", "#e377c2")
+
+
+def _pickle_by_value(x: Any) -> bytes:
+    """Pickle without the memo, so the bytes depend on the values only, not on which equal objects are one object
+    (a script's text shared by two lines, or the same text read back from a log file)."""
+    buf = io.BytesIO()
+    p = pickle.Pickler(buf, protocol=4)
+    p.fast = True
+    p.dump(x)
+    return buf.getvalue()
 
 
 class CrownDocument(Document):
@@ -172,8 +183,8 @@ class CrownDocument(Document):
 
     def state_bytes(self) -> bytes:
         p = self.points
-        parts = [pickle.dumps((self.surfaces, self.meshes, list(p.sources), self.lines, self._gen_count, self.seed),
-                              protocol=4), p.points.tobytes(), p.tags.tobytes()]
+        parts = [_pickle_by_value((self.surfaces, self.meshes, list(p.sources), self.lines, self._gen_count,
+                                   self.seed)), p.points.tobytes(), p.tags.tobytes()]
         for t in self.trees:
             parts += [np.asarray(t.nodes).tobytes(), np.asarray(t.parent).tobytes()]
         return b"\0".join(parts)

@@ -124,19 +124,21 @@ class ForestDocument(Document):
         return self.forest
 
     # -- state ------------------------------------------------------------------------------------------
-    def get_state(self) -> tuple[Forest | None, tuple[np.ndarray, ...]]:
-        """The forest record, with the arrays it holds (what an undo atom keeps alive, for the byte budget)."""
+    def get_state(self) -> dict[str, Any]:
+        """The settings and the forest record, with the arrays it holds (what an undo atom keeps alive, for the
+        byte budget)."""
         with self._lock:
             f = self.forest
-            if f is None:
-                return None, ()
-            arrays = [f.bases, f.heights, *(a for t in f.trees for a in t.values())]
-            arrays += [a for m in f.meshes or () for a in m]
-            return f, tuple(arrays)
+            arrays: list[np.ndarray] = []
+            if f is not None:
+                arrays = [f.bases, f.heights, *(a for t in f.trees for a in t.values())]
+                arrays += [a for m in f.meshes or () for a in m]
+            return {"params": self.params, "forest": f, "arrays": tuple(arrays)}
 
-    def set_state(self, state: tuple[Forest | None, tuple[np.ndarray, ...]]) -> None:
+    def set_state(self, state: dict[str, Any]) -> None:
         with self._lock:
-            self.forest = state[0]
+            self.restore_params(state["params"])
+            self.forest = state["forest"]
 
     def state_bytes(self) -> bytes:
         """Parameters and the forest (terrain, bases, trees, meshes, voxels, seed states, growth settings) as

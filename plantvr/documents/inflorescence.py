@@ -83,6 +83,7 @@ class InflorescenceDocument(Document):
     KIND = "inflorescence"
     COMMANDS = ("set_params", "undo", "redo")
     PARAMS = FLORET
+    PARAMS_UNDO = False                      # every change commits its own item (:meth:`_commit`)
 
     def __init__(self, *, preset: str | None = None, max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20,
                  **params: Any):

@@ -31,7 +31,7 @@ from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_npz
 from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
 from plantvr.commandlog import CommandLog
 from plantvr.document import Document
-from plantvr.history import ArrayEdit
+from plantvr.history import ArrayEdit, Group
 from plantvr.types import TriMesh
 from plantvr.vine._filecheck import check_elements
 from plantvr.vine.colors import MAX_COLORS, NARROW_COLORS, ColorTable, distinct_color
@@ -240,6 +240,23 @@ class Segmentation(Document):
                  self.colors.rgba, self.colors.visible.astype(np.uint8), views)
         return b"".join(np.ascontiguousarray(a).tobytes() for a in parts)
 
+    def get_state(self) -> dict:
+        """Copies of the labels, the colour table and the saved views (what a failed block or replay restores)."""
+        return {"labels": self.labels.copy(), "colors": self.colors.copy(), "views": list(self.views)}
+
+    def set_state(self, state: dict) -> None:
+        with self._lock:
+            self.labels = state["labels"].copy()
+            self.colors = state["colors"].copy()
+            self.views = list(state["views"])
+
+    def transient_state(self):
+        """The open stroke's stamps (its stage is in the history, which a rollback restores with it)."""
+        return None if self._stroke is None else list(self._stroke)
+
+    def set_transient_state(self, state) -> None:
+        self._stroke = None if state is None else list(state)
+
     def scene(self) -> dict:
         """The surface a view draws: visible triangles with per-vertex colours through the colour table."""
         mesh = TriMesh(self.vertices, self.visible_faces())
@@ -249,6 +266,13 @@ class Segmentation(Document):
     def before_undo(self) -> None:
         if self._stroke is not None:
             self.end_stroke()                       # spec §2.5 [INFERRED]: finish the operation first
+
+    def fold_atoms(self, atoms: tuple) -> ArrayEdit | Group | None:
+        """A history block's label edits as one :class:`~plantvr.history.ArrayEdit` (one record per changed
+        vertex, as a stroke's), so the history stays a list of edits a session file holds."""
+        if not all(isinstance(a, ArrayEdit) and a.target == "labels" for a in atoms):
+            return Group(atoms)
+        return self._merge([a.indices for a in atoms], [a.old for a in atoms])   # None: no net change
 
     # ------------------------------------------------------------------ painting
     def _check_paint(self, center, radius, label, preserve=None):
@@ -421,7 +445,7 @@ class Segmentation(Document):
                 edit.redo(self)
                 self.history.push(edit)
             elif stamps:
-                self.history.redo_stack.clear()       # it wrote labels (and wrote them back): redo is stale
+                self.history.clear_redo()             # it wrote labels (and wrote them back): redo is stale
         if stamps:
             self.changed("labels", np.zeros(0, np.int64), command="end_stroke")
         return edit
@@ -591,6 +615,8 @@ class Segmentation(Document):
         """
         if not isinstance(log, CommandLog):
             raise ValueError(f"log must be a CommandLog, got {type(log).__name__}")  # noqa: TRY004
+        if log.document is not None and log.document != self.KIND:
+            raise ValueError(f"the log records a {log.document!r} session, not a {self.KIND!r} one"[:300])
         log.check()
         if not log.events:
             return
@@ -733,8 +759,8 @@ class Segmentation(Document):
                     cat([e.new for e in edits], dt), offs)
         dt = self.labels.dtype
         fmt = _FORMAT_WIDE if self._wide else _FORMAT
-        ui, uo, un, uoff = pack(self.history.undo_stack)
-        ri, ro, rn, roff = pack(self.history.redo_stack)
+        ui, uo, un, uoff = pack(self.history.undo_items)
+        ri, ro, rn, roff = pack(self.history.redo_items)
         d = dict(format=np.array([fmt], np.int64), vertices=self.vertices, faces=self.faces,  # noqa: C408
                  labels=self.labels, rgba=self.colors.rgba, visible=self.colors.visible,
                  views=np.array([v.to_array() for v in self.views], np.float64).reshape(-1, 13),
@@ -896,10 +922,12 @@ class Segmentation(Document):
                   index=index, max_undo=int(lim[0]), max_undo_bytes=int(lim[1]))
         views = [SavedView.from_array(a) for a in d["views"]]
         itype = np.int32 if len(d["vertices"]) < 2 ** 31 else np.int64
-        for side, stack in (("undo", seg.history.undo_stack), ("redo", seg.history.redo_stack)):
+        stacks = {}
+        for side in ("undo", "redo"):
             idx, old, new, off = (d[f"{side}_{k}"] for k in ("idx", "old", "new", "off"))
-            for a, b in pairwise(off):
-                stack.append(ArrayEdit(idx[a:b].astype(itype), old[a:b].copy(), new[a:b].copy()))
+            stacks[side] = [ArrayEdit(idx[a:b].astype(itype), old[a:b].copy(), new[a:b].copy())
+                            for a, b in pairwise(off)]
+        seg.history.restore(stacks["undo"], stacks["redo"])
         seg.views = views
         if "grid" in d:
             seg.spacing, seg.origin = check_grid(d["grid"][:3], d["grid"][3:])

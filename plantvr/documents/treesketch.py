@@ -18,11 +18,13 @@ Undo and the timeline are the document's :class:`~plantvr.history.History`:
   regrow to N gives identical arrays, V17); an edit clears them, and growth continues from the edited state;
 - items are dropped oldest first beyond ``max_undo`` items or ``max_undo_bytes``.
 
-Parameter changes are not undo items (they change no tree by themselves), but an undo restores the parameters its
-item was recorded with, as the engine state it restores was grown with them.
+A parameter change (``set_params``, a trait set by a slider) is one undo item too, restoring the parameters (and
+what they changed); inside an open stroke it joins the stroke's item.
 """
 from __future__ import annotations
 
+import contextlib
+import copy
 import math
 import os
 from dataclasses import dataclass
@@ -153,7 +155,13 @@ class SketchDocument(Document):
             e.set_options(**opts)
         if params:
             e.set_params(params)
-        self.history.redo_stack.clear()  # the steps ahead were grown with other parameters
+
+    def _param_item(self, old=None):
+        """A parameter change is one undo item (it clears the steps ahead, grown with other parameters), except
+        inside an open stroke, whose item it joins."""
+        if self._emitter is not None:
+            return contextlib.nullcontext()
+        return super()._param_item(old)
 
     def set_influence(self, H: float, T: float, E: float) -> None:
         """Set (alpha, beta, gamma) normalised to sum 1 (Eq. 4.5, ERRATUM E7); the triangle widget calls this."""
@@ -222,6 +230,22 @@ class SketchDocument(Document):
         self._strokes += 1
         self.history.push(StateAtom(self._stroke_before, self.get_state(), "tree"))
         self._stroke_before = None
+
+    def transient_state(self) -> dict[str, Any]:
+        """The open stroke (its emitter, copied, and the state before it) and the Grow slider's carry, which a
+        replay that fails restores with the state."""
+        em = self._emitter
+        return {"emitter": None if em is None else copy.deepcopy(em, {id(self._engine): self._engine}),
+                "stroke_before": self._stroke_before, "carry": self._carry, "samples": self._samples.copy()}
+
+    def set_transient_state(self, state: dict[str, Any]) -> None:
+        em = state["emitter"]
+        self._emitter = None if em is None else copy.deepcopy(em, {id(self._engine): self._engine})
+        if self._emitter is not None:
+            self._emitter.engine = self._engine
+        self._stroke_before, self._carry = state["stroke_before"], state["carry"]
+        self._samples = state["samples"].copy()
+        self.stroking = self._emitter is not None
 
     def before_undo(self) -> None:
         """An open stroke is ended (it becomes an undo item) before undo or redo."""
@@ -301,7 +325,7 @@ class SketchDocument(Document):
         for _ in range(steps):
             if self._emitter is not None:  # growth while brushing belongs to the stroke's undo item
                 e.step()
-            elif h.redo_stack and isinstance(h.redo_stack[-1], _StepAtom):
+            elif isinstance(h.next_redo, _StepAtom):
                 h.redo(self)
                 before = None
             else:
@@ -330,7 +354,7 @@ class SketchDocument(Document):
         self.before_undo()
         h = self.history
         k = 0
-        while k < steps and h.undo_stack and isinstance(h.undo_stack[-1], _StepAtom):
+        while k < steps and isinstance(h.top, _StepAtom):
             h.undo(self)
             k += 1
         return k

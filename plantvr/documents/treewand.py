@@ -123,7 +123,7 @@ class Model(Document):
     """
 
     KIND = "treewand"
-    COMMANDS = ("paint", "paint_stroke", "add_markers", "prune", "step", "set_params", "set_influence",
+    COMMANDS = ("paint", "paint_stroke", "add_markers", "prune", "step", "grow", "set_params", "set_influence",
                 "set_prune_mode", "reset", "undo", "redo")
     PARAMS = TREEWAND
 
@@ -268,13 +268,13 @@ class Model(Document):
 
     def _grow_step(self, entry):
         """One growth step of :meth:`grow`, one undo item, logged as applied (a command made meanwhile on
-        another thread lands between the steps) and published; returns its stats and the log entry steps merge
-        into."""
+        another thread lands between the steps) and published; returns its stats and the log entry: consecutive
+        steps merge into one ``grow(steps=n)`` entry, which replays as ``n`` undo items, as it was made."""
         with self._lock:
             with self.undoable("tree"):
                 st = self._engine.step()
-                entry = self.log.extend("step", entry, "steps")
-                self.changed("tree", command="step", save=False)
+                entry = self.log.extend("grow", entry, "steps")
+                self.changed("tree", command="grow", save=False)
         return st, entry
 
     # -- door checks (shared by the commands and by replay) -------------------------------------------------
@@ -326,6 +326,11 @@ class Model(Document):
 
     @staticmethod
     def _check_step(steps=1):
+        return check_int("steps", steps, 0, 10_000_000)
+
+    @staticmethod
+    def _check_grow(steps):
+        """Door check of a logged ``grow`` (replayed synchronously: one undo item per step, as it was made)."""
         return check_int("steps", steps, 0, 10_000_000)
 
     # -- background growth --------------------------------------------------------------------------
@@ -419,13 +424,19 @@ class Model(Document):
         return {"tree": snap.tree, "markers": Points(snap.markers)}
 
     def get_state(self) -> dict[str, Any]:
-        """The seed and the engine's whole state (:meth:`GrowthEngine.get_state`), for undo atoms."""
-        with self._lock:
-            return {"seed": self.seed, "engine": self._engine.get_state()}
+        """The parameters, the seed and the engine's whole state (:meth:`GrowthEngine.get_state`), for undo atoms
+        (a parameter change is one, restoring the parameter with what it changed)."""
+        with self._lock:   # the parameters as the engine follows them (a trait set on another thread is not yet)
+            e = self._engine
+            return {"params": {k: e.params[k] for k in self.PARAMS.names}, "seed": self.seed,
+                    "engine": e.get_state()}
 
     def set_state(self, state: dict[str, Any]) -> None:
         with self._lock:
             self.seed = state["seed"]
+            if "params" in state:
+                self.restore_params(state["params"])
+            self._engine.params = dict(state["engine"]["params"])   # what the state's light and vigor used
             self._engine.set_state(state["engine"])
 
     def state_bytes(self) -> bytes:
@@ -515,6 +526,7 @@ class Model(Document):
                 self._restoring = False
             self._engine = engine
             self.history.clear()
+            self._after = None
         self.changed("all")
 
 

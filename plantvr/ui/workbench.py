@@ -295,7 +295,7 @@ class Workbench(W.HBox):
 
     # -- regrow (Tree Wand) --------------------------------------------------------------------------------
     def _on_param(self, change) -> None:
-        if self._pending:
+        if self._pending or self.doc.restoring:   # an undo restoring a parameter restores its tree too
             return
         self._pending = True
         loop = kernel_loop()
@@ -359,7 +359,7 @@ class Workbench(W.HBox):
                 for name, kwargs in commands:
                     getattr(doc, name)(**kwargs)
                 doc.history = history
-                history.push(StateAtom(before, doc.get_state(), "tree"))
+                history.amend([StateAtom(before, doc.get_state(), "tree")])  # one item with the parameter change
         finally:
             doc.history = history
         self.regrows += 1

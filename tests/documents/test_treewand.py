@@ -93,19 +93,37 @@ def test_one_step_call_is_one_item_and_the_budget_drops_the_oldest():
     assert small.history.nbytes <= 10_000 and not small.can_undo   # a state is bigger than the budget
 
 
-def test_undo_follows_the_current_parameters():
-    """An undone state computed with other parameters gets the current ones' light, vigor and radius."""
+def test_a_parameter_change_is_one_undo_item_with_what_it_changed():
+    """Issue 31/30: set_params and a slider (a trait set) are one undo item each, restoring the parameter and the
+    light, vigor and radius it recomputed; a branching change (a new tree) undoes back to the old tree."""
     m = Model(seed=2)
     run(m, demo_session(), 8)
     m.paint([0, 8, 0], radius=2.0)
+    painted = m.state_bytes()
+    n = len(m.history.undo_stack)
     m.set_params(tip_radius=0.05, shadow_intensity=0.4)
-    m.undo()                                     # the paint; the parameters stay
+    assert len(m.history.undo_stack) == n + 1
+    m.undo()                                     # the parameter change, with the radii it recomputed
+    assert m.tip_radius == 0.02 and m._engine.params["shadow_intensity"] != 0.4
+    assert m.state_bytes() == painted
+    m.redo()
     assert m.tip_radius == 0.05 and m._engine.params["shadow_intensity"] == 0.4
     radius = m.tree.radius.copy()
     m._engine.rebuild_light()
     np.testing.assert_allclose(m.tree.radius, radius, rtol=1e-12)
-    m.branching = "opposite"                     # a new tree of another kind: no way back across it
-    assert not m.can_undo and m.tree.nslots == 3
+    m.undo()
+    m.tip_radius = 0.07                          # a slider
+    assert m.log.events[-1].command == "set_params" and len(m.history.undo_stack) == n + 1
+    m.undo()
+    assert m.tip_radius == 0.02 and m.state_bytes() == painted
+    grown = m.state_bytes()
+    m.branching = "opposite"                     # a new tree of another kind: one item back to the old tree
+    assert m.tree.nslots == 3 and len(m.history.undo_stack) == 1
+    m.undo()
+    assert m.branching != "opposite" and m.tree.nslots == 2 and m.state_bytes() == grown
+    ref = Model(seed=2)
+    ref.replay(m.log)
+    assert ref.state_bytes() == m.state_bytes()
 
 
 def test_nothing_changed_is_no_item_and_background_growth_is_one_item_per_step():
@@ -118,7 +136,7 @@ def test_nothing_changed_is_no_item_and_background_growth_is_one_item_per_step()
     m.grow(4, background=True)
     m.wait()
     assert len(m.history.undo_stack) == n + 4 and m.steps_done == 4
-    assert sum(e.kwargs["steps"] for e in m.log if e.command == "step") == 4
+    assert sum(e.kwargs["steps"] for e in m.log if e.command == "grow") == 4
     for _ in range(4):
         m.undo()
     assert m.state_bytes() == start and m.steps_done == 0
