@@ -20,6 +20,16 @@ A :class:`Document` is a traitlets object with
   :attr:`Document.latest` without waiting: versions never go back;
 - autosave after every state-changing command, atomic (:mod:`plantvr._fileio`).
 
+Every state change is a command (issue 30): a public method that changes state is in ``COMMANDS`` and logs
+itself, so replaying ``doc.log`` reproduces a session, the headset's included (``tests/test_commands.py`` scans
+every document for state changes outside ``COMMANDS``). A load from a file (``restore``) logs the absolute path
+and the SHA-256 of the bytes it loaded (:func:`file_digest`); its door check (:func:`check_digest`) refuses a file
+whose bytes differ, so a replay reproduces the same state or is refused before anything is issued (a log does not
+carry the file: keep the file with the log). A regrow (:meth:`Document._reissue`, ``Model.regrow``) re-issues the
+session's :meth:`Document.effective_events` (undone items left out) as one undo item and one ``regrow`` command;
+an observer of a parameter that issues a command of its own (the workbench's regrow) waits with
+:meth:`Document.after_command` until the ``set_params`` that set it is logged and its undo item pushed.
+
 A subclass declares ``KIND``, ``COMMANDS`` (its replayable commands; each has a door check ``_check_<name>``
 that raises ``ValueError`` and changes nothing), ``PARAMS``, and implements :meth:`state_bytes` (and
 :meth:`get_state`/:meth:`set_state` for whole-state undo atoms), :meth:`save` and :meth:`scene`.
@@ -532,6 +542,15 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             self.log.record(command, **({"amend": True} if amend else {}))
         self.changed(kind, command=command)
         return len(commands)
+
+    def take_history(self, history: History) -> None:
+        """Replace the undo history with ``history`` (a scratch copy's after a replay, a loaded file's): the one
+        place outside the history module that swaps it (the undo traits follow with the next change)."""
+        if not isinstance(history, History):
+            raise ValueError(f"history must be a History, got {type(history).__name__}")  # noqa: TRY004
+        with self._lock:
+            self.history = history
+            self._after = None
 
     def _travel(self, command: str):
         if self._blocks and self._lock._is_owned():

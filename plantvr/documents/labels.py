@@ -62,7 +62,7 @@ _STATE_NAMES = ("format", "vertices", "faces", "normals", "labels", "rgba", "vis
 #: replay's scratch copy.
 _MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_index", "_graph", "spacing", "origin")
 #: Attributes of the session state a restore, a bundle or a replay takes over.
-_SESSION_ATTRS = ("labels", "colors", "history", "views", "_stroke")
+_SESSION_ATTRS = ("labels", "colors", "views", "_stroke")   # and the history (Document.take_history)
 
 
 def check_grid(spacing, origin) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -638,7 +638,7 @@ class Segmentation(Document):
             setattr(c, k, getattr(self, k))
         c.labels = self.labels.copy()
         c.colors = self.colors.copy()
-        c.history = self.history.copy()
+        c.take_history(self.history.copy())
         c.views = list(self.views)
         c._stroke = None if self._stroke is None else list(self._stroke)
         c._preserve = self._preserve
@@ -652,6 +652,7 @@ class Segmentation(Document):
         with self._lock:
             for k in _SESSION_ATTRS + (() if same_mesh else _MESH_ATTRS):
                 setattr(self, k, getattr(other, k))
+            self.take_history(other.history)
             if log:
                 self.log.events = other.log.events
         self.changed("all", command=command)

@@ -5,8 +5,9 @@ A :class:`Model` is a :class:`~plantvr.document.Document`: its parameters are tr
 :data:`plantvr.params.TREEWAND`; every command validates its arguments, then edits the
 :class:`~plantvr.growth.engine.GrowthEngine` under the document's lock, records itself in ``model.log`` and
 ends in :meth:`~plantvr.document.Document.changed`, which publishes an immutable :class:`Snapshot` (a
-background growth worker never sets a trait itself, STYLE §9). Paint, strokes, markers, prune, growth steps
-and reset are undoable: each is one whole-engine-state atom of ``model.history``. The headset attaches from
+background growth worker never sets a trait itself, STYLE §9). Paint, strokes, markers, prune, growth steps,
+reset, restore (a file load, logged with the file's digest) and regrow are undoable: each is one whole-engine-state
+atom of ``model.history``. The headset attaches from
 outside (``plantvr.vr.attach(model)``).
 """
 from __future__ import annotations
