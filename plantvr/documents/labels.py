@@ -950,7 +950,7 @@ class Segmentation(Document):
     def _check_restore(path, digest: str | None = None) -> tuple[Path, str]:
         """Door check of :meth:`restore`: the absolute path and the file's digest now (equal to a logged one)."""
         if not isinstance(path, (str, os.PathLike)):
-            raise ValueError(f"path must be a str or path-like, got {type(path).__name__}")
+            raise ValueError(f"path must be a str or path-like, got {type(path).__name__}")  # noqa: TRY004
         path = Path(os.fspath(path)).absolute()
         if not path.is_file():
             raise ValueError(f"segmentation file {str(path)!r} does not exist")
