@@ -587,7 +587,7 @@ class SketchDocument(Document):
         folder, name = _entry(path)
         tree = (folder / f"{name}.tree").absolute()
         if not tree.is_file():
-            raise ValueError(f"cannot read tree library entry {str(tree)!r}: no such file")
+            raise ValueError(f"cannot read library tree {str(tree)!r}: no such file")
         now = file_digest(*_entry_files(tree))
         check_digest(f"tree library entry {str(tree)!r}", digest, now)
         return tree, now
