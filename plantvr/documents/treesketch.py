@@ -481,6 +481,10 @@ class SketchDocument(Document):
         same tree); a stroke left open is closed. One undo item (``amend``: joined to the previous one), logged
         as one ``regrow`` command; returns the number of commands re-issued (0: nothing to regrow)."""
         amend = self._check_regrow(amend)
+        with self._lock:
+            return self._regrow(amend)
+
+    def _regrow(self, amend: bool) -> int:
         events = self.effective_events()
         start = max((i for i, (c, _) in enumerate(events) if c in ("reset", "restore")), default=-1)
         if start >= 0 and events[start][0] == "restore":

@@ -358,10 +358,11 @@ class Model(Document):
         amend = self._check_regrow(amend)
         if self.growing:
             self.stop()
-        commands = self.regrow_commands()
-        if not commands:
-            return 0
-        return self._reissue(commands, lambda: self.reset(seed=self.seed), amend=amend)
+        with self._lock:           # the commands and their re-issue see the same log
+            commands = self.regrow_commands()
+            if not commands:
+                return 0
+            return self._reissue(commands, lambda: self.reset(seed=self.seed), amend=amend)
 
     # -- background growth --------------------------------------------------------------------------
     def grow(self, steps: int, *, background: bool = False, progress: bool = False,
