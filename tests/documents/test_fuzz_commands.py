@@ -171,7 +171,7 @@ _TW_SAFE = {n: valid_param(TREEWAND, n) for n in ("apical_dominance", "branch_an
                                                    "phyllotaxis_angle", "radius_exp", "shadow_intensity",
                                                    "bark_texture", "length_mode", "branching", "shed_count")}
 _CLOUD = np.random.default_rng(0).uniform([-3, 2, -3], [3, 9, 3], (200, 3)).tolist()
-_INFL = value(st.floats(0.0, 5.0), (-1.0, NAN, INF, "1", None))
+_INFL = value(st.floats(0.0, 5.0), (-1.0, NAN, INF, "abc", None))   # text numbers parse (check_range)
 
 
 def _all_zero(command, kwargs):
