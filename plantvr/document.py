@@ -20,6 +20,16 @@ A :class:`Document` is a traitlets object with
   :attr:`Document.latest` without waiting: versions never go back;
 - autosave after every state-changing command, atomic (:mod:`plantvr._fileio`).
 
+Every state change is a command (issue 30): a public method that changes state is in ``COMMANDS`` and logs
+itself, so replaying ``doc.log`` reproduces a session, the headset's included (``tests/test_commands.py`` scans
+every document for state changes outside ``COMMANDS``). A load from a file (``restore``) logs the absolute path
+and the SHA-256 of the bytes it loaded (:func:`file_digest`); its door check (:func:`check_digest`) refuses a file
+whose bytes differ, so a replay reproduces the same state or is refused before anything is issued (a log does not
+carry the file: keep the file with the log). A regrow (:meth:`Document._reissue`, ``Model.regrow``) re-issues the
+session's :meth:`Document.effective_events` (undone items left out) as one undo item and one ``regrow`` command;
+an observer of a parameter that issues a command of its own (the workbench's regrow) waits with
+:meth:`Document.after_command` until the ``set_params`` that set it is logged and its undo item pushed.
+
 A subclass declares ``KIND``, ``COMMANDS`` (its replayable commands; each has a door check ``_check_<name>``
 that raises ``ValueError`` and changes nothing), ``PARAMS``, and implements :meth:`state_bytes` (and
 :meth:`get_state`/:meth:`set_state` for whole-state undo atoms), :meth:`save` and :meth:`scene`.
@@ -29,6 +39,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import dataclasses
+import hashlib
 import inspect
 import threading
 import warnings
@@ -45,7 +56,7 @@ from .commandlog import CommandLog
 from .history import Group, History, StateAtom, _merge
 from .params import ParamTable, ParamTrait
 
-__all__ = ["MAX_BLOCK_DEPTH", "Change", "Document", "kernel_loop", "serialise"]
+__all__ = ["MAX_BLOCK_DEPTH", "Change", "Document", "file_digest", "kernel_loop", "serialise"]
 #: Deepest nesting of ``block`` commands a log may hold.
 MAX_BLOCK_DEPTH = 8
 
@@ -101,6 +112,14 @@ class Document(HasTraits, metaclass=_DocumentMeta):
     #: (:meth:`get_state` must then hold the parameters as its ``"params"`` entry, and :meth:`set_state` restore
     #: them); False for a document that records its own parameter items.
     PARAMS_UNDO: ClassVar[bool] = True
+    #: Commands that make no undo item (a brush mode, a saved view): :meth:`effective_events` keeps them.
+    NO_UNDO_ITEM: ClassVar[tuple[str, ...]] = ()
+    #: Commands that join the undo item of the next command that makes one (the events of an open stroke).
+    ITEM_OPENERS: ClassVar[tuple[str, ...]] = ()
+    #: Commands that join an open item (growth while a stroke is open belongs to the stroke's item).
+    JOIN_OPEN: ClassVar[tuple[str, ...]] = ()
+    #: Commands logged with a ``steps`` count that made one undo item per step (``grow`` in the background).
+    PER_STEP: ClassVar[tuple[str, ...]] = ()
 
     version = Int(0, help="Bumped after every change; views observe it.")
     change = AnyTrait(None, allow_none=True, help="The latest Change (observe names='change').")
@@ -120,6 +139,7 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self._apply_lock = threading.Lock()    # one applier at a time: snapshot and version never go back
         self._blocks = 0                  # > 0: inside history_block() (the thread holding the lock)
         self._batch: int | None = None    # thread inside set_params: trait observers log nothing
+        self._deferred: list[Callable[[], None]] = []   # after_command() calls made inside set_params
         self._restoring = False           # a load sets traits of state it built itself
         self._hold = 0                    # > 0: autosave deferred (replay, batches)
         self._dirty = False               # a change happened while held
@@ -170,7 +190,19 @@ class Document(HasTraits, metaclass=_DocumentMeta):
             finally:
                 self._batch = None
             self.log.record("set_params", **checked)
+        deferred, self._deferred = self._deferred, []
+        for fn in deferred:     # after the command is logged and its undo item pushed (a regrow amends it)
+            fn()
         self._autosave()
+
+    def after_command(self, fn: Callable[[], None]) -> None:
+        """Run ``fn`` once the parameter command in progress on this thread is logged and its undo item pushed
+        (an observer of a parameter set by :meth:`set_params` is notified before that), else now: a regrow then
+        follows its ``set_params`` in the log and amends its undo item."""
+        if self._batch == threading.get_ident():
+            self._deferred.append(fn)
+        else:
+            fn()
 
     def _param_item(self, old: dict[str, Any] | None = None):
         """The undo item of a parameter change (``old``: values the traits held before, when they are already
@@ -421,6 +453,105 @@ class Document(HasTraits, metaclass=_DocumentMeta):
                 self.history.unmute()
                 self._after = None
 
+    def effective_events(self, events=None) -> list[tuple[str, dict[str, Any]]]:
+        """The logged commands (``events``: default ``self.log``'s) whose effect the state still holds, in order:
+        the log's ``undo`` / ``redo`` are played on a model of the undo stack (one item per command, a ``block`` or a
+        ``regrow`` with ``amend`` joining the previous one, :attr:`ITEM_OPENERS` joining the next,
+        :attr:`PER_STEP` commands one item per step, :attr:`NO_UNDO_ITEM` commands never undone), so undone items
+        are left out and redone ones come back. ``block`` events are kept whole. What a regrow re-issues
+        (:meth:`_reissue`).
+
+        Limits: an undo the real history refused (past ``max_undo``, or after a history cleared by a new branching
+        mode) and a command that changed nothing (no item) are modelled as if they made one."""
+        events = self.log.events if events is None else events
+        seq: list[list] = []          # [undoable, [(command, kwargs), ...]] in applied order
+        redo: list[list] = []
+        pending: list[tuple[str, dict]] = []
+
+        def close_pending():
+            if pending:
+                seq.append([True, list(pending)])
+                pending.clear()
+
+        for ev in events:
+            c, kw = ev.command, dict(ev.kwargs)
+            if c in ("undo", "redo"):
+                close_pending()          # before_undo ends an open stroke: an item of its own
+                if c == "undo":
+                    i = next((i for i in range(len(seq) - 1, -1, -1) if seq[i][0]), None)
+                    if i is not None:
+                        redo.append(seq.pop(i))
+                elif redo:
+                    seq.append(redo.pop())
+                continue
+            if c in self.ITEM_OPENERS:
+                if c == self.ITEM_OPENERS[0]:
+                    close_pending()      # a new stroke ends the open one
+                pending.append((c, kw))
+                continue
+            if pending and c in self.JOIN_OPEN:
+                pending.append((c, kw))
+                continue
+            if c in self.NO_UNDO_ITEM:
+                seq.append([False, [(c, kw)]])
+                continue
+            redo.clear()
+            if c in ("block", "regrow") and kw.get("amend"):
+                i = next((i for i in range(len(seq) - 1, -1, -1) if seq[i][0]), None)
+                if i is not None:
+                    seq[i][1].append((c, kw))
+                    continue
+            if c in self.PER_STEP and isinstance(kw.get("steps"), int) and kw["steps"] > 1 and not pending:
+                seq.extend([True, [(c, {**kw, "steps": 1})]] for _ in range(kw["steps"]))
+                continue
+            seq.append([True, [*pending, (c, kw)]])
+            pending.clear()
+        out = [e for _, evs in seq for e in evs]
+        return out + pending
+
+    def _check_regrow(self, amend: bool = False) -> bool:
+        if not isinstance(amend, (bool, np.bool_)):
+            raise ValueError(f"amend must be True or False, got {amend!r:.80}")  # noqa: TRY004
+        return bool(amend)
+
+    def _reissue(self, commands: list[tuple[str, dict[str, Any]]], prepare: Callable[[], None], *, amend: bool,
+                 command: str = "regrow", kind: str = "tree") -> int:
+        """Run ``prepare()`` (a reset) and ``commands`` again as ONE undo item (a :meth:`history_block`, joining
+        the previous item with ``amend``: the parameter change that caused the regrow) holding one
+        :class:`~plantvr.history.StateAtom` of the whole state (the re-issued commands keep no atoms of their
+        own), logged as one ``command`` (``regrow``), observers notified once; all or nothing."""
+        for name, kwargs in commands:
+            self.check_command(name, kwargs)
+        with self._lock, self.held():
+            saved = self._checkpoint()
+            start = len(self.log.events)
+            try:
+                with self.hold_trait_notifications(), self.history_block(amend=amend):
+                    before = self.get_state()
+                    with self.unrecorded():
+                        prepare()
+                        for name, kwargs in commands:
+                            getattr(self, name)(**kwargs)
+                    after = self.get_state()
+                    if not _same(before, after):
+                        self.history.push(StateAtom(before, after, kind))
+                    del self.log.events[start:]         # logged as the one command below
+            except BaseException:
+                self._rollback(saved)
+                raise
+            self.log.record(command, **({"amend": True} if amend else {}))
+        self.changed(kind, command=command)
+        return len(commands)
+
+    def take_history(self, history: History) -> None:
+        """Replace the undo history with ``history`` (a scratch copy's after a replay, a loaded file's): the one
+        place outside the history module that swaps it (the undo traits follow with the next change)."""
+        if not isinstance(history, History):
+            raise ValueError(f"history must be a History, got {type(history).__name__}")  # noqa: TRY004
+        with self._lock:
+            self.history = history
+            self._after = None
+
     def _travel(self, command: str):
         if self._blocks and self._lock._is_owned():
             raise ValueError(f"{command} inside a history block: end the block first")
@@ -622,6 +753,32 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         :class:`~plantvr.types.TriMesh` (with optional per-vertex ``colors``), :class:`~plantvr.types.Points`
         or :class:`~plantvr.types.Instances` values; :class:`plantvr.View` picks one actor layer per type."""
         return {}
+
+
+def file_digest(*paths) -> str:
+    """SHA-256 (hex) of the bytes of ``paths`` in order: what a logged ``restore`` records beside the path, so a
+    replay refuses a file that changed since the session was recorded (issue 30)."""
+    h = hashlib.sha256()
+    for p in paths:
+        try:
+            with open(p, "rb") as fh:
+                for chunk in iter(lambda: fh.read(1 << 20), b""):
+                    h.update(chunk)
+        except OSError as exc:
+            raise ValueError(f"cannot read {str(p)!r}: {exc}"[:300]) from None
+    return h.hexdigest()
+
+
+def check_digest(what: str, digest: Any, now: str) -> None:
+    """Door check of a logged file load: ``digest`` (None, or what :func:`file_digest` gave when the session was
+    recorded) must equal ``now``, else ``ValueError`` naming the file: replay refuses a file that changed."""
+    if digest is None:
+        return
+    if not isinstance(digest, str) or len(digest) != 64:
+        raise ValueError(f"digest must be a 64-character SHA-256 hex string, got {digest!r:.80}")
+    if digest != now:
+        raise ValueError(f"{what} changed since the session was recorded (sha256 {now[:12]}... here, "
+                         f"{digest[:12]}... logged): replay refuses a different file"[:300])
 
 
 def serialise(x: Any, *, skip: frozenset[str] = frozenset()) -> bytes:

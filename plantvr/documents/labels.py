@@ -30,7 +30,7 @@ import numpy as np
 from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_headers, read_npz
 from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_point, check_range
 from plantvr.commandlog import CommandLog
-from plantvr.document import Document
+from plantvr.document import Document, check_digest, file_digest
 from plantvr.history import ArrayEdit, Group
 from plantvr.types import TriMesh
 from plantvr.vine._filecheck import check_elements
@@ -62,7 +62,7 @@ _STATE_NAMES = ("format", "vertices", "faces", "normals", "labels", "rgba", "vis
 #: replay's scratch copy.
 _MESH_ATTRS = ("vertices", "faces", "normals", "index_kind", "max_radius", "_index", "_graph", "spacing", "origin")
 #: Attributes of the session state a restore, a bundle or a replay takes over.
-_SESSION_ATTRS = ("labels", "colors", "history", "views", "_stroke")
+_SESSION_ATTRS = ("labels", "colors", "views", "_stroke")   # and the history (Document.take_history)
 
 
 def check_grid(spacing, origin) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -114,7 +114,7 @@ class Segmentation(Document):
 
     KIND = "vine"
     COMMANDS = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
-                "set_color", "add_color", "fill", "split_label", "merge_labels")
+                "set_color", "add_color", "fill", "split_label", "merge_labels", "add_view", "restore")
 
     def __init__(self, vertices, faces, *, labels=None, colors: ColorTable | None = None, normals=None,
                  index: str = "grid", max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20):
@@ -638,7 +638,7 @@ class Segmentation(Document):
             setattr(c, k, getattr(self, k))
         c.labels = self.labels.copy()
         c.colors = self.colors.copy()
-        c.history = self.history.copy()
+        c.take_history(self.history.copy())
         c.views = list(self.views)
         c._stroke = None if self._stroke is None else list(self._stroke)
         c._preserve = self._preserve
@@ -652,6 +652,7 @@ class Segmentation(Document):
         with self._lock:
             for k in _SESSION_ATTRS + (() if same_mesh else _MESH_ATTRS):
                 setattr(self, k, getattr(other, k))
+            self.take_history(other.history)
             if log:
                 self.log.events = other.log.events
         self.changed("all", command=command)
@@ -732,12 +733,24 @@ class Segmentation(Document):
         return self.colors.rgba[self.labels]
 
     # ------------------------------------------------------------------ views
-    def add_view(self, view: SavedView) -> int:
-        """Store a saved view; returns its number."""
-        if not isinstance(view, SavedView):
-            raise ValueError(f"view must be a SavedView, got {type(view).__name__}")  # noqa: TRY004
+    @staticmethod
+    def _check_add_view(view) -> SavedView:
+        if isinstance(view, SavedView):
+            return view
+        if isinstance(view, (list, tuple, np.ndarray)):      # a logged view: its 13 numbers (SavedView.to_array)
+            try:
+                return SavedView.from_array(np.asarray(view, np.float64))
+            except (ValueError, TypeError) as exc:
+                raise ValueError(f"view must be a SavedView or its 13 numbers, got {view!r:.80} ({exc})") from None
+        raise ValueError(f"view must be a SavedView, got {type(view).__name__}")
+
+    def add_view(self, view) -> int:
+        """Store a saved view (a :class:`SavedView`, or the 13 numbers of its ``to_array``); returns its number.
+        Logged (as the 13 numbers) so a replay holds the same views; not an undo item (a camera bookmark)."""
+        view = self._check_add_view(view)
         with self._lock:
             self.views.append(view)
+            self.log.record("add_view", view=[float(x) for x in view.to_array()])
         self.changed("views", command="add_view")
         return len(self.views) - 1
 
@@ -933,12 +946,31 @@ class Segmentation(Document):
             seg.spacing, seg.origin = check_grid(d["grid"][:3], d["grid"][3:])
         return seg
 
-    def restore(self, path: str | os.PathLike) -> None:
-        """Replace this session's state with a saved file's (full or labels-only); on any error nothing changes."""
+    @staticmethod
+    def _check_restore(path, digest: str | None = None) -> tuple[Path, str]:
+        """Door check of :meth:`restore`: the absolute path and the file's digest now (equal to a logged one)."""
+        if not isinstance(path, (str, os.PathLike)):
+            raise ValueError(f"path must be a str or path-like, got {type(path).__name__}")  # noqa: TRY004
+        path = Path(os.fspath(path)).absolute()
+        if not path.is_file():
+            raise ValueError(f"segmentation file {str(path)!r} does not exist")
+        now = file_digest(path)
+        check_digest(f"segmentation file {str(path)!r}", digest, now)
+        return path, now
+
+    def restore(self, path: str | os.PathLike, digest: str | None = None) -> None:
+        """Replace this session's state with a saved file's (full or labels-only, its undo history with it); on
+        any error nothing changes. Logged as ``restore(path, digest)``: the absolute path and the SHA-256 of the
+        bytes loaded; a replay is refused at its door when the file's bytes differ (see :func:`file_digest`)."""
+        path, digest = self._check_restore(path, digest)
         d = self._read_state(path, base=self)
+        if file_digest(path) != digest:
+            raise ValueError(f"cannot load {str(path)!r}: the file changed while it was read")
         same_mesh = d["vertices"] is self.vertices
         other = self._from_state(d, index=self.index_kind)
-        self._adopt(other, same_mesh=same_mesh)
+        with self._lock:
+            self._adopt(other, same_mesh=same_mesh)
+            self.log.record("restore", path=str(path), digest=digest)
 
     def enable_autosave(self, path: str | os.PathLike | None) -> Path | None:
         """After every completed operation, save the labels-only state to ``path`` (None turns it off).

@@ -37,7 +37,7 @@ from traitlets import Bool, Int
 
 from .._fileio import check_target
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_range
-from ..document import Document, serialise
+from ..document import Document, check_digest, file_digest, serialise
 from ..growth.sketch import TREESKETCH, SketchEngine, barycentric, split_values
 from ..growth.sketch_tools import LassoVolume, StrokeEmitter, TreeLibrary, lasso_volume, nearest_node
 from ..history import StateAtom
@@ -83,8 +83,14 @@ class SketchDocument(Document):
     KIND = "treesketch"
     COMMANDS = ("set_params", "set_influence", "begin_stroke", "move_stroke", "end_stroke", "paint", "add_markers",
                 "lasso", "grow", "ungrow", "advance", "prune", "prune_at", "select", "set_width", "bend", "reset",
-                "undo", "redo")
+                "restore", "regrow", "undo", "redo")
     PARAMS = TREESKETCH
+    ITEM_OPENERS = ("begin_stroke", "move_stroke")
+    JOIN_OPEN = ("grow", "advance")
+    #: Commands :meth:`regrow` re-issues (the strokes, markers and growth since the last reset; edits that name
+    #: nodes of the old tree, ``select`` / ``set_width`` / ``bend``, are not).
+    REGROW_COMMANDS = ("begin_stroke", "move_stroke", "end_stroke", "paint", "add_markers", "lasso", "grow",
+                       "ungrow", "advance", "prune", "prune_at")
 
     n_internodes = Int(1, help="Live internodes.")
     n_markers = Int(0, help="Attraction points.")
@@ -468,6 +474,34 @@ class SketchDocument(Document):
             self.log.record("reset", seed=seed)
         self.changed("all", command="reset")
 
+    def regrow(self, amend: bool = False) -> int:
+        """Grow the tree again with the current parameters: ``reset()``, then the :data:`REGROW_COMMANDS` whose
+        effect the tree still holds since the last reset (undone ones left out), re-issued in order, the stroke
+        counter that seeds brush points restarted from the count they had (so the same parameters regrow the
+        same tree); a stroke left open is closed. One undo item (``amend``: joined to the previous one), logged
+        as one ``regrow`` command; returns the number of commands re-issued (0: nothing to regrow)."""
+        amend = self._check_regrow(amend)
+        with self._lock:
+            return self._regrow(amend)
+
+    def _regrow(self, amend: bool) -> int:
+        events = self.effective_events()
+        start = max((i for i, (c, _) in enumerate(events) if c in ("reset", "restore")), default=-1)
+        if start >= 0 and events[start][0] == "restore":
+            return 0
+        commands = [(c, kw) for c, kw in events[start + 1:] if c in self.REGROW_COMMANDS]
+        if not commands:
+            return 0
+        open_stroke = self._emitter is not None
+        strokes = self._strokes - (sum(n == "begin_stroke" for n, _ in commands) - open_stroke)
+        if open_stroke:
+            commands.append(("end_stroke", {}))   # a stroke left open is closed in the regrown tree
+
+        def prepare():
+            self.reset()
+            self._strokes = max(int(strokes), 0)
+        return self._reissue(commands, prepare, amend=amend)
+
     @staticmethod
     def _check_reset(seed: int | None = None) -> int | None:
         return None if seed is None else check_int("seed", seed, 0, 2 ** 63 - 1)
@@ -550,12 +584,28 @@ class SketchDocument(Document):
         doc._sync_undo_traits()
         return doc
 
-    def restore(self, path: str | os.PathLike) -> None:
+    @staticmethod
+    def _check_restore(path, digest: str | None = None) -> tuple[Path, str]:
+        """Door check of :meth:`restore`: the absolute ``.tree`` path and the digest of the entry's files now
+        (equal to a logged one)."""
+        folder, name = _entry(path)
+        tree = (folder / f"{name}.tree").absolute()
+        if not tree.is_file():
+            raise ValueError(f"cannot read library tree {str(tree)!r}: no such file")
+        now = file_digest(*_entry_files(tree))
+        check_digest(f"tree library entry {str(tree)!r}", digest, now)
+        return tree, now
+
+    def restore(self, path: str | os.PathLike, digest: str | None = None) -> None:
         """Replace the tree, its parameters and options with the library entry saved at ``path`` (one undo item).
         The entry is read and checked in full first, so a missing or corrupt one raises ``ValueError`` and changes
-        nothing. Not a logged command: a log replays on the tree it was recorded on."""
+        nothing. Logged as ``restore(path, digest)``: the absolute path and the SHA-256 of the entry's files; a
+        replay is refused at its door when they differ, so it reproduces the same state or changes nothing."""
+        path, digest = self._check_restore(path, digest)
         folder, name = _entry(path)
         e = TreeLibrary(folder).load(name)
+        if file_digest(*_entry_files(path)) != digest:
+            raise ValueError(f"cannot load {str(path)!r}: the entry changed while it was read")
         values = e.table_values()
         with self._lock, self._edit():
             self._restoring = True
@@ -567,6 +617,7 @@ class SketchDocument(Document):
                 self._restoring = False
             self._engine = e
             self._samples = np.zeros((0, 3))
+            self.log.record("restore", path=str(path), digest=digest)
         self.changed("all", command="restore")
 
 
@@ -582,6 +633,12 @@ def _entry(path) -> tuple[Path, str]:
     if path.suffix != ".tree":
         raise ValueError(f"path must end in .tree, got {path.suffix!r}")
     return path.parent, path.stem
+
+
+def _entry_files(tree: Path) -> list[Path]:
+    """The files of a library entry: its ``.tree`` and, when there, its ``.json``."""
+    side = tree.with_suffix(".json")
+    return [tree, side] if side.is_file() else [tree]
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

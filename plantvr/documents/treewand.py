@@ -5,8 +5,9 @@ A :class:`Model` is a :class:`~plantvr.document.Document`: its parameters are tr
 :data:`plantvr.params.TREEWAND`; every command validates its arguments, then edits the
 :class:`~plantvr.growth.engine.GrowthEngine` under the document's lock, records itself in ``model.log`` and
 ends in :meth:`~plantvr.document.Document.changed`, which publishes an immutable :class:`Snapshot` (a
-background growth worker never sets a trait itself, STYLE §9). Paint, strokes, markers, prune, growth steps
-and reset are undoable: each is one whole-engine-state atom of ``model.history``. The headset attaches from
+background growth worker never sets a trait itself, STYLE §9). Paint, strokes, markers, prune, growth steps,
+reset, restore (a file load, logged with the file's digest) and regrow are undoable: each is one whole-engine-state
+atom of ``model.history``. The headset attaches from
 outside (``plantvr.vr.attach(model)``).
 """
 from __future__ import annotations
@@ -24,7 +25,7 @@ from traitlets import Bool, Dict, Float, Int
 
 from .._fileio import write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
-from ..document import Document, serialise
+from ..document import Document, check_digest, file_digest, serialise
 from ..growth.engine import GrowthEngine, StepStats
 from ..growth.treefile import MAX_TREE_BYTES, state_from_npz, state_to_bytes, tree_from_text, tree_to_text
 from ..params import TREEWAND
@@ -124,8 +125,12 @@ class Model(Document):
 
     KIND = "treewand"
     COMMANDS = ("paint", "paint_stroke", "add_markers", "prune", "step", "grow", "set_params", "set_influence",
-                "set_prune_mode", "reset", "undo", "redo")
+                "set_prune_mode", "reset", "restore", "regrow", "undo", "redo")
     PARAMS = TREEWAND
+    NO_UNDO_ITEM = ("set_prune_mode",)
+    PER_STEP = ("grow",)
+    #: Commands :meth:`regrow` re-issues (what grew the tree since the last reset).
+    REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
 
     n_internodes = Int(1, help="Live internodes in the latest snapshot.")
     n_markers = Int(0, help="Live markers in the latest snapshot.")
@@ -333,6 +338,32 @@ class Model(Document):
         """Door check of a logged ``grow`` (replayed synchronously: one undo item per step, as it was made)."""
         return check_int("steps", steps, 0, 10_000_000)
 
+    # -- regrow -------------------------------------------------------------------------------------------
+    def regrow_commands(self) -> list[tuple[str, dict[str, Any]]]:
+        """What :meth:`regrow` re-issues: the :data:`REGROW_COMMANDS` whose effect the tree still holds (undone
+        ones left out, :meth:`~plantvr.document.Document.effective_events`) since the last ``reset``; none when a
+        ``restore`` came after it (a loaded tree is not regrown)."""
+        events = self.effective_events()
+        start = max((i for i, (c, _) in enumerate(events) if c in ("reset", "restore")), default=-1)
+        if start >= 0 and events[start][0] == "restore":
+            return []
+        return [(c, kw) for c, kw in events[start + 1:] if c in self.REGROW_COMMANDS]
+
+    def regrow(self, amend: bool = False) -> int:
+        """Grow the tree again with the current parameters: ``reset(seed=seed)``, then :meth:`regrow_commands`
+        re-issued in order (the same darts and step count). One undo item (with ``amend``: joined to the previous
+        one, the parameter change that caused it, so one undo restores both), logged as one ``regrow`` command,
+        one change. Returns the number of commands re-issued (0, changing nothing, when there is nothing to
+        regrow)."""
+        amend = self._check_regrow(amend)
+        if self.growing:
+            self.stop()
+        with self._lock:           # the commands and their re-issue see the same log
+            commands = self.regrow_commands()
+            if not commands:
+                return 0
+            return self._reissue(commands, lambda: self.reset(seed=self.seed), amend=amend)
+
     # -- background growth --------------------------------------------------------------------------
     def grow(self, steps: int, *, background: bool = False, progress: bool = False,
              on_step: Callable[[StepStats], None] | None = None) -> threading.Thread | list[StepStats]:
@@ -477,14 +508,28 @@ class Model(Document):
         m.restore(path)
         return m
 
-    def restore(self, path: str | Path) -> None:
-        """Replace this model's tree and parameters with a saved file's (the undo history is cleared); on any
-        error nothing changes.
+    def _check_restore(self, path, digest: str | None = None) -> tuple[Path, str]:
+        """Door check of :meth:`restore`: the path (made absolute, so a log replays from any folder) and the
+        file's digest now, which must equal a logged ``digest``."""
+        path = _check_path(path).absolute()
+        if not path.is_file():
+            what = "cannot load" if path.suffix == ".tree" else "cannot read PlantVR state"
+            raise ValueError(f"{what} {str(path)!r}: no such file")
+        now = file_digest(path)
+        check_digest(f"file {str(path)!r}", digest, now)
+        return path, now
+
+    def restore(self, path: str | Path, digest: str | None = None) -> None:
+        """Replace this model's tree and parameters with a saved file's: one undo item, logged as
+        ``restore(path, digest)``; on any error nothing changes.
 
         Every file is checked in full first (format version, checksum, size caps, every array: see
-        :mod:`plantvr.growth.treefile`); a bad one raises ``ValueError`` naming the file and the problem.
+        :mod:`plantvr.growth.treefile`); a bad one raises ``ValueError`` naming the file and the problem. The log
+        records the absolute path and the SHA-256 of the bytes loaded: a replay loads the same file again and is
+        refused (``ValueError`` at its door, before anything is issued) when the file's bytes differ, so a replay
+        either reproduces the same state or changes nothing. ``digest`` (what a log holds) must match the file.
         """
-        path = _check_path(path)
+        path, digest = self._check_restore(path, digest)
         extra: dict[str, np.ndarray] = {}
         if path.suffix == ".tree":
             try:
@@ -516,7 +561,9 @@ class Model(Document):
         if extra and all(np.allclose(getattr(tree, k), v, rtol=1e-9, atol=1e-9) for k, v in saved.items()):
             for k, v in saved.items():  # the saved light and vigor (the rebuilt shadow grid sums in another order)
                 getattr(tree, k)[:] = v
-        with self._lock:
+        if file_digest(path) != digest:
+            raise ValueError(f"cannot load {str(path)!r}: the file changed while it was read")
+        with self._lock, self.undoable("all"):
             self._restoring = True
             try:
                 with self.hold_trait_notifications():
@@ -525,9 +572,8 @@ class Model(Document):
             finally:
                 self._restoring = False
             self._engine = engine
-            self.history.clear()
-            self._after = None
-        self.changed("all")
+            self.log.record("restore", path=str(path), digest=digest)
+        self.changed("all", command="restore")
 
 
 #: Tree fields :meth:`GrowthEngine.rebuild_light` recomputes; an ``.npz`` restores its saved values when they

@@ -33,7 +33,8 @@ import ipywidgets as W
 
 from .._validation import check_size
 from ..document import kernel_loop
-from ..history import History, StateAtom
+from ..documents.treesketch import SketchDocument
+from ..documents.treewand import Model
 from .architecture import ArchitecturePanel
 from .floret_editor import FloretEditor
 from .growth import GrowthControl
@@ -46,11 +47,10 @@ __all__ = ["EDITORS", "OWN_PANEL_ONLY", "REGROW_BY_KIND", "REGROW_COMMANDS", "RE
            "SKETCH_REGROW_COMMANDS", "Workbench", "close_when_headless", "live_frontend", "workbench"]
 
 #: Tree Wand commands re-issued by a regrow (what grew the tree since the last reset).
-REGROW_COMMANDS = ("paint", "paint_stroke", "add_markers", "step", "prune")
+REGROW_COMMANDS = Model.REGROW_COMMANDS
 #: TreeSketch commands re-issued by a regrow (the strokes, markers and growth since the last reset; edits that
 #: name nodes of the old tree, ``select`` / ``set_width`` / ``bend``, are not).
-SKETCH_REGROW_COMMANDS = ("begin_stroke", "move_stroke", "end_stroke", "paint", "add_markers", "lasso", "grow",
-                          "ungrow", "advance", "prune", "prune_at")
+SKETCH_REGROW_COMMANDS = SketchDocument.REGROW_COMMANDS
 #: Parameter windows whose parameters change growth (the others only change the picture).
 REGROW_WINDOWS = ("form", "light")
 #: By document kind: the windows whose parameters change growth (a forest: all of them).
@@ -163,7 +163,6 @@ class Workbench(W.HBox):
         live = live_frontend() if live is None else live
         self.doc, self.live = doc, live
         self.regrows = 0
-        self._reissued = 0            # brush commands a regrow issued again (not counted as new strokes)
         self._pending = False
         self._refit = False           # the next change is a regrow's: refit the camera
         self._redraw = False          # a headless picture is due
@@ -268,7 +267,7 @@ class Workbench(W.HBox):
         d = self.doc
         if self.treewand:
             n_cmd = sum(1 for e in d.log.events[self._start:]
-                        if e.command in ("paint", "paint_stroke", "prune")) - self._reissued
+                        if e.command in ("paint", "paint_stroke", "prune"))   # a regrow logs one regrow
             text = (f"internodes {d.n_internodes} · markers {d.n_markers} · steps {d.steps_done} · "
                     f"brush commands {n_cmd} · regrows {self.regrows}")
         elif self.labels:
@@ -300,7 +299,7 @@ class Workbench(W.HBox):
         self._pending = True
         loop = kernel_loop()
         if loop is None:
-            self.flush()
+            self.doc.after_command(self.flush)    # after the set_params that set it is logged
         else:
             loop.call_soon(self.flush)
 
@@ -313,10 +312,10 @@ class Workbench(W.HBox):
     def regrow(self) -> int:
         """Grow the document again with its current parameters; returns the number of commands re-issued.
 
-        Tree Wand: ``reset(seed=model.seed)``, then every ``paint`` / ``paint_stroke`` / ``add_markers`` /
-        ``step`` / ``prune`` logged since the last reset, re-issued in order (so the same darts and the same step
-        count). TreeSketch: the same with :data:`SKETCH_REGROW_COMMANDS`. Both are logged, as one undo item, and
-        the document's observers are notified once, at the end (one ``change``, one ``version``). A forest: its
+        Tree Wand and TreeSketch: the document's own ``regrow`` command (:meth:`plantvr.Model.regrow`,
+        :meth:`~plantvr.documents.treesketch.SketchDocument.regrow`): ``reset``, then the growth commands since
+        the last reset that are not undone, re-issued in order, logged as one ``regrow`` and one undo item joined
+        to the parameter change that caused it; the document's observers are notified once, at the end. A forest: its
         last ``grow`` again (same overrides and TreeSketch options), when it was grown. The camera is then fitted
         to the new size (same direction).
         """
@@ -332,41 +331,14 @@ class Workbench(W.HBox):
             self.regrows += 1
             self._sync()
             return 1
-        if getattr(doc, "growing", False):
-            doc.stop()
-        names = REGROW_COMMANDS if self.treewand else SKETCH_REGROW_COMMANDS
-        events = doc.log.events
-        start = max((i for i, e in enumerate(events) if e.command == "reset"), default=-1) + 1
-        commands = [(e.command, dict(e.kwargs)) for e in events[start:] if e.command in names]
-        strokes = None
-        if not self.treewand:
-            # a TreeSketch stroke's points are seeded by the number of strokes finished before it: start the
-            # re-issued strokes from the count they had, so the same parameters give the same tree again
-            open_stroke = bool(getattr(doc, "stroking", False))
-            strokes = doc.get_state()["strokes"] - (sum(n == "begin_stroke" for n, _ in commands) - open_stroke)
-            if open_stroke:
-                commands.append(("end_stroke", {}))   # a stroke left open is closed in the regrown tree
-        for name, kwargs in commands:
-            doc.check_command(name, kwargs)
-        before = doc.get_state()
-        history, doc.history = doc.history, History(max_items=1, max_bytes=0)  # the steps keep no atoms
-        try:
-            # one redraw: this view is held, and every other observer gets one merged notification at the end
-            with self.view.hold(), doc.held(), doc.hold_trait_notifications():
-                doc.reset(seed=doc.seed)
-                if strokes is not None:
-                    doc._strokes = max(int(strokes), 0)
-                for name, kwargs in commands:
-                    getattr(doc, name)(**kwargs)
-                doc.history = history
-                history.amend([StateAtom(before, doc.get_state(), "tree")])  # one item with the parameter change
-        finally:
-            doc.history = history
+        # a model operation: the document's regrow command (one undo item joined to the parameter change that
+        # caused it, logged as one ``regrow``); this view is held, so it redraws once
+        with self.view.hold():
+            n = doc.regrow(amend=True)
         self.regrows += 1
-        self._reissued += sum(1 for name, _ in commands if name in ("paint", "paint_stroke", "prune"))
         self._refit = True
         self._on_change(None)
-        return len(commands)
+        return n
 
     # -- lifetime ---------------------------------------------------------------------------------------------
     def close(self) -> None:

@@ -18,9 +18,11 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -30,6 +32,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from plantvr.commandlog import CommandLog
+from plantvr.document import file_digest
 from plantvr.documents import (
     CrownDocument,
     InflorescenceDocument,
@@ -43,6 +46,7 @@ from plantvr.flowers.floret import FLORET
 from plantvr.growth.sketch import TREESKETCH
 from plantvr.landscape.forest import FOREST
 from plantvr.params import TREEWAND
+from plantvr.vine.views import SavedView
 
 NAN, INF = float("nan"), float("inf")
 #: Values that are bad for any required number (text such as "1" is parsed as a number by ``check_range``: the
@@ -167,11 +171,29 @@ _TW_SAFE = {n: valid_param(TREEWAND, n) for n in ("apical_dominance", "branch_an
                                                    "phyllotaxis_angle", "radius_exp", "shadow_intensity",
                                                    "bark_texture", "length_mode", "branching", "shed_count")}
 _CLOUD = np.random.default_rng(0).uniform([-3, 2, -3], [3, 9, 3], (200, 3)).tolist()
-_INFL = value(st.floats(0.0, 5.0), (-1.0, NAN, INF, "1", None))
+_INFL = value(st.floats(0.0, 5.0), (-1.0, NAN, INF, "abc", None))   # text numbers parse (check_range)
 
 
 def _all_zero(command, kwargs):
     return command == "set_influence" and all(isinstance(v, (int, float)) and v == 0 for v in kwargs.values())
+
+
+#: Files the ``restore`` commands load (written once; never changed, so logged digests stay valid for replay).
+_FILES = Path(tempfile.mkdtemp(prefix="plantvr-fuzz-"))
+
+
+def _restore(path: Path, bad_paths: tuple) -> st.SearchStrategy:
+    """``restore`` kwargs: the good file (digest given or not), or a bad path / digest."""
+    good = file_digest(*sorted(path.parent.glob(path.stem + ".*"), key=lambda q: q.suffix != path.suffix))
+    return kw(path=value(st.just(str(path)), bad_paths + (None, 5, [str(path)])),
+              digest=optional(value(st.just(good), ("abc", "0" * 64, 7, good.upper()))))
+
+
+def _tw_file() -> Path:
+    m = Model(seed=3)
+    m.add_markers(_CLOUD[:50])
+    m.step(2)
+    return m.save(_FILES / "tw.npz")
 
 
 TREEWAND_KIND = Kind(
@@ -190,11 +212,20 @@ TREEWAND_KIND = Kind(
         "set_influence": kw(H=_INFL, T=_INFL, E=_INFL),
         "set_prune_mode": kw(on=boolean()),
         "reset": kw(seed=optional(integer(0, 2 ** 63 - 1, (-1, 2 ** 63)))),
+        "restore": _restore(_tw_file(), (str(_FILES / "missing.npz"), str(_FILES / "tw.txt"))),
+        "regrow": kw(amend=boolean()),
         "undo": NONE, "redo": NONE,
     }, examples=24, commands=10, extra_bad=_all_zero)
 
 _TS_SAFE = {**{n: valid_param(TREESKETCH, n) for n in ("apical_dominance", "branch_angle", "tropism_angle",
                                                         "tip_radius", "radius_exp", "deflection", "trunk_up")}}
+def _ts_file() -> Path:
+    d = SketchDocument(seed=2, activation_threshold=0.0)
+    d.add_markers(_CLOUD[:40])
+    d.grow(2)
+    return d.save(_FILES / "oak.tree")
+
+
 TREESKETCH_KIND = Kind(
     "treesketch", lambda: SketchDocument(seed=1, activation_threshold=0.0, stroke_tropism=True),
     [("begin_stroke", {"point": [0.0, 1.0, 0.0]}), ("move_stroke", {"point": [0.0, 6.0, 0.0], "radius": 0.0}),
@@ -224,6 +255,8 @@ TREESKETCH_KIND = Kind(
         "bend": kw(base=integer(0, 20, (-1,)), end=integer(0, 20, (-1,)), target=point(),
                    max_iter=integer(1, 20, (0, 10 ** 6))),
         "reset": kw(seed=optional(integer(0, 99, (-1, 2 ** 63)))),
+        "restore": _restore(_ts_file(), (str(_FILES / "missing.tree"), str(_FILES / "oak.npz"))),
+        "regrow": kw(amend=boolean()),
         "undo": NONE, "redo": NONE,
     }, examples=24, commands=10,
     extra_bad=lambda c, k: _all_zero(c, k) or (c == "select" and k.get("point") is None
@@ -234,6 +267,14 @@ _V = len(_SPHERE.vertices)
 _LABEL = integer(0, 9, (-1, 70000, "a"))
 _RGB = value(st.lists(st.integers(0, 255), min_size=3, max_size=4),
              ([256, 0, 0], [-1, 0, 0], [0, 0], [0.5, 0, 0], "red", None, [NAN, 0, 0], [[1, 2, 3]]))
+def _seg_file() -> Path:
+    seg = Segmentation(_SPHERE.vertices, _SPHERE.faces)
+    seg.paint([0.0, 1.0, 0.0], 0.6, 3)
+    return seg.save(_FILES / "labels.npz", include_mesh=False)
+
+
+_VIEW = st.tuples(st.lists(st.floats(-5, 5), min_size=3, max_size=3), st.floats(0.1, 10.0)).map(
+    lambda pv: SavedView(np.array(pv[0]), np.eye(3), pv[1]).to_array().tolist())
 LABELS_KIND = Kind(
     "vine", lambda: Segmentation(_SPHERE.vertices, _SPHERE.faces),
     [("paint", {"center": [0.0, 0.0, 1.0], "radius": 0.5, "label": 1})],
@@ -249,6 +290,8 @@ LABELS_KIND = Kind(
                    radius=optional(num(0.0, 2.0, (-1.0, 1e9)))),
         "split_label": kw(label=_LABEL, min_vertices=integer(1, 50, (0, -1, _V + 1))),
         "merge_labels": kw(keep=_LABEL, other=_LABEL),
+        "add_view": kw(view=value(_VIEW, ("front", None, [1.0, 2.0, 3.0], [NAN] * 13, 5))),
+        "restore": _restore(_seg_file(), (str(_FILES / "missing.npz"),)),
     }, examples=50, commands=12,
     extra_bad=lambda c, k: c == "merge_labels" and k.get("keep") == k.get("other"))
 

@@ -265,11 +265,13 @@ def test_treesketch_slider_regrows_the_same_tree_for_the_same_parameters():
         wb.panels.controls["branch_angle"].value = 30.0
         wb.flush()
         assert wb.regrows == 1
+        at30 = doc.state_bytes()
         wb.panels.controls["branch_angle"].value = 45.0          # back: the same tree as before the first move
         wb.flush()
         again = doc.tree.arrays()
         assert wb.regrows == 2 and all(np.array_equal(first[k], again[k]) for k in first)
-        doc.undo()                                               # one undo item per regrow
-        assert doc.branch_angle == 45.0
+        doc.undo()                  # one undo item per regrow, joined to its parameter change: both come back
+        assert doc.branch_angle == 30.0 and doc.state_bytes() == at30
+        assert [e.command for e in doc.log.events[-3:]] == ["set_params", "regrow", "undo"]
     finally:
         wb.close()
