@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import check_target
+from plantvr._fileio import check_target, write_atomic
 from plantvr._validation import check_array
 
 __all__ = ["LABEL_VOLUME_SUFFIXES", "write_label_volume"]
@@ -155,6 +155,33 @@ def _segments(volume: np.ndarray, names, colors) -> list[dict]:
         out.append({"label": lab, "name": name, "color": c,
                     "extent": [int(v) for pair in zip(lo, hi) for v in pair]})
     return out
+
+
+#: Suffixes of the label tables written beside a plain label image (see :func:`write_label_volume`).
+ITKSNAP_SUFFIX, SLICER_SUFFIX = "_labels.txt", ".ctbl"
+
+
+def _itksnap_table(segments: list[dict]) -> str:
+    """ITK-SNAP's label description file: ``IDX R G B A VIS MSH "LABEL"`` per label, 0-255 colours, the clear
+    label 0 first (the layout ITK-SNAP's *Export Label Descriptions* writes)."""
+    rows = ["################################################", "# ITK-SnAP Label Description File",
+            "# Written by PlantVR", "# Fields: IDX R G B A VIS MSH LABEL", "################################################",
+            '    0     0    0    0        0  0  0    "Clear Label"']
+    for seg in segments:
+        r, g, b = (int(round(255 * x)) for x in seg["color"])
+        name = (seg["name"] or f"Segment_{seg['label']}").replace('"', "'")
+        rows.append(f'{seg["label"]:5d} {r:5d} {g:4d} {b:4d}        1  1  1    "{name}"')
+    return "\n".join(rows) + "\n"
+
+
+def _slicer_table(segments: list[dict]) -> str:
+    """A 3D Slicer colour table (``.ctbl``: ``label name R G B A`` per line, 0-255, names without spaces)."""
+    rows = ["# Color table file written by PlantVR", f"# {len(segments) + 1} values", "0 Background 0 0 0 0"]
+    for seg in segments:
+        r, g, b = (int(round(255 * x)) for x in seg["color"])
+        name = re.sub(r"\s+", "_", seg["name"] or f"Segment_{seg['label']}")
+        rows.append(f"{seg['label']} {name} {r} {g} {b} 255")
+    return "\n".join(rows) + "\n"
 
 
 def _write_seg_nrrd(tmp: str, vol: np.ndarray, g, unit: str | None, lps: bool, segments=()) -> None:
@@ -381,8 +408,10 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=N
         spacing, origin and direction. Refused together with ``spacing``/``origin``.
         For ``.zarr``, optional: it must be the image's level-0 grid (the default).
     names, colors : dict, optional
-        ``.seg.nrrd`` and ``.zarr`` only: segment name and RGB colour (in [0, 1], or [0, 255]) of each label
-        present (default ``Segment_<label>`` and Slicer's generic colours); refused for the other formats.
+        Segment name and RGB colour (in [0, 1], or [0, 255]) of each label present (default ``Segment_<label>``
+        and Slicer's generic colours). ``.seg.nrrd`` and ``.zarr`` hold them; for the other formats, giving
+        either writes the label table beside the image: ``<base>_labels.txt`` (ITK-SNAP's label description
+        file, *Segmentation > Import Label Descriptions*) and ``<base>.ctbl`` (a 3D Slicer colour table).
     name : str, optional
         ``.zarr`` only: the labels group's name (default ``"labels"``), letters, digits, ``.``, ``_``, ``-``.
 
@@ -407,12 +436,10 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=N
                          + (f"{volume.dtype} {volume.shape}" if isinstance(volume, np.ndarray)
                             else type(volume).__name__))
     from plantvr.io.volume import VolumeGeometry
-    if suffix not in (".seg.nrrd", ".zarr") and (names is not None or colors is not None):
-        raise ValueError(f"names and colors name segments: they apply to .seg.nrrd and OME-Zarr (.zarr) only, not "
-                         f"to {os.fspath(p)!r}")
     if name is not None and suffix != ".zarr":
         raise ValueError(f"name names an OME-Zarr labels group: it applies to .zarr only, not to {os.fspath(p)!r}")
-    segments = _segments(volume, names, colors) if suffix in (".seg.nrrd", ".zarr") else None
+    inside = suffix in (".seg.nrrd", ".zarr")             # formats that hold the label table themselves
+    segments = _segments(volume, names, colors) if inside or names is not None or colors is not None else None
     if suffix == ".zarr":
         name = "labels" if name is None else name
         if not isinstance(name, str) or not re.fullmatch(_LABEL_NAME, name):
@@ -442,8 +469,12 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=N
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=suffix, dir=folder)
     os.close(fd)
     try:
-        extra = {"segments": segments} if segments is not None else {}
+        extra = {"segments": segments} if inside else {}
         _WRITERS[suffix](tmp, volume, g, unit, lps, **extra)
+        if segments is not None and not inside:     # the label table beside the image, before the image lands
+            base = p.name[:-len(suffix)]
+            write_atomic(p.with_name(base + ITKSNAP_SUFFIX), _itksnap_table(segments))
+            write_atomic(p.with_name(base + SLICER_SUFFIX), _slicer_table(segments))
         if suffix == ".mhd":                     # the .mhd names its data file: rename both
             raw = Path(tmp).with_suffix(".raw") if Path(tmp).with_suffix(".raw").exists() else \
                 Path(tmp).with_suffix(".zraw")

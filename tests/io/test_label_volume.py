@@ -309,13 +309,32 @@ def test_slicer_seg_nrrd(tmp_path):
     np.testing.assert_allclose([float(x) for x in h["Segment1_Color"].split()], [1.0, 128 / 255, 0.0], atol=1e-6)
     _, index = _sitk_points(sitk.ReadImage(os.path.join(data_path, "anatomical.nii")))
     _assert_same_points(index, lab, out)
-    with pytest.raises(ValueError, match="apply to .seg.nrrd and OME-Zarr"):
-        write_label_volume(tmp_path / "l.nrrd", lab, names={1: "stem"})
     with pytest.raises(ValueError, match=r"names labels \[2\] that are not in volume"):
         write_label_volume(tmp_path / "m.seg.nrrd", lab, names={2: "x"})
     with pytest.raises(ValueError, match=r"colors\[1\] must be 3 values"):
         write_label_volume(tmp_path / "m.seg.nrrd", lab, colors={1: (1, 2)})
     assert not (tmp_path / "m.seg.nrrd").exists() and not (tmp_path / "l.nrrd").exists()
+
+
+@pytest.mark.parametrize("suffix", [".nii.gz", ".tif", ".nrrd", ".mha"])
+def test_label_table_beside_a_plain_label_image(tmp_path, suffix):
+    """Issue 32: a NIfTI/TIFF/NRRD/MetaImage label image with names or colours gets its label table beside it,
+    as ITK-SNAP's label description file and a 3D Slicer colour table; without them nothing else is written."""
+    lab = np.zeros((6, 7, 8), np.uint8)
+    lab[1:3, 1:3, 1:3] = 1
+    lab[4:6, 4:6, 5:8] = 7
+    write_label_volume(tmp_path / f"plain{suffix}", lab)
+    assert sorted(os.listdir(tmp_path)) == [f"plain{suffix}"]
+    write_label_volume(tmp_path / f"seg{suffix}", lab, names={1: "stem", 7: 'leaf "two"'}, colors={7: (255, 128, 0)})
+    assert sorted(os.listdir(tmp_path)) == sorted([f"plain{suffix}", f"seg{suffix}", "seg_labels.txt", "seg.ctbl"])
+    rows = [r for r in (tmp_path / "seg_labels.txt").read_text().splitlines() if not r.startswith("#")]
+    parsed = [(r.split('"')[0].split(), r.split('"')[1]) for r in rows]
+    assert parsed[0] == (["0", "0", "0", "0", "0", "0", "0"], "Clear Label")
+    assert parsed[1][1] == "stem" and parsed[1][0][0] == "1" and parsed[1][0][4:] == ["1", "1", "1"]
+    assert parsed[2] == (["7", "255", "128", "0", "1", "1", "1"], "leaf 'two'")
+    ctbl = [r.split() for r in (tmp_path / "seg.ctbl").read_text().splitlines() if not r.startswith("#")]
+    assert ctbl[0] == ["0", "Background", "0", "0", "0", "0"] and ctbl[2] == ["7", 'leaf_"two"', "255", "128", "0", "255"]
+    assert ctbl[1][:2] == ["1", "stem"] and ctbl[1][5] == "255"
 
 
 # ------------------------------------------------------------------------------------------------ OME-Zarr labels
