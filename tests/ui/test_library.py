@@ -88,7 +88,7 @@ def test_delete_missing_and_bad_names(tmp_path):
     assert lib.library.trees() == ["b"] and not (tmp_path / "a.thumb.svg").exists()
     with pytest.raises(ValueError, match="no saved tree 'a'"):
         lib.delete("a")
-    with pytest.raises(ValueError, match="cannot read library tree 'zz'"):
+    with pytest.raises(ValueError, match=r"cannot read library tree '.*zz\.tree': no such file"):
         lib.load("zz")
     with pytest.raises(ValueError, match="name must be"):
         lib.save("../x")
