@@ -429,6 +429,16 @@ def _v20_fields(raw: dict) -> dict[str, np.ndarray]:
     return out
 
 
+def _h5_matrix(p, ds, label: str, vector: bool) -> np.ndarray:
+    """A MATLAB v7.3 numeric matrix (HDF5 stores it transposed), checked; a row or column as a vector when
+    ``vector``."""
+    if ds.size > 50_000_000 or ds.ndim > 2 or ds.dtype.kind not in "fiub":
+        raise ValueError(f"{str(p)!r}: {label} must be a numeric matrix of at most 5e7 values, got "
+                         f"{ds.dtype} {ds.shape}")
+    a = np.asarray(ds[()]).T
+    return a.ravel() if vector and a.ndim == 2 and 1 in a.shape else a
+
+
 def _treeqsm_v73(p: Path, index: int) -> dict[str, np.ndarray]:
     """The ``cylinder`` fields of a MATLAB v7.3 (HDF5) file: a struct is a group, a struct array a group of
     reference datasets, and every matrix is stored transposed (MATLAB is column-major)."""
@@ -444,17 +454,8 @@ def _treeqsm_v73(p: Path, index: int) -> dict[str, np.ndarray]:
                 if index != 0:
                     raise ValueError(f"index must be 0 for {str(p)!r} (a TreeQSM 2.0 file holds one model), got "
                                      f"{index}")
-                raw = {}
-                for k in _V20_FIELDS:
-                    ds = f.get(k)
-                    if isinstance(ds, h5py.Dataset):
-                        if ds.size > 50_000_000 or ds.ndim > 2 or ds.dtype.kind not in "fiub":
-                            raise ValueError(f"{str(p)!r}: {k} must be a numeric matrix of at most 5e7 values, got "
-                                             f"{ds.dtype} {ds.shape}")
-                        a = np.asarray(ds[()]).T
-                        raw[k] = a.ravel() if a.ndim == 2 and 1 in a.shape and k not in ("Sta", "Axe", "BoC") \
-                            else a
-                return _v20_fields(raw)
+                return _v20_fields({k: _h5_matrix(p, f.get(k), k, k not in ("Sta", "Axe", "BoC"))
+                                    for k in _V20_FIELDS if isinstance(f.get(k), h5py.Dataset)})
             if key is None:
                 raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct (variables: "
                                  f"{sorted(k for k in f if not k.startswith('#'))[:8]})")
@@ -469,17 +470,8 @@ def _treeqsm_v73(p: Path, index: int) -> dict[str, np.ndarray]:
                 raise ValueError(f"index must be 0 for {str(p)!r} (one model), got {index}")
             if not isinstance(cyl, h5py.Group):
                 raise ValueError(f"{str(p)!r} holds no TreeQSM 'qsm.cylinder' struct")
-            out = {}
-            for name in _CYLINDER_FIELDS:
-                ds = cyl.get(name)
-                if isinstance(ds, h5py.Dataset):
-                    if ds.size > 50_000_000 or ds.ndim > 2 or ds.dtype.kind not in "fiub":
-                        raise ValueError(f"{str(p)!r}: qsm.cylinder.{name} must be a numeric matrix of at most "
-                                         f"5e7 values, got {ds.dtype} {ds.shape}")
-                    a = np.asarray(ds[()]).T
-                    out[name] = a.ravel() if a.ndim == 2 and 1 in a.shape and name != "start" and name != "axis" \
-                        else a
-            return out
+            return {name: _h5_matrix(p, cyl.get(name), f"qsm.cylinder.{name}", name not in ("start", "axis"))
+                    for name in _CYLINDER_FIELDS if isinstance(cyl.get(name), h5py.Dataset)}
     except ValueError:
         raise
     except (OSError, KeyError, TypeError, RuntimeError) as exc:
