@@ -99,11 +99,7 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
         run_cell(page, 4)
         before_lam = float(printed(page, 4, r"APICAL ([\d.]+)")[0])
         assert before_lam == pytest.approx(0.55)
-        hb = handle.bounding_box()
-        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-        page.mouse.down()
-        page.mouse.move(hb["x"] + hb["width"] / 2 + 60, hb["y"] + hb["height"] / 2, steps=6)
-        page.mouse.up()
+        _drag_handle(page, handle, 60, steps=6)
         deadline, lam = time.monotonic() + 20, before_lam
         while lam == pytest.approx(before_lam) and time.monotonic() < deadline:
             run_cell(page, 4)
@@ -199,6 +195,28 @@ def _drag(page, box, path, *, steps: int = 4) -> None:
     page.mouse.up()
 
 
+def _drag_handle(page, handle, dx: float, *, steps: int = 6) -> None:
+    """Drag a slider ``handle`` by ``dx`` px, once the layout has settled and the handle is on top.
+
+    The live view's first pictures can still move the page after the handle is scrolled into view;
+    a press on a stale box lands on the view and paints instead of sliding.
+    """
+    deadline, box = time.monotonic() + 20, None
+    while True:
+        handle.scroll_into_view_if_needed()
+        prev, box = box, handle.bounding_box()
+        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        on_top = handle.evaluate("(h, [x, y]) => h.contains(document.elementFromPoint(x, y))", [x, y])
+        if (on_top and prev == box) or time.monotonic() > deadline:
+            break
+        time.sleep(0.3)
+    assert on_top, "the slider handle is covered"
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + dx, y, steps=steps)
+    page.mouse.up()
+
+
 def _poll(page, cell: int, pattern: str, ok, timeout_s: float = 30.0):
     deadline = time.monotonic() + timeout_s
     while True:
@@ -225,11 +243,7 @@ def test_workbench_treewand_slider_regrows_and_brush_paints_in_jupyterlab(wb_lab
         # drag the first slider of the Tree form window (tropism angle): the tree regrows and is redrawn
         handle = page.locator(".jp-Cell").nth(0).locator(".noUi-handle").first
         handle.scroll_into_view_if_needed()
-        hb = handle.bounding_box()
-        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-        page.mouse.down()
-        page.mouse.move(hb["x"] + hb["width"] / 2 + 120, hb["y"] + hb["height"] / 2, steps=6)
-        page.mouse.up()
+        _drag_handle(page, handle, 120, steps=6)
         got = _poll(page, 1, TW, lambda g: g[3] == "1")
         assert got[3] == "1" and got[4] == "15" and float(got[6]) > float(trop) + 5, got  # same step count
         frame.scroll_into_view_if_needed()
@@ -322,11 +336,7 @@ def test_lsystem_widget_step_slider_derives_and_redraws_in_jupyterlab(wb_lab, sh
         slider = page.locator(".jp-Cell").nth(0).locator(".widget-hslider", has_text="Step")
         handle = slider.locator(".noUi-handle").first
         handle.scroll_into_view_if_needed()
-        hb = handle.bounding_box()
-        page.mouse.move(hb["x"] + hb["width"] / 2, hb["y"] + hb["height"] / 2)
-        page.mouse.down()
-        page.mouse.move(hb["x"] + hb["width"] / 2 + 400, hb["y"] + hb["height"] / 2, steps=8)
-        page.mouse.up()
+        _drag_handle(page, handle, 400, steps=8)
         got = _poll(page, 1, LS, lambda g: g[1] == "5")
         assert got[1] == "5" and int(got[2]) > int(modules), got
         frame.scroll_into_view_if_needed()
