@@ -121,7 +121,7 @@ def test(extra: list[str], *, install: bool = True, boundscheck: bool = True) ->
     ensure_system_packages(install=install)
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     os.environ.setdefault("MPLBACKEND", "Agg")
-    common = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--timeout", "900"]
+    common = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--timeout", "900", *_workers(extra)]
     args = [*common, "tests", "notebooks", "--nbval-lax", *extra]
     print("+", " ".join(args), flush=True)
     rc = subprocess.call(args, cwd=ROOT)
@@ -133,6 +133,15 @@ def test(extra: list[str], *, install: bool = True, boundscheck: bool = True) ->
         args = [*common, "-q", *BOUNDSCHECK_TESTS]
         print("+ NUMBA_BOUNDSCHECK=1", " ".join(args), flush=True)
         return subprocess.call(args, cwd=ROOT, env=env)
+
+
+def _workers(extra: list[str]) -> list[str]:
+    """pytest-xdist options: one worker per core (at most 4), a test file per worker so module fixtures and a
+    notebook's cells stay together; none when ``extra`` chooses (``-n``/``-p no:xdist``) or on one core."""
+    n = min(4, os.cpu_count() or 1)
+    if n < 2 or any(a.startswith(("-n", "--numprocesses", "--dist")) or a == "no:xdist" for a in extra):
+        return []
+    return ["-n", str(n), "--dist", "loadfile"]
 
 
 def lab(notebooks: Path) -> int:

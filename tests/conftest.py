@@ -49,6 +49,21 @@ def fuzz() -> Fuzz:
     return Fuzz()
 
 
+def pytest_sessionfinish(session):
+    """An xdist worker hands its fuzz counts to the controller (``pytest_testnodedown``)."""
+    out = getattr(session.config, "workeroutput", None)
+    if out is not None:
+        out["fuzz"] = {**_FUZZ, "entries": sorted(_FUZZ["entries"])}
+
+
+def pytest_testnodedown(node, error):
+    got = getattr(node, "workeroutput", {}).get("fuzz")
+    if got:
+        _FUZZ["entries"].update(got["entries"])
+        _FUZZ["inputs"] += got["inputs"]
+        _FUZZ["errors"] += got["errors"]
+
+
 def pytest_terminal_summary(terminalreporter):
     if _FUZZ["inputs"]:
         line = (f"fuzz: {len(_FUZZ['entries'])} entry points, {_FUZZ['inputs']} inputs, "
