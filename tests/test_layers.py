@@ -1,5 +1,5 @@
-"""The import contracts (import-linter, configured in pyproject.toml; issues 21 and 30): cli > warmup > ui >
-view | vr > io > documents > adapters > numeric cores > base, no import cycles at any package level, cores that
+"""The import contracts (import-linter, configured in pyproject.toml; issues 21 and 30): cli > warmup > ui |
+vr > view > io > documents > adapters > numeric cores > base, no import cycles at any package level, cores that
 import no UI, VTK or matplotlib, and every module of the package in a layer.
 
 import-linter is a ``[dev]`` dependency, so a missing ``lint-imports`` fails here instead of skipping: a contract
