@@ -138,7 +138,7 @@ def mesh_polydata(vertices, faces, rgb=None, *, cells: bool = False) -> pv.PolyD
 
 
 def tube_polydata(tree, nodes, radius, *, sides: int = 10, capping: bool = True) -> pv.PolyData:
-    """VTK tube filter over the internodes ending at tree nodes ``nodes`` (each has a parent), one radius each.
+    """VTK tube filter over the internodes ending at ``nodes`` (tree nodes with a parent), one radius each.
 
     Parameters
     ----------
