@@ -66,12 +66,12 @@ def info() -> None:
         except Exception as exc:  # report, never fail
             print(f"  {mod:12s} missing ({type(exc).__name__})")
     try:
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-        import pyvista as pv
-        p = pv.Plotter(off_screen=True, window_size=(64, 64))
-        p.add_mesh(pv.Sphere())
-        p.screenshot(return_img=True)
-        p.close()
+        from .types import TriMesh
+        from .view import View
+        v = View({"triangle": TriMesh([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])}, off_screen=True,
+                 window_size=(64, 64))
+        v.screenshot()
+        v.close()
         print("  offscreen rendering: ok")
     except Exception as exc:
         print(f"  offscreen rendering: FAILED ({exc})")

@@ -1,6 +1,7 @@
-"""The import contracts (import-linter, configured in pyproject.toml; issues 21 and 30): cli > warmup > ui >
-view | vr > io > documents > adapters > numeric cores > base, no import cycles at any package level, cores that
-import no UI, VTK or matplotlib, and every module of the package in a layer.
+"""The import contracts (import-linter, configured in pyproject.toml; issues 21 and 30): cli > warmup > ui |
+vr > view > io > documents > adapters > numeric cores > base, no import cycles at any package level, cores
+that import no UI, VTK or matplotlib, every module of the package in a layer, and PolyData and plotters built
+in ``plantvr/view/`` only.
 
 import-linter is a ``[dev]`` dependency, so a missing ``lint-imports`` fails here instead of skipping: a contract
 that is never checked is no contract.
@@ -53,3 +54,23 @@ def test_no_dynamic_imports_of_the_package():
                 arg = node.args[0]
                 assert not (isinstance(arg, ast.Constant) and str(arg.value).startswith(("plantvr", "."))), (
                     f"{path.relative_to(ROOT)}:{node.lineno} imports a package module dynamically")
+
+
+def _name(node) -> str | None:
+    return getattr(node, "attr", getattr(node, "id", None))
+
+
+def test_polydata_and_plotters_are_built_in_view_only():
+    """Issue 30: ``PolyData`` / ``vtkPolyData`` (also by ``PolyData.from_regular_faces`` and the like) and
+    ``pyvista.Plotter`` are built in ``plantvr/view/`` only; ``vr``, ``ui`` and ``cli`` call its helpers."""
+    built = {"PolyData", "vtkPolyData", "Plotter"}
+    found = []
+    for path in sorted((ROOT / "plantvr").rglob("*.py")):
+        if (ROOT / "plantvr" / "view") in path.parents:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            f = node.func if isinstance(node, ast.Call) else None
+            if f is not None and built & {_name(f), _name(getattr(f, "value", None))}:
+                found.append((str(path.relative_to(ROOT)), node.lineno))
+    assert found == [], "PolyData or Plotter built outside plantvr/view/:\n" + "\n".join(
+        f"{f}:{line}" for f, line in sorted(found))

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import html
-import io
 import os
 from pathlib import Path
 
@@ -32,6 +31,7 @@ from ..flowers.floret import (
     growth_function,
 )
 from ..io.obj import write_obj_sequence
+from ..types import TriMesh
 
 __all__ = ["FloretEditor", "preview_png"]
 
@@ -44,13 +44,6 @@ _LABELS = {
 }
 
 
-def _polydata(x: np.ndarray, faces: np.ndarray):
-    import pyvista as pv
-
-    return pv.PolyData(np.asarray(x, dtype=np.float64),
-                       np.column_stack([np.full(len(faces), 3), faces]).ravel().astype(np.int64))
-
-
 def _camera(floret: FloretMesh) -> list:
     pts = floret.frames.reshape(-1, 3)
     lo, hi = pts.min(0), pts.max(0)
@@ -61,7 +54,8 @@ def _camera(floret: FloretMesh) -> list:
 
 def preview_png(floret: FloretMesh, t: float = 1.0, *, size: tuple[int, int] = (420, 420),
                 color: str = "#e8a33d", show_edges: bool = True, camera: list | None = None) -> bytes:
-    """A PNG of a floret at growth time ``t``, rendered off-screen with pyvista (floret axis up).
+    """A PNG of a floret at growth time ``t`` (floret axis up), rendered off-screen by a
+    :class:`plantvr.view.View`.
 
     Parameters
     ----------
@@ -92,29 +86,25 @@ def preview_png(floret: FloretMesh, t: float = 1.0, *, size: tuple[int, int] = (
     show_edges = _check_bool("show_edges", show_edges)
     if camera is not None:
         camera = [tuple(r) for r in check_array("camera", camera, shape=(3, 3), max_abs=MAX_COORD).tolist()]
-    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    import pyvista as pv
+    import pyvista as pv  # noqa: PLC0415
+
+    from ..view import View  # noqa: PLC0415
 
     try:
         pv.Color(color)
     except (TypeError, ValueError):
         raise ValueError(f"color must be a colour name or '#rrggbb', got {color!r:.80}") from None
 
-    pl = pv.Plotter(off_screen=True, window_size=(w, h))
+    style = {"color": color, "show_edges": show_edges, "edge_color": "#7a4a12", "line_width": 0.5,
+             "smooth_shading": False, "specular": 0.0, "ambient": 0.3, "diffuse": 0.75}
+    view = View({"floret": TriMesh(floret.frame_at(t), floret.faces)}, off_screen=True, window_size=(w, h),
+                styles={"floret": style})
     try:
-        pl.set_background("white")
-        pl.add_mesh(_polydata(floret.frame_at(t), floret.faces), color=color, show_edges=show_edges,
-                    edge_color="#7a4a12", line_width=0.5, smooth_shading=False, ambient=0.3,
-                    diffuse=0.75)
-        pl.camera_position = camera if camera is not None else _camera(floret)
-        img = pl.screenshot(return_img=True)
+        view.plotter.set_background("white")
+        view.plotter.camera_position = camera if camera is not None else _camera(floret)
+        return view.png()
     finally:
-        pl.close()
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(np.asarray(img)).save(buf, format="PNG")
-    return buf.getvalue()
+        view.close()
 
 
 class _PoseIndex(traitlets.TraitType):
@@ -249,7 +239,8 @@ class FloretEditor(W.VBox):
             self.preview.value = preview_png(fm, self.doc.time, size=self.preview_size, camera=self._camera)
         for pl, mesh in self._views:
             if mesh.n_points != len(x) or mesh.n_cells != len(fm.faces):
-                mesh.copy_from(_polydata(x, fm.faces))
+                from ..view.polydata import to_polydata  # noqa: PLC0415
+                mesh.copy_from(to_polydata((x, fm.faces)))
             else:
                 mesh.points = x
             with contextlib.suppress(Exception):        # a closed plotter has no render window left
@@ -261,7 +252,8 @@ class FloretEditor(W.VBox):
         pl = getattr(target, "plotter", target)
         if not hasattr(pl, "add_mesh"):
             raise ValueError(f"target must be a pyvista Plotter or have a .plotter, got {type(target).__name__}")
-        mesh = _polydata(self.doc.current_frame(), self.doc.floret.faces)
+        from ..view.polydata import to_polydata  # noqa: PLC0415
+        mesh = to_polydata((self.doc.current_frame(), self.doc.floret.faces))
         pl.add_mesh(mesh, color=color, name=name, show_edges=True)
         self._views.append((pl, mesh))
         return mesh

@@ -36,6 +36,7 @@ import vtk
 
 from .._validation import check_point, check_range
 from . import PRUNE, View
+from .polydata import tube_polydata
 
 __all__ = ["FULL_TRIGGER", "PREVIEW_TRIGGER", "BrushInteractor", "LabelBrush", "trame_app"]
 
@@ -226,13 +227,8 @@ class BrushInteractor:
                 self._preview_actor.SetVisibility(False)
                 plotter.render()
             return
-        k = len(idx)
-        pts = np.concatenate([snap.pos[snap.parent[idx]], snap.pos[idx]])
-        lines = np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel()
-        poly = pv.PolyData(pts, lines=lines)
-        poly["radius"] = np.tile(np.asarray(snap.radius[idx], float) * 1.6 + 1e-3, 2)
-        mesh = poly.tube(scalars="radius", absolute=True, n_sides=10, capping=True)
-        self._preview_mesh.copy_from(mesh)
+        radius = np.asarray(snap.radius[idx], float) * 1.6 + 1e-3
+        self._preview_mesh.copy_from(tube_polydata(snap, idx, radius))
         if self._preview_actor is None:
             self._preview_actor = plotter.add_mesh(self._preview_mesh, color=PRUNE, name="prune_preview",
                                                    pickable=False, lighting=False)

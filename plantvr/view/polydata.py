@@ -6,6 +6,10 @@ e.g. ``trimesh.Trimesh`` or a ``(vertices, faces)`` pair); its optional attribut
 ``normals`` (V, 3) as point normals, ``colors`` (V, 3|4) uint8 as the ``"colors"`` RGB(A) point array, and
 ``uv`` as texture coordinates, per vertex (V, 2) or per face corner (F, 3, 2): then the corners are split into
 their own points, for display only (spec 001_subdivision §1.6: "vertices split at UV seams for display only").
+
+Every other ``PolyData`` of the package is built here too (issue 30): the headset's layers
+(:func:`mesh_polydata`, :func:`points_polydata`) and the internode tubes of the headset and the desktop prune
+preview (:func:`tube_polydata`); ``plantvr.vr`` and ``plantvr.ui`` only call these.
 """
 from __future__ import annotations
 
@@ -18,7 +22,8 @@ import pyvista as pv  # noqa: E402
 
 from .._validation import MAX_COORD, check_array  # noqa: E402
 
-__all__ = ["checker_texture", "mesh_arrays", "texture", "to_polydata"]
+__all__ = ["checker_texture", "mesh_arrays", "mesh_polydata", "points_polydata", "texture", "to_polydata",
+           "tube_polydata"]
 
 
 def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -78,6 +83,87 @@ def to_polydata(mesh) -> pv.PolyData:
     if uv is not None:
         poly.active_texture_coordinates = np.asarray(uv)
     return poly
+
+
+def _set_rgb(data, rgb) -> None:
+    data["rgb"] = np.ascontiguousarray(np.asarray(rgb)[:, :3], np.uint8)
+
+
+def points_polydata(xyz=(), rgb=None) -> pv.PolyData:
+    """Points with one vertex cell each, unchecked (the headset's point layers); no points: an empty mesh.
+
+    Parameters
+    ----------
+    xyz : (N, 3) array_like, optional
+        Point positions; default none (a placeholder input for an actor).
+    rgb : (N, 3|4) array_like, optional
+        Colours, kept as the uint8 RGB point array ``"rgb"``.
+
+    Returns
+    -------
+    pyvista.PolyData
+    """
+    if not len(xyz):
+        return pv.PolyData()
+    poly = pv.PolyData(xyz)
+    if rgb is not None:
+        _set_rgb(poly.point_data, rgb)
+    return poly
+
+
+def mesh_polydata(vertices, faces, rgb=None, *, cells: bool = False) -> pv.PolyData:
+    """A triangle mesh with float32 points, unchecked (the headset mesher's fast path; :func:`to_polydata`
+    checks and keeps a mesh's attributes).
+
+    Parameters
+    ----------
+    vertices : (V, 3) array_like
+    faces : (F, 3) array_like of int
+        No faces: the vertices as points.
+    rgb : (V|F, 3|4) array_like, optional
+        Colours, kept as the uint8 RGB array ``"rgb"`` of the points, or of the cells when ``cells``.
+    cells : bool
+        Whether ``rgb`` is per face.
+
+    Returns
+    -------
+    pyvista.PolyData
+    """
+    f = np.asarray(faces, np.int64)
+    v = np.asarray(vertices, np.float32)
+    poly = pv.PolyData.from_regular_faces(v, f) if len(f) else pv.PolyData(v)
+    if rgb is not None:
+        _set_rgb(poly.cell_data if cells else poly.point_data, rgb)
+    return poly
+
+
+def tube_polydata(tree, nodes, radius, *, sides: int = 10, capping: bool = True) -> pv.PolyData:
+    """VTK tube filter over the internodes ending at ``nodes`` (tree nodes with a parent), one radius each.
+
+    Parameters
+    ----------
+    tree : TreeArrays
+        Anything with ``pos`` (N, 3) and ``parent`` (N,).
+    nodes : (K,) ndarray of int
+    radius : (K,) ndarray of float
+        Absolute tube radius per internode.
+    sides : int
+        Sides of each tube.
+    capping : bool
+        Close the tube ends.
+
+    Returns
+    -------
+    pyvista.PolyData
+        Empty when ``nodes`` is.
+    """
+    k = len(nodes)
+    if not k:
+        return pv.PolyData()
+    pts = np.concatenate([tree.pos[tree.parent[nodes]], tree.pos[nodes]])
+    poly = pv.PolyData(pts, lines=np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel())
+    poly["radius"] = np.concatenate([radius, radius])
+    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=capping)
 
 
 def texture(image) -> pv.Texture:

@@ -40,6 +40,7 @@ from ..document import Document
 from ..io.tree import branch_mesh, leaf_mesh
 from ..params import TREEWAND
 from ..types import Instances, Points, TreeArrays, TriMesh
+from ..view.polydata import mesh_polydata, points_polydata, tube_polydata
 from ..vine.depthcue import coarse_hull, depth_cue_colors
 from .controls import Command, Controls, issue
 from .frames import ControllerState, InputFrame
@@ -86,21 +87,10 @@ def _init_openvr(openvr):
 
 
 # -- content layers (mesher thread) -----------------------------------------------------------------------
-def _segments(tree: TreeArrays, nodes: np.ndarray, radius: np.ndarray, sides: int, capping: bool):
-    import pyvista as pv
-    k = len(nodes)
-    if not k:
-        return pv.PolyData()
-    pts = np.concatenate([tree.pos[tree.parent[nodes]], tree.pos[nodes]])
-    poly = pv.PolyData(pts, lines=np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel())
-    poly["radius"] = np.concatenate([radius, radius])
-    return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=capping)
-
-
 def tube_mesh(tree: TreeArrays, sides: int):
     """Fast headset branch mesh: VTK tube filter over the internodes, radius per internode."""
     kids = np.flatnonzero(np.asarray(tree.parent) >= 0)
-    return _segments(tree, kids, np.asarray(tree.radius, float)[kids], sides, capping=False)
+    return tube_polydata(tree, kids, np.asarray(tree.radius, float)[kids], sides=sides, capping=False)
 
 
 def preview_mesh(tree: TreeArrays, nodes: np.ndarray, sides: int):
@@ -108,18 +98,7 @@ def preview_mesh(tree: TreeArrays, nodes: np.ndarray, sides: int):
     nodes = np.asarray(nodes, np.int64)
     nodes = nodes[(nodes < len(tree.pos)) & (nodes >= 0)]
     nodes = nodes[tree.parent[nodes] >= 0] if len(nodes) else nodes
-    return _segments(tree, nodes, np.asarray(tree.radius, float)[nodes] * 1.15 + 1e-3, sides, capping=True)
-
-
-def _surface_poly(vertices: np.ndarray, faces: np.ndarray, rgb: np.ndarray | None = None):
-    """vtkPolyData of a triangle mesh, with a uint8 ``rgb`` point array when colours are given."""
-    import pyvista as pv
-    f = np.asarray(faces, np.int64)
-    v = np.asarray(vertices, np.float32)
-    poly = pv.PolyData.from_regular_faces(v, f) if len(f) else pv.PolyData(v)
-    if rgb is not None:
-        poly.point_data["rgb"] = np.ascontiguousarray(np.asarray(rgb)[:, :3], np.uint8)
-    return poly
+    return tube_polydata(tree, nodes, np.asarray(tree.radius, float)[nodes] * 1.15 + 1e-3, sides=sides)
 
 
 def _bounds(content: dict[str, Any]) -> tuple[np.ndarray, np.ndarray] | None:
@@ -537,21 +516,18 @@ class Headset:
         name): tree arrays as tubes or generalized cylinders (plus ``"<name>_leaves"``), points, triangle meshes
         (per-vertex ``colors`` through the depth cue toward :attr:`background` seen from ``eye_model``),
         instances (the prototype copied to every transform)."""
-        import pyvista as pv
         out: dict[str, tuple] = {}
         for name, c in content.items():
             if isinstance(c, TreeArrays):
                 out.update(self._tree_layers(name, c))
             elif isinstance(c, Points):
                 xyz = np.asarray(c.xyz, float).reshape(-1, 3)
-                poly = pv.PolyData(xyz) if len(xyz) else pv.PolyData()
                 rgb = np.asarray(c.colors) if c.colors is not None else None
                 if rgb is not None and rgb.ndim == 2 and len(xyz):
-                    poly.point_data["rgb"] = np.ascontiguousarray(rgb[:, :3], np.uint8)
-                    out[name] = (poly, {"scalars": "rgb", "points": True})
+                    out[name] = (points_polydata(xyz, rgb), {"scalars": "rgb", "points": True})
                 else:
                     col = MARKER if rgb is None else tuple(float(x) / 255.0 for x in rgb[:3])
-                    out[name] = (poly, {"color": col, "points": True})
+                    out[name] = (points_polydata(xyz), {"color": col, "points": True})
             elif isinstance(c, TriMesh):
                 out[name] = self._mesh_layer(c, eye_model)
             elif isinstance(c, Instances):
@@ -559,32 +535,31 @@ class Headset:
                 m = np.asarray(c.transforms, float).reshape(-1, 4, 4)
                 vs = np.einsum("kij,vj->kvi", m[:, :3, :3], v) + m[:, None, :3, 3]
                 fs = f[None] + (len(v) * np.arange(len(m)))[:, None, None]
-                out[name] = (_surface_poly(vs.reshape(-1, 3), fs.reshape(-1, 3)), {"color": BARK})
+                out[name] = (mesh_polydata(vs.reshape(-1, 3), fs.reshape(-1, 3)), {"color": BARK})
         return out
 
     def _tree_layers(self, name: str, tree: TreeArrays) -> dict[str, tuple]:
-        import pyvista as pv
         style = {"color": BARK}
         if self.mesh == "tubes" or tree.n_internodes == 0:
-            return {name: (tube_mesh(tree, self.tube_sides) if tree.n_internodes else pv.PolyData(), style)}
+            return {name: (tube_mesh(tree, self.tube_sides), style)}
         params = {**TREEWAND.defaults(), **self.doc.params}
         snap = self.doc.latest
         b = branch_mesh(tree, params, lod=(self.tube_sides, self.tube_sides))
         leaf = leaf_mesh(snap.buds, params) if self.leaves and hasattr(snap, "buds") else None
-        out = {name: (_surface_poly(b.vertices, b.faces), style)}
+        out = {name: (mesh_polydata(b.vertices, b.faces), style)}
         if leaf is not None:
-            out[f"{name}_leaves"] = (_surface_poly(leaf.vertices, leaf.faces), {"color": (0.27, 0.55, 0.2)})
+            out[f"{name}_leaves"] = (mesh_polydata(leaf.vertices, leaf.faces), {"color": (0.27, 0.55, 0.2)})
         return out
 
     def _mesh_layer(self, mesh: TriMesh, eye_model: np.ndarray | None) -> tuple:
         colors = getattr(mesh, "colors", None)
         if colors is None:
-            return _surface_poly(mesh.vertices, mesh.faces), {"color": SURFACE}
+            return mesh_polydata(mesh.vertices, mesh.faces), {"color": SURFACE}
         rgba = np.asarray(colors)
         v = np.asarray(mesh.vertices)
         if self.depth_cue and eye_model is not None and len(v) >= 4:
             rgba = depth_cue_colors(rgba, v, eye_model, self._hull(v), background=self.background)
-        return _surface_poly(v, mesh.faces, rgba), {"scalars": "rgb", "cull": True}
+        return mesh_polydata(v, mesh.faces, rgba), {"scalars": "rgb", "cull": True}
 
     def _hull(self, v: np.ndarray):
         """The coarse hull of the depth cue, built once per vertex array (rebuilt when the vertices change)."""

@@ -23,6 +23,7 @@ import vtk
 from vtk.util.numpy_support import vtk_to_numpy
 
 from .._validation import check_choice, check_int, check_range
+from ..view.polydata import mesh_polydata, points_polydata
 from .math3d import gl_projection
 
 __all__ = ["LAYOUTS", "WHEEL_LOCAL", "WHEEL_RADIUS", "StereoRenderer", "wheel_mesh"]
@@ -48,7 +49,7 @@ class _Scene:
         self.model_matrix = vtk.vtkMatrix4x4()
         self.content: dict[str, vtk.vtkActor] = {}
         self.renderers: list[vtk.vtkRenderer] = []
-        self.preview = self._actor(vtk.vtkPolyData(), PRUNE, model=True)
+        self.preview = self._actor(points_polydata(), PRUNE, model=True)
         disc = vtk.vtkRegularPolygonSource()
         disc.SetNumberOfSides(48)
         disc.SetRadius(8.0)
@@ -84,7 +85,7 @@ class _Scene:
             a.SetVisibility(False)
             self.windows[name] = (a, m)
         self.wheel_matrix = vtk.vtkMatrix4x4()                                      # ViNE colour wheel
-        self.wheel = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0))
+        self.wheel = self._actor(points_polydata(), (1.0, 1.0, 1.0))
         self.wheel.SetUserMatrix(self.wheel_matrix)
         self.wheel.SetVisibility(False)
         self.wheel.GetProperty().SetLighting(False)
@@ -109,7 +110,7 @@ class _Scene:
         """The content actor of ``name``, created (and added to this context's renderers) on first use."""
         actor = self.content.get(name)
         if actor is None:
-            actor = self.content[name] = self._actor(vtk.vtkPolyData(), (1.0, 1.0, 1.0), model=True)
+            actor = self.content[name] = self._actor(points_polydata(), (1.0, 1.0, 1.0), model=True)
             for ren in self.renderers:
                 ren.AddActor(actor)
         return actor
@@ -319,7 +320,6 @@ def wheel_mesh(rgba: np.ndarray, visible: np.ndarray, selected: int, thumb: tupl
     the selected slice is extruded (+z), hidden colours are drawn darkened with a light radial line
     through the slice, and a small dark disc marks the thumb. Cell array ``rgb`` (uint8).
     """
-    import pyvista as pv
     k = len(rgba)
     pts, tris, cols = [], [], []
 
@@ -353,6 +353,4 @@ def wheel_mesh(rgba: np.ndarray, visible: np.ndarray, selected: int, thumb: tupl
         for j in range(8):
             tris.append((base, base + 1 + j, base + 1 + (j + 1) % 8))
             cols.append((20.0, 20.0, 20.0))
-    poly = pv.PolyData.from_regular_faces(np.asarray(pts, np.float32), np.asarray(tris, np.int64))
-    poly.cell_data["rgb"] = np.clip(np.rint(cols), 0, 255).astype(np.uint8)
-    return poly
+    return mesh_polydata(pts, tris, np.clip(np.rint(cols), 0, 255), cells=True)
