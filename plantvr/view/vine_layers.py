@@ -237,7 +237,10 @@ class OrthoSlices:
             raise ValueError(f"indices must be a dict of slice index per axis, got {type(indices).__name__}")
         idx = {}
         for a, i in indices.items():
-            k = _check_axis(a)
+            try:
+                k = _check_axis(a)
+            except ValueError as exc:
+                raise ValueError(f"indices: {exc}") from None
             idx[k] = check_int(f"indices[{a!r}]", i, 0, vol.shape[k] - 1)
         object.__setattr__(self, "volume", vol)
         object.__setattr__(self, "spacing", tuple(float(s) for s in sp))
