@@ -142,8 +142,15 @@ def test_same_content_and_layer_class():
     assert a is not b and same_content(a, b)
     assert not same_content(a, TreeArrays.from_arrays(a.pos + 1, a.parent, a.radius))
     assert same_content(_labelled(), _labelled()) and not same_content(_labelled(), _sphere())
-    with pytest.raises(ValueError, match="TreeArrays, TriMesh, Points or Instances"):
+    with pytest.raises(ValueError, match="TreeArrays, TriMesh, Points or Instances, LabelledSurface, OrthoSlices"):
         layer_class("tree")
+    from plantvr.documents.labels import Segmentation
+    from plantvr.types import LabelledSurface
+    from plantvr.view.vine_layers import LabelledSurfaceLayer, OrthoSlices, VolumeSlicesLayer
+    sphere = _sphere()
+    surface = Segmentation(sphere.vertices, sphere.faces).scene()["surface"]
+    assert isinstance(surface, LabelledSurface) and layer_class(surface) is LabelledSurfaceLayer
+    assert layer_class(OrthoSlices(np.zeros((2, 2, 2)))) is VolumeSlicesLayer
 
 
 def test_tree_layer_draws_leaves_only_with_buds():
