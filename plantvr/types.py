@@ -16,7 +16,7 @@ import numpy as np
 
 from ._validation import MAX_COORD, check_array
 
-__all__ = ["BufferMesh", "Instances", "Points", "TreeArrays", "TriMesh"]
+__all__ = ["BufferMesh", "Instances", "LabelledSurface", "Points", "TreeArrays", "TriMesh"]
 
 
 def _frozen(a, dtype=None) -> np.ndarray:
@@ -269,6 +269,33 @@ class BufferMesh(TriMesh):
 
     def _cached(self, key: str, make):
         return make()
+
+
+class LabelledSurface(TriMesh):
+    """The visible triangles of a labels document in their label colours, with the document itself.
+
+    What a ViNE segmentation (or its display proxy) shows: its vertices, visible faces, per-vertex ``colors``
+    through the colour table and ``normals``, so writers and the headset take it as any coloured mesh, while a
+    :class:`plantvr.View` draws it with the layer that follows ``source``'s changes in place
+    (:class:`plantvr.view.vine_layers.LabelledSurfaceLayer`).
+
+    Parameters
+    ----------
+    source : Segmentation or DisplayProxy
+        Anything with ``vertices``, ``normals``, ``labels``, ``colors``, ``visible_faces()``,
+        ``vertex_colors()`` and a ``change`` trait.
+    """
+
+    def __init__(self, source):
+        missing = [k for k in ("vertices", "normals", "labels", "colors", "visible_faces", "vertex_colors",
+                               "observe") if not hasattr(source, k)]
+        if missing:
+            raise ValueError(f"source must be a labels document (a Segmentation or DisplayProxy), got "
+                             f"{type(source).__name__} without {', '.join(missing)}")
+        super().__init__(source.vertices, source.visible_faces())
+        self.colors = source.vertex_colors()
+        self.normals = source.normals
+        self.source = source
 
 
 @dataclass(frozen=True, eq=False)

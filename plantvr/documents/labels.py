@@ -32,7 +32,7 @@ from plantvr._validation import MAX_COORD, check_array, check_choice, check_int,
 from plantvr.commandlog import CommandLog
 from plantvr.document import Document, check_digest, file_digest
 from plantvr.history import ArrayEdit, Group
-from plantvr.types import TriMesh
+from plantvr.types import LabelledSurface
 from plantvr.vine._filecheck import check_elements
 from plantvr.vine.colors import MAX_COLORS, NARROW_COLORS, ColorTable, distinct_color
 from plantvr.grid import bounds
@@ -259,9 +259,7 @@ class Segmentation(Document):
 
     def scene(self) -> dict:
         """The surface a view draws: visible triangles with per-vertex colours through the colour table."""
-        mesh = TriMesh(self.vertices, self.visible_faces())
-        mesh.colors = self.vertex_colors()
-        return {"surface": mesh}
+        return {"surface": LabelledSurface(self)}
 
     def before_undo(self) -> None:
         if self._stroke is not None:

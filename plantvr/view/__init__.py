@@ -8,6 +8,8 @@ layers whose content changed; it owns no document state. A view of a plain ``{na
 mesh being edited in a notebook) is updated with :meth:`View.update`. Options fold in what were separate
 views: ``lod`` for a forest (each tree at the level of detail of its camera distance, billboards beyond) and
 ``panels`` for linked side-by-side panels (a control mesh beside its subdivided surface, :func:`side_by_side`).
+A ViNE segmentation is drawn by the layers of :mod:`plantvr.view.vine_layers` (a labelled surface that follows
+its labels in place, volume slices), placed by a model pose (:meth:`View.set_model_pose`, saved views).
 """
 from __future__ import annotations
 
@@ -24,11 +26,13 @@ import numpy as np  # noqa: E402
 import pyvista as pv  # noqa: E402
 
 from .._fileio import write_png  # noqa: E402
-from .._validation import check_point, check_range, check_size  # noqa: E402
+from .._validation import check_array, check_point, check_range, check_size  # noqa: E402
 from ..document import kernel_loop  # noqa: E402
 from ..types import TreeArrays  # noqa: E402
+from ..vine.views import SavedView, load_view  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
+from .vine_layers import LabelledSurfaceLayer  # noqa: E402
 
 __all__ = ["LOD", "View", "launch_live_server", "side_by_side"]
 
@@ -69,12 +73,14 @@ class View:
         ``texture`` may be an image array).
     params : dict, optional
         Appearance parameters of trees in a static scene (a document's own ``params`` are used otherwise).
+    background : colour, optional
+        One background colour (any pyvista colour; dark for a depth-cued segmentation); default a sky gradient.
     """
 
     def __init__(self, doc, *, off_screen: bool | None = None, window_size=(900, 700), show_markers: bool = True,
                  show_leaves: bool = True, ground: bool | None = None, lod: bool | LOD | None = None,
                  panels: Sequence[Sequence[str]] | None = None, titles: Sequence[str] | None = None,
-                 styles: Mapping[str, dict] | None = None, params: dict | None = None):
+                 styles: Mapping[str, dict] | None = None, params: dict | None = None, background=None):
         is_doc = callable(getattr(doc, "scene", None)) and callable(getattr(doc, "observe", None))
         if not is_doc and not isinstance(doc, Mapping):
             raise TypeError(f"doc must be a document (with scene()) or a {{name: content}} mapping, "
@@ -96,6 +102,10 @@ class View:
             raise ValueError("styles must map scene names to dicts of add_mesh options")
         if params is not None and not isinstance(params, Mapping):
             raise ValueError(f"params must be a dict, got {type(params).__name__}")
+        try:
+            background = None if background is None else pv.Color(background)
+        except ValueError:
+            raise ValueError(f"background must be a colour (name, hex or RGB), got {background!r}"[:300]) from None
         scene = doc.scene() if is_doc else dict(doc)
         classes = _check_scene(scene, lod, arrays=not is_doc)
         if off_screen is None:
@@ -114,7 +124,10 @@ class View:
                                   border=False)
         for col in range(shape[1]):
             self.plotter.subplot(0, col)
-            self.plotter.set_background("#f4f1ea", top="#cfe3f5")
+            if background is None:
+                self.plotter.set_background("#f4f1ea", top="#cfe3f5")
+            else:
+                self.plotter.set_background(background)
             if titles is not None:
                 self.plotter.add_text(titles[col], font_size=11, color="#333333", name=f"title{col}")
         if shape[1] > 1:
@@ -137,12 +150,13 @@ class View:
         self._render_due = False
         self._deferred = False
         self.viewer = None            # the trame viewer of a live widget (:meth:`widget`), pushed after redraws
-        if self.doc is not None:
+        self.pose = np.eye(4)         # the model pose of every layer (:meth:`set_model_pose`)
+        self._apply(scene)
+        if self.doc is not None:      # after the layers, so those that follow the document update first
             self.doc.observe(self._on_change, names="change")
             if self.doc.has_trait("prune_mode"):
                 self.doc.observe(self._on_mode, names="prune_mode")
                 self._set_brush_colour(self.doc.prune_mode)
-        self._apply(scene)
         self.frame()
         if lod is not None:
             self._camera_tag = self.plotter.camera.AddObserver("ModifiedEvent", lambda *_: self.update_lod())
@@ -239,6 +253,7 @@ class View:
                 layer = classes[name](self.plotter, name, self.styles.get(name), leaves=self.show_leaves,
                                       lod=self.lod)
                 layer.visible = name not in self.hidden
+                layer.pose = self.pose
                 self.layers[name] = layer
             if layer.update(content, params=params, buds=self._buds(content)):
                 redrawn.append(name)
@@ -275,7 +290,7 @@ class View:
     def pickable_actors(self) -> list:
         """Main actors of the tree and surface layers (what a brush picks on)."""
         return [lay.actor for lay in self.layers.values()
-                if isinstance(lay, (TreeLayer, MeshLayer)) and lay.actor is not None]
+                if isinstance(lay, (TreeLayer, MeshLayer, LabelledSurfaceLayer)) and lay.actor is not None]
 
     def set_visible(self, name: str, visible: bool) -> None:
         """Show or hide the layer of scene entry ``name`` (kept across updates)."""
@@ -394,13 +409,20 @@ class View:
     def _set_brush_colour(self, prune: bool) -> None:
         self._brush_actor.GetProperty().SetColor(pv.Color(PRUNE if prune else GROW).float_rgb)
 
-    def set_brush(self, center, radius: float | None = None, visible: bool = True) -> None:
-        """Place the brush sphere (green to grow, red to prune)."""
+    def set_brush(self, center, radius: float | None = None, visible: bool = True, *, color=None) -> None:
+        """Place the brush sphere (green to grow, red to prune, or ``color``: a label's, spec 000_vine §2.4.1),
+        in model coordinates (:meth:`set_model_pose`)."""
         center = check_point("center", center)
         if radius is not None:
             radius = check_range("radius", radius, 0.0, 1e6, low_open=True)
         if not isinstance(visible, (bool, np.bool_)):
             raise TypeError(f"visible must be True or False, got {visible!r}")
+        if color is not None:
+            try:
+                color = pv.Color(color)
+            except ValueError:
+                raise ValueError(f"color must be a colour (name, hex or RGB), got {color!r}"[:300]) from None
+            self._brush_actor.GetProperty().SetColor(color.float_rgb)
         self.brush_center = center
         if radius is not None:
             self.brush_radius = radius
@@ -408,6 +430,36 @@ class View:
                                         theta_resolution=24, phi_resolution=16))
         self._brush_actor.SetVisibility(visible)
         self._render_soon()
+
+    def set_model_pose(self, position, rotation, scale: float) -> None:
+        """Place the whole scene (every layer and the brush) by the model transform ``x ↦ P + s R x``.
+
+        Parameters
+        ----------
+        position : (3,) float
+        rotation : (3, 3) float
+            A rotation matrix.
+        scale : float
+            In (0, 1e6].
+        """
+        m = np.eye(4)
+        m[:3, :3] = check_range("scale", scale, 0.0, 1e6, low_open=True) * check_array(
+            "rotation", rotation, shape=(3, 3))
+        m[:3, 3] = check_point("position", position)
+        self.pose = m
+        for lay in self.layers.values():
+            lay.set_pose(m)
+        self._brush_actor.user_matrix = m
+
+    def apply_view(self, view: SavedView, *, viewer_position=None, view_dir=None) -> None:
+        """Load a saved view (spec 000_vine §2.7) for the current camera, or ``viewer_position`` and
+        ``view_dir``: its model pose for that position and horizontal facing (Eq. 5.14 corrected)."""
+        if not isinstance(view, SavedView):
+            raise ValueError(f"view must be a SavedView, got {type(view).__name__}")
+        cam = self.plotter.camera
+        eye = np.asarray(cam.position if viewer_position is None else viewer_position, float)
+        d = np.subtract(cam.focal_point, cam.position) if view_dir is None else np.asarray(view_dir, float)
+        self.set_model_pose(*load_view(view, viewer_position=eye, view_dir=d))
 
     def screenshot(self, path: str | Path | None = None, *, window_size=None) -> np.ndarray:
         """Render offscreen (at ``window_size`` for a full-resolution still) and return the (H, W, 3) uint8
@@ -418,6 +470,8 @@ class View:
             raise ValueError(f"path must end in .png, got {str(path)!r}")
         if self.doc is not None:
             self.update()
+        for lay in self.layers.values():
+            lay.refresh()
         self.plotter.render()  # else a camera moved since the last render is not in the picture
         img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
         if path is not None:
@@ -471,7 +525,9 @@ class View:
         return self.plotter.show(jupyter_backend=jupyter_backend, auto_close=False, **kwargs)
 
     def close(self) -> None:
-        """Stop observing the document and free the render window."""
+        """Stop observing the document (and the layers what they follow) and free the render window."""
+        for lay in self.layers.values():
+            lay.close()
         if self.doc is not None:
             self.doc.unobserve(self._on_change, names="change")
             if self.doc.has_trait("prune_mode"):

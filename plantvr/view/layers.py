@@ -9,7 +9,9 @@ content's type (:func:`layer_class`):
 - :class:`~plantvr.types.TriMesh` → :class:`MeshLayer`: a surface (terrain, crown, floret, control mesh, the
   ViNE display proxy), with per-vertex ``colors`` (labelled meshes) or ``uv`` and a texture when it has them;
 - :class:`~plantvr.types.Points` → :class:`PointsLayer`: points (screen sized) or spheres (``size`` > 0);
-- :class:`~plantvr.types.Instances` → :class:`InstancesLayer`: the prototype mesh copied to every transform.
+- :class:`~plantvr.types.Instances` → :class:`InstancesLayer`: the prototype mesh copied to every transform;
+- the content types of :data:`LAYERS`, checked first: :mod:`plantvr.view.vine_layers` registers a labelled
+  surface (:class:`~plantvr.types.LabelledSurface`, what a ViNE segmentation shows) and volume slices.
 
 A layer owns its actors and nothing of the document: :meth:`Layer.update` compares the new content with the
 one drawn and, only if it changed, edits its ``PolyData`` in place (actors are not re-added), so a live
@@ -35,7 +37,7 @@ from ..types import Instances, Points, TreeArrays, TriMesh  # noqa: E402
 from .billboard import BARK_RGB, BILLBOARD_LEVEL, LOD_SCREEN_PX, make_billboard  # noqa: E402
 from .polydata import mesh_arrays, texture, to_polydata  # noqa: E402
 
-__all__ = ["LOD", "InstancesLayer", "Layer", "LodTreeLayer", "MeshLayer", "PointsLayer", "TreeLayer",
+__all__ = ["LAYERS", "LOD", "InstancesLayer", "Layer", "LodTreeLayer", "MeshLayer", "PointsLayer", "TreeLayer",
            "check_content", "layer_class", "same_content"]
 
 BARK = "#8b5a2b"
@@ -118,8 +120,16 @@ def is_mesh(content: Any) -> bool:
     return isinstance(content, TriMesh) or (hasattr(content, "vertices") and hasattr(content, "faces"))
 
 
+#: ``{content type: layer class}`` of the contents drawn by layers of other modules, checked before the rules
+#: of :func:`layer_class` (:mod:`plantvr.view.vine_layers` fills it).
+LAYERS: dict[type, type[Layer]] = {}
+
+
 def layer_class(content: Any, *, lod: LOD | None = None) -> type[Layer]:
     """The layer class that draws ``content``; ``ValueError`` for anything that is not scene content."""
+    for kind, cls in LAYERS.items():
+        if isinstance(content, kind):
+            return cls
     if isinstance(content, Points):
         return PointsLayer
     if isinstance(content, Instances):
@@ -128,12 +138,16 @@ def layer_class(content: Any, *, lod: LOD | None = None) -> type[Layer]:
         return TreeLayer if lod is None else LodTreeLayer
     if is_mesh(content):
         return MeshLayer
-    raise ValueError(f"scene content must be TreeArrays, TriMesh, Points or Instances, got {type(content).__name__}")
+    more = "".join(f", {k.__name__}" for k in LAYERS)
+    raise ValueError(f"scene content must be TreeArrays, TriMesh, Points or Instances{more}, got "
+                     f"{type(content).__name__}")
 
 
 def check_content(content: Any) -> None:
     """Raise ``ValueError`` naming the array unless ``content``'s arrays can be drawn (shapes, finite values,
     face indices)."""
+    if isinstance(content, tuple(LAYERS)):
+        return  # checked when it was made (or a document's own arrays)
     if isinstance(content, Points):
         if np.size(content.xyz):
             check_array("xyz", content.xyz, shape=(None, 3))
@@ -168,6 +182,7 @@ class Layer:
             self.style["texture"] = texture(self.style["texture"])
         self.content: Any = None
         self.visible = True
+        self.pose: np.ndarray | None = None
         self.actors: dict[str, Any] = {}
         self._modes: dict[str, tuple] = {}
         self.polys: dict[str, pv.PolyData] = {}
@@ -205,6 +220,8 @@ class Layer:
             kw = {**defaults, **(self.style if part == "main" else {})}
             self.actors[part] = actor = self.plotter.add_mesh(target, name=self._actor_name(part), **kw)
             self._modes[part] = mode
+            if self.pose is not None:
+                actor.user_matrix = self.pose
         else:
             self.polys[part].copy_from(poly)
         actor.SetVisibility(self.visible)
@@ -226,13 +243,28 @@ class Layer:
     def _part_on(self, part: str) -> bool:
         return True
 
+    def set_pose(self, matrix: np.ndarray) -> None:
+        """Put every actor of the layer at the (4, 4) model transform ``matrix`` (the view's model pose)."""
+        self.pose = np.asarray(matrix, np.float64)
+        for a in self.actors.values():
+            a.user_matrix = self.pose
+
+    def refresh(self) -> bool:
+        """Bring what depends on the camera or on followed data up to date before a still; returns whether
+        anything changed (nothing here)."""
+        return False
+
+    def close(self) -> None:
+        """Stop following anything the layer observes (nothing here); its actors stay."""
+
     def points(self) -> np.ndarray:
         """(N, 3) points the camera frames."""
         pts = [np.asarray(p.points) for k, p in self.polys.items() if p.n_points and self.actors[k].GetVisibility()]
         return np.concatenate(pts) if pts else np.zeros((0, 3))
 
     def remove(self) -> None:
-        """Take the layer's actors out of the plotter."""
+        """Stop following (:meth:`close`) and take the layer's actors out of the plotter."""
+        self.close()
         for a in self.actors.values():
             self.plotter.remove_actor(a)
         self.actors.clear()

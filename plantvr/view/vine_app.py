@@ -338,11 +338,11 @@ class VineReviewApp:
 
     Attributes
     ----------
-    proxy, view : DisplayProxy, SegmentationView
-        The display proxy and its (server-side) view, whose render window the page mirrors.
-    lod, lod_view : DisplayProxy, SegmentationView or None
-        The level of detail drawn while painting (decimated from the display proxy to ``interactive_faces``)
-        and its view.
+    proxy, view : DisplayProxy, plantvr.View
+        The display proxy and the (server-side) view, whose render window the page mirrors: its layer
+        ``"surface"`` draws the proxy (:attr:`surface`), its layer ``"lod"`` the level of detail.
+    lod : DisplayProxy or None
+        The level of detail drawn while painting (decimated from the display proxy to ``interactive_faces``).
     last_pick : dict or None
         The last picked point, ``{"worldPosition": [x, y, z], ...}``.
     last_stroke : list of (3,) ndarray
@@ -422,36 +422,38 @@ class VineReviewApp:
 
     # ------------------------------------------------------------------ model
     def _set_segmentation(self, seg: Segmentation, proxy: DisplayProxy | None) -> None:
-        from plantvr.view.segmentation import SegmentationView
-        old = getattr(self, "view", None)
-        plotter = None
-        if old is not None:
-            old._unobserve()
-            old.plotter.remove_actor(old.actor)
-            plotter = old.plotter
+        from plantvr.types import LabelledSurface
+        from plantvr.view import View
+        view = getattr(self, "view", None)
+        if view is not None:
             self.proxy.close()
-        old_lod = getattr(self, "lod_view", None)
-        if old_lod is not None:
-            old_lod._unobserve()
-            old_lod.plotter.remove_actor(old_lod.actor)
-            self.lod.close()
+            if self.lod is not None:
+                self.lod.close()
         self.seg = seg
         self.proxy = proxy if proxy is not None else DisplayProxy(seg, target_faces=self.target_faces)
-        self.view = SegmentationView(seg, proxy=self.proxy, plotter=plotter, window_size=self.window_size,
-                                     background=(0.08, 0.08, 0.1))
         self.proxy.observe(self._on_proxy_change, names="change")
-        self.lod = self.lod_view = None
+        self.lod = None
         self._lod_pending = []
         if self.mode == "local" and self.interactive_faces is not None \
                 and len(self.proxy.faces) > self.interactive_faces:
             # the level of detail drawn while a stroke or an orbit drag runs: visible here (trame-vtk sends
             # hidden actors without their data), hidden by the page hook at rest
             self.lod = self.proxy.coarser(self.interactive_faces)     # not a second pass over the full mesh
-            self.lod_view = SegmentationView(seg, proxy=self.lod, plotter=self.view.plotter,
-                                             background=(0.08, 0.08, 0.1))
             self.lod.observe(self._on_lod_change, names="change")
+        scene = {"surface": LabelledSurface(self.proxy),
+                 "lod": None if self.lod is None else LabelledSurface(self.lod)}
+        if view is None:
+            self.view = View({k: c for k, c in scene.items() if c is not None}, off_screen=True,
+                             window_size=self.window_size, background=(0.08, 0.08, 0.1))
+        else:
+            view.update(scene)
         self.view.plotter.reset_camera()
         self.view.plotter.camera.elevation = -35
+
+    @property
+    def surface(self):
+        """The view's layer of the display proxy (a :class:`~plantvr.view.vine_layers.LabelledSurfaceLayer`)."""
+        return self.view.layers["surface"]
 
     def _on_lod_change(self, event) -> None:
         self._note(event["new"], self._lod_pending)
@@ -483,12 +485,12 @@ class VineReviewApp:
         rgba : (M, 4) uint8 ndarray
             Their colours, as in the view's colour array.
         """
-        pending, view = (self._lod_pending, self.lod_view) if lod else (self._pending, self.view)
+        pending, layer = (self._lod_pending, self.view.layers.get("lod")) if lod else (self._pending, self.surface)
         ids = (np.unique(np.concatenate(pending)) if pending else np.zeros(0, np.int64))
         pending.clear()
-        if view is None:
+        if layer is None:
             return np.zeros(0, np.uint32), np.zeros((0, 4), np.uint8)
-        return ids.astype(np.uint32), np.ascontiguousarray(view.mesh.point_data["rgba"][ids], dtype=np.uint8)
+        return ids.astype(np.uint32), np.ascontiguousarray(layer.mesh.point_data["rgba"][ids], dtype=np.uint8)
 
     def _delta(self, *, fine: bool = True, lod: bool = True) -> dict | None:
         """One colour-delta batch ``{seq, n, ids, rgba, more}`` for the page hook, or None when nothing changed.
@@ -554,13 +556,13 @@ class VineReviewApp:
         self._close_stroke()
         r = float(self.state.radius if radius is None else radius)
         lab = int(self.state.label if label is None else label)
-        n = self.view.paint_at(point, radius=r, label=lab)
+        n = self.surface.paint_at(point, radius=r, label=lab)
         self._push()
         return n
 
     def _locator(self):
         """vtkStaticCellLocator over the drawn display proxy (visible triangles), rebuilt when they change."""
-        mesh = self.view.mesh
+        mesh = self.surface.mesh
         key = (id(mesh), mesh.GetPolys().GetMTime(), mesh.GetPoints().GetMTime())
         if self._loc_key != key:
             from vtkmodules.vtkCommonDataModel import vtkPolyData, vtkStaticCellLocator
@@ -582,7 +584,7 @@ class VineReviewApp:
         vtk.js camera (it orbits in the browser); the ray (:func:`camera_ray`) is cast on the server against
         the display proxy's visible triangles with VTK's ``vtkStaticCellLocator``.
         """
-        if self.view.mesh.n_cells == 0:
+        if self.surface.mesh.n_cells == 0:
             return None
         o, d = camera_ray(camera, x, y, size)
         loc = self._locator()
@@ -634,7 +636,7 @@ class VineReviewApp:
                 self.on_pick(self.last_pick)
                 st["paint_s"] += time.perf_counter() - t1
                 return None
-            self.view.paint_at(p, radius=r, label=label)
+            self.surface.paint_at(p, radius=r, label=label)
             self.last_stroke.append(p)
             st["stamps"] += 1
             st["paint_s"] += time.perf_counter() - t1
@@ -901,7 +903,6 @@ class VineReviewApp:
         self.proxy.close()
         if self.lod is not None:
             self.lod.close()
-            self.lod_view._unobserve()
         self.view.close()
 
 
@@ -974,7 +975,8 @@ def _segment(a, open_source, paint_demo) -> int:
     if a.out:
         from pathlib import Path
 
-        from plantvr.view.segmentation import SegmentationView
+        from plantvr.types import LabelledSurface
+        from plantvr.view import View
         out = Path(a.out)
         try:
             out.mkdir(parents=True, exist_ok=True)
@@ -984,7 +986,8 @@ def _segment(a, open_source, paint_demo) -> int:
         io_labels.export_ply(seg, out / "segment.ply")
         seg.save(out / "segment_session.npz", include_mesh=False)
         proxy = DisplayProxy(seg, target_faces=a.faces)
-        view = SegmentationView(seg, proxy=proxy, window_size=(800, 600), background=(0.08, 0.08, 0.1))
+        view = View({"surface": LabelledSurface(proxy)}, off_screen=True, window_size=(800, 600),
+                    background=(0.08, 0.08, 0.1))
         view.plotter.reset_camera()
         view.plotter.camera.elevation = -35
         view.screenshot(out / "segment.png")

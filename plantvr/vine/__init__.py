@@ -3,7 +3,7 @@ proxy (spec 000_vine §1.4–2.7, checklist items 1–3, 8–9, 13–17, 24, 26�
 
 Takes and returns arrays and never imports pyvista/vtk, any UI or the documents: the labels document (the
 session: labels, history, command log, bundles) is :class:`plantvr.documents.labels.Segmentation`, the view
-:mod:`plantvr.view.segmentation`.
+:mod:`plantvr.view.vine_layers` (the layers :class:`plantvr.View` draws it with).
 """
 from plantvr.vine.colors import DEFAULT_PALETTE, ColorTable
 from plantvr.vine.depthcue import coarse_hull, depth_cue_colors, depth_factor, hull_distances, inside_hull

@@ -1,6 +1,8 @@
 """One View for any document: one actor layer per kind of scene content, redrawn only when its content changes
 (issue 21). A small Document subclass returns each content type; a PNG is rendered per type."""
+import ast
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +13,8 @@ from plantvr.document import Document  # noqa: E402
 from plantvr.types import Instances, Points, TreeArrays, TriMesh  # noqa: E402
 from plantvr.view import View  # noqa: E402
 from plantvr.view.layers import InstancesLayer, MeshLayer, PointsLayer, TreeLayer, layer_class, same_content  # noqa: E402
+
+VIEW_PACKAGE = Path(__file__).resolve().parents[2] / "plantvr" / "view"
 
 OUT = os.environ.get("PLANTVR_VIEW_PNG")  # set to a folder to keep the pictures
 
@@ -138,8 +142,15 @@ def test_same_content_and_layer_class():
     assert a is not b and same_content(a, b)
     assert not same_content(a, TreeArrays.from_arrays(a.pos + 1, a.parent, a.radius))
     assert same_content(_labelled(), _labelled()) and not same_content(_labelled(), _sphere())
-    with pytest.raises(ValueError, match="TreeArrays, TriMesh, Points or Instances"):
+    with pytest.raises(ValueError, match="TreeArrays, TriMesh, Points or Instances, LabelledSurface, OrthoSlices"):
         layer_class("tree")
+    from plantvr.documents.labels import Segmentation
+    from plantvr.types import LabelledSurface
+    from plantvr.view.vine_layers import LabelledSurfaceLayer, OrthoSlices, VolumeSlicesLayer
+    sphere = _sphere()
+    surface = Segmentation(sphere.vertices, sphere.faces).scene()["surface"]
+    assert isinstance(surface, LabelledSurface) and layer_class(surface) is LabelledSurfaceLayer
+    assert layer_class(OrthoSlices(np.zeros((2, 2, 2)))) is VolumeSlicesLayer
 
 
 def test_tree_layer_draws_leaves_only_with_buds():
@@ -156,3 +167,30 @@ def test_tree_layer_draws_leaves_only_with_buds():
         assert v.layers["t"].actors["leaves"].GetVisibility()
     finally:
         v.close()
+
+
+def plotter_owners(package: Path = VIEW_PACKAGE) -> list[str]:
+    """Classes of ``package`` (``plantvr/view``) that own a pyvista plotter: they construct a ``Plotter`` or keep
+    one as ``self.plotter``, the actor layers (subclasses of ``Layer``, which draw into the view's) aside."""
+    classes = [c for f in sorted(package.glob("*.py")) for c in ast.walk(ast.parse(f.read_text()))
+               if isinstance(c, ast.ClassDef)]
+    layers = {"Layer"}
+    for _ in classes:                                     # enough passes for any order of definition
+        layers |= {c.name for c in classes if any(getattr(b, "id", None) in layers for b in c.bases)}
+
+    def owns(node) -> bool:
+        for n in ast.walk(node):
+            if isinstance(n, ast.Call) and getattr(n.func, "id", getattr(n.func, "attr", None)) == "Plotter":
+                return True
+            targets = n.targets if isinstance(n, ast.Assign) else []
+            for t in [e for t in targets for e in (t.elts if isinstance(t, ast.Tuple) else [t])]:
+                if isinstance(t, ast.Attribute) and t.attr == "plotter" and getattr(t.value, "id", "") == "self":
+                    return True
+        return False
+    return sorted(c.name for c in classes if c.name not in layers and owns(c))
+
+
+def test_one_view_class_owns_a_plotter():
+    """Issue 30: one ``View`` with a layer registry; the segmentation surface and the volume slices are layers,
+    the review app owns a ``View`` (was: View, SegmentationView, VolumeSlices)."""
+    assert plotter_owners() == ["View"]

@@ -3,11 +3,10 @@ import math
 
 import numpy as np
 import pytest
-import pyvista as pv
 
-from plantvr.types import Points, TreeArrays, TriMesh
+from plantvr.types import LabelledSurface, Points, TreeArrays, TriMesh
 from plantvr.view import LOD, View, side_by_side
-from plantvr.view.slices import VolumeSlices
+from plantvr.view.vine_layers import OrthoSlices
 
 TREE = TreeArrays.from_arrays(np.array([[0, 0, 0], [0, 1, 0], [0, 2, 0.0]]), np.array([-1, 0, 1]),
                               np.array([0.1, 0.08, 0.05]))
@@ -30,7 +29,9 @@ def test_forest_lod_options(fuzz, kw, param):
                                        ({"lod": "far"}, "lod"), ({"panels": "control"}, "panels"),
                                        ({"panels": [[1]]}, "panels"), ({"titles": ["a", "b"]}, "titles"),
                                        ({"styles": {"tree": 3}}, "styles"), ({"show_leaves": "no"}, "show_leaves"),
-                                       ({"ground": 1}, "ground"), ({"params": [1]}, "params")])
+                                       ({"ground": 1}, "ground"), ({"params": [1]}, "params"),
+                                       ({"background": "nocolour"}, "background"),
+                                       ({"background": (1, 2)}, "background")])
 def test_view_options(fuzz, kw, param):
     assert isinstance(fuzz.call("View", View, {"tree": TREE}, param=param, **kw), ValueError)
 
@@ -79,12 +80,29 @@ def test_screenshot_is_atomic(tmp_path, monkeypatch):
     (np.array([["a"]]), (1, 1, 1), "volume"), (np.zeros((4, 4, 4)), (0, 1, 1), "spacing"),
     (np.zeros((4, 4, 4)), (1e300, 1, 1), "spacing"), (np.zeros((4, 4, 4)), (1, 1), "spacing")])
 def test_volume_slices_input(fuzz, volume, spacing, param):
-    pl = pv.Plotter(off_screen=True, window_size=(32, 32))
+    assert isinstance(fuzz.call("OrthoSlices", OrthoSlices, volume, spacing=spacing, param=param), ValueError)
+
+
+@pytest.mark.parametrize("kw, param", [({"line_width": 0}, "line_width"), ({"opacity": 2}, "opacity"),
+                                       ({"indices": {"w": 1}}, "indices"), ({"indices": {"x": 9}}, "indices"),
+                                       ({"indices": [1]}, "indices"), ({"level": math.nan}, "level"),
+                                       ({"seg": "mesh"}, "seg"), ({"cmap": 3}, "cmap")])
+def test_volume_slices_options(fuzz, kw, param):
+    assert isinstance(fuzz.call("OrthoSlices", OrthoSlices, np.zeros((4, 4, 4)), param=param, **kw), ValueError)
+
+
+@pytest.mark.parametrize("args, param", [(([0, 0, 0], np.eye(3), 0.0), "scale"),
+                                         (([0, 0], np.eye(3), 1.0), "position"),
+                                         (([0, 0, 0], np.eye(2), 1.0), "rotation")])
+def test_model_pose_input(fuzz, args, param):
+    v = View({"tree": TREE}, window_size=(64, 64))
     try:
-        assert isinstance(fuzz.call("VolumeSlices", VolumeSlices, pl, volume, spacing=spacing, param=param),
+        assert isinstance(fuzz.call("View.set_model_pose", v.set_model_pose, *args, param=param), ValueError)
+        assert isinstance(fuzz.call("View.set_brush", v.set_brush, [0, 0, 0], color="nocolour", param="color"),
                           ValueError)
+        assert isinstance(fuzz.call("LabelledSurface", LabelledSurface, TREE, param="source"), ValueError)
     finally:
-        pl.close()
+        v.close()
 
 
 @pytest.mark.parametrize("kw, param", [({"near": 0}, "near"), ({"near": math.nan}, "near"),

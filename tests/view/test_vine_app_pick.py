@@ -97,8 +97,8 @@ def test_stroke_paints_full_resolution_as_one_undo_item_with_lod_deltas(surface)
     app.state.label = 3
     cam = _camera(app.view.plotter)
     # what the page holds: both levels of detail's colour arrays, keyed by their tuple count
-    page = {app.proxy.n_vertices: app.view.mesh.point_data["rgba"].copy(),
-            app.lod.n_vertices: app.lod_view.mesh.point_data["rgba"].copy()}
+    page = {app.proxy.n_vertices: app.surface.mesh.point_data["rgba"].copy(),
+            app.lod.n_vertices: app.view.layers["lod"].mesh.point_data["rgba"].copy()}
     path = [(w / 2 - 40 + 8 * k, h / 2 + 3 * np.sin(k)) for k in range(11)]
     d = app.stroke("begin", [path[0]], cam, (w, h))
     assert d is not None and d["n"] == app.lod.n_vertices and d["more"] == []    # only the coarse level moves
@@ -113,8 +113,8 @@ def test_stroke_paints_full_resolution_as_one_undo_item_with_lod_deltas(surface)
     assert {d["n"], *(p["n"] for p in d["more"])} <= {app.proxy.n_vertices, app.lod.n_vertices}
     assert d["n"] == app.proxy.n_vertices                                   # the display proxy at the end
     _apply(page, d)
-    assert np.array_equal(page[app.proxy.n_vertices], app.view.mesh.point_data["rgba"])
-    assert np.array_equal(page[app.lod.n_vertices], app.lod_view.mesh.point_data["rgba"])
+    assert np.array_equal(page[app.proxy.n_vertices], app.surface.mesh.point_data["rgba"])
+    assert np.array_equal(page[app.lod.n_vertices], app.view.layers["lod"].mesh.point_data["rgba"])
     assert np.array_equal(page[app.proxy.n_vertices], app.proxy.vertex_colors())
     # full resolution: exactly the union of the stamps' spheres, one undo item
     centres = np.asarray(app.last_stroke)

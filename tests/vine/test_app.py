@@ -68,7 +68,7 @@ def test_review_app_commands_without_a_browser(head):
     n = app.paint_world(p)
     other.paint(p, 4.0, 4)
     assert n > 0 and np.array_equal(seg.labels, other.labels) and app.state.can_undo
-    assert np.array_equal(app.view.mesh.point_data["rgba"], app.proxy.vertex_colors())
+    assert np.array_equal(app.surface.mesh.point_data["rgba"], app.proxy.vertex_colors())
     # the stroke travels as a colour delta of exactly the proxy vertices that changed (8 B each)
     d = app.state.vine_delta
     ids = np.frombuffer(d["ids"], "<u4")
@@ -90,7 +90,7 @@ def test_review_app_commands_without_a_browser(head):
     app.state.level = head.level + 40
     app.apply_level()                                                   # new iso-value: a new, smaller surface
     assert app.seg is not seg and app.seg.n_vertices < seg.n_vertices
-    assert app.view.mesh.n_points == app.proxy.n_vertices
+    assert app.surface.mesh.n_points == app.proxy.n_vertices
     with pytest.raises(ValueError, match="mode"):
         VineReviewApp(seg, mode="webgpu")
     with pytest.raises(ValueError, match="colour_updates"):

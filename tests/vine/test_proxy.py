@@ -183,19 +183,21 @@ def test_kernels_equal_numpy_twins(surface):
 
 def test_paint_through_proxy_view_equals_full_mesh_paint(surface, seg, proxy):
     pytest.importorskip("pyvista")
-    from plantvr.view.segmentation import SegmentationView
-    view = SegmentationView(seg, proxy=proxy, window_size=(240, 180))
-    assert view.mesh.n_points == proxy.n_vertices
+    from plantvr.types import LabelledSurface
+    from plantvr.view import View
+    view = View({"surface": LabelledSurface(proxy)}, off_screen=True, window_size=(240, 180))
+    surf = view.layers["surface"]
+    assert surf.mesh.n_points == proxy.n_vertices
     other = Segmentation(surface.vertices, surface.faces)
     p = proxy.vertices[proxy.n_vertices // 3].astype(float)   # a point picked on the proxy surface
-    n = view.paint_at(p, radius=6.0, label=2)
+    n = surf.paint_at(p, radius=6.0, label=2)
     other.paint(p, 6.0, 2)
     assert n > 0 and np.array_equal(seg.labels, other.labels)
     assert set(np.nonzero(seg.labels == 2)[0]) == set(ball_query_brute(seg.vertices, p, 6.0).tolist())
-    assert np.array_equal(view.mesh.point_data["rgba"], proxy.vertex_colors())
+    assert np.array_equal(surf.mesh.point_data["rgba"], proxy.vertex_colors())
     seg.undo()
     assert not (seg.labels == 2).any()
-    assert np.array_equal(view.mesh.point_data["rgba"], proxy.vertex_colors())
+    assert np.array_equal(surf.mesh.point_data["rgba"], proxy.vertex_colors())
     view.close()
     proxy.close()
 
@@ -254,21 +256,23 @@ def test_uint16_segmentation_through_the_proxy(surface):
     """More than 256 colours: proxy labels are uint16, follow paint / undo / hide, and its colours are the
     table's, through a decimated proxy and its view."""
     pytest.importorskip("pyvista")
-    from plantvr.view.segmentation import SegmentationView
+    from plantvr.types import LabelledSurface
+    from plantvr.view import View
     from plantvr.vine.colors import ColorTable
     seg = Segmentation(surface.vertices, surface.faces, normals=surface.normals, colors=ColorTable.with_size(1000))
     assert seg.labels.dtype == np.uint16
     proxy = DisplayProxy(seg, target_faces=len(seg.faces) // 8)
     assert proxy.labels.dtype == np.uint16
-    view = SegmentationView(seg, proxy=proxy, window_size=(240, 180))
+    view = View({"surface": LabelledSurface(proxy)}, off_screen=True, window_size=(240, 180))
+    surf = view.layers["surface"]
     rng = np.random.default_rng(5)
     for k in (300, 917, 5, 999, 256):
         p = proxy.vertices[rng.integers(proxy.n_vertices)].astype(float)
-        n = view.paint_at(p, radius=6.0, label=k)
+        n = surf.paint_at(p, radius=6.0, label=k)
         assert n > 0 and np.array_equal(proxy.labels, _recomputed(proxy, seg))
         assert set(np.nonzero(seg.labels == k)[0]) <= set(ball_query_brute(seg.vertices, p, 6.0).tolist())
     assert {300, 917, 999}.issubset(set(proxy.labels.tolist()))
-    assert np.array_equal(view.mesh.point_data["rgba"], proxy.vertex_colors())
+    assert np.array_equal(surf.mesh.point_data["rgba"], proxy.vertex_colors())
     assert np.array_equal(proxy.vertex_colors(), seg.colors.rgba[proxy.labels])
     seg.hide(917)
     assert not np.isin(proxy.labels[proxy.visible_faces()], [917]).any()

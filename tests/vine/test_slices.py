@@ -78,14 +78,16 @@ def test_view_slices_follow_labels(tmp_path, head, surface, truth):
     """pyvista slices: the labelled cut is drawn in label colours and recoloured after a fill."""
     import os
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
-    pv = pytest.importorskip("pyvista")
+    pytest.importorskip("pyvista")
     from plantvr.documents.labels import Segmentation
-    from plantvr.view.slices import VolumeSlices
+    from plantvr.view import View
+    from plantvr.view.vine_layers import OrthoSlices, VolumeSlicesLayer
     seg = Segmentation(surface.vertices, surface.faces, labels=truth)
-    p = pv.Plotter(off_screen=True, window_size=(400, 400))
-    p.set_background("#404050")
-    vs = VolumeSlices(p, head.volume, level=head.level, seg=seg, indices={"z": 32})
-    cut = vs.actors[("cut", 2)].mapper.dataset
+    view = View({"slices": OrthoSlices(head.volume, level=head.level, seg=seg, indices={"z": 32})},
+                off_screen=True, window_size=(400, 400), background="#404050")
+    p, vs = view.plotter, view.layers["slices"]
+    assert type(vs) is VolumeSlicesLayer
+    cut = vs.actors["cut2"].mapper.dataset
     _, el = S.plane_segments(surface.vertices, surface.faces, 2, 32.0, labels=truth)
     assert cut.n_cells == 2 * len(el)
     assert {tuple(c) for c in cut.cell_data["rgb"].tolist()} == {
@@ -96,13 +98,14 @@ def test_view_slices_follow_labels(tmp_path, head, surface, truth):
     assert red > 50                                     # the receptacle's red cut is on screen
     v2 = int(np.flatnonzero(truth == 2)[0])
     seg.fill(v2, 11)
-    cut = vs.actors[("cut", 2)].mapper.dataset
+    cut = vs.actors["cut2"].mapper.dataset
     assert tuple(ColorTable().rgba[11, :3].tolist()) in {tuple(c) for c in cut.cell_data["rgb"].tolist()}
     with pytest.raises(ValueError, match="index must be an integer in"):
         vs.set_index("z", 64)
     assert vs.indices == {2: 32}
-    vs.remove()
-    p.close()
+    view.update({"slices": None})                       # the layer stops following the segmentation
+    assert vs._seg is None and not vs.actors
+    view.close()
 
 
 @pytest.mark.parametrize(("axis", "pos"), [(0, 32.0), (1, 30.37), (2, 20.5)])
