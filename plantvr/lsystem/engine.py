@@ -11,6 +11,12 @@ pattern parameters, multi-module predecessors (rewritten left to right), rule gr
 ``useGroup(n)``: the active group's rules, then group 0's) and contexts in decomposition / homomorphism rules (L-Py's
 recursion: each successor decomposed on its own). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
 
+Query modules (issue 33, L-Py's request modules ``?P``, ``?H``, ``?U``, ``?L``, ``?R``, ``?F``): before a
+production step whose active rules have one in a pattern (``A > ?P(x, y, z) : z < h --> F A``), the string is
+interpreted (homomorphism, then the turtle) and each request module's parameters are set to the turtle's
+frame there (:meth:`LSystem._query`; one parameter: a :class:`~plantvr.lsystem.plantgl.Vector3`, whose ``x``,
+``y``, ``z`` untrusted rules may read; three: x, y, z).
+
 How a step runs, fastest first:
 
 * every rule constant (context-free, no condition, successor parameters free of pattern variables): one numba
@@ -245,6 +251,8 @@ class _Compiled:
         self.contexts = bool(rule.left or rule.right)
         self.newcontexts = bool(rule.newleft or rule.newright)
         self.rest = list(rule.pred_rest)                     # multi-module predecessor: the modules after the first
+        self.query = any(tok.name in _query_modules() for tok in (*rule.left, *rule.newleft, rule.pred, *self.rest,
+                                                                  *rule.newright, *rule.right))
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
         # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
@@ -286,6 +294,21 @@ def _raw_vals(ptr, args, objs, i: int) -> tuple:
     if objs:
         return tuple(objs.get(a + q, v) if math.isnan(v) else v for q, v in enumerate(vals))
     return tuple(vals)
+
+
+def _answer(kind: str, frame: np.ndarray, old: tuple) -> tuple:
+    """The parameters of a request module of ``kind`` (:data:`~plantvr.lsystem.turtle.QUERY_MODULES`) that had
+    ``old``, answered with the turtle's ``frame`` (position, H, L, U; see :meth:`LSystem._query`)."""
+    from .plantgl import Vector3
+    p, h, left, u = (Vector3(*v) for v in frame.tolist())
+    if kind == "F":
+        return (p, h, u, left) + old[4:]
+    v = {"P": p, "H": h, "U": u, "L": left, "R": -left}[kind]
+    if len(old) == 1 and is_number(old[0]):
+        return (v[0],)
+    if len(old) < 2:
+        return (v,)
+    return tuple(v[:len(old)]) + old[3:]
 
 
 def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
@@ -532,11 +555,18 @@ class LSystem:
         (``unsupported="error"``), or is left out of the picture with one warning naming each such module
         (``"warn"``); it never changes the skeleton, which the turtle's moves and turns alone make.
         """
+        from .turtle import turtle, turtle_nodes
+        unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
+        s = self._drawable(self.interpret(string), unsupported)
+        return self._turtle_call(turtle_nodes if shapes else turtle, s, turtle_options)
+
+    def _drawable(self, s: ModuleString, unsupported: str) -> ModuleString:
+        """The interpreted string ``s`` as the turtle reads it (:meth:`_first_params`), after the check of the
+        modules it does not draw (see :meth:`draw`)."""
         import warnings
 
-        from .turtle import LPY_UNSUPPORTED, turtle, turtle_nodes
-        unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
-        s = self._first_params(self.interpret(string))
+        from .turtle import LPY_UNSUPPORTED
+        s = self._first_params(s)
         used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
         bad = [s.names[k] for k in used.tolist() if s.names[k] in LPY_UNSUPPORTED]
         for name in bad[:1] if unsupported == "error" else ():
@@ -545,9 +575,14 @@ class LSystem:
                                "unsupported='warn' draws the skeleton without it)", line, col)
         if bad:
             where = ", ".join(f"{name} (line {self._g.first_use.get(name, (0, 0))[0]})" for name in bad)
-            warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=2)
+            warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=3)
+        return s
+
+    def _turtle_call(self, fn, s: ModuleString, turtle_options: dict):
+        """``fn(s, ...)`` with the grammar's turtle options overridden by ``turtle_options``; a module the turtle
+        refuses is an LSystemError at the grammar line it is first used on."""
         try:
-            return (turtle_nodes if shapes else turtle)(s, **{**self._turtle, **turtle_options})
+            return fn(s, **{**self._turtle, **turtle_options})
         except ValueError as e:                               # a module the turtle refuses: its grammar line
             m = re.search(r"module (\S+) at index", str(e))
             line, col = self._g.first_use.get(m.group(1), (0, 0)) if m else (0, 0)
@@ -1050,6 +1085,8 @@ class LSystem:
                 if self._next_group != self._group:           # L-Py reads the group after StartEach
                     self._set_group(self._next_group)
                 if self._rules["production"]:
+                    if any(c.query for c in self._rules["production"]):
+                        s = self._query(s)
                     s, _ = self._rewrite(s, "production")
                 s = self._decompose(s, "decomposition")
                 self._hook("EndEach")
@@ -1135,7 +1172,7 @@ class LSystem:
         derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
         self._reset_group()
         if n < 1 or not len(s) or s.objects or self._hooks or self._rules["decomposition"] or \
-                not self._rules["production"]:
+                not self._rules["production"] or any(c.query for c in self._rules["production"]):
             return None
         table = self._constant_table("production")
         if table is None:
@@ -1167,6 +1204,41 @@ class LSystem:
             self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
+
+    def _query(self, s: ModuleString) -> ModuleString:
+        """L-Py's query pass (``Lsystem::__step`` when a production's pattern has a request module): ``s``
+        interpreted (homomorphism, then the turtle) and each request module's parameters set to the turtle's frame
+        there, as ``ParamModule::_setValues`` does: none become one Vector3, one a Vector3 (or the x coordinate if
+        it is a number), two x and y, three or more x, y and z; ``?F`` gets position, heading, up and left Vector3s.
+        A request module a ``%`` cuts off keeps its parameters."""
+        from .turtle import QUERY_MODULES, query_frames
+        qsid = [k for k, nm in enumerate(self._names) if nm in QUERY_MODULES]
+        at = np.flatnonzero(np.isin(s.ids, qsid))
+        if not at.size:
+            return s
+        hom = self._rules["homomorphism"]
+        for c in hom:
+            if c.query:
+                raise LSystemError("a request module (?P, ...) in an interpretation rule's pattern cannot be "
+                                   "answered to the productions (L-Py leaves it unanswered); not supported",
+                                   c.rule.line, c.rule.col)
+        if not _WARM_TURTLE:                                  # numba compiling is not the grammar's time
+            _WARM_TURTLE.append(True)
+            start = time.monotonic()
+            query_frames(ModuleString.from_modules(["F", "?P"]))
+            self._deadline += time.monotonic() - start
+        t = self._drawable(self.interpret(s), "error")
+        tq = np.flatnonzero(np.isin(t.ids, qsid))
+        if len(tq) != len(at):
+            c = next((c for c in hom if any(nm in src for _, src in c.rule.body for nm in QUERY_MODULES)), hom[0])
+            raise LSystemError("interpretation rules that produce request modules (?P, ...) are not supported",
+                               c.rule.line, c.rule.col)
+        idx, frames = self._turtle_call(query_frames, t, {})
+        answers = {int(at[k]): _answer(QUERY_MODULES[t.names[t.ids[j]]], fr,
+                                       _raw_vals(s.arg_ptr, s.args, s.objects, at[k]))
+                   for k, j, fr in zip(np.searchsorted(tq, idx).tolist(), idx.tolist(), frames)}
+        return self._make(*_pack([(int(sid), answers[i] if i in answers else
+                                   _raw_vals(s.arg_ptr, s.args, s.objects, i)) for i, sid in enumerate(s.ids)]))
 
     def _reset_group(self) -> None:
         """A derivation starts in the group the grammar's top-level code chose (0 without ``useGroup``)."""
@@ -1554,14 +1626,22 @@ class LSystem:
 
 
 _WARM: list = []
+_WARM_TURTLE: list = []
 
 
 def _turtle_modules() -> frozenset:
-    """The turtle's module names (their parameters are read as numbers)."""
+    """The turtle's module names whose parameters are read as numbers (not the request modules, which hold
+    the Vector3s of L-Py's query pass)."""
     if not _TURTLE:
-        from .turtle import TURTLE_MODULES
-        _TURTLE.append(frozenset(TURTLE_MODULES))
+        from .turtle import QUERY_MODULES, TURTLE_MODULES
+        _TURTLE.append(frozenset(TURTLE_MODULES) - frozenset(QUERY_MODULES))
     return _TURTLE[0]
+
+
+def _query_modules() -> frozenset:
+    """The request modules' names (:data:`~plantvr.lsystem.turtle.QUERY_MODULES`)."""
+    from .turtle import QUERY_MODULES
+    return frozenset(QUERY_MODULES)
 
 
 _TURTLE: list = []

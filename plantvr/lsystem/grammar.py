@@ -26,10 +26,13 @@ Decomposition and homomorphism rules may have contexts ``<`` / ``>`` (issue 33),
 Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` are in group N (an integer
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
+Request modules (``?P(x, y, z)``, ``?H(h)``, ...; issue 33) may be in any pattern: the engine answers them
+before the step (:mod:`plantvr.lsystem.engine`).
+
 Not supported (LSystemError naming the construct with its line and column): ``-static->``, wildcard (``*``)
 predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
-``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns, new contexts (``<<`` / ``>>``) in
-decomposition and homomorphism rules.
+``x``/``or`` repetition patterns and iterator requests (``?I``, ``GetModule``) in patterns, new contexts (``<<`` /
+``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations
 
@@ -47,8 +50,7 @@ _SECTIONS = {"production": "production", "decomposition": "decomposition", "homo
 _HEADER = re.compile(r"^(Axiom|derivation length|production|decomposition|homomorphism|interpretation|"
                      r"maximum depth|ignore|consider|endlsystem|endgroup|group\s+\S+)\s*(:?)(.*)$")
 _PRODUCE = re.compile(r"\b(nproduce|produce)\b")
-_QUERY = frozenset({"?P", "?H", "?U", "?L", "?R", "?F", "?I", "GetPos", "GetHead", "GetUp", "GetLeft",
-                    "GetRight", "GetFrame", "GetIterator", "GetModule"})
+_ITERATOR = frozenset({"?I", "GetIterator", "GetModule"})
 _IDENT = re.compile(r"^[A-Za-z_]\w*$")
 
 
@@ -394,8 +396,8 @@ class _Reader:
             for t in toks:
                 if t.name == "*":
                     raise LSystemError("wildcard '*' patterns are not supported", ln, t.col)
-                if t.name in _QUERY:
-                    raise LSystemError(f"query module {t.name} in a pattern is not supported", ln, t.col)
+                if t.name in _ITERATOR:
+                    raise LSystemError(f"iterator request {t.name} in a pattern is not supported", ln, t.col)
                 if t.name in ("x", "or") and t.args is not None and key != "pred":
                     raise LSystemError(f"repetition pattern {t.name}(...) is not supported", ln, t.col)
                 if key == "left" and t.name in "[]":

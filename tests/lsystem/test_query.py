@@ -1,0 +1,81 @@
+"""Request modules ``?P``, ``?H``, ``?U``, ``?L``, ``?R``, ``?F`` (issue 33, L-Py's query pass): before a step
+whose productions match one, the string is interpreted and each request module's parameters are set to the
+turtle's frame there (L-Py ``ParamModule::_setValues``)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from plantvr.lsystem import LSystem, LSystemError, ModuleString
+from plantvr.lsystem.plantgl import Vector3
+from plantvr.lsystem.turtle import query_frames
+
+
+def _close(got, want):
+    """Modules ``got`` equal ``want``, numbers and Vector3s to 1e-12."""
+    assert [n for n, _ in got] == [n for n, _ in want]
+    for (name, a), (_, b) in zip(got, want):
+        assert len(a) == len(b), name
+        for x, y in zip(a, b):
+            assert type(x) is type(y), (name, x, y)
+            np.testing.assert_allclose(np.asarray(x, float), np.asarray(y, float), atol=1e-12, err_msg=name)
+
+
+def test_every_request_module_gets_the_frame_by_hand():
+    # H = +Z, L = -Y, U = +X. F(2): at (0, 0, 2). +(90) turns H toward L: H = -Y, L = -Z, U = +X.
+    # F(1): (0, -1, 2). &(90) pitches H down toward -U: H = -X. F(3): (-3, -1, 2).
+    ls = LSystem("Axiom: F(2) ?P(0, 0, 0) +(90) F(1) ?P ?H(0) ?U(5, 5) ?L(1, 2, 3, 4) ?R GetPos(7) ?F "
+                 "[ &(90) F(3) ?P(0, 0, 0) ] [ % ?P(9, 9, 9) ]\n"
+                 "production:\n?P(x, y, z) --> ?P(x, y, z)\nendlsystem\n")
+    got = ls.derive(1).modules()
+    v = Vector3
+    want = [("F", (2.0,)), ("?P", (0.0, 0.0, 2.0)), ("+", (90.0,)), ("F", (1.0,)),
+            ("?P", (v(0, -1, 2),)), ("?H", (0.0,)), ("?U", (1.0, 0.0)), ("?L", (0.0, 0.0, -1.0, 4.0)),
+            ("?R", (v(0, 0, 1),)), ("GetPos", (0.0,)), ("?F", (v(0, -1, 2), v(0, -1, 0), v(1, 0, 0), v(0, 0, -1))),
+            ("[", ()), ("&", (90.0,)), ("F", (3.0,)), ("?P", (-3.0, -1.0, 2.0)), ("]", ()),
+            ("[", ()), ("%", ()), ("?P", (9.0, 9.0, 9.0)), ("]", ())]
+    _close(got, want)
+    assert ls.derive(0).count("?P") == 4                      # the axiom is not answered: no step ran
+
+
+def test_grow_until_a_height():
+    """The classic open L-system: the apex grows while the position after it is below a height."""
+    ls = LSystem("Axiom: A ?P(0, 0, 0)\nderivation length: 10\nproduction:\n"
+                 "A > ?P(x, y, z) : z < 3.5 --> F(1) A\nendlsystem\n")
+    got = ls.derive().modules()
+    _close(got, [("F", (1.0,))] * 4 + [("A", ()), ("?P", (0.0, 0.0, 4.0))])
+    assert len(ls.tree().pos) == 5
+
+
+def test_vector_parameter_and_homomorphism_before_the_query():
+    """``?P(p)`` gets a Vector3; the turtle reads the interpreted string (here ``I --> F(2)``)."""
+    ls = LSystem("Axiom: I ?P I ?H\nproduction:\n?P(p) --> Z(p.z, p[1])\n?H(h) --> W(h.z)\n"
+                 "homomorphism:\nI --> F(2) +(90)\nendlsystem\n")
+    _close(ls.derive(1).modules(), [("I", ()), ("Z", (2.0, 0.0)), ("I", ()), ("W", (-1.0,))])  # H: +Z, -Y, -Z
+
+
+def test_no_query_pass_without_a_request_pattern():
+    ls = LSystem("Axiom: F ?P(0, 0, 0) A\nproduction:\nA --> A\nendlsystem\n")
+    assert ls.derive(3).modules()[1] == ("?P", (0.0, 0.0, 0.0))
+
+
+def test_query_frames_and_drawing_ignores_request_modules():
+    s = ModuleString.from_modules(["F", "[", ("+", (90.0,)), "F", "?U", "]", "?P", ("?L", ("text",))])
+    idx, fr = query_frames(s)
+    assert idx.tolist() == [4, 6, 7]
+    np.testing.assert_allclose(fr[:, 0], [[0, -1, 1], [0, 0, 1], [0, 0, 1]], atol=1e-12)
+    np.testing.assert_allclose(fr[0, 3], [1, 0, 0], atol=1e-12)
+    ls = LSystem("Axiom: F ?P(1, 2, 3) F\n")
+    assert len(ls.tree().pos) == 3 and ls.draw(ls.axiom, shapes=True).shapes.kind.size == 0
+
+
+@pytest.mark.parametrize("text, line, match", [
+    ("Axiom: F ?P\nproduction:\n?P(p) --> F\nhomomorphism:\n?P(p) --> F\n", 5, "interpretation rule's pattern"),
+    ("Axiom: F A ?P\nproduction:\n?P(p) --> F\nhomomorphism:\nA --> F ?P\n", 5, "produce request modules"),
+    ("Axiom: F ?P @M(1, 2, 3)\nproduction:\n?P(p) --> F\n", 1, "unsupported module @M"),
+    ("Axiom: F\nproduction:\n?I(it) < F --> F\n", 3, "iterator request"),
+])
+def test_refused_with_line(text, line, match):
+    with pytest.raises(LSystemError, match=match) as err:
+        LSystem(text).derive(1)
+    assert err.value.line == line
