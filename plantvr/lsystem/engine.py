@@ -9,7 +9,8 @@ others are copied; decomposition rules are applied after every step up to ``maxi
 in :meth:`LSystem.interpret`. Issue 33 adds L-Py's module parameters of any Python value (below), constants in
 pattern parameters, multi-module predecessors (rewritten left to right), rule groups (``group N:``,
 ``useGroup(n)``: the active group's rules, then group 0's) and contexts in decomposition / homomorphism rules (L-Py's
-recursion: each successor decomposed on its own). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
+recursion: each successor decomposed on its own). A step skips what a cut ``%`` cuts, up to the ``]`` closing its
+branch, and drops it (L-Py's ``Lsystem::__step``). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
 
 Query modules (issue 33, L-Py's request modules ``?P``, ``?H``, ``?U``, ``?L``, ``?R``, ``?F``): before a
 production step whose active rules have one in a pattern (``A > ?P(x, y, z) : z < h --> F A``), the string is
@@ -456,8 +457,8 @@ class LSystem:
         decomposition is applied after each step.
 
         When every production is constant (context-free, no condition, one rule per symbol, successor parameters
-        free of pattern variables) and there is no decomposition and no Start/End/StartEach/EndEach hook, the
-        ``n`` steps are done at once (each module of the result written once, repeated blocks copied); the
+        free of pattern variables) and there is no decomposition, no cut ``%`` and no Start/End/StartEach/EndEach
+        hook, the ``n`` steps are done at once (each module of the result written once, repeated blocks copied); the
         result is the one the step-wise derivation (:meth:`iterate`) gives, array for array.
         """
         n = self.derivation_length if n is None else check_int("n", n, 0, MAX_DERIVATION)
@@ -506,6 +507,7 @@ class LSystem:
         by_sym: dict[int, list[_Compiled]] = {}
         for r in rules:
             by_sym.setdefault(r.sid, []).append(r)
+        s = self._cut(s)
         ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         partner = K.match_brackets(ids, 0, 1) if len(s) else None
         nargs = np.diff(ptr)
@@ -1148,6 +1150,7 @@ class LSystem:
         rules = self._rules[kind]
         if not rules or not len(s):
             return s, False
+        s = self._cut(s)
         if any(r.newcontexts or r.rest for r in rules):
             return self._sequential(s, rules)
         table = None if s.objects else self._constant_table(kind)
@@ -1172,7 +1175,8 @@ class LSystem:
         derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
         self._reset_group()
         if n < 1 or not len(s) or s.objects or self._hooks or self._rules["decomposition"] or \
-                not self._rules["production"] or any(c.query for c in self._rules["production"]):
+                not self._rules["production"] or any(c.query for c in self._rules["production"]) or \
+                "%" in self._index or "Cut" in self._index:
             return None
         table = self._constant_table("production")
         if table is None:
@@ -1204,6 +1208,27 @@ class LSystem:
             self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
+
+    def _cut(self, s: ModuleString) -> ModuleString:
+        """``s`` without what each ``%`` (``Cut``) cuts: itself and the rest of its branch, up to the ``]`` that
+        closes the branch (kept) or the end of the string, as L-Py's steps skip it (``AxialTree::endBracket``)."""
+        at = np.flatnonzero(np.isin(s.ids, [self._index[nm] for nm in ("%", "Cut") if nm in self._index]))
+        if not at.size:
+            return s
+        depth = np.cumsum((s.ids == 0).astype(np.int64) - (s.ids == 1))      # ids 0, 1: '[', ']'
+        keep = np.ones(len(s), bool)
+        end = 0
+        for i in at.tolist():
+            if i >= end:
+                below = np.flatnonzero(depth[i:] < depth[i])
+                end = i + int(below[0]) if below.size else len(s)
+                keep[i:end] = False
+        cnt = np.diff(s.arg_ptr)
+        akeep = np.repeat(keep, cnt)
+        ptr = np.zeros(int(keep.sum()) + 1, np.int64)
+        np.cumsum(cnt[keep], out=ptr[1:])
+        new = np.cumsum(akeep) - 1
+        return self._make(s.ids[keep], ptr, s.args[akeep], {int(new[k]): v for k, v in s.objects.items() if akeep[k]})
 
     def _query(self, s: ModuleString) -> ModuleString:
         """L-Py's query pass (``Lsystem::__step`` when a production's pattern has a request module): ``s``

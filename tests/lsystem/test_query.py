@@ -33,7 +33,7 @@ def test_every_request_module_gets_the_frame_by_hand():
             ("?P", (v(0, -1, 2),)), ("?H", (0.0,)), ("?U", (1.0, 0.0)), ("?L", (0.0, 0.0, -1.0, 4.0)),
             ("?R", (v(0, 0, 1),)), ("GetPos", (0.0,)), ("?F", (v(0, -1, 2), v(0, -1, 0), v(1, 0, 0), v(0, 0, -1))),
             ("[", ()), ("&", (90.0,)), ("F", (3.0,)), ("?P", (-3.0, -1.0, 2.0)), ("]", ()),
-            ("[", ()), ("%", ()), ("?P", (9.0, 9.0, 9.0)), ("]", ())]
+            ("[", ()), ("]", ())]                               # the step drops what % cuts
     _close(got, want)
     assert ls.derive(0).count("?P") == 4                      # the axiom is not answered: no step ran
 
@@ -79,3 +79,65 @@ def test_refused_with_line(text, line, match):
     with pytest.raises(LSystemError, match=match) as err:
         LSystem(text).derive(1)
     assert err.value.line == line
+
+
+def _ex_lsystem2(n: int) -> list:
+    """L-Py's ``share/examples/ex_lsystem2.lpy`` derived by hand: each step, the position of every ``?P`` from a
+    turtle that only turns about U (``+``/``-``, H = (0, -sin a, cos a)), then the rules, skipping what a ``%``
+    cuts (up to the ``]`` closing its branch), as L-Py's ``Lsystem::__step``."""
+    s = [("A", ())]
+    for _ in range(n):
+        at, stack, p, a = {}, [], np.zeros(3), 0.0
+        out, i = [], 0
+        while i < len(s):
+            name, v = s[i]
+            if name == "%":                                   # the turtle and the step skip the rest of the branch
+                depth = 0
+                while i < len(s) and (depth or s[i][0] != "]"):
+                    depth += (s[i][0] == "[") - (s[i][0] == "]")
+                    i += 1
+                continue
+            if name == "F":
+                p = p + np.array([0.0, -np.sin(np.radians(a)), np.cos(np.radians(a))])
+            elif name in "+-":
+                a += v[0] if name == "+" else -v[0]
+            elif name == "[":
+                stack.append((p, a))
+            elif name == "]":
+                p, a = stack.pop()
+            elif name == "?P":
+                at[i] = p
+            if name == "A":
+                out += [("[", ()), ("+", (60.0,)), ("B", ()), ("]", ()), ("[", ()), ("-", (60.0,)), ("B", ()),
+                        ("]", ()), ("F", ()), ("?P", (0.0, 0.0, 0.0)), ("A", ())]
+            elif name == "B":
+                out += [("F", ()), ("?P", (0.0, 0.0, 0.0)), ("@O", (0.2,)), ("B", ())]
+            elif name == "?P":
+                _, y, z = at[i].tolist()
+                if 4 * y * y + (z - 10) ** 2 > 100:
+                    out += [("[", ()), ("+", (2 * z,)), ("F", ()), ("]", ()), ("[", ()), ("-", (2 * z,)), ("F", ()),
+                            ("]", ()), ("%", ())]
+            else:
+                out.append((name, v))
+            i += 1
+        s = out
+    return s
+
+
+def test_lpy_distribution_grammar_ex_lsystem2():
+    """An open L-system of L-Py's distribution (``share/examples``): branches grow until their ``?P`` leaves an
+    ellipsoid, then end in a fork and a cut."""
+    from pathlib import Path
+    ls = LSystem.from_file(Path(__file__).parent / "data" / "ex_lsystem2.lpy", trusted=True)
+    for n in (1, 2, 5, 12, ls.derivation_length):
+        got, want = ls.derive(n).modules(), _ex_lsystem2(n)
+        assert len(got) == len(want), n
+        _close(got, want)
+    assert ls.derive(20).count("B") == 16 and ls.derive().count("A") + ls.derive().count("B") == 0  # all cut
+    assert ls.tree().pos[:, 2].max() > 20                     # the main axis forked above the ellipsoid
+
+
+def test_cut_removes_the_rest_of_the_branch_in_a_step():
+    """L-Py's steps skip a ``%`` and its branch up to the closing ``]`` (kept); at the top level, to the end."""
+    ls = LSystem("Axiom: F [ A % B [ C ] D ] E % G\nproduction:\nA --> A\nendlsystem\n")
+    assert str(ls.derive(1)) == "F[A]E"
