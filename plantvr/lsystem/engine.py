@@ -256,6 +256,7 @@ class _Compiled:
                                                                   *rule.newright, *rule.right))
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
+        self.static = None       # a static rule's successor, [(sid, params), ...]
         # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
         self.consts = list(rule.consts)
         n_all = len(rule.params) + len(self.consts)
@@ -859,7 +860,8 @@ class LSystem:
             raise LSystemError(f"time budget of {self.time_budget:g} s exceeded reading the rules", rule.line, 1)
         first = rule.body[0][0] if rule.body else rule.line
         base = max(first - 2, 0)                              # the source starts at grammar line base + 1
-        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
+        params = () if rule.static else rule.params          # L-Py unbinds a static rule's pattern variables
+        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(params)}):"]
         for ln, src in rule.body:
             while len(lines) < ln - 1 - base:
                 lines.append("")
@@ -875,6 +877,12 @@ class LSystem:
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
+        if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
+            c.static = self._call(c, [])
+            if all(type(v) is float for _, vals in c.static for v in vals) and \
+                    not (c.contexts or c.newcontexts or c.rest or c.consts):
+                c.const = c.static
+            return c
         if rule.successor is not None and not (c.contexts or c.newcontexts or c.rest) and \
                 all(is_number(v) for _, v in c.pred_consts):
             self._plan(c)
@@ -1321,6 +1329,8 @@ class LSystem:
         return table
 
     def _call(self, c: _Compiled, vals: list) -> list | None:
+        if c.static is not None:
+            return c.static
         self._nbuf.clear()
         if time.monotonic() > self._deadline:
             raise self._over_budget(c.rule.line, 1, f" in rule {c.rule.header!r}")

@@ -141,3 +141,28 @@ def test_cut_removes_the_rest_of_the_branch_in_a_step():
     """L-Py's steps skip a ``%`` and its branch up to the closing ``]`` (kept); at the top level, to the end."""
     ls = LSystem("Axiom: F [ A % B [ C ] D ] E % G\nproduction:\nA --> A\nendlsystem\n")
     assert str(ls.derive(1)) == "F[A]E"
+
+
+def test_static_rule_successor_is_made_once():
+    """L-Py's ``-static->`` (``LsysRule::setStatic``): the successor is computed once, its pattern's variables
+    unbound, and every match gets that same successor."""
+    text = "Axiom: A A A\nproduction:\nA {} B(uniform(0, 1))\nendlsystem\n"
+    static = [v for _, (v,) in LSystem(text.format("-static->"), seed=1).derive(1).modules()]
+    plain = [v for _, (v,) in LSystem(text.format("-->"), seed=1).derive(1).modules()]
+    assert len(set(static)) == 1 and len(set(plain)) == 3
+    grow = "Axiom: F(1) A(2)\nproduction:\nA(n) {} F(1) [+F(0.5)] A(0)\nendlsystem\n"   # numba's constant path
+    assert str(LSystem(grow.format("-static->")).derive(3)) == str(LSystem(grow.format("-->")).derive(3))
+    with pytest.raises(LSystemError, match=r"line 3, column 1: .*NameError: name 'x' is not defined"):
+        LSystem("Axiom: A(1)\nproduction:\nA(x) -static-> B(x)\n")
+    with pytest.raises(LSystemError, match=r"line 3, column 5: static blocks"):
+        LSystem("Axiom: A\nproduction:\nA : @static\n    produce B\n")
+
+
+@pytest.mark.parametrize("text, col, match", [
+    ("Axiom: A\nproduction:\nx(A, 2) --> B\n", 1, "repetition pattern x"),
+    ("Axiom: A\nproduction:\nA > x(B, 1, 3) --> B\n", 5, "repetition pattern x"),
+])
+def test_pattern_modules_are_refused_with_line_and_column(text, col, match):
+    with pytest.raises(LSystemError, match=match) as err:
+        LSystem(text)
+    assert (err.value.line, err.value.column) == (3, col)
