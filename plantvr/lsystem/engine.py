@@ -561,7 +561,7 @@ class LSystem:
         from .turtle import turtle, turtle_nodes
         unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
         s = self._drawable(self.interpret(string), unsupported)
-        return self._turtle_call(turtle_nodes if shapes else turtle, s, turtle_options)
+        return self._turtle_call(turtle_nodes if shapes else turtle, s, {**self._turtle, **turtle_options})
 
     def _drawable(self, s: ModuleString, unsupported: str) -> ModuleString:
         """The interpreted string ``s`` as the turtle reads it (:meth:`_first_params`), after the check of the
@@ -582,10 +582,10 @@ class LSystem:
         return s
 
     def _turtle_call(self, fn, s: ModuleString, turtle_options: dict):
-        """``fn(s, ...)`` with the grammar's turtle options overridden by ``turtle_options``; a module the turtle
-        refuses is an LSystemError at the grammar line it is first used on."""
+        """``fn(s, **turtle_options)``; a module the turtle refuses is an LSystemError at the grammar line it is
+        first used on."""
         try:
-            return fn(s, **{**self._turtle, **turtle_options})
+            return fn(s, **turtle_options)
         except ValueError as e:                               # a module the turtle refuses: its grammar line
             m = re.search(r"module (\S+) at index", str(e))
             line, col = self._g.first_use.get(m.group(1), (0, 0)) if m else (0, 0)
@@ -1243,7 +1243,8 @@ class LSystem:
         interpreted (homomorphism, then the turtle) and each request module's parameters set to the turtle's frame
         there, as ``ParamModule::_setValues`` does: none become one Vector3, one a Vector3 (or the x coordinate if
         it is a number), two x and y, three or more x, y and z; ``?F`` gets position, heading, up and left Vector3s.
-        A request module a ``%`` cuts off keeps its parameters."""
+        A request module a ``%`` cuts off keeps its parameters. As L-Py's query turtle (``LsysContext::envturtle``,
+        a default PlantGL ``Turtle``), it ignores the grammar's turtle options (``setAngleIncrement``...)."""
         from .turtle import QUERY_MODULES, query_frames
         qsid = [k for k, nm in enumerate(self._names) if nm in QUERY_MODULES]
         at = np.flatnonzero(np.isin(s.ids, qsid))
@@ -1266,7 +1267,7 @@ class LSystem:
             c = next((c for c in hom if any(nm in src for _, src in c.rule.body for nm in QUERY_MODULES)), hom[0])
             raise LSystemError("interpretation rules that produce request modules (?P, ...) are not supported",
                                c.rule.line, c.rule.col)
-        idx, frames = self._turtle_call(query_frames, t, {})
+        idx, frames = self._turtle_call(query_frames, t, {})  # L-Py's envturtle: PlantGL's defaults
         answers = {int(at[k]): _answer(QUERY_MODULES[t.names[t.ids[j]]], fr,
                                        _raw_vals(s.arg_ptr, s.args, s.objects, at[k]))
                    for k, j, fr in zip(np.searchsorted(tq, idx).tolist(), idx.tolist(), frames)}

@@ -166,3 +166,12 @@ def test_pattern_modules_are_refused_with_line_and_column(text, col, match):
     with pytest.raises(LSystemError, match=match) as err:
         LSystem(text)
     assert (err.value.line, err.value.column) == (3, col)
+
+
+def test_query_turtle_has_plantgl_defaults_as_lpy_envturtle():
+    """L-Py answers queries with ``LsysContext::envturtle``, a default PlantGL turtle (60 degrees), not the drawing
+    turtle whose options the grammar sets."""
+    ls = LSystem("context().turtle.setAngleIncrement(90)\nAxiom: + F ?P(0, 0, 0)\nproduction:\n"
+                 "?P(x, y, z) --> ?P(x, y, z)\nendlsystem\n")
+    _close(ls.derive(1).modules()[-1:], [("?P", (0.0, -3 ** 0.5 / 2, 0.5))])
+    np.testing.assert_allclose(ls.tree().pos[-1], [0, -1, 0], atol=1e-12)      # drawn at 90 degrees
