@@ -1220,8 +1220,9 @@ class LSystem:
     def _cut(self, s: ModuleString) -> ModuleString:
         """``s`` without what each ``%`` (``Cut``) cuts: itself and the rest of its branch, up to the ``]`` that
         closes the branch (kept) or the end of the string, as L-Py's steps skip it (``AxialTree::endBracket``)."""
-        at = np.flatnonzero(np.isin(s.ids, [self._index[nm] for nm in ("%", "Cut") if nm in self._index]))
-        if not at.size:
+        cut = [self._index[nm] for nm in ("%", "Cut") if nm in self._index]
+        at = np.flatnonzero(np.isin(s.ids, cut)) if cut else ()
+        if not len(at):
             return s
         depth = np.cumsum((s.ids == 0).astype(np.int64) - (s.ids == 1))      # ids 0, 1: '[', ']'
         keep = np.ones(len(s), bool)
@@ -1253,8 +1254,8 @@ class LSystem:
         hom = self._rules["homomorphism"]
         for c in hom:
             if c.query:
-                raise LSystemError("a request module (?P, ...) in an interpretation rule's pattern cannot be "
-                                   "answered to the productions (L-Py leaves it unanswered); not supported",
+                raise LSystemError("request modules (?P, ...) in an interpretation rule's pattern are not "
+                                   "supported when productions query them (L-Py leaves them unanswered)",
                                    c.rule.line, c.rule.col)
         if not _WARM_TURTLE:                                  # numba compiling is not the grammar's time
             _WARM_TURTLE.append(True)
