@@ -22,10 +22,11 @@ import numpy as np
 # op codes (0: a module the turtle does not interpret)
 NOP, F, FMOVE, LEFT, RIGHT, UP, DOWN, ROLLL, ROLLR, TURN, ROLLVERT, ROLLHORIZ, PUSH, POP = range(14)
 INCW, DECW, SETW, INCC, DECC, SETC, CUT, TROPISM, ELASTICITY = range(14, 23)
-SPHERE, CIRCLE, SURFACE, GC_START, GC_END, POLY_START, POLY_END, POLY_POINT = range(23, 31)
-#: Shape kinds of the shape records (``sint[:, 0]``): ``@O`` sphere, ``@o`` disc, ``~name`` surface, ``{ }``
-#: polygon (fan, or ear clipping after ``}(1)``, PlantGL's concave test), ``@Gc``/``@Ge`` generalized cylinder.
-SH_SPHERE, SH_CIRCLE, SH_SURFACE, SH_POLYGON, SH_POLYGON_CONCAVE, SH_TUBE = range(1, 7)
+SPHERE, CIRCLE, SURFACE, GC_START, GC_END, POLY_START, POLY_END, POLY_POINT, QUERY = range(23, 32)
+#: Kinds of the shape records (``sint[:, 0]``): ``@O`` sphere, ``@o`` disc, ``~name`` surface, ``{ }`` polygon
+#: (fan, or ear clipping after ``}(1)``, PlantGL's concave test), ``@Gc``/``@Ge`` generalized cylinder; and
+#: ``SH_QUERY``, not a shape: the frame at a request module (``?P``, ``?H``, ... of L-Py; issue 33).
+SH_SPHERE, SH_CIRCLE, SH_SURFACE, SH_POLYGON, SH_POLYGON_CONCAVE, SH_TUBE, SH_QUERY = range(1, 8)
 #: PlantGL's GEOM_EPSILON.
 EPS = 1e-6
 #: Warning slots of the kernel: a width below zero, a colour below zero, an elasticity outside [0, 1] (PlantGL
@@ -394,6 +395,8 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             elif size > EPS:
                 kind = SH_SPHERE if o == SPHERE else (SH_CIRCLE if o == CIRCLE else SH_SURFACE)
                 ns = _record(sint, sflt, ns, kind, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
+        elif o == QUERY:                                  # a request module: the frame here, drawing nothing
+            ns = _record(sint, sflt, ns, SH_QUERY, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, 0.0)
         elif o == GC_START:                               # PlantGL startGC: a new path from here
             gc_on, gc_cnt, gc_col = 1, 1, col
             gc_tail = _point(pool, prev, npool, -1, px, py, pz, lx, ly, lz, max(w, 0.0))
@@ -612,6 +615,8 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
                 ignored[IGNORED_SIZE] += 1
             elif size > EPS:
                 record({SPHERE: SH_SPHERE, CIRCLE: SH_CIRCLE, SURFACE: SH_SURFACE}[o], st["color"], i, size)
+        elif o == QUERY:
+            record(SH_QUERY, st["color"], i)
         elif o == GC_START:
             st["gc"], st["gc_color"] = [point()], st["color"]
         elif o == GC_END:

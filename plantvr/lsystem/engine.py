@@ -9,7 +9,14 @@ others are copied; decomposition rules are applied after every step up to ``maxi
 in :meth:`LSystem.interpret`. Issue 33 adds L-Py's module parameters of any Python value (below), constants in
 pattern parameters, multi-module predecessors (rewritten left to right), rule groups (``group N:``,
 ``useGroup(n)``: the active group's rules, then group 0's) and contexts in decomposition / homomorphism rules (L-Py's
-recursion: each successor decomposed on its own). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
+recursion: each successor decomposed on its own). A step skips what a cut ``%`` cuts, up to the ``]`` closing its
+branch, and drops it (L-Py's ``Lsystem::__step``). What stays refused is listed in :mod:`plantvr.lsystem.grammar`.
+
+Query modules (issue 33, L-Py's request modules ``?P``, ``?H``, ``?U``, ``?L``, ``?R``, ``?F``): before a
+production step whose active rules have one in a pattern (``A > ?P(x, y, z) : z < h --> F A``), the string is
+interpreted (homomorphism, then the turtle) and each request module's parameters are set to the turtle's
+frame there (:meth:`LSystem._query`; one parameter: a :class:`~plantvr.lsystem.plantgl.Vector3`, whose ``x``,
+``y``, ``z`` untrusted rules may read; three: x, y, z).
 
 How a step runs, fastest first:
 
@@ -245,8 +252,11 @@ class _Compiled:
         self.contexts = bool(rule.left or rule.right)
         self.newcontexts = bool(rule.newleft or rule.newright)
         self.rest = list(rule.pred_rest)                     # multi-module predecessor: the modules after the first
+        self.query = any(tok.name in _query_modules() for tok in (*rule.left, *rule.newleft, rule.pred, *self.rest,
+                                                                  *rule.newright, *rule.right))
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
+        self.static = None       # a static rule's successor, [(sid, params), ...]
         # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
         self.consts = list(rule.consts)
         n_all = len(rule.params) + len(self.consts)
@@ -286,6 +296,21 @@ def _raw_vals(ptr, args, objs, i: int) -> tuple:
     if objs:
         return tuple(objs.get(a + q, v) if math.isnan(v) else v for q, v in enumerate(vals))
     return tuple(vals)
+
+
+def _answer(kind: str, frame: np.ndarray, old: tuple) -> tuple:
+    """The parameters of a request module of ``kind`` (:data:`~plantvr.lsystem.turtle.QUERY_MODULES`) that had
+    ``old``, answered with the turtle's ``frame`` (position, H, L, U; see :meth:`LSystem._query`)."""
+    from .plantgl import Vector3
+    p, h, left, u = (Vector3(*v) for v in frame.tolist())
+    if kind == "F":
+        return (p, h, u, left) + old[4:]
+    v = {"P": p, "H": h, "U": u, "L": left, "R": -left}[kind]
+    if len(old) == 1 and is_number(old[0]):
+        return (v[0],)
+    if len(old) < 2:
+        return (v,)
+    return tuple(v[:len(old)]) + old[3:]
 
 
 def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
@@ -433,8 +458,8 @@ class LSystem:
         decomposition is applied after each step.
 
         When every production is constant (context-free, no condition, one rule per symbol, successor parameters
-        free of pattern variables) and there is no decomposition and no Start/End/StartEach/EndEach hook, the
-        ``n`` steps are done at once (each module of the result written once, repeated blocks copied); the
+        free of pattern variables) and there is no decomposition, no cut ``%`` and no Start/End/StartEach/EndEach
+        hook, the ``n`` steps are done at once (each module of the result written once, repeated blocks copied); the
         result is the one the step-wise derivation (:meth:`iterate`) gives, array for array.
         """
         n = self.derivation_length if n is None else check_int("n", n, 0, MAX_DERIVATION)
@@ -483,6 +508,7 @@ class LSystem:
         by_sym: dict[int, list[_Compiled]] = {}
         for r in rules:
             by_sym.setdefault(r.sid, []).append(r)
+        s = self._cut(s)
         ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         partner = K.match_brackets(ids, 0, 1) if len(s) else None
         nargs = np.diff(ptr)
@@ -532,11 +558,18 @@ class LSystem:
         (``unsupported="error"``), or is left out of the picture with one warning naming each such module
         (``"warn"``); it never changes the skeleton, which the turtle's moves and turns alone make.
         """
+        from .turtle import turtle, turtle_nodes
+        unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
+        s = self._drawable(self.interpret(string), unsupported)
+        return self._turtle_call(turtle_nodes if shapes else turtle, s, {**self._turtle, **turtle_options})
+
+    def _drawable(self, s: ModuleString, unsupported: str) -> ModuleString:
+        """The interpreted string ``s`` as the turtle reads it (:meth:`_first_params`), after the check of the
+        modules it does not draw (see :meth:`draw`)."""
         import warnings
 
-        from .turtle import LPY_UNSUPPORTED, turtle, turtle_nodes
-        unsupported = check_choice("unsupported", unsupported, ("error", "warn"))
-        s = self._first_params(self.interpret(string))
+        from .turtle import LPY_UNSUPPORTED
+        s = self._first_params(s)
         used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
         bad = [s.names[k] for k in used.tolist() if s.names[k] in LPY_UNSUPPORTED]
         for name in bad[:1] if unsupported == "error" else ():
@@ -545,9 +578,14 @@ class LSystem:
                                "unsupported='warn' draws the skeleton without it)", line, col)
         if bad:
             where = ", ".join(f"{name} (line {self._g.first_use.get(name, (0, 0))[0]})" for name in bad)
-            warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=2)
+            warnings.warn(f"not drawn (L-Py draws them, PlantVR's turtle does not): {where}", stacklevel=3)
+        return s
+
+    def _turtle_call(self, fn, s: ModuleString, turtle_options: dict):
+        """``fn(s, **turtle_options)``; a module the turtle refuses is an LSystemError at the grammar line it is
+        first used on."""
         try:
-            return (turtle_nodes if shapes else turtle)(s, **{**self._turtle, **turtle_options})
+            return fn(s, **turtle_options)
         except ValueError as e:                               # a module the turtle refuses: its grammar line
             m = re.search(r"module (\S+) at index", str(e))
             line, col = self._g.first_use.get(m.group(1), (0, 0)) if m else (0, 0)
@@ -822,7 +860,8 @@ class LSystem:
             raise LSystemError(f"time budget of {self.time_budget:g} s exceeded reading the rules", rule.line, 1)
         first = rule.body[0][0] if rule.body else rule.line
         base = max(first - 2, 0)                              # the source starts at grammar line base + 1
-        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(rule.params)}):"]
+        params = () if rule.static else rule.params          # L-Py unbinds a static rule's pattern variables
+        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(params)}):"]
         for ln, src in rule.body:
             while len(lines) < ln - 1 - base:
                 lines.append("")
@@ -838,6 +877,12 @@ class LSystem:
         local: dict = {}
         exec(code, self._ns, local)
         c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
+        if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
+            c.static = self._call(c, [])
+            if all(type(v) is float for _, vals in c.static for v in vals) and \
+                    not (c.contexts or c.newcontexts or c.rest or c.consts):
+                c.const = c.static
+            return c
         if rule.successor is not None and not (c.contexts or c.newcontexts or c.rest) and \
                 all(is_number(v) for _, v in c.pred_consts):
             self._plan(c)
@@ -1050,6 +1095,8 @@ class LSystem:
                 if self._next_group != self._group:           # L-Py reads the group after StartEach
                     self._set_group(self._next_group)
                 if self._rules["production"]:
+                    if any(c.query for c in self._rules["production"]):
+                        s = self._query(s)
                     s, _ = self._rewrite(s, "production")
                 s = self._decompose(s, "decomposition")
                 self._hook("EndEach")
@@ -1111,6 +1158,7 @@ class LSystem:
         rules = self._rules[kind]
         if not rules or not len(s):
             return s, False
+        s = self._cut(s)
         if any(r.newcontexts or r.rest for r in rules):
             return self._sequential(s, rules)
         table = None if s.objects else self._constant_table(kind)
@@ -1135,7 +1183,8 @@ class LSystem:
         derivation is needed (other rules, decomposition, per-step hooks, a too large length table)."""
         self._reset_group()
         if n < 1 or not len(s) or s.objects or self._hooks or self._rules["decomposition"] or \
-                not self._rules["production"]:
+                not self._rules["production"] or any(c.query for c in self._rules["production"]) or \
+                "%" in self._index or "Cut" in self._index:
             return None
         table = self._constant_table("production")
         if table is None:
@@ -1167,6 +1216,64 @@ class LSystem:
             self._rng.seed(self._seed)
         self._direction, self._iteration, self._stopped = 1, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
+
+    def _cut(self, s: ModuleString) -> ModuleString:
+        """``s`` without what each ``%`` (``Cut``) cuts: itself and the rest of its branch, up to the ``]`` that
+        closes the branch (kept) or the end of the string, as L-Py's steps skip it (``AxialTree::endBracket``)."""
+        cut = [self._index[nm] for nm in ("%", "Cut") if nm in self._index]
+        at = np.flatnonzero(np.isin(s.ids, cut)) if cut else ()
+        if not len(at):
+            return s
+        depth = np.cumsum((s.ids == 0).astype(np.int64) - (s.ids == 1))      # ids 0, 1: '[', ']'
+        keep = np.ones(len(s), bool)
+        end = 0
+        for i in at.tolist():
+            if i >= end:
+                below = np.flatnonzero(depth[i:] < depth[i])
+                end = i + int(below[0]) if below.size else len(s)
+                keep[i:end] = False
+        cnt = np.diff(s.arg_ptr)
+        akeep = np.repeat(keep, cnt)
+        ptr = np.zeros(int(keep.sum()) + 1, np.int64)
+        np.cumsum(cnt[keep], out=ptr[1:])
+        new = np.cumsum(akeep) - 1
+        return self._make(s.ids[keep], ptr, s.args[akeep], {int(new[k]): v for k, v in s.objects.items() if akeep[k]})
+
+    def _query(self, s: ModuleString) -> ModuleString:
+        """L-Py's query pass (``Lsystem::__step`` when a production's pattern has a request module): ``s``
+        interpreted (homomorphism, then the turtle) and each request module's parameters set to the turtle's frame
+        there, as ``ParamModule::_setValues`` does: none become one Vector3, one a Vector3 (or the x coordinate if
+        it is a number), two x and y, three or more x, y and z; ``?F`` gets position, heading, up and left Vector3s.
+        A request module a ``%`` cuts off keeps its parameters. As L-Py's query turtle (``LsysContext::envturtle``,
+        a default PlantGL ``Turtle``), it ignores the grammar's turtle options (``setAngleIncrement``...)."""
+        from .turtle import QUERY_MODULES, query_frames
+        qsid = [k for k, nm in enumerate(self._names) if nm in QUERY_MODULES]
+        at = np.flatnonzero(np.isin(s.ids, qsid))
+        if not at.size:
+            return s
+        hom = self._rules["homomorphism"]
+        for c in hom:
+            if c.query:
+                raise LSystemError("request modules (?P, ...) in an interpretation rule's pattern are not "
+                                   "supported when productions query them (L-Py leaves them unanswered)",
+                                   c.rule.line, c.rule.col)
+        if not _WARM_TURTLE:                                  # numba compiling is not the grammar's time
+            _WARM_TURTLE.append(True)
+            start = time.monotonic()
+            query_frames(ModuleString.from_modules(["F", "?P"]))
+            self._deadline += time.monotonic() - start
+        t = self._drawable(self.interpret(s), "error")
+        tq = np.flatnonzero(np.isin(t.ids, qsid))
+        if len(tq) != len(at):
+            c = next((c for c in hom if any(nm in src for _, src in c.rule.body for nm in QUERY_MODULES)), hom[0])
+            raise LSystemError("interpretation rules that produce request modules (?P, ...) are not supported",
+                               c.rule.line, c.rule.col)
+        idx, frames = self._turtle_call(query_frames, t, {})  # L-Py's envturtle: PlantGL's defaults
+        answers = {int(at[k]): _answer(QUERY_MODULES[t.names[t.ids[j]]], fr,
+                                       _raw_vals(s.arg_ptr, s.args, s.objects, at[k]))
+                   for k, j, fr in zip(np.searchsorted(tq, idx).tolist(), idx.tolist(), frames)}
+        return self._make(*_pack([(int(sid), answers[i] if i in answers else
+                                   _raw_vals(s.arg_ptr, s.args, s.objects, i)) for i, sid in enumerate(s.ids)]))
 
     def _reset_group(self) -> None:
         """A derivation starts in the group the grammar's top-level code chose (0 without ``useGroup``)."""
@@ -1224,6 +1331,8 @@ class LSystem:
         return table
 
     def _call(self, c: _Compiled, vals: list) -> list | None:
+        if c.static is not None:
+            return c.static
         self._nbuf.clear()
         if time.monotonic() > self._deadline:
             raise self._over_budget(c.rule.line, 1, f" in rule {c.rule.header!r}")
@@ -1554,14 +1663,22 @@ class LSystem:
 
 
 _WARM: list = []
+_WARM_TURTLE: list = []
 
 
 def _turtle_modules() -> frozenset:
-    """The turtle's module names (their parameters are read as numbers)."""
+    """The turtle's module names whose parameters are read as numbers (not the request modules, which hold
+    the Vector3s of L-Py's query pass)."""
     if not _TURTLE:
-        from .turtle import TURTLE_MODULES
-        _TURTLE.append(frozenset(TURTLE_MODULES))
+        from .turtle import QUERY_MODULES, TURTLE_MODULES
+        _TURTLE.append(frozenset(TURTLE_MODULES) - frozenset(QUERY_MODULES))
     return _TURTLE[0]
+
+
+def _query_modules() -> frozenset:
+    """The request modules' names (:data:`~plantvr.lsystem.turtle.QUERY_MODULES`)."""
+    from .turtle import QUERY_MODULES
+    return frozenset(QUERY_MODULES)
 
 
 _TURTLE: list = []

@@ -7,7 +7,7 @@ declarations, ``nproduce`` in functions) before and after the L-system; ``Axiom:
 ``###### INITIALISATION ######`` block of L-Py's editor (only its ``scalars`` are read, as declared parameters).
 
 Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred --> successor`` or
-``pred -> successor``; ``pred : produce successor`` or ``pred :`` followed by an indented Python block with
+``pred -> successor`` (``pred -static-> successor``: made once, see :attr:`Rule.static`); ``pred : produce successor`` or ``pred :`` followed by an indented Python block with
 ``produce`` / ``nproduce`` statements (a block that produces nothing has failed and the next rule is tried, as in
 L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
@@ -26,10 +26,14 @@ Decomposition and homomorphism rules may have contexts ``<`` / ``>`` (issue 33),
 Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` are in group N (an integer
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
-Not supported (LSystemError naming the construct with its line and column): ``-static->``, wildcard (``*``)
+Request modules (``?P(x, y, z)``, ``?H(h)``, ...; issue 33) may be in any pattern: the engine answers them
+before the step (:mod:`plantvr.lsystem.engine`).
+
+Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, wildcard (``*``)
 predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
-``x``/``or`` repetition patterns and query modules (``?P`` ...) in patterns, new contexts (``<<`` / ``>>``) in
-decomposition and homomorphism rules.
+``x(...)`` repetition and ``or(...)`` alternative patterns (L-Py has them in patterns only: in a successor they
+are plain modules, as here), iterator requests (``?I``, ``GetModule``) in patterns, new contexts (``<<`` / ``>>``)
+in decomposition and homomorphism rules.
 """
 from __future__ import annotations
 
@@ -47,8 +51,7 @@ _SECTIONS = {"production": "production", "decomposition": "decomposition", "homo
 _HEADER = re.compile(r"^(Axiom|derivation length|production|decomposition|homomorphism|interpretation|"
                      r"maximum depth|ignore|consider|endlsystem|endgroup|group\s+\S+)\s*(:?)(.*)$")
 _PRODUCE = re.compile(r"\b(nproduce|produce)\b")
-_QUERY = frozenset({"?P", "?H", "?U", "?L", "?R", "?F", "?I", "GetPos", "GetHead", "GetUp", "GetLeft",
-                    "GetRight", "GetFrame", "GetIterator", "GetModule"})
+_ITERATOR = frozenset({"?I", "GetIterator", "GetModule"})
 _IDENT = re.compile(r"^[A-Za-z_]\w*$")
 
 
@@ -76,6 +79,9 @@ class Rule:
     pred_rest: list = field(default_factory=list)
     #: The rule group (``group N:`` ... ``endgroup``; issue 33): ``(expression source, line)``, None for group 0.
     group: tuple | None = None
+    #: ``pred -static-> successor`` (L-Py's ``LsysRule::setStatic``): the successor is made once, when the grammar
+    #: is read, with the pattern's variables unbound, and is the same for every module the rule matches.
+    static: bool = False
 
 
 @dataclass
@@ -297,8 +303,6 @@ class _Reader:
             if code.count("[") != code.count("]"):
                 raise LSystemError(f"unbalanced brackets in the rule {first.strip()!r}", ln, 1)
             raise LSystemError(f"rule without ':' or '-->': {first.strip()!r}", ln, 1)
-        if delim == "-static->":
-            raise LSystemError("static rules ('-static->') are not supported", ln, head_at + 1)
         # a predecessor '-' before the arrow: '- --> +' is found at the arrow, '---> ' would be ambiguous
         header = first[:head_at]
         rest = first[head_at + len(delim):]
@@ -320,13 +324,16 @@ class _Reader:
                     k += 1
         body: list[tuple[int, str]] = []
         successor = condition = None
-        if delim in ("-->", "->"):
+        if delim in ("-->", "->", "-static->"):
             if len(lines) > 1:
                 raise LSystemError(f"a '{delim}' rule has no indented body", lines[1][0], 1)
             successor = self.lex(_strip_comment(rest), ln, head_at + len(delim) + 1)
             body.append((ln, "return __lsys_produce__(" + lstring_to_py(successor) + ")"))
         else:
             inline = _strip_comment(rest)
+            if inline.strip().startswith("@static"):
+                raise LSystemError("static blocks (': @static') are not supported (a one-line '-static->' rule is)",
+                                   ln, head_at + len(delim) + inline.find("@static") + 1)
             at, arrow = find_top(inline, ("-->", "->"))
             if at >= 0:                                       # cpfg condition: pred : cond --> successor
                 condition = inline[:at].strip()
@@ -349,7 +356,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip(), consts, preds[1:], self.group))
+                                 ln, 1, header.strip(), consts, preds[1:], self.group, delim == "-static->"))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right
@@ -394,10 +401,11 @@ class _Reader:
             for t in toks:
                 if t.name == "*":
                     raise LSystemError("wildcard '*' patterns are not supported", ln, t.col)
-                if t.name in _QUERY:
-                    raise LSystemError(f"query module {t.name} in a pattern is not supported", ln, t.col)
-                if t.name in ("x", "or") and t.args is not None and key != "pred":
-                    raise LSystemError(f"repetition pattern {t.name}(...) is not supported", ln, t.col)
+                if t.name in _ITERATOR:
+                    raise LSystemError(f"iterator request {t.name} in a pattern is not supported", ln, t.col)
+                if t.name in ("x", "or") and t.args is not None:            # L-Py's PatternModule classes
+                    raise LSystemError(f"{'alternative' if t.name == 'or' else 'repetition'} pattern {t.name}(...) "
+                                       "is not supported", ln, t.col)
                 if key == "left" and t.name in "[]":
                     raise LSystemError("brackets in a left context are not supported", ln, t.col)
                 if key == "pred" and t.name in ("[", "]") and t is pred_toks[0]:

@@ -32,6 +32,8 @@ import math
 import operator
 from collections.abc import Callable
 
+from .plantgl import Vector2, Vector3, Vector4
+
 __all__ = [
     "MAX_INT_BITS",
     "MAX_RANGE",
@@ -166,8 +168,11 @@ def safe_mod(a, b):
 
 
 def safe_getattr(obj, name: str):
-    """``obj.name`` of an untrusted grammar: public attributes of :class:`SafeAttrs` objects only."""
+    """``obj.name`` of an untrusted grammar: public attributes of :class:`SafeAttrs` objects, and the coordinates
+    ``x``, ``y``, ``z``, ``w`` of PlantGL vectors (the Vector3s request modules such as ``?P(p)`` hold)."""
     if isinstance(obj, SafeAttrs) and not name.startswith("_"):
+        return getattr(obj, name)
+    if isinstance(obj, (Vector2, Vector3, Vector4)) and name in ("x", "y", "z", "w"):
         return getattr(obj, name)
     raise SandboxError(f"attribute .{name} of a {type(obj).__name__} is not available to an untrusted grammar")
 

@@ -17,6 +17,8 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
 * ``@Tp(x, y, z)`` sets the tropism direction (default +Z, normalised), ``@Ts(e)`` the elasticity; before every
   ``F`` and ``f`` the frame turns toward the tropism by ``e`` times its angle to H (PlantGL ``_tendTo``).
 
+* request modules (issue 33, L-Py's ``?P``, ``?H``, ``?U``, ``?L``, ``?R``, ``?F``) draw nothing; their frames
+  are :func:`query_frames`, which the engine writes into their parameters before a step that matches them;
 * shapes (issue 33; :class:`TurtleShapes`, meshed by :mod:`plantvr.lsystem.shapes`): ``@O(r)`` spheres and
   ``@o(r)`` discs (radius default: the width), ``~l(s)`` and registered ``~name(s)`` surfaces, ``{ . }``
   polygons (``.`` and each ``F`` add a point; ``}(1)`` asks for PlantGL's concave fill), ``@Gc ... @Ge``
@@ -42,11 +44,16 @@ from plantvr.types import TreeArrays
 from . import _turtle_kernels as K
 from .modules import ModuleString
 
-__all__ = ["LPY_UNSUPPORTED", "TURTLE_MODULES", "TurtleNodes", "TurtleShapes", "bush_string", "turtle",
-           "turtle_nodes"]
+__all__ = ["LPY_UNSUPPORTED", "QUERY_MODULES", "TURTLE_MODULES", "TurtleNodes", "TurtleShapes", "bush_string",
+           "query_frames", "turtle", "turtle_nodes"]
 
 #: L-Py's defaults (PlantGL ``Turtle``): angle increment, step, width, width increment.
 DEFAULT_ANGLE, DEFAULT_STEP, DEFAULT_WIDTH, DEFAULT_WIDTH_INCREMENT = 60.0, 1.0, 0.1, 1.0
+
+#: L-Py's request modules (``predefinedmodules.cpp``) -> what they ask for: position ``P``, heading ``H``, up
+#: ``U``, left ``L``, right ``R`` (minus left), frame ``F`` (position, heading, up, left).
+QUERY_MODULES: dict[str, str] = {"?P": "P", "GetPos": "P", "?H": "H", "GetHead": "H", "?U": "U", "GetUp": "U",
+                                 "?L": "L", "GetLeft": "L", "?R": "R", "GetRight": "R", "?F": "F", "GetFrame": "F"}
 
 # name -> (op code, accepted parameter counts); L-Py's long names are aliases of the symbols
 _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
@@ -70,13 +77,14 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
     "@Gc": (K.GC_START, (0,)), "StartGC": (K.GC_START, (0,)), "@Ge": (K.GC_END, (0,)), "EndGC": (K.GC_END, (0,)),
     "{": (K.POLY_START, (0,)), "BP": (K.POLY_START, (0,)), "}": (K.POLY_END, (0, 1)), "EP": (K.POLY_END, (0, 1)),
     ".": (K.POLY_POINT, (0,)), "PP": (K.POLY_POINT, (0,)),
+    **{name: (K.QUERY, (0, 1, 2, 3, 4)) for name in QUERY_MODULES},
 }
 
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
 #: L-Py / PlantGL turtle modules that exist there but are not drawn here (boxes, quads, labels, custom PlantGL
-#: geometry, ``surface('name')`` with a string, absolute frames, scales, guides, textures, queries); the engine
+#: geometry, ``surface('name')`` with a string, absolute frames, scales, guides, textures); the engine
 #: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
 #: (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
@@ -88,8 +96,7 @@ LPY_UNSUPPORTED: frozenset[str] = frozenset({
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
     "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
-    "EndScreenProjection", "?P", "GetPos", "?H", "GetHead", "?U", "GetUp", "?L", "GetLeft", "?R", "GetRight",
-    "?F", "GetFrame",
+    "EndScreenProjection",
 })
 
 _WARN = {K.IGNORED_WIDTH: "a width below 0", K.IGNORED_COLOR: "a colour index below 0",
@@ -187,7 +194,7 @@ def _ops(string: ModuleString):
     if args.size:
         owner = np.repeat(np.arange(n), cnt)
         vals = np.abs(args)
-        bad = np.flatnonzero((op[owner] != K.NOP) & ~(vals <= MAX_COORD))
+        bad = np.flatnonzero((op[owner] != K.NOP) & (op[owner] != K.QUERY) & ~(vals <= MAX_COORD))
         if bad.size:
             j = int(bad[0])
             i = int(owner[j])
@@ -207,9 +214,9 @@ def _ops(string: ModuleString):
 
 def _capacities(op: np.ndarray) -> tuple[int, int]:
     """Shape records and path points the kernel may make for these op codes (0, 0 without shapes)."""
-    cnt = np.bincount(op.astype(np.int64), minlength=K.POLY_POINT + 1)
+    cnt = np.bincount(op.astype(np.int64), minlength=K.QUERY + 1)
     paths = cnt[K.GC_START] + cnt[K.POLY_START]
-    n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END])
+    n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END] + cnt[K.QUERY])
     if not paths:
         return n_shapes, 0
     n_shapes += int(cnt[K.POP] + 1) if cnt[K.GC_START] else 0
@@ -239,6 +246,39 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
                  width: float = DEFAULT_WIDTH, width_increment: float = DEFAULT_WIDTH_INCREMENT,
                  tropism=(0.0, 0.0, 1.0), elasticity: float = 0.0) -> TurtleNodes:
     """Interpret ``string`` with the L-Py turtle: the tree plus each node's colour and module (see :func:`turtle`)."""
+    pos, parent, radius, order, main, color, module, nn, sint, sflt, spts = _interpret(
+        string, angle, step, width, width_increment, tropism, elasticity)
+    tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
+    shape = sint[:, 0] != K.SH_QUERY
+    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(), _shapes(string, sint[shape], sflt[shape], spts))
+
+
+def query_frames(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,
+                 width: float = DEFAULT_WIDTH, width_increment: float = DEFAULT_WIDTH_INCREMENT,
+                 tropism=(0.0, 0.0, 1.0), elasticity: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The turtle's frame at each request module (``?P``, ``?H``, ``?U``, ``?L``, ``?R``, ``?F`` and their long
+    names) of ``string``, as L-Py's query pass sees it (options as :func:`turtle`).
+
+    Returns
+    -------
+    module : (Q,) int64 ndarray
+        Index in the string of each request module the turtle reached (not those a ``%`` cut off).
+    frame : (Q, 4, 3) float64 ndarray
+        Position, heading H, left L and up U there.
+
+    Examples
+    --------
+    >>> i, fr = query_frames(ModuleString.from_modules(["F", ("+", (90.0,)), "F", "?P"]))
+    >>> i.tolist(), fr[0, 0].round(6).tolist(), fr[0, 1].round(6).tolist()
+    ([3], [0.0, -1.0, 1.0], [0.0, -1.0, 0.0])
+    """
+    *_, sint, sflt, _ = _interpret(string, angle, step, width, width_increment, tropism, elasticity)
+    query = sint[:, 0] == K.SH_QUERY
+    return sint[query, 2].copy(), sflt[query, :12].reshape(-1, 4, 3).copy()
+
+
+def _interpret(string: ModuleString, angle, step, width, width_increment, tropism, elasticity) -> tuple:
+    """The kernel's drawing of ``string`` (used rows only), after the door checks, with PlantGL's warnings."""
     opts = _options(angle, step, width, width_increment, tropism, elasticity)
     op, depth, n_f = _ops(string)
     pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp = K.turtle_kernel(
@@ -247,10 +287,8 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
         if ignored[k]:
             i = int(at[k])
             warnings.warn(f"string: {int(ignored[k])} module(s) set {what} and were ignored, as in PlantGL (first: "
-                          f"{string.names[string.ids[i]]} at index {i})", stacklevel=3)
-    tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
-    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(),
-                       _shapes(string, sint[:ns], sflt[:ns], spts[:nsp]))
+                          f"{string.names[string.ids[i]]} at index {i})", stacklevel=4)
+    return pos, parent, radius, order, main, color, module, nn, sint[:ns], sflt[:ns], spts[:nsp]
 
 
 def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray) -> TurtleShapes:

@@ -5,7 +5,9 @@ Two notations are accepted, also mixed in one string:
 * the report's LST operations ``SB() EB() MovRel3f(x,y,z) RotRel3f(angle,x,y,z) Cylinder(r0,r1,L)``
   (optional ``LST <version>`` header, several operations per line, empty lines ignored);
 * the classic bracketed turtle symbols ``[ ]`` (= ``SB()``/``EB()``), ``F`` / ``F(L)`` / ``F(L,r)`` (a
-  cylinder followed by a move to its end), ``f`` / ``f(L)`` (move), ``+ -`` (turn about the local z axis),
+  cylinder followed by a move to its end), ``f`` / ``f(L)`` (a move without drawing: the next ``F`` starts a new
+  root branch there, as L-Py's turtle does, :func:`plantvr.lsystem.turtle.turtle`), ``+ -`` (turn about the local
+  z axis),
   ``& ^`` (pitch about local x), ``/ \\`` (roll about the local up axis y) and ``|`` (turn around); a turn
   symbol takes its angle in degrees as L-Py does, ``+(30)``, else ``angle``.
 
@@ -87,8 +89,9 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         Unit of ``RotRel3f`` angles: degrees, as everywhere else (issue 23); ``"radians"`` for the report's LST
         sample (spec §1.4 [INFERRED] 5).
     strict : bool
-        If True a branch that does not start at its parent's end raises; otherwise its start is snapped to
-        the parent's end (its tip stays put) with a warning (spec V1, ERRATUM A20).
+        If True a branch that does not start at its parent's end (a ``MovRel3f`` gap) raises; otherwise its start
+        is snapped to the parent's end (its tip stays put) with a warning (spec V1, ERRATUM A20). After an ``f``
+        the next branch is a root and has no parent end to meet.
 
     Returns
     -------
@@ -195,6 +198,8 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
                 if name == "F":
                     rr = vals[1] if len(vals) > 1 else radius
                     cylinder(rr, rr, L, at)
+                else:
+                    cur = -1                                # a gap: the next branch is a root
                 p = p + R @ np.array([0.0, L, 0.0])
                 continue
             if key not in _ARITY:
@@ -227,6 +232,8 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         elif ch == "F" or ch == "f":
             if ch == "F":
                 cylinder(radius, radius, step, at)
+            else:
+                cur = -1
             p = p + R @ np.array([0.0, step, 0.0])
         elif ch in "+-":
             R = R @ _axis_angle(np.array([0.0, 0.0, 1.0]), turn_here if ch == "+" else -turn_here)

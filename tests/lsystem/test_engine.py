@@ -175,7 +175,7 @@ BAD = [
     ("Axiom: F\nproduction:\n    F --> F\n", 3, "unexpected indent"),
     ("Axiom: F\nproduction:\n* --> F\n", 3, "wildcard"),
     ("Axiom: F\nproduction:\nF(x + 1) --> F\n", 3, "value constraints"),
-    ("Axiom: F\nproduction:\nF --> F\n?P(x) < F --> F\n", 4, "query module"),
+    ("Axiom: F\nproduction:\nF --> F\n?I(x) < F --> F\n", 4, "iterator request"),
     ("Axiom: F\nx = 1 +\nproduction:\n", 2, "syntax error"),
     ("Axiom: F(nope)\nproduction:\n", 1, "NameError"),
 ]

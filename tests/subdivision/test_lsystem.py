@@ -1,5 +1,7 @@
 """Spec 001 §1.4–§1.5: LST / turtle parsing and grown-tree arrays (V1, V2)."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -167,3 +169,16 @@ def test_turn_symbols_take_degrees_and_rotrel3f_defaults_to_degrees():
         parse_lsystem("F+(30,2)F")
     with pytest.raises(ValueError, match=r"non-finite argument in '-\(nan\)' at position 1"):
         parse_lsystem("F-(nan)F")
+
+
+def test_f_moves_without_drawing_and_the_next_F_is_a_root():
+    # issue 33: ``f`` was read as a gap to snap, merging the move into the next branch (``Ff(1)F`` gave lengths
+    # [1, 2] and a warning); as L-Py's turtle, the F after an f starts a new root where the move ended
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        g = parse_lsystem("Ff(1)F", strict=True)
+        np.testing.assert_allclose(np.linalg.norm(g.end - g.start, axis=1), [1, 1])
+        assert g.parent.tolist() == [-1, -1]
+        np.testing.assert_allclose(g.start[1], [0, 2, 0])
+        g = parse_lsystem("F[+fF]F", angle=90, strict=True)      # in a branch too; the axis goes on from F
+        assert g.parent.tolist() == [-1, -1, 0]
