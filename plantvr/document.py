@@ -2,8 +2,9 @@
 
 A :class:`Document` is a traitlets object with
 
-- ``version`` and a ``change`` event (a :class:`Change`: what changed, as a kind and element ids) that views,
-  widgets and the headset observe: ``doc.observe(fn, names="change")``;
+- ``version`` and a ``change`` event (a :class:`Change`: what changed, as a kind and element ids); the kinds a
+  document publishes are declared once, in ``EVENTS``, and views, widgets and the headset subscribe to those:
+  ``doc.on(fn, "labels", "colors")`` (parameters are traits, observed by name);
 - one :class:`~plantvr.history.History` (byte-budgeted undo atoms, grouped, stage/commit/abort); undo goes by
   gesture: a parameter change is one item (restoring the parameter and what it changed), and
   :meth:`Document.history_block` makes whatever is inside one item and one logged ``block`` command
@@ -80,6 +81,9 @@ class _DocumentMeta(MetaHasTraits):
         commands = namespace.get("COMMANDS")
         if isinstance(commands, tuple) and "undo" in commands and "block" not in commands:
             namespace["COMMANDS"] = (*commands, "block")     # a history block, logged as one command
+        events = namespace.get("EVENTS")
+        if isinstance(events, tuple):                        # every document publishes these two
+            namespace["EVENTS"] = tuple(dict.fromkeys(("all", "params", *events)))
         table = namespace.get("PARAMS")
         if isinstance(table, ParamTable):
             for p in table:
@@ -106,6 +110,9 @@ class Document(HasTraits, metaclass=_DocumentMeta):
     KIND: ClassVar[str] = "document"
     #: Replayable command names; each has a door check ``_check_<name>``.
     COMMANDS: ClassVar[tuple[str, ...]] = ()
+    #: What a change can be, declared once (the ``kind`` of every :class:`Change` it publishes and of its undo
+    #: atoms; ``"all"`` and ``"params"`` always): observers subscribe to them with :meth:`on`.
+    EVENTS: ClassVar[tuple[str, ...]] = ()
     #: The document's parameter table (None: no parameters).
     PARAMS: ClassVar[ParamTable | None] = None
     #: A parameter change (``set_params``, a trait set by a slider) is one undo item of the whole state
@@ -151,8 +158,34 @@ class Document(HasTraits, metaclass=_DocumentMeta):
         self._pending: tuple[Any, Change, tuple[bool, bool]] | None = None
         self.latest: Any = None           # newest published snapshot, for render threads
         self.snapshot: Any = None         # newest snapshot applied on the kernel thread
+        self._subscribers: dict[Callable, Callable] = {}     # on(): fn -> its filtering observer
         if self.PARAMS is not None:
             self.observe(self._on_param, names=self.PARAMS.names)
+
+    def on(self, fn: Callable[[Change], None], *kinds: str) -> Callable[[Change], None]:
+        """Call ``fn(change)`` on the kernel thread for every :class:`Change` of one of ``kinds`` (names from
+        :attr:`EVENTS`; none: every change); an ``"all"`` change (a replay, merged changes) reaches every
+        subscriber. Returns ``fn``, the handle for :meth:`off`. Parameters are traits: observe them by name."""
+        unknown = [k for k in kinds if k not in self.EVENTS]
+        if unknown:
+            raise ValueError(f"kinds: {unknown} not in {type(self).__name__}.EVENTS {self.EVENTS}")
+        wanted = frozenset(kinds)
+
+        def handler(event) -> None:
+            c = event["new"]
+            if c is not None and (not wanted or c.kind in wanted or c.kind == "all"):
+                fn(c)
+
+        self.off(fn)
+        self._subscribers[fn] = handler
+        self.observe(handler, names="change")
+        return fn
+
+    def off(self, fn: Callable[[Change], None]) -> None:
+        """Stop calling ``fn`` (a no-op when it is not subscribed)."""
+        handler = self._subscribers.pop(fn, None)
+        if handler is not None:
+            self.unobserve(handler, names="change")
 
     def unobserve(self, handler, names=traitlets_all, type: str = "change") -> None:
         """As ``HasTraits.unobserve``, but a handler that is not (or no longer) registered is ignored, so a view
@@ -617,7 +650,10 @@ class Document(HasTraits, metaclass=_DocumentMeta):
                 save: bool = True) -> None:
         """The one path every state change takes: publish a snapshot, bump :attr:`version` and send the
         :class:`Change` on the kernel thread, and autosave (``save``), so no command changes state unseen or
-        unsaved. Callable from any thread; changes a slow kernel has not applied yet are merged."""
+        unsaved. Callable from any thread; changes a slow kernel has not applied yet are merged. ``kind`` is one of
+        :attr:`EVENTS` (a programming error otherwise, raised before anything is published)."""
+        if kind not in self.EVENTS:
+            raise ValueError(f"kind {kind!r} is not declared in {type(self).__name__}.EVENTS {self.EVENTS}")
         with self._lock:        # the snapshot and the version come from the same state, in order
             snap = self.make_snapshot()
             self._seq += 1

@@ -15,6 +15,7 @@ TOY = ParamTable("toy", [Param("gain", float, 1.0, "Gain.", "§0", "main", range
 class Toy(Document):
     KIND = "toy"
     COMMANDS = ("paint", "grow", "set_params", "undo", "redo")
+    EVENTS = ("labels", "total")
     PARAMS = TOY
 
     def __init__(self, **kw):
@@ -225,3 +226,49 @@ def test_history_block_is_one_undo_item_and_one_logged_command():
         d.block([["undo", {}]])
     with pytest.raises(ValueError, match="amend"), d.history_block(amend="yes"):
         pass
+
+
+# -- named events (issue 30) ----------------------------------------------------------------------------------
+def test_every_document_declares_the_kinds_it_publishes():
+    """Each ``changed("kind")`` / ``undoable("kind")`` / ``StateAtom(..., "kind")`` in a document's module names
+    a kind of that document's EVENTS (a rerunnable scan; undeclared kinds also raise at run time)."""
+    import ast
+    import inspect
+
+    import plantvr.documents as D
+    from plantvr.document import Document as Base
+    docs = [c for c in vars(D).values() if isinstance(c, type) and issubclass(c, Base) and c is not Base]
+    assert len(docs) >= 7
+    for cls in docs:
+        tree = ast.parse(inspect.getsource(inspect.getmodule(cls)))
+        used = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and node.args:
+                name = getattr(node.func, "attr", getattr(node.func, "id", ""))
+                arg = node.args[-1] if name.endswith("Atom") and len(node.args) == 3 else node.args[0]
+                if name in ("changed", "undoable") or name.endswith("Atom"):
+                    if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                        used.add(arg.value)
+        assert used, cls.__name__
+        assert used <= set(cls.EVENTS), (cls.__name__, used - set(cls.EVENTS))
+        assert cls.EVENTS[:2] == ("all", "params")
+
+
+def test_on_delivers_the_kinds_asked_for_and_off_stops_it():
+    d = Toy()
+    got, every = [], []
+    d.on(lambda c: got.append(c.kind), "total")
+    fn = d.on(every.append)
+    d.paint(1, 3)
+    d.grow()
+    d.flush()
+    assert got == ["total"] and [c.kind for c in every] == ["labels", "total"]
+    d.off(fn)
+    d.off(fn)                                    # twice: a no-op
+    d.undo()
+    d.flush()
+    assert got == ["total", "total"] and len(every) == 2
+    with pytest.raises(ValueError, match="kinds"):
+        d.on(print, "labelz")
+    with pytest.raises(ValueError, match="EVENTS"):
+        d.changed("labelz")

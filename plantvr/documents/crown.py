@@ -94,6 +94,7 @@ class CrownDocument(Document):
 
     KIND = "crown"
     COMMANDS = ("run", "undo", "redo")
+    EVENTS = ("crown",)
 
     def __init__(self, *, base_dir=".", seed: int = 0, default_radius: float = 1.0, max_undo: int = 20,
                  max_undo_bytes: int = 512 * 2 ** 20):

@@ -67,6 +67,7 @@ class ForestDocument(Document):
 
     KIND = "forest"
     COMMANDS = ("grow", "regrow_tree", "set_params", "undo", "redo")
+    EVENTS = ("forest",)
     PARAMS = FOREST
 
     def __init__(self, *, client: Any = "sync", max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20,

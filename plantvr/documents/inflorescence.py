@@ -82,6 +82,7 @@ class InflorescenceDocument(Document):
 
     KIND = "inflorescence"
     COMMANDS = ("set_params", "undo", "redo")
+    EVENTS = ("floret",)
     PARAMS = FLORET
     PARAMS_UNDO = False                      # every change commits its own item (:meth:`_commit`)
 

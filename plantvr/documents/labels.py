@@ -115,6 +115,7 @@ class Segmentation(Document):
     KIND = "vine"
     COMMANDS = ("paint", "begin_stroke", "end_stroke", "abort_stroke", "undo", "redo", "set_visible",
                 "set_color", "add_color", "fill", "split_label", "merge_labels", "add_view", "restore")
+    EVENTS = ("labels", "colors", "visibility", "views")
 
     def __init__(self, vertices, faces, *, labels=None, colors: ColorTable | None = None, normals=None,
                  index: str = "grid", max_undo: int = 20, max_undo_bytes: int = 512 * 2 ** 20):

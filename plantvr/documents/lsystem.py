@@ -188,6 +188,7 @@ class LSystemDocument(Document):
 
     KIND = "lsystem"
     COMMANDS = ("reset", "set_grammar", "set_step", "grow", "set_externs", "set_seed", "undo", "redo")
+    EVENTS = ("lsystem",)
 
     def __init__(self, text: str | None = None, *, step: int | None = None, externs: dict | None = None,
                  seed: int = 0, trusted: bool = False, time_budget: float = TIME_BUDGET,

@@ -84,6 +84,7 @@ class SketchDocument(Document):
     COMMANDS = ("set_params", "set_influence", "begin_stroke", "move_stroke", "end_stroke", "paint", "add_markers",
                 "lasso", "grow", "ungrow", "advance", "prune", "prune_at", "select", "set_width", "bend", "reset",
                 "restore", "regrow", "undo", "redo")
+    EVENTS = ("tree", "markers", "sketch")
     PARAMS = TREESKETCH
     ITEM_OPENERS = ("begin_stroke", "move_stroke")
     JOIN_OPEN = ("grow", "advance")

@@ -126,6 +126,7 @@ class Model(Document):
     KIND = "treewand"
     COMMANDS = ("paint", "paint_stroke", "add_markers", "prune", "step", "grow", "set_params", "set_influence",
                 "set_prune_mode", "reset", "restore", "regrow", "undo", "redo")
+    EVENTS = ("tree", "markers")
     PARAMS = TREEWAND
     NO_UNDO_ITEM = ("set_prune_mode",)
     PER_STEP = ("grow",)

@@ -168,7 +168,7 @@ class _DocWidget(anywidget.AnyWidget):
         self.doc = doc
         self._busy = False
         self._pull()
-        doc.observe(self._on_doc, names="change")
+        doc.on(self._on_doc)
         self.observe(self._on_widget, names=list(self._synced))
 
     def _pull(self) -> None:  # document -> widget traits
@@ -202,16 +202,16 @@ class _DocWidget(anywidget.AnyWidget):
     def bind(self, doc: SketchDocument) -> None:
         """Show and command another document."""
         doc = _check_doc(doc)
-        self.doc.unobserve(self._on_doc, names="change")
+        self.doc.off(self._on_doc)
         self.doc = doc
-        doc.observe(self._on_doc, names="change")
+        doc.on(self._on_doc)
         self._on_doc(None)
 
     def close(self) -> None:
         """Stop observing the document and close the comm."""
         doc = self.__dict__.get("doc")
         if doc is not None:
-            doc.unobserve(self._on_doc, names="change")
+            doc.off(self._on_doc)
         super().close()
 
 
@@ -404,7 +404,7 @@ class ArchitecturePanel(W.VBox):
         for name, ctl in self.controls.items():
             ctl.observe(lambda ch, n=name: self._from_control(n, ch["new"]), names="value")
         self.message = W.HTML("")
-        doc.observe(self._to_controls, names="change")
+        doc.on(self._to_controls)
         wrap = W.Layout(flex_flow="row wrap", align_items="flex-start")
         widgets = W.Box([self.schematic, self.tropism, self.branching, self.ellipse, self.triangle], layout=wrap)
         sliders = [self.controls[k] for k in CONTROLS[:6]]
@@ -437,7 +437,7 @@ class ArchitecturePanel(W.VBox):
 
     def close(self) -> None:
         """Stop following the document, then close the panel and its widgets."""
-        self.doc.unobserve(self._to_controls, names="change")
+        self.doc.off(self._to_controls)
         for w in (self.schematic, self.ellipse, self.branching, self.tropism, self.triangle):
             w.close()
         super().close()
@@ -445,7 +445,7 @@ class ArchitecturePanel(W.VBox):
     def bind(self, doc: SketchDocument) -> None:
         """Show and command another document (the widgets follow)."""
         doc = _check_doc(doc)
-        self.doc.unobserve(self._to_controls, names="change")
+        self.doc.off(self._to_controls)
         for w in (self.schematic, self.ellipse, self.branching, self.tropism):
             w.bind(doc)
         self.triangle.close()
@@ -453,5 +453,5 @@ class ArchitecturePanel(W.VBox):
         self.triangle.labels = ["α current direction", "β tropism", "γ free space"]
         self.children[1].children = (*self.children[1].children[:4], self.triangle)
         self.doc = doc
-        doc.observe(self._to_controls, names="change")
+        doc.on(self._to_controls)
         self._to_controls(None)

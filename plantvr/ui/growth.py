@@ -74,7 +74,7 @@ class GrowthControl(W.VBox):
         self.plot = GrowthPlot()
         self._last_step = -1
         self._next_t = 0.0
-        model.observe(self._on_version, names=["version"])
+        model.on(self._on_version)
         model.observe(self._on_growing, names=["growing"])
         self._on_version(None)
         self._on_growing(None)
@@ -142,6 +142,6 @@ class GrowthControl(W.VBox):
         model = getattr(self, "model", None)  # None when the constructor refused its arguments
         if model is not None:
             model.stop()
-            model.unobserve(self._on_version, names=["version"])
+            model.off(self._on_version)
             model.unobserve(self._on_growing, names=["growing"])
         super().close()

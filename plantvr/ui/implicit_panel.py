@@ -190,9 +190,9 @@ class ImplicitPanel(W.VBox):
     def _attach(self, doc: CrownDocument) -> None:
         """Show ``doc`` (and follow its changes) instead of the current document."""
         if self.doc is not None:
-            self.doc.unobserve(self._on_change, names="change")
+            self.doc.off(self._on_change)
         self.doc = doc
-        doc.observe(self._on_change, names="change")
+        doc.on(self._on_change)
         self._sync(select_last=True)
 
     def _on_change(self, change) -> None:
@@ -201,7 +201,7 @@ class ImplicitPanel(W.VBox):
     def close(self) -> None:
         """Stop following the document, then close the widgets."""
         if self.doc is not None:
-            self.doc.unobserve(self._on_change, names="change")
+            self.doc.off(self._on_change)
             self.doc = None
         super().close()
 

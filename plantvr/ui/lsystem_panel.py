@@ -86,7 +86,7 @@ class LsystemPanel(W.VBox):
         self.status = W.HTML("")
         self._controls_for = None
         self._build_controls()
-        doc.observe(self._on_change, names="change")
+        doc.on(self._on_change)
         self._show_status()
         title = W.HTML("<div style='background:#3a7a3a;color:white;padding:3px 8px;font-weight:bold'>"
                        "L-system</div>")
@@ -183,7 +183,7 @@ class LsystemPanel(W.VBox):
         """Stop following the document and close the controls."""
         if not getattr(self, "_closed", True):
             self._closed = True
-            self.doc.unobserve(self._on_change, names="change")
+            self.doc.off(self._on_change)
             for ctl in self.controls.values():
                 ctl.close()
         super().close()

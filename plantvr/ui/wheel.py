@@ -5,7 +5,7 @@ The widget holds a generic colour table as synced traits (``colors`` hex strings
 ``selected`` index). A click selects a slice; a shift-click (the trackpad press) toggles that colour's
 visibility; a colour picker edits the selected colour. :meth:`ColorWheel.link` binds it to a
 segmentation by duck typing: any document with ``colors.rgba`` ``(N, 3|4)``, ``colors.visible`` ``(N,)``,
-``set_color(label, rgb)``, ``set_visible(label, visible)`` and a ``change`` trait (as
+``set_color(label, rgb)``, ``set_visible(label, visible)`` and ``on``/``off`` change events (as
 :class:`plantvr.documents.labels.Segmentation`), or any ``HasTraits`` with ``colors``/``hidden`` traits.
 """
 from __future__ import annotations
@@ -103,18 +103,18 @@ class ColorWheel(anywidget.AnyWidget):
             kind = "traits"
         elif hasattr(target, "colors") and hasattr(target.colors, "rgba") and hasattr(target, "set_color") \
                 and hasattr(target, "set_visible") and isinstance(target, traitlets.HasTraits) \
-                and target.has_trait("change"):
+                and callable(getattr(target, "on", None)):
             kind = "segmentation"
         else:
             raise ValueError("target must be a Segmentation-like document (colors.rgba, colors.visible, set_color, "
-                             "set_visible, a change trait) or a HasTraits with 'colors' and 'hidden' traits, "
+                             "set_visible, on/off events) or a HasTraits with 'colors' and 'hidden' traits, "
                              f"got {type(target).__name__}")
         self.unlink()
         self.target, self._kind = target, kind
         if kind == "traits":
             target.observe(self._from_target, names=["colors", "hidden"])
         else:
-            target.observe(self._seg_changed, names="change")
+            target.on(self._seg_changed, "colors", "visibility")
         self._from_target(None)
 
     def unlink(self) -> None:
@@ -125,12 +125,11 @@ class ColorWheel(anywidget.AnyWidget):
         if self._kind == "traits":
             t.unobserve(self._from_target, names=["colors", "hidden"])
         else:
-            t.unobserve(self._seg_changed, names="change")
+            t.off(self._seg_changed)
         self.target = None
 
-    def _seg_changed(self, event) -> None:
-        if event["new"].kind in ("colors", "visibility", "all"):
-            self._from_target(None)
+    def _seg_changed(self, change) -> None:
+        self._from_target(None)
 
     def _table(self) -> tuple[list[str], list[bool]]:
         t = self.target

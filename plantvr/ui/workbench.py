@@ -220,7 +220,7 @@ class Workbench(W.HBox):
         self._regrow_names = {p.name for p in doc.PARAMS if p.window in windows} if windows else set()
         if self._regrow_names:
             doc.observe(self._on_param, names=sorted(self._regrow_names))
-        doc.observe(self._on_change, names="change")  # after the view's own observer: it has redrawn
+        doc.on(self._on_change)  # after the view's own observer: it has redrawn
         if live and self.brush is not None:
             self.brush.attach()
         self._sync()
@@ -348,7 +348,7 @@ class Workbench(W.HBox):
             super().close()
             return
         self._closed = True
-        doc.unobserve(self._on_change, names="change")
+        doc.off(self._on_change)
         if self._regrow_names:
             doc.unobserve(self._on_param, names=sorted(self._regrow_names))
         if self.treewand:

@@ -48,6 +48,7 @@ class SceneDoc(Document):
 
     KIND = "scene_test"
     COMMANDS = ("move",)
+    EVENTS = ("points",)
 
     def __init__(self, kinds=("tree", "mesh", "points", "instances")):
         super().__init__()

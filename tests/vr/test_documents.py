@@ -102,6 +102,7 @@ class Crown(Document):
 
     KIND = "test_crown"
     COMMANDS = ("scale", "undo", "redo")
+    EVENTS = ("mesh",)
 
     def __init__(self):
         super().__init__()
