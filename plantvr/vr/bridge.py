@@ -226,6 +226,8 @@ class Headset:
         self._ready = threading.Event()
         self._queue: queue.Queue = queue.Queue()
         self.content: tuple[int, dict] | None = None   # (build id, {name: (polydata, style)}), swapped whole
+        self.content_version = -1                       # document version the mesh thread last built
+        self._drawn_content = None                      # build id the render thread last drew
         self._preview: tuple | None = None             # (tree, node indices) from the command thread
         self.preview: tuple | None = None              # (id, polydata) of the prune preview
         self._hull_of: tuple | None = None             # (vertices, CoarseHull) of the depth cue
@@ -294,6 +296,15 @@ class Headset:
         while self.frames < target and self.running and time.monotonic() < t_end:
             time.sleep(0.002)
         return self.frames
+
+    def wait_content(self, timeout: float = 30.0) -> int:
+        """Block until the mesh thread has built the document's current version and a frame has drawn it (or the
+        headset stopped); returns the frame count."""
+        version, t_end = self.doc.version, time.monotonic() + timeout
+        while self.running and time.monotonic() < t_end and (
+                self.content_version < version or self.content is None or self._drawn_content != self.content[0]):
+            time.sleep(0.002)
+        return self.wait_frames(1, timeout=max(0.0, t_end - time.monotonic()))
 
     def wait_commands(self, timeout: float = 30.0) -> None:
         """Block until every queued controller command has been issued on the document."""
@@ -593,6 +604,7 @@ class Headset:
             except Exception as exc:  # noqa: BLE001  a bad scene must not kill headset mode
                 self.command_errors.append((Command("mesh"), repr(exc)))
             built = key
+            self.content_version = key[1]
             pv = self._preview
             if pv is not None and pv is not built_preview:
                 n_preview += 1

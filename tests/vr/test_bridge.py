@@ -38,6 +38,7 @@ def test_lifecycle_both_eyes_every_frame_matching_sizes(model, fake):
     bridge.start()
     with pytest.raises(RuntimeError, match="already running"):
         bridge.start()
+    bridge.wait_content()
     bridge.wait_frames(4)
     bridge.stop()
     assert not bridge.running and bridge.status == "stopped"

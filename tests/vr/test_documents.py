@@ -142,7 +142,7 @@ def test_any_document_is_shown_and_gets_undo_redo(fake):
     assert set(h.controls.cmap.commands) == {"undo", "redo"} and not h.ground
     h.start()
     try:
-        h.wait_frames(3)
+        h.wait_content()
         layers = h.content[1]
         assert layers["crown"][0].n_points == 3 and "rgb" in layers["crown"][0].point_data
         assert layers["tips"][1]["points"]

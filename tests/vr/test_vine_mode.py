@@ -172,7 +172,7 @@ def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
     assert vr.attach(seg) is bridge
     bridge.start()
     try:
-        bridge.wait_frames(3)
+        bridge.wait_content()
         blank = [im.copy() for im in bridge.last_images]
         c = bridge.controls
         c.brush_radius = 0.35
@@ -181,7 +181,7 @@ def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
         d = np.linalg.norm(seg.vertices - p, axis=1)
         assert np.all(seg.labels[d <= 0.35 - 1e-4] == c.label) and not seg.labels[d > 0.35 + 1e-4].any()
         assert len(seg.history.undo_stack) == 1 and bridge.command_errors == []
-        bridge.wait_frames(4)
+        bridge.wait_content()                 # the mesh thread may lag the frames on a loaded machine
         rgb = bridge.content[1]["surface"][0].point_data["rgb"]
         assert len(rgb) == seg.n_vertices and bridge.depth_cue    # coloured (depth-cued) surface of the scene
         assert any(not np.array_equal(a, b) for a, b in zip(blank, bridge.last_images))   # a visible change
@@ -248,12 +248,12 @@ def test_surface_colours_follow_paint_and_hidden_triangles_drop(seg, fake):
         bridge.wait_frames(2)
         bridge.controls.brush_radius = 0.5
         _press(bridge, fake, wand_at(bridge.controls.scene, seg.vertices[0]))
-        bridge.wait_frames(4)
+        bridge.wait_content()
         label = bridge.controls.label
         surf = bridge.content[1]["surface"][0]
         assert seg.labels.any() and np.all(surf.point_data["rgb"][seg.labels == label] == seg.colors.rgba[label, :3])
         seg.set_visible(label, False)
-        bridge.wait_frames(4)
+        bridge.wait_content()
         surf = bridge.content[1]["surface"][0]
         assert surf.n_cells == len(seg.visible_faces()) < len(seg.faces)
     finally:
