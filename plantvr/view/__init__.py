@@ -27,6 +27,7 @@ from .._fileio import write_png  # noqa: E402
 from .._validation import check_point, check_range, check_size  # noqa: E402
 from ..document import kernel_loop  # noqa: E402
 from ..types import TreeArrays  # noqa: E402
+from ._render_lock import lock_plotter, lock_trame_image_delivery  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
 
@@ -119,6 +120,9 @@ class View:
                 self.plotter.add_text(titles[col], font_size=11, color="#333333", name=f"title{col}")
         if shape[1] > 1:
             self.plotter.link_views()
+        #: the render window's lock (:mod:`plantvr.view._render_lock`): held around layer updates, renders and
+        #: screenshots here, and by trame's image capture on its server thread
+        self.lock = lock_plotter(self.plotter)
         self.plotter.subplot(0, 0)
         if ground is None:
             kinds = set(classes.values())
@@ -192,10 +196,11 @@ class View:
 
     def _render_now(self) -> None:
         self._render_due = False
-        if self.plotter.render_window is None:   # closed meanwhile
-            return
-        self.plotter.render()
-        self.push()
+        with self.lock:
+            if self.plotter.render_window is None:   # closed meanwhile
+                return
+            self.plotter.render()
+            self.push()
 
     def push(self) -> None:
         """Send the current picture to the browser of a live widget (:meth:`widget`); nothing without one."""
@@ -225,6 +230,10 @@ class View:
 
     def _apply(self, scene: Mapping[str, Any]) -> list[str]:
         classes = _check_scene(scene, self.lod)
+        with self.lock:
+            return self._apply_locked(scene, classes)
+
+    def _apply_locked(self, scene: Mapping[str, Any], classes: dict[str, type[Layer]]) -> list[str]:
         redrawn = []
         for name in [n for n in self.layers if n not in scene]:
             self.layers.pop(name).remove()
@@ -285,8 +294,9 @@ class View:
         else:
             self.hidden.add(name)
         if name in self.layers:
-            self.layers[name].set_visible(visible)
-            self.plotter.render()
+            with self.lock:
+                self.layers[name].set_visible(visible)
+                self.plotter.render()
 
     @property
     def show_markers(self) -> bool:
@@ -404,9 +414,11 @@ class View:
         self.brush_center = center
         if radius is not None:
             self.brush_radius = radius
-        self._brush.copy_from(pv.Sphere(radius=self.brush_radius, center=self.brush_center,
-                                        theta_resolution=24, phi_resolution=16))
-        self._brush_actor.SetVisibility(visible)
+        sphere = pv.Sphere(radius=self.brush_radius, center=self.brush_center, theta_resolution=24,
+                           phi_resolution=16)
+        with self.lock:
+            self._brush.copy_from(sphere)
+            self._brush_actor.SetVisibility(visible)
         self._render_soon()
 
     def screenshot(self, path: str | Path | None = None, *, window_size=None) -> np.ndarray:
@@ -418,8 +430,9 @@ class View:
             raise ValueError(f"path must end in .png, got {str(path)!r}")
         if self.doc is not None:
             self.update()
-        self.plotter.render()  # else a camera moved since the last render is not in the picture
-        img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
+        with self.lock:
+            self.plotter.render()  # else a camera moved since the last render is not in the picture
+            img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
         if path is not None:
             write_png(path, img)
         return img
@@ -480,7 +493,8 @@ class View:
             self.plotter.camera.RemoveObserver(self._camera_tag)
             self._camera_tag = None
         self.viewer = None
-        self.plotter.close()
+        with self.lock:
+            self.plotter.close()
 
 
 @contextlib.contextmanager
@@ -518,6 +532,7 @@ def launch_live_server():
     from trame_pyvista.jupyter import elegantly_launch  # noqa: PLC0415
     from trame_pyvista.widgets import get_server  # noqa: PLC0415
 
+    lock_trame_image_delivery()
     server = get_server(name=pv.global_theme.trame.jupyter_server_name)
     if not server.running:
         with _without_vtklocal():
