@@ -194,12 +194,17 @@ class View:
             self._render_due = True
             loop.call_soon(self._render_now)
 
+    #: Render before :meth:`push` too, as before issue 31 (``benchmarks/paint_latency.py``'s baseline). A push's
+    #: image capture renders the window itself, so a live view renders once per redraw without it.
+    render_before_push = False
+
     def _render_now(self) -> None:
         self._render_due = False
         with self.lock:
             if self.plotter.render_window is None:   # closed meanwhile
                 return
-            self.plotter.render()
+            if self.viewer is None or self.render_before_push:
+                self.plotter.render()
             self.push()
 
     def push(self) -> None:

@@ -11,6 +11,12 @@ image capture (:func:`lock_trame_image_delivery` wraps ``still_render``). Serial
 context current on one thread cannot be made current on another (``eglMakeCurrent`` fails and VTK draws with
 no buffers bound), so the outermost holder releases the context (``ReleaseCurrent``) as it lets go.
 
+The capture also waits for its own picture: ``vtkWebApplication.StillRenderToBuffer`` renders, hands the
+frame to its JPEG encoder threads and returns the newest picture *already encoded*, the previous frame's
+(``stale``), and trame then sends the fresh one only 0.5 s later. A paint stroke's first picture showed the
+scene before the stroke. :func:`lock_trame_image_delivery` polls the encoder for the frame just rendered
+(a few ms; no second render) and sends that (``benchmarks/paint_latency.py`` measures both).
+
 Lock order: a document's lock, then a render lock, never the reverse (a document applies a change, and so
 calls its views' observers, under its own lock in a script). Nothing done under a render lock issues a
 document command, so trame's mouse replay, whose observers paint, is not held under it as a whole.
@@ -19,9 +25,16 @@ from __future__ import annotations
 
 import functools
 import threading
+import time
 import weakref
 
-__all__ = ["RenderLock", "lock_plotter", "lock_trame_image_delivery", "render_lock"]
+__all__ = ["FRESH_PICTURES", "RenderLock", "lock_plotter", "lock_trame_image_delivery", "render_lock"]
+
+#: Send the frame just rendered, not the encoder's previous one (False: trame's own behaviour, the baseline of
+#: ``benchmarks/paint_latency.py``).
+FRESH_PICTURES = True
+#: Longest wait for the JPEG encoder, s (its threads encode a 900x700 frame in a few ms).
+ENCODER_WAIT_S = 0.2
 
 _LOCKS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _GUARD = threading.Lock()
@@ -103,7 +116,27 @@ def lock_trame_image_delivery() -> None:
         if not view:
             return still_render(self, options)
         with render_lock(view):
-            return still_render(self, options)
+            reply = still_render(self, options)
+            if reply.get("stale") and FRESH_PICTURES and not self.decode:
+                _fresh_picture(self.app, view, reply, int(options.get("quality", 100)))
+            return reply
 
     locked_still_render._plantvr_locked = True
     vtkWebPublishImageDelivery.still_render = locked_still_render
+
+
+def _fresh_picture(app, view, reply: dict, quality: int) -> None:
+    """Put the picture of the frame ``still_render`` just rendered into its ``reply`` once the encoder has it: with
+    the image cache valid, ``StillRenderToBuffer`` does not render again but returns the encoder's newest
+    output (and clears ``GetHasImagesBeingProcessed`` when that is the last frame pushed)."""
+    deadline = time.monotonic() + ENCODER_WAIT_S
+    data = None
+    while app.GetHasImagesBeingProcessed(view) and time.monotonic() < deadline:
+        time.sleep(0.001)
+        data = app.StillRenderToBuffer(view, 0, quality)
+    if data is None:
+        return
+    reply["image"] = memoryview(data).tobytes()
+    reply["memsize"] = data.GetDataSize()
+    reply["mtime"] = app.GetLastStillRenderToMTime()
+    reply["stale"] = bool(app.GetHasImagesBeingProcessed(view))
