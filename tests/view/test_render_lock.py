@@ -101,3 +101,33 @@ def test_doc_changes_and_trame_renders_from_two_threads(vtk_errors, capfd):
     assert len(images) >= 5
     assert min(_content_fraction(s) for s in shots) > 0.01
     assert jpeg.shape == (240, 320, 3) and _content_fraction(jpeg) > 0.01
+
+
+def _jpeg(reply) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(reply["image"])).convert("RGB")).astype(np.int16)
+
+
+def test_trame_capture_sends_the_frame_it_rendered():
+    """VTK's web application returns the JPEG encoder's previous picture while it encodes the new one (trame
+    sent the new one 0.5 s later): the capture waits for its own frame, so a paint shows in the first picture."""
+    m = plantvr.Model(seed=0)
+    m.paint_stroke([[0, y, 0] for y in range(2, 8)], radius=2.0)
+    m.step(6)
+    v = View(m, window_size=(320, 240))
+    delivery = _delivery(v.plotter.ren_win)
+    opts = {"view": "1", "mtime": 0, "quality": 90, "size": [320, 240]}
+    for _ in range(3):
+        delivery.still_render(opts)
+    try:
+        for k in range(6):
+            p = np.array([0.5 * k - 1.25, 4.5, 0.0])
+            m.paint_stroke([p, p + [0.2, 0.3, 0.0]], radius=0.5)
+            first = _jpeg(delivery.still_render(opts))
+            for _ in range(3):                     # the settled picture of the same scene
+                truth = _jpeg(delivery.still_render(opts))
+            stale = int((np.abs(first - truth).max(axis=-1) > 40).sum())
+            assert stale < 4, f"stroke {k}: the first picture differs from the scene in {stale} pixels"
+    finally:
+        v.close()
