@@ -419,10 +419,9 @@ class View:
         self.brush_center = center
         if radius is not None:
             self.brush_radius = radius
-        sphere = pv.Sphere(radius=self.brush_radius, center=self.brush_center, theta_resolution=24,
-                           phi_resolution=16)
-        with self.lock:
-            self._brush.copy_from(sphere)
+        with self.lock:                 # the unit sphere moved and scaled (no new geometry per mouse move)
+            self._brush_actor.SetPosition(*self.brush_center)
+            self._brush_actor.SetScale(self.brush_radius)
             self._brush_actor.SetVisibility(visible)
         self._render_soon()
 
