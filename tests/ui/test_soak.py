@@ -112,7 +112,7 @@ def test_live_workbench_survives_200_mixed_paints_regrows_and_undos(tmp_path, ca
                         kernel.call(lambda: m.undo() if m.history.can_undo else None)
                     else:
                         kernel.call(lambda: m.step(1))
-                    time.sleep(float(rng.uniform(0.0, 0.05)))
+                    time.sleep(float(rng.uniform(0.0, 0.02)))
                 time.sleep(1.5)                                       # the last pictures arrive
                 assert kernel.call(lambda: int(m.version), 60) > 0    # the kernel answers
                 n_paint = kernel.call(lambda: sum(e.command == "paint_stroke" for e in m.log.events))
