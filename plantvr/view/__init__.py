@@ -235,15 +235,15 @@ class View:
 
     def _apply(self, scene: Mapping[str, Any]) -> list[str]:
         classes = _check_scene(scene, self.lod)
+        params = self.params          # read from the document before the render lock (lock order: document first)
         with self.lock:
-            return self._apply_locked(scene, classes)
+            return self._apply_locked(scene, classes, params)
 
-    def _apply_locked(self, scene: Mapping[str, Any], classes: dict[str, type[Layer]]) -> list[str]:
+    def _apply_locked(self, scene: Mapping[str, Any], classes: dict[str, type[Layer]], params: dict) -> list[str]:
         redrawn = []
         for name in [n for n in self.layers if n not in scene]:
             self.layers.pop(name).remove()
             redrawn.append(name)
-        params = self.params
         for name, content in scene.items():
             self._subplot(name)
             layer = self.layers.get(name)
