@@ -12,7 +12,10 @@ one (both on the page's ``performance.now()`` clock). Median and max over the st
 100 ms target and beside the baseline measured in the same run, on the same page, strokes alternating: the
 render path before issue 31, where trame sent the JPEG encoder's *previous* picture (the new one followed
 0.5 s later or with the next frame; ``plantvr.view._render_lock.FRESH_PICTURES`` off) and the kernel rendered
-before each push, whose capture renders again (``View.render_before_push``).
+before each push, whose capture renders again (``View.render_before_push``). The cheaper stroke handling on
+the server (the brush sphere moved rather than rebuilt, history items counting their bytes once: a Tree Wand
+press + 3 drags + release 34 -> 6 ms) is in both paths. Pictures are rendered by Mesa on the CPU here; a shared
+2-core machine makes the figures vary by tens of ms from run to run.
 
 Run: ``python benchmarks/paint_latency.py [--quick] [--strokes N]`` (needs Debian's chromium, trame-pyvista).
 """

@@ -5,11 +5,12 @@ render and a push), and the trame server's thread renders the picture it sends t
 (``vtkWebPublishImageDelivery.still_render``, called for every mouse event and every push). One OpenGL context
 used from two threads at once is undefined behaviour: VTK logged ``vtkOpenGLVertexArrayObject`` "handleless
 buffer" and shader VAO errors from two thread ids. So each render window has one re-entrant
-:class:`RenderLock` (:func:`render_lock`), held by :class:`plantvr.view.View` around its layer updates, renders and screenshots,
-by the brush around its pick and preview, by the ViNE review app around its paint commands, and by trame's
-image capture (:func:`lock_trame_image_delivery` wraps ``still_render``). Serialising is not enough: an EGL
-context current on one thread cannot be made current on another (``eglMakeCurrent`` fails and VTK draws with
-no buffers bound), so the outermost holder releases the context (``ReleaseCurrent``) as it lets go.
+:class:`RenderLock` (:func:`render_lock`), held by :class:`plantvr.view.View` around its layer updates,
+renders and screenshots, by the brush around its pick and preview, by the ViNE review app around its paint
+commands, and by trame's image capture (:func:`lock_trame_image_delivery` wraps ``still_render``).
+Serialising is not enough: an EGL context current on one thread cannot be made current on another
+(``eglMakeCurrent`` fails and VTK draws with no buffers bound), so the outermost holder releases the context
+(``ReleaseCurrent``) as it lets go.
 
 The capture also waits for its own picture: ``vtkWebApplication.StillRenderToBuffer`` renders, hands the
 frame to its JPEG encoder threads and returns the newest picture *already encoded*, the previous frame's
@@ -17,9 +18,12 @@ frame to its JPEG encoder threads and returns the newest picture *already encode
 scene before the stroke. :func:`lock_trame_image_delivery` polls the encoder for the frame just rendered
 (a few ms; no second render) and sends that (``benchmarks/paint_latency.py`` measures both).
 
-Lock order: a document's lock, then a render lock, never the reverse (a document applies a change, and so
-calls its views' observers, under its own lock in a script). Nothing done under a render lock issues a
-document command, so trame's mouse replay, whose observers paint, is not held under it as a whole.
+Lock order: a :class:`~plantvr.view.View` takes its window's lock inside its document's observers, so after
+the document's lock (a document applies a change, and calls its observers, under its own lock in a script);
+nothing a View does under that lock issues a document command, so trame's mouse replay, whose observers
+paint, is not held under it as a whole. The ViNE review app holds its window's lock around its commands
+(window, then segmentation: its ``SegmentationView`` edits VTK arrays inside the segmentation's observers),
+and no observer of a segmentation takes that window's lock, so the two orders never meet on one lock.
 """
 from __future__ import annotations
 
