@@ -5,6 +5,12 @@ os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 os.environ.setdefault("PYVISTA_OFF_SCREEN", "true")
 
 
+# -- soak test (issue 31): 200 operations in the suite (< 60 s), --soak for a long run ------------------------
+def pytest_addoption(parser):
+    parser.addoption("--soak", action="store_true", default=False,
+                     help="run the soak test (tests/ui/test_soak.py) long: 1000 operations instead of 200")
+
+
 # -- fuzz harness (issue 20): every fuzzed call ends in a result or a clear error raised by PlantVR --------
 import json  # noqa: E402
 import traceback  # noqa: E402

@@ -30,6 +30,7 @@ from .._validation import check_array, check_point, check_range, check_size  # n
 from ..document import kernel_loop  # noqa: E402
 from ..types import TreeArrays  # noqa: E402
 from ..vine.views import SavedView, load_view  # noqa: E402
+from ._render_lock import lock_plotter, lock_trame_image_delivery  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
 from .vine_layers import LabelledSurfaceLayer  # noqa: E402
@@ -132,6 +133,9 @@ class View:
                 self.plotter.add_text(titles[col], font_size=11, color="#333333", name=f"title{col}")
         if shape[1] > 1:
             self.plotter.link_views()
+        #: the render window's lock (:mod:`plantvr.view._render_lock`): held around layer updates, renders and
+        #: screenshots here, and by trame's image capture on its server thread
+        self.lock = lock_plotter(self.plotter)
         self.plotter.subplot(0, 0)
         if ground is None:
             kinds = set(classes.values())
@@ -204,12 +208,18 @@ class View:
             self._render_due = True
             loop.call_soon(self._render_now)
 
+    #: Render before :meth:`push` too, as before issue 31 (``benchmarks/paint_latency.py``'s baseline). A push's
+    #: image capture renders the window itself, so a live view renders once per redraw without it.
+    render_before_push = False
+
     def _render_now(self) -> None:
         self._render_due = False
-        if self.plotter.render_window is None:   # closed meanwhile
-            return
-        self.plotter.render()
-        self.push()
+        with self.lock:
+            if self.plotter.render_window is None:   # closed meanwhile
+                return
+            if self.viewer is None or self.render_before_push:
+                self.plotter.render()
+            self.push()
 
     def push(self) -> None:
         """Send the current picture to the browser of a live widget (:meth:`widget`); nothing without one."""
@@ -239,11 +249,15 @@ class View:
 
     def _apply(self, scene: Mapping[str, Any]) -> list[str]:
         classes = _check_scene(scene, self.lod)
+        params = self.params          # read from the document before the render lock (lock order: document first)
+        with self.lock:
+            return self._apply_locked(scene, classes, params)
+
+    def _apply_locked(self, scene: Mapping[str, Any], classes: dict[str, type[Layer]], params: dict) -> list[str]:
         redrawn = []
         for name in [n for n in self.layers if n not in scene]:
             self.layers.pop(name).remove()
             redrawn.append(name)
-        params = self.params
         for name, content in scene.items():
             self._subplot(name)
             layer = self.layers.get(name)
@@ -300,8 +314,9 @@ class View:
         else:
             self.hidden.add(name)
         if name in self.layers:
-            self.layers[name].set_visible(visible)
-            self.plotter.render()
+            with self.lock:
+                self.layers[name].set_visible(visible)
+                self.plotter.render()
 
     @property
     def show_markers(self) -> bool:
@@ -426,9 +441,10 @@ class View:
         self.brush_center = center
         if radius is not None:
             self.brush_radius = radius
-        self._brush.copy_from(pv.Sphere(radius=self.brush_radius, center=self.brush_center,
-                                        theta_resolution=24, phi_resolution=16))
-        self._brush_actor.SetVisibility(visible)
+        with self.lock:                 # the unit sphere moved and scaled (no new geometry per mouse move)
+            self._brush_actor.SetPosition(*self.brush_center)
+            self._brush_actor.SetScale(self.brush_radius)
+            self._brush_actor.SetVisibility(visible)
         self._render_soon()
 
     def set_model_pose(self, position, rotation, scale: float) -> None:
@@ -447,9 +463,10 @@ class View:
             "rotation", rotation, shape=(3, 3))
         m[:3, 3] = check_point("position", position)
         self.pose = m
-        for lay in self.layers.values():
-            lay.set_pose(m)
-        self._brush_actor.user_matrix = m
+        with self.lock:
+            for lay in self.layers.values():
+                lay.set_pose(m)
+            self._brush_actor.user_matrix = m
 
     def apply_view(self, view: SavedView, *, viewer_position=None, view_dir=None) -> None:
         """Load a saved view (spec 000_vine §2.7) for the current camera, or ``viewer_position`` and
@@ -470,10 +487,11 @@ class View:
             raise ValueError(f"path must end in .png, got {str(path)!r}")
         if self.doc is not None:
             self.update()
-        for lay in self.layers.values():
-            lay.refresh()
-        self.plotter.render()  # else a camera moved since the last render is not in the picture
-        img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
+        with self.lock:
+            for lay in self.layers.values():
+                lay.refresh()
+            self.plotter.render()  # else a camera moved since the last render is not in the picture
+            img = self.plotter.screenshot(None, window_size=window_size, return_img=True)
         if path is not None:
             write_png(path, img)
         return img
@@ -536,7 +554,8 @@ class View:
             self.plotter.camera.RemoveObserver(self._camera_tag)
             self._camera_tag = None
         self.viewer = None
-        self.plotter.close()
+        with self.lock:
+            self.plotter.close()
 
 
 @contextlib.contextmanager
@@ -574,6 +593,7 @@ def launch_live_server():
     from trame_pyvista.jupyter import elegantly_launch  # noqa: PLC0415
     from trame_pyvista.widgets import get_server  # noqa: PLC0415
 
+    lock_trame_image_delivery()
     server = get_server(name=pv.global_theme.trame.jupyter_server_name)
     if not server.running:
         with _without_vtklocal():

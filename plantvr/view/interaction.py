@@ -36,6 +36,7 @@ import vtk
 
 from .._validation import check_point, check_range
 from . import PRUNE, View
+from ._render_lock import lock_trame_image_delivery
 from .polydata import tube_polydata
 
 __all__ = ["FULL_TRIGGER", "PREVIEW_TRIGGER", "BrushInteractor", "LabelBrush", "trame_app"]
@@ -92,6 +93,10 @@ class BrushInteractor:
         (3,) float64 ndarray
         """
         x, y = check_range("x", x, -1e6, 1e6), check_range("y", y, -1e6, 1e6)
+        with self.view.lock:            # the pick reads the actors a redraw on another thread edits
+            return self._world_point(x, y)
+
+    def _world_point(self, x: float, y: float) -> np.ndarray:
         ren = self.view.plotter.renderer
         actors = [a for a in self.view.pickable_actors() if a.GetVisibility()]
         if actors:
@@ -215,6 +220,10 @@ class BrushInteractor:
 
     def _show_preview(self, idx: np.ndarray) -> None:
         """Draw the internodes ending at tree nodes ``idx`` as red tubes slightly thicker than the bark."""
+        with self.view.lock:
+            self._draw_preview(idx)
+
+    def _draw_preview(self, idx: np.ndarray) -> None:
         self.preview = np.asarray(idx, np.int64)
         snap = self.view.tree
         if snap is None:
@@ -498,6 +507,7 @@ def trame_app(brush: BrushInteractor, *, server=None, width: int = 640, height: 
         raise ValueError(f"brush must be a BrushInteractor, got {type(brush).__name__}")
     width = int(check_range("width", width, 16, 8192))
     height = int(check_range("height", height, 16, 8192))
+    lock_trame_image_delivery()
     doc = brush.doc
     start = len(doc.log)  # brush commands are counted from here
     server = server or get_server(f"plantvr_brush_{id(brush.view):x}", client_type="vue3")

@@ -30,6 +30,7 @@ selection, a colour or a visibility changes.
 from __future__ import annotations
 
 import asyncio
+import functools
 import hmac
 import itertools
 import os
@@ -50,6 +51,8 @@ from plantvr.documents.labels import Segmentation, check_grid
 from plantvr.vine.colors import DEAD_ZONE, slice_at
 from plantvr.io import labels as io_labels
 from plantvr.vine.proxy import DisplayProxy
+
+from ._render_lock import lock_trame_image_delivery, render_lock
 
 __all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry",
            "wheel_svg"]
@@ -292,6 +295,16 @@ def access_guard(token: str, port: int, host: str = "127.0.0.1"):
         return resp
 
     return guard
+
+
+def _drawing(method):
+    """A command that edits what the view draws, run under its render window's lock (the server thread renders
+    the remote view's picture; :mod:`plantvr.view._render_lock`)."""
+    @functools.wraps(method)
+    def locked(self, *args, **kwargs):
+        with render_lock(self.view.plotter.ren_win):
+            return method(self, *args, **kwargs)
+    return locked
 
 
 def _free_port() -> int:
@@ -551,6 +564,7 @@ class VineReviewApp:
             self._stroking = False
             self.seg.end_stroke()
 
+    @_drawing
     def paint_world(self, point, *, radius: float | None = None, label: int | None = None) -> int:
         """Paint the full-resolution labels with the sphere brush at a world-space point; returns the count."""
         self._close_stroke()
@@ -599,6 +613,7 @@ class VineReviewApp:
             return None
         return np.asarray(x_hit, np.float64)
 
+    @_drawing
     def stroke(self, phase: str, points, camera: dict | None = None, size=None) -> dict | None:
         """A brush stroke from the page: ``phase`` ``begin``, ``move`` or ``end`` of a paint drag, or ``click``.
 
@@ -691,12 +706,14 @@ class VineReviewApp:
         except ValueError as exc:                           # e.g. painting with a hidden colour
             self.state.message = str(exc)
 
+    @_drawing
     def undo(self) -> None:
         """Undo the last painting operation (full resolution)."""
         self._close_stroke()
         self.seg.undo()
         self._push()
 
+    @_drawing
     def redo(self) -> None:
         """Redo the last undone operation."""
         self._close_stroke()
@@ -712,6 +729,7 @@ class VineReviewApp:
         """Hide or show the selected colour (on the full mesh and the proxy)."""
         self.toggle_visible()
 
+    @_drawing
     def toggle_visible(self, label: int | None = None) -> bool:
         """Hide or show a colour (default: the selected one) on the full mesh and the proxy; returns the new
         visibility."""
@@ -758,6 +776,7 @@ class VineReviewApp:
         if svg != self.state.wheel:
             self.state.wheel = svg
 
+    @_drawing
     def apply_level(self) -> None:
         """Re-extract the isosurface at the slider's iso-value and show it (volume mode)."""
         if self.volume is None:
@@ -773,6 +792,7 @@ class VineReviewApp:
 
     # ------------------------------------------------------------------ page
     def _build_ui(self) -> None:
+        lock_trame_image_delivery()         # remote mode: the server's renders take the view's lock
         from trame.ui.vuetify3 import SinglePageLayout
         from trame.widgets import client, html
         from trame.widgets import vtk as vtk_widgets
