@@ -35,7 +35,8 @@ def _row(name, kind, default, ref, doc, **kw) -> Param:
 
 #: The TreeSketch rows of :data:`TREESKETCH` (spec 004 §1.4, §2.3, §2.5): the scalar
 #: :class:`~plantvr.growth.sketch.SketchEngine` options (the gravimorphism ellipse as its three numbers) and the
-#: stroke brush of :class:`~plantvr.growth.sketch_tools.StrokeEmitter`. The engine's option checks and the architecture panel read their ranges from here.
+#: stroke brush of :class:`~plantvr.growth.sketch_tools.StrokeEmitter`. The engine's option checks and the
+#: architecture panel read their ranges from here.
 SKETCH_ROWS: tuple[Param, ...] = (
     _row("n_max", int, 3, "§1.4.4 Eq. 4.3", "Maximum shoot length: internodes per step of the most vigorous bud.",
          symbol="n_max", range=(1, 1000)),
