@@ -25,7 +25,8 @@ import numpy as np
 from plantvr._fileio import MAX_READ_BYTES, atomic_write, npy_bytes, npy_headers, read_zip, zip_directory
 from plantvr._validation import check_int, check_range
 from plantvr.commandlog import CommandLog
-from plantvr.documents.labels import _STATE_NAMES, Segmentation, check_grid
+from plantvr.documents.labels import Segmentation
+from plantvr.documents.labels_file import _STATE_NAMES, check_grid
 from plantvr.vine._filecheck import check_elements
 from plantvr.vine.volume import _check_declared, _check_volume
 

@@ -22,7 +22,8 @@ pbd
     Position-based dynamics: distance and signed dihedral bending constraints (numba + numpy twins).
 ccd
     Continuous collision detection: spatial-hash broad phase, coplanarity cubics, root finding,
-    vertex-triangle and edge-edge collision constraints, static intersection check.
+    vertex-triangle and edge-edge collision constraints, static intersection check (its numba kernels are in
+    ``_ccd_kernels``).
 composer
     Algorithm 1 (the Floral Canopy Composer loop) over instanced floret animations; its settings are the
     ``SOLVER`` parameter table.

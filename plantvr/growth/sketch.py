@@ -24,7 +24,8 @@ what the TreeSketch model changes:
 * pipe-model widths with width constraints (§2.10) and pruning at the nearest branching point (§2.11).
 
 Randomness is drawn from generators seeded by (seed, iteration, purpose), so a replay from the same seed
-and the same commands is bit-identical.
+and the same commands is bit-identical. The rules themselves are array functions in :mod:`.sketch_rules`, the
+parameter table and option checks are in :mod:`.sketch_params`; their public names are importable from here.
 """
 from __future__ import annotations
 
@@ -33,20 +34,36 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import (
-    MAX_COORD,
-    MAX_COUNT,
-    check_array,
-    check_int,
-    check_point,
-    check_points,
-    check_range,
-    check_values,
-)
-from ..params import PARAM_BY_NAME, TREEWAND, WINDOWS, Param, ParamTable, check_params
+from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
+from ..params import PARAM_BY_NAME, check_params
 from .bending import BendResult, bend_path, pipe_widths
-from .directions import _rotate, bud_headings, normalize, transport_lateral
+from .directions import bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, _Buds, marker_counts, sum_per_bud
+from .sketch_params import (
+    _ROW,
+    SKETCH_ROWS,
+    TABLE_OPTIONS,
+    TREESKETCH,
+    _check_asym,
+    _check_bool,
+    _check_depth,
+    _check_ellipse,
+    _check_life,
+    _check_region,
+    check_grid_reach,
+    grid_reach,
+    split_values,
+)
+from .sketch_rules import (
+    autonomous_points,
+    barycentric,
+    branch_point,
+    deflect_heading,
+    ellipse_distance,
+    gravimorphism,
+    set_point_tropism,
+    shoot_lengths,
+)
 from .tree import BUD, NO_SLOT
 
 __all__ = [
@@ -64,322 +81,6 @@ __all__ = [
     "split_values",
 ]
 
-_Y = np.array([0.0, 1.0, 0.0])
-
-#: Largest |coarse index| and pyramid offset of the shadow grid (plantvr.growth.shadow): nodes farther out than
-#: (GRID_COARSE - 2) * fine_cells - GRID_OFFSET cells from the origin cannot be indexed (issue 20:
-#: ``base_length = 1e-20`` after growth crashed ``ShadowGrid.add``).
-try:
-    from .shadow import COARSE_LIMIT as GRID_COARSE
-    from .shadow import MAX_OFFSET as GRID_OFFSET
-except ImportError:  # pragma: no cover - an older shadow grid without stated bounds
-    GRID_COARSE, GRID_OFFSET = 2 ** 14, 64
-#: Bounds of the gravimorphism ellipse's semi-axes and offset: beyond them Eq. 4.6 overflows to NaN vigor.
-ELLIPSE_RANGE = (1e-6, 1e6)
-#: Most neighbour sites a crown region may list (the region test is a (points x sites) distance table).
-MAX_SITES = 10_000
-
-
-def _row(name, kind, default, ref, doc, **kw) -> Param:
-    return Param(name=name, kind=kind, default=default, window="sketch", ref=ref, doc=doc, **kw)
-
-
-#: The TreeSketch rows of :data:`TREESKETCH` (spec 004 §1.4, §2.3, §2.5): the scalar :class:`SketchEngine` options
-#: (the gravimorphism ellipse as its three numbers) and the stroke brush of :class:`~plantvr.growth.sketch_tools.
-#: StrokeEmitter`. The engine's option checks and the architecture panel read their ranges from here.
-SKETCH_ROWS: tuple[Param, ...] = (
-    _row("n_max", int, 3, "§1.4.4 Eq. 4.3", "Maximum shoot length: internodes per step of the most vigorous bud.",
-         symbol="n_max", range=(1, 1000)),
-    _row("deflection", float, 0.0, "§1.4.7", "Deflection angle of the continuing heading, away from the lateral bud.",
-         symbol="δ", unit="deg", range=(0.0, 90.0)),
-    _row("trunk_up", bool, False, "§1.4.5 Fig. 4.19", "Tropism straight up on the main axis.", range=(0, 1)),
-    _row("stroke_tropism", bool, False, "§2.7", "Tropism follows the stroke direction of a bud's selecting points.",
-         range=(0, 1)),
-    _row("mode", str, "directed", "§1.4.1", "Marker policy: user points kept until consumed, or generated per step.",
-         choices=("directed", "autonomous")),
-    _row("point_density", int, 4, "§1.4.1", "K of autonomous growth: up to 1 + K points per bud and step.",
-         symbol="K", range=(0, 1000)),
-    _row("ellipse_sv", float, 1.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: semi-axis along V (up).",
-         symbol="s_v", range=ELLIPSE_RANGE, slider=(0.05, 20.0), log=True),
-    _row("ellipse_sp", float, 1.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: semi-axis along P (side).",
-         symbol="s_p", range=ELLIPSE_RANGE, slider=(0.05, 20.0), log=True),
-    _row("ellipse_ev", float, 0.0, "§1.4.6 Eq. 4.6", "Gravimorphism control ellipse: offset of its centre along V.",
-         symbol="e_v", range=(-ELLIPSE_RANGE[1], ELLIPSE_RANGE[1]), slider=(-10.0, 10.0)),
-    _row("shed_threshold", float, 0.0, "§1.4.8", "Shedding threshold Th of the normalised rule (0: never shed).",
-         symbol="Th", range=(0.0, 1e12), slider=(0.0, 10.0)),
-    _row("stroke_rate", float, 20.0, "§2.5", "Brush: points per unit volume per second of brushing.",
-         range=(0.0, 1e9), low_open=True, slider=(0.1, 1000.0), log=True),
-    _row("stroke_spacing", float, 0.5, "§2.5", "Sketch (brush radius 0): distance between points on the stroke.",
-         unit="m", range=(1e-9, MAX_COORD), slider=(0.01, 10.0), log=True),
-)
-_ROW = {p.name: p for p in SKETCH_ROWS}
-#: The TreeSketch parameter table: every Tree Wand row, then :data:`SKETCH_ROWS`.
-TREESKETCH = ParamTable("treesketch", [*TREEWAND.params, *SKETCH_ROWS],
-                        {**WINDOWS, "sketch": ("TreeSketch", "#8e44ad")})
-#: SketchEngine options that are rows of :data:`TREESKETCH` (``ellipse`` is the three ``ellipse_*`` rows).
-TABLE_OPTIONS = ("n_max", "deflection", "trunk_up", "stroke_tropism", "mode", "point_density", "ellipse",
-                 "shed_threshold")
-_ELLIPSE_ROWS = ("ellipse_sv", "ellipse_sp", "ellipse_ev")
-
-
-def _check_bool(name: str, value: Any) -> bool:
-    """``value`` as a bool; only True/False (or 0/1) are accepted, so ``"no"`` is not silently True."""
-    if isinstance(value, (bool, np.bool_)) or (isinstance(value, (int, np.integer)) and value in (0, 1)):
-        return bool(value)
-    raise ValueError(f"{name} must be True or False, got {value!r}")
-
-
-def _rows3(name: str, value: Any) -> np.ndarray:
-    """``value`` as a finite (N, 3) float64 array (a single (3,) row is promoted)."""
-    try:
-        a = np.asarray(value, float)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be an (N, 3) array, got {type(value).__name__}") from None
-    return check_array(name, np.atleast_2d(a), shape=(None, 3))
-
-
-def grid_reach(params: dict[str, Any]) -> float:
-    """Largest |x| or |z| (and |y| / 3) a node or marker may have for the shadow grid of ``params`` to index it."""
-    return ((GRID_COARSE - 2) * params["fine_cells"] - GRID_OFFSET) * params["base_length"]
-
-
-def check_grid_reach(params: dict[str, Any], pos: np.ndarray, *, name: str = "base_length") -> None:
-    """Raise ``ValueError`` (naming ``name``) unless every point of ``pos`` (N, 3) lies where the shadow grid of
-    ``params`` (cell ``base_length``, ``fine_cells``) can index it: |x|, |z| and |y| / 3 within :func:`grid_reach`."""
-    if not len(pos):
-        return
-    ext = max(float(np.abs(pos[:, [0, 2]]).max()), float(np.abs(pos[:, 1]).max()) / 3.0)
-    reach = grid_reach(params)
-    if ext > reach:
-        if name == "base_length":
-            raise ValueError(f"base_length must be at least {params['base_length'] * ext / reach:.3g} for a tree "
-                             f"reaching {ext:.6g} from the origin (the shadow grid indexes "
-                             f"{reach / params['base_length']:.0f} cells), got {params['base_length']!r}")
-        raise ValueError(f"{name} must lie within {reach:.6g} of the origin (|y| within {3 * reach:.6g}) for the "
-                         f"shadow grid of base_length {params['base_length']!r}, got {ext:.6g}")
-
-
-def split_values(values: dict[str, Any], ellipse=(1.0, 1.0, 0.0)) -> tuple[dict[str, Any], dict[str, Any]]:
-    """:data:`TREESKETCH` values, checked and split into engine parameters (the Tree Wand rows) and
-    :class:`SketchEngine` options; the ``ellipse_*`` rows become ``ellipse`` when any is given (the others
-    taken from ``ellipse``); the stroke rows belong to neither and are dropped."""
-    values = TREESKETCH.validate(values)
-    params = {k: v for k, v in values.items() if k in TREEWAND}
-    opts = {k: v for k, v in values.items() if k in TABLE_OPTIONS}
-    if any(k in values for k in _ELLIPSE_ROWS):
-        opts["ellipse"] = tuple(values.get(k, e) for k, e in zip(_ELLIPSE_ROWS, ellipse))
-    return params, opts
-
-
-def barycentric(alpha: float, beta: float, gamma: float) -> tuple[float, float, float]:
-    """Normalise non-negative weights to the triangle alpha + beta + gamma = 1 (Eq. 4.5, ERRATUM E7).
-
-    Raises ``ValueError`` when a weight is negative or all are zero.
-    """
-    a = check_range("alpha (w_heading)", alpha, 0.0, np.inf)
-    b = check_range("beta (w_tropism)", beta, 0.0, np.inf)
-    c = check_range("gamma (w_env)", gamma, 0.0, np.inf)
-    s = a + b + c
-    if s <= 0:
-        raise ValueError(f"growth weights must not all be zero, got {(alpha, beta, gamma)!r}")
-    if not math.isfinite(s):  # huge weights: normalise by the largest first (1e308 thrice is (1/3, 1/3, 1/3))
-        m = max(a, b, c)
-        a, b, c = a / m, b / m, c / m
-        s = a + b + c
-    return a / s, b / s, c / s
-
-
-def set_point_tropism(heading: np.ndarray, theta: float, *, main_axis: np.ndarray | None = None,
-                      trunk_up: bool = False, rng: int | np.random.Generator | None = None,
-                      eps: float = 1e-3) -> np.ndarray:
-    """Tropism vectors **T** = cos(theta) **Y** + sin(theta) **h** (spec 004 §1.4.5, Eq. 4.5).
-
-    Parameters
-    ----------
-    heading : (B, 3) float64 array
-        Current bud headings **H** (unit).
-    theta : float
-        Set-point angle from the vertical, radians, in [0, pi] (0 = up, pi = down, pi/2 = plagiotropism).
-    main_axis : (B,) bool array, optional
-        Buds on the main axis (order 0); with ``trunk_up`` their **T** is **Y**.
-    trunk_up : bool
-        The trunk-up switch (Fig. 4.19).
-    rng : int or Generator or None
-        Draws the random horizontal plane for near-vertical headings (|H x Y| < eps).
-
-    Returns
-    -------
-    (B, 3) float64 array of unit vectors.
-
-    References
-    ----------
-    .. [1] Longay thesis §4.4.2, Eq. 4.5; spec 004 §1.4.5 (closed form and eps [INFERRED]).
-    """
-    theta = check_range("theta", theta, 0.0, math.pi)
-    H = _rows3("heading", heading)
-    if main_axis is not None:
-        main_axis = check_array("main_axis", main_axis, shape=(len(H),), dtype=bool)
-    trunk_up = _check_bool("trunk_up", trunk_up)
-    eps = check_range("eps", eps, 0.0, 1.0)
-    hp = H - (H @ _Y)[:, None] * _Y
-    near = np.linalg.norm(np.cross(H, _Y), axis=1) < eps
-    if near.any():
-        phi = np.random.default_rng(rng).uniform(0.0, 2.0 * math.pi, int(near.sum()))
-        hp[near] = np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], 1)
-    hp = normalize(hp, fallback=np.array([1.0, 0.0, 0.0]))
-    T = math.cos(theta) * _Y + math.sin(theta) * hp
-    if trunk_up and main_axis is not None:
-        T[np.asarray(main_axis, bool)] = _Y
-    return T
-
-
-def deflect_heading(heading: np.ndarray, lateral: np.ndarray, delta: float) -> np.ndarray:
-    """Rotate the continuing heading by -delta about **H** x **lateral**, away from the lateral bud (§1.4.7).
-
-    Rows whose heading and lateral direction are parallel are returned unchanged. ``delta`` in radians.
-    """
-    H = _rows3("heading", heading)
-    L = _rows3("lateral", lateral)
-    if len(L) not in (1, len(H)):
-        raise ValueError(f"lateral must have 1 or {len(H)} rows like heading, got {len(L)}")
-    delta = check_range("delta", delta, -2 * math.pi, 2 * math.pi)
-    axis = np.cross(H, L)
-    n = np.linalg.norm(axis, axis=1)
-    out = H.copy()
-    ok = n > 1e-12
-    if ok.any() and delta != 0.0:
-        out[ok] = _rotate(H[ok], axis[ok] / n[ok, None], -delta)
-    return normalize(out)
-
-
-def shoot_lengths(vigor: np.ndarray, n_max: int) -> np.ndarray:
-    """Eq. 4.3: n = floor(v / v_max * n_max) internodes per enabled bud; v_max = max over the given buds.
-
-    ``vigor`` holds the vigor of the *enabled* buds only. The bud with v = v_max gets exactly n_max; a bud
-    with v < v_max / n_max gets 0 (dormant). All-zero vigor gives zeros.
-    """
-    n_max = check_int("n_max", n_max, 0, 10_000)
-    v = check_array("vigor", vigor, shape=(None,))
-    if v.size == 0:
-        return np.zeros(0, np.int64)
-    vmax = float(v.max())
-    if not vmax > 0:
-        return np.zeros(v.shape, np.int64)
-    n = np.floor(v / vmax * n_max).astype(np.int64)
-    n[v == vmax] = n_max  # exact for the most vigorous bud, whatever the rounding
-    return n
-
-
-def autonomous_points(pos: np.ndarray, heading: np.ndarray, vigor: np.ndarray, *, density: int,
-                      r_in: float, r_out: float, half_angle: float,
-                      rng: int | np.random.Generator | None = None) -> np.ndarray:
-    """Attraction points for autonomous growth (§1.4.1 [INFERRED]): k_i = 1 + floor(K v_i / v_max) per bud,
-    uniform in the cone sector between radii ``r_in`` and ``r_out`` around each heading (half angle, radians).
-
-    Returns a (sum k_i, 3) array, buds in input order.
-    """
-    density = check_int("density", density, 0, 10_000)
-    r_in = check_range("r_in", r_in, 0.0, np.inf)
-    r_out = check_range("r_out", r_out, r_in, np.inf)
-    half_angle = check_range("half_angle", half_angle, 0.0, math.pi)
-    if r_out > MAX_COORD:
-        raise ValueError(f"r_out must be in [{r_in}, {MAX_COORD:g}], got {r_out!r}")
-    pos = check_points("pos", pos)
-    H = normalize(check_array("heading", heading, shape=(len(pos), 3)))
-    v = check_array("vigor", vigor, shape=(len(pos),))
-    if len(pos) * (1 + density) > MAX_COUNT:
-        raise ValueError(f"pos and density ask for up to {len(pos) * (1 + density)} points, more than {MAX_COUNT}")
-    rng = np.random.default_rng(rng)
-    if len(pos) == 0:
-        return np.zeros((0, 3))
-    vmax = float(v.max())
-    k = 1 + (np.floor(density * v / vmax).astype(np.int64) if vmax > 0 else np.zeros(len(v), np.int64))
-    idx = np.repeat(np.arange(len(pos)), k)
-    m = len(idx)
-    cz = rng.uniform(math.cos(half_angle), 1.0, m)
-    phi = rng.uniform(0.0, 2.0 * math.pi, m)
-    r = (rng.uniform(r_in ** 3, r_out ** 3, m)) ** (1.0 / 3.0)
-    h = H[idx]
-    a = normalize(np.cross(h, _Y), fallback=np.array([1.0, 0.0, 0.0]))
-    a = normalize(a - np.sum(a * h, 1, keepdims=True) * h, fallback=np.array([0.0, 0.0, 1.0]))
-    b = np.cross(h, a)
-    sz = np.sqrt(np.maximum(1.0 - cz * cz, 0.0))
-    d = cz[:, None] * h + sz[:, None] * (np.cos(phi)[:, None] * a + np.sin(phi)[:, None] * b)
-    return pos[idx] + r[:, None] * d
-
-
-def ellipse_distance(chi: np.ndarray, *, s_v: float, s_p: float, e_v: float) -> np.ndarray:
-    """Distance d from the axis to the control ellipse along the polar direction chi (radians from +V).
-
-    Closed form of spec 004 §1.4.6 [INFERRED]: the largest real root of A t^2 + B t + C = 0 with
-    A = cos^2 chi / s_v^2 + sin^2 chi / s_p^2, B = -2 e_v cos chi / s_v^2, C = e_v^2 / s_v^2 - 1, clamped >= 0;
-    0 where the ray misses the ellipse. The neutral ellipse (1, 1, 0) gives d = 1.
-    """
-    lo, hi = ELLIPSE_RANGE
-    s_v = check_range("s_v", s_v, lo, hi)
-    s_p = check_range("s_p", s_p, lo, hi)
-    e_v = check_range("e_v", e_v, -hi, hi)
-    chi = check_values("chi", chi)
-    c, s = np.cos(chi), np.sin(chi)
-    A = c * c / s_v ** 2 + s * s / s_p ** 2
-    B = -2.0 * e_v * c / s_v ** 2
-    C = e_v ** 2 / s_v ** 2 - 1.0
-    disc = B * B - 4.0 * A * C
-    root = (-B + np.sqrt(np.maximum(disc, 0.0))) / (2.0 * A)
-    return np.where(disc >= 0.0, np.maximum(root, 0.0), 0.0)
-
-
-def gravimorphism(parent_heading: np.ndarray, bud_dir: np.ndarray, *, s_v: float = 1.0, s_p: float = 1.0,
-                  e_v: float = 0.0) -> np.ndarray:
-    """Eq. 4.6: b = cos^2 tau + d sin^2 tau for lateral buds on axes with headings ``parent_heading`` (B, 3).
-
-    tau = angle(H, Y); chi = the bud's polar angle about H measured from **V** (the upward normal of H in its
-    vertical plane) toward **P** = **V** x **H**; d = :func:`ellipse_distance`. Multiply L^kappa by b (Eq. 4.7).
-
-    References
-    ----------
-    .. [1] Longay thesis §4.4.3, Eqs. 4.6–4.7; spec 004 §1.4.6, §5.1 (HVP frame), ERRATUM E1 (epitony = upper).
-    """
-    H = normalize(_rows3("parent_heading", parent_heading))
-    D = _rows3("bud_dir", bud_dir)
-    if len(D) != len(H):
-        raise ValueError(f"bud_dir must have {len(H)} rows like parent_heading, got {len(D)}")
-    cos_t = np.clip(H @ _Y, -1.0, 1.0)
-    V = normalize(_Y - cos_t[:, None] * H, fallback=np.array([1.0, 0.0, 0.0]))
-    P = np.cross(V, H)
-    chi = np.arctan2(np.sum(D * P, 1), np.sum(D * V, 1))
-    d = ellipse_distance(chi, s_v=s_v, s_p=s_p, e_v=e_v)
-    return cos_t ** 2 + d * (1.0 - cos_t ** 2)
-
-
-def branch_point(parent: np.ndarray, alive: np.ndarray, node: int, *, protected=()) -> int:
-    """Where a prune of ``node`` cuts: the first node at or above ``node`` whose parent has another live child
-    (the branch's start at its nearest proximal branching point, spec 004 §2.11 [INFERRED: proximal]).
-
-    A node in ``protected`` (width constraints) on the way up stops the walk just above it, so a prune above a
-    constraint leaves a stub (§5.3.3). Returns -1 when nothing may be cut (``node`` itself protected, the
-    base point or the first internode). ``parent`` (n,) int, ``alive`` (n,) bool.
-    """
-    parent = check_array("parent", parent, shape=(None,), dtype=np.int64)
-    n = len(parent)
-    if n and (np.any(parent >= np.arange(n)) or np.any(parent < -1)):
-        raise ValueError("parent must be an (n,) int array with -1 <= parent[i] < i")
-    alive = check_array("alive", alive, shape=(n,), dtype=bool)
-    node = check_int("node", node, 0, n - 1)
-    if not alive[node]:
-        raise ValueError(f"node {node} is not alive")
-    protected = {check_int("protected node", k, 0, n - 1) for k in protected}
-    if node <= 1 or node in protected:
-        return -1
-    live_children = np.bincount(parent[np.asarray(alive, bool) & (parent >= 0)], minlength=len(parent))
-    c = node
-    while True:
-        p = int(parent[c])
-        if p in protected or live_children[p] >= 2:
-            return c
-        if p <= 1:  # reached the first internode without a branching point: cut at the tapped node
-            return node
-        c = p
 
 
 class SketchEngine(GrowthEngine):
@@ -460,11 +161,11 @@ class SketchEngine(GrowthEngine):
                 "deflection": _ROW["deflection"].check,
                 "mode": lambda v: _ROW["mode"].check(v if isinstance(v, str) else repr(v)[:80]),
                 "point_density": _ROW["point_density"].check,
-                "ellipse": cls._check_ellipse,
+                "ellipse": _check_ellipse,
                 "shed_threshold": _ROW["shed_threshold"].check,
                 "stroke_tropism": lambda v: _check_bool("stroke_tropism", v),
-                "bud_lifetime": cls._check_life, "region": cls._check_region,
-                "depth": cls._check_depth, "asymmetry": cls._check_asym}
+                "bud_lifetime": _check_life, "region": _check_region,
+                "depth": _check_depth, "asymmetry": _check_asym}
 
     @classmethod
     def _check_options(cls, opts: dict[str, Any]) -> dict[str, Any]:
@@ -476,24 +177,6 @@ class SketchEngine(GrowthEngine):
                 raise ValueError(f"unknown SketchEngine option {k!r}; expected one of {sorted(checks)}")
             new[k] = checks[k](v)
         return new
-
-    @staticmethod
-    def _check_asym(v) -> list | None:
-        if v is None:
-            return None
-        return check_array("asymmetry", v, shape=(2,), max_abs=MAX_COORD).tolist()
-
-    @staticmethod
-    def _check_depth(depth) -> dict | None:
-        if depth is None:
-            return None
-        if not isinstance(depth, dict) or set(depth) != {"normal", "depth"}:
-            raise ValueError(f"depth must be a dict with keys normal, depth, got {depth!r}")
-        n = check_point("depth normal", depth["normal"])
-        if not np.linalg.norm(n) > 1e-12:
-            raise ValueError(f"depth normal must be a non-zero vector, got {n.tolist()}")
-        return {"normal": (n / np.linalg.norm(n)).tolist(),
-                "depth": check_range("depth", depth["depth"], 0.0, 1e12)}
 
     def in_depth(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points inside the depth slab (all True without a depth constraint)."""
@@ -559,24 +242,6 @@ class SketchEngine(GrowthEngine):
         """Change growth parameters; every value is checked (:meth:`checked_params`) before any is applied."""
         super().set_params(self.checked_params(params))
 
-    @staticmethod
-    def _check_region(region) -> dict | None:
-        if region is None:
-            return None
-        if not isinstance(region, dict) or set(region) != {"sites", "weights", "weight", "h_max"}:
-            raise ValueError(f"region must be a dict with keys sites, weights, weight, h_max, got {region!r}")
-        sites, weights = region["sites"], region["weights"]
-        sites = np.zeros((0, 2)) if np.size(sites) == 0 else \
-            check_array("region sites", sites, shape=(None, 2), max_abs=2 * MAX_COORD)
-        weights = np.zeros(0) if np.size(weights) == 0 else check_array("region weights", weights, shape=(None,))
-        if len(sites) > MAX_SITES:
-            raise ValueError(f"region sites must list at most {MAX_SITES} neighbours, got {len(sites)}")
-        if len(weights) != len(sites) or not np.all((weights >= 1e-12) & (weights <= 1e12)):
-            raise ValueError(f"region weights must be ({len(sites)},) like the sites, each in [1e-12, 1e12]")
-        return {"sites": sites.tolist(), "weights": weights.tolist(),
-                "weight": check_range("region weight", region["weight"], 1e-12, 1e12),
-                "h_max": check_range("region h_max", region["h_max"], 0.0, MAX_COORD, low_open=True)}
-
     def in_region(self, points: np.ndarray) -> np.ndarray:
         """(N,) bool: points inside the tree's crown space (all True without a region)."""
         reg = self.sketch["region"]
@@ -598,16 +263,6 @@ class SketchEngine(GrowthEngine):
         reg = self.sketch["region"]
         t = self.tree
         return reg is not None and bool(t.n) and float(t.pos[t.alive, 1].max()) >= reg["h_max"]
-
-    @staticmethod
-    def _check_life(value) -> int | None:
-        return None if value is None else check_int("bud_lifetime", value, 1, 10 ** 9)
-
-    @staticmethod
-    def _check_ellipse(ellipse) -> tuple[float, float, float]:
-        if isinstance(ellipse, (str, bytes)) or not hasattr(ellipse, "__len__") or len(ellipse) != 3:
-            raise ValueError(f"ellipse must be (s_v, s_p, e_v), got {ellipse!r}")
-        return tuple(check_range(f"ellipse {_ROW[k].symbol}", v, *_ROW[k].range) for k, v in zip(_ELLIPSE_ROWS, ellipse))
 
     def set_options(self, **opts: Any) -> None:
         """Change TreeSketch options (the keywords of the constructor except ``rng``); all checked first."""
@@ -734,7 +389,6 @@ class SketchEngine(GrowthEngine):
         t.lat[:] = normalize(np.einsum("nij,nj->ni", res.rot, t.lat))
         self.rebuild_light()
         return res
-
 
     def select(self, node: int | None, direction=None) -> None:
         """Selective growth (§2.8): only buds in the subtree of ``node`` may grow; ``None`` ends the mode.

@@ -34,7 +34,8 @@ from scipy.spatial import cKDTree
 
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_range
 from ..growth.engine import GrowthEngine
-from ..growth.sketch import SketchEngine, _check_bool
+from ..growth.sketch import SketchEngine
+from ..growth.sketch_params import _check_bool
 from ..params import Param, ParamTable, check_params, defaults
 from ..scaleout import (  # check_client is re-exported: forest callers check their client here
     TaskStats,

@@ -2,6 +2,7 @@
 import numpy as np
 import pytest
 
+from plantvr.flowers import _ccd_kernels as K
 from plantvr.flowers import ccd, pbd
 
 
@@ -138,7 +139,7 @@ def test_v17_culling_never_culls_a_root():
         r = np.roots(c)
         has = np.any((np.abs(r.imag) < 1e-12) & (r.real >= 0) & (r.real <= 1))
         if has:
-            assert not ccd._culled(*c)
+            assert not K._culled(*c)
 
 
 @pytest.mark.parametrize("roots", [[0.37], [0.2, 0.7], [0.3, 0.3, 0.8], [0.0, 0.5, 1.0], [0.25, 0.5, 0.9]])
@@ -284,7 +285,7 @@ def test_collision_projection_numba_equals_numpy_twin():
     w = np.ones(len(x0))
     w[:6] = 0.0
     a, b = x1.copy(), x1.copy()
-    ccd._project_collision(a, w, cons, sides, 0.005, 1.0, 4)
+    K._project_collision(a, w, cons, sides, 0.005, 1.0, 4)
     ccd._project_collision_numpy(b, w, cons, sides, 0.005, 1.0, 4)
     assert np.allclose(a, b, rtol=0, atol=1e-12)
 

@@ -215,7 +215,7 @@ def test_failed_save_keeps_the_old_file_and_leaves_nothing(fail, mesh, tmp_path,
             else:                                           # the writer dies after writing part of the file
                 import plantvr._fileio as F
                 m.setattr(F, "atomic_write", _half_way(F.atomic_write))
-                for mod in ("documents.labels", "documents.labels_bundle", "io.ply", "io.gltf", "io.labels", "vine.volume"):
+                for mod in ("documents.labels_file", "documents.labels_bundle", "io.ply", "io.gltf", "io.labels", "vine.volume"):
                     m.setattr(f"plantvr.{mod}.atomic_write", F.atomic_write)
             with pytest.raises(OSError):
                 write(p)
