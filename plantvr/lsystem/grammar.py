@@ -27,7 +27,7 @@ Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` 
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
 Request modules (``?P(x, y, z)``, ``?H(h)``, ...; issue 33) may be in any pattern: the engine answers them
-before the step (:mod:`plantvr.lsystem.engine`).
+before the step (:mod:`plantvr.lsystem.rewrite`).
 
 Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, wildcard (``*``)
 predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
