@@ -65,15 +65,19 @@ class _OverBudget(BaseException):
 
 
 class _ContextStub(SB.SafeAttrs):
-    """``context()`` / ``execContext()`` of L-Py: records turtle options, accepts editor settings."""
+    """``context()`` / ``execContext()`` of L-Py: records turtle options, accepts editor settings; in a trusted
+    grammar ``context["name"] = value`` sets a name of the grammar's namespace, as L-Py's context is that
+    namespace (the editor's ``__initialiseContext__`` defines its curves and functions so)."""
 
-    def __init__(self, options: dict) -> None:
+    def __init__(self, options: dict, namespace: dict | None) -> None:
         self.turtle = _TurtleStub(options)
         self.options = _Ignore()
         self.animation_timestep = 0.0
+        self._ns = namespace
 
     def __setitem__(self, key, value) -> None:
-        pass
+        if self._ns is not None and isinstance(key, str):
+            self._ns[key] = value
 
     def __getattr__(self, name):
         raise LSystemError(f"context().{name} is not supported")
@@ -84,11 +88,24 @@ class _Ignore(SB.SafeAttrs):
         return lambda *a, **k: None
 
 
+#: Highest material index ``setMaterial`` may set (PlantGL's editor shows a few dozen).
+MAX_MATERIAL = 1023
+
+
 class _TurtleStub(SB.SafeAttrs):
     _MAP = {"setAngleIncrement": "angle", "setWidth": "width", "setDefaultStep": "step"}
 
     def __init__(self, options: dict) -> None:
         self._options = options
+        self.materials: dict[int, tuple] = {}           # index -> (name, ambient, diffuse), from setMaterial
+
+    def setMaterial(self, index, material) -> None:
+        """``context().turtle.setMaterial(i, Material(...))``, as the editor's colour panel writes it."""
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= MAX_MATERIAL:
+            raise LSystemError(f"setMaterial needs an index in [0, {MAX_MATERIAL}], got {index!r:.40}")
+        entry = getattr(material, "as_entry", None)
+        if callable(entry):                                  # a texture or other appearance keeps the default
+            self.materials[index] = entry()
 
     def __getattr__(self, name):
         if name in self._MAP:
@@ -103,6 +120,18 @@ class _TurtleStub(SB.SafeAttrs):
 class _Namespace:
     """The grammar's namespace and the running of its code (a base of :class:`~plantvr.lsystem.engine.LSystem`)."""
 
+    @property
+    def materials(self) -> tuple[tuple[str, tuple[int, int, int], float], ...]:
+        """L-Py's material table as the grammar leaves it: :data:`~plantvr.lsystem.shapes.DEFAULT_MATERIALS`
+        with the entries ``context().turtle.setMaterial(i, Material(...))`` set (the editor's colour panel);
+        indices in between keep PlantGL's first default."""
+        from .shapes import DEFAULT_MATERIALS
+        table = list(DEFAULT_MATERIALS)
+        for i, entry in sorted(self._context.turtle.materials.items()):
+            table.extend([DEFAULT_MATERIALS[0]] * (i + 1 - len(table)))
+            table[i] = entry
+        return tuple(table)
+
     def _namespace(self) -> dict:
         if self.trusted:
             from .plantgl import grammar_builtins  # openalea.plantgl.all -> plantvr.lsystem.plantgl
@@ -116,7 +145,7 @@ class _Namespace:
         for name in randoms:
             ns[name] = getattr(self._rng, name)
         opts = self._turtle
-        ctx = _ContextStub(opts)
+        ctx = self._context = _ContextStub(opts, ns if self.trusted else None)
         ns.update(
             extern=self._extern, context=lambda: ctx, execContext=lambda: ctx,
             forward=lambda: setattr(self, "_direction", 1), backward=lambda: setattr(self, "_direction", -1),
@@ -240,20 +269,19 @@ class _Namespace:
                 raise LSystemError(f"extern {k} must be a number, got {value!r:.40}") from None
 
     def _exec_python(self) -> None:
-        tree = self._parse(self._g.python, "exec", 1, 1, "the grammar's Python code")
-        self._restrict(tree, 1, 1)
-        code = self._compile_tree(tree, "exec", 1, 1, "the grammar's Python code")
-        self._reseed_globals(force=True)
-        try:
-            with self._seeded():
-                exec(code, self._ns)
-        except LSystemError as e:
-            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or e.line or 1, 1) from None
-        except _OverBudget:
-            raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, " running the grammar's Python code") \
-                from None
-        except Exception as e:                                # the grammar's own code failed
-            raise LSystemError(f"{type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]), 1) from None
+        """Run the editor's INITIALISATION block (trusted grammars: its ``__initialiseContext__(context)`` defines
+        the curves, functions and scalars of the editor's panels, as ``LsysContext::__initialiseFrom`` does before
+        the code; the caller's externs then win, as L-Py's ``updateNamespace(parameters)``), then the code."""
+        init = self._g.init if self.trusted and self._g.init.strip() else ""
+        parts = [(init, "the INITIALISATION block"), (self._g.python, "the grammar's Python code")]
+        for src, what in parts if init else parts[1:]:
+            tree = self._parse(src, "exec", 1, 1, what)
+            self._restrict(tree, 1, 1)
+            self._exec_code(self._compile_tree(tree, "exec", 1, 1, what), what)
+            init_fn = self._ns.pop("__initialiseContext__", None) if src is init else None
+            if callable(init_fn):
+                self._exec_code(lambda: init_fn(self._context), what)
+                self._ns.update(self._overrides)
         for name in _RANDOM_FUNCS if self.trusted else ():   # ``from random import *`` stays seeded
             if self._ns.get(name) is getattr(_random, name, None):
                 self._ns[name] = getattr(self._rng, name)
@@ -263,6 +291,19 @@ class _Namespace:
         if unknown:
             raise ValueError(f"unknown extern {unknown[0]!r}: the grammar declares "
                              f"{sorted(self._externs) or 'none'}")
+
+    def _exec_code(self, code, what: str) -> None:
+        """``exec(code)`` in the namespace (or call ``code``), seeded; its errors as LSystemError with the line."""
+        self._reseed_globals(force=True)
+        try:
+            with self._seeded():
+                code() if callable(code) else exec(code, self._ns)
+        except LSystemError as e:
+            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or e.line or 1, 1) from None
+        except _OverBudget:
+            raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, f" running {what}") from None
+        except Exception as e:                                # the grammar's own code failed
+            raise LSystemError(f"{type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]), 1) from None
 
     def _tb_line(self, tb) -> int:
         line = 0
