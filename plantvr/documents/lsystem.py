@@ -485,11 +485,13 @@ class LSystemDocument(Document):
     @property
     def shapes(self) -> dict[int, TriMesh]:
         """The turtle's shapes at the current step, one :class:`~plantvr.lsystem.shapes.ShapeMesh` per colour
-        index (L-Py's frame, z-up; :func:`~plantvr.lsystem.shapes.shape_meshes`), made once per step."""
+        index (L-Py's frame, z-up; :func:`~plantvr.lsystem.shapes.shape_meshes`) in the grammar's material table
+        (:attr:`~plantvr.lsystem.LSystem.materials`), made once per step."""
         with self._lock:
             nodes, (made_for, meshes) = self._nodes, self._meshes
             if nodes is not None and made_for is not nodes:
-                meshes = shape_meshes(nodes.shapes)
+                meshes = shape_meshes(nodes.shapes, materials=self._derivation(self.text, self.overrides, self.seed,
+                                                                                  self.trusted).lsys.materials)
                 self._meshes = (nodes, meshes)
             return dict(meshes) if nodes is not None else {}
 

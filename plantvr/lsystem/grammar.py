@@ -4,7 +4,8 @@ Layout read, as L-Py's ``lpy_parser`` does: Python code (functions, constants, `
 declarations, ``nproduce`` in functions) before and after the L-system; ``Axiom:``; ``derivation length:``;
 ``ignore:`` / ``consider:``; sections ``production:``, ``decomposition:`` and ``homomorphism:`` /
 ``interpretation:`` (``maximum depth:`` inside the last two); ``endlsystem``; the trailing
-``###### INITIALISATION ######`` block of L-Py's editor (only its ``scalars`` are read, as declared parameters).
+``###### INITIALISATION ######`` block of L-Py's editor (its ``scalars`` are read as declared parameters; a trusted
+grammar also runs its code and ``__initialiseContext__``, which define the curves and functions of its panels).
 
 Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred --> successor`` or
 ``pred -> successor`` (``pred -static-> successor``: made once, see :attr:`Rule.static`); ``pred : produce successor`` or ``pred :`` followed by an indented Python block with
@@ -27,7 +28,7 @@ Rule groups (issue 33, L-Py's ``lpy_parser.cpp``): the rules after ``group N:`` 
 expression, at least 0) until ``endgroup`` or the next ``group``; the others are in group 0.
 
 Request modules (``?P(x, y, z)``, ``?H(h)``, ...; issue 33) may be in any pattern: the engine answers them
-before the step (:mod:`plantvr.lsystem.engine`).
+before the step (:mod:`plantvr.lsystem.rewrite`).
 
 Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, wildcard (``*``)
 predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
@@ -97,6 +98,7 @@ class Grammar:
     declared: dict = field(default_factory=dict)       # module name -> line
     rules: list[Rule] = field(default_factory=list)
     scalars: dict = field(default_factory=dict)        # name -> value, from the editor's INITIALISATION block
+    init: str = ""                                     # that block's code, line numbers kept (run when trusted)
     first_use: dict = field(default_factory=dict)      # module name -> (line, col) of its first appearance
     axiom_tokens: list = field(default_factory=list)
 
@@ -174,6 +176,7 @@ class _Reader:
         if _INIT_TAG in text:
             text, init = text.split(_INIT_TAG, 1)
             self.read_scalars(init)
+            self.g.init = "\n" * text.count("\n") + init
         lines = text.split("\n")
         self.pre_declare(lines)
         py = [""] * len(lines)

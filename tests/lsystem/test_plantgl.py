@@ -90,3 +90,43 @@ def test_trusted_grammar_imports_resolve_here():
         LSystem("import openalea.plantgl.gui\nAxiom: F\nendlsystem\n", trusted=True)
     with pytest.raises(LSystemError, match="ModuleNotFoundError"):
         LSystem("import no_such_module_here\nAxiom: F\nendlsystem\n", trusted=True)
+
+
+# -- the editor's INITIALISATION block ------------------------------------------------------------------------------
+EDITOR = '''Axiom: A(len(path.ctrlPointList))
+derivation length: 1
+production:
+A(n) --> F(n * scale) ,(3) @O(0.5)
+endlsystem
+###### INITIALISATION ######
+
+__lpy_code_version__ = 1.1
+
+def __initialiseContext__(context):
+\timport openalea.plantgl.all as pgl
+\tcontext.turtle.setMaterial(3, pgl.Material('Red', pgl.Color3(60, 0, 0), 2, pgl.Color3(40, 40, 40), pgl.Color3(0, 0, 0), 1, 0))
+\tpath = pgl.NurbsCurve2D(
+\t    ctrlPointList = pgl.Point3Array([(-0.5, 0, 1),(-0.2, 0.3, 1),(0.0, -0.2, 1),(0.5, 0, 1)]) ,
+\t    )
+\tpath.name = "path"
+\tcontext["path"] = path
+\tcontext["scale"] = 2
+'''
+
+
+def test_initialisation_block_defines_curves_materials_and_scalars_as_lpy_does():
+    """L-Py runs the editor's block and ``__initialiseContext__(context)`` before the code
+    (``LsysContext::__initialiseFrom``): ``context[name] = value`` defines grammar names, ``setMaterial`` sets the
+    colour table; the caller's externs win (``updateNamespace``)."""
+    from plantvr.documents import LSystemDocument
+    ls = LSystem(EDITOR, trusted=True)
+    s = ls.derive()
+    assert str(s) == "F(8),(3)@O(0.5)"                         # 4 control points x scale 2
+    assert ls.materials[3] == ("Red", (60, 0, 0), 2.0) and len(ls.materials) >= 4
+    doc = LSystemDocument(EDITOR, trusted=True)
+    (mesh,) = doc.shapes.values()
+    assert np.all(mesh.colors[:, :3] == (120, 0, 0))           # ambient x diffuse, as material_rgb
+    with pytest.raises(LSystemError, match="line 1.*NameError.*path"):
+        LSystem(EDITOR)                                        # untrusted: the block's code does not run
+    with pytest.raises(LSystemError, match=r"line 18.*ZeroDivisionError"):
+        LSystem(EDITOR.replace('context["scale"] = 2', 'context["scale"] = 1 / 0'), trusted=True)

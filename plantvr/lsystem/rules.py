@@ -1,0 +1,325 @@
+"""Rule compilation: each rule of a grammar made a Python function, with its vectorised or constant plan.
+
+:class:`_Compiled` is a rule ready to run. :class:`_Rules` (a base of :class:`~plantvr.lsystem.engine.LSystem`)
+compiles rules into it (untrusted ones checked by :mod:`plantvr.lsystem.sandbox`), plans one-line context-free
+rules as numpy functions of the parameter columns (:class:`_ToNumpy`) or as constant successors, and calls a
+rule on a module's parameters (``produce`` / ``nproduce``), reading its successor's parameters as L-Py's modules
+hold them. It mirrors L-Py's ``LsysRule`` (``src/cpp/lsysrule.cpp``).
+"""
+from __future__ import annotations
+
+import ast
+import builtins
+import math
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from . import sandbox as SB
+from .grammar import Rule
+from .lexer import LSystemError, Token
+from .modules import is_number
+from .namespace import _OverBudget
+
+_NP_FUNCS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
+             "log10": np.log10, "floor": np.floor, "ceil": np.ceil, "fabs": np.abs, "abs": np.abs,
+             "asin": np.arcsin, "acos": np.arccos, "atan": np.arctan, "atan2": np.arctan2, "radians": np.radians,
+             "degrees": np.degrees, "pow": np.power, "min": np.minimum, "max": np.maximum, "int": np.trunc,
+             "float": lambda a: a, "round": np.round, "hypot": np.hypot, "sinh": np.sinh, "cosh": np.cosh,
+             "tanh": np.tanh}
+_PURE = {name: getattr(math, name, None) for name in _NP_FUNCS} | {"abs": abs, "min": min, "max": max, "int": int,
+                                                                  "float": float, "round": round, "pow": pow}
+_OK_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.IfExp, ast.Constant, ast.Name,
+             ast.Load, ast.Call, ast.operator, ast.unaryop, ast.boolop, ast.cmpop)
+
+
+class _Compiled:
+    """A rule ready to run: its function, pattern ids and optional vectorised or constant plans."""
+
+    def __init__(self, rule: Rule, func, sid: int) -> None:
+        self.rule = rule
+        self.func = func
+        self.sid = sid
+        self.arity = rule.pred.arity
+        self.contexts = bool(rule.left or rule.right)
+        self.newcontexts = bool(rule.newleft or rule.newright)
+        self.rest = list(rule.pred_rest)                     # multi-module predecessor: the modules after the first
+        self.query = any(tok.name in _query_modules() for tok in (*rule.left, *rule.newleft, rule.pred, *self.rest,
+                                                                  *rule.newright, *rule.right))
+        self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
+        self.const = None        # [(sid, (floats...)), ...]
+        self.static = None       # a static rule's successor, [(sid, params), ...]
+        # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
+        self.consts = list(rule.consts)
+        n_all = len(rule.params) + len(self.consts)
+        cidx = {k for k, _ in self.consts}
+        self.keep = [k for k in range(n_all) if k not in cidx] if self.consts else None
+        # the predecessor's own constants (position in its parameter list -> value) and variables' positions
+        start = sum(t.arity for t in rule.left) + sum(t.arity for t in rule.newleft)
+        self.pred_consts = [(k - start, v) for k, v in self.consts if start <= k < start + self.arity]
+        self.pred_vars = [q for q in range(self.arity) if q + start not in cidx]
+
+
+class _Rules:
+    """Compiling and calling rules (a base of :class:`~plantvr.lsystem.engine.LSystem`)."""
+
+    def _compile(self, rule: Rule) -> _Compiled:
+        if time.monotonic() > self._deadline:
+            raise LSystemError(f"time budget of {self.time_budget:g} s exceeded reading the rules", rule.line, 1)
+        first = rule.body[0][0] if rule.body else rule.line
+        base = max(first - 2, 0)                              # the source starts at grammar line base + 1
+        params = () if rule.static else rule.params          # L-Py unbinds a static rule's pattern variables
+        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(params)}):"]
+        for ln, src in rule.body:
+            while len(lines) < ln - 1 - base:
+                lines.append("")
+            lines.append("    " + src)
+        if not rule.body:
+            lines.append("    pass")
+        src = "\n".join(lines) + "\n"
+        what = f"rule {rule.header!r}"
+        tree = self._parse(src, "exec", base + 1, 1, what)
+        if not self.trusted:
+            self._restrict_rule(rule, tree)
+        code = self._compile_tree(tree, "exec", rule.line, 1, what, shift=base)
+        local: dict = {}
+        exec(code, self._ns, local)
+        c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
+        if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
+            c.static = self._call(c, [])
+            if all(type(v) is float for _, vals in c.static for v in vals) and \
+                    not (c.contexts or c.newcontexts or c.rest or c.consts):
+                c.const = c.static
+            return c
+        if rule.successor is not None and not (c.contexts or c.newcontexts or c.rest) and \
+                all(is_number(v) for _, v in c.pred_consts):
+            self._plan(c)
+            c.const = None if c.consts else c.const           # the constant tables match names, not values
+        return c
+
+    def _restrict_rule(self, rule: Rule, tree: ast.Module) -> None:
+        """An untrusted rule: one line (successor, condition), its expressions within the restricted evaluator."""
+        if rule.successor is None:
+            raise LSystemError(f"rule {rule.header!r} has a Python body: " + SB.TRUST_HINT, rule.line,
+                               self._col(rule.line, rule.header))
+        if rule.condition is not None:
+            col = self._col(rule.line, rule.condition, len(rule.header) + 1)
+            self._restrict(self._parse(rule.condition, "eval", rule.line, col, f"rule {rule.header!r}"),
+                           rule.line, col)
+        self._restrict_tokens(rule.successor, f"rule {rule.header!r}")
+        # the generated function itself: ``[if cond:] return __lsys_produce__([...])`` and nothing else
+        fn = tree.body[0]
+        body = list(fn.body)
+        while body:
+            st = body.pop(0)
+            if isinstance(st, ast.If) and not st.orelse:
+                self._restrict(ast.Expression(st.test), rule.line, 1)
+                body[:0] = st.body
+            elif isinstance(st, ast.Return) and st.value is not None:
+                self._restrict(ast.Expression(st.value), rule.line, 1)
+            else:
+                raise LSystemError(f"rule {rule.header!r} has a Python body: " + SB.TRUST_HINT, rule.line, 1)
+
+    def _restrict_tokens(self, toks: list[Token], what: str) -> None:
+        seen = set()
+        for t in toks if not self.trusted else ():
+            if not t.args or t.args in seen:
+                continue
+            seen.add(t.args)
+            start = t.col + len(t.name)
+            for a in t.args:
+                col = self._col(t.line, a, start)
+                start = col + len(a)
+                self._restrict(self._parse(a, "eval", t.line, col, what), t.line, col)
+
+    def _plan(self, c: _Compiled) -> None:
+        """Vectorised and constant plans of a one-line context-free rule (None where it cannot)."""
+        params = c.rule.params
+        cond = None
+        if c.rule.condition is not None:
+            cond = self._vectorize(c.rule.condition, params)
+            if cond is None:
+                return
+        slots = []
+        const = c.rule.condition is None
+        cvals = []
+        for t in c.rule.successor:
+            if t.name == "*" and len(c.rule.successor) == 1 and t.args is None:
+                break
+            fns = []
+            vals = []
+            for a in t.args or ():
+                f = self._vectorize(a, params)
+                if f is None:
+                    return
+                fns.append(f)
+                if const and self._vectorize(a, []) is not None:
+                    try:
+                        code = self._expr(a, t.line, t.col, f"rule {c.rule.header!r}")
+                        vals.extend(self._params(t.name, (eval(code, self._ns),), c.rule.line))
+                    except LSystemError:
+                        raise
+                    except SB.SandboxError as e:
+                        raise LSystemError(f"rule {c.rule.header!r}: {e}", t.line, t.col) from None
+                    except Exception:
+                        const = False
+                else:
+                    const = False
+            slots.append((self._sid(t.name), fns))
+            cvals.append((self._sid(t.name), tuple(vals)))
+        c.vec = (cond, slots)
+        if const and all(len(v) == len(f) for (_, v), (_, f) in zip(cvals, slots)):
+            c.const = cvals
+
+    def _vectorize(self, src: str, params: list[str]):
+        """A numpy function of the parameter columns computing expression ``src``, or None if it cannot."""
+        try:
+            tree = ast.parse(src, mode="eval")
+        except SyntaxError:
+            return None
+        env: dict[str, Any] = {"__np": np, "__builtins__": {}}
+        funcs = {id(node.func) for node in ast.walk(tree) if isinstance(node, ast.Call)}
+        for node in ast.walk(tree):
+            if not isinstance(node, _OK_NODES):
+                return None
+            if isinstance(node, ast.Constant) and not is_number(node.value):
+                return None
+            if isinstance(node, ast.Call):
+                if not isinstance(node.func, ast.Name) or node.keywords or node.func.id in params:
+                    return None
+                f = node.func.id
+                if f not in _NP_FUNCS or self._ns.get(f, getattr(builtins, f, None)) is not _PURE.get(f):
+                    return None
+                env["__np_" + f] = _NP_FUNCS[f]
+            elif isinstance(node, ast.Name) and node.id not in params:
+                if id(node) in funcs:
+                    continue
+                v = self._ns.get(node.id)
+                if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+                    return None
+                env[node.id] = float(v)
+        tree = _ToNumpy().visit(tree)
+        ast.fix_missing_locations(tree)
+        lam = ast.Expression(ast.Lambda(ast.arguments(posonlyargs=[], args=[ast.arg(p) for p in params],
+                                                      kwonlyargs=[], kw_defaults=[], defaults=[]), tree.body))
+        ast.fix_missing_locations(lam)
+        return eval(compile(lam, "<vectorised>", "eval"), env)
+
+    def _params(self, name: str, v, line: int) -> tuple:
+        """The parameters of a produced module ``name(*v)``: numbers as floats, any other Python value (str,
+        tuple, list, None, bool...) kept as it is, as L-Py's modules hold them (issue 33); a turtle module's
+        numeric vectors (``SetHead(Vector3(...))``) and booleans are read as numbers, as its turtle does."""
+        if not isinstance(v, (tuple, list)):
+            v = (v,)
+        out: list = []
+        turtle = name in _turtle_modules()
+        for x in v:
+            if is_number(x) or (turtle and isinstance(x, (bool, np.bool_))):
+                try:
+                    out.append(float(x))
+                except OverflowError:
+                    raise LSystemError(f"module {name}: parameter {SB._short(x)} is too large for a float", line,
+                                       1) from None
+            elif turtle and isinstance(x, (tuple, list, np.ndarray)):
+                out.extend(self._params(name, np.asarray(x, dtype=object).ravel().tolist(), line))
+            else:
+                out.append(x)
+        return tuple(out)
+
+    def _call(self, c: _Compiled, vals: list) -> list | None:
+        if c.static is not None:
+            return c.static
+        self._nbuf.clear()
+        if time.monotonic() > self._deadline:
+            raise self._over_budget(c.rule.line, 1, f" in rule {c.rule.header!r}")
+        self._where = (c.rule.line, 1)
+        try:
+            res = c.func(*vals)
+        except LSystemError as e:
+            if e.line:
+                raise
+            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or c.rule.line, 1) from None
+        except _OverBudget:
+            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+            raise self._over_budget(line, 1, f" in rule {c.rule.header!r}") from None
+        except SB.SandboxError as e:
+            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+            raise LSystemError(f"rule {c.rule.header!r}: {e}", line, 1) from None
+        except Exception as e:
+            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+            raise LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}"[:400], line, 1) from None
+        if res is None:
+            if not self._nbuf:
+                return None
+            res = list(self._nbuf)
+        elif self._nbuf:
+            res = list(self._nbuf) + list(res)
+        line = c.rule.line
+        return [(self._sid(name), self._params(name, v, line) if v != () else ()) for name, v in res]
+
+
+def _turtle_modules() -> frozenset:
+    """The turtle's module names whose parameters are read as numbers (not the request modules, which hold
+    the Vector3s of L-Py's query pass)."""
+    if not _TURTLE:
+        from .turtle import QUERY_MODULES, TURTLE_MODULES
+        _TURTLE.append(frozenset(TURTLE_MODULES) - frozenset(QUERY_MODULES))
+    return _TURTLE[0]
+
+
+def _query_modules() -> frozenset:
+    """The request modules' names (:data:`~plantvr.lsystem.turtle.QUERY_MODULES`)."""
+    from .turtle import QUERY_MODULES
+    return frozenset(QUERY_MODULES)
+
+
+_TURTLE: list = []
+
+
+class _ToNumpy(ast.NodeTransformer):
+    """``and/or/not``, comparison chains, ``a if c else b`` and math calls -> numpy, for parameter columns."""
+
+    def visit_Constant(self, node):
+        if type(node.value) is int:                           # float arithmetic, as the columns: no big integers
+            return ast.copy_location(ast.Constant(float(node.value)), node)
+        return node
+
+    @staticmethod
+    def _np(attr: str, args: list) -> ast.Call:
+        return ast.Call(ast.Attribute(ast.Name("__np", ast.Load()), attr, ast.Load()), args, [])
+
+    def visit_BoolOp(self, node):
+        self.generic_visit(node)
+        f = "logical_and" if isinstance(node.op, ast.And) else "logical_or"
+        out = node.values[0]
+        for v in node.values[1:]:
+            out = self._np(f, [out, v])
+        return out
+
+    def visit_UnaryOp(self, node):
+        self.generic_visit(node)
+        if isinstance(node.op, ast.Not):
+            return self._np("logical_not", [node.operand])
+        return node
+
+    def visit_Compare(self, node):
+        self.generic_visit(node)
+        parts, left = [], node.left
+        for op, right in zip(node.ops, node.comparators):
+            parts.append(ast.Compare(left, [op], [right]))
+            left = right
+        out = parts[0]
+        for p in parts[1:]:
+            out = self._np("logical_and", [out, p])
+        return out
+
+    def visit_IfExp(self, node):
+        self.generic_visit(node)
+        return self._np("where", [node.test, node.body, node.orelse])
+
+    def visit_Call(self, node):
+        self.generic_visit(node)
+        node.func = ast.Name("__np_" + node.func.id, ast.Load())
+        return node
