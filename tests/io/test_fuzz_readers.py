@@ -523,7 +523,7 @@ def test_folder_writers_create_one_level_only(tmp_path):
 def test_hypothesis_random_bytes_under_every_suffix(tmp_path_factory):
     """Property: any bytes under any suffix read_volume, read_points or read_qsm take give a read or a ValueError/
     OSError naming the file (hypothesis, on top of the seeded mutations above)."""
-    hypothesis = pytest.importorskip("hypothesis")
+    pytest.importorskip("hypothesis")
     from hypothesis import HealthCheck, given, settings
     from hypothesis import strategies as st
 

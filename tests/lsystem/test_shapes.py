@@ -338,7 +338,6 @@ def test_view_draws_the_shapes_beside_the_tree():
     pytest.importorskip("pyvista")
     import plantvr
     from plantvr.documents.lsystem import LSystemDocument
-    from plantvr.io.scene import export_scene
     doc = LSystemDocument(LEAFY_TUBES)
     view = plantvr.View(doc, window_size=(160, 160))
     try:
