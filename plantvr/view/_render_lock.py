@@ -22,8 +22,9 @@ Lock order: a :class:`~plantvr.view.View` takes its window's lock inside its doc
 the document's lock (a document applies a change, and calls its observers, under its own lock in a script);
 nothing a View does under that lock issues a document command, so trame's mouse replay, whose observers
 paint, is not held under it as a whole. The ViNE review app holds its window's lock around its commands
-(window, then segmentation: its ``SegmentationView`` edits VTK arrays inside the segmentation's observers),
-and no observer of a segmentation takes that window's lock, so the two orders never meet on one lock.
+(window, then segmentation: its :class:`~plantvr.view.vine_layers.LabelledSurfaceLayer` edits VTK arrays
+inside the segmentation's observers), and its View draws a static scene, so no observer of a segmentation takes
+that window's lock and the two orders never meet on one lock.
 """
 from __future__ import annotations
 
