@@ -1,0 +1,141 @@
+"""Issue 33 turtle parity: absolute moves and orientation (``@M``/``MoveTo``, ``MoveRel``, ``LineTo``, ``OLineTo``,
+``LineRel``, ``OLineRel``, ``Pinpoint``, ``PinpointRel``, ``@R``/``SetHead``, ``EulerAngles``, ``iRollL``/``iRollR``),
+``nF``, the turtle scale (``@D``, ``@Di``, ``@Dd``) and ``@L`` labels, against hand computations of PlantGL's
+``turtle.cpp`` (``move``, ``shift``, ``lineTo``, ``oLineTo``, ``pinpoint``, ``setHead``, ``eulerAngles``, ``nF``,
+``F``'s ``heading * length * scale.z``)."""
+import numpy as np
+import pytest
+
+from plantvr.lsystem import LSystem, ModuleString
+from plantvr.lsystem.turtle import LPY_UNSUPPORTED, TURTLE_MODULES, query_frames, turtle, turtle_nodes
+
+S2 = np.sqrt(0.5)
+
+
+def frame(mods):
+    """Position, H, L, U at the end of ``mods`` (a ``?F`` appended)."""
+    _, fr = query_frames(ModuleString.from_modules([*mods, "?F"]))
+    return fr[-1]
+
+
+def test_move_to_and_move_rel_start_new_roots():
+    t = turtle(ModuleString.from_modules(["F", ("@M", (2.0, 3.0, 4.0)), "F", ("MoveRel", (1.0, -1.0)), "F"]))
+    np.testing.assert_allclose(t.pos, [[0, 0, 0], [0, 0, 1], [2, 3, 4], [2, 3, 5], [3, 2, 5], [3, 2, 6]])
+    assert t.parent.tolist() == [-1, 0, -1, 2, -1, 4]
+    # L-Py's MoveTo(x) keeps y and z, MoveTo(None, y) keeps x, MoveTo() goes to the origin
+    np.testing.assert_allclose(frame(["F", ("MoveTo", (5.0,))])[0], [5, 0, 1])
+    np.testing.assert_allclose(frame(["F", ("MoveTo", (None, 7.0))])[0], [0, 7, 1])
+    np.testing.assert_allclose(frame(["F", ("@M", ())])[0], [0, 0, 0])
+    # a move to where the turtle stands does not break the axis
+    t = turtle(ModuleString.from_modules([("@M", (0.0, 0.0, 0.0)), "F", ("MoveTo", (0.0, 0.0, 1.0)), "F"]))
+    assert t.parent.tolist() == [-1, 0, 1]
+
+
+def test_line_to_draws_to_the_point_and_keeps_or_takes_the_heading():
+    s = ModuleString.from_modules([("LineTo", (1.0, 0.0, 1.0)), "F", ("OLineTo", (1.0, 1.0, 1.0)), "F",
+                                   ("LineRel", (0.0, 0.0, 2.0, 0.5)), ("OLineRel", (3.0, 0.0, 0.0)), "F"])
+    n = turtle_nodes(s)
+    # LineTo: (1, 0, 1), heading still +Z, F to (1, 0, 2); OLineTo: to (1, 1, 1), heading (0, 1, -1)/sqrt 2;
+    # F one step on; LineRel +2 z, top width 0.5, heading kept; OLineRel +3 x, heading +X; F one step on
+    want = [[0, 0, 0], [1, 0, 1], [1, 0, 2], [1, 1, 1], [1, 1 + S2, 1 - S2], [1, 1 + S2, 3 - S2],
+            [4, 1 + S2, 3 - S2], [5, 1 + S2, 3 - S2]]
+    np.testing.assert_allclose(n.tree.pos, want, atol=1e-12)
+    assert n.tree.parent.tolist() == [-1, 0, 1, 2, 3, 4, 5, 6]
+    np.testing.assert_allclose(n.tree.radius, [0.1] * 5 + [0.5] * 3)
+    assert n.module.tolist() == [0, 0, 1, 2, 3, 4, 5, 6]
+    np.testing.assert_allclose(frame(s.modules())[1], [1, 0, 0], atol=1e-12)
+    # a segment is drawn toward the point, then tropism bends it (F's _applyTropism), as in PlantGL
+    bent = turtle(ModuleString.from_modules([("@Ts", (0.5,)), ("@Tp", (1.0, 0.0, 0.0)), ("LineTo", (0.0, 0.0, 2.0))]))
+    np.testing.assert_allclose(bent.pos[1], [2 * np.sin(np.pi / 4), 0, 2 * np.cos(np.pi / 4)], atol=1e-12)
+    # no point (or the turtle's own position) draws nothing
+    assert len(turtle(ModuleString.from_modules([("LineTo", ()), ("OLineTo", (0.0, 0.0, 0.0))]))) == 0
+
+
+def test_pinpoint_turns_the_frame_the_shortest_way():
+    # H = +Z toward +X: a quarter turn about H x t = +Y: U = +X goes to -Z, L = -Y stays
+    p, h, left, up = frame([("Pinpoint", (5.0, 0.0, 0.0))])
+    np.testing.assert_allclose([p, h, left, up], [[0, 0, 0], [1, 0, 0], [0, -1, 0], [0, 0, -1]], atol=1e-12)
+    p, h, left, up = frame(["F", ("Pinpoint", (0.0, 1.0, 1.0))])            # from (0, 0, 1): toward +Y
+    np.testing.assert_allclose([h, left, up], [[0, 1, 0], [0, 0, 1], [1, 0, 0]], atol=1e-12)
+    np.testing.assert_allclose(frame(["F", ("PinpointRel", (0.0, 1.0, 0.0))])[1], [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(frame([("Pinpoint", (0.0, 0.0, -1.0))])[1:], [[0, 0, -1], [0, 1, 0], [1, 0, 0]],
+                               atol=1e-12)                                  # behind: half a turn about U
+    assert len(turtle(ModuleString.from_modules([("Pinpoint", (1.0, 2.0, 3.0))]))) == 0
+
+
+def test_set_head_euler_angles_and_intrinsic_rolls():
+    # SetHead(h, u): L = u x h
+    np.testing.assert_allclose(frame([("@R", (0.0, 1.0, 0.0, 0.0, 0.0, 1.0))])[1:],
+                               [[0, 1, 0], [-1, 0, 0], [0, 0, 1]], atol=1e-12)
+    # a non-orthogonal up vector is re-orthogonalised; no up vector: PinpointRel; no parameter: the initial frame
+    np.testing.assert_allclose(frame([("SetHead", (0.0, 0.0, 2.0, 1.0, 0.0, 1.0))])[1:],
+                               [[0, 0, 1], [0, -1, 0], [1, 0, 0]], atol=1e-12)
+    np.testing.assert_allclose(frame([("SetHead", (3.0, 0.0, 0.0))])[1:], frame([("PinpointRel", (1.0, 0.0, 0.0))])[1:])
+    np.testing.assert_allclose(frame([("+", (40.0,)), ("@R", ())])[1:], [[0, 0, 1], [0, -1, 0], [1, 0, 0]], atol=1e-12)
+    with pytest.raises(ValueError, match=r"SetHead at index 0: SetHead needs a non-null heading"):
+        turtle(ModuleString.from_modules([("SetHead", (0.0, 0.0, 0.0))]))
+    with pytest.raises(ValueError, match=r"@R at index 1: .* are colinear"):
+        turtle(ModuleString.from_modules(["F", ("@R", (0.0, 0.0, 1.0, 0.0, 0.0, -2.0))]))
+    # EulerAngles(azimuth, elevation, roll): H = Rz(a) Ry(-e) Rx(r) x, U = ... z; defaults: the initial frame
+    np.testing.assert_allclose(frame([("EulerAngles", (90.0, 0.0, 0.0))])[1:], [[0, 1, 0], [-1, 0, 0], [0, 0, 1]],
+                               atol=1e-12)
+    c, s = np.cos(np.radians(30)), 0.5
+    np.testing.assert_allclose(frame([("EulerAngles", (0.0, 30.0, 0.0))])[1:], [[c, 0, s], [0, 1, 0], [-s, 0, c]],
+                               atol=1e-12)
+    np.testing.assert_allclose(frame(["/", "&", ("EulerAngles", ())])[1:], [[0, 0, 1], [0, -1, 0], [1, 0, 0]],
+                               atol=1e-12)
+    # roll 90 about H = +X: U = +Z goes to Rx(90) z = -Y, L = U x H
+    np.testing.assert_allclose(frame([("EulerAngles", (0.0, 0.0, 90.0))])[1:], [[1, 0, 0], [0, 0, 1], [0, -1, 0]],
+                               atol=1e-12)
+    # without a guide PlantGL's iRollL / iRollR are rollL / rollR
+    np.testing.assert_allclose(frame(["&", ("iRollL", (30.0,)), "iRollR"]), frame(["&", ("/", (30.0,)), "\\"]))
+
+
+def test_nf_draws_n_steps_and_the_rest_with_interpolated_widths():
+    t = turtle(ModuleString.from_modules([("nF", (2.5, 1.0))]))
+    np.testing.assert_allclose(t.pos[:, 2], [0, 1, 2, 2.5])
+    assert t.parent.tolist() == [-1, 0, 1, 2]
+    t = turtle(ModuleString.from_modules([("nF", (3.0, 1.0))]))              # no rest
+    np.testing.assert_allclose(t.pos[:, 2], [0, 1, 2, 3])
+    # nF(length, dl, radius): w += (radius - w) / length * dl each step, the rest ends at radius
+    t = turtle(ModuleString.from_modules([("nF", (2.5, 1.0, 0.5)), "F"]))
+    np.testing.assert_allclose(t.radius, [0.1, 0.26, 0.42, 0.5, 0.5])
+    np.testing.assert_allclose(t.pos[-1], [0, 0, 3.5])
+    sh = turtle_nodes(ModuleString.from_modules(["@Gc", ("nF", (10.0, 1.0)), ("LineRel", (1.0, 0.0, 0.0)),
+                                                 "@Ge"])).shapes
+    assert sh.count.tolist() == [12]                                        # one tube point per step
+    with pytest.raises(ValueError, match=r"nF at index 1: nF\(length, dl\) needs length >= 0 and dl > 0"):
+        turtle(ModuleString.from_modules(["F", ("nF", (1.0, 0.0))]))
+    with pytest.raises(ValueError, match=r"past 100000000 segments"):
+        turtle(ModuleString.from_modules([("nF", (1e6, 1e-3))]))
+
+
+def test_scale_multiplies_steps_and_widths_and_is_pushed():
+    t = turtle(ModuleString.from_modules([("@D", (2.0,)), "F", "[", ("@Di", ()), "F", "]", ("@Dd", ()), "F",
+                                          ("SetScale", ()), "F", ("f", (1.0,)), ("MultScale", (3.0,)), "f", "F"]))
+    # @D(2): F 2 long, width 0.2; [@Di: x 0.5, F 1 long]; @Dd: / 0.5 -> 4: F 4 long; @D(): 1; f 1; x 3: f, F 3 long
+    np.testing.assert_allclose(t.pos[:, 2], [0, 2, 3, 6, 7, 11, 14])
+    np.testing.assert_allclose(t.radius, [0.2, 0.2, 0.1, 0.4, 0.1, 0.3, 0.3])
+    assert t.parent.tolist() == [-1, 0, 1, 1, 3, -1, 5]
+    with pytest.warns(UserWarning, match=r"1 module\(s\) set a turtle scale beyond 1e6 \(or divided by 0\).*"
+                                         r"DivScale at index 0"):
+        t = turtle(ModuleString.from_modules([("DivScale", (0.0,)), "F"]))
+    np.testing.assert_allclose(t.pos[-1], [0, 0, 1])
+
+
+def test_labels_are_recorded_not_drawn():
+    s = ModuleString.from_modules(["F", ("@L", ("top", 12)), ("+", (90.0,)), "F", ("Label", (3.0,))])
+    n = turtle_nodes(s)
+    assert len(n.tree) == 3 and len(n.shapes) == 0
+    assert [(lb.text, lb.module, lb.size) for lb in n.labels] == [("top", 1, 12), ("3", 4, -1)]
+    np.testing.assert_allclose([lb.position for lb in n.labels], [[0, 0, 1], [0, -1, 1]], atol=1e-12)
+    ls = LSystem('Axiom: F(2) @L("hi") @M(1, 0, 0) F\n')
+    got = ls.draw(ls.axiom, shapes=True)
+    assert [lb.text for lb in got.labels] == ["hi"] and got.tree.parent.tolist() == [-1, 0, -1, 2]
+
+
+def test_unsupported_list_is_honest():
+    done = {"@M", "MoveTo", "MoveRel", "LineTo", "OLineTo", "LineRel", "OLineRel", "Pinpoint", "PinpointRel",
+            "@R", "SetHead", "EulerAngles", "iRollL", "iRollR", "nF", "@D", "SetScale", "@Di", "MultScale",
+            "@Dd", "DivScale", "@L", "Label"}
+    assert done <= set(TURTLE_MODULES) and not done & LPY_UNSUPPORTED
