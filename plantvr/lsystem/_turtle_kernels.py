@@ -28,12 +28,17 @@ SPHERE, CIRCLE, SURFACE, GC_START, GC_END, POLY_START, POLY_END, POLY_POINT, QUE
 #: (``@D``/``SetScale``, ``@Di``/``MultScale``, ``@Dd``/``DivScale``) and ``@L``/``Label``.
 MOVETO, MOVEREL, LINETO, OLINETO, LINEREL, OLINEREL, PINPOINT, PINPOINTREL, SETHEAD, EULER = range(32, 42)
 NF, SETSCALE, MULTSCALE, DIVSCALE, LABEL = range(42, 47)
+#: ``@B``/``Box`` and ``@b``/``Quad`` (shapes drawn along a step, PlantGL ``Turtle::box`` / ``quad``), ``Frame``.
+BOX, QUAD, FRAME = range(47, 50)
 #: Kinds of the shape records (``sint[:, 0]``): ``@O`` sphere, ``@o`` disc, ``~name`` surface, ``{ }`` polygon
 #: (fan, or ear clipping after ``}(1)``, PlantGL's concave test), ``@Gc``/``@Ge`` generalized cylinder; and
 #: ``SH_QUERY``, not a shape: the frame at a request module (``?P``, ``?H``, ... of L-Py; issue 33).
 SH_SPHERE, SH_CIRCLE, SH_SURFACE, SH_POLYGON, SH_POLYGON_CONCAVE, SH_TUBE, SH_QUERY = range(1, 8)
 #: Not a shape either: a text label's frame (``@L``; the text is the module's parameter).
 SH_LABEL = 8
+#: A box or a quad along a step: its frame at the start, its length, bottom and top half-widths; ``SH_FRAME``
+#: (not a shape): a ``Frame`` annotation, its size.
+SH_BOX, SH_QUAD, SH_FRAME = 9, 10, 11
 #: PlantGL's GEOM_EPSILON.
 EPS = 1e-6
 #: Warning slots of the kernel: a width below zero, a colour below zero, an elasticity outside [0, 1] (PlantGL
@@ -50,7 +55,7 @@ CUSTOM_COLOR = 1 << 32
 _NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, scale 3
 _NI = 10  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
 #           GC colour, polygon on, polygon colour
-_NS = 13  # float columns of a shape record: position 3, H 3, L 3, U 3, size
+_NS = 15  # float columns of a shape record: position 3, H 3, L 3, U 3, size, bottom and top radius
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -483,6 +488,50 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 ns = _record(sint, sflt, ns, kind, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
         elif o == QUERY:                                  # a request module: the frame here, drawing nothing
             ns = _record(sint, sflt, ns, SH_QUERY, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, 0.0)
+        elif o == BOX or o == QUAD:
+            # Turtle::box / quad: tropism, the shape from here along H (length * scale.z, half-widths the width and
+            # the top width, times scale.x when x = y), a move, then the width set to the top's; negative: turned
+            # around. The skeleton is not drawn: the next F starts a new root
+            length = step
+            if na > 0:
+                length = args[a0]
+            top = w
+            if na > 1:
+                top = args[a0 + 1]
+            if length > 0.0 or length < -EPS:
+                flip = length < 0.0
+                if flip:
+                    length = -length
+                    hx, hy, hz = -hx, -hy, -hz
+                    lx, ly, lz = -lx, -ly, -lz
+                if el > EPS:
+                    hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, el)
+                rs = sx if sx == sy else 1.0
+                ns = _record(sint, sflt, ns, SH_BOX if o == BOX else SH_QUAD, col, i, px, py, pz, hx, hy, hz, lx, ly,
+                             lz, ux, uy, uz, length * sz)
+                sflt[ns - 1, 13] = max(w, 0.0) * rs
+                sflt[ns - 1, 14] = max(top, 0.0) * rs
+                px += hx * length * sz
+                py += hy * length * sz
+                pz += hz * length * sz
+                cur = -2
+                if top > -EPS:
+                    w = top
+                    if gc_on and gc_cnt > 0:
+                        gc_tail = _radius(pool, prev, npool, gc_tail, w)
+                        npool += 1
+                if flip:
+                    hx, hy, hz = -hx, -hy, -hz
+                    lx, ly, lz = -lx, -ly, -lz
+        elif o == FRAME:                                  # Turtle::frame(size, cap height ratio, ...): annotated
+            size = step
+            if na > 0:
+                size = args[a0]
+            cap = 0.2
+            if na > 1:
+                cap = args[a0 + 1]
+            if size > EPS and 0.0 < cap < 1.0:
+                ns = _record(sint, sflt, ns, SH_FRAME, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
         elif o == LABEL:                                  # Turtle::label: the text at the turtle's frame
             size = -1.0
             if na > 1 and args[a0 + 1] == args[a0 + 1]:
@@ -635,7 +684,7 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
         return [*st["p"], *st["L"], max(st["w"], 0.0)]
 
     def record(kind, col, i, size=0.0, pts=()):
-        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size] if not pts else [0.0] * 13
+        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size, 0.0, 0.0] if not pts else [0.0] * 15
         shapes.append((kind, col, i, frame, [list(q) for q in pts]))
 
     def set_width(v):
@@ -828,5 +877,5 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
     return (np.array(nodes["pos"], float).reshape(m, 3), np.array(nodes["parent"], np.int64),
             np.array(nodes["radius"], float), np.array(nodes["order"], np.int64), np.array(main, np.int64),
             np.array(nodes["color"], np.int64), np.array(nodes["module"], np.int64), ignored,
-            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 13),
+            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 15),
             np.array(spts, float).reshape(-1, 7))

@@ -39,6 +39,10 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
   parameter, PlantGL's ``scale_multiplier``) multiplies the length of every ``F``/``f`` step (``scale.z``) and the
   width (``scale.x`` when x = y, ``PglTurtleDrawer::cylinder``), kept by ``[ ]``;
 * ``@L``/``Label(text[, size])`` texts are recorded (:class:`TurtleLabel`, ``TurtleNodes.labels``), not drawn.
+* ``@B``/``Box(length, top)`` and ``@b``/``Quad(length, top)`` draw a box (square section) / a quad in the
+  (H, L) plane along a step (PlantGL ``Turtle::box``, ``quad``; half-widths the width and ``top``, the width
+  then set to ``top``), as shapes, moving like ``f`` (the next ``F`` starts a new root); ``Frame(size)`` is recorded
+  (``TurtleNodes.frames``), not meshed.
 
 A width below zero, a colour below zero, an elasticity outside [0, 1] or a negative sphere / disc radius or
 surface scale is ignored with one warning, as PlantGL does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
@@ -103,18 +107,20 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
     "@D": (K.SETSCALE, (0, 1)), "SetScale": (K.SETSCALE, (0, 1)), "@Di": (K.MULTSCALE, (0, 1)),
     "MultScale": (K.MULTSCALE, (0, 1)), "@Dd": (K.DIVSCALE, (0, 1)), "DivScale": (K.DIVSCALE, (0, 1)),
     "@L": (K.LABEL, (1, 2)), "Label": (K.LABEL, (1, 2)),
+    "@B": (K.BOX, (0, 1, 2)), "Box": (K.BOX, (0, 1, 2)), "@b": (K.QUAD, (0, 1, 2)), "Quad": (K.QUAD, (0, 1, 2)),
+    "Frame": (K.FRAME, (0, 1, 2, 3, 4, 5)),
 }
 
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
-#: L-Py / PlantGL turtle modules that exist there but are not drawn here (boxes, quads, frames, custom PlantGL
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL
 #: geometry, ``surface('name')`` with a string, contours, guides, textures, reflections, screen projection); the
 #: engine
 #: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
 #: (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "@B", "Box", "@b", "Quad", "~", "surface", "@g", "PglShape", "Frame", "Arrow", "SetContour",
+    "~", "surface", "@g", "PglShape", "Arrow", "SetContour",
     "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
@@ -136,7 +142,8 @@ class TurtleShapes:
     ----------
     kind : (S,) int64 ndarray
         ``K.SH_SPHERE`` (``@O``), ``K.SH_CIRCLE`` (``@o``), ``K.SH_SURFACE`` (``~name``), ``K.SH_POLYGON`` /
-        ``K.SH_POLYGON_CONCAVE`` (``{ . }``, ``}(1)``: concave test), ``K.SH_TUBE`` (``@Gc ... @Ge``).
+        ``K.SH_POLYGON_CONCAVE`` (``{ . }``, ``}(1)``: concave test), ``K.SH_TUBE`` (``@Gc ... @Ge``), ``K.SH_BOX``
+        (``@B``), ``K.SH_QUAD`` (``@b``).
     color : (S,) int64 ndarray
         Colour (material) index: the current one for placed shapes, the one at ``{`` / ``@Gc`` for paths
         (PlantGL's ``getCurrentInitialMaterial``).
@@ -145,7 +152,7 @@ class TurtleShapes:
     frame : (S, 4, 3) float64 ndarray
         Position, heading H, left L and up U of a placed shape (zero for paths).
     size : (S,) float64 ndarray
-        Radius of a sphere or disc, scale of a surface (0 for paths).
+        Radius of a sphere or disc, scale of a surface, length of a box or quad (0 for paths).
     start, count : (S,) int64 ndarray
         A path's points are ``points[start:start + count]``.
     points, left : (P, 3) float64 ndarray
@@ -154,6 +161,8 @@ class TurtleShapes:
         The width at each path point (a tube's radius).
     surface : tuple of str
         Surface name of each shape (``"l"`` for ``~l``; ``""`` for other kinds).
+    radii : (S, 2) float64 ndarray or None
+        Bottom and top half-width of a box or quad (PlantGL: the width and the top width; 0 for other kinds).
     """
 
     kind: np.ndarray
@@ -167,6 +176,7 @@ class TurtleShapes:
     left: np.ndarray
     radius: np.ndarray
     surface: tuple = ()
+    radii: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -214,6 +224,9 @@ class TurtleNodes:
         mesh per material: :func:`plantvr.lsystem.shapes.shape_meshes`.
     labels : tuple of TurtleLabel
         The ``@L`` / ``Label`` texts in string order (issue 33), with the turtle's position there.
+    frames : (R, 4, 3) float64 ndarray or None
+        The turtle's frame (position, H, L, U) at each ``Frame`` module L-Py draws as three arrows (annotations,
+        not meshed); ``frame_size`` their sizes (R,).
     """
 
     tree: TreeArrays
@@ -221,6 +234,8 @@ class TurtleNodes:
     module: np.ndarray
     shapes: TurtleShapes | None = None
     labels: tuple[TurtleLabel, ...] = ()
+    frames: np.ndarray | None = None
+    frame_size: np.ndarray | None = None
 
 
 def _ops(string: ModuleString):
@@ -305,16 +320,16 @@ def _check_head(name: str, i: int, v: np.ndarray) -> None:
 def _capacities(op: np.ndarray, n_seg: int | None = None) -> tuple[int, int]:
     """Shape records and path points the kernel may make for these op codes (0, 0 without shapes); ``n_seg``:
     the segments it may draw (``F`` count by default)."""
-    cnt = np.bincount(op.astype(np.int64), minlength=K.LABEL + 1)
+    cnt = np.bincount(op.astype(np.int64), minlength=K.FRAME + 1)
     n_seg = int(cnt[K.F]) if n_seg is None else n_seg
     paths = cnt[K.GC_START] + cnt[K.POLY_START]
     n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END]
-                   + cnt[K.QUERY] + cnt[K.LABEL])
+                   + cnt[K.QUERY] + cnt[K.LABEL] + cnt[K.BOX] + cnt[K.QUAD] + cnt[K.FRAME])
     if not paths:
         return n_shapes, 0
     n_shapes += int(cnt[K.POP] + 1) if cnt[K.GC_START] else 0
     n_pool = int(n_seg * 2 + cnt[K.POLY_POINT] * 2 + cnt[K.GC_START] + cnt[K.INCW] + cnt[K.DECW]
-                 + cnt[K.SETW] + 1)
+                 + cnt[K.SETW] + cnt[K.BOX] + cnt[K.QUAD] + 1)
     return n_shapes, n_pool
 
 
@@ -342,9 +357,11 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
     pos, parent, radius, order, main, color, module, nn, sint, sflt, spts = _interpret(
         string, angle, step, width, width_increment, tropism, elasticity)
     tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
-    shape = (sint[:, 0] != K.SH_QUERY) & (sint[:, 0] != K.SH_LABEL)
+    shape = (sint[:, 0] != K.SH_QUERY) & (sint[:, 0] != K.SH_LABEL) & (sint[:, 0] != K.SH_FRAME)
+    fr = sint[:, 0] == K.SH_FRAME
     return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(),
-                       _shapes(string, sint[shape], sflt[shape], spts), _labels(string, sint, sflt))
+                       _shapes(string, sint[shape], sflt[shape], spts), _labels(string, sint, sflt),
+                       sflt[fr, :12].reshape(-1, 4, 3).copy(), sflt[fr, 12].copy())
 
 
 def _labels(string: ModuleString, sint: np.ndarray, sflt: np.ndarray) -> tuple[TurtleLabel, ...]:
@@ -404,7 +421,7 @@ def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.n
     surf = tuple(string.names[string.ids[m]][1:] if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
     return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
                         sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
-                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf)
+                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy())
 
 
 def turtle(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,

@@ -137,5 +137,44 @@ def test_labels_are_recorded_not_drawn():
 def test_unsupported_list_is_honest():
     done = {"@M", "MoveTo", "MoveRel", "LineTo", "OLineTo", "LineRel", "OLineRel", "Pinpoint", "PinpointRel",
             "@R", "SetHead", "EulerAngles", "iRollL", "iRollR", "nF", "@D", "SetScale", "@Di", "MultScale",
-            "@Dd", "DivScale", "@L", "Label"}
+            "@Dd", "DivScale", "@L", "Label", "@B", "Box", "@b", "Quad", "Frame"}
     assert done <= set(TURTLE_MODULES) and not done & LPY_UNSUPPORTED
+
+
+def test_box_and_quad_are_shapes_along_a_step():
+    from plantvr.lsystem import _turtle_kernels as K
+    from plantvr.lsystem.shapes import box_mesh, quad_mesh, shape_meshes
+    s = ModuleString.from_modules([("_", (0.5,)), ("@B", (2.0,)), "F", ("+", (90.0,)), ("Quad", (1.0, 0.25)), "F",
+                                   ("Box", (-1.0, 0.0))])
+    n = turtle_nodes(s)
+    # the box moves the turtle 2 up without a node; F from (0, 0, 2) to (0, 0, 3); + turns H to L = (0, -1, 0);
+    # the quad moves 1 on and sets the width to 0.25; F from (0, -1, 3) a new root; Box(-1): drawn backwards
+    np.testing.assert_allclose(n.tree.pos, [[0, 0, 2], [0, 0, 3], [0, -1, 3], [0, -2, 3]], atol=1e-12)
+    assert n.tree.parent.tolist() == [-1, 0, -1, 2]
+    np.testing.assert_allclose(n.tree.radius, [0.5, 0.5, 0.25, 0.25])
+    sh = n.shapes
+    assert sh.kind.tolist() == [K.SH_BOX, K.SH_QUAD, K.SH_BOX] and sh.module.tolist() == [1, 4, 6]
+    np.testing.assert_allclose(sh.size, [2, 1, 1])
+    np.testing.assert_allclose(sh.radii, [[0.5, 0.5], [0.5, 0.25], [0.25, 0.0]])
+    np.testing.assert_allclose(sh.frame[2, :2], [[0, -2, 3], [0, 1, 0]], atol=1e-12)      # turned around
+    # the box: corners +-0.5 U +-0.5 (-L) at z 0 and 2 (U = +X, -L = +Y): the square prism [-.5, .5]^2 x [0, 2]
+    v, f = box_mesh(sh.frame[0], sh.size[0], *sh.radii[0])
+    np.testing.assert_allclose(np.sort(v, axis=0)[[0, -1]], [[-0.5, -0.5, 0], [0.5, 0.5, 2]])
+    e = v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]]
+    normals = np.cross(*e)
+    assert np.all(np.einsum("ij,ij->i", normals, v[f].mean(axis=1) - [0, 0, 1]) > 0)   # outward
+    assert abs(np.sum(np.einsum("ij,ij->i", v[f[:, 0]], normals)) / 6 - 2.0) < 1e-12    # volume 1 x 1 x 2
+    # the quad: bottom (0, 0, 3) +- 0.5 L, top (0, -1, 3) -+ 0.25 L, with L = U x H = X x -Y = -Z after the +
+    v, f = quad_mesh(sh.frame[1], sh.size[1], *sh.radii[1])
+    np.testing.assert_allclose(v, [[0, 0, 2.5], [0, 0, 3.5], [0, -1, 3.25], [0, -1, 2.75]], atol=1e-12)
+    assert f.tolist() == [[0, 1, 2], [0, 2, 3]]
+    meshes = shape_meshes(sh)
+    assert sum(m.n_faces for m in meshes.values()) == 12 + 2 + 12
+    assert len(quad_mesh(sh.frame[1], 1.0, 0.0, 0.0)[1]) == 0 and len(quad_mesh(sh.frame[1], 1.0, 0.0, 1.0)[1]) == 1
+
+
+def test_frame_is_recorded_not_meshed():
+    n = turtle_nodes(ModuleString.from_modules(["F", "Frame", ("&", (90.0,)), ("Frame", (2.0, 0.5)),
+                                                ("Frame", (1.0, 1.0))]))
+    assert len(n.shapes) == 0 and n.frame_size.tolist() == [1.0, 2.0]                    # cap ratio 1: not drawn
+    np.testing.assert_allclose(n.frames[1], [[0, 0, 1], [-1, 0, 0], [0, -1, 0], [0, 0, 1]], atol=1e-12)
