@@ -55,7 +55,7 @@ CUSTOM_COLOR = 1 << 32
 _NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, scale 3
 _NI = 10  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
 #           GC colour, polygon on, polygon colour
-_NS = 15  # float columns of a shape record: position 3, H 3, L 3, U 3, size, bottom and top radius
+_NS = 18  # float columns of a shape record: position 3, H 3, L 3, U 3, size, bottom and top radius, scale 3
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -486,6 +486,15 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             elif size > EPS:
                 kind = SH_SPHERE if o == SPHERE else (SH_CIRCLE if o == CIRCLE else SH_SURFACE)
                 ns = _record(sint, sflt, ns, kind, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
+                # PglTurtleDrawer: a sphere or surface Scaled(scale * size) along (U, -L, H); a disc times scale.x
+                # when the scale is isotropic
+                qx, qy, qz = sx, sy, sz
+                if o == CIRCLE:
+                    if sx == sy and sy == sz:
+                        qy, qz = sx, sx
+                    else:
+                        qx, qy, qz = 1.0, 1.0, 1.0
+                sflt[ns - 1, 15], sflt[ns - 1, 16], sflt[ns - 1, 17] = qx, qy, qz
         elif o == QUERY:                                  # a request module: the frame here, drawing nothing
             ns = _record(sint, sflt, ns, SH_QUERY, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, 0.0)
         elif o == BOX or o == QUAD:
@@ -684,7 +693,8 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
         return [*st["p"], *st["L"], max(st["w"], 0.0)]
 
     def record(kind, col, i, size=0.0, pts=()):
-        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size, 0.0, 0.0] if not pts else [0.0] * 15
+        scale = [1.0, 1.0, 1.0] if kind in (SH_SPHERE, SH_CIRCLE, SH_SURFACE) else [0.0, 0.0, 0.0]
+        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size, 0.0, 0.0, *scale] if not pts else [0.0] * 18
         shapes.append((kind, col, i, frame, [list(q) for q in pts]))
 
     def set_width(v):
@@ -877,5 +887,5 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
     return (np.array(nodes["pos"], float).reshape(m, 3), np.array(nodes["parent"], np.int64),
             np.array(nodes["radius"], float), np.array(nodes["order"], np.int64), np.array(main, np.int64),
             np.array(nodes["color"], np.int64), np.array(nodes["module"], np.int64), ignored,
-            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 15),
+            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 18),
             np.array(spts, float).reshape(-1, 7))

@@ -282,11 +282,12 @@ def tube_mesh(points, radius, left, *, slices: int = 16) -> tuple[np.ndarray, np
     return verts, faces.astype(np.int64)
 
 
-def _place(frame: np.ndarray, size: np.ndarray, local: np.ndarray) -> np.ndarray:
-    """(S, V, 3) world vertices of a local template placed at each frame (x = U, y = -L, z = H), scaled."""
+def _place(frame: np.ndarray, size: np.ndarray, local: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+    """(S, V, 3) world vertices of a local template placed at each frame (x = U, y = -L, z = H), scaled (per local
+    axis by ``scale`` (S, 3) if given)."""
     pos, h, lft, up = frame[:, 0], frame[:, 1], frame[:, 2], frame[:, 3]
     axes = np.stack([up, -lft, h], 1)                      # (S, 3 local axes, 3)
-    out = np.matmul(local[None], axes)                    # (S, V, 3)
+    out = np.matmul(local[None] if scale is None else local[None] * scale[:, None, :], axes)   # (S, V, 3)
     out *= size[:, None, None]
     out += pos[:, None]
     return out
@@ -383,7 +384,8 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
         is_kind = (kind == kd) & (surf == name) if name else kind == kd
         for col in np.unique(shapes.color[is_kind]):
             sel = np.flatnonzero(is_kind & (shapes.color == col))
-            verts = _place(shapes.frame[sel], shapes.size[sel], tv).reshape(-1, 3)
+            verts = _place(shapes.frame[sel], shapes.size[sel], tv,
+                           None if shapes.scale is None else shapes.scale[sel]).reshape(-1, 3)
             faces = (tf[None] + (np.arange(len(sel)) * len(tv))[:, None, None]).reshape(-1, 3)
             add(col, verts, faces)
     for s in np.flatnonzero((kind == K.SH_POLYGON) | (kind == K.SH_POLYGON_CONCAVE)):

@@ -37,7 +37,8 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
 * ``nF(length, dl[, radius])``: ``int(length / dl)`` segments of ``dl`` and the rest, the width going linearly to
   ``radius``; the scale (``@D``/``SetScale(s)``, ``@Di``/``MultScale(s)``, ``@Dd``/``DivScale(s)``; 0.5 without a
   parameter, PlantGL's ``scale_multiplier``) multiplies the length of every ``F``/``f`` step (``scale.z``) and the
-  width (``scale.x`` when x = y, ``PglTurtleDrawer::cylinder``), kept by ``[ ]``;
+  width (``scale.x`` when x = y, ``PglTurtleDrawer::cylinder``), and sizes spheres, discs and surfaces
+  (``PglTurtleDrawer::sphere``, ``circle``, ``customGeometry``); ``[ ]`` keep it;
 * ``@L``/``Label(text[, size])`` texts are recorded (:class:`TurtleLabel`, ``TurtleNodes.labels``), not drawn.
 * ``@B``/``Box(length, top)`` and ``@b``/``Quad(length, top)`` draw a box (square section) / a quad in the
   (H, L) plane along a step (PlantGL ``Turtle::box``, ``quad``; half-widths the width and ``top``, the width
@@ -163,6 +164,9 @@ class TurtleShapes:
         Surface name of each shape (``"l"`` for ``~l``; ``""`` for other kinds).
     radii : (S, 2) float64 ndarray or None
         Bottom and top half-width of a box or quad (PlantGL: the width and the top width; 0 for other kinds).
+    scale : (S, 3) float64 ndarray or None
+        The turtle scale (``@D``...) of a sphere, disc or surface along its local (U, -L, H) axes, PlantGL's
+        ``Scaled(scale * size)`` (a disc: the scale when isotropic, else 1); None: 1.
     """
 
     kind: np.ndarray
@@ -177,6 +181,7 @@ class TurtleShapes:
     radius: np.ndarray
     surface: tuple = ()
     radii: np.ndarray | None = None
+    scale: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -421,7 +426,8 @@ def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.n
     surf = tuple(string.names[string.ids[m]][1:] if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
     return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
                         sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
-                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy())
+                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy(),
+                        sflt[:, 15:18].copy())
 
 
 def turtle(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,

@@ -178,3 +178,16 @@ def test_frame_is_recorded_not_meshed():
                                                 ("Frame", (1.0, 1.0))]))
     assert len(n.shapes) == 0 and n.frame_size.tolist() == [1.0, 2.0]                    # cap ratio 1: not drawn
     np.testing.assert_allclose(n.frames[1], [[0, 0, 1], [-1, 0, 0], [0, -1, 0], [0, 0, 1]], atol=1e-12)
+
+
+def test_scale_sizes_spheres_discs_and_surfaces():
+    from plantvr.lsystem.shapes import shape_meshes
+    sh = turtle_nodes(ModuleString.from_modules([("@D", (2.0,)), ("@O", (1.0,)), ";", ("@Di", (1.5,)), ("@o", (0.5,)),
+                                                 ";", ("~l", (1.0,)), ";", ("@D", ()), ("@O", (1.0,))])).shapes
+    np.testing.assert_allclose(sh.scale, [[2, 2, 2], [3, 3, 3], [3, 3, 3], [1, 1, 1]])
+    m = shape_meshes(sh)
+    extent = {k: np.ptp(v.vertices, axis=0) for k, v in m.items()}
+    np.testing.assert_allclose(extent[1], [4, 4, 4], atol=1e-9)            # sphere of radius 1 x 2
+    assert abs(extent[2].max() - 3.0) < 1e-9                                 # disc of radius 0.5 x 3
+    assert abs(extent[3][2] - 3.0) < 1e-9                                    # the leaf: 1 long along H, x 3
+    np.testing.assert_allclose(extent[4], [2, 2, 2], atol=1e-9)
