@@ -30,6 +30,8 @@ MOVETO, MOVEREL, LINETO, OLINETO, LINEREL, OLINEREL, PINPOINT, PINPOINTREL, SETH
 NF, SETSCALE, MULTSCALE, DIVSCALE, LABEL = range(42, 47)
 #: ``@B``/``Box`` and ``@b``/``Quad`` (shapes drawn along a step, PlantGL ``Turtle::box`` / ``quad``), ``Frame``.
 BOX, QUAD, FRAME = range(47, 50)
+#: ``surface(name[, scale])`` / ``~(name[, scale])``: a named surface, the name a str parameter.
+SURFACE_NAMED = 50
 #: Kinds of the shape records (``sint[:, 0]``): ``@O`` sphere, ``@o`` disc, ``~name`` surface, ``{ }`` polygon
 #: (fan, or ear clipping after ``}(1)``, PlantGL's concave test), ``@Gc``/``@Ge`` generalized cylinder; and
 #: ``SH_QUERY``, not a shape: the frame at a request module (``?P``, ``?H``, ... of L-Py; issue 33).
@@ -475,9 +477,12 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 ignored[IGNORED_ELASTICITY] += 1
                 if ignored_at[IGNORED_ELASTICITY] < 0:
                     ignored_at[IGNORED_ELASTICITY] = i
-        elif o == SPHERE or o == CIRCLE or o == SURFACE:
-            size = 1.0 if o == SURFACE else w              # a sphere's or disc's radius defaults to the width
-            if na > 0:
+        elif o == SPHERE or o == CIRCLE or o == SURFACE or o == SURFACE_NAMED:
+            size = 1.0 if o >= SURFACE else w              # a sphere's or disc's radius defaults to the width
+            if o == SURFACE_NAMED:                         # surface(name, scale): the name is parameter 0
+                if na > 1:
+                    size = args[a0 + 1]
+            elif na > 0:
                 size = args[a0]
             if size < -EPS:
                 ignored[IGNORED_SIZE] += 1

@@ -43,7 +43,8 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
 * ``@B``/``Box(length, top)`` and ``@b``/``Quad(length, top)`` draw a box (square section) / a quad in the
   (H, L) plane along a step (PlantGL ``Turtle::box``, ``quad``; half-widths the width and ``top``, the width
   then set to ``top``), as shapes, moving like ``f`` (the next ``F`` starts a new root); ``Frame(size)`` is recorded
-  (``TurtleNodes.frames``), not meshed.
+  (``TurtleNodes.frames``), not meshed; ``surface(name[, scale])`` / ``~(name[, scale])`` draw the named surface
+  as ``~name(scale)`` (:func:`plantvr.lsystem.shapes.register_surface`).
 
 A width below zero, a colour below zero, an elasticity outside [0, 1] or a negative sphere / disc radius or
 surface scale is ignored with one warning, as PlantGL does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
@@ -110,18 +111,19 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
     "@L": (K.LABEL, (1, 2)), "Label": (K.LABEL, (1, 2)),
     "@B": (K.BOX, (0, 1, 2)), "Box": (K.BOX, (0, 1, 2)), "@b": (K.QUAD, (0, 1, 2)), "Quad": (K.QUAD, (0, 1, 2)),
     "Frame": (K.FRAME, (0, 1, 2, 3, 4, 5)),
+    "surface": (K.SURFACE_NAMED, (1, 2)), "~": (K.SURFACE_NAMED, (1, 2)),
 }
 
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
 #: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL
-#: geometry, ``surface('name')`` with a string, contours, guides, textures, reflections, screen projection); the
+#: geometry, contours, guides, textures, reflections, screen projection); the
 #: engine
 #: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
 #: (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "~", "surface", "@g", "PglShape", "Arrow", "SetContour",
+    "@g", "PglShape", "Arrow", "SetContour",
     "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
@@ -267,6 +269,8 @@ def _ops(string: ModuleString):
         owner = np.repeat(np.arange(n), cnt)
         vals = np.abs(args)
         free = (op[owner] == K.NOP) | (op[owner] == K.QUERY) | (op[owner] == K.LABEL)   # a label: any text
+        first = ptr[:-1][(op == K.SURFACE_NAMED) & (cnt > 0)]
+        free[first] = True                                # surface(name, scale): the name, checked below
         if string.objects:                                # MoveTo(None, y): L-Py keeps that coordinate
             none = np.array([j for j, v in string.objects.items() if v is None], np.int64)
             if none.size:
@@ -286,6 +290,11 @@ def _ops(string: ModuleString):
         if not np.any(args[ptr[i]:ptr[i + 1]] != 0):
             raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: the tropism direction must not "
                              f"be zero")
+    for i in np.flatnonzero(op == K.SURFACE_NAMED):
+        name = string.objects.get(int(ptr[i]))
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: the surface name must be a "
+                             f"non-empty str, got {name if name is not None else float(args[ptr[i]])!r:.60}")
     for i in np.flatnonzero(op == K.SETHEAD):
         _check_head(names[ids[i]], int(i), args[ptr[i]:ptr[i + 1]])
     n_seg = int(np.count_nonzero((op == K.F) | ((op >= K.LINETO) & (op <= K.OLINEREL))))
@@ -325,11 +334,11 @@ def _check_head(name: str, i: int, v: np.ndarray) -> None:
 def _capacities(op: np.ndarray, n_seg: int | None = None) -> tuple[int, int]:
     """Shape records and path points the kernel may make for these op codes (0, 0 without shapes); ``n_seg``:
     the segments it may draw (``F`` count by default)."""
-    cnt = np.bincount(op.astype(np.int64), minlength=K.FRAME + 1)
+    cnt = np.bincount(op.astype(np.int64), minlength=K.SURFACE_NAMED + 1)
     n_seg = int(cnt[K.F]) if n_seg is None else n_seg
     paths = cnt[K.GC_START] + cnt[K.POLY_START]
     n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END]
-                   + cnt[K.QUERY] + cnt[K.LABEL] + cnt[K.BOX] + cnt[K.QUAD] + cnt[K.FRAME])
+                   + cnt[K.QUERY] + cnt[K.LABEL] + cnt[K.BOX] + cnt[K.QUAD] + cnt[K.FRAME] + cnt[K.SURFACE_NAMED])
     if not paths:
         return n_shapes, 0
     n_shapes += int(cnt[K.POP] + 1) if cnt[K.GC_START] else 0
@@ -423,11 +432,17 @@ def _interpret(string: ModuleString, angle, step, width, width_increment, tropis
 def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray) -> TurtleShapes:
     """The kernel's shape records as :class:`TurtleShapes` (surface names from the module names)."""
     kind = sint[:, 0].copy()
-    surf = tuple(string.names[string.ids[m]][1:] if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
+    surf = tuple(_surface_name(string, int(m)) if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
     return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
                         sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
                         spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy(),
                         sflt[:, 15:18].copy())
+
+
+def _surface_name(string: ModuleString, m: int) -> str:
+    """The surface module ``m`` draws: ``~name``'s name, ``surface(name)``'s and ``~(name)``'s parameter."""
+    name = string.names[string.ids[m]]
+    return str(string.objects[int(string.arg_ptr[m])]) if name in ("surface", "~") else name[1:]
 
 
 def turtle(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,

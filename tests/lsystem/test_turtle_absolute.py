@@ -137,7 +137,7 @@ def test_labels_are_recorded_not_drawn():
 def test_unsupported_list_is_honest():
     done = {"@M", "MoveTo", "MoveRel", "LineTo", "OLineTo", "LineRel", "OLineRel", "Pinpoint", "PinpointRel",
             "@R", "SetHead", "EulerAngles", "iRollL", "iRollR", "nF", "@D", "SetScale", "@Di", "MultScale",
-            "@Dd", "DivScale", "@L", "Label", "@B", "Box", "@b", "Quad", "Frame"}
+            "@Dd", "DivScale", "@L", "Label", "@B", "Box", "@b", "Quad", "Frame", "surface", "~"}
     assert done <= set(TURTLE_MODULES) and not done & LPY_UNSUPPORTED
 
 
@@ -191,3 +191,16 @@ def test_scale_sizes_spheres_discs_and_surfaces():
     assert abs(extent[2].max() - 3.0) < 1e-9                                 # disc of radius 0.5 x 3
     assert abs(extent[3][2] - 3.0) < 1e-9                                    # the leaf: 1 long along H, x 3
     np.testing.assert_allclose(extent[4], [2, 2, 2], atol=1e-9)
+
+
+def test_surface_by_name():
+    from plantvr.lsystem.shapes import shape_meshes
+    s = ModuleString.from_modules([("surface", ("l", 2.0)), ("~", ("l",)), ("~l", (2.0,))])
+    sh = turtle_nodes(s).shapes
+    assert sh.surface == ("l", "l", "l") and sh.size.tolist() == [2.0, 1.0, 2.0]
+    v = shape_meshes(sh)[1].vertices
+    np.testing.assert_allclose(v[:7], v[14:21])                           # surface('l', 2) is ~l(2)
+    with pytest.raises(ValueError, match=r"module surface at index 0: the surface name must be a non-empty str"):
+        turtle(ModuleString.from_modules([("surface", (3.0,))]))
+    with pytest.raises(ValueError, match=r"unknown surface\(s\) \['nope'\]"):
+        shape_meshes(turtle_nodes(ModuleString.from_modules([("surface", ("nope",))])).shapes)
