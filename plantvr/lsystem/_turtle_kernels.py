@@ -273,7 +273,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             if (o == F and length > 0.0 and el > EPS) or (o == FMOVE and el > EPS):
                 # Turtle::_tendTo(tropism, elasticity)
                 hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, el)
-            rs = sx if sx == sy else 1.0                  # PglTurtleDrawer::cylinder: width * sx when sx == sy
+            rs = abs(sx) if sx == sy else 1.0             # PglTurtleDrawer::cylinder: width * |sx| when sx == sy
             if o == FMOVE:
                 px += hx * length * sz
                 py += hy * length * sz
@@ -520,7 +520,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                     lx, ly, lz = -lx, -ly, -lz
                 if el > EPS:
                     hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, el)
-                rs = sx if sx == sy else 1.0
+                rs = abs(sx) if sx == sy else 1.0
                 ns = _record(sint, sflt, ns, SH_BOX if o == BOX else SH_QUAD, col, i, px, py, pz, hx, hy, hz, lx, ly,
                              lz, ux, uy, uz, length * sz)
                 sflt[ns - 1, 13] = max(w, 0.0) * rs

@@ -117,6 +117,9 @@ def test_scale_multiplies_steps_and_widths_and_is_pushed():
     np.testing.assert_allclose(t.pos[:, 2], [0, 2, 3, 6, 7, 11, 14])
     np.testing.assert_allclose(t.radius, [0.2, 0.2, 0.1, 0.4, 0.1, 0.3, 0.3])
     assert t.parent.tolist() == [-1, 0, 1, 1, 3, -1, 5]
+    t = turtle(ModuleString.from_modules([("@D", (-2.0,)), "F", ("@B", (1.0,))]))   # a negative scale: backwards
+    np.testing.assert_allclose(t.pos, [[0, 0, 0], [0, 0, -2]])
+    np.testing.assert_allclose(t.radius, [0.2, 0.2])
     with pytest.warns(UserWarning, match=r"1 module\(s\) set a turtle scale beyond 1e6 \(or divided by 0\).*"
                                          r"DivScale at index 0"):
         t = turtle(ModuleString.from_modules([("DivScale", (0.0,)), "F"]))
