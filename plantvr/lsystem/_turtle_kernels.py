@@ -23,23 +23,41 @@ import numpy as np
 NOP, F, FMOVE, LEFT, RIGHT, UP, DOWN, ROLLL, ROLLR, TURN, ROLLVERT, ROLLHORIZ, PUSH, POP = range(14)
 INCW, DECW, SETW, INCC, DECC, SETC, CUT, TROPISM, ELASTICITY = range(14, 23)
 SPHERE, CIRCLE, SURFACE, GC_START, GC_END, POLY_START, POLY_END, POLY_POINT, QUERY = range(23, 32)
+#: issue 33: absolute moves and orientation (``@M``/``MoveTo``, ``MoveRel``, ``LineTo``, ``OLineTo``, ``LineRel``,
+#: ``OLineRel``, ``Pinpoint``, ``PinpointRel``, ``@R``/``SetHead``, ``EulerAngles``), ``nF``, the scale
+#: (``@D``/``SetScale``, ``@Di``/``MultScale``, ``@Dd``/``DivScale``) and ``@L``/``Label``.
+MOVETO, MOVEREL, LINETO, OLINETO, LINEREL, OLINEREL, PINPOINT, PINPOINTREL, SETHEAD, EULER = range(32, 42)
+NF, SETSCALE, MULTSCALE, DIVSCALE, LABEL = range(42, 47)
+#: ``@B``/``Box`` and ``@b``/``Quad`` (shapes drawn along a step, PlantGL ``Turtle::box`` / ``quad``), ``Frame``.
+BOX, QUAD, FRAME = range(47, 50)
+#: ``surface(name[, scale])`` / ``~(name[, scale])``: a named surface, the name a str parameter.
+SURFACE_NAMED = 50
 #: Kinds of the shape records (``sint[:, 0]``): ``@O`` sphere, ``@o`` disc, ``~name`` surface, ``{ }`` polygon
 #: (fan, or ear clipping after ``}(1)``, PlantGL's concave test), ``@Gc``/``@Ge`` generalized cylinder; and
 #: ``SH_QUERY``, not a shape: the frame at a request module (``?P``, ``?H``, ... of L-Py; issue 33).
 SH_SPHERE, SH_CIRCLE, SH_SURFACE, SH_POLYGON, SH_POLYGON_CONCAVE, SH_TUBE, SH_QUERY = range(1, 8)
+#: Not a shape either: a text label's frame (``@L``; the text is the module's parameter).
+SH_LABEL = 8
+#: A box or a quad along a step: its frame at the start, its length, bottom and top half-widths; ``SH_FRAME``
+#: (not a shape): a ``Frame`` annotation, its size.
+SH_BOX, SH_QUAD, SH_FRAME = 9, 10, 11
 #: PlantGL's GEOM_EPSILON.
 EPS = 1e-6
 #: Warning slots of the kernel: a width below zero, a colour below zero, an elasticity outside [0, 1] (PlantGL
-#: warns and keeps the current value).
-IGNORED_WIDTH, IGNORED_COLOR, IGNORED_ELASTICITY, IGNORED_SIZE = 0, 1, 2, 3
+#: warns and keeps the current value); a scale factor of 0 to divide by or a scale beyond +-1e6 (kept too).
+IGNORED_WIDTH, IGNORED_COLOR, IGNORED_ELASTICITY, IGNORED_SIZE, IGNORED_SCALE = 0, 1, 2, 3, 4
+#: PlantGL's ``scale_multiplier``: ``@Di`` / ``@Dd`` without a parameter multiply / divide the scale by it.
+SCALE_MULTIPLIER = 0.5
+#: The largest scale component the kernel keeps (``MAX_COORD`` of :mod:`plantvr._validation`).
+MAX_SCALE = 1e6
 #: ``SetColor(r, g, b[, a])`` (L-Py's custom appearance): colour code ``CUSTOM_COLOR + (r << 16 | g << 8 | b)``,
 #: each channel rounded and clipped to 0..255 (the alpha is not kept).
 CUSTOM_COLOR = 1 << 32
 
-_NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, (pad 3)
+_NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, scale 3
 _NI = 10  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
 #           GC colour, polygon on, polygon colour
-_NS = 13  # float columns of a shape record: position 3, H 3, L 3, U 3, size
+_NS = 18  # float columns of a shape record: position 3, H 3, L 3, U 3, size, bottom and top radius, scale 3
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
@@ -49,6 +67,27 @@ def _rot(vx, vy, vz, kx, ky, kz, c, s):
     return (vx * c + (ky * vz - kz * vy) * s + kx * d,
             vy * c + (kz * vx - kx * vz) * s + ky * d,
             vz * c + (kx * vy - ky * vx) * s + kz * d)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, strength):
+    """PlantGL ``Turtle::_tendTo(t, strength)``: the frame (H, L, U) turned about H x t by ``strength`` times the
+    angle from H to the unit vector ``t`` (half a turn about U when t is -H)."""
+    cx, cy, cz = hy * tz - hz * ty, hz * tx - hx * tz, hx * ty - hy * tx
+    sn = math.sqrt(cx * cx + cy * cy + cz * cz)
+    cs = hx * tx + hy * ty + hz * tz
+    kx, ky, kz, ang = ux, uy, uz, 0.0
+    if sn > EPS:
+        kx, ky, kz = cx / sn, cy / sn, cz / sn
+        ang = math.atan2(sn, cs) * strength
+    elif cs < EPS:
+        ang = math.pi * strength
+    if ang != 0.0:
+        c, s = math.cos(ang), math.sin(ang)
+        hx, hy, hz = _rot(hx, hy, hz, kx, ky, kz, c, s)
+        lx, ly, lz = _rot(lx, ly, lz, kx, ky, kz, c, s)
+        ux, uy, uz = _rot(ux, uy, uz, kx, ky, kz, c, s)
+    return hx, hy, hz, lx, ly, lz, ux, uy, uz
 
 
 @numba.njit(cache=True, nogil=True)
@@ -117,8 +156,8 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
     module = np.full(n_out, -1, np.int64)
     fstack = np.zeros((max_depth + 1, _NF))
     istack = np.zeros((max_depth + 1, _NI), np.int64)
-    ignored = np.zeros(4, np.int64)
-    ignored_at = np.full(4, -1, np.int64)
+    ignored = np.zeros(5, np.int64)
+    ignored_at = np.full(5, -1, np.int64)
     sint = np.zeros((n_shapes, 5), np.int64)
     sflt = np.zeros((n_shapes, _NS))
     spts = np.zeros((n_pool + n_shapes, 7))
@@ -132,6 +171,10 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
     poly_tail = -1
     poly_col = 1
     deg = math.pi / 180.0
+    sx = sy = sz = 1.0            # PlantGL's scale: F and f move length * sz; widths scale by sx when sx == sy
+    nf_i = nf_n = nf_k = nf_r = 0  # the nF being expanded (module, steps, steps done, has a radius)
+    nf_i = -1
+    nf_dl = nf_rest = nf_cw = nf_dw = nf_top = 0.0
 
     px = py = pz = 0.0
     hx, hy, hz = 0.0, 0.0, 1.0
@@ -155,13 +198,73 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
         if o == NOP:
             i += 1
             continue
-        if o == F or o == FMOVE:
-            length = step
+        forced = False            # a LineTo / nF step: F with the length and top width computed here
+        keep = False              # LineTo / LineRel: the frame is restored after the segment
+        again = False             # an nF with steps left stays on this module
+        length, top = step, -1.0
+        ohx, ohy, ohz, olx, oly, olz, oux, ouy, ouz = hx, hy, hz, lx, ly, lz, ux, uy, uz
+        if o >= LINETO and o <= PINPOINTREL:
+            # Turtle::oLineTo / oLineRel / pinpoint / pinpointRel (lineTo, lineRel: the same, frame kept)
+            vx = vy = vz = 0.0
             if na > 0:
-                length = args[a0]
-            top = -1.0
-            if o == F and na > 1:
-                top = args[a0 + 1]
+                vx = args[a0]
+            if na > 1:
+                vy = args[a0 + 1]
+            if na > 2:
+                vz = args[a0 + 2]
+            if o == LINETO or o == OLINETO or o == PINPOINT:
+                vx, vy, vz = vx - px, vy - py, vz - pz
+            ln = math.sqrt(vx * vx + vy * vy + vz * vz)
+            if na == 0 or ln <= EPS:
+                i += 1
+                continue
+            hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, vx / ln, vy / ln,
+                                                       vz / ln, 1.0)
+            if o == PINPOINT or o == PINPOINTREL:
+                i += 1
+                continue
+            keep = o == LINETO or o == LINEREL
+            length = ln
+            if na > 3:
+                top = args[a0 + 3]
+            o, forced = F, True
+        elif o == NF:
+            # Turtle::nF(length, dl[, radius]): int(length / dl) steps of dl, then the rest if above epsilon
+            if nf_i != i:
+                nf_i, nf_k = i, 0
+                nf_dl = args[a0 + 1]
+                nf_n = int(args[a0] / nf_dl)
+                nf_rest = args[a0] - nf_n * nf_dl
+                nf_r = 1 if na > 2 else 0
+                nf_cw = w
+                nf_dw = 0.0
+                if nf_r:
+                    nf_top = args[a0 + 2]
+                    if args[a0] > 0.0:
+                        nf_dw = (nf_top - w) / args[a0]
+            total = nf_n + (1 if nf_rest > EPS else 0)
+            if nf_k >= total:
+                nf_i = -1
+                i += 1
+                continue
+            if nf_k < nf_n:
+                length = nf_dl
+                if nf_r:
+                    nf_cw += nf_dw * nf_dl
+                    top = nf_cw
+            else:
+                length = nf_rest
+                if nf_r:
+                    top = nf_top
+            nf_k += 1
+            again = True
+            o, forced = F, True
+        if o == F or o == FMOVE:
+            if not forced:
+                if na > 0:
+                    length = args[a0]
+                if o == F and na > 1:
+                    top = args[a0 + 1]
             flip = o == F and length < -EPS
             if flip:          # PlantGL: turnAround(); F(-length, r); turnAround()
                 length = -length
@@ -169,24 +272,12 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 lx, ly, lz = -lx, -ly, -lz
             if (o == F and length > 0.0 and el > EPS) or (o == FMOVE and el > EPS):
                 # Turtle::_tendTo(tropism, elasticity)
-                cx, cy, cz = hy * tz - hz * ty, hz * tx - hx * tz, hx * ty - hy * tx
-                sn = math.sqrt(cx * cx + cy * cy + cz * cz)
-                cs = hx * tx + hy * ty + hz * tz
-                kx, ky, kz, ang = ux, uy, uz, 0.0
-                if sn > EPS:
-                    kx, ky, kz = cx / sn, cy / sn, cz / sn
-                    ang = math.atan2(sn, cs) * el
-                elif cs < EPS:
-                    ang = math.pi * el
-                if ang != 0.0:
-                    c, s = math.cos(ang), math.sin(ang)
-                    hx, hy, hz = _rot(hx, hy, hz, kx, ky, kz, c, s)
-                    lx, ly, lz = _rot(lx, ly, lz, kx, ky, kz, c, s)
-                    ux, uy, uz = _rot(ux, uy, uz, kx, ky, kz, c, s)
+                hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, el)
+            rs = abs(sx) if sx == sy else 1.0             # PglTurtleDrawer::cylinder: width * |sx| when sx == sy
             if o == FMOVE:
-                px += hx * length
-                py += hy * length
-                pz += hz * length
+                px += hx * length * sz
+                py += hy * length * sz
+                pz += hz * length * sz
                 cur = -2
             elif length > EPS:
                 if cur < 0:
@@ -197,7 +288,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                             ordr += 1
                             pending = 0
                         pos[nn, 0], pos[nn, 1], pos[nn, 2] = px, py, pz
-                        radius[nn] = max(w, 0.0)
+                        radius[nn] = max(w, 0.0) * rs
                         order[nn] = ordr if cur == -2 else 0
                         color[nn] = col
                         module[nn] = i
@@ -208,14 +299,14 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 if pending:
                     ordr += 1
                     pending = 0
-                px += hx * length
-                py += hy * length
-                pz += hz * length
+                px += hx * length * sz
+                py += hy * length * sz
+                pz += hz * length * sz
                 if top > -EPS:
                     w = top
                 pos[nn, 0], pos[nn, 1], pos[nn, 2] = px, py, pz
                 parent[nn] = cur
-                radius[nn] = max(w, 0.0)
+                radius[nn] = max(w, 0.0) * rs
                 order[nn] = ordr
                 color[nn] = col
                 module[nn] = i
@@ -304,6 +395,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             fs[0], fs[1], fs[2], fs[3], fs[4], fs[5] = px, py, pz, hx, hy, hz
             fs[6], fs[7], fs[8], fs[9], fs[10], fs[11] = lx, ly, lz, ux, uy, uz
             fs[12], fs[13], fs[14], fs[15], fs[16] = w, tx, ty, tz, el
+            fs[17], fs[18], fs[19] = sx, sy, sz
             ist = istack[depth]
             ist[0], ist[1], ist[2], ist[3] = cur, ordr, pending, col
             ist[4], ist[5], ist[6], ist[7], ist[8], ist[9] = gc_on, gc_tail, gc_cnt, gc_col, poly_on, poly_col
@@ -319,6 +411,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             px, py, pz, hx, hy, hz = fs[0], fs[1], fs[2], fs[3], fs[4], fs[5]
             lx, ly, lz, ux, uy, uz = fs[6], fs[7], fs[8], fs[9], fs[10], fs[11]
             w, tx, ty, tz, el = fs[12], fs[13], fs[14], fs[15], fs[16]
+            sx, sy, sz = fs[17], fs[18], fs[19]
             ist = istack[depth]
             cur, ordr, pending, col = ist[0], ist[1], ist[2], ist[3]
             gc_on, gc_tail, gc_cnt, gc_col, poly_on, poly_col = ist[4], ist[5], ist[6], ist[7], ist[8], ist[9]
@@ -384,9 +477,12 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 ignored[IGNORED_ELASTICITY] += 1
                 if ignored_at[IGNORED_ELASTICITY] < 0:
                     ignored_at[IGNORED_ELASTICITY] = i
-        elif o == SPHERE or o == CIRCLE or o == SURFACE:
-            size = 1.0 if o == SURFACE else w              # a sphere's or disc's radius defaults to the width
-            if na > 0:
+        elif o == SPHERE or o == CIRCLE or o == SURFACE or o == SURFACE_NAMED:
+            size = 1.0 if o >= SURFACE else w              # a sphere's or disc's radius defaults to the width
+            if o == SURFACE_NAMED:                         # surface(name, scale): the name is parameter 0
+                if na > 1:
+                    size = args[a0 + 1]
+            elif na > 0:
                 size = args[a0]
             if size < -EPS:
                 ignored[IGNORED_SIZE] += 1
@@ -395,8 +491,151 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             elif size > EPS:
                 kind = SH_SPHERE if o == SPHERE else (SH_CIRCLE if o == CIRCLE else SH_SURFACE)
                 ns = _record(sint, sflt, ns, kind, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
+                # PglTurtleDrawer: a sphere or surface Scaled(scale * size) along (U, -L, H); a disc times scale.x
+                # when the scale is isotropic
+                qx, qy, qz = sx, sy, sz
+                if o == CIRCLE:
+                    if sx == sy and sy == sz:
+                        qy, qz = sx, sx
+                    else:
+                        qx, qy, qz = 1.0, 1.0, 1.0
+                sflt[ns - 1, 15], sflt[ns - 1, 16], sflt[ns - 1, 17] = qx, qy, qz
         elif o == QUERY:                                  # a request module: the frame here, drawing nothing
             ns = _record(sint, sflt, ns, SH_QUERY, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, 0.0)
+        elif o == BOX or o == QUAD:
+            # Turtle::box / quad: tropism, the shape from here along H (length * scale.z, half-widths the width and
+            # the top width, times scale.x when x = y), a move, then the width set to the top's; negative: turned
+            # around. The skeleton is not drawn: the next F starts a new root
+            length = step
+            if na > 0:
+                length = args[a0]
+            top = w
+            if na > 1:
+                top = args[a0 + 1]
+            if length > 0.0 or length < -EPS:
+                flip = length < 0.0
+                if flip:
+                    length = -length
+                    hx, hy, hz = -hx, -hy, -hz
+                    lx, ly, lz = -lx, -ly, -lz
+                if el > EPS:
+                    hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, el)
+                rs = abs(sx) if sx == sy else 1.0
+                ns = _record(sint, sflt, ns, SH_BOX if o == BOX else SH_QUAD, col, i, px, py, pz, hx, hy, hz, lx, ly,
+                             lz, ux, uy, uz, length * sz)
+                sflt[ns - 1, 13] = max(w, 0.0) * rs
+                sflt[ns - 1, 14] = max(top, 0.0) * rs
+                px += hx * length * sz
+                py += hy * length * sz
+                pz += hz * length * sz
+                cur = -2
+                if top > -EPS:
+                    w = top
+                    if gc_on and gc_cnt > 0:
+                        gc_tail = _radius(pool, prev, npool, gc_tail, w)
+                        npool += 1
+                if flip:
+                    hx, hy, hz = -hx, -hy, -hz
+                    lx, ly, lz = -lx, -ly, -lz
+        elif o == FRAME:                                  # Turtle::frame(size, cap height ratio, ...): annotated
+            size = step
+            if na > 0:
+                size = args[a0]
+            cap = 0.2
+            if na > 1:
+                cap = args[a0 + 1]
+            if size > EPS and 0.0 < cap < 1.0:
+                ns = _record(sint, sflt, ns, SH_FRAME, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
+        elif o == LABEL:                                  # Turtle::label: the text at the turtle's frame
+            size = -1.0
+            if na > 1 and args[a0 + 1] == args[a0 + 1]:
+                size = args[a0 + 1]
+            ns = _record(sint, sflt, ns, SH_LABEL, col, i, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size)
+        elif o == MOVETO or o == MOVEREL:
+            # Turtle::move / shift; L-Py's MoveTo keeps the coordinates not given (None: NaN here), MoveRel
+            # pads with 0; the next F starts a new root, as after an f, if the turtle moved
+            qx, qy, qz = px, py, pz
+            if o == MOVETO and na == 0:
+                qx, qy, qz = 0.0, 0.0, 0.0
+            for c in range(min(na, 3)):
+                v = args[a0 + c]
+                if v == v:
+                    if o == MOVEREL:
+                        v += px if c == 0 else (py if c == 1 else pz)
+                    if c == 0:
+                        qx = v
+                    elif c == 1:
+                        qy = v
+                    else:
+                        qz = v
+            if abs(qx - px) + abs(qy - py) + abs(qz - pz) > 0.0:
+                px, py, pz = qx, qy, qz
+                cur = -2
+        elif o == SETHEAD:
+            # L-Py's SetHead: no up vector (or a null one): pinpointRel(h); else Turtle::setHead(h, u), up
+            # re-orthogonalised (the door refuses a null heading and a heading colinear with the up vector)
+            vx, vy, vz = 0.0, 0.0, 1.0
+            wx, wy, wz = 1.0, 0.0, 0.0
+            if na > 0:
+                vx, vy, vz = args[a0], 0.0, 0.0
+            if na > 1:
+                vy = args[a0 + 1]
+            if na > 2:
+                vz = args[a0 + 2]
+            if na > 3:
+                wx, wy, wz = args[a0 + 3], 0.0, 0.0
+            if na > 4:
+                wy = args[a0 + 4]
+            if na > 5:
+                wz = args[a0 + 5]
+            vn = math.sqrt(vx * vx + vy * vy + vz * vz)
+            wn = math.sqrt(wx * wx + wy * wy + wz * wz)
+            if vn > EPS:
+                vx, vy, vz = vx / vn, vy / vn, vz / vn
+                if (na > 0 and na < 4) or wn < EPS:
+                    hx, hy, hz, lx, ly, lz, ux, uy, uz = _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, vx, vy, vz, 1.0)
+                else:
+                    wx, wy, wz = wx / wn, wy / wn, wz / wn
+                    cx, cy, cz = wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx   # L = U x H
+                    cn = math.sqrt(cx * cx + cy * cy + cz * cz)
+                    if cn > EPS:
+                        hx, hy, hz = vx, vy, vz
+                        lx, ly, lz = cx / cn, cy / cn, cz / cn
+                        ux, uy, uz = hy * lz - hz * ly, hz * lx - hx * lz, hx * ly - hy * lx  # U = H x L
+        elif o == EULER:
+            # Turtle::eulerAngles: M = Matrix3::eulerRotationZYX(azimuth, -elevation, roll), H = M x, U = M z,
+            # L = U x H (defaults 180, 90, 0: the initial frame)
+            az, elv, rl = 180.0, 90.0, 0.0
+            if na > 0:
+                az = args[a0]
+            if na > 1:
+                elv = args[a0 + 1]
+            if na > 2:
+                rl = args[a0 + 2]
+            cx_, sx_ = math.cos(az * deg), math.sin(az * deg)
+            cy_, sy_ = math.cos(-elv * deg), math.sin(-elv * deg)
+            cz_, sz_ = math.cos(rl * deg), math.sin(rl * deg)
+            hx, hy, hz = cx_ * cy_, sx_ * cy_, -sy_
+            ux, uy, uz = cx_ * sy_ * cz_ + sx_ * sz_, sx_ * sy_ * cz_ - cx_ * sz_, cy_ * cz_
+            lx, ly, lz = uy * hz - uz * hy, uz * hx - ux * hz, ux * hy - uy * hx
+        elif o == SETSCALE or o == MULTSCALE or o == DIVSCALE:
+            v = 1.0 if o == SETSCALE else SCALE_MULTIPLIER
+            if na > 0:
+                v = args[a0]
+            qx, qy, qz = v, v, v
+            ok = True
+            if o == MULTSCALE:
+                qx, qy, qz = sx * v, sy * v, sz * v
+            elif o == DIVSCALE:
+                ok = v != 0.0
+                if ok:
+                    qx, qy, qz = sx / v, sy / v, sz / v
+            if ok and abs(qx) <= MAX_SCALE and abs(qy) <= MAX_SCALE and abs(qz) <= MAX_SCALE:
+                sx, sy, sz = qx, qy, qz
+            else:
+                ignored[IGNORED_SCALE] += 1
+                if ignored_at[IGNORED_SCALE] < 0:
+                    ignored_at[IGNORED_SCALE] = i
         elif o == GC_START:                               # PlantGL startGC: a new path from here
             gc_on, gc_cnt, gc_col = 1, 1, col
             gc_tail = _point(pool, prev, npool, -1, px, py, pz, lx, ly, lz, max(w, 0.0))
@@ -421,7 +660,10 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 kind = SH_POLYGON_CONCAVE if na > 0 and args[a0] != 0.0 else SH_POLYGON
                 ns, nsp = _record_path(sint, spts, ns, nsp, kind, poly_col, i, pool, prev, poly_tail, poly_cnt)
             poly_on, poly_tail, poly_cnt = 0, -1, 0
-        i += 1
+        if keep:                                          # Turtle::lineTo / lineRel restore the frame
+            hx, hy, hz, lx, ly, lz, ux, uy, uz = ohx, ohy, ohz, olx, oly, olz, oux, ouy, ouz
+        if not again:
+            i += 1
     if gc_on and gc_cnt > 1:                              # PlantGL Turtle::stop()
         ns, nsp = _record_path(sint, spts, ns, nsp, SH_TUBE, gc_col, -1, pool, prev, gc_tail, gc_cnt)
     return (pos, parent, radius, order, main, color, module, nn, ignored, ignored_at, sint, sflt, spts, ns,
@@ -456,7 +698,8 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
         return [*st["p"], *st["L"], max(st["w"], 0.0)]
 
     def record(kind, col, i, size=0.0, pts=()):
-        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size] if not pts else [0.0] * 13
+        scale = [1.0, 1.0, 1.0] if kind in (SH_SPHERE, SH_CIRCLE, SH_SURFACE) else [0.0, 0.0, 0.0]
+        frame = [*st["p"], *st["H"], *st["L"], *st["U"], size, 0.0, 0.0, *scale] if not pts else [0.0] * 18
         shapes.append((kind, col, i, frame, [list(q) for q in pts]))
 
     def set_width(v):
@@ -466,7 +709,7 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
     nodes = {k: [] for k in ("pos", "parent", "radius", "order", "color", "module")}
     main: list[int] = []
     base = [-1]
-    ignored = [0, 0, 0, 0]
+    ignored = [0, 0, 0, 0, 0]
 
     def frame_rotate(R):
         st["H"], st["L"], st["U"] = R @ st["H"], R @ st["L"], R @ st["U"]
@@ -649,5 +892,5 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
     return (np.array(nodes["pos"], float).reshape(m, 3), np.array(nodes["parent"], np.int64),
             np.array(nodes["radius"], float), np.array(nodes["order"], np.int64), np.array(main, np.int64),
             np.array(nodes["color"], np.int64), np.array(nodes["module"], np.int64), ignored,
-            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 13),
+            np.array(sint, np.int64).reshape(-1, 5), np.array(sflt, float).reshape(-1, 18),
             np.array(spts, float).reshape(-1, 7))

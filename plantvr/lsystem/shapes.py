@@ -36,8 +36,8 @@ from plantvr.types import TriMesh
 from . import _turtle_kernels as K
 from .turtle import _TABLE, TURTLE_MODULES, TurtleShapes
 
-__all__ = ["DEFAULT_MATERIALS", "SURFACES", "ShapeMesh", "disc_mesh", "leaf_surface", "material_rgb",
-           "polygon_faces", "register_surface", "shape_meshes", "shape_name", "sphere_mesh", "tube_mesh"]
+__all__ = ["DEFAULT_MATERIALS", "SURFACES", "ShapeMesh", "box_mesh", "disc_mesh", "leaf_surface", "material_rgb",
+           "polygon_faces", "quad_mesh", "register_surface", "shape_meshes", "shape_name", "sphere_mesh", "tube_mesh"]
 
 #: PlantGL's default turtle materials (``PglTurtle::defaultValue``): name, ambient RGB, diffuse factor.
 DEFAULT_MATERIALS: tuple[tuple[str, tuple[int, int, int], float], ...] = (
@@ -282,14 +282,63 @@ def tube_mesh(points, radius, left, *, slices: int = 16) -> tuple[np.ndarray, np
     return verts, faces.astype(np.int64)
 
 
-def _place(frame: np.ndarray, size: np.ndarray, local: np.ndarray) -> np.ndarray:
-    """(S, V, 3) world vertices of a local template placed at each frame (x = U, y = -L, z = H), scaled."""
+def _place(frame: np.ndarray, size: np.ndarray, local: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+    """(S, V, 3) world vertices of a local template placed at each frame (x = U, y = -L, z = H), scaled (per local
+    axis by ``scale`` (S, 3) if given)."""
     pos, h, lft, up = frame[:, 0], frame[:, 1], frame[:, 2], frame[:, 3]
     axes = np.stack([up, -lft, h], 1)                      # (S, 3 local axes, 3)
-    out = np.matmul(local[None], axes)                    # (S, V, 3)
+    out = np.matmul(local[None] if scale is None else local[None] * scale[:, None, :], axes)   # (S, V, 3)
     out *= size[:, None, None]
     out += pos[:, None]
     return out
+
+
+#: A box's faces (outward) on its corners ``bottom (-x -y, +x -y, +x +y, -x +y), then top`` in the local frame
+#: x = U, y = -L, z = H.
+_BOX_FACES = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [1, 2, 6], [1, 6, 5],
+                       [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]], np.int64)
+
+
+def box_mesh(frame, length: float, bottom: float, top: float) -> tuple[np.ndarray, np.ndarray]:
+    """PlantGL's turtle box (``PglTurtleDrawer::box``): a square section of half-width ``bottom`` at the frame's
+    position, ``top`` at ``length`` along H, tapered between (PlantGL ``Tapered`` of a ``Box``).
+
+    Parameters
+    ----------
+    frame : (4, 3) float array
+        Position, H, L, U.
+    length, bottom, top : float
+        Length along H and the half-widths (PlantGL: the width and the top width).
+
+    Returns
+    -------
+    (8, 3) vertices and (12, 3) outward faces; no faces when both half-widths are 0 (PlantGL draws a line).
+    """
+    p, h, left, u = np.asarray(frame, float)
+    sq = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], float)
+    v = np.concatenate([p + r * (sq[:, :1] * u - sq[:, 1:] * left) + z * h
+                        for r, z in ((bottom, 0.0), (top, length))])
+    if bottom < K.EPS and top < K.EPS:
+        return v, np.zeros((0, 3), np.int64)
+    return v, _BOX_FACES.copy()
+
+
+def quad_mesh(frame, length: float, bottom: float, top: float) -> tuple[np.ndarray, np.ndarray]:
+    """PlantGL's turtle quad (``PglTurtleDrawer::quad``): ``position +- L bottom`` and ``top position -+ L top``
+    (a triangle where a half-width is 0, nothing where both are: PlantGL draws a line).
+
+    Returns
+    -------
+    (V, 3) vertices and (F, 3) faces.
+    """
+    p, h, left, _ = np.asarray(frame, float)
+    q = p + h * length
+    pts = [p] if bottom < K.EPS else [p + left * bottom, p - left * bottom]
+    pts += [q] if top < K.EPS else [q - left * top, q + left * top]
+    v = np.array(pts, float)
+    if len(v) == 2:
+        return v, np.zeros((0, 3), np.int64)
+    return v, np.array([[0, 1, 2]] if len(v) == 3 else [[0, 1, 2], [0, 2, 3]], np.int64)
 
 
 def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
@@ -309,7 +358,7 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
     -------
     dict of int to ShapeMesh
         Keyed by colour index, ascending; empty without shapes. Within a material the parts come in the order
-        spheres, discs, surfaces, polygons, tubes, each in string order.
+        spheres, discs, surfaces, polygons, tubes, boxes and quads, each in string order.
 
     Raises
     ------
@@ -335,7 +384,8 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
         is_kind = (kind == kd) & (surf == name) if name else kind == kd
         for col in np.unique(shapes.color[is_kind]):
             sel = np.flatnonzero(is_kind & (shapes.color == col))
-            verts = _place(shapes.frame[sel], shapes.size[sel], tv).reshape(-1, 3)
+            verts = _place(shapes.frame[sel], shapes.size[sel], tv,
+                           None if shapes.scale is None else shapes.scale[sel]).reshape(-1, 3)
             faces = (tf[None] + (np.arange(len(sel)) * len(tv))[:, None, None]).reshape(-1, 3)
             add(col, verts, faces)
     for s in np.flatnonzero((kind == K.SH_POLYGON) | (kind == K.SH_POLYGON_CONCAVE)):
@@ -347,6 +397,11 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
     for s in np.flatnonzero(kind == K.SH_TUBE):
         a, b = shapes.start[s], shapes.start[s] + shapes.count[s]
         v, f = tube_mesh(shapes.points[a:b], shapes.radius[a:b], shapes.left[a], slices=slices)
+        if len(f):
+            add(shapes.color[s], v, f)
+    for s in np.flatnonzero((kind == K.SH_BOX) | (kind == K.SH_QUAD)):
+        mesh = box_mesh if kind[s] == K.SH_BOX else quad_mesh
+        v, f = mesh(shapes.frame[s], shapes.size[s], *shapes.radii[s])
         if len(f):
             add(shapes.color[s], v, f)
     out: dict[int, ShapeMesh] = {}

@@ -26,6 +26,25 @@ Conventions are PlantGL's ``Turtle`` (``turtle.cpp``, ``turtleparam.cpp``) as L-
   last point's radius, a ``[`` branch starts its own tube at its parent's last point and draws it at ``]``, an
   open one is drawn at the end of the string); each shape keeps its colour index (the one at ``{``/``@Gc`` for
   paths). The skeleton is unchanged by them (an ``F`` inside ``@Gc`` still makes its node).
+* absolute moves and orientation (issue 33, PlantGL ``move``, ``shift``, ``lineTo``, ``oLineTo``, ``lineRel``,
+  ``oLineRel``, ``pinpoint``, ``pinpointRel``, ``setHead``, ``eulerAngles``): ``@M``/``MoveTo(x, y, z)`` and
+  ``MoveRel`` move without drawing (the next ``F`` starts a new root, as after ``f``, if the turtle moved;
+  ``MoveTo(None, y)`` keeps x, as L-Py); ``LineTo``/``LineRel(x, y, z[, top])`` draw a segment (a node, like ``F``)
+  to the point (relative: the offset) and keep the frame, ``OLineTo``/``OLineRel`` turn it toward the point first
+  (``_tendTo``); ``Pinpoint``/``PinpointRel`` only turn; ``@R``/``SetHead(hx, hy, hz, ux, uy, uz)`` sets H and U
+  (L = U x H; without an up vector: ``PinpointRel``), ``EulerAngles(azimuth, elevation, roll)`` the frame
+  ``Rz(a) Ry(-e) Rx(r)`` (H its x, U its z); ``iRollL``/``iRollR`` are rolls (no guide here);
+* ``nF(length, dl[, radius])``: ``int(length / dl)`` segments of ``dl`` and the rest, the width going linearly to
+  ``radius``; the scale (``@D``/``SetScale(s)``, ``@Di``/``MultScale(s)``, ``@Dd``/``DivScale(s)``; 0.5 without a
+  parameter, PlantGL's ``scale_multiplier``) multiplies the length of every ``F``/``f`` step (``scale.z``) and the
+  width (``scale.x`` when x = y, ``PglTurtleDrawer::cylinder``), and sizes spheres, discs and surfaces
+  (``PglTurtleDrawer::sphere``, ``circle``, ``customGeometry``); ``[ ]`` keep it;
+* ``@L``/``Label(text[, size])`` texts are recorded (:class:`TurtleLabel`, ``TurtleNodes.labels``), not drawn.
+* ``@B``/``Box(length, top)`` and ``@b``/``Quad(length, top)`` draw a box (square section) / a quad in the
+  (H, L) plane along a step (PlantGL ``Turtle::box``, ``quad``; half-widths the width and ``top``, the width
+  then set to ``top``), as shapes, moving like ``f`` (the next ``F`` starts a new root); ``Frame(size)`` is recorded
+  (``TurtleNodes.frames``), not meshed; ``surface(name[, scale])`` / ``~(name[, scale])`` draw the named surface
+  as ``~name(scale)`` (:func:`plantvr.lsystem.shapes.register_surface`).
 
 A width below zero, a colour below zero, an elasticity outside [0, 1] or a negative sphere / disc radius or
 surface scale is ignored with one warning, as PlantGL does (it warns and keeps the current value). Modules that are neither in :data:`TURTLE_MODULES` nor in
@@ -35,6 +54,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -44,7 +64,8 @@ from plantvr.types import TreeArrays
 from . import _turtle_kernels as K
 from .modules import ModuleString
 
-__all__ = ["LPY_UNSUPPORTED", "QUERY_MODULES", "TURTLE_MODULES", "TurtleNodes", "TurtleShapes", "bush_string",
+__all__ = ["LPY_UNSUPPORTED", "QUERY_MODULES", "TURTLE_MODULES", "TurtleLabel", "TurtleNodes", "TurtleShapes",
+           "bush_string",
            "query_frames", "turtle", "turtle_nodes"]
 
 #: L-Py's defaults (PlantGL ``Turtle``): angle increment, step, width, width increment.
@@ -78,21 +99,32 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
     "{": (K.POLY_START, (0,)), "BP": (K.POLY_START, (0,)), "}": (K.POLY_END, (0, 1)), "EP": (K.POLY_END, (0, 1)),
     ".": (K.POLY_POINT, (0,)), "PP": (K.POLY_POINT, (0,)),
     **{name: (K.QUERY, (0, 1, 2, 3, 4)) for name in QUERY_MODULES},
+    "iRollL": (K.ROLLL, (0, 1)), "iRollR": (K.ROLLR, (0, 1)),       # intrinsic rolls: rolls without a guide
+    "@M": (K.MOVETO, (0, 1, 2, 3)), "MoveTo": (K.MOVETO, (0, 1, 2, 3)), "MoveRel": (K.MOVEREL, (0, 1, 2, 3)),
+    "LineTo": (K.LINETO, (0, 1, 2, 3, 4)), "OLineTo": (K.OLINETO, (0, 1, 2, 3, 4)),
+    "LineRel": (K.LINEREL, (0, 1, 2, 3, 4)), "OLineRel": (K.OLINEREL, (0, 1, 2, 3, 4)),
+    "Pinpoint": (K.PINPOINT, (0, 1, 2, 3)), "PinpointRel": (K.PINPOINTREL, (0, 1, 2, 3)),
+    "@R": (K.SETHEAD, (0, 1, 2, 3, 4, 5, 6)), "SetHead": (K.SETHEAD, (0, 1, 2, 3, 4, 5, 6)),
+    "EulerAngles": (K.EULER, (0, 1, 2, 3)), "nF": (K.NF, (2, 3)),
+    "@D": (K.SETSCALE, (0, 1)), "SetScale": (K.SETSCALE, (0, 1)), "@Di": (K.MULTSCALE, (0, 1)),
+    "MultScale": (K.MULTSCALE, (0, 1)), "@Dd": (K.DIVSCALE, (0, 1)), "DivScale": (K.DIVSCALE, (0, 1)),
+    "@L": (K.LABEL, (1, 2)), "Label": (K.LABEL, (1, 2)),
+    "@B": (K.BOX, (0, 1, 2)), "Box": (K.BOX, (0, 1, 2)), "@b": (K.QUAD, (0, 1, 2)), "Quad": (K.QUAD, (0, 1, 2)),
+    "Frame": (K.FRAME, (0, 1, 2, 3, 4, 5)),
+    "surface": (K.SURFACE_NAMED, (1, 2)), "~": (K.SURFACE_NAMED, (1, 2)),
 }
 
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
-#: L-Py / PlantGL turtle modules that exist there but are not drawn here (boxes, quads, labels, custom PlantGL
-#: geometry, ``surface('name')`` with a string, absolute frames, scales, guides, textures); the engine
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL
+#: geometry, contours, guides, textures, reflections, screen projection); the
+#: engine
 #: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
 #: (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "@B", "Box", "@b", "Quad", "@L", "Label", "~", "surface", "@g",
-    "PglShape", "Frame", "Arrow", "@M",
-    "MoveTo", "MoveRel", "LineTo", "OLineTo", "LineRel", "OLineRel", "Pinpoint", "PinpointRel", "@R", "SetHead",
-    "EulerAngles", "iRollL", "iRollR", "@Dd", "DivScale", "@Di", "MultScale", "@D", "SetScale", "nF",
-    "SetContour", "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
+    "@g", "PglShape", "Arrow", "SetContour",
+    "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
     "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
@@ -100,7 +132,8 @@ LPY_UNSUPPORTED: frozenset[str] = frozenset({
 })
 
 _WARN = {K.IGNORED_WIDTH: "a width below 0", K.IGNORED_COLOR: "a colour index below 0",
-         K.IGNORED_ELASTICITY: "an elasticity outside [0, 1]", K.IGNORED_SIZE: "a radius or scale below 0"}
+         K.IGNORED_ELASTICITY: "an elasticity outside [0, 1]", K.IGNORED_SIZE: "a radius or scale below 0",
+         K.IGNORED_SCALE: "a turtle scale beyond 1e6 (or divided by 0)"}
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,7 +145,8 @@ class TurtleShapes:
     ----------
     kind : (S,) int64 ndarray
         ``K.SH_SPHERE`` (``@O``), ``K.SH_CIRCLE`` (``@o``), ``K.SH_SURFACE`` (``~name``), ``K.SH_POLYGON`` /
-        ``K.SH_POLYGON_CONCAVE`` (``{ . }``, ``}(1)``: concave test), ``K.SH_TUBE`` (``@Gc ... @Ge``).
+        ``K.SH_POLYGON_CONCAVE`` (``{ . }``, ``}(1)``: concave test), ``K.SH_TUBE`` (``@Gc ... @Ge``), ``K.SH_BOX``
+        (``@B``), ``K.SH_QUAD`` (``@b``).
     color : (S,) int64 ndarray
         Colour (material) index: the current one for placed shapes, the one at ``{`` / ``@Gc`` for paths
         (PlantGL's ``getCurrentInitialMaterial``).
@@ -121,7 +155,7 @@ class TurtleShapes:
     frame : (S, 4, 3) float64 ndarray
         Position, heading H, left L and up U of a placed shape (zero for paths).
     size : (S,) float64 ndarray
-        Radius of a sphere or disc, scale of a surface (0 for paths).
+        Radius of a sphere or disc, scale of a surface, length of a box or quad (0 for paths).
     start, count : (S,) int64 ndarray
         A path's points are ``points[start:start + count]``.
     points, left : (P, 3) float64 ndarray
@@ -130,6 +164,11 @@ class TurtleShapes:
         The width at each path point (a tube's radius).
     surface : tuple of str
         Surface name of each shape (``"l"`` for ``~l``; ``""`` for other kinds).
+    radii : (S, 2) float64 ndarray or None
+        Bottom and top half-width of a box or quad (PlantGL: the width and the top width; 0 for other kinds).
+    scale : (S, 3) float64 ndarray or None
+        The turtle scale (``@D``...) of a sphere, disc or surface along its local (U, -L, H) axes, PlantGL's
+        ``Scaled(scale * size)`` (a disc: the scale when isotropic, else 1); None: 1.
     """
 
     kind: np.ndarray
@@ -143,9 +182,36 @@ class TurtleShapes:
     left: np.ndarray
     radius: np.ndarray
     surface: tuple = ()
+    radii: np.ndarray | None = None
+    scale: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.kind)
+
+
+class TurtleLabel(NamedTuple):
+    """A text label (L-Py's ``@L(text[, size])``, PlantGL ``Turtle::label``): not geometry, a record for
+    viewers.
+
+    Attributes
+    ----------
+    text : str
+        The label (a parameter that is not a str is written with ``str``).
+    position : (3,) float64 ndarray
+        The turtle's position at the module.
+    module : int
+        Index of the module in the string.
+    size : int
+        The font size asked for (-1: the viewer's default, as PlantGL).
+    color : int
+        The turtle's colour index there.
+    """
+
+    text: str
+    position: np.ndarray
+    module: int
+    size: int
+    color: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,12 +229,20 @@ class TurtleNodes:
     shapes : TurtleShapes
         Spheres, discs, surfaces, polygons and generalized cylinders (none for a skeleton-only string); one
         mesh per material: :func:`plantvr.lsystem.shapes.shape_meshes`.
+    labels : tuple of TurtleLabel
+        The ``@L`` / ``Label`` texts in string order (issue 33), with the turtle's position there.
+    frames : (R, 4, 3) float64 ndarray or None
+        The turtle's frame (position, H, L, U) at each ``Frame`` module L-Py draws as three arrows (annotations,
+        not meshed); ``frame_size`` their sizes (R,).
     """
 
     tree: TreeArrays
     color: np.ndarray
     module: np.ndarray
     shapes: TurtleShapes | None = None
+    labels: tuple[TurtleLabel, ...] = ()
+    frames: np.ndarray | None = None
+    frame_size: np.ndarray | None = None
 
 
 def _ops(string: ModuleString):
@@ -194,7 +268,14 @@ def _ops(string: ModuleString):
     if args.size:
         owner = np.repeat(np.arange(n), cnt)
         vals = np.abs(args)
-        bad = np.flatnonzero((op[owner] != K.NOP) & (op[owner] != K.QUERY) & ~(vals <= MAX_COORD))
+        free = (op[owner] == K.NOP) | (op[owner] == K.QUERY) | (op[owner] == K.LABEL)   # a label: any text
+        first = ptr[:-1][(op == K.SURFACE_NAMED) & (cnt > 0)]
+        free[first] = True                                # surface(name, scale): the name, checked below
+        if string.objects:                                # MoveTo(None, y): L-Py keeps that coordinate
+            none = np.array([j for j, v in string.objects.items() if v is None], np.int64)
+            if none.size:
+                free[none[op[owner[none]] == K.MOVETO]] = True
+        bad = np.flatnonzero(~free & ~(vals <= MAX_COORD))
         if bad.size:
             j = int(bad[0])
             i = int(owner[j])
@@ -209,19 +290,60 @@ def _ops(string: ModuleString):
         if not np.any(args[ptr[i]:ptr[i + 1]] != 0):
             raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: the tropism direction must not "
                              f"be zero")
-    return op, int(depth.max()) if n else 0, int(np.count_nonzero(op == K.F))
+    for i in np.flatnonzero(op == K.SURFACE_NAMED):
+        name = string.objects.get(int(ptr[i]))
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: the surface name must be a "
+                             f"non-empty str, got {name if name is not None else float(args[ptr[i]])!r:.60}")
+    for i in np.flatnonzero(op == K.SETHEAD):
+        _check_head(names[ids[i]], int(i), args[ptr[i]:ptr[i + 1]])
+    n_seg = int(np.count_nonzero((op == K.F) | ((op >= K.LINETO) & (op <= K.OLINEREL))))
+    for i in np.flatnonzero(op == K.NF):
+        length, dl = float(args[ptr[i]]), float(args[ptr[i] + 1])
+        if not (length >= 0 and dl > 0):
+            raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: nF(length, dl) needs "
+                             f"length >= 0 and dl > 0, got length = {length!r}, dl = {dl!r}")
+        n_seg += int(length // dl) + 1
+        if n_seg > _MAX_SEGMENTS:
+            raise ValueError(f"string: module {names[ids[i]]} at index {int(i)}: nF({length!r}, {dl!r}) takes "
+                             f"the string past {_MAX_SEGMENTS} segments")
+    return op, int(depth.max()) if n else 0, n_seg
 
 
-def _capacities(op: np.ndarray) -> tuple[int, int]:
-    """Shape records and path points the kernel may make for these op codes (0, 0 without shapes)."""
-    cnt = np.bincount(op.astype(np.int64), minlength=K.QUERY + 1)
+#: The most segments ``nF`` may make in one string.
+_MAX_SEGMENTS = 100_000_000
+
+
+def _check_head(name: str, i: int, v: np.ndarray) -> None:
+    """L-Py's ``SetHead`` errors: a null heading, or (with an up vector) a heading colinear with it (PlantGL's
+    ``Turtle::setHead`` error; a null up vector is L-Py's warning and a ``PinpointRel``)."""
+    h = np.zeros(3) if v.size else np.array([0.0, 0.0, 1.0])
+    h[:min(v.size, 3)] = v[:3]
+    if np.linalg.norm(h) < K.EPS:
+        raise ValueError(f"string: module {name} at index {i}: SetHead needs a non-null heading, got "
+                         f"{h.tolist()}")
+    if v.size > 3:
+        u = np.zeros(3)
+        u[:v.size - 3] = v[3:6]
+        un = np.linalg.norm(u)
+        if un >= K.EPS and np.linalg.norm(np.cross(u / un, h / np.linalg.norm(h))) < K.EPS:
+            raise ValueError(f"string: module {name} at index {i}: SetHead's heading {h.tolist()} and up "
+                             f"{u.tolist()} are colinear")
+
+
+def _capacities(op: np.ndarray, n_seg: int | None = None) -> tuple[int, int]:
+    """Shape records and path points the kernel may make for these op codes (0, 0 without shapes); ``n_seg``:
+    the segments it may draw (``F`` count by default)."""
+    cnt = np.bincount(op.astype(np.int64), minlength=K.SURFACE_NAMED + 1)
+    n_seg = int(cnt[K.F]) if n_seg is None else n_seg
     paths = cnt[K.GC_START] + cnt[K.POLY_START]
-    n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END] + cnt[K.QUERY])
+    n_shapes = int(cnt[K.SPHERE] + cnt[K.CIRCLE] + cnt[K.SURFACE] + cnt[K.GC_END] + cnt[K.POLY_END]
+                   + cnt[K.QUERY] + cnt[K.LABEL] + cnt[K.BOX] + cnt[K.QUAD] + cnt[K.FRAME] + cnt[K.SURFACE_NAMED])
     if not paths:
         return n_shapes, 0
     n_shapes += int(cnt[K.POP] + 1) if cnt[K.GC_START] else 0
-    n_pool = int(cnt[K.F] * 2 + cnt[K.POLY_POINT] * 2 + cnt[K.GC_START] + cnt[K.INCW] + cnt[K.DECW]
-                 + cnt[K.SETW] + 1)
+    n_pool = int(n_seg * 2 + cnt[K.POLY_POINT] * 2 + cnt[K.GC_START] + cnt[K.INCW] + cnt[K.DECW]
+                 + cnt[K.SETW] + cnt[K.BOX] + cnt[K.QUAD] + 1)
     return n_shapes, n_pool
 
 
@@ -249,8 +371,24 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
     pos, parent, radius, order, main, color, module, nn, sint, sflt, spts = _interpret(
         string, angle, step, width, width_increment, tropism, elasticity)
     tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
-    shape = sint[:, 0] != K.SH_QUERY
-    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(), _shapes(string, sint[shape], sflt[shape], spts))
+    shape = (sint[:, 0] != K.SH_QUERY) & (sint[:, 0] != K.SH_LABEL) & (sint[:, 0] != K.SH_FRAME)
+    fr = sint[:, 0] == K.SH_FRAME
+    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(),
+                       _shapes(string, sint[shape], sflt[shape], spts), _labels(string, sint, sflt),
+                       sflt[fr, :12].reshape(-1, 4, 3).copy(), sflt[fr, 12].copy())
+
+
+def _labels(string: ModuleString, sint: np.ndarray, sflt: np.ndarray) -> tuple[TurtleLabel, ...]:
+    """The kernel's label records with their texts (the module's first parameter)."""
+    out = []
+    for s in np.flatnonzero(sint[:, 0] == K.SH_LABEL):
+        m = int(sint[s, 2])
+        j = int(string.arg_ptr[m])
+        text = string.objects.get(j, None) if np.isnan(string.args[j]) else f"{float(string.args[j]):g}"
+        size = float(sflt[s, 12])
+        out.append(TurtleLabel(str(text), sflt[s, :3].copy(), m, int(size) if size >= 0 else -1,
+                               int(sint[s, 1])))
+    return tuple(out)
 
 
 def query_frames(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,
@@ -282,7 +420,7 @@ def _interpret(string: ModuleString, angle, step, width, width_increment, tropis
     opts = _options(angle, step, width, width_increment, tropism, elasticity)
     op, depth, n_f = _ops(string)
     pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp = K.turtle_kernel(
-        op, string.arg_ptr, string.args, *opts, depth, 2 * n_f, *_capacities(op))
+        op, string.arg_ptr, string.args, *opts, depth, 2 * n_f, *_capacities(op, n_f))
     for k, what in _WARN.items():
         if ignored[k]:
             i = int(at[k])
@@ -294,10 +432,17 @@ def _interpret(string: ModuleString, angle, step, width, width_increment, tropis
 def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray) -> TurtleShapes:
     """The kernel's shape records as :class:`TurtleShapes` (surface names from the module names)."""
     kind = sint[:, 0].copy()
-    surf = tuple(string.names[string.ids[m]][1:] if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
+    surf = tuple(_surface_name(string, int(m)) if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
     return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
                         sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
-                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf)
+                        spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy(),
+                        sflt[:, 15:18].copy())
+
+
+def _surface_name(string: ModuleString, m: int) -> str:
+    """The surface module ``m`` draws: ``~name``'s name, ``surface(name)``'s and ``~(name)``'s parameter."""
+    name = string.names[string.ids[m]]
+    return str(string.objects[int(string.arg_ptr[m])]) if name in ("surface", "~") else name[1:]
 
 
 def turtle(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: float = DEFAULT_STEP,

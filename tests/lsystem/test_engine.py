@@ -190,22 +190,22 @@ def test_bad_grammar_line_and_column(text, line, match):
 
 
 def test_unsupported_module_named_at_tree():
-    ls = LSystem("Axiom: F@B(1)\nproduction:\nendlsystem\n")
-    with pytest.raises(LSystemError, match=r"line 1, column 9: unsupported module @B"):
+    ls = LSystem("Axiom: F@g(1)\nproduction:\nendlsystem\n")
+    with pytest.raises(LSystemError, match=r"line 1, column 9: unsupported module @g"):
         ls.tree()
 
 
 def test_unsupported_modules_can_be_left_out_of_the_picture():
     """A grammar in the style of L-Py's training models (stochastic block rules, a homomorphism with
-    ``f``/``;``/``@O`` flowers, here boxes ``@B``, which the turtle does not draw; its spheres are drawn, see
-    test_shapes.py): they are left out with a warning and never change the skeleton."""
-    text = (HERE / "continuous_growth.lpy").read_text().replace("@O(FLOWER", "@B(FLOWER")
+    ``f``/``;``/``@O`` flowers, here PlantGL shapes ``@g``, which the turtle does not draw; its spheres are drawn,
+    see test_shapes.py): they are left out with a warning and never change the skeleton."""
+    text = (HERE / "continuous_growth.lpy").read_text().replace("@O(FLOWER", "@g(FLOWER")
     ls = LSystem(text, seed=2, trusted=True)
-    with pytest.raises(LSystemError, match="unsupported module @B"):
+    with pytest.raises(LSystemError, match="unsupported module @g"):
         ls.tree()
-    with pytest.warns(UserWarning, match=r"not drawn .*@B \(line \d+\)"):
+    with pytest.warns(UserWarning, match=r"not drawn .*@g \(line \d+\)"):
         tree = ls.tree(unsupported="warn")
-    bare = LSystem(text.replace(";(4)@B(FLOWER * WIDTH * k)", ""), seed=2, trusted=True)
+    bare = LSystem(text.replace(";(4)@g(FLOWER * WIDTH * k)", ""), seed=2, trusted=True)
     ref = bare.tree()
     assert np.array_equal(tree.pos, ref.pos) and np.array_equal(tree.parent, ref.parent)
     assert tree.n_internodes == ls.derive().count("I") > 10

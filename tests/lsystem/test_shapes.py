@@ -225,8 +225,8 @@ def test_engine_draws_the_flowers_it_used_to_refuse():
     assert n_flowers == interp.count("@O") > 0 and set(nodes.shapes.color.tolist()) == {4}
     assert np.array_equal(nodes.tree.pos, ls.tree().pos)
     assert shape_meshes(nodes.shapes)[4].n_faces == n_flowers * 2 * 16 * 7
-    with pytest.raises(LSystemError, match="unsupported module @B"):
-        grammar("F@B(1)").tree()
+    with pytest.raises(LSystemError, match="unsupported module @g"):
+        grammar("F@g(1)").tree()
 
 
 # -- the kernel and its twin ------------------------------------------------------------------------------------
