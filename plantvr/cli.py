@@ -238,7 +238,7 @@ def parameter_reference(kind: str | None = None) -> str:
 
 
 def _segment(argv: list[str]) -> int:
-    from .view.vine_app import main_segment  # noqa: PLC0415 (static, so the layer contract sees it)
+    from .view.vine_cli import main_segment  # noqa: PLC0415 (static, so the layer contract sees it)
     return main_segment(argv)
 
 

@@ -24,23 +24,21 @@ Controls: the colour wheel (§2.4.1 [T §5.4.1], §2.6 [T §5.6]: one slice per 
 slice raised and outlined, hidden colours drawn with radial lines; a click selects the slice under the mouse by
 the rule of :func:`plantvr.vine.colors.slice_at`, a shift-click hides or shows it), brush radius, undo/redo,
 hide/show of the selected colour, and, when started from a volume, an iso-value slider over the volume's
-histogram that re-extracts the surface. The wheel is an SVG built here (:func:`wheel_svg`) and re-sent when the
-selection, a colour or a visibility changes.
+histogram that re-extracts the surface. The wheel is an SVG (:func:`plantvr.view.vine_svg.wheel_svg`) re-sent
+when the selection, a colour or a visibility changes. The access token guard is :mod:`plantvr.view.vine_access`,
+the ``plantvr segment`` command :mod:`plantvr.view.vine_cli`.
 """
 from __future__ import annotations
 
 import asyncio
 import functools
-import hmac
 import itertools
 import os
 import secrets
 import socket
-import sys
 import threading
 import time
 from pathlib import Path
-from urllib.parse import urlencode
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
@@ -48,253 +46,19 @@ import numpy as np
 
 from plantvr._validation import check_array, check_choice, check_int, check_range
 from plantvr.documents.labels import Segmentation, check_grid
-from plantvr.vine.colors import DEAD_ZONE, slice_at
-from plantvr.io import labels as io_labels
+from plantvr.vine.colors import slice_at
 from plantvr.vine.proxy import DisplayProxy
 
 from ._render_lock import lock_trame_image_delivery, render_lock
+from .vine_access import _free_port, access_guard
+from .vine_pick import camera_ray
+from .vine_svg import WHEEL_RADIUS, _level_slider, histogram_svg, wheel_geometry, wheel_svg
 
-__all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "main_segment", "wheel_geometry",
-           "wheel_svg"]
+__all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "wheel_geometry", "wheel_svg"]
 
 _IDS = itertools.count()
 _DELTA_JS = Path(__file__).with_name("vine_delta.js")
 _VIEW_REF = "vine_view"
-
-
-def _level_slider(volume: np.ndarray) -> dict:
-    """``min``, ``max`` and ``step`` of the iso-value slider, from the data's range in its own units (issue 22):
-    integer volumes step by 1 between ``min + 0.5`` and ``max - 0.5`` (no level equals a voxel value), float
-    volumes in 1000 steps strictly inside (min, max), so every position gives a surface."""
-    from plantvr.vine.volume import _data_range
-    volume, lo, hi = _data_range("volume", volume)
-    if volume.dtype.kind in "iu":
-        return {"min": lo + 0.5, "max": max(lo + 0.5, hi - 0.5), "step": 1}
-    step = (hi - lo) / 1000 if hi > lo else 1.0
-    return {"min": lo + step, "max": max(lo + step, hi - step), "step": step}
-
-
-def histogram_svg(volume: np.ndarray, level: float, *, bins: int = 64, width: int = 260, height: int = 48) -> str:
-    """A small SVG bar chart of a volume's intensity histogram (log counts) with the iso-value as a red line."""
-    from plantvr.vine.volume import histogram
-    counts, edges = histogram(volume, bins=bins)
-    c = np.log1p(np.asarray(counts, np.float64))
-    c = c / max(c.max(), 1e-9)
-    w = width / len(c)
-    bars = "".join(f'<rect x="{i * w:.1f}" y="{height * (1 - h):.1f}" width="{max(w - 0.5, 0.5):.1f}" '
-                   f'height="{height * h:.1f}" fill="#8aa"/>' for i, h in enumerate(c))
-    x = width * (float(level) - float(edges[0])) / max(float(edges[-1] - edges[0]), 1e-9)
-    return (f'<svg class="vine-histogram" width="{width}" height="{height}" style="background:#223">{bars}'
-            f'<line x1="{x:.1f}" x2="{x:.1f}" y1="0" y2="{height}" stroke="#f33" stroke-width="2"/></svg>')
-
-
-#: Wheel radius in CSS pixels; the selected slice is raised by a sixth of it, with a margin around.
-WHEEL_RADIUS = 72.0
-
-
-def wheel_geometry(radius: float) -> tuple[float, float]:
-    """(raise, centre) in px of a wheel of ``radius`` px in [8, 1000]: the selected slice reaches
-    ``radius + raise``; the wheel's square box has side ``2 * centre``."""
-    radius = check_range("radius", radius, 8.0, 1000.0)
-    lift = radius / 6.0
-    return lift, radius + lift + 6.0
-
-
-def _ink(rgb) -> str:
-    """Black or white, whichever contrasts with ``rgb`` (luma 0.299/0.587/0.114)."""
-    r, g, b = (float(v) for v in rgb[:3])
-    return "#000" if 0.299 * r + 0.587 * g + 0.114 * b > 140 else "#fff"
-
-
-def wheel_svg(rgba, visible, selected: int, *, radius: float = WHEEL_RADIUS) -> str:
-    """The colour wheel as an SVG string (spec 000_vine §2.4.1, §2.6; Fig. 5.9, 5.11).
-
-    Slice ``k`` spans angles ``[k, k + 1) * 2π / K`` counter-clockwise from +x (y up), the rule of
-    :func:`plantvr.vine.colors.slice_at`. The selected slice is drawn last, raised by ``radius / 6`` and outlined;
-    a hidden colour keeps its slice, crossed by five contrasting radial lines. Each slice is a ``<g>`` with
-    ``data-index``, class ``wheel-slice`` and, where they apply, ``selected`` and ``hidden``.
-
-    Parameters
-    ----------
-    rgba : (K, 3 or 4) uint8 array_like
-        The colour table, K in [1, 256].
-    visible : (K,) bool array_like
-        Visibility per colour.
-    selected : int
-        The active label, in [0, K).
-    radius : float
-        Wheel radius in px, in [8, 1000].
-
-    Returns
-    -------
-    str
-        ``<svg class="vine-wheel-svg" ...>`` of side ``2 * (radius + radius / 6 + 6)`` px.
-
-    References
-    ----------
-    .. [1] spec 000_vine §2.4.1 (wheel, slice index [INFERRED]) and §2.6 (hidden colours: radial lines).
-    """
-    c = np.asarray(rgba)
-    if c.ndim != 2 or c.shape[1] not in (3, 4) or not 1 <= c.shape[0] <= 256:
-        raise ValueError(f"rgba must have shape (K, 3) or (K, 4) with K in [1, 256], got {c.shape}")
-    c = check_array("rgba", c, shape=(None, c.shape[1]), dtype=np.float64)
-    if np.any(c < 0) or np.any(c > 255):
-        raise ValueError("rgba must be in [0, 255]")
-    n = c.shape[0]
-    vis = check_array("visible", visible, shape=(n,), dtype=bool)
-    selected = check_int("selected", selected, 0, n - 1)
-    radius = check_range("radius", radius, 8.0, 1000.0)
-    lift, cen = wheel_geometry(radius)
-    da = 2 * np.pi / n
-
-    def xy(r, a):
-        return cen + r * np.cos(a), cen - r * np.sin(a)
-
-    def pt(r, a):
-        return "{:.2f} {:.2f}".format(*xy(r, a))
-
-    parts = []
-    for k in [k for k in range(n) if k != selected] + [selected]:        # the selection on top
-        sel, hid = k == selected, not vis[k]
-        r, a0, a1 = (radius + lift if sel else radius), k * da, (k + 1) * da
-        fill = "rgb({},{},{})".format(*(round(v) for v in c[k, :3]))
-        if n == 1:
-            d = (f"M {cen - r:.2f} {cen:.2f} a {r:.2f} {r:.2f} 0 1 0 {2 * r:.2f} 0 "
-                 f"a {r:.2f} {r:.2f} 0 1 0 {-2 * r:.2f} 0")
-        else:
-            d = f"M {cen:.2f} {cen:.2f} L {pt(r, a0)} A {r:.2f} {r:.2f} 0 {int(da > np.pi)} 0 {pt(r, a1)} Z"
-        cls = "wheel-slice" + (" selected" if sel else "") + (" hidden" if hid else "")
-        g = [f'<g class="{cls}" data-index="{k}">',
-             (f'<path d="{d}" fill="{fill}" stroke="{"#111" if sel else "#fff"}" '
-              f'stroke-width="{3 if sel else 1}" stroke-linejoin="round"/>')]
-        ink = _ink(c[k])
-        if hid:                                                            # §2.6: radial lines across the slice
-            for i in range(1, 6):
-                a = a0 + i / 6 * da
-                (x1, y1), (x2, y2) = xy(0.25 * r, a), xy(0.97 * r, a)
-                g.append(f'<line class="wheel-hidden-line" x1="{x1:.2f}" y1="{y1:.2f}" x2="{x2:.2f}" '
-                         f'y2="{y2:.2f}" stroke="{ink}" stroke-width="2"/>')
-        tx, ty = xy(0.7 * r, a0 + da / 2)
-        g.append(f'<text x="{tx:.2f}" y="{ty + 4:.2f}" text-anchor="middle" font-size="11" '
-                 f'font-family="sans-serif" fill="{ink}" pointer-events="none">{k}</text></g>')
-        parts.append("".join(g))
-    side = 2 * cen
-    return (f'<svg class="vine-wheel-svg" xmlns="http://www.w3.org/2000/svg" width="{side:.0f}" '
-            f'height="{side:.0f}" viewBox="0 0 {side:.0f} {side:.0f}" style="display:block">{"".join(parts)}'
-            f'<circle cx="{cen:.2f}" cy="{cen:.2f}" r="{DEAD_ZONE * radius:.2f}" fill="#2a2a30" stroke="#888"/>'
-            "</svg>")
-
-
-def camera_ray(camera: dict, x: float, y: float, size) -> tuple[np.ndarray, np.ndarray]:
-    """The viewing ray through a canvas position for a vtk.js (or VTK) camera.
-
-    Parameters
-    ----------
-    camera : dict
-        ``position``, ``focalPoint``, ``viewUp`` (3 floats each), ``viewAngle`` (vertical, degrees) and, for a
-        parallel projection, ``parallelProjection: true`` and ``parallelScale`` (half the view height).
-    x, y : float
-        Position in CSS pixels from the canvas's top-left corner (y down).
-    size : (2,) float
-        Canvas width and height in CSS pixels, each > 0.
-
-    Returns
-    -------
-    origin, direction : (3,) float64 ndarrays
-        Eye (perspective) or a point on the view plane behind the scene (parallel); unit direction.
-    """
-    if not isinstance(camera, dict):
-        raise ValueError(f"camera must be a dict, got {type(camera).__name__}")  # noqa: TRY004
-    pos = check_array("position", camera.get("position"), shape=(3,), dtype=np.float64)
-    fp = check_array("focalPoint", camera.get("focalPoint"), shape=(3,), dtype=np.float64)
-    up = check_array("viewUp", camera.get("viewUp"), shape=(3,), dtype=np.float64)
-    w, h = check_array("size", size, shape=(2,), dtype=np.float64)
-    if not (w > 0 and h > 0):
-        raise ValueError(f"size must be positive, got {(w, h)}")
-    x = check_range("x", x, -1e7, 1e7)
-    y = check_range("y", y, -1e7, 1e7)
-    f = fp - pos
-    dist = float(np.linalg.norm(f))
-    if dist == 0:
-        raise ValueError("camera position and focalPoint coincide")
-    f /= dist
-    right = np.cross(f, up)
-    if np.linalg.norm(right) == 0:
-        raise ValueError("camera viewUp is parallel to the view direction")
-    right /= np.linalg.norm(right)
-    upv = np.cross(right, f)
-    u, v = 2.0 * x / w - 1.0, 1.0 - 2.0 * y / h                    # normalised device coordinates
-    if camera.get("parallelProjection"):
-        s = check_range("parallelScale", camera.get("parallelScale"), 0.0, 1e12, low_open=True)
-        origin = pos + s * (u * (w / h) * right + v * upv)
-        return origin, f
-    half = np.tan(np.radians(check_range("viewAngle", camera.get("viewAngle", 30.0), 0.0, 180.0,
-                                         low_open=True, high_open=True)) / 2)
-    d = f + half * (u * (w / h) * right + v * upv)
-    return pos.copy(), d / np.linalg.norm(d)
-
-
-_LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
-
-
-def access_guard(token: str, port: int, host: str = "127.0.0.1"):
-    """An aiohttp middleware that admits only requests carrying ``token``, from the page's own origin.
-
-    Like Jupyter's: the URL the server prints carries ``?token=...``; a request with it (compared in constant
-    time) gets an HTTP-only cookie for this port (``SameSite=Lax``) and, for the page itself, a redirect to the
-    same URL without the token, so later requests (page assets, the websocket, a reload) authenticate by
-    cookie. Every other request is refused with 403: no token or cookie (any local process), a foreign
-    ``Origin`` header (a page of another site trying the websocket or a form post), or, when listening on a
-    loopback address, a ``Host`` header naming another host (DNS rebinding).
-
-    Parameters
-    ----------
-    token : str
-        The secret, at least 16 characters.
-    port : int
-        The port served (names the cookie and the allowed origins).
-    host : str
-        The interface listened on.
-    """
-    from aiohttp import web
-    if not isinstance(token, str) or len(token) < 16:
-        raise ValueError("token must be a string of at least 16 characters")
-    port = check_int("port", port, 1, 65535)
-    cookie = f"plantvr_vine_{port}"
-    loopback = host in (*_LOOPBACK, "::1")
-    hosts = {f"{h}:{port}" for h in (*_LOOPBACK, host if ":" not in host else f"[{host}]")}
-
-    def refuse(why: str):
-        return web.Response(status=403, text=f"plantvr segment: forbidden: {why}\n")
-
-    def same(a: str | None) -> bool:
-        return a is not None and hmac.compare_digest(a.encode(), token.encode())
-
-    @web.middleware
-    async def guard(request, handler):
-        host_hdr = request.headers.get("Host", "")
-        if loopback and host_hdr not in hosts:
-            return refuse(f"unexpected Host header {host_hdr!r}")
-        origin = request.headers.get("Origin")
-        if origin is not None and origin not in {f"http://{h}" for h in (hosts if loopback else {host_hdr})}:
-            return refuse(f"requests from origin {origin!r} are not allowed")
-        given = request.query.get("token")
-        auth = request.headers.get("Authorization", "")
-        ok = same(given) or same(request.cookies.get(cookie)) or (auth.startswith("token ") and same(auth[6:]))
-        if not ok:
-            return refuse("open the URL printed by plantvr segment, with its ?token=...")
-        if given is not None and request.path in ("/", "/index.html") \
-                and request.headers.get("Upgrade", "").lower() != "websocket":
-            rest = [(k, v) for k, v in request.query.items() if k != "token"]
-            resp = web.Response(status=302, headers={"Location": "/index.html" + ("?" + urlencode(rest) if rest else "")})
-            resp.set_cookie(cookie, token, httponly=True, samesite="Lax", path="/")
-            return resp
-        resp = await handler(request)
-        if given is not None and not resp.prepared:
-            resp.set_cookie(cookie, token, httponly=True, samesite="Lax", path="/")
-        return resp
-
-    return guard
 
 
 def _drawing(method):
@@ -305,12 +69,6 @@ def _drawing(method):
         with render_lock(self.view.plotter.ren_win):
             return method(self, *args, **kwargs)
     return locked
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class VineReviewApp:
@@ -935,90 +693,3 @@ _INTERACTOR = [
     {"button": 1, "action": "Zoom", "alt": True},
     {"button": 1, "action": "Roll", "alt": True, "shift": True},
 ]
-
-
-def main_segment(argv: list[str] | None = None) -> int:
-    """``plantvr segment VOLUME_OR_SYNTH [--level L] [--port P] [--faces F] [--lod F] [--out DIR]`` (issue 14).
-
-    Builds the isosurface of a volume (or opens a mesh, or a synthetic head with ``synth`` / ``synth:N``), then
-    either serves the browser review page (until interrupted) or, with ``--out``, paints a scripted demo
-    headless and writes ``DIR/segment.ply`` (per-vertex colours and labels), ``DIR/segment_session.npz`` and a
-    proxy screenshot ``DIR/segment.png``. Returns the process exit code.
-    """
-    import argparse
-
-    from plantvr.documents.labels_app import paint_demo
-    from plantvr.io.source import open_source
-    ap = argparse.ArgumentParser(prog="plantvr segment", description=main_segment.__doc__.split("\n")[0])
-    ap.add_argument("source", help="volume (.tif/.nrrd/.nii[.gz]/.mha/.mhd/.vti/.h5/.npy/.npz, a .zarr or "
-                                   "DICOM folder), mesh file (.ply/.obj/...), or synth[:N]")
-    ap.add_argument("--level", type=float, default=None, help="iso-value (default: Otsu / the synthetic one)")
-    ap.add_argument("--downsample", action="store_true", help="2x block-mean downsampling before meshing")
-    ap.add_argument("--port", type=int, default=None, help="port of the review page (default: a free one)")
-    ap.add_argument("--faces", type=int, default=1_500_000, help="display-proxy triangle budget")
-    ap.add_argument("--lod", type=int, default=20_000,
-                    help="triangles drawn while a stroke or an orbit runs (0: draw the display proxy throughout)")
-    ap.add_argument("--mode", choices=("local", "remote"), default="local",
-                    help="local: the browser draws the proxy (vtk.js); remote: the server renders")
-    ap.add_argument("--out", type=str, default=None, help="headless: paint a demo and write PLY/session/PNG here")
-    ap.add_argument("--stamps", type=int, default=24, help="demo brush stamps with --out")
-    a = ap.parse_args(argv)
-    try:
-        return _segment(a, open_source, paint_demo)
-    except ValueError as exc:                       # one line on stderr and exit code 2, never a traceback
-        print(f"plantvr segment: error: {exc}".replace("\n", " "), file=sys.stderr)
-        return 2
-
-
-def _check_segment_args(a) -> None:
-    """Every option of ``plantvr segment`` checked before the source is opened or anything is written."""
-    check_int("--faces", a.faces, 4, 2 ** 31 - 1)
-    if a.lod != 0:
-        check_int("--lod", a.lod, 4, 2 ** 31 - 1)
-    check_int("--stamps", a.stamps, 1, 100_000)
-    if a.port is not None:
-        check_int("--port", a.port, 0, 65535)
-    if a.level is not None:
-        check_range("--level", a.level, -1e300, 1e300)
-    if a.out is not None and not a.out.strip():
-        raise ValueError("--out must be a folder path, got ''")
-
-
-def _segment(a, open_source, paint_demo) -> int:
-    _check_segment_args(a)
-    src = open_source(a.source, level=a.level, downsample=a.downsample)
-    seg = src.seg
-    if src.description:
-        print(src.description)
-    print(f"surface: {seg.n_vertices:,} vertices, {len(seg.faces):,} faces"
-          + (f" (iso-value {src.level:g})" if src.level is not None else ""))
-    if a.out:
-        from pathlib import Path
-
-        from plantvr.types import LabelledSurface
-        from plantvr.view import View
-        out = Path(a.out)
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise ValueError(f"--out {str(out)!r} cannot be created: {exc.strerror or exc}") from None
-        n = paint_demo(seg, truth=src.truth, stamps=a.stamps)
-        io_labels.export_ply(seg, out / "segment.ply")
-        seg.save(out / "segment_session.npz", include_mesh=False)
-        proxy = DisplayProxy(seg, target_faces=a.faces)
-        view = View({"surface": LabelledSurface(proxy)}, off_screen=True, window_size=(800, 600),
-                    background=(0.08, 0.08, 0.1))
-        view.plotter.reset_camera()
-        view.plotter.camera.elevation = -35
-        view.screenshot(out / "segment.png")
-        view.close()
-        proxy.close()
-        print(f"painted {n:,} vertices; wrote {out / 'segment.ply'}, {out / 'segment_session.npz'}, "
-              f"{out / 'segment.png'}")
-        return 0
-    app = VineReviewApp(seg, target_faces=a.faces, mode=a.mode, volume=src.volume, level=src.level,
-                        interactive_faces=a.lod or None)
-    print(f"display proxy: {app.proxy.n_vertices:,} vertices, {len(app.proxy.faces):,} faces"
-          + (f"; level of detail while painting: {len(app.lod.faces):,} faces" if app.lod is not None else ""))
-    app.start(a.port, thread=False, open_browser=False)
-    return 0

@@ -413,7 +413,7 @@ def test_segment_reads_big_endian_imagej_and_nrrd_sources(tmp_path, capsys):
     pytest.importorskip("trame")
     nrrd = pytest.importorskip("nrrd")
     from plantvr.io.source import open_source
-    from plantvr.view.vine_app import main_segment
+    from plantvr.view.vine_cli import main_segment
     from plantvr.vine.synth import synth_flowerhead
     head = synth_flowerhead(32, rng=0)
     vol16 = head.volume.astype(np.uint16) * 200

@@ -40,7 +40,7 @@ def test_main_segment_out_writes_painted_ply_session_and_png(tmp_path):
     pytest.importorskip("trame")
     import trimesh
 
-    from plantvr.view.vine_app import main_segment
+    from plantvr.view.vine_cli import main_segment
     assert main_segment(["synth:40", "--out", str(tmp_path), "--stamps", "6"]) == 0
     ply = trimesh.load(tmp_path / "segment.ply", process=False)
     src = open_source("synth:40")
