@@ -2,7 +2,8 @@
 scripted demo on a :class:`~plantvr.documents.labels.Segmentation` (opening the source is
 :func:`plantvr.io.source.open_source`, because reading files is the io layer's).
 
-The browser half (the trame review page and ``main_segment``) lives in :mod:`plantvr.view.vine_app`, because
+The browser half (the trame review page, :mod:`plantvr.view.vine_app`, and ``main_segment``,
+:mod:`plantvr.view.vine_cli`) lives in the view layer, because
 documents never import UI code (import-linter layers contract).
 """
 from __future__ import annotations

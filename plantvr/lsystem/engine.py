@@ -316,7 +316,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         and tubes (:class:`~plantvr.lsystem.turtle.TurtleNodes`).
 
         A module that L-Py draws but the turtle does not (:data:`~plantvr.lsystem.turtle.LPY_UNSUPPORTED`: a
-        box ``@B``, a label ``@L``, ...) raises LSystemError with the line it is first used on
+        PlantGL shape ``@g``, a guide ``SetGuide``, ...) raises LSystemError with the line it is first used on
         (``unsupported="error"``), or is left out of the picture with one warning naming each such module
         (``"warn"``); it never changes the skeleton, which the turtle's moves and turns alone make.
         """
