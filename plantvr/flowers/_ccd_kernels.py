@@ -12,6 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from plantvr._barycentric import barycentric_nb
 from plantvr.grid import box_cell_range, cell_key, hash_cell
 
 # ---------------------------------------------------------------------------------------------------------
@@ -206,19 +207,12 @@ def _roots01(a, b, c, d, out, pts):
 @numba.njit(cache=True, nogil=True)
 def _vt_inside_s(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, tol):
     """Barycentric inside test of p in triangle abc (Eq. B.7)."""
-    ux, uy, uz = bx - ax, by - ay, bz - az
-    vx, vy, vz = cx - ax, cy - ay, cz - az
-    wx, wy, wz = px - ax, py - ay, pz - az
-    uu = ux * ux + uy * uy + uz * uz
-    vv = vx * vx + vy * vy + vz * vz
-    uv = ux * vx + uy * vy + uz * vz
-    wu = wx * ux + wy * uy + wz * uz
-    wv = wx * vx + wy * vy + wz * vz
-    den = uu * vv - uv * uv
+    r_num, s_num, den = barycentric_nb(bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az,
+                                       px - ax, py - ay, pz - az)
     if den <= 1e-300:
         return False
-    r = (vv * wu - uv * wv) / den
-    s = (uu * wv - uv * wu) / den
+    r = r_num / den
+    s = s_num / den
     return r >= -tol and s >= -tol and r + s <= 1 + tol
 
 
