@@ -29,9 +29,9 @@ from plantvr._sorting import counting_sort
 
 __all__ = ["HASH_LIMIT", "HASH_PRIMES", "KEY_LIMIT", "CellLists", "SpatialHash", "axis_range", "ball_candidates",
            "ball_cells", "ball_query", "bounds", "box_cell_range", "box_gap2", "cell_buffers", "cell_coord",
-           "cell_coords", "cell_coords_numpy", "cell_key", "dense_box_entries", "dense_box_ranges", "dense_cell",
-           "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "hash_coords", "mark_within", "row_spans",
-           "sort_by_bucket", "sort_by_bucket_numpy", "sort_by_cell"]
+           "cell_coords", "cell_coords_numpy", "cell_key", "chain_within", "dense_box_entries", "dense_box_ranges",
+           "dense_cell", "dense_cell_ids", "dense_cell_ids_numpy", "hash_cell", "hash_coords", "mark_within",
+           "row_spans", "sort_by_bucket", "sort_by_bucket_numpy", "sort_by_cell"]
 
 _P1, _P2, _P3 = 73856093, 19349663, 83492791
 #: Multipliers of the spatial hash (Teschner et al. 2003): cell (ix, iy, iz) -> (ix p1) XOR (iy p2) XOR (iz p3).
@@ -369,6 +369,20 @@ def mark_within(points, order, start, mask, h, queries, r, out):  # pragma: no c
                     b = hash_cell(ix, iy, iz, mask)
                     for k in range(start[b], start[b + 1]):
                         _mark_near(points, order[k], queries, q, r2, out)
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def chain_within(j, nxt, points, x, y, z, r2):  # pragma: no cover - numba helper
+    """True when an item of the linked list that starts at ``j`` (next item ``nxt[j]``, ``-1`` ends it) has a
+    point ``points[j]`` at squared distance < ``r2`` from ``(x, y, z)``; stops at the first such item."""
+    while j >= 0:
+        ex = points[j, 0] - x
+        ey = points[j, 1] - y
+        ez = points[j, 2] - z
+        if ex * ex + ey * ey + ez * ez < r2:
+            return True
+        j = nxt[j]
+    return False
 
 
 # ----------------------------------------------------------------------------------------------------------------

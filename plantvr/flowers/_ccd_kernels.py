@@ -12,6 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from plantvr._barycentric import barycentric_nb
 from plantvr.grid import box_cell_range, cell_key, hash_cell
 
 # ---------------------------------------------------------------------------------------------------------
@@ -206,19 +207,12 @@ def _roots01(a, b, c, d, out, pts):
 @numba.njit(cache=True, nogil=True)
 def _vt_inside_s(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz, tol):
     """Barycentric inside test of p in triangle abc (Eq. B.7)."""
-    ux, uy, uz = bx - ax, by - ay, bz - az
-    vx, vy, vz = cx - ax, cy - ay, cz - az
-    wx, wy, wz = px - ax, py - ay, pz - az
-    uu = ux * ux + uy * uy + uz * uz
-    vv = vx * vx + vy * vy + vz * vz
-    uv = ux * vx + uy * vy + uz * vz
-    wu = wx * ux + wy * uy + wz * uz
-    wv = wx * vx + wy * vy + wz * vz
-    den = uu * vv - uv * uv
+    r_num, s_num, den = barycentric_nb(bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az,
+                                       px - ax, py - ay, pz - az)
     if den <= 1e-300:
         return False
-    r = (vv * wu - uv * wv) / den
-    s = (uu * wv - uv * wu) / den
+    r = r_num / den
+    s = s_num / den
     return r >= -tol and s >= -tol and r + s <= 1 + tol
 
 
@@ -333,6 +327,14 @@ def _narrow_kernel(x0, x1, pairs, m, qel, tel, kind, bary_tol, dist_tol, cons, s
 # Collision constraints
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _correct(p, i, lam_w, gx, gy, gz):
+    """Move vertex ``i`` by ``-lam_w * grad`` (``lam_w``: the multiplier times the vertex's inverse mass)."""
+    p[i, 0] -= lam_w * gx
+    p[i, 1] -= lam_w * gy
+    p[i, 2] -= lam_w * gz
+
+
 @numba.njit(cache=True, nogil=True)
 def _project_collision(p, w, cons, sides, h, k, iterations):
     for _ in range(iterations):
@@ -372,18 +374,10 @@ def _project_collision(p, w, cons, sides, h, k, iterations):
                      w[ib] * np.sqrt(gbx * gbx + gby * gby + gbz * gbz), w[ic] * np.sqrt(gcx * gcx + gcy * gcy + gcz * gcz))
             if abs(lam) * gm > 2.0 * abs(C):
                 lam *= 2.0 * abs(C) / (abs(lam) * gm)
-            p[iq, 0] -= lam * w[iq] * gqx
-            p[iq, 1] -= lam * w[iq] * gqy
-            p[iq, 2] -= lam * w[iq] * gqz
-            p[ia, 0] -= lam * w[ia] * gax
-            p[ia, 1] -= lam * w[ia] * gay
-            p[ia, 2] -= lam * w[ia] * gaz
-            p[ib, 0] -= lam * w[ib] * gbx
-            p[ib, 1] -= lam * w[ib] * gby
-            p[ib, 2] -= lam * w[ib] * gbz
-            p[ic, 0] -= lam * w[ic] * gcx
-            p[ic, 1] -= lam * w[ic] * gcy
-            p[ic, 2] -= lam * w[ic] * gcz
+            _correct(p, iq, lam * w[iq], gqx, gqy, gqz)
+            _correct(p, ia, lam * w[ia], gax, gay, gaz)
+            _correct(p, ib, lam * w[ib], gbx, gby, gbz)
+            _correct(p, ic, lam * w[ic], gcx, gcy, gcz)
 
 
 

@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from plantvr._barycentric import barycentric_numpy
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_index, check_int, check_range
 from plantvr.flowers._ccd_kernels import (
     _cubic_s,
@@ -412,13 +413,10 @@ def _np_lerp(X0, X1, t):
 
 
 def _np_inside(p, a, b, c, tol):
-    u, v, w = b - a, c - a, p - a
-    dot = lambda x, y: np.einsum("ij,ij->i", x, y)
-    uu, vv, uv, wu, wv = dot(u, u), dot(v, v), dot(u, v), dot(w, u), dot(w, v)
-    den = uu * vv - uv * uv
+    r_num, s_num, den = barycentric_numpy(b - a, c - a, p - a)
     with np.errstate(all="ignore"):
-        r = (vv * wu - uv * wv) / den
-        s = (uu * wv - uv * wu) / den
+        r = r_num / den
+        s = s_num / den
     return (den > 1e-300) & (r >= -tol) & (s >= -tol) & (r + s <= 1 + tol)
 
 

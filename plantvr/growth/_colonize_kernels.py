@@ -23,7 +23,7 @@ import numba
 import numpy as np
 
 from plantvr._threading import parallel_region  # noqa: F401 (sets numba's threading layer first)
-from plantvr.grid import axis_range, ball_cells, bounds, box_gap2, cell_buffers, sort_by_cell
+from plantvr.grid import axis_range, ball_cells, bounds, box_gap2, cell_buffers, chain_within, sort_by_cell
 
 #: Quantisation of unit vectors: 2**38 units per 1.0 (resolution 3.6e-12; sums exact up to 2**25 markers/node).
 QSCALE = float(2.0 ** 38)
@@ -213,17 +213,7 @@ def grow_kernel(nodes, parent, first_child, next_sibling, n_children, n, acc, di
         cx = nodes[v, 0] + step * (ax / nrm)
         cy = nodes[v, 1] + step * (ay / nrm)
         cz = nodes[v, 2] + step * (az / nrm)
-        c = first_child[v] if dup2 > 0.0 else -1
-        dup = False
-        while c >= 0:
-            ex = nodes[c, 0] - cx
-            ey = nodes[c, 1] - cy
-            ez = nodes[c, 2] - cz
-            if ex * ex + ey * ey + ez * ez < dup2:
-                dup = True
-                break
-            c = next_sibling[c]
-        if dup:
+        if dup2 > 0.0 and chain_within(first_child[v], next_sibling, nodes, cx, cy, cz, dup2):
             continue
         nodes[n, 0] = cx
         nodes[n, 1] = cy

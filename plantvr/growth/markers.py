@@ -12,7 +12,7 @@ import numpy as np
 
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
 
-from plantvr.grid import HASH_LIMIT, cell_coord, hash_cell
+from plantvr.grid import HASH_LIMIT, cell_coord, chain_within, hash_cell
 
 from .spatial import REACH
 
@@ -90,6 +90,17 @@ def _poisson_darts(center, radius, n_darts, existing, rejection, rng) -> np.ndar
     return cand[keep].reshape(-1, 3)
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _dart_hit(head, nxt, pts, cx, cy, cz, mask, x, y, z, r2):
+    """True when an accepted point in the 27 cells around cell ``(cx, cy, cz)`` lies closer than ``sqrt(r2)``."""
+    for ix in range(cx - 1, cx + 2):
+        for iy in range(cy - 1, cy + 2):
+            for iz in range(cz - 1, cz + 2):
+                if chain_within(head[hash_cell(ix, iy, iz, mask)], nxt, pts, x, y, z, r2):
+                    return True
+    return False
+
+
 @numba.njit(cache=True, nogil=True)
 def _darts_kernel(cand, near, center, r2, h, mask, keep):
     """Sequential dart test over a hashed grid (cell ``h`` >= twice the rejection radius, indexed relative to
@@ -108,26 +119,7 @@ def _darts_kernel(cand, near, center, r2, h, mask, keep):
         cy = cell_coord(y - center[1], inv, -HASH_LIMIT, HASH_LIMIT)
         cz = cell_coord(z - center[2], inv, -HASH_LIMIT, HASH_LIMIT)
         if i >= near.shape[0]:
-            hit = False
-            for ix in range(cx - 1, cx + 2):
-                for iy in range(cy - 1, cy + 2):
-                    for iz in range(cz - 1, cz + 2):
-                        j = head[hash_cell(ix, iy, iz, mask)]
-                        while j >= 0:
-                            ex = pts[j, 0] - x
-                            ey = pts[j, 1] - y
-                            ez = pts[j, 2] - z
-                            if ex * ex + ey * ey + ez * ez < r2:
-                                hit = True
-                                break
-                            j = nxt[j]
-                        if hit:
-                            break
-                    if hit:
-                        break
-                if hit:
-                    break
-            if hit:
+            if _dart_hit(head, nxt, pts, cx, cy, cz, mask, x, y, z, r2):
                 continue
             keep[k] = True
         pts[n, 0] = x

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from plantvr._barycentric import barycentric_numpy
 from plantvr._validation import MAX_COORD, MAX_COUNT, check_array, check_choice, check_int
 
 from ._checks import check_mesh
@@ -161,16 +162,9 @@ def propagate_uvs(vertices, faces, uv, known, *, wrap: str = "triangle") -> np.n
         w = w / np.where(wn > 0, wn, 1.0)
         pc2 = pa + along_c[:, None] * eh - h_c[:, None] * w
         # n's affine map: p = pa + s (pb - pa) + r (pm - pa)  ->  uv = qa + s (qb - qa) + r (qm - qa)
-        d1, d2, d = e, rel_m, pc2 - pa
-        g11 = np.einsum("ij,ij->i", d1, d1)
-        g12 = np.einsum("ij,ij->i", d1, d2)
-        g22 = np.einsum("ij,ij->i", d2, d2)
-        b1 = np.einsum("ij,ij->i", d1, d)
-        b2 = np.einsum("ij,ij->i", d2, d)
-        det = g11 * g22 - g12 * g12
+        s_num, r_num, det = barycentric_numpy(e, rel_m, pc2 - pa)
         det = np.where(np.abs(det) > 1e-300, det, 1.0)
-        s = (g22 * b1 - g12 * b2) / det
-        r = (g11 * b2 - g12 * b1) / det
+        s, r = s_num / det, r_num / det
         qc = qa + s[:, None] * (qb - qa) + r[:, None] * (qm - qa)
         new = np.empty((len(t), 3, 2))
         new[np.arange(len(t)), ca] = qa

@@ -14,6 +14,7 @@ import numba
 import numpy as np
 from scipy.spatial import ConvexHull
 
+from plantvr._barycentric import barycentric_nb, barycentric_numpy
 from plantvr._validation import check_choice, check_int, check_point, check_points, check_range
 from plantvr.types import TriMesh
 
@@ -108,15 +109,8 @@ def _closest_on_triangles(E, A, B, C):
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     Ep = E - np.einsum("ij,ij->i", E - A, n)[:, None] * n
     # barycentric of Ep
-    v0, v1, v2 = B - A, C - A, Ep - A
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    d20 = np.einsum("ij,ij->i", v2, v0)
-    d21 = np.einsum("ij,ij->i", v2, v1)
-    den = d00 * d11 - d01 * d01
-    beta = (d11 * d20 - d01 * d21) / den
-    gamma = (d00 * d21 - d01 * d20) / den
+    beta_num, gamma_num, den = barycentric_numpy(B - A, C - A, Ep - A)
+    beta, gamma = beta_num / den, gamma_num / den
     inside = (beta >= 0) & (gamma >= 0) & (beta + gamma <= 1)
     best = Ep.copy()
     bestd = np.full(len(A), np.inf)
@@ -153,15 +147,8 @@ def _closest_point_triangle(E, A, B, C):  # pragma: no cover - numba kernel, twi
     nx, ny, nz = nx / nn, ny / nn, nz / nn
     h = (ex - ax) * nx + (ey - ay) * ny + (ez - az) * nz
     px, py, pz = ex - h * nx, ey - h * ny, ez - h * nz
-    vx, vy, vz = px - ax, py - ay, pz - az
-    d00 = bx * bx + by * by + bz * bz
-    d01 = bx * cx + by * cy + bz * cz
-    d11 = cx * cx + cy * cy + cz * cz
-    d20 = vx * bx + vy * by + vz * bz
-    d21 = vx * cx + vy * cy + vz * cz
-    den = d00 * d11 - d01 * d01
-    beta = (d11 * d20 - d01 * d21) / den
-    gamma = (d00 * d21 - d01 * d20) / den
+    beta_num, gamma_num, den = barycentric_nb(bx, by, bz, cx, cy, cz, px - ax, py - ay, pz - az)
+    beta, gamma = beta_num / den, gamma_num / den
     if beta >= 0 and gamma >= 0 and beta + gamma <= 1:
         return abs(h)
     Bx, By, Bz = B[0], B[1], B[2]
