@@ -70,12 +70,13 @@ from plantvr._validation import check_choice, check_int, check_range
 from plantvr.types import TreeArrays
 
 from . import _derive_kernels as K
+from . import sandbox as SB
 from .grammar import Grammar, parse_grammar
 from .lexer import LSystemError
 from .matching import _Matching
 from .modules import ModuleString
 from .namespace import MAX_DERIVATION, _Namespace
-from .rewrite import _Rewriting, _pack
+from .rewrite import _pack, _Rewriting
 from .rules import _Compiled, _Rules
 
 __all__ = ["MAX_DERIVATION", "MAX_MODULES", "TIME_BUDGET", "LSystem", "LSystemError", "read_lpy"]
@@ -244,9 +245,22 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
             self._all_rules.append(c)
         self._start_group = self._next_group                  # a top-level useGroup(n)
         self._set_group(self._start_group)
-        src, ln, col = self._g.axiom
-        self.axiom = self._to_string(self._eval_lstring(self._g.axiom_tokens, ln, "the axiom"), ln)
+        self.axiom = self._read_axiom()
         self._deadline = math.inf
+
+    def _read_axiom(self) -> ModuleString:
+        """The axiom: its L-string, or the modules its indented Python block produces (trusted grammars)."""
+        src, ln, col = self._g.axiom
+        if not self._g.axiom_block:
+            return self._to_string(self._eval_lstring(self._g.axiom_tokens, ln, "the axiom"), ln)
+        if not self.trusted:
+            raise LSystemError("the axiom is a Python block: " + SB.TRUST_HINT, ln, col)
+        self._ns["__lsys_axiom__"] = self._function((), self._g.axiom_block, ln, "the axiom")
+        self._nbuf.clear()
+        res = self._run_code(self._expr("__lsys_axiom__()", ln, col, "the axiom"), ln, "the axiom")
+        mods = list(self._nbuf) + list(res or ())
+        self._nbuf.clear()
+        return self._to_string(mods, ln)
 
     @classmethod
     def from_file(cls, path: str | Path, *, seed: int | None = None, trusted: bool = False,
@@ -455,7 +469,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
             self._deadline = time.monotonic() + self.time_budget
         self._where = (self._g.rules[0].line if self._g.rules else 1, 1)
         with self._seeded():
-            self._hook("Start")
+            s = self._hook("Start", s)
         yield s
         for it in range(n):
             self._iteration = it
@@ -464,7 +478,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
             elif time.monotonic() > self._deadline:
                 raise self._over_budget()
             with self._seeded():
-                self._hook("StartEach")
+                s = self._hook("StartEach", s)
                 if self._next_group != self._group:           # L-Py reads the group after StartEach
                     self._set_group(self._next_group)
                 if self._rules["production"]:
@@ -472,12 +486,12 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
                         s = self._query(s)
                     s, _ = self._rewrite(s, "production")
                 s = self._decompose(s, "decomposition")
-                self._hook("EndEach")
+                s = self._hook("EndEach", s)
             yield s
             if self._stopped:
                 break
         with self._seeded():
-            self._hook("End")
+            self._hook("End", s)
 
     def _expand(self, n: int, s: ModuleString) -> ModuleString | None:
         """The string after ``n`` steps of constant productions at once, or None where the step-wise

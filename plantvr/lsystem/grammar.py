@@ -1,7 +1,8 @@
 """The ``.lpy`` reader (issue 23): splits an L-Py file into its Python code and its L-system parts.
 
 Layout read, as L-Py's ``lpy_parser`` does: Python code (functions, constants, ``extern(...)``, ``module A, B``
-declarations, ``nproduce`` in functions) before and after the L-system; ``Axiom:``; ``derivation length:``;
+declarations, ``nproduce`` in functions) before and after the L-system; ``Axiom:`` (an L-string, or an indented
+Python block of ``nproduce`` statements below it); ``derivation length:``;
 ``ignore:`` / ``consider:``; sections ``production:``, ``decomposition:`` and ``homomorphism:`` /
 ``interpretation:`` (``maximum depth:`` inside the last two); ``endlsystem``; the trailing
 ``###### INITIALISATION ######`` block of L-Py's editor (its ``scalars`` are read as declared parameters; a trusted
@@ -101,6 +102,7 @@ class Grammar:
     init: str = ""                                     # that block's code, line numbers kept (run when trusted)
     first_use: dict = field(default_factory=dict)      # module name -> (line, col) of its first appearance
     axiom_tokens: list = field(default_factory=list)
+    axiom_block: list = field(default_factory=list)    # (line, Python) of an 'Axiom:' written as an nproduce block
 
 
 def _strip_comment(s: str) -> str:
@@ -188,13 +190,20 @@ class _Reader:
                 self.rule(mode, list(rule_lines))
                 rule_lines.clear()
 
+        block: list | None = None                             # the lines of an 'Axiom:' block, while open
         for k, raw in enumerate(lines):
             ln = k + 1
             s = raw.rstrip()
+            if block is not None:
+                if not s.strip() or raw[0] in " \t":
+                    block.append((ln, raw))
+                    continue
+                block = self.read_axiom_block(block)
             if mode == "python" or mode == "after":
                 m = _HEADER.match(s) if mode == "python" else None
                 if m and (m.group(2) or m.group(1).startswith(("endlsystem", "endgroup"))):
                     mode = self.header(m, ln, raw) or mode
+                    block = [] if m.group(1) == "Axiom" and not self.g.axiom[0] else None
                     continue
                 if s.startswith("module ") or s.startswith("module\t"):
                     self.declare(s, ln)
@@ -215,6 +224,7 @@ class _Reader:
             if m and (m.group(2) or m.group(1).startswith(("endlsystem", "endgroup", "group"))):
                 flush()
                 mode = self.header(m, ln, raw, section=mode) or mode
+                block = [] if m.group(1) == "Axiom" and not self.g.axiom[0] else None
                 continue
             if s.startswith("def ") or s.startswith("class "):
                 raise LSystemError("Python definitions inside the rule sections are not supported (move them "
@@ -222,10 +232,22 @@ class _Reader:
             flush()
             rule_lines.append((ln, raw))
         flush()
+        if block is not None:
+            self.read_axiom_block(block)
         self.g.python = "\n".join(py)
         if self.g.axiom is None:
             raise LSystemError("no 'Axiom:' line", 1, 1)
         return self.g
+
+    def read_axiom_block(self, block: list[tuple[int, str]]) -> None:
+        """An 'Axiom:' with nothing after it and an indented block of Python below (``nproduce`` statements, loops),
+        as L-Py reads it: the block's code, ``produce``/``nproduce`` translated, is the axiom's."""
+        code = [(k, raw) for k, raw in block if _strip_comment(raw).strip()]
+        if not code:
+            _, ln, col = self.g.axiom
+            raise LSystemError("'Axiom:' has no L-string", ln, col)
+        indent = min(len(raw) - len(raw.lstrip()) for _, raw in code)
+        self.g.axiom_block = [(k, self.translate_produce(raw[indent:], k, in_rule=True)) for k, raw in code]
 
     def read_scalars(self, init: str) -> None:
         m = re.search(r"scalars\s*=\s*(\[.*?\])\s*\n", init, re.DOTALL)
@@ -262,8 +284,9 @@ class _Reader:
         key, rest = m.group(1), m.group(3)
         col = raw.find(rest) + 1 if rest.strip() else len(raw) + 1
         if key == "Axiom":
-            if not rest.strip():
-                raise LSystemError("'Axiom:' has no L-string", ln, col)
+            if not _strip_comment(rest).strip():              # the L-string follows as an indented block
+                self.g.axiom = ("", ln, col)
+                return None
             self.g.axiom = (rest, ln, raw.find(":") + 2)
             self.g.axiom_tokens = self.lex(rest, ln, raw.find(":") + 2)
             return None

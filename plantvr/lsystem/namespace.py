@@ -23,6 +23,7 @@ import numpy as np
 from . import sandbox as SB
 from .grammar import lstring_to_py
 from .lexer import LSystemError, Token
+from .modules import ModuleString
 
 #: Most derivation steps one call may ask for (a grammar's ``derivation length`` included).
 MAX_DERIVATION = 100_000
@@ -322,10 +323,11 @@ class _Namespace:
                     nparams = len(inspect.signature(f).parameters)
                 except (TypeError, ValueError):
                     nparams = 0
-                if nparams:
+                if nparams > (2 if name.startswith("End") else 1):
                     line = getattr(getattr(f, "__code__", None), "co_firstlineno", 0)
-                    raise LSystemError(f"{name}() with arguments (the lstring) is not supported", line, 1)
-                hooks[name] = f
+                    raise LSystemError(f"{name}() takes the lstring{' and the scene' if name.startswith('End') else ''}"
+                                       f" at most, not {nparams} arguments", line, 1)
+                hooks[name] = (f, nparams)
         return hooks
 
     def _eval_int(self, item, what: str, default: int) -> int:
@@ -392,12 +394,16 @@ class _Namespace:
         program's generators as they were."""
         return _Seeded(self)
 
-    def _hook(self, name: str) -> None:
-        f = self._hooks.get(name)
+    def _hook(self, name: str, s: ModuleString) -> ModuleString:
+        """Call the grammar's ``Start``/``StartEach``/``EndEach``/``End`` with what it takes, as L-Py's
+        ``LsysContext::controlMethod``: nothing, the lstring, or the lstring and the scene (None here: PlantVR
+        has no PlantGL scene); an lstring it returns replaces the string (the value ``End`` returns is not used:
+        the derivation has ended)."""
+        f, nparams = self._hooks.get(name, (None, 0))
         if f is not None:
             self._nbuf.clear()
             try:
-                f()
+                out = f(*(s, None)[:nparams])
             except LSystemError as e:
                 if e.line:
                     raise
@@ -407,3 +413,9 @@ class _Namespace:
             except Exception as e:
                 raise LSystemError(f"{name}() raised {type(e).__name__}: {e}", self._tb_line(sys.exc_info()[2]),
                                    1) from None
+            if isinstance(out, ModuleString):
+                return self._adopt(out)
+            if out is not None:
+                line = getattr(getattr(f, "__code__", None), "co_firstlineno", 0)
+                raise LSystemError(f"{name}() must return None or an lstring, got {type(out).__name__}", line, 1)
+        return s

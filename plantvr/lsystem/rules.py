@@ -68,25 +68,10 @@ class _Rules:
     def _compile(self, rule: Rule) -> _Compiled:
         if time.monotonic() > self._deadline:
             raise LSystemError(f"time budget of {self.time_budget:g} s exceeded reading the rules", rule.line, 1)
-        first = rule.body[0][0] if rule.body else rule.line
-        base = max(first - 2, 0)                              # the source starts at grammar line base + 1
         params = () if rule.static else rule.params          # L-Py unbinds a static rule's pattern variables
-        lines = [""] * (first - 2 - base) + [f"def __lsys_rule__({', '.join(params)}):"]
-        for ln, src in rule.body:
-            while len(lines) < ln - 1 - base:
-                lines.append("")
-            lines.append("    " + src)
-        if not rule.body:
-            lines.append("    pass")
-        src = "\n".join(lines) + "\n"
-        what = f"rule {rule.header!r}"
-        tree = self._parse(src, "exec", base + 1, 1, what)
-        if not self.trusted:
-            self._restrict_rule(rule, tree)
-        code = self._compile_tree(tree, "exec", rule.line, 1, what, shift=base)
-        local: dict = {}
-        exec(code, self._ns, local)
-        c = _Compiled(rule, local["__lsys_rule__"], self._sid(rule.pred.name))
+        func = self._function(params, rule.body, rule.line, f"rule {rule.header!r}",
+                              None if self.trusted else lambda tree: self._restrict_rule(rule, tree))
+        c = _Compiled(rule, func, self._sid(rule.pred.name))
         if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
             c.static = self._call(c, [])
             if all(type(v) is float for _, vals in c.static for v in vals) and \
@@ -98,6 +83,25 @@ class _Rules:
             self._plan(c)
             c.const = None if c.consts else c.const           # the constant tables match names, not values
         return c
+
+    def _function(self, params, body: list[tuple[int, str]], line: int, what: str, restrict=None):
+        """A Python function of the grammar made from ``body`` (``(line, code)`` pairs, each at its grammar line,
+        so tracebacks name the grammar's lines); ``restrict(tree)`` checks the parsed module first."""
+        first = body[0][0] if body else line
+        base = max(first - 2, 0)                              # the source starts at grammar line base + 1
+        lines = [""] * (first - 2 - base) + [f"def __lsys_function__({', '.join(params)}):"]
+        for ln, src in body:
+            while len(lines) < ln - 1 - base:
+                lines.append("")
+            lines.append("    " + src)
+        if not body:
+            lines.append("    pass")
+        tree = self._parse("\n".join(lines) + "\n", "exec", base + 1, 1, what)
+        if restrict is not None:
+            restrict(tree)
+        local: dict = {}
+        exec(self._compile_tree(tree, "exec", line, 1, what, shift=base), self._ns, local)
+        return local["__lsys_function__"]
 
     def _restrict_rule(self, rule: Rule, tree: ast.Module) -> None:
         """An untrusted rule: one line (successor, condition), its expressions within the restricted evaluator."""

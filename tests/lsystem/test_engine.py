@@ -326,3 +326,40 @@ def test_top_level_code_draws_from_the_seeded_generators_too():
     assert a[0] == random.Random(8).random() and random.getstate() == state
     plain = "Axiom: F\nproduction:\nF :\n    produce F\nendlsystem\n"
     assert not LSystem(plain, seed=1, trusted=True)._global_random      # nothing to swap: no cost per step
+
+
+# -- L-Py's axiom blocks and hooks that take the lstring ----------------------------------------------------------
+def test_axiom_written_as_an_nproduce_block_as_lpy_reads_it():
+    """``Axiom:`` with nothing after it and an indented block below: the block's ``nproduce`` statements make the
+    axiom (L-Py's tutorials, e.g. ``05 - signals/01 - fibonacci.lpy``); a trusted grammar only."""
+    text = ("n = 3\nAxiom:\n  nproduce -(90)\n  for i in range(n):  # one I per value\n    nproduce I(i)\n\n"
+            "derivation length: 1\nproduction:\nI(x) --> I(x + 1)\nendlsystem\n")
+    ls = LSystem(text, trusted=True)
+    assert str(ls.axiom) == "-(90)I(0)I(1)I(2)" and str(ls.derive()) == "-(90)I(1)I(2)I(3)"
+    with pytest.raises(LSystemError, match=r"line 2.*the axiom is a Python block.*trusted=True"):
+        LSystem(text)
+    with pytest.raises(LSystemError, match=r"line 5.*NameError"):
+        LSystem(text.replace("I(i)", "I(j)"), trusted=True)
+    with pytest.raises(LSystemError, match=r"line 1.*'Axiom:' has no L-string"):
+        LSystem("Axiom:\n\nproduction:\nendlsystem\n", trusted=True)
+
+
+def test_hooks_take_the_lstring_and_may_return_a_new_one():
+    """``LsysContext::controlMethod``: ``StartEach(lstring)`` / ``EndEach(lstring[, scene])`` / ``End(lstring)``;
+    an lstring returned replaces the string, None keeps it."""
+    seen = []
+    text = ("def StartEach(lstring):\n  seen.append(str(lstring))\n"
+            "def EndEach(lstring, scene):\n  if len(lstring) > 4:\n    return lstring_of_a\n"
+            "def End(lstring):\n  seen.append('end ' + str(lstring))\n"
+            "Axiom: A\nderivation length: 3\nproduction:\nA --> AA\nendlsystem\n")
+    ls = LSystem(text, trusted=True)
+    ls._ns.update(seen=seen, lstring_of_a=ls.axiom)
+    assert str(ls.derive()) == "A"                          # step 3's AAAAAAAA replaced by what EndEach returned
+    assert seen == ["A", "AA", "AAAA", "end A"]
+    ls = LSystem("seen = []\n" + text.replace("return lstring_of_a", "return None"), trusted=True)
+    assert str(ls.derive()) == "AAAAAAAA" and ls._ns["seen"] == ["A", "AA", "AAAA", "end AAAAAAAA"]
+    with pytest.raises(LSystemError, match=r"line 1.*EndEach\(\) must return None or an lstring"):
+        LSystem("def EndEach(lstring):\n  return 3\nAxiom: A\nproduction:\nA --> AA\nendlsystem\n",
+                trusted=True).derive(1)
+    with pytest.raises(LSystemError, match=r"line 1.*StartEach\(\) takes the lstring at most"):
+        LSystem("def StartEach(a, b):\n  pass\nAxiom: A\nendlsystem\n", trusted=True)
