@@ -22,7 +22,7 @@ import numpy as np
 
 from . import sandbox as SB
 from .grammar import lstring_to_py
-from .lexer import LSystemError, Token
+from .lexer import LSystemError, Token, lex
 from .modules import ModuleString
 
 #: Most derivation steps one call may ask for (a grammar's ``derivation length`` included).
@@ -153,7 +153,8 @@ class _Namespace:
             isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
             Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
-            nproduce=self._nbuf_add, useGroup=self._use_group, frameDisplay=lambda *a: None,
+            nproduce=self._nbuf_add, useGroup=self._use_group, getGroup=lambda: self._group,
+            frameDisplay=lambda *a: None, Lstring=self._lstring,
         )
         ns.update(SB.guard_names(self._tick))
         if self.trusted:                                      # as the builtins, refusing only huge integers
@@ -241,6 +242,14 @@ class _Namespace:
         except Exception as e:
             raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line,
                                1) from None
+
+    def _lstring(self, text) -> ModuleString:
+        """L-Py's ``Lstring('A(1) [B]')``: the string of an L-string text in the grammar's module names (its
+        parameters evaluated as the axiom's are)."""
+        if not isinstance(text, str):
+            raise LSystemError(f"Lstring needs a str, got {type(text).__name__}")
+        line = self._where[0]
+        return self._to_string(self._eval_lstring(lex(text, self._names, line=line), line, "Lstring"), line)
 
     def _use_group(self, n) -> None:
         """``useGroup(n)`` (L-Py): the steps after this one use the rules of group ``n``, then those of group 0."""

@@ -16,8 +16,8 @@ import numpy as np
 
 from . import _derive_kernels as K
 from .lexer import LSystemError
-from .modules import ModuleString, is_number
 from .matching import _raw_vals
+from .modules import ModuleString, is_number
 from .rules import _Compiled
 
 _WARM_TURTLE: list = []

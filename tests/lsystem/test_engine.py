@@ -363,3 +363,12 @@ def test_hooks_take_the_lstring_and_may_return_a_new_one():
                 trusted=True).derive(1)
     with pytest.raises(LSystemError, match=r"line 1.*StartEach\(\) takes the lstring at most"):
         LSystem("def StartEach(a, b):\n  pass\nAxiom: A\nendlsystem\n", trusted=True)
+
+
+def test_lstring_and_getgroup_in_grammar_code():
+    """L-Py's ``Lstring(text)`` (a hook returns it: ``02 - fractals/ifs.lpy``) and ``getGroup()``."""
+    text = ("def EndEach(lstring):\n  if getGroup() == 0 and len(lstring) > 2:\n    return Lstring('B(1 + 1) [A]')\n"
+            "Axiom: A\nderivation length: 3\nproduction:\nA --> AA\nendlsystem\n")
+    assert str(LSystem(text, trusted=True).derive()) == "B(2)[A]"
+    with pytest.raises(LSystemError, match="Lstring needs a str"):
+        LSystem(text.replace("Lstring('B(1 + 1) [A]')", "Lstring(3)"), trusted=True).derive()
