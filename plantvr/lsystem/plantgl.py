@@ -122,9 +122,12 @@ class Vector2(_Vector):
 
 
 class Vector3(_Vector):
-    """PlantGL ``Vector3`` (``Vector3.OX``, ``OY``, ``OZ``, ``ORIGIN``)."""
+    """PlantGL ``Vector3`` (``Vector3.OX``, ``OY``, ``OZ``, ``ORIGIN``); ``a ^ b`` is the cross product."""
 
     _N = 3
+
+    def __xor__(self, o):
+        return cross(self, o)
 
 
 class Vector4(_Vector):

@@ -15,6 +15,7 @@ def test_vectors_and_helpers():
     assert v.x == 1.0 and (v + pgl.Vector3.OZ) == [1, 0, 1.8] and (2 * v).z == pytest.approx(1.6)
     assert pgl.Vector3(1, 2, 3) * pgl.Vector3(1, 1, 1) == 6                   # PlantGL: * of vectors is dot
     assert pgl.cross(pgl.Vector3.OX, pgl.Vector3.OY) == pgl.Vector3.OZ
+    assert pgl.Vector3.OX ^ pgl.Vector3.OY == pgl.Vector3.OZ                  # PlantGL: ^ is the cross product
     assert pgl.direction(pgl.Vector3(0, 0, 2)) == [0, 0, 1] and pgl.Vector3((1, 2)) == [1, 2, 0]
     with pytest.raises(ValueError, match="Vector3 takes at most 3 coordinates, got 4"):
         pgl.Vector3(1, 2, 3, 4)
