@@ -2,8 +2,10 @@
 with *Apply*; the workbench shows it beside the view (:class:`~plantvr.ui.lsystem.LsystemWidget`)."""
 from __future__ import annotations
 
+import contextlib
 import html
 import math
+import time
 
 import ipywidgets as W
 
@@ -15,6 +17,8 @@ from .panels import make_control, show_value
 __all__ = ["LsystemPanel", "extern_param"]
 
 _ERROR = "#c0392b"
+#: Seconds between two values of the step slider that still belong to one drag, so one undo item (issue 31).
+DRAG_GAP = 0.6
 
 
 def extern_param(name: str, default: float) -> Param:
@@ -71,6 +75,7 @@ class LsystemPanel(W.VBox):
                                        style={"description_width": "150px"},
                                        layout=W.Layout(width="420px", max_width="100%"))
         self.step_slider.observe(self._on_step, names="value")
+        self._drag: tuple[float, int] | None = None     # (time, log length) after the last step slider value
         self.controls: dict[str, W.Widget] = {}
         self.params_box = W.VBox([])
         self.grammar = W.Textarea(value=doc.text, description="", continuous_update=False,
@@ -96,9 +101,15 @@ class LsystemPanel(W.VBox):
 
     # -- widgets -> document -----------------------------------------------------------------------------
     def _on_step(self, change) -> None:
+        """A step slider value: one drag (values less than :data:`DRAG_GAP` apart, no other command between) is
+        one undo item, the later values joining the first one's (``history_block(amend=True)``)."""
         if self._busy:
             return
-        self._issue(self.doc.set_step, int(change["new"]))
+        log = self.doc.log.events
+        drag = self._drag is not None and time.monotonic() - self._drag[0] < DRAG_GAP and len(log) == self._drag[1]
+        with self.doc.history_block(amend=True) if drag else contextlib.nullcontext():
+            ok = self._issue(self.doc.set_step, int(change["new"]))
+        self._drag = (time.monotonic(), len(log)) if ok else None
 
     def _on_extern(self, name: str, value) -> None:
         if self._busy:

@@ -128,3 +128,27 @@ def test_a_widget_of_a_grammar_str_takes_trusted():
         assert w.doc.trusted and w.trust_box.value is True
     finally:
         w.close()
+
+
+def test_one_drag_of_the_step_slider_is_one_undo_item(widget, monkeypatch):
+    """Issue 31: values of one drag (less than DRAG_GAP apart, no other command between) make one undo item;
+    undo takes the whole drag back, and the log replays to the same state."""
+    import plantvr.ui.lsystem_panel as P
+    doc, w = widget
+    clock = [100.0]
+    monkeypatch.setattr(P.time, "monotonic", lambda: clock[0])
+    for v in (3, 4, 5):                          # one drag
+        w.step_slider.value = v
+        clock[0] += 0.05
+    assert doc.step == 5
+    clock[0] += 2 * P.DRAG_GAP
+    w.step_slider.value = 1                      # a new drag
+    doc.undo()
+    assert doc.step == 5 and w.step_slider.value == 5
+    doc.undo()
+    assert doc.step == 2 and w.step_slider.value == 2 and not doc.can_undo
+    fresh = LSystemDocument(GRAMMAR, step=2)
+    doc.redo()
+    doc.redo()
+    fresh.replay(doc.log)
+    assert fresh.state_bytes() == doc.state_bytes() and fresh.step == 1
