@@ -12,7 +12,7 @@ import at all (the restricted evaluator).
   :func:`direction` as PlantGL's.
 * :class:`Color3`, :class:`Color4` (0-255), :class:`Material` (``ambient``, ``diffuse`` factor, ...;
   :meth:`Material.rgb` = ambient times diffuse, PlantGL's diffuse colour).
-* :class:`Point2Array`, :class:`Point3Array`, :class:`Point4Array`; :class:`NurbsCurve2D`,
+* :class:`Point2Array`, :class:`Point3Array`, :class:`Point4Array`, :class:`RealArray`; :class:`NurbsCurve2D`,
   :class:`NurbsCurve`, :class:`BezierCurve2D`, :class:`Polyline2D` with ``getPointAt(u)``;
   :class:`QuantisedFunction` (a curve read as ``y = f(x)``, ``f(x)`` / ``getValue(x)``), what ``nF`` and the
   editor's function panels hand a grammar.
@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 
 __all__ = ["BezierCurve2D", "Color3", "Color4", "Material", "NurbsCurve", "NurbsCurve2D", "Point2Array",
-           "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "Vector2", "Vector3", "Vector4",
-           "cross", "direction", "dot", "norm"]
+           "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "RealArray", "Vector2", "Vector3",
+           "Vector4", "cross", "direction", "dot", "norm"]
 
 
 # -- vectors -------------------------------------------------------------------------------------------------
@@ -242,6 +242,13 @@ class Point4Array(_PointArray):
     """PlantGL ``Point4Array``."""
 
     _V = Vector4
+
+
+class RealArray(list):
+    """PlantGL ``RealArray``: a list of floats (knot vectors, widths)."""
+
+    def __init__(self, values=()) -> None:
+        super().__init__(float(v) for v in values)
 
 
 def _clamped_knots(n: int, degree: int) -> np.ndarray:

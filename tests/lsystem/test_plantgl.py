@@ -16,6 +16,7 @@ def test_vectors_and_helpers():
     assert pgl.Vector3(1, 2, 3) * pgl.Vector3(1, 1, 1) == 6                   # PlantGL: * of vectors is dot
     assert pgl.cross(pgl.Vector3.OX, pgl.Vector3.OY) == pgl.Vector3.OZ
     assert pgl.Vector3.OX ^ pgl.Vector3.OY == pgl.Vector3.OZ                  # PlantGL: ^ is the cross product
+    assert pgl.RealArray([1, 2.5]) == [1.0, 2.5] and type(pgl.RealArray([1])[0]) is float
     assert pgl.direction(pgl.Vector3(0, 0, 2)) == [0, 0, 1] and pgl.Vector3((1, 2)) == [1, 2, 0]
     with pytest.raises(ValueError, match="Vector3 takes at most 3 coordinates, got 4"):
         pgl.Vector3(1, 2, 3, 4)
