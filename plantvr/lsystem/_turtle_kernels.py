@@ -111,6 +111,16 @@ def _radius(pool, prev, npool, tail, r):
     return npool
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _set_width(v, gc_on, gc_cnt, pool, prev, npool, gc_tail):
+    """The turtle's width set to ``v``, and pushed as the radius of an open generalized cylinder that has points
+    (PlantGL ``setWidth`` + ``pushRadius``; the twin's ``set_width``): ``(width, gc_tail, npool)``."""
+    if gc_on and gc_cnt > 0:
+        gc_tail = _radius(pool, prev, npool, gc_tail, v)
+        npool += 1
+    return v, gc_tail, npool
+
+
 @numba.njit(cache=True, nogil=True)
 def _record(sint, sflt, ns, kind, col, mod, px, py, pz, hx, hy, hz, lx, ly, lz, ux, uy, uz, size):
     """A placed shape (sphere, disc, surface): its kind, colour, module, frame and size in row ``ns``."""
@@ -323,10 +333,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                     npool += 1
                     poly_cnt += 1
             elif length > 0.0 and top > -EPS:
-                w = top
-                if gc_on and gc_cnt > 0:
-                    gc_tail = _radius(pool, prev, npool, gc_tail, w)
-                    npool += 1
+                w, gc_tail, npool = _set_width(top, gc_on, gc_cnt, pool, prev, npool, gc_tail)
             if flip:
                 hx, hy, hz = -hx, -hy, -hz
                 lx, ly, lz = -lx, -ly, -lz
@@ -420,10 +427,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             if na > 0:
                 v = args[a0]
             if v > -EPS:
-                w = v
-                if gc_on and gc_cnt > 0:
-                    gc_tail = _radius(pool, prev, npool, gc_tail, w)
-                    npool += 1
+                w, gc_tail, npool = _set_width(v, gc_on, gc_cnt, pool, prev, npool, gc_tail)
             else:
                 ignored[IGNORED_WIDTH] += 1
                 if ignored_at[IGNORED_WIDTH] < 0:
@@ -530,10 +534,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 pz += hz * length * sz
                 cur = -2
                 if top > -EPS:
-                    w = top
-                    if gc_on and gc_cnt > 0:
-                        gc_tail = _radius(pool, prev, npool, gc_tail, w)
-                        npool += 1
+                    w, gc_tail, npool = _set_width(top, gc_on, gc_cnt, pool, prev, npool, gc_tail)
                 if flip:
                     hx, hy, hz = -hx, -hy, -hz
                     lx, ly, lz = -lx, -ly, -lz
