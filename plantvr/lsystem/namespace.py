@@ -282,16 +282,14 @@ class _Namespace:
         """Run the editor's INITIALISATION block (trusted grammars: its ``__initialiseContext__(context)`` defines
         the curves, functions and scalars of the editor's panels, as ``LsysContext::__initialiseFrom`` does before
         the code; the caller's externs then win, as L-Py's ``updateNamespace(parameters)``), then the code."""
-        init = self._g.init if self.trusted and self._g.init.strip() else ""
-        parts = [(init, "the INITIALISATION block"), (self._g.python, "the grammar's Python code")]
-        for src, what in parts if init else parts[1:]:
-            tree = self._parse(src, "exec", 1, 1, what)
-            self._restrict(tree, 1, 1)
-            self._exec_code(self._compile_tree(tree, "exec", 1, 1, what), what)
-            init_fn = self._ns.pop("__initialiseContext__", None) if src is init else None
+        if self.trusted and self._g.init.strip():
+            what = "the INITIALISATION block"
+            self._exec_block(self._g.init, what)
+            init_fn = self._ns.pop("__initialiseContext__", None)
             if callable(init_fn):
                 self._exec_code(lambda: init_fn(self._context), what)
                 self._ns.update(self._overrides)
+        self._exec_block(self._g.python, "the grammar's Python code")
         for name in _RANDOM_FUNCS if self.trusted else ():   # ``from random import *`` stays seeded
             if self._ns.get(name) is getattr(_random, name, None):
                 self._ns[name] = getattr(self._rng, name)
@@ -301,6 +299,12 @@ class _Namespace:
         if unknown:
             raise ValueError(f"unknown extern {unknown[0]!r}: the grammar declares "
                              f"{sorted(self._externs) or 'none'}")
+
+    def _exec_block(self, src: str, what: str) -> None:
+        """Parse, check (untrusted) and run grammar code ``src`` whose line numbers are the file's."""
+        tree = self._parse(src, "exec", 1, 1, what)
+        self._restrict(tree, 1, 1)
+        self._exec_code(self._compile_tree(tree, "exec", 1, 1, what), what)
 
     def _exec_code(self, code, what: str) -> None:
         """``exec(code)`` in the namespace (or call ``code``), seeded; its errors as LSystemError with the line."""
