@@ -168,12 +168,13 @@ def check_values(name: str, value: Any, *, finite: bool = True) -> np.ndarray:
     return arr
 
 
-def check_tree_arrays(pos: Any, parent: Any, radius: Any, *, max_radius: float | None = MAX_COORD
-                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Return the node arrays of a tree rooted at node 0, checked, as ``(pos, parent, radius)``.
+def check_tree_arrays(pos: Any, parent: Any, radius: Any, *, max_radius: float | None = MAX_COORD,
+                      forest: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the node arrays of a tree rooted at node 0 (or a forest), checked, as ``(pos, parent, radius)``.
 
     ``pos`` (N, 3) float64 finite inside ``±MAX_COORD`` with ``2 <= N <= MAX_COUNT``; ``parent`` (N,) int64
-    with ``parent[0] = -1`` and ``0 <= parent[i] < i`` for ``i > 0`` (forward-ordered, so no cycles);
+    with ``parent[0] = -1`` and ``0 <= parent[i] < i`` for ``i > 0`` (forward-ordered, so no cycles), or, with
+    ``forest=True``, ``-1 <= parent[i] < i`` (every -1 starts a tree, as a turtle move before ``F`` does);
     ``radius`` (N,) finite float64, inside ``±max_radius`` (None: unbounded; the caller checks its range).
     """
     pos = check_points("pos", pos, min_rows=2)
@@ -184,10 +185,11 @@ def check_tree_arrays(pos: Any, parent: Any, radius: Any, *, max_radius: float |
     radius = check_array("radius", radius, shape=(n,), max_abs=max_radius)
     if parent[0] != -1:
         raise ValueError(f"parent[0] must be -1 (node 0 is the root), got {parent[0]}")
-    bad = np.flatnonzero((parent[1:] < 0) | (parent[1:] >= np.arange(1, n))) + 1
+    low = -1 if forest else 0
+    bad = np.flatnonzero((parent[1:] < low) | (parent[1:] >= np.arange(1, n))) + 1
     if bad.size:
-        raise ValueError(f"parent must satisfy 0 <= parent[i] < i for i > 0 (a forward-ordered tree without "
-                         f"cycles), got parent[{bad[0]}] = {parent[bad[0]]}")
+        raise ValueError(f"parent must satisfy {low} <= parent[i] < i for i > 0 (a forward-ordered "
+                         f"{'forest' if forest else 'tree'} without cycles), got parent[{bad[0]}] = {parent[bad[0]]}")
     return pos, parent, radius
 
 

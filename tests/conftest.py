@@ -62,6 +62,7 @@ def pytest_sessionfinish(session):
         out["fuzz"] = {**_FUZZ, "entries": sorted(_FUZZ["entries"])}
 
 
+@pytest.hookimpl(optionalhook=True)       # an xdist hook: -p no:xdist runs without it
 def pytest_testnodedown(node, error):
     got = getattr(node, "workeroutput", {}).get("fuzz")
     if got:

@@ -53,6 +53,17 @@ def test_every_tree_entry_point_gives_the_same_parent_errors(entry):
         entry([-1, 0, 1, 3])
 
 
+def test_check_tree_arrays_forest_allows_extra_roots_only_when_asked():
+    par = [-1, 0, -1, 2]
+    assert check_tree_arrays(POS, par, RAD, forest=True)[1].tolist() == par
+    with pytest.raises(ValueError, match=r"0 <= parent\[i\] < i .*tree.*parent\[2\] = -1"):
+        check_tree_arrays(POS, par, RAD)
+    with pytest.raises(ValueError, match=r"-1 <= parent\[i\] < i .*forest.*parent\[3\] = 3"):
+        check_tree_arrays(POS, [-1, 0, -1, 3], RAD, forest=True)
+    with pytest.raises(ValueError, match=r"parent\[0\] must be -1"):
+        check_tree_arrays(POS, [0, -1, -1, 2], RAD, forest=True)
+
+
 def test_check_values_any_shape_finite():
     assert check_values("x", 2).shape == () and check_values("x", [[1, 2]]).dtype == np.float64
     assert np.isnan(check_values("t", [np.nan], finite=False)[0])

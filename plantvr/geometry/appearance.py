@@ -152,7 +152,8 @@ def thickest_path_mesh(pos, parent, radius, *, alive=None, tip_radius: float | N
     """
     pos, parent, radius, alive, _ = _check_tree(pos, parent, radius, alive, None)
     c_max = check_int("c_max", c_max, 3, 64)
-    opts = _check_options(bezier_w, u_steps, (3, c_max), tip_radius, bark_rate, bark_repeat, radius, alive)
+    opts = _check_options(bezier_w, u_steps, (3, c_max), tip_radius, bark_rate, bark_repeat, radius, parent,
+                          alive)
     side_exponent = check_range("side_exponent", side_exponent, 1.0, 100.0)
     main = thickest_main_child(parent, radius, alive=alive)
     seg = tree_segments(pos, parent, radius, alive=alive, main_child=main, bezier_w=opts["bezier_w"],

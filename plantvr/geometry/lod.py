@@ -163,7 +163,7 @@ def triangle_count(pos, parent, radius, *, alive=None, main_child=None, lod=(10,
     int
     """
     pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
-    opts = _check_options(3.0, u_steps, lod, tip_radius, 1.0, 1, radius, alive)
+    opts = _check_options(3.0, u_steps, lod, tip_radius, 1.0, 1, radius, parent, alive)
     return _count(pos, parent, radius, alive, main_child, opts)
 
 
@@ -217,7 +217,7 @@ def lod_chain(pos, parent, radius, *, alive=None, main_child=None, levels: int =
     levels = check_int("levels", levels, 1, len(rings))
     if len(u_steps) < levels:
         raise ValueError(f"u_steps must have at least levels={levels} entries, got {len(u_steps)}")
-    optss = [_check_options(bezier_w, u_steps[k], rings[k], tip_radius, bark_rate, bark_repeat, radius, alive)
+    optss = [_check_options(bezier_w, u_steps[k], rings[k], tip_radius, bark_rate, bark_repeat, radius, parent, alive)
              for k in range(levels)]
     full = _count(pos, parent, radius, alive, main_child, optss[0])
     if budgets is None:

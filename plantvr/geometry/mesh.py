@@ -200,11 +200,14 @@ class Segments:
         return len(self.keys)
 
 
-def _check_tree(pos, parent, radius, alive, main_child):
-    pos, parent, radius = check_tree_arrays(pos, parent, radius)
+def _check_tree(pos, parent, radius, alive, main_child, *, forest: bool = False):
+    """The door of every tree mesher; ``forest``: the plain branch meshers take several roots (a turtle move
+    before ``F``), which the kernels draw as separate trees."""
+    pos, parent, radius = check_tree_arrays(pos, parent, radius, forest=forest)
     n = len(pos)
-    if np.any(radius[1:] <= 0):
-        raise ValueError(f"radius must be > 0 for every internode, got min {radius[1:].min()!r}")
+    inner = parent >= 0                                    # nodes that end an internode (the others are roots)
+    if np.any(radius[inner] <= 0):
+        raise ValueError(f"radius must be > 0 for every internode, got min {radius[inner].min()!r}")
     if alive is None:
         alive = np.ones(n, bool)
     else:
@@ -217,8 +220,8 @@ def _check_tree(pos, parent, radius, alive, main_child):
         main_child = np.zeros(0, np.int64)
     else:
         main_child = check_index("main_child", main_child, shape=(n,), low=-1, high=n - 1)
-    d = pos[1:] - pos[parent[1:]]
-    if np.any((np.einsum("ij,ij->i", d, d) <= 0) & alive[1:]):
+    d = pos[inner] - pos[parent[inner]]
+    if np.any((np.einsum("ij,ij->i", d, d) <= 0) & alive[inner]):
         raise ValueError("pos must give every live internode a positive length")
     return pos, parent, radius, alive, main_child
 
@@ -230,11 +233,12 @@ def tree_segments(pos, parent, radius, *, alive=None, main_child=None, bezier_w:
     Parameters
     ----------
     pos : (N, 3) float64 ndarray
-        Node positions; node 0 is the base point, node i > 0 the tip of internode parent[i] → i.
+        Node positions; a root (node 0, and any node with parent -1 in a forest) is a base point, node i
+        with ``parent[i] >= 0`` the tip of internode parent[i] → i.
     parent : (N,) int ndarray
-        Parent index, -1 for node 0, ``parent[i] < i``.
+        Parent index, -1 for a root (always node 0), ``parent[i] < i``.
     radius : (N,) float64 ndarray
-        Radius of the internode ending at each node (entry 0 unused).
+        Radius of the internode ending at each node (unused at roots).
     alive : (N,) bool ndarray, optional
         Dead nodes and their subtrees are skipped.
     main_child : (N,) int ndarray, optional
@@ -255,7 +259,7 @@ def tree_segments(pos, parent, radius, *, alive=None, main_child=None, bezier_w:
        ERRATUM A.10 for N'(1)); t0/t1 continuous along paths (§10.1.3, Eq. 10.13 with ERRATUM A.12b).
     """
     if not _checked:
-        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child, forest=True)
         bezier_w = check_range("bezier_w", bezier_w, 0.0, 1e3, low_open=True)
         bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
     eff, main, frame, tmid, axis = K._unfold_numba(pos, parent, alive, main_child, bark_rate)
@@ -331,7 +335,7 @@ def _alloc(nv: int, nf: int):
             np.empty(nv, np.int64), np.empty((nf, 3), np.int64))
 
 
-def _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive):
+def _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, parent, alive):
     bezier_w = check_range("bezier_w", bezier_w, 0.0, 1e3, low_open=True)
     u_steps = check_int("u_steps", u_steps, 1, 64)
     if not (isinstance(lod, (tuple, list)) and len(lod) == 2):
@@ -339,7 +343,7 @@ def _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, r
     lo = check_int("lod[0]", lod[0], 3, 64)
     hi = check_int("lod[1]", lod[1], lo, 64)
     if tip_radius is None:
-        live = radius[1:][alive[1:]]
+        live = radius[(parent >= 0) & alive]
         tip_radius = float(live.min()) if live.size else 1.0
     tip_radius = check_range("tip_radius", tip_radius, 0.0, np.inf, low_open=True)
     bark_rate = check_range("bark_rate", bark_rate, 0.0, 1e6)
@@ -382,8 +386,8 @@ def build_branch_mesh(pos, parent, radius, *, alive=None, main_child=None, bezie
     ----------
     .. [1] Thesis §10.1–§10.3; Eqs. 10.1 (A.9), 10.2–10.7 (A.10, A.11), 10.8–10.10, 10.13 (A.12b); LOD §10.3.
     """
-    pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
-    opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive)
+    pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child, forest=True)
+    opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, parent, alive)
     if not isinstance(kernel, str) or kernel not in ("numba", "numpy"):
         raise ValueError(f"kernel must be one of ['numba', 'numpy'], got {kernel!r}")
     seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=opts["bezier_w"],
@@ -427,7 +431,7 @@ def update_branch_mesh(old: BranchMesh, pos, parent, radius, *, alive=None,
     changed : (C,) int64 ndarray
         Indices of the segments re-evaluated (vertex ranges ``mesh.v_off[c]:mesh.v_off[c+1]``).
     """
-    pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+    pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child, forest=True)
     o = old.options
     seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=o["bezier_w"],
                         bark_rate=o["bark_rate"], _checked=True)
@@ -542,8 +546,8 @@ class IncrementalBranchMesh(BufferMesh):
                  u_steps: int = 4, lod: tuple[int, int] = LOD_FULL, tip_radius: float | None = None,
                  bark_rate: float = 1.0, bark_repeat: int = 1, slack: float = 0.25, max_waste: float = 0.5,
                  rebuild_fraction: float = 0.5):
-        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
-        opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, alive)
+        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child, forest=True)
+        opts = _check_options(bezier_w, u_steps, lod, tip_radius, bark_rate, bark_repeat, radius, parent, alive)
         super().__init__()
         self.slack = check_range("slack", slack, 0.0, 4.0)
         self.max_waste = check_range("max_waste", max_waste, 0.0, 1.0, low_open=True)
@@ -658,7 +662,7 @@ class IncrementalBranchMesh(BufferMesh):
         -------
         MeshUpdate
         """
-        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child)
+        pos, parent, radius, alive, main_child = _check_tree(pos, parent, radius, alive, main_child, forest=True)
         o = self.options
         seg = tree_segments(pos, parent, radius, alive=alive, main_child=main_child, bezier_w=o["bezier_w"],
                             bark_rate=o["bark_rate"], _checked=True)

@@ -280,3 +280,31 @@ def test_record_kernel_twins_agree(tree):
     b = K._records_numpy(pos, parent, radius, *un[:4][:1], *un[1:], 3.0, 0.7)
     for x, y in zip(a, b):
         np.testing.assert_array_equal(x, y)
+
+
+# ---- forests: a turtle move before F starts a second tree (parent -1 at a node > 0) ----------------------
+def test_forest_meshes_as_its_trees_meshed_one_by_one():
+    """A forest's branch mesh is the union of its trees' meshes: each tree meshed alone is the oracle."""
+    a = random_tree(40, seed=3, tip_radius=0.01)
+    b = random_tree(30, seed=5, tip_radius=0.01)
+    shift = np.array([5.0, 0.0, 0.0])
+    n = len(a[0])
+    pos = np.vstack([a[0], b[0] + shift])
+    parent = np.concatenate([a[1], np.where(b[1] < 0, -1, b[1] + n)])
+    radius = np.concatenate([a[2], b[2]])
+    mc = np.concatenate([a[3], np.where(b[3] < 0, -1, b[3] + n)])
+    forest = build_branch_mesh(pos, parent, radius, main_child=mc)
+    ma = build_branch_mesh(*a[:3], main_child=a[3])
+    mb = build_branch_mesh(*b[:3], main_child=b[3])
+    assert len(forest.vertices) == len(ma.vertices) + len(mb.vertices)
+    assert len(forest.faces) == len(ma.faces) + len(mb.faces)
+    first = forest.node_id < n
+    np.testing.assert_allclose(forest.vertices[first], ma.vertices, atol=1e-12)
+    np.testing.assert_allclose(forest.vertices[~first], mb.vertices + shift, atol=1e-12)
+    assert trimesh.Trimesh(forest.vertices, forest.faces, process=False).is_winding_consistent
+
+
+def test_forest_root_without_children_draws_nothing():
+    pos = [[0, 0, 0], [0, 1, 0], [3, 0, 0]]        # the last node: a root (parent -1) with no internode
+    m = build_branch_mesh(pos, [-1, 0, -1], [0.1, 0.1, 0.0])
+    assert set(np.unique(m.node_id)) == {1} and np.isfinite(m.vertices).all()   # the one internode 0 → 1

@@ -84,3 +84,31 @@ def test_view_renders_every_document_offscreen(kind, tmp_path):
             write_png(os.path.join(os.environ["PLANTVR_VIEW_PNG"], f"doc_{kind}.png"), after)
     finally:
         view.close()
+
+
+def test_lsystem_moves_before_f_draw_separate_trees(tmp_path):
+    """``f`` and ``@M`` before ``F`` start new trees (parent -1 at a node > 0): the view draws them apart and the
+    scene exports, where the mesher accepted only one root before."""
+    from plantvr.io.scene import export_scene
+    doc = LSystemDocument("Axiom: F(2) f(3) F(2) @M(4, 0, 0) F(1)\nderivation length: 0\nproduction:\nendlsystem\n")
+    tree = doc.tree
+    assert np.flatnonzero(tree.parent < 0).tolist() == [0, 2, 4]        # three roots: node 0 and after each move
+    view = View(doc, off_screen=True, window_size=(320, 240))
+    try:
+        img = view.screenshot()
+        rgb = img[..., :3].astype(int)
+        bark = (rgb[..., 0] - rgb[..., 2] > 40) & (rgb[..., 1] < 120)     # brown branches, not sky or ground
+        cols = np.flatnonzero(bark.any(axis=0))
+        trunk = bark[:, cols[0]:cols[0] + 4].any(axis=1)                # the column of the first two trees
+        rows = np.flatnonzero(trunk)
+        assert len(np.flatnonzero(np.diff(rows) > 5)) == 1, "the f(3) gap does not split the trunk's column"
+        assert np.ptp(cols) > 40, "the tree moved by @M is not drawn beside the others"
+        if os.environ.get("PLANTVR_VIEW_PNG"):
+            from plantvr._fileio import write_png
+            write_png(os.path.join(os.environ["PLANTVR_VIEW_PNG"], "doc_lsystem_forest.png"), img)
+    finally:
+        view.close()
+    import trimesh
+    scene = trimesh.load(export_scene(doc, tmp_path / "forest.glb"))
+    lo, hi = scene.bounds
+    assert hi[1] - lo[1] > 6.9 and hi[0] - lo[0] > 3.9                  # 2 + 3 + 2 up; @M 4 along x
