@@ -38,7 +38,8 @@ from traitlets import Bool, Int
 from .._fileio import check_target
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_range
 from ..document import Document, check_digest, file_digest, serialise
-from ..growth.sketch import TREESKETCH, SketchEngine, barycentric, split_values
+from ..growth.sketch import TREESKETCH, SketchEngine, split_values
+from ..growth.sketch_rules import barycentric
 from ..growth.sketch_tools import LassoVolume, StrokeEmitter, TreeLibrary, lasso_volume, nearest_node
 from ..history import StateAtom
 from ..types import Points, TreeArrays

@@ -25,7 +25,7 @@ what the TreeSketch model changes:
 
 Randomness is drawn from generators seeded by (seed, iteration, purpose), so a replay from the same seed
 and the same commands is bit-identical. The rules themselves are array functions in :mod:`.sketch_rules`, the
-parameter table and option checks are in :mod:`.sketch_params`; their public names are importable from here.
+parameter table and option checks are in :mod:`.sketch_params` (its public names are importable from here).
 """
 from __future__ import annotations
 
@@ -39,47 +39,13 @@ from ..params import PARAM_BY_NAME, check_params
 from .bending import BendResult, bend_path, pipe_widths
 from .directions import bud_headings, normalize, transport_lateral
 from .engine import GrowthEngine, _Buds, marker_counts, sum_per_bud
-from .sketch_params import (
-    _ROW,
-    SKETCH_ROWS,
-    TABLE_OPTIONS,
-    TREESKETCH,
-    _check_asym,
-    _check_bool,
-    _check_depth,
-    _check_ellipse,
-    _check_life,
-    _check_region,
-    check_grid_reach,
-    grid_reach,
-    split_values,
-)
-from .sketch_rules import (
-    autonomous_points,
-    barycentric,
-    branch_point,
-    deflect_heading,
-    ellipse_distance,
-    gravimorphism,
-    set_point_tropism,
-    shoot_lengths,
-)
+from .sketch_params import (_ROW, SKETCH_ROWS, TABLE_OPTIONS, TREESKETCH, _check_asym, _check_bool, _check_depth,
+                            _check_ellipse, _check_life, _check_region, check_grid_reach, grid_reach, split_values)
+from .sketch_rules import (autonomous_points, barycentric, branch_path, branch_point, deflect_heading, gravimorphism,
+                           set_point_tropism, shed_roots, shoot_lengths)
 from .tree import BUD, NO_SLOT
 
-__all__ = [
-    "SKETCH_ROWS",
-    "TREESKETCH",
-    "SketchEngine",
-    "autonomous_points",
-    "barycentric",
-    "branch_point",
-    "deflect_heading",
-    "ellipse_distance",
-    "gravimorphism",
-    "set_point_tropism",
-    "shoot_lengths",
-    "split_values",
-]
+__all__ = ["SKETCH_ROWS", "TREESKETCH", "SketchEngine", "split_values"]
 
 
 
@@ -363,15 +329,7 @@ class SketchEngine(GrowthEngine):
     # -- editing: bending, selection, pruning at a branching point -----------------------------------
     def branch_path(self, base: int, end: int) -> np.ndarray:
         """Nodes from ``base`` down to ``end`` (``end`` in the subtree of ``base``), for :meth:`bend`."""
-        t = self.tree
-        base = check_int("base", base, 0, t.n - 1)
-        end = check_int("end", end, 0, t.n - 1)
-        path = [end]
-        while path[-1] != base:
-            if path[-1] <= 0:
-                raise ValueError(f"end node {end} is not in the subtree of base node {base}")
-            path.append(int(t.parent[path[-1]]))
-        return np.array(path[::-1], np.int64)
+        return branch_path(self.tree.parent, base, end)
 
     def bend(self, base: int, end: int, target, *, max_iter: int = 100) -> BendResult:
         """Bend the path ``base`` .. ``end`` so that ``end`` reaches ``target`` (§2.9, :func:`bend_path`).
@@ -521,35 +479,13 @@ class SketchEngine(GrowthEngine):
         lat[old[:, None] & (lat == BUD)] = NO_SLOT
 
     def shed_mask(self) -> np.ndarray:
-        """Branches to shed (§1.4.8 [INFERRED]): a lateral branch rooted at internode i is shed when
-        (v_i / v_base) / (N_i / N_total) < Th, N = internode counts. Th = 0 never sheds; branches holding a width
-        constraint or the selected node, and their supporting path, are protected. Closed under descendants."""
+        """Branches to shed (§1.4.8 [INFERRED], :func:`shed_roots`), with the width constraints and the selected
+        node protected; closed under descendants."""
         t = self.tree
-        th = self.sketch["shed_threshold"]
-        mask = np.zeros(t.n, bool)
-        if th <= 0 or t.n_internodes < 2 or not t.vigor[0] > 0:
-            return mask
-        alive = t.alive
-        size = np.ones(t.n)
-        size[~alive] = 0
-        for i in range(t.n - 1, 1, -1):  # subtree internode counts
-            if alive[i]:
-                size[t.parent[i]] += size[i]
-        par = np.maximum(t.parent, 0)
-        is_lat = alive & (t.parent >= 0) & (t.child[par, 0] != np.arange(t.n))
-        is_lat[:2] = False
-        with np.errstate(divide="ignore", invalid="ignore"):  # dead nodes (size 0) are never roots
-            ratio = (t.vigor / t.vigor[0]) / (size / t.n_internodes)
-        roots = np.flatnonzero(is_lat & (ratio < th))
-        if not len(roots):
-            return mask
-        keep = np.zeros(t.n, bool)
-        for k in list(self.width_constraints) + ([self.selected] if self.selected is not None else []):
-            while k >= 0 and not keep[k]:
-                keep[k] = True
-                k = t.parent[k]
-        roots = roots[~keep[roots]]
-        return t.subtree_mask(roots) if len(roots) else mask
+        protected = list(self.width_constraints) + ([self.selected] if self.selected is not None else [])
+        roots = shed_roots(t.parent, t.alive, t.child[:, 0], t.vigor, self.sketch["shed_threshold"],
+                           protected=protected)
+        return t.subtree_mask(roots) if len(roots) else np.zeros(t.n, bool)
 
     # -- buds: deflection and selective growth --------------------------------------------------------
     def _bud_dirs(self, node: np.ndarray, slot: np.ndarray) -> np.ndarray:

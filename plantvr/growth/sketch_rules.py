@@ -20,11 +20,13 @@ from .sketch_params import ELLIPSE_RANGE, _check_bool
 __all__ = [
     "autonomous_points",
     "barycentric",
+    "branch_path",
     "branch_point",
     "deflect_heading",
     "ellipse_distance",
     "gravimorphism",
     "set_point_tropism",
+    "shed_roots",
     "shoot_lengths",
 ]
 
@@ -220,6 +222,18 @@ def gravimorphism(parent_heading: np.ndarray, bud_dir: np.ndarray, *, s_v: float
     return cos_t ** 2 + d * (1.0 - cos_t ** 2)
 
 
+def branch_path(parent: np.ndarray, base: int, end: int) -> np.ndarray:
+    """Nodes from ``base`` down to ``end`` (``end`` in the subtree of ``base``) of a forward-ordered tree."""
+    base = check_int("base", base, 0, len(parent) - 1)
+    end = check_int("end", end, 0, len(parent) - 1)
+    path = [end]
+    while path[-1] != base:
+        if path[-1] <= 0:
+            raise ValueError(f"end node {end} is not in the subtree of base node {base}")
+        path.append(int(parent[path[-1]]))
+    return np.array(path[::-1], np.int64)
+
+
 def branch_point(parent: np.ndarray, alive: np.ndarray, node: int, *, protected=()) -> int:
     """Where a prune of ``node`` cuts: the first node at or above ``node`` whose parent has another live child
     (the branch's start at its nearest proximal branching point, spec 004 §2.11 [INFERRED: proximal]).
@@ -248,3 +262,33 @@ def branch_point(parent: np.ndarray, alive: np.ndarray, node: int, *, protected=
         if p <= 1:  # reached the first internode without a branching point: cut at the tapped node
             return node
         c = p
+
+
+def shed_roots(parent: np.ndarray, alive: np.ndarray, main_child: np.ndarray, vigor: np.ndarray, threshold: float,
+               *, protected=()) -> np.ndarray:
+    """Lateral branches to shed (spec 004 §1.4.8 [INFERRED] normalised form): the branch rooted at internode i
+    is shed when ``(v_i / v_base) / (N_i / N_total) < Th``, N the live internode counts (of i's subtree, of the
+    tree). ``Th <= 0`` never sheds; a branch holding a ``protected`` node (width constraints, the selection),
+    or on the path supporting one, is kept. Arrays (n,) of a forward-ordered tree (``main_child`` the terminal
+    slot of each node); returns the root nodes, ascending."""
+    n = len(parent)
+    none = np.zeros(0, np.int64)
+    n_internodes = int(alive[1:].sum())
+    if threshold <= 0 or n_internodes < 2 or not vigor[0] > 0:
+        return none
+    size = np.ones(n)
+    size[~alive] = 0
+    for i in range(n - 1, 1, -1):  # subtree internode counts
+        if alive[i]:
+            size[parent[i]] += size[i]
+    is_lat = alive & (parent >= 0) & (main_child[np.maximum(parent, 0)] != np.arange(n))
+    is_lat[:2] = False
+    with np.errstate(divide="ignore", invalid="ignore"):  # dead nodes (size 0) are never roots
+        ratio = (vigor / vigor[0]) / (size / n_internodes)
+    roots = np.flatnonzero(is_lat & (ratio < threshold))
+    keep = np.zeros(n, bool)
+    for k in protected:
+        while k >= 0 and not keep[k]:
+            keep[k] = True
+            k = parent[k]
+    return roots[~keep[roots]]

@@ -33,7 +33,8 @@ import numpy as np
 import traitlets
 
 from ..documents.treesketch import SketchDocument
-from ..growth.sketch import TREESKETCH, SketchEngine, ellipse_distance
+from ..growth.sketch import TREESKETCH, SketchEngine
+from ..growth.sketch_rules import ellipse_distance
 from ..params import defaults, validate
 from ._assets import asset
 from .panels import make_control, push_param, show_value

@@ -4,8 +4,8 @@ import math
 import numpy as np
 import pytest
 
-from plantvr.growth.sketch import (
-    SketchEngine,
+from plantvr.growth.sketch import SketchEngine
+from plantvr.growth.sketch_rules import (
     autonomous_points,
     barycentric,
     deflect_heading,
@@ -366,7 +366,7 @@ def test_ts_prune_at_branch_point_and_widths_as_if_never_there():
     e.set_width(1, 0.5)
     t = e.tree
     tip = int(np.flatnonzero(t.alive & (t.order == 1) & (t.child[:, 0] == -1))[0])
-    from plantvr.growth.sketch import branch_point
+    from plantvr.growth.sketch_rules import branch_point
     cut = branch_point(t.parent, t.alive, tip, protected=e.width_constraints)
     p = t.parent[cut]
     assert (t.parent[t.alive] == p).sum() >= 2  # the cut is at a branching point
@@ -385,7 +385,7 @@ def test_ts_prune_at_branch_point_and_widths_as_if_never_there():
 
 
 def test_ts_prune_leaves_stub_over_constraint():
-    from plantvr.growth.sketch import branch_point
+    from plantvr.growth.sketch_rules import branch_point
 
     par = np.array([-1, 0, 1, 2, 3, 2, 5, 6])  # 0-1-2 branches into 3-4 and 5-6-7
     alive = np.ones(8, bool)

@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 from plantvr.documents.treesketch import SketchDocument
 from plantvr.growth.bending import bend_path, pipe_widths, rotation_matrix, solve_exponent, stiffness
-from plantvr.growth.sketch import (
-    SketchEngine,
+from plantvr.growth.sketch import SketchEngine
+from plantvr.growth.sketch_rules import (
     autonomous_points,
     barycentric,
     branch_point,

@@ -10,7 +10,7 @@ import pytest
 
 from plantvr._browser import CHROMIUM, launch_chromium
 from plantvr.documents.treesketch import SketchDocument
-from plantvr.growth.sketch import gravimorphism
+from plantvr.growth.sketch_rules import gravimorphism
 from plantvr.params import defaults
 from plantvr.ui import InfluenceTriangle
 from plantvr.ui.architecture import (
