@@ -70,6 +70,19 @@ def _rot(vx, vy, vz, kx, ky, kz, c, s):
 
 
 @numba.njit(cache=True, nogil=True, inline="always")
+def _vec3(args, a, n, x, y, z):
+    """The vector of up to 3 module arguments from ``args[a]`` (``n`` of them, maybe more): the default
+    ``(x, y, z)`` when there is none, else the given ones and zeros (L-Py's Vector3 from 1 to 3 numbers)."""
+    if n > 0:
+        x, y, z = args[a], 0.0, 0.0
+    if n > 1:
+        y = args[a + 1]
+    if n > 2:
+        z = args[a + 2]
+    return x, y, z
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
 def _tend(hx, hy, hz, lx, ly, lz, ux, uy, uz, tx, ty, tz, strength):
     """PlantGL ``Turtle::_tendTo(t, strength)``: the frame (H, L, U) turned about H x t by ``strength`` times the
     angle from H to the unit vector ``t`` (half a turn about U when t is -H)."""
@@ -215,13 +228,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
         ohx, ohy, ohz, olx, oly, olz, oux, ouy, ouz = hx, hy, hz, lx, ly, lz, ux, uy, uz
         if o >= LINETO and o <= PINPOINTREL:
             # Turtle::oLineTo / oLineRel / pinpoint / pinpointRel (lineTo, lineRel: the same, frame kept)
-            vx = vy = vz = 0.0
-            if na > 0:
-                vx = args[a0]
-            if na > 1:
-                vy = args[a0 + 1]
-            if na > 2:
-                vz = args[a0 + 2]
+            vx, vy, vz = _vec3(args, a0, na, 0.0, 0.0, 0.0)
             if o == LINETO or o == OLINETO or o == PINPOINT:
                 vx, vy, vz = vx - px, vy - py, vz - pz
             ln = math.sqrt(vx * vx + vy * vy + vz * vz)
@@ -462,13 +469,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             i = j
             continue
         elif o == TROPISM:
-            vx, vy, vz = 0.0, 0.0, 1.0
-            if na > 0:
-                vx, vy, vz = args[a0], 0.0, 0.0
-            if na > 1:
-                vy = args[a0 + 1]
-            if na > 2:
-                vz = args[a0 + 2]
+            vx, vy, vz = _vec3(args, a0, na, 0.0, 0.0, 1.0)
             vn = math.sqrt(vx * vx + vy * vy + vz * vz)
             tx, ty, tz = vx / vn, vy / vn, vz / vn
         elif o == ELASTICITY:
@@ -575,20 +576,8 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
         elif o == SETHEAD:
             # L-Py's SetHead: no up vector (or a null one): pinpointRel(h); else Turtle::setHead(h, u), up
             # re-orthogonalised (the door refuses a null heading and a heading colinear with the up vector)
-            vx, vy, vz = 0.0, 0.0, 1.0
-            wx, wy, wz = 1.0, 0.0, 0.0
-            if na > 0:
-                vx, vy, vz = args[a0], 0.0, 0.0
-            if na > 1:
-                vy = args[a0 + 1]
-            if na > 2:
-                vz = args[a0 + 2]
-            if na > 3:
-                wx, wy, wz = args[a0 + 3], 0.0, 0.0
-            if na > 4:
-                wy = args[a0 + 4]
-            if na > 5:
-                wz = args[a0 + 5]
+            vx, vy, vz = _vec3(args, a0, na, 0.0, 0.0, 1.0)
+            wx, wy, wz = _vec3(args, a0 + 3, na - 3, 1.0, 0.0, 0.0)
             vn = math.sqrt(vx * vx + vy * vy + vz * vz)
             wn = math.sqrt(wx * wx + wy * wy + wz * wz)
             if vn > EPS:
