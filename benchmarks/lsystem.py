@@ -5,7 +5,10 @@ baselines measured in the same run.
     ``"".join(rules.get(c, c) for c in s)`` string rewriting (goal >= 20x);
 (b) a parametric grammar with conditions (``tests/lsystem/grammars/parametric.lpy``) grown to about 10^5 modules,
     against a Python loop over ``(name, params)`` tuples calling one function per rule (goal >= 5x);
-(c) the turtle interpretation of 10^6 modules into tree arrays (goal <= 1 s).
+(c) the turtle interpretation of 10^6 modules into tree arrays (goal <= 1 s);
+(d) rules that call grammar functions (``tests/lsystem/grammars/functions.lpy``: numpy cannot evaluate them) grown
+    to about 10^4 modules (10^6 rewritten in all), against a plain Python loop over ``(name, params)`` tuples with
+    the same rules and functions (goal >= 1x).
 
 Throughput = modules produced over all steps / best wall time of the whole derivation (the same numerator for ours
 and the baseline, so the speedup is the ratio of wall times for the same work: same grammar, same steps, from the
@@ -29,6 +32,7 @@ BUSH = "Axiom: X\nproduction:\nX --> F[+X]F[-X]+X\nF --> FF\nendlsystem\n"
 #: Branching depth of the parametric benchmark: deep enough that the string keeps growing.
 DEPTH = 40
 PARAM = Path(__file__).resolve().parent.parent / "tests" / "lsystem" / "grammars" / "parametric.lpy"
+FUNCS = PARAM.with_name("functions.lpy")
 
 
 def _timed(fn, repeat: int):
@@ -100,11 +104,40 @@ def param_baseline(n: int, ratio: float = 0.8, depth: int = 6) -> int:
     return total
 
 
+def functions_baseline(n: int) -> tuple[int, list]:
+    """The rules of ``functions.lpy`` as a plain Python loop (the grammar's two functions, one branch per rule)."""
+    def grow(l):
+        return l * 1.01
+
+    def branch_angle(k):
+        return 30 + 5 * k
+
+    s, total = [("A", (1, 0))], 0
+    for _ in range(n):
+        out = []
+        for name, p in s:
+            if name == "A":
+                l, k = p
+                out += [("I", (grow(l),)), ("[", ()), ("+", (branch_angle(k),)), ("B", (l, k + 1)), ("]", ()),
+                        ("A", (grow(l), k + 1))]
+            elif name == "B" and p[1] < 1000:
+                l, k = p
+                out += [("I", (grow(l),)), ("B", (grow(l), k))]
+            elif name == "I":
+                out.append(("I", (grow(p[0]),)))
+            else:
+                out.append((name, p))
+        s = out
+        total += len(s)
+    return total, s
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="smaller strings (< 30 s)")
     a = ap.parse_args(argv)
     bush_n, param_n, turtle_n, rep = (10 ** 5, 10 ** 4, 10 ** 5, 2) if a.quick else (10 ** 6, 10 ** 5, 10 ** 6, 3)
+    func_steps = 100 if a.quick else 250
     res: dict = {}
 
     bush = LSystem(BUSH)
@@ -137,6 +170,19 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"(b) parametric to {len(s):,} modules in {steps} steps: {total / w:,.0f} modules/s (wall {w:.3f} s, "
           f"cpu {c:.3f} s) vs Python rule functions {btotal / bw:,.0f} modules/s (wall {bw:.3f} s, "
           f"cpu {bc:.3f} s): {bw / w:.1f}x (goal >= 5x)")
+
+    fun = LSystem.from_file(FUNCS, trusted=True)                       # our own fixture: its Python runs
+    fun.derive(3)                                                       # the rule plans, made once
+    w, c, s = _timed(lambda: fun.derive(func_steps), rep)
+    bw, bc, (btotal, bs) = _timed(lambda: functions_baseline(func_steps), rep)
+    assert len(s) == len(bs) and s.ids.tolist() == [fun._index[nm] for nm, _ in bs]
+    assert np.allclose(s.args, [v for _, p in bs for v in p])
+    total = btotal                                                      # the same modules on both sides
+    res["functions"] = dict(modules=len(s), steps=func_steps, wall_s=w, cpu_s=c, rate=total / w,
+                            baseline_rate=btotal / bw, baseline_wall_s=bw, baseline_cpu_s=bc, speedup=bw / w)
+    print(f"(d) grammar functions to {len(s):,} modules in {func_steps} steps: {total / w:,.0f} modules/s (wall "
+          f"{w:.3f} s, cpu {c:.3f} s) vs a plain Python loop of the same rules {btotal / bw:,.0f} modules/s "
+          f"(wall {bw:.3f} s, cpu {bc:.3f} s): {bw / w:.2f}x (goal >= 1x)")
 
     try:
         from plantvr.lsystem.turtle import bush_string, turtle

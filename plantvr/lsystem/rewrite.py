@@ -9,7 +9,9 @@ the query pass answering request modules (``?P``...) with the turtle's frames. I
 """
 from __future__ import annotations
 
+import itertools
 import math
+import operator
 import time
 
 import numpy as np
@@ -36,6 +38,23 @@ def _answer(kind: str, frame: np.ndarray, old: tuple) -> tuple:
     if len(old) < 2:
         return (v,)
     return tuple(v[:len(old)]) + old[3:]
+
+
+def _py_column(col: np.ndarray) -> list:
+    """A parameter column as rule code sees it (:func:`~plantvr.lsystem.matching._module_vals`): integral
+    floats below 2**53 as int, the others as float."""
+    whole = (col == np.trunc(col)) & (np.abs(col) < 2 ** 53)
+    if whole.all():
+        return col.astype(np.int64).tolist()
+    out = col.tolist()
+    for k in np.flatnonzero(whole).tolist():
+        out[k] = int(out[k])
+    return out
+
+
+#: Types of successor parameters the batch plan stores as floats directly (the others go through ``_params``).
+_NUMBERS = frozenset({float, int, np.float64, np.int64})
+_NONES = itertools.repeat(None)
 
 
 def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
@@ -205,7 +224,7 @@ class _Rewriting:
             pos_all = np.flatnonzero(ids == sid)
             for r in rlist:
                 pos = pos_all[(nargs[pos_all] == r.arity) & ~assigned[pos_all]]
-                if pos.size and r.pred_consts and r.vec is not None:
+                if pos.size and r.pred_consts and (r.vec is not None or r.batch is not None):
                     ok = np.ones(pos.size, bool)              # pattern constants, on the columns
                     for q, v in r.pred_consts:
                         ok &= args[ptr[pos] + q] == float(v)
@@ -219,6 +238,10 @@ class _Rewriting:
                         if time.monotonic() > self._deadline:
                             raise self._over_budget(r.rule.line, 1, f" in rule {r.rule.header!r}")
                         continue
+                if r.batch is not None and (has_obj is None or not has_obj[pos].any()):
+                    grown += self._grouped_batch(r, pos, ptr, args, vec_chunks, py_chunks, assigned, out_len,
+                                                 n + grown)
+                    continue
                 if r.contexts and partner is None:
                     partner = K.match_brackets(ids, 0, 1)
                 for i in pos.tolist():
@@ -323,6 +346,62 @@ class _Rewriting:
         vec_chunks.append((hit, slots, values))
         assigned[hit] = True
         out_len[hit] = len(slots)
+        return added
+
+    def _grouped_batch(self, r: _Compiled, pos, ptr, args, vec_chunks, py_chunks, assigned, out_len,
+                       size: int) -> int:
+        """Rule ``r``'s batch plan (:meth:`~plantvr.lsystem.rules._Rules._batch`) at modules ``pos``, in string
+        order, in chunks that grow while they take under 5 ms: the time budget is checked between chunks and the
+        module cap after each. Numeric successors join ``vec_chunks`` as columns; any other value is read as
+        ``_call`` reads it (``_params``), module by module. Returns the modules added."""
+        slots = r.batch[1]
+        cols = [_py_column(args[ptr[pos] + q]) for q in r.pred_vars] or [range(pos.size)]
+        rows: list = []
+        applied: list = []                                    # with a condition: whether each module's holds
+        at, chunk, grow = 0, 64, len(slots) - 1
+        while at < pos.size:
+            if time.monotonic() > self._deadline:
+                raise self._over_budget(r.rule.line, 1, f" in rule {r.rule.header!r}")
+            start = time.monotonic()
+            part = self._call_batch(r, [c[at:at + chunk] for c in cols])
+            if r.rule.condition is None:
+                rows.extend(part)
+            else:
+                ok = list(map(operator.is_not, part, _NONES))
+                applied.extend(ok)
+                rows.extend(itertools.compress(part, ok))
+            self._check_size(size + len(rows) * grow, 0, r.rule.line)
+            at += chunk
+            if time.monotonic() - start < 0.005:
+                chunk = min(2 * chunk, 1 << 14)
+        if not rows:
+            return 0
+        hit = pos[np.array(applied, bool)] if applied else pos
+        assigned[hit] = True
+        table = None
+        if set(map(type, itertools.chain.from_iterable(rows))) <= _NUMBERS:
+            try:
+                width = sum(k for _, k in slots)
+                table = np.fromiter(itertools.chain.from_iterable(rows), np.float64,
+                                    len(rows) * width).reshape(len(rows), width)
+            except OverflowError:                             # an int too large: _params says so
+                table = None
+        if table is not None:
+            offs = np.cumsum([0] + [k for _, k in slots])
+            vec_chunks.append((hit, [(sid, [None] * k) for sid, k in slots],
+                               [[table[:, o + q] for q in range(k)] for (_, k), o in zip(slots, offs)]))
+            out_len[hit] = len(slots)
+            return len(rows) * grow
+        added, line = 0, r.rule.line
+        for i, t in zip(hit.tolist(), rows):
+            res, o = [], 0
+            for sid, k in slots:
+                name = self._names[sid]
+                res.append((sid, self._params(name, t[o:o + k], line) if k else ()))
+                o += k
+            py_chunks[i] = res
+            out_len[i] = len(res)
+            added += len(res) - 1
         return added
 
     def _sequential(self, s: ModuleString, rules: list[_Compiled]) -> tuple[ModuleString, bool]:

@@ -49,6 +49,7 @@ class _Compiled:
         self.query = any(tok.name in _query_modules() for tok in (*rule.left, *rule.newleft, rule.pred, *self.rest,
                                                                   *rule.newright, *rule.right))
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
+        self.batch = None        # (fn of the parameter columns, [(sid, arity), ...]): a loop in Python
         self.const = None        # [(sid, (floats...)), ...]
         self.static = None       # a static rule's successor, [(sid, params), ...]
         # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
@@ -139,13 +140,18 @@ class _Rules:
                 self._restrict(self._parse(a, "eval", t.line, col, what), t.line, col)
 
     def _plan(self, c: _Compiled) -> None:
-        """Vectorised and constant plans of a one-line context-free rule (None where it cannot)."""
+        """Vectorised and constant plans of a one-line context-free rule, else its batch plan (:meth:`_batch`)."""
+        if not self._plan_vec(c):
+            c.batch = self._batch(c)
+
+    def _plan_vec(self, c: _Compiled) -> bool:
+        """The vectorised (and constant) plan of a one-line context-free rule; False where numpy cannot run it."""
         params = c.rule.params
         cond = None
         if c.rule.condition is not None:
             cond = self._vectorize(c.rule.condition, params)
             if cond is None:
-                return
+                return False
         slots = []
         const = c.rule.condition is None
         cvals = []
@@ -157,7 +163,7 @@ class _Rules:
             for a in t.args or ():
                 f = self._vectorize(a, params)
                 if f is None:
-                    return
+                    return False
                 fns.append(f)
                 if const and self._vectorize(a, []) is not None:
                     try:
@@ -176,6 +182,32 @@ class _Rules:
         c.vec = (cond, slots)
         if const and all(len(v) == len(f) for (_, v), (_, f) in zip(cvals, slots)):
             c.const = cvals
+        return True
+
+    def _batch(self, c: _Compiled):
+        """The batch plan of a one-line context-free rule numpy cannot evaluate (it calls a grammar function, say):
+        one generated comprehension over the parameter columns, at the rule's grammar line, that evaluates the
+        condition and the successor's parameters module after module as the rule's own function does, giving a
+        flat tuple of parameters per module (None where the condition fails). The successor's modules and arities
+        are the rule's. :meth:`_call_batch` runs it."""
+        rule = c.rule
+        succ = [t for t in rule.successor if not (t.name == "*" and len(rule.successor) == 1 and t.args is None)]
+        vals = "".join(f"({a})," for t in succ for a in (t.args or ()))
+        item = f"({vals})" if rule.condition is None else f"(({vals}) if ({rule.condition}) else None)"
+        target = ", ".join(rule.params or ["__lsys_i__"]) + ","
+        src = f"def __lsys_batch__(__lsys_cols__, __lsys_zip__): return [{item} for ({target}) in " \
+              "__lsys_zip__(*__lsys_cols__)]\n"
+        try:                                                  # the rule's own function compiled the same code
+            tree = ast.parse(src, filename=self._filename)
+            comp = tree.body[0].body[0].value
+            comp.elt = SB.guard(ast.Expression(comp.elt), trusted=self.trusted).body   # not the loop over columns
+            ast.increment_lineno(ast.fix_missing_locations(tree), rule.line - 1)
+            code = compile(tree, self._filename, "exec")
+        except (SyntaxError, ValueError, RecursionError, MemoryError):
+            return None                                       # the per-module path reports it
+        local: dict = {}
+        exec(code, self._ns, local)
+        return local["__lsys_batch__"], [(self._sid(t.name), len(t.args or ())) for t in succ]
 
     def _vectorize(self, src: str, params: list[str]):
         """A numpy function of the parameter columns computing expression ``src``, or None if it cannot."""
@@ -232,6 +264,25 @@ class _Rules:
                 out.append(x)
         return tuple(out)
 
+    def _rule_error(self, c: _Compiled, e: Exception) -> LSystemError:
+        """What a rule's exception ``e`` (being handled) is reported as: an LSystemError at its grammar line."""
+        line = self._tb_line(sys.exc_info()[2]) or c.rule.line
+        if isinstance(e, LSystemError):
+            return e if e.line else LSystemError(e.detail, line, 1)
+        if isinstance(e, _OverBudget):
+            return self._over_budget(line, 1, f" in rule {c.rule.header!r}")
+        if isinstance(e, SB.SandboxError):
+            return LSystemError(f"rule {c.rule.header!r}: {e}", line, 1)
+        return LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}"[:400], line, 1)
+
+    def _call_batch(self, c: _Compiled, cols: list) -> list:
+        """Rule ``c``'s batch plan on parameter columns ``cols`` (lists, as rule code sees the values)."""
+        self._where = (c.rule.line, 1)
+        try:
+            return c.batch[0](cols, zip)                     # zip: untrusted namespaces have no builtins
+        except (Exception, _OverBudget) as e:
+            raise self._rule_error(c, e) from None
+
     def _call(self, c: _Compiled, vals: list) -> list | None:
         if c.static is not None:
             return c.static
@@ -241,19 +292,8 @@ class _Rules:
         self._where = (c.rule.line, 1)
         try:
             res = c.func(*vals)
-        except LSystemError as e:
-            if e.line:
-                raise
-            raise LSystemError(e.detail, self._tb_line(sys.exc_info()[2]) or c.rule.line, 1) from None
-        except _OverBudget:
-            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
-            raise self._over_budget(line, 1, f" in rule {c.rule.header!r}") from None
-        except SB.SandboxError as e:
-            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
-            raise LSystemError(f"rule {c.rule.header!r}: {e}", line, 1) from None
-        except Exception as e:
-            line = self._tb_line(sys.exc_info()[2]) or c.rule.line
-            raise LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}"[:400], line, 1) from None
+        except (Exception, _OverBudget) as e:
+            raise self._rule_error(c, e) from None
         if res is None:
             if not self._nbuf:
                 return None

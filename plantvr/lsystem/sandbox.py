@@ -295,6 +295,14 @@ _BINOP_GUARD = {ast.Pow: "__lsys_pow__", ast.LShift: "__lsys_lshift__", ast.Mult
 _UNTRUSTED_GUARD = {ast.Mod: "__lsys_mod__", ast.Add: "__lsys_add__"}
 
 
+def _float_constant(node: ast.AST) -> bool:
+    """A float literal (``1.01``, ``-0.5``): an operation with one cannot build a huge integer or sequence (a
+    float times a sequence is a TypeError), so it needs no guard."""
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        node = node.operand
+    return isinstance(node, ast.Constant) and type(node.value) is float
+
+
 class _Guard(ast.NodeTransformer):
     def __init__(self, trusted: bool) -> None:
         self.trusted = trusted
@@ -305,7 +313,7 @@ class _Guard(ast.NodeTransformer):
     def visit_BinOp(self, node):
         self.generic_visit(node)
         fname = self._guard_name(node.op)
-        if fname is None:
+        if fname is None or _float_constant(node.left) or _float_constant(node.right):
             return node
         return self._call(fname, [node.left, node.right], node)
 
@@ -318,7 +326,7 @@ class _Guard(ast.NodeTransformer):
     def visit_AugAssign(self, node):
         self.generic_visit(node)
         fname = self._guard_name(node.op)
-        if fname is None or not isinstance(node.target, ast.Name):
+        if fname is None or not isinstance(node.target, ast.Name) or _float_constant(node.value):
             return node
         load = ast.copy_location(ast.Name(node.target.id, ast.Load()), node.target)
         return ast.copy_location(ast.Assign([node.target], self._call(fname, [load, node.value], node)), node)

@@ -18,7 +18,7 @@ FIXTURES = sorted(p.stem for p in HERE.glob("*.lpy"))
 CONSTANT = {"abop_1_24a", "abop_1_24b", "abop_1_24c", "abop_1_24d", "abop_1_24e", "abop_1_24f", "abop_1_25",
             "abop_1_26", "koch_island", "sierpinski"}
 #: Fixtures with Python code (imports, functions, rule bodies): they run only trusted (issue 34).
-CODE = {"continuous_growth", "fibonacci", "parametric", "stochastic"}
+CODE = {"continuous_growth", "fibonacci", "functions", "parametric", "stochastic"}
 
 
 def same(a: ModuleString, b: ModuleString) -> bool:
