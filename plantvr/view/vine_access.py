@@ -1,17 +1,22 @@
-"""Access to the ViNE review page: the token guard in front of every route and a free local port.
+"""Access to the ViNE review page: the token guard in front of every route, a free local port and the server's
+thread.
 
 :func:`access_guard` is the aiohttp middleware :class:`~plantvr.view.vine_app.VineReviewApp` installs when
-trame binds its server (Jupyter-style token, cookie, ``Origin`` and ``Host`` checks).
+trame binds its server (Jupyter-style token, cookie, ``Origin`` and ``Host`` checks); :func:`serve_in_thread`
+runs the server in a daemon thread and returns once it accepts connections.
 """
 from __future__ import annotations
 
+import asyncio
 import hmac
 import socket
+import threading
+import time
 from urllib.parse import urlencode
 
 from plantvr._validation import check_int
 
-__all__ = ["access_guard"]
+__all__ = ["access_guard", "serve_in_thread"]
 
 
 _LOOPBACK = ("127.0.0.1", "localhost", "[::1]")
@@ -81,3 +86,21 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
+
+
+def serve_in_thread(server, host: str, port: int, timeout_s: float = 30.0, **kw) -> threading.Thread:
+    """Start the trame ``server`` in a daemon thread (its own event loop) listening on ``host:port``; returns the
+    thread once a connection is accepted, raises RuntimeError after ``timeout_s``."""
+    def run():
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        server.start(thread=True, host=host, port=port, **kw)
+    thread = threading.Thread(target=run, name="vine-trame", daemon=True)
+    thread.start()
+    deadline = time.time() + timeout_s
+    while time.time() < deadline:
+        try:
+            with socket.create_connection((host, port), timeout=0.2):
+                return thread
+        except OSError:
+            time.sleep(0.1)
+    raise RuntimeError(f"trame server did not start on {host}:{port}")

@@ -25,8 +25,9 @@ slice raised and outlined, hidden colours drawn with radial lines; a click selec
 the rule of :func:`plantvr.vine.colors.slice_at`, a shift-click hides or shows it), brush radius, undo/redo,
 hide/show of the selected colour, and, when started from a volume, an iso-value slider over the volume's
 histogram that re-extracts the surface. The wheel is an SVG (:func:`plantvr.view.vine_svg.wheel_svg`) re-sent
-when the selection, a colour or a visibility changes. The access token guard is :mod:`plantvr.view.vine_access`,
-the ``plantvr segment`` command :mod:`plantvr.view.vine_cli`.
+when the selection, a colour or a visibility changes. The page's layout is :mod:`plantvr.view.vine_page`, the
+access token guard and the server thread :mod:`plantvr.view.vine_access`, the ``plantvr segment`` command
+:mod:`plantvr.view.vine_cli`.
 """
 from __future__ import annotations
 
@@ -35,10 +36,8 @@ import functools
 import itertools
 import os
 import secrets
-import socket
 import threading
 import time
-from pathlib import Path
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
@@ -49,16 +48,15 @@ from plantvr.documents.labels import Segmentation, check_grid
 from plantvr.vine.colors import slice_at
 from plantvr.vine.proxy import DisplayProxy
 
-from ._render_lock import lock_trame_image_delivery, render_lock
-from .vine_access import _free_port, access_guard
+from ._render_lock import render_lock
+from .vine_access import _free_port, access_guard, serve_in_thread
 from .vine_pick import camera_ray
-from .vine_svg import WHEEL_RADIUS, _level_slider, histogram_svg, wheel_geometry, wheel_svg
+from .vine_page import build_page
+from .vine_svg import WHEEL_RADIUS, histogram_svg, wheel_geometry, wheel_svg
 
 __all__ = ["WHEEL_RADIUS", "VineReviewApp", "camera_ray", "histogram_svg", "wheel_geometry", "wheel_svg"]
 
 _IDS = itertools.count()
-_DELTA_JS = Path(__file__).with_name("vine_delta.js")
-_VIEW_REF = "vine_view"
 
 
 def _drawing(method):
@@ -550,82 +548,7 @@ class VineReviewApp:
 
     # ------------------------------------------------------------------ page
     def _build_ui(self) -> None:
-        lock_trame_image_delivery()         # remote mode: the server's renders take the view's lock
-        from trame.ui.vuetify3 import SinglePageLayout
-        from trame.widgets import client, html
-        from trame.widgets import vtk as vtk_widgets
-        from trame.widgets import vuetify3 as v3
-        ctrl = self.ctrl
-        ctrl.undo, ctrl.redo, ctrl.toggle_selected = self.undo, self.redo, self.toggle_selected
-        ctrl.apply_level = self.apply_level
-        self.server.trigger("vine_resync")(self.resync)
-        self.server.trigger("vine_stroke")(self.stroke)
-        ctrl.toggle_paint = self.toggle_paint
-        self.state.change("label")(self._render_wheel)
-        side = 2 * wheel_geometry(WHEEL_RADIUS)[1]
-        # click position relative to the wheel's box (its SVG fills it exactly) and the shift key
-        where = ("[$event.clientX - $event.currentTarget.getBoundingClientRect().left, "
-                 "$event.clientY - $event.currentTarget.getBoundingClientRect().top, $event.shiftKey]")
-        with SinglePageLayout(self.server) as layout:
-            layout.title.set_text("ViNE review")
-            with layout.toolbar:
-                v3.VSpacer()
-                v3.VSlider(v_model=("radius",), min=0.0, max=("radius_max",), step=("radius_step",), label="radius",
-                           hide_details=True, density="compact", style="max-width: 220px",
-                           classes="vine-radius mx-2")
-                if self.mode == "local":
-                    v3.VBtn("{{ paint_drag ? 'paint: drag' : 'paint: click' }}", click=ctrl.toggle_paint,
-                            classes="vine-paint", variant=("paint_drag ? 'flat' : 'text'",))
-                v3.VBtn("undo", click=ctrl.undo, disabled=("!can_undo",), classes="vine-undo")
-                v3.VBtn("redo", click=ctrl.redo, disabled=("!can_redo",), classes="vine-redo")
-                v3.VBtn("hide/show", click=ctrl.toggle_selected, classes="vine-toggle")
-            # fill v-main between the 64 px toolbar and the 20 px footer (no page scroll, status line above the
-            # footer); a fixed figure: following vuetify's --v-layout-* variables, set as the footer mounts, makes
-            # vtk.js's ResizeObserver report an undelivered-notifications loop
-            fill = "height: calc(100vh - 84px);"
-            with layout.content, html.Div(classes="d-flex", style=fill):
-                with html.Div(classes="vine-panel d-flex flex-column align-center pa-2",
-                              style=f"flex: 0 0 {side + 24:.0f}px; overflow: hidden; background: #1b1b20; "
-                                    "color: #ddd; font: 13px sans-serif;"):
-                    html.Div(v_html=("wheel",), classes="vine-wheel", click=(self.wheel_click, where),
-                             style=f"width: {side:.0f}px; height: {side:.0f}px; cursor: pointer; user-select: none;")
-                    html.Div("label {{ label }}{{ hidden.includes(label) ? ' (hidden)' : '' }}",
-                             classes="vine-label mt-1")
-                    html.Div("click: select, shift-click: hide/show", style="font-size: 11px; color: #999;")
-                    html.Div("{{ message }}", classes="vine-message", style="font-size: 11px; color: #f88; "
-                             f"max-width: {side:.0f}px;")
-                with html.Div(style="position: relative; flex: 1 1 0; min-width: 0; height: 100%; "
-                                    "overflow: hidden;"):
-                    kw = {"interactor_settings": ("interactor_settings", _INTERACTOR)}
-                    if self.mode == "local":
-                        # clicks and paint drags are handled by the page hook (server-side picking), orbit
-                        # drags by vtk.js; no hardware selector pass in the browser
-                        view = vtk_widgets.VtkLocalView(self.view.plotter.ren_win, classes="vine-view",
-                                                        ref=_VIEW_REF, **kw)
-                        client.Script(_DELTA_JS.read_text())
-                        client.ClientStateChange(value="vine_delta", trigger_on_create=True,
-                                                 change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
-                                                        "vine_delta)")
-                    else:
-                        kw.update({"picking_modes": ("picking_modes", ["click"]), "click": (self.on_pick, "[$event]"),
-                                   # a DOM click also ends every orbit drag: press/release positions tell them apart
-                                   "interactor_events": ("interactor_events", ["LeftButtonPress", "LeftButtonRelease"]),
-                                   "LeftButtonPress": (self.on_press, "[$event.position]"),
-                                   "LeftButtonRelease": (self.on_release, "[$event.position]")})
-                        view = vtk_widgets.VtkRemoteView(self.view.plotter.ren_win, classes="vine-view",
-                                                         interactive_ratio=1, **kw)
-                    ctrl.view_update = view.update
-                    ctrl.view_reset_camera = view.reset_camera
-                    with html.Div(style="position: absolute; left: 8px; bottom: 8px; color: #ddd; "
-                                        "font: 12px sans-serif;", classes="vine-status"):
-                        html.Div("{{ n_full.toLocaleString() }} vertices, proxy {{ n_proxy.toLocaleString() }}; "
-                                 "painted {{ painted.toLocaleString() }}")
-                        if self.volume is not None:
-                            html.Div(v_html=("histogram",))
-                            v3.VSlider(v_model=("level",), **_level_slider(self.volume),
-                                       hide_details=True, density="compact", style="width: 260px",
-                                       label="iso", classes="vine-level", end=ctrl.apply_level)
-        self.layout = layout
+        self.layout = build_page(self)
 
     # ------------------------------------------------------------------ serving
     def _secure(self, wslink_server) -> None:
@@ -651,26 +574,13 @@ class VineReviewApp:
         if open_browser:                            # trame would open the page without the token
             import webbrowser
             self.ctrl.on_server_ready.add(lambda **_: webbrowser.open(self.url))
-        kw = {"port": self.port, "open_browser": False, "show_connection_info": False, "disable_logging": True,
-              "timeout": 0, "host": host}
+        kw = {"open_browser": False, "show_connection_info": False, "disable_logging": True, "timeout": 0}
         if not thread:
             print(f"ViNE review page (keep the token private): {self.url}", flush=True)
-            self.server.start(**kw)
+            self.server.start(host=host, port=self.port, **kw)
             return self.url
-
-        def run():
-            asyncio.set_event_loop(asyncio.new_event_loop())
-            self.server.start(thread=True, **kw)
-        self._thread = threading.Thread(target=run, name="vine-trame", daemon=True)
-        self._thread.start()
-        deadline = time.time() + 30
-        while time.time() < deadline:
-            try:
-                with socket.create_connection((host, self.port), timeout=0.2):
-                    return self.url
-            except OSError:
-                time.sleep(0.1)
-        raise RuntimeError(f"trame server did not start on {self.url}")
+        self._thread = serve_in_thread(self.server, host, self.port, **kw)
+        return self.url
 
     def stop(self) -> None:
         """Stop the server (thread mode) and release the view."""
@@ -682,14 +592,3 @@ class VineReviewApp:
         if self.lod is not None:
             self.lod.close()
         self.view.close()
-
-
-#: Left drag rotates, middle/shift-left pans, right/wheel zooms (clicks without a drag pick and paint).
-_INTERACTOR = [
-    {"button": 1, "action": "Rotate"},
-    {"button": 2, "action": "Pan"},
-    {"button": 3, "action": "Zoom", "scrollEnabled": True},
-    {"button": 1, "action": "Pan", "shift": True},
-    {"button": 1, "action": "Zoom", "alt": True},
-    {"button": 1, "action": "Roll", "alt": True, "shift": True},
-]

@@ -105,7 +105,7 @@ def test_foreign_host_header_is_refused(app):
 
 
 def test_access_guard_checks_its_arguments():
-    from plantvr.view.vine_app import access_guard
+    from plantvr.view.vine_access import access_guard
     with pytest.raises(ValueError, match="token"):
         access_guard("short", 8080)
     with pytest.raises(ValueError, match="port"):
