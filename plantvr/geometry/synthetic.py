@@ -1,7 +1,7 @@
 """Synthetic test trees: random binary trees with pipe-model radii, independent of the growth engine."""
 import numpy as np
 
-__all__ = ["random_tree"]
+__all__ = ["leafy_tree", "random_tree"]
 
 
 def random_tree(n_internodes: int, *, seed: int = 0, tip_radius: float = 0.01, exponent: float = 2.5,
@@ -52,3 +52,20 @@ def random_tree(n_internodes: int, *, seed: int = 0, tip_radius: float = 0.01, e
         if parent[i] > 0:
             radius_n[parent[i]] += radius_n[i]
     return pos, parent, radius, main_child
+
+
+def leafy_tree(n_internodes: int, *, seed: int = 0, leaf_size: float = 0.2):
+    """A :func:`random_tree` meshed: its branch mesh and one leaf at every tip, along the tip's internode.
+
+    Returns pos, parent, radius, main_child, the :class:`~plantvr.geometry.mesh.BranchMesh`, the leaves'
+    :class:`~plantvr.geometry.leaves.LeafMesh` and the tip node ids.
+    """
+    from .leaves import build_leaves
+    from .mesh import build_branch_mesh
+    pos, parent, radius, mc = random_tree(n_internodes, seed=seed)
+    branches = build_branch_mesh(pos, parent, radius, main_child=mc)
+    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
+    d = pos[tips] - pos[parent[tips]]
+    leaves = build_leaves(pos[tips], d / np.linalg.norm(d, axis=1)[:, None], radius[tips], leaf_size=leaf_size,
+                          rng=0)
+    return pos, parent, radius, mc, branches, leaves, tips

@@ -1,4 +1,4 @@
 """Test trees (see plantvr.geometry.synthetic)."""
-from plantvr.geometry.synthetic import random_tree
+from plantvr.geometry.synthetic import leafy_tree, random_tree
 
-__all__ = ["random_tree"]
+__all__ = ["leafy_tree", "random_tree"]

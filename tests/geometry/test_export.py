@@ -3,21 +3,15 @@ import numpy as np
 import pytest
 import trimesh
 
-from plantvr.geometry import build_branch_mesh
-from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.textures import BARK_TEXTURES, LEAF_TEXTURES, bark_texture, leaf_texture
 from plantvr.io.tree import export_tree
 
-from ._trees import random_tree
+from ._trees import leafy_tree
 
 
 @pytest.fixture(scope="module")
 def meshes():
-    pos, parent, radius, mc = random_tree(60, seed=5)
-    m = build_branch_mesh(pos, parent, radius, main_child=mc)
-    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
-    d = pos[tips] - pos[parent[tips]]
-    lv = build_leaves(pos[tips], d / np.linalg.norm(d, axis=1)[:, None], radius[tips], leaf_size=0.2, rng=0)
+    *_, m, lv, _ = leafy_tree(60, seed=5)
     return m, lv
 
 

@@ -4,12 +4,10 @@ import pygltflib
 import pytest
 import trimesh
 
-from plantvr.geometry import build_branch_mesh
-from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import axis_start
 from plantvr.io.tree import export_skinned_glb, tree_skeleton
 
-from ._trees import random_tree
+from ._trees import leafy_tree
 
 _NP = {pygltflib.FLOAT: np.float32, pygltflib.UNSIGNED_INT: np.uint32, pygltflib.UNSIGNED_SHORT: np.uint16,
        pygltflib.UNSIGNED_BYTE: np.uint8}
@@ -27,12 +25,7 @@ def _read(g, i):
 
 @pytest.fixture(scope="module")
 def tree():
-    pos, parent, radius, mc = random_tree(150, seed=11)
-    m = build_branch_mesh(pos, parent, radius, main_child=mc)
-    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
-    d = pos[tips] - pos[parent[tips]]
-    lv = build_leaves(pos[tips], d / np.linalg.norm(d, axis=1)[:, None], radius[tips], leaf_size=0.2, rng=0)
-    return pos, parent, radius, mc, m, lv, tips
+    return leafy_tree(150, seed=11)
 
 
 def test_skeleton_one_joint_per_axis(tree):

@@ -2,11 +2,10 @@
 import numpy as np
 import pytest
 
-from plantvr.geometry import build_branch_mesh
 from plantvr.geometry.leaves import build_leaves
 from plantvr.geometry.lod import axis_start
 
-from ._trees import random_tree
+from ._trees import leafy_tree, random_tree
 
 pxr = pytest.importorskip("pxr")
 from pxr import Usd, UsdGeom, UsdShade, UsdUtils
@@ -16,11 +15,7 @@ from plantvr.io.usd import BARK_MATERIAL, LEAF_MATERIAL, export_usd, leaf_instan
 
 @pytest.fixture(scope="module")
 def tree():
-    pos, parent, radius, mc = random_tree(80, seed=7)
-    m = build_branch_mesh(pos, parent, radius, main_child=mc)
-    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
-    d = pos[tips] - pos[parent[tips]]
-    lv = build_leaves(pos[tips], d / np.linalg.norm(d, axis=1)[:, None], radius[tips], leaf_size=0.2, rng=0)
+    pos, parent, radius, mc, m, lv, _ = leafy_tree(80, seed=7)
     st = axis_start(parent, mc)
     order = np.zeros(len(pos), np.int64)            # branch order: number of lateral starts on the path
     for i in range(2, len(pos)):

@@ -28,15 +28,9 @@ def _snapshot():
 
 
 def _tree_meshes():
-    from plantvr.geometry import build_branch_mesh
-    from plantvr.geometry.leaves import build_leaves
-    from plantvr.geometry.synthetic import random_tree
+    from plantvr.geometry.synthetic import leafy_tree
 
-    pos, parent, radius, mc = random_tree(40, seed=7)
-    m = build_branch_mesh(pos, parent, radius, main_child=mc)
-    tips = np.flatnonzero(np.bincount(parent[1:], minlength=len(pos)) == 0)
-    d = pos[tips] - pos[parent[tips]]
-    lv = build_leaves(pos[tips], d / np.linalg.norm(d, axis=1)[:, None], radius[tips], leaf_size=0.2, rng=0)
+    *_, m, lv, _ = leafy_tree(40, seed=7)
     return m, lv
 
 

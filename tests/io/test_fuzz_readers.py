@@ -22,6 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ._dicom import dicom_series
+
 pytestmark = pytest.mark.timeout(120)
 
 #: reader name -> Counter(cases, refused, read)
@@ -130,32 +132,6 @@ def _vol(dtype=np.uint16, shape=(6, 7, 8), seed=0):
     return rng.integers(0, 200, shape).astype(dtype)
 
 
-def _dicom_series(folder: Path, a: np.ndarray):
-    import pydicom
-    from pydicom.dataset import FileDataset, FileMetaDataset
-    from pydicom.uid import ExplicitVRLittleEndian, generate_uid
-    folder.mkdir()
-    series = generate_uid()
-    for k in range(len(a)):
-        meta = FileMetaDataset()
-        meta.MediaStorageSOPClassUID = pydicom.uid.CTImageStorage
-        meta.MediaStorageSOPInstanceUID = generate_uid()
-        meta.TransferSyntaxUID = ExplicitVRLittleEndian
-        ds = FileDataset(str(folder / f"IM{k:04d}.dcm"), {}, file_meta=meta, preamble=b"\0" * 128)
-        ds.SOPClassUID, ds.SOPInstanceUID = meta.MediaStorageSOPClassUID, meta.MediaStorageSOPInstanceUID
-        ds.SeriesInstanceUID, ds.Modality = series, "CT"
-        ds.Rows, ds.Columns = a.shape[1:]
-        ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-        ds.BitsAllocated = ds.BitsStored = a.dtype.itemsize * 8
-        ds.HighBit = ds.BitsStored - 1
-        ds.PixelRepresentation = 0
-        ds.PixelSpacing = [0.5, 0.5]
-        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
-        ds.ImagePositionPatient = [0.0, 0.0, 2.0 * k]
-        ds.PixelData = np.ascontiguousarray(a[k]).tobytes()
-        ds.save_as(str(folder / f"IM{k:04d}.dcm"), enforce_file_format=True)
-
-
 @pytest.fixture(scope="module")
 def sources(tmp_path_factory):
     """One valid file per volume flavour, each written by the format's own library."""
@@ -196,7 +172,8 @@ def sources(tmp_path_factory):
         f["vol"].attrs["element_size_um"] = [1.0, 0.5, 0.5]
     z = zarr.create_array(str(d / "v.zarr"), shape=a.shape, dtype=a.dtype, chunks=(3, 7, 8))
     z[:] = a
-    _dicom_series(d / "dicom", a)
+    (d / "dicom").mkdir()
+    dicom_series(d / "dicom", a, spacing=(0.5, 0.5), dz=2.0, origin=(0.0, 0.0, 0.0), shuffle=False, intercept=None)
     np.save(d / "v.npy", a)
     np.savez(d / "v.npz", volume=a)
     tifffile.imwrite(d / "lzw.tif", a, compression="lzw", predictor=True)

@@ -8,6 +8,8 @@ import tifffile
 
 from plantvr.io.volume import Volume, read_volume
 
+from ._dicom import dicom_series
+
 DTYPES = [np.uint8, np.uint16, np.int16, np.float32]
 
 
@@ -299,37 +301,10 @@ def test_plain_zarr_array(tmp_path):
 
 # ------------------------------------------------------------------------------------------------ DICOM
 
-def _dicom_series(folder, a, spacing=(0.7, 0.8), dz=2.5, origin=(-10.0, 5.0, 100.0), *, shuffle=True):
-    pydicom = pytest.importorskip("pydicom")
-    from pydicom.dataset import FileDataset, FileMetaDataset
-    from pydicom.uid import ExplicitVRLittleEndian, generate_uid
-    series = generate_uid()
-    order = np.random.default_rng(3).permutation(len(a)) if shuffle else np.arange(len(a))
-    for n, k in enumerate(order):                             # file names not in slice order
-        meta = FileMetaDataset()
-        meta.MediaStorageSOPClassUID = pydicom.uid.CTImageStorage
-        meta.MediaStorageSOPInstanceUID = generate_uid()
-        meta.TransferSyntaxUID = ExplicitVRLittleEndian
-        ds = FileDataset(str(folder / f"IM{n:04d}.dcm"), {}, file_meta=meta, preamble=b"\0" * 128)
-        ds.SOPClassUID, ds.SOPInstanceUID = meta.MediaStorageSOPClassUID, meta.MediaStorageSOPInstanceUID
-        ds.SeriesInstanceUID, ds.Modality = series, "CT"
-        ds.Rows, ds.Columns = a.shape[1:]
-        ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-        ds.BitsAllocated = ds.BitsStored = a.dtype.itemsize * 8
-        ds.HighBit = ds.BitsStored - 1
-        ds.PixelRepresentation = int(a.dtype.kind == "i")
-        ds.PixelSpacing = list(spacing)
-        ds.ImageOrientationPatient = [1, 0, 0, 0, 1, 0]
-        ds.ImagePositionPatient = [origin[0], origin[1], origin[2] + k * dz]
-        ds.RescaleSlope, ds.RescaleIntercept = 1, -1024
-        ds.PixelData = np.ascontiguousarray(a[k]).tobytes()
-        ds.save_as(str(folder / f"IM{n:04d}.dcm"), enforce_file_format=True)
-
-
 @pytest.mark.parametrize("dtype", [np.uint16, np.int16])
 def test_dicom_series_sorted_by_position(tmp_path, dtype):
     a = _vol(dtype, (5, 6, 7))
-    _dicom_series(tmp_path, a)
+    dicom_series(tmp_path, a)
     v = read_volume(tmp_path)
     _check(v, a, (2.5, 0.7, 0.8), (100.0, 5.0, -10.0), fmt="DICOM")      # (z, y, x) of ImagePositionPatient
     assert v.meta["rescale_intercept"] == -1024 and v.meta["unit"] == "mm"
@@ -337,7 +312,7 @@ def test_dicom_series_sorted_by_position(tmp_path, dtype):
 
 def test_dicom_duplicate_positions_refused(tmp_path):
     a = _vol(np.uint16, (3, 4, 5))
-    _dicom_series(tmp_path, a, dz=0.0)
+    dicom_series(tmp_path, a, dz=0.0)
     with pytest.raises(ValueError, match="same position"):
         read_volume(tmp_path)
 
@@ -476,7 +451,7 @@ def test_tiff_folder_in_natural_order_and_explicit_file_list(tmp_path):
 
 def test_dicom_file_list(tmp_path):
     a = _vol(np.uint16, (5, 6, 7))
-    _dicom_series(tmp_path, a)
+    dicom_series(tmp_path, a)
     files = sorted(tmp_path.glob("*.dcm"))[::-1]
     v = read_volume(files)
     assert np.array_equal(v.array, a)                         # ordered by slice position, not by the list
