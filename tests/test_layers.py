@@ -1,5 +1,5 @@
 """The import contracts (import-linter, configured in pyproject.toml; issues 21 and 30): cli > warmup > ui |
-vr > view > io > documents > adapters > numeric cores > base, no import cycles at any package level, cores
+vr > view > io > documents > adapters > numeric cores > lsystem > base, no import cycles at any package level, cores
 that import no UI, VTK or matplotlib, every module of the package in a layer, and PolyData and plotters built
 in ``plantvr/view/`` only.
 

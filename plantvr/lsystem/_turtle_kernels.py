@@ -62,7 +62,10 @@ _NS = 18  # float columns of a shape record: position 3, H 3, L 3, U 3, size, bo
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _rot(vx, vy, vz, kx, ky, kz, c, s):
-    """``v`` rotated about the unit axis ``k`` by the angle of cosine ``c``, sine ``s`` (Rodrigues)."""
+    """``v`` rotated about the axis ``k`` (normalised here: a frame vector's rounding would otherwise grow at every
+    turn, exponentially over a long string) by the angle of cosine ``c``, sine ``s`` (Rodrigues)."""
+    n = math.sqrt(kx * kx + ky * ky + kz * kz)
+    kx, ky, kz = kx / n, ky / n, kz / n
     d = (kx * vx + ky * vy + kz * vz) * (1.0 - c)
     return (vx * c + (ky * vz - kz * vy) * s + kx * d,
             vy * c + (kz * vx - kx * vz) * s + ky * d,
@@ -663,9 +666,10 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
 # -- the readable twin ------------------------------------------------------------------------------------------
 
 def _rotation(axis: np.ndarray, degrees: float) -> np.ndarray:
-    """Right-handed rotation matrix about a unit axis (PlantGL ``Matrix3::axisRotation``)."""
+    """Right-handed rotation matrix about an axis, normalised as the kernel's ``_rot`` (PlantGL
+    ``Matrix3::axisRotation``)."""
     a = np.radians(degrees)
-    k = np.asarray(axis, float)
+    k = np.asarray(axis, float) / np.linalg.norm(axis)
     K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
     return np.eye(3) + np.sin(a) * K + (1 - np.cos(a)) * K @ K
 

@@ -1,74 +1,167 @@
-"""LST / bracketed turtle string → branch graph (spec 001_subdivision §1.4, §1.5, §7.1).
+"""LST / bracketed turtle string → branch graph (spec 001_subdivision §1.4, §1.5, §7.1), read and drawn by the
+L-system engine (issue 30: one front end).
 
 Two notations are accepted, also mixed in one string:
 
 * the report's LST operations ``SB() EB() MovRel3f(x,y,z) RotRel3f(angle,x,y,z) Cylinder(r0,r1,L)``
-  (optional ``LST <version>`` header, several operations per line, empty lines ignored);
+  (optional ``LST <version>`` header, several operations per line, empty lines ignored, names matched
+  case-insensitively, spec §1.4 [INFERRED] 6);
 * the classic bracketed turtle symbols ``[ ]`` (= ``SB()``/``EB()``), ``F`` / ``F(L)`` / ``F(L,r)`` (a
   cylinder followed by a move to its end), ``f`` / ``f(L)`` (a move without drawing: the next ``F`` starts a new
-  root branch there, as L-Py's turtle does, :func:`plantvr.lsystem.turtle.turtle`), ``+ -`` (turn about the local
-  z axis),
-  ``& ^`` (pitch about local x), ``/ \\`` (roll about the local up axis y) and ``|`` (turn around); a turn
-  symbol takes its angle in degrees as L-Py does, ``+(30)``, else ``angle``.
+  root branch there, as L-Py's turtle does), ``+ -`` (turn about the local up axis), ``& ^`` (pitch, ``&`` down)
+  and ``/ \\`` (roll about the heading) as L-Py's turtle turns, and ``|`` (turn around); a turn symbol takes its
+  angle in degrees as L-Py does, ``+(30)``, else ``angle``.
+
+The string is lexed by :func:`plantvr.lsystem.lexer.lex` (L-Py's reading: ``FF(0.5)`` is ``F``, ``F(0.5)``; an
+unknown ``Foo(1)`` is ``F``, ``o``, ``o(1)``) and drawn by L-Py's turtle (:func:`plantvr.lsystem.turtle_nodes`);
+this module only translates the LST operations into turtle modules and the turtle's nodes into branches.
 
 Angles are in degrees everywhere (issue 23), ``RotRel3f`` included; ``angle_unit="radians"`` reads the
-Yggdrasil report's LST sample, whose ``RotRel3f`` angles are radians (spec §1.4 [INFERRED] 5).
-
-This is the Yggdrasil turtle (up vector +Y, post-multiplied rotations, LST operations, gap snapping, character
-positions in errors); L-Py's PlantGL turtle (heading +Z) is :func:`plantvr.lsystem.turtle.turtle`.
-
-The turtle's up vector is +Y, moves are in the local frame and rotations post-multiply (spec §1.4
-[INFERRED] items 2–4).
+Yggdrasil report's LST sample, whose ``RotRel3f`` angles are radians (spec §1.4 [INFERRED] 5). The turtle
+heads +Y (its up axis +Z), moves are in the local frame and rotations post-multiply (spec §1.4 [INFERRED] 2–4).
 """
 from __future__ import annotations
 
+import math
 import re
 import warnings
 
 import numpy as np
 
 from plantvr._validation import MAX_COORD, check_choice, check_range
+from plantvr.lsystem import ModuleString, turtle_nodes
+from plantvr.lsystem.lexer import LSystemError, lex
 
 from .graph import _EPS, MIN_RADIUS, BranchGraph
 
 __all__ = ["parse_lsystem"]
 
-_TOKEN = re.compile(r"\s*(?:([A-Za-z_]\w*)\s*\(([^()]*)\)|([+\-&^/\\])\s*\(([^()]*)\)|([\[\]Ff+\-&^/\\|]))")
 #: Longest L-system string accepted (characters).
 MAX_TEXT = 10_000_000
-_ARITY = {"sb": (0,), "eb": (0,), "movrel3f": (3,), "rotrel3f": (4,), "cylinder": (3,)}
+#: The LST operations (spec §1.4 Table 4.2) -> their argument count.
+_LST = {"SB": 0, "EB": 0, "MovRel3f": 3, "RotRel3f": 4, "Cylinder": 3}
+_LST_NAME = re.compile(r"(?i)(sb|eb|movrel3f|rotrel3f|cylinder)(?=\s*\()")
+_TURNS = frozenset("+-&^/\\")
+#: The turtle symbols -> their most arguments and its wording in errors.
+_ARITY = {"F": (2, "0-2 arguments (length, radius)"), "f": (1, "0-1 arguments (length)"), "|": (0, "no arguments"),
+          "[": (0, "no arguments"), "]": (0, "no arguments"),
+          **{t: (1, "0-1 arguments (angle in degrees)") for t in _TURNS}}
+#: The turtle's start frame: heading +Y, up +Z (spec §1.4 [INFERRED] 2), L-Py's ``SetHead(h, u)``.
+_START = ("SetHead", (0.0, 1.0, 0.0, 0.0, 0.0, 1.0))
 
 
-def _glued_prefix(name: str) -> bool:
-    """Whether ``name`` is single-character ``F``/``f`` symbols glued to a known module name (``FF``, ``fFCylinder``),
-    so that ``name(...)`` reads as those symbols followed by the module."""
-    low = name.lower()
-    for key in (*_ARITY, "f"):
-        if len(low) > len(key) and low.endswith(key) and all(c in "Ff" for c in name[:len(name) - len(key)]):
-            return True
-    return False
+def _canonical(text: str) -> str:
+    """``text`` with the LST names in their canonical case and each ``(`` moved before the blanks that precede it
+    (``F (1)`` is ``F(1)``, as the report's files may write it); the length and every symbol's position kept."""
+    canon = {k.lower(): k for k in _LST}
+    text = _LST_NAME.sub(lambda m: canon[m.group(1).lower()], text)
+    return re.sub(r"(?<=\S)(\s+)\(", lambda m: "(" + m.group(1), text)
 
 
-def _numbers(m: re.Match, args: str, at: int) -> list[float]:
-    """The comma-separated numbers of a token's ``(args)``: finite, within the coordinate bound."""
-    vals: list[float] = []
-    if args.strip():
-        try:
-            vals = [float(v) for v in args.split(",")]
-        except ValueError:
-            raise ValueError(f"text: bad numeric argument in {m.group(0).strip()!r} at position {at}") from None
-    if not all(np.isfinite(vals)):
-        raise ValueError(f"text: non-finite argument in {m.group(0).strip()!r} at position {at}")
+def _numbers(name: str, args: tuple[str, ...], at: int) -> list[float]:
+    """A token's parameters as numbers: finite, within the coordinate bound."""
+    src = f"{name}({', '.join(args)})"
+    try:
+        vals = [float(v) for v in args]
+    except ValueError:
+        raise ValueError(f"text: bad numeric argument in {src!r} at position {at}") from None
+    if not all(map(math.isfinite, vals)):
+        raise ValueError(f"text: non-finite argument in {src!r} at position {at}")
     if any(abs(v) > MAX_COORD for v in vals):
-        raise ValueError(f"text: argument in {m.group(0).strip()!r} at position {at} must lie in "
-                         f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
+        raise ValueError(f"text: argument in {src!r} at position {at} must lie in [-{MAX_COORD:g}, {MAX_COORD:g}]")
     return vals
 
 
-def _axis_angle(axis: np.ndarray, angle: float) -> np.ndarray:
-    a = axis / np.linalg.norm(axis)
-    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+def _aligned(v, inner: list) -> list:
+    """Turtle modules that turn the heading onto ``v`` (in the local frame: x = -left, y = heading, z = up), run
+    ``inner`` and turn back: ``+(a) ^(b) inner ^(-b) +(-a)``, where ``Rz(a) Rx(b)`` maps y onto ``v``."""
+    a = math.degrees(math.atan2(-v[0], v[1]))
+    b = math.degrees(math.atan2(v[2], math.hypot(v[0], v[1])))
+    turn = [(s, x) for s, x in (("+", a), ("^", b)) if x]
+    return [(s, (x,)) for s, x in turn] + inner + [(s, (-x,)) for s, x in reversed(turn)]
+
+
+def _move(d: np.ndarray) -> list:
+    """Turtle modules of a move by ``d`` in the local frame (``MovRel3f``): an ``f`` along the heading, or one along
+    ``d`` between turns that cancel."""
+    if d[0] == 0 and d[2] == 0:
+        return [("f", (float(d[1]),))]
+    return _aligned(d, [("f", (float(np.linalg.norm(d)),))])
+
+
+def _translate(text: str, at0: int, angle: float, step: float, radius: float, angle_unit: str):
+    """Lex ``text[at0:]`` and translate it into turtle modules.
+
+    Returns the modules and, per ``Cylinder``/``F`` (one turtle ``F(L, end radius)`` each, in order): its
+    character position, start radius and LST parent (spec §1.4: the current branch; -1 at the start or after an
+    ``f``).
+    ``d`` is the LST position minus the turtle's in the local frame: a ``Cylinder`` draws without moving (the
+    turtle's ``F`` moves) and ``MovRel3f`` moves without ending the branch (the turtle's ``f`` does); ``d`` is
+    caught up before a turn or a branch, so a branch that starts away from its parent's end is a turtle root.
+    """
+    try:
+        tokens = lex(_canonical(text[at0:]), frozenset(_LST), col=at0 + 1)
+    except LSystemError as exc:
+        raise ValueError(f"text: {exc.detail} at position {exc.column - 1}") from None
+    out = [_START]
+    where, r0, parent = [], [], []
+    d = np.zeros(3)
+    cur = -1
+    stack: list[tuple[np.ndarray, int, int]] = []
+    for tok in tokens:
+        name, at, n = tok.name, tok.col - 1, tok.arity
+        if name not in _LST and name not in _ARITY:
+            raise ValueError(f"text: unknown symbol {text[at:at + 12]!r} at position {at}")
+        vals = _numbers(name, tok.args or (), at)
+        if name in _LST and n != _LST[name]:
+            raise ValueError(f"text: {name} takes {_LST[name]} arguments, got {n} at position {at}")
+        if name in _ARITY and n > _ARITY[name][0]:
+            raise ValueError(f"text: {name} takes {_ARITY[name][1]}, got {n} at position {at}")
+        if name in ("[", "SB"):
+            stack.append((d.copy(), cur, at))
+            out.append("[")
+        elif name in ("]", "EB"):
+            if not stack:
+                raise ValueError(f"text: unbalanced brackets, ']' / EB() at position {at} has no matching '['")
+            d, cur, _ = stack.pop()
+            out.append("]")
+        elif name == "MovRel3f":
+            d = d + vals
+        elif name == "f":
+            out.append(("f", (vals[0] if vals else step,)))
+            cur = -1        # the next branch is a root, not a §1.4 gap: §7.1 reads only F, + - and [ ], f is L-Py's
+        elif name in ("F", "Cylinder"):
+            if name == "Cylinder":
+                a, b, L = vals
+            else:
+                a = b = vals[1] if n > 1 else radius
+                L = vals[0] if vals else step
+            if not (a > 0 and b > 0):
+                raise ValueError(f"text: branch at position {at} has a non-positive radius ({a}, {b})")
+            if not L > 0:
+                raise ValueError(f"text: zero-length branch at position {at} (length {L})")
+            if d.any():
+                out += _move(d)
+            out.append(("F", (L, b)))
+            d = np.array([0.0, -L, 0.0]) if name == "Cylinder" else np.zeros(3)
+            where.append(at)
+            r0.append(a)
+            parent.append(cur)
+            cur = len(where) - 1
+        else:                                           # a turn: the turtle first catches up with the position
+            if d.any():
+                out += _move(d)
+                d = np.zeros(3)
+            if name == "RotRel3f":
+                if not any(vals[1:]):
+                    raise ValueError(f"text: RotRel3f axis is zero at position {at}")
+                deg = math.degrees(vals[0]) if angle_unit == "radians" else vals[0]
+                out += _aligned(vals[1:], [("/", (math.remainder(deg, 360.0),))])
+            else:
+                out.append(name if name == "|" else (name, (vals[0] if vals else angle,)))
+    if stack:
+        raise ValueError(f"text: unbalanced brackets, '[' / SB() at position {stack[-1][2]} is never closed")
+    return out, where, r0, parent
 
 
 def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: float = 0.1,
@@ -90,13 +183,15 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
         sample (spec §1.4 [INFERRED] 5).
     strict : bool
         If True a branch that does not start at its parent's end (a ``MovRel3f`` gap) raises; otherwise its start
-        is snapped to the parent's end (its tip stays put) with a warning (spec V1, ERRATUM A20). After an ``f``
-        the next branch is a root and has no parent end to meet.
+        is snapped to the parent's end (its tip stays put) with a warning (spec §1.4 last item, V1, ERRATUM A20).
+        After an ``f`` the next branch is a root and has no parent end to meet (L-Py's turtle; spec §7.1 reads
+        only ``F``, ``+ -`` and brackets, so ``f`` is the turtle's: a move that ends the branch).
 
     Returns
     -------
     BranchGraph
-        Branches in depth-first order (the order of the ``Cylinder``/``F`` symbols).
+        Branches in depth-first order (the order of the ``Cylinder``/``F`` symbols); a forest when an ``f``
+        precedes an ``F`` (``parent`` -1 for each root).
 
     Raises
     ------
@@ -113,142 +208,49 @@ def parse_lsystem(text: str, *, angle: float = 25.0, step: float = 1.0, radius: 
     >>> g = parse_lsystem("F(2,0.2)[+F(1,0.1)][-F(1,0.1)]F(1,0.15)", angle=40)
     >>> len(g), g.parent.tolist()
     (4, [-1, 0, 0, 0])
+    >>> parse_lsystem("F f(1) F").parent.tolist()
+    [-1, -1]
     """
     if not isinstance(text, str):
         raise ValueError(f"text must be a str, got {type(text).__name__}")
     if len(text) > MAX_TEXT:
         raise ValueError(f"text must have at most {MAX_TEXT} characters, got {len(text)}")
     angle_unit = check_choice("angle_unit", angle_unit, ("degrees", "radians"))
-    turn = np.deg2rad(check_range("angle", angle, -360.0, 360.0))
+    angle = check_range("angle", angle, -360.0, 360.0)
     step = check_range("step", step, _EPS, MAX_COORD, low_open=True)
     radius = check_range("radius", radius, MIN_RADIUS, MAX_COORD)
-    body = text
-    head = re.match(r"\s*LST\s+[0-9.]+", body)
-    pos0 = head.end() if head else 0
-
-    p = np.zeros(3)
-    R = np.eye(3)
-    cur = -1
-    stack: list[tuple[np.ndarray, np.ndarray, int, int]] = []
-    start, end, r0, r1, parent, where = [], [], [], [], [], []
-
-    def cylinder(a: float, b: float, L: float, at: int) -> None:
-        nonlocal cur
-        if not (a > 0 and b > 0):
-            raise ValueError(f"text: branch at position {at} has a non-positive radius ({a}, {b})")
-        if np.abs(p).max() > MAX_COORD:
-            raise ValueError(f"text: branch at position {at} starts at {p.tolist()}, outside "
-                             f"[-{MAX_COORD:g}, {MAX_COORD:g}]")
-        if not L > 0:
-            raise ValueError(f"text: zero-length branch at position {at} (length {L})")
-        s = p.copy()
-        e = s + L * (R @ np.array([0.0, 1.0, 0.0]))
-        if cur >= 0 and np.linalg.norm(s - end[cur]) > 1e-9 * max(1.0, np.abs(s).max()):
-            msg = (f"text: branch at position {at} starts {np.linalg.norm(s - end[cur]):.6g} away from the end "
-                   f"of its parent branch")
-            if strict:
-                raise ValueError(msg)
-            warnings.warn(msg + "; start snapped to the parent's end (tip kept)", stacklevel=3)
-            s = end[cur].copy()
-            if np.linalg.norm(e - s) <= 1e-12:
-                raise ValueError(f"text: zero-length branch at position {at} after snapping to its parent")
-        start.append(s)
-        end.append(e)
-        r0.append(a)
-        r1.append(b)
-        parent.append(cur)
-        where.append(at)
-        cur = len(start) - 1
-
-    i = pos0
-    n = len(body)
-    while i < n:
-        m = _TOKEN.match(body, i)
-        if m is None:
-            j = i
-            while j < n and body[j].isspace():
-                j += 1
-            if j >= n:
-                break
-            raise ValueError(f"text: unknown symbol {body[j:j + 12]!r} at position {j}")
-        at = m.start(1) if m.group(1) else (m.start(3) if m.group(3) else m.start(5))
-        name, args, ch = m.group(1), m.group(2), m.group(3) or m.group(5)
-        i = m.end()
-        turn_here = turn
-        if m.group(3):  # "+(30)": a turn symbol takes its angle in degrees, as L-Py
-            vals = _numbers(m, m.group(4), at)
-            if len(vals) > 1:
-                raise ValueError(f"text: {ch} takes 0-1 arguments (angle in degrees), got {len(vals)} at "
-                                 f"position {at}")
-            if vals:
-                turn_here = np.deg2rad(vals[0])
-        if name is not None and name.lower() not in _ARITY and name.lower() != "f" and _glued_prefix(name):
-            # a module name followed by "(" is read as that module: "FF(0.5)" is F, F(0.5); the leading
-            # single-character symbol is taken alone and the rest of the name is lexed again
-            ch, name = name[0], None
-            i = at + 1
-        if name is not None:
-            key = name.lower()
-            vals = _numbers(m, args, at)
-            if key in ("f",):
-                if len(vals) not in (0, 1, 2):
-                    raise ValueError(f"text: {name} takes 0-2 arguments (length, radius), got {len(vals)} at "
-                                     f"position {at}")
-                L = vals[0] if vals else step
-                if name == "F":
-                    rr = vals[1] if len(vals) > 1 else radius
-                    cylinder(rr, rr, L, at)
-                else:
-                    cur = -1                                # a gap: the next branch is a root
-                p = p + R @ np.array([0.0, L, 0.0])
-                continue
-            if key not in _ARITY:
-                raise ValueError(f"text: unknown symbol {name!r} at position {at}")
-            if len(vals) not in _ARITY[key]:
-                raise ValueError(f"text: {name} takes {_ARITY[key][0]} arguments, got {len(vals)} at position {at}")
-            if key == "sb":
-                ch = "["
-            elif key == "eb":
-                ch = "]"
-            elif key == "movrel3f":
-                p = p + R @ np.array(vals)
-                continue
-            elif key == "rotrel3f":
-                ax = np.array(vals[1:])
-                if not np.linalg.norm(ax) > 0:
-                    raise ValueError(f"text: RotRel3f axis is zero at position {at}")
-                a = vals[0] if angle_unit == "radians" else np.deg2rad(vals[0])
-                R = R @ _axis_angle(ax, a)
-                continue
-            else:  # cylinder
-                cylinder(vals[0], vals[1], vals[2], at)
-                continue
-        if ch == "[":
-            stack.append((p.copy(), R.copy(), cur, at))
-        elif ch == "]":
-            if not stack:
-                raise ValueError(f"text: unbalanced brackets, ']' / EB() at position {at} has no matching '['")
-            p, R, cur, _ = stack.pop()
-        elif ch == "F" or ch == "f":
-            if ch == "F":
-                cylinder(radius, radius, step, at)
-            else:
-                cur = -1
-            p = p + R @ np.array([0.0, step, 0.0])
-        elif ch in "+-":
-            R = R @ _axis_angle(np.array([0.0, 0.0, 1.0]), turn_here if ch == "+" else -turn_here)
-        elif ch in "&^":
-            R = R @ _axis_angle(np.array([1.0, 0.0, 0.0]), turn_here if ch == "&" else -turn_here)
-        elif ch in "/\\":
-            R = R @ _axis_angle(np.array([0.0, 1.0, 0.0]), turn_here if ch == "/" else -turn_here)
-        elif ch == "|":
-            R = R @ _axis_angle(np.array([0.0, 0.0, 1.0]), np.pi)
-    if stack:
-        raise ValueError(f"text: unbalanced brackets, '[' / SB() at position {stack[-1][3]} is never closed")
-    if not start:
+    if "#" in text:                                     # the lexer's comment: not an LST symbol
+        at = text.index("#")
+        raise ValueError(f"text: unknown symbol {text[at:at + 12]!r} at position {at}")
+    head = re.match(r"\s*LST\s+[0-9.]+", text)
+    modules, where, r0, parent = _translate(text, head.end() if head else 0, angle, step, radius, angle_unit)
+    if not where:
         raise ValueError("text: the string contains no branch (no Cylinder or F symbol)")
-    g = BranchGraph(np.array(start), np.array(end), np.array(r0, float), np.array(r1, float),
-                    np.array(parent, np.int64))
+    try:
+        nodes = turtle_nodes(ModuleString.from_modules(modules))
+    except ValueError as exc:                           # a node beyond the coordinate bound
+        raise ValueError(f"text: the turtle's drawing is refused: {exc}") from None
+    tree = nodes.tree
+    node = np.flatnonzero(tree.parent >= 0)             # one node per drawn F, at its end, in string order
+    if len(node) < len(where):
+        f_at = np.flatnonzero([isinstance(m, tuple) and m[0] == "F" for m in modules])
+        b = int(np.flatnonzero(~np.isin(f_at, nodes.module[node]))[0])
+        raise ValueError(f"text: zero-length branch at position {where[b]} (too short for the turtle to draw)")
+    start, end = tree.pos[tree.parent[node]], tree.pos[node]
+    parent = np.array(parent, np.int64)
+    child = np.flatnonzero(parent >= 0)                 # spec §1.4: start == the parent's end, or a gap
+    gap = np.linalg.norm(start[child] - end[parent[child]], axis=1)
+    away = gap > 1e-9 * np.maximum(1.0, np.abs(start[child]).max(axis=1))
+    for b, dist in zip(child[away], gap[away]):
+        msg = f"text: branch at position {where[b]} starts {dist:.6g} away from the end of its parent branch"
+        if strict:
+            raise ValueError(msg)
+        warnings.warn(msg + "; start snapped to the parent's end (tip kept)", stacklevel=2)
+    start[child] = end[parent[child]]
+    short = child[np.linalg.norm(end[child] - start[child], axis=1) <= 1e-12]
+    if short.size:
+        raise ValueError(f"text: zero-length branch at position {where[short[0]]} after snapping to its parent")
+    g = BranchGraph(start, end, np.array(r0, float), tree.radius[node].astype(float), parent)
     try:
         return g.validate()
     except ValueError as exc:
