@@ -273,7 +273,40 @@ def _de_boor(ctrl: np.ndarray, knots: np.ndarray, degree: int, u: float) -> np.n
     return d[degree]
 
 
-class NurbsCurve2D:
+class _Curve:
+    """PlantGL's ``LineicModel`` methods of the curves below, from ``getPointAt``: the knot range, the tangent
+    (central differences), the length and the arc-length to parameter mapping (``stride`` chords, as
+    ``LineicModel::getArcLengthToUMapping``)."""
+
+    stride = 60
+
+    def getFirstKnot(self) -> float:
+        return self.firstKnot
+
+    def getLastKnot(self) -> float:
+        return self.lastKnot
+
+    def getTangentAt(self, u: float):
+        h = 1e-6 * (self.lastKnot - self.firstKnot)
+        a, b = max(float(u) - h, self.firstKnot), min(float(u) + h, self.lastKnot)
+        d = (np.asarray(self.getPointAt(b), float) - np.asarray(self.getPointAt(a), float)) / (b - a)
+        return type(self.getPointAt(a))(*d)
+
+    def _arc(self) -> tuple[np.ndarray, np.ndarray]:
+        u = np.linspace(self.firstKnot, self.lastKnot, int(self.stride) + 1)
+        p = np.array([list(self.getPointAt(x)) for x in u], float)
+        return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(p, axis=0), axis=1))]), u
+
+    def getLength(self) -> float:
+        return float(self._arc()[0][-1])
+
+    def getArcLengthToUMapping(self) -> QuantisedFunction:
+        """The parameter ``u`` at each fraction of the curve's length, as a function on [0, 1]."""
+        s, u = self._arc()
+        return QuantisedFunction(Polyline2D(np.column_stack([s / s[-1], u])))
+
+
+class NurbsCurve2D(_Curve):
     """PlantGL ``NurbsCurve2D(ctrlPointList, knotList=None, degree=3)``: control points ``(x, y, w)``
     (homogeneous weight ``w``, PlantGL's convention: the point is ``(x, y)``, weighted by ``w``)."""
 
@@ -329,7 +362,7 @@ class BezierCurve2D(NurbsCurve2D):
         super().__init__(ctrlPointList, np.r_[np.zeros(n), np.ones(n)], n - 1, stride, **kw)
 
 
-class Polyline2D:
+class Polyline2D(_Curve):
     """PlantGL ``Polyline2D(pointList)``: parameter ``u`` in [0, n - 1], linear between points."""
 
     def __init__(self, pointList, **kw) -> None:

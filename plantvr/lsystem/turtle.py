@@ -62,6 +62,7 @@ from plantvr._validation import MAX_COORD, check_array, check_int, check_range
 from plantvr.types import TreeArrays
 
 from . import _turtle_kernels as K
+from .guides import apply_guides
 from .modules import ModuleString
 
 __all__ = ["LPY_UNSUPPORTED", "QUERY_MODULES", "TURTLE_MODULES", "TurtleLabel", "TurtleNodes", "TurtleShapes",
@@ -118,13 +119,13 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
 #: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL
-#: geometry, contours, guides, textures, reflections, screen projection); the
+#: geometry, contours, sweeps, textures, reflections, screen projection); the
 #: engine
 #: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
 #: (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
     "@g", "PglShape", "Arrow", "SetContour",
-    "SectionResolution", "SetGuide", "EndGuide", "PositionOnGuide", "Sweep", "TextureScale",
+    "SectionResolution", "Sweep", "TextureScale",
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
     "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
@@ -418,15 +419,21 @@ def query_frames(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
 def _interpret(string: ModuleString, angle, step, width, width_increment, tropism, elasticity) -> tuple:
     """The kernel's drawing of ``string`` (used rows only), after the door checks, with PlantGL's warnings."""
     opts = _options(angle, step, width, width_increment, tropism, elasticity)
-    op, depth, n_f = _ops(string)
+    drawn, source = apply_guides(string, opts[1])             # guided moves as turns and lengths (guides.py)
+    op, depth, n_f = _ops(drawn)
     pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp = K.turtle_kernel(
-        op, string.arg_ptr, string.args, *opts, depth, 2 * n_f, *_capacities(op, n_f))
+        op, drawn.arg_ptr, drawn.args, *opts, depth, 2 * n_f, *_capacities(op, n_f))
+    sint = sint[:ns]
+    if source is not None:                                    # module indices of the string given
+        def back(i):
+            return np.where(i >= 0, source[np.maximum(i, 0)], i)
+        module[:nn], sint[:, 2], at = back(module[:nn]), back(sint[:, 2]), back(at)
     for k, what in _WARN.items():
         if ignored[k]:
             i = int(at[k])
             warnings.warn(f"string: {int(ignored[k])} module(s) set {what} and were ignored, as in PlantGL (first: "
                           f"{string.names[string.ids[i]]} at index {i})", stacklevel=4)
-    return pos, parent, radius, order, main, color, module, nn, sint[:ns], sflt[:ns], spts[:nsp]
+    return pos, parent, radius, order, main, color, module, nn, sint, sflt[:ns], spts[:nsp]
 
 
 def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray) -> TurtleShapes:
