@@ -83,6 +83,7 @@ class BrushInteractor:
         self._samples: int | None = None    # the window's multisamples, while a stroke is held (_hold_stroke)
         self._picker = vtk.vtkCellPicker()
         self._picker.SetTolerance(0.002)
+        self._last_pick: tuple | None = None   # (what the pick depends on, point, picked)
         self.doc.observe(self._on_mode, names=["prune_mode"])
 
     # -- pointer -> world ---------------------------------------------------------------------------
@@ -100,11 +101,19 @@ class BrushInteractor:
         """
         x, y = check_range("x", x, -1e6, 1e6), check_range("y", y, -1e6, 1e6)
         with self.view.lock:            # the pick reads the actors a redraw on another thread edits
-            return self._world_point(x, y)
+            ren = self.view.plotter.renderer
+            actors = [a for a in self.view.pickable_actors() if a.GetVisibility()]
+            # the same pixel, window size, camera, depth and actors (their data and matrices): the same point,
+            # picked once (a browser press arrives as a move and a press at one position)
+            key = (x, y, self.depth, self.view.plotter.ren_win.GetSize(), ren.GetActiveCamera().GetMTime(),
+                   *((a.GetMTime(), a.GetMapper().GetInput().GetMTime()) for a in actors))
+            if self._last_pick is None or self._last_pick[0] != key:
+                point = self._world_point(x, y, ren, actors)
+                self._last_pick = (key, point, self.picked)
+            _, point, self.picked = self._last_pick
+            return point.copy()
 
-    def _world_point(self, x: float, y: float) -> np.ndarray:
-        ren = self.view.plotter.renderer
-        actors = [a for a in self.view.pickable_actors() if a.GetVisibility()]
+    def _world_point(self, x: float, y: float, ren, actors: list) -> np.ndarray:
         if actors:
             self._picker.InitializePickList()
             for actor in actors:

@@ -155,3 +155,24 @@ def test_a_held_stroke_in_a_live_view_draws_without_multisampling():
         assert window.GetMultiSamples() == own
     finally:
         view.close()
+
+
+def test_a_press_after_a_move_at_one_pixel_picks_once():
+    seg, view = _sphere_view()
+    brush = LabelBrush(view, label=2, radius=3.0)
+    picks = []
+    brush._picker.AddObserver("StartPickEvent", lambda *_: picks.append(1))
+    try:
+        a = brush.world_point(160, 120)
+        b = brush.world_point(160, 120)                 # the press of the same browser event
+        assert len(picks) == 1 and brush.picked and np.array_equal(a, b) and abs(np.linalg.norm(a) - 10) < 0.5
+        seg.paint(a, 3.0, 2)                            # the colours changed: picked again, to the same point
+        assert np.array_equal(brush.world_point(160, 120), a) and len(picks) == 2
+        view.plotter.camera_position = [(0, 40, 0), (0, 0, 0), (0, 0, 1)]
+        c = brush.world_point(160, 120)
+        assert len(picks) == 3 and c[1] > 9              # a new camera: the top of the sphere
+        off = brush.world_point(2, 2)                   # off the sphere: the free-space ray, not picked
+        assert len(picks) == 4 and not brush.picked and brush.world_point(2, 2) is not off and not brush.picked
+    finally:
+        brush.close()
+        view.close()
