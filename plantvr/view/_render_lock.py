@@ -13,10 +13,11 @@ Serialising is not enough: an EGL context current on one thread cannot be made c
 (``ReleaseCurrent``) as it lets go.
 
 Before it captures, a live :class:`plantvr.view.View` brings its layers up to date (:meth:`RenderLock.on_capture`):
-a paint from the browser runs on the server's thread, inside the mouse event, and its change reaches the view
-on the kernel thread only later (after the picture trame renders right after the event, which holds the GIL),
-so the layers draw what was painted before that picture, and the view's own push, when the change arrives,
-finds it sent and renders nothing (one render per input event).
+a paint from the browser runs on the server's thread, inside the mouse event, and where that is not the kernel's
+(a server on a thread of its own: a kernel off the main thread, marimo, ``benchmarks/paint_latency.py``) its
+change reaches the view on the kernel thread only after the picture trame renders right after the event (which
+holds the GIL), so the layers draw what was painted before that picture; and a push the view has due, when it
+comes, finds the picture sent and renders nothing (one render per input event).
 
 The capture also waits for its own picture: ``vtkWebApplication.StillRenderToBuffer`` renders, hands the
 frame to its JPEG encoder threads and returns the newest picture *already encoded*, the previous frame's
