@@ -12,9 +12,11 @@ one (both on the page's ``performance.now()`` clock). Median and max over the st
 100 ms target and beside the baseline measured in the same run, on the same page, strokes alternating: the
 render path before issue 31, where trame sent the JPEG encoder's *previous* picture (the new one followed
 0.5 s later or with the next frame; ``plantvr.view._render_lock.FRESH_PICTURES`` off) and the kernel rendered
-before each push, whose capture renders again (``View.render_before_push``). The cheaper stroke handling on
-the server (the brush sphere moved rather than rebuilt, history items counting their bytes once: a Tree Wand
-press + 3 drags + release 34 -> 6 ms) is in both paths. Pictures are rendered by Mesa on the CPU here; a shared
+before each push, whose capture renders again (``View.render_before_push``), a ViNE paint was drawn only once the
+kernel thread applied its change (after the picture trame renders right after the mouse event: a second
+render), and a stroke was drawn with the window's multisampling (``BrushInteractor.stroke_samples`` None).
+The cheaper stroke handling on the server (the brush sphere moved rather than rebuilt, history items counting
+their bytes once: a Tree Wand press + 3 drags + release 34 -> 6 ms) is in both paths. Pictures are rendered by Mesa on the CPU here; a shared
 2-core machine makes the figures vary by tens of ms from run to run.
 
 Run: ``python benchmarks/paint_latency.py [--quick] [--strokes N]`` (needs Debian's chromium, trame-pyvista).
@@ -110,6 +112,8 @@ def _vine(quick: bool):
 KINDS = {"treewand": _treewand, "vine": _vine}
 #: the render paths compared (:func:`_use`)
 PATHS = {"baseline": "baseline: before issue 31", "ours": "ours: fresh picture, 1 render"}
+#: what a stroke of the "ours" path draws with (the window's own multisampling is restored at the release)
+STROKE_SAMPLES = 0
 
 
 def _settle(page, quiet_ms: float = 350, timeout_s: float = 10) -> None:
@@ -124,10 +128,12 @@ def _settle(page, quiet_ms: float = 350, timeout_s: float = 10) -> None:
 def _use(path: str) -> None:
     """Switch the live view's render path (read at every redraw and capture, so strokes can alternate)."""
     from plantvr.view import View, _render_lock
+    from plantvr.view.interaction import BrushInteractor
 
     baseline = path == "baseline"
     View.render_before_push = baseline
     _render_lock.FRESH_PICTURES = not baseline
+    BrushInteractor.stroke_samples = None if baseline else STROKE_SAMPLES
 
 
 def measure(p, kernel: Kernel, kind: str, strokes: int, quick: bool, *, shot: Path | None) -> dict:
@@ -211,7 +217,7 @@ def main(argv: list[str] | None = None) -> dict:
     out: dict = {}
     print(f"paint latency in the live view: pointerdown -> first changed picture in the page, {strokes} strokes; "
           f"target <= {TARGET_MS:.0f} ms")
-    print(f"  {'document':>9} {'path':>30} {'median ms':>10} {'max ms':>8} {'missed':>7}")
+    print(f"  {'document':>9} {'path':>30} {'median ms':>10} {'target ms':>10} {'max ms':>8} {'missed':>7}")
     try:
         with sync_playwright() as p:
             for kind in KINDS:
@@ -222,15 +228,16 @@ def main(argv: list[str] | None = None) -> dict:
                     med, mx = (float(np.median(lat)), float(lat.max())) if len(lat) else (float("nan"),) * 2
                     out[f"{kind}_{key}"] = {"median_ms": med, "max_ms": mx, "strokes": len(lat),
                                             "missed": r["missed"][key]}
-                    print(f"  {kind:>9} {name:>30} {med:>10.1f} {mx:>8.1f} {r['missed'][key]:>7}")
+                    print(f"  {kind:>9} {name:>30} {med:>10.1f} {'<= ' + format(TARGET_MS, '.0f'):>10} {mx:>8.1f} "
+                          f"{r['missed'][key]:>7}")
                 print(f"  {kind:>9} {r['frames']} pictures received, document version {r['version']}")
     finally:
         kernel.stop()
     for kind in KINDS:
         o, b = out[f"{kind}_ours"], out[f"{kind}_baseline"]
         ok = "meets" if o["max_ms"] <= TARGET_MS else ("median meets" if o["median_ms"] <= TARGET_MS else "misses")
-        print(f"{kind}: median {o['median_ms']:.1f} ms, max {o['max_ms']:.1f} ms ({ok} the {TARGET_MS:.0f} ms target; "
-              f"baseline median {b['median_ms']:.1f}, max {b['max_ms']:.1f})")
+        print(f"{kind}: median {o['median_ms']:.1f} ms (target <= {TARGET_MS:.0f} ms), max {o['max_ms']:.1f} ms ({ok} "
+              f"the target; baseline median {b['median_ms']:.1f}, max {b['max_ms']:.1f})")
     return out
 
 

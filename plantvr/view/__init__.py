@@ -202,10 +202,10 @@ class View:
         """Render (and :meth:`push`) after a document change: at once in a script; in a kernel once after the
         message being handled, so a burst of commands (brush stamps, growth steps) renders once."""
         loop = kernel_loop()
+        due, self._render_due = self._render_due, True
         if loop is None:
             self._render_now()
-        elif not self._render_due:
-            self._render_due = True
+        elif not due:
             loop.call_soon(self._render_now)
 
     #: Render before :meth:`push` too, as before issue 31 (``benchmarks/paint_latency.py``'s baseline). A push's
@@ -213,6 +213,8 @@ class View:
     render_before_push = False
 
     def _render_now(self) -> None:
+        if not self._render_due:                     # a live view's capture has sent it (:meth:`_before_capture`)
+            return
         self._render_due = False
         with self.lock:
             if self.plotter.render_window is None:   # closed meanwhile
@@ -220,6 +222,13 @@ class View:
             if self.viewer is None or self.render_before_push:
                 self.plotter.render()
             self.push()
+
+    def _before_capture(self) -> bool:
+        """trame's capture of the live view is about to send a picture (on its server thread, under the lock): bring
+        the layers up to date; returns whether the picture must be rendered anew, which leaves no render due."""
+        changed = [lay.refresh() for lay in self.layers.values()]
+        due, self._render_due = self._render_due, False
+        return any(changed) or due
 
     def push(self) -> None:
         """Send the current picture to the browser of a live widget (:meth:`widget`); nothing without one."""
@@ -534,6 +543,7 @@ class View:
         widget = show_trame(self.plotter, mode="server", add_menu=False, width=f"{width}px",
                             height=f"{height}px")
         self.viewer = widget.viewer
+        self.lock.on_capture(self._before_capture)
         return widget
 
     def show(self, jupyter_backend: str = "trame", **kwargs):

@@ -12,6 +12,13 @@ Serialising is not enough: an EGL context current on one thread cannot be made c
 (``eglMakeCurrent`` fails and VTK draws with no buffers bound), so the outermost holder releases the context
 (``ReleaseCurrent``) as it lets go.
 
+Before it captures, a live :class:`plantvr.view.View` brings its layers up to date (:meth:`RenderLock.on_capture`):
+a paint from the browser runs on the server's thread, inside the mouse event, and where that is not the kernel's
+(a server on a thread of its own: a kernel off the main thread, marimo, ``benchmarks/paint_latency.py``) its
+change reaches the view on the kernel thread only after the picture trame renders right after the event (which
+holds the GIL), so the layers draw what was painted before that picture; and a push the view has due, when it
+comes, finds the picture sent and renders nothing (one render per input event).
+
 The capture also waits for its own picture: ``vtkWebApplication.StillRenderToBuffer`` renders, hands the
 frame to its JPEG encoder threads and returns the newest picture *already encoded*, the previous frame's
 (``stale``), and trame then sends the fresh one only 0.5 s later. A paint stroke's first picture showed the
@@ -53,6 +60,18 @@ class RenderLock:
         self._lock = threading.RLock()
         self._window = weakref.ref(render_window)   # the registry's key: no strong reference from its value
         self._depth = 0                             # only the holder changes it
+        self._before_capture = None
+
+    def on_capture(self, fn) -> None:
+        """Call ``fn()`` (a bound method, held weakly) under this lock before each trame capture of the window
+        (with :data:`FRESH_PICTURES`); it brings the scene up to date and returns whether the picture trame's
+        image cache holds is stale, so the capture renders a new one."""
+        self._before_capture = weakref.WeakMethod(fn)
+
+    def before_capture(self) -> bool:
+        """Run the :meth:`on_capture` function (False without one)."""
+        fn = None if self._before_capture is None else self._before_capture()
+        return bool(fn is not None and fn())
 
     def acquire(self, blocking: bool = True, timeout: float = -1) -> bool:
         """Take the lock (as :meth:`threading.RLock.acquire`)."""
@@ -120,7 +139,9 @@ def lock_trame_image_delivery() -> None:
         view = self.get_view(options["view"])
         if not view:
             return still_render(self, options)
-        with render_lock(view):
+        with render_lock(view) as lock:
+            if FRESH_PICTURES and lock.before_capture():
+                self.app.InvalidateCache(view)
             reply = still_render(self, options)
             if reply.get("stale") and FRESH_PICTURES and not self.decode:
                 _fresh_picture(self.app, view, reply, int(options.get("quality", 100)))

@@ -59,6 +59,11 @@ class BrushInteractor:
         Minimum distance between paint stamps of one drag, in brush radii.
     """
 
+    #: Multisamples of the view's window while a mouse stroke is held in a live view (:meth:`View.widget`):
+    #: Mesa draws a picture 2-3x sooner without multisampling, so the stroke shows sooner (issue 31); the
+    #: picture after the release is drawn with the window's own again. None: left as it is.
+    stroke_samples: int | None = 0
+
     def __init__(self, view: View, *, depth: float | None = None, spacing: float = 0.5):
         if not isinstance(view, View) or view.doc is None:
             raise ValueError(f"view must be a plantvr.View of a document, got {type(view).__name__}")
@@ -75,8 +80,10 @@ class BrushInteractor:
         self._preview_actor = None
         self._observers: list[int] = []
         self._saved_style = None
+        self._samples: int | None = None    # the window's multisamples, while a stroke is held (_hold_stroke)
         self._picker = vtk.vtkCellPicker()
         self._picker.SetTolerance(0.002)
+        self._last_pick: tuple | None = None   # (what the pick depends on, point, picked)
         self.doc.observe(self._on_mode, names=["prune_mode"])
 
     # -- pointer -> world ---------------------------------------------------------------------------
@@ -94,11 +101,19 @@ class BrushInteractor:
         """
         x, y = check_range("x", x, -1e6, 1e6), check_range("y", y, -1e6, 1e6)
         with self.view.lock:            # the pick reads the actors a redraw on another thread edits
-            return self._world_point(x, y)
+            ren = self.view.plotter.renderer
+            actors = [a for a in self.view.pickable_actors() if a.GetVisibility()]
+            # the same pixel, window size, camera, depth and actors (their data and matrices): the same point,
+            # picked once (a browser press arrives as a move and a press at one position)
+            key = (x, y, self.depth, self.view.plotter.ren_win.GetSize(), ren.GetActiveCamera().GetMTime(),
+                   *((a.GetMTime(), a.GetMapper().GetInput().GetMTime()) for a in actors))
+            if self._last_pick is None or self._last_pick[0] != key:
+                point = self._world_point(x, y, ren, actors)
+                self._last_pick = (key, point, self.picked)
+            _, point, self.picked = self._last_pick
+            return point.copy()
 
-    def _world_point(self, x: float, y: float) -> np.ndarray:
-        ren = self.view.plotter.renderer
-        actors = [a for a in self.view.pickable_actors() if a.GetVisibility()]
+    def _world_point(self, x: float, y: float, ren, actors: list) -> np.ndarray:
         if actors:
             self._picker.InitializePickList()
             for actor in actors:
@@ -329,11 +344,35 @@ class BrushInteractor:
             elif key == "m":
                 self.set_markers_visible(not self.view.show_markers)
 
-        for name, cb in (("MouseMoveEvent", on_move), ("LeftButtonPressEvent", lambda o, e: self.press(pos())),
-                         ("LeftButtonReleaseEvent", lambda o, e: self.release()),
+        def on_press(obj, ev):
+            self._hold_stroke(True)
+            self.press(pos())
+
+        def on_release(obj, ev):
+            self.release()
+            self._hold_stroke(False)
+
+        def on_leave(obj, ev):
+            self.leave()
+            self._hold_stroke(False)
+
+        for name, cb in (("MouseMoveEvent", on_move), ("LeftButtonPressEvent", on_press),
+                         ("LeftButtonReleaseEvent", on_release),
                          ("MouseWheelForwardEvent", on_wheel), ("MouseWheelBackwardEvent", on_wheel),
-                         ("KeyPressEvent", on_key), ("LeaveEvent", lambda o, e: self.leave())):
+                         ("KeyPressEvent", on_key), ("LeaveEvent", on_leave)):
             self._observers.append(iren.AddObserver(name, cb, 10.0))
+
+    def _hold_stroke(self, held: bool) -> None:
+        """A mouse stroke starts (``held``) or ends: draw a live view with :attr:`stroke_samples` multisamples
+        meanwhile."""
+        window = self.view.plotter.ren_win
+        with self.view.lock:
+            if held and self._samples is None and self.stroke_samples is not None and self.view.viewer is not None:
+                self._samples = window.GetMultiSamples()
+                window.SetMultiSamples(self.stroke_samples)
+            elif not held and self._samples is not None:
+                window.SetMultiSamples(self._samples)
+                self._samples = None
 
     def detach(self) -> None:
         """Remove the mouse bindings and restore the camera interaction."""
@@ -341,6 +380,7 @@ class BrushInteractor:
         for tag in self._observers:
             iren.RemoveObserver(tag)
         self._observers = []
+        self._hold_stroke(False)
         if self._saved_style is not None:
             iren.SetInteractorStyle(self._saved_style)
             self._saved_style = None

@@ -35,9 +35,12 @@ class LabelledSurfaceLayer(Layer):
 
     The layer follows its content's ``source`` (a Segmentation or a DisplayProxy) by itself: a paint rewrites
     only the changed vertices' colours in place (VTK re-uploads the array), a hidden colour drops its triangles
-    from the index buffer, a colour-table edit remaps every vertex once. Back faces are culled (style
-    ``culling``, thesis §5.7.3). A view's model pose (:meth:`plantvr.View.set_model_pose`) is the actor's
-    ``user_matrix``; :meth:`paint_at` paints through it.
+    from the index buffer, a colour-table edit remaps every vertex once. The labels its colours show are kept
+    (one byte a vertex), so :meth:`refresh`, called before a picture is taken, draws a paint whose change the
+    kernel has not applied yet (trame's capture right after the mouse event that painted, issue 31), and the
+    change, when it arrives, finds nothing left to draw. Back faces are culled (style ``culling``, thesis
+    §5.7.3). A view's model pose (:meth:`plantvr.View.set_model_pose`) is the actor's ``user_matrix``;
+    :meth:`paint_at` paints through it.
 
     Attributes
     ----------
@@ -54,6 +57,8 @@ class LabelledSurfaceLayer(Layer):
         self.updates = 0
         self._dirty = self._observing = False
         self._buffer = self._hull = None
+        self._shown = None              # the labels the colours show
+        self._cue_eye = None            # the eye (model frame) of the depth cue drawn
 
     @property
     def mesh(self) -> pv.PolyData:
@@ -74,7 +79,8 @@ class LabelledSurfaceLayer(Layer):
         self.close()
         src = self.source = content.source
         self.seg = getattr(src, "seg", src)
-        self._hull = self._buffer = None
+        self._hull = self._buffer = self._cue_eye = None
+        self._shown = np.array(src.labels)
         poly = pv.PolyData.from_regular_faces(np.asarray(src.vertices, np.float32),
                                               np.asarray(content.faces, np.int64))
         self._base = np.array(content.colors, np.uint8)
@@ -93,28 +99,51 @@ class LabelledSurfaceLayer(Layer):
         kind, ids = event["new"].kind, event["new"].ids
         if kind not in ("labels", "colors", "visibility", "all") or (ids is not None and ids.size == 0):
             return                                         # saved views, or a stroke's end: nothing to draw
-        src = self.source
-        if kind == "labels" and ids is not None and not self.depth_cue:
-            rgba = src.colors.rgba[src.labels[ids]]
-            self._base[ids] = rgba
-            self.mesh.point_data["rgba"][ids] = rgba        # in place: pyvista marks the VTK array modified
-            self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
+        if kind == "labels" and ids is not None:
+            drawn = self._show_labels(np.asarray(ids, np.int64))
         else:
-            self._base = src.vertex_colors()
+            src = self.source
+            self._shown, self._base = np.array(src.labels), src.vertex_colors()
             if kind in ("visibility", "all"):
                 self.mesh.faces = pv.CellArray.from_regular_cells(src.visible_faces().astype(np.int64))
             self._recolour()
-        self.updates += 1
-        self._dirty = True
+            drawn = True
+        self.updates += int(drawn)
+        self._dirty |= drawn
+
+    def _show_labels(self, ids: np.ndarray) -> bool:
+        """Recolour the vertices ``ids`` whose label differs from the one drawn; returns whether any did."""
+        src = self.source
+        labels = src.labels[ids]
+        new = self._shown[ids] != labels
+        if not new.any():
+            return False
+        ids, labels = ids[new], labels[new]
+        if self._shown.dtype != labels.dtype:              # the labels were widened (a 257th colour)
+            self._shown = self._shown.astype(labels.dtype)
+        self._shown[ids] = labels
+        rgba = self._base[ids] = src.colors.rgba[labels]
+        if self.depth_cue:
+            if not np.array_equal(self._eye(), self._cue_eye):
+                self._recolour()                           # the camera moved: every vertex's cue changed
+                return True
+            rgba = depth_cue_colors(rgba, src.vertices[ids], self._cue_eye, self._hull, background=(0, 0, 0))
+        self.mesh.point_data["rgba"][ids] = rgba            # in place: VTK re-uploads the array
+        self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
+        return True
+
+    def _eye(self) -> np.ndarray:
+        """The camera position in the model frame (the depth cue's eye)."""
+        m = np.asarray(self.actor.user_matrix, np.float64)
+        return (np.linalg.inv(m) @ np.r_[np.asarray(self.plotter.camera.position, np.float64), 1.0])[:3]
 
     def _recolour(self) -> None:
         cols = self._base
         if self.depth_cue:
-            m = np.asarray(self.actor.user_matrix, np.float64)
-            eye = (np.linalg.inv(m) @ np.r_[np.asarray(self.plotter.camera.position, np.float64), 1.0])[:3]
+            self._cue_eye = self._eye()
             if self._hull is None:
                 self._hull = coarse_hull(self.source.vertices)
-            cols = depth_cue_colors(cols, self.source.vertices, eye, self._hull, background=(0, 0, 0))
+            cols = depth_cue_colors(cols, self.source.vertices, self._cue_eye, self._hull, background=(0, 0, 0))
         self.mesh.point_data["rgba"][:] = cols
         self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
 
@@ -123,7 +152,7 @@ class LabelledSurfaceLayer(Layer):
         if not isinstance(on, (bool, np.bool_)):
             raise ValueError(f"on must be True or False, got {on!r}")
         self.depth_cue = bool(on)
-        self._base = self.source.vertex_colors()
+        self._shown, self._base = np.array(self.source.labels), self.source.vertex_colors()
         self._recolour()
 
     def follow(self, buffer) -> None:
@@ -156,11 +185,18 @@ class LabelledSurfaceLayer(Layer):
         return True
 
     def refresh(self) -> bool:
-        if self.poll():
-            return True
-        if self.depth_cue:
+        """Before a picture: apply the newest worker buffer (:meth:`follow`), else draw the labels painted since
+        the last change this layer followed; redo the depth cue when the camera or the pose moved. Returns whether
+        the colours changed."""
+        labels = self.source.labels
+        if self._buffer is not None:
+            changed = self.poll()
+        else:                               # (a restore to another mesh is redrawn by its change)
+            changed = labels.shape == self._shown.shape and self._show_labels(np.flatnonzero(self._shown != labels))
+        if self.depth_cue and not np.array_equal(self._eye(), self._cue_eye):
             self._recolour()
-        return self.depth_cue
+            changed = True
+        return changed
 
     # ------------------------------------------------------------------ painting
     def paint_at(self, point, *, radius: float, label: int) -> int:
