@@ -30,9 +30,10 @@ from .._validation import check_array, check_point, check_range, check_size  # n
 from ..document import kernel_loop  # noqa: E402
 from ..types import TreeArrays  # noqa: E402
 from ..vine.views import SavedView, load_view  # noqa: E402
-from ._render_lock import lock_plotter, lock_trame_image_delivery  # noqa: E402
+from ._render_lock import lock_plotter  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
-from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, check_content, layer_class  # noqa: E402
+from .live_server import launch_live_server  # noqa: E402
+from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, scene_layers  # noqa: E402
 from .vine_layers import LabelledSurfaceLayer  # noqa: E402
 
 __all__ = ["LOD", "View", "launch_live_server", "side_by_side"]
@@ -86,7 +87,7 @@ class View:
         if not is_doc and not isinstance(doc, Mapping):
             raise TypeError(f"doc must be a document (with scene()) or a {{name: content}} mapping, "
                             f"got {type(doc).__name__}")
-        window_size = _check_window_size(window_size)
+        window_size = check_size("window_size", window_size, 16, 16384)
         for name, v in (("show_markers", show_markers), ("show_leaves", show_leaves)):
             _check_bool(name, v)
         if ground is not None:
@@ -108,7 +109,7 @@ class View:
         except ValueError:
             raise ValueError(f"background must be a colour (name, hex or RGB), got {background!r}"[:300]) from None
         scene = doc.scene() if is_doc else dict(doc)
-        classes = _check_scene(scene, lod, arrays=not is_doc)
+        classes = scene_layers(scene, lod, arrays=not is_doc)
         if off_screen is None:
             off_screen = not os.environ.get("DISPLAY")
         self.doc = doc if is_doc else None
@@ -252,12 +253,12 @@ class View:
             raise ValueError(f"scene must be a {{name: content}} mapping, got {type(scene).__name__}")
         merged = {**self._scene, **scene}
         merged = {k: v for k, v in merged.items() if v is not None}
-        _check_scene(merged, self.lod, arrays=True)
+        scene_layers(merged, self.lod, arrays=True)
         self._scene = merged
         return self._apply(merged)
 
     def _apply(self, scene: Mapping[str, Any]) -> list[str]:
-        classes = _check_scene(scene, self.lod)
+        classes = scene_layers(scene, self.lod)
         params = self.params          # read from the document before the render lock (lock order: document first)
         with self.lock:
             return self._apply_locked(scene, classes, params)
@@ -491,7 +492,7 @@ class View:
         """Render offscreen (at ``window_size`` for a full-resolution still) and return the (H, W, 3) uint8
         image; also write a PNG atomically when ``path`` is given."""
         if window_size is not None:
-            window_size = _check_window_size(window_size)
+            window_size = check_size("window_size", window_size, 16, 16384)
         if path is not None and Path(path).suffix.lower() != ".png":
             raise ValueError(f"path must end in .png, got {str(path)!r}")
         if self.doc is not None:
@@ -568,49 +569,6 @@ class View:
             self.plotter.close()
 
 
-@contextlib.contextmanager
-def _without_vtklocal() -> Iterator[None]:
-    """Make ``from trame.widgets import vtklocal`` raise ImportError inside the block (Python's import rule:
-    a ``None`` entry in ``sys.modules`` is a module that cannot be imported)."""
-    import sys  # noqa: PLC0415
-
-    import trame.widgets  # noqa: PLC0415
-
-    name, missing = "trame.widgets.vtklocal", object()
-    saved_mod = sys.modules.get(name, missing)
-    saved_attr = trame.widgets.__dict__.pop("vtklocal", missing)
-    sys.modules[name] = None
-    try:
-        yield
-    finally:
-        if saved_mod is missing:
-            sys.modules.pop(name, None)
-        else:
-            sys.modules[name] = saved_mod
-        if saved_attr is not missing:
-            trame.widgets.vtklocal = saved_attr
-
-
-def launch_live_server():
-    """Start (once) the trame server that serves live views, without anything that downloads at run time.
-
-    ``trame_pyvista``'s launcher enables ``trame-vtklocal`` when it is installed, and that module fetches the
-    VTK.wasm bundle from gitlab.kitware.com on first use (neither the ``vtk`` nor the ``trame-vtklocal`` wheel
-    ships it): offline, a ``ClientConnectorDNSError`` traceback lands in the cell. Live views are server
-    rendered (``mode="server"``: trame-vtk's remote view, whose client ships in the ``trame-vtk`` wheel), so
-    the server is launched as if ``trame-vtklocal`` were absent. Returns the running server.
-    """
-    from trame_pyvista.jupyter import elegantly_launch  # noqa: PLC0415
-    from trame_pyvista.widgets import get_server  # noqa: PLC0415
-
-    lock_trame_image_delivery()
-    server = get_server(name=pv.global_theme.trame.jupyter_server_name)
-    if not server.running:
-        with _without_vtklocal():
-            elegantly_launch(server, wslink_backend="aiohttp")
-    return server
-
-
 def side_by_side(control, surface, *, off_screen: bool | None = None, window_size=(1000, 500),
                  titles=("control mesh", "Loop subdivision")) -> View:
     """A control mesh (left, with edges) and its subdivided surface (right) in two linked panels (spec
@@ -632,10 +590,6 @@ def side_by_side(control, surface, *, off_screen: bool | None = None, window_siz
                                                    "line_width": 1.0, "smooth_shading": False, "specular": 0.0}})
 
 
-def _check_window_size(window_size) -> tuple[int, int]:
-    return check_size("window_size", window_size, 16, 16384)
-
-
 def _check_bool(name: str, v) -> None:
     if not isinstance(v, (bool, np.bool_)):
         raise ValueError(f"{name} must be True or False, got {v!r}")
@@ -649,19 +603,3 @@ def _check_panels(panels) -> tuple[tuple[str, ...], ...]:
             for p in panels):
         raise ValueError(f"panels must be 1 to 8 sequences of scene names, got {panels!r}"[:300])
     return tuple(tuple(p) for p in panels)
-
-
-def _check_scene(scene, lod, *, arrays: bool = False) -> dict[str, type[Layer]]:
-    """The layer class of every entry of ``scene``; with ``arrays``, the content's arrays are checked too (a
-    static scene given by a caller), so a bad entry is refused before anything is drawn."""
-    if not isinstance(scene, Mapping) or not all(isinstance(k, str) for k in scene):
-        raise ValueError(f"scene must be a {{name: content}} mapping with str names, got {type(scene).__name__}")
-    out = {}
-    for name, content in scene.items():
-        try:
-            out[name] = layer_class(content, lod=lod)
-            if arrays:
-                check_content(content)
-        except ValueError as exc:
-            raise ValueError(f"scene[{name!r}]: {exc}") from None
-    return out

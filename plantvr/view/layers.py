@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, fields, is_dataclass
+from collections.abc import Mapping
 from typing import Any
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -38,7 +39,7 @@ from .billboard import BARK_RGB, BILLBOARD_LEVEL, LOD_SCREEN_PX, make_billboard 
 from .polydata import mesh_arrays, texture, to_polydata  # noqa: E402
 
 __all__ = ["LAYERS", "LOD", "InstancesLayer", "Layer", "LodTreeLayer", "MeshLayer", "PointsLayer", "TreeLayer",
-           "check_content", "layer_class", "same_content"]
+           "check_content", "layer_class", "same_content", "scene_layers"]
 
 BARK = "#8b5a2b"
 LEAF = "#4f8a2f"
@@ -470,3 +471,19 @@ class PointsLayer(Layer):
 
     def points(self) -> np.ndarray:
         return np.zeros((0, 3)) if self.content is None or not self.visible else np.asarray(self.content.xyz, float)
+
+
+def scene_layers(scene, lod, *, arrays: bool = False) -> dict[str, type[Layer]]:
+    """The layer class of every entry of ``scene``; with ``arrays``, the content's arrays are checked too (a
+    static scene given by a caller), so a bad entry is refused before anything is drawn."""
+    if not isinstance(scene, Mapping) or not all(isinstance(k, str) for k in scene):
+        raise ValueError(f"scene must be a {{name: content}} mapping with str names, got {type(scene).__name__}")
+    out = {}
+    for name, content in scene.items():
+        try:
+            out[name] = layer_class(content, lod=lod)
+            if arrays:
+                check_content(content)
+        except ValueError as exc:
+            raise ValueError(f"scene[{name!r}]: {exc}") from None
+    return out
