@@ -37,11 +37,12 @@ and contexts (``*(name, x, *rest)`` binding the module's name and parameters), `
 contexts.
 
 Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, unbalanced
-brackets in predecessors, a bracket first in a predecessor, brackets in left contexts, expressions as pattern
-parameters (value conditions ``x if ...``, ``n in 'SU'``), ``**kwds`` parameters, the unnamed parameter ``-``,
-``x(...)`` repetitions in predecessors, ``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns
-only: in a successor they are plain modules, as here), the exact closing bracket ``=]``, iterator requests
-(``?I``, ``GetModule``, ``$``) in patterns, new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
+brackets in predecessors (a balanced one may start with its bracket, ``[] -->``, matched at the ``[`` as L-Py's
+``RulePtrMap``), brackets in left contexts, expressions as pattern parameters (value conditions ``x if ...``,
+``n in 'SU'``), ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
+``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
+modules, as here), the exact closing bracket ``=]``, iterator requests (``?I``, ``GetModule``) in patterns,
+new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations
 
@@ -441,8 +442,6 @@ class _Reader:
             for t in toks:
                 if key == "left" and t.name in "[]":
                     raise LSystemError("brackets in a left context are not supported", ln, t.col)
-                if key == "pred" and t.name in ("[", "]") and t is pred_toks[0]:
-                    raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
         depth = 0
         for t in pred_toks:                                   # brackets inside a predecessor: balanced
             depth += (t.name == "[") - (t.name == "]")

@@ -25,10 +25,11 @@ MOD, ANY, REP, LB, RB = range(5)
 _ANY = frozenset({"*", "any"})
 _REP = frozenset({"x", "all"})
 _ITERATOR = frozenset({"?I", "GetIterator", "GetModule"})
-#: Names L-Py's pattern parser knows beyond the turtle's (``any``, ``all``, ``or``), lexed as whole names in patterns.
-PATTERN_NAMES = frozenset({"any", "all", "or"})
+#: Names L-Py's pattern parser knows beyond the turtle's, lexed as whole names in patterns.
+PATTERN_NAMES = frozenset({"any", "all", "or", "None"})
 _IDENT = re.compile(r"^[A-Za-z_]\w*$")
 _MAX_REPEAT = 1000                                # L-Py's default most repetitions of ``x(pattern)``
+_MAX_NESTING = 16                                 # repetitions inside repetitions (the matching recurses)
 
 
 @dataclass(frozen=True, eq=False)
@@ -123,7 +124,7 @@ def _arg_cols(text: str, tok: Token) -> list[int]:
     return cols
 
 
-def read_pattern(toks: list[Token], text: str, lex, *, where: str) -> Pattern:
+def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 0) -> Pattern:
     """The :class:`Pattern` of header tokens ``toks`` (lexed from line ``text``; ``lex(src, line, col)`` lexes a
     repetition's pattern) in the header part ``where`` (``pred``, ``left``, ``right``, ``newleft``, ``newright``).
 
@@ -138,12 +139,13 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str) -> Pattern:
         line = t.line
         if t.name in _ITERATOR:
             raise LSystemError(f"iterator request {t.name} in a pattern is not supported", line, t.col)
-        if t.name == "or":
-            raise LSystemError("alternative pattern or(...) is not supported", line, t.col)
+        if t.name in ("or", "None"):
+            what = "alternative pattern or(...)" if t.name == "or" else "the empty pattern module None"
+            raise LSystemError(f"{what} is not supported", line, t.col)
         if t.name == "all" and t.args is None:
             raise LSystemError("repetition pattern all has no pattern", line, t.col)
         if t.name in _REP and t.args is not None:
-            m = _repetition(t, text, lex, where)
+            m = _repetition(t, text, lex, where, depth)
             sub = m.sub.variables
             mods.append(m)
             names.extend(sub)
@@ -167,15 +169,17 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str) -> Pattern:
     return Pattern(tuple(mods), tuple(names), tuple(consts))
 
 
-def _repetition(t: Token, text: str, lex, where: str) -> PatternModule:
+def _repetition(t: Token, text: str, lex, where: str, depth: int) -> PatternModule:
     line = t.line
+    if depth >= _MAX_NESTING:
+        raise LSystemError(f"repetition patterns nested more than {_MAX_NESTING} deep", line, t.col)
     if where == "pred":
         raise LSystemError(f"repetition pattern {t.name}(...) in a predecessor is not supported (it is in "
                            "contexts)", line, t.col)
     if not 1 <= len(t.args) <= 3:
         raise LSystemError(f"repetition pattern {t.name}(...) takes a pattern and at most two counts", line, t.col)
     cols = _arg_cols(text, t)
-    sub = read_pattern(lex(t.args[0], line, cols[0]), text, lex, where=where)
+    sub = read_pattern(lex(t.args[0], line, cols[0]), text, lex, where=where, depth=depth + 1)
     if not sub.mods:
         raise LSystemError(f"repetition pattern {t.name}(...) has no pattern", line, t.col)
     bounds = []

@@ -83,6 +83,18 @@ def test_star_in_contexts(rules, axiom, expected):
     assert str(derive(rules, axiom)) == expected
 
 
+def test_star_in_interpretation_rules():
+    """Homomorphism ``*`` rules: a module with one parameter k drawn as F(k), one without as f."""
+    ls = LSystem("Axiom: A(2)B\nproduction:\ninterpretation:\n*(n, k) --> F(k)\n*(n) --> f\nendlsystem\n")
+    assert str(ls.interpret(ls.derive(1))) == "F(2)f"
+
+
+def test_nested_repetition():
+    """``x(I(a) x(J(b)))``: each I with its run of J; a and b lists per I, b a list of lists."""
+    s = derive("A > x(I(a) x(J(b))) --> R(a, b)", "AI(1)J(2)J(3)I(4)I(5)J(6)")
+    assert s.modules()[0] == ("R", ([1, 4, 5], [[2, 3], [], [6]]))
+
+
 def test_star_new_left_context():
     """L-Py's test_match_new_left_context: ``* << A`` sees the new string (B already rewritten to C)."""
     assert str(derive("B --> C\n*(n) << A --> M(n)", "BA")) == "CM('C')"
@@ -152,7 +164,24 @@ def test_repetition_at_the_string_end_after_other_modules_fails_as_lpy():
     assert str(derive("A > x(C) --> X", "A")) == "X"
 
 
-# -- 3. what stays refused ---------------------------------------------------------------------------------------
+# -- 3. brackets first in a predecessor ---------------------------------------------------------------------------
+@pytest.mark.parametrize("rules, axiom, expected", [
+    # walnut4.lpy's '[] -->': empty branches dropped (the rule is L-Py's rule of class '[')
+    ("[] -->", "A[]B[[]C]", "AB[C]"),
+    ("[] --> F", "A[]B[[]C]", "AFB[FC]"),
+    ("[ B ] --> D", "A[B]C[B]", "ADCD"),
+    ("[ *(n) ] --> E(n)", "A[B]C[D(1)]", "AE('B')C[D(1)]"),
+])
+def test_bracket_first_predecessor(rules, axiom, expected):
+    assert str(derive(rules, axiom)) == expected
+
+
+def test_bracket_first_predecessor_backward():
+    """L-Py's test/lpytest/test_backward_multimatch.lpy: backward, '[]' is found by its ']'."""
+    assert str(derive("[] --> F", "[]", head="def Start(): backward()\n", trusted=True)) == "F"
+
+
+# -- 4. what stays refused ---------------------------------------------------------------------------------------
 @pytest.mark.parametrize("rules, col, match", [
     ("x(A) B --> C", 1, r"repetition pattern x\(\.\.\.\) in a predecessor"),
     ("A > or(B, C) --> B", 5, r"alternative pattern or"),
@@ -162,6 +191,9 @@ def test_repetition_at_the_string_end_after_other_modules_fails_as_lpy():
     ("A > x(B, 1, 2, 3) --> B", 5, r"at most two counts"),
     ("?I(it) < A --> B", 1, r"iterator request \?I"),
     ("A > all --> B", 5, r"repetition pattern all has no pattern"),
+    ("A > None --> B", 5, r"the empty pattern module None"),
+    ("A > " + "x(" * 40 + "B" + ")" * 40 + " --> B", 5 + 2 * 16, r"nested more than 16 deep"),
+    ("A [ B --> C", 1, r"unbalanced brackets in the rule"),
     ("A > x(I(y)) --> B(y)\nI(y) > x(I(y)) --> B", 10, r"parameter 'y' defined twice"),
 ])
 def test_unsupported_patterns_are_refused_with_line_and_column(rules, col, match):
