@@ -74,7 +74,7 @@ class _Matching:
         """Actual parameters of rule ``r`` at module ``i`` (None if the predecessor or a context does not match)."""
         rule = r.rule
         vals: list = []
-        seq = _ArrSeq(ids, ptr, args, objs) if not r.plain or rule.left or rule.right or r.rest else None
+        seq = _ArrSeq(ids, ptr, args, objs) if r.more or r.contexts else None
         if rule.left:
             lv = self._left(r.pats["left"], i - 1, seq, partner)
             if lv is None:
@@ -89,12 +89,13 @@ class _Matching:
             vals += lv
         if r.plain:                                           # the first module was checked by the caller
             vals += _module_vals(ptr, args, objs, i)
-        mods = r.pats["pred"].mods
-        for j in range(1 if r.plain else 0, len(mods)):        # a multi-module predecessor: consecutive modules
-            v = self._module(mods[j], seq, i + j) if i + j < len(ids) else None
-            if v is None:
-                return None
-            vals += v
+        if r.more:                                            # a multi-module predecessor: consecutive modules
+            mods = r.pats["pred"].mods
+            for j in range(1 if r.plain else 0, len(mods)):
+                v = self._module(mods[j], seq, i + j) if i + j < len(ids) else None
+                if v is None:
+                    return None
+                vals += v
         if rule.newright:
             if self._direction != -1:
                 return None
@@ -103,7 +104,7 @@ class _Matching:
                 return None
             vals += rv
         if rule.right:
-            rv = self._right(r.pats["right"], i + len(mods), seq, partner)
+            rv = self._right(r.pats["right"], i + 1 + len(r.rest), seq, partner)
             if rv is None:
                 return None
             vals += rv

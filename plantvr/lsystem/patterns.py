@@ -79,11 +79,6 @@ class Pattern:
             if m.sub is not None:
                 yield from m.sub.tokens()
 
-    @property
-    def plain(self) -> bool:
-        """Whether every module is a name with fixed parameters or a bracket (the engine's fast paths)."""
-        return all(m.kind in (MOD, LB, RB) and not m.star for m in self.mods)
-
 
 def _same(value, const) -> bool:
     """Whether a module's parameter matches a pattern constant (``==``, without raising)."""

@@ -51,6 +51,7 @@ class _Compiled:
         #: whether the predecessor starts with a module name of fixed arity, found by its id ``sid``; else (a '*',
         #: a '*args'; ``sid`` -1) :meth:`~plantvr.lsystem.matching._Matching._bind` matches it
         self.plain = sid >= 0
+        self.more = not self.plain or bool(self.rest)         # predecessor modules _bind matches
         self.query = any(tok.name in _query_modules() for p in self.pats.values() for tok in p.tokens())
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.const = None        # [(sid, (floats...)), ...]
