@@ -33,12 +33,13 @@ before the step (:mod:`plantvr.lsystem.rewrite`).
 
 L-Py's pattern modules (issue 33; :mod:`plantvr.lsystem.patterns`): the wildcard ``*`` (``any``) in predecessors
 and contexts (``*(name, x, *rest)`` binding the module's name and parameters), ``*args`` star parameters
-(``A(x, *rest)``; ``A(*p)`` in a successor unpacks ``p``) and the repetition ``x(pattern, lo, hi)`` (``all``) in
-contexts.
+(``A(x, *rest)``; ``A(*p)`` in a successor unpacks ``p``), the repetition ``x(pattern, lo, hi)`` (``all``) in
+contexts, ``[`` in left contexts and a bracket first in a predecessor.
 
 Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, unbalanced
 brackets in predecessors (a balanced one may start with its bracket, ``[] -->``, matched at the ``[`` as L-Py's
-``RulePtrMap``), brackets in left contexts, expressions as pattern parameters (value conditions ``x if ...``,
+``RulePtrMap``), a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
+``TreeLeftMatcher``: ``F [ < A``), expressions as pattern parameters (value conditions ``x if ...``,
 ``n in 'SU'``), ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
 ``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
 modules, as here), the exact closing bracket ``=]``, iterator requests (``?I``, ``GetModule``) in patterns,
@@ -337,7 +338,7 @@ class _Reader:
     # -- rules -------------------------------------------------------------------------------------------------
     def rule(self, kind: str, lines: list[tuple[int, str]]) -> None:
         ln, first = lines[0]
-        head_at, delim = find_top(first, ("-static->", "-->", "->", ":"))
+        head_at, delim = find_top(first, ("-static->", "-->", "->", ":"), modules=True)
         if head_at < 0:
             code = _strip_comment(first)
             if code.count("[") != code.count("]"):
@@ -405,7 +406,7 @@ class _Reader:
         pieces = {"left": "", "newleft": "", "newright": "", "right": ""}
         cols = {}
         rest, off = s, 0
-        i, op = find_top(rest, ("<<", "<"))
+        i, op = find_top(rest, ("<<", "<"), modules=True)
         while i >= 0:
             key = "newleft" if op == "<<" else "left"
             if pieces[key] or (key == "left" and pieces["newleft"]):
@@ -413,14 +414,14 @@ class _Reader:
             pieces[key], cols[key] = rest[:i], off + 1
             off += i + len(op)
             rest = rest[i + len(op):]
-            i, op = find_top(rest, ("<<", "<"))
-        i, op = find_top(rest, (">>", ">"))
+            i, op = find_top(rest, ("<<", "<"), modules=True)
+        i, op = find_top(rest, (">>", ">"), modules=True)
         pred_src, pred_col = rest, off + 1
         if i >= 0:
             pred_src = rest[:i]
             tail, toff = rest[i + len(op):], off + i + len(op)
             key = "newright" if op == ">>" else "right"
-            j, op2 = find_top(tail, (">",))
+            j, op2 = find_top(tail, (">",), modules=True)
             if key == "newright" and j >= 0:
                 pieces["newright"], cols["newright"] = tail[:j], toff + 1
                 pieces["right"], cols["right"] = tail[j + 1:], toff + j + 2
@@ -440,8 +441,8 @@ class _Reader:
                                (out["newleft"] or out["newright"])[0].col)
         for key, toks in [("pred", pred_toks)] + list(out.items()):
             for t in toks:
-                if key == "left" and t.name in "[]":
-                    raise LSystemError("brackets in a left context are not supported", ln, t.col)
+                if key in ("left", "newleft") and t.name == "]":     # a parent is never a bracket (L-Py)
+                    raise LSystemError("']' in a left context is not supported (it never matches)", ln, t.col)
         depth = 0
         for t in pred_toks:                                   # brackets inside a predecessor: balanced
             depth += (t.name == "[") - (t.name == "]")

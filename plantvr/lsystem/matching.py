@@ -177,7 +177,11 @@ class _Matching:
                 vals[:0] = got[0]
                 pos = got[1]
                 continue
-            pos = self._parent(seq, pos, partner)
+            if m.kind == LB:                                   # the module just before, ignored ones skipped
+                while pos >= 0 and self._is_ignored(seq.sid(pos)):
+                    pos -= 1
+            else:
+                pos = self._parent(seq, pos, partner)
             if pos < 0:
                 return None
             v = self._module(m, seq, pos)

@@ -181,7 +181,24 @@ def test_bracket_first_predecessor_backward():
     assert str(derive("[] --> F", "[]", head="def Start(): backward()\n", trusted=True)) == "F"
 
 
-# -- 4. what stays refused ---------------------------------------------------------------------------------------
+# -- 4. '[' in a left context ----------------------------------------------------------------------------------
+@pytest.mark.parametrize("rules, axiom, head, expected", [
+    # L-Py's test_match_bracket_right_context: only the A right after the '[' (a '[' is the module just before,
+    # the pattern module left of it that '['s parent)
+    ("I [ < A --> B", "I [ A ] A", "", "I[B]A"),
+    # test_match_multiple_brackets_right_context
+    ("I(x) [ I(y) [ < A --> B(x, y)", "I(0) [ I(1) [ A ] ]", "", "I(0)[I(1)[B(0,1)]]"),
+    # test_consider_per_rule.lpy: an ignored module between the '[' and the module is skipped
+    ("F [ < A --> B", "F[+A]F[-A]A", "ignore: +-\n", "F[+B]F[-B]A"),
+    ("F [ < A --> B", "F[+A]F[-A]A", "", "F[+A]F[-A]A"),
+    # a '[' in a new left context: the new string's module before (B, rewritten to C, opened it)
+    ("B --> C\nC [ << A --> D", "B[A]", "", "C[D]"),
+])
+def test_bracket_in_left_context(rules, axiom, head, expected):
+    assert str(derive(rules, axiom, head=head)) == expected
+
+
+# -- 5. what stays refused ---------------------------------------------------------------------------------------
 @pytest.mark.parametrize("rules, col, match", [
     ("x(A) B --> C", 1, r"repetition pattern x\(\.\.\.\) in a predecessor"),
     ("A > or(B, C) --> B", 5, r"alternative pattern or"),
@@ -193,7 +210,8 @@ def test_bracket_first_predecessor_backward():
     ("A > all --> B", 5, r"repetition pattern all has no pattern"),
     ("A > None --> B", 5, r"the empty pattern module None"),
     ("A > " + "x(" * 40 + "B" + ")" * 40 + " --> B", 5 + 2 * 16, r"nested more than 16 deep"),
-    ("A [ B --> C", 1, r"unbalanced brackets in the rule"),
+    ("A [ B --> C", 1, r"unbalanced brackets in the predecessor 'A \[ B'"),
+    ("A ] < B --> C", 3, r"'\]' in a left context is not supported"),
     ("A > x(I(y)) --> B(y)\nI(y) > x(I(y)) --> B", 10, r"parameter 'y' defined twice"),
 ])
 def test_unsupported_patterns_are_refused_with_line_and_column(rules, col, match):
