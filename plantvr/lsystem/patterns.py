@@ -134,8 +134,9 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
         line = t.line
         if t.name in _ITERATOR:
             raise LSystemError(f"iterator request {t.name} in a pattern is not supported", line, t.col)
-        if t.name in ("or", "None"):
-            what = "alternative pattern or(...)" if t.name == "or" else "the empty pattern module None"
+        if t.name in ("or", "None", "=]"):
+            what = {"or": "alternative pattern or(...)", "None": "the empty pattern module None",
+                    "=]": "the exact closing bracket =]"}[t.name]
             raise LSystemError(f"{what} is not supported", line, t.col)
         if t.name == "all" and t.args is None:
             raise LSystemError("repetition pattern all has no pattern", line, t.col)
