@@ -31,11 +31,19 @@ expression, at least 0) until ``endgroup`` or the next ``group``; the others are
 Request modules (``?P(x, y, z)``, ``?H(h)``, ...; issue 33) may be in any pattern: the engine answers them
 before the step (:mod:`plantvr.lsystem.rewrite`).
 
-Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, wildcard (``*``)
-predecessors, unbalanced brackets in predecessors, brackets in left contexts, expressions as pattern parameters,
-``x(...)`` repetition and ``or(...)`` alternative patterns (L-Py has them in patterns only: in a successor they
-are plain modules, as here), iterator requests (``?I``, ``GetModule``) in patterns, new contexts (``<<`` / ``>>``)
-in decomposition and homomorphism rules.
+L-Py's pattern modules (issue 33; :mod:`plantvr.lsystem.patterns`): the wildcard ``*`` (``any``) in predecessors
+and contexts (``*(name, x, *rest)`` binding the module's name and parameters), ``*args`` star parameters
+(``A(x, *rest)``; ``A(*p)`` in a successor unpacks ``p``), the repetition ``x(pattern, lo, hi)`` (``all``) in
+contexts, ``[`` in left contexts and a bracket first in a predecessor.
+
+Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, unbalanced
+brackets in predecessors (a balanced one may start with its bracket, ``[] -->``, matched at the ``[`` as L-Py's
+``RulePtrMap``), a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
+``TreeLeftMatcher``: ``F [ < A``), expressions as pattern parameters (value conditions ``x if ...``,
+``n in 'SU'``), ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
+``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
+modules, as here), the exact closing bracket ``=]``, iterator requests (``?I``, ``GetModule``) in patterns,
+new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations
 
@@ -44,6 +52,7 @@ import re
 from dataclasses import dataclass, field
 
 from .lexer import LSystemError, Token, find_top, lex, split_top
+from .patterns import PATTERN_NAMES, read_pattern
 
 __all__ = ["Grammar", "Rule", "lstring_to_py", "parse_grammar"]
 
@@ -53,8 +62,6 @@ _SECTIONS = {"production": "production", "decomposition": "decomposition", "homo
 _HEADER = re.compile(r"^(Axiom|derivation length|production|decomposition|homomorphism|interpretation|"
                      r"maximum depth|ignore|consider|endlsystem|endgroup|group\s+\S+)\s*(:?)(.*)$")
 _PRODUCE = re.compile(r"\b(nproduce|produce)\b")
-_ITERATOR = frozenset({"?I", "GetIterator", "GetModule"})
-_IDENT = re.compile(r"^[A-Za-z_]\w*$")
 
 
 @dataclass
@@ -84,6 +91,9 @@ class Rule:
     #: ``pred -static-> successor`` (L-Py's ``LsysRule::setStatic``): the successor is made once, when the grammar
     #: is read, with the pattern's variables unbound, and is the same for every module the rule matches.
     static: bool = False
+    #: The compiled patterns (:class:`~plantvr.lsystem.patterns.Pattern`) of ``left``, ``newleft``, ``pred``
+    #: (all its modules), ``newright`` and ``right``.
+    patterns: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -129,7 +139,8 @@ def lstring_to_py(tokens: list[Token]) -> str:
     for t in tokens:
         if t.name == "*" and len(tokens) == 1 and t.args is None:
             return "[]"                                       # ``produce *``: the empty string
-        args = "".join(f"({a})," for a in (t.args or ()))
+        args = "".join(f"{a}," if a.startswith("*") and not a.startswith("**") else f"({a}),"   # A(*p): unpacked
+                       for a in (t.args or ()))
         items.append(f"({t.name!r}, ({args}))")
     return "[" + ", ".join(items) + "]"
 
@@ -143,11 +154,15 @@ class _Reader:
         self.group: tuple | None = None                      # the ``group N:`` the rules being read are in
 
     # -- helpers -----------------------------------------------------------------------------------------------
-    def lex(self, s: str, line: int, col: int) -> list[Token]:
-        toks = lex(s, self.known, line=line, col=col, deadline=self.deadline)
+    def lex(self, s: str, line: int, col: int, known=None) -> list[Token]:
+        toks = lex(s, self.known if known is None else known, line=line, col=col, deadline=self.deadline)
         for t in toks:
             self.g.first_use.setdefault(t.name, (t.line, t.col))
         return toks
+
+    def lex_pattern(self, s: str, line: int, col: int) -> list[Token]:
+        """Lex a rule header's part, L-Py's pattern modules (``any``, ``all``, ``or``) known as whole names."""
+        return self.lex(s, line, col, frozenset(self.known) | PATTERN_NAMES)
 
     def translate_produce(self, src: str, line: int, *, in_rule: bool) -> str:
         """Replace ``produce X`` / ``nproduce X`` statements in one line of Python by their calls."""
@@ -323,7 +338,7 @@ class _Reader:
     # -- rules -------------------------------------------------------------------------------------------------
     def rule(self, kind: str, lines: list[tuple[int, str]]) -> None:
         ln, first = lines[0]
-        head_at, delim = find_top(first, ("-static->", "-->", "->", ":"))
+        head_at, delim = find_top(first, ("-static->", "-->", "->", ":"), modules=True)
         if head_at < 0:
             code = _strip_comment(first)
             if code.count("[") != code.count("]"):
@@ -335,19 +350,20 @@ class _Reader:
         parts = self.parse_header(header, ln, kind)
         preds, left, right, newleft, newright = parts
         pred = preds[0]
+        pats = {}
         params: list[str] = []
         consts: list = []
         k = 0
-        for grp in (left, newleft, preds, newright, right):
-            for t in grp:
-                for a in t.args or ():
-                    if not _IDENT.match(a) or a in ("None", "True", "False"):
-                        consts.append((k, ast.literal_eval(a)))
-                    elif a in params:
-                        raise LSystemError(f"parameter {a!r} defined twice in the rule header", ln, t.col)
-                    else:
-                        params.append(a)
-                    k += 1
+        for key, grp in (("left", left), ("newleft", newleft), ("pred", preds), ("newright", newright),
+                         ("right", right)):
+            pats[key] = pat = read_pattern(grp, first, self.lex_pattern, where=key)
+            consts.extend((k + q, v) for q, v in pat.consts)
+            for a in pat.variables:
+                if a in params:
+                    t = next(t for t in pat.tokens() if a in (t.args or ()) or "*" + a in (t.args or ()))
+                    raise LSystemError(f"parameter {a!r} defined twice in the rule header", ln, t.col)
+                params.append(a)
+            k += len(pat.names)
         body: list[tuple[int, str]] = []
         successor = condition = None
         if delim in ("-->", "->", "-static->"):
@@ -382,7 +398,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip(), consts, preds[1:], self.group, delim == "-static->"))
+                                 ln, 1, header.strip(), consts, preds[1:], self.group, delim == "-static->", pats))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right
@@ -390,7 +406,7 @@ class _Reader:
         pieces = {"left": "", "newleft": "", "newright": "", "right": ""}
         cols = {}
         rest, off = s, 0
-        i, op = find_top(rest, ("<<", "<"))
+        i, op = find_top(rest, ("<<", "<"), modules=True)
         while i >= 0:
             key = "newleft" if op == "<<" else "left"
             if pieces[key] or (key == "left" and pieces["newleft"]):
@@ -398,14 +414,14 @@ class _Reader:
             pieces[key], cols[key] = rest[:i], off + 1
             off += i + len(op)
             rest = rest[i + len(op):]
-            i, op = find_top(rest, ("<<", "<"))
-        i, op = find_top(rest, (">>", ">"))
+            i, op = find_top(rest, ("<<", "<"), modules=True)
+        i, op = find_top(rest, (">>", ">"), modules=True)
         pred_src, pred_col = rest, off + 1
         if i >= 0:
             pred_src = rest[:i]
             tail, toff = rest[i + len(op):], off + i + len(op)
             key = "newright" if op == ">>" else "right"
-            j, op2 = find_top(tail, (">",))
+            j, op2 = find_top(tail, (">",), modules=True)
             if key == "newright" and j >= 0:
                 pieces["newright"], cols["newright"] = tail[:j], toff + 1
                 pieces["right"], cols["right"] = tail[j + 1:], toff + j + 2
@@ -413,34 +429,20 @@ class _Reader:
                 if j >= 0:
                     raise LSystemError(f"ill-formed rule header {header.strip()!r}", ln, toff + j + 1)
                 pieces[key], cols[key] = tail, toff + 1
-        pred_toks = self.lex(pred_src, ln, pred_col)
+        pred_toks = self.lex_pattern(pred_src, ln, pred_col)
         if not pred_toks:
             raise LSystemError("rule without a predecessor", ln, pred_col)
         out = {}
         for key in pieces:
-            toks = self.lex(pieces[key], ln, cols.get(key, 1)) if pieces[key].strip() else []
+            toks = self.lex_pattern(pieces[key], ln, cols.get(key, 1)) if pieces[key].strip() else []
             out[key] = toks
         if kind != "production" and (out["newleft"] or out["newright"]):
             raise LSystemError(f"new contexts ('<<', '>>') in {kind} rules are not supported", ln,
                                (out["newleft"] or out["newright"])[0].col)
         for key, toks in [("pred", pred_toks)] + list(out.items()):
             for t in toks:
-                if t.name == "*":
-                    raise LSystemError("wildcard '*' patterns are not supported", ln, t.col)
-                if t.name in _ITERATOR:
-                    raise LSystemError(f"iterator request {t.name} in a pattern is not supported", ln, t.col)
-                if t.name in ("x", "or") and t.args is not None:            # L-Py's PatternModule classes
-                    raise LSystemError(f"{'alternative' if t.name == 'or' else 'repetition'} pattern {t.name}(...) "
-                                       "is not supported", ln, t.col)
-                if key == "left" and t.name in "[]":
-                    raise LSystemError("brackets in a left context are not supported", ln, t.col)
-                if key == "pred" and t.name in ("[", "]") and t is pred_toks[0]:
-                    raise LSystemError("a bracket cannot be a predecessor", ln, t.col)
-                for a in t.args or ():
-                    if not _IDENT.match(a) and not _is_literal(a):
-                        raise LSystemError(f"pattern parameter {a!r} of {t.name} must be a variable name or a "
-                                           f"constant (expressions as value constraints are not supported)", ln,
-                                           t.col)
+                if key in ("left", "newleft") and t.name == "]":     # a parent is never a bracket (L-Py)
+                    raise LSystemError("']' in a left context is not supported (it never matches)", ln, t.col)
         depth = 0
         for t in pred_toks:                                   # brackets inside a predecessor: balanced
             depth += (t.name == "[") - (t.name == "]")
@@ -449,15 +451,6 @@ class _Reader:
         if depth:
             raise LSystemError(f"unbalanced brackets in the predecessor {pred_src.strip()!r}", ln, pred_col)
         return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
-
-
-def _is_literal(src: str) -> bool:
-    """Whether pattern parameter ``src`` is a constant (a Python literal: number, str, tuple, None, bool)."""
-    try:
-        ast.literal_eval(src)
-    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
-        return False
-    return len(src) <= 200
 
 
 def _in_string(code: str, at: int) -> bool:

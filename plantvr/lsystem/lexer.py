@@ -77,8 +77,10 @@ def _skip_string(text: str, i: int, line: int, col0: int) -> int:
     return j + 1
 
 
-def _depths(text: str, start: int = 0, line: int = 0, col0: int = 0) -> Iterator[tuple[int, str, int]]:
-    """``(index, character, nesting depth after it)`` of every character from ``start`` on outside strings."""
+def _depths(text: str, start: int = 0, line: int = 0, col0: int = 0,
+            pairs: tuple[str, str] = ("([{", ")]}")) -> Iterator[tuple[int, str, int]]:
+    """``(index, character, nesting depth after it)`` of every character from ``start`` on outside strings, the
+    depth counting the opening and closing characters ``pairs``."""
     depth = 0
     i = start
     while i < len(text):
@@ -86,21 +88,22 @@ def _depths(text: str, start: int = 0, line: int = 0, col0: int = 0) -> Iterator
         if c in "\"'":
             i = _skip_string(text, i, line, col0)
             continue
-        depth += (c in "([{") - (c in ")]}")
+        depth += (c in pairs[0]) - (c in pairs[1])
         yield i, c, depth
         i += 1
 
 
-def _top_level(text: str, start: int = 0) -> Iterator[int]:
+def _top_level(text: str, start: int = 0, pairs: tuple[str, str] = ("([{", ")]}")) -> Iterator[int]:
     """The indices from ``start`` on that lie at nesting depth 0 outside strings (brackets not included)."""
-    return (i for i, c, d in _depths(text, start) if d == 0 and c not in "([{)]}")
+    return (i for i, c, d in _depths(text, start, pairs=pairs) if d == 0 and c not in "([{)]}")
 
 
-def find_top(text: str, targets: Iterable[str], start: int = 0) -> tuple[int, str]:
+def find_top(text: str, targets: Iterable[str], start: int = 0, *, modules: bool = False) -> tuple[int, str]:
     """First index (and which target) of one of ``targets`` at nesting depth 0 outside strings; (-1, "") if none.
-    Longer targets are tried first at each position."""
+    Longer targets are tried first at each position. ``modules``: ``text`` is an L-string (a rule header), whose
+    ``[ ] { }`` are modules, only parentheses nesting."""
     order = sorted(targets, key=len, reverse=True)
-    for i in _top_level(text, start):
+    for i in _top_level(text, start, ("(", ")") if modules else ("([{", ")]}")):
         for t in order:
             if text.startswith(t, i):
                 return i, t

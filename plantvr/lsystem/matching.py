@@ -3,8 +3,8 @@
 :class:`_Matching` (a base of :class:`~plantvr.lsystem.engine.LSystem`) binds a rule's actual parameters at a
 module (pattern constants compared, multi-module predecessors read), matching contexts along the axial tree (a
 left context skips lateral branches, a right context skips them unless the pattern opens one; ``ignore:`` /
-``consider:``) in the current string or, for the new contexts ``<<`` / ``>>``, in the string being built. The
-helpers read a module's parameters as rule code sees them. It mirrors L-Py's ``src/cpp/matching.cpp`` (and
+``consider:``) in the current string or, for the new contexts ``<<`` / ``>>``, in the string being built, with
+L-Py's pattern modules (:mod:`plantvr.lsystem.patterns`: ``*``, ``*args``, ``x(...)``). The helpers read a module's parameters as rule code sees them. It mirrors L-Py's ``src/cpp/matching.cpp`` (and
 ``matching_tmpl.h``, ``consider.cpp``).
 """
 from __future__ import annotations
@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 
 from .lexer import Token, lex
-from .modules import _EMPTY, is_number
+from .modules import _EMPTY
+from .patterns import ANY, LB, MOD, RB, REP, Pattern, PatternModule, _same
 from .rules import _Compiled
 
 
@@ -31,14 +32,6 @@ class _Reversed:
 
 def _pyval(v):
     return int(v) if type(v) is float and v.is_integer() and abs(v) < 2 ** 53 else v
-
-
-def _same(value, const) -> bool:
-    """Whether a module's parameter matches a pattern constant (``==``, without raising)."""
-    try:
-        return bool(type(value) is type(const) or (is_number(value) and is_number(const))) and value == const
-    except (TypeError, ValueError, ArithmeticError):             # e.g. an array's ambiguous truth value
-        return False
 
 
 def _module_vals(ptr, args, objs, i: int) -> list:
@@ -78,36 +71,40 @@ class _Matching:
         return (self._names[sid] in names) == ignore
 
     def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest, objs=_EMPTY) -> list | None:
-        """Actual parameters of rule ``r`` at module ``i`` (None if a context does not match)."""
+        """Actual parameters of rule ``r`` at module ``i`` (None if the predecessor or a context does not match)."""
         rule = r.rule
         vals: list = []
+        seq = _ArrSeq(ids, ptr, args, objs) if r.more or r.contexts else None
         if rule.left:
-            lv = self._left(rule.left, i - 1, _ArrSeq(ids, ptr, args, objs), partner)
+            lv = self._left(r.pats["left"], i - 1, seq, partner)
             if lv is None:
                 return None
             vals += lv
         if rule.newleft:
             if self._direction != 1:
                 return None
-            lv = self._left(rule.newleft, len(dest) - 1, _ListSeq(dest), None)
+            lv = self._left(r.pats["newleft"], len(dest) - 1, _ListSeq(dest), None)
             if lv is None:
                 return None
             vals += lv
-        vals += _module_vals(ptr, args, objs, i)
-        for j, t in enumerate(r.rest, 1):                     # multi-module predecessor: consecutive modules
-            p = i + j
-            if p >= len(ids) or ids[p] != self._pattern_sid(t) or ptr[p + 1] - ptr[p] != t.arity:
-                return None
-            vals += _module_vals(ptr, args, objs, p)
+        if r.plain:                                           # the first module was checked by the caller
+            vals += _module_vals(ptr, args, objs, i)
+        if r.more:                                            # a multi-module predecessor: consecutive modules
+            mods = r.pats["pred"].mods
+            for j in range(1 if r.plain else 0, len(mods)):
+                v = self._module(mods[j], seq, i + j) if i + j < len(ids) else None
+                if v is None:
+                    return None
+                vals += v
         if rule.newright:
             if self._direction != -1:
                 return None
-            rv = self._right(rule.newright, 0, _ListSeq(_Reversed(dest)), None)
+            rv = self._right(r.pats["newright"], 0, _ListSeq(_Reversed(dest)), None)
             if rv is None:
                 return None
             vals += rv
         if rule.right:
-            rv = self._right(rule.right, i + 1 + len(r.rest), _ArrSeq(ids, ptr, args, objs), partner)
+            rv = self._right(r.pats["right"], i + 1 + len(r.rest), seq, partner)
             if rv is None:
                 return None
             vals += rv
@@ -121,39 +118,121 @@ class _Matching:
     def _pattern_sid(self, t: Token) -> int:
         return self._sid(t.name)
 
-    def _left(self, pattern: list[Token], pos: int, seq, partner) -> list | None:
-        vals: list = []
-        for t in reversed(pattern):
-            while pos >= 0:
-                s = seq.sid(pos)
-                if s == 1:                                     # ']': skip the lateral branch
-                    if partner is not None:
-                        pos = int(partner[pos])
-                        if pos < 0:
-                            return None
-                    else:
-                        depth = 1
-                        while depth and pos > 0:
-                            pos -= 1
-                            depth += (seq.sid(pos) == 1) - (seq.sid(pos) == 0)
-                        if depth:
-                            return None
-                    pos -= 1
-                elif s == 0 or self._is_ignored(s):
-                    pos -= 1
-                else:
-                    break
-            if pos < 0 or seq.sid(pos) != self._pattern_sid(t) or seq.nargs(pos) != t.arity:
+    def _module(self, m: PatternModule, seq, pos: int) -> list | None:
+        """The values pattern module ``m`` binds at module ``pos`` of ``seq`` (None if it does not match), as
+        L-Py's ``module_matching_with_star_and_valueconstraints``: one value per pattern parameter."""
+        s, n = seq.sid(pos), seq.nargs(pos)
+        kind = m.kind
+        if kind == MOD:
+            if s != self._pattern_sid(m.tok) or (n < m.nfixed if m.star else n != m.nfixed):
                 return None
-            vals[:0] = seq.args(pos)
-            pos -= 1
-        return vals
+            a = seq.args(pos)
+            return a if not m.star else a[:m.nfixed] + [a[m.nfixed:]]
+        if kind == ANY:
+            if (n < m.nfixed) if m.star else (m.name_var and n != m.nfixed):      # a bare '*': any module
+                return None
+            a = seq.args(pos)
+            if not m.name_var:
+                return [[self._names[s], *a]] if m.star else []
+            return [self._names[s], *a] if not m.star else [self._names[s], *a[:m.nfixed], a[m.nfixed:]]
+        return [] if s == kind - LB else None                 # a bracket: '[' is id 0, ']' id 1
 
-    def _right(self, pattern: list[Token], pos: int, seq, partner) -> list | None:
+    def _parent(self, seq, pos: int, partner) -> int:
+        """Index of the module at or left of ``pos`` a left context reads (lateral branches, brackets and ignored
+        modules skipped, as L-Py's ``parent``); -1 if there is none."""
+        while pos >= 0:
+            s = seq.sid(pos)
+            if s == 1:                                         # ']': skip the lateral branch
+                if partner is not None:
+                    pos = int(partner[pos])
+                    if pos < 0:
+                        return -1
+                else:
+                    depth = 1
+                    while depth and pos > 0:
+                        pos -= 1
+                        depth += (seq.sid(pos) == 1) - (seq.sid(pos) == 0)
+                    if depth:
+                        return -1
+                pos -= 1
+            elif s == 0 or self._is_ignored(s):
+                pos -= 1
+            else:
+                break
+        return pos
+
+    def _left(self, pattern: Pattern, pos: int, seq, partner) -> list | None:
+        got = self._left_at(pattern.mods, pos, seq, partner)
+        return None if got is None else got[0]
+
+    def _left_at(self, mods, pos: int, seq, partner) -> tuple[list, int] | None:
+        """Values of pattern modules ``mods`` matched leftward from ``pos`` (L-Py's ``TreeLeftMatcher``), and the
+        position left of the last one matched."""
+        vals: list = []
+        for m in reversed(mods):
+            if m.kind == REP:
+                got = self._repeat(m, pos, seq, partner, self._left_at, False)
+                if got is None:
+                    return None
+                vals[:0] = got[0]
+                pos = got[1]
+                continue
+            if m.kind == LB:                                   # the module just before, ignored ones skipped
+                while pos >= 0 and self._is_ignored(seq.sid(pos)):
+                    pos -= 1
+            else:
+                pos = self._parent(seq, pos, partner)
+            if pos < 0:
+                return None
+            v = self._module(m, seq, pos)
+            if v is None:
+                return None
+            vals[:0] = v
+            pos -= 1
+        return vals, pos
+
+    def _repeat(self, m: PatternModule, pos: int, seq, partner, step, forward: bool) -> tuple[list, int] | None:
+        """A repetition ``x(pattern, lo, hi)`` matched greedily from ``pos`` with ``step`` (``_left_at`` or
+        ``_right_at``): each variable's list of values in string order, and the position after it (L-Py's
+        ``RegExpMatcher``); None if it matched fewer than ``lo`` times."""
+        sub = m.sub
+        lists: list = [[] for _ in sub.variables]
+        count = 0
+        while count < m.hi:
+            got = step(sub.mods, pos, seq, partner)
+            v = None if got is None else sub.filter(got[0])
+            if v is None or got[1] == pos:                    # no further match (or one of no module: stop)
+                break
+            for lst, x in zip(lists, v):
+                lst.append(x) if forward else lst.insert(0, x)
+            pos = got[1]
+            count += 1
+        return (lists, pos) if count >= m.lo else None
+
+    def _right(self, pattern: Pattern, pos: int, seq, partner) -> list | None:
+        got = self._right_at(pattern.mods, pos, seq, partner)
+        return None if got is None else got[0]
+
+    def _right_at(self, mods, pos: int, seq, partner) -> tuple[list, int] | None:
+        """Values of pattern modules ``mods`` matched rightward from ``pos`` (L-Py's ``TreeRightMatcher``: a
+        lateral branch is skipped unless the pattern opens one, ``*`` matches the next module, bracket or not),
+        and the position after the last one matched. As L-Py, a context starting at the string's end matches
+        repetitions of nothing only, and one reaching it with pattern modules left fails."""
         vals: list = []
         n = len(seq)
-        for t in pattern:
-            if t.name == "]":                                  # the rest of this branch is skipped
+        at_end = pos >= n
+        for m in mods:
+            kind = m.kind
+            if pos >= n and not (at_end and kind == REP):
+                return None
+            if kind == REP:
+                got = self._repeat(m, pos, seq, partner, self._right_at, True)
+                if got is None:
+                    return None
+                vals += got[0]
+                pos = got[1]
+                continue
+            if kind == RB:                                     # the rest of this branch is skipped
                 while pos < n and seq.sid(pos) != 1:
                     pos = self._skip_branch(seq, pos, partner) if seq.sid(pos) == 0 else pos + 1
                     if pos < 0:
@@ -164,7 +243,7 @@ class _Matching:
                 continue
             while pos < n:
                 s = seq.sid(pos)
-                if s == 0 and t.name != "[":
+                if s == 0 and kind == MOD:
                     pos = self._skip_branch(seq, pos, partner)
                     if pos < 0:
                         return None
@@ -172,11 +251,12 @@ class _Matching:
                     pos += 1
                 else:
                     break
-            if pos >= n or seq.sid(pos) != self._pattern_sid(t) or seq.nargs(pos) != t.arity:
+            v = self._module(m, seq, pos) if pos < n else None
+            if v is None:
                 return None
-            vals += seq.args(pos)
+            vals += v
             pos += 1
-        return vals
+        return vals, pos
 
     @staticmethod
     def _skip_branch(seq, pos: int, partner) -> int:

@@ -20,6 +20,7 @@ from . import _derive_kernels as K
 from .lexer import LSystemError
 from .matching import _raw_vals
 from .modules import ModuleString, is_number
+from .patterns import ANY
 from .rules import _Compiled
 
 _WARM_TURTLE: list = []
@@ -91,10 +92,7 @@ class _Rewriting:
         return s
 
     def _recursive(self, s: ModuleString, kind: str, depth: int) -> tuple[ModuleString, bool]:
-        rules = self._rules[kind]
-        by_sym: dict[int, list[_Compiled]] = {}
-        for r in rules:
-            by_sym.setdefault(r.sid, []).append(r)
+        by_sym, anywhere = self._by_first(self._rules[kind], True)
         s = self._cut(s)
         ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         partner = K.match_brackets(ids, 0, 1) if len(s) else None
@@ -104,8 +102,8 @@ class _Rewriting:
         changed = False
         i, n = 0, len(idl)
         while i < n:
-            r, res = self._first_rule(by_sym.get(idl[i], ()), i, True, idl, nargs, ids, ptr, args, partner, None,
-                                      objs)
+            r, res = self._first_rule(by_sym.get(idl[i], anywhere), i, True, idl, nargs, ids, ptr, args, partner,
+                                      None, objs)
             if res is None:
                 out.append((idl[i], _raw_vals(ptr, args, objs, i)))
             else:
@@ -126,7 +124,7 @@ class _Rewriting:
         if not rules or not len(s):
             return s, False
         s = self._cut(s)
-        if any(r.newcontexts or r.rest for r in rules):
+        if any(r.newcontexts or r.rest or not r.plain for r in rules):
             return self._sequential(s, rules)
         table = None if s.objects else self._constant_table(kind)
         if table is not None:
@@ -409,9 +407,7 @@ class _Rewriting:
         ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
         n = len(ids)
         fwd = self._direction == 1
-        by_sym: dict[int, list[_Compiled]] = {}
-        for r in rules:                                       # backward: a predecessor is found by its last module
-            by_sym.setdefault(r.sid if fwd or not r.rest else self._pattern_sid(r.rest[-1]), []).append(r)
+        by_sym, anywhere = self._by_first(rules, fwd)        # backward: a predecessor is found by its last module
         partner = K.match_brackets(ids, 0, 1) if any(r.contexts for r in rules) else None
         dest: list = []
         changed = False
@@ -422,8 +418,8 @@ class _Rewriting:
         for i in order:
             if (i <= skip) if fwd else (i >= skip):
                 continue
-            r, res = self._first_rule(by_sym.get(idl[i], ()), i, fwd, idl, nargs, ids, ptr, args, partner, dest,
-                                      objs)
+            r, res = self._first_rule(by_sym.get(idl[i], anywhere), i, fwd, idl, nargs, ids, ptr, args, partner,
+                                      dest, objs)
             if res is None:
                 res = [(idl[i], _raw_vals(ptr, args, objs, i))]
             else:
@@ -437,13 +433,25 @@ class _Rewriting:
             dest.reverse()
         return self._make(*_pack(dest)), changed
 
+    def _by_first(self, rules: list[_Compiled], fwd: bool) -> tuple[dict, list]:
+        """``rules`` by the id of the module a predecessor is found at (its first module, its last backward), each
+        list in file order with the rules any module may start (a ``*`` or ``*args`` there, as L-Py's
+        ``RulePtrMap`` gives star rules to every module class): ``(table, those)``; a module's rules are
+        ``table.get(id, those)``."""
+        keys = []
+        for r in rules:
+            m = r.pats["pred"].mods[0 if fwd else -1]
+            keys.append(self._pattern_sid(m.tok) if m.kind != ANY and not m.star else None)
+        anywhere = [r for r, k in zip(rules, keys) if k is None]
+        return {k: [r for r, k2 in zip(rules, keys) if k2 in (k, None)] for k in set(keys) - {None}}, anywhere
+
     def _first_rule(self, rules, i: int, fwd: bool, idl, nargs, ids, ptr, args, partner, dest,
                     objs) -> tuple[_Compiled | None, list | None]:
         """The first of ``rules`` (file order) whose predecessor starts (``fwd``; else ends) at module ``i``, whose
         contexts match and that produces, with its successor: ``(rule, successor)``, or ``(None, None)``."""
         for r in rules:
             at = i if fwd else i - len(r.rest)               # where the predecessor starts
-            if at < 0 or idl[at] != r.sid or nargs[at] != r.arity:
+            if at < 0 or (r.plain and (idl[at] != r.sid or nargs[at] != r.arity)):
                 continue
             vals = self._bind(r, at, ids, ptr, args, partner, dest, objs)
             if vals is None:

@@ -22,6 +22,7 @@ from .grammar import Rule
 from .lexer import LSystemError, Token
 from .modules import is_number
 from .namespace import _OverBudget
+from .patterns import MOD
 
 _NP_FUNCS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
              "log10": np.log10, "floor": np.floor, "ceil": np.ceil, "fabs": np.abs, "abs": np.abs,
@@ -46,8 +47,12 @@ class _Compiled:
         self.contexts = bool(rule.left or rule.right)
         self.newcontexts = bool(rule.newleft or rule.newright)
         self.rest = list(rule.pred_rest)                     # multi-module predecessor: the modules after the first
-        self.query = any(tok.name in _query_modules() for tok in (*rule.left, *rule.newleft, rule.pred, *self.rest,
-                                                                  *rule.newright, *rule.right))
+        self.pats = rule.patterns
+        #: whether the predecessor starts with a module name of fixed arity, found by its id ``sid``; else (a '*',
+        #: a '*args'; ``sid`` -1) :meth:`~plantvr.lsystem.matching._Matching._bind` matches it
+        self.plain = sid >= 0
+        self.more = not self.plain or bool(self.rest)         # predecessor modules _bind matches
+        self.query = any(tok.name in _query_modules() for p in self.pats.values() for tok in p.tokens())
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.batch = None        # (fn of the parameter columns, [(sid, arity), ...]): a loop in Python
         self.const = None        # [(sid, (floats...)), ...]
@@ -58,7 +63,7 @@ class _Compiled:
         cidx = {k for k, _ in self.consts}
         self.keep = [k for k in range(n_all) if k not in cidx] if self.consts else None
         # the predecessor's own constants (position in its parameter list -> value) and variables' positions
-        start = sum(t.arity for t in rule.left) + sum(t.arity for t in rule.newleft)
+        start = len(self.pats["left"].names) + len(self.pats["newleft"].names)
         self.pred_consts = [(k - start, v) for k, v in self.consts if start <= k < start + self.arity]
         self.pred_vars = [q for q in range(self.arity) if q + start not in cidx]
 
@@ -72,14 +77,15 @@ class _Rules:
         params = () if rule.static else rule.params          # L-Py unbinds a static rule's pattern variables
         func = self._function(params, rule.body, rule.line, f"rule {rule.header!r}",
                               None if self.trusted else lambda tree: self._restrict_rule(rule, tree))
-        c = _Compiled(rule, func, self._sid(rule.pred.name))
+        first = rule.patterns["pred"].mods[0]
+        c = _Compiled(rule, func, self._sid(rule.pred.name) if first.kind == MOD and not first.star else -1)
         if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
             c.static = self._call(c, [])
-            if all(type(v) is float for _, vals in c.static for v in vals) and \
+            if all(type(v) is float for _, vals in c.static for v in vals) and c.plain and \
                     not (c.contexts or c.newcontexts or c.rest or c.consts):
                 c.const = c.static
             return c
-        if rule.successor is not None and not (c.contexts or c.newcontexts or c.rest) and \
+        if rule.successor is not None and c.plain and not (c.contexts or c.newcontexts or c.rest) and \
                 all(is_number(v) for _, v in c.pred_consts):
             self._plan(c)
             c.const = None if c.consts else c.const           # the constant tables match names, not values

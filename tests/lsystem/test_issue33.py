@@ -140,7 +140,7 @@ def test_multi_module_predecessor_with_brackets():
     """L-Py's ``StringMatcher`` matches a predecessor's brackets as modules, one after another."""
     ls = LSystem("Axiom: A [ B ] C A [ B ] A B\nproduction:\nA [ B ] C --> D\nA [ B ] --> E\nendlsystem\n")
     assert str(ls.derive(1)) == "DEAB"
-    with pytest.raises(LSystemError, match=r"line 3, column 1: unbalanced brackets in the rule 'A \] B --> C'"):
+    with pytest.raises(LSystemError, match=r"line 3, column 1: unbalanced brackets in the predecessor 'A \] B'"):
         LSystem("Axiom: A\nproduction:\nA ] B --> C\n")
     with pytest.raises(LSystemError, match=r"line 3, column 1: unbalanced brackets in the predecessor 'A \] B \['"):
         LSystem("Axiom: A\nproduction:\nA ] B [ --> C\n")
