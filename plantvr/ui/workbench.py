@@ -166,6 +166,7 @@ class Workbench(W.HBox):
         self._pending = False
         self._refit = False           # the next change is a regrow's: refit the camera
         self._redraw = False          # a headless picture is due
+        self._fits: list = []         # the undo items of regrows: undone or redone, the camera is fitted again
         self._start = len(doc.log)
         self._closed = True           # until the layout is built
         self.view = View(doc, off_screen=True, window_size=window_size)
@@ -244,7 +245,7 @@ class Workbench(W.HBox):
             self.view.frame()
             if self.live:
                 self.view._render_soon()
-        elif self._refit:                 # a regrow changed the size: fit it again, same direction
+        elif self._refit or self._travels_fit(change):   # a regrow changed the size: fit it again, same direction
             self.view.fit()
             if self.live:
                 self.view._render_soon()
@@ -257,6 +258,17 @@ class Workbench(W.HBox):
             else:
                 loop.call_soon(self._draw)
         self._sync()
+
+    def _travels_fit(self, change) -> bool:
+        """Whether ``change`` is an undo or redo of a regrow (the camera fit goes back and forth with it)."""
+        h, command = self.doc.history, getattr(change, "command", None)
+        item = h.next_redo if command == "undo" else h.top if command == "redo" else None
+        return item is not None and any(item is fit for fit in self._fits)
+
+    def _note_fit(self) -> None:
+        top = self.doc.history.top
+        if top is not None:
+            self._fits = [*self._fits[-self.doc.history.max_items:], top]
 
     def _draw(self) -> None:
         if self._redraw and not self._closed:
@@ -316,8 +328,9 @@ class Workbench(W.HBox):
         :meth:`~plantvr.documents.treesketch.SketchDocument.regrow`): ``reset``, then the growth commands since
         the last reset that are not undone, re-issued in order, logged as one ``regrow`` and one undo item joined
         to the parameter change that caused it; the document's observers are notified once, at the end. A forest: its
-        last ``grow`` again (same overrides and TreeSketch options), when it was grown. The camera is then fitted
-        to the new size (same direction).
+        last ``grow`` again (same overrides and TreeSketch options), when it was grown, joined to the parameter
+        change's undo item the same way. The camera is then fitted to the new size (same direction), and again
+        when the regrow is undone or redone.
         """
         if self._regrow_kind is None:
             raise ValueError(f"regrow needs a Tree Wand, TreeSketch or forest document, got {type(self.doc).__name__}")
@@ -327,7 +340,9 @@ class Workbench(W.HBox):
             if doc.forest is None or not grows:
                 return 0
             self._refit = True
-            doc.grow(**dict(grows[-1].kwargs))
+            with doc.history_block(amend=True):     # one undo item with the change that caused it
+                doc.grow(**dict(grows[-1].kwargs))
+            self._note_fit()
             self.regrows += 1
             self._sync()
             return 1
@@ -335,6 +350,7 @@ class Workbench(W.HBox):
         # caused it, logged as one ``regrow``); this view is held, so it redraws once
         with self.view.hold():
             n = doc.regrow(amend=True)
+        self._note_fit()
         self.regrows += 1
         self._refit = True
         self._on_change(None)

@@ -12,11 +12,13 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.parse
 import urllib.request
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from plantvr._browser import launch_chromium, stop_process_group
@@ -137,8 +139,13 @@ def jupyter_lab(tmp_path: Path, notebooks: dict[str, list[str]], *, token: str =
 
 
 @contextmanager
-def notebook_page(url: str, name: str, n_cells: int, *, viewport: tuple[int, int], token: str = TOKEN):
+def notebook_page(url: str, name: str, n_cells: int, *, viewport: tuple[int, int], token: str = TOKEN,
+                  offline: bool = False, console: list[str] | None = None):
     """Open notebook ``name`` of the server at ``url`` in headless Chromium and wait for its kernel.
+
+    The notebook opens in a workspace of its own, and its kernel is shut down on exit. ``offline``: every request
+    of the page and its frames to a host that is not loopback is aborted, and noted in ``errors`` as
+    ``"offline: refused URL"``. ``console``: filled with the text of the page's console errors.
 
     Yields
     ------
@@ -156,10 +163,24 @@ def notebook_page(url: str, name: str, n_cells: int, *, viewport: tuple[int, int
             page.set_default_timeout(30_000)
             errors: list[str] = []
             page.on("pageerror", lambda e: errors.append(str(e)))
-            page.goto(f"{url}/lab/tree/{name}?token={token}", wait_until="domcontentloaded")
+            if console is not None:
+                page.on("console", lambda m: console.append(m.text) if m.type == "error" else None)
+            if offline:
+                def refuse(route):
+                    parts = urllib.parse.urlsplit(route.request.url)
+                    if parts.scheme not in ("http", "https") or parts.hostname in ("127.0.0.1", "localhost", "::1"):
+                        route.continue_()
+                    else:
+                        errors.append(f"offline: refused {route.request.url}")
+                        route.abort("internetdisconnected")
+                page.context.route("**/*", refuse)
+            workspace = re.sub(r"[^\w-]", "-", Path(name).stem)   # its own: no tab of another notebook restored
+            page.goto(f"{url}/lab/workspaces/{workspace}/tree/{name}?token={token}", wait_until="domcontentloaded")
             page.wait_for_function(_NOTEBOOK_READY, arg=n_cells, timeout=45_000)
             yield page, errors
         finally:
+            with suppress(Exception):      # the kernel (and its render windows) goes with the page
+                page.evaluate("() => window.jupyterapp.shell.currentWidget.sessionContext.shutdown()")
             browser.close()
 
 
@@ -184,3 +205,77 @@ def printed(page, cell: int, pattern: str, timeout_s: float = 20.0) -> tuple[str
                 return m.groups()
         time.sleep(0.2)
     raise AssertionError(f"cell {cell} printed nothing matching {pattern!r}")
+
+
+# -- the live workbench in a page: its view, its sliders, the kernel's answers --------------------------------
+def pixels(loc) -> np.ndarray:
+    """The RGB pixels (int16, so differences do not wrap) of a playwright locator's screenshot."""
+    from io import BytesIO
+
+    from PIL import Image
+    return np.asarray(Image.open(BytesIO(loc.screenshot())).convert("RGB"), np.int16)
+
+
+def live_view(page, cell: int):
+    """The trame iframe of the workbench in ``cell``, once its first picture is in."""
+    frame = page.locator(".jp-Cell").nth(cell).locator(".plantvr-view iframe")
+    frame.wait_for(state="visible", timeout=60_000)
+    frame.scroll_into_view_if_needed()
+    frame.content_frame.locator("img, canvas").first.wait_for(state="visible", timeout=30_000)
+    time.sleep(1.5)
+    return frame
+
+
+def until_changed(loc, before: np.ndarray, timeout_s: float = 20.0) -> np.ndarray:
+    """The pixels of ``loc`` once they differ from ``before`` (or after ``timeout_s``: the caller asserts)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        now = pixels(loc)
+        if now.shape != before.shape or np.abs(now - before).max(axis=-1).mean() > 0 or time.monotonic() > deadline:
+            return now
+        time.sleep(0.3)
+
+
+def drag(page, box, path, *, steps: int = 4) -> None:
+    """A left-button drag along ``path``, points as fractions (x, y) of the bounding ``box``."""
+    (x0, y0), rest = path[0], path[1:]
+    page.mouse.move(box["x"] + x0 * box["width"], box["y"] + y0 * box["height"])
+    page.mouse.down()
+    for x, y in rest:
+        page.mouse.move(box["x"] + x * box["width"], box["y"] + y * box["height"], steps=steps)
+        time.sleep(0.05)
+    page.mouse.up()
+
+
+def drag_handle(page, handle, dx: float, *, steps: int = 6) -> None:
+    """Drag a slider ``handle`` by ``dx`` px, once the layout has settled and the handle is on top.
+
+    The live view's first pictures can still move the page after the handle is scrolled into view;
+    a press on a stale box lands on the view and paints instead of sliding.
+    """
+    deadline, box = time.monotonic() + 20, None
+    while True:
+        handle.scroll_into_view_if_needed()
+        prev, box = box, handle.bounding_box()
+        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        on_top = handle.evaluate("(h, [x, y]) => h.contains(document.elementFromPoint(x, y))", [x, y])
+        if (on_top and prev == box) or time.monotonic() > deadline:
+            break
+        time.sleep(0.3)
+    assert on_top, "the slider handle is covered"
+    page.mouse.move(x, y)
+    page.mouse.down()
+    page.mouse.move(x + dx, y, steps=steps)
+    page.mouse.up()
+
+
+def poll(page, cell: int, pattern: str, ok, timeout_s: float = 30.0):
+    """Re-run ``cell`` until the groups of ``pattern`` in its output satisfy ``ok`` (or ``timeout_s``); returns
+    the last groups (the caller asserts)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        run_cell(page, cell)
+        got = printed(page, cell, pattern)
+        if ok(got) or time.monotonic() > deadline:
+            return got
+        time.sleep(0.5)

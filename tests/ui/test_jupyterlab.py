@@ -16,7 +16,19 @@ import pytest
 
 from plantvr._browser import CHROMIUM
 
-from ._jupyter import jupyter_lab, notebook_page, printed, run_cell, screenshot_dir
+from ._jupyter import (
+    drag,
+    drag_handle,
+    jupyter_lab,
+    live_view,
+    notebook_page,
+    pixels,
+    poll,
+    printed,
+    run_cell,
+    screenshot_dir,
+    until_changed,
+)
 
 pytestmark = [pytest.mark.browser,
               pytest.mark.skipif(not Path(CHROMIUM).exists(), reason="Debian chromium not installed")]
@@ -99,7 +111,7 @@ def test_drag_triangle_in_jupyterlab_changes_kernel_model(lab, shots):
         run_cell(page, 4)
         before_lam = float(printed(page, 4, r"APICAL ([\d.]+)")[0])
         assert before_lam == pytest.approx(0.55)
-        _drag_handle(page, handle, 60, steps=6)
+        drag_handle(page, handle, 60, steps=6)
         deadline, lam = time.monotonic() + 20, before_lam
         while lam == pytest.approx(before_lam) and time.monotonic() < deadline:
             run_cell(page, 4)
@@ -159,108 +171,40 @@ def wb_lab(tmp_path):
         yield url
 
 
-def _pixels(loc) -> np.ndarray:
-    from io import BytesIO
-
-    from PIL import Image
-    return np.asarray(Image.open(BytesIO(loc.screenshot())).convert("RGB"), np.int16)
-
-
-def _live_view(page, cell: int):
-    """The trame iframe of the workbench in ``cell``, once its first picture is in."""
-    frame = page.locator(".jp-Cell").nth(cell).locator(".plantvr-view iframe")
-    frame.wait_for(state="visible", timeout=60_000)
-    frame.scroll_into_view_if_needed()
-    frame.content_frame.locator("img, canvas").first.wait_for(state="visible", timeout=30_000)
-    time.sleep(1.5)
-    return frame
-
-
-def _until_changed(loc, before: np.ndarray, timeout_s: float = 20.0) -> np.ndarray:
-    deadline = time.monotonic() + timeout_s
-    while True:
-        now = _pixels(loc)
-        if now.shape != before.shape or np.abs(now - before).max(axis=-1).mean() > 0 or time.monotonic() > deadline:
-            return now
-        time.sleep(0.3)
-
-
-def _drag(page, box, path, *, steps: int = 4) -> None:
-    (x0, y0), rest = path[0], path[1:]
-    page.mouse.move(box["x"] + x0 * box["width"], box["y"] + y0 * box["height"])
-    page.mouse.down()
-    for x, y in rest:
-        page.mouse.move(box["x"] + x * box["width"], box["y"] + y * box["height"], steps=steps)
-        time.sleep(0.05)
-    page.mouse.up()
-
-
-def _drag_handle(page, handle, dx: float, *, steps: int = 6) -> None:
-    """Drag a slider ``handle`` by ``dx`` px, once the layout has settled and the handle is on top.
-
-    The live view's first pictures can still move the page after the handle is scrolled into view;
-    a press on a stale box lands on the view and paints instead of sliding.
-    """
-    deadline, box = time.monotonic() + 20, None
-    while True:
-        handle.scroll_into_view_if_needed()
-        prev, box = box, handle.bounding_box()
-        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
-        on_top = handle.evaluate("(h, [x, y]) => h.contains(document.elementFromPoint(x, y))", [x, y])
-        if (on_top and prev == box) or time.monotonic() > deadline:
-            break
-        time.sleep(0.3)
-    assert on_top, "the slider handle is covered"
-    page.mouse.move(x, y)
-    page.mouse.down()
-    page.mouse.move(x + dx, y, steps=steps)
-    page.mouse.up()
-
-
-def _poll(page, cell: int, pattern: str, ok, timeout_s: float = 30.0):
-    deadline = time.monotonic() + timeout_s
-    while True:
-        run_cell(page, cell)
-        got = printed(page, cell, pattern)
-        if ok(got) or time.monotonic() > deadline:
-            return got
-        time.sleep(0.5)
-
-
 TW = r"TW (\w+) (\d+) (\d+) (\d+) (\d+) (\d+) ([\d.]+)"
 
 
 def test_workbench_treewand_slider_regrows_and_brush_paints_in_jupyterlab(wb_lab, shots):
     with notebook_page(wb_lab, "treewand.ipynb", len(WB_TREEWAND), viewport=(1280, 900)) as (page, errors):
         run_cell(page, 0)
-        frame = _live_view(page, 0)
+        frame = live_view(page, 0)
         run_cell(page, 1)
         live, _, _, regrows, steps, strokes, trop = printed(page, 1, TW)
         assert live == "True" and regrows == "0" and steps == "15" and strokes == "1"
-        before = _pixels(frame)
+        before = pixels(frame)
         page.screenshot(path=str(shots / "workbench_treewand_before.png"))
 
         # drag the first slider of the Tree form window (tropism angle): the tree regrows and is redrawn
         handle = page.locator(".jp-Cell").nth(0).locator(".noUi-handle").first
         handle.scroll_into_view_if_needed()
-        _drag_handle(page, handle, 120, steps=6)
-        got = _poll(page, 1, TW, lambda g: g[3] == "1")
+        drag_handle(page, handle, 120, steps=6)
+        got = poll(page, 1, TW, lambda g: g[3] == "1")
         assert got[3] == "1" and got[4] == "15" and float(got[6]) > float(trop) + 5, got  # same step count
         frame.scroll_into_view_if_needed()
-        after = _until_changed(frame, before)
+        after = until_changed(frame, before)
         page.screenshot(path=str(shots / "workbench_treewand_regrown.png"))
         assert np.abs(after - before).max(axis=-1).mean() > 0.5, "the live view did not change"
 
         # paint in the view: markers added by the brush's paint_stroke commands, the status line follows
         status = page.locator(".jp-Cell").nth(0).locator(".plantvr-status")
         assert "brush commands 0" in status.inner_text()
-        _drag(page, frame.bounding_box(), [(0.5, 0.35), (0.55, 0.25), (0.6, 0.15), (0.62, 0.08)])
+        drag(page, frame.bounding_box(), [(0.5, 0.35), (0.55, 0.25), (0.6, 0.15), (0.62, 0.08)])
         page.wait_for_function("""() => { const s = document.querySelector('.plantvr-status');
             return s && !/brush commands 0 /.test(s.innerText); }""", timeout=20_000)
-        got2 = _poll(page, 1, TW, lambda g: int(g[5]) > 1)
+        got2 = poll(page, 1, TW, lambda g: int(g[5]) > 1)
         assert int(got2[5]) > 1 and int(got2[2]) > int(got[2]), (got, got2)
         time.sleep(1.0)
-        painted = _pixels(frame)
+        painted = pixels(frame)
         page.screenshot(path=str(shots / "workbench_treewand_painted.png"))
         text = status.inner_text()
         assert f"markers {got2[2]}" in text, text
@@ -274,11 +218,11 @@ VINE = r"VINE (\w+) (\d+) (\d+) (\d+) (\[[\d, ]*\]) (\w+)"
 def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
     with notebook_page(wb_lab, "vine.ipynb", len(WB_VINE), viewport=(1280, 900)) as (page, errors):
         run_cell(page, 0)
-        frame = _live_view(page, 0)
+        frame = live_view(page, 0)
         run_cell(page, 1)
         live, painted, label, selected, _, _ = printed(page, 1, VINE)
         assert live == "True" and painted == "0" and label == selected == "1"
-        before = _pixels(frame)
+        before = pixels(frame)
 
         # pick label 4 on the wheel: the brush follows, and the status line says so
         wheel_svg = page.locator(".jp-Cell").nth(0).locator("svg.wheel-svg")
@@ -294,12 +238,12 @@ def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
 
         # paint across the sphere: the labels change in the kernel, the view and the status line follow
         frame.scroll_into_view_if_needed()
-        _drag(page, frame.bounding_box(), [(0.35, 0.5), (0.45, 0.5), (0.55, 0.5), (0.65, 0.5)])
-        got = _poll(page, 1, VINE, lambda g: int(g[1]) > 0)
+        drag(page, frame.bounding_box(), [(0.35, 0.5), (0.45, 0.5), (0.55, 0.5), (0.65, 0.5)])
+        got = poll(page, 1, VINE, lambda g: int(g[1]) > 0)
         assert int(got[1]) > 0 and got[2] == "4" and got[4] == "[0, 4]", got
         page.wait_for_function("() => !/painted vertices 0 /.test(document.querySelector('.plantvr-status')"
                                ".innerText)", timeout=20_000)
-        after = _until_changed(frame, before)
+        after = until_changed(frame, before)
         page.screenshot(path=str(shots / "workbench_vine_painted.png"))
         assert f"painted vertices {got[1]}" in status.inner_text()
         assert np.abs(after - before).max(axis=-1).mean() > 0.05, "the painted label did not appear in the view"
@@ -310,10 +254,10 @@ def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
         page.keyboard.down("Shift")
         page.mouse.click(box["x"] + C + 0.7 * R * np.cos(a), box["y"] + C - 0.7 * R * np.sin(a))
         page.keyboard.up("Shift")
-        hidden = _poll(page, 1, VINE, lambda g: g[5] == "False")
+        hidden = poll(page, 1, VINE, lambda g: g[5] == "False")
         assert hidden[5] == "False", hidden
         frame.scroll_into_view_if_needed()
-        gone = _until_changed(frame, after)
+        gone = until_changed(frame, after)
         page.screenshot(path=str(shots / "workbench_vine_hidden.png"))
         assert np.abs(gone - after).max(axis=-1).mean() > 0.05, "hiding the label did not change the view"
         assert not [e for e in errors if "plantvr" in e.lower()], errors
@@ -327,20 +271,20 @@ def test_lsystem_widget_step_slider_derives_and_redraws_in_jupyterlab(wb_lab, sh
     live view shows the plant of the new step."""
     with notebook_page(wb_lab, "lsystem.ipynb", len(WB_LSYSTEM), viewport=(1280, 900)) as (page, errors):
         run_cell(page, 0)
-        frame = _live_view(page, 0)
+        frame = live_view(page, 0)
         run_cell(page, 1)
         live, step, modules, _, _ = printed(page, 1, LS)
         assert live == "True" and step == "2"
-        before = _pixels(frame)
+        before = pixels(frame)
         page.screenshot(path=str(shots / "lsystem_widget_step2.png"))
         slider = page.locator(".jp-Cell").nth(0).locator(".widget-hslider", has_text="Step")
         handle = slider.locator(".noUi-handle").first
         handle.scroll_into_view_if_needed()
-        _drag_handle(page, handle, 400, steps=8)
-        got = _poll(page, 1, LS, lambda g: g[1] == "5")
+        drag_handle(page, handle, 400, steps=8)
+        got = poll(page, 1, LS, lambda g: g[1] == "5")
         assert got[1] == "5" and int(got[2]) > int(modules), got
         frame.scroll_into_view_if_needed()
-        after = _until_changed(frame, before)
+        after = until_changed(frame, before)
         page.screenshot(path=str(shots / "lsystem_widget_step5.png"))
         assert np.abs(after - before).max(axis=-1).mean() > 0.5, "the live view did not change"
         assert not [e for e in errors if "plantvr" in e.lower()], errors

@@ -275,3 +275,55 @@ def test_treesketch_slider_regrows_the_same_tree_for_the_same_parameters():
         assert [e.command for e in doc.log.events[-3:]] == ["set_params", "regrow", "undo"]
     finally:
         wb.close()
+
+
+def _camera(wb) -> np.ndarray:
+    return np.array([tuple(v) for v in wb.view.plotter.camera_position], float)
+
+
+def test_undo_of_a_regrow_restores_the_camera_fit_and_the_picture(tw):
+    """Issue 31: a regrow fits the camera to the new size; undoing it fits it back (same picture, same camera),
+    redoing it fits it again; an undo of a brush command leaves the camera alone."""
+    m, wb = tw
+    cam0, img0 = _camera(wb), wb.view.screenshot()
+    m.tropism_angle = 120.0                               # regrow: a wider tree, the camera backs off
+    cam1, img1 = _camera(wb), wb.view.screenshot()
+    assert not np.allclose(cam1, cam0)
+    m.undo()
+    assert m.tropism_angle == 0.0
+    np.testing.assert_allclose(_camera(wb), cam0, atol=1e-9)
+    np.testing.assert_array_equal(wb.view.screenshot(), img0)
+    m.redo()
+    np.testing.assert_allclose(_camera(wb), cam1, atol=1e-9)
+    np.testing.assert_array_equal(wb.view.screenshot(), img1)
+    wb.view.plotter.camera.zoom(1.5)                       # the user zooms in, paints, undoes the stroke
+    zoomed = _camera(wb)
+    m.paint([1.0, 6.0, 0.0], radius=1.0)
+    m.undo()
+    np.testing.assert_allclose(_camera(wb), zoomed, atol=1e-9)
+
+
+def test_forest_regrow_is_one_undo_item_with_its_parameter_change():
+    """Issue 31: dragging a forest setting grows the forest again; one undo takes back both the setting and the
+    forest (as a Tree Wand regrow does), and the log still replays to the same document."""
+    from plantvr.documents.forest import ForestDocument
+
+    settings = dict(n_trees=2, width=20.0, depth=20.0, min_dist=6.0, rounds=1, steps_per_round=2, crown_height=4.0,
+                    crown_radius=3.0, seed=4)
+    doc = ForestDocument(**settings)
+    doc.grow(params={"activation_threshold": 0.0, "length_mode": "constant"})
+    wb = workbench(doc, live=False, window_size=(96, 96))
+    try:
+        grown, img0 = doc.state_bytes(), _image(wb.screen.value)
+        wb.panels.controls["n_trees"].value = 4
+        assert wb.regrows == 1 and len(doc.forest.trees) > 2
+        assert np.abs(_image(wb.screen.value) - img0).max(axis=-1).mean() > 0
+        doc.undo()
+        assert doc.n_trees == 2 and doc.state_bytes() == grown
+        np.testing.assert_array_equal(_image(wb.view.png()), img0)
+        doc.redo()
+        replayed = ForestDocument(**settings)
+        replayed.replay(doc.log)
+        assert replayed.state_bytes() == doc.state_bytes() and doc.n_trees == 4
+    finally:
+        wb.close()
