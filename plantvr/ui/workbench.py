@@ -166,7 +166,7 @@ class Workbench(W.HBox):
         self._pending = False
         self._refit = False           # the next change is a regrow's: refit the camera
         self._redraw = False          # a headless picture is due
-        self._fits: list = []         # the undo items of regrows: undone or redone, the camera is fitted again
+        self._fits: list = []         # (undo item of a regrow, camera before it): undone, the camera goes back
         self._start = len(doc.log)
         self._closed = True           # until the layout is built
         self.view = View(doc, off_screen=True, window_size=window_size)
@@ -240,13 +240,20 @@ class Workbench(W.HBox):
     def _on_change(self, change) -> None:
         if self.view._held:
             return
+        camera = None if self._refit else self._regrow_camera(change)
         if not self._framed and self._has_content():
             self._framed = True
             self.view.frame()
             if self.live:
                 self.view._render_soon()
-        elif self._refit or self._travels_fit(change):   # a regrow changed the size: fit it again, same direction
+        elif self._refit or camera is True:  # a regrow (or its redo) changed the size: fit, same direction
             self.view.fit()
+            if self.live:
+                self.view._render_soon()
+        elif camera is not None:          # a regrow undone: the camera it had before, exactly
+            with self.view.lock:
+                self.view.plotter.camera_position = camera
+                self.view.plotter.reset_camera_clipping_range()
             if self.live:
                 self.view._render_soon()
         self._refit = False
@@ -259,16 +266,19 @@ class Workbench(W.HBox):
                 loop.call_soon(self._draw)
         self._sync()
 
-    def _travels_fit(self, change) -> bool:
-        """Whether ``change`` is an undo or redo of a regrow (the camera fit goes back and forth with it)."""
+    def _regrow_camera(self, change):
+        """For the undo of a regrow, the camera before it; for its redo, True (fit again); else None."""
         h, command = self.doc.history, getattr(change, "command", None)
         item = h.next_redo if command == "undo" else h.top if command == "redo" else None
-        return item is not None and any(item is fit for fit in self._fits)
+        camera = next((cam for fit, cam in self._fits if item is not None and item is fit), None)
+        return camera if command == "undo" or camera is None else True
 
-    def _note_fit(self) -> None:
+    def _note_fit(self, camera) -> None:
+        """Remember the regrow's undo item (the history's top) and the camera before the first regrow joined to it
+        (a slider drag regrows many times into one item)."""
         top = self.doc.history.top
-        if top is not None:
-            self._fits = [*self._fits[-self.doc.history.max_items:], top]
+        if top is not None and not any(top is fit for fit, _ in self._fits):
+            self._fits = [*self._fits[-self.doc.history.max_items:], (top, camera)]
 
     def _draw(self) -> None:
         if self._redraw and not self._closed:
@@ -329,8 +339,8 @@ class Workbench(W.HBox):
         the last reset that are not undone, re-issued in order, logged as one ``regrow`` and one undo item joined
         to the parameter change that caused it; the document's observers are notified once, at the end. A forest: its
         last ``grow`` again (same overrides and TreeSketch options), when it was grown, joined to the parameter
-        change's undo item the same way. The camera is then fitted to the new size (same direction), and again
-        when the regrow is undone or redone.
+        change's undo item the same way. The camera is then fitted to the new size (same direction); undoing the
+        regrow puts back the camera it had before, redoing it fits again.
         """
         if self._regrow_kind is None:
             raise ValueError(f"regrow needs a Tree Wand, TreeSketch or forest document, got {type(self.doc).__name__}")
@@ -340,17 +350,19 @@ class Workbench(W.HBox):
             if doc.forest is None or not grows:
                 return 0
             self._refit = True
+            camera = self.view.plotter.camera_position
             with doc.history_block(amend=True):     # one undo item with the change that caused it
                 doc.grow(**dict(grows[-1].kwargs))
-            self._note_fit()
+            self._note_fit(camera)
             self.regrows += 1
             self._sync()
             return 1
         # a model operation: the document's regrow command (one undo item joined to the parameter change that
         # caused it, logged as one ``regrow``); this view is held, so it redraws once
+        camera = self.view.plotter.camera_position
         with self.view.hold():
             n = doc.regrow(amend=True)
-        self._note_fit()
+        self._note_fit(camera)
         self.regrows += 1
         self._refit = True
         self._on_change(None)

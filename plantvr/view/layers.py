@@ -20,9 +20,10 @@ parameters the view passes.
 """
 from __future__ import annotations
 
+import functools
 import os
-from dataclasses import dataclass, fields, is_dataclass
 from collections.abc import Mapping
+from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
 
 os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
@@ -32,6 +33,7 @@ import pyvista as pv  # noqa: E402
 
 from .._validation import check_array, check_int  # noqa: E402
 from ..geometry.lod import lod_chain  # noqa: E402
+from ..geometry.textures import bark_texture  # noqa: E402
 from ..io.tree import IncrementalTreeGeometry  # noqa: E402
 from ..params import TREEWAND  # noqa: E402
 from ..types import Instances, Points, TreeArrays, TriMesh  # noqa: E402
@@ -41,7 +43,6 @@ from .polydata import mesh_arrays, texture, to_polydata  # noqa: E402
 __all__ = ["LAYERS", "LOD", "InstancesLayer", "Layer", "LodTreeLayer", "MeshLayer", "PointsLayer", "TreeLayer",
            "check_content", "layer_class", "same_content", "scene_layers"]
 
-BARK = "#8b5a2b"
 LEAF = "#4f8a2f"
 MARKER = "#f5d142"
 SURFACE = "#a0703c"
@@ -332,13 +333,22 @@ class TreeLayer(Layer):
         b = g.branches
         poly = to_polydata((b.vertices, b.faces))
         poly.point_data["Normals"] = b.normals
-        self._show("main", poly, color=BARK, smooth_shading=True)
+        poly.active_texture_coordinates = b.uv                # the bark coordinates: bark_rate along, as exported
+        self._show("main", poly, smooth_shading=True, texture=_bark())
         lm = g.leaf_mesh
         self._show("leaves", to_polydata((lm.vertices, lm.faces)) if lm is not None and len(lm.faces) else None,
                    color=LEAF, smooth_shading=True)
 
     def points(self) -> np.ndarray:
         return np.zeros((0, 3)) if self.content is None else np.asarray(self.content.pos, float)
+
+
+@functools.cache
+def _bark() -> pv.Texture:
+    """The exporters' default bark image (:func:`~plantvr.geometry.textures.bark_texture`), repeating."""
+    tex = texture(bark_texture("furrowed", 256))
+    tex.repeat = True
+    return tex
 
 
 class LodTreeLayer(Layer):

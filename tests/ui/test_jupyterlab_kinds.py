@@ -48,13 +48,6 @@ STATE_CELL = ("import hashlib, json\nprint('STATE', json.dumps({'values': values
               "hashlib.sha1(doc.state_bytes()).hexdigest()[:16]}, default=str))")
 STATE = r"STATE (\{.*\})"
 _PARAMS = ("values = lambda: {k: v for k, v in doc.params.items() if isinstance(v, (bool, int, float, str))}\n")
-#: Parameters the view does not draw: the bark is drawn in one colour (no texture), so the bark rate (texture
-#: repeats per unit length, spec 000_treewand §3) changes only texture coordinates nobody shows.
-NOT_DRAWN = ("bark_rate",)
-#: Kinds whose undone regrow refits the camera a hair off the first framing: that one was made at the workbench's
-#: window size (380 x 320) before the live view resized the render window to its frame (378 x 318), and a wide
-#: scene's fit depends on the aspect ratio (the forest: camera distance 51.51 vs 51.46; the document is the same).
-FIT_SLACK = ("forest",)
 
 
 @dataclass(frozen=True)
@@ -249,23 +242,19 @@ def test_workbench_of_every_kind_in_offline_jupyterlab(kinds_lab, kind):
             changed = {k for k in got["values"] if got["values"][k] != start["values"].get(k)}
             assert changed == {name}, (kind, name, start["values"], got["values"])
             _centered(frame)
-            if name in NOT_DRAWN:
-                time.sleep(1.0)
-                after = pixels(frame)
-            else:
-                after = until_changed(frame, before)
-                assert _diff(after, before) > 0.01, f"{kind}: {name} changed, the live view did not"
-                print(f"{kind}: {name} {start['values'][name]} -> {got['values'][name]}, "
-                      f"view changed by {_diff(after, before):.3f}")
+            after = until_changed(frame, before)
+            assert _diff(after, before) > 0.01, f"{kind}: {name} changed, the live view did not"
+            print(f"{kind}: {name} {start['values'][name]} -> {got['values'][name]}, "
+                  f"view changed by {_diff(after, before):.3f}")
             page.screenshot(path=str(shots / f"kinds_{kind}_{n}_{name}.png"))
             undo.scroll_into_view_if_needed()
             undo.click()
             back = _until_state(page, lambda s, start=start: s["state"] == start["state"])
             assert back == start, f"{kind}: Undo did not restore the document after {name}"
             _centered(frame)
-            # the picture before again (0.02: a few pixels), or for FIT_SLACK nearer to it than to the changed one
-            def back_again(px, before=before, after=after):
-                return _diff(px, before) <= 0.02 or (kind in FIT_SLACK and 2 * _diff(px, before) < _diff(px, after))
+            # the picture before again (0.02: a few pixels; an undone regrow puts the camera back exactly)
+            def back_again(px, before=before):
+                return _diff(px, before) <= 0.02
             again = _until_back(frame, back_again)
             ok = back_again(again)
             print(f"{kind}: {name} undone, {_diff(again, before):.3f} from before, {_diff(again, after):.3f} from after")

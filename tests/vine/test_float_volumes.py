@@ -271,7 +271,8 @@ def test_bundles_keep_float_and_signed_volumes(tmp_path, sdf, ct, embed):
 
 def test_review_app_level_slider_spans_the_data(sdf, ct):
     pytest.importorskip("trame_vtk")
-    from plantvr.view.vine_app import VineReviewApp, _level_slider, histogram_svg
+    from plantvr.view.vine_app import VineReviewApp, histogram_svg
+    from plantvr.view.vine_svg import _level_slider
     sl = _level_slider(ct)
     assert sl == {"min": float(ct.min()) + 0.5, "max": float(ct.max()) - 0.5, "step": 1}
     sl = _level_slider(sdf)
