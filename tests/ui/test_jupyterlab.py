@@ -6,6 +6,8 @@ runs the cells, drags the triangle's handle, then re-runs a cell that prints ``m
 kernel; the printed weights are read back from the page. A cell then sets the weights in the kernel and
 the handle moves in the page. In the same session a parameter slider of the generated panels is dragged
 (the model's λ follows) and a colour-wheel slice is clicked (the selected label follows). The server is always killed.
+The workbench tests (Tree Wand and ViNE brushes, the L-system step slider) run with the network blocked, as
+test_jupyterlab_kinds does (issue 31): the server and kernels resolve no other host, the page reaches none.
 Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 """
 import time
@@ -167,7 +169,7 @@ WB_LSYSTEM = [
 @pytest.fixture
 def wb_lab(tmp_path):
     with jupyter_lab(tmp_path, {"treewand.ipynb": WB_TREEWAND, "vine.ipynb": WB_VINE,
-                                "lsystem.ipynb": WB_LSYSTEM}) as url:
+                                "lsystem.ipynb": WB_LSYSTEM}, offline=True) as url:   # the network blocked
         yield url
 
 
@@ -175,7 +177,7 @@ TW = r"TW (\w+) (\d+) (\d+) (\d+) (\d+) (\d+) ([\d.]+)"
 
 
 def test_workbench_treewand_slider_regrows_and_brush_paints_in_jupyterlab(wb_lab, shots):
-    with notebook_page(wb_lab, "treewand.ipynb", len(WB_TREEWAND), viewport=(1280, 900)) as (page, errors):
+    with notebook_page(wb_lab, "treewand.ipynb", len(WB_TREEWAND), viewport=(1280, 900), offline=True) as (page, errors):
         run_cell(page, 0)
         frame = live_view(page, 0)
         run_cell(page, 1)
@@ -209,14 +211,14 @@ def test_workbench_treewand_slider_regrows_and_brush_paints_in_jupyterlab(wb_lab
         text = status.inner_text()
         assert f"markers {got2[2]}" in text, text
         assert np.abs(painted - after).max(axis=-1).mean() > 0.05, "the markers did not appear in the view"
-        assert not [e for e in errors if "plantvr" in e.lower()], errors
+        assert not [e for e in errors if "plantvr" in e.lower() or e.startswith("offline:")], errors
 
 
 VINE = r"VINE (\w+) (\d+) (\d+) (\d+) (\[[\d, ]*\]) (\w+)"
 
 
 def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
-    with notebook_page(wb_lab, "vine.ipynb", len(WB_VINE), viewport=(1280, 900)) as (page, errors):
+    with notebook_page(wb_lab, "vine.ipynb", len(WB_VINE), viewport=(1280, 900), offline=True) as (page, errors):
         run_cell(page, 0)
         frame = live_view(page, 0)
         run_cell(page, 1)
@@ -260,7 +262,7 @@ def test_workbench_vine_wheel_and_label_brush_in_jupyterlab(wb_lab, shots):
         gone = until_changed(frame, after)
         page.screenshot(path=str(shots / "workbench_vine_hidden.png"))
         assert np.abs(gone - after).max(axis=-1).mean() > 0.05, "hiding the label did not change the view"
-        assert not [e for e in errors if "plantvr" in e.lower()], errors
+        assert not [e for e in errors if "plantvr" in e.lower() or e.startswith("offline:")], errors
 
 
 LS = r"LS (\w+) (\d+) (\d+) ([\d.]+) (\d+)"
@@ -269,7 +271,7 @@ LS = r"LS (\w+) (\d+) (\d+) ([\d.]+) (\d+)"
 def test_lsystem_widget_step_slider_derives_and_redraws_in_jupyterlab(wb_lab, shots):
     """Issue 23: dragging the widget's derivation-step slider in the page issues set_step in the kernel, and the
     live view shows the plant of the new step."""
-    with notebook_page(wb_lab, "lsystem.ipynb", len(WB_LSYSTEM), viewport=(1280, 900)) as (page, errors):
+    with notebook_page(wb_lab, "lsystem.ipynb", len(WB_LSYSTEM), viewport=(1280, 900), offline=True) as (page, errors):
         run_cell(page, 0)
         frame = live_view(page, 0)
         run_cell(page, 1)
@@ -287,4 +289,4 @@ def test_lsystem_widget_step_slider_derives_and_redraws_in_jupyterlab(wb_lab, sh
         after = until_changed(frame, before)
         page.screenshot(path=str(shots / "lsystem_widget_step5.png"))
         assert np.abs(after - before).max(axis=-1).mean() > 0.5, "the live view did not change"
-        assert not [e for e in errors if "plantvr" in e.lower()], errors
+        assert not [e for e in errors if "plantvr" in e.lower() or e.startswith("offline:")], errors
