@@ -51,6 +51,17 @@ MAX_STEPS = 10 ** 6
 
 
 @dataclass(frozen=True)
+class SketchSnapshot:
+    """Read-only picture of the TreeSketch document after one change (as Tree Wand's ``Snapshot``): the live tree,
+    its bud slots (``"pos"``, ``"dir"``, ``"radius"``, ``"up"``: leaves grow there), the markers and the sketch."""
+
+    tree: TreeArrays
+    buds: dict[str, np.ndarray]
+    markers: np.ndarray
+    sketch: np.ndarray
+
+
+@dataclass(frozen=True)
 class _StepAtom(StateAtom):
     """One growth step: what :meth:`SketchDocument.ungrow` takes back and :meth:`SketchDocument.grow` replays."""
 
@@ -553,19 +564,23 @@ class SketchDocument(Document):
 
     # -- views --------------------------------------------------------------------------------------------------
     def scene(self) -> dict[str, Any]:
-        """``{"tree": TreeArrays, "markers": Points, "sketch": Points}`` (the sketch: the brush centres of the
-        strokes)."""
+        """``{"tree": TreeArrays, "markers": Points, "sketch": Points}`` of the newest snapshot (the sketch: the
+        brush centres of the strokes); the views find the tree's bud slots, for the leaves, in the snapshot."""
+        snap = self.latest if self.latest is not None else self.make_snapshot()
+        return {"tree": snap.tree, "markers": Points(snap.markers), "sketch": Points(snap.sketch)}
+
+    def make_snapshot(self) -> SketchSnapshot:
+        """The live tree, its bud slots, the markers and the sketch, immutable, for renderers on other threads."""
         e = self._engine
-        return {"tree": TreeArrays.from_tree(e.tree), "markers": Points(_frozen(e.markers)),
-                "sketch": Points(_frozen(self._samples))}
+        t, b = e.tree, e.buds()
+        buds = {"pos": b.pos, "dir": b.dir, "radius": t.radius[b.node], "up": t.lat[b.node]}   # fresh gathers
+        for v in buds.values():
+            v.flags.writeable = False
+        return SketchSnapshot(TreeArrays.from_tree(t), buds, _frozen(e.markers), _frozen(self._samples))
 
-    def make_snapshot(self) -> dict[str, Any]:
-        """The :meth:`scene`, for renderers on other threads (immutable arrays)."""
-        return self.scene()
-
-    def on_snapshot(self, snapshot: dict[str, Any]) -> None:
-        self.n_internodes = snapshot["tree"].n_internodes
-        self.n_markers = len(snapshot["markers"].xyz)
+    def on_snapshot(self, snapshot: SketchSnapshot) -> None:
+        self.n_internodes = snapshot.tree.n_internodes
+        self.n_markers = len(snapshot.markers)
         self.steps_done = self._engine.step_count
 
     # -- files: a TreeLibrary entry ----------------------------------------------------------------------------

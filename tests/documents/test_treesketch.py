@@ -135,7 +135,7 @@ def test_scene_and_traits_follow():
     assert isinstance(sc["markers"], Points) and len(sc["markers"].xyz) == doc.n_markers
     np.testing.assert_array_equal(sc["sketch"].xyz, [[0.0, 1.0, 0.0], [0.0, 5.0, 0.0]])
     assert seen == ["begin_stroke", "move_stroke", "end_stroke", "grow"] and doc.can_undo
-    assert doc.latest["tree"].n_internodes == doc.n_internodes
+    assert doc.latest.tree.n_internodes == doc.n_internodes and len(doc.latest.buds["pos"]) > 0   # leaves grow there
 
 
 @pytest.mark.parametrize("call, match", [
