@@ -155,6 +155,7 @@ class _Namespace:
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
             nproduce=self._nbuf_add, useGroup=self._use_group, getGroup=lambda: self._group,
             frameDisplay=lambda *a: None, Lstring=self._lstring,
+            isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
         )
         ns.update(SB.guard_names(self._tick))
         if self.trusted:                                      # as the builtins, refusing only huge integers

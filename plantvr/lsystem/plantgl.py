@@ -27,6 +27,7 @@ References
 from __future__ import annotations
 
 import builtins
+import copy
 import math
 import sys
 import types
@@ -34,9 +35,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BezierCurve2D", "Color3", "Color4", "Material", "NurbsCurve", "NurbsCurve2D", "Point2Array",
+__all__ = ["BezierCurve2D", "Color3", "Color4", "Material", "Matrix3", "NurbsCurve", "NurbsCurve2D", "Point2Array",
            "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "RealArray", "Vector2", "Vector3",
-           "Vector4", "cross", "direction", "dot", "norm"]
+           "Vector4", "angle", "cross", "direction", "dot", "norm"]
 
 
 # -- vectors -------------------------------------------------------------------------------------------------
@@ -116,7 +117,7 @@ class _Vector(list):
 
 
 class Vector2(_Vector):
-    """PlantGL ``Vector2``."""
+    """PlantGL ``Vector2`` (``Vector2.OX``, ``OY``, ``ORIGIN``)."""
 
     _N = 2
 
@@ -136,8 +137,19 @@ class Vector4(_Vector):
     _N = 4
 
 
-Vector3.OX, Vector3.OY, Vector3.OZ, Vector3.ORIGIN = Vector3(1, 0, 0), Vector3(0, 1, 0), Vector3(0, 0, 1), \
-    Vector3(0, 0, 0)
+class _Constant:
+    """A class constant (``Vector3.OX``) given as a fresh vector each time: the vectors are mutable lists."""
+
+    def __init__(self, *v) -> None:
+        self.v = v
+
+    def __get__(self, obj, cls):
+        return cls(*self.v)
+
+
+Vector2.OX, Vector2.OY, Vector2.ORIGIN = _Constant(1, 0), _Constant(0, 1), _Constant(0, 0)
+Vector3.OX, Vector3.OY, Vector3.OZ, Vector3.ORIGIN = (_Constant(1, 0, 0), _Constant(0, 1, 0), _Constant(0, 0, 1),
+                                                      _Constant(0, 0, 0))
 
 
 def norm(v) -> float:
@@ -153,6 +165,52 @@ def dot(a, b) -> float:
 def cross(a, b) -> Vector3:
     """Cross product of two 3-vectors."""
     return Vector3(*np.cross(np.asarray(a, float)[:3], np.asarray(b, float)[:3]))
+
+
+def angle(a, b, axis=None) -> float:
+    """The angle from ``a`` to ``b`` in radians (PlantGL's ``angle``): signed for 2-vectors; for 3-vectors in
+    [0, pi], or, with ``axis``, negative when ``a x b`` points against it."""
+    if len(a) == 2 and len(b) == 2:
+        return math.atan2(float(a[0]) * float(b[1]) - float(a[1]) * float(b[0]), dot(a, b))
+    c = cross(a, b)
+    s = norm(c)
+    if axis is not None and dot(c, axis) < 0:
+        s = -s
+    return math.atan2(s, dot(a, b))
+
+
+class Matrix3:
+    """PlantGL's ``Matrix3``: a 3x3 matrix, ``Matrix3.axisRotation(axis, angle)`` (Rodrigues, the axis taken as
+    given), ``m * v`` (a Vector3) and ``m * n``."""
+
+    def __init__(self, *values) -> None:
+        a = np.eye(3) if not values else np.asarray(values[0] if len(values) == 1 else values, float)
+        if a.size != 9 or not np.isfinite(a).all():
+            raise ValueError(f"Matrix3 needs 9 finite numbers (or 3 rows of 3), got {values!r:.80}")
+        self._m = a.reshape(3, 3)
+
+    @staticmethod
+    def axisRotation(axis, angle: float) -> Matrix3:
+        x, y, z = (float(v) for v in axis)
+        c, s = math.cos(float(angle)), math.sin(float(angle))
+        t = 1 - c
+        return Matrix3(t * x * x + c, t * x * y - s * z, t * x * z + s * y,
+                       t * x * y + s * z, t * y * y + c, t * y * z - s * x,
+                       t * x * z - s * y, t * y * z + s * x, t * z * z + c)
+
+    def __mul__(self, o):
+        if isinstance(o, Matrix3):
+            return Matrix3(self._m @ o._m)
+        return Vector3(*(self._m @ np.asarray(o, float)[:3]))
+
+    def transpose(self) -> Matrix3:
+        return Matrix3(self._m.T)
+
+    def __getitem__(self, ij):
+        return float(self._m[ij])
+
+    def __repr__(self) -> str:
+        return "Matrix3(" + ", ".join(f"{v:g}" for v in self._m.ravel()) + ")"
 
 
 def direction(v):
@@ -299,6 +357,10 @@ class _Curve:
 
     def getLength(self) -> float:
         return float(self._arc()[0][-1])
+
+    def deepcopy(self):
+        """A copy sharing nothing (PlantGL's ``SceneObject.deepcopy``)."""
+        return copy.deepcopy(self)
 
     def getArcLengthToUMapping(self) -> QuantisedFunction:
         """The parameter ``u`` at each fraction of the curve's length, as a function on [0, 1]."""

@@ -132,3 +132,37 @@ def test_initialisation_block_defines_curves_materials_and_scalars_as_lpy_does()
         LSystem(EDITOR)                                        # untrusted: the block's code does not run
     with pytest.raises(LSystemError, match=r"line 18.*ZeroDivisionError"):
         LSystem(EDITOR.replace('context["scale"] = 2', 'context["scale"] = 1 / 0'), trusted=True)
+
+
+def test_matrix3_angle_constants_and_curve_methods_as_plantgl():
+    """PlantGL's Matrix3.axisRotation (Rodrigues), angle (signed in 2-D, by an axis in 3-D), fresh class constants,
+    deepcopy and the LineicModel methods of the curves (issue 33: the bending and path grammars use them)."""
+    import copy
+    import math
+
+    from plantvr.lsystem.plantgl import Matrix3, NurbsCurve2D, Polyline2D, Vector2, Vector3, angle
+
+    r = Matrix3.axisRotation((0, 0, 1), math.pi / 2)
+    assert np.allclose(r * Vector3(1, 0, 0), [0, 1, 0]) and np.allclose((r * r) * Vector3(1, 0, 0), [-1, 0, 0])
+    assert np.allclose((r * r.transpose()) * Vector3(0.3, -2, 5), [0.3, -2, 5])
+    assert angle(Vector3(1, 0, 0), Vector3(0, 1, 0)) == pytest.approx(math.pi / 2)
+    assert angle(Vector3(1, 0, 0), Vector3(0, 1, 0), (0, 0, -1)) == pytest.approx(-math.pi / 2)
+    assert angle(Vector2(1, 0), Vector2(0, -1)) == pytest.approx(-math.pi / 2)
+    v = Vector3.OX
+    v += Vector3(1, 1, 1)                                 # a constant is a fresh vector: OX is still (1, 0, 0)
+    assert list(Vector3.OX) == [1, 0, 0] and list(Vector2.OY) == [0, 1]
+    p = Polyline2D([(0, 0), (1, 0), (1, 1)])
+    assert p.getLength() == pytest.approx(2.0) and list(p.getTangentAt(0.5)) == pytest.approx([1, 0])
+    assert p.getArcLengthToUMapping()(0.75) == pytest.approx(1.5)       # 3/4 of the length: half-way up the 2nd
+    c = NurbsCurve2D([(0, 0, 1), (1, 0, 1), (2, 0, 1)], degree=1)
+    assert c.getLength() == pytest.approx(2.0) and c.getFirstKnot() == 0.0 and c.getLastKnot() == 1.0
+    d = c.deepcopy()
+    d.ctrlPointList[0, 0] = 5.0
+    assert c.ctrlPointList[0, 0] == 0.0 and isinstance(copy.copy(d), NurbsCurve2D)
+    with pytest.raises(ValueError, match="Matrix3 needs 9 finite numbers"):
+        Matrix3(1, 2, 3)
+
+
+def test_is_animation_enabled_is_false():
+    g = "Axiom: A\nderivation length: 1\nproduction:\nA --> B(1 if isAnimationEnabled() else 2)\nendlsystem\n"
+    assert LSystem(g).derive(1).modules() == [("B", (2.0,))]
