@@ -107,6 +107,8 @@ class IconSelector(W.HBox):
     """
 
     value = traitlets.Unicode()
+    #: Not synced: ipywidgets' front end fails to render a Box with a tooltip; the label and buttons show it.
+    tooltip = traitlets.Unicode(None, allow_none=True)
 
     def __init__(self, options, value: str, description: str = "", tooltip: str = "", param: str = "bark_texture"):
         self.options = tuple(options)

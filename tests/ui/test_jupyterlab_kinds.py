@@ -6,8 +6,9 @@ notebook's cells and checks that the live view (trame, rendered in the kernel) s
 tab of the generated panel (the part's own panel where it has no generated one), drags the tab's first slider
 and checks, from what a kernel cell prints, that exactly that parameter of the document changed and that the
 view's pixels followed; the workbench's *Undo* button then restores the document (its state bytes, hashed) and
-the picture. No output area shows stderr text or a traceback, the page has no uncaught JavaScript error and no
-console error naming plantvr or anywidget. The brushes (Tree Wand, ViNE) are tested in test_jupyterlab.py.
+the picture. No output area shows stderr text or a traceback, no widget shows ipywidgets' error box, the page
+has no uncaught JavaScript error and no console error naming plantvr or anywidget or a widget it could not
+render. The brushes (Tree Wand, ViNE) are tested in test_jupyterlab.py.
 
 Screenshots go to ``$PLANTVR_SCREENSHOTS`` (default: the test's tmp dir).
 """
@@ -264,5 +265,7 @@ def test_workbench_of_every_kind_in_offline_jupyterlab(kinds_lab, kind):
             assert ok, f"{kind}: Undo did not restore the picture after {name}"
         assert not page.evaluate(_STDERR), page.evaluate(_STDERR)
         assert not errors, errors
-        assert not [c for c in console if "plantvr" in c.lower() or "anywidget" in c.lower()], console
+        assert not [c for c in console if "plantvr" in c.lower() or "anywidget" in c.lower()
+                    or "could not create a view" in c.lower()], console
+        assert page.locator(".jupyter-widgets-error-widget").count() == 0, f"{kind}: a widget failed to render"
     assert not (refused.exists() and refused.read_text().split()), refused.read_text()
