@@ -94,13 +94,10 @@ def _eyes(frame: int):
     return eyes, proj
 
 
-def time_layout(branches, markers, width: int, height: int, layout: str, frames: int,
-                scene_matrix, surface=None) -> list[float]:
-    """ms per frame of ``layout`` ("side", "pair", or "single": one eye, the baseline).
-
-    With ``surface`` (a coloured ViNE polydata with a uint8 ``rgb`` point array) that is drawn instead of
-    ``branches``/``markers``, with the ground hidden, as in ViNE mode."""
-    from plantvr.vr.bridge import BARK, MARKER
+def time_layout(frame: dict, width: int, height: int, layout: str, frames: int, scene_matrix, *,
+                ground: bool = True) -> list[float]:
+    """ms per frame of ``layout`` ("side", "pair", or "single": one eye, the baseline) drawing ``frame`` (a View's
+    layers, :meth:`plantvr.view.View.snapshot`, as the headset's mesher thread hands them over)."""
     from plantvr.vr.render import StereoRenderer
     r = StereoRenderer(width, height, layout="side" if layout == "single" else layout)
     if layout == "single":   # one window of one eye with one renderer
@@ -109,11 +106,8 @@ def time_layout(branches, markers, width: int, height: int, layout: str, frames:
         r.renderers = r.renderers[:1]
         r.renderers[0].SetViewport(0, 0, 1, 1)
         rw.SetSize(width, height)
-    if surface is None:
-        r.set_content({"tree": (branches, {"color": BARK}), "markers": (markers, {"color": MARKER, "points": True})})
-    else:
-        r.set_content({"surface": (surface, {"scalars": "rgb", "cull": True})})
-        r.set_ground(False)
+    r.set_content(frame)
+    r.set_ground(ground)
     r.set_model_matrix(scene_matrix)
     out = []
     for i in range(frames + 1):
@@ -147,12 +141,12 @@ def bridge_run(tree, width: int, height: int, frames: int):
     b = Headset(Shown())
     b.controls.scene.scale, b.controls.scene.translation = 0.25, np.array([0.0, 0.0, -0.6])
     b.start(timeout=600)
-    b.wait_frames(frames + 2, timeout=600)
+    b.wait_content(timeout=600)  # the mesher thread has published the tree and a frame has drawn it
+    b.wait_frames(1, timeout=600)
+    b.frame_ms.clear()           # drop warm-up (shader compile, first upload)
+    b.wait_frames(frames, timeout=600)
     b.stop()
     fake_openvr.uninstall()
-    ms = list(b.frame_ms)
-    b.frame_ms.clear()
-    b.frame_ms.extend(ms[2:])   # drop warm-up (shader compile, first upload)
     return b
 
 
@@ -209,7 +203,8 @@ def vine_bridge_run(seg, width: int, height: int, frames: int, timeout: float = 
 
 def vine_case(args, w: int, h: int, frames: int) -> dict:
     """ViNE mode: full mesh → DisplayProxy → stereo frames through the Headset (000_vine §4.5, §5.7)."""
-    from plantvr.types import TriMesh
+    from plantvr.types import LabelledSurface
+    from plantvr.view import View
     from plantvr.vine.proxy import DisplayProxy
     from plantvr.vr import Headset
     # full size: the gerbera class (36 M triangles) when the decimation's peak memory fits ``--mem-gib``
@@ -233,23 +228,21 @@ def vine_case(args, w: int, h: int, frames: int) -> dict:
     if not args.quick and not args.vine_faces and len(seg.faces) < GERBERA_FACES:
         print(f"  (36 M triangles need ~{GERBERA_FACES * PEAK_BYTES_PER_FACE / 2 ** 30:.0f} GiB peak, over "
               f"--mem-gib {args.mem_gib:g}: this is the largest mesh that fits; --vine-faces 36000000 runs it)")
-    # the same coloured surface the mesher thread draws (depth cue from the benchmark's head position)
+    # the same coloured surface the mesher thread draws: the View's labelled-surface layer, depth-cued from the
+    # benchmark's head position
     probe = Headset(seg)
     scene = probe.controls.scene.matrix
     eyes, _ = _eyes(0)
     eye_model = probe.controls.scene.to_model(0.5 * (eyes[0][:3, 3] + eyes[1][:3, 3]))
-    colors = seg.colors
-    vis = colors.visible[proxy.labels]
-    f = proxy.faces
-    mesh = TriMesh(proxy.vertices, f[vis[f[:, 0]] & vis[f[:, 1]] & vis[f[:, 2]]])
-    mesh.colors = colors.rgba[proxy.labels]
     t0 = time.perf_counter()
-    surface = probe.build_layers({"surface": mesh}, eye_model)["surface"][0]
+    mirror = View({"surface": LabelledSurface(proxy)}, off_screen=True, window_size=(16, 16), depth_cue=True)
+    frame = mirror.snapshot(eye=eye_model)
     case["surface_ms"] = 1000 * (time.perf_counter() - t0)
-    print(f"  coloured surface (colours, hidden triangles dropped, depth cue; mesher thread): "
+    print(f"  coloured surface (the View's layer: colours, hidden triangles dropped, depth cue; mesher thread): "
           f"{case['surface_ms']:.0f} ms")
-    single = time_layout(None, None, w, h, "single", frames, scene, surface=surface)
-    side = time_layout(None, None, w, h, "side", frames, scene, surface=surface)
+    single = time_layout(frame, w, h, "single", frames, scene, ground=False)
+    side = time_layout(frame, w, h, "side", frames, scene, ground=False)
+    mirror.close()
     case["single_ms"], case["side_ms"] = float(np.median(single)), float(np.median(side))
     one = case["single_ms"]
     print(f"  baseline single eye          {one:9.1f} ms   (x2 = {2 * one:.1f} ms)")
@@ -275,7 +268,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--eye", default=None, help="per-eye WxH (default 2016x2240; quick 504x560)")
     ap.add_argument("--trees", default=None, help="internode counts (default 5000,22000; quick 500,5000)")
     ap.add_argument("--frames", type=int, default=None, help="timed frames per case (default 5; quick 2)")
-    ap.add_argument("--sides", type=int, default=6, help="tube sides (6 ~ LOD 6/32)")
+    ap.add_argument("--sides", type=int, default=6, help="branch cross-section sides at the tips (6 ~ LOD 6/32)")
     ap.add_argument("--grow-all", action="store_true",
                     help="grow every tree instead of synthesising the large one")
     ap.add_argument("--only", choices=("all", "trees", "vine"), default="all",
@@ -293,16 +286,14 @@ def main(argv: list[str] | None = None) -> dict:
     sizes = [int(s) for s in (args.trees or ("500,5000" if args.quick else "5000,22000")).split(",")]
     frames = args.frames or (2 if args.quick else 5)
 
-    import pyvista as pv
-
-    from plantvr.io.tree import branch_mesh
-    from plantvr.params import TREEWAND
-    from plantvr.vr.bridge import tube_mesh
+    from plantvr.types import Points
+    from plantvr.view import View
+    from plantvr.view.polydata import tube_polydata
     from plantvr.vr.gestures import SceneTransform
-    appearance = TREEWAND.defaults()
     scene = SceneTransform(scale=0.25, translation=(0.0, 0.0, -0.6)).matrix
+    sides = (args.sides, max(args.sides, 12))                 # as the Headset asks its tree layers
     results: dict = {"eye": (w, h), "frames": frames, "cases": []}
-    print(f"stereo frame time, {w}x{h} per eye, {frames} frames after warm-up, tube sides {args.sides}")
+    print(f"stereo frame time, {w}x{h} per eye, {frames} frames after warm-up, branch sides {sides}")
     print("note: the 11.1 ms (90 fps) target needs a GPU; this run renders on the CPU (EGL + Mesa llvmpipe) "
           "unless VTK found one")
     big = None
@@ -313,34 +304,36 @@ def main(argv: list[str] | None = None) -> dict:
         else:
             snap, how = synthetic_tree(n), "synthetic"
         t_make = time.perf_counter() - t0
+        View({"tree": synthetic_tree(50)}, off_screen=True, window_size=(16, 16), sides=sides).close()  # JIT first
         t0 = time.perf_counter()
-        branches = tube_mesh(snap, args.sides)
-        t_mesh = 1000 * (time.perf_counter() - t0)
-        lod = (args.sides, args.sides)
-        branch_mesh(synthetic_tree(50), appearance, lod=lod)   # shared generalized cylinders: JIT first
+        mirror = View({"tree": snap, "markers": Points(np.zeros((0, 3)))}, off_screen=True, window_size=(16, 16),
+                      ground=False, sides=sides)            # the headset's View: never rendered
+        frame = mirror.snapshot()
+        t_layer = 1000 * (time.perf_counter() - t0)
+        kids = np.flatnonzero(snap.parent >= 0)
         t0 = time.perf_counter()
-        branch_mesh(snap, appearance, lod=lod)
-        t_cyl = 1000 * (time.perf_counter() - t0)
-        markers = pv.PolyData()
-        tris = branches.triangulate().n_cells
-        cyl = f", generalized cylinders {t_cyl:.0f} ms"
-        print(f"\ntree: {snap.n_internodes} internodes ({how} in {t_make:.1f} s), {tris} triangles; "
-              f"mesh build "
-              f"(mesher thread, off the render thread): tubes {t_mesh:.0f} ms{cyl}")
-        case = {"internodes": snap.n_internodes, "how": how, "triangles": tris, "mesh_ms": t_mesh,
-                "cylinders_ms": t_cyl}
-        single = time_layout(branches, markers, w, h, "single", frames, scene)
+        tube_polydata(snap, kids, snap.radius[kids], sides=args.sides, capping=False)
+        t_tube = 1000 * (time.perf_counter() - t0)
+        tris = frame["tree"][0].n_cells
+        print(f"\ntree: {snap.n_internodes} internodes ({how} in {t_make:.1f} s), {tris} triangles; mesh build "
+              f"(mesher thread, off the render thread): the View's tree layer (generalized cylinders, bark "
+              f"coordinates) {t_layer:.0f} ms; baseline VTK tube filter (straight tubes, no joins or bark "
+              f"coordinates: less work) {t_tube:.0f} ms")
+        case = {"internodes": snap.n_internodes, "how": how, "triangles": tris, "layer_ms": t_layer,
+                "tube_filter_ms": t_tube}
+        single = time_layout(frame, w, h, "single", frames, scene)
         case["single_ms"] = float(np.median(single))
         one = case["single_ms"]
         print(f"  baseline single eye          {one:9.1f} ms   (x2 = {2 * one:.1f} ms)")
         for layout in ("side", "pair"):
-            ms = time_layout(branches, markers, w, h, layout, frames, scene)
+            ms = time_layout(frame, w, h, layout, frames, scene)
             case[f"{layout}_ms"] = float(np.median(ms))
             print(f"  stereo {layout:5s}                 {case[f'{layout}_ms']:9.1f} ms   "
                   f"= {case[f'{layout}_ms'] / case['single_ms']:.2f} x single eye; "
                   f"target 11.1 ms (90 fps): {'met' if case[f'{layout}_ms'] <= 11.1 else 'missed'}")
         results["cases"].append(case)
         big = snap
+        mirror.close()
     if big is not None:
         b = bridge_run(big, w, h, frames)
         st = b.stats()

@@ -14,6 +14,7 @@ its labels in place, volume slices), placed by a model pose (:meth:`View.set_mod
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import os
 from collections.abc import Iterator, Mapping, Sequence
@@ -28,12 +29,23 @@ import pyvista as pv  # noqa: E402
 from .._fileio import write_png  # noqa: E402
 from .._validation import check_array, check_point, check_range, check_size  # noqa: E402
 from ..document import kernel_loop  # noqa: E402
-from ..types import TreeArrays  # noqa: E402
 from ..vine.views import SavedView, load_view  # noqa: E402
 from ._render_lock import lock_plotter  # noqa: E402
 from .billboard import lod_by_distance  # noqa: E402
 from .live_server import launch_live_server  # noqa: E402
-from .layers import LOD, InstancesLayer, Layer, LodTreeLayer, MeshLayer, TreeLayer, scene_layers  # noqa: E402
+from .options import ViewOptions, check_bool  # noqa: E402
+from .polydata import brush_sphere, ground_disc  # noqa: E402
+from .layers import (  # noqa: E402
+    LOD,
+    InstancesLayer,
+    Layer,
+    LodTreeLayer,
+    MeshLayer,
+    TreeLayer,
+    scene_layers,
+    sync_layers,
+    tree_buds,
+)
 from .vine_layers import LabelledSurfaceLayer  # noqa: E402
 
 __all__ = ["LOD", "View", "launch_live_server", "side_by_side"]
@@ -77,59 +89,48 @@ class View:
         Appearance parameters of trees in a static scene (a document's own ``params`` are used otherwise).
     background : colour, optional
         One background colour (any pyvista colour; dark for a depth-cued segmentation); default a sky gradient.
+    depth_cue : bool
+        Blend labelled surfaces' colours toward ``background`` (black without one) with distance from the camera
+        (000_vine §2.2, Eq. 5.8); redone when the camera moved, before a picture.
+    sides : (int, int)
+        Cross-section sides of tree branches at the tips and at the base (:class:`~plantvr.view.layers.TreeLayer`).
     """
 
     def __init__(self, doc, *, off_screen: bool | None = None, window_size=(900, 700), show_markers: bool = True,
                  show_leaves: bool = True, ground: bool | None = None, lod: bool | LOD | None = None,
                  panels: Sequence[Sequence[str]] | None = None, titles: Sequence[str] | None = None,
-                 styles: Mapping[str, dict] | None = None, params: dict | None = None, background=None):
+                 styles: Mapping[str, dict] | None = None, params: dict | None = None, background=None,
+                 depth_cue: bool = False, sides=(6, 32)):
         is_doc = callable(getattr(doc, "scene", None)) and callable(getattr(doc, "observe", None))
         if not is_doc and not isinstance(doc, Mapping):
             raise TypeError(f"doc must be a document (with scene()) or a {{name: content}} mapping, "
                             f"got {type(doc).__name__}")
-        window_size = check_size("window_size", window_size, 16, 16384)
-        for name, v in (("show_markers", show_markers), ("show_leaves", show_leaves)):
-            _check_bool(name, v)
-        if ground is not None:
-            _check_bool("ground", ground)
-        lod = LOD() if lod is True else (None if lod is None or lod is False else lod)
-        if lod is not None and not isinstance(lod, LOD):
-            raise ValueError(f"lod must be True, False, None or a plantvr.view.LOD, got {type(lod).__name__}")
-        panels = _check_panels(panels)
-        if titles is not None and (isinstance(titles, str) or len(titles) != max(len(panels), 1)
-                                   or not all(isinstance(t, str) for t in titles)):
-            raise ValueError(f"titles must be one str per panel ({max(len(panels), 1)}), got {titles!r}")
-        styles = dict(styles or {})
-        if not all(isinstance(k, str) and isinstance(v, Mapping) for k, v in styles.items()):
-            raise ValueError("styles must map scene names to dicts of add_mesh options")
-        if params is not None and not isinstance(params, Mapping):
-            raise ValueError(f"params must be a dict, got {type(params).__name__}")
-        try:
-            background = None if background is None else pv.Color(background)
-        except ValueError:
-            raise ValueError(f"background must be a colour (name, hex or RGB), got {background!r}"[:300]) from None
+        o = ViewOptions(window_size, show_markers, show_leaves, ground, lod, panels, titles, styles, params,
+                        background, depth_cue, sides)
         scene = doc.scene() if is_doc else dict(doc)
-        classes = scene_layers(scene, lod, arrays=not is_doc)
+        classes = scene_layers(scene, o.lod, arrays=not is_doc)
         if off_screen is None:
             off_screen = not os.environ.get("DISPLAY")
         self.doc = doc if is_doc else None
-        self.lod, self.panels, self.styles = lod, panels, styles
-        self.show_leaves = show_leaves
-        self.hidden: set[str] = set() if show_markers else {"markers"}
+        self.lod, self.panels, self.styles = o.lod, o.panels, o.styles
+        self.show_leaves, self.sides = o.show_leaves, o.sides
+        #: the depth cue's target colour (None: no depth cue)
+        self.depth_cue = o.depth_cue
+        self.hidden: set[str] = set() if o.show_markers else {"markers"}
         self.layers: dict[str, Layer] = {}
         self.drawn_version = -1
         self.switches = 0
-        self._params = dict(params or {})
+        self._params = o.params
         self._scene: dict[str, Any] = {} if is_doc else dict(scene)
-        shape = (1, len(panels)) if len(panels) > 1 else (1, 1)
-        self.plotter = pv.Plotter(shape=shape, off_screen=off_screen, window_size=list(window_size),
+        shape = (1, len(o.panels)) if len(o.panels) > 1 else (1, 1)
+        self.plotter = pv.Plotter(shape=shape, off_screen=off_screen, window_size=list(o.window_size),
                                   border=False)
         for col in range(shape[1]):
             self.plotter.subplot(0, col)
-            if background is None:
+            if o.background is None:
                 self.plotter.set_background("#f4f1ea", top="#cfe3f5")
             else:
-                self.plotter.set_background(background)
+                self.plotter.set_background(o.background)
             if titles is not None:
                 self.plotter.add_text(titles[col], font_size=11, color="#333333", name=f"title{col}")
         if shape[1] > 1:
@@ -140,13 +141,12 @@ class View:
         self.plotter.subplot(0, 0)
         if ground is None:
             kinds = set(classes.values())
-            ground = lod is None and shape[1] == 1 and TreeLayer in kinds and not kinds & {MeshLayer, InstancesLayer}
+            ground = o.lod is None and shape[1] == 1 and TreeLayer in kinds and not kinds & {MeshLayer, InstancesLayer}
         if ground:
-            disc = pv.Disc(inner=0, outer=8, normal=(0, 1, 0), c_res=48)
-            self.plotter.add_mesh(disc, color="#9cb37a", name="ground", pickable=False)
+            self.plotter.add_mesh(ground_disc(), color="#9cb37a", name="ground", pickable=False)
         self.brush_center = np.zeros(3)
         self.brush_radius = float(getattr(doc, "brush_radius", 1.0))
-        self._brush = pv.Sphere(radius=1.0, theta_resolution=24, phi_resolution=16)
+        self._brush = brush_sphere()
         self._brush_actor = self.plotter.add_mesh(self._brush, color=GROW, opacity=0.25, name="brush",
                                                   pickable=False)
         self._brush_actor.SetVisibility(False)
@@ -158,12 +158,13 @@ class View:
         self.pose = np.eye(4)         # the model pose of every layer (:meth:`set_model_pose`)
         self._apply(scene)
         if self.doc is not None:      # after the layers, so those that follow the document update first
+            self.drawn_version = int(getattr(self.doc, "version", -1))
             self.doc.observe(self._on_change, names="change")
             if self.doc.has_trait("prune_mode"):
                 self.doc.observe(self._on_mode, names="prune_mode")
                 self._set_brush_colour(self.doc.prune_mode)
         self.frame()
-        if lod is not None:
+        if o.lod is not None:
             self._camera_tag = self.plotter.camera.AddObserver("ModifiedEvent", lambda *_: self.update_lod())
 
     # -- scene -> layers ----------------------------------------------------------------------------------
@@ -264,23 +265,8 @@ class View:
             return self._apply_locked(scene, classes, params)
 
     def _apply_locked(self, scene: Mapping[str, Any], classes: dict[str, type[Layer]], params: dict) -> list[str]:
-        redrawn = []
-        for name in [n for n in self.layers if n not in scene]:
-            self.layers.pop(name).remove()
-            redrawn.append(name)
-        for name, content in scene.items():
-            self._subplot(name)
-            layer = self.layers.get(name)
-            if layer is None or type(layer) is not classes[name]:
-                if layer is not None:
-                    layer.remove()
-                layer = classes[name](self.plotter, name, self.styles.get(name), leaves=self.show_leaves,
-                                      lod=self.lod)
-                layer.visible = name not in self.hidden
-                layer.pose = self.pose
-                self.layers[name] = layer
-            if layer.update(content, params=params, buds=self._buds(content)):
-                redrawn.append(name)
+        redrawn = sync_layers(self.layers, scene, classes, self._make_layer, params=params,
+                              buds=functools.partial(tree_buds, self.doc), before=self._subplot)
         self.plotter.subplot(0, 0)
         if self.lod is not None and redrawn:
             self.update_lod()
@@ -288,18 +274,17 @@ class View:
             self.plotter.render()
         return redrawn
 
+    def _make_layer(self, name: str, cls: type[Layer]) -> Layer:
+        layer = cls(self.plotter, name, self.styles.get(name), leaves=self.show_leaves, lod=self.lod,
+                    sides=self.sides, depth_cue=self.depth_cue)
+        layer.visible = name not in self.hidden
+        layer.pose = self.pose
+        return layer
+
     def _subplot(self, name: str) -> None:
         if len(self.panels) > 1:
             col = next((i for i, names in enumerate(self.panels) if name in names), 0)
             self.plotter.subplot(0, col)
-
-    def _buds(self, content) -> dict | None:
-        """Bud slots of a document's tree: the snapshot the tree arrays came from carries them (Tree Wand)."""
-        if isinstance(content, TreeArrays):
-            for snap in (getattr(self.doc, "latest", None), getattr(self.doc, "snapshot", None)):
-                if getattr(snap, "tree", None) is content:
-                    return getattr(snap, "buds", None)
-        return None
 
     @property
     def params(self) -> dict[str, Any]:
@@ -318,7 +303,7 @@ class View:
 
     def set_visible(self, name: str, visible: bool) -> None:
         """Show or hide the layer of scene entry ``name`` (kept across updates)."""
-        _check_bool("visible", visible)
+        check_bool("visible", visible)
         if visible:
             self.hidden.discard(name)
         else:
@@ -506,6 +491,23 @@ class View:
             write_png(path, img)
         return img
 
+    def snapshot(self, *, eye=None) -> dict[str, tuple[pv.PolyData, Any]]:
+        """What every layer shows, ``{actor name: (PolyData, actor)}`` (:meth:`Layer.snapshot
+        <plantvr.view.layers.Layer.snapshot>`), for a renderer on another thread and GL context: the headset
+        (:mod:`plantvr.vr`) draws a never-rendered View's layers this way. With ``eye`` (a model-space point) the
+        camera is put there first and the layers that follow it (the depth cue) are brought up to date."""
+        if eye is not None:
+            eye = check_point("eye", eye)
+        with self.lock:
+            if eye is not None:
+                self.plotter.camera.position = tuple(eye)
+            out: dict[str, tuple] = {}
+            for lay in self.layers.values():
+                if eye is not None:
+                    lay.refresh()
+                out.update(lay.snapshot())
+            return out
+
     def png(self) -> bytes:
         """The current picture as PNG bytes (for an ``ipywidgets.Image``)."""
         from PIL import Image  # noqa: PLC0415
@@ -588,18 +590,3 @@ def side_by_side(control, surface, *, off_screen: bool | None = None, window_siz
     return View(scene, off_screen=off_screen, window_size=window_size, panels=(("control",), ("surface",)),
                 titles=titles, styles={"control": {"color": CONTROL, "show_edges": True, "edge_color": EDGE,
                                                    "line_width": 1.0, "smooth_shading": False, "specular": 0.0}})
-
-
-def _check_bool(name: str, v) -> None:
-    if not isinstance(v, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {v!r}")
-
-
-def _check_panels(panels) -> tuple[tuple[str, ...], ...]:
-    if panels is None:
-        return ()
-    if isinstance(panels, str) or not isinstance(panels, Sequence) or not 1 <= len(panels) <= 8 or not all(
-            isinstance(p, Sequence) and not isinstance(p, str) and all(isinstance(n, str) for n in p)
-            for p in panels):
-        raise ValueError(f"panels must be 1 to 8 sequences of scene names, got {panels!r}"[:300])
-    return tuple(tuple(p) for p in panels)

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import os
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, is_dataclass
 from typing import Any
@@ -41,7 +42,7 @@ from .billboard import BARK_RGB, BILLBOARD_LEVEL, LOD_SCREEN_PX, make_billboard 
 from .polydata import mesh_arrays, texture, to_polydata  # noqa: E402
 
 __all__ = ["LAYERS", "LOD", "InstancesLayer", "Layer", "LodTreeLayer", "MeshLayer", "PointsLayer", "TreeLayer",
-           "check_content", "layer_class", "same_content", "scene_layers"]
+           "check_content", "layer_class", "same_content", "scene_layers", "sync_layers", "tree_buds"]
 
 LEAF = "#4f8a2f"
 MARKER = "#f5d142"
@@ -177,8 +178,14 @@ class Layer:
         ``texture`` may be an (H, W, 3|4) uint8 image.
     """
 
+    #: Point arrays the layer edits in place after drawing them (:meth:`snapshot` copies these; a draw replaces
+    #: every other array, so a snapshot shares them).
+    in_place: tuple[str, ...] = ()
+
     def __init__(self, plotter: pv.Plotter, name: str, style: dict | None = None, **options: Any):
         self.plotter, self.name = plotter, name
+        #: held while the layer's arrays change off its owner's thread (a document observer) and by :meth:`snapshot`
+        self.lock = threading.RLock()
         self.style = dict(style or {})
         if "texture" in self.style and self.style["texture"] is not None:
             self.style["texture"] = texture(self.style["texture"])
@@ -259,6 +266,21 @@ class Layer:
     def close(self) -> None:
         """Stop following anything the layer observes (nothing here); its actors stay."""
 
+    def snapshot(self) -> dict[str, tuple[pv.PolyData, Any]]:
+        """``{actor name: (PolyData, actor)}`` of what the layer shows, for a renderer on another thread and GL
+        context (the headset, :meth:`plantvr.View.snapshot`): each PolyData a shallow copy that the
+        layer's later draws leave as it is (they replace arrays; those of :attr:`in_place` are copied here)."""
+        out = {}
+        with self.lock:
+            for part, poly in self.polys.items():
+                snap = pv.PolyData()
+                snap.shallow_copy(poly)
+                for key in self.in_place:
+                    if key in poly.point_data:
+                        snap.point_data[key] = np.array(poly.point_data[key])
+                out[self._actor_name(part)] = (snap, self.actors[part])
+        return out
+
     def points(self) -> np.ndarray:
         """(N, 3) points the camera frames."""
         pts = [np.asarray(p.points) for k, p in self.polys.items() if p.n_points and self.actors[k].GetVisibility()]
@@ -293,14 +315,16 @@ def tree_params(params: dict | None) -> dict[str, Any]:
 class TreeLayer(Layer):
     """Generalized-cylinder branches and leaves of a tree (spec 000_treewand §3), re-meshed incrementally.
 
-    The one tree → mesh path of the view: :class:`~plantvr.io.tree.IncrementalTreeGeometry` re-evaluates only the
+    The one tree → mesh path of the view and the headset (``sides``: cross-section sides at the tips and at the
+    base, the LOD of §3.3): :class:`~plantvr.io.tree.IncrementalTreeGeometry` re-evaluates only the
     segments and buds a change touched (§3.5, item 20). Leaves are drawn when ``leaves`` is on, the tree comes
     with its bud slots (``buds``: ``"pos"``, ``"dir"``, ``"radius"``, ``"up"``) and ``leaf_size`` > 0.
     """
 
-    def __init__(self, plotter, name, style=None, *, leaves: bool = True, **options):
+    def __init__(self, plotter, name, style=None, *, leaves: bool = True, sides: tuple[int, int] = (6, 32),
+                 **options):
         super().__init__(plotter, name, style)
-        self.leaves = leaves
+        self.leaves, self.sides = leaves, sides
         self.geometry: IncrementalTreeGeometry | None = None
         self._params: dict | None = None
         self._buds = None
@@ -323,7 +347,7 @@ class TreeLayer(Layer):
         with_leaves = self.leaves and buds is not None
         if (self.geometry is None or self.geometry.leaves != with_leaves
                 or int(np.count_nonzero(np.asarray(tree.parent) >= 0)) == 0):
-            self.geometry = IncrementalTreeGeometry(leaves=with_leaves)
+            self.geometry = IncrementalTreeGeometry(lod=self.sides, leaves=with_leaves)
         if int(np.count_nonzero(np.asarray(tree.parent) >= 0)) == 0:
             self._show("main", None)
             self._show("leaves", None)
@@ -497,3 +521,35 @@ def scene_layers(scene, lod, *, arrays: bool = False) -> dict[str, type[Layer]]:
         except ValueError as exc:
             raise ValueError(f"scene[{name!r}]: {exc}") from None
     return out
+
+
+def tree_buds(doc, content) -> dict | None:
+    """Bud slots of a document's tree: the snapshot the tree arrays came from carries them (Tree Wand, TreeSketch)."""
+    if isinstance(content, TreeArrays):
+        for snap in (getattr(doc, "latest", None), getattr(doc, "snapshot", None)):
+            if getattr(snap, "tree", None) is content:
+                return getattr(snap, "buds", None)
+    return None
+
+
+def sync_layers(layers: dict[str, Layer], scene: Mapping[str, Any], classes: dict[str, type[Layer]], make, *,
+                params: dict, buds, before=None) -> list[str]:
+    """Bring ``layers`` (``{name: Layer}``, edited in place) to ``scene``: the layers of names gone are removed,
+    ``make(name, cls)`` makes the missing ones and those of another class (``classes``, :func:`scene_layers`), and
+    each draws its content (``buds(content)``: the tree's bud slots). ``before(name)`` runs before a layer is
+    made or drawn (a view's panel). Returns the names redrawn."""
+    redrawn = []
+    for name in [n for n in layers if n not in scene]:
+        layers.pop(name).remove()
+        redrawn.append(name)
+    for name, content in scene.items():
+        if before is not None:
+            before(name)
+        layer = layers.get(name)
+        if layer is None or type(layer) is not classes[name]:
+            if layer is not None:
+                layer.remove()
+            layer = layers[name] = make(name, classes[name])
+        if layer.update(content, params=params, buds=buds(content)):
+            redrawn.append(name)
+    return redrawn

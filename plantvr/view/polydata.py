@@ -7,9 +7,10 @@ e.g. ``trimesh.Trimesh`` or a ``(vertices, faces)`` pair); its optional attribut
 ``uv`` as texture coordinates, per vertex (V, 2) or per face corner (F, 3, 2): then the corners are split into
 their own points, for display only (spec 001_subdivision §1.6: "vertices split at UV seams for display only").
 
-Every other ``PolyData`` of the package is built here too (issue 30): the headset's layers
-(:func:`mesh_polydata`, :func:`points_polydata`) and the internode tubes of the headset and the desktop prune
-preview (:func:`tube_polydata`); ``plantvr.vr`` and ``plantvr.ui`` only call these.
+Every other ``PolyData`` of the package is built here too (issue 30): the internode tubes of the prune previews
+(:func:`tube_polydata`), the ground and the brush the View and the headset both show (:func:`ground_disc`,
+:func:`brush_sphere`), and the headset's overlays (:func:`window_quad`, :func:`segment_polydata`, the colour wheel
+through :func:`mesh_polydata`); ``plantvr.vr`` and ``plantvr.ui`` only call these.
 """
 from __future__ import annotations
 
@@ -22,8 +23,11 @@ import pyvista as pv  # noqa: E402
 
 from .._validation import MAX_COORD, check_array  # noqa: E402
 
-__all__ = ["checker_texture", "mesh_arrays", "mesh_polydata", "points_polydata", "texture", "to_polydata",
-           "tube_polydata"]
+__all__ = ["GROUND_RADIUS", "brush_sphere", "checker_texture", "ground_disc", "mesh_arrays", "mesh_polydata",
+           "points_polydata", "segment_polydata", "texture", "to_polydata", "tube_polydata", "window_quad"]
+
+#: Radius of the ground disc at y = 0 (m).
+GROUND_RADIUS = 8.0
 
 
 def mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -164,6 +168,26 @@ def tube_polydata(tree, nodes, radius, *, sides: int = 10, capping: bool = True)
     poly = pv.PolyData(pts, lines=np.column_stack([np.full(k, 2), np.arange(k), np.arange(k) + k]).ravel())
     poly["radius"] = np.concatenate([radius, radius])
     return poly.tube(scalars="radius", absolute=True, n_sides=sides, capping=capping)
+
+
+def ground_disc() -> pv.PolyData:
+    """The ground: a disc of radius :data:`GROUND_RADIUS` at y = 0, facing +y."""
+    return pv.Disc(inner=0, outer=GROUND_RADIUS, normal=(0, 1, 0), c_res=48)
+
+
+def brush_sphere() -> pv.PolyData:
+    """The brush: a unit sphere (the actor's matrix or the points' scale give its place and radius)."""
+    return pv.Sphere(radius=1.0, theta_resolution=24, phi_resolution=16)
+
+
+def window_quad(width: float = 0.6, height: float = 0.4) -> pv.PolyData:
+    """A parameter window of the headset: a ``width`` x ``height`` quad centred in its own z = 0 plane (m)."""
+    return pv.Plane(i_size=width, j_size=height, direction=(0, 0, 1), i_resolution=1, j_resolution=1)
+
+
+def segment_polydata(a=(0.0, 0.0, 0.0), b=(0.0, 0.0, 1.0)) -> pv.PolyData:
+    """One line segment from ``a`` to ``b`` (the headset's pointing ray; move it by setting its ``points``)."""
+    return pv.Line(a, b)
 
 
 def texture(image) -> pv.Texture:

@@ -50,10 +50,14 @@ class LabelledSurfaceLayer(Layer):
         In-place colour or triangle updates applied.
     """
 
+    in_place = ("rgba",)
+
     def __init__(self, plotter, name, style=None, **options):
         super().__init__(plotter, name, style)
         self.source = self.seg = None
-        self.depth_cue = False
+        cue = options.get("depth_cue")
+        self.depth_cue = cue is not None          # the view's option: the first refresh draws the cue
+        self.background = (0, 0, 0) if cue is None else tuple(cue)   # the cue's target (further is darker, §2.2.1)
         self.updates = 0
         self._dirty = self._observing = False
         self._buffer = self._hull = None
@@ -99,6 +103,10 @@ class LabelledSurfaceLayer(Layer):
         kind, ids = event["new"].kind, event["new"].ids
         if kind not in ("labels", "colors", "visibility", "all") or (ids is not None and ids.size == 0):
             return                                         # saved views, or a stroke's end: nothing to draw
+        with self.lock:                                    # on the command's thread (a headset's: its mirror)
+            self._follow(kind, ids)
+
+    def _follow(self, kind: str, ids) -> None:
         if kind == "labels" and ids is not None:
             drawn = self._show_labels(np.asarray(ids, np.int64))
         else:
@@ -127,7 +135,7 @@ class LabelledSurfaceLayer(Layer):
             if not np.array_equal(self._eye(), self._cue_eye):
                 self._recolour()                           # the camera moved: every vertex's cue changed
                 return True
-            rgba = depth_cue_colors(rgba, src.vertices[ids], self._cue_eye, self._hull, background=(0, 0, 0))
+            rgba = depth_cue_colors(rgba, src.vertices[ids], self._cue_eye, self._hull, background=self.background)
         self.mesh.point_data["rgba"][ids] = rgba            # in place: VTK re-uploads the array
         self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
         return True
@@ -143,7 +151,7 @@ class LabelledSurfaceLayer(Layer):
             self._cue_eye = self._eye()
             if self._hull is None:
                 self._hull = coarse_hull(self.source.vertices)
-            cols = depth_cue_colors(cols, self.source.vertices, self._cue_eye, self._hull, background=(0, 0, 0))
+            cols = depth_cue_colors(cols, self.source.vertices, self._cue_eye, self._hull, background=self.background)
         self.mesh.point_data["rgba"][:] = cols
         self.mesh.point_data.VTKObject.GetArray("rgba").Modified()
 
@@ -151,9 +159,10 @@ class LabelledSurfaceLayer(Layer):
         """Toggle depth cueing (Eq. 5.8, p = 0.85, coarse-hull distances from the camera position, toward black)."""
         if not isinstance(on, (bool, np.bool_)):
             raise ValueError(f"on must be True or False, got {on!r}")
-        self.depth_cue = bool(on)
-        self._shown, self._base = np.array(self.source.labels), self.source.vertex_colors()
-        self._recolour()
+        with self.lock:
+            self.depth_cue = bool(on)
+            self._shown, self._base = np.array(self.source.labels), self.source.vertex_colors()
+            self._recolour()
 
     def follow(self, buffer) -> None:
         """Read labels from a :class:`~plantvr.vine.buffers.TripleBuffer` instead of following the source's changes.
@@ -188,15 +197,17 @@ class LabelledSurfaceLayer(Layer):
         """Before a picture: apply the newest worker buffer (:meth:`follow`), else draw the labels painted since
         the last change this layer followed; redo the depth cue when the camera or the pose moved. Returns whether
         the colours changed."""
-        labels = self.source.labels
-        if self._buffer is not None:
-            changed = self.poll()
-        else:                               # (a restore to another mesh is redrawn by its change)
-            changed = labels.shape == self._shown.shape and self._show_labels(np.flatnonzero(self._shown != labels))
-        if self.depth_cue and not np.array_equal(self._eye(), self._cue_eye):
-            self._recolour()
-            changed = True
-        return changed
+        with self.lock:
+            labels = self.source.labels
+            if self._buffer is not None:
+                changed = self.poll()
+            else:                           # (a restore to another mesh is redrawn by its change)
+                changed = labels.shape == self._shown.shape and self._show_labels(
+                    np.flatnonzero(self._shown != labels))
+            if self.depth_cue and not np.array_equal(self._eye(), self._cue_eye):
+                self._recolour()
+                changed = True
+            return changed
 
     # ------------------------------------------------------------------ painting
     def paint_at(self, point, *, radius: float, label: int) -> int:

@@ -14,9 +14,10 @@ Three threads, none of which holds the document lock while rendering:
   consecutive paint stamps of one radius become one stroke where the map says so. A slow command never stalls
   the render thread, which keeps drawing the last content it was handed.
 * **mesher** (``plantvr-vr-mesher``): when the document publishes a change (``doc.latest`` / ``doc.version``),
-  turns its :meth:`~plantvr.document.Document.scene` into one VTK layer per entry — tree arrays as tubes (or
-  generalized cylinders), points, triangle meshes (per-vertex ``colors`` with the depth cue of 000_vine §2.2),
-  instances — and publishes them by swapping one reference.
+  publishes the :meth:`~plantvr.view.View.snapshot` of a :class:`~plantvr.view.View` of the document that is
+  never rendered (the View's own layers: generalized-cylinder branches with bark and leaves, points, surfaces,
+  instances, the labelled surface with the depth cue of 000_vine §2.2) by swapping one reference; the render
+  thread copies the layer actors into its GL context.
 
 A recording of input frames (``record=True``) replays through the same control map and command path without a
 headset: :meth:`Headset.replay` / :func:`replay`.
@@ -37,11 +38,8 @@ import numpy as np
 
 from .._validation import check_choice, check_int, check_range
 from ..document import Document
-from ..io.tree import branch_mesh, leaf_mesh
-from ..params import TREEWAND
 from ..types import Instances, Points, TreeArrays, TriMesh
-from ..view.polydata import mesh_polydata, points_polydata, tube_polydata
-from ..vine.depthcue import coarse_hull, depth_cue_colors
+from ..view.polydata import tube_polydata
 from .controls import Command, Controls, issue
 from .frames import ControllerState, InputFrame
 from .gestures import SceneTransform
@@ -55,8 +53,6 @@ HISTOGRAM_EDGES_MS = (0.0, 5.5, 11.1, 22.2, 33.3, 50.0, 100.0, 250.0, 1000.0, np
 HOME = np.array([0.0, 1.1, -0.6])
 #: Room size of that bounding-box diagonal on start (m).
 HOME_SIZE = 0.8
-#: Colours of the content layers (RGB in [0, 1]).
-BARK, MARKER, SURFACE = (0.545, 0.353, 0.169), (0.96, 0.82, 0.26), (0.85, 0.83, 0.78)
 
 INSTALL_HINT = ("install the extra with `pip install plantvr[vr]` (PyPI package 'openvr', pyopenvr) and "
                 "Steam + SteamVR (run SteamVR once so it registers its runtime path)")
@@ -86,13 +82,7 @@ def _init_openvr(openvr):
         raise RuntimeError(f"OpenVR could not start ({text}); is SteamVR running?") from None
 
 
-# -- content layers (mesher thread) -----------------------------------------------------------------------
-def tube_mesh(tree: TreeArrays, sides: int):
-    """Fast headset branch mesh: VTK tube filter over the internodes, radius per internode."""
-    kids = np.flatnonzero(np.asarray(tree.parent) >= 0)
-    return tube_polydata(tree, kids, np.asarray(tree.radius, float)[kids], sides=sides, capping=False)
-
-
+# -- content (mesher thread) ----------------------------------------------------------------------------
 def preview_mesh(tree: TreeArrays, nodes: np.ndarray, sides: int):
     """Red tubes over the internodes a prune would remove (§4.4 partial trigger)."""
     nodes = np.asarray(nodes, np.int64)
@@ -133,16 +123,12 @@ class Headset:
     layout : {"side", "pair"}
         Stereo layout of :class:`~plantvr.vr.render.StereoRenderer`.
     tube_sides : int
-        Sides of the branch tubes (6 ≈ the thesis' LOD 6/32 budget).
+        Cross-section sides of the branches (and of the prune preview's tubes): 6 is the thesis' LOD 6/32 budget
+        at the tips; the bases get ``max(tube_sides, 12)``.
     render_scale : float
         Fraction of the runtime's recommended per-eye size to render (1.0 in a headset).
-    mesh : {"tubes", "cylinders"}
-        Branch mesh of tree content: VTK tubes over the internodes (fast, the default) or the shared generalized
-        cylinders of :func:`plantvr.io.tree.branch_mesh` (smooth joins, leaves; its first build compiles numba
-        kernels, ~1 s; later builds cost about 1.3x the tubes, ``benchmarks/vr_stereo.py``).
     leaves : bool
-        With ``mesh="cylinders"``, also show the leaves of a document whose snapshot has ``buds`` (Tree Wand,
-        §3.4; :func:`plantvr.io.tree.leaf_mesh`).
+        Show the leaves of a document whose snapshot has ``buds`` (Tree Wand, TreeSketch, §3.4).
     record : bool
         Keep every :class:`~plantvr.vr.frames.InputFrame` in :attr:`recording` (replay with :meth:`replay`).
     readback : bool
@@ -168,7 +154,7 @@ class Headset:
     """
 
     def __init__(self, doc, *, controls: Controls | None = None, layout: str = "side", tube_sides: int = 6,
-                 render_scale: float = 1.0, mesh: str = "tubes", leaves: bool = False, record: bool = False,
+                 render_scale: float = 1.0, leaves: bool = True, record: bool = False,
                  readback: bool = False, near: float = 0.05, far: float = 100.0, depth_cue: bool = True,
                  background=(0, 0, 0), eye_step: float = 0.02, scene: SceneTransform | None = None):
         if not isinstance(doc, Document):
@@ -178,7 +164,6 @@ class Headset:
         if controls is not None and not isinstance(controls, Controls):
             raise ValueError(f"controls must be a Controls, got {type(controls).__name__}")
         self.tube_sides = check_int("tube_sides", tube_sides, 3, 64)
-        self.mesh = check_choice("mesh", mesh, ("tubes", "cylinders"))
         self.leaves = bool(leaves)
         self.layout = check_choice("layout", layout, ("side", "pair"))
         self.render_scale = check_range("render_scale", render_scale, 0.0, 1.0, low_open=True)
@@ -225,12 +210,11 @@ class Headset:
         self._stop = threading.Event()
         self._ready = threading.Event()
         self._queue: queue.Queue = queue.Queue()
-        self.content: tuple[int, dict] | None = None   # (build id, {name: (polydata, style)}), swapped whole
+        self.content: tuple[int, dict] | None = None   # (build id, View.snapshot()), swapped whole
         self.content_version = -1                       # document version the mesh thread last built
         self._drawn_content = None                      # build id the render thread last drew
         self._preview: tuple | None = None             # (tree, node indices) from the command thread
         self.preview: tuple | None = None              # (id, polydata) of the prune preview
-        self._hull_of: tuple | None = None             # (vertices, CoarseHull) of the depth cue
 
     # -- lifecycle -----------------------------------------------------------------------------------------
     @property
@@ -522,95 +506,41 @@ class Headset:
         """(3,) eye midpoint (head position) in model space."""
         return self.controls.scene.to_model(np.asarray(self.hmd_pose, float)[:3, 3])
 
-    def build_layers(self, content: dict[str, Any], eye_model: np.ndarray | None = None) -> dict[str, tuple]:
-        """``{name: (vtkPolyData, style)}`` of a document's scene content (the renderer draws one actor per
-        name): tree arrays as tubes or generalized cylinders (plus ``"<name>_leaves"``), points, triangle meshes
-        (per-vertex ``colors`` through the depth cue toward :attr:`background` seen from ``eye_model``),
-        instances (the prototype copied to every transform)."""
-        out: dict[str, tuple] = {}
-        for name, c in content.items():
-            if isinstance(c, TreeArrays):
-                out.update(self._tree_layers(name, c))
-            elif isinstance(c, Points):
-                xyz = np.asarray(c.xyz, float).reshape(-1, 3)
-                rgb = np.asarray(c.colors) if c.colors is not None else None
-                if rgb is not None and rgb.ndim == 2 and len(xyz):
-                    out[name] = (points_polydata(xyz, rgb), {"scalars": "rgb", "points": True})
-                else:
-                    col = MARKER if rgb is None else tuple(float(x) / 255.0 for x in rgb[:3])
-                    out[name] = (points_polydata(xyz), {"color": col, "points": True})
-            elif isinstance(c, TriMesh):
-                out[name] = self._mesh_layer(c, eye_model)
-            elif isinstance(c, Instances):
-                v, f = np.asarray(c.mesh.vertices, float), np.asarray(c.mesh.faces, np.int64)
-                m = np.asarray(c.transforms, float).reshape(-1, 4, 4)
-                vs = np.einsum("kij,vj->kvi", m[:, :3, :3], v) + m[:, None, :3, 3]
-                fs = f[None] + (len(v) * np.arange(len(m)))[:, None, None]
-                out[name] = (mesh_polydata(vs.reshape(-1, 3), fs.reshape(-1, 3)), {"color": BARK})
-        return out
-
-    def _tree_layers(self, name: str, tree: TreeArrays) -> dict[str, tuple]:
-        style = {"color": BARK}
-        if self.mesh == "tubes" or tree.n_internodes == 0:
-            return {name: (tube_mesh(tree, self.tube_sides), style)}
-        params = {**TREEWAND.defaults(), **self.doc.params}
-        snap = self.doc.latest
-        b = branch_mesh(tree, params, lod=(self.tube_sides, self.tube_sides))
-        leaf = leaf_mesh(snap.buds, params) if self.leaves and hasattr(snap, "buds") else None
-        out = {name: (mesh_polydata(b.vertices, b.faces), style)}
-        if leaf is not None:
-            out[f"{name}_leaves"] = (mesh_polydata(leaf.vertices, leaf.faces), {"color": (0.27, 0.55, 0.2)})
-        return out
-
-    def _mesh_layer(self, mesh: TriMesh, eye_model: np.ndarray | None) -> tuple:
-        colors = getattr(mesh, "colors", None)
-        if colors is None:
-            return mesh_polydata(mesh.vertices, mesh.faces), {"color": SURFACE}
-        rgba = np.asarray(colors)
-        v = np.asarray(mesh.vertices)
-        if self.depth_cue and eye_model is not None and len(v) >= 4:
-            rgba = depth_cue_colors(rgba, v, eye_model, self._hull(v), background=self.background)
-        return mesh_polydata(v, mesh.faces, rgba), {"scalars": "rgb", "cull": True}
-
-    def _hull(self, v: np.ndarray):
-        """The coarse hull of the depth cue, built once per vertex array (rebuilt when the vertices change)."""
-        ref = self._hull_of
-        step = max(1, len(v) // 4096)
-        if ref is None or ref[0].shape != v.shape or not np.array_equal(ref[0][::step], v[::step]):
-            ref = self._hull_of = (v, coarse_hull(v, n_vertices=min(274, max(5, len(v) // 4))))
-        return ref[1]
-
-    def _coloured(self, content: dict[str, Any]) -> bool:
-        return self.depth_cue and any(isinstance(c, TriMesh) and getattr(c, "colors", None) is not None
-                                      for c in content.values())
-
     def _mesh_loop(self) -> None:
-        built, content, built_eye, n, n_preview, built_preview = None, None, None, 0, 0, None
-        while not self._stop.is_set():
-            doc = self.doc
-            key = (doc.latest, doc.version)
-            fresh = built is None or key[0] is not built[0] or key[1] != built[1]
-            try:
-                if fresh:
-                    content = doc.scene()
-                eye = self.eye_model() if self._coloured(content) else None
-                moved = eye is not None and (built_eye is None
-                                             or np.linalg.norm(eye - built_eye) > self.eye_step * self.size)
-                if fresh or moved:
-                    layers = self.build_layers(content, eye)
-                    n += 1
-                    self.content = (n, layers)
-                    built_eye = eye
-            except Exception as exc:  # noqa: BLE001  a bad scene must not kill headset mode
-                self.command_errors.append((Command("mesh"), repr(exc)))
-            built = key
-            self.content_version = key[1]
-            pv = self._preview
-            if pv is not None and pv is not built_preview:
-                n_preview += 1
-                self.preview = (n_preview, preview_mesh(pv[0], pv[1], self.tube_sides))
-                built_preview = pv
-            self._stop.wait(0.005)
+        """The headset's content: a View of the document that is never rendered (its layers follow the document
+        on the thread of each change, as a notebook's View does); its snapshot goes to the render thread."""
+        from ..view import View
+        view = built = built_eye = built_preview = None
+        n = n_preview = 0
+        try:
+            view = View(self.doc, off_screen=True, window_size=(16, 16), ground=False, show_leaves=self.leaves,
+                        depth_cue=self.depth_cue, background=self.background,
+                        sides=(self.tube_sides, max(self.tube_sides, 12)))
+            while not self._stop.is_set():
+                version = view.drawn_version
+                eye = self.eye_model() if self.depth_cue else None
+                if eye is not None and built_eye is not None and (
+                        np.linalg.norm(eye - built_eye) <= self.eye_step * self.size):
+                    eye = None                           # the depth cue is redone when the head moved enough
+                if version != built or eye is not None:
+                    try:
+                        n += 1
+                        self.content = (n, view.snapshot(eye=eye))
+                    except Exception as exc:  # noqa: BLE001  a bad scene must not kill headset mode
+                        self.command_errors.append((Command("mesh"), repr(exc)))
+                    built, self.content_version = version, version
+                    built_eye = built_eye if eye is None else eye
+                pv = self._preview
+                if pv is not None and pv is not built_preview:
+                    n_preview += 1
+                    self.preview = (n_preview, preview_mesh(pv[0], pv[1], self.tube_sides))
+                    built_preview = pv
+                self._stop.wait(0.005)
+        except Exception as exc:  # noqa: BLE001  the document's scene could not be drawn at all
+            self.command_errors.append((Command("mesh"), repr(exc)))
+        finally:
+            if view is not None:
+                view.close()
 
 
 _HEADSETS: weakref.WeakKeyDictionary[Document, Headset] = weakref.WeakKeyDictionary()

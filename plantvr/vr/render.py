@@ -8,9 +8,10 @@ Two layouts, measured in ``benchmarks/vr_stereo.py``:
 * ``"pair"``: one window (GL context) per eye, each with its own mappers over the same meshes.
 
 Each eye's camera is the HMD pose times OpenVR's eye-to-head transform, with OpenVR's projection
-(x/y rows) and an OpenGL depth row (:func:`~plantvr.vr.math3d.gl_projection`). Content comes as named layers
-(:meth:`StereoRenderer.set_content`, one actor per name); the document's placement in the room is the actors'
-user matrix, so view manipulation never rebuilds a mesh.
+(x/y rows) and an OpenGL depth row (:func:`~plantvr.vr.math3d.gl_projection`). Content is drawn by a View's
+layers (:meth:`plantvr.view.View.snapshot`, taken on the bridge's mesher thread); :meth:`StereoRenderer.set_content` copies
+each layer actor into this thread's contexts; the document's placement in the room is the actors' user matrix, so
+view manipulation never rebuilds a mesh.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ import vtk
 from vtk.util.numpy_support import vtk_to_numpy
 
 from .._validation import check_choice, check_int, check_range
-from ..view.polydata import mesh_polydata, points_polydata
+from ..view.polydata import brush_sphere, ground_disc, mesh_polydata, points_polydata, segment_polydata, window_quad
 from .math3d import gl_projection
 
 __all__ = ["LAYOUTS", "WHEEL_LOCAL", "WHEEL_RADIUS", "StereoRenderer", "wheel_mesh"]
@@ -48,38 +49,24 @@ class _Scene:
     def __init__(self) -> None:
         self.model_matrix = vtk.vtkMatrix4x4()
         self.content: dict[str, vtk.vtkActor] = {}
+        self._sources: dict[str, vtk.vtkActor] = {}     # the layer actor each content actor copies
+        self._textures: dict[int, tuple] = {}           # id(layer texture): (its texture, this context's copy)
         self.renderers: list[vtk.vtkRenderer] = []
         self.preview = self._actor(points_polydata(), PRUNE, model=True)
-        disc = vtk.vtkRegularPolygonSource()
-        disc.SetNumberOfSides(48)
-        disc.SetRadius(8.0)
-        disc.SetNormal(0.0, 1.0, 0.0)
-        disc.Update()
-        self.ground = self._actor(disc.GetOutput(), (0.61, 0.70, 0.48), model=True)
+        self.ground = self._actor(ground_disc(), (0.61, 0.70, 0.48), model=True)
         self.ground.GetProperty().SetAmbient(0.7)
         self.ground.GetProperty().SetDiffuse(0.3)
-        sphere = vtk.vtkSphereSource()
-        sphere.SetThetaResolution(24)
-        sphere.SetPhiResolution(16)
-        sphere.SetRadius(1.0)
-        sphere.Update()
         self.brush_matrix = vtk.vtkMatrix4x4()
-        self.brush = self._actor(sphere.GetOutput(), GROW)
+        self.brush = self._actor(brush_sphere(), GROW)
         self.brush.SetUserMatrix(self.brush_matrix)
         self.brush.GetProperty().SetOpacity(0.3)
-        self.ray_source = vtk.vtkLineSource()
-        self.ray = self._actor(None, (1.0, 1.0, 1.0))
-        self.ray.GetMapper().SetInputConnection(self.ray_source.GetOutputPort())
+        self.ray_line = segment_polydata()
+        self.ray = self._actor(self.ray_line, (1.0, 1.0, 1.0))
         self.ray.GetProperty().SetLineWidth(2)
         self.windows: dict[str, tuple[vtk.vtkActor, vtk.vtkMatrix4x4]] = {}
         for name, rgb in _WINDOW_RGB.items():
-            plane = vtk.vtkPlaneSource()
-            plane.SetOrigin(-0.3, -0.2, 0)
-            plane.SetPoint1(0.3, -0.2, 0)
-            plane.SetPoint2(-0.3, 0.2, 0)
-            plane.Update()
             m = vtk.vtkMatrix4x4()
-            a = self._actor(plane.GetOutput(), rgb)
+            a = self._actor(window_quad(), rgb)
             a.SetUserMatrix(m)
             a.GetProperty().SetOpacity(0.85)
             a.SetVisibility(False)
@@ -106,13 +93,49 @@ class _Scene:
             a.SetUserMatrix(self.model_matrix)
         return a
 
-    def layer(self, name: str) -> vtk.vtkActor:
-        """The content actor of ``name``, created (and added to this context's renderers) on first use."""
-        actor = self.content.get(name)
-        if actor is None:
-            actor = self.content[name] = self._actor(points_polydata(), (1.0, 1.0, 1.0), model=True)
-            for ren in self.renderers:
-                ren.AddActor(actor)
+    def show(self, frame: dict[str, tuple]) -> None:
+        """Draw ``frame`` (``{name: (PolyData, layer actor)}``, :meth:`plantvr.view.View.snapshot`):
+        one actor of this context per name, with the layer actor's mapper settings, property and texture, over
+        the frame's PolyData (the mapper re-uploads only a new one); names not given are hidden."""
+        for name, actor in self.content.items():
+            if name not in frame:
+                actor.SetVisibility(False)
+        for name, (poly, src) in frame.items():
+            actor = self.content.get(name)
+            if actor is None or self._sources[name] is not src:
+                for ren in self.renderers:
+                    if actor is not None:
+                        ren.RemoveActor(actor)
+                actor = self.content[name] = self._copy(src)
+                self._sources[name] = src
+                for ren in self.renderers:
+                    ren.AddActor(actor)
+            mapper = actor.GetMapper()
+            if mapper.GetInput() is not poly:
+                mapper.SetInputData(poly)
+            actor.SetVisibility(bool(src.GetVisibility()) and poly.GetNumberOfPoints() > 0)
+
+    def _copy(self, src: vtk.vtkActor) -> vtk.vtkActor:
+        """An actor of this context that looks as ``src`` (a layer's): its own mapper, property and texture."""
+        mapper = vtk.vtkPolyDataMapper()
+        mapper.ShallowCopy(src.GetMapper())            # colour mode, scalar array, lookup table
+        prop = vtk.vtkProperty()
+        prop.DeepCopy(src.GetProperty())
+        actor = vtk.vtkActor()
+        actor.SetMapper(mapper)
+        actor.SetProperty(prop)
+        actor.SetUserMatrix(self.model_matrix)
+        tex = src.GetTexture()
+        if tex is not None:
+            own = self._textures.get(id(tex))
+            if own is None or own[0] is not tex:
+                copy = vtk.vtkTexture()
+                copy.SetInputData(tex.GetInput())
+                copy.SetRepeat(tex.GetRepeat())
+                copy.SetInterpolate(tex.GetInterpolate())
+                copy.SetMipmap(tex.GetMipmap())
+                own = self._textures[id(tex)] = (tex, copy)
+            actor.SetTexture(own[1])
         return actor
 
 
@@ -156,6 +179,7 @@ class StereoRenderer:
                 ren.SetBackground(0.81, 0.89, 0.96)
                 ren.SetBackground2(0.96, 0.95, 0.92)
                 ren.GradientBackgroundOn()
+                vtk.vtkLightKit().AddLightsToRenderer(ren)      # the View's lighting (pyvista's light kit)
                 for a in scene.actors:
                     ren.AddActor(a)
                 scene.renderers.append(ren)
@@ -168,35 +192,11 @@ class StereoRenderer:
         self._mesh_version = None
 
     # -- content -------------------------------------------------------------------------------------------
-    def set_content(self, layers: dict[str, tuple]) -> None:
-        """Show content layers ``{name: (vtkPolyData, style)}`` in model space, one actor per name (names not
-        given are hidden); uploaded on render. ``style`` keys: ``color`` (RGB in [0, 1]), ``scalars`` (a uint8
-        RGB(A) point array drawn as direct colours), ``points`` (draw vertices, unlit), ``cull`` (back faces)."""
+    def set_content(self, frame: dict[str, tuple]) -> None:
+        """Show a frame of the View's layers, ``{name: (PolyData, layer actor)}``
+        (:meth:`plantvr.view.View.snapshot`), in model space; uploaded on render."""
         for s in self.scenes:
-            for name, actor in s.content.items():
-                if name not in layers:
-                    actor.SetVisibility(False)
-            for name, (poly, style) in layers.items():
-                actor = s.layer(name)
-                mapper = actor.GetMapper()
-                mapper.SetInputData(poly)
-                prop = actor.GetProperty()
-                scalars = style.get("scalars")
-                if scalars is not None:
-                    mapper.SetScalarModeToUsePointFieldData()
-                    mapper.SelectColorArray(scalars)
-                    mapper.SetColorModeToDirectScalars()
-                    mapper.ScalarVisibilityOn()
-                else:
-                    mapper.ScalarVisibilityOff()
-                    prop.SetColor(*style.get("color", (1.0, 1.0, 1.0)))
-                if style.get("points"):
-                    prop.SetRepresentationToPoints()
-                    prop.SetPointSize(3)
-                    prop.SetLighting(False)
-                if style.get("cull"):
-                    prop.BackfaceCullingOn()     # 000_vine §4.5
-                actor.SetVisibility(poly.GetNumberOfPoints() > 0)
+            s.show(frame)
 
     def set_preview(self, poly: vtk.vtkPolyData | None) -> None:
         """Show the red prune preview (§4.4 partial trigger) in model space; ``None`` hides it."""
@@ -247,8 +247,7 @@ class StereoRenderer:
         for s in self.scenes:
             s.ray.SetVisibility(origin is not None)
             if origin is not None:
-                s.ray_source.SetPoint1(*map(float, origin))
-                s.ray_source.SetPoint2(*map(float, end))
+                s.ray_line.points = np.array([origin, end], float)
 
     def set_windows(self, windows: dict[str, np.ndarray]) -> None:
         """Show the open parameter windows at their poses (coloured quads)."""

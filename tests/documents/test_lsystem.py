@@ -158,10 +158,10 @@ def test_scene_is_the_interpreted_tree_y_up_for_views_headset_and_exporters(tmp_
     assert seen[-1].kind == "lsystem" and seen[-1].command == "grow" and doc.latest is doc.tree
     view = plantvr.View(doc, off_screen=True, window_size=(160, 120))
     assert view.tree is not None and len(view.tree.pos) == len(doc.tree.pos)
+    assert "tree" in view.snapshot()                           # what a headset draws: the View's layers
     view.close()
     headset = vr.attach(doc)                                   # the headset's control map: undo / redo
     assert set(headset.controls.cmap.commands) >= {"undo", "redo"}
-    assert "tree" in headset.build_layers(doc.scene())
     branches, _ = tree_geometry(doc.scene()["tree"], TREEWAND.defaults(), leaves=False)
     for suffix in (".ply", ".glb"):
         path = export_tree(tmp_path / f"plant{suffix}", branches)

@@ -144,8 +144,8 @@ def test_any_document_is_shown_and_gets_undo_redo(fake):
     try:
         h.wait_content()
         layers = h.content[1]
-        assert layers["crown"][0].n_points == 3 and "rgb" in layers["crown"][0].point_data
-        assert layers["tips"][1]["points"]
+        assert layers["crown"][0].n_points == 3 and "colors" in layers["crown"][0].point_data   # the View's layers
+        assert layers["tips"][0].n_points == 3 and layers["tips"][1].GetProperty().GetRenderPointsAsSpheres()
         fake.left.menu = True
         h.wait_frames(2)
         fake.left.menu = False

@@ -182,7 +182,7 @@ def test_bridge_paints_at_the_tip_hides_undoes_and_renders(seg, fake):
         assert np.all(seg.labels[d <= 0.35 - 1e-4] == c.label) and not seg.labels[d > 0.35 + 1e-4].any()
         assert len(seg.history.undo_stack) == 1 and bridge.command_errors == []
         bridge.wait_content()                 # the mesh thread may lag the frames on a loaded machine
-        rgb = bridge.content[1]["surface"][0].point_data["rgb"]
+        rgb = bridge.content[1]["surface"][0].point_data["rgba"]   # the View's labelled-surface layer
         assert len(rgb) == seg.n_vertices and bridge.depth_cue    # coloured (depth-cued) surface of the scene
         assert any(not np.array_equal(a, b) for a, b in zip(blank, bridge.last_images))   # a visible change
         # left pad: choose the painted colour, click to hide it
@@ -251,7 +251,7 @@ def test_surface_colours_follow_paint_and_hidden_triangles_drop(seg, fake):
         bridge.wait_content()
         label = bridge.controls.label
         surf = bridge.content[1]["surface"][0]
-        assert seg.labels.any() and np.all(surf.point_data["rgb"][seg.labels == label] == seg.colors.rgba[label, :3])
+        assert seg.labels.any() and np.all(surf.point_data["rgba"][seg.labels == label] == seg.colors.rgba[label])
         seg.set_visible(label, False)
         bridge.wait_content()
         surf = bridge.content[1]["surface"][0]
