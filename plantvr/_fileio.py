@@ -27,7 +27,7 @@ from typing import IO, Any
 
 import numpy as np
 
-__all__ = ["MAX_JSON_BYTES", "MAX_READ_BYTES", "read_json", "atomic_write", "check_target", "make_folder", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
+__all__ = ["MAX_JSON_BYTES", "MAX_READ_BYTES", "MAX_TEXT_BYTES", "TextDecodeError", "read_json", "read_text", "atomic_write", "check_target", "make_folder", "write_atomic", "write_npz", "write_png", "read_npz", "read_zip",
            "npy_bytes", "npy_headers", "zip_directory", "digest_arrays"]
 
 #: What a corrupt zip member can raise while it is read (``zlib.error``: a damaged deflate stream; ``SyntaxError``,
@@ -321,6 +321,44 @@ def npy_bytes(a: np.ndarray) -> bytes:
 
 #: Largest PlantVR JSON file (preset, stroke file) read, in bytes.
 MAX_JSON_BYTES = 64 * 2**20
+#: Largest text file (scripts, grammars, point and props files) a reader accepts, in bytes.
+MAX_TEXT_BYTES = 1 << 30
+
+
+class TextDecodeError(ValueError):
+    """A file that is not UTF-8 text; ``line`` and ``column`` (1-based) locate its first bad byte."""
+
+    def __init__(self, message: str, line: int, column: int):
+        super().__init__(message)
+        self.line, self.column = line, column
+
+
+def read_text(path: str | os.PathLike, *, what: str = "file", max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The UTF-8 text of the file at ``path`` (the one text reader of the package: scripts, grammars, point, props
+    and JSON files), or a ``ValueError`` naming ``what`` and the path: not a path, missing, not a file, larger
+    than ``max_bytes``, unreadable, or not UTF-8 (:class:`TextDecodeError`, with the bad byte's line and column)."""
+    try:
+        p = Path(path)
+    except TypeError:
+        raise ValueError(f"{what} path must be a path, got {type(path).__name__}") from None
+    try:
+        size = p.stat().st_size
+        if not p.is_file():
+            raise ValueError(f"{what} {str(p)!r} is not a file")
+        if size > max_bytes:
+            raise ValueError(f"{what} {str(p)!r} has {size} bytes, more than the {max_bytes} allowed")
+        raw = p.read_bytes()
+    except FileNotFoundError:
+        raise ValueError(f"{what} {str(p)!r} does not exist") from None
+    except OSError as exc:
+        raise ValueError(f"cannot read {what} {str(p)!r}: {exc}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
+        raise TextDecodeError(f"{what} {str(p)!r} is not UTF-8 text (byte {raw[e.start]:#04x} at offset "
+                              f"{e.start})", line, col) from None
 
 
 def _reject_constant(name: str):
@@ -330,14 +368,9 @@ def _reject_constant(name: str):
 def read_json(path: Path, kind: str) -> Any:
     """The parsed JSON of a PlantVR file (preset, stroke file, log header); a ValueError naming the ``kind`` of file and
     its path when it is missing, too large, unreadable, not JSON, or holds NaN/Infinity or nesting too deep."""
+    text = read_text(path, what=kind, max_bytes=MAX_JSON_BYTES)
     try:
-        if path.stat().st_size > MAX_JSON_BYTES:
-            raise ValueError(f"{kind} {path!s} is larger than the {MAX_JSON_BYTES} bytes allowed")
-        return json.loads(path.read_text(encoding="utf-8"), parse_constant=_reject_constant)
-    except FileNotFoundError:
-        raise ValueError(f"{kind} {path!s} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read {kind} {path!s}: {exc}") from None
+        return json.loads(text, parse_constant=_reject_constant)
     except json.JSONDecodeError as exc:
         raise ValueError(f"{kind} {path!s} is not valid JSON ({exc.msg}, line {exc.lineno})") from None
     except RecursionError:

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from ._fileio import write_atomic
+from ._fileio import read_text, write_atomic
 
 __all__ = ["Event", "CommandLog", "LOG_VERSION", "MAX_LOG_BYTES"]
 #: Version of the event-log file format (the trailer's ``plantvr_events``).
@@ -144,15 +144,8 @@ class CommandLog:
         """Read a log written by :meth:`save`; a truncated, damaged or foreign file raises ``ValueError``.
         With ``commands`` (a document's ``COMMANDS``) and ``document`` (its ``KIND``) the events and the trailer
         are checked against them."""
-        path = _check_path(path)
-        try:
-            with open(path, "rb") as fh:
-                raw = fh.read(min(os.fstat(fh.fileno()).st_size, MAX_LOG_BYTES) + 1)
-        except OSError as exc:
-            raise ValueError(f"cannot read event log {str(path)!r}: {exc}") from None
-        if len(raw) > MAX_LOG_BYTES:
-            raise ValueError(f"event log {path!s} is larger than the cap of {MAX_LOG_BYTES} bytes")
-        return cls.from_text(raw, where=str(path), commands=commands, document=document)
+        text = read_text(_check_path(path), what="event log", max_bytes=MAX_LOG_BYTES)
+        return cls.from_text(text, where=str(path), commands=commands, document=document)
 
     @classmethod
     def from_text(cls, text: str | bytes, *, where: str = "text", commands: tuple[str, ...] | None = None,

@@ -3,6 +3,7 @@ import io
 import os
 import resource
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -143,3 +144,40 @@ def test_one_folder_rule_for_every_writer(tmp_path):
     with pytest.raises(ValueError, match="exists and is not a folder"):
         make_folder(tmp_path / "f")
     assert not (tmp_path / "missing").exists() and not (tmp_path / "no").exists()
+
+
+def test_read_text_is_the_one_text_reader(tmp_path):
+    """Issue 30: one reader for text files (scripts, grammars, point, props, SCN/RBA, OBJ UV and JSON files); every
+    failure a ValueError naming what was read, a bad byte located by line and column."""
+    import ast
+
+    from plantvr._fileio import TextDecodeError, read_text
+
+    p = tmp_path / "a.txt"
+    p.write_bytes("x\nab\xe9\n".encode("latin-1"))
+    with pytest.raises(TextDecodeError, match=r"script '.*a.txt' is not UTF-8 text \(byte 0xe9 at offset 4\)") as e:
+        read_text(p, what="script")
+    assert (e.value.line, e.value.column) == (2, 3)
+    p.write_text("héllo\n")
+    assert read_text(p) == "héllo\n"
+    with pytest.raises(ValueError, match="more than the 3 allowed"):
+        read_text(p, max_bytes=3)
+    with pytest.raises(ValueError, match="grammar .* does not exist"):
+        read_text(tmp_path / "nope.lpy", what="grammar")
+    with pytest.raises(ValueError, match="is not a file"):
+        read_text(tmp_path)
+    with pytest.raises(ValueError, match="path must be a path"):
+        read_text(3.5)
+    root = Path(__file__).resolve().parent.parent / "plantvr"
+    readers = []
+    for path in root.rglob("*.py"):
+        if path.name == "_fileio.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            f = node.func if isinstance(node, ast.Call) else None
+            pathlib_read = isinstance(f, ast.Attribute) and f.attr == "read_text"          # path.read_text()
+            decoded = isinstance(f, ast.Attribute) and f.attr == "decode" and isinstance(f.value, ast.Call) and (
+                getattr(f.value.func, "attr", None) == "read_bytes")                      # read_bytes().decode()
+            if pathlib_read or decoded:
+                readers.append(f"{path.relative_to(root)}:{node.lineno}")
+    assert readers == [], readers

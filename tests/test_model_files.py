@@ -186,7 +186,7 @@ def test_tree_truncations_versions_and_caps_are_refused(tmp_path, small, monkeyp
     assert "checksum mismatch" in _restore_rejected(m, bad, tmp_path, before)
     monkeypatch.setattr(plantvr.documents.treewand, "MAX_TREE_BYTES", 100)
     bad.write_text(good)
-    assert "cap" in _restore_rejected(m, bad, tmp_path, before)
+    assert "more than the 100 allowed" in _restore_rejected(m, bad, tmp_path, before)
 
 
 def _sign(text: str) -> str:

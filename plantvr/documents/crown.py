@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .._fileio import read_text
 from .._validation import MAX_COORD, check_int, check_range
 from ..document import Document
 from ..history import StateAtom
@@ -35,7 +36,6 @@ from ..implicit.pointsets import (
     densify,
     load_point_set,
     read_props,
-    read_text_file,
     save_point_set,
 )
 from ..implicit.polygonize import polygonize
@@ -154,13 +154,7 @@ class CrownDocument(Document):
     def run_file(self, path) -> CrownDocument:
         """Run the script file at ``path`` (a thesis script; relative names inside it resolve against
         :attr:`base_dir`). The log records the script's text, so a replay does not need the file."""
-        try:
-            path = Path(path)
-        except TypeError:
-            raise ValueError(f"path must be a path, got {type(path).__name__}") from None
-        if not path.is_file():
-            raise ValueError(f"path {str(path)!r} does not exist")
-        return self.run(read_text_file(path, "script"))
+        return self.run(read_text(path, what="script"))
 
     def surface(self, name: str) -> bt.Node:
         """The named surface (ValueError if unknown)."""

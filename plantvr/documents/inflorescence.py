@@ -203,13 +203,7 @@ class InflorescenceDocument(Document):
         return {"params": self.params, "floret": (fm.faces, fm.frames, fm.fixed), "message": self.message}
 
     def set_state(self, state: dict[str, Any]) -> None:
-        self._restoring = True
-        try:
-            with self.hold_trait_notifications():
-                for k, v in state["params"].items():
-                    setattr(self, k, v)
-        finally:
-            self._restoring = False
+        self.restore_params(state["params"])
         faces, frames, fixed = state["floret"]
         if faces is not self.floret.faces or frames is not self.floret.frames:
             self.floret = FloretMesh(vertices=frames[-1], faces=faces, frames=frames, fixed=fixed)

@@ -533,13 +533,7 @@ class SketchDocument(Document):
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore what :meth:`get_state` returned (parameters, engine, strokes) exactly."""
         with self._lock:
-            self._restoring = True
-            try:
-                with self.hold_trait_notifications():
-                    for k, v in state["params"].items():
-                        self.set_trait(k, v)
-            finally:
-                self._restoring = False
+            self.restore_params(state["params"])
             e = self._engine
             e.params = dict(state["engine"]["params"])
             e.set_state(state["engine"])
@@ -625,13 +619,7 @@ class SketchDocument(Document):
             raise ValueError(f"cannot load {str(path)!r}: the entry changed while it was read")
         values = e.table_values()
         with self._lock, self._edit():
-            self._restoring = True
-            try:
-                with self.hold_trait_notifications():
-                    for k, v in values.items():
-                        self.set_trait(k, v)
-            finally:
-                self._restoring = False
+            self.restore_params(values)
             self._engine = e
             self._samples = np.zeros((0, 3))
             self.log.record("restore", path=str(path), digest=digest)

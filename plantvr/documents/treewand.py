@@ -23,7 +23,7 @@ from typing import Any, Callable
 import numpy as np
 from traitlets import Bool, Dict, Float, Int
 
-from .._fileio import write_atomic
+from .._fileio import read_text, write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_int, check_point, check_points, check_range
 from ..document import Document, check_digest, file_digest, serialise
 from ..growth.engine import GrowthEngine, StepStats
@@ -32,6 +32,11 @@ from ..params import TREEWAND
 from ..types import Points, TreeArrays
 
 __all__ = ["Model", "Snapshot"]
+
+
+def _of_tree(name: str, doc: str) -> property:
+    """A read-only attribute of a snapshot's tree."""
+    return property(lambda self: getattr(self.tree, name), doc=doc)
 
 
 @dataclass(frozen=True)
@@ -46,30 +51,11 @@ class Snapshot:
     stats: StepStats | None
     buds: dict[str, np.ndarray]  # "pos", "dir", "radius", "up" of every bud slot (leaves grow there)
 
-    @property
-    def pos(self) -> np.ndarray:
-        """(N, 3) node positions; node 0 is the base point."""
-        return self.tree.pos
-
-    @property
-    def parent(self) -> np.ndarray:
-        """(N,) int64 parent node, -1 for the base point."""
-        return self.tree.parent
-
-    @property
-    def radius(self) -> np.ndarray:
-        """(N,) pipe-model radius of the internode ending at each node."""
-        return self.tree.radius
-
-    @property
-    def order(self) -> np.ndarray:
-        """(N,) int64 branch order."""
-        return self.tree.order
-
-    @property
-    def main_child(self) -> np.ndarray:
-        """(N,) int64 snapshot index of each node's main (slot 0) child, -1 if none."""
-        return self.tree.main_child
+    pos = _of_tree("pos", "(N, 3) node positions; node 0 is the base point.")
+    parent = _of_tree("parent", "(N,) int64 parent node, -1 for the base point.")
+    radius = _of_tree("radius", "(N,) pipe-model radius of the internode ending at each node.")
+    order = _of_tree("order", "(N,) int64 branch order.")
+    main_child = _of_tree("main_child", "(N,) int64 snapshot index of each node's main (slot 0) child, -1 if none.")
 
     @property
     def n_internodes(self) -> int:
@@ -534,15 +520,8 @@ class Model(Document):
         extra: dict[str, np.ndarray] = {}
         if path.suffix == ".tree":
             try:
-                with open(path, "rb") as fh:
-                    size = os.fstat(fh.fileno()).st_size
-                    raw = fh.read(min(size, MAX_TREE_BYTES) + 1)
-                if len(raw) > MAX_TREE_BYTES:
-                    raise ValueError(f"larger than the cap of {MAX_TREE_BYTES} bytes")
-                tree, params = tree_from_text(raw.decode("utf-8"))
-            except UnicodeDecodeError:
-                raise ValueError(f"cannot load {path!s}: not UTF-8 text (damaged?)") from None
-            except (OSError, ValueError) as exc:
+                tree, params = tree_from_text(read_text(path, what="tree file", max_bytes=MAX_TREE_BYTES))
+            except ValueError as exc:
                 raise ValueError(f"cannot load {path!s}: {exc}") from None
         else:
             tree, params, extra = state_from_npz(path)
@@ -565,13 +544,7 @@ class Model(Document):
         if file_digest(path) != digest:
             raise ValueError(f"cannot load {str(path)!r}: the file changed while it was read")
         with self._lock, self.undoable("all"):
-            self._restoring = True
-            try:
-                with self.hold_trait_notifications():
-                    for k, v in params.items():
-                        self.set_trait(k, v)
-            finally:
-                self._restoring = False
+            self.restore_params(params)
             self._engine = engine
             self.log.record("restore", path=str(path), digest=digest)
         self.changed("all", command="restore")

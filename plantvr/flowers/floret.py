@@ -19,6 +19,7 @@ from scipy.interpolate import BSpline
 from scipy.spatial import Delaunay, QhullError, cKDTree
 from scipy.spatial.transform import Rotation, Slerp
 
+from plantvr._fileio import read_text
 from plantvr._validation import MAX_COORD, check_array, check_int, check_range
 from plantvr.params import Param, ParamTable
 from plantvr.types import TriMesh
@@ -596,13 +597,4 @@ def read_obj_sequence(folder: str, *, prefix: str = "frame") -> tuple[np.ndarray
 
 
 def _read_obj_text(path: str) -> str:
-    try:
-        size = os.path.getsize(path)
-        if size > MAX_OBJ_BYTES:
-            raise ValueError(f"{path!r} has {size} bytes, more than the {MAX_OBJ_BYTES} allowed")
-        with open(path, "rb") as fh:
-            return fh.read().decode("utf-8")
-    except OSError as exc:
-        raise ValueError(f"cannot read {path!r}: {exc}") from None
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{path!r} is not UTF-8 text (corrupt file?): {exc}") from None
+    return read_text(path, what="floret file", max_bytes=MAX_OBJ_BYTES)

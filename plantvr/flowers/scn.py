@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import make_folder, write_atomic
+from plantvr._fileio import make_folder, read_text, write_atomic
 from plantvr._validation import MAX_COORD, check_array, check_choice, check_int, check_range
 
 __all__ = [
@@ -271,19 +271,6 @@ def format_scn(placements: Sequence[Placement], *, header: bool = True) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _read_text(path) -> str:
-    try:
-        path = Path(path)
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise ValueError(f"cannot read {str(path)!r}: {size} bytes, more than the {MAX_FILE_BYTES} allowed")
-        return path.read_bytes().decode("utf-8")
-    except TypeError:
-        raise ValueError(f"path must be a file path, got {type(path).__name__}") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise ValueError(f"cannot read {str(path)!r}: {err}") from None
-
-
 def write_scn(path, placements: Sequence[Placement]) -> Path:
     """Write an SCN file atomically (a failed write leaves the old file); returns its path."""
     text = format_scn(placements)                             # validates before touching the file
@@ -294,7 +281,7 @@ def write_scn(path, placements: Sequence[Placement]) -> Path:
 
 def read_scn(path) -> list[Placement]:
     """Read an SCN file (see :func:`parse_scn`)."""
-    return parse_scn(_read_text(path), source=str(path))
+    return parse_scn(read_text(path, what="SCN file", max_bytes=MAX_FILE_BYTES), source=str(path))
 
 
 # -------------------------------------------------------------------------------------------------------
@@ -396,7 +383,7 @@ def write_rba(path, frame: RigidBodyFrame) -> Path:
 
 def read_rba(path) -> RigidBodyFrame:
     """Read one RBA file."""
-    return parse_rba(_read_text(path), source=str(path))
+    return parse_rba(read_text(path, what="RBA file", max_bytes=MAX_FILE_BYTES), source=str(path))
 
 
 _NUMBERED = re.compile(r"^(.*?)(\d+)\.rba$")

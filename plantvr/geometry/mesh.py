@@ -503,6 +503,11 @@ def _grow(a: np.ndarray, n: int, fill=None) -> np.ndarray:
     return out
 
 
+def _in_use(buffer: str, used: str, doc: str) -> property:
+    """The rows of a growable buffer attribute in use (a view, no copy)."""
+    return property(lambda self: getattr(self, buffer)[:getattr(self, used)], doc=doc)
+
+
 class IncrementalBranchMesh(BufferMesh):
     """Branch mesh kept up to date segment by segment after growth steps (spec §3.5, checklist item 20).
 
@@ -561,30 +566,13 @@ class IncrementalBranchMesh(BufferMesh):
         self._relayout(seg, *self._counts(seg))
 
     # -- public arrays ----------------------------------------------------------------------------------
-    @property
-    def vertices(self) -> np.ndarray:
-        """(V, 3) float64 vertex rows in use (a view of the buffer; free rows sit at the root, degenerate)."""
-        return self._V[:self._v_used]
-
-    @property
-    def normals(self) -> np.ndarray:
-        """(V, 3) float32 unit normals."""
-        return self._NRM[:self._v_used]
-
-    @property
-    def uv(self) -> np.ndarray:
-        """(V, 2) float32 bark coordinates."""
-        return self._UV[:self._v_used]
-
-    @property
-    def node_id(self) -> np.ndarray:
-        """(V,) int64 node of each vertex, -1 in free blocks."""
-        return self._NID[:self._v_used]
-
-    @property
-    def faces(self) -> np.ndarray:
-        """(F, 3) int64 faces in use; faces of free blocks and block tails are degenerate (a, a, a)."""
-        return self._F[:self._f_used]
+    vertices = _in_use("_V", "_v_used", "(V, 3) float64 vertex rows in use (a view of the buffer; free rows sit at "
+                       "the root, degenerate).")
+    normals = _in_use("_NRM", "_v_used", "(V, 3) float32 unit normals.")
+    uv = _in_use("_UV", "_v_used", "(V, 2) float32 bark coordinates.")
+    node_id = _in_use("_NID", "_v_used", "(V,) int64 node of each vertex, -1 in free blocks.")
+    faces = _in_use("_F", "_f_used", "(F, 3) int64 faces in use; faces of free blocks and block tails are degenerate "
+                    "(a, a, a).")
 
     @property
     def n_segments(self) -> int:

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from scipy.ndimage import distance_transform_edt
 
-from .._fileio import atomic_write, make_folder, write_atomic
+from .._fileio import atomic_write, make_folder, read_text, write_atomic
 from .._validation import MAX_COORD, MAX_COUNT, check_array, check_int, check_point, check_points, check_range
 from .directions import normalize
 from .markers import uniform_in_ball
@@ -340,16 +340,11 @@ def _sealed(meta: dict) -> str:
 
 
 def _read_text(path: Path, what: str) -> str:
-    """The UTF-8 text of ``path``, refused (``ValueError``) when missing, unreadable or over MAX_ENTRY_BYTES."""
+    """The UTF-8 text of ``path`` (at most MAX_ENTRY_BYTES), or ``ValueError`` starting "cannot read ``what``"."""
     try:
-        size = path.stat().st_size
-        if size > MAX_ENTRY_BYTES:
-            raise ValueError(f"cannot read {what} {path}: {size} bytes, more than the cap of {MAX_ENTRY_BYTES}")
-        with open(path, "rb") as fh:
-            data = fh.read(MAX_ENTRY_BYTES + 1)
-        return data.decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"cannot read {what} {path}: {exc}") from None
+        return read_text(path, what="file", max_bytes=MAX_ENTRY_BYTES)
+    except ValueError as exc:
+        raise ValueError(f"cannot read {what}: {exc}") from None
 
 
 def _parse_json(text: str, what: str) -> Any:

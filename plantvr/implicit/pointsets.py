@@ -13,37 +13,17 @@ from pathlib import Path
 
 import numpy as np
 
-from plantvr._fileio import write_atomic
+from plantvr._fileio import read_text, write_atomic
 from plantvr._validation import MAX_COUNT, check_array, check_int, check_points, check_range
 
 from .blobtree import Node
 from .fields import ISO
 
 __all__ = ["PointSet", "thin", "densify", "save_point_set", "load_point_set", "PROPS_DEFAULTS", "read_props",
-           "write_props", "MAX_TEXT_BYTES", "read_text_file"]
+           "write_props"]
 
-#: Largest text file (points, props, scripts) a reader accepts (bytes).
-MAX_TEXT_BYTES = 1 << 30
 #: Most source names of one point set.
 MAX_SOURCES = 100_000
-
-
-def read_text_file(path, what: str) -> str:
-    """UTF-8 text of a file no larger than :data:`MAX_TEXT_BYTES`, or a ValueError naming ``what`` and the path."""
-    path = Path(path)
-    try:
-        size = path.stat().st_size
-        if not path.is_file():
-            raise ValueError(f"{what} {str(path)!r} is not a file")
-        if size > MAX_TEXT_BYTES:
-            raise ValueError(f"{what} {str(path)!r} has {size} bytes, more than the {MAX_TEXT_BYTES} allowed")
-        return path.read_bytes().decode("utf-8")
-    except FileNotFoundError:
-        raise ValueError(f"{what} {str(path)!r} does not exist") from None
-    except OSError as exc:
-        raise ValueError(f"cannot read {what} {str(path)!r}: {exc}") from None
-    except UnicodeDecodeError as exc:
-        raise ValueError(f"{what} {str(path)!r} is not UTF-8 text (corrupt file?): {exc}") from None
 
 
 @dataclass
@@ -242,7 +222,7 @@ def load_point_set(path) -> PointSet:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"path {str(path)!r} does not exist")
-    text = read_text_file(path, "point file")
+    text = read_text(path, what="point file")
     sources = None
     rows = []
     for lineno, line in enumerate(text.splitlines(), 1):
@@ -340,7 +320,7 @@ def read_props(path_or_text, *, name: str | None = None) -> dict:
         path = Path(path_or_text)
         if not path.is_file():
             raise ValueError(f"props file {str(path)!r} does not exist")
-        text, where = read_text_file(path, "props file"), path.name
+        text, where = read_text(path, what="props file"), path.name
     elif isinstance(path_or_text, str):
         text, where = path_or_text, name or "props"
     else:

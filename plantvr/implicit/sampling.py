@@ -129,27 +129,9 @@ def rejection_sample(node: Node, n: int, *, f_lo: float, f_hi: float = np.inf, r
 
 def sample_inside(node: Node, n: int, *, iso: float = ISO, rng=None, bbox=None,
                   max_draws: int = 50_000_000) -> np.ndarray:
-    """Uniform points inside the envelope (``F > iso``) by rejection in its box (thesis §6.1, C-8).
-
-    Parameters
-    ----------
-    node : Node
-        The envelope.
-    n : int
-        Number of points.
-    iso : float
-        Iso-value.
-    rng : int | numpy.random.Generator | None
-        Seed or generator.
-    bbox : (2, 3) array_like, optional
-        Sampling box.
-    max_draws : int
-        Candidate budget before a ValueError (empty envelope).
-
-    Returns
-    -------
-    (n, 3) float64 ndarray
-        Points inside the envelope.
+    """Uniform points inside the envelope (``F > iso``) by rejection in its box (thesis §6.1, C-8):
+    :func:`rejection_sample` with the band ``(iso, inf)``; ``node``, ``n``, ``rng``, ``bbox`` and ``max_draws`` as
+    there, ``iso`` (> 0) the iso-value. Returns the (n, 3) points, in generation order.
     """
     iso = check_range("iso", iso, 0.0, np.inf, low_open=True)
     return rejection_sample(node, n, f_lo=iso, rng=rng, bbox=bbox, max_draws=max_draws)

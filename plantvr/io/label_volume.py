@@ -479,8 +479,8 @@ def write_label_volume(path: str | os.PathLike, volume: np.ndarray, *, spacing=N
             raw = Path(tmp).with_suffix(".raw") if Path(tmp).with_suffix(".raw").exists() else \
                 Path(tmp).with_suffix(".zraw")
             target_raw = p.with_name(p.name[:-4] + raw.suffix)
-            text = Path(tmp).read_text(encoding="latin-1").replace(raw.name, target_raw.name)
-            Path(tmp).write_text(text, encoding="latin-1")
+            header = Path(tmp).read_bytes().replace(raw.name.encode(), target_raw.name.encode())
+            Path(tmp).write_bytes(header)          # the header just written (our temp file), byte for byte
             os.replace(raw, target_raw)
         os.replace(tmp, p)
     except BaseException:

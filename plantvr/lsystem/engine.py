@@ -66,6 +66,7 @@ from typing import Any
 
 import numpy as np
 
+from plantvr._fileio import TextDecodeError, read_text
 from plantvr._validation import check_choice, check_int, check_range
 from plantvr.types import TreeArrays
 
@@ -105,22 +106,9 @@ def read_lpy(path: str | Path) -> tuple[str, str]:
         The file is not UTF-8 text (the message names the file; line and column of the first bad byte).
     """
     try:
-        p = Path(path)
-    except TypeError:
-        raise ValueError(f"path must be a path, got {type(path).__name__}") from None
-    if not p.is_file():
-        raise ValueError(f"path {str(path)!r} is not a file")
-    try:
-        raw = p.read_bytes()
-    except OSError as e:
-        raise ValueError(f"cannot read the grammar {str(p)!r}: {e}") from None
-    try:
-        return raw.decode("utf-8"), str(p)
-    except UnicodeDecodeError as e:
-        line = raw[:e.start].count(b"\n") + 1
-        col = e.start - (raw.rfind(b"\n", 0, e.start) + 1) + 1
-        raise LSystemError(f"{str(p)!r} is not UTF-8 text (byte {raw[e.start]:#04x} at offset {e.start})",
-                           line, col) from None
+        return read_text(path, what="grammar"), str(Path(path))
+    except TextDecodeError as e:
+        raise LSystemError(str(e), e.line, e.column) from None
 
 
 class _Budget:

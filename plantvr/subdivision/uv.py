@@ -9,7 +9,6 @@ propagation across its longest parameterised edge, and Loop subdivision carries 
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 
@@ -283,18 +282,10 @@ def read_obj(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     ValueError
         If the file is missing, a face is not a triangle or an index is out of range.
     """
-    from plantvr._fileio import MAX_READ_BYTES
+    from plantvr._fileio import MAX_READ_BYTES, read_text
 
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"path: no such OBJ file {os.fspath(path)!r}")
+    text = read_text(path, what="path: OBJ file", max_bytes=MAX_READ_BYTES)
     where = f"path: OBJ file {os.fspath(path)!r}"
-    if path.stat().st_size > MAX_READ_BYTES:
-        raise ValueError(f"{where} is larger than the {MAX_READ_BYTES} bytes allowed")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{where} is unreadable or not text ({exc})") from None
 
     def nums(tok: list[str], k: int, ln: int, what: str) -> list[float]:
         if len(tok) < k:

@@ -37,6 +37,7 @@ from ..growth.sketch import TREESKETCH, SketchEngine
 from ..growth.sketch_rules import ellipse_distance
 from ..params import defaults, validate
 from ._assets import asset
+from ._sync import SyncGuard
 from .panels import make_control, push_param, show_value
 from .triangle import InfluenceTriangle
 
@@ -167,7 +168,7 @@ class _DocWidget(anywidget.AnyWidget):
         doc = _check_doc(doc)
         super().__init__(**kwargs)
         self.doc = doc
-        self._busy = False
+        self._busy = SyncGuard()
         self._pull()
         doc.on(self._on_doc)
         self.observe(self._on_widget, names=list(self._synced))
@@ -181,23 +182,18 @@ class _DocWidget(anywidget.AnyWidget):
     def _on_doc(self, change) -> None:
         if self._busy:
             return
-        self._busy = True
-        try:
+        with self._busy:
             self._pull()
-        finally:
-            self._busy = False
 
     def _on_widget(self, change) -> None:
         if self._busy:
             return
-        self._busy = True
-        try:
-            self.doc.set_params(**self._values(change))
-            self.error = ""
-        except ValueError as exc:  # the document is unchanged; show why and snap back
-            self.error = str(exc)
-        finally:
-            self._busy = False
+        with self._busy:
+            try:
+                self.doc.set_params(**self._values(change))
+                self.error = ""
+            except ValueError as exc:  # the document is unchanged; show why and snap back
+                self.error = str(exc)
         self._on_doc(None)
 
     def bind(self, doc: SketchDocument) -> None:

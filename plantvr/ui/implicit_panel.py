@@ -21,6 +21,7 @@ import ipywidgets as W
 import numpy as np
 import traitlets
 
+from .._fileio import read_text
 from .._validation import check_int
 from ..commandlog import CommandLog
 from ..documents.crown import TAG_COLORS, CrownDocument
@@ -355,8 +356,8 @@ class ImplicitPanel(W.VBox):
             self.doc.run_file(path)
         except CommandError as exc:
             try:
-                text = path.read_text(encoding="utf-8")
-            except (OSError, UnicodeDecodeError):
+                text = read_text(path, what="script")
+            except ValueError:
                 text = ""
             self._show_error(text, exc.lineno, exc.token, str(exc))
             return False

@@ -24,7 +24,7 @@ from typing import Any
 import ipywidgets as W
 import numpy as np
 
-from .._fileio import write_atomic
+from .._fileio import read_text, write_atomic
 from .._validation import check_array, check_choice, check_int, check_points
 from ..documents.treesketch import SketchDocument
 from ..documents.treewand import Model
@@ -100,11 +100,9 @@ def _read_thumbnail(path: Path) -> str:
     """A saved thumbnail's SVG, shown only if it is what :func:`tree_svg` writes (bounded; no scripts, links or
     event handlers, since the text goes into the page's HTML)."""
     try:
-        if path.stat().st_size > _MAX_THUMB_BYTES:
-            return "<i>thumbnail too large</i>"
-        text = path.read_bytes().decode("utf-8")
-    except (OSError, UnicodeDecodeError):
-        return "<i>unreadable thumbnail</i>"
+        text = read_text(path, what="thumbnail", max_bytes=_MAX_THUMB_BYTES)
+    except ValueError:
+        return "<i>unreadable thumbnail (missing, too large or not text)</i>"
     tags = set(re.findall(r"<\s*/?\s*([A-Za-z][\w:-]*)", text))
     if not text.startswith("<svg") or not tags <= _THUMB_TAGS or re.search(r"\son\w*\s*=|href|javascript:|<!", text,
                                                                           re.IGNORECASE):

@@ -12,6 +12,7 @@ import ipywidgets as W
 from ..documents.lsystem import LSystemDocument
 from ..lsystem.engine import LSystemError
 from ..params import Param
+from ._sync import SyncGuard
 from .panels import make_control, show_value
 
 __all__ = ["LsystemPanel", "extern_param"]
@@ -66,7 +67,7 @@ class LsystemPanel(W.VBox):
         if not isinstance(doc, LSystemDocument):
             raise ValueError(f"doc must be an LSystemDocument, got {type(doc).__name__}")
         self.doc = doc
-        self._busy = False
+        self._busy = SyncGuard()
         self._closed = False
         self.error = ""
         self.step_slider = W.IntSlider(value=doc.step, min=0, max=max(doc.derivation_length, doc.step, 1),
@@ -152,8 +153,7 @@ class LsystemPanel(W.VBox):
 
     def _pull(self) -> None:
         d = self.doc
-        self._busy = True
-        try:
+        with self._busy:
             self._build_controls()
             self.step_slider.max = max(d.derivation_length, d.step, 1, self.step_slider.min)
             self.step_slider.value = d.step
@@ -164,8 +164,6 @@ class LsystemPanel(W.VBox):
                 self.grammar.value = d.text
             if not self.error and self.trust_box.value != d.trusted:
                 self.trust_box.value = bool(d.trusted)
-        finally:
-            self._busy = False
 
     def _build_controls(self) -> None:
         """One editor per declared parameter; rebuilt when the grammar declares others."""

@@ -16,6 +16,7 @@ import traitlets
 
 from .._validation import MAX_COORD, check_array, check_range
 from ._assets import asset
+from ._sync import SyncGuard
 
 __all__ = ["CORNERS", "COLORS", "LABELS", "barycentric", "clamp_to_triangle", "point_from_weights",
            "sub_triangle_areas", "InfluenceTriangle"]
@@ -174,7 +175,7 @@ class InfluenceTriangle(anywidget.AnyWidget):
     def __init__(self, model=None, **kwargs):
         super().__init__(**kwargs)
         self.model = model
-        self._busy = False
+        self._busy = SyncGuard()
         if model is not None:
             self.weights = list(model.influence)
             model.observe(self._from_model, names=["w_heading", "w_tropism", "w_env"])
@@ -183,23 +184,18 @@ class InfluenceTriangle(anywidget.AnyWidget):
     def _from_model(self, change) -> None:
         if self._busy:
             return
-        self._busy = True
-        try:
+        with self._busy:
             self.weights = [float(v) for v in self.model.influence]
-        finally:
-            self._busy = False
 
     def _to_model(self, change) -> None:
         if self._busy or self.model is None:
             return
-        self._busy = True
-        try:
-            self.model.set_influence(*change["new"])
-            self.error = ""
-        except ValueError as exc:  # keep the model; show the reason, snap the point back
-            self.error = str(exc)
-        finally:
-            self._busy = False
+        with self._busy:
+            try:
+                self.model.set_influence(*change["new"])
+                self.error = ""
+            except ValueError as exc:  # keep the model; show the reason, snap the point back
+                self.error = str(exc)
         self._from_model(None)
 
     def set_weights(self, H: float, T: float, E: float) -> None:

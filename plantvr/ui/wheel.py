@@ -18,6 +18,7 @@ import traitlets
 from .._validation import check_int
 from ..vine.colors import slice_at
 from ._assets import asset
+from ._sync import SyncGuard
 
 __all__ = ["slice_at", "hex_to_rgb", "rgb_to_hex", "ColorWheel"]
 
@@ -78,7 +79,7 @@ class ColorWheel(anywidget.AnyWidget):
             kwargs.setdefault("hidden", list(hidden) if hidden is not None else [False] * len(colors))
         super().__init__(**kwargs)
         self.target = None
-        self._busy = False
+        self._busy = SyncGuard()
         if target is not None:
             self.link(target)
         self.observe(self._to_target, names=["colors", "hidden"])
@@ -141,39 +142,33 @@ class ColorWheel(anywidget.AnyWidget):
         if self._busy:
             return
         colors, hidden = self._table()
-        self._busy = True
-        try:
-            with self.hold_trait_notifications():
-                if self.selected >= len(colors):
-                    self.selected = 0
-                self.colors, self.hidden = colors, hidden
-        finally:
-            self._busy = False
+        with self._busy, self.hold_trait_notifications():
+            if self.selected >= len(colors):
+                self.selected = 0
+            self.colors, self.hidden = colors, hidden
 
     def _to_target(self, change) -> None:
         if self._busy or self.target is None:
             return
-        self._busy = True
-        try:
-            old_colors, old_hidden = self._table()
-            new_colors, new_hidden = list(self.colors), list(self.hidden)
-            if len(new_colors) != len(old_colors) or len(new_hidden) != len(old_hidden):
-                raise ValueError(f"the wheel edits colours, it cannot resize the table ({len(old_colors)} entries)")
-            if self._kind == "traits":
-                with self.target.hold_trait_notifications():
-                    self.target.colors, self.target.hidden = new_colors, new_hidden
-            else:
-                for k, (a, b) in enumerate(zip(old_colors, new_colors)):
-                    if a != b:
-                        self.target.set_color(k, hex_to_rgb(b))
-                for k, (a, b) in enumerate(zip(old_hidden, new_hidden)):
-                    if a != b:
-                        self.target.set_visible(k, not b)
-            self.error = ""
-        except ValueError as exc:
-            self.error = str(exc)
-        finally:
-            self._busy = False
+        with self._busy:
+            try:
+                old_colors, old_hidden = self._table()
+                new_colors, new_hidden = list(self.colors), list(self.hidden)
+                if len(new_colors) != len(old_colors) or len(new_hidden) != len(old_hidden):
+                    raise ValueError(f"the wheel edits colours, it cannot resize the table ({len(old_colors)} entries)")
+                if self._kind == "traits":
+                    with self.target.hold_trait_notifications():
+                        self.target.colors, self.target.hidden = new_colors, new_hidden
+                else:
+                    for k, (a, b) in enumerate(zip(old_colors, new_colors)):
+                        if a != b:
+                            self.target.set_color(k, hex_to_rgb(b))
+                    for k, (a, b) in enumerate(zip(old_hidden, new_hidden)):
+                        if a != b:
+                            self.target.set_visible(k, not b)
+                self.error = ""
+            except ValueError as exc:
+                self.error = str(exc)
         if self.target is not None:
             self._from_target(None)  # show what the target really holds
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .._fileio import read_text
 from ._render_lock import lock_trame_image_delivery
 from .vine_svg import WHEEL_RADIUS, _level_slider, wheel_geometry
 
@@ -72,7 +73,7 @@ def build_page(app):
                     # drags by vtk.js; no hardware selector pass in the browser
                     view = vtk_widgets.VtkLocalView(app.view.plotter.ren_win, classes="vine-view",
                                                     ref=_VIEW_REF, **kw)
-                    client.Script(_DELTA_JS.read_text())
+                    client.Script(read_text(_DELTA_JS, what="page script"))
                     client.ClientStateChange(value="vine_delta", trigger_on_create=True,
                                              change=f"trame.utils.vine && trame.utils.vine.apply('{_VIEW_REF}', "
                                                     "vine_delta)")

@@ -297,5 +297,5 @@ def test_from_file_takes_unsupported_and_names_a_file_that_is_not_utf8(tmp_path)
         LSystemDocument.from_file(p, unsupported="skip")
     bad = tmp_path / "latin1.lpy"
     bad.write_bytes("# café\nAxiom: F\n".encode("latin-1"))
-    with pytest.raises(LSystemError, match=r"line 1, column 6: '.*latin1.lpy' is not UTF-8 text"):
+    with pytest.raises(LSystemError, match=r"line 1, column 6: grammar '.*latin1.lpy' is not UTF-8 text"):
         LSystemDocument.from_file(bad)

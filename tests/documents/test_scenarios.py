@@ -100,7 +100,7 @@ def test_round_trip_and_bad_files(tmp_path):
     assert CommandLog.load(p, plantvr.Model.COMMANDS, document="treewand").events[1].kwargs == {"seed": 3}
     with pytest.raises(ValueError, match="must end in .jsonl"):
         save_scenario(sc, tmp_path / "s.txt")
-    with pytest.raises(ValueError, match="No such file"):
+    with pytest.raises(ValueError, match="nope.jsonl. does not exist"):
         read_scenario(tmp_path / "nope.jsonl")
     (tmp_path / "bad.jsonl").write_text("{not json")
     with pytest.raises(ValueError, match="no trailer line"):

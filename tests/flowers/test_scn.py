@@ -93,10 +93,10 @@ def test_malformed_scn_raises_clear_error(text, match):
 
 
 def test_unreadable_files_raise_value_error(tmp_path):
-    with pytest.raises(ValueError, match="cannot read"):
+    with pytest.raises(ValueError, match="SCN file .*missing.sce' does not exist"):
         read_scn(tmp_path / "missing.sce")
     (tmp_path / "bin.sce").write_bytes(b"\xff\xfe\x00o: 0")
-    with pytest.raises(ValueError, match="cannot read"):
+    with pytest.raises(ValueError, match="bin.sce' is not UTF-8 text"):
         read_scn(tmp_path / "bin.sce")
     with pytest.raises(ValueError, match="does not exist"):
         read_rba_sequence(tmp_path / "nope")

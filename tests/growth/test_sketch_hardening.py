@@ -524,7 +524,7 @@ def test_oversized_and_deep_json_is_refused(tmp_path, saved_entry, monkeypatch):
         TreeLibrary(tmp_path).load("t")
     (tmp_path / "t.json").write_bytes(saved_entry["t.json"])
     monkeypatch.setattr(tools, "MAX_ENTRY_BYTES", 1000)
-    with pytest.raises(ValueError, match="cap"):
+    with pytest.raises(ValueError, match="more than the 1000 allowed"):
         TreeLibrary(tmp_path).load("t")
 
 

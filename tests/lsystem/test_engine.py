@@ -314,7 +314,7 @@ def test_every_error_has_a_line_and_column(tmp_path, monkeypatch):
         assert err.value.line == line and err.value.column >= 1, (text, str(err.value))
     p = tmp_path / "bad.lpy"
     p.write_bytes(b"Axiom: F\xff\n")
-    with pytest.raises(LSystemError, match=r"line 1, column 9: '.*bad.lpy' is not UTF-8"):
+    with pytest.raises(LSystemError, match=r"line 1, column 9: grammar '.*bad.lpy' is not UTF-8"):
         LSystem.from_file(p)
 
 

@@ -307,5 +307,5 @@ def test_read_obj_rejects_corrupt_files(tmp_path, obj_mesh):
         # a truncation that happens to end on a whole line is a smaller, consistent mesh
         assert what == "truncated face" and r[1].max() < len(r[0]), what
     assert n >= 12
-    with pytest.raises(ValueError, match="no such OBJ"):
+    with pytest.raises(ValueError, match="OBJ file .*missing.obj. does not exist"):
         read_obj(tmp_path / "missing.obj")

@@ -85,7 +85,7 @@ def test_save_and_replay(tmp_path):
     assert other.replay(bad) is False and "not a PlantVR event log" in other.error.value     # a script, not a log
     assert other.run_file(bad) is False and other.error_line == 2                              # scripts run as input
     np.testing.assert_array_equal(other.doc.points.points, pts)      # current document kept
-    assert other.replay(tmp_path / "missing.txt") is False and "cannot read" in other.error.value
+    assert other.replay(tmp_path / "missing.txt") is False and "does not exist" in other.error.value
     assert other.run_file(tmp_path / "missing.txt") is False and "does not exist" in other.error.value
 
 
