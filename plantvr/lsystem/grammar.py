@@ -39,8 +39,7 @@ contexts, ``[`` in left contexts and a bracket first in a predecessor.
 Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, unbalanced
 brackets in predecessors (a balanced one may start with its bracket, ``[] -->``, matched at the ``[`` as L-Py's
 ``RulePtrMap``), a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
-``TreeLeftMatcher``: ``F [ < A``), expressions as pattern parameters (value conditions ``x if ...``,
-``n in 'SU'``), ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
+``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions, ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
 ``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
 modules, as here), the exact closing bracket ``=]``, iterator requests (``?I``, ``GetModule``) in patterns,
 new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
@@ -258,9 +257,8 @@ class _Reader:
         """An 'Axiom:' with nothing after it and an indented block of Python below (``nproduce`` statements, loops),
         as L-Py reads it: the block's code, ``produce``/``nproduce`` translated, is the axiom's."""
         code = [(k, raw) for k, raw in block if _strip_comment(raw).strip()]
-        if not code:
-            _, ln, col = self.g.axiom
-            raise LSystemError("'Axiom:' has no L-string", ln, col)
+        if not code:                # an empty axiom, as L-Py reads it: the empty L-string
+            return
         indent = min(len(raw) - len(raw.lstrip()) for _, raw in code)
         self.g.axiom_block = [(k, self.translate_produce(raw[indent:], k, in_rule=True)) for k, raw in code]
 
@@ -366,11 +364,16 @@ class _Reader:
             k += len(pat.names)
         body: list[tuple[int, str]] = []
         successor = condition = None
+        constraints = " and ".join(f"({c})" for p in pats.values() for c in p.conds) or None
         if delim in ("-->", "->", "-static->"):
             if len(lines) > 1:
                 raise LSystemError(f"a '{delim}' rule has no indented body", lines[1][0], 1)
             successor = self.lex(_strip_comment(rest), ln, head_at + len(delim) + 1)
-            body.append((ln, "return __lsys_produce__(" + lstring_to_py(successor) + ")"))
+            if constraints is None:
+                body.append((ln, "return __lsys_produce__(" + lstring_to_py(successor) + ")"))
+            else:                                     # value constraints: L-Py's match fails, the next rule is tried
+                condition = constraints
+                body.append((ln, f"if {condition}: return __lsys_produce__({lstring_to_py(successor)})"))
         else:
             inline = _strip_comment(rest)
             if inline.strip().startswith("@static"):
@@ -381,12 +384,17 @@ class _Reader:
                 condition = inline[:at].strip()
                 if not condition:
                     raise LSystemError("empty condition before the arrow", ln, head_at + 2)
+                if constraints is not None:
+                    condition = f"{constraints} and ({condition})"
                 if len(lines) > 1:
                     raise LSystemError("a conditional '-->' rule has no indented body", lines[1][0], 1)
                 col = head_at + len(delim) + at + len(arrow) + 1
                 successor = self.lex(inline[at + len(arrow):], ln, col)
                 body.append((ln, f"if ({condition}): return __lsys_produce__({lstring_to_py(successor)})"))
             else:
+                if constraints is not None:
+                    body.append((ln, f"if not ({constraints}): return None"))
+                    condition = constraints
                 if inline.strip():
                     stripped = inline.strip()
                     if stripped.startswith("produce") and _PRODUCE.match(stripped) and len(lines) == 1:

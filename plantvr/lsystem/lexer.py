@@ -179,7 +179,11 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
         name = next((k for k in cands if text.startswith(k, i)), c) if cands else c
         j = i + len(name)
         args = None
-        if j < n and text[j] == "(":
+        k = j
+        while k < n and text[k] in " \t":      # L-Py's parseAModule: blanks may stand before the parameters
+            k += 1
+        if k < n and text[k] == "(":
+            j = k
             k = _close_paren(text, j, line, col, name)
             inner = text[j + 1:k]
             args = () if not inner.strip() else tuple(a.strip() for a in split_top(inner))

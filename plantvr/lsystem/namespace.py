@@ -11,6 +11,7 @@ swaps the global ``random`` / ``numpy.random`` states in and out around them. It
 from __future__ import annotations
 
 import ast
+import copy
 import inspect
 import math
 import random as _random
@@ -63,6 +64,54 @@ class _Seeded:
 
 class _OverBudget(BaseException):
     """The time budget ran out (a BaseException, so a grammar's ``except Exception`` does not swallow it)."""
+
+
+class ParameterSet:
+    """L-Py's ``ParameterSet`` (``openalea.lpy.parameterset``): a bag of named values, attributes and items."""
+
+    def __init__(self, **kwd) -> None:
+        self.__dict__.update(kwd)
+
+    def rename(self, old: str, new: str) -> None:
+        setattr(self, new, getattr(self, old))
+        delattr(self, old)
+
+    def setdefault(self, *args, **kwd) -> None:
+        if args and kwd or len(args) % 2:
+            raise ValueError("setdefault takes name, value pairs or keywords")
+        for name, value in [*zip(args[::2], args[1::2]), *kwd.items()]:
+            if not hasattr(self, name):
+                setattr(self, name, value)
+
+    def hasattr(self, name: str) -> bool:
+        return hasattr(self, name)
+
+    def get(self, name: str, default=None):
+        return getattr(self, name, default)
+
+    def set(self, **kwd) -> None:
+        self.__dict__.update(kwd)
+
+    def parameter_names(self) -> list[str]:
+        return list(self.__dict__)
+
+    def copy(self, deep: bool = True) -> ParameterSet:
+        return copy.deepcopy(self) if deep else copy.copy(self)
+
+    def __repr__(self) -> str:
+        return f"ParameterSet({','.join(f'{k}={v!r}' for k, v in self.__dict__.items())})"
+
+    def __getitem__(self, name: str):
+        return getattr(self, name)
+
+    def __setitem__(self, name: str, value) -> None:
+        setattr(self, name, value)
+
+    def __delitem__(self, name: str) -> None:
+        delattr(self, name)
+
+    def __contains__(self, name: str) -> bool:
+        return hasattr(self, name)
 
 
 class _ContextStub(SB.SafeAttrs):
@@ -156,6 +205,7 @@ class _Namespace:
             nproduce=self._nbuf_add, useGroup=self._use_group, getGroup=lambda: self._group,
             frameDisplay=lambda *a: None, Lstring=self._lstring,
             isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
+            ParameterSet=ParameterSet,                       # from openalea.lpy, as every L-Py namespace has it
         )
         ns.update(SB.guard_names(self._tick))
         if self.trusted:                                      # as the builtins, refusing only huge integers
@@ -425,8 +475,10 @@ class _Namespace:
             except _OverBudget:
                 raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, f" in {name}()") from None
             except Exception as e:
-                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}", self._tb_line(sys.exc_info()[2]),
-                                   1) from None
+                scene = ("; it reads L-Py's PlantGL scene (its second parameter), which PlantVR does not have: hooks "
+                         "that read the scene are not supported" if nparams >= 2 else "")
+                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}{scene}", self._tb_line(
+                    sys.exc_info()[2]), 1) from None
             if isinstance(out, ModuleString):
                 return self._adopt(out)
             if out is not None:

@@ -59,6 +59,7 @@ class Pattern:
     mods: tuple
     names: tuple
     consts: tuple
+    conds: tuple = ()     # value constraints (Python expressions of the bound names) that must hold
 
     @property
     def variables(self) -> list[str]:
@@ -88,8 +89,14 @@ def _same(value, const) -> bool:
         return False
 
 
+_CONSTRAINED = re.compile(r"^([A-Za-z_]\w*)\s*(.+)$", re.DOTALL)
+
+
 def _param(a: str, tok: Token, line: int) -> tuple[str, object] | None:
-    """``("var", name)``, ``("star", name)`` or ``("const", value)`` for pattern parameter ``a``."""
+    """``("var", name)``, ``("star", name)``, ``("const", value)`` or ``("cond", (name, expression))`` for pattern
+    parameter ``a``. A value constraint (L-Py's ``LpyParsing::parse_variable``) binds the name its text starts
+    with and must hold: ``x if x > 0`` the expression after ``if``, else the whole text (``n in 'SU'``,
+    ``s == Any``)."""
     if a.startswith("**"):
         raise LSystemError(f"keyword pattern parameter {a!r} of {tok.name} is not supported (PlantVR's modules "
                            "have no named parameters)", line, tok.col)
@@ -104,8 +111,17 @@ def _param(a: str, tok: Token, line: int) -> tuple[str, object] | None:
     else:
         if len(a) <= 200:
             return "const", value
-    raise LSystemError(f"pattern parameter {a!r} of {tok.name} must be a variable name or a constant (expressions "
-                       "as value constraints are not supported)", line, tok.col)
+    m = _CONSTRAINED.match(a)
+    if m and m.group(1) not in ("None", "True", "False", "not", "lambda") and len(a) <= 2000:
+        cond = m.group(2)[3:] if re.match(r"if\b", m.group(2)) else a
+        try:
+            ast.parse(cond.strip(), mode="eval")
+        except (SyntaxError, ValueError, MemoryError, RecursionError):
+            pass
+        else:
+            return "cond", (m.group(1), cond.strip())
+    raise LSystemError(f"pattern parameter {a!r} of {tok.name} must be a variable name, a constant or a value "
+                       "constraint (a name, then a Python condition)", line, tok.col)
 
 
 def _arg_cols(text: str, tok: Token) -> list[int]:
@@ -129,7 +145,7 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
         For a construct PlantVR does not match (iterator requests, ``or(...)`` alternatives, ``**kwds``, a
         repetition in a predecessor, a ``*args`` not last...), at its line and column.
     """
-    mods, names, consts = [], [], []
+    mods, names, consts, conds = [], [], [], []
     for t in toks:
         line = t.line
         if t.name in _ITERATOR:
@@ -143,6 +159,9 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
         if t.name in _REP and t.args is not None:
             m = _repetition(t, text, lex, where, depth)
             sub = m.sub.variables
+            if m.sub.conds:
+                raise LSystemError(f"value constraints inside a repetition {t.name}(...) are not supported", line,
+                                   t.col)
             mods.append(m)
             names.extend(sub)
             continue
@@ -151,6 +170,10 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
             continue
         params = [_param(a, t, line) for a in t.args or ()]
         for q, (kind, v) in enumerate(params):
+            if kind == "cond":
+                v = v[0]
+                conds.append(params[q][1][1])
+                params[q] = ("var", v)
             if kind == "star" and q != len(params) - 1:
                 raise LSystemError(f"star parameter '*{v}' of {t.name} must be the last", line, t.col)
             if kind == "const":
@@ -162,7 +185,7 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
             mods.append(PatternModule(t, ANY, max(len(params) - name_var - star, 0), star, name_var))
         else:
             mods.append(PatternModule(t, MOD, len(params) - star, star))
-    return Pattern(tuple(mods), tuple(names), tuple(consts))
+    return Pattern(tuple(mods), tuple(names), tuple(consts), tuple(conds))
 
 
 def _repetition(t: Token, text: str, lex, where: str, depth: int) -> PatternModule:

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BezierCurve2D", "Color3", "Color4", "Material", "Matrix3", "NurbsCurve", "NurbsCurve2D", "Point2Array",
+__all__ = ["BezierCurve2D", "Color3", "Color4", "ImageTexture", "Material", "Matrix3", "Texture2D", "NurbsCurve", "NurbsCurve2D", "Point2Array",
            "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "RealArray", "Vector2", "Vector3",
            "Vector4", "angle", "cross", "direction", "dot", "norm"]
 
@@ -276,6 +276,51 @@ class Material:
         return f"Material({self.name!r}, ambient={tuple(int(a) for a in self.ambient)}, diffuse={self.diffuse:g})"
 
 
+class ImageTexture(Material):
+    """PlantGL ``ImageTexture([name,] filename, ...)``, drawn as a material of the image's mean colour: PlantVR's
+    scene carries one colour per material, not the picture (the image is read when it can be: a missing or
+    unreadable file draws grey)."""
+
+    def __init__(self, *args, **kw) -> None:
+        names = [a for a in args if isinstance(a, str)]
+        if not names and not isinstance(kw.get("filename"), str):
+            raise ValueError("ImageTexture needs a file name")
+        filename = str(kw.get("filename", names[-1]))
+        super().__init__(names[0] if len(names) > 1 else filename, _mean_rgb(filename), 1.0)
+        self.filename = filename
+
+
+class Texture2D(Material):
+    """PlantGL ``Texture2D(image=ImageTexture(...), transformation=None, baseColor=None)`` (the editor's texture
+    materials): drawn in the image's mean colour, as :class:`ImageTexture`."""
+
+    def __init__(self, name: str = "", image: ImageTexture | None = None, transformation=None, baseColor=None,
+                 **kw) -> None:
+        if image is None and isinstance(name, ImageTexture):
+            name, image = "", name
+        if not isinstance(image, ImageTexture):
+            raise ValueError(f"Texture2D needs image=ImageTexture(...), got {type(image).__name__}")
+        super().__init__(str(name or image.name), tuple(int(a) for a in image.ambient), image.diffuse)
+        self.image = image
+
+
+def _mean_rgb(filename: str) -> tuple[int, int, int]:
+    """The mean RGB of an image file (grey when it cannot be read; at most a 4096 x 4096 thumbnail is averaged)."""
+    try:
+        from PIL import Image  # noqa: PLC0415
+
+        with Image.open(filename) as im:
+            im.draft("RGB", (256, 256))
+            im.thumbnail((4096, 4096))
+            a = np.asarray(im.convert("RGBA"), np.float64).reshape(-1, 4)
+        w = a[:, 3] / 255.0
+        if w.sum() <= 0:
+            return (128, 128, 128)
+        return tuple(int(round(float(x))) for x in (a[:, :3] * w[:, None]).sum(0) / w.sum())
+    except Exception:  # noqa: BLE001  any unreadable picture: a neutral colour, as a missing texture
+        return (128, 128, 128)
+
+
 # -- point arrays and curves ---------------------------------------------------------------------------------
 class _PointArray(list):
     _V = Vector3
@@ -381,7 +426,7 @@ class NurbsCurve2D(_Curve):
                              f"coordinates, got shape {pts.shape}")
         if pts.shape[1] == self._DIM:
             pts = np.column_stack([pts, np.ones(len(pts))])
-        self.ctrlPointList = pts
+        self._ctrl = pts
         self.degree = int(min(max(int(degree), 1), len(pts) - 1))
         self.knotList = (np.asarray(knotList, float) if knotList is not None
                          else _clamped_knots(len(pts), self.degree))
@@ -391,17 +436,22 @@ class NurbsCurve2D(_Curve):
         self.name = str(kw.get("name", ""))
 
     @property
+    def ctrlPointList(self) -> _PointArray:
+        """The homogeneous control points as PlantGL hands them: vectors with ``x``, ``y``, ``z`` (``w``)."""
+        return (Point3Array if self._DIM == 2 else Point4Array)(self._ctrl)
+
+    @property
     def firstKnot(self) -> float:
         return float(self.knotList[self.degree])
 
     @property
     def lastKnot(self) -> float:
-        return float(self.knotList[len(self.ctrlPointList)])
+        return float(self.knotList[len(self._ctrl)])
 
     def getPointAt(self, u: float):
         """The curve point at parameter ``u`` (clamped to the knot range)."""
-        w = self.ctrlPointList[:, -1:]
-        h = _de_boor(np.column_stack([self.ctrlPointList[:, :-1] * w, w]), self.knotList, self.degree, u)
+        w = self._ctrl[:, -1:]
+        h = _de_boor(np.column_stack([self._ctrl[:, :-1] * w, w]), self.knotList, self.degree, u)
         p = h[:-1] / h[-1]
         return (Vector2 if self._DIM == 2 else Vector3)(*p)
 

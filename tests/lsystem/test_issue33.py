@@ -103,10 +103,11 @@ def test_pattern_constants_in_contexts():
     assert str(ls.derive(1)) == "A(0)DA(1)C"
 
 
-def test_pattern_expression_still_refused():
-    with pytest.raises(LSystemError, match=r"line 3, column 1: .*'x \+ 1' of F must be a variable name or a "
-                                           r"constant"):
-        LSystem("Axiom: F\nproduction:\nF(x + 1) --> F\n")
+def test_pattern_expression_is_a_value_constraint():
+    """L-Py's ``parse_variable``: ``F(x + 1)`` binds ``x`` and the whole text is the condition (truthy)."""
+    assert str(LSystem("Axiom: F(1) F(-1)\nproduction:\nF(x + 1) --> G(x)\n").derive(1)) == "G(1)F(-1)"
+    with pytest.raises(LSystemError, match=r"line 3, column 1: .*'1 \+' of F must be a variable name, a constant"):
+        LSystem("Axiom: F\nproduction:\nF(1 +) --> F\n")
 
 
 # -- 3. multi-module predecessors --------------------------------------------------------------------------------

@@ -157,8 +157,10 @@ def test_matrix3_angle_constants_and_curve_methods_as_plantgl():
     c = NurbsCurve2D([(0, 0, 1), (1, 0, 1), (2, 0, 1)], degree=1)
     assert c.getLength() == pytest.approx(2.0) and c.getFirstKnot() == 0.0 and c.getLastKnot() == 1.0
     d = c.deepcopy()
-    d.ctrlPointList[0, 0] = 5.0
-    assert c.ctrlPointList[0, 0] == 0.0 and isinstance(copy.copy(d), NurbsCurve2D)
+    d.knotList[2] = 0.25
+    assert c.knotList[2] == 0.5 and isinstance(copy.copy(d), NurbsCurve2D)
+    pts = c.ctrlPointList                                 # PlantGL's Point3Array: rows with x, y, z (the weight)
+    assert [p.x for p in pts] == [0, 1, 2] and pts[2].z == 1 and type(pts).__name__ == "Point3Array"
     with pytest.raises(ValueError, match="Matrix3 needs 9 finite numbers"):
         Matrix3(1, 2, 3)
 
