@@ -164,9 +164,10 @@ class _Reader:
         return self.lex(s, line, col, frozenset(self.known) | PATTERN_NAMES)
 
     def translate_produce(self, src: str, line: int, *, in_rule: bool) -> str:
-        """Replace ``produce X`` / ``nproduce X`` statements in one line of Python by their calls."""
+        """Replace ``produce X`` / ``nproduce X`` statements in one line of Python by their calls (and quote the
+        patterns of ``InLeftContext(A(x), args)``, which L-Py's parser reads as L-strings)."""
         out, pos = [], 0
-        code = _strip_comment(src)
+        code = _quote_context_patterns(_strip_comment(src))
         for m in _PRODUCE.finditer(code):
             if _in_string(code, m.start()):
                 continue
@@ -459,6 +460,37 @@ class _Reader:
         if depth:
             raise LSystemError(f"unbalanced brackets in the predecessor {pred_src.strip()!r}", ln, pred_col)
         return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
+
+
+_ASK = re.compile(r"\b(InLeftContext|InRightContext)\s*\(")
+
+
+def _quote_context_patterns(code: str) -> str:
+    """``InLeftContext(A(x) B, args)`` as ``InLeftContext('A(x) B', args)``: L-Py's parser takes the first argument
+    of the capitalised context tests as a pattern (``pInLeftContext``); a string literal there stays."""
+    out, pos = [], 0
+    for m in _ASK.finditer(code):
+        if m.start() < pos or _in_string(code, m.start()):
+            continue
+        j, depth, quote = m.end(), 0, None
+        while j < len(code):
+            c = code[j]
+            if quote:
+                quote = None if c == quote else quote
+            elif c in "'\"":
+                quote = c
+            elif c in "([{":
+                depth += 1
+            elif c in ")]}" and depth:
+                depth -= 1
+            elif c in ",)" and not depth:
+                break
+            j += 1
+        arg = code[m.end():j].strip()
+        if arg and arg[0] not in "'\"":
+            out += [code[pos:m.end()], repr(arg)]
+            pos = j
+    return "".join(out) + code[pos:]
 
 
 def _in_string(code: str, at: int) -> bool:

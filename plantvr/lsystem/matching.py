@@ -11,10 +11,14 @@ from __future__ import annotations
 
 import math
 
-from .lexer import Token, lex
+from .lexer import LSystemError, Token, lex
 from .modules import _EMPTY
-from .patterns import ANY, LB, MOD, RB, REP, Pattern, PatternModule, _same
+from .patterns import ANY, LB, MOD, RB, REP, Pattern, PatternModule, _same, read_pattern
 from .rules import _Compiled
+
+
+#: Pattern names that are not modules (a wildcard, a repetition).
+_WILD = frozenset({"*", "any", "x", "all"})
 
 
 class _Reversed:
@@ -74,12 +78,14 @@ class _Matching:
         """Actual parameters of rule ``r`` at module ``i`` (None if the predecessor or a context does not match)."""
         rule = r.rule
         vals: list = []
-        seq = _ArrSeq(ids, ptr, args, objs) if r.more or r.contexts else None
+        seq = _ArrSeq(ids, ptr, args, objs) if r.more or r.contexts or r.asks else None
+        leftpos = i - 1
         if rule.left:
-            lv = self._left(r.pats["left"], i - 1, seq, partner)
-            if lv is None:
+            got = self._left_at(r.pats["left"].mods, i - 1, seq, partner)
+            if got is None:
                 return None
-            vals += lv
+            vals += got[0]
+            leftpos = got[1]
         if rule.newleft:
             if self._direction != 1:
                 return None
@@ -103,17 +109,53 @@ class _Matching:
             if rv is None:
                 return None
             vals += rv
+        rightpos = i + 1 + len(r.rest)
         if rule.right:
-            rv = self._right(r.pats["right"], i + 1 + len(r.rest), seq, partner)
-            if rv is None:
+            got = self._right_at(r.pats["right"].mods, rightpos, seq, partner)
+            if got is None:
                 return None
-            vals += rv
+            vals += got[0]
+            rightpos = got[1]
         if r.keep is not None:                                # pattern constants: equal values only
             for k, v in r.consts:
                 if not _same(vals[k], v):
                     return None
             vals = [vals[k] for k in r.keep]
+        self._asking = [seq, partner, leftpos, rightpos] if r.asks else None
         return vals
+
+    def _in_context(self, pattern, args, left: bool) -> bool:
+        """``InLeftContext(pattern, args)`` / ``InRightContext``: whether ``pattern`` (an L-string pattern, as a
+        rule context) matches next to what the rule's match has covered so far, leftward or rightward, as L-Py's
+        ``LstringMatcher::inLeftContext``: a match moves that edge past it, so calls in a row walk along the
+        string, and ``args`` (a dict) receives the pattern's variables."""
+        what = "InLeftContext" if left else "InRightContext"
+        here = getattr(self, "_asking", None)
+        if here is None:
+            raise LSystemError(f"{what} is called outside a production rule's body")
+        if not isinstance(pattern, str):
+            raise LSystemError(f"{what} needs a pattern (an L-string), got {type(pattern).__name__}")
+        if args is not None and not isinstance(args, dict):
+            raise LSystemError(f"{what}'s second argument must be a dict, got {type(args).__name__}")
+        pat = self._context_patterns.get(pattern) if hasattr(self, "_context_patterns") else None
+        if pat is None:
+            toks = lex(pattern, self._names)
+            pat = read_pattern(toks, pattern, lambda src, line, col: lex(src, self._names, line=line, col=col),
+                               where="left" if left else "right")
+            if pat.conds:
+                raise LSystemError(f"value constraints in a {what} pattern are not supported")
+            self.__dict__.setdefault("_context_patterns", {})[pattern] = pat
+        if any(t.name not in self._index for t in pat.tokens() if t.name not in "[]" and t.name not in _WILD):
+            return False                                   # a name no module has: nothing can match
+        seq, partner, lpos, rpos = here
+        got = self._left_at(pat.mods, lpos, seq, partner) if left else self._right_at(pat.mods, rpos, seq, partner)
+        vals = None if got is None else pat.filter(got[0])
+        if vals is None:
+            return False
+        here[2 if left else 3] = got[1]
+        if args is not None:
+            args.update(zip(pat.variables, vals))
+        return True
 
     def _pattern_sid(self, t: Token) -> int:
         return self._sid(t.name)

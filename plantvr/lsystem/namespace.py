@@ -206,6 +206,10 @@ class _Namespace:
             frameDisplay=lambda *a: None, Lstring=self._lstring,
             isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
             ParameterSet=ParameterSet,                       # from openalea.lpy, as every L-Py namespace has it
+            InLeftContext=lambda pattern, args=None: self._in_context(pattern, args, True),
+            InRightContext=lambda pattern, args=None: self._in_context(pattern, args, False),
+            inLeftContext=lambda pattern, args=None: self._in_context(pattern, args, True),
+            inRightContext=lambda pattern, args=None: self._in_context(pattern, args, False),
         )
         ns.update(SB.guard_names(self._tick))
         if self.trusted:                                      # as the builtins, refusing only huge integers

@@ -240,7 +240,7 @@ class _Rewriting:
                     grown += self._grouped_batch(r, pos, ptr, args, vec_chunks, py_chunks, assigned, out_len,
                                                  n + grown)
                     continue
-                if r.contexts and partner is None:
+                if (r.contexts or r.asks) and partner is None:
                     partner = K.match_brackets(ids, 0, 1)
                 for i in pos.tolist():
                     vals = self._bind(r, i, ids, ptr, args, partner, None, objs)

@@ -53,6 +53,8 @@ class _Compiled:
         self.plain = sid >= 0
         self.more = not self.plain or bool(self.rest)         # predecessor modules _bind matches
         self.query = any(tok.name in _query_modules() for p in self.pats.values() for tok in p.tokens())
+        #: the body asks its contexts (``InLeftContext`` / ``InRightContext``): the matcher keeps its positions
+        self.asks = any(q in src for _, src in rule.body for q in CONTEXT_QUERIES)
         self.vec = None          # (cond | None, [(sid, [fn, ...]), ...])
         self.batch = None        # (fn of the parameter columns, [(sid, arity), ...]): a loop in Python
         self.const = None        # [(sid, (floats...)), ...]
@@ -317,6 +319,10 @@ def _turtle_modules() -> frozenset:
         from .turtle import QUERY_MODULES, TURTLE_MODULES
         _TURTLE.append(frozenset(TURTLE_MODULES) - frozenset(QUERY_MODULES))
     return _TURTLE[0]
+
+
+#: L-Py's context tests of a rule body (``LstringMatcher::inLeftContext`` / ``inRightContext``).
+CONTEXT_QUERIES = ("InLeftContext", "InRightContext", "inLeftContext", "inRightContext")
 
 
 def _query_modules() -> frozenset:

@@ -145,3 +145,37 @@ def test_hooks_reading_the_scene_are_refused_by_name():
     g = "def End(lstring, lscene):\n  assert len(lscene) == 3\nAxiom: F\nderivation length: 1\nproduction:\nendlsystem\n"
     with pytest.raises(LSystemError, match=r"line 2.*End\(\) raised TypeError.*PlantGL scene.*not supported"):
         LSystem(g, trusted=True).derive()
+
+
+def test_context_tests_walk_along_the_string_and_bind_variables():
+    """``InLeftContext(pattern, args)`` / ``InRightContext`` (L-Py's ``LstringMatcher``): a match moves the edge
+    past what it matched, so calls in a row walk outward; ``args`` gets the pattern's values (L-Py's tests
+    test_in_left_context, test_multiple_inleftcontext, test_in_right_context, rewritten; strings hand-derived)."""
+    g = """Axiom: C B B B A(7) E(1) E(2) D
+derivation length: 1
+production:
+A(x) :
+  n = 0
+  while InLeftContext(B):
+    n += 1
+  got = {}
+  right = InRightContext(E(u) E(v), got)
+  after = inRightContext('D')
+  produce R(x, n, got['u'], got['v'], right and after, InLeftContext(C), InLeftContext(B))
+endlsystem
+"""
+    assert _derive(g, trusted=True) == "CBBBR(7,3,1,2,True,True,False)E(1)E(2)D"
+    left = """Axiom: D D A(1) B
+derivation length: 1
+production:
+B :
+  params = {}
+  if inLeftContext('A(x)', params) and not InLeftContext(G) and InLeftContext(D):
+    produce C(params['x'])
+endlsystem
+"""
+    assert _derive(left, trusted=True) == "DDA(1)C(1)"
+    with pytest.raises(LSystemError, match="line 6.*InLeftContext.s second argument must be a dict"):
+        LSystem(left.replace("inLeftContext('A(x)', params)", "InLeftContext(A(x), 3)"), trusted=True).derive()
+    with pytest.raises(LSystemError, match="InLeftContext is called outside a production rule"):
+        LSystem("x = InLeftContext('A')\nAxiom: A\nproduction:\nendlsystem\n", trusted=True)
