@@ -283,7 +283,11 @@ class _Reader:
 
     def declare(self, s: str, ln: int) -> None:
         body = _strip_comment(s)[len("module"):]
-        body = body.split(":", 1)[0]                          # ``module A : scale = 1``
+        body, _, options = body.partition(":")                # ``module A : scale = 1``
+        for key in re.findall(r"\b(scale|base|bases)\s*=", options):
+            what = ("module scales (': scale = n', multiscale L-systems) are" if key == "scale" else
+                    "module inheritance (': base = A') is")
+            raise LSystemError(f"{what} not supported", ln, s.find(key) + 1)
         for part in split_top(body):
             part = part.strip()
             if not part:

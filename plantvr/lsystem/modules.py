@@ -152,3 +152,99 @@ class ModuleString:
             text = str(ModuleString(self.names, self.ids[:40], self.arg_ptr[:41], self.args[:m],
                                     {k: v for k, v in self.objects.items() if k < m})) + "..."
         return f"ModuleString({len(self)} modules: {text})"
+
+
+class LstringView:
+    """A grammar hook's lstring (L-Py's ``AxialTree`` API over a :class:`ModuleString`): ``len``, ``str``,
+    ``==`` (by text), ``lstring[i]`` a module (``.name``, ``m[k]`` its k-th parameter, ``m[k] = v`` sets it),
+    ``lstring + 'B'`` / ``+=`` (an L-string text or another lstring appended). The string underneath is not
+    changed: :meth:`string` is the one a hook's edits give (the engine adopts it)."""
+
+    def __init__(self, string: ModuleString, parse) -> None:
+        self._base, self._parse = string, parse
+        self._mods: list | None = None                # [name, [params]] once a module is edited
+
+    def _edit(self) -> list:
+        if self._mods is None:
+            self._mods = [[name, list(vals)] for name, vals in self._base.modules()]
+        return self._mods
+
+    @property
+    def edited(self) -> bool:
+        return self._mods is not None
+
+    def string(self) -> ModuleString:
+        """The lstring with the hook's edits."""
+        if self._mods is None:
+            return self._base
+        return ModuleString.from_modules([(n, tuple(v)) for n, v in self._mods], self._base.names)
+
+    def __len__(self) -> int:
+        return len(self._base) if self._mods is None else len(self._mods)
+
+    def __getitem__(self, i: int) -> _ModuleView:
+        n = len(self)
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -n <= i < n:
+            raise IndexError(f"lstring index {i!r:.40} out of range for {n} modules")
+        return _ModuleView(self, int(i) % n)
+
+    def __iter__(self):
+        return (self[i] for i in range(len(self)))
+
+    def __add__(self, other) -> LstringView:
+        extra = self._parse(other) if isinstance(other, str) else other.string() if isinstance(
+            other, LstringView) else other
+        if not isinstance(extra, ModuleString):
+            raise TypeError(f"an lstring takes an L-string text or an lstring, got {type(other).__name__}")
+        out = LstringView(self._base, self._parse)
+        out._mods = [list(m) for m in self._edit()] + [[n, list(v)] for n, v in extra.modules()]
+        return out
+
+    __iadd__ = __add__
+
+    def __eq__(self, other) -> bool:
+        if isinstance(other, (LstringView, ModuleString, str)):
+            return str(self) == str(other)
+        return NotImplemented
+
+    __hash__ = None
+
+    def __str__(self) -> str:
+        return str(self.string())
+
+    def __repr__(self) -> str:
+        return f"Lstring({str(self)[:200]!r})"
+
+
+class _ModuleView:
+    """Module ``i`` of a hook's lstring."""
+
+    __slots__ = ("_of", "_i")
+
+    def __init__(self, of: LstringView, i: int) -> None:
+        self._of, self._i = of, i
+
+    def _vals(self) -> list:
+        of = self._of
+        return of._mods[self._i][1] if of._mods is not None else list(of._base.module(self._i)[1])
+
+    @property
+    def name(self) -> str:
+        of = self._of
+        return of._mods[self._i][0] if of._mods is not None else of._base.module(self._i)[0]
+
+    def __len__(self) -> int:
+        return len(self._vals())
+
+    def __getitem__(self, k: int):
+        return self._vals()[k]
+
+    def __setitem__(self, k: int, value) -> None:
+        self._of._edit()[self._i][1][k] = value
+
+    def __str__(self) -> str:
+        vals = self._vals()
+        return self.name + ("(" + ",".join(f"{v:g}" if type(v) is float else repr(v) for v in vals) + ")"
+                            if vals else "")
+
+    __repr__ = __str__

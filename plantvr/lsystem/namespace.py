@@ -24,7 +24,8 @@ import numpy as np
 from . import sandbox as SB
 from .grammar import lstring_to_py
 from .lexer import LSystemError, Token, lex
-from .modules import ModuleString
+from .modules import LstringView, ModuleString
+from .plantgl import not_here_hint
 
 #: Most derivation steps one call may ask for (a grammar's ``derivation length`` included).
 MAX_DERIVATION = 100_000
@@ -202,7 +203,7 @@ class _Namespace:
             isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
             Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
-            nproduce=self._nbuf_add, useGroup=self._use_group, getGroup=lambda: self._group,
+            nproduce=self._nbuf_add, nsproduce=self._nsproduce, useGroup=self._use_group, getGroup=lambda: self._group,
             frameDisplay=lambda *a: None, Lstring=self._lstring,
             isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
             ParameterSet=ParameterSet,                       # from openalea.lpy, as every L-Py namespace has it
@@ -295,7 +296,8 @@ class _Namespace:
         except SB.SandboxError as e:
             raise LSystemError(f"{what}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line, 1) from None
         except Exception as e:
-            raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]) or line,
+            raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:300] + not_here_hint(e),
+                               self._tb_line(sys.exc_info()[2]) or line,
                                1) from None
 
     def _lstring(self, text) -> ModuleString:
@@ -323,6 +325,17 @@ class _Namespace:
                                line, 1)
         if time.monotonic() > self._deadline:
             raise _OverBudget()
+
+    def _nsproduce(self, lstring) -> None:
+        """L-Py's ``nsproduce(lstring)``: ``nproduce`` the modules of an lstring (``Lstring(...)``, a hook's
+        lstring, or its text)."""
+        if isinstance(lstring, LstringView):
+            lstring = lstring.string()
+        elif isinstance(lstring, str):
+            lstring = self._lstring(lstring)
+        if not isinstance(lstring, ModuleString):
+            raise LSystemError(f"nsproduce needs an lstring, got {type(lstring).__name__}")
+        self._nbuf_add(lstring.modules())
 
     def _extern(self, **kw) -> None:
         for k, v in kw.items():
@@ -372,7 +385,8 @@ class _Namespace:
         except _OverBudget:
             raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, f" running {what}") from None
         except Exception as e:                                # the grammar's own code failed
-            raise LSystemError(f"{type(e).__name__}: {e}"[:400], self._tb_line(sys.exc_info()[2]), 1) from None
+            raise LSystemError(f"{type(e).__name__}: {e}"[:300] + not_here_hint(e),
+                               self._tb_line(sys.exc_info()[2]), 1) from None
 
     def _tb_line(self, tb) -> int:
         line = 0
@@ -427,7 +441,8 @@ class _Namespace:
         except SB.SandboxError as e:
             raise LSystemError(f"{what}: {e}"[:400], line, toks[0].col if toks else 1) from None
         except Exception as e:
-            raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:400], line, toks[0].col if toks else 1) \
+            raise LSystemError(f"{what}: {type(e).__name__}: {e}"[:300] + not_here_hint(e), line,
+                               toks[0].col if toks else 1) \
                 from None
 
     # -- seeding of the global generators a trusted grammar may use ------------------------------------------------
@@ -470,8 +485,9 @@ class _Namespace:
         f, nparams = self._hooks.get(name, (None, 0))
         if f is not None:
             self._nbuf.clear()
+            view = LstringView(s, self._lstring)
             try:
-                out = f(*(s, None)[:nparams])
+                out = f(*(view, None)[:nparams])
             except LSystemError as e:
                 if e.line:
                     raise
@@ -481,10 +497,14 @@ class _Namespace:
             except Exception as e:
                 scene = ("; it reads L-Py's PlantGL scene (its second parameter), which PlantVR does not have: hooks "
                          "that read the scene are not supported" if nparams >= 2 else "")
-                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}{scene}", self._tb_line(
+                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}{not_here_hint(e) or scene}", self._tb_line(
                     sys.exc_info()[2]), 1) from None
+            if isinstance(out, LstringView):
+                out = out.string()
             if isinstance(out, ModuleString):
                 return self._adopt(out)
+            if out is None and view.edited:                # edited in place (lstring[0][0] = 2)
+                return self._adopt(view.string())
             if out is not None:
                 line = getattr(getattr(f, "__code__", None), "co_firstlineno", 0)
                 raise LSystemError(f"{name}() must return None or an lstring, got {type(out).__name__}", line, 1)

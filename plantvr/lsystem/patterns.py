@@ -24,7 +24,7 @@ __all__ = ["ANY", "LB", "MOD", "PATTERN_NAMES", "RB", "REP", "Pattern", "Pattern
 MOD, ANY, REP, LB, RB = range(5)
 _ANY = frozenset({"*", "any"})
 _REP = frozenset({"x", "all"})
-_ITERATOR = frozenset({"?I", "GetIterator", "GetModule"})
+_ITERATOR = frozenset({"?I", "GetIterator", "GetModule", "$"})
 #: Names L-Py's pattern parser knows beyond the turtle's, lexed as whole names in patterns.
 PATTERN_NAMES = frozenset({"any", "all", "or", "None"})
 _IDENT = re.compile(r"^[A-Za-z_]\w*$")

@@ -29,6 +29,7 @@ from __future__ import annotations
 import builtins
 import copy
 import math
+import re
 import sys
 import types
 from typing import Any
@@ -537,6 +538,30 @@ class QuantisedFunction:
         order = np.argsort(self._y, kind="stable")
         inv._x, inv._y, inv.sampling, inv.clamped = self._y[order], self._x[order], self.sampling, self.clamped
         return inv
+
+
+# -- what is not here ----------------------------------------------------------------------------------------
+#: PlantGL names grammars use that this namespace does not have: scene-graph nodes and transforms, primitives
+#: built directly, patches, grids and the viewer (a grammar naming one is refused with this said).
+NOT_HERE = frozenset({
+    "Scene", "Shape", "Group", "Scaled", "Translated", "Oriented", "AxisRotated", "EulerRotated", "Tapered",
+    "Cylinder", "Cone", "Sphere", "Box", "Disc", "Frustum", "Paraboloid", "Extrusion", "Swung", "Polyline",
+    "Mesh", "FaceSet", "TriangleSet", "QuadSet", "NurbsPatch", "BezierPatch", "Point4Matrix", "Point3Matrix",
+    "Discretizer", "Tesselator", "BoundingBox", "Point3Grid", "Point2Grid", "Grid3Indexing", "Viewer",
+    "eStatic", "eAnimatedScene", "eAnimatedPrimitives", "pgl_support_extension", "Text", "Font", "Texture2DTransformation",
+})
+
+
+def not_here_hint(e: BaseException) -> str:
+    """A clause for an error that names a PlantGL name of :data:`NOT_HERE` (empty otherwise)."""
+    if not isinstance(e, (NameError, AttributeError, ImportError)):
+        return ""
+    names = {getattr(e, "name", None)} | set(re.findall(r"'(\w+)'", str(e)))
+    hit = sorted(n for n in names if n in NOT_HERE)
+    if not hit:
+        return ""
+    return (f"; PlantGL's {hit[0]} is not in PlantVR's PlantGL namespace (scene-graph nodes, primitives, patches, "
+            "grids and the viewer are not supported)")
 
 
 # -- the import hook -----------------------------------------------------------------------------------------

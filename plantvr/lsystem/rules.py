@@ -22,6 +22,7 @@ from .grammar import Rule
 from .lexer import LSystemError, Token
 from .modules import is_number
 from .namespace import _OverBudget
+from .plantgl import not_here_hint
 from .patterns import MOD
 
 _NP_FUNCS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
@@ -281,7 +282,8 @@ class _Rules:
             return self._over_budget(line, 1, f" in rule {c.rule.header!r}")
         if isinstance(e, SB.SandboxError):
             return LSystemError(f"rule {c.rule.header!r}: {e}", line, 1)
-        return LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}"[:400], line, 1)
+        return LSystemError(f"rule {c.rule.header!r} raised {type(e).__name__}: {e}"[:300] + not_here_hint(e),
+                            line, 1)
 
     def _call_batch(self, c: _Compiled, cols: list) -> list:
         """Rule ``c``'s batch plan on parameter columns ``cols`` (lists, as rule code sees the values)."""

@@ -223,8 +223,8 @@ def polygon_faces(points, *, concave: bool = False) -> np.ndarray:
     return np.array(out, np.int64).reshape(-1, 3)
 
 
-def tube_mesh(points, radius, left, *, slices: int = 16) -> tuple[np.ndarray, np.ndarray]:
-    """A smooth open tube through ``points`` (generalized cylinder).
+def tube_mesh(points, radius, left, *, slices: int = 16, contour=None) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth open tube through ``points`` (generalized cylinder), of a circular cross section or ``contour``.
 
     Parameters
     ----------
@@ -235,12 +235,16 @@ def tube_mesh(points, radius, left, *, slices: int = 16) -> tuple[np.ndarray, np
     left : (3,) float array
         The turtle's left vector at the start: the cross section's first direction (PlantGL's initial normal).
     slices : int
-        Cross-section sides.
+        Cross-section sides of a circle.
+    contour : (m, 2) float array, optional
+        The cross section (PlantGL's ``SetContour``): its x along the section's first direction, y along the
+        second, scaled by the radius; a closed one (first point = last) makes a tube, faces outward whichever
+        way it turns, an open one (a leaf profile) a sheet.
 
     Returns
     -------
-    vertices : (n * slices, 3) float64 ndarray
-    faces : (2 * slices * (n - 1), 3) int64 ndarray
+    vertices : (n * m, 3) float64 ndarray
+    faces : (2 * m * (n - 1), 3) int64 ndarray (m - 1 for an open contour; m: the section points)
         Outward, counter-clockwise.
     """
     slices = check_int("slices", slices, 3, 1024)
@@ -272,12 +276,25 @@ def tube_mesh(points, radius, left, *, slices: int = 16) -> tuple[np.ndarray, np
         v = v - np.dot(v, t[k]) * t[k]
         nrm[k] = v / np.linalg.norm(v)
     bin_ = np.cross(t, nrm)
-    a = 2 * np.pi * np.arange(slices) / slices
-    ring = np.cos(a)[None, :, None] * nrm[:, None] + np.sin(a)[None, :, None] * bin_[:, None]
+    closed = True
+    if contour is None:
+        a = 2 * np.pi * np.arange(slices) / slices
+        cx, cy = np.cos(a), np.sin(a)
+    else:
+        cs = check_array("contour", contour, shape=(None, 2), min_rows=2, max_abs=MAX_COORD)
+        closed = len(cs) > 2 and np.linalg.norm(cs[0] - cs[-1]) < K.EPS
+        if closed:
+            cs = cs[:-1]
+            x, y = cs[:, 0], cs[:, 1]
+            if np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y) < 0:   # clockwise: faces would look in
+                cs = cs[::-1]
+        cx, cy = cs[:, 0], cs[:, 1]
+    m = len(cx)
+    ring = cx[None, :, None] * nrm[:, None] + cy[None, :, None] * bin_[:, None]
     verts = (p[:, None] + r[:, None, None] * ring).reshape(-1, 3)
-    k, j = np.meshgrid(np.arange(n - 1), np.arange(slices), indexing="ij")
-    a0, b0 = k * slices + j, k * slices + (j + 1) % slices
-    c0, d0 = a0 + slices, b0 + slices
+    k, j = np.meshgrid(np.arange(n - 1), np.arange(m if closed else m - 1), indexing="ij")
+    a0, b0 = k * m + j, k * m + (j + 1) % m
+    c0, d0 = a0 + m, b0 + m
     faces = np.stack([np.stack([a0, b0, d0], -1), np.stack([a0, d0, c0], -1)], 2).reshape(-1, 3)
     return verts, faces.astype(np.int64)
 
@@ -396,7 +413,8 @@ def shape_meshes(shapes, *, materials=DEFAULT_MATERIALS, slices: int = 16,
             add(shapes.color[s], p, polygon_faces(p, concave=bool(kind[s] == K.SH_POLYGON_CONCAVE)))
     for s in np.flatnonzero(kind == K.SH_TUBE):
         a, b = shapes.start[s], shapes.start[s] + shapes.count[s]
-        v, f = tube_mesh(shapes.points[a:b], shapes.radius[a:b], shapes.left[a], slices=slices)
+        v, f = tube_mesh(shapes.points[a:b], shapes.radius[a:b], shapes.left[a], slices=slices,
+                         contour=None if shapes.contour is None else shapes.contour[s])
         if len(f):
             add(shapes.color[s], v, f)
     for s in np.flatnonzero((kind == K.SH_BOX) | (kind == K.SH_QUAD)):

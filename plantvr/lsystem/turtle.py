@@ -119,12 +119,12 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
 #: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL
-#: geometry, contours, sweeps, textures, reflections, screen projection); the
+#: geometry, sweeps, textures, reflections, screen projection); the
 #: engine
-#: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders are drawn
-#: (:mod:`plantvr.lsystem.shapes`).
+#: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders (with their
+#: ``SetContour`` cross sections) are drawn (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "@g", "PglShape", "Arrow", "SetContour",
+    "@g", "PglShape", "Arrow",
     "SectionResolution", "Sweep", "TextureScale",
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
@@ -185,6 +185,7 @@ class TurtleShapes:
     surface: tuple = ()
     radii: np.ndarray | None = None
     scale: np.ndarray | None = None
+    contour: tuple | None = None
 
     def __len__(self) -> int:
         return len(self.kind)
@@ -440,10 +441,61 @@ def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.n
     """The kernel's shape records as :class:`TurtleShapes` (surface names from the module names)."""
     kind = sint[:, 0].copy()
     surf = tuple(_surface_name(string, int(m)) if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
+    contour = _tube_contours(string, kind, sint[:, 2]) if "SetContour" in string.names else None
     return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
                         sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
                         spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy(),
-                        sflt[:, 15:18].copy())
+                        sflt[:, 15:18].copy(), contour)
+
+
+#: Points a ``SetContour`` curve is sampled at (PlantGL's default section resolution is 8; a leaf profile needs
+#: more).
+CONTOUR_POINTS = 33
+
+
+def _tube_contours(string: ModuleString, kind: np.ndarray, closing: np.ndarray) -> tuple:
+    """The cross section of each tube (None: a circle), as PlantGL's turtle keeps it: ``SetContour(curve[, ccw])``
+    sets the section, ``@Gc`` / ``StartGC`` takes the one of that moment for its tube (``initial.crossSection``),
+    ``[`` / ``]`` save and restore both, and a tube is drawn by the module that closes it (``closing``: its
+    ``@Ge``, ``]`` or -1 at the end)."""
+    sid = {n: k for k, n in enumerate(string.names)}
+    setc = sid["SetContour"]
+    starts = {sid[n] for n in ("@Gc", "StartGC") if n in sid}
+    ends = {sid[n] for n in ("@Ge", "EndGC") if n in sid}
+    lb, rb = sid.get("["), sid.get("]")
+    cur = init = None
+    stack: list = []
+    at: dict[int, np.ndarray | None] = {}
+    for i, s in enumerate(string.ids.tolist()):
+        if s == setc:
+            cur = _contour_points(string.module(i)[1], i)
+        elif s in starts:
+            init = cur
+        elif s in ends:
+            at[i] = init
+        elif s == lb:
+            stack.append((cur, init))
+        elif s == rb:
+            at[i] = init
+            if stack:
+                cur, init = stack.pop()
+    at[-1] = init
+    return tuple(at.get(int(m)) if k == K.SH_TUBE else None for k, m in zip(kind.tolist(), closing.tolist()))
+
+
+def _contour_points(vals: tuple, i: int) -> np.ndarray:
+    """(m, 2) points of a ``SetContour`` curve (a PlantGL-like 2-D curve: ``getPointAt`` on its knot range)."""
+    curve = vals[0] if vals else None
+    get = getattr(curve, "getPointAt", None)
+    if get is None:
+        raise ValueError(f"string: SetContour at index {i} needs a 2-D curve (NurbsCurve2D, Polyline2D, ...), got "
+                         f"{type(curve).__name__}")
+    lo = float(getattr(curve, "firstKnot", 0.0))
+    hi = float(getattr(curve, "lastKnot", 1.0))
+    pts = np.array([list(get(u))[:2] for u in np.linspace(lo, hi, CONTOUR_POINTS)], float)
+    if pts.shape != (CONTOUR_POINTS, 2) or not np.all(np.isfinite(pts)):
+        raise ValueError(f"string: SetContour at index {i}: the curve's points must be finite 2-D points")
+    return pts
 
 
 def _surface_name(string: ModuleString, m: int) -> str:

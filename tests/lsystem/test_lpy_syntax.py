@@ -179,3 +179,128 @@ endlsystem
         LSystem(left.replace("inLeftContext('A(x)', params)", "InLeftContext(A(x), 3)"), trusted=True).derive()
     with pytest.raises(LSystemError, match="InLeftContext is called outside a production rule"):
         LSystem("x = InLeftContext('A')\nAxiom: A\nproduction:\nendlsystem\n", trusted=True)
+
+
+def _face_normals_point_out(v, f, axis_point, axis_dir):
+    """Whether every face's normal points away from the axis (the line through ``axis_point`` along ``axis_dir``)."""
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    c = v[f].mean(1) - axis_point
+    radial = c - np.outer(c @ axis_dir, axis_dir)
+    return bool(np.all(np.einsum("ij,ij->i", n, radial) > 0))
+
+
+@pytest.mark.parametrize("turn", [1, -1])
+def test_tube_cross_section_is_the_contour_scaled_by_the_radius(turn):
+    """PlantGL's extrusion of a ``SetContour`` section: the contour's x along the section's first direction (the
+    turtle's left, projected), y along the second, times the radius; closed either way round, faces outward."""
+    from plantvr.lsystem.shapes import tube_mesh
+    square = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1], [1, 1]], float)[::turn]
+    v, f = tube_mesh([[0, 0, 0], [0, 0, 2]], [0.5, 0.5], [1, 0, 0], contour=square)
+    assert v.shape == (8, 3) and f.shape == (8, 3)
+    np.testing.assert_allclose(np.abs(v[:, :2]), 0.5)                 # every corner at (±1, ±1) x 0.5
+    assert _face_normals_point_out(v, f, np.zeros(3), np.array([0.0, 0, 1]))
+    sheet = tube_mesh([[0, 0, 0], [0, 0, 1], [0, 0, 2]], [1, 1, 1], [1, 0, 0], contour=[[-1, 0], [0, 0.2], [1, 0]])
+    assert sheet[0].shape == (9, 3) and sheet[1].shape == (2 * 2 * 2, 3)     # open: a sheet, no closing faces
+
+
+def test_set_contour_applies_to_the_tubes_started_after_it():
+    """``SetContour`` sets the section; ``@Gc`` takes the current one (PlantGL's ``initial.crossSection``); a
+    branch restores it on ``]``; a contour set inside a running tube waits for the next tube."""
+    from plantvr.lsystem.shapes import shape_meshes
+    g = """import openalea.plantgl.all as pgl
+sq = pgl.Polyline2D([(1, 1), (-1, 1), (-1, -1), (1, -1), (1, 1)])
+tri = pgl.Polyline2D([(1, 0), (-0.5, 0.8), (-0.5, -0.8), (1, 0)])
+Axiom: _(0.5) SetContour(sq) [ SetContour(tri) @Gc F F @Ge ] @Gc F SetContour(tri) F @Ge
+derivation length: 0
+production:
+endlsystem
+"""
+    ls = LSystem(g, trusted=True)
+    nodes = ls.draw(ls.derive(), shapes=True)
+    tubes = [c for c in nodes.shapes.contour if c is not None]
+    assert len(tubes) == 2
+    assert len(tubes[0]) == len(tubes[1])
+    first, second = tubes                                      # string order of closing: the branch's first
+    assert np.allclose(first[0], [1, 0]) and np.allclose(second[0], [1, 1])   # triangle, then the square again
+    (mesh,) = shape_meshes(nodes.shapes).values()
+    assert np.isfinite(mesh.vertices).all() and len(mesh.faces) > 0
+    bad = LSystem("Axiom: @Gc SetContour(3) @Gc F @Ge\nderivation length: 0\nproduction:\nendlsystem\n")
+    with pytest.raises((LSystemError, ValueError), match="SetContour at index 1 needs a 2-D curve"):
+        bad.draw(bad.derive(), shapes=True)
+
+
+def test_hooks_get_an_lstring_they_can_index_edit_and_extend():
+    """L-Py's hook API (its tests test_deflateargs, test_endeach_modif, test_lstring_change2, rewritten): a hook's
+    ``lstring[i][k]`` reads a parameter, ``lstring[i][k] = v`` changes it in the string, ``lstring += 'B'`` returned
+    replaces the string; ``==`` compares the text."""
+    g = """def EndEach(lstring):
+  lstring[0][1] = lstring[0][0] + 10
+  assert lstring[0].name == 'A' and len(lstring[0]) == 2 and lstring == Lstring('A(1,11) B')
+
+def End(lstring):
+  global ended
+  ended = str(lstring + 'C(3)')
+
+Axiom: A(1, 0) B
+derivation length: 1
+production:
+B --> B
+endlsystem
+"""
+    ls = LSystem(g, trusted=True)
+    assert str(ls.derive()) == "A(1,11)B" and ls._ns["ended"] == "A(1,11)BC(3)"
+    grow = """def EndEach(lstring):
+  assert len(lstring) == getIterationNb() + 1
+  lstring += 'B'
+  return lstring
+
+Axiom: A
+derivation length: 3
+production:
+A --> A
+endlsystem
+"""
+    assert _derive(grow, trusted=True) == "ABBB"
+    with pytest.raises(LSystemError, match="EndEach\\(\\) raised IndexError: lstring index 5 out of range"):
+        LSystem("def EndEach(s):\n  s[5]\nAxiom: A\nderivation length: 1\nproduction:\nendlsystem\n",
+                trusted=True).derive()
+
+
+@pytest.mark.parametrize("text, what", [
+    ("module B : scale = 2\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 12: module scales"),
+    ("module B: base = A\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 11: module inheritance"),
+    ("Axiom: A\nproduction:\n$A(a) :\n  produce B\nendlsystem\n", r"line 3, column 1: iterator request \$"),
+])
+def test_multiscale_and_getmodule_grammars_are_refused_by_name(text, what):
+    """Before, ``: scale =`` and ``: base =`` were dropped and ``$A(a)`` matched nothing, so L-Py's multiscale tests
+    'ran' to other strings than L-Py's; now they are refused by name."""
+    with pytest.raises(LSystemError, match=what):
+        LSystem(text, trusted=True)
+
+
+def test_nsproduce_puts_an_lstring_in_the_successor():
+    """L-Py's tutorial ``02 - fractals/ifs.lpy``: ``StartEach`` keeps the string and replaces it by ``@Ls``, which
+    the production turns into four copies and the decomposition back into the kept string (``nsproduce``):
+    S(k+1) = @Di(1/3) S(k) + S(k) -- S(k) + S(k) @Di(3), so 1, 10, 46, 190, 766 modules (hand-derived)."""
+    g = """module @Ls
+previousString = None
+def StartEach(lstring):
+  global previousString
+  previousString = lstring
+  return Lstring('@Ls')
+
+Axiom: F
+derivation length: 2
+production:
+decomposition:
+maximum depth: 1
+@Ls : nsproduce(previousString)
+production:
+@Ls --> @Di(0.5) @Ls + @Ls -- @Ls + @Ls @Di(2)
+endlsystem
+"""
+    ls = LSystem(g, trusted=True)
+    assert str(ls.derive(1)) == "@Di(0.5)F+F--F+F@Di(2)"
+    assert len(ls.derive(4)) == 766
+    with pytest.raises(LSystemError, match="nsproduce needs an lstring, got int"):
+        LSystem(g.replace("nsproduce(previousString)", "nsproduce(3)"), trusted=True).derive(1)
