@@ -500,10 +500,10 @@ class LSystemDocument(Document):
         turtle's shapes, one mesh per colour index (``shapes <index>``, per-vertex colours), all y-up
         (:func:`y_up`)."""
         with self._lock:
-            tree = self._tree
+            nodes = self._nodes
             shapes = self.shapes
-        if tree is None:
+        if nodes is None:
             return {}
         from ..lsystem.shapes import shape_name
-        return {"tree": y_up(tree), **{shape_name(k): _mesh_y_up(m) for k, m in shapes.items()}}
+        return {"tree": y_up(nodes.drawn_tree()), **{shape_name(k): _mesh_y_up(m) for k, m in shapes.items()}}
 

@@ -236,6 +236,9 @@ class TurtleNodes:
     frames : (R, 4, 3) float64 ndarray or None
         The turtle's frame (position, H, L, U) at each ``Frame`` module L-Py draws as three arrows (annotations,
         not meshed); ``frame_size`` their sizes (R,).
+    tube : (N,) bool ndarray or None
+        Whether each node's internode was drawn inside a generalized cylinder (``@Gc`` ... ``@Ge``): PlantGL makes
+        it a point of the tube and draws no cylinder for it (None: no tube in the string).
     """
 
     tree: TreeArrays
@@ -245,6 +248,17 @@ class TurtleNodes:
     labels: tuple[TurtleLabel, ...] = ()
     frames: np.ndarray | None = None
     frame_size: np.ndarray | None = None
+    tube: np.ndarray | None = None
+
+    def drawn_tree(self) -> TreeArrays:
+        """The skeleton as L-Py draws it: an internode inside a generalized cylinder is part of the tube (a shape),
+        not a branch, so its node becomes a root there (what grows after it still starts at its end)."""
+        if self.tube is None or not self.tube.any():
+            return self.tree
+        t = self.tree
+        mc = np.asarray(t.main_child)
+        main = np.where((mc >= 0) & self.tube[np.maximum(mc, 0)], -1, mc)
+        return TreeArrays.from_arrays(t.pos, np.where(self.tube, -1, t.parent), t.radius, t.order, main)
 
 
 def _ops(string: ModuleString):
@@ -375,9 +389,36 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
     tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
     shape = (sint[:, 0] != K.SH_QUERY) & (sint[:, 0] != K.SH_LABEL) & (sint[:, 0] != K.SH_FRAME)
     fr = sint[:, 0] == K.SH_FRAME
-    return TurtleNodes(tree, color[:nn].copy(), module[:nn].copy(),
+    tube = _in_tubes(string)
+    mods = module[:nn]
+    return TurtleNodes(tree, color[:nn].copy(), mods.copy(),
                        _shapes(string, sint[shape], sflt[shape], spts), _labels(string, sint, sflt),
-                       sflt[fr, :12].reshape(-1, 4, 3).copy(), sflt[fr, 12].copy())
+                       sflt[fr, :12].reshape(-1, 4, 3).copy(), sflt[fr, 12].copy(),
+                       None if tube is None else (mods >= 0) & tube[np.maximum(mods, 0)])
+
+
+def _in_tubes(string: ModuleString) -> np.ndarray | None:
+    """Per module: whether the turtle is in a generalized cylinder there (PlantGL's ``startGC`` / ``stopGC``, kept
+    by ``[`` for the branch and restored by ``]``); None without ``@Gc`` / ``StartGC`` in the string."""
+    sid = {n: k for k, n in enumerate(string.names)}
+    starts = {sid[n] for n in ("@Gc", "StartGC") if n in sid}
+    if not starts:
+        return None
+    ends = {sid[n] for n in ("@Ge", "EndGC") if n in sid}
+    lb, rb = sid.get("["), sid.get("]")
+    on, stack = False, []
+    out = np.zeros(len(string), bool)
+    for i, s in enumerate(string.ids.tolist()):
+        if s in starts:
+            on = True
+        elif s in ends:
+            on = False
+        elif s == lb:
+            stack.append(on)
+        elif s == rb and stack:
+            on = stack.pop()
+        out[i] = on
+    return out
 
 
 def _labels(string: ModuleString, sint: np.ndarray, sflt: np.ndarray) -> tuple[TurtleLabel, ...]:

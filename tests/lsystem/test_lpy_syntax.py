@@ -304,3 +304,19 @@ endlsystem
     assert len(ls.derive(4)) == 766
     with pytest.raises(LSystemError, match="nsproduce needs an lstring, got int"):
         LSystem(g.replace("nsproduce(previousString)", "nsproduce(3)"), trusted=True).derive(1)
+
+
+def test_internodes_inside_a_tube_are_drawn_by_the_tube_only():
+    """PlantGL's turtle draws no cylinder for an ``F`` in a generalized cylinder (a point of the tube): the scene's
+    tree keeps only the internodes outside ``@Gc`` ... ``@Ge`` (a branch ``[`` stays in the tube, ``]`` restores),
+    while the document's skeleton (Yggdrasil, the step's TreeArrays) keeps every internode."""
+    from plantvr.documents import LSystemDocument
+    doc = LSystemDocument("Axiom: _(0.2) @Gc F F [ + F ] F @Ge F [ @Gc F ] F\nderivation length: 0\nproduction:\n"
+                          "endlsystem\n")
+    drawn = doc.scene()["tree"]
+    assert doc.tree.n_internodes == 7
+    assert int((drawn.parent >= 0).sum()) == 2                     # the F after @Ge and the last F
+    np.testing.assert_array_equal(drawn.pos, doc.scene()["tree"].pos)
+    assert len([k for k in doc.scene() if k.startswith("shapes")]) == 1 and len(doc.shapes) == 1
+    plain = LSystemDocument("Axiom: F F\nderivation length: 0\nproduction:\nendlsystem\n")
+    assert plain.scene()["tree"].n_internodes == 2

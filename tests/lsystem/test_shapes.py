@@ -313,12 +313,13 @@ def test_document_scene_view_and_gltf_ply_export(tmp_path):
     assert scene["tree"].pos[:, 1].max() == pytest.approx(2.0) == tube.bounds[1, 1]
     glb = export_scene(doc, tmp_path / "leafy.glb")
     g = GLTF2().load(str(glb))
-    assert [m.name for m in g.meshes] == ["branches", "shapes 1", "shapes 2"]
+    assert [m.name for m in g.meshes] == ["shapes 1", "shapes 2"]   # F inside @Gc: the tube, no branch (L-Py)
+    assert scene["tree"].n_internodes == 0 == int((scene["tree"].parent >= 0).sum())
     back = trimesh.load(glb, process=False)
     counts = {k: (len(m.vertices), len(m.faces)) for k, m in back.geometry.items()}
     assert counts["shapes 1"] == (80, 128) and counts["shapes 2"] == (56, 48)
     np.testing.assert_allclose(back.geometry["shapes 2"].vertices, leaves.vertices, atol=1e-6)
-    mat = g.materials[g.meshes[2].primitives[0].material]
+    mat = g.materials[g.meshes[1].primitives[0].material]
     np.testing.assert_allclose(mat.pbrMetallicRoughness.baseColorFactor[:3], np.array(GREEN) / 255, atol=1e-6)
     ply = trimesh.load(export_scene(doc, tmp_path / "leafy.ply"), process=False)
     assert (len(ply.vertices), len(ply.faces)) == (136, 176)
