@@ -207,17 +207,30 @@ def apply_guides(string: ModuleString, step: float) -> tuple[ModuleString, np.nd
         elif guide is not None and name in ("F", "f"):
             move(i, name, float(vals[0]) if vals else step, tuple(vals[1:]))
         elif guide is not None and name == "nF":
-            if len(vals) > 2:
-                raise ValueError(f"string: module nF at index {i}: nF with a radius along a guide is not "
-                                 "supported (its widths follow the turtle's); use F(dl, radius) steps")
+            fn = vals[3] if len(vals) > 3 else None
+            if len(vals) > 2 and not (callable(getattr(fn, "getValue", None)) and hasattr(fn, "firstx")):
+                raise ValueError(f"string: module nF at index {i}: nF(length, dl, radius) along a guide needs a "
+                                 "radius function (QuantisedFunction) as its 4th parameter here (without one its "
+                                 "widths start from the turtle's)")
             total, dl = float(vals[0]), float(vals[1])
             if not (0 <= total <= _MAX_COORD and 0 < dl and total / dl <= _MAX_STEPS):
                 raise ValueError(f"string: module nF at index {i}: nF(length, dl) along a guide needs 0 <= length"
                                  f" <= {_MAX_COORD:g}, dl > 0 and at most {_MAX_STEPS:,} steps, got length = "
                                  f"{total!r}, dl = {dl!r}")
             n = int(total / dl)
-            for piece in [dl] * n + ([total - n * dl] if total - n * dl > _EPS else []):
-                move(i, "F", piece, ())                   # Turtle::nF: int(length / dl) steps, then the rest
+            if fn is None:
+                for piece in [dl] * n + ([total - n * dl] if total - n * dl > _EPS else []):
+                    move(i, "F", piece, ())               # Turtle::nF: int(length / dl) steps, then the rest
+                continue
+            radius, fx, lx = float(vals[2]), float(fn.firstx), float(fn.lastx)
+            du, u = dl / total * (lx - fx) if total > 0 else 0.0, fx    # Turtle::nF with a radius variation
+            out.append(("_", (float(fn.getValue(u)) * radius,)))
+            src.append(i)
+            for _ in range(n):
+                u += du
+                move(i, "F", dl, (float(fn.getValue(u)) * radius,))
+            if total - n * dl > _EPS:
+                move(i, "F", total - n * dl, (radius * float(fn.getValue(lx)),))
         else:
             out.append((name, vals))
             src.append(i)

@@ -203,7 +203,9 @@ class LstringView:
     __iadd__ = __add__
 
     def __eq__(self, other) -> bool:
-        if isinstance(other, (LstringView, ModuleString, str)):
+        if isinstance(other, str):                   # an L-string text, read as one (blanks do not count)
+            other = self._parse(other)
+        if isinstance(other, (LstringView, ModuleString)):
             return str(self) == str(other)
         return NotImplemented
 

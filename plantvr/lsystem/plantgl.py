@@ -163,8 +163,10 @@ def dot(a, b) -> float:
     return float(sum(float(x) * float(y) for x, y in zip(a, b)))
 
 
-def cross(a, b) -> Vector3:
-    """Cross product of two 3-vectors."""
+def cross(a, b) -> Vector3 | float:
+    """Cross product of two 3-vectors; of two 2-vectors, PlantGL's scalar ``a.x * b.y - a.y * b.x``."""
+    if len(a) == 2 and len(b) == 2:
+        return float(a[0]) * float(b[1]) - float(a[1]) * float(b[0])
     return Vector3(*np.cross(np.asarray(a, float)[:3], np.asarray(b, float)[:3]))
 
 
@@ -512,8 +514,11 @@ class QuantisedFunction:
     ``x`` outside [firstx, lastx] is clamped (PlantGL's ``clamped`` default)."""
 
     def __init__(self, curve, sampling: int = 100, clamped: bool = True) -> None:
+        if not hasattr(curve, "getPointAt") and isinstance(curve, (list, tuple)):
+            curve = Polyline2D(curve)                     # QuantisedFunction(Point2Array): the points themselves
         if not hasattr(curve, "getPointAt"):
-            raise ValueError(f"curve must be a PlantGL-like 2-D curve, got {type(curve).__name__}")
+            raise ValueError(f"curve must be a PlantGL-like 2-D curve or a list of (x, y) points, got "
+                             f"{type(curve).__name__}")
         pts = curve.samples(max(int(sampling), 2) * 10)
         order = np.argsort(pts[:, 0], kind="stable")
         self._x, self._y = pts[order, 0], pts[order, 1]
@@ -557,6 +562,9 @@ def not_here_hint(e: BaseException) -> str:
     if not isinstance(e, (NameError, AttributeError, ImportError)):
         return ""
     names = {getattr(e, "name", None)} | set(re.findall(r"'(\w+)'", str(e)))
+    if isinstance(e, NameError) and "turtle" in names:
+        return ("; rule code driving PlantGL's turtle object (turtle.left(...), turtle.sphere(...)) is not "
+                "supported: produce turtle modules instead")
     hit = sorted(n for n in names if n in NOT_HERE)
     if not hit:
         return ""
@@ -584,6 +592,10 @@ def _shim_modules() -> dict[str, types.ModuleType]:
 
 def grammar_import(name, globals=None, locals=None, fromlist=(), level=0):
     """``__import__`` of a trusted grammar: ``openalea.plantgl[.all|.math]`` is this module, the rest Python's."""
+    if level == 0 and (name == "openalea.lpy" or name.startswith("openalea.lpy.")):
+        raise ImportError(f"{name}: L-Py's own package (the Lsystem class, __lpyfuture__, tableparameterset) is not "
+                          "supported in PlantVR's grammars (ParameterSet, Lstring and the hooks are there without "
+                          "an import)")
     if level == 0 and (name == "openalea" or name.startswith("openalea.plantgl")):
         mods = _shim_modules()
         if name not in mods:

@@ -64,6 +64,7 @@ from plantvr.types import TreeArrays
 from . import _turtle_kernels as K
 from .guides import apply_guides
 from .modules import ModuleString
+from .sections import apply_sections
 
 __all__ = ["LPY_UNSUPPORTED", "QUERY_MODULES", "TURTLE_MODULES", "TurtleLabel", "TurtleNodes", "TurtleShapes",
            "bush_string",
@@ -118,14 +119,13 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
-#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL
-#: geometry, sweeps, textures, reflections, screen projection); the
-#: engine
-#: refuses them with their line. Spheres, discs, ``~name`` surfaces, polygons and generalized cylinders (with their
-#: ``SetContour`` cross sections) are drawn (:mod:`plantvr.lsystem.shapes`).
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL geometry, texture
+#: coordinates, reflections, screen projection); the engine refuses them with their line. Spheres, discs,
+#: ``~name`` surfaces, polygons and generalized cylinders (with their ``SetContour`` sections, and ``Sweep``:
+#: :mod:`plantvr.lsystem.sections`) are drawn (:mod:`plantvr.lsystem.shapes`).
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
     "@g", "PglShape", "Arrow",
-    "SectionResolution", "Sweep", "TextureScale",
+    "SectionResolution", "TextureScale",
     "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
     "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
     "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
@@ -384,41 +384,18 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
                  width: float = DEFAULT_WIDTH, width_increment: float = DEFAULT_WIDTH_INCREMENT,
                  tropism=(0.0, 0.0, 1.0), elasticity: float = 0.0) -> TurtleNodes:
     """Interpret ``string`` with the L-Py turtle: the tree plus each node's colour and module (see :func:`turtle`)."""
-    pos, parent, radius, order, main, color, module, nn, sint, sflt, spts = _interpret(
+    pos, parent, radius, order, main, color, module, nn, sint, sflt, spts, sec = _interpret(
         string, angle, step, width, width_increment, tropism, elasticity)
     tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
     shape = (sint[:, 0] != K.SH_QUERY) & (sint[:, 0] != K.SH_LABEL) & (sint[:, 0] != K.SH_FRAME)
     fr = sint[:, 0] == K.SH_FRAME
-    tube = _in_tubes(string)
+    tube = None if sec is None else sec.in_tube
     mods = module[:nn]
     return TurtleNodes(tree, color[:nn].copy(), mods.copy(),
-                       _shapes(string, sint[shape], sflt[shape], spts), _labels(string, sint, sflt),
+                       _shapes(string, sint[shape], sflt[shape], spts, sec), _labels(string, sint, sflt),
                        sflt[fr, :12].reshape(-1, 4, 3).copy(), sflt[fr, 12].copy(),
                        None if tube is None else (mods >= 0) & tube[np.maximum(mods, 0)])
 
-
-def _in_tubes(string: ModuleString) -> np.ndarray | None:
-    """Per module: whether the turtle is in a generalized cylinder there (PlantGL's ``startGC`` / ``stopGC``, kept
-    by ``[`` for the branch and restored by ``]``); None without ``@Gc`` / ``StartGC`` in the string."""
-    sid = {n: k for k, n in enumerate(string.names)}
-    starts = {sid[n] for n in ("@Gc", "StartGC") if n in sid}
-    if not starts:
-        return None
-    ends = {sid[n] for n in ("@Ge", "EndGC") if n in sid}
-    lb, rb = sid.get("["), sid.get("]")
-    on, stack = False, []
-    out = np.zeros(len(string), bool)
-    for i, s in enumerate(string.ids.tolist()):
-        if s in starts:
-            on = True
-        elif s in ends:
-            on = False
-        elif s == lb:
-            stack.append(on)
-        elif s == rb and stack:
-            on = stack.pop()
-        out[i] = on
-    return out
 
 
 def _labels(string: ModuleString, sint: np.ndarray, sflt: np.ndarray) -> tuple[TurtleLabel, ...]:
@@ -453,7 +430,7 @@ def query_frames(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
     >>> i.tolist(), fr[0, 0].round(6).tolist(), fr[0, 1].round(6).tolist()
     ([3], [0.0, -1.0, 1.0], [0.0, -1.0, 0.0])
     """
-    *_, sint, sflt, _ = _interpret(string, angle, step, width, width_increment, tropism, elasticity)
+    *_, sint, sflt, _, _ = _interpret(string, angle, step, width, width_increment, tropism, elasticity)
     query = sint[:, 0] == K.SH_QUERY
     return sint[query, 2].copy(), sflt[query, :12].reshape(-1, 4, 3).copy()
 
@@ -461,7 +438,10 @@ def query_frames(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
 def _interpret(string: ModuleString, angle, step, width, width_increment, tropism, elasticity) -> tuple:
     """The kernel's drawing of ``string`` (used rows only), after the door checks, with PlantGL's warnings."""
     opts = _options(angle, step, width, width_increment, tropism, elasticity)
-    drawn, source = apply_guides(string, opts[1])             # guided moves as turns and lengths (guides.py)
+    sec = apply_sections(string) if isinstance(string, ModuleString) else None   # sweeps, sections (sections.py)
+    drawn, source = apply_guides(string if sec is None else sec.string, opts[1])   # guided moves (guides.py)
+    if sec is not None and sec.source is not None:             # both maps: to the string given
+        source = sec.source if source is None else sec.source[source]
     op, depth, n_f = _ops(drawn)
     pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp = K.turtle_kernel(
         op, drawn.arg_ptr, drawn.args, *opts, depth, 2 * n_f, *_capacities(op, n_f))
@@ -475,68 +455,19 @@ def _interpret(string: ModuleString, angle, step, width, width_increment, tropis
             i = int(at[k])
             warnings.warn(f"string: {int(ignored[k])} module(s) set {what} and were ignored, as in PlantGL (first: "
                           f"{string.names[string.ids[i]]} at index {i})", stacklevel=4)
-    return pos, parent, radius, order, main, color, module, nn, sint, sflt[:ns], spts[:nsp]
+    return pos, parent, radius, order, main, color, module, nn, sint, sflt[:ns], spts[:nsp], sec
 
 
-def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray) -> TurtleShapes:
+def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray, sec) -> TurtleShapes:
     """The kernel's shape records as :class:`TurtleShapes` (surface names from the module names)."""
     kind = sint[:, 0].copy()
     surf = tuple(_surface_name(string, int(m)) if k == K.SH_SURFACE else "" for k, m in zip(kind, sint[:, 2]))
-    contour = _tube_contours(string, kind, sint[:, 2]) if "SetContour" in string.names else None
+    contour = None if sec is None else sec.tube_contours(kind, sint[:, 2], K.SH_TUBE)
     return TurtleShapes(kind, sint[:, 1].copy(), sint[:, 2].copy(), sflt[:, :12].reshape(-1, 4, 3).copy(),
                         sflt[:, 12].copy(), sint[:, 3].copy(), sint[:, 4].copy(), spts[:, :3].copy(),
                         spts[:, 3:6].copy(), spts[:, 6].copy(), surf, sflt[:, 13:15].copy(),
                         sflt[:, 15:18].copy(), contour)
 
-
-#: Points a ``SetContour`` curve is sampled at (PlantGL's default section resolution is 8; a leaf profile needs
-#: more).
-CONTOUR_POINTS = 33
-
-
-def _tube_contours(string: ModuleString, kind: np.ndarray, closing: np.ndarray) -> tuple:
-    """The cross section of each tube (None: a circle), as PlantGL's turtle keeps it: ``SetContour(curve[, ccw])``
-    sets the section, ``@Gc`` / ``StartGC`` takes the one of that moment for its tube (``initial.crossSection``),
-    ``[`` / ``]`` save and restore both, and a tube is drawn by the module that closes it (``closing``: its
-    ``@Ge``, ``]`` or -1 at the end)."""
-    sid = {n: k for k, n in enumerate(string.names)}
-    setc = sid["SetContour"]
-    starts = {sid[n] for n in ("@Gc", "StartGC") if n in sid}
-    ends = {sid[n] for n in ("@Ge", "EndGC") if n in sid}
-    lb, rb = sid.get("["), sid.get("]")
-    cur = init = None
-    stack: list = []
-    at: dict[int, np.ndarray | None] = {}
-    for i, s in enumerate(string.ids.tolist()):
-        if s == setc:
-            cur = _contour_points(string.module(i)[1], i)
-        elif s in starts:
-            init = cur
-        elif s in ends:
-            at[i] = init
-        elif s == lb:
-            stack.append((cur, init))
-        elif s == rb:
-            at[i] = init
-            if stack:
-                cur, init = stack.pop()
-    at[-1] = init
-    return tuple(at.get(int(m)) if k == K.SH_TUBE else None for k, m in zip(kind.tolist(), closing.tolist()))
-
-
-def _contour_points(vals: tuple, i: int) -> np.ndarray:
-    """(m, 2) points of a ``SetContour`` curve (a PlantGL-like 2-D curve: ``getPointAt`` on its knot range)."""
-    curve = vals[0] if vals else None
-    get = getattr(curve, "getPointAt", None)
-    if get is None:
-        raise ValueError(f"string: SetContour at index {i} needs a 2-D curve (NurbsCurve2D, Polyline2D, ...), got "
-                         f"{type(curve).__name__}")
-    lo = float(getattr(curve, "firstKnot", 0.0))
-    hi = float(getattr(curve, "lastKnot", 1.0))
-    pts = np.array([list(get(u))[:2] for u in np.linspace(lo, hi, CONTOUR_POINTS)], float)
-    if pts.shape != (CONTOUR_POINTS, 2) or not np.all(np.isfinite(pts)):
-        raise ValueError(f"string: SetContour at index {i}: the curve's points must be finite 2-D points")
-    return pts
 
 
 def _surface_name(string: ModuleString, m: int) -> str:

@@ -178,7 +178,7 @@ def __initialiseContext__(context):
     ([("SetGuide", ("not a curve", 1.0)), ("F", ())], "must be a PlantGL curve"),
     ([("SetGuide", (S_CURVE, 0.0)), ("F", ())], "length > 0"),
     ([("SetGuide", (S_CURVE, 1.0)), ("nF", (1e9, 1e-6))], "at most"),
-    ([("SetGuide", (S_CURVE, 1.0)), ("nF", (1.0, 0.1, 0.2))], "nF with a radius along a guide"),
+    ([("SetGuide", (S_CURVE, 1.0)), ("nF", (1.0, 0.1, 0.2))], "along a guide needs a radius function"),
 ])
 def test_bad_guides_are_refused_by_name(mods, match):
     with pytest.raises(ValueError, match=match):

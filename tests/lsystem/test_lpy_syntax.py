@@ -320,3 +320,52 @@ def test_internodes_inside_a_tube_are_drawn_by_the_tube_only():
     assert len([k for k in doc.scene() if k.startswith("shapes")]) == 1 and len(doc.shapes) == 1
     plain = LSystemDocument("Axiom: F F\nderivation length: 0\nproduction:\nendlsystem\n")
     assert plain.scene()["tree"].n_internodes == 2
+
+
+SWEEP = """import openalea.plantgl.all as pgl
+path = pgl.Polyline2D([(0, 0), (1, 0)])
+section = pgl.Polyline2D([(-1, 0), (1, 0)])
+widths = pgl.QuantisedFunction([(0, 1), (1, 3)])
+Axiom: Sweep(path, section, 1, 0.25, 2, widths)
+derivation length: 0
+production:
+endlsystem
+"""
+
+
+def test_sweep_is_a_guide_a_section_and_nf_with_a_radius_function():
+    """``Turtle::sweep``: ``SetGuide(path, length) SetContour(section) nF(length, dl, radius, radiusvariation)``;
+    ``nF`` sets the width to radius * f(first x), then each of its int(length / dl) steps ends at
+    radius * f(x + dl / length * (last x - first x)) (hand-derived: 2, 3, 4, 5, 6); the moves make one open sheet
+    (the section is a segment) and no branch."""
+    ls = LSystem(SWEEP, trusted=True)
+    nodes = ls.draw(ls.derive(), shapes=True)
+    (tube,) = np.flatnonzero(nodes.shapes.kind == 6)                       # K.SH_TUBE
+    a, b = nodes.shapes.start[tube], nodes.shapes.start[tube] + nodes.shapes.count[tube]
+    np.testing.assert_allclose(nodes.shapes.radius[a:b], [2, 3, 4, 5, 6], rtol=1e-9)
+    np.testing.assert_allclose(nodes.shapes.points[b - 1], [0, 0, 1], atol=1e-9)    # 1 along the guide (heading)
+    assert nodes.tube.all() and int((nodes.drawn_tree().parent >= 0).sum()) == 0
+    assert nodes.shapes.contour[tube].shape == (33, 2)
+    from plantvr.lsystem.shapes import shape_meshes
+    (mesh,) = shape_meshes(nodes.shapes).values()
+    assert len(mesh.faces) == 2 * 32 * 4                                    # open section: 32 strips x 4 steps
+    with pytest.raises(ValueError, match="Sweep at index 0 needs"):              # as the turtle's other checks
+        bad = LSystem("Axiom: Sweep(1, 2)\nderivation length: 0\nproduction:\nendlsystem\n")
+        bad.draw(bad.derive(), shapes=True)
+
+
+def test_a_move_with_a_section_outside_a_tube_is_a_tube_of_its_own():
+    """PlantGL's ``smallSweep``: with a section set, an ``F`` outside ``@Gc`` draws the section along the move, not a
+    cylinder; without one it stays a branch."""
+    g = """import openalea.plantgl.all as pgl
+sq = pgl.Polyline2D([(1, 1), (-1, 1), (-1, -1), (1, -1), (1, 1)])
+Axiom: _(0.5) F [ SetContour(sq) + F ] F
+derivation length: 0
+production:
+endlsystem
+"""
+    ls = LSystem(g, trusted=True)
+    nodes = ls.draw(ls.derive(), shapes=True)
+    assert nodes.tube.tolist() == [False, False, True, False]               # root, F, the branch's F, F
+    assert int((nodes.drawn_tree().parent >= 0).sum()) == 2
+    assert sum(c is not None for c in nodes.shapes.contour) == 1
