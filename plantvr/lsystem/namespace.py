@@ -203,7 +203,8 @@ class _Namespace:
             isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
             Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
             __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
-            nproduce=self._nbuf_add, nsproduce=self._nsproduce, useGroup=self._use_group, getGroup=lambda: self._group,
+            nproduce=self._nbuf_add, nsproduce=self._nsproduce, useGroup=self._use_group,
+            getGroup=lambda: self._next_group,              # LsysContext::getGroup: the last useGroup's
             frameDisplay=lambda *a: None, Lstring=self._lstring,
             isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
             ParameterSet=ParameterSet,                       # from openalea.lpy, as every L-Py namespace has it

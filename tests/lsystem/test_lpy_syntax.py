@@ -369,3 +369,27 @@ endlsystem
     assert nodes.tube.tolist() == [False, False, True, False]               # root, F, the branch's F, F
     assert int((nodes.drawn_tree().parent >= 0).sum()) == 2
     assert sum(c is not None for c in nodes.shapes.contour) == 1
+
+
+def test_get_group_returns_the_group_use_group_set():
+    """``LsysContext::getGroup`` returns what ``useGroup`` set, at once: a group chosen in ``EndEach`` is the one
+    the next ``StartEach`` sees (the carbon tutorial globalpool.lpy alternates its groups so; before, StartEach saw
+    the old group, reset the demands and divided by zero)."""
+    g = """seen = []
+def StartEach():
+  seen.append(getGroup())
+def EndEach():
+  useGroup(2 if getGroup() != 2 else 1)
+
+Axiom: A
+derivation length: 3
+production:
+group 1:
+C --> D
+group 2:
+A --> C
+endgroup
+endlsystem
+"""
+    ls = LSystem(g, trusted=True)
+    assert str(ls.derive()) == "D" and ls._ns["seen"] == [0, 2, 1]
