@@ -250,8 +250,8 @@ class _Reader:
         if block is not None:
             self.read_axiom_block(block)
         self.g.python = "\n".join(py)
-        if self.g.axiom is None:
-            raise LSystemError("no 'Axiom:' line", 1, 1)
+        if self.g.axiom is None:                  # L-Py's Lsystem::clear: no 'Axiom:' line, the empty axiom
+            self.g.axiom = ("", 1, 1)
         return self.g
 
     def read_axiom_block(self, block: list[tuple[int, str]]) -> None:

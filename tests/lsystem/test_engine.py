@@ -165,7 +165,6 @@ def test_undeclared_names_are_read_one_character_at_a_time_as_lpy():
 
 
 BAD = [
-    ("production:\nF --> F\n", 1, "no 'Axiom:'"),
     ("Axiom: F\nproduction:\nF --> F(1\n", 3, "unclosed"),
     ("Axiom: F\nproduction:\ngroup -1:\nF --> FF\n", 3, "group must be an integer"),
     ("Axiom: AB\nproduction:\nA [ B --> C\n", 3, "unbalanced brackets in the predecessor"),

@@ -88,8 +88,11 @@ def test_blanks_may_stand_between_a_module_and_its_parameters():
 
 
 def test_an_empty_axiom_is_the_empty_string():
+    """An 'Axiom:' line with nothing after it, or none at all (L-Py's ``Lsystem::clear``: the composition
+    tutorial's modules), is the empty L-string."""
     ls = LSystem("Axiom:\n\nderivation length: 2\nproduction:\nA --> B\nendlsystem\n")
     assert str(ls.derive()) == "" and ls.tree().n_internodes == 0
+    assert str(LSystem("derivation length: 1\nproduction:\nF --> FF\n").derive()) == ""
 
 
 def test_parameter_set_is_in_every_grammar_namespace():
