@@ -83,12 +83,7 @@ def _hash_query(qids, qlo, qhi, qverts, tlo, thi, tverts, tmode, inv, head, stam
                                             new = np.empty((2 * out.shape[0] + 16, 2), np.int64)
                                             new[:m] = out[:m]
                                             out = new
-                                        if swap:
-                                            out[m, 0] = e
-                                            out[m, 1] = q
-                                        else:
-                                            out[m, 0] = q
-                                            out[m, 1] = e
+                                        out[m, 0], out[m, 1] = (e, q) if swap else (q, e)
                                         m += 1
                         j = nxt[j]
     return out, m, token

@@ -362,12 +362,7 @@ def _eval_one(s, rec, cnt, ksteps, nodes, caps, repeat, v0, f0, V, NRM, UV, NID,
             i1 = center + 1 + i
             i2 = center + 1 + (i + 1) % n
             F[fi, 0] = center
-            if which == 0:
-                F[fi, 1] = i1
-                F[fi, 2] = i2
-            else:
-                F[fi, 1] = i2
-                F[fi, 2] = i1
+            F[fi, 1], F[fi, 2] = (i1, i2) if which == 0 else (i2, i1)
             fi += 1
 
 

@@ -44,8 +44,19 @@ class FlowerHead:
     level: float
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _stamp(vol, lab, i, j, k, v, thr, label):  # pragma: no cover - numba kernel
+    """Raise voxel (i, j, k) to the rounded intensity ``v`` (no voxel is lowered); label it where ``v`` reaches
+    ``thr``."""
+    q = np.uint8(min(np.floor(v + 0.5), 255.0))
+    if q > vol[i, j, k]:
+        vol[i, j, k] = q
+        if v >= thr:
+            lab[i, j, k] = np.uint8(label)
+
+
 @numba.njit(cache=True, nogil=True)
-def _stamp_capsules(vol, lab, seg, width, thr):  # pragma: no cover - numba kernel, twin below
+def _stamp_capsules(vol, lab, seg, width, thr):  # pragma: no cover - numba kernel
     nx, ny, nz = vol.shape
     for s in range(seg.shape[0]):
         ax, ay, az, bx, by, bz, r0, r1, label, contrast = seg[s]
@@ -68,13 +79,7 @@ def _stamp_capsules(vol, lab, seg, width, thr):  # pragma: no cover - numba kern
                     qx, qy, qz = px - t * dx, py - t * dy, pz - t * dz
                     d = np.sqrt(qx * qx + qy * qy + qz * qz)
                     r = r0 + t * (r1 - r0)
-                    ramp = min(max(0.5 + (r - d) / width, 0.0), 1.0)
-                    v = contrast * ramp
-                    q = np.uint8(min(np.floor(v + 0.5), 255.0))
-                    if q > vol[i, j, k]:
-                        vol[i, j, k] = q
-                        if v >= thr:
-                            lab[i, j, k] = np.uint8(label)
+                    _stamp(vol, lab, i, j, k, contrast * min(max(0.5 + (r - d) / width, 0.0), 1.0), thr, label)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -102,13 +107,7 @@ def _stamp_ellipsoids(vol, lab, ell, width, thr):  # pragma: no cover - numba ke
                     z2 = -st * u + ct * pz
                     q = np.sqrt((u2 / a) ** 2 + (w / b) ** 2 + (z2 / c) ** 2)
                     d = (q - 1.0) * mn
-                    ramp = min(max(0.5 - d / width, 0.0), 1.0)
-                    v = contrast * ramp
-                    q = np.uint8(min(np.floor(v + 0.5), 255.0))
-                    if q > vol[i, j, k]:
-                        vol[i, j, k] = q
-                        if v >= thr:
-                            lab[i, j, k] = np.uint8(label)
+                    _stamp(vol, lab, i, j, k, contrast * min(max(0.5 - d / width, 0.0), 1.0), thr, label)
 
 
 def _polyline(points: np.ndarray, r0: float, r1: float, label: int) -> list:
@@ -225,13 +224,8 @@ def synth_flowerhead(shape: int | tuple[int, int, int] = 64, *, n_veins: int = 8
     _stamp_ellipsoids(vol, lab, np.asarray(ells, np.float64), width, _LEVEL)
     _stamp_capsules(vol, lab, np.asarray(caps, np.float64), width, _LEVEL)
     if noise_level > 0:
-        # add noise slab by slab to keep the temporary float small
-        for i in range(0, shape[0], 16):
-            sl = vol[i:i + 16].astype(np.float32)
-            sl += rng.normal(0.0, noise_level, sl.shape).astype(np.float32)
-            vol[i:i + 16] = np.clip(np.rint(sl), 0, 255).astype(np.uint8)
-    out = vol
-    return FlowerHead(volume=out, labels=lab, level=_LEVEL)
+        _add_noise(vol, lambda shape: rng.normal(0.0, noise_level, shape).astype(np.float32))
+    return FlowerHead(volume=vol, labels=lab, level=_LEVEL)
 
 
 def synth_vessels(shape: int | tuple[int, int, int] = (256, 256, 128), *, n_trees: int | None = None,
@@ -253,10 +247,8 @@ def synth_vessels(shape: int | tuple[int, int, int] = (256, 256, 128), *, n_tree
         Branching generations per tree (each tube splits in two), in [1, 12].
     radius : float, optional
         Root tube radius in voxels, in [0.5, 1000]; default 4. Children are 0.75x.
-    noise_level : float
-        Standard deviation of additive Gaussian intensity noise, in grey levels, in [0, 50].
-    rng : int, numpy.random.Generator or None
-        Seed for the random placement.
+    noise_level, rng
+        As in :func:`synth_flowerhead`.
 
     Returns
     -------
@@ -297,12 +289,18 @@ def synth_vessels(shape: int | tuple[int, int, int] = (256, 256, 128), *, n_tree
     vol = np.zeros(shape, np.uint8)
     _stamp_capsules(vol, np.zeros((1, 1, 1), np.uint8), cap, 1.5, np.inf)   # thr = inf: no label writes
     if noise_level > 0:
-        for i in range(0, shape[0], 16):                      # slab by slab: the float temporary stays small
-            sl = vol[i:i + 16].astype(np.float32)
-            sl += noise_level * rng.standard_normal(sl.shape, dtype=np.float32)
-            np.clip(np.rint(sl, out=sl), 0, 255, out=sl)
-            vol[i:i + 16] = sl
+        _add_noise(vol, lambda shape: noise_level * rng.standard_normal(shape, dtype=np.float32))
     return vol, 0.5 * contrast - 0.5
+
+
+def _add_noise(vol: np.ndarray, draw) -> None:
+    """Add the float32 noise ``draw(shape)`` to the uint8 ``vol`` in place, rounded and clipped to [0, 255], slab by
+    slab along axis 0 so the float temporary stays small."""
+    for i in range(0, vol.shape[0], 16):
+        sl = vol[i:i + 16].astype(np.float32)
+        sl += draw(sl.shape)
+        np.clip(np.rint(sl, out=sl), 0, 255, out=sl)
+        vol[i:i + 16] = sl
 
 
 def synth_balls(n: int = 16, centers=None, radius: float | None = None, *, value: int = 200) -> np.ndarray:
