@@ -9,7 +9,8 @@ Python block of ``nproduce`` statements below it); ``derivation length:``;
 grammar also runs its code and ``__initialiseContext__``, which define the curves and functions of its panels).
 
 Rules: ``left < pred > right``, ``newleft << pred >> newright`` headers; ``pred --> successor`` or
-``pred -> successor`` (``pred -static-> successor``: made once, see :attr:`Rule.static`); ``pred : produce successor`` or ``pred :`` followed by an indented Python block with
+``pred -> successor`` (``pred -static-> successor`` and ``pred : @static`` + a block: made once, see
+:attr:`Rule.static`); ``pred : produce successor`` or ``pred :`` followed by an indented Python block with
 ``produce`` / ``nproduce`` statements (a block that produces nothing has failed and the next rule is tried, as in
 L-Py); and the cpfg-style condition ``pred : condition --> successor``.
 
@@ -34,14 +35,15 @@ before the step (:mod:`plantvr.lsystem.rewrite`).
 L-Py's pattern modules (issue 33; :mod:`plantvr.lsystem.patterns`): the wildcard ``*`` (``any``) in predecessors
 and contexts (``*(name, x, *rest)`` binding the module's name and parameters), ``*args`` star parameters
 (``A(x, *rest)``; ``A(*p)`` in a successor unpacks ``p``), the repetition ``x(pattern, lo, hi)`` (``all``) in
-contexts, ``[`` in left contexts and a bracket first in a predecessor.
+contexts, ``[`` in left contexts, the exact closing bracket ``=]`` in right contexts and a bracket first in a
+predecessor.
 
-Not supported (LSystemError naming the construct with its line and column): ``: @static`` blocks, unbalanced
+Not supported (LSystemError naming the construct with its line and column): unbalanced
 brackets in predecessors (a balanced one may start with its bracket, ``[] -->``, matched at the ``[`` as L-Py's
 ``RulePtrMap``), a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
 ``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions, ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
 ``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
-modules, as here), the exact closing bracket ``=]``, iterator requests (``?I``, ``GetModule``) in patterns,
+modules, as here), ``=]`` outside right contexts, iterator requests (``?I``, ``GetModule``) in patterns,
 new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations
@@ -206,6 +208,7 @@ class _Reader:
                 rule_lines.clear()
 
         block: list | None = None                             # the lines of an 'Axiom:' block, while open
+        quote = None                                          # the Python code's open triple-quoted string
         for k, raw in enumerate(lines):
             ln = k + 1
             s = raw.rstrip()
@@ -214,7 +217,11 @@ class _Reader:
                     block.append((ln, raw))
                     continue
                 block = self.read_axiom_block(block)
+            if (mode == "python" or mode == "after") and quote is not None:
+                py[k], quote = raw, _open_quote(raw, quote)   # inside a string: Python text, never a section
+                continue
             if mode == "python" or mode == "after":
+                quote = _open_quote(raw, None)
                 m = _HEADER.match(s) if mode == "python" else None
                 if m and (m.group(2) or m.group(1).startswith(("endlsystem", "endgroup"))):
                     mode = self.header(m, ln, raw) or mode
@@ -369,6 +376,7 @@ class _Reader:
             k += len(pat.names)
         body: list[tuple[int, str]] = []
         successor = condition = None
+        static = delim == "-static->"
         constraints = " and ".join(f"({c})" for p in pats.values() for c in p.conds) or None
         if delim in ("-->", "->", "-static->"):
             if len(lines) > 1:
@@ -381,9 +389,9 @@ class _Reader:
                 body.append((ln, f"if {condition}: return __lsys_produce__({lstring_to_py(successor)})"))
         else:
             inline = _strip_comment(rest)
-            if inline.strip().startswith("@static"):
-                raise LSystemError("static blocks (': @static') are not supported (a one-line '-static->' rule is)",
-                                   ln, head_at + len(delim) + inline.find("@static") + 1)
+            if inline.strip().startswith("@static"):      # ``pred : @static`` + block: made once (lpy_parser.cpp)
+                static = True
+                inline = inline.replace("@static", "", 1)
             at, arrow = find_top(inline, ("-->", "->"))
             if at >= 0:                                       # cpfg condition: pred : cond --> successor
                 condition = inline[:at].strip()
@@ -411,7 +419,7 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip(), consts, preds[1:], self.group, delim == "-static->", pats))
+                                 ln, 1, header.strip(), consts, preds[1:], self.group, static, pats))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right
@@ -495,6 +503,33 @@ def _quote_context_patterns(code: str) -> str:
             out += [code[pos:m.end()], repr(arg)]
             pos = j
     return "".join(out) + code[pos:]
+
+
+def _open_quote(line: str, quote: str | None) -> str | None:
+    """The triple quote still open at the end of ``line`` of Python code, given the one open at its start (L-Py's
+    parser skips strings while it looks for ``Axiom:`` and the other sections: ``lcode = '''Axiom: A ...'''`` is
+    Python)."""
+    j, n = 0, len(line)
+    while j < n:
+        if quote is not None:
+            end = line.find(quote, j)
+            if end < 0:
+                return quote
+            j, quote = end + 3, None
+            continue
+        c = line[j]
+        if c == "#":
+            return None
+        if line.startswith(('"""', "'''"), j):
+            quote, j = line[j:j + 3], j + 3
+        elif c in "\"'":                                    # a one-line string: to its closing quote
+            j += 1
+            while j < n and line[j] != c:
+                j += 2 if line[j] == "\\" else 1
+            j += 1
+        else:
+            j += 1
+    return quote
 
 
 def _in_string(code: str, at: int) -> bool:

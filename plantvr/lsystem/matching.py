@@ -13,7 +13,7 @@ import math
 
 from .lexer import LSystemError, Token, lex
 from .modules import _EMPTY
-from .patterns import ANY, LB, MOD, RB, REP, Pattern, PatternModule, _same, read_pattern
+from .patterns import ANY, ERB, LB, MOD, RB, REP, Pattern, PatternModule, _same, read_pattern
 from .rules import _Compiled
 
 
@@ -259,7 +259,8 @@ class _Matching:
         """Values of pattern modules ``mods`` matched rightward from ``pos`` (L-Py's ``TreeRightMatcher``: a
         lateral branch is skipped unless the pattern opens one, ``*`` matches the next module, bracket or not),
         and the position after the last one matched. As L-Py, a context starting at the string's end matches
-        repetitions of nothing only, and one reaching it with pattern modules left fails."""
+        repetitions of nothing only, and one reaching it with pattern modules left fails. ``]`` skips the rest of
+        the branch, ``=]`` needs it to close at once (``matching_tmpl.h``: ``isExactRightBracket``)."""
         vals: list = []
         n = len(seq)
         at_end = pos >= n
@@ -280,6 +281,13 @@ class _Matching:
                     if pos < 0:
                         return None
                 if pos >= n:
+                    return None
+                pos += 1
+                continue
+            if kind == ERB:                                    # '=]': the next module (ignored ones skipped) is ']'
+                while pos < n and seq.sid(pos) > 1 and self._is_ignored(seq.sid(pos)):
+                    pos += 1
+                if pos >= n or seq.sid(pos) != 1:
                     return None
                 pos += 1
                 continue

@@ -19,9 +19,10 @@ from dataclasses import dataclass
 from .lexer import LSystemError, Token, split_top
 from .modules import is_number
 
-__all__ = ["ANY", "LB", "MOD", "PATTERN_NAMES", "RB", "REP", "Pattern", "PatternModule", "read_pattern"]
+__all__ = ["ANY", "ERB", "LB", "MOD", "PATTERN_NAMES", "RB", "REP", "Pattern", "PatternModule",
+           "read_pattern"]
 
-MOD, ANY, REP, LB, RB = range(5)
+MOD, ANY, REP, LB, RB, ERB = range(6)
 _ANY = frozenset({"*", "any"})
 _REP = frozenset({"x", "all"})
 _ITERATOR = frozenset({"?I", "GetIterator", "GetModule", "$"})
@@ -36,7 +37,8 @@ _MAX_NESTING = 16                                 # repetitions inside repetitio
 class PatternModule:
     """One module of a pattern.
 
-    ``kind`` is ``MOD`` (a module name), ``ANY`` (``*``), ``REP`` (``x(...)``), ``LB`` or ``RB`` (brackets);
+    ``kind`` is ``MOD`` (a module name), ``ANY`` (``*``), ``REP`` (``x(...)``), ``LB`` or ``RB`` (brackets),
+    ``ERB`` (``=]``, the exact closing bracket of a right context);
     ``nfixed`` the parameters matched one to one (for ``ANY``, after the name), ``star`` whether a last ``*args``
     takes the rest, ``name_var`` whether an ``ANY`` binds the module's name first (``*(*args)`` binds
     ``[name, *parameters]`` as its one value), ``sub``/``lo``/``hi`` a repetition's pattern and bounds."""
@@ -150,9 +152,13 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
         line = t.line
         if t.name in _ITERATOR:
             raise LSystemError(f"iterator request {t.name} in a pattern is not supported", line, t.col)
-        if t.name in ("or", "None", "=]"):
-            what = {"or": "alternative pattern or(...)", "None": "the empty pattern module None",
-                    "=]": "the exact closing bracket =]"}[t.name]
+        if t.name == "=]":                   # L-Py's ExactRightBracket: the branch closes right here
+            if where not in ("right", "newright"):
+                raise LSystemError("the exact closing bracket =] is supported in right contexts only", line, t.col)
+            mods.append(PatternModule(t, ERB))
+            continue
+        if t.name in ("or", "None"):
+            what = {"or": "alternative pattern or(...)", "None": "the empty pattern module None"}[t.name]
             raise LSystemError(f"{what} is not supported", line, t.col)
         if t.name == "all" and t.args is None:
             raise LSystemError("repetition pattern all has no pattern", line, t.col)

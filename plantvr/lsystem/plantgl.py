@@ -565,6 +565,8 @@ def not_here_hint(e: BaseException) -> str:
     if isinstance(e, NameError) and "turtle" in names:
         return ("; rule code driving PlantGL's turtle object (turtle.left(...), turtle.sphere(...)) is not "
                 "supported: produce turtle modules instead")
+    if isinstance(e, NameError) and "Lsystem" in names:
+        return "; L-Py's own Lsystem class (an L-system run from grammar code) is not supported"
     hit = sorted(n for n in names if n in NOT_HERE)
     if not hit:
         return ""

@@ -396,3 +396,44 @@ endlsystem
 """
     ls = LSystem(g, trusted=True)
     assert str(ls.derive()) == "D" and ls._ns["seen"] == [0, 2, 1]
+
+
+def test_triple_quoted_strings_in_the_python_code_hold_no_sections():
+    """L-Py's parser skips strings while it looks for the sections (``lpy_parser.cpp``): recursiveproduce.lpy's
+    ``lcode = \"\"\"Axiom: A ... production: ...\"\"\"`` is Python, and its grammar's own ``Axiom:`` is the one read."""
+    g = '''lcode = """
+Axiom: A
+production:
+A --> BCD
+"""
+other = \'\'\'derivation length: 5\'\'\' + "\'"
+Axiom: E
+derivation length: 1
+production:
+E --> G
+endlsystem
+'''
+    ls = LSystem(g, trusted=True)
+    assert str(ls.derive()) == "G"
+    assert ls._ns["lcode"].split() == ["Axiom:", "A", "production:", "A", "-->", "BCD"]
+
+
+def test_the_lsystem_class_from_grammar_code_is_refused_by_name():
+    with pytest.raises(LSystemError, match=r"line 4, column 1: .*L-Py's own Lsystem class"):
+        LSystem("Axiom: E\nproduction:\nE:\n  l = Lsystem()\n  produce F\n", trusted=True).derive(1)
+
+
+def test_the_exact_closing_bracket_needs_the_branch_to_close_at_once():
+    """``=]`` (L-Py's ExactRightBracket, ``matching_tmpl.h``): the next module of the right context, ignored ones
+    skipped, is the ``]``; a plain ``]`` skips the rest of the branch first (hand-derived)."""
+    g = """Axiom: [A F] g [A F F] g [A F [B]] g [A F] h [A F ; ] g
+derivation length: 1
+ignore: ;
+production:
+A > F=]g --> X
+A > F]g --> Y
+endlsystem
+"""
+    assert _derive(g) == "[XF]g[YFF]g[YF[B]]g[AF]h[XF;]g"
+    with pytest.raises(LSystemError, match=r"line 3, column 2: the exact closing bracket =\] is supported in right"):
+        LSystem("Axiom: A\nproduction:\nA=] --> B\n")

@@ -3,6 +3,8 @@ whose productions match one, the string is interpreted and each request module's
 turtle's frame there (L-Py ``ParamModule::_setValues``)."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -154,8 +156,10 @@ def test_static_rule_successor_is_made_once():
     assert str(LSystem(grow.format("-static->")).derive(3)) == str(LSystem(grow.format("-->")).derive(3))
     with pytest.raises(LSystemError, match=r"line 3, column 1: .*NameError: name 'x' is not defined"):
         LSystem("Axiom: A(1)\nproduction:\nA(x) -static-> B(x)\n")
-    with pytest.raises(LSystemError, match=r"line 3, column 5: static blocks"):
-        LSystem("Axiom: A\nproduction:\nA : @static\n    produce B\n")
+    block = "Axiom: A A A\nproduction:\nA : @static\n    x = uniform(0, 1)\n    nproduce [F]\n    produce B(x)\n"
+    static = LSystem(block, seed=1, trusted=True).derive(1)  # ``pred : @static`` + block (lpy_parser.cpp)
+    (x,), = {vals for name, vals in static.modules() if name == "B"}
+    assert re.sub(r"B\([^)]*\)", "B(x)", str(static)) == "[F]B(x)[F]B(x)[F]B(x)"
 
 
 @pytest.mark.parametrize("text, col, match", [
