@@ -162,11 +162,13 @@ def _record_path(sint, spts, ns, nsp, kind, col, mod, pool, prev, tail, cnt):
 
 @numba.njit(cache=True, nogil=True)
 def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_depth, n_out, n_shapes=0,
-                  n_pool=0):
+                  n_pool=0, with_frames=False):
     """Interpret ``op[i]`` (module ``i``'s op code) with parameters ``args[ptr[i]:ptr[i+1]]``.
 
     Returns ``(pos, parent, radius, order, main_child, color, module, n_nodes, ignored, ignored_at, sint, sflt,
-    spts, n_shapes, n_points)``; the node arrays have ``n_out`` rows of which the first ``n_nodes`` are used.
+    spts, n_shapes, n_points, seg)``; the node arrays have ``n_out`` rows of which the first ``n_nodes`` are used.
+    ``with_frames``: ``seg[k]`` = (H, L, U, base width) of the turtle when it drew the segment ending at node
+    ``k`` (what PlantGL's scene needs: ``PglTurtleDrawer::frustum``); one unused row otherwise.
     ``ignored[k]`` counts the PlantGL warnings of slot ``k``, ``ignored_at[k]`` is the first module index (-1 if
     none). Shape ``s`` is ``sint[s] = (kind, colour, module, first point, point count)`` and ``sflt[s]`` =
     (position, H, L, U, size); a polygon's or tube's points are ``spts[first:first + count]`` = (position, left,
@@ -180,6 +182,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
     main = np.full(n_out, -1, np.int64)
     color = np.zeros(n_out, np.int64)
     module = np.full(n_out, -1, np.int64)
+    seg = np.zeros((n_out if with_frames else 1, 10))
     fstack = np.zeros((max_depth + 1, _NF))
     istack = np.zeros((max_depth + 1, _NI), np.int64)
     ignored = np.zeros(5, np.int64)
@@ -322,6 +325,9 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 px += hx * length * sz
                 py += hy * length * sz
                 pz += hz * length * sz
+                if with_frames:
+                    seg[nn, 0], seg[nn, 1], seg[nn, 2], seg[nn, 3], seg[nn, 4] = hx, hy, hz, lx, ly
+                    seg[nn, 5], seg[nn, 6], seg[nn, 7], seg[nn, 8], seg[nn, 9] = lz, ux, uy, uz, max(w, 0.0) * rs
                 if top > -EPS:
                     w = top
                 pos[nn, 0], pos[nn, 1], pos[nn, 2] = px, py, pz
@@ -660,7 +666,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
     if gc_on and gc_cnt > 1:                              # PlantGL Turtle::stop()
         ns, nsp = _record_path(sint, spts, ns, nsp, SH_TUBE, gc_col, -1, pool, prev, gc_tail, gc_cnt)
     return (pos, parent, radius, order, main, color, module, nn, ignored, ignored_at, sint, sflt, spts, ns,
-            nsp)
+            nsp, seg)
 
 
 # -- the readable twin ------------------------------------------------------------------------------------------

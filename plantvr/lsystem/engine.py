@@ -224,12 +224,16 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         self.derivation_length = self._eval_int(self._g.derivation_length, "derivation length", 1)
         self._max_depth = {k: self._eval_int(self._g.max_depth.get(k), "maximum depth", 1)
                            for k in ("decomposition", "homomorphism")}
-        self._ignored = self._ignore_set()
+        self._ignored = None                                 # the filter of the rule being matched
+        filters: dict = {}
         self._tables: dict[str, Any] = {}
         self._all_rules: list[_Compiled] = []
         for rule in self._g.rules:
             c = self._compile(rule)
             c.group = self._eval_int(rule.group, "group", 0)
+            if rule.filter not in filters:
+                filters[rule.filter] = self._ignore_set(rule.filter)
+            c.ignored = filters[rule.filter]
             self._all_rules.append(c)
         self._start_group = self._next_group                  # a top-level useGroup(n)
         self._set_group(self._start_group)

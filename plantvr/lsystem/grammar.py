@@ -95,6 +95,9 @@ class Rule:
     #: The compiled patterns (:class:`~plantvr.lsystem.patterns.Pattern`) of ``left``, ``newleft``, ``pred``
     #: (all its modules), ``newright`` and ``right``.
     patterns: dict = field(default_factory=dict)
+    #: The ``ignore:`` / ``consider:`` in force where the rule is written (L-Py's ``currentConsider``, one per
+    #: rule): ``(module list source, line, col, is_ignore)``, None for none.
+    filter: tuple | None = None
 
 
 @dataclass
@@ -105,8 +108,6 @@ class Grammar:
     axiom: tuple[str, int, int] | None = None          # (l-string source, line, col)
     derivation_length: tuple[str, int] | None = None   # (expression source, line)
     max_depth: dict = field(default_factory=dict)      # kind -> (expression source, line)
-    ignore: tuple[str, int, int] | None = None         # (module list source, line, col)
-    consider: tuple[str, int, int] | None = None
     declared: dict = field(default_factory=dict)       # module name -> line
     rules: list[Rule] = field(default_factory=list)
     scalars: dict = field(default_factory=dict)        # name -> value, from the editor's INITIALISATION block
@@ -153,6 +154,7 @@ class _Reader:
         self.known: set[str] = set(_turtle_names())
         self.g = Grammar(python="")
         self.group: tuple | None = None                      # the ``group N:`` the rules being read are in
+        self.filter: tuple | None = None                     # the ``ignore:`` / ``consider:`` in force
 
     # -- helpers -----------------------------------------------------------------------------------------------
     def lex(self, s: str, line: int, col: int, known=None) -> list[Token]:
@@ -320,10 +322,9 @@ class _Reader:
                 raise LSystemError("cannot find a value for 'derivation length'", ln, col)
             self.g.derivation_length = (_strip_comment(rest).strip(), ln)
             return None
-        if key in ("ignore", "consider"):
-            setattr(self.g, key, (_strip_comment(rest), ln, raw.find(":") + 2))
-            if self.g.ignore and self.g.consider:
-                raise LSystemError("'ignore:' and 'consider:' together (L-Py keeps only one)", ln, 1)
+        if key in ("ignore", "consider"):              # the filter of the rules after it (lpy_parser.cpp)
+            src = _strip_comment(rest)
+            self.filter = (src, ln, raw.find(":") + 2, key == "ignore") if src.strip() else None
             return None
         if key == "maximum depth":
             if section not in ("decomposition", "homomorphism"):
@@ -419,7 +420,8 @@ class _Reader:
                     for k, s in block:
                         body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
-                                 ln, 1, header.strip(), consts, preds[1:], self.group, static, pats))
+                                 ln, 1, header.strip(), consts, preds[1:], self.group, static, pats,
+                                 self.filter))
 
     def parse_header(self, header: str, ln: int, kind: str):
         # left < newleft << pred >> newright > right

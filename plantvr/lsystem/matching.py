@@ -59,16 +59,16 @@ def _raw_vals(ptr, args, objs, i: int) -> tuple:
 class _Matching:
     """Binding rules at modules (a base of :class:`~plantvr.lsystem.engine.LSystem`)."""
 
-    def _ignore_set(self) -> tuple[frozenset, bool] | None:
-        g = self._g
-        if not (g.ignore or g.consider):
+    def _ignore_set(self, filt: tuple | None) -> tuple[frozenset, bool] | None:
+        """A rule's ``ignore:`` / ``consider:`` (:attr:`Rule.filter`) as ``(module names, is_ignore)``."""
+        if filt is None:
             return None
-        src, ln, col = g.ignore or g.consider
-        names = frozenset(t.name for t in lex(src, g.declared, line=ln, col=col))
-        return names, bool(g.ignore)
+        src, ln, col, ignore = filt
+        return frozenset(t.name for t in lex(src, self._g.declared, line=ln, col=col)), ignore
 
     def _is_ignored(self, sid: int) -> bool:
-        """Whether module id ``sid`` is skipped in context matching (``ignore:`` / not in ``consider:``)."""
+        """Whether module id ``sid`` is skipped in context matching by the filter of the rule being matched
+        (``ignore:`` / not in ``consider:``)."""
         if self._ignored is None or sid < 2:
             return False
         names, ignore = self._ignored
@@ -77,6 +77,7 @@ class _Matching:
     def _bind(self, r: _Compiled, i: int, ids, ptr, args, partner, dest, objs=_EMPTY) -> list | None:
         """Actual parameters of rule ``r`` at module ``i`` (None if the predecessor or a context does not match)."""
         rule = r.rule
+        self._ignored = r.ignored
         vals: list = []
         seq = _ArrSeq(ids, ptr, args, objs) if r.more or r.contexts or r.asks else None
         leftpos = i - 1

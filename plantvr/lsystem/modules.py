@@ -157,7 +157,7 @@ class ModuleString:
 class LstringView:
     """A grammar hook's lstring (L-Py's ``AxialTree`` API over a :class:`ModuleString`): ``len``, ``str``,
     ``==`` (by text), ``lstring[i]`` a module (``.name``, ``m[k]`` its k-th parameter, ``m[k] = v`` sets it),
-    ``lstring + 'B'`` / ``+=`` (an L-string text or another lstring appended). The string underneath is not
+    ``lstring.count(name)``, ``lstring + 'B'`` / ``+=`` (an L-string text or another lstring appended). The string underneath is not
     changed: :meth:`string` is the one a hook's edits give (the engine adopts it)."""
 
     def __init__(self, string: ModuleString, parse) -> None:
@@ -190,6 +190,12 @@ class LstringView:
 
     def __iter__(self):
         return (self[i] for i in range(len(self)))
+
+    def count(self, name: str) -> int:
+        """How many modules are named ``name`` (L-Py's ``AxialTree.count``)."""
+        if self._mods is not None:
+            return sum(m[0] == name for m in self._mods)
+        return sum(n == name for n, _ in self._base.modules())
 
     def __add__(self, other) -> LstringView:
         extra = self._parse(other) if isinstance(other, str) else other.string() if isinstance(

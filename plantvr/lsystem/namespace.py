@@ -480,15 +480,16 @@ class _Namespace:
 
     def _hook(self, name: str, s: ModuleString) -> ModuleString:
         """Call the grammar's ``Start``/``StartEach``/``EndEach``/``End`` with what it takes, as L-Py's
-        ``LsysContext::controlMethod``: nothing, the lstring, or the lstring and the scene (None here: PlantVR
-        has no PlantGL scene); an lstring it returns replaces the string (the value ``End`` returns is not used:
-        the derivation has ended)."""
+        ``LsysContext::controlMethod``: nothing, the lstring, or the lstring and the scene L-Py's turtle draws
+        from it (:func:`~plantvr.lsystem.scene.lsystem_scene`, built if the hook reads it); an lstring it returns
+        replaces the string (the value ``End`` returns is not used: the derivation has ended)."""
         f, nparams = self._hooks.get(name, (None, 0))
         if f is not None:
+            from .scene import LazyScene, lsystem_scene
             self._nbuf.clear()
             view = LstringView(s, self._lstring)
             try:
-                out = f(*(view, None)[:nparams])
+                out = f(*(view, LazyScene(lambda: lsystem_scene(self, s)))[:nparams])
             except LSystemError as e:
                 if e.line:
                     raise
@@ -496,9 +497,7 @@ class _Namespace:
             except _OverBudget:
                 raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, f" in {name}()") from None
             except Exception as e:
-                scene = ("; it reads L-Py's PlantGL scene (its second parameter), which PlantVR does not have: hooks "
-                         "that read the scene are not supported" if nparams >= 2 else "")
-                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}{not_here_hint(e) or scene}", self._tb_line(
+                raise LSystemError(f"{name}() raised {type(e).__name__}: {e}{not_here_hint(e)}", self._tb_line(
                     sys.exc_info()[2]), 1) from None
             if isinstance(out, LstringView):
                 out = out.string()

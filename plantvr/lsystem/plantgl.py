@@ -546,12 +546,10 @@ class QuantisedFunction:
 
 
 # -- what is not here ----------------------------------------------------------------------------------------
-#: PlantGL names grammars use that this namespace does not have: scene-graph nodes and transforms, primitives
-#: built directly, patches, grids and the viewer (a grammar naming one is refused with this said).
+#: PlantGL names grammars use that this namespace does not have: the other scene-graph nodes and transforms,
+#: patches, grids and the viewer (a grammar naming one is refused with this said).
 NOT_HERE = frozenset({
-    "Scene", "Shape", "Group", "Scaled", "Translated", "Oriented", "AxisRotated", "EulerRotated", "Tapered",
-    "Cylinder", "Cone", "Sphere", "Box", "Disc", "Frustum", "Paraboloid", "Extrusion", "Swung", "Polyline",
-    "Mesh", "FaceSet", "TriangleSet", "QuadSet", "NurbsPatch", "BezierPatch", "Point4Matrix", "Point3Matrix",
+    "Group", "EulerRotated", "Tapered", "Paraboloid", "Swung", "QuadSet", "NurbsPatch", "BezierPatch", "Point4Matrix", "Point3Matrix",
     "Discretizer", "Tesselator", "BoundingBox", "Point3Grid", "Point2Grid", "Grid3Indexing", "Viewer",
     "eStatic", "eAnimatedScene", "eAnimatedPrimitives", "pgl_support_extension", "Text", "Font", "Texture2DTransformation",
 })
@@ -571,7 +569,7 @@ def not_here_hint(e: BaseException) -> str:
     if not hit:
         return ""
     return (f"; PlantGL's {hit[0]} is not in PlantVR's PlantGL namespace (scene-graph nodes, primitives, patches, "
-            "grids and the viewer are not supported)")
+            "grids and the viewer are not supported; the turtle's scene nodes are)")
 
 
 # -- the import hook -----------------------------------------------------------------------------------------
@@ -611,3 +609,10 @@ def grammar_builtins() -> dict[str, Any]:
     out = dict(vars(builtins))
     out["__import__"] = grammar_import
     return out
+
+
+# -- the scene graph (pglscene imports Vector3 from here, so it comes last) -----------------------------------
+from . import pglscene as _pglscene  # noqa: E402
+from .pglscene import *  # noqa: E402, F403
+
+__all__ += _pglscene.__all__

@@ -91,7 +91,10 @@ class _Rewriting:
                 break
         return s
 
-    def _recursive(self, s: ModuleString, kind: str, depth: int) -> tuple[ModuleString, bool]:
+    def _recursive(self, s: ModuleString, kind: str, depth: int,
+                   origin: list | None = None) -> tuple[ModuleString, bool]:
+        """L-Py's recursion over ``s`` (see :meth:`_decompose`); ``origin``, when given, receives for each module
+        of the result the index in ``s`` of the module it came from (L-Py's turtle id, ``turtle.setId``)."""
         by_sym, anywhere = self._by_first(self._rules[kind], True)
         s = self._cut(s)
         ids, ptr, args, objs = s.ids, s.arg_ptr, s.args, s.objects
@@ -116,6 +119,8 @@ class _Rewriting:
                     out.extend(res)
                 if len(out) > self.max_modules:
                     self._check_size(len(out), 0, self._where[0])
+            if origin is not None:
+                origin.extend([i] * (len(out) - len(origin)))
             i += 1 if res is None else 1 + len(r.rest)
         return self._make(*_pack(out)), changed
 

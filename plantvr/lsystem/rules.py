@@ -60,6 +60,7 @@ class _Compiled:
         self.batch = None        # (fn of the parameter columns, [(sid, arity), ...]): a loop in Python
         self.const = None        # [(sid, (floats...)), ...]
         self.static = None       # a static rule's successor, [(sid, params), ...]
+        self.ignored = None      # its ignore: / consider: filter, (names, is_ignore) (set by the engine)
         # pattern constants (issue 33): every pattern parameter's index -> value, the variables' indices
         self.consts = list(rule.consts)
         n_all = len(rule.params) + len(self.consts)

@@ -384,7 +384,7 @@ def turtle_nodes(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
                  width: float = DEFAULT_WIDTH, width_increment: float = DEFAULT_WIDTH_INCREMENT,
                  tropism=(0.0, 0.0, 1.0), elasticity: float = 0.0) -> TurtleNodes:
     """Interpret ``string`` with the L-Py turtle: the tree plus each node's colour and module (see :func:`turtle`)."""
-    pos, parent, radius, order, main, color, module, nn, sint, sflt, spts, sec = _interpret(
+    pos, parent, radius, order, main, color, module, nn, sint, sflt, spts, sec, _ = _interpret(
         string, angle, step, width, width_increment, tropism, elasticity)
     tree = TreeArrays.from_arrays(pos[:nn], parent[:nn], radius[:nn], order[:nn], main[:nn])
     shape = (sint[:, 0] != K.SH_QUERY) & (sint[:, 0] != K.SH_LABEL) & (sint[:, 0] != K.SH_FRAME)
@@ -430,21 +430,23 @@ def query_frames(string: ModuleString, *, angle: float = DEFAULT_ANGLE, step: fl
     >>> i.tolist(), fr[0, 0].round(6).tolist(), fr[0, 1].round(6).tolist()
     ([3], [0.0, -1.0, 1.0], [0.0, -1.0, 0.0])
     """
-    *_, sint, sflt, _, _ = _interpret(string, angle, step, width, width_increment, tropism, elasticity)
+    *_, sint, sflt, _, _, _ = _interpret(string, angle, step, width, width_increment, tropism, elasticity)
     query = sint[:, 0] == K.SH_QUERY
     return sint[query, 2].copy(), sflt[query, :12].reshape(-1, 4, 3).copy()
 
 
-def _interpret(string: ModuleString, angle, step, width, width_increment, tropism, elasticity) -> tuple:
-    """The kernel's drawing of ``string`` (used rows only), after the door checks, with PlantGL's warnings."""
+def _interpret(string: ModuleString, angle, step, width, width_increment, tropism, elasticity, *,
+               with_frames: bool = False) -> tuple:
+    """The kernel's drawing of ``string`` (used rows only), after the door checks, with PlantGL's warnings;
+    the last item is each segment's turtle frame and base width with ``with_frames`` (see ``turtle_kernel``)."""
     opts = _options(angle, step, width, width_increment, tropism, elasticity)
     sec = apply_sections(string) if isinstance(string, ModuleString) else None   # sweeps, sections (sections.py)
     drawn, source = apply_guides(string if sec is None else sec.string, opts[1])   # guided moves (guides.py)
     if sec is not None and sec.source is not None:             # both maps: to the string given
         source = sec.source if source is None else sec.source[source]
     op, depth, n_f = _ops(drawn)
-    pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp = K.turtle_kernel(
-        op, drawn.arg_ptr, drawn.args, *opts, depth, 2 * n_f, *_capacities(op, n_f))
+    pos, parent, radius, order, main, color, module, nn, ignored, at, sint, sflt, spts, ns, nsp, seg = K.turtle_kernel(
+        op, drawn.arg_ptr, drawn.args, *opts, depth, 2 * n_f, *_capacities(op, n_f), with_frames)
     sint = sint[:ns]
     if source is not None:                                    # module indices of the string given
         def back(i):
@@ -455,7 +457,7 @@ def _interpret(string: ModuleString, angle, step, width, width_increment, tropis
             i = int(at[k])
             warnings.warn(f"string: {int(ignored[k])} module(s) set {what} and were ignored, as in PlantGL (first: "
                           f"{string.names[string.ids[i]]} at index {i})", stacklevel=4)
-    return pos, parent, radius, order, main, color, module, nn, sint, sflt[:ns], spts[:nsp], sec
+    return pos, parent, radius, order, main, color, module, nn, sint, sflt[:ns], spts[:nsp], sec, seg[:nn]
 
 
 def _shapes(string: ModuleString, sint: np.ndarray, sflt: np.ndarray, spts: np.ndarray, sec) -> TurtleShapes:

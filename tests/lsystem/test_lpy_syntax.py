@@ -144,12 +144,6 @@ def __initialiseContext__(context):
         Texture2D(image=3)
 
 
-def test_hooks_reading_the_scene_are_refused_by_name():
-    g = "def End(lstring, lscene):\n  assert len(lscene) == 3\nAxiom: F\nderivation length: 1\nproduction:\nendlsystem\n"
-    with pytest.raises(LSystemError, match=r"line 2.*End\(\) raised TypeError.*PlantGL scene.*not supported"):
-        LSystem(g, trusted=True).derive()
-
-
 def test_context_tests_walk_along_the_string_and_bind_variables():
     """``InLeftContext(pattern, args)`` / ``InRightContext`` (L-Py's ``LstringMatcher``): a match moves the edge
     past what it matched, so calls in a row walk outward; ``args`` gets the pattern's values (L-Py's tests
