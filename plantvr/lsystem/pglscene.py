@@ -17,7 +17,7 @@ References
 """
 from __future__ import annotations
 
-from .plantgl import Vector3   # plantgl imports this module at its end, once Vector3 exists
+from .pglmath import Vector3
 
 __all__ = ["AxisRotated", "Box", "Cone", "Cylinder", "Disc", "Extrusion", "FaceSet", "Frustum", "Mesh",
            "Oriented", "Polyline", "Scaled", "Scene", "Shape", "Sphere", "Translated", "TriangleSet"]
