@@ -218,6 +218,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         self._stopped = False
         self._next_group = 0                                  # useGroup(n): the group of the next steps
         self._group = 0
+        self._scales = {self._sid(name): v for name, v in self._g.scales.items()}   # module scales, by id
         self._ns = self._namespace()
         self._exec_python()
         self._hooks = self._read_hooks()

@@ -109,6 +109,8 @@ class Grammar:
     derivation_length: tuple[str, int] | None = None   # (expression source, line)
     max_depth: dict = field(default_factory=dict)      # kind -> (expression source, line)
     declared: dict = field(default_factory=dict)       # module name -> line
+    scales: dict = field(default_factory=dict)         # module name -> its ': scale = n' (multiscale matching)
+    bases: dict = field(default_factory=dict)          # module name -> the names of its ': base = A'
     rules: list[Rule] = field(default_factory=list)
     scalars: dict = field(default_factory=dict)        # name -> value, from the editor's INITIALISATION block
     init: str = ""                                     # that block's code, line numbers kept (run when trusted)
@@ -292,11 +294,8 @@ class _Reader:
 
     def declare(self, s: str, ln: int) -> None:
         body = _strip_comment(s)[len("module"):]
-        body, _, options = body.partition(":")                # ``module A : scale = 1``
-        for key in re.findall(r"\b(scale|base|bases)\s*=", options):
-            what = ("module scales (': scale = n', multiscale L-systems) are" if key == "scale" else
-                    "module inheritance (': base = A') is")
-            raise LSystemError(f"{what} not supported", ln, s.find(key) + 1)
+        body, _, options = body.partition(":")                # ``module A : scale = 1, base = (B, C)``
+        scale, bases = self.module_options(options, s, ln)
         for part in split_top(body):
             part = part.strip()
             if not part:
@@ -306,6 +305,34 @@ class _Reader:
                 raise LSystemError(f"module alias {part!r} is not supported", ln, s.find(part) + 1)
             self.known.add(name)
             self.g.declared.setdefault(name, ln)
+            if scale is not None:
+                self.g.scales[name] = scale
+            if bases:
+                self.g.bases[name] = bases
+
+    @staticmethod
+    def module_options(options: str, s: str, ln: int) -> tuple[int | None, tuple[str, ...]]:
+        """A declaration's ``scale = n`` (an integer, L-Py's ``ModuleClass.scale``) and ``base = A`` /
+        ``base = (A, B)`` (its base classes, ``lpy_parser.cpp``)."""
+        scale, bases = None, ()
+        rest = options
+        for m in re.finditer(r"\b(scale|base|bases)\s*=\s*(\([^)]*\)|[^,\s]+)", options):
+            key, val = m.group(1), m.group(2)
+            rest = rest.replace(m.group(0), "", 1)
+            if key == "scale":
+                if not re.fullmatch(r"-?\d+", val):
+                    raise LSystemError(f"a module scale must be an integer, got {val!r:.40}", ln, s.find(val) + 1)
+                scale = int(val)
+            else:
+                bases = tuple(b.strip() for b in val.strip("()").split(",") if b.strip())
+                bad = [b for b in bases if not re.fullmatch(r"[A-Za-z_]\w*", b)]
+                if bad:
+                    raise LSystemError(f"module base {bad[0]!r:.40} is not a module name", ln, s.find(bad[0]) + 1)
+        left = rest.replace(",", " ").strip()
+        if left:
+            raise LSystemError(f"unknown module option {left!r:.40} (L-Py's are scale = n and base = A)", ln,
+                               s.find(left.split()[0]) + 1)
+        return scale, bases
 
     def header(self, m: re.Match, ln: int, raw: str, section: str = "python") -> str | None:
         key, rest = m.group(1), m.group(3)

@@ -19,6 +19,10 @@ from .rules import _Compiled
 
 #: Pattern names that are not modules (a wildcard, a repetition).
 _WILD = frozenset({"*", "any", "x", "all"})
+#: The scale of a module declared without one, and of brackets (L-Py's ``ModuleClass::DEFAULT_SCALE``, INT_MAX).
+FINEST = 2**31 - 1
+#: L-Py's ``String matching`` option (``MatchingEngine::eStringMatchingMethod``).
+AS_STRING, AS_AXIAL_TREE, AS_MULTILEVEL, AS_MULTISCALE = range(4)
 
 
 class _Reversed:
@@ -57,7 +61,158 @@ def _raw_vals(ptr, args, objs, i: int) -> tuple:
 
 
 class _Matching:
-    """Binding rules at modules (a base of :class:`~plantvr.lsystem.engine.LSystem`)."""
+    """Binding rules at modules (a base of :class:`~plantvr.lsystem.engine.LSystem`).
+
+    Contexts are read as L-Py's ``String matching`` option says (``matching.cpp``): as an axial tree (the
+    default: lateral branches skipped), as a string (``AS_STRING``: the neighbours in string order, brackets are
+    modules), as a multi-level tree (modules of other scales than the pattern module's skipped:
+    ``predecessor_at_level``) or a multiscale tree (``predecessor_at_scale`` / ``next_module_at_scale`` of
+    ``axialtree_manip.h``: a left context at a coarser scale is the module's complex, finer modules between are
+    its components; ``module A : scale = n`` declares a module's scale, undeclared ones are the finest).
+    """
+
+    _mode = AS_AXIAL_TREE
+
+    def _set_option(self, name: str, index: int) -> None:
+        """``context().options.setSelection(name, index)`` of a matching option."""
+        if name == "String matching":
+            self._mode = index
+        elif index and self._g.bases:
+            raise LSystemError("module inheritance in rule matching ('Module inheritance' enabled for modules "
+                               "declared ': base = A') is not supported")
+
+    def _scale(self, sid: int) -> int:
+        return self._scales.get(sid, FINEST)
+
+    def _pattern_scale(self, m: PatternModule) -> int:
+        return self._scales.get(self._pattern_sid(m.tok), FINEST) if m.kind == MOD else FINEST
+
+    def _pred_other(self, seq, pos: int, partner, m: PatternModule, prev: int) -> int:
+        """The module a left context's pattern module ``m`` reads at or left of ``pos`` when contexts are not
+        read as an axial tree (the class docstring); ``prev`` is the scale of the module right of ``pos``."""
+        if self._mode == AS_STRING:                           # previous_module: ignored ones skipped
+            while pos >= 0 and self._is_ignored(seq.sid(pos)):
+                pos -= 1
+            return pos
+        target = self._pattern_scale(m)
+        p = self._parent(seq, pos, partner)
+        if p < 0:
+            return -1
+        cur = self._scale(seq.sid(p))
+        if self._mode == AS_MULTILEVEL:                      # predecessor_at_level
+            while cur != target:
+                p = self._parent(seq, p - 1, partner)
+                if p < 0:
+                    return -1
+                cur = self._scale(seq.sid(p))
+            return p
+        if not target < prev:                                # a predecessor, not a complex: go up the complexes
+            while cur < prev:
+                p = self._parent(seq, p - 1, partner)
+                if p < 0:
+                    return -1
+                cur = self._scale(seq.sid(p))
+        while cur > target:                                  # skip the predecessor's components
+            p = self._parent(seq, p - 1, partner)
+            if p < 0:
+                return -1
+            cur = self._scale(seq.sid(p))
+        return p if cur == target else -1
+
+    def _next_other(self, seq, pos: int, m: PatternModule, from_prev: bool, prev: int) -> int:
+        """``next_module_at_scale`` / ``next_module_at_level`` / ``next_module`` (the class docstring): the
+        module right of ``pos`` (at ``pos`` itself with ``from_prev``) that pattern module ``m`` is matched
+        to, ``len(seq)`` if none; ``prev`` is the scale of the module matched before when ``from_prev``."""
+        n = len(seq)
+
+        def step(p: int) -> int:
+            p += 1
+            while p < n and self._is_ignored(seq.sid(p)):
+                p += 1
+            return p
+
+        if pos >= n:
+            return n
+        if from_prev:
+            while pos < n and self._is_ignored(seq.sid(pos)):
+                pos += 1
+        else:
+            prev = self._scale(seq.sid(pos))
+            pos = step(pos)
+        if self._mode == AS_STRING or pos >= n:
+            return pos
+        target = self._pattern_scale(m)
+        if self._mode == AS_MULTILEVEL:
+            while pos < n and self._scale(seq.sid(pos)) != target:
+                pos = step(pos)
+            return pos
+        if not target > prev:                                # a successor, not a component: skip its components
+            while pos < n and self._scale(seq.sid(pos)) > target:
+                pos = step(pos)
+            if pos >= n:
+                return n
+        cur = self._scale(seq.sid(pos))
+        if cur < target:                                     # a component of the module reached: go down
+            while True:
+                pos = step(pos)
+                if pos >= n:
+                    return n
+                prev, cur = cur, self._scale(seq.sid(pos))
+                if not (prev < cur < target):
+                    break
+        return pos if cur == target else n
+
+    def _right_other(self, mods, pos: int, seq, partner) -> tuple[list, int] | None:
+        """A right context when contexts are not read as an axial tree: L-Py's ``TreeRightMatcher`` with the
+        option's next element (``GetScaleSuccessor`` / ``GetLevelSuccessor`` / ``GetNext``); a lateral branch
+        is skipped where a pattern module meets its ``[`` (in the tree matchings), ``]`` skips to the branch's
+        end, and the position after the last module matched is returned."""
+        n = len(seq)
+        if pos >= n:
+            return ([], pos) if not mods else None
+        last_scale = self._scale(seq.sid(pos - 1)) if pos > 0 else self._here_scale
+        vals: list = []
+        stack: list = []
+        k, last = 0, pos - 1
+        it = self._next_other(seq, pos, mods[0], True, last_scale)
+        while it < n and k < len(mods):
+            m = mods[k]
+            nextpattern = True
+            s = seq.sid(it)
+            if m.kind == MOD and s < 2 and self._mode != AS_STRING:
+                if s == 1:
+                    return None
+                it = self._skip_branch(seq, it, partner) - 1          # on the branch's ']'
+                if it < 0:
+                    return None
+                nextpattern = False
+            elif m.kind in (MOD, ANY):
+                v = self._module(m, seq, it)
+                if v is None:
+                    return None
+                vals += v
+            elif m.kind in (RB, ERB):
+                if s != 1:
+                    if m.kind == ERB or self._mode == AS_STRING:
+                        return None
+                    if stack:
+                        stack.pop()
+                    depth = 0                                # the ']' closing the branch that holds 'it'
+                    while it < n and not (seq.sid(it) == 1 and depth == 0):
+                        depth += (seq.sid(it) == 0) - (seq.sid(it) == 1)
+                        it += 1
+                    if it >= n:
+                        return None
+            else:                                            # '['
+                if s != 0:
+                    return None
+                stack.append(it)
+            if nextpattern:
+                k += 1
+            last = it
+            if it < n and k < len(mods):
+                it = self._next_other(seq, it, mods[k], False, 0)
+        return (vals, last + 1) if k == len(mods) else None
 
     def _ignore_set(self, filt: tuple | None) -> tuple[frozenset, bool] | None:
         """A rule's ``ignore:`` / ``consider:`` (:attr:`Rule.filter`) as ``(module names, is_ignore)``."""
@@ -78,6 +233,8 @@ class _Matching:
         """Actual parameters of rule ``r`` at module ``i`` (None if the predecessor or a context does not match)."""
         rule = r.rule
         self._ignored = r.ignored
+        if self._mode != AS_AXIAL_TREE:
+            self._here_scale = self._scales.get(int(ids[i]), FINEST)
         vals: list = []
         seq = _ArrSeq(ids, ptr, args, objs) if r.more or r.contexts or r.asks else None
         leftpos = i - 1
@@ -213,6 +370,9 @@ class _Matching:
         position left of the last one matched."""
         vals: list = []
         for m in reversed(mods):
+            if m.kind == REP and self._mode != AS_AXIAL_TREE:
+                raise LSystemError("repetition patterns x(...) are matched in axial-tree string matching only "
+                                   "(L-Py: 'Multiscale context and Regular Expression not compatible')")
             if m.kind == REP:
                 got = self._repeat(m, pos, seq, partner, self._left_at, False)
                 if got is None:
@@ -223,8 +383,11 @@ class _Matching:
             if m.kind == LB:                                   # the module just before, ignored ones skipped
                 while pos >= 0 and self._is_ignored(seq.sid(pos)):
                     pos -= 1
-            else:
+            elif self._mode == AS_AXIAL_TREE:
                 pos = self._parent(seq, pos, partner)
+            else:
+                prev = self._scale(seq.sid(pos + 1)) if 0 <= pos + 1 < len(seq) else self._here_scale
+                pos = self._pred_other(seq, pos, partner, m, prev)
             if pos < 0:
                 return None
             v = self._module(m, seq, pos)
@@ -262,6 +425,11 @@ class _Matching:
         and the position after the last one matched. As L-Py, a context starting at the string's end matches
         repetitions of nothing only, and one reaching it with pattern modules left fails. ``]`` skips the rest of
         the branch, ``=]`` needs it to close at once (``matching_tmpl.h``: ``isExactRightBracket``)."""
+        if self._mode != AS_AXIAL_TREE:
+            if any(m.kind == REP for m in mods):
+                raise LSystemError("repetition patterns x(...) are matched in axial-tree string matching only "
+                                   "(L-Py: 'Multiscale context and Regular Expression not compatible')")
+            return self._right_other(mods, pos, seq, partner)
         vals: list = []
         n = len(seq)
         at_end = pos >= n

@@ -120,9 +120,9 @@ class _ContextStub(SB.SafeAttrs):
     grammar ``context["name"] = value`` sets a name of the grammar's namespace, as L-Py's context is that
     namespace (the editor's ``__initialiseContext__`` defines its curves and functions so)."""
 
-    def __init__(self, options: dict, namespace: dict | None) -> None:
+    def __init__(self, options: dict, namespace: dict | None, on_option=None) -> None:
         self.turtle = _TurtleStub(options)
-        self.options = _Ignore()
+        self.options = _Options(on_option)
         self.animation_timestep = 0.0
         self._ns = namespace
 
@@ -134,7 +134,26 @@ class _ContextStub(SB.SafeAttrs):
         raise LSystemError(f"context().{name} is not supported")
 
 
-class _Ignore(SB.SafeAttrs):
+class _Options(SB.SafeAttrs):
+    """``context().options``: L-Py's matching options (``lsyscontext.cpp``) are checked and handed to
+    ``on_option(name, index)``; the editor's other settings are accepted and ignored."""
+
+    CHOICES = {"String matching": ("As String", "As AxialTree", "As Multi-level AxialTree",
+                                   "As Multiscale AxialTree"),
+               "Module inheritance": ("Disabled", "Enabled")}
+
+    def __init__(self, on_option=None) -> None:
+        self._on = on_option
+
+    def setSelection(self, name, index=None, *_) -> None:
+        values = self.CHOICES.get(name) if isinstance(name, str) else None
+        if values is None:
+            return
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(values):
+            raise LSystemError(f"option {name!r} takes an index in [0, {len(values) - 1}], got {index!r:.40}")
+        if self._on is not None:
+            self._on(name, index)
+
     def __getattr__(self, name):
         return lambda *a, **k: None
 
@@ -196,7 +215,7 @@ class _Namespace:
         for name in randoms:
             ns[name] = getattr(self._rng, name)
         opts = self._turtle
-        ctx = self._context = _ContextStub(opts, ns if self.trusted else None)
+        ctx = self._context = _ContextStub(opts, ns if self.trusted else None, self._set_option)
         ns.update(
             extern=self._extern, context=lambda: ctx, execContext=lambda: ctx,
             forward=lambda: setattr(self, "_direction", 1), backward=lambda: setattr(self, "_direction", -1),

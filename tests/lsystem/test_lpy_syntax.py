@@ -264,13 +264,14 @@ endlsystem
 
 
 @pytest.mark.parametrize("text, what", [
-    ("module B : scale = 2\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 12: module scales"),
-    ("module B: base = A\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 11: module inheritance"),
+    ("module B : scale = two\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 20: a module scale must be an integer"),
+    ("module B : colour = 2\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 12: unknown module option"),
+    ("module B : base = (A, 3)\nAxiom: B\nproduction:\nendlsystem\n", r"module base '3' is not a module name"),
     ("Axiom: A\nproduction:\n$A(a) :\n  produce B\nendlsystem\n", r"line 3, column 1: iterator request \$"),
 ])
-def test_multiscale_and_getmodule_grammars_are_refused_by_name(text, what):
-    """Before, ``: scale =`` and ``: base =`` were dropped and ``$A(a)`` matched nothing, so L-Py's multiscale tests
-    'ran' to other strings than L-Py's; now they are refused by name."""
+def test_module_options_and_getmodule_are_checked(text, what):
+    """``: scale = n`` and ``: base = A`` are read (multiscale matching, :mod:`test_multiscale`); a bad option is
+    refused with its column, and ``$A(a)`` (L-Py's iterator request) by name."""
     with pytest.raises(LSystemError, match=what):
         LSystem(text, trusted=True)
 
