@@ -72,14 +72,32 @@ class _Matching:
     """
 
     _mode = AS_AXIAL_TREE
+    #: with L-Py's ``Module inheritance`` option: module id -> the ids of its base classes (transitively); a
+    #: pattern module matches its own class and every class derived from it
+    _bases: dict = {}
 
     def _set_option(self, name: str, index: int) -> None:
         """``context().options.setSelection(name, index)`` of a matching option."""
         if name == "String matching":
             self._mode = index
-        elif index and self._g.bases:
-            raise LSystemError("module inheritance in rule matching ('Module inheritance' enabled for modules "
-                               "declared ': base = A') is not supported")
+            return
+        self._bases = {}
+        if index:
+            for name in self._g.bases:
+                todo, seen = list(self._g.bases[name]), set()
+                while todo:
+                    b = todo.pop()
+                    if b not in seen and b != name:
+                        seen.add(b)
+                        todo.extend(self._g.bases.get(b, ()))
+                self._bases[self._sid(name)] = frozenset(self._sid(b) for b in seen)
+        if hasattr(self, "_tables"):                          # set in __initialiseContext__: before the tables
+            self._tables.clear()
+
+    def _is_a(self, sid: int, psid: int) -> bool:
+        """Whether a module of id ``sid`` matches pattern module id ``psid`` (its class or, with inheritance, one
+        of its bases: ``MatchingEngine::compatible_classes``)."""
+        return sid == psid or (psid in self._bases.get(sid, ()) if self._bases else False)
 
     def _scale(self, sid: int) -> int:
         return self._scales.get(sid, FINEST)
@@ -324,7 +342,7 @@ class _Matching:
         s, n = seq.sid(pos), seq.nargs(pos)
         kind = m.kind
         if kind == MOD:
-            if s != self._pattern_sid(m.tok) or (n < m.nfixed if m.star else n != m.nfixed):
+            if not self._is_a(s, self._pattern_sid(m.tok)) or (n < m.nfixed if m.star else n != m.nfixed):
                 return None
             a = seq.args(pos)
             return a if not m.star else a[:m.nfixed] + [a[m.nfixed:]]

@@ -134,6 +134,42 @@ class _ContextStub(SB.SafeAttrs):
         raise LSystemError(f"context().{name} is not supported")
 
 
+class _ModuleClass(SB.SafeAttrs):
+    """L-Py's ``ModuleClass.get(name)``: a declared module's ``name``, ``scale`` and ``issubclass(other)``
+    (its ``: base = A`` declarations, transitively)."""
+
+    def __init__(self, name: str, scales: dict, bases: dict) -> None:
+        self.name, self._bases = name, bases
+        self.scale = scales.get(name, 2**31 - 1)        # ModuleClass::DEFAULT_SCALE
+        self.bases = tuple(bases.get(name, ()))
+
+    def issubclass(self, other) -> bool:
+        if not isinstance(other, _ModuleClass):
+            raise LSystemError(f"ModuleClass.issubclass needs a ModuleClass, got {type(other).__name__}")
+        todo, seen = [self.name], set()
+        while todo:
+            n = todo.pop()
+            if n == other.name:
+                return True
+            if n not in seen:
+                seen.add(n)
+                todo.extend(self._bases.get(n, ()))
+        return False
+
+    def __repr__(self) -> str:
+        return f"ModuleClass({self.name!r})"
+
+
+class _ModuleClasses(SB.SafeAttrs):
+    def __init__(self, grammar) -> None:
+        self._g = grammar
+
+    def get(self, name) -> _ModuleClass:
+        if not isinstance(name, str):
+            raise LSystemError(f"ModuleClass.get needs a module name, got {type(name).__name__}")
+        return _ModuleClass(name, self._g.scales, self._g.bases)
+
+
 class _Options(SB.SafeAttrs):
     """``context().options``: L-Py's matching options (``lsyscontext.cpp``) are checked and handed to
     ``on_option(name, index)``; the editor's other settings are accepted and ignored."""
@@ -227,6 +263,7 @@ class _Namespace:
             frameDisplay=lambda *a: None, Lstring=self._lstring,
             isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
             ParameterSet=ParameterSet,                       # from openalea.lpy, as every L-Py namespace has it
+            ModuleClass=_ModuleClasses(self._g),
             InLeftContext=lambda pattern, args=None: self._in_context(pattern, args, True),
             InRightContext=lambda pattern, args=None: self._in_context(pattern, args, False),
             inLeftContext=lambda pattern, args=None: self._in_context(pattern, args, True),

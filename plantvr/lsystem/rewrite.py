@@ -129,8 +129,8 @@ class _Rewriting:
         if not rules or not len(s):
             return s, False
         s = self._cut(s)
-        if any(r.newcontexts or r.rest or not r.plain for r in rules):
-            return self._sequential(s, rules)
+        if self._bases or any(r.newcontexts or r.rest or not r.plain for r in rules):
+            return self._sequential(s, rules)                # (inheritance: rules are found by class, one by one)
         table = None if s.objects else self._constant_table(kind)
         if table is not None:
             rule_arity, sptr, sids, saptr, sargs = table
@@ -448,7 +448,10 @@ class _Rewriting:
             m = r.pats["pred"].mods[0 if fwd else -1]
             keys.append(self._pattern_sid(m.tok) if m.kind != ANY and not m.star else None)
         anywhere = [r for r, k in zip(rules, keys) if k is None]
-        return {k: [r for r, k2 in zip(rules, keys) if k2 in (k, None)] for k in set(keys) - {None}}, anywhere
+        table = {k: [r for r, k2 in zip(rules, keys) if k2 in (k, None)] for k in set(keys) - {None}}
+        for d, bases in self._bases.items():                 # inheritance: a derived class has its bases' rules
+            table[d] = [r for r, k2 in zip(rules, keys) if k2 is None or k2 == d or k2 in bases]
+        return table, anywhere
 
     def _first_rule(self, rules, i: int, fwd: bool, idl, nargs, ids, ptr, args, partner, dest,
                     objs) -> tuple[_Compiled | None, list | None]:
@@ -456,7 +459,7 @@ class _Rewriting:
         contexts match and that produces, with its successor: ``(rule, successor)``, or ``(None, None)``."""
         for r in rules:
             at = i if fwd else i - len(r.rest)               # where the predecessor starts
-            if at < 0 or (r.plain and (idl[at] != r.sid or nargs[at] != r.arity)):
+            if at < 0 or (r.plain and (not self._is_a(idl[at], r.sid) or nargs[at] != r.arity)):
                 continue
             vals = self._bind(r, at, ids, ptr, args, partner, dest, objs)
             if vals is None:

@@ -80,14 +80,41 @@ def test_lateral_branch_at_a_finer_scale():
     assert _derive(decl, "A(0)B[B[BA(1)]]BA(2)", "A(x) > [[A(y)]] --> Z(x, y)\n", 3) == "Z(0,1)B[B[BA(1)]]BA(2)"
 
 
-def test_repetitions_and_inheritance_are_refused_by_name():
+INHERIT = """module A(t)
+module B : base = A, scale = 2
+module C(x) : base = (A,B) # both
+assert ModuleClass.get('C').issubclass(ModuleClass.get('A')) and not ModuleClass.get('A').issubclass(ModuleClass.get('B'))
+assert ModuleClass.get('B').scale == 2 and ModuleClass.get('C').bases == ('A', 'B')
+Axiom: C(1) B(2) A(3) D(4)
+
+derivation length: 1
+production:
+{rules}
+endlsystem
+###### INITIALISATION ######
+def __initialiseContext__(context):
+\tcontext.options.setSelection('Module inheritance',{on})
+"""
+
+
+@pytest.mark.parametrize("on, rules, expected", [
+    # test_inheritance / test_inheritance_simple: a pattern module matches the classes derived from it,
+    # the first rule in file order applies
+    (1, "A(x) --> X(x)\nB(x) --> Y(x)", "X(1)X(2)X(3)D(4)"),
+    (1, "B(x) --> Y(x)\nA(x) --> X(x)", "Y(1)Y(2)X(3)D(4)"),
+    (0, "A(x) --> X(x)\nB(x) --> Y(x)", "C(1)Y(2)X(3)D(4)"),
+    # in contexts too
+    (1, "A(x) < D(y) --> D(x + y)", "C(1)B(2)A(3)D(7)"),
+    (1, "B(x) > B(y) --> E(x, y)", "E(1,2)B(2)A(3)D(4)"),
+])
+def test_module_inheritance_in_matching(on, rules, expected):
+    assert str(LSystem(INHERIT.format(rules=rules, on=on), trusted=True).derive()) == expected
+
+
+def test_repetitions_and_option_values_are_checked():
     with pytest.raises(LSystemError, match="Multiscale context and Regular Expression not compatible"):
         _derive(SCALES, "U I I", "U > x(I) --> X\n", 3)
-    g = ("module A\nmodule B : base = A\nAxiom: B\nderivation length: 1\nproduction:\nA --> C\nendlsystem\n"
-         "###### INITIALISATION ######\ndef __initialiseContext__(context):\n"
-         "\tcontext.options.setSelection('Module inheritance',1)\n")
-    with pytest.raises(LSystemError, match="module inheritance in rule matching"):
-        LSystem(g, trusted=True)
-    assert str(LSystem(g.replace("'Module inheritance',1", "'Module inheritance',0"), trusted=True).derive()) == "B"
     with pytest.raises(LSystemError, match=r"option 'String matching' takes an index in \[0, 3\]"):
         LSystem(_grammar(SCALES, "U", "", 7), trusted=True)
+    with pytest.raises(LSystemError, match="ModuleClass.issubclass needs a ModuleClass"):
+        LSystem("assert ModuleClass.get('A').issubclass('B')\nAxiom: A\n", trusted=True)
