@@ -309,8 +309,26 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         return self._run(n, s)
 
     def interpret(self, string: ModuleString) -> ModuleString:
-        """The homomorphism (``interpretation:``) pass, up to its maximum depth."""
-        return self._decompose(self._adopt(string), "homomorphism")
+        """The homomorphism (``interpretation:``) pass, up to its maximum depth, between what the grammar's
+        ``StartInterpretation()`` and ``EndInterpretation()`` produce (L-Py's ``TurtleInterpreter::init`` /
+        ``finalize``)."""
+        return self._framed(self._decompose(self._adopt(string), "homomorphism"))[0]
+
+    def _framed(self, s: ModuleString) -> tuple[ModuleString, int, int]:
+        """``s`` between the modules ``StartInterpretation()`` and ``EndInterpretation()`` produce, and how many
+        each added."""
+        head, tail = (self._interpretation_hook(n) for n in ("StartInterpretation", "EndInterpretation"))
+        if head is None and tail is None:
+            return s, 0, 0
+        parts = [self._adopt(p) for p in (head, s, tail) if p is not None]
+        ptr, objects, off = [np.zeros(1, np.int64)], {}, 0
+        for p in parts:
+            ptr.append(p.arg_ptr[1:] + off)
+            objects.update({k + off: v for k, v in p.objects.items()})
+            off += len(p.args)
+        out = ModuleString(tuple(self._names), np.concatenate([p.ids for p in parts]), np.concatenate(ptr),
+                           np.concatenate([p.args for p in parts]), objects)
+        return out, 0 if head is None else len(head), 0 if tail is None else len(tail)
 
     def tree(self, n: int | None = None, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
         """``self.draw(self.derive(n))``: the skeleton after ``n`` derivation steps (see :meth:`draw`)."""

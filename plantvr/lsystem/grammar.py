@@ -183,7 +183,7 @@ class _Reader:
             expr = lstring_to_py(toks)
             if m.group(1) == "produce":
                 if not in_rule:
-                    raise LSystemError("'produce' outside a rule body (use 'nproduce' in functions)", line,
+                    raise LSystemError("'produce' outside a rule body or function", line,
                                        m.start() + 1)
                 out.append(f"return __lsys_produce__({expr})")
             else:
@@ -236,7 +236,8 @@ class _Reader:
                     continue
                 if s.startswith("undeclare "):
                     continue
-                py[k] = self.translate_produce(raw, ln, in_rule=False) if "nproduce" in raw else raw
+                # ``produce`` in a function returns its modules (L-Py: StartInterpretation / EndInterpretation)
+                py[k] = self.translate_produce(raw, ln, in_rule=raw[:1] in " \t") if "produce" in raw else raw
                 continue
             # inside the L-system
             if not s.strip() or s.lstrip().startswith("#"):

@@ -534,6 +534,34 @@ class _Namespace:
         program's generators as they were."""
         return _Seeded(self)
 
+    def _interpretation_hook(self, name: str) -> ModuleString | None:
+        """The modules the grammar's ``StartInterpretation()`` / ``EndInterpretation()`` produce (``nproduce``
+        and ``produce``, L-Py's ``LsysContext::startInterpretation``), None without such a function."""
+        f = self._ns.get(name)
+        if not callable(f):
+            return None
+        line = getattr(getattr(f, "__code__", None), "co_firstlineno", 0) or 1
+        try:
+            nparams = len(inspect.signature(f).parameters)
+        except (TypeError, ValueError):
+            nparams = 0
+        if nparams:
+            raise LSystemError(f"{name}(turtle), which drives PlantGL's turtle object, is not supported: "
+                               "produce the turtle's modules instead", line, 1)
+        self._nbuf.clear()
+        try:
+            res = f()
+        except LSystemError:
+            raise
+        except _OverBudget:
+            raise self._over_budget(self._tb_line(sys.exc_info()[2]), 1, f" in {name}()") from None
+        except Exception as e:
+            raise LSystemError(f"{name}() raised {type(e).__name__}: {e}{not_here_hint(e)}", self._tb_line(
+                sys.exc_info()[2]) or line, 1) from None
+        mods = list(self._nbuf) + (list(res) if isinstance(res, list) else [])
+        self._nbuf.clear()
+        return self._to_string(mods, line)
+
     def _hook(self, name: str, s: ModuleString) -> ModuleString:
         """Call the grammar's ``Start``/``StartEach``/``EndEach``/``End`` with what it takes, as L-Py's
         ``LsysContext::controlMethod``: nothing, the lstring, or the lstring and the scene L-Py's turtle draws

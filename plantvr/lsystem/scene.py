@@ -237,8 +237,12 @@ def lsystem_scene(lsys, s: ModuleString) -> Scene:
             raise LSystemError(f"homomorphism nested too deeply (maximum depth {depth})", *lsys._where) from None
         ids = np.asarray(origin, np.int64)
     elif lsys._rules["homomorphism"] and depth:           # a % cut: the ids of what is left are not the lstring's
-        s = lsys.interpret(s)
+        s = lsys._decompose(s, "homomorphism")
         ids = np.full(len(s), -1, np.int64)
+    s, nhead, ntail = lsys._framed(s)                      # StartInterpretation's modules first, with no id
+    if nhead or ntail:
+        ids = np.concatenate([np.full(nhead, -1), np.arange(len(s) - nhead - ntail) if ids is None else ids,
+                              np.full(ntail, -1)]).astype(np.int64)
     drawable = lsys._drawable(s, "warn")
     return lsys._turtle_call(lambda d, **o: turtle_scene(d, ids, materials=lsys.materials, **o), drawable,
                              dict(lsys._turtle))

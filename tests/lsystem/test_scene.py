@@ -167,3 +167,35 @@ def test_scene_records_take_plantgl_signatures():
         Cone(1, 2, True, 8, 9)
     with pytest.raises(TypeError, match=r"unknown argument\(s\) \['radiu'\]"):
         Sphere(radiu=2)
+
+
+def test_start_and_end_interpretation_frame_the_drawing():
+    """After L-Py's test_startendinterpretation.lpy: what ``StartInterpretation`` / ``EndInterpretation``
+    produce is drawn before and after the string, with no id (PlantGL's ``setNoId``); the lstring is unchanged."""
+    g = """def StartInterpretation():
+  produce @O(0.2)+(90)
+
+def EndInterpretation():
+  nproduce ,(2)
+  produce @O(0.3)
+
+def End(lstring,lscene):
+  assert len(lscene) == 3 and [sh.id for sh in lscene] == [-1, 0, -1]
+
+Axiom: F
+
+derivation length: 1
+production:
+
+endlsystem
+"""
+    ls = LSystem(g, trusted=True)
+    s = ls.derive()
+    assert str(s) == "F" and str(ls.interpret(s)) == "@O(0.2)+(90)F,(2)@O(0.3)"
+    sc = lsystem_scene(ls, s)
+    assert [type(sh.geometry).__name__ for sh in sc] == ["Scaled", "Oriented", "Translated"]
+    assert sc[2].appearance.name == "Color_2" and _vec(sc[2].geometry.translation) == (0, -1, 0)
+    assert len(ls.draw(s, shapes=True).shapes) == 2                  # the two spheres, in draw too
+    bad = g.replace("def StartInterpretation():", "def StartInterpretation(turtle):")
+    with pytest.raises(LSystemError, match=r"StartInterpretation\(turtle\).*not supported"):
+        LSystem(bad, trusted=True).derive()
