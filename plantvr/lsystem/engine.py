@@ -320,14 +320,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         head, tail = (self._interpretation_hook(n) for n in ("StartInterpretation", "EndInterpretation"))
         if head is None and tail is None:
             return s, 0, 0
-        parts = [self._adopt(p) for p in (head, s, tail) if p is not None]
-        ptr, objects, off = [np.zeros(1, np.int64)], {}, 0
-        for p in parts:
-            ptr.append(p.arg_ptr[1:] + off)
-            objects.update({k + off: v for k, v in p.objects.items()})
-            off += len(p.args)
-        out = ModuleString(tuple(self._names), np.concatenate([p.ids for p in parts]), np.concatenate(ptr),
-                           np.concatenate([p.args for p in parts]), objects)
+        out = ModuleString.concat([self._adopt(p) for p in (head, s, tail) if p is not None], self._names)
         return out, 0 if head is None else len(head), 0 if tail is None else len(tail)
 
     def tree(self, n: int | None = None, *, unsupported: str = "error", **turtle_options: Any) -> TreeArrays:
@@ -437,7 +430,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
             self._set_group(self._start_group)
 
     def _to_string(self, mods: list, line: int) -> ModuleString:
-        packed = [(self._sid(name), self._params(name, vals, line) if vals != () else ()) for name, vals in mods]
+        packed = [self._produced(name, vals, line) for name, vals in mods]
         return ModuleString(tuple(self._names), *_pack(packed))
 
     def _adopt(self, s: ModuleString) -> ModuleString:

@@ -38,12 +38,13 @@ and contexts (``*(name, x, *rest)`` binding the module's name and parameters), `
 contexts, ``[`` in left contexts, the exact closing bracket ``=]`` in right contexts and a bracket first in a
 predecessor.
 
-Not supported (LSystemError naming the construct with its line and column): unbalanced
-brackets in predecessors (a balanced one may start with its bracket, ``[] -->``, matched at the ``[`` as L-Py's
-``RulePtrMap``), a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
+Brackets in a predecessor are matched as modules, balanced or not (``[] -->``, ``[S(p) --> [ _(1) S(p)``: L-Py
+checks none and finds the rule at its first module, ``RulePtrMap``).
+
+Not supported (LSystemError naming the construct with its line and column): a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
 ``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions, ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
 ``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
-modules, as here), ``=]`` outside right contexts, iterator requests (``?I``, ``GetModule``) in patterns,
+modules, as here), ``=]`` outside right contexts, iterator requests (``?I``) in patterns,
 new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations
@@ -52,7 +53,7 @@ import ast
 import re
 from dataclasses import dataclass, field
 
-from .lexer import LSystemError, Token, find_top, lex, split_top
+from .lexer import GETMODULE, LSystemError, Token, find_top, lex, split_top
 from .patterns import PATTERN_NAMES, read_pattern
 
 __all__ = ["Grammar", "Rule", "lstring_to_py", "parse_grammar"]
@@ -110,6 +111,7 @@ class Grammar:
     max_depth: dict = field(default_factory=dict)      # kind -> (expression source, line)
     declared: dict = field(default_factory=dict)       # module name -> line
     scales: dict = field(default_factory=dict)         # module name -> its ': scale = n' (multiscale matching)
+    param_names: dict = field(default_factory=dict)    # module name -> the parameter names of its declaration
     bases: dict = field(default_factory=dict)          # module name -> the names of its ': base = A'
     rules: list[Rule] = field(default_factory=list)
     scalars: dict = field(default_factory=dict)        # name -> value, from the editor's INITIALISATION block
@@ -141,6 +143,9 @@ def lstring_to_py(tokens: list[Token]) -> str:
     """Python expression building the module list ``[(name, (args...)), ...]`` of an L-string."""
     items = []
     for t in tokens:
+        if t.name == GETMODULE and len(t.args) != 1:
+            raise LSystemError(f"$ in a successor inserts a bound module, $a ('${t.args[0]}(...)' is a pattern)",
+                               t.line, t.col)
         if t.name == "*" and len(tokens) == 1 and t.args is None:
             return "[]"                                       # ``produce *``: the empty string
         args = "".join(f"{a}," if a.startswith("*") and not a.startswith("**") else f"({a}),"   # A(*p): unpacked
@@ -169,9 +174,10 @@ class _Reader:
         """Lex a rule header's part, L-Py's pattern modules (``any``, ``all``, ``or``) known as whole names."""
         return self.lex(s, line, col, frozenset(self.known) | PATTERN_NAMES)
 
-    def translate_produce(self, src: str, line: int, *, in_rule: bool) -> str:
-        """Replace ``produce X`` / ``nproduce X`` statements in one line of Python by their calls (and quote the
-        patterns of ``InLeftContext(A(x), args)``, which L-Py's parser reads as L-strings)."""
+    def translate_produce(self, src: str, line: int, *, in_rule: bool, col0: int = 0) -> str:
+        """Replace ``produce X`` / ``nproduce X`` statements in one line of Python (``src``, which starts at column
+        ``col0 + 1`` of the grammar) by their calls (and quote the patterns of ``InLeftContext(A(x), args)``, which
+        L-Py's parser reads as L-strings)."""
         out, pos = [], 0
         code = _quote_context_patterns(_strip_comment(src))
         for m in _PRODUCE.finditer(code):
@@ -179,12 +185,12 @@ class _Reader:
                 continue
             out.append(code[pos:m.start()])
             rest = code[m.end():]
-            toks = self.lex(rest, line, m.end() + 1)
+            toks = self.lex(rest, line, col0 + m.end() + 1)
             expr = lstring_to_py(toks)
             if m.group(1) == "produce":
                 if not in_rule:
                     raise LSystemError("'produce' outside a rule body or function", line,
-                                       m.start() + 1)
+                                       col0 + m.start() + 1)
                 out.append(f"return __lsys_produce__({expr})")
             else:
                 out.append(f"__lsys_nproduce__({expr})")
@@ -273,7 +279,8 @@ class _Reader:
         if not code:                # an empty axiom, as L-Py reads it: the empty L-string
             return
         indent = min(len(raw) - len(raw.lstrip()) for _, raw in code)
-        self.g.axiom_block = [(k, self.translate_produce(raw[indent:], k, in_rule=True)) for k, raw in code]
+        self.g.axiom_block = [(k, self.translate_produce(raw[indent:], k, in_rule=True, col0=indent))
+                              for k, raw in code]
 
     def read_scalars(self, init: str) -> None:
         m = re.search(r"scalars\s*=\s*(\[.*?\])\s*\n", init, re.DOTALL)
@@ -306,6 +313,9 @@ class _Reader:
                 raise LSystemError(f"module alias {part!r} is not supported", ln, s.find(part) + 1)
             self.known.add(name)
             self.g.declared.setdefault(name, ln)
+            if "(" in part:                                   # ``module A(age, size)``: NodeModule's a.age
+                self.g.param_names[name] = tuple(p.strip() for p in split_top(part.split("(", 1)[1].rsplit(")", 1)[0])
+                                                 if p.strip())
             if scale is not None:
                 self.g.scales[name] = scale
             if bases:
@@ -441,12 +451,13 @@ class _Reader:
                     stripped = inline.strip()
                     if stripped.startswith("produce") and _PRODUCE.match(stripped) and len(lines) == 1:
                         successor = self.lex(stripped[len("produce"):], ln, first.find("produce") + 8)
-                    body.append((ln, self.translate_produce(stripped, ln, in_rule=True)))
+                    body.append((ln, self.translate_produce(stripped, ln, in_rule=True,
+                                                            col0=head_at + len(delim) + inline.find(stripped[0]))))
                 block = [(k, s) for k, s in lines[1:]]
                 if block:
                     indent = min(len(s) - len(s.lstrip()) for _, s in block if s.strip())
                     for k, s in block:
-                        body.append((k, self.translate_produce(s[indent:], k, in_rule=True)))
+                        body.append((k, self.translate_produce(s[indent:], k, in_rule=True, col0=indent)))
         self.g.rules.append(Rule(kind, pred, left, right, newleft, newright, params, body, successor, condition,
                                  ln, 1, header.strip(), consts, preds[1:], self.group, static, pats,
                                  self.filter))
@@ -494,13 +505,6 @@ class _Reader:
             for t in toks:
                 if key in ("left", "newleft") and t.name == "]":     # a parent is never a bracket (L-Py)
                     raise LSystemError("']' in a left context is not supported (it never matches)", ln, t.col)
-        depth = 0
-        for t in pred_toks:                                   # brackets inside a predecessor: balanced
-            depth += (t.name == "[") - (t.name == "]")
-            if depth < 0:
-                break
-        if depth:
-            raise LSystemError(f"unbalanced brackets in the predecessor {pred_src.strip()!r}", ln, pred_col)
         return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
 
 

@@ -11,11 +11,12 @@ in the grammar's namespace (angles stay in degrees: the engine never converts th
 from __future__ import annotations
 
 import functools
+import re
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
-__all__ = ["LPY_PREDEFINED", "LSystemError", "Token", "find_top", "lex", "split_top"]
+__all__ = ["GETMODULE", "LPY_PREDEFINED", "LSystemError", "Token", "find_top", "lex", "split_top"]
 
 #: Module names L-Py predefines (helpcard), matched as whole names before single characters; the turtle adds its
 #: own (``TURTLE_MODULES``/``LPY_UNSUPPORTED``) at run time.
@@ -34,6 +35,11 @@ LPY_PREDEFINED = frozenset({
 })
 
 _SINGLE_TURTLE = frozenset("Ff+-&^/\\|$%[]_!;,~.{}")
+#: L-Py's ``$`` (``GetModule``) read with what follows: ``$A(a)`` in a pattern, a token with args ``("A", "a")``
+#: binding the matched module as an object; ``$a`` in a successor, args ``("a",)``: the module object ``a``
+#: inserted (``lpy_parser.cpp``, ``parseAModule``); a bare ``$`` stays the turtle's roll to vertical.
+GETMODULE = "GetModule"
+_IDENT = re.compile(r"[A-Za-z_]\w*")
 
 
 class LSystemError(ValueError):
@@ -131,6 +137,27 @@ def _close_paren(text: str, i: int, line: int, col0: int, name: str) -> int:
     raise LSystemError(f"unclosed '(' after module {name!r}", line, col0 + i)
 
 
+def _module_at(text: str, i: int, by_first: dict, line: int, col: int) -> tuple[Token, int]:
+    """The module starting at ``text[i]`` and the index after it."""
+    c, n = text[i], len(text)
+    cands = by_first.get(c)
+    name = next((k for k in cands if text.startswith(k, i)), c) if cands else c
+    j = i + len(name)
+    args = None
+    k = j
+    while k < n and text[k] in " \t":          # L-Py's parseAModule: blanks may stand before the parameters
+        k += 1
+    if k < n and text[k] == "(":
+        j = k
+        k = _close_paren(text, j, line, col, name)
+        inner = text[j + 1:k]
+        args = () if not inner.strip() else tuple(a.strip() for a in split_top(inner))
+        if any(not a for a in args):
+            raise LSystemError(f"empty parameter in {text[i:k + 1]!r}", line, col + j)
+        j = k + 1
+    return Token(name, args, line, col + i), j
+
+
 @functools.lru_cache(maxsize=64)
 def _by_first(known: frozenset) -> dict[str, tuple[str, ...]]:
     """Multi-character names (``known`` and L-Py's predefined ones) by first character, longest first."""
@@ -175,22 +202,19 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
             break
         if c == ")" or c == "(":
             raise LSystemError(f"unexpected {c!r} (a parameter list must follow a module name)", line, col + i)
-        cands = by_first.get(c)
-        name = next((k for k in cands if text.startswith(k, i)), c) if cands else c
-        j = i + len(name)
-        args = None
-        k = j
-        while k < n and text[k] in " \t":      # L-Py's parseAModule: blanks may stand before the parameters
+        k = i + 1
+        while c == "$" and k < n and text[k] in " \t":
             k += 1
-        if k < n and text[k] == "(":
-            j = k
-            k = _close_paren(text, j, line, col, name)
-            inner = text[j + 1:k]
-            args = () if not inner.strip() else tuple(a.strip() for a in split_top(inner))
-            if any(not a for a in args):
-                raise LSystemError(f"empty parameter in {text[i:k + 1]!r}", line, col + j)
-            j = k + 1
-        out.append(Token(name, args, line, col + i))
+        ident = _IDENT.match(text, k) if c == "$" else None
+        if ident:                              # L-Py's GetModule: ``$A(a)`` in a pattern, ``$a`` in a successor
+            tok, j = _module_at(text, k, by_first, line, col)
+            args = (tok.name, *tok.args) if tok.args is not None else (ident.group(),)
+            if tok.args is None:
+                j = ident.end()
+            out.append(Token(GETMODULE, args, line, col + i))
+        else:
+            tok, j = _module_at(text, i, by_first, line, col)
+            out.append(tok)
         i = j
         if deadline is not None and not len(out) & 4095 and time.monotonic() > deadline:
             raise LSystemError(f"time budget exceeded reading a string of {n:,} characters", line, col + i)

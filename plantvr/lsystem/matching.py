@@ -12,15 +12,14 @@ from __future__ import annotations
 import math
 
 from .lexer import LSystemError, Token, lex
-from .modules import _EMPTY
+from .modules import _EMPTY, _module_vals, _pyval
+from .nodes import FINEST, NodeModule, _Tree
 from .patterns import ANY, ERB, LB, MOD, RB, REP, Pattern, PatternModule, _same, read_pattern
 from .rules import _Compiled
 
 
 #: Pattern names that are not modules (a wildcard, a repetition).
 _WILD = frozenset({"*", "any", "x", "all"})
-#: The scale of a module declared without one, and of brackets (L-Py's ``ModuleClass::DEFAULT_SCALE``, INT_MAX).
-FINEST = 2**31 - 1
 #: L-Py's ``String matching`` option (``MatchingEngine::eStringMatchingMethod``).
 AS_STRING, AS_AXIAL_TREE, AS_MULTILEVEL, AS_MULTISCALE = range(4)
 
@@ -36,19 +35,6 @@ class _Reversed:
 
     def __getitem__(self, k: int):
         return self.seq[len(self.seq) - 1 - k]
-
-
-def _pyval(v):
-    return int(v) if type(v) is float and v.is_integer() and abs(v) < 2 ** 53 else v
-
-
-def _module_vals(ptr, args, objs, i: int) -> list:
-    """Parameters of module ``i`` as rule code sees them: integral floats as int, objects from the side-table."""
-    a = int(ptr[i])
-    vals = args[a:ptr[i + 1]].tolist()
-    if objs:
-        return [objs.get(a + q, v) if math.isnan(v) else _pyval(v) for q, v in enumerate(vals)]
-    return [_pyval(v) for v in vals]
 
 
 def _raw_vals(ptr, args, objs, i: int) -> tuple:
@@ -75,6 +61,7 @@ class _Matching:
     #: with L-Py's ``Module inheritance`` option: module id -> the ids of its base classes (transitively); a
     #: pattern module matches its own class and every class derived from it
     _bases: dict = {}
+    _node_tree = None        # ((ids, filter), _Tree) of the NodeModules last bound
 
     def _set_option(self, name: str, index: int) -> None:
         """``context().options.setSelection(name, index)`` of a matching option."""
@@ -342,6 +329,8 @@ class _Matching:
         s, n = seq.sid(pos), seq.nargs(pos)
         kind = m.kind
         if kind == MOD:
+            if m.node:                                        # ``$A(a)``: any parameters, the module bound
+                return [NodeModule(self._tree(seq), pos)] if self._is_a(s, self._pattern_sid(m.tok)) else None
             if not self._is_a(s, self._pattern_sid(m.tok)) or (n < m.nfixed if m.star else n != m.nfixed):
                 return None
             a = seq.args(pos)
@@ -354,6 +343,15 @@ class _Matching:
                 return [[self._names[s], *a]] if m.star else []
             return [self._names[s], *a] if not m.star else [self._names[s], *a[:m.nfixed], a[m.nfixed:]]
         return [] if s == kind - LB else None                 # a bracket: '[' is id 0, ']' id 1
+
+    def _tree(self, seq) -> _Tree:
+        """The tree :class:`~plantvr.lsystem.nodes.NodeModule` s of the current string walk, with the rule's
+        ignore filter (one per string and filter)."""
+        key = (seq.ids, self._ignored)
+        if self._node_tree is None or self._node_tree[0][0] is not key[0] or self._node_tree[0][1] != key[1]:
+            self._node_tree = (key, _Tree(seq.ids, seq.ptr, seq.a, seq.objs, self._names, self._scales,
+                                          self._ignored, self._g.param_names))
+        return self._node_tree[1]
 
     def _parent(self, seq, pos: int, partner) -> int:
         """Index of the module at or left of ``pos`` a left context reads (lateral branches, brackets and ignored
@@ -389,8 +387,7 @@ class _Matching:
         vals: list = []
         for m in reversed(mods):
             if m.kind == REP and self._mode != AS_AXIAL_TREE:
-                raise LSystemError("repetition patterns x(...) are matched in axial-tree string matching only "
-                                   "(L-Py: 'Multiscale context and Regular Expression not compatible')")
+                raise _repetition_refused(m)
             if m.kind == REP:
                 got = self._repeat(m, pos, seq, partner, self._left_at, False)
                 if got is None:
@@ -444,9 +441,9 @@ class _Matching:
         repetitions of nothing only, and one reaching it with pattern modules left fails. ``]`` skips the rest of
         the branch, ``=]`` needs it to close at once (``matching_tmpl.h``: ``isExactRightBracket``)."""
         if self._mode != AS_AXIAL_TREE:
-            if any(m.kind == REP for m in mods):
-                raise LSystemError("repetition patterns x(...) are matched in axial-tree string matching only "
-                                   "(L-Py: 'Multiscale context and Regular Expression not compatible')")
+            for m in mods:
+                if m.kind == REP:
+                    raise _repetition_refused(m)
             return self._right_other(mods, pos, seq, partner)
         vals: list = []
         n = len(seq)
@@ -509,6 +506,11 @@ class _Matching:
             if depth == 0:
                 return pos
         return -1
+
+
+def _repetition_refused(m: PatternModule) -> LSystemError:
+    return LSystemError("repetition patterns x(...) are matched in axial-tree string matching only (L-Py: "
+                        "'Multiscale context and Regular Expression not compatible')", m.tok.line, m.tok.col)
 
 
 class _ArrSeq:

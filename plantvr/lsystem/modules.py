@@ -116,6 +116,17 @@ class ModuleString:
         np.cumsum(counts, out=ptr[1:])
         return cls(tuple(table), np.array(ids, np.int32), ptr, np.array(args, np.float64), objs)
 
+    @classmethod
+    def concat(cls, parts: Sequence["ModuleString"], names: Sequence[str]) -> "ModuleString":
+        """The strings of ``parts`` one after the other, all of them ids into the symbol table ``names``."""
+        ptr, objects, off = [np.zeros(1, np.int64)], {}, 0
+        for p in parts:
+            ptr.append(p.arg_ptr[1:] + off)
+            objects.update({k + off: v for k, v in p.objects.items()})
+            off += len(p.args)
+        return cls(tuple(names), np.concatenate([p.ids for p in parts]), np.concatenate(ptr),
+                   np.concatenate([p.args for p in parts]), objects)
+
     def __len__(self) -> int:
         return int(self.ids.shape[0])
 
@@ -138,11 +149,7 @@ class ModuleString:
         return int(np.count_nonzero(self.ids == self.names.index(name)))
 
     def __str__(self) -> str:
-        out = []
-        for name, vals in self.modules():
-            out.append(name + ("(" + ",".join(f"{v:g}" if type(v) is float else repr(v) for v in vals) + ")"
-                               if vals else ""))
-        return "".join(out)
+        return "".join(module_text(name, vals) for name, vals in self.modules())
 
     def __repr__(self) -> str:
         if len(self) <= 40:
@@ -251,8 +258,24 @@ class _ModuleView:
         self._of._edit()[self._i][1][k] = value
 
     def __str__(self) -> str:
-        vals = self._vals()
-        return self.name + ("(" + ",".join(f"{v:g}" if type(v) is float else repr(v) for v in vals) + ")"
-                            if vals else "")
+        return module_text(self.name, self._vals())
 
     __repr__ = __str__
+
+
+def module_text(name: str, vals) -> str:
+    """``name(v1,v2)`` as an L-string writes a module (``name`` alone without parameters)."""
+    return name + ("(" + ",".join(f"{v:g}" if type(v) is float else repr(v) for v in vals) + ")" if vals else "")
+
+
+def _pyval(v):
+    return int(v) if type(v) is float and v.is_integer() and abs(v) < 2 ** 53 else v
+
+
+def _module_vals(ptr, args, objs, i: int) -> list:
+    """Parameters of module ``i`` as rule code sees them: integral floats as int, objects from the side-table."""
+    a = int(ptr[i])
+    vals = args[a:ptr[i + 1]].tolist()
+    if objs:
+        return [objs.get(a + q, v) if math.isnan(v) else _pyval(v) for q, v in enumerate(vals)]
+    return [_pyval(v) for v in vals]

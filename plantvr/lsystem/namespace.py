@@ -180,6 +180,7 @@ class _Options(SB.SafeAttrs):
 
     def __init__(self, on_option=None) -> None:
         self._on = on_option
+        self._index = {"String matching": 1, "Module inheritance": 0}
 
     def setSelection(self, name, index=None, *_) -> None:
         values = self.CHOICES.get(name) if isinstance(name, str) else None
@@ -187,8 +188,25 @@ class _Options(SB.SafeAttrs):
             return
         if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(values):
             raise LSystemError(f"option {name!r} takes an index in [0, {len(values) - 1}], got {index!r:.40}")
+        self._index[name] = index
         if self._on is not None:
             self._on(name, index)
+
+    def find(self, name) -> _Option:
+        """L-Py's ``options.find(name)``: the option, whose ``currentValue()`` names its selection."""
+        return _Option(self, name)
+
+
+class _Option(SB.SafeAttrs):
+    def __init__(self, options: _Options, name) -> None:
+        self._options, self.name = options, name
+
+    def currentValue(self) -> str | None:
+        k = self._options._index.get(self.name)
+        return None if k is None else self._options.CHOICES[self.name][k]
+
+    def activateSelection(self) -> None:
+        """The selection is in force once set (L-Py's editor applies it here)."""
 
     def __getattr__(self, name):
         return lambda *a, **k: None

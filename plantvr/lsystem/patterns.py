@@ -16,7 +16,7 @@ import ast
 import re
 from dataclasses import dataclass
 
-from .lexer import LSystemError, Token, split_top
+from .lexer import GETMODULE, LSystemError, Token, split_top
 from .modules import is_number
 
 __all__ = ["ANY", "ERB", "LB", "MOD", "PATTERN_NAMES", "RB", "REP", "Pattern", "PatternModule",
@@ -25,7 +25,7 @@ __all__ = ["ANY", "ERB", "LB", "MOD", "PATTERN_NAMES", "RB", "REP", "Pattern", "
 MOD, ANY, REP, LB, RB, ERB = range(6)
 _ANY = frozenset({"*", "any"})
 _REP = frozenset({"x", "all"})
-_ITERATOR = frozenset({"?I", "GetIterator", "GetModule", "$"})
+_ITERATOR = frozenset({"?I", "GetIterator"})
 #: Names L-Py's pattern parser knows beyond the turtle's, lexed as whole names in patterns.
 PATTERN_NAMES = frozenset({"any", "all", "or", "None"})
 _IDENT = re.compile(r"^[A-Za-z_]\w*$")
@@ -41,7 +41,9 @@ class PatternModule:
     ``ERB`` (``=]``, the exact closing bracket of a right context);
     ``nfixed`` the parameters matched one to one (for ``ANY``, after the name), ``star`` whether a last ``*args``
     takes the rest, ``name_var`` whether an ``ANY`` binds the module's name first (``*(*args)`` binds
-    ``[name, *parameters]`` as its one value), ``sub``/``lo``/``hi`` a repetition's pattern and bounds."""
+    ``[name, *parameters]`` as its one value), ``sub``/``lo``/``hi`` a repetition's pattern and bounds,
+    ``node`` whether a ``MOD`` is L-Py's ``$A(a)``: any module of the class, bound as one
+    :class:`~plantvr.lsystem.nodes.NodeModule`."""
 
     tok: Token
     kind: int
@@ -51,6 +53,7 @@ class PatternModule:
     sub: Pattern | None = None
     lo: int = 0
     hi: int = _MAX_REPEAT
+    node: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -152,6 +155,10 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
         line = t.line
         if t.name in _ITERATOR:
             raise LSystemError(f"iterator request {t.name} in a pattern is not supported", line, t.col)
+        if t.name == GETMODULE:              # ``$A(a)``: the module itself (L-Py's process_get_module)
+            mods.append(_get_module(t, where))
+            names.append(t.args[1])
+            continue
         if t.name == "=]":                   # L-Py's ExactRightBracket: the branch closes right here
             if where not in ("right", "newright"):
                 raise LSystemError("the exact closing bracket =] is supported in right contexts only", line, t.col)
@@ -192,6 +199,15 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
         else:
             mods.append(PatternModule(t, MOD, len(params) - star, star))
     return Pattern(tuple(mods), tuple(names), tuple(consts), tuple(conds))
+
+
+def _get_module(t: Token, where: str) -> PatternModule:
+    if where in ("newleft", "newright"):
+        raise LSystemError("$A(a) in a new context ('<<', '>>') is not supported", t.line, t.col)
+    if t.args is None or len(t.args) != 2 or not _IDENT.match(t.args[1]) or t.args[0] in _ANY | _REP | {"[", "]"}:
+        raise LSystemError("a $ pattern binds the module matched as $A(a): a module name and one variable",
+                           t.line, t.col)
+    return PatternModule(Token(t.args[0], None, t.line, t.col), MOD, node=True)
 
 
 def _repetition(t: Token, text: str, lex, where: str, depth: int) -> PatternModule:

@@ -19,9 +19,10 @@ import numpy as np
 
 from . import sandbox as SB
 from .grammar import Rule
-from .lexer import LSystemError, Token
-from .modules import is_number
+from .lexer import GETMODULE, LSystemError, Token
+from .modules import _ModuleView, is_number
 from .namespace import _OverBudget
+from .nodes import NodeModule
 from .plantgl import not_here_hint
 from .patterns import MOD
 
@@ -33,6 +34,8 @@ _NP_FUNCS = {"sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp"
              "tanh": np.tanh}
 _PURE = {name: getattr(math, name, None) for name in _NP_FUNCS} | {"abs": abs, "min": min, "max": max, "int": int,
                                                                   "float": float, "round": round, "pow": pow}
+#: Successor modules made at run time: named by their first parameter, or a module object (:meth:`_produced`).
+_MADE = frozenset({"new", "newmodule", GETMODULE})
 _OK_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.BoolOp, ast.Compare, ast.IfExp, ast.Constant, ast.Name,
              ast.Load, ast.Call, ast.operator, ast.unaryop, ast.boolop, ast.cmpop)
 
@@ -82,7 +85,8 @@ class _Rules:
         func = self._function(params, rule.body, rule.line, f"rule {rule.header!r}",
                               None if self.trusted else lambda tree: self._restrict_rule(rule, tree))
         first = rule.patterns["pred"].mods[0]
-        c = _Compiled(rule, func, self._sid(rule.pred.name) if first.kind == MOD and not first.star else -1)
+        c = _Compiled(rule, func, self._sid(first.tok.name) if first.kind == MOD and not (first.star or first.node)
+                      else -1)
         if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
             c.static = self._call(c, [])
             if all(type(v) is float for _, vals in c.static for v in vals) and c.plain and \
@@ -90,7 +94,7 @@ class _Rules:
                 c.const = c.static
             return c
         if rule.successor is not None and c.plain and not (c.contexts or c.newcontexts or c.rest) and \
-                all(is_number(v) for _, v in c.pred_consts):
+                all(is_number(v) for _, v in c.pred_consts) and not any(t.name in _MADE for t in rule.successor):
             self._plan(c)
             c.const = None if c.consts else c.const           # the constant tables match names, not values
         return c
@@ -312,7 +316,25 @@ class _Rules:
         elif self._nbuf:
             res = list(self._nbuf) + list(res)
         line = c.rule.line
-        return [(self._sid(name), self._params(name, v, line) if v != () else ()) for name, v in res]
+        return [self._produced(name, v, line) for name, v in res]
+
+    def _produced(self, name: str, v, line: int) -> tuple[int, tuple]:
+        """``(id, parameters)`` of a produced module ``name(*v)``; L-Py's ``new(name, *args)`` (``newmodule``) is
+        the module its first argument names (``processConstruction``) and ``$a`` the module object ``a`` (a
+        ``$A(a)`` pattern's :class:`~plantvr.lsystem.nodes.NodeModule`, or a module of a hook's lstring)."""
+        if name in _MADE:
+            v = tuple(v) if isinstance(v, (tuple, list)) else (v,)
+            if name == GETMODULE:
+                if len(v) != 1 or not isinstance(v[0], (NodeModule, _ModuleView)):
+                    raise LSystemError("$a in a successor needs a module (bound by a $A(a) pattern), got "
+                                       f"{type(v[0]).__name__ if len(v) == 1 else f'{len(v)} values'}", line, 1)
+                name, v = v[0].name, tuple(v[0][k] for k in range(len(v[0])))
+            else:
+                if not v or not isinstance(v[0], str) or not v[0] or any(ch in v[0] for ch in " \t\n(),"):
+                    raise LSystemError(f"{name}(name, *args) needs a module name (a str) first, got "
+                                       f"{SB._short(v[0]) if v else 'nothing'}", line, 1)
+                name, v = v[0], v[1:]
+        return self._sid(name), self._params(name, v, line) if v != () else ()
 
 
 def _turtle_modules() -> frozenset:

@@ -167,7 +167,6 @@ def test_undeclared_names_are_read_one_character_at_a_time_as_lpy():
 BAD = [
     ("Axiom: F\nproduction:\nF --> F(1\n", 3, "unclosed"),
     ("Axiom: F\nproduction:\ngroup -1:\nF --> FF\n", 3, "group must be an integer"),
-    ("Axiom: AB\nproduction:\nA [ B --> C\n", 3, "unbalanced brackets in the predecessor"),
     ("Axiom: F\nproduction:\nF :\n    if True\n        produce F\n", 4, "syntax error"),
     ("Axiom: F(0)\nproduction:\nF(x) :\n    y = 1 / x\n    produce F(y)\n", 4, "ZeroDivisionError"),
     ("Axiom: F\nderivation length: foo\nproduction:\n", 2, "NameError"),

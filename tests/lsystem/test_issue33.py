@@ -141,10 +141,11 @@ def test_multi_module_predecessor_with_brackets():
     """L-Py's ``StringMatcher`` matches a predecessor's brackets as modules, one after another."""
     ls = LSystem("Axiom: A [ B ] C A [ B ] A B\nproduction:\nA [ B ] C --> D\nA [ B ] --> E\nendlsystem\n")
     assert str(ls.derive(1)) == "DEAB"
-    with pytest.raises(LSystemError, match=r"line 3, column 1: unbalanced brackets in the predecessor 'A \] B'"):
-        LSystem("Axiom: A\nproduction:\nA ] B --> C\n")
-    with pytest.raises(LSystemError, match=r"line 3, column 1: unbalanced brackets in the predecessor 'A \] B \['"):
-        LSystem("Axiom: A\nproduction:\nA ] B [ --> C\n")
+    # brackets need not balance (L-Py checks none; its walnut.lpy draws with '[S(p, d) --> [ _(d/2) OLineTo(..)')
+    ls = LSystem("Axiom: A[TC]T[T]C\nproduction:\n[T --> [X\nT] --> Y]\nT --> Z\nA ] T --> Q\nendlsystem\n")
+    assert str(ls.derive(1)) == "A[XC]Z[X]C"
+    ls = LSystem("Axiom: [A]T[B]\nproduction:\nA ] T [ --> C\nendlsystem\n")
+    assert str(ls.derive(1)) == "[CB]"
 
 
 # -- 4. rule groups ----------------------------------------------------------------------------------------------

@@ -267,11 +267,13 @@ endlsystem
     ("module B : scale = two\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 20: a module scale must be an integer"),
     ("module B : colour = 2\nAxiom: B\nproduction:\nendlsystem\n", r"line 1, column 12: unknown module option"),
     ("module B : base = (A, 3)\nAxiom: B\nproduction:\nendlsystem\n", r"module base '3' is not a module name"),
-    ("Axiom: A\nproduction:\n$A(a) :\n  produce B\nendlsystem\n", r"line 3, column 1: iterator request \$"),
+    ("Axiom: A\nproduction:\n$A(a, b) :\n  produce B\nendlsystem\n", r"line 3, column 1: a \$ pattern binds"),
+    ("Axiom: A\nproduction:\nA --> $A(a)\nendlsystem\n", r"line 3, column 7: \$ in a successor inserts"),
 ])
 def test_module_options_and_getmodule_are_checked(text, what):
     """``: scale = n`` and ``: base = A`` are read (multiscale matching, :mod:`test_multiscale`); a bad option is
-    refused with its column, and ``$A(a)`` (L-Py's iterator request) by name."""
+    refused with its column, and a ``$`` pattern or successor that is not ``$A(a)`` / ``$a``
+    (:mod:`test_getmodule`)."""
     with pytest.raises(LSystemError, match=what):
         LSystem(text, trusted=True)
 

@@ -211,7 +211,6 @@ def test_bracket_in_left_context(rules, axiom, head, expected):
     ("A > None --> B", 5, r"the empty pattern module None"),
     ("F=] < A --> B", 2, r"the exact closing bracket =\] is supported in right contexts only"),
     ("A > " + "x(" * 40 + "B" + ")" * 40 + " --> B", 5 + 2 * 16, r"nested more than 16 deep"),
-    ("A [ B --> C", 1, r"unbalanced brackets in the predecessor 'A \[ B'"),
     ("A ] < B --> C", 3, r"'\]' in a left context is not supported"),
     ("A > x(I(y)) --> B(y)\nI(y) > x(I(y)) --> B", 10, r"parameter 'y' defined twice"),
 ])
