@@ -42,7 +42,7 @@ Brackets in a predecessor are matched as modules, balanced or not (``[] -->``, `
 checks none and finds the rule at its first module, ``RulePtrMap``).
 
 Not supported (LSystemError naming the construct with its line and column): a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
-``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions, ``**kwds`` parameters, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
+``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
 ``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
 modules, as here), ``=]`` outside right contexts, iterator requests (``?I``) in patterns,
 new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
@@ -53,7 +53,7 @@ import ast
 import re
 from dataclasses import dataclass, field
 
-from .lexer import GETMODULE, LSystemError, Token, find_top, lex, split_top
+from .lexer import GETMODULE, LSystemError, Token, _close_paren, _depths, find_top, lex, split_top
 from .patterns import PATTERN_NAMES, read_pattern
 
 __all__ = ["Grammar", "Rule", "lstring_to_py", "parse_grammar"]
@@ -148,7 +148,8 @@ def lstring_to_py(tokens: list[Token]) -> str:
                                t.line, t.col)
         if t.name == "*" and len(tokens) == 1 and t.args is None:
             return "[]"                                       # ``produce *``: the empty string
-        args = "".join(f"{a}," if a.startswith("*") and not a.startswith("**") else f"({a}),"   # A(*p): unpacked
+        args = "".join(f"{a}," if a.startswith("*") and not a.startswith("**") else    # A(*p): unpacked
+                       f"__lsys_kwds__({a[2:]})," if a.startswith("**") else f"({a}),"  # A(**p): by name
                        for a in (t.args or ()))
         items.append(f"({t.name!r}, ({args}))")
     return "[" + ", ".join(items) + "]"
@@ -184,8 +185,14 @@ class _Reader:
             if _in_string(code, m.start()):
                 continue
             out.append(code[pos:m.start()])
-            rest = code[m.end():]
-            toks = self.lex(rest, line, col0 + m.end() + 1)
+            rest, at = code[m.end():], m.end()
+            inner = rest.lstrip()
+            if inner.startswith("("):                         # ``produce ( A B )``: the L-string in parentheses
+                close = _close_paren(inner, 0, line, col0 + at + len(rest) - len(inner) + 1, m.group(1))
+                if not inner[close + 1:].strip():
+                    at += len(rest) - len(inner) + 1
+                    rest = inner[1:close]
+            toks = self.lex(rest, line, col0 + at + 1)
             expr = lstring_to_py(toks)
             if m.group(1) == "produce":
                 if not in_rule:
@@ -206,7 +213,7 @@ class _Reader:
             text, init = text.split(_INIT_TAG, 1)
             self.read_scalars(init)
             self.g.init = "\n" * text.count("\n") + init
-        lines = text.split("\n")
+        lines = _join_produce(text.split("\n"))
         self.pre_declare(lines)
         py = [""] * len(lines)
         mode = "python"
@@ -564,6 +571,35 @@ def _open_quote(line: str, quote: str | None) -> str | None:
         else:
             j += 1
     return quote
+
+
+def _join_produce(lines: list[str]) -> list[str]:
+    """``lines`` with each ``produce (`` / ``nproduce (`` whose parenthesised L-string runs over several lines
+    made one line, comments dropped, the lines it took left blank so the others keep their numbers (L-Py's
+    multi-line produce)."""
+    out = list(lines)
+    k = 0
+    while k < len(out):
+        code = _strip_comment(out[k])
+        m = next((m for m in _PRODUCE.finditer(code) if not _in_string(code, m.start())), None)
+        depth = _open_parens(code[m.end():]) if m and code[m.end():].strip().startswith("(") else 0
+        j = k
+        while depth > 0 and j + 1 < len(out):
+            j += 1
+            piece = _strip_comment(out[j]).strip()
+            code, out[j] = code + " " + piece, ""
+            depth = _open_parens(code[m.end():])
+        out[k] = code if j > k else out[k]
+        k = j + 1
+    return out
+
+
+def _open_parens(s: str) -> int:
+    """How many parentheses ``s`` leaves open (0 for an unterminated string: nothing to join)."""
+    try:
+        return max(0, sum((c == "(") - (c == ")") for _, c, _ in _depths(s, pairs=("(", ")"))))
+    except LSystemError:
+        return 0
 
 
 def _in_string(code: str, at: int) -> bool:

@@ -328,6 +328,11 @@ class _Matching:
         L-Py's ``module_matching_with_star_and_valueconstraints``: one value per pattern parameter."""
         s, n = seq.sid(pos), seq.nargs(pos)
         kind = m.kind
+        if m.kwds:
+            if kind == MOD and not self._is_a(s, self._pattern_sid(m.tok)):
+                return None
+            name = self._names[s]
+            return _bind_kwds(m, name, seq.args(pos), self._g.param_names.get(name, ()))
         if kind == MOD:
             if m.node:                                        # ``$A(a)``: any parameters, the module bound
                 return [NodeModule(self._tree(seq), pos)] if self._is_a(s, self._pattern_sid(m.tok)) else None
@@ -506,6 +511,36 @@ class _Matching:
             if depth == 0:
                 return pos
         return -1
+
+
+def _bind_kwds(m: PatternModule, name: str, vals: list, pnames: tuple) -> list | None:
+    """The values a pattern module ending in ``**kwds`` binds on module ``name(*vals)`` whose declaration names
+    ``pnames``, or None: L-Py's ``module_matching_with_star`` (``matching.cpp``). The named parameters are the
+    last ``len(pnames)`` values (``ParamModule::getNamedParameters``); ``*args`` before ``**kwds`` takes the
+    values between the positional and the named ones; without it no value may be left over; a ``*`` pattern's
+    dict holds the module's ``name`` unless a variable binds it."""
+    n, k = len(vals), len(pnames)
+    first = max(0, n - k)
+
+    def named(start: int = 0) -> dict:
+        return {p: vals[first + i] for i, p in enumerate(pnames) if i >= start and first + i < n}
+
+    wild = m.kind == ANY
+    if m.nfixed == 0 and not m.star and not m.name_var:            # (**kwds)
+        return None if k != n else [({"name": name} if wild else {}) | named()]
+    if m.star and m.nfixed == 0 and not m.name_var:                # (*args, **kwds)
+        return None if k > n else [vals[:n - k], ({"name": name} if wild else {}) | named()]
+    normal = m.nfixed
+    if normal > n:
+        return None
+    out = ([name] if wild else []) + vals[:normal]
+    if m.star:
+        last = max(normal, n - k)
+        out.append(vals[normal:last])
+    elif k + normal < n:
+        return None
+    out.append(named(max(0, normal - first)))
+    return out
 
 
 def _repetition_refused(m: PatternModule) -> LSystemError:

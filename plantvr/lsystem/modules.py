@@ -263,6 +263,11 @@ class _ModuleView:
     __repr__ = __str__
 
 
+class Kwds(dict):
+    """A successor's ``A(**p)``: parameters given by the names of ``A``'s declaration (placed by
+    :meth:`~plantvr.lsystem.rules._Rules._produced`)."""
+
+
 def module_text(name: str, vals) -> str:
     """``name(v1,v2)`` as an L-string writes a module (``name`` alone without parameters)."""
     return name + ("(" + ",".join(f"{v:g}" if type(v) is float else repr(v) for v in vals) + ")" if vals else "")

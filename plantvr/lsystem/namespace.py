@@ -24,7 +24,7 @@ import numpy as np
 from . import sandbox as SB
 from .grammar import lstring_to_py
 from .lexer import LSystemError, Token, lex
-from .modules import LstringView, ModuleString
+from .modules import Kwds, LstringView, ModuleString
 from .plantgl import not_here_hint
 
 #: Most derivation steps one call may ask for (a grammar's ``derivation length`` included).
@@ -275,7 +275,7 @@ class _Namespace:
             forward=lambda: setattr(self, "_direction", 1), backward=lambda: setattr(self, "_direction", -1),
             isForward=lambda: self._direction == 1, getIterationNb=lambda: self._iteration,
             Stop=lambda: setattr(self, "_stopped", True), Vector3=lambda *v: tuple(float(x) for x in v),
-            __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add,
+            __lsys_produce__=lambda mods: mods, __lsys_nproduce__=self._nbuf_add, __lsys_kwds__=Kwds,
             nproduce=self._nbuf_add, nsproduce=self._nsproduce, useGroup=self._use_group,
             getGroup=lambda: self._next_group,              # LsysContext::getGroup: the last useGroup's
             frameDisplay=lambda *a: None, Lstring=self._lstring,

@@ -157,9 +157,12 @@ class NodeModule(SB.SafeAttrs):
         return list(self._vals)
 
     def _named(self, attr: str) -> int:
+        """The position of parameter ``attr``: the declared names are the last values (L-Py's
+        ``ParamModule::getParameterPosition``)."""
         names = self._tree.param_names.get(self.name, ())
-        if attr in names and names.index(attr) < len(self._vals):
-            return names.index(attr)
+        at = max(0, len(self._vals) - len(names)) + names.index(attr) if attr in names else len(self._vals)
+        if at < len(self._vals):
+            return at
         raise AttributeError(f"module {self.name} has no parameter {attr!r} (declared: {', '.join(names) or 'none'})")
 
     def __getattr__(self, attr: str):

@@ -1,7 +1,8 @@
 """Rule patterns (issue 33): a rule header's modules read as L-Py's ``PatternModule`` / ``PatternString``.
 
 A pattern module is a module name with parameters (variable names, constants, a last ``*args`` taking the
-remaining parameters as a list: ``A(x, *rest)``), the wildcard ``*`` (alias ``any``) matching any one module
+remaining parameters as a list: ``A(x, *rest)``, and a very last ``**kwds`` the named ones as a dict), ``$A(a)``
+(the module itself, :mod:`plantvr.lsystem.nodes`), the wildcard ``*`` (alias ``any``) matching any one module
 (``*`` binds nothing; ``*(n)`` a module without parameters, binding its name; ``*(n, a, b)`` one with two,
 binding its name and parameters; ``*(n, a, *rest)`` one with at least one; ``*(*args)`` any module, binding
 ``[name, *parameters]``), a bracket, or, in contexts, the repetition ``x(pattern)`` (alias ``all``) matching the
@@ -43,7 +44,8 @@ class PatternModule:
     takes the rest, ``name_var`` whether an ``ANY`` binds the module's name first (``*(*args)`` binds
     ``[name, *parameters]`` as its one value), ``sub``/``lo``/``hi`` a repetition's pattern and bounds,
     ``node`` whether a ``MOD`` is L-Py's ``$A(a)``: any module of the class, bound as one
-    :class:`~plantvr.lsystem.nodes.NodeModule`."""
+    :class:`~plantvr.lsystem.nodes.NodeModule`, ``kwds`` whether a last ``**kwds`` takes the named parameters
+    (those of the module's declaration, ``module A(x, t)``) as a dict."""
 
     tok: Token
     kind: int
@@ -54,6 +56,7 @@ class PatternModule:
     lo: int = 0
     hi: int = _MAX_REPEAT
     node: bool = False
+    kwds: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -103,8 +106,9 @@ def _param(a: str, tok: Token, line: int) -> tuple[str, object] | None:
     with and must hold: ``x if x > 0`` the expression after ``if``, else the whole text (``n in 'SU'``,
     ``s == Any``)."""
     if a.startswith("**"):
-        raise LSystemError(f"keyword pattern parameter {a!r} of {tok.name} is not supported (PlantVR's modules "
-                           "have no named parameters)", line, tok.col)
+        if _IDENT.match(a[2:].strip()):
+            return "kwds", a[2:].strip()
+        raise LSystemError(f"keyword pattern parameter {a!r} of {tok.name} must be '**name'", line, tok.col)
     if a.startswith("*") and _IDENT.match(a[1:].strip()):
         return "star", a[1:].strip()
     if _IDENT.match(a) and a not in ("None", "True", "False"):
@@ -147,7 +151,7 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
     Raises
     ------
     LSystemError
-        For a construct PlantVR does not match (iterator requests, ``or(...)`` alternatives, ``**kwds``, a
+        For a construct PlantVR does not match (iterator requests, ``or(...)`` alternatives, a
         repetition in a predecessor, a ``*args`` not last...), at its line and column.
     """
     mods, names, consts, conds = [], [], [], []
@@ -182,22 +186,27 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
             mods.append(PatternModule(t, LB if t.name == "[" else RB))
             continue
         params = [_param(a, t, line) for a in t.args or ()]
+        kwds = bool(params) and params[-1][0] == "kwds"       # ``**kwds``: the named parameters, in a dict
         for q, (kind, v) in enumerate(params):
             if kind == "cond":
                 v = v[0]
                 conds.append(params[q][1][1])
                 params[q] = ("var", v)
-            if kind == "star" and q != len(params) - 1:
-                raise LSystemError(f"star parameter '*{v}' of {t.name} must be the last", line, t.col)
+            if kind == "star" and q != len(params) - 1 - kwds:
+                raise LSystemError(f"star parameter '*{v}' of {t.name} must be the last (before **kwds)", line,
+                                   t.col)
+            if kind == "kwds" and q != len(params) - 1:
+                raise LSystemError(f"keyword parameter '**{v}' of {t.name} must be the last", line, t.col)
             if kind == "const":
                 consts.append((len(names), v))
             names.append(None if kind == "const" else v)
+        params = params[:len(params) - kwds]
         star = bool(params) and params[-1][0] == "star"
         if t.name in _ANY:
             name_var = bool(params) and not (star and len(params) == 1)
-            mods.append(PatternModule(t, ANY, max(len(params) - name_var - star, 0), star, name_var))
+            mods.append(PatternModule(t, ANY, max(len(params) - name_var - star, 0), star, name_var, kwds=kwds))
         else:
-            mods.append(PatternModule(t, MOD, len(params) - star, star))
+            mods.append(PatternModule(t, MOD, len(params) - star, star, kwds=kwds))
     return Pattern(tuple(mods), tuple(names), tuple(consts), tuple(conds))
 
 

@@ -112,8 +112,8 @@ class ImageTexture(Material):
         names = [a for a in args if isinstance(a, str)]
         if not names and not isinstance(kw.get("filename"), str):
             raise ValueError("ImageTexture needs a file name")
-        filename = str(kw.get("filename", names[-1]))
-        super().__init__(names[0] if len(names) > 1 else filename, _mean_rgb(filename), 1.0)
+        filename = kw["filename"] if isinstance(kw.get("filename"), str) else names.pop()
+        super().__init__(kw.get("name", names[0] if names else filename), _mean_rgb(filename), 1.0)
         self.filename = filename
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from . import sandbox as SB
 from .grammar import Rule
 from .lexer import GETMODULE, LSystemError, Token
-from .modules import _ModuleView, is_number
+from .modules import Kwds, _ModuleView, is_number
 from .namespace import _OverBudget
 from .nodes import NodeModule
 from .plantgl import not_here_hint
@@ -85,7 +85,7 @@ class _Rules:
         func = self._function(params, rule.body, rule.line, f"rule {rule.header!r}",
                               None if self.trusted else lambda tree: self._restrict_rule(rule, tree))
         first = rule.patterns["pred"].mods[0]
-        c = _Compiled(rule, func, self._sid(first.tok.name) if first.kind == MOD and not (first.star or first.node)
+        c = _Compiled(rule, func, self._sid(first.tok.name) if first.kind == MOD and not (first.star or first.node or first.kwds)
                       else -1)
         if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
             c.static = self._call(c, [])
@@ -151,7 +151,8 @@ class _Rules:
             for a in t.args:
                 col = self._col(t.line, a, start)
                 start = col + len(a)
-                self._restrict(self._parse(a, "eval", t.line, col, what), t.line, col)
+                star = len(a) - len(a.lstrip("*")) if a.startswith("*") else 0        # A(*p), A(**p)
+                self._restrict(self._parse(a[star:], "eval", t.line, col + star, what), t.line, col)
 
     def _plan(self, c: _Compiled) -> None:
         """Vectorised and constant plans of a one-line context-free rule, else its batch plan (:meth:`_batch`)."""
@@ -334,7 +335,32 @@ class _Rules:
                     raise LSystemError(f"{name}(name, *args) needs a module name (a str) first, got "
                                        f"{SB._short(v[0]) if v else 'nothing'}", line, 1)
                 name, v = v[0], v[1:]
+        if v and isinstance(v, (tuple, list)) and isinstance(v[-1], Kwds):
+            v = self._by_name(name, list(v[:-1]), v[-1], line)
         return self._sid(name), self._params(name, v, line) if v != () else ()
+
+    def _by_name(self, name: str, args: list, kw: Kwds, line: int) -> list:
+        """``name(*args, **kw)``: the keywords placed at their positions in ``name``'s declaration
+        (``processArgList`` of L-Py's ``module.cpp``), every declared parameter given once."""
+        pnames = self._g.param_names.get(name, ())
+        if len(args) + len(kw) < len(pnames):
+            raise LSystemError(f"{name} takes exactly {len(pnames)} parameters ({len(args) + len(kw)} given)", line, 1)
+        missing: set = set()
+        for key, value in kw.items():
+            if key not in pnames:
+                raise LSystemError(f"invalid parameter name {key!r} for module {name!r} (declared: "
+                                   f"{', '.join(pnames) or 'none'})", line, 1)
+            at = pnames.index(key)
+            if at < len(args) and at not in missing:
+                raise LSystemError(f"{name} got multiple values for parameter {key!r}", line, 1)
+            if at >= len(args):
+                missing.update(range(len(args), at))
+                args.extend([None] * (at + 1 - len(args)))
+            args[at] = value
+            missing.discard(at)
+        if missing:
+            raise LSystemError(f"{name} takes exactly {len(pnames)} parameters ({len(missing)} missing)", line, 1)
+        return args
 
 
 def _turtle_modules() -> frozenset:

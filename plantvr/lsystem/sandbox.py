@@ -62,7 +62,7 @@ MAX_RANGE = 1_000_000
 TRUST_HINT = ("pass trusted=True (or tick 'Trust this grammar') if you trust this grammar to run its Python "
               "code")
 
-_GENERATED = frozenset({"__lsys_produce__", "__lsys_nproduce__"})
+_GENERATED = frozenset({"__lsys_produce__", "__lsys_nproduce__", "__lsys_kwds__"})
 _FORBIDDEN = frozenset({
     "open", "eval", "exec", "compile", "getattr", "setattr", "delattr", "hasattr", "type", "globals", "locals",
     "vars", "dir", "input", "breakpoint", "help", "object", "super", "memoryview", "classmethod", "staticmethod",

@@ -119,15 +119,15 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
-#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL geometry, texture
-#: coordinates, reflections, screen projection); the engine refuses them with their line. Spheres, discs,
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL geometry, colour
+#: interpolation, reflections, screen projection); the engine refuses them with their line. Spheres, discs,
 #: ``~name`` surfaces, polygons and generalized cylinders (with their ``SetContour`` sections, and ``Sweep``:
-#: :mod:`plantvr.lsystem.sections`) are drawn (:mod:`plantvr.lsystem.shapes`).
+#: :mod:`plantvr.lsystem.sections`) are drawn (:mod:`plantvr.lsystem.shapes`). Texture coordinates
+#: (``TextureScale``, ``TextureRotation``, ...) change nothing here, where a texture is drawn in its image's mean
+#: colour, and ``SectionResolution`` only PlantGL's facet count (PlantVR meshes at ``shape_meshes(slices=)``):
+#: both are read and left out.
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "@g", "PglShape", "Arrow",
-    "SectionResolution", "TextureScale",
-    "TextureUScale", "TextureVScale", "TextureVCoeff", "TextureTranslation", "TextureRotation",
-    "TextureTransformation", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
+    "@g", "PglShape", "Arrow", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
     "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
     "EndScreenProjection",
 })

@@ -13,6 +13,7 @@ from __future__ import annotations
 import collections
 import multiprocessing as mp
 import os
+import queue
 import sys
 import traceback
 import warnings
@@ -47,7 +48,10 @@ def main(roots: list[str]) -> int:
                 proc.kill()
                 kind, why = "timeout", ""
             else:
-                kind, why = q.get() if not q.empty() else ("error", f"child exited {proc.exitcode}")
+                try:                         # (Queue.empty() may say empty before the child's put arrives)
+                    kind, why = q.get(timeout=10)
+                except queue.Empty:
+                    kind, why = "error", f"child exited {proc.exitcode}"
             counts[kind] += 1
             print(kind, p, why[:200], flush=True)
     print(dict(counts))

@@ -171,7 +171,7 @@ BAD = [
     ("Axiom: F(0)\nproduction:\nF(x) :\n    y = 1 / x\n    produce F(y)\n", 4, "ZeroDivisionError"),
     ("Axiom: F\nderivation length: foo\nproduction:\n", 2, "NameError"),
     ("Axiom: F\nproduction:\n    F --> F\n", 3, "unexpected indent"),
-    ("Axiom: F\nproduction:\nF(**kw) --> F\n", 3, "keyword pattern parameter"),
+    ("Axiom: F\nproduction:\nF(**kw, x) --> F\n", 3, "keyword parameter '\\*\\*kw' of F must be the last"),
     ("Axiom: F\nproduction:\nF(1 +) --> F\n", 3, "a value constraint"),
     ("Axiom: F\nproduction:\nF --> F\n?I(x) < F --> F\n", 4, "iterator request"),
     ("Axiom: F\nx = 1 +\nproduction:\n", 2, "syntax error"),

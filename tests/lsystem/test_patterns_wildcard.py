@@ -202,7 +202,7 @@ def test_bracket_in_left_context(rules, axiom, head, expected):
 @pytest.mark.parametrize("rules, col, match", [
     ("x(A) B --> C", 1, r"repetition pattern x\(\.\.\.\) in a predecessor"),
     ("A > or(B, C) --> B", 5, r"alternative pattern or"),
-    ("A(**kw) --> B", 1, r"keyword pattern parameter '\*\*kw'"),
+    ("A(**1) --> B", 1, r"keyword pattern parameter '\*\*1' of A must be '\*\*name'"),
     ("A(*r, x) --> B", 1, r"star parameter '\*r' of A must be the last"),
     ("A > x(B, 1, n) --> B", 13, r"repetition count 'n'"),
     ("A > x(B, 1, 2, 3) --> B", 5, r"at most two counts"),
