@@ -237,6 +237,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
             c.ignored = filters[rule.filter]
             self._all_rules.append(c)
         self._start_group = self._next_group                  # a top-level useGroup(n)
+        self._start_direction = self._direction               # a top-level backward()
         self._set_group(self._start_group)
         self.axiom = self._read_axiom()
         self._deadline = math.inf
@@ -315,8 +316,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         return self._framed(self._decompose(self._adopt(string), "homomorphism"))[0]
 
     def _framed(self, s: ModuleString) -> tuple[ModuleString, int, int]:
-        """``s`` between the modules ``StartInterpretation()`` and ``EndInterpretation()`` produce, and how many
-        each added."""
+        """``s`` framed by what ``StartInterpretation()`` / ``EndInterpretation()`` produce, and the two counts."""
         head, tail = (self._interpretation_hook(n) for n in ("StartInterpretation", "EndInterpretation"))
         if head is None and tail is None:
             return s, 0, 0
@@ -467,7 +467,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         if self._seed is not None:                            # unseeded: the generator runs on (no urandom read)
             self._rng.seed(self._seed)
         self._reseed_globals()
-        self._direction, self._iteration, self._stopped = 1, 0, False
+        self._direction, self._iteration, self._stopped = self._start_direction, 0, False
         self._reset_group()
         if self._outer == 0:
             self._deadline = time.monotonic() + self.time_budget
@@ -533,7 +533,7 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
                           out_ptr, out_args, with_ptr)
         if self._seed is not None:                            # the state _run leaves
             self._rng.seed(self._seed)
-        self._direction, self._iteration, self._stopped = 1, n - 1, False
+        self._direction, self._iteration, self._stopped = self._start_direction, n - 1, False
         return self._make_trusted(out_ids, out_ptr, out_args)
 
     def _check_size(self, n_out: int, m_out: int, line: int = 0) -> None:

@@ -42,9 +42,9 @@ Brackets in a predecessor are matched as modules, balanced or not (``[] -->``, `
 checks none and finds the rule at its first module, ``RulePtrMap``).
 
 Not supported (LSystemError naming the construct with its line and column): a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
-``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions, the unnamed parameter ``-``, ``x(...)`` repetitions in predecessors,
-``or(...)`` alternative patterns and ``None`` (L-Py has them in patterns only: in a successor they are plain
-modules, as here), ``=]`` outside right contexts, iterator requests (``?I``) in patterns,
+``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions and alternatives, the unnamed parameter
+``-``, ``x(...)`` repetitions and ``or(...)`` alternatives in predecessors, ``None`` outside ``or(...)`` (in a
+successor ``or`` and ``None`` are plain modules, as L-Py has them), ``=]`` outside right contexts, iterator requests (``?I``) in patterns,
 new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations

@@ -14,7 +14,7 @@ import math
 from .lexer import LSystemError, Token, lex
 from .modules import _EMPTY, _module_vals, _pyval
 from .nodes import FINEST, NodeModule, _Tree
-from .patterns import ANY, ERB, LB, MOD, RB, REP, Pattern, PatternModule, _same, read_pattern
+from .patterns import ANY, ERB, LB, MOD, OR, RB, REP, Pattern, PatternModule, _same, read_pattern
 from .rules import _Compiled
 
 
@@ -391,10 +391,10 @@ class _Matching:
         position left of the last one matched."""
         vals: list = []
         for m in reversed(mods):
-            if m.kind == REP and self._mode != AS_AXIAL_TREE:
+            if m.kind in (REP, OR) and self._mode != AS_AXIAL_TREE:
                 raise _repetition_refused(m)
-            if m.kind == REP:
-                got = self._repeat(m, pos, seq, partner, self._left_at, False)
+            if m.kind in (REP, OR):
+                got = (self._repeat if m.kind == REP else self._either)(m, pos, seq, partner, self._left_at, False)
                 if got is None:
                     return None
                 vals[:0] = got[0]
@@ -435,6 +435,18 @@ class _Matching:
             count += 1
         return (lists, pos) if count >= m.lo else None
 
+    def _either(self, m: PatternModule, pos: int, seq, partner, step, forward: bool) -> tuple[list, int] | None:
+        """An alternative ``or(p1, p2, ...)`` matched from ``pos`` with ``step``: the values of the first
+        alternative that matches, None for the others' variables (L-Py's ``RegExpMatcher``)."""
+        for k, alt in enumerate(m.alts):
+            got = step(alt.mods, pos, seq, partner)
+            v = None if got is None else alt.filter(got[0])
+            if v is not None:
+                before = sum(len(a.variables) for a in m.alts[:k])
+                after = sum(len(a.variables) for a in m.alts[k + 1:])
+                return [None] * before + v + [None] * after, got[1]
+        return None
+
     def _right(self, pattern: Pattern, pos: int, seq, partner) -> list | None:
         got = self._right_at(pattern.mods, pos, seq, partner)
         return None if got is None else got[0]
@@ -447,7 +459,7 @@ class _Matching:
         the branch, ``=]`` needs it to close at once (``matching_tmpl.h``: ``isExactRightBracket``)."""
         if self._mode != AS_AXIAL_TREE:
             for m in mods:
-                if m.kind == REP:
+                if m.kind in (REP, OR):
                     raise _repetition_refused(m)
             return self._right_other(mods, pos, seq, partner)
         vals: list = []
@@ -455,10 +467,10 @@ class _Matching:
         at_end = pos >= n
         for m in mods:
             kind = m.kind
-            if pos >= n and not (at_end and kind == REP):
+            if pos >= n and not (at_end and kind in (REP, OR)):
                 return None
-            if kind == REP:
-                got = self._repeat(m, pos, seq, partner, self._right_at, True)
+            if kind in (REP, OR):
+                got = (self._repeat if kind == REP else self._either)(m, pos, seq, partner, self._right_at, True)
                 if got is None:
                     return None
                 vals += got[0]
@@ -544,8 +556,9 @@ def _bind_kwds(m: PatternModule, name: str, vals: list, pnames: tuple) -> list |
 
 
 def _repetition_refused(m: PatternModule) -> LSystemError:
-    return LSystemError("repetition patterns x(...) are matched in axial-tree string matching only (L-Py: "
-                        "'Multiscale context and Regular Expression not compatible')", m.tok.line, m.tok.col)
+    return LSystemError(f"{'repetition patterns x' if m.kind == REP else 'alternatives or'}(...) are matched in "
+                        "axial-tree string matching only (L-Py: 'Multiscale context and Regular Expression not "
+                        "compatible')", m.tok.line, m.tok.col)
 
 
 class _ArrSeq:

@@ -5,7 +5,8 @@ remaining parameters as a list: ``A(x, *rest)``, and a very last ``**kwds`` the 
 (the module itself, :mod:`plantvr.lsystem.nodes`), the wildcard ``*`` (alias ``any``) matching any one module
 (``*`` binds nothing; ``*(n)`` a module without parameters, binding its name; ``*(n, a, b)`` one with two,
 binding its name and parameters; ``*(n, a, *rest)`` one with at least one; ``*(*args)`` any module, binding
-``[name, *parameters]``), a bracket, or, in contexts, the repetition ``x(pattern)`` (alias ``all``) matching the
+``[name, *parameters]``), a bracket, or, in contexts, the alternatives ``or(p1, p2, None)`` (the first that
+matches binds its variables, the others' are None) and the repetition ``x(pattern)`` (alias ``all``) matching the
 pattern 0 to 1000 times in a row, ``x(pattern, n)`` n times, ``x(pattern, lo, hi)`` lo to hi times, greedily, each
 variable of the pattern bound to the list of its values, one per repetition (empty lists when none), as L-Py's
 ``RegExpMatcher`` and ``ArgsCollector::fusion_args``. The matching itself is in
@@ -20,10 +21,10 @@ from dataclasses import dataclass
 from .lexer import GETMODULE, LSystemError, Token, split_top
 from .modules import is_number
 
-__all__ = ["ANY", "ERB", "LB", "MOD", "PATTERN_NAMES", "RB", "REP", "Pattern", "PatternModule",
+__all__ = ["ANY", "ERB", "LB", "MOD", "OR", "PATTERN_NAMES", "RB", "REP", "Pattern", "PatternModule",
            "read_pattern"]
 
-MOD, ANY, REP, LB, RB, ERB = range(6)
+MOD, ANY, REP, LB, RB, ERB, OR = range(7)
 _ANY = frozenset({"*", "any"})
 _REP = frozenset({"x", "all"})
 _ITERATOR = frozenset({"?I", "GetIterator"})
@@ -57,6 +58,7 @@ class PatternModule:
     hi: int = _MAX_REPEAT
     node: bool = False
     kwds: bool = False
+    alts: tuple = ()
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,8 +87,9 @@ class Pattern:
         """Every module token of the pattern, those inside repetitions included."""
         for m in self.mods:
             yield m.tok
-            if m.sub is not None:
-                yield from m.sub.tokens()
+            for sub in (m.sub, *m.alts):
+                if sub is not None:
+                    yield from sub.tokens()
 
 
 def _same(value, const) -> bool:
@@ -151,8 +154,8 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
     Raises
     ------
     LSystemError
-        For a construct PlantVR does not match (iterator requests, ``or(...)`` alternatives, a
-        repetition in a predecessor, a ``*args`` not last...), at its line and column.
+        For a construct PlantVR does not match (iterator requests, a repetition or an
+        alternative in a predecessor, a ``*args`` not last...), at its line and column.
     """
     mods, names, consts, conds = [], [], [], []
     for t in toks:
@@ -168,9 +171,15 @@ def read_pattern(toks: list[Token], text: str, lex, *, where: str, depth: int = 
                 raise LSystemError("the exact closing bracket =] is supported in right contexts only", line, t.col)
             mods.append(PatternModule(t, ERB))
             continue
+        if t.name == "or" and t.args is not None:
+            m = _alternatives(t, text, lex, where, depth)
+            mods.append(m)
+            for alt in m.alts:
+                names.extend(alt.variables)
+            continue
         if t.name in ("or", "None"):
-            what = {"or": "alternative pattern or(...)", "None": "the empty pattern module None"}[t.name]
-            raise LSystemError(f"{what} is not supported", line, t.col)
+            what = {"or": "alternative pattern or with no patterns", "None": "the empty pattern None outside or(...)"}
+            raise LSystemError(f"{what[t.name]} is not supported", line, t.col)
         if t.name == "all" and t.args is None:
             raise LSystemError("repetition pattern all has no pattern", line, t.col)
         if t.name in _REP and t.args is not None:
@@ -217,6 +226,27 @@ def _get_module(t: Token, where: str) -> PatternModule:
         raise LSystemError("a $ pattern binds the module matched as $A(a): a module name and one variable",
                            t.line, t.col)
     return PatternModule(Token(t.args[0], None, t.line, t.col), MOD, node=True)
+
+
+def _alternatives(t: Token, text: str, lex, where: str, depth: int) -> PatternModule:
+    """``or(p1, p2, ...)``: the first alternative that matches binds its variables, the others' are None; an
+    alternative ``None`` matches nothing (L-Py's ``RegExpMatcher``, ``isOr``)."""
+    line = t.line
+    if depth >= _MAX_NESTING:
+        raise LSystemError(f"patterns nested more than {_MAX_NESTING} deep", line, t.col)
+    if where == "pred":
+        raise LSystemError("alternative pattern or(...) in a predecessor is not supported (it is in contexts)", line,
+                           t.col)
+    if not t.args:
+        raise LSystemError("alternative pattern or() has no patterns", line, t.col)
+    alts = []
+    for a, col in zip(t.args, _arg_cols(text, t)):
+        sub = Pattern((), (), ()) if a.strip() == "None" else \
+            read_pattern(lex(a, line, col), text, lex, where=where, depth=depth + 1)
+        if sub.conds:
+            raise LSystemError("value constraints inside an alternative or(...) are not supported", line, col)
+        alts.append(sub)
+    return PatternModule(t, OR, alts=tuple(alts))
 
 
 def _repetition(t: Token, text: str, lex, where: str, depth: int) -> PatternModule:

@@ -201,14 +201,15 @@ def test_bracket_in_left_context(rules, axiom, head, expected):
 # -- 5. what stays refused ---------------------------------------------------------------------------------------
 @pytest.mark.parametrize("rules, col, match", [
     ("x(A) B --> C", 1, r"repetition pattern x\(\.\.\.\) in a predecessor"),
-    ("A > or(B, C) --> B", 5, r"alternative pattern or"),
+    ("or(B, C) --> B", 1, r"alternative pattern or\(...\) in a predecessor"),
+    ("A > or() --> B", 5, r"alternative pattern or\(\) has no patterns"),
     ("A(**1) --> B", 1, r"keyword pattern parameter '\*\*1' of A must be '\*\*name'"),
     ("A(*r, x) --> B", 1, r"star parameter '\*r' of A must be the last"),
     ("A > x(B, 1, n) --> B", 13, r"repetition count 'n'"),
     ("A > x(B, 1, 2, 3) --> B", 5, r"at most two counts"),
     ("?I(it) < A --> B", 1, r"iterator request \?I"),
     ("A > all --> B", 5, r"repetition pattern all has no pattern"),
-    ("A > None --> B", 5, r"the empty pattern module None"),
+    ("A > None --> B", 5, r"the empty pattern None outside or"),
     ("F=] < A --> B", 2, r"the exact closing bracket =\] is supported in right contexts only"),
     ("A > " + "x(" * 40 + "B" + ")" * 40 + " --> B", 5 + 2 * 16, r"nested more than 16 deep"),
     ("A ] < B --> C", 3, r"'\]' in a left context is not supported"),
@@ -219,3 +220,22 @@ def test_unsupported_patterns_are_refused_with_line_and_column(rules, col, match
         LSystem(f"Axiom: A\nproduction:\n{rules}\nendlsystem\n")
     line = 3 + rules.count("\n")
     assert (err.value.line, err.value.column) == (line, col)
+
+
+def test_or_alternatives_bind_the_first_that_matches():
+    """``or(p1, p2, ...)`` (L-Py's ``RegExpMatcher``): the first alternative that matches binds its variables, the
+    others' are None; ``None`` matches nothing."""
+    rules = "A > or(B(x), C(y) D(z)) :\n  produce Z(x, y, z)"
+    assert str(derive(rules, "AB(1) AC(2)D(3) AC(4) A", trusted=True)) == \
+        "Z(1,None,None)B(1)Z(None,2,3)C(2)D(3)AC(4)A"
+    assert str(derive("A > or(B(x), None) :\n  produce Z(x)", "AB(1) A", trusted=True)) == "Z(1)B(1)Z(None)"
+    assert str(derive("or(B(x), C(y)) < A --> Z", "B(1)A C(1)A D A")) == "B(1)ZC(1)ZDA"   # left contexts too
+
+
+def test_l_py_test_consider_bracket():
+    """L-Py's test_consider_bracket.lpy: backward, with ``x([M(l)])`` and ``or(M(a), None)`` in a new right
+    context: each N becomes M(1 + its lateral M values + its following M), giving L-Py's M(4) [M(1)] M(2) M(1)."""
+    rules = "N(r) >> x([M(lnbelem)]) or( M(anbelem), None ) :\n  v = 1\n  if lnbelem : v += sum(lnbelem)\n" \
+            "  if anbelem : v += anbelem\n  produce M(v)"
+    s = derive(rules, "N(0) [ N(0) ] N(0) N(0)", head="backward()\nconsider: NM\n", trusted=True)
+    assert str(s) == "M(4)[M(1)]M(2)M(1)"

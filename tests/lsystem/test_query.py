@@ -165,7 +165,7 @@ def test_static_rule_successor_is_made_once():
 @pytest.mark.parametrize("text, col, match", [
     ("Axiom: A\nproduction:\nx(A, 2) --> B\n", 1, "repetition pattern x.* in a predecessor"),
     ("Axiom: A\nproduction:\nA > x(B, 1, n) --> B\n", 13, "repetition count 'n'"),
-    ("Axiom: A\nproduction:\nA > or(B, C) --> B\n", 5, "alternative pattern or"),
+    ("Axiom: A\nproduction:\nA > or(B, C(y if y)) --> B\n", 11, "value constraints inside an alternative"),
 ])
 def test_pattern_modules_are_refused_with_line_and_column(text, col, match):
     with pytest.raises(LSystemError, match=match) as err:
