@@ -53,8 +53,9 @@ import ast
 import re
 from dataclasses import dataclass, field
 
-from .lexer import GETMODULE, LSystemError, Token, _close_paren, _depths, find_top, lex, split_top
+from .lexer import GETMODULE, LSystemError, Token, _close_paren, find_top, lex, split_top
 from .patterns import PATTERN_NAMES, read_pattern
+from .pytext import PRODUCE, in_string, join_produce, open_quote, quote_context_patterns, strip_comment
 
 __all__ = ["Grammar", "Rule", "lstring_to_py", "parse_grammar"]
 
@@ -63,7 +64,6 @@ _SECTIONS = {"production": "production", "decomposition": "decomposition", "homo
              "interpretation": "homomorphism"}
 _HEADER = re.compile(r"^(Axiom|derivation length|production|decomposition|homomorphism|interpretation|"
                      r"maximum depth|ignore|consider|endlsystem|endgroup|group\s+\S+)\s*(:?)(.*)$")
-_PRODUCE = re.compile(r"\b(nproduce|produce)\b")
 
 
 @dataclass
@@ -121,24 +121,6 @@ class Grammar:
     axiom_block: list = field(default_factory=list)    # (line, Python) of an 'Axiom:' written as an nproduce block
 
 
-def _strip_comment(s: str) -> str:
-    """``s`` up to its first ``#`` outside strings."""
-    j = 0
-    while j < len(s):
-        c = s[j]
-        if c in "\"'":
-            q = c
-            j += 1
-            while j < len(s) and s[j] != q:
-                j += 2 if s[j] == "\\" else 1
-            j += 1
-            continue
-        if c == "#":
-            return s[:j]
-        j += 1
-    return s
-
-
 def lstring_to_py(tokens: list[Token]) -> str:
     """Python expression building the module list ``[(name, (args...)), ...]`` of an L-string."""
     items = []
@@ -180,9 +162,9 @@ class _Reader:
         ``col0 + 1`` of the grammar) by their calls (and quote the patterns of ``InLeftContext(A(x), args)``, which
         L-Py's parser reads as L-strings)."""
         out, pos = [], 0
-        code = _quote_context_patterns(_strip_comment(src))
-        for m in _PRODUCE.finditer(code):
-            if _in_string(code, m.start()):
+        code = quote_context_patterns(strip_comment(src))
+        for m in PRODUCE.finditer(code):
+            if in_string(code, m.start()):
                 continue
             out.append(code[pos:m.start()])
             rest, at = code[m.end():], m.end()
@@ -213,7 +195,7 @@ class _Reader:
             text, init = text.split(_INIT_TAG, 1)
             self.read_scalars(init)
             self.g.init = "\n" * text.count("\n") + init
-        lines = _join_produce(text.split("\n"))
+        lines = join_produce(text.split("\n"))
         self.pre_declare(lines)
         py = [""] * len(lines)
         mode = "python"
@@ -235,10 +217,10 @@ class _Reader:
                     continue
                 block = self.read_axiom_block(block)
             if (mode == "python" or mode == "after") and quote is not None:
-                py[k], quote = raw, _open_quote(raw, quote)   # inside a string: Python text, never a section
+                py[k], quote = raw, open_quote(raw, quote)   # inside a string: Python text, never a section
                 continue
             if mode == "python" or mode == "after":
-                quote = _open_quote(raw, None)
+                quote = open_quote(raw, None)
                 m = _HEADER.match(s) if mode == "python" else None
                 if m and (m.group(2) or m.group(1).startswith(("endlsystem", "endgroup"))):
                     mode = self.header(m, ln, raw) or mode
@@ -282,7 +264,7 @@ class _Reader:
     def read_axiom_block(self, block: list[tuple[int, str]]) -> None:
         """An 'Axiom:' with nothing after it and an indented block of Python below (``nproduce`` statements, loops),
         as L-Py reads it: the block's code, ``produce``/``nproduce`` translated, is the axiom's."""
-        code = [(k, raw) for k, raw in block if _strip_comment(raw).strip()]
+        code = [(k, raw) for k, raw in block if strip_comment(raw).strip()]
         if not code:                # an empty axiom, as L-Py reads it: the empty L-string
             return
         indent = min(len(raw) - len(raw.lstrip()) for _, raw in code)
@@ -308,7 +290,7 @@ class _Reader:
                 self.declare(raw.rstrip(), k + 1)
 
     def declare(self, s: str, ln: int) -> None:
-        body = _strip_comment(s)[len("module"):]
+        body = strip_comment(s)[len("module"):]
         body, _, options = body.partition(":")                # ``module A : scale = 1, base = (B, C)``
         scale, bases = self.module_options(options, s, ln)
         for part in split_top(body):
@@ -356,7 +338,7 @@ class _Reader:
         key, rest = m.group(1), m.group(3)
         col = raw.find(rest) + 1 if rest.strip() else len(raw) + 1
         if key == "Axiom":
-            if not _strip_comment(rest).strip():              # the L-string follows as an indented block
+            if not strip_comment(rest).strip():              # the L-string follows as an indented block
                 self.g.axiom = ("", ln, col)
                 return None
             self.g.axiom = (rest, ln, raw.find(":") + 2)
@@ -365,16 +347,16 @@ class _Reader:
         if key == "derivation length":
             if not rest.strip():
                 raise LSystemError("cannot find a value for 'derivation length'", ln, col)
-            self.g.derivation_length = (_strip_comment(rest).strip(), ln)
+            self.g.derivation_length = (strip_comment(rest).strip(), ln)
             return None
         if key in ("ignore", "consider"):              # the filter of the rules after it (lpy_parser.cpp)
-            src = _strip_comment(rest)
+            src = strip_comment(rest)
             self.filter = (src, ln, raw.find(":") + 2, key == "ignore") if src.strip() else None
             return None
         if key == "maximum depth":
             if section not in ("decomposition", "homomorphism"):
                 raise LSystemError("'maximum depth:' outside a decomposition or homomorphism section", ln, 1)
-            self.g.max_depth[section] = (_strip_comment(rest).strip(), ln)
+            self.g.max_depth[section] = (strip_comment(rest).strip(), ln)
             return None
         if key == "endlsystem":
             return "after"
@@ -396,7 +378,7 @@ class _Reader:
         ln, first = lines[0]
         head_at, delim = find_top(first, ("-static->", "-->", "->", ":"), modules=True)
         if head_at < 0:
-            code = _strip_comment(first)
+            code = strip_comment(first)
             if code.count("[") != code.count("]"):
                 raise LSystemError(f"unbalanced brackets in the rule {first.strip()!r}", ln, 1)
             raise LSystemError(f"rule without ':' or '-->': {first.strip()!r}", ln, 1)
@@ -427,14 +409,14 @@ class _Reader:
         if delim in ("-->", "->", "-static->"):
             if len(lines) > 1:
                 raise LSystemError(f"a '{delim}' rule has no indented body", lines[1][0], 1)
-            successor = self.lex(_strip_comment(rest), ln, head_at + len(delim) + 1)
+            successor = self.lex(strip_comment(rest), ln, head_at + len(delim) + 1)
             if constraints is None:
                 body.append((ln, "return __lsys_produce__(" + lstring_to_py(successor) + ")"))
             else:                                     # value constraints: L-Py's match fails, the next rule is tried
                 condition = constraints
                 body.append((ln, f"if {condition}: return __lsys_produce__({lstring_to_py(successor)})"))
         else:
-            inline = _strip_comment(rest)
+            inline = strip_comment(rest)
             if inline.strip().startswith("@static"):      # ``pred : @static`` + block: made once (lpy_parser.cpp)
                 static = True
                 inline = inline.replace("@static", "", 1)
@@ -456,7 +438,7 @@ class _Reader:
                     condition = constraints
                 if inline.strip():
                     stripped = inline.strip()
-                    if stripped.startswith("produce") and _PRODUCE.match(stripped) and len(lines) == 1:
+                    if stripped.startswith("produce") and PRODUCE.match(stripped) and len(lines) == 1:
                         successor = self.lex(stripped[len("produce"):], ln, first.find("produce") + 8)
                     body.append((ln, self.translate_produce(stripped, ln, in_rule=True,
                                                             col0=head_at + len(delim) + inline.find(stripped[0]))))
@@ -513,109 +495,6 @@ class _Reader:
                 if key in ("left", "newleft") and t.name == "]":     # a parent is never a bracket (L-Py)
                     raise LSystemError("']' in a left context is not supported (it never matches)", ln, t.col)
         return pred_toks, out["left"], out["right"], out["newleft"], out["newright"]
-
-
-_ASK = re.compile(r"\b(InLeftContext|InRightContext)\s*\(")
-
-
-def _quote_context_patterns(code: str) -> str:
-    """``InLeftContext(A(x) B, args)`` as ``InLeftContext('A(x) B', args)``: L-Py's parser takes the first argument
-    of the capitalised context tests as a pattern (``pInLeftContext``); a string literal there stays."""
-    out, pos = [], 0
-    for m in _ASK.finditer(code):
-        if m.start() < pos or _in_string(code, m.start()):
-            continue
-        j, depth, quote = m.end(), 0, None
-        while j < len(code):
-            c = code[j]
-            if quote:
-                quote = None if c == quote else quote
-            elif c in "'\"":
-                quote = c
-            elif c in "([{":
-                depth += 1
-            elif c in ")]}" and depth:
-                depth -= 1
-            elif c in ",)" and not depth:
-                break
-            j += 1
-        arg = code[m.end():j].strip()
-        if arg and arg[0] not in "'\"":
-            out += [code[pos:m.end()], repr(arg)]
-            pos = j
-    return "".join(out) + code[pos:]
-
-
-def _open_quote(line: str, quote: str | None) -> str | None:
-    """The triple quote still open at the end of ``line`` of Python code, given the one open at its start (L-Py's
-    parser skips strings while it looks for ``Axiom:`` and the other sections: ``lcode = '''Axiom: A ...'''`` is
-    Python)."""
-    j, n = 0, len(line)
-    while j < n:
-        if quote is not None:
-            end = line.find(quote, j)
-            if end < 0:
-                return quote
-            j, quote = end + 3, None
-            continue
-        c = line[j]
-        if c == "#":
-            return None
-        if line.startswith(('"""', "'''"), j):
-            quote, j = line[j:j + 3], j + 3
-        elif c in "\"'":                                    # a one-line string: to its closing quote
-            j += 1
-            while j < n and line[j] != c:
-                j += 2 if line[j] == "\\" else 1
-            j += 1
-        else:
-            j += 1
-    return quote
-
-
-def _join_produce(lines: list[str]) -> list[str]:
-    """``lines`` with each ``produce (`` / ``nproduce (`` whose parenthesised L-string runs over several lines
-    made one line, comments dropped, the lines it took left blank so the others keep their numbers (L-Py's
-    multi-line produce)."""
-    out = list(lines)
-    k = 0
-    while k < len(out):
-        code = _strip_comment(out[k])
-        m = next((m for m in _PRODUCE.finditer(code) if not _in_string(code, m.start())), None)
-        depth = _open_parens(code[m.end():]) if m and code[m.end():].strip().startswith("(") else 0
-        j = k
-        while depth > 0 and j + 1 < len(out):
-            j += 1
-            piece = _strip_comment(out[j]).strip()
-            code, out[j] = code + " " + piece, ""
-            depth = _open_parens(code[m.end():])
-        out[k] = code if j > k else out[k]
-        k = j + 1
-    return out
-
-
-def _open_parens(s: str) -> int:
-    """How many parentheses ``s`` leaves open (0 for an unterminated string: nothing to join)."""
-    try:
-        return max(0, sum((c == "(") - (c == ")") for _, c, _ in _depths(s, pairs=("(", ")"))))
-    except LSystemError:
-        return 0
-
-
-def _in_string(code: str, at: int) -> bool:
-    q = None
-    j = 0
-    while j < at:
-        c = code[j]
-        if q:
-            if c == "\\":
-                j += 1
-            elif c == q:
-                q = None
-        elif c in "\"'":
-            q = c
-        j += 1
-    return q is not None
 
 
 def _turtle_names() -> frozenset:

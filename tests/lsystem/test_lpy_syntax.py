@@ -107,7 +107,7 @@ endlsystem
 """
     ls = LSystem(g, trusted=True)
     assert str(ls.axiom) == "F(2)+(45)F(0.5)F(7)"
-    from plantvr.lsystem.namespace import ParameterSet
+    from plantvr.lsystem.context import ParameterSet
     p = ParameterSet(a=1)
     p.rename("a", "b")
     assert "b" in p and "a" not in p and p.parameter_names() == ["b"] and p.copy().b == 1
