@@ -55,8 +55,8 @@ MAX_SCALE = 1e6
 CUSTOM_COLOR = 1 << 32
 
 _NF = 20  # float state per stack frame: pos 3, H 3, L 3, U 3, width, tropism 3, elasticity, scale 3
-_NI = 10  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
-#           GC colour, polygon on, polygon colour
+_NI = 11  # int state per stack frame: current node, order, branch pending, colour, GC on, GC tail, GC count,
+#           GC colour, polygon on, polygon colour, colour index
 _NS = 18  # float columns of a shape record: position 3, H 3, L 3, U 3, size, bottom and top radius, scale 3
 
 
@@ -217,6 +217,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
     ordr = 0
     pending = 0
     col = 1
+    cidx = 1          # the colour index: PlantGL keeps it under a custom appearance (SetColor(r, g, b))
     depth = 0
     nn = 0
     i = 0
@@ -422,6 +423,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             ist = istack[depth]
             ist[0], ist[1], ist[2], ist[3] = cur, ordr, pending, col
             ist[4], ist[5], ist[6], ist[7], ist[8], ist[9] = gc_on, gc_tail, gc_cnt, gc_col, poly_on, poly_col
+            ist[10] = cidx
             depth += 1
             pending = 1
             if gc_on and gc_cnt > 1:                      # PlantGL keepLastPoint: the branch's tube starts here
@@ -438,6 +440,7 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
             ist = istack[depth]
             cur, ordr, pending, col = ist[0], ist[1], ist[2], ist[3]
             gc_on, gc_tail, gc_cnt, gc_col, poly_on, poly_col = ist[4], ist[5], ist[6], ist[7], ist[8], ist[9]
+            cidx = ist[10]
         elif o == INCW or o == DECW or o == SETW:
             v = w + winc if o == INCW else w - winc
             if na > 0:
@@ -449,9 +452,9 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 if ignored_at[IGNORED_WIDTH] < 0:
                     ignored_at[IGNORED_WIDTH] = i
         elif o == INCC or o == DECC or o == SETC:
-            v = col + 1 if o == INCC else col - 1
+            v = cidx + 1 if o == INCC else cidx - 1       # PlantGL: from the index, dropping a custom colour
             if o == SETC and na == 0:                     # L-Py: setColor(getColor())
-                v = col
+                v = cidx
             elif na >= 3:
                 v = CUSTOM_COLOR
                 for c in range(3):
@@ -460,6 +463,8 @@ def turtle_kernel(op, ptr, args, angle, step, width0, winc, trop0, elast0, max_d
                 v = int(args[a0])
             if v >= 0:
                 col = v
+                if v < CUSTOM_COLOR:
+                    cidx = v
             else:
                 ignored[IGNORED_COLOR] += 1
                 if ignored_at[IGNORED_COLOR] < 0:
@@ -689,7 +694,7 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
     """
     st = {"p": np.zeros(3), "H": np.array([0.0, 0, 1]), "L": np.array([0.0, -1, 0]), "U": np.array([1.0, 0, 0]),
           "w": float(width0), "T": np.asarray(trop0, float), "e": float(elast0), "cur": -1, "order": 0,
-          "pending": False, "color": 1, "gc": None, "gc_color": 1, "poly": False, "poly_color": 1}
+          "pending": False, "color": 1, "cidx": 1, "gc": None, "gc_color": 1, "poly": False, "poly_color": 1}
     stack = []
     poly: list = []
     shapes: list = []                               # (kind, colour, module, frame + size, points)
@@ -827,14 +832,15 @@ def turtle_python(op, ptr, args, angle, step, width0, winc, trop0, elast0):
             else:
                 ignored[IGNORED_WIDTH] += 1
         elif o in (INCC, DECC, SETC):
-            v = int(vals[0]) if vals else (st["color"] + 1 if o == INCC else st["color"] - 1)
+            v = int(vals[0]) if vals else (st["cidx"] + 1 if o == INCC else st["cidx"] - 1)
             if o == SETC and not vals:
-                v = st["color"]
+                v = st["cidx"]
             elif len(vals) >= 3:
                 r, g, b = (min(max(round(c), 0), 255) for c in vals[:3])
                 v = CUSTOM_COLOR + (r << 16) + (g << 8) + b
             if v >= 0:
                 st["color"] = v
+                st["cidx"] = v if v < CUSTOM_COLOR else st["cidx"]
             else:
                 ignored[IGNORED_COLOR] += 1
         elif o == CUT:

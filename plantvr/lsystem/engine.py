@@ -343,13 +343,21 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         s = self._drawable(self.interpret(string), unsupported)
         return self._turtle_call(turtle_nodes if shapes else turtle, s, {**self._turtle, **turtle_options})
 
-    def _drawable(self, s: ModuleString, unsupported: str) -> ModuleString:
-        """The interpreted string ``s`` as the turtle reads it (:meth:`_first_params`), after the check of the
-        modules it does not draw (see :meth:`draw`)."""
+    def _drawable(self, s: ModuleString, unsupported: str, origin: list | None = None) -> ModuleString:
+        """The interpreted string ``s`` as the turtle reads it (``@g`` read by :mod:`~plantvr.lsystem.pglshapes`,
+        ``first_params``), after the check of the modules it does not draw (see :meth:`draw`); ``origin``
+        gets the index in ``s`` of each module of the result."""
         import warnings
 
-        from .turtle import LPY_UNSUPPORTED
-        s = self._first_params(s)
+        from .pglshapes import expand_pgl_shapes
+        from .turtle import LPY_UNSUPPORTED, first_params
+        try:
+            s, came = expand_pgl_shapes(s, unsupported)
+        except LSystemError as e:
+            raise LSystemError(e.detail, *self._g.first_use.get("@g", self._g.first_use.get("PglShape", (0, 0))))
+        if origin is not None:
+            origin.extend(range(len(s)) if came is None else came)
+        s = first_params(s)
         used = np.flatnonzero(np.bincount(s.ids, minlength=len(s.names))) if len(s) else np.zeros(0, np.int64)
         bad = [s.names[k] for k in used.tolist() if s.names[k] in LPY_UNSUPPORTED]
         for name in bad[:1] if unsupported == "error" else ():
@@ -372,24 +380,6 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
             if not line:
                 raise
             raise LSystemError(str(e), line, col) from None
-
-    @staticmethod
-    def _first_params(s: ModuleString) -> ModuleString:
-        """``s`` with each turtle module's extra parameters left out: L-Py's turtle reads the first ones
-        (``-(a, t)`` turns by ``a``, ``F(1, 2, 3)`` is ``F(1, 2)``)."""
-        from .turtle import TURTLE_MODULES
-        most = np.array([max(TURTLE_MODULES[nm]) if nm in TURTLE_MODULES else np.iinfo(np.int64).max
-                         for nm in s.names], np.int64)
-        cnt = np.diff(s.arg_ptr)
-        limit = most[s.ids] if len(s) else cnt
-        if not len(s) or not np.any(cnt > limit):
-            return s
-        keep = np.minimum(cnt, limit)
-        owner = np.repeat(np.arange(len(s)), cnt)
-        offs = np.arange(len(s.args)) - np.repeat(s.arg_ptr[:-1], cnt)
-        ptr = np.zeros(len(s) + 1, np.int64)
-        np.cumsum(keep, out=ptr[1:])
-        return ModuleString(s.names, s.ids, ptr, s.args[offs < keep[owner]])
 
     def __repr__(self) -> str:
         return (f"LSystem({len(self._g.rules)} rules, derivation length {self.derivation_length}, "

@@ -118,6 +118,8 @@ def find_top(text: str, targets: Iterable[str], start: int = 0, *, modules: bool
 
 def split_top(text: str, sep: str = ",") -> list[str]:
     """Split ``text`` at ``sep`` characters at nesting depth 0 outside strings."""
+    if sep not in text:
+        return [text]
     parts, beg = [], 0
     for i in _top_level(text):
         if text[i] == sep:

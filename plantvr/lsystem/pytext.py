@@ -15,6 +15,8 @@ PRODUCE = re.compile(r"\b(nproduce|produce)\b")
 
 def strip_comment(s: str) -> str:
     """``s`` up to its first ``#`` outside strings."""
+    if "#" not in s:
+        return s
     j = 0
     while j < len(s):
         c = s[j]
@@ -66,6 +68,8 @@ def open_quote(line: str, quote: str | None) -> str | None:
     """The triple quote still open at the end of ``line`` of Python code, given the one open at its start (L-Py's
     parser skips strings while it looks for ``Axiom:`` and the other sections: ``lcode = '''Axiom: A ...'''`` is
     Python)."""
+    if quote is None and "'" not in line and '"' not in line:
+        return None
     j, n = 0, len(line)
     while j < n:
         if quote is not None:
@@ -96,6 +100,9 @@ def join_produce(lines: list[str]) -> list[str]:
     out = list(lines)
     k = 0
     while k < len(out):
+        if "produce" not in out[k]:
+            k += 1
+            continue
         code = strip_comment(out[k])
         m = next((m for m in PRODUCE.finditer(code) if not in_string(code, m.start())), None)
         depth = _open_parens(code[m.end():]) if m and code[m.end():].strip().startswith("(") else 0

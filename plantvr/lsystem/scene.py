@@ -243,6 +243,9 @@ def lsystem_scene(lsys, s: ModuleString) -> Scene:
     if nhead or ntail:
         ids = np.concatenate([np.full(nhead, -1), np.arange(len(s) - nhead - ntail) if ids is None else ids,
                               np.full(ntail, -1)]).astype(np.int64)
-    drawable = lsys._drawable(s, "warn")
+    came: list = []
+    drawable = lsys._drawable(s, "warn", came)
+    if len(came) != len(s) or came != list(range(len(s))):   # an @g read into several modules: its id on each
+        ids = (np.arange(len(s)) if ids is None else ids)[np.asarray(came, np.int64)]
     return lsys._turtle_call(lambda d, **o: turtle_scene(d, ids, materials=lsys.materials, **o), drawable,
                              dict(lsys._turtle))

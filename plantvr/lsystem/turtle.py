@@ -67,7 +67,7 @@ from .modules import ModuleString
 from .sections import apply_sections
 
 __all__ = ["LPY_UNSUPPORTED", "QUERY_MODULES", "TURTLE_MODULES", "TurtleLabel", "TurtleNodes", "TurtleShapes",
-           "bush_string",
+           "bush_string", "first_params",
            "query_frames", "turtle", "turtle_nodes"]
 
 #: L-Py's defaults (PlantGL ``Turtle``): angle increment, step, width, width increment.
@@ -119,15 +119,34 @@ _TABLE: dict[str, tuple[int, tuple[int, ...]]] = {
 #: Every module the turtle interprets -> its accepted parameter counts.
 TURTLE_MODULES: dict[str, tuple[int, ...]] = {name: counts for name, (_, counts) in _TABLE.items()}
 
-#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, custom PlantGL geometry, colour
-#: interpolation, reflections, screen projection); the engine refuses them with their line. Spheres, discs,
+
+def first_params(s: ModuleString) -> ModuleString:
+    """``s`` with each turtle module's extra parameters left out: L-Py's turtle reads the first ones
+    (``-(a, t)`` turns by ``a``, ``F(1, 2, 3)`` is ``F(1, 2)``); object parameters kept stay."""
+    most = np.array([max(TURTLE_MODULES[nm]) if nm in TURTLE_MODULES else np.iinfo(np.int64).max
+                     for nm in s.names], np.int64)
+    cnt = np.diff(s.arg_ptr)
+    limit = most[s.ids] if len(s) else cnt
+    if not len(s) or not np.any(cnt > limit):
+        return s
+    keep = np.minimum(cnt, limit)
+    owner = np.repeat(np.arange(len(s)), cnt)
+    kept = (np.arange(len(s.args)) - np.repeat(s.arg_ptr[:-1], cnt)) < keep[owner]
+    ptr = np.zeros(len(s) + 1, np.int64)
+    np.cumsum(keep, out=ptr[1:])
+    at = np.cumsum(kept) - 1
+    return ModuleString(s.names, s.ids, ptr, s.args[kept], {int(at[k]): v for k, v in s.objects.items() if kept[k]})
+
+#: L-Py / PlantGL turtle modules that exist there but are not drawn here (arrows, colour interpolation,
+#: reflections, screen projection); the engine refuses them with their line (``@g``'s PlantGL objects are read
+#: into surfaces and colours first, :mod:`plantvr.lsystem.pglshapes`). Spheres, discs,
 #: ``~name`` surfaces, polygons and generalized cylinders (with their ``SetContour`` sections, and ``Sweep``:
 #: :mod:`plantvr.lsystem.sections`) are drawn (:mod:`plantvr.lsystem.shapes`). Texture coordinates
 #: (``TextureScale``, ``TextureRotation``, ...) change nothing here, where a texture is drawn in its image's mean
 #: colour, and ``SectionResolution`` only PlantGL's facet count (PlantVR meshes at ``shape_meshes(slices=)``):
 #: both are read and left out.
 LPY_UNSUPPORTED: frozenset[str] = frozenset({
-    "@g", "PglShape", "Arrow", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
+    "Arrow", "TextureBaseColor", "InterpolateColors", "InterpolateTextureBaseColors",
     "LeftReflection", "UpReflection", "HeadingReflection", "@2D", "StartScreenProjection", "@3D",
     "EndScreenProjection",
 })

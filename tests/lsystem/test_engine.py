@@ -188,22 +188,24 @@ def test_bad_grammar_line_and_column(text, line, match):
 
 
 def test_unsupported_module_named_at_tree():
-    ls = LSystem("Axiom: F@g(1)\nproduction:\nendlsystem\n")
-    with pytest.raises(LSystemError, match=r"line 1, column 9: unsupported module @g"):
+    ls = LSystem("Axiom: F@2D\nproduction:\nendlsystem\n")
+    with pytest.raises(LSystemError, match=r"line 1, column 9: unsupported module @2D"):
         ls.tree()
+    with pytest.raises(LSystemError, match=r"line 1, column 9: @g: PlantVR draws a PlantGL geometry, .* got float"):
+        LSystem("Axiom: F@g(1)\nproduction:\nendlsystem\n").tree()
 
 
 def test_unsupported_modules_can_be_left_out_of_the_picture():
     """A grammar in the style of L-Py's training models (stochastic block rules, a homomorphism with
-    ``f``/``;``/``@O`` flowers, here PlantGL shapes ``@g``, which the turtle does not draw; its spheres are drawn,
-    see test_shapes.py): they are left out with a warning and never change the skeleton."""
-    text = (HERE / "continuous_growth.lpy").read_text().replace("@O(FLOWER", "@g(FLOWER")
+    ``f``/``;``/``@O`` flowers, here colour interpolations, which the turtle does not draw; its spheres are
+    drawn, see test_shapes.py): they are left out with a warning and never change the skeleton."""
+    text = (HERE / "continuous_growth.lpy").read_text().replace("@O(FLOWER", "InterpolateColors(1, 2, FLOWER")
     ls = LSystem(text, seed=2, trusted=True)
-    with pytest.raises(LSystemError, match="unsupported module @g"):
+    with pytest.raises(LSystemError, match="unsupported module InterpolateColors"):
         ls.tree()
-    with pytest.warns(UserWarning, match=r"not drawn .*@g \(line \d+\)"):
+    with pytest.warns(UserWarning, match=r"not drawn .*InterpolateColors \(line \d+\)"):
         tree = ls.tree(unsupported="warn")
-    bare = LSystem(text.replace(";(4)@g(FLOWER * WIDTH * k)", ""), seed=2, trusted=True)
+    bare = LSystem(text.replace(";(4)InterpolateColors(1, 2, FLOWER * WIDTH * k)", ""), seed=2, trusted=True)
     ref = bare.tree()
     assert np.array_equal(tree.pos, ref.pos) and np.array_equal(tree.parent, ref.parent)
     assert tree.n_internodes == ls.derive().count("I") > 10

@@ -228,8 +228,8 @@ def test_new_contexts_in_homomorphism_refused():
 
 
 def test_object_parameters_of_non_turtle_modules_do_not_change_the_skeleton():
-    with pytest.warns(UserWarning, match="@g"):
-        a = LSystem('Axiom: F(1) B("x", None) [+F(2) @L("t") @g] F(1)\n').tree(unsupported="warn")
+    with pytest.warns(UserWarning, match="@g at module 6: .* got str"):
+        a = LSystem('Axiom: F(1) B("x", None) [+F(2) @L("t") @g("x") @g] F(1)\n').tree(unsupported="warn")
     b = LSystem("Axiom: F(1) B [+F(2)] F(1)\n").tree()
     assert np.array_equal(a.pos, b.pos) and np.array_equal(a.parent, b.parent)
 

@@ -74,7 +74,7 @@ def test_query_frames_and_drawing_ignores_request_modules():
 @pytest.mark.parametrize("text, line, match", [
     ("Axiom: F ?P\nproduction:\n?P(p) --> F\nhomomorphism:\n?P(p) --> F\n", 5, "interpretation rule's pattern"),
     ("Axiom: F A ?P\nproduction:\n?P(p) --> F\nhomomorphism:\nA --> F ?P\n", 5, "produce request modules"),
-    ("Axiom: F ?P @g(1)\nproduction:\n?P(p) --> F\n", 1, "unsupported module @g"),
+    ("Axiom: F ?P @2D\nproduction:\n?P(p) --> F\n", 1, "unsupported module @2D"),
     ("Axiom: F\nproduction:\n?I(it) < F --> F\n", 3, "iterator request"),
 ])
 def test_refused_with_line(text, line, match):
