@@ -125,9 +125,6 @@ def lstring_to_py(tokens: list[Token]) -> str:
     """Python expression building the module list ``[(name, (args...)), ...]`` of an L-string."""
     items = []
     for t in tokens:
-        if t.name == GETMODULE and len(t.args) != 1:
-            raise LSystemError(f"$ in a successor inserts a bound module, $a ('${t.args[0]}(...)' is a pattern)",
-                               t.line, t.col)
         if t.name == "*" and len(tokens) == 1 and t.args is None:
             return "[]"                                       # ``produce *``: the empty string
         args = "".join(f"{a}," if a.startswith("*") and not a.startswith("**") else    # A(*p): unpacked
@@ -155,7 +152,12 @@ class _Reader:
 
     def lex_pattern(self, s: str, line: int, col: int) -> list[Token]:
         """Lex a rule header's part, L-Py's pattern modules (``any``, ``all``, ``or``) known as whole names."""
-        return self.lex(s, line, col, frozenset(self.known) | PATTERN_NAMES)
+        toks = self.lex(s, line, col, frozenset(self.known) | PATTERN_NAMES)
+        for k in range(len(toks) - 2, -1, -1):                # ``$A(a)``: L-Py's GetModule pattern, one token
+            t, nxt = toks[k], toks[k + 1]
+            if t.name == "$" and t.args is None and nxt.args is not None and s[nxt.col - col:][:1].isalpha():
+                toks[k:k + 2] = [Token(GETMODULE, (nxt.name, *nxt.args), t.line, t.col)]
+        return toks
 
     def translate_produce(self, src: str, line: int, *, in_rule: bool, col0: int = 0) -> str:
         """Replace ``produce X`` / ``nproduce X`` statements in one line of Python (``src``, which starts at column

@@ -35,9 +35,10 @@ LPY_PREDEFINED = frozenset({
 })
 
 _SINGLE_TURTLE = frozenset("Ff+-&^/\\|$%[]_!;,~.{}")
-#: L-Py's ``$`` (``GetModule``) read with what follows: ``$A(a)`` in a pattern, a token with args ``("A", "a")``
-#: binding the matched module as an object; ``$a`` in a successor, args ``("a",)``: the module object ``a``
-#: inserted (``lpy_parser.cpp``, ``parseAModule``); a bare ``$`` stays the turtle's roll to vertical.
+#: L-Py's ``$`` (``GetModule``) followed by a name: ``$a`` in a successor, a token with args ``("a",)``, puts the
+#: module object ``a`` in the string (``lpy_parser.cpp``, ``parseAModule``); a pattern's ``$A(a)`` (lexed ``$``,
+#: ``A(a)``) is joined into a token with args ``("A", "a")`` by the rule reader. Otherwise ``$`` is the turtle's
+#: roll to vertical (ABOP's ``$C(l, w)``, which L-Py cannot read, stays a roll and a module).
 GETMODULE = "GetModule"
 _IDENT = re.compile(r"[A-Za-z_]\w*")
 
@@ -208,12 +209,12 @@ def lex(text: str, known: Iterable[str] = (), *, line: int = 1, col: int = 1,
         while c == "$" and k < n and text[k] in " \t":
             k += 1
         ident = _IDENT.match(text, k) if c == "$" else None
-        if ident:                              # L-Py's GetModule: ``$A(a)`` in a pattern, ``$a`` in a successor
-            tok, j = _module_at(text, k, by_first, line, col)
-            args = (tok.name, *tok.args) if tok.args is not None else (ident.group(),)
-            if tok.args is None:
-                j = ident.end()
-            out.append(Token(GETMODULE, args, line, col + i))
+        after = ident.end() if ident else 0
+        while ident and after < n and text[after] in " \t":
+            after += 1
+        if ident and not (after < n and text[after] == "("):  # L-Py's GetModule ``$a`` (``$A(...)``: '$', A(...))
+            out.append(Token(GETMODULE, (ident.group(),), line, col + i))
+            j = ident.end()
         else:
             tok, j = _module_at(text, i, by_first, line, col)
             out.append(tok)

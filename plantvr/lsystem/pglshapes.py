@@ -3,7 +3,7 @@ turtle draws.
 
 L-Py's ``pglshape`` module (``predefinedmodules.cpp``) takes
 
-* a geometry (``@g(geometry, scale=1)``): ``Scaled(turtle scale * scale, geometry)`` placed in the turtle's frame
+* a geometry (``@g(geometry, scale=1)``; a curve, a line there, draws nothing here): ``Scaled(turtle scale * scale, geometry)`` placed in the turtle's frame
   (``PglTurtleDrawer::customGeometry``), in the current colour: here a named surface ``surface(key, scale)`` of
   the geometry's mesh (:func:`geometry_mesh`), which the turtle places the same way;
 * a material (``@g(Material(...))``): the turtle's custom appearance from then on: ``SetColor(r, g, b)``;
@@ -25,7 +25,7 @@ import numpy as np
 from . import pglscene as G
 from .lexer import LSystemError
 from .modules import ModuleString
-from .plantgl import Material
+from .plantgl import Material, _Curve
 
 __all__ = ["expand_pgl_shapes", "geometry_mesh"]
 
@@ -126,9 +126,9 @@ def geometry_mesh(geom, depth: int = 0) -> tuple[np.ndarray, np.ndarray]:
         if f.size and (f.min() < 0 or f.max() >= len(v)):
             raise ValueError(f"{type(geom).__name__} indexList refers to points outside its {len(v)} points")
         return v, f
-    if isinstance(geom, G.Polyline):
+    if isinstance(geom, (G.Polyline, _Curve)):
         return empty                                          # a curve: nothing to mesh (PlantGL draws a line)
-    raise ValueError(f"@g: PlantVR does not mesh {type(geom).__name__} (it draws PlantGL's primitives, meshes and "
+    raise ValueError(f"PlantVR does not mesh {type(geom).__name__} (it draws PlantGL's primitives, meshes and "
                      "their transforms)")
 
 
@@ -203,7 +203,7 @@ def _drawn(vals: tuple) -> list:
 
 
 def _checked(geom) -> tuple[np.ndarray, np.ndarray]:
-    if not isinstance(geom, G._Geometry):
+    if not isinstance(geom, (G._Geometry, _Curve)):
         _not_drawable(geom)
     v, f = geometry_mesh(geom)
     if len(f) > MAX_FACES:

@@ -11,6 +11,7 @@ __all__ = ["PRODUCE", "in_string", "join_produce", "open_quote", "quote_context_
 
 #: ``produce`` / ``nproduce`` statements in rule bodies and grammar functions.
 PRODUCE = re.compile(r"\b(nproduce|produce)\b")
+_CONTINUED = re.compile(r"\b(?:nproduce|produce)\b|-static->|-->|->")
 
 
 def strip_comment(s: str) -> str:
@@ -94,18 +95,19 @@ def open_quote(line: str, quote: str | None) -> str | None:
 
 
 def join_produce(lines: list[str]) -> list[str]:
-    """``lines`` with each ``produce (`` / ``nproduce (`` whose parenthesised L-string runs over several lines
-    made one line, comments dropped, the lines it took left blank so the others keep their numbers (L-Py's
-    multi-line produce)."""
+    """``lines`` with each L-string that leaves a parenthesis open at the end of its line (after ``produce`` /
+    ``nproduce``, or a rule's ``-->``) made one line with the lines that close it, comments dropped, the lines it
+    took left blank so the others keep their numbers (L-Py's multi-line produce and successors)."""
     out = list(lines)
     k = 0
     while k < len(out):
-        if "produce" not in out[k]:
+        line = out[k]
+        if "produce" not in line and "->" not in line:
             k += 1
             continue
-        code = strip_comment(out[k])
-        m = next((m for m in PRODUCE.finditer(code) if not in_string(code, m.start())), None)
-        depth = _open_parens(code[m.end():]) if m and code[m.end():].strip().startswith("(") else 0
+        code = strip_comment(line)
+        m = next((m for m in _CONTINUED.finditer(code) if not in_string(code, m.start())), None)
+        depth = _open_parens(code[m.end():]) if m else 0
         j = k
         while depth > 0 and j + 1 < len(out):
             j += 1

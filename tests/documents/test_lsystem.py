@@ -287,10 +287,10 @@ def test_trusted_documents_from_the_constructor_and_files(tmp_path):
 def test_from_file_takes_unsupported_and_names_a_file_that_is_not_utf8(tmp_path):
     """Issue 33: ``LSystemDocument.from_file(..., unsupported=)`` as ``LSystem``'s; bad bytes name the file."""
     p = tmp_path / "flower.lpy"
-    p.write_text("Axiom: F(1)@g(0.5)F(1)\n")
-    with pytest.raises(LSystemError, match="line 1, column 12: unsupported module @g"):
+    p.write_text("Axiom: F(1)Arrow(0.5)F(1)\n")
+    with pytest.raises(LSystemError, match="line 1, column 12: unsupported module Arrow"):
         LSystemDocument.from_file(p)
-    with pytest.warns(UserWarning, match=r"not drawn .*@g \(line 1\)"):
+    with pytest.warns(UserWarning, match=r"not drawn .*Arrow \(line 1\)"):
         doc = LSystemDocument.from_file(p, unsupported="warn")
     assert doc.tree.n_internodes == LSystem("Axiom: F(1)F(1)\n").tree().n_internodes
     with pytest.raises(ValueError, match="unsupported must be one of"):
