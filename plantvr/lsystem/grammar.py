@@ -139,6 +139,7 @@ class _Reader:
         self.text = text
         self.deadline = deadline
         self.known: set[str] = set(_turtle_names())
+        self.aliases: dict[str, str] = {}                    # ``module A = F``: alias -> module name
         self.g = Grammar(python="")
         self.group: tuple | None = None                      # the ``group N:`` the rules being read are in
         self.filter: tuple | None = None                     # the ``ignore:`` / ``consider:`` in force
@@ -146,6 +147,8 @@ class _Reader:
     # -- helpers -----------------------------------------------------------------------------------------------
     def lex(self, s: str, line: int, col: int, known=None) -> list[Token]:
         toks = lex(s, self.known if known is None else known, line=line, col=col, deadline=self.deadline)
+        if self.aliases:                                      # L-Py's ModuleClassTable alias: the same class
+            toks = [Token(self.aliases.get(t.name, t.name), t.args, t.line, t.col) for t in toks]
         for t in toks:
             self.g.first_use.setdefault(t.name, (t.line, t.col))
         return toks
@@ -300,8 +303,15 @@ class _Reader:
             if not part:
                 continue
             name = part.split("(", 1)[0].strip()
-            if "=" in name or not name:
-                raise LSystemError(f"module alias {part!r} is not supported", ln, s.find(part) + 1)
+            if "=" in name:                                   # ``module A = F``: A is another name of F
+                alias, _, target = (x.strip() for x in name.partition("="))
+                if not alias or not target or "=" in target or alias == target:
+                    raise LSystemError(f"module alias {part!r} must be 'module A = B'", ln, s.find(part) + 1)
+                self.aliases[alias] = self.aliases.get(target, target)
+                self.known.update((alias, target))
+                continue
+            if not name:
+                raise LSystemError(f"module declaration {part!r} has no name", ln, s.find(part) + 1)
             self.known.add(name)
             self.g.declared.setdefault(name, ln)
             if "(" in part:                                   # ``module A(age, size)``: NodeModule's a.age

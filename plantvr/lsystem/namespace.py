@@ -105,6 +105,7 @@ class _Namespace:
             nproduce=self._nbuf_add, nsproduce=self._nsproduce, useGroup=self._use_group,
             getGroup=lambda: self._next_group,              # LsysContext::getGroup: the last useGroup's
             frameDisplay=lambda *a: None, Lstring=self._lstring,
+            setSelectionAlwaysRequired=lambda *a: None,     # the editor's selection check: no editor here
             isAnimationEnabled=lambda: False,               # L-Py's editor animation: never here
             ParameterSet=ParameterSet,                       # from openalea.lpy, as every L-Py namespace has it
             ModuleClass=_ModuleClasses(self._g),

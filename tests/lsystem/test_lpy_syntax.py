@@ -448,3 +448,14 @@ def test_l_strings_continue_over_lines_in_open_parentheses():
     g = "Axiom: S(1)\nderivation length: 1\nproduction:\nS(p) --> F(p,\n   2) A(3,\n  4)\nA --> B\nendlsystem\n"
     ls = LSystem(g)
     assert str(ls.derive()) == "F(1,2)A(3,4)" and ls._g.rules[1].line == 7        # line numbers kept
+
+
+def test_module_alias_is_the_same_module():
+    """L-Py's test/extension/alias.lpy: ``module A = F`` makes A another name of F (``ModuleClassTable``'s alias):
+    A(1) grows to F(6) in five steps and is drawn as an F of length 6."""
+    g = "module A = F\nAxiom: A(1)\nderivation length: 5\nproduction:\nA(x) --> A(x+1)\nendlsystem\n"
+    ls = LSystem(g)
+    s = ls.derive()
+    assert str(s) == "F(6)" and np.allclose(ls.draw(s).pos, [(0, 0, 0), (0, 0, 6)])
+    with pytest.raises(LSystemError, match=r"line 1, column 8: module alias 'A =' must be 'module A = B'"):
+        LSystem("module A =\nAxiom: A\n")
