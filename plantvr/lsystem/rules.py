@@ -266,7 +266,7 @@ class _Rules:
             v = (v,)
         out: list = []
         turtle = name in _turtle_modules()
-        for x in v:
+        for k, x in enumerate(v):
             if is_number(x) or (turtle and isinstance(x, (bool, np.bool_))):
                 try:
                     out.append(float(x))
@@ -275,6 +275,10 @@ class _Rules:
                                        1) from None
             elif turtle and isinstance(x, (tuple, list, np.ndarray)):
                 out.extend(self._params(name, np.asarray(x, dtype=object).ravel().tolist(), line))
+            elif isinstance(x, Kwds):                        # A(1, **p): the rest by name, last
+                if k != len(v) - 1:
+                    raise LSystemError(f"module {name}: **keywords must come last", line, 1)
+                return self._params(name, self._by_name(name, out, x, line), line)
             else:
                 out.append(x)
         return tuple(out)
@@ -316,8 +320,9 @@ class _Rules:
             res = list(self._nbuf)
         elif self._nbuf:
             res = list(self._nbuf) + list(res)
-        line = c.rule.line
-        return [self._produced(name, v, line) for name, v in res]
+        line, sid, params = c.rule.line, self._sid, self._params
+        return [(sid(name), params(name, v, line) if v != () else ()) if name not in _MADE else
+                self._produced(name, v, line) for name, v in res]
 
     def _produced(self, name: str, v, line: int) -> tuple[int, tuple]:
         """``(id, parameters)`` of a produced module ``name(*v)``; L-Py's ``new(name, *args)`` (``newmodule``) is
@@ -335,8 +340,6 @@ class _Rules:
                     raise LSystemError(f"{name}(name, *args) needs a module name (a str) first, got "
                                        f"{SB._short(v[0]) if v else 'nothing'}", line, 1)
                 name, v = v[0], v[1:]
-        if v and isinstance(v, (tuple, list)) and isinstance(v[-1], Kwds):
-            v = self._by_name(name, list(v[:-1]), v[-1], line)
         return self._sid(name), self._params(name, v, line) if v != () else ()
 
     def _by_name(self, name: str, args: list, kw: Kwds, line: int) -> list:
