@@ -41,11 +41,12 @@ predecessor.
 Brackets in a predecessor are matched as modules, balanced or not (``[] -->``, ``[S(p) --> [ _(1) S(p)``: L-Py
 checks none and finds the rule at its first module, ``RulePtrMap``).
 
-Not supported (LSystemError naming the construct with its line and column): a ``]`` in a left context (a ``[`` there is the module just before, as L-Py's
-``TreeLeftMatcher``: ``F [ < A``), value constraints inside repetitions and alternatives, the unnamed parameter
-``-``, ``x(...)`` repetitions and ``or(...)`` alternatives in predecessors, ``None`` outside ``or(...)`` (in a
-successor ``or`` and ``None`` are plain modules, as L-Py has them), ``=]`` outside right contexts, iterator requests (``?I``) in patterns,
-new contexts (``<<`` / ``>>``) in decomposition and homomorphism rules.
+Not supported (LSystemError naming the construct with its line and column): a ``]`` in a left context (a ``[``
+there is the module just before, as L-Py's ``TreeLeftMatcher``: ``F [ < A``), value constraints inside
+repetitions and alternatives, the unnamed parameter ``-``, ``x(...)`` repetitions and ``or(...)`` alternatives
+in predecessors, ``None`` outside ``or(...)`` (in a successor ``or`` and ``None`` are plain modules, as L-Py
+has them), ``=]`` outside right contexts, iterator requests (``?I``) in patterns, new contexts (``<<`` /
+``>>``) in decomposition and homomorphism rules.
 """
 from __future__ import annotations
 

@@ -164,8 +164,8 @@ class ModuleString:
 class LstringView:
     """A grammar hook's lstring (L-Py's ``AxialTree`` API over a :class:`ModuleString`): ``len``, ``str``,
     ``==`` (by text), ``lstring[i]`` a module (``.name``, ``m[k]`` its k-th parameter, ``m[k] = v`` sets it),
-    ``lstring.count(name)``, ``lstring + 'B'`` / ``+=`` (an L-string text or another lstring appended). The string underneath is not
-    changed: :meth:`string` is the one a hook's edits give (the engine adopts it)."""
+    ``lstring.count(name)``, ``lstring + 'B'`` / ``+=`` (an L-string text or another lstring appended). The
+    string underneath is not changed: :meth:`string` is the one a hook's edits give (the engine adopts it)."""
 
     def __init__(self, string: ModuleString, parse) -> None:
         self._base, self._parse = string, parse

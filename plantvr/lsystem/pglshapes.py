@@ -3,9 +3,10 @@ turtle draws.
 
 L-Py's ``pglshape`` module (``predefinedmodules.cpp``) takes
 
-* a geometry (``@g(geometry, scale=1)``; a curve, a line there, draws nothing here): ``Scaled(turtle scale * scale, geometry)`` placed in the turtle's frame
+* a geometry (``@g(geometry, scale=1)``): ``Scaled(turtle scale * scale, geometry)`` placed in the turtle's frame
   (``PglTurtleDrawer::customGeometry``), in the current colour: here a named surface ``surface(key, scale)`` of
-  the geometry's mesh (:func:`geometry_mesh`), which the turtle places the same way;
+  the geometry's mesh (:func:`geometry_mesh`), which the turtle places the same way (a curve, a line in PlantGL,
+  draws nothing here);
 * a material (``@g(Material(...))``): the turtle's custom appearance from then on: ``SetColor(r, g, b)``;
 * a ``Shape``: its geometry in its appearance, then the colour index again (``removeCustomAppearance``:
   ``SetColor()``); a ``Scene``: each shape so.
@@ -39,8 +40,8 @@ def _ring(r: float, z: float, n: int) -> np.ndarray:
 
 
 def _slices(v, what: str, lo: int = 3) -> int:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= 4096:
-        raise ValueError(f"{what} must be an integer in [{lo}, 4096], got {v!r:.40}")
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= 1024:
+        raise ValueError(f"{what} must be an integer in [{lo}, 1024], got {v!r:.40}")
     return int(v)
 
 
@@ -199,7 +200,10 @@ def _drawn(vals: tuple) -> list:
                 mods.append(("surface", (_surface_key(v, f), 1.0)))
         return mods + [("SetColor", ())]                     # removeCustomAppearance
     v, f = _checked(obj)
-    return [("surface", (_surface_key(v, f), float(vals[1]) if len(vals) > 1 else 1.0))] if len(f) else []
+    scale = float(vals[1]) if len(vals) > 1 else 1.0
+    if not math.isfinite(scale):
+        raise ValueError(f"the scale must be finite, got {scale}")
+    return [("surface", (_surface_key(v, f), scale))] if len(f) else []
 
 
 def _checked(geom) -> tuple[np.ndarray, np.ndarray]:

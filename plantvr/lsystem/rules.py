@@ -85,8 +85,8 @@ class _Rules:
         func = self._function(params, rule.body, rule.line, f"rule {rule.header!r}",
                               None if self.trusted else lambda tree: self._restrict_rule(rule, tree))
         first = rule.patterns["pred"].mods[0]
-        c = _Compiled(rule, func, self._sid(first.tok.name) if first.kind == MOD and not (first.star or first.node or first.kwds)
-                      else -1)
+        plain = first.kind == MOD and not (first.star or first.node or first.kwds)
+        c = _Compiled(rule, func, self._sid(first.tok.name) if plain else -1)
         if rule.static:                                       # made once, now (``LsysRule::initStaticProduction``)
             c.static = self._call(c, [])
             if all(type(v) is float for _, vals in c.static for v in vals) and c.plain and \
