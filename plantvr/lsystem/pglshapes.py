@@ -12,7 +12,7 @@ L-Py's ``pglshape`` module (``predefinedmodules.cpp``) takes
   ``SetColor()``); a ``Scene``: each shape so.
 
 Meshes follow PlantGL's primitives (``Sphere``, ``Cone``, ``Cylinder``, ``Frustum``, ``Disc``, ``Box``,
-``TriangleSet``/``FaceSet``) and transforms (``Translated``, ``Scaled``, ``Oriented``, ``AxisRotated``) in the
+``TriangleSet``/``FaceSet``, ``NurbsPatch`` on its stride grid) and transforms (``Translated``, ``Scaled``, ``Oriented``, ``AxisRotated``) in the
 geometry's own axes, which the turtle maps x to U, y to -L and z to H (``Oriented(U, -L)``).
 """
 from __future__ import annotations
@@ -26,7 +26,7 @@ import numpy as np
 from . import pglscene as G
 from .lexer import LSystemError
 from .modules import ModuleString
-from .plantgl import Material, _Curve
+from .plantgl import Material, NurbsPatch, _Curve
 
 __all__ = ["expand_pgl_shapes", "geometry_mesh"]
 
@@ -127,6 +127,14 @@ def geometry_mesh(geom, depth: int = 0) -> tuple[np.ndarray, np.ndarray]:
         if f.size and (f.min() < 0 or f.max() >= len(v)):
             raise ValueError(f"{type(geom).__name__} indexList refers to points outside its {len(v)} points")
         return v, f
+    if isinstance(geom, NurbsPatch):                          # its ustride x vstride grid, two triangles a cell
+        nu, nv = _slices(geom.ustride, "NurbsPatch ustride", 1), _slices(geom.vstride, "NurbsPatch vstride", 1)
+        v = geom.grid().reshape(-1, 3)
+        i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
+        a = (i * (nv + 1) + j).ravel()
+        b, c, d = a + nv + 1, a + nv + 2, a + 1
+        f = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
+        return v, (f if geom.ccw else f[:, ::-1])
     if isinstance(geom, (G.Polyline, _Curve)):
         return empty                                          # a curve: nothing to mesh (PlantGL draws a line)
     raise ValueError(f"PlantVR does not mesh {type(geom).__name__} (it draws PlantGL's primitives, meshes and "
@@ -207,7 +215,7 @@ def _drawn(vals: tuple) -> list:
 
 
 def _checked(geom) -> tuple[np.ndarray, np.ndarray]:
-    if not isinstance(geom, (G._Geometry, _Curve)):
+    if not isinstance(geom, (G._Geometry, _Curve, NurbsPatch)):
         _not_drawable(geom)
     v, f = geometry_mesh(geom)
     if len(f) > MAX_FACES:

@@ -41,7 +41,8 @@ from . import pglscene as _pglscene
 from .pglmath import Matrix3, Vector2, Vector3, Vector4, _Vector, angle, cross, direction, dot, norm
 from .pglscene import *  # noqa: F403  the turtle's scene nodes: Scene, Shape, Cylinder, Translated, ...
 
-__all__ = ["BezierCurve2D", "Color3", "Color4", "ImageTexture", "Material", "Matrix3", "Texture2D", "NurbsCurve", "NurbsCurve2D", "Point2Array",
+__all__ = ["BezierCurve2D", "Color3", "Color4", "ImageTexture", "Material", "Matrix3", "Texture2D", "NurbsCurve",
+           "NurbsCurve2D", "NurbsPatch", "Point2Array", "Point4Matrix",
            "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "RealArray", "Vector2", "Vector3",
            "Vector4", "angle", "cross", "direction", "dot", "norm"]
 __all__ += _pglscene.__all__
@@ -369,11 +370,100 @@ class QuantisedFunction:
         return inv
 
 
+class Point4Matrix(list):
+    """PlantGL ``Point4Matrix(rows)``: rows of ``(x, y, z, w)`` points (a patch's control net, rows along u)."""
+
+    def __init__(self, rows=()) -> None:
+        super().__init__([Vector4(*p) for p in row] for row in rows)
+
+
+class NurbsPatch:
+    """PlantGL ``NurbsPatch(ctrlPointMatrix, udegree=3, vdegree=3, uknotList=None, vknotList=None, ustride=30,
+    vstride=30, ccw=True)``: the tensor-product NURBS surface of a net of homogeneous points ``(x, y, z, w)``
+    (rows along u), clamped uniform knots by default; meshed on ``ustride`` x ``vstride`` cells where drawn."""
+
+    def __init__(self, ctrlPointMatrix, udegree: int = 3, vdegree: int = 3, uknotList=None, vknotList=None,
+                 ustride: int = 30, vstride: int = 30, ccw: bool = True, **kw) -> None:
+        net = np.asarray([[list(p) for p in row] for row in ctrlPointMatrix], float)
+        if net.ndim != 3 or net.shape[2] not in (3, 4) or min(net.shape[:2]) < 2 or not np.isfinite(net).all():
+            raise ValueError(f"ctrlPointMatrix must be a finite net of at least 2 x 2 points (x, y, z[, w]), got "
+                             f"shape {net.shape}")
+        if net.shape[2] == 3:
+            net = np.concatenate([net, np.ones(net.shape[:2] + (1,))], axis=2)
+        self._net = net
+        self.udegree = int(min(max(int(udegree), 1), net.shape[0] - 1))
+        self.vdegree = int(min(max(int(vdegree), 1), net.shape[1] - 1))
+        self.uknotList = np.asarray(uknotList, float) if uknotList is not None else \
+            _clamped_knots(net.shape[0], self.udegree)
+        self.vknotList = np.asarray(vknotList, float) if vknotList is not None else \
+            _clamped_knots(net.shape[1], self.vdegree)
+        for knots, n, d, what in ((self.uknotList, net.shape[0], self.udegree, "uknotList"),
+                                  (self.vknotList, net.shape[1], self.vdegree, "vknotList")):
+            if len(knots) != n + d + 1:
+                raise ValueError(f"{what} must hold {n + d + 1} knots, got {len(knots)}")
+        self.ustride, self.vstride, self.ccw = int(ustride), int(vstride), bool(ccw)
+        self.name = str(kw.get("name", ""))
+
+    @property
+    def ctrlPointMatrix(self) -> Point4Matrix:
+        return Point4Matrix(self._net)
+
+    def _range(self, knots, n: int, d: int) -> tuple[float, float]:
+        return float(knots[d]), float(knots[n])
+
+    def getPointAt(self, u: float, v: float | None = None) -> Vector3:
+        """The surface point at ``(u, v)`` (also as one pair ``getPointAt((u, v))``), clamped to the knots."""
+        if v is None:
+            u, v = u
+        w = self._net[..., 3:]
+        hom = np.concatenate([self._net[..., :3] * w, w], axis=2)
+        rows = np.array([_de_boor(row, self.vknotList, self.vdegree, v) for row in hom])
+        h = _de_boor(rows, self.uknotList, self.udegree, u)
+        return Vector3(*(h[:3] / h[3]))
+
+    def _diff(self, u: float, v: float, along: int) -> np.ndarray:
+        knots, n, d = ((self.uknotList, self._net.shape[0], self.udegree) if along == 0 else
+                       (self.vknotList, self._net.shape[1], self.vdegree))
+        lo, hi = self._range(knots, n, d)
+        h = 1e-6 * (hi - lo)
+        x = (u, v)[along]
+        a, b = max(x - h, lo), min(x + h, hi)
+        pa = self.getPointAt(*((a, v) if along == 0 else (u, a)))
+        pb = self.getPointAt(*((b, v) if along == 0 else (u, b)))
+        return (np.asarray(pb, float) - np.asarray(pa, float)) / (b - a)
+
+    def getUTangentAt(self, u: float, v: float | None = None) -> Vector3:
+        if v is None:
+            u, v = u
+        return Vector3(*self._diff(float(u), float(v), 0))
+
+    def getVTangentAt(self, u: float, v: float | None = None) -> Vector3:
+        if v is None:
+            u, v = u
+        return Vector3(*self._diff(float(u), float(v), 1))
+
+    def getNormalAt(self, u: float, v: float | None = None) -> Vector3:
+        """The unit normal ``dP/du x dP/dv`` (its opposite when not ``ccw``)."""
+        if v is None:
+            u, v = u
+        nrm = np.cross(self._diff(float(u), float(v), 0), self._diff(float(u), float(v), 1))
+        nrm = nrm / max(np.linalg.norm(nrm), 1e-300)
+        return Vector3(*(nrm if self.ccw else -nrm))
+
+    def grid(self) -> np.ndarray:
+        """``(ustride + 1, vstride + 1, 3)`` surface points on the knot ranges (what PlantGL's tessellation
+        meshes)."""
+        ul = self._range(self.uknotList, self._net.shape[0], self.udegree)
+        vl = self._range(self.vknotList, self._net.shape[1], self.vdegree)
+        return np.array([[list(self.getPointAt(u, v)) for v in np.linspace(*vl, self.vstride + 1)]
+                         for u in np.linspace(*ul, self.ustride + 1)])
+
+
 # -- what is not here ----------------------------------------------------------------------------------------
 #: PlantGL names grammars use that this namespace does not have: the other scene-graph nodes and transforms,
-#: patches, grids and the viewer (a grammar naming one is refused with this said).
+#: patches (``NurbsPatch`` is here), grids and the viewer (a grammar naming one is refused with this said).
 NOT_HERE = frozenset({
-    "Group", "EulerRotated", "Tapered", "Paraboloid", "Swung", "QuadSet", "NurbsPatch", "BezierPatch", "Point4Matrix", "Point3Matrix",
+    "Group", "EulerRotated", "Tapered", "Paraboloid", "Swung", "QuadSet", "BezierPatch", "Point3Matrix",
     "Discretizer", "Tesselator", "BoundingBox", "Point3Grid", "Point2Grid", "Grid3Indexing", "Viewer",
     "eStatic", "eAnimatedScene", "eAnimatedPrimitives", "pgl_support_extension", "Text", "Font", "Texture2DTransformation",
 })

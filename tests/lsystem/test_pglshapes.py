@@ -108,3 +108,38 @@ def test_what_is_not_drawn_is_refused_with_its_line_or_left_out():
         tree = LSystem(text, trusted=True).tree(unsupported="warn")
     assert np.allclose(tree.pos[-1], (0, 0, 2))
     assert _meshes("Axiom: F @g F") == {}                       # no parameter: nothing, as L-Py (a warning there)
+
+
+def test_nurbs_patch_matches_scipy_and_the_weights():
+    """A NurbsPatch with unit weights is scipy's tensor-product B-spline (``NdBSpline``) on the same knots; its
+    corners are the net's (clamped knots); equal weights change nothing; normals are unit and turn with ``ccw``."""
+    from scipy.interpolate import NdBSpline
+
+    from plantvr.lsystem.plantgl import NurbsPatch, Point4Matrix
+    rng = np.random.default_rng(3)
+    net = rng.normal(size=(5, 4, 3))
+    patch = NurbsPatch(Point4Matrix(np.concatenate([net, np.ones((5, 4, 1))], axis=2).tolist()), 3, 2)
+    ref = NdBSpline((patch.uknotList, patch.vknotList), net, (3, 2))
+    for u, v in [(0.0, 0.0), (0.3, 0.7), (0.99, 0.5), (1.0, 1.0)]:
+        assert np.allclose(list(patch.getPointAt(u, v)), ref([[u, v]])[0], atol=1e-12)
+    assert np.allclose(list(patch.getPointAt((1.0, 0.0))), net[-1, 0])
+    heavy = NurbsPatch(Point4Matrix(np.concatenate([net * 1, np.full((5, 4, 1), 2.0)], axis=2).tolist()), 3, 2)
+    assert np.allclose(list(heavy.getPointAt(0.4, 0.6)), list(patch.getPointAt(0.4, 0.6)))
+    n = np.asarray(list(patch.getNormalAt(0.5, 0.5)))
+    flipped = NurbsPatch(patch.ctrlPointMatrix, 3, 2, ccw=False)
+    assert np.isclose(np.linalg.norm(n), 1) and np.allclose(list(flipped.getNormalAt(0.5, 0.5)), -n)
+    v, f = geometry_mesh(NurbsPatch(patch.ctrlPointMatrix, 3, 2, ustride=6, vstride=4))
+    assert v.shape == (7 * 5, 3) and f.shape == (2 * 6 * 4, 3) and f.max() == len(v) - 1
+
+
+def test_l_py_test_patch():
+    """L-Py's test_patch.lpy: ``F ,(2) &(90) @g(patch)``: a 4 x 4 patch on its 30 x 30 grid (1800 triangles) in
+    colour 2, placed as its mesh registered as a surface is; a flat net stays a plane of its size."""
+    from plantvr.lsystem.plantgl import NurbsPatch, Point4Matrix
+    rows = [[(x, 0, z, 1) for x in (0.5, 1 / 6, -1 / 6, -0.5)] for z in (0, 1 / 3, 2 / 3, 1)]
+    v0, f0 = geometry_mesh(NurbsPatch(Point4Matrix(rows)))
+    assert np.allclose(v0[:, 1], 0) and np.allclose(v0.min(0), (-0.5, 0, 0)) and np.allclose(v0.max(0), (0.5, 0, 1))
+    register_surface("flat_patch_test", v0, f0)
+    a = _meshes(f"flat = NurbsPatch(Point4Matrix({rows!r}))\nAxiom: F ,(2) &(90) @g(flat)")
+    b = _meshes("Axiom: F ,(2) &(90) ~flat_patch_test")
+    assert list(a) == [2] and a[2].n_faces == 1800 and np.allclose(a[2].vertices, b[2].vertices, atol=1e-12)
