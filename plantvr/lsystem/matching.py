@@ -25,16 +25,19 @@ AS_STRING, AS_AXIAL_TREE, AS_MULTILEVEL, AS_MULTISCALE = range(4)
 
 
 class _Reversed:
-    """Read-only view of a list in reverse order (the new string built backward)."""
+    """Read-only view of a list in reverse order (the new string built backward); with ``indices``, a list of
+    indices into it (bracket partners), seen in reversed coordinates too."""
 
-    def __init__(self, seq: list) -> None:
-        self.seq = seq
+    def __init__(self, seq: list, indices: bool = False) -> None:
+        self.seq, self.indices = seq, indices
 
     def __len__(self) -> int:
         return len(self.seq)
 
     def __getitem__(self, k: int):
-        return self.seq[len(self.seq) - 1 - k]
+        n = len(self.seq)
+        v = self.seq[n - 1 - k]
+        return (n - 1 - v if v >= 0 else -1) if self.indices else v
 
 
 def _raw_vals(ptr, args, objs, i: int) -> tuple:
@@ -62,6 +65,7 @@ class _Matching:
     #: pattern module matches its own class and every class derived from it
     _bases: dict = {}
     _node_tree = None        # ((ids, filter), _Tree) of the NodeModules last bound
+    _dest_partner = None     # the bracket partners of the string being built (new contexts), as it grows
 
     def _set_option(self, name: str, index: int) -> None:
         """``context().options.setSelection(name, index)`` of a matching option."""
@@ -252,7 +256,7 @@ class _Matching:
         if rule.newleft:
             if self._direction != 1:
                 return None
-            lv = self._left(r.pats["newleft"], len(dest) - 1, _ListSeq(dest), None)
+            lv = self._left(r.pats["newleft"], len(dest) - 1, _ListSeq(dest), self._dest_partner)
             if lv is None:
                 return None
             vals += lv
@@ -268,7 +272,8 @@ class _Matching:
         if rule.newright:
             if self._direction != -1:
                 return None
-            rv = self._right(r.pats["newright"], 0, _ListSeq(_Reversed(dest)), None)
+            rv = self._right(r.pats["newright"], 0, _ListSeq(_Reversed(dest)), _Reversed(self._dest_partner, True)
+                             if self._dest_partner is not None else None)
             if rv is None:
                 return None
             vals += rv

@@ -109,6 +109,18 @@ class Vector3(_Vector):
     def __xor__(self, o):
         return cross(self, o)
 
+    def anOrthogonalVector(self) -> Vector3:
+        """A vector orthogonal to this one, as PlantGL picks it (an axis where a coordinate is 0)."""
+        x, y, z = self
+        if abs(x) < 1e-10:
+            return Vector3(1, 0, 0)
+        if abs(y) < 1e-10:
+            return Vector3(0, 1, 0)
+        if abs(z) < 1e-10:
+            return Vector3(0, 0, 1)
+        n = math.sqrt(x * x + y * y + z * z)
+        return Vector3(-y / n, x / n, 0)
+
 
 class Vector4(_Vector):
     """PlantGL ``Vector4``."""

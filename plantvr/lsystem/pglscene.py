@@ -20,7 +20,7 @@ from __future__ import annotations
 from .pglmath import Vector3
 
 __all__ = ["AxisRotated", "Box", "Cone", "Cylinder", "Disc", "Extrusion", "FaceSet", "Frustum", "Mesh",
-           "Oriented", "Polyline", "Scaled", "Scene", "Shape", "Sphere", "Translated", "TriangleSet"]
+           "Oriented", "PointSet", "Polyline", "Scaled", "Scene", "Shape", "Sphere", "Translated", "TriangleSet"]
 
 
 class _Geometry:
@@ -107,6 +107,15 @@ class Polyline(_Geometry):
 
     def _defaults(self) -> dict:
         return {"pointList": []}
+
+
+class PointSet(_Geometry):
+    """``PointSet(pointList, colorList=None, width=None)``: points (PlantGL draws them as dots; no mesh)."""
+
+    _FIELDS = ("pointList", "colorList", "width")
+
+    def _defaults(self) -> dict:
+        return {"pointList": [], "colorList": None, "width": None}
 
 
 class Mesh(_Geometry):

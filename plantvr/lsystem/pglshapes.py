@@ -135,8 +135,8 @@ def geometry_mesh(geom, depth: int = 0) -> tuple[np.ndarray, np.ndarray]:
         b, c, d = a + nv + 1, a + nv + 2, a + 1
         f = np.vstack([np.column_stack([a, b, c]), np.column_stack([a, c, d])])
         return v, (f if geom.ccw else f[:, ::-1])
-    if isinstance(geom, (G.Polyline, _Curve)):
-        return empty                                          # a curve: nothing to mesh (PlantGL draws a line)
+    if isinstance(geom, (G.Polyline, G.PointSet, _Curve)):
+        return empty                                          # lines and dots: nothing to mesh
     raise ValueError(f"PlantVR does not mesh {type(geom).__name__} (it draws PlantGL's primitives, meshes and "
                      "their transforms)")
 

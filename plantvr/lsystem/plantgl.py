@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import builtins
 import copy
+import math
 import re
 import sys
 import types
@@ -42,7 +43,7 @@ from .pglmath import Matrix3, Vector2, Vector3, Vector4, _Vector, angle, cross, 
 from .pglscene import *  # noqa: F403  the turtle's scene nodes: Scene, Shape, Cylinder, Translated, ...
 
 __all__ = ["BezierCurve2D", "Color3", "Color4", "ImageTexture", "Material", "Matrix3", "Texture2D", "NurbsCurve",
-           "NurbsCurve2D", "NurbsPatch", "Point2Array", "Point4Matrix",
+           "NurbsCurve2D", "NurbsPatch", "Point2Array", "Point3Grid", "Point4Matrix", "pointset_mean_direction",
            "Point3Array", "Point4Array", "Polyline2D", "QuantisedFunction", "RealArray", "Vector2", "Vector3",
            "Vector4", "angle", "cross", "direction", "dot", "norm"]
 __all__ += _pglscene.__all__
@@ -459,12 +460,100 @@ class NurbsPatch:
                          for u in np.linspace(*ul, self.ustride + 1)])
 
 
+class Point3Grid:
+    """PlantGL ``Point3Grid(points, maxpointsbyvoxel)`` / ``Point3Grid(voxelsize, points)``: points that can be
+    disabled, queried in a ball or a cone (``regularpointgrid.h``); a ``scipy.spatial.cKDTree`` here, which gives
+    the same points, in index order (PlantGL's come in voxel order)."""
+
+    def __init__(self, a, b=None) -> None:
+        from scipy.spatial import cKDTree  # noqa: PLC0415
+        pts = b if isinstance(a, (int, float)) or _is_vector(a) else a     # (voxelsize, points) or (points, n)
+        arr = np.asarray([list(p) for p in pts], float).reshape(-1, 3)
+        if not np.isfinite(arr).all():
+            raise ValueError("Point3Grid points must be finite")
+        self._pts, self._tree = arr, cKDTree(arr)
+        self._on = np.ones(len(arr), bool)
+
+    def _ball(self, point, radius) -> np.ndarray:
+        idx = np.asarray(self._tree.query_ball_point(np.asarray(point, float), float(radius), return_sorted=True),
+                         np.int64)
+        return idx[self._on[idx]]
+
+    def query_ball_point(self, point, radius) -> list[int]:
+        return self._ball(point, radius).tolist()
+
+    def query_points_in_cone(self, origin, direction, radius, angle: float = math.pi / 2) -> list[int]:
+        """Enabled points within ``radius`` of ``origin`` whose direction from it lies within ``angle / 2`` of
+        ``direction`` (the cone's full opening is ``angle``, radians)."""
+        o = np.asarray(origin, float)
+        d = np.asarray(direction, float)
+        d = d / max(float(np.sqrt(d @ d)), 1e-300)
+        idx = self._ball(o, float(radius) + 1e-10)
+        v = self._pts[idx] - o
+        n = np.sqrt(np.einsum("ij,ij->i", v, v))
+        inside = (v @ d) > (math.cos(float(angle) / 2) - 1e-10) * n           # the origin itself is inside
+        return idx[inside].tolist()
+
+    def _check(self, i) -> int:
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < len(self._pts):
+            raise IndexError(f"point index must be in [0, {len(self._pts)}), got {i!r:.40}")
+        return int(i)
+
+    def disable_point(self, i) -> bool:
+        was = bool(self._on[self._check(i)])
+        self._on[int(i)] = False
+        return was
+
+    def enable_point(self, i) -> bool:
+        was = bool(self._on[self._check(i)])
+        self._on[int(i)] = True
+        return not was
+
+    def is_point_enabled(self, i) -> bool:
+        return bool(self._on[self._check(i)])
+
+    def disable_points(self, idx) -> None:
+        for i in idx:
+            self.disable_point(i)
+
+    def enable_points(self, idx) -> None:
+        for i in idx:
+            self.enable_point(i)
+
+    def get_enabled_points(self) -> Point3Array:
+        return Point3Array(self._pts[self._on])
+
+    def get_disabled_points(self) -> Point3Array:
+        return Point3Array(self._pts[~self._on])
+
+    def get_enabled_point_indices(self) -> list[int]:
+        return np.flatnonzero(self._on).tolist()
+
+    def nbPoints(self) -> int:
+        return len(self._pts)
+
+
+def pointset_mean_direction(origin, points, group=()) -> Vector3:
+    """PlantGL's ``pointset_mean_direction``: the unit mean of the unit directions from ``origin`` to the points
+    of ``group`` (indices; all points without one)."""
+    p = np.asarray([points[i] for i in group] if len(group) else list(points), float).reshape(-1, 3)
+    d = p - np.asarray(list(origin), float)
+    d = d / np.maximum(np.linalg.norm(d, axis=1), 1e-300)[:, None]
+    m = d.mean(axis=0) if len(d) else np.zeros(3)
+    return Vector3(*(m / max(np.linalg.norm(m), 1e-300)))
+
+
+def _is_vector(v) -> bool:
+    return isinstance(v, (list, tuple)) and len(v) == 3 and all(isinstance(x, (int, float)) for x in v) and \
+        not isinstance(v, _PointArray)
+
+
 # -- what is not here ----------------------------------------------------------------------------------------
 #: PlantGL names grammars use that this namespace does not have: the other scene-graph nodes and transforms,
 #: patches (``NurbsPatch`` is here), grids and the viewer (a grammar naming one is refused with this said).
 NOT_HERE = frozenset({
     "Group", "EulerRotated", "Tapered", "Paraboloid", "Swung", "QuadSet", "BezierPatch", "Point3Matrix",
-    "Discretizer", "Tesselator", "BoundingBox", "Point3Grid", "Point2Grid", "Grid3Indexing", "Viewer",
+    "Discretizer", "Tesselator", "BoundingBox", "Point2Grid", "Grid3Indexing", "Viewer",
     "eStatic", "eAnimatedScene", "eAnimatedPrimitives", "pgl_support_extension", "Text", "Font", "Texture2DTransformation",
 })
 

@@ -58,6 +58,19 @@ _NUMBERS = frozenset({float, int, np.float64, np.int64})
 _NONES = itertools.repeat(None)
 
 
+
+def _link_brackets(dest: list, at: int, partner: list, opens: list, opener: int) -> None:
+    """Extend ``partner`` (the index of each bracket's partner in ``dest``, -1 elsewhere) over ``dest[at:]``;
+    ``opener`` is the id that opens a branch in ``dest``'s order ('[' forward, ']' when built backward)."""
+    for k in range(at, len(dest)):
+        s = dest[k][0]
+        partner.append(-1)
+        if s == opener:
+            opens.append(k)
+        elif s == 1 - opener and opens:
+            j = opens.pop()
+            partner[j], partner[k] = k, j
+
 def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """``[(sid, values), ...]`` (values floats or objects) as ids, arg_ptr, args and the object side-table."""
     ids = np.array([m[0] for m in mods], np.int32)
@@ -420,6 +433,9 @@ class _Rewriting:
         nargs = np.diff(ptr)
         idl = ids.tolist()
         skip = -1 if fwd else n          # modules up to (forward) or from (backward) skip were matched already
+        news = any(r.newcontexts for r in rules)
+        self._dest_partner = dpart = [] if news else None     # dest's bracket partners, kept as dest grows
+        opens: list = []
         for i in order:
             if (i <= skip) if fwd else (i >= skip):
                 continue
@@ -431,9 +447,13 @@ class _Rewriting:
                 changed = True
                 if r.rest:
                     skip = i + len(r.rest) if fwd else i - len(r.rest)
+            at = len(dest)
             dest.extend(res if self._direction == 1 else reversed(res))
+            if news:
+                _link_brackets(dest, at, dpart, opens, 0 if fwd else 1)
             if len(dest) > self.max_modules:
                 self._check_size(len(dest), 0, self._where[0])
+        self._dest_partner = None
         if self._direction != 1:
             dest.reverse()
         return self._make(*_pack(dest)), changed

@@ -168,3 +168,31 @@ def test_matrix3_angle_constants_and_curve_methods_as_plantgl():
 def test_is_animation_enabled_is_false():
     g = "Axiom: A\nderivation length: 1\nproduction:\nA --> B(1 if isAnimationEnabled() else 2)\nendlsystem\n"
     assert LSystem(g).derive(1).modules() == [("B", (2.0,))]
+
+
+def test_point3grid_queries_match_brute_force():
+    """PlantGL's ``Point3Grid`` (the space-colonization tutorials): ball and cone queries give the enabled points a
+    brute-force scan finds (the cone's full opening is ``angle``); disabled points leave every query."""
+    import math
+
+    from plantvr.lsystem.plantgl import Point3Array, Point3Grid, Vector3, pointset_mean_direction
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-2, 2, size=(400, 3))
+    grid = Point3Grid(Point3Array(pts), 10)
+    assert Point3Grid(Vector3(1, 1, 1), Point3Array(pts)).nbPoints() == 400
+    o, d, r, a = np.array([0.1, -0.2, 0.3]), np.array([0.0, 0.0, 2.0]), 1.5, math.radians(90)
+    dist = np.linalg.norm(pts - o, axis=1)
+    assert grid.query_ball_point(Vector3(*o), r) == np.flatnonzero(dist <= r).tolist()
+    cone = (dist <= r) & ((pts - o) @ (d / 2) > math.cos(a / 2) * dist)
+    got = grid.query_points_in_cone(Vector3(*o), Vector3(*d), r, a)
+    assert got == np.flatnonzero(cone).tolist() and got
+    grid.disable_points(got[:3])
+    assert not set(got[:3]) & set(grid.query_points_in_cone(Vector3(*o), Vector3(*d), r, a))
+    assert not grid.is_point_enabled(got[0]) and len(grid.get_enabled_points()) == 397
+    assert grid.enable_point(got[0]) and grid.is_point_enabled(got[0])
+    with pytest.raises(IndexError, match=r"point index must be in \[0, 400\)"):
+        grid.disable_point(400)
+    m = pointset_mean_direction(Vector3(0, 0, 0), Point3Array([(1, 0, 0), (0, 2, 0), (5, 5, 5)]), [0, 1])
+    assert np.allclose(list(m), np.array([1, 1, 0]) / math.sqrt(2))
+    for v in [(0.0, 1.0, 2.0), (1.0, 0.0, 2.0), (1.0, 2.0, 0.0), (1.0, 2.0, 3.0)]:
+        assert abs(float(np.dot(list(Vector3(*v).anOrthogonalVector()), v))) < 1e-12
