@@ -14,13 +14,16 @@ from plantvr.growth.spatial import within_any_numpy
 from plantvr.params import defaults
 
 #: sha256 (first 32 hex digits) of seeded trees grown with the issue-23 code, computed BEFORE the issue-24
-#: changes (tree arrays, markers, marker ages and step statistics).
+#: changes (tree arrays, markers, marker ages and step statistics), one per CPU family seen in CI: numba compiles
+#: the float kernels for the host CPU, and AVX-512 and AVX2 machines round their reductions differently, so each
+#: grows its own bit-exact trees (the first digest on an AVX-512 Intel machine, the second on an AVX2 AMD EPYC,
+#: where the issue-23 commit d6103c7 grows the second). The fast step and its serial twin agree on either.
 PINNED = {
-    "demo": "d856105c67e91b01212e4f0220afed4a",
-    "grown": "c2ec3a6dda36f06e8a9f53a0b058b212",
-    "opposite": "263793b58ce76b46238b5279e33bb395",
-    "prune": "3b2a6e9167fddf38f456ed971cd587ea",
-    "stroke": "fa959808f55c599df1258a44abffd4af",
+    "demo": ("d856105c67e91b01212e4f0220afed4a", "ad47b6db2295a640856ef5a857f8341f"),
+    "grown": ("c2ec3a6dda36f06e8a9f53a0b058b212", "95c18b02bb2965a5a17044b8b21215e0"),
+    "opposite": ("263793b58ce76b46238b5279e33bb395", "5af8f6029a259f87a3a6c8571e09722a"),
+    "prune": ("3b2a6e9167fddf38f456ed971cd587ea", "c0f77440f88a0686de345bb2ff2855a8"),
+    "stroke": ("fa959808f55c599df1258a44abffd4af", "efca98c1a9d2a76398098cae0435e7f7"),
 }
 
 
@@ -76,9 +79,10 @@ def _scenario(name: str, fast: bool) -> GrowthEngine:
 @pytest.mark.parametrize("name", sorted(PINNED))
 def test_seeded_tree_is_pinned(name):
     """The fast step and its serial twin (the issue-23 path) both grow the tree pinned before the change."""
-    assert digest(_scenario(name, True)) == PINNED[name]
+    fast = digest(_scenario(name, True))
+    assert fast in PINNED[name]
     if name in ("stroke", "prune"):
-        assert digest(_scenario(name, False)) == PINNED[name]
+        assert digest(_scenario(name, False)) == fast
 
 
 def test_step_reports_phases():
