@@ -15,9 +15,10 @@ from plantvr.params import defaults
 
 #: sha256 (first 32 hex digits) of seeded trees grown with the issue-23 code, computed BEFORE the issue-24
 #: changes (tree arrays, markers, marker ages and step statistics), one per CPU family seen in CI: numba compiles
-#: the float kernels for the host CPU, and AVX-512 and AVX2 machines round their reductions differently, so each
-#: grows its own bit-exact trees (the first digest on an AVX-512 Intel machine, the second on an AVX2 AMD EPYC,
-#: where the issue-23 commit d6103c7 grows the second). The fast step and its serial twin agree on either.
+#: the float kernels for the host CPU, whose vector width changes how reductions round, so each family grows its
+#: own bit-exact trees (the first digest from the machine the pins were made on, the second from an AVX2 AMD EPYC
+#: without AVX-512, where the landed commit d6103c7 grows the second). The fast step and its serial twin agree on
+#: either.
 PINNED = {
     "demo": ("d856105c67e91b01212e4f0220afed4a", "ad47b6db2295a640856ef5a857f8341f"),
     "grown": ("c2ec3a6dda36f06e8a9f53a0b058b212", "95c18b02bb2965a5a17044b8b21215e0"),

@@ -57,7 +57,7 @@ def test_outputs_are_bit_identical_to_the_writers_before_the_registry(written):
     assert sorted(got) == sorted(want)
     changed = {k for k in want if got[k] != want[k]}
     # Tree meshes come from numba float kernels, whose last bits follow the numba/LLVM release a fresh venv
-    # resolves and the CPU it compiles for (AVX-512 or AVX2 reductions): those files may differ in bytes, never
+    # resolves and the CPU it compiles for (its vector width): those files may differ in bytes, never
     # in geometry (writer_geometry.json, pinned with the hashes: same vertex count and face indices, bounds and
     # means within 1e-6).
     assert changed - set(GEOMETRY) == set()
