@@ -354,7 +354,8 @@ class LSystem(_Namespace, _Rules, _Matching, _Rewriting):
         try:
             s, came = expand_pgl_shapes(s, unsupported)
         except LSystemError as e:
-            raise LSystemError(e.detail, *self._g.first_use.get("@g", self._g.first_use.get("PglShape", (0, 0))))
+            at = self._g.first_use.get("@g", self._g.first_use.get("PglShape", (0, 0)))
+            raise LSystemError(e.detail, *at) from None
         if origin is not None:
             origin.extend(range(len(s)) if came is None else came)
         s = first_params(s)

@@ -58,7 +58,6 @@ _NUMBERS = frozenset({float, int, np.float64, np.int64})
 _NONES = itertools.repeat(None)
 
 
-
 def _link_brackets(dest: list, at: int, partner: list, opens: list, opener: int) -> None:
     """Extend ``partner`` (the index of each bracket's partner in ``dest``, -1 elsewhere) over ``dest[at:]``;
     ``opener`` is the id that opens a branch in ``dest``'s order ('[' forward, ']' when built backward)."""
@@ -70,6 +69,7 @@ def _link_brackets(dest: list, at: int, partner: list, opens: list, opener: int)
         elif s == 1 - opener and opens:
             j = opens.pop()
             partner[j], partner[k] = k, j
+
 
 def _pack(mods: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """``[(sid, values), ...]`` (values floats or objects) as ids, arg_ptr, args and the object side-table."""
